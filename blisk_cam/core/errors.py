@@ -1,0 +1,21 @@
+"""Errors raised by the core.
+
+Every error names the problem and what the user can do about it; the Blender operators
+turn them into ``self.report({'ERROR'}, str(err))`` and the CLI into one line on stderr.
+"""
+
+
+class BliskCamError(ValueError):
+    """Base class of every error the core raises on bad input."""
+
+
+class MeshError(BliskCamError):
+    """The mesh cannot be used (empty, NaN coordinates, bad indices, inconsistent winding...)."""
+
+
+class ConeError(BliskCamError):
+    """The hub/tip cones are unusable (identical, crossing inside the region, missing the blade)."""
+
+
+class ToleranceError(BliskCamError):
+    """A tolerance or tool dimension is non-positive or absurd."""
