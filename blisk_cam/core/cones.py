@@ -335,9 +335,9 @@ def fit_cone(points, axis: Axis, *, extend: float = 0.0):
     resid = _cross2(d, rz - c)
     lo, hi = t.min() - extend, t.max() + extend
     a, b = c + lo * d, c + hi * d
-    if a[0] < 0 or b[0] < 0:
-        # clip at the axis: r cannot be negative
-        a = np.maximum(a, [0.0, -np.inf])
-        b = np.maximum(b, [0.0, -np.inf])
+    for end in (a, b):
+        if end[0] < 0 and abs(d[0]) > 1e-12:
+            # clip at the axis along the fitted line (r cannot be negative)
+            end[:] = end + (-end[0] / d[0]) * d
     cone = Cone(float(a[0]), float(a[1]), float(b[0]), float(b[1]))
     return cone, float(np.max(np.abs(resid))), float(np.sqrt(np.mean(resid**2)))

@@ -28,7 +28,7 @@ def triangle_normals(V, F):
     return np.cross(V[F[:, 1]] - a, V[F[:, 2]] - a)
 
 
-def chain_graph_paths(n_nodes: int, links):
+def chain_graph_paths(n_nodes: int, links, *, strict: bool = True):
     """Order the nodes of a graph whose nodes have degree ≤ 2 into paths and cycles.
 
     Parameters
@@ -41,6 +41,9 @@ def chain_graph_paths(n_nodes: int, links):
     list of (order (p,) int, closed bool), one per connected component with at least one link.
     Open paths start at an end node (degree 1). Uses scipy's depth-first order, which on a
     graph of maximum degree 2 visits the nodes in chain order.
+
+    strict : bool — raise :class:`MeshError` on nodes of degree > 2 (non-manifold); with
+        False the links at such nodes are dropped, splitting the chains there.
     """
     links = np.asarray(links, dtype=np.int64).reshape(-1, 2)
     if len(links) == 0:
@@ -50,6 +53,10 @@ def chain_graph_paths(n_nodes: int, links):
     ).tocsr()
     g = ((g + g.T) > 0).astype(np.int8)
     deg = np.diff(g.indptr)
+    if np.any(deg > 2) and not strict:
+        bad = deg > 2
+        links = links[~(bad[links[:, 0]] | bad[links[:, 1]])]
+        return chain_graph_paths(n_nodes, links, strict=True) if len(links) else []
     if np.any(deg > 2):
         raise MeshError(
             f"{int(np.sum(deg > 2))} places where more than two pieces of a curve meet "
@@ -296,7 +303,8 @@ class TriMesh:
             if len(he):
                 nxt = np.full(len(self.V), -1, dtype=np.int64)
                 nxt[he[:, 0]] = he[:, 1]
-                for order, closed in chain_graph_paths(len(self.V), he):
+                # strict=False: a bow-tie vertex (two loops touching) splits the chains there
+                for order, closed in chain_graph_paths(len(self.V), he, strict=False):
                     if len(order) >= 2 and nxt[order[0]] != order[1]:
                         order = order[::-1]
                     loops.append(order)
