@@ -1,0 +1,199 @@
+"""Forward step: CC points along an exact intersection polyline within a chord tolerance
+(paper 001 §3.1.3, Eq. 10), with the tolerance holding for the tool path too.
+
+The paper fits a spline through the intersection points and steps by the chord error of the
+CC curve. On a mesh the exact CC curve *is* the intersection polyline (the mesh is piecewise
+linear), so we sample it directly: from each CC point we take the farthest polyline point such
+that every skipped point lies within ``chord`` of the straight CC move **and** every skipped
+ball centre lies within ``chord`` of the straight centre move (ARCHITECTURE.md, math notes:
+around a 0.3 mm leading edge the normal turns by ~180° in a millimetre, and a straight move
+between poses on either side would cut into the blade). To see the centre path between
+polyline points we first insert points where the smooth normal turns by more than
+``2 acos(1 − chord / (4 ρ))`` (normals slerped along the segment, which lies in one face, so
+the inserted points are on the mesh and on the cone).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import ToleranceError
+
+__all__ = ["densify_by_normal_turn", "forward_step_indices", "sample_polyline"]
+
+#: share of the chord tolerance the ball-centre path may use between poses
+CENTRE_CHORD_SHARE = 0.75
+
+
+def _unit(v):
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def densify_by_normal_turn(points, normals, closed: bool, max_turn: float):
+    """Insert points on polyline segments where the normal turns by more than ``max_turn``.
+
+    Parameters
+    ----------
+    points : (k, 3) float, mm
+    normals : (k, 3) float, unit
+    closed : bool — if True the closing segment (last → first) is included and the returned
+        arrays end with a copy of the first point.
+    max_turn : float, radians
+
+    Returns
+    -------
+    points (k', 3), normals (k', 3), segment (k',) int — the input segment each output point
+    lies on (segment i joins input points i and i+1, the closing one wraps to 0)
+    """
+    P = np.asarray(points, dtype=np.float64)
+    N = _unit(np.asarray(normals, dtype=np.float64))
+    if closed:
+        P = np.vstack([P, P[:1]])
+        N = np.vstack([N, N[:1]])
+    if len(P) < 2:
+        return P, N, np.zeros(len(P), dtype=np.int64)
+    n0, n1 = N[:-1], N[1:]
+    cosang = np.clip(np.einsum("ij,ij->i", n0, n1), -1.0, 1.0)
+    ang = np.arccos(cosang)
+    nsub = np.maximum(1, np.ceil(ang / max_turn).astype(np.int64))
+    nsub = np.minimum(nsub, 10_000)
+    if np.all(nsub == 1):
+        return P, N, np.minimum(np.arange(len(P)), len(n0) - 1)
+    seg = np.repeat(np.arange(len(n0)), nsub)
+    start = np.repeat(np.cumsum(nsub) - nsub, nsub)
+    u = (np.arange(len(seg)) - start) / nsub[seg]
+    p = P[seg] + u[:, None] * (P[seg + 1] - P[seg])
+    th = ang[seg]
+    sin_th = np.sin(th)
+    small = sin_th < 1e-9
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wa = np.where(small, 1.0 - u, np.sin((1.0 - u) * th) / sin_th)
+        wb = np.where(small, u, np.sin(u * th) / sin_th)
+    n = _unit(wa[:, None] * n0[seg] + wb[:, None] * n1[seg])
+    return np.vstack([p, P[-1:]]), np.vstack([n, N[-1:]]), np.append(seg, len(n0) - 1)
+
+
+def _max_dev(P, i, j):
+    """Largest distance of points i+1..j-1 of P to the segment P[i] P[j]."""
+    if j - i < 2:
+        return 0.0
+    a, b = P[i], P[j]
+    q = P[i + 1 : j] - a
+    ab = b - a
+    L2 = float(ab @ ab)
+    if L2 <= 0.0:
+        return float(np.sqrt(np.max(np.einsum("ij,ij->i", q, q))))
+    t = np.clip(q @ ab / L2, 0.0, 1.0)
+    d = q - t[:, None] * ab
+    return float(np.sqrt(np.max(np.einsum("ij,ij->i", d, d))))
+
+
+def forward_step_indices(P, C, chord: float, max_step: float | None = None,
+                         centre_chord: float | None = None):
+    """Greedy forward step: indices of P to keep so that every skipped point lies within
+    ``chord`` of its straight move, for the CC points ``P`` and the centres ``C`` alike.
+
+    The first and last index are always kept. Exponential search then bisection for the
+    farthest admissible point from each kept one (the tolerance is re-checked at the chosen
+    point, so the result always satisfies it).
+
+    Parameters
+    ----------
+    P, C : (k, 3) float, mm
+    chord : float, mm
+    max_step : float, mm, optional — also limit the CC move length
+    centre_chord : float, mm, optional — tolerance for the centres (default ``chord``)
+
+    Returns
+    -------
+    (q,) int indices
+    """
+    cchord = chord if centre_chord is None else centre_chord
+    k = len(P)
+    last = k - 1
+    keep = [0]
+    i = 0
+
+    def ok(i, j):
+        if max_step is not None and np.linalg.norm(P[j] - P[i]) > max_step:
+            return False
+        return _max_dev(P, i, j) <= chord and _max_dev(C, i, j) <= cchord
+
+    while i < last:
+        good = i + 1
+        step = 2
+        bad = None
+        while True:
+            j = i + step
+            if j >= last:
+                if ok(i, last):
+                    good = last
+                else:
+                    bad = last
+                break
+            if ok(i, j):
+                good = j
+                step *= 2
+            else:
+                bad = j
+                break
+        if bad is not None:
+            lo, hi = good, bad
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if ok(i, mid):
+                    lo = mid
+                else:
+                    hi = mid
+            good = lo
+        keep.append(good)
+        i = good
+    return np.asarray(keep, dtype=np.int64)
+
+
+def sample_polyline(points, normals, closed: bool, *, chord: float, radius: float, start=None,
+                    lift=None):
+    """CC points and normals on an exact intersection polyline for a ball of ``radius``.
+
+    Parameters
+    ----------
+    points : (k, 3) float, mm — the exact mesh ∩ cone polyline
+    normals : (k, 3) float — smooth unit normals there
+    closed : bool
+    chord : float, mm — tolerance for the CC polyline and for the ball-centre polyline
+    radius : float, mm — ball radius ρ (centres are ``p + ρ n``)
+    start : int, optional — for closed loops, the polyline index to start at (default: the
+        point farthest along +z, so the seams of successive passes line up)
+    lift : callable (points (q, 3), normals (q, 3), segment (q,) of the input polyline, after
+        the ``start`` roll) → (q,) mm, optional — how far each ball centre must be lifted along
+        its normal beyond ``radius`` to clear the facets around the point (centres are then
+        ``p + (ρ + λ) n``; the chord check uses these lifted centres)
+
+    Returns
+    -------
+    cc : (q, 3) float, mm
+    normal : (q, 3) float
+    lifted : (q,) float, mm — λ of each pose (0 without ``lift``)
+    (for a closed loop the first point is not repeated at the end)
+    """
+    if not (np.isfinite(chord) and chord > 0):
+        raise ToleranceError(f"chord tolerance must be > 0 mm, got {chord}")
+    P = np.asarray(points, dtype=np.float64)
+    N = np.asarray(normals, dtype=np.float64)
+    if closed:
+        if start is None:
+            start = int(np.argmax(P[:, 2]))
+        P = np.roll(P, -start, axis=0)
+        N = np.roll(N, -start, axis=0)
+    max_turn = 2.0 * np.arccos(max(1.0 - chord / (4.0 * radius), -1.0)) if radius > 0 else np.pi
+    D, DN, seg = densify_by_normal_turn(P, N, closed, max_turn)
+    lam = np.zeros(len(D)) if lift is None else np.asarray(lift(D, DN, seg), dtype=np.float64)
+    C = D + (radius + lam)[:, None] * DN
+    # the exact offset of a faceted mesh lies up to ρ(1 − cos δ) outside the smooth one
+    # (δ: smooth vs facet normal), so the centre path keeps a quarter of the tolerance spare
+    idx = forward_step_indices(D, C, chord, centre_chord=CENTRE_CHORD_SHARE * chord)
+    cc, nn, lam = D[idx], DN[idx], lam[idx]
+    if closed:
+        cc, nn, lam = cc[:-1], nn[:-1], lam[:-1]
+    return cc, nn, lam
