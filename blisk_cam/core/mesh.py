@@ -335,22 +335,17 @@ class TriMesh:
 
     @property
     def vertex_normals(self) -> np.ndarray:
-        """(n, 3) unit vertex normals, angle-weighted mean of the incident face normals
-        (Thürmer & Wüthrich), robust to irregular and sliver triangulations."""
+        """(n, 3) unit vertex normals: area-weighted mean of the incident face normals.
+
+        Area weighting, not angle weighting: on scanned meshes a sliver triangle has a
+        near-180° corner whose (noisy, possibly flipped) normal would dominate an angle-
+        weighted mean, while its area, and so its weight, is ~0."""
         c = self._cache
         if "vn" not in c:
-            V, F = self.V, self.F
-            fn = self.face_normals
-            acc = np.zeros_like(V)
+            n2 = triangle_normals(self.V, self.F)  # twice the area vector
+            acc = np.zeros_like(self.V)
             for k in range(3):
-                p = V[F[:, k]]
-                u = V[F[:, (k + 1) % 3]] - p
-                w = V[F[:, (k + 2) % 3]] - p
-                cosang = np.einsum("ij,ij->i", u, w) / np.maximum(
-                    np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1), 1e-300
-                )
-                ang = np.arccos(np.clip(cosang, -1.0, 1.0))
-                acc += _scatter_add(len(V), F[:, k], fn * ang[:, None])
+                acc += _scatter_add(len(self.V), self.F[:, k], n2)
             ln = np.linalg.norm(acc, axis=1)
             c["vn"] = acc / np.where(ln > 0, ln, 1.0)[:, None]
         return c["vn"]
