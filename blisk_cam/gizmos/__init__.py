@@ -1,0 +1,3 @@
+"""Viewport gizmos (the two cone gizmos). List every class in ``CLASSES``."""
+
+CLASSES = []

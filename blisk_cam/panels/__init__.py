@@ -1,0 +1,9 @@
+"""Sidebar panels: 3D viewport, N-panel tab "Blisk CAM".
+
+One module per panel group; list every class in ``CLASSES`` in display order (parents before
+their sub-panels).
+"""
+
+from .setup import BLISKCAM_PT_display, BLISKCAM_PT_setup, BLISKCAM_PT_tool
+
+CLASSES = [BLISKCAM_PT_setup, BLISKCAM_PT_tool, BLISKCAM_PT_display]
