@@ -1,0 +1,536 @@
+"""The batch command line: ``python -m blisk_cam ...`` (bpy wheel) or
+``blender -b --python scripts/blisk_batch.py -- ...`` (a Blender binary).
+
+::
+
+    python -m blisk_cam demo --out DIR
+    python -m blisk_cam paths --mesh FILE(.stl|.obj|.ply) \\
+        --cone1 R1 Z1 R2 Z2 --cone2 R1 Z1 R2 Z2 [--axis OX OY OZ DX DY DZ] \\
+        --tool ball|bull|flat|taper --tool-radius 6 [--corner-radius 2] \\
+        --cusp 0.05 --chord 0.05 [--lead DEG --tilt DEG] [--link oneway|zigzag|spiral] \\
+        --out paths.json [--blend out.blend] [--preview out.png]
+
+Exit status 0 on success. On bad input: a non-zero status (2 for a usage error, 1 for input
+the core or Blender rejects, 3 for an internal error) and exactly one line on stderr,
+``blisk_cam: error: <what is wrong>``. ``bpy`` is imported only inside the commands, so this
+module imports without Blender. Whatever the commands registered is unregistered before
+:func:`main` returns (bpy 4.5 hangs at exit while add-on classes are registered).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import sys
+import time
+from pathlib import Path
+
+from .core.errors import BliskCamError
+
+__all__ = ["main", "build_parser", "UsageError"]
+
+PROG = "blisk_cam"
+
+
+class UsageError(BliskCamError):
+    """Bad command line (unknown option, missing or malformed argument)."""
+
+
+class NotImplementedYet(BliskCamError):
+    """A command whose pipeline is not wired yet."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser that raises instead of printing usage and exiting: the CLI prints one
+    line itself."""
+
+    def error(self, message):
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# --- argument types ----------------------------------------------------------------------
+def _finite(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text}'")
+    return value
+
+
+def _positive(text):
+    value = _finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'")
+    return value
+
+
+def _non_negative(text):
+    value = _finite(text)
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"expected a number ≥ 0, got '{text}'")
+    return value
+
+
+def _pixels(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number of pixels, got '{text}'"
+        ) from None
+    if not 16 <= value <= 8192:
+        raise argparse.ArgumentTypeError(f"expected 16..8192 pixels, got {value}")
+    return value
+
+
+def _blade_count(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected at least 1 blade, got {value}")
+    return value
+
+
+ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the CLI (subcommands ``demo`` and ``paths``)."""
+    parser = _Parser(
+        prog=PROG,
+        description="Blisk CAM: 5-axis finishing tool paths for blisk blades (batch mode).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths}")
+    sub.required = True
+
+    demo = sub.add_parser(
+        "demo",
+        help="build the demo blisk; write DIR/demo.blend and DIR/preview.png",
+        description="Build the parametric demo blisk (a few blades, a hub sector, the hub and "
+        "tip cones and the axis), save DIR/demo.blend and render DIR/preview.png.",
+    )
+    demo.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    demo.add_argument(
+        "--blades",
+        type=_blade_count,
+        default=3,
+        metavar="N",
+        help="blades shown around the machined one, which is included (default 3)",
+    )
+    demo.add_argument(
+        "--resolution", type=_pixels, nargs=2, default=(1280, 720), metavar=("W", "H")
+    )
+    demo.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO")
+    demo.add_argument("--no-preview", action="store_true", help="do not render preview.png")
+    demo.set_defaults(func=_cmd_demo)
+
+    paths = sub.add_parser(
+        "paths",
+        help="tool paths for a blade mesh → paths JSON",
+        description="Finishing tool paths between two cones on a blade mesh (mm). Without "
+        "--cone1/--cone2 the cones are fitted to the blade's boundary loops.",
+    )
+    paths.add_argument(
+        "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
+    )
+    paths.add_argument(
+        "--cone1", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
+        help="first (hub) cone generatrix, mm",
+    )
+    paths.add_argument(
+        "--cone2", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
+        help="last (tip) cone generatrix, mm",
+    )
+    paths.add_argument(
+        "--axis", type=_finite, nargs=6, metavar=("OX", "OY", "OZ", "DX", "DY", "DZ"),
+        default=None, help="blisk axis: origin (mm) and direction (default 0 0 0 0 0 1)",
+    )
+    paths.add_argument(
+        "--tool", required=True, type=str.lower, choices=("ball", "bull", "flat", "taper")
+    )
+    paths.add_argument("--tool-radius", required=True, type=_positive, metavar="MM")
+    paths.add_argument("--corner-radius", type=_non_negative, default=None, metavar="MM")
+    paths.add_argument("--cusp", required=True, type=_positive, metavar="MM", help="scallop height")
+    paths.add_argument("--chord", required=True, type=_positive, metavar="MM", help="chord error")
+    paths.add_argument("--lead", type=_finite, default=0.0, metavar="DEG")
+    paths.add_argument("--tilt", type=_finite, default=0.0, metavar="DEG")
+    paths.add_argument(
+        "--link", type=str.lower, choices=("oneway", "zigzag", "spiral"), default="oneway"
+    )
+    paths.add_argument("--out", required=True, metavar="FILE", help="paths JSON to write")
+    paths.add_argument("--blend", metavar="FILE", default=None, help="also save a .blend")
+    paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
+    paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
+                       help="render engine of --preview")
+    paths.set_defaults(func=_cmd_paths)
+    return parser
+
+
+def _check_paths_args(args):
+    """Checks that need more than one argument; raises UsageError. Fills args.axis_obj,
+    args.cone1_obj, args.cone2_obj (core objects or None)."""
+    from .core.cones import Axis, Cone
+
+    try:
+        args.axis_obj = Axis(tuple(args.axis[:3]), tuple(args.axis[3:])) if args.axis else Axis()
+    except BliskCamError as exc:
+        raise UsageError(f"argument --axis: {exc}") from None
+    for name in ("cone1", "cone2"):
+        values = getattr(args, name)
+        try:
+            setattr(args, f"{name}_obj", Cone.from_list(values) if values is not None else None)
+        except BliskCamError as exc:
+            raise UsageError(f"argument --{name}: {exc}") from None
+    if args.tool == "bull":
+        if args.corner_radius is None:
+            raise UsageError("--tool bull needs --corner-radius")
+        if not 0.0 < args.corner_radius < args.tool_radius:
+            raise UsageError(
+                f"--corner-radius {args.corner_radius:g} must be > 0 and < --tool-radius "
+                f"{args.tool_radius:g} for a bull-nose cutter"
+            )
+    elif args.corner_radius is not None and args.corner_radius > args.tool_radius:
+        raise UsageError(
+            f"--corner-radius {args.corner_radius:g} is larger than "
+            f"--tool-radius {args.tool_radius:g}"
+        )
+    for opt in ("out", "blend", "preview"):
+        value = getattr(args, opt)
+        if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
+            raise UsageError(f"--{opt} {value}: the directory does not exist")
+
+
+# --- Blender session ---------------------------------------------------------------------
+def _import_bpy():
+    try:
+        import bpy
+    except ImportError:
+        raise BliskCamError(
+            "this command needs Blender's Python module: pip install bpy (matching your "
+            "Python), or run it in Blender: blender -b --python scripts/blisk_batch.py -- ..."
+        ) from None
+    return bpy
+
+
+@contextlib.contextmanager
+def _blender_session(register_addon=True):
+    """An empty factory scene; the add-on registered for the duration if it was not already
+    (so that ``scene.blisk_cam`` exists and is saved in .blend files), and unregistered after.
+    Yields the scene."""
+    bpy = _import_bpy()
+    from .blender_io import quiet_output
+
+    with quiet_output():
+        bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    registered_here = False
+    if register_addon:
+        from . import is_registered, register
+
+        if not is_registered():
+            try:
+                register()
+                registered_here = True
+            except Exception as exc:  # the CLI works without the UI; say so on stdout
+                print(f"note: add-on not registered ({type(exc).__name__}: {exc}); "
+                      "settings are not stored in the .blend")
+    try:
+        yield bpy.context.scene
+    finally:
+        if registered_here:
+            from . import unregister
+
+            unregister()
+
+
+def _save_blend(bpy, path):
+    from .blender_io import quiet_output
+
+    path = Path(path).expanduser().resolve()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with quiet_output():
+        try:
+            bpy.ops.wm.save_as_mainfile(filepath=str(path), check_existing=False)
+        except RuntimeError as exc:
+            raise BliskCamError(f"cannot save {path}: {str(exc).strip()}") from None
+    return path
+
+
+# --- demo --------------------------------------------------------------------------------
+def _rotate_about_axis(V, axis, angle):
+    """Rotate (n, 3) points about the axis line by ``angle`` radians (right hand about d)."""
+    import numpy as np
+
+    d = axis.d
+    c, s = math.cos(angle), math.sin(angle)
+    K = np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]])
+    R = c * np.eye(3) + s * K + (1.0 - c) * np.outer(d, d)
+    return (V - axis.o) @ R.T + axis.o
+
+
+def _angular_span(V, axis):
+    """(mean angle, half width) of points about the axis, angles as in blender_io._axis_frame."""
+    import numpy as np
+
+    from .blender_io import _axis_frame
+
+    e1, e2, d = _axis_frame(axis)
+    p = V - axis.o
+    th = np.arctan2(p @ e2, p @ e1)
+    mean = math.atan2(float(np.mean(np.sin(th))), float(np.mean(np.cos(th))))
+    rel = np.angle(np.exp(1j * (th - mean)))
+    return mean, float(np.max(np.abs(rel)))
+
+
+def build_demo_scene(scene=None, *, blades=3, demo=None):
+    """Build the demo blisk in the current scene; returns a dict of the objects created.
+
+    Objects (collection "Blisk CAM Demo"): "Blade" (the one to machine), "Blade ±k"
+    (neighbours), "Hub", "Cone 1 (hub)", "Cone 2 (tip)" and "Blisk Axis" (an Empty, local
+    Z = axis). Sets ``scene.blisk_cam`` when the add-on is registered. The scene's length
+    unit becomes millimetres (scale 0.001: one Blender unit stays one mm).
+    """
+    import bpy
+    import numpy as np
+
+    from .blender_io import (
+        arrays_to_object,
+        axis_to_object,
+        cone_to_object,
+        ensure_collection,
+    )
+    from .core.cones import meridional
+
+    if demo is None:
+        from .core.demo import make_demo_blisk
+
+        demo = make_demo_blisk()
+    scene = scene or bpy.context.scene
+    units = scene.unit_settings
+    units.system = "METRIC"
+    units.scale_length = 0.001  # Blender's millimetre preset: 1 BU shown as 1 mm
+    units.length_unit = "MILLIMETERS"
+    axis = demo.axis
+    coll = ensure_collection("Blisk CAM Demo", scene.collection)
+    Vb = np.asarray(demo.blade_vertices, dtype=np.float64)
+    Fb = np.asarray(demo.blade_faces, dtype=np.int64)
+    pitch = 2.0 * math.pi / max(int(demo.blade_count), 1)
+
+    objs = {}
+    objs["blade"] = arrays_to_object(
+        "Blade", Vb, Fb, coll, color=(0.85, 0.62, 0.30, 1.0), smooth=False
+    )
+    # neighbours alternate +1, -1, +2, ... so that the machined blade stays in the middle
+    offsets = []
+    for k in range(1, blades):
+        offsets.append((k + 1) // 2 if k % 2 else -(k // 2))
+    for k in offsets:
+        if hasattr(demo, "blade"):  # core.demo: blade i = blade 0 turned by i pitches
+            Vk, Fk = demo.blade(k)
+        else:
+            Vk, Fk = _rotate_about_axis(Vb, axis, k * pitch), Fb
+        objs[f"blade{k:+d}"] = arrays_to_object(
+            f"Blade {k:+d}", Vk, Fk, coll, color=(0.62, 0.64, 0.68, 1.0)
+        )
+    Vh = np.asarray(demo.hub_vertices, dtype=np.float64)
+    Fh = np.asarray(demo.hub_faces, dtype=np.int64)
+    if len(Fh):
+        objs["hub"] = arrays_to_object("Hub", Vh, Fh, coll, color=(0.42, 0.44, 0.48, 1.0))
+
+    # cones over the angular range of the blades shown, a little wider
+    mean, half = _angular_span(Vb, axis)
+    lo = min(offsets, default=0) * pitch + mean - half - 0.35 * pitch
+    hi = max(offsets, default=0) * pitch + mean + half + 0.35 * pitch
+    r, _ = meridional(Vb, axis)
+    extent = float(r.max() - r.min()) if len(r) else 10.0
+    # Cone 1 coincides with the hub surface: show it as a wire grid (a fill would z-fight);
+    # cone 2 as a see-through surface with its grid.
+    for key, name, cone, color, fill in (
+        ("cone1", "Cone 1 (hub)", demo.hub_cone, (0.1, 0.45, 1.0, 0.3), False),
+        ("cone2", "Cone 2 (tip)", demo.tip_cone, (1.0, 0.4, 0.1, 0.3), True),
+    ):
+        length = math.hypot(cone.r2 - cone.r1, cone.z2 - cone.z1)
+        objs[key] = cone_to_object(
+            name, cone, axis, coll, theta=(lo, hi), segments=48, rows=6,
+            extend=0.1 * max(length, 0.1 * extent), color=color,
+            wire=0.006 * extent, fill=fill,
+        )
+    z = (Vb - axis.o) @ axis.d
+    z_range = (float(z.min()) - 0.3 * extent, float(z.max()) + 0.3 * extent)
+    # the axis as an Empty (local Z = axis; what the "Axis" setting takes). It lies far inside
+    # the hub, outside the sector view, so no rendering rod (axis_to_object kind="ROD").
+    objs["axis"] = axis_to_object("Blisk Axis", axis, coll, kind="EMPTY", z_range=z_range)
+
+    settings = getattr(scene, "blisk_cam", None)
+    if settings is not None:
+        with contextlib.suppress(AttributeError, TypeError, ValueError):
+            settings.blade = objs["blade"]
+            settings.axis_object = objs["axis"]
+            settings.cone1 = demo.hub_cone.as_list()
+            settings.cone2 = demo.tip_cone.as_list()
+    return objs
+
+
+def demo_view_direction(demo, *, turn=0.35, elevation=0.9):
+    """A 3/4 view of the demo blade: from outside the blisk, ``turn`` radians around the axis
+    from the blade's mean angle and ``elevation`` radians up toward the axis direction."""
+    import numpy as np
+
+    from .blender_io import _axis_frame
+
+    e1, e2, d = _axis_frame(demo.axis)
+    mean, _ = _angular_span(np.asarray(demo.blade_vertices, dtype=np.float64), demo.axis)
+    a = mean + turn
+    radial = math.cos(a) * e1 + math.sin(a) * e2
+    return tuple(math.cos(elevation) * radial + math.sin(elevation) * d)
+
+
+def _cmd_demo(args):
+    t0 = time.perf_counter()
+    out = Path(args.out).expanduser().resolve()
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {args.out}: exists and is not a directory")
+    bpy = _import_bpy()
+    from .core.demo import make_demo_blisk
+
+    demo = make_demo_blisk()
+    out.mkdir(parents=True, exist_ok=True)
+    with _blender_session() as scene:
+        from . import render
+
+        objs = build_demo_scene(scene, blades=args.blades, demo=demo)
+        # frame the sector; the axis (far inside the hub) is shown only where it falls in view
+        shown = [o for k, o in objs.items() if k != "axis"]
+        view = demo_view_direction(demo)
+        scene.camera = render.frame_camera(
+            scene, shown, view=view, resolution=tuple(args.resolution)
+        )
+        render.match_viewports_to_camera(scene.camera, objs["blade"])
+        blend = _save_blend(bpy, out / "demo.blend")
+        print(f"demo blend: {blend}")
+        if not args.no_preview:
+            res = render.render_preview(
+                out / "preview.png", engine=args.engine, resolution=tuple(args.resolution),
+                objects=shown, scene=scene, view=view, keep_camera=True,
+            )
+            print(f"preview:    {res.path} ({_engine_label(res.engine)}, {res.seconds:.1f} s)")
+    print(f"done in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def _engine_label(engine):
+    return {"BLENDER_WORKBENCH": "Workbench", "CYCLES": "Cycles CPU"}.get(engine, engine)
+
+
+# --- paths -------------------------------------------------------------------------------
+def _run_paths(args, V, F):
+    """Generate the LMC finishing paths for the blade (V mm, F) and write args.out."""
+    from .core.fitting import fit_cones_to_mesh
+    from .core.mesh import TriMesh
+    from .core.pathgen import generate_paths
+    from .core.paths_io import write_paths_json
+
+    if args.tool != "ball":
+        raise NotImplementedYet(
+            f"--tool {args.tool}: only the ball cutter is implemented so far (bull-nose, flat "
+            "and tapered cutters come with the cutter/orientation work); use --tool ball"
+        )
+    if args.lead or args.tilt:
+        raise NotImplementedYet(
+            "--lead/--tilt: the tool axis is the surface normal until lead/tilt orientation "
+            "lands; omit them (or give 0)"
+        )
+    if args.link not in (None, "oneway"):
+        raise NotImplementedYet(f"--link {args.link}: linking is not implemented yet")
+    if args.blend or args.preview:
+        raise NotImplementedYet(
+            "--blend/--preview with 'paths' are not wired yet; use the paths JSON "
+            "(or 'demo' for a .blend and a preview)"
+        )
+    mesh = TriMesh.from_arrays(V, F)
+    c1, c2 = args.cone1_obj, args.cone2_obj
+    if c1 is None or c2 is None:
+        fit = fit_cones_to_mesh(mesh, args.axis_obj)
+        c1 = c1 or fit.cone1
+        c2 = c2 or fit.cone2
+        print(
+            f"fitted cones: cone1 {[round(x, 4) for x in fit.cone1.as_list()]} "
+            f"(residual {fit.residual1:.4f} mm), "
+            f"cone2 {[round(x, 4) for x in fit.cone2.as_list()]} "
+            f"(residual {fit.residual2:.4f} mm)"
+        )
+    t0 = time.perf_counter()
+    path = generate_paths(
+        mesh, args.axis_obj, c1, c2, tool_radius=args.tool_radius, cusp=args.cusp, chord=args.chord
+    )
+    out = write_paths_json(path, Path(args.out).expanduser())
+    print(
+        f"wrote {out}: {path.stats['passes']} passes, {len(path.curves)} curves, "
+        f"{path.n_poses} poses, {path.length():.1f} mm of cut in {time.perf_counter() - t0:.2f} s"
+    )
+    return 0
+
+
+def _cmd_paths(args):
+    _check_paths_args(args)
+    _import_bpy()
+    from .blender_io import import_mesh_file, object_to_arrays
+
+    with _blender_session():
+        obj = import_mesh_file(args.mesh)
+        args.mesh_object = obj.name
+        V, F = object_to_arrays(obj)
+        return _run_paths(args, V, F)
+
+
+# --- entry point -------------------------------------------------------------------------
+def _one_line(text) -> str:
+    return " ".join(str(text).split()) or "unknown error"
+
+
+def _fail(message) -> None:
+    sys.stdout.flush()
+    print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr, flush=True)
+
+
+def main(argv=None) -> int:
+    """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv:
+        _fail(f"no command given; use '{PROG} demo --out DIR' or '{PROG} paths --mesh FILE ...'")
+        return 2
+    try:
+        args = parser.parse_args(argv)
+    except UsageError as exc:
+        _fail(exc)
+        return 2
+    except SystemExit as exc:  # --help
+        return exc.code if isinstance(exc.code, int) else 0
+    try:
+        return int(args.func(args) or 0)
+    except UsageError as exc:
+        _fail(exc)
+        return 2
+    except BliskCamError as exc:
+        _fail(exc)
+        return 1
+    except OSError as exc:
+        _fail(f"{exc.strerror or exc}: {exc.filename}" if exc.filename else exc)
+        return 1
+    except KeyboardInterrupt:
+        _fail("interrupted")
+        return 130
+    except Exception as exc:  # one line even for a bug; BLISK_CAM_DEBUG=1 shows the traceback
+        import os
+
+        if os.environ.get("BLISK_CAM_DEBUG"):
+            import traceback
+
+            traceback.print_exc()
+        _fail(f"internal error: {type(exc).__name__}: {exc}")
+        return 3

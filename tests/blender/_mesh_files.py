@@ -1,0 +1,135 @@
+"""Helpers of the bpy-side tests: tiny mesh files written from arrays (binary/ASCII STL, OBJ,
+ASCII/binary PLY), a reader of binary STL used only as a test oracle, and an order-independent
+comparison of triangle soups. Not collected by pytest (no ``test_`` prefix)."""
+
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[2]
+SHARED = REPO.parent / "shared"
+NASA_STL = SHARED / "data" / "blades" / "rotor37_blade_extended_open.stl"
+
+_STL_RECORD = np.dtype(
+    [("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")]
+)
+
+
+def sample_surface(nu=5, nv=4):
+    """A small curved open surface in mm (a piece of a cone at r ≈ 180–250 mm, like a blade
+    region), float32-exact coordinates. Returns V (n, 3) float64, F (m, 3) int64."""
+    u = np.linspace(-0.1, 0.12, nu)
+    v = np.linspace(0.0, 1.0, nv)
+    uu, vv = np.meshgrid(u, v)
+    r = 180.25 + 70.125 * vv + 0.5 * np.sin(7.0 * uu)
+    z = 0.375 + 42.5 * vv + 3.0 * uu
+    V = np.stack([r * np.cos(uu), r * np.sin(uu), z], axis=-1).reshape(-1, 3)
+    V = V.astype(np.float32).astype(np.float64)
+    idx = np.arange(nu * nv).reshape(nv, nu)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    F = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)]).astype(np.int64)
+    return V, F
+
+
+def _normals(V, F):
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def write_binary_stl(path, V, F, header=b"binary STL written by the Blisk CAM tests"):
+    rec = np.zeros(len(F), dtype=_STL_RECORD)
+    rec["normal"] = _normals(V, F)
+    rec["v"] = V[F]
+    with open(path, "wb") as fh:
+        fh.write(header.ljust(80, b" ")[:80])
+        fh.write(np.uint32(len(F)).tobytes())
+        fh.write(rec.tobytes())
+    return Path(path)
+
+
+def _f32(x):
+    """repr of a float32 value: parses back to exactly the same float32."""
+    return repr(float(np.float32(x)))
+
+
+def write_ascii_stl(path, V, F, bad=None):
+    """ASCII STL; ``bad`` replaces the text of the second coordinate of the first vertex."""
+    lines = ["solid test"]
+    for k, (tri, n) in enumerate(zip(V[F], _normals(V, F), strict=True)):
+        lines.append(f"  facet normal {n[0]:e} {n[1]:e} {n[2]:e}")
+        lines.append("    outer loop")
+        for j, p in enumerate(tri):
+            y = bad if (bad is not None and k == 0 and j == 0) else _f32(p[1])
+            lines.append(f"      vertex {_f32(p[0])} {y} {_f32(p[2])}")
+        lines.append("    endloop")
+        lines.append("  endfacet")
+    lines.append("endsolid test")
+    Path(path).write_text("\n".join(lines) + "\n")
+    return Path(path)
+
+
+def write_obj(path, V, F, bad=None):
+    lines = ["# OBJ written by the Blisk CAM tests", "o sample"]
+    for i, p in enumerate(V):
+        y = bad if (bad is not None and i == 1) else _f32(p[1])
+        lines.append(f"v {_f32(p[0])} {y} {_f32(p[2])}")
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in F]
+    Path(path).write_text("\n".join(lines) + "\n")
+    return Path(path)
+
+
+def write_ply(path, V, F, binary=False):
+    header = [
+        "ply",
+        "format binary_little_endian 1.0" if binary else "format ascii 1.0",
+        f"element vertex {len(V)}",
+        "property float x",
+        "property float y",
+        "property float z",
+        f"element face {len(F)}",
+        "property list uchar int vertex_indices",
+        "end_header",
+    ]
+    with open(path, "wb") as fh:
+        fh.write(("\n".join(header) + "\n").encode())
+        if binary:
+            fh.write(np.ascontiguousarray(V, dtype="<f4").tobytes())
+            faces = np.zeros(len(F), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+            faces["n"] = 3
+            faces["i"] = F
+            fh.write(faces.tobytes())
+        else:
+            body = [f"{_f32(x)} {_f32(y)} {_f32(z)}" for x, y, z in V]
+            body += [f"3 {a} {b} {c}" for a, b, c in F]
+            fh.write(("\n".join(body) + "\n").encode())
+    return Path(path)
+
+
+def read_binary_stl(path):
+    """Triangles (m, 3, 3) float64 of a binary STL (test oracle only)."""
+    data = Path(path).read_bytes()
+    n = int.from_bytes(data[80:84], "little")
+    rec = np.frombuffer(data, dtype=_STL_RECORD, count=n, offset=84)
+    return rec["v"].astype(np.float64)
+
+
+def canonical_triangles(T):
+    """Triangles (m, 3, 3) in a canonical order: each one cyclically rotated to start at its
+    lexicographically smallest corner (orientation kept), then the list sorted."""
+    T = np.asarray(T, dtype=np.float64)
+    out = []
+    for tri in T:
+        corners = [tuple(p) for p in tri]
+        k = min(range(3), key=lambda i: corners[i])
+        out.append(tuple(corners[k:] + corners[:k]))
+    out.sort()
+    return np.array(out, dtype=np.float64).reshape(-1, 3, 3)
+
+
+def assert_same_triangles(V, F, T_expected, atol=1e-4):
+    """The triangles of (V, F) equal ``T_expected`` (m, 3, 3) as oriented sets."""
+    got = canonical_triangles(np.asarray(V)[np.asarray(F)])
+    want = canonical_triangles(T_expected)
+    assert got.shape == want.shape, f"{got.shape[0]} triangles, expected {want.shape[0]}"
+    np.testing.assert_allclose(got, want, rtol=0, atol=atol)

@@ -1,0 +1,344 @@
+"""blisk_cam.blender_io and blisk_cam.render in the bpy wheel (4.5 and 5.2): mesh files through
+Blender's importers, evaluated objects to arrays (modifiers, world matrix, units), arrays and
+cones to objects, and headless previews (Workbench via EGL, Cycles CPU without GL)."""
+
+import math
+import time
+
+import bpy
+import numpy as np
+import pytest
+from _mesh_files import (
+    NASA_STL,
+    assert_same_triangles,
+    read_binary_stl,
+    sample_surface,
+    write_ascii_stl,
+    write_binary_stl,
+    write_obj,
+    write_ply,
+)
+
+from blisk_cam import blender_io, render
+from blisk_cam.core.cones import Axis, Cone, meridional
+
+# --- import ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kind",
+    ["stl-binary", "stl-ascii", "obj", "ply-ascii", "ply-binary"],
+)
+def test_import_gives_the_source_triangles(tmp_path, kind):
+    V, F = sample_surface()
+    writer = {
+        "stl-binary": lambda p: write_binary_stl(p, V, F),
+        "stl-ascii": lambda p: write_ascii_stl(p, V, F),
+        "obj": lambda p: write_obj(p, V, F),
+        "ply-ascii": lambda p: write_ply(p, V, F),
+        "ply-binary": lambda p: write_ply(p, V, F, binary=True),
+    }[kind]
+    path = writer(tmp_path / f"sample.{kind.split('-')[0]}")
+    n_meshes = len(bpy.data.meshes)
+    obj = blender_io.import_mesh_file(path)
+    assert obj.type == "MESH" and obj.name == "sample"
+    assert len(bpy.data.meshes) == n_meshes + 1
+    V2, F2 = blender_io.object_to_arrays(obj)
+    assert V2.dtype == np.float64 and V2.shape[1] == 3
+    assert F2.dtype == np.int64 and F2.shape == F.shape
+    # same oriented triangles, float32 precision (numbers in mm unchanged, no axis swap)
+    assert_same_triangles(V2, F2, V[F], atol=1e-4)
+
+
+def test_import_real_nasa_blade_unchanged():
+    if not NASA_STL.is_file():
+        pytest.skip(f"NASA Rotor 37 blade not found at {NASA_STL} (shared/ not beside the repo)")
+    T = read_binary_stl(NASA_STL)
+    obj = blender_io.import_mesh_file(NASA_STL)
+    V, F = blender_io.object_to_arrays(obj)
+    assert len(F) == len(T) == 20196
+    # welded: far fewer vertices than 3 per triangle
+    assert len(V) < 0.6 * 3 * len(F)
+    assert_same_triangles(V, F, T, atol=1e-9)
+    r, z = meridional(V, Axis())
+    assert 170 < r.min() < r.max() < 260 and -5 < z.min() < z.max() < 50  # mm
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "words"),
+    [
+        ("missing.stl", None, "not found"),
+        ("blade.step", b"ISO-10303-21;\n", "unsupported"),
+        ("empty.stl", b"", "empty"),
+        ("text.stl", b"this is not a mesh\njust text\n", "cannot read"),
+        ("text.ply", b"this is not a mesh\n", "cannot read"),
+        ("text.obj", b"hello\nworld\n", "no mesh"),
+        ("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no faces"),
+        ("nofacet.stl", b"solid x\nendsolid x\n", "no faces"),
+        ("nan.stl", None, "NaN"),
+        ("nan.obj", None, "NaN"),
+        ("inf.obj", None, "NaN or infinite"),
+        ("nan_binary.stl", None, "NaN"),
+    ],
+)
+def test_import_rejects_bad_files(tmp_path, name, content, words):
+    V, F = sample_surface(3, 3)
+    path = tmp_path / name
+    if name == "nan.stl":
+        write_ascii_stl(path, V, F, bad="nan")
+    elif name == "nan.obj":
+        write_obj(path, V, F, bad="NaN")
+    elif name == "inf.obj":
+        write_obj(path, V, F, bad="-inf")
+    elif name == "nan_binary.stl":
+        Vn = V.copy()
+        Vn[2, 1] = np.nan
+        write_binary_stl(path, Vn, F)
+    elif content is not None:
+        path.write_bytes(content)
+    n_objects = len(bpy.data.objects)
+    with pytest.raises(blender_io.InputError, match=words) as info:
+        blender_io.import_mesh_file(path)
+    assert "\n" not in str(info.value)
+    assert len(bpy.data.objects) == n_objects  # nothing left behind
+
+
+# --- object → arrays ---------------------------------------------------------------------
+
+
+def _cube():
+    V = np.array(
+        [[x, y, z] for x in (0.0, 1.0) for y in (0.0, 2.0) for z in (0.0, 3.0)], dtype=np.float64
+    )
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    F = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], dtype=np.int64)
+    return V, F
+
+
+def test_object_to_arrays_applies_modifiers_world_matrix_and_units():
+    from mathutils import Euler, Matrix, Vector
+
+    V, F = _cube()
+    obj = blender_io.arrays_to_object("cube", V, F)
+    obj.location = (10.0, -20.0, 30.0)
+    obj.rotation_euler = (0.3, -0.2, 1.1)
+    obj.scale = (2.0, 1.0, 0.5)
+    mod = obj.modifiers.new("copy", "ARRAY")
+    mod.count = 2
+    mod.use_relative_offset = False
+    mod.use_constant_offset = True
+    mod.constant_offset_displace = (5.0, 0.0, 0.0)
+    mod.use_merge_vertices = False
+    n_meshes = len(bpy.data.meshes)
+
+    M = np.array(
+        Matrix.LocRotScale(Vector(obj.location), Euler(obj.rotation_euler), Vector(obj.scale))
+    )
+    local = np.concatenate([V, V + [5.0, 0.0, 0.0]])
+    F_local = np.concatenate([F, F + len(V)])
+    world = local @ M[:3, :3].T + M[:3, 3]
+
+    V2, F2 = blender_io.object_to_arrays(obj)
+    assert len(F2) == 2 * len(F)
+    assert_same_triangles(V2, F2, world[F_local], atol=1e-4)
+
+    # unit scale: Blender's centimetre scene (1 BU = 10 mm) and millimetre preset (1 BU = 1 mm)
+    units = bpy.context.scene.unit_settings
+    units.scale_length = 0.01
+    assert blender_io.mm_per_blender_unit() == pytest.approx(10.0)
+    V3, _ = blender_io.object_to_arrays(obj)
+    np.testing.assert_allclose(V3, 10.0 * V2, rtol=1e-6)
+    units.scale_length = 0.001
+    V4, _ = blender_io.object_to_arrays(obj)
+    np.testing.assert_allclose(V4, V2, rtol=1e-6)
+
+    # the user's object is untouched and the temporary mesh freed
+    assert len(obj.data.vertices) == 8 and len(obj.data.polygons) == 12
+    assert [m.name for m in obj.modifiers] == ["copy"]
+    assert len(bpy.data.meshes) == n_meshes
+
+
+def test_object_to_arrays_triangulates_quads_and_rejects_bad_objects():
+    V, _ = _cube()
+    quads = np.array([(0, 1, 3, 2), (4, 6, 7, 5)], dtype=np.int64)
+    obj = blender_io.arrays_to_object("quads", V, quads)
+    V2, F2 = blender_io.object_to_arrays(obj)
+    assert F2.shape == (4, 3) and np.allclose(V2, V)
+
+    empty = bpy.data.objects.new("empty", None)
+    bpy.context.scene.collection.objects.link(empty)
+    with pytest.raises(blender_io.InputError, match="not a mesh"):
+        blender_io.object_to_arrays(empty)
+
+    mesh = bpy.data.meshes.new("points")
+    mesh.vertices.add(3)
+    points = bpy.data.objects.new("points", mesh)
+    bpy.context.scene.collection.objects.link(points)
+    with pytest.raises(blender_io.InputError, match="no faces"):
+        blender_io.object_to_arrays(points)
+
+    bad = blender_io.arrays_to_object("nan", *sample_surface(3, 3))
+    co = np.zeros(len(bad.data.vertices) * 3, dtype=np.float32)
+    bad.data.vertices.foreach_get("co", co)
+    co[4] = np.nan
+    bad.data.vertices.foreach_set("co", co)
+    bad.data.update()
+    with pytest.raises(blender_io.InputError, match="NaN"):
+        blender_io.object_to_arrays(bad)
+    with pytest.raises(blender_io.InputError, match="NaN"):
+        blender_io.arrays_to_object("nan2", np.array([[0, 0, np.nan]] * 3), [[0, 1, 2]])
+    with pytest.raises(blender_io.InputError, match="outside"):
+        blender_io.arrays_to_object("oob", np.zeros((3, 3)), [[0, 1, 3]])
+
+
+def test_million_triangles_in_bulk_under_a_second():
+    n = 709  # 2 × 708² = 1 002 528 triangles
+    x, y = np.meshgrid(np.arange(n, dtype=np.float64), np.arange(n, dtype=np.float64))
+    V = np.stack([x.ravel(), y.ravel(), np.sin(0.1 * x.ravel())], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    F = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    obj = blender_io.arrays_to_object("big", V, F)
+    obj.location = (1.0, 2.0, 3.0)
+    best = math.inf
+    for _ in range(2):
+        t0 = time.perf_counter()
+        V2, F2 = blender_io.object_to_arrays(obj)
+        best = min(best, time.perf_counter() - t0)
+    assert len(F2) >= 1_000_000
+    np.testing.assert_array_equal(F2, F)
+    np.testing.assert_allclose(V2, V + [1.0, 2.0, 3.0], atol=1e-4)
+    assert best <= 1.0, f"object_to_arrays took {best:.2f} s for {len(F2)} triangles"
+
+
+# --- arrays / cones / axis → objects -----------------------------------------------------
+
+
+def test_cone_and_axis_objects():
+    axis = Axis((1.0, 2.0, 3.0), (0.0, 0.6, 0.8))
+    cone = Cone(150.0, -10.0, 165.0, 40.0)
+    obj = blender_io.cone_to_object(
+        "cone", cone, axis, theta=(-0.3, 0.4), segments=24, rows=3, extend=5.0
+    )
+    V, F = blender_io.object_to_arrays(obj)
+    assert len(V) == 4 * 25 and len(F) == 2 * 3 * 24
+    r, z = meridional(V, axis)
+    assert np.max(np.abs(cone.signed_distance(r, z))) < 1e-3
+    length = math.hypot(15.0, 50.0)
+    t = (np.stack([r, z], 1) - cone.p1) @ ((cone.p2 - cone.p1) / length)
+    assert t.min() == pytest.approx(-5.0, abs=1e-3)
+    assert t.max() == pytest.approx(length + 5.0, abs=1e-3)
+
+    full = blender_io.cone_to_object("ring", cone, axis, segments=32, wire=0.5, fill=False)
+    assert full.modifiers[0].type == "WIREFRAME"
+    assert len(full.data.vertices) == 2 * 32  # closed: no duplicated seam
+
+    empty = blender_io.axis_to_object("axis", axis, kind="EMPTY", z_range=(0.0, 80.0))
+    assert empty.type == "EMPTY"
+    back = blender_io.object_axis(empty)
+    np.testing.assert_allclose(back.o, axis.o, atol=1e-5)
+    np.testing.assert_allclose(back.d, axis.d, atol=1e-6)
+    rod = blender_io.axis_to_object("rod", axis, kind="ROD", z_range=(-10.0, 50.0), radius=1.0)
+    Vr, _ = blender_io.object_to_arrays(rod)
+    rr, zr = meridional(Vr, axis)
+    assert rr.max() == pytest.approx(1.0, abs=1e-4)
+    assert zr.min() == pytest.approx(-10.0, abs=1e-4)
+    assert zr.max() == pytest.approx(50.0, abs=1e-4)
+
+
+# --- render ------------------------------------------------------------------------------
+
+
+def _preview_scene():
+    V, F = sample_surface(12, 8)
+    blade = blender_io.arrays_to_object("blade", V, F, color=(0.9, 0.6, 0.2, 1.0))
+    cone = blender_io.cone_to_object(
+        "cone", Cone(175.0, -5.0, 190.0, 50.0), Axis(), theta=(-0.2, 0.2), segments=16,
+        color=(0.1, 0.5, 1.0, 0.4),
+    )
+    return [blade, cone]
+
+
+def test_render_preview_is_not_blank_and_restores_settings(tmp_path):
+    objs = _preview_scene()
+    scene = bpy.context.scene
+    engine_before = scene.render.engine
+    res_before = (scene.render.resolution_x, scene.render.resolution_y)
+    out = tmp_path / "sub" / "preview.png"
+    result = render.render_preview(out, resolution=(320, 180), objects=objs)
+    assert result.path == out.resolve() and out.is_file()
+    assert result.engine == ("BLENDER_WORKBENCH" if render.gl_available() else "CYCLES")
+    assert result.coverage > 0.05  # the objects fill a good part of the frame
+    assert render.image_coverage(out) == pytest.approx(result.coverage)
+    img = bpy.data.images.load(str(out))
+    try:
+        assert tuple(img.size) == (320, 180)
+    finally:
+        bpy.data.images.remove(img)
+    # the scene is as it was: engine, resolution, no camera left behind
+    assert scene.render.engine == engine_before
+    assert (scene.render.resolution_x, scene.render.resolution_y) == res_before
+    assert scene.camera is None and render.CAMERA_NAME not in bpy.data.objects
+    assert not [o for o in bpy.data.objects if o.name.startswith("Blisk CAM Preview")]
+
+
+def test_render_preview_cycles_fallback_without_gl(tmp_path, monkeypatch):
+    monkeypatch.setenv("BLISK_CAM_NO_GL", "1")
+    assert render.resolve_engine("AUTO") == "CYCLES"
+    assert render.resolve_engine("WORKBENCH") == "CYCLES"  # would abort Blender without GL
+    assert render.resolve_engine("EEVEE") == "CYCLES"
+    objs = _preview_scene()
+    result = render.render_preview(tmp_path / "c.png", resolution=(160, 90), objects=objs)
+    assert result.engine == "CYCLES"
+    assert result.coverage > 0.05
+    assert not [o for o in bpy.data.objects if o.type == "LIGHT"]  # temporary suns removed
+
+
+def test_render_preview_of_hidden_objects_is_reported_blank(tmp_path):
+    objs = _preview_scene()
+    for ob in objs:
+        ob.hide_render = True
+    with pytest.raises(render.RenderError, match="blank"):
+        render.render_preview(tmp_path / "blank.png", resolution=(160, 90), objects=objs)
+
+
+def test_render_preview_keep_camera_and_errors(tmp_path):
+    with pytest.raises(render.RenderError, match="nothing to render"):
+        render.render_preview(tmp_path / "none.png", objects=[])
+    with pytest.raises(render.RenderError, match="unknown render engine"):
+        render.resolve_engine("POVRAY")
+    objs = _preview_scene()
+    render.render_preview(tmp_path / "k.png", resolution=(160, 90), objects=objs, keep_camera=True)
+    cam = bpy.context.scene.camera
+    assert cam is not None and cam.name == render.CAMERA_NAME
+
+
+def test_eevee_engine_name_is_valid_here():
+    name = render.eevee_engine_name()
+    expected = "BLENDER_EEVEE" if bpy.app.version >= (5, 0, 0) else "BLENDER_EEVEE_NEXT"
+    assert name == expected
+    bpy.context.scene.render.engine = name  # raises TypeError for an unknown engine
+    assert bpy.context.scene.render.engine == name
+
+
+def test_render_preview_leaves_the_users_world_alone(tmp_path):
+    world = bpy.data.worlds.new("mine")
+    world.color = (0.2, 0.3, 0.4)
+    bpy.context.scene.world = world
+    n_worlds = len(bpy.data.worlds)
+    render.render_preview(tmp_path / "w.png", resolution=(160, 90), objects=_preview_scene())
+    assert bpy.context.scene.world == world
+    assert tuple(world.color) == pytest.approx((0.2, 0.3, 0.4))
+    assert len(bpy.data.worlds) == n_worlds
+
+
+def test_import_in_a_centimetre_scene_keeps_millimetres(tmp_path):
+    V, F = sample_surface()
+    path = write_binary_stl(tmp_path / "cm.stl", V, F)
+    bpy.context.scene.unit_settings.scale_length = 0.01  # 1 BU = 10 mm
+    obj = blender_io.import_mesh_file(path)
+    # Blender's importers put global_scale on the object (the mesh keeps the file's numbers)
+    assert tuple(obj.matrix_world.to_scale()) == pytest.approx((0.1, 0.1, 0.1), rel=1e-6)
+    V2, F2 = blender_io.object_to_arrays(obj)
+    assert_same_triangles(V2, F2, V[F], atol=1e-4)  # back in mm
