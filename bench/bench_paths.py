@@ -1,0 +1,144 @@
+"""Benchmark the LMC path generator; prints figures (no assertions).
+
+    python bench/bench_paths.py [--triangles 1000000]
+
+Figures: one-level slicing time on a ~1M-triangle mesh (goal ≤ 50 ms), LMC slicing of K levels
+vs ``trimesh.intersections.mesh_multiplane`` for K planes on the same mesh (goal ratio ≤ 1.0),
+the full path time on a ~1M-triangle blade (goal ≤ 5 s on the 2-core machine), and paper-scale
+figures (curves, poses, time) for the demo blade at 100k and 1M triangles.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from blisk_cam.core.cones import Axis, Cone, MorphingCones  # noqa: E402
+from blisk_cam.core.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.pathgen import generate_paths  # noqa: E402
+from blisk_cam.core.slicing import MeshConeSlicer  # noqa: E402
+
+BLADES = ROOT.parent / "shared" / "data" / "blades"
+
+
+def read_binary_stl(path):
+    raw = Path(path).read_bytes()
+    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
+    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
+    V = data["v"].reshape(-1, 3).astype(np.float64)
+    return V, np.arange(len(V)).reshape(-1, 3)
+
+
+def subdivide(V, F):
+    """Midpoint subdivision (×4 triangles), vectorised."""
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    uniq, inv = np.unique(E, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    mid = len(V) + inv.reshape(3, -1).T  # (m, 3): mids of v0v1, v1v2, v2v0
+    V2 = np.vstack([V, 0.5 * (V[uniq[:, 0]] + V[uniq[:, 1]])])
+    a, b, c = F.T
+    ab, bc, ca = mid.T
+    F2 = np.concatenate([np.stack(x, 1) for x in ([a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca])])
+    return V2, F2
+
+
+def timeit(fn, repeat=5):
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def rotor37(target):
+    V, F = read_binary_stl(BLADES / "rotor37_blade_extended_open.stl")
+    m = TriMesh.from_arrays(V, F)
+    V, F = m.V, m.F
+    while len(F) * 2 < target:
+        V, F = subdivide(V, F)
+    cones = json.loads((BLADES / "rotor37_blade.json").read_text())["cones"]
+    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
+    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    return V, F, c1, c2
+
+
+def bench_slicing(name, V, F, c1, c2, k_levels=50):
+    t0 = time.perf_counter()
+    mesh = TriMesh.from_arrays(V, F)
+    t_mesh = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sl = MeshConeSlicer(mesh, Axis(), MorphingCones(c1, c2))
+    _ = sl.slice(0.5)
+    t_pre = time.perf_counter() - t0
+    t_one, curves = timeit(lambda: sl.slice(0.5))
+    print(f"[{name}] {mesh.n_faces:,} triangles: TriMesh {t_mesh:.2f} s, slicer setup {t_pre:.2f} s")
+    print(f"[{name}] one LMC level: {t_one * 1e3:.1f} ms ({sum(len(c) for c in curves)} points; goal ≤ 50 ms)")
+    levels = np.linspace(0, 1, k_levels)
+    t_lmc, _ = timeit(lambda: [sl.slice(s) for s in levels], repeat=2)
+    try:
+        import trimesh
+        from trimesh.intersections import mesh_multiplane
+
+        tm = trimesh.Trimesh(mesh.V, mesh.F, process=False)
+        z = np.linspace(float(np.percentile(mesh.V[:, 2], 5)), float(np.percentile(mesh.V[:, 2], 95)), k_levels)
+        _ = mesh_multiplane(tm, [0, 0, 0], [0, 0, 1], z[:2])  # warm caches (adjacency)
+        t_tm, _ = timeit(lambda: mesh_multiplane(tm, [0, 0, 0], [0, 0, 1], z), repeat=2)
+        print(
+            f"[{name}] {k_levels} LMC levels (ordered polylines): {t_lmc:.3f} s; trimesh mesh_multiplane "
+            f"{k_levels} planes (unordered segments): {t_tm:.3f} s; ratio {t_lmc / t_tm:.2f} (goal ≤ 1.0)"
+        )
+    except ImportError:
+        print(f"[{name}] {k_levels} LMC levels: {t_lmc:.3f} s (trimesh not installed: no comparison)")
+    return mesh
+
+
+def bench_full(name, mesh, c1, c2, chord):
+    t0 = time.perf_counter()
+    p = generate_paths(mesh, Axis(), c1, c2, tool_radius=6.0, cusp=0.05, chord=chord)
+    dt = time.perf_counter() - t0
+    mc = p.stats["measured_cusp"]
+    print(
+        f"[{name}] full path, 6 mm ball, h = 0.05, e = {chord}: {dt:.2f} s, {p.stats['passes']} passes, "
+        f"{len(p.curves)} curves, {p.n_poses} poses, cusp min/max (w/o last) "
+        f"{min(mc[:-1]):.4f}/{max(mc):.4f} mm"
+    )
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--triangles", type=int, default=1_000_000)
+    args = ap.parse_args()
+    V, F, c1, c2 = rotor37(args.triangles)
+    mesh = bench_slicing("rotor37 subdivided", V, F, c1, c2)
+    for e in (0.05, 0.01):
+        bench_full("rotor37 subdivided", mesh, c1, c2, e)
+    try:
+        from blisk_cam.core.demo import make_demo_blisk
+    except ImportError:
+        print("[demo] blisk_cam.core.demo not available")
+        return
+    for res_tri in (100_000, args.triangles):
+        d = _demo_at(make_demo_blisk, res_tri)
+        m = bench_slicing(f"demo {res_tri:,}", d.blade_vertices, d.blade_faces, d.hub_cone, d.tip_cone)
+        bench_full(f"demo {res_tri:,}", m, d.hub_cone, d.tip_cone, 0.05)
+
+
+def _demo_at(make, triangles):
+    """The demo blade with about ``triangles`` triangles (resolution ∝ sqrt(triangles))."""
+    d = make(resolution=1.0)
+    res = np.sqrt(triangles / len(d.blade_faces))
+    return make(resolution=float(res))
+
+
+if __name__ == "__main__":
+    main()
