@@ -1,0 +1,97 @@
+"""Benchmark of blisk_cam.core.verify: a ~100k-triangle wavy surface of revolution and a
+ball path of ~20k poses on it (passes on z-planes, CC points on the analytic surface).
+
+Run: ``python bench/bench_verify.py [--triangles 100000] [--poses 20000]``; prints the timings
+and the report summary as JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from blisk_cam.core.cones import Axis, Cone  # noqa: E402
+from blisk_cam.core.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.toolpath import BallTool, PassCurve, ToolPath  # noqa: E402
+from blisk_cam.core.verify import MeshDistance, verify_path  # noqa: E402
+
+R, AMP, K, H = 40.0, 1.5, 5, 60.0
+
+
+def surface(theta, z):
+    """Points and unit normals of r = R + AMP sin(K θ) (1 + z / H) / 2 (a wavy drum)."""
+    g = 0.5 * (1.0 + z / H)
+    r = R + AMP * np.sin(K * theta) * g
+    dr_dth = AMP * K * np.cos(K * theta) * g
+    dr_dz = AMP * np.sin(K * theta) * 0.5 / H
+    ct, st = np.cos(theta), np.sin(theta)
+    p = np.stack([r * ct, r * st, z], axis=-1)
+    # n ∝ e_r − (1/r) dr/dθ e_θ − dr/dz e_z
+    n = np.stack([ct + dr_dth / r * st, st - dr_dth / r * ct, -dr_dz * np.ones_like(r)], axis=-1)
+    return p, n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def build(n_tri, n_poses, rho=6.0, n_levels=50):
+    area = 2 * np.pi * R * H
+    edge = np.sqrt(4 * area / (np.sqrt(3) * n_tri) * np.sqrt(3) / 2 * 2 / np.sqrt(3))
+    nth = max(16, int(round(2 * np.pi * R / edge)))
+    nz = max(3, int(round(n_tri / (2 * nth))) + 1)
+    th = np.linspace(0, 2 * np.pi, nth, endpoint=False)
+    zz = np.linspace(0, H, nz)
+    T, Z = np.meshgrid(th, zz, indexing="ij")
+    T = T + 0.5 * (th[1] - th[0]) * (np.arange(nz)[None, :] % 2)  # staggered rows
+    V, _ = surface(T.ravel(), Z.ravel())
+    idx = np.arange(nth * nz).reshape(nth, nz)
+    a, b = idx[:, :-1], np.roll(idx, -1, axis=0)[:, :-1]
+    c, d = np.roll(idx, -1, axis=0)[:, 1:], idx[:, 1:]
+    F = np.vstack([np.stack([a, b, d], -1).reshape(-1, 3), np.stack([b, c, d], -1).reshape(-1, 3)])
+    mesh = TriMesh.from_arrays(V, F)
+    z0, z1 = 2.0, H - 2.0
+    c1, c2 = Cone(0.0, z0, 200.0, z0), Cone(0.0, z1, 200.0, z1)
+    per = max(3, n_poses // n_levels)
+    curves = []
+    for zl in np.linspace(z0, z1, n_levels):
+        t = np.linspace(0, 2 * np.pi, per, endpoint=False)
+        p, n = surface(t, np.full_like(t, zl))
+        curves.append(PassCurve(s=(zl - z0) / (z1 - z0), closed=True, cc=p, normal=n, tip=p.copy(),
+                                axis=n.copy(), face=np.full(per, -1)))
+    w = (z1 - z0) / (n_levels - 1)
+    h = rho - np.sqrt(rho * rho - w * w / 4)
+    path = ToolPath(Axis(), c1, c2, BallTool(rho), float(h), 0.05, curves)
+    return mesh, path
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--triangles", type=int, default=100_000)
+    ap.add_argument("--poses", type=int, default=20_000)
+    ap.add_argument("--spacing", type=float, default=None)
+    args = ap.parse_args(argv)
+    mesh, path = build(args.triangles, args.poses)
+    print(f"mesh: {mesh.n_faces} triangles, path: {path.n_poses} poses, "
+          f"{len(path.curves)} passes, nominal cusp {path.cusp:.4f} mm")
+    t = time.perf_counter()
+    md = MeshDistance(mesh)
+    tb = time.perf_counter() - t
+    q = np.random.default_rng(0).uniform(mesh.V.min(0) - 8, mesh.V.max(0) + 8, (100_000, 3))
+    t = time.perf_counter()
+    md.query(q)
+    tq = time.perf_counter() - t
+    print(f"closest points: tree {tb:.2f} s, 100k random queries {tq:.2f} s")
+    t = time.perf_counter()
+    rep = verify_path(mesh, path, spacing=args.spacing)
+    print(f"verify_path: {time.perf_counter() - t:.2f} s")
+    figures = {k: v for k, v in rep.summary().items() if not k.startswith("pair")}
+    print(json.dumps(figures, indent=1))
+    print("pair cusp min/max:", np.nanmin(rep.pair_cusp), np.nanmax(rep.pair_cusp))
+
+
+if __name__ == "__main__":
+    main()

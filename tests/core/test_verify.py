@@ -1,0 +1,533 @@
+"""Tests of blisk_cam.core.verify against analytic truths and brute force.
+
+Every geometric figure is checked against a value derived by hand for a case built here:
+ball scallops on a plane and on (convex and concave) spheres, a gouge of known depth, the
+sagitta of CC and centre polylines on a cylinder, a straight move through a thin edge, and
+exact point-to-mesh distances against brute force (with trimesh's independent
+point-triangle routine as a cross-check).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
+from blisk_cam.core.mesh import TriMesh
+from blisk_cam.core.toolpath import BallTool, PassCurve, ToolPath
+from blisk_cam.core.verify import (
+    MeshDistance,
+    SweptBall,
+    closest_on_segments,
+    closest_on_triangles,
+    default_spacing,
+    surface_samples,
+    swept_cutter,
+    verify_path,
+)
+
+trimesh = pytest.importorskip("trimesh")
+
+RHO = 6.0
+
+
+# ----------------------------------------------------------------------------- builders
+def grid_faces(nu, nv, wrap_u=False):
+    """Two triangles per cell of an (nu, nv) vertex grid (u index major)."""
+    idx = np.arange(nu * nv).reshape(nu, nv)
+    if wrap_u:
+        idx = np.vstack([idx, idx[:1]])
+    a, b = idx[:-1, :-1], idx[1:, :-1]
+    c, d = idx[1:, 1:], idx[:-1, 1:]
+    return np.vstack([np.stack([a, b, c], -1).reshape(-1, 3),
+                      np.stack([a, c, d], -1).reshape(-1, 3)])
+
+
+def oriented(V, F, want, probe=0):
+    """TriMesh (no automatic orientation) whose face ``probe`` has its normal along ``want``."""
+    m = TriMesh.from_arrays(V, F, orient=False)
+    if m.face_normals[probe] @ np.asarray(want, float) < 0:
+        m = TriMesh.from_arrays(V, F[:, ::-1], orient=False)
+    return m
+
+
+def make_pass(s, cc, normal, closed=False, push=0.0):
+    """A ball pass with the axis along the normal; ``push`` moves the tool into the surface."""
+    cc = np.asarray(cc, float)
+    n = np.asarray(normal, float)
+    tip = cc - push * n
+    return PassCurve(s=float(s), closed=closed, cc=cc, normal=n, tip=tip, axis=n.copy(),
+                     face=np.full(len(cc), -1))
+
+
+R1, R2 = 100.0, 130.0  # plane case: cylinders r = R1 and r = R2 about z
+
+
+def plane_case(xs, *, push=0.0, jitter=0.15, seed=1, nz=11, dent=None):
+    """The half-plane y = 0 (normal +y) between the cylinders r = R1 and r = R2 about z, a
+    jittered grid mesh, and straight passes x = xs (z from 0 to 30) of a ball of radius RHO."""
+    rng = np.random.default_rng(seed)
+    nx, nzm = 81, 61
+    x = np.linspace(95.0, 135.0, nx)
+    z = np.linspace(0.0, 30.0, nzm)
+    X, Z = np.meshgrid(x, z, indexing="ij")
+    inner_x = (np.arange(nx)[:, None] % (nx - 1)) > 0
+    inner_z = (np.arange(nzm)[None, :] % (nzm - 1)) > 0
+    X = X + rng.uniform(-jitter, jitter, X.shape) * inner_x
+    Z = Z + rng.uniform(-jitter, jitter, Z.shape) * inner_z
+    V = np.stack([X.ravel(), np.zeros(X.size), Z.ravel()], 1)
+    if dent is not None:
+        V[dent[0], 1] = dent[1]
+    mesh = oriented(V, grid_faces(nx, nzm), [0, 1, 0])
+    curves = []
+    for xi in xs:
+        zz = np.linspace(0.0, 30.0, nz)
+        cc = np.stack([np.full_like(zz, xi), np.zeros_like(zz), zz], 1)
+        curves.append(make_pass((xi - R1) / (R2 - R1), cc, np.tile([0.0, 1.0, 0.0], (nz, 1)),
+                                push=push))
+    path = ToolPath(Axis(), Cone(R1, 0, R1, 30), Cone(R2, 0, R2, 30), BallTool(RHO), 0.05, 0.05,
+                    curves)
+    return mesh, path
+
+
+RS = 20.0  # sphere case
+
+
+def sphere_cones():
+    u0 = np.array([np.sin(np.radians(55)), np.cos(np.radians(55))])
+    u1 = np.array([np.sin(np.radians(75)), np.cos(np.radians(75))])
+    c1 = Cone(*(0.5 * RS * u0), *(1.5 * RS * u0))
+    c2 = Cone(*(0.5 * RS * u1), *(1.5 * RS * u1))
+    return c1, c2
+
+
+def sphere_case(thetas_deg, *, concave=False, dphi=0.25):
+    """A patch of the sphere |x| = RS (polar angle 45°..85°, azimuth 0..60°), outside
+    (convex) or inside (concave), with latitude passes at ``thetas_deg`` of a ball."""
+    th = np.radians(np.linspace(45, 85, 81))
+    ph = np.radians(np.linspace(0, 60, 121))
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    V = RS * np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1).reshape(-1, 3)
+    F = grid_faces(len(th), len(ph))
+    sgn = -1.0 if concave else 1.0
+    mesh = oriented(V, F, sgn * V[F[0]].mean(0))
+    c1, c2 = sphere_cones()
+    mc = MorphingCones(c1, c2)
+    curves = []
+    phi = np.radians(np.arange(0.0, 60.0 + 1e-9, dphi))
+    for t in np.radians(thetas_deg):
+        u = np.stack([np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi),
+                      np.full_like(phi, np.cos(t))], 1)
+        r, z = meridional(RS * u[:1], Axis())
+        curves.append(make_pass(mc.ratio(r, z)[0], RS * u, sgn * u))
+    path = ToolPath(Axis(), c1, c2, BallTool(RHO), 0.05, 0.05, curves)
+    return mesh, path
+
+
+def brute_distance(mesh, P):
+    """Unsigned point-mesh distances by trimesh's point-triangle routine on every pair."""
+    tri = mesh.V[mesh.F]
+    out = np.empty(len(P))
+    for i, p in enumerate(P):
+        q = trimesh.triangles.closest_point(tri, np.tile(p, (len(tri), 1)))
+        out[i] = np.sqrt(((q - p) ** 2).sum(1)).min()
+    return out
+
+
+def winding_number(P, tri):
+    """Generalised winding number of points w.r.t. a closed triangle mesh (1 inside)."""
+    out = np.empty(len(P))
+    for i, p in enumerate(P):
+        a, b, c = tri[:, 0] - p, tri[:, 1] - p, tri[:, 2] - p
+        la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+        num = np.einsum("ij,ij->i", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la
+               + np.einsum("ij,ij->i", c, a) * lb)
+        out[i] = np.arctan2(num, den).sum() / (2 * np.pi)
+    return out
+
+
+def noisy_sphere(seed, subdiv=2):
+    ico = trimesh.creation.icosphere(subdivisions=subdiv, radius=10.0)
+    rng = np.random.default_rng(seed)
+    V = ico.vertices * (1 + 0.08 * rng.standard_normal((len(ico.vertices), 1)))
+    return TriMesh.from_arrays(V, ico.faces)
+
+
+# ----------------------------------------------------------------------------- point → mesh
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10_000), spread=st.floats(0.5, 25.0))
+def test_closest_points_match_brute_force(seed, spread):
+    mesh = noisy_sphere(seed)
+    rng = np.random.default_rng(seed + 1)
+    P = rng.normal(0.0, spread, (60, 3))
+    cp = MeshDistance(mesh).query(P)
+    ref = brute_distance(mesh, P)
+    np.testing.assert_allclose(cp.distance, ref, rtol=0, atol=1e-9)
+    # the returned point is on the returned face and at the returned distance
+    np.testing.assert_allclose(np.linalg.norm(P - cp.point, axis=1), cp.distance, atol=1e-9)
+    tri = mesh.V[mesh.F[cp.face]]
+    np.testing.assert_allclose((cp.bary[:, :, None] * tri).sum(1), cp.point, atol=1e-9)
+    assert np.all(cp.bary >= -1e-12)
+
+
+def test_sign_is_the_inside_outside_test_near_edges_and_vertices():
+    mesh = noisy_sphere(3)
+    rng = np.random.default_rng(5)
+    # points close to the surface, many of them nearest to an edge or a vertex
+    P = mesh.V[rng.integers(0, mesh.n_vertices, 150)] + rng.normal(0, 0.4, (150, 3))
+    e = mesh.edges[rng.integers(0, len(mesh.edges), 150)]
+    P = np.vstack([P, mesh.V[e].mean(1) + rng.normal(0, 0.3, (150, 3))])
+    cp = MeshDistance(mesh).query(P)
+    inside = winding_number(P, mesh.V[mesh.F]) > 0.5
+    assert np.any(cp.feature >= 4) and np.any((cp.feature >= 1) & (cp.feature <= 3))
+    np.testing.assert_array_equal(cp.sign < 0, inside)
+
+
+def test_closest_on_triangles_degenerate_and_regions():
+    a = np.array([[0.0, 0, 0]])
+    b = np.array([[2.0, 0, 0]])
+    c = np.array([[4.0, 0, 0]])  # collinear: the triangle is the segment a-c
+    p = np.array([[1.0, 3.0, 4.0]])
+    q, d2, feat, bary = closest_on_triangles(p, a, b, c)
+    np.testing.assert_allclose(q, [[1.0, 0, 0]], atol=1e-12)
+    assert d2[0] == pytest.approx(25.0)
+    # a proper triangle: one query per region (face, 3 edges, 3 vertices)
+    A, B, C = np.array([0.0, 0, 0]), np.array([3.0, 0, 0]), np.array([0.0, 3.0, 0])
+    P = np.array([[1, 1, 2], [1.5, -1, 1], [2, 2, -1], [-1, 1.5, 0], [-1, -1, 1], [4, -1, 0],
+                  [-1, 4, 2]], float)
+    k = len(P)
+    q, d2, feat, bary = closest_on_triangles(P, np.tile(A, (k, 1)), np.tile(B, (k, 1)),
+                                             np.tile(C, (k, 1)))
+    np.testing.assert_array_equal(feat, [0, 1, 2, 3, 4, 5, 6])
+    ref = trimesh.triangles.closest_point(np.tile([A, B, C], (k, 1, 1)), P)
+    np.testing.assert_allclose(q, ref, atol=1e-12)
+
+
+# ----------------------------------------------------------------------------- samples
+def test_surface_samples_cover_the_region_only_and_are_deterministic():
+    mesh, path = plane_case([100.0, 130.0])
+    mc = MorphingCones(path.cone1, path.cone2)
+    sp = 0.4
+    smp = surface_samples(mesh, mc, path.axis, sp)
+    again = surface_samples(mesh, mc, path.axis, sp)
+    np.testing.assert_array_equal(smp.points, again.points)
+    assert np.all((smp.s >= -1e-9) & (smp.s <= 1 + 1e-9))
+    # the boundary samples lie on the cones r = R1, R2 (here the plane y = 0: x = R1, R2)
+    xb = smp.points[len(smp) - smp.n_boundary :, 0]
+    assert smp.n_boundary > 0
+    assert np.all(np.minimum(np.abs(xb - R1), np.abs(xb - R2)) < 1e-9)
+    # grid edges no longer than the spacing, all on the mesh (y = 0)
+    e = smp.edges
+    assert np.linalg.norm(smp.points[e[:, 0]] - smp.points[e[:, 1]], axis=1).max() <= sp + 1e-12
+    assert np.abs(smp.points[:, 1]).max() < 1e-12
+    np.testing.assert_allclose(smp.normals, np.tile([0, 1.0, 0], (len(smp), 1)), atol=1e-12)
+    # every point of the region is within the spacing of a sample
+    rng = np.random.default_rng(0)
+    q = np.stack([rng.uniform(R1, R2, 2000), np.zeros(2000), rng.uniform(0, 30, 2000)], 1)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(smp.points).query(q)
+    assert d.max() <= sp
+    # vertex samples are the mesh vertices of the region
+    v = smp.vertex[smp.vertex >= 0]
+    np.testing.assert_array_equal(smp.points[smp.vertex >= 0], mesh.V[v])
+    inside_v = (mesh.V[:, 0] >= R1) & (mesh.V[:, 0] <= R2)
+    assert set(v.tolist()) == set(np.nonzero(inside_v)[0].tolist())
+
+
+def test_sample_grid_of_one_triangle():
+    V = np.array([[100.0, 0, 0], [103.0, 0, 0], [100.0, 0, 3.0]])
+    mesh = TriMesh.from_arrays(V, [[0, 1, 2]], orient=False)
+    mc = MorphingCones(Cone(R1, 0, R1, 30), Cone(R2, 0, R2, 30))
+    smp = surface_samples(mesh, mc, Axis(), 1.5)  # longest edge 4.24: 3 segments per side
+    assert len(smp) == 10 and smp.n_boundary == 0
+    assert len(smp.edges) == 18  # 9 small triangles, 3 n (n + 1) / 2 edges
+    lengths = np.linalg.norm(np.diff(smp.points[smp.edges], axis=1)[:, 0], axis=1)
+    expected = np.r_[np.full(12, 1.0), np.full(6, np.sqrt(2))]
+    np.testing.assert_allclose(np.sort(lengths), np.sort(expected))
+    np.testing.assert_allclose((smp.bary[:, :, None] * V[None]).sum(1), smp.points, atol=1e-12)
+
+
+def test_default_spacing_is_a_third_of_the_flat_pass_spacing():
+    w = 2 * np.sqrt(2 * 6.0 * 0.05 - 0.05**2)
+    assert default_spacing(6.0, 0.05) == pytest.approx(w / 3)
+    assert default_spacing(6.0, 0.0) == pytest.approx(6.0 / 8)
+
+
+# ----------------------------------------------------------------------------- swept ball
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 60))
+def test_swept_ball_distance_matches_brute_force(seed, n):
+    rng = np.random.default_rng(seed)
+    pts = np.cumsum(rng.normal(0, 1.5, (n + 1, 3)), axis=0)
+    a, b = pts[:-1], pts[1:]
+    if n > 3:
+        b[n // 2] = a[n // 2]  # a zero-length segment (a ball)
+    sb = SweptBall(a, b, 2.0)
+    P = rng.normal(pts.mean(0), 6.0, (300, 3))
+    d, seg = sb.nearest(P)
+    k, m = len(P), len(a)
+    _, d2 = closest_on_segments(np.repeat(P, m, 0), np.tile(a, (k, 1)), np.tile(b, (k, 1)))
+    ref = np.sqrt(d2.reshape(k, m).min(1)) - 2.0
+    np.testing.assert_allclose(d, ref, atol=1e-12)
+    _, d2s = closest_on_segments(P, a[seg], b[seg])
+    np.testing.assert_allclose(np.sqrt(d2s) - 2.0, ref, atol=1e-12)
+
+
+def test_ray_height_of_a_ball():
+    sb = SweptBall(np.array([[0.0, 0, 5]]), np.array([[0.0, 0, 5]]), 3.0)
+    h = sb.height_along(np.array([[0.0, 0, 0], [1.0, 0, 0], [5.0, 0, 0]]),
+                        np.tile([0, 0, 1.0], (3, 1)), np.array([10.0, 10.0, 10.0]))
+    np.testing.assert_allclose(h[:2], [2.0, 5 - np.sqrt(8.0)], atol=1e-12)
+    assert h[2] == np.inf
+
+
+def test_other_cutters_are_not_measured_yet():
+    class Bull:
+        type = "bull"
+        radius = 5.0
+
+    with pytest.raises(NotImplementedError):
+        swept_cutter(Bull(), [])
+
+
+# ----------------------------------------------------------------------------- scallops
+@pytest.mark.parametrize("widths", [[1.5] * 20, [1.0, 2.0, 0.7, 1.55, 2.5, 1.2]])
+def test_plane_scallops_are_the_analytic_ones(widths):
+    xs = R1 + np.concatenate([[0.0], np.cumsum(widths)])
+    assert xs[-1] <= R2 + 1e-9
+    mesh, path = plane_case(xs)
+    rep = verify_path(mesh, path)
+    w = np.diff(xs)
+    euclid = np.sqrt(RHO**2 + w**2 / 4) - RHO  # surface point to the envelope
+    normal = RHO - np.sqrt(RHO**2 - w**2 / 4)  # the textbook scallop height
+    np.testing.assert_allclose(rep.pair_cusp, euclid, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rep.pair_cusp_normal, normal, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rep.pair_where[:, 0], 0.5 * (xs[:-1] + xs[1:]), atol=1e-6)
+    np.testing.assert_allclose(rep.pair_s, (np.stack([xs[:-1], xs[1:]], 1) - R1) / (R2 - R1),
+                               atol=1e-12)
+    assert rep.pair_gouge.max() < 1e-12 and rep.max_gouge < 1e-12
+    assert rep.cc_on_mesh < 1e-9 and rep.cc_on_cone < 1e-9 and rep.cc_chord < 1e-9
+    assert rep.path_overcut < 1e-9 and rep.path_undercut < 1e-9
+    assert rep.normal_error_deg < 1e-6 and rep.pose_mismatch == 0.0
+    # the region beyond the last pass (if any) is uncut: more material than any scallop
+    assert rep.max_material_left >= euclid.max() - 1e-9
+    if xs[-1] < R2 - 1e-9:
+        assert rep.max_material_left == pytest.approx(np.sqrt(RHO**2 + (R2 - xs[-1]) ** 2) - RHO,
+                                                      abs=1e-9)
+    json.dumps(rep.summary())
+
+
+def test_scallop_figure_does_not_depend_on_the_sample_spacing():
+    mesh, path = plane_case(R1 + np.arange(0, 30.01, 1.7))
+    a = verify_path(mesh, path, spacing=0.2)
+    b = verify_path(mesh, path, spacing=0.55)
+    np.testing.assert_allclose(a.pair_cusp, b.pair_cusp, atol=1e-9)
+    assert a.n_samples > 2 * b.n_samples
+
+
+def test_gouge_depth_is_measured():
+    delta = 0.03
+    mesh, path = plane_case(R1 + np.arange(0, 30.01, 1.5), push=delta)
+    rep = verify_path(mesh, path)
+    assert rep.max_gouge == pytest.approx(delta, abs=1e-9)
+    assert rep.path_overcut == pytest.approx(delta, abs=1e-9)
+    np.testing.assert_allclose(rep.pair_gouge, delta, atol=1e-9)
+    # the centres are δ lower: the scallop shrinks to sqrt((ρ−δ)² + w²/4) − ρ
+    shrunk = np.sqrt((RHO - delta) ** 2 + 0.75**2) - RHO
+    np.testing.assert_allclose(rep.pair_cusp, shrunk, atol=1e-9)
+    assert abs(rep.max_gouge_at[1]) < 1e-12  # on the surface
+
+
+def test_vertex_values_measure_a_dent_and_are_nan_outside():
+    xs = R1 + np.arange(0, 30.01, 1.5)
+    mesh0, _ = plane_case(xs, jitter=0.0)
+    # the grid vertex nearest to the middle of a strip, pushed 0.2 mm into the material
+    # (TriMesh.from_arrays may renumber the vertices: find it again by its position)
+    target = np.array([R1 + 6.75, 0.0, 15.0])
+    vid0 = int(np.argmin(np.linalg.norm(mesh0.V - target, axis=1)))
+    pos = mesh0.V[vid0]
+    V = np.stack(np.meshgrid(np.linspace(95.0, 135.0, 81), np.linspace(0.0, 30.0, 61),
+                             indexing="ij"), -1).reshape(-1, 2)
+    raw = int(np.argmin(np.linalg.norm(V - pos[[0, 2]], axis=1)))
+    mesh, path = plane_case(xs, jitter=0.0, dent=(raw, -0.2))
+    vid = int(np.argmin(mesh.V[:, 1]))
+    p = mesh.V[vid]
+    assert p[1] == -0.2 and np.allclose(p[[0, 2]], pos[[0, 2]])
+    rep = verify_path(mesh, path)
+    dx = np.min(np.abs(xs - p[0]))
+    assert rep.vertex_values[vid] == pytest.approx(np.hypot(RHO + 0.2, dx) - RHO, abs=1e-9)
+    outside = (mesh.V[:, 0] < R1 - 1e-9) | (mesh.V[:, 0] > R2 + 1e-9)
+    assert np.all(np.isnan(rep.vertex_values[outside]))
+    assert np.all(np.isfinite(rep.vertex_values[~outside]))
+    assert rep.max_material_left >= rep.vertex_values[vid] - 1e-12
+
+
+@pytest.mark.parametrize("concave", [False, True])
+def test_sphere_scallops_are_the_analytic_ones(concave):
+    thetas = np.array([55.0, 59.0, 62.5, 67.0, 70.0, 75.0])
+    mesh, path = sphere_case(thetas, concave=concave)
+    rep = verify_path(mesh, path)
+    alpha = np.radians(np.diff(thetas)) / 2
+    rc = RS - RHO if concave else RS + RHO
+    euclid = np.sqrt(RS**2 + rc**2 - 2 * RS * rc * np.cos(alpha)) - RHO
+    root = np.sqrt(RHO**2 - (rc * np.sin(alpha)) ** 2)
+    normal = RS - (rc * np.cos(alpha) + root) if concave else rc * np.cos(alpha) - root - RS
+    # mesh facets (sagitta ≈ 2.4e-4 mm) and the centre chords (≈ 6e-5 mm) bound the error
+    np.testing.assert_allclose(rep.pair_cusp, euclid, atol=6e-4)
+    np.testing.assert_allclose(rep.pair_cusp_normal, normal, atol=6e-4)
+    # the concave sphere leaves less material than the plane, the convex one more
+    flat = np.sqrt(RHO**2 + (RS * 2 * alpha) ** 2 / 4) - RHO
+    assert np.all(rep.pair_cusp < flat) if concave else np.all(rep.pair_cusp > flat)
+    assert rep.cc_on_cone < 1e-9
+    assert rep.cc_on_mesh < 3e-4
+
+
+def test_two_passes_cusp_binding_check_style():
+    """The check the path generator's tests will make: every binding pair ≥ 0.8 h, all ≤ h."""
+    h = 0.05
+    w = 2 * np.sqrt(2 * RHO * h - h * h)
+    xs = np.append(R1 + np.arange(0, 30, w), R2)
+    mesh, path = plane_case(xs)
+    rep = verify_path(mesh, path)
+    binding = rep.pair_cusp_normal[:-1]
+    assert np.all(binding >= 0.8 * h) and np.all(rep.pair_cusp_normal <= h + 1e-9)
+    assert rep.pair_cusp_normal[-1] < h
+
+
+# ----------------------------------------------------------------------------- chords
+RC = 20.0
+
+
+def cylinder_case(n_cc, *, concave=False):
+    """Cylinder r = RC about z (z 0..10), outside or inside, with one closed circular pass of
+    ``n_cc`` CC points at z = 5 between the disks z = 2 and z = 8."""
+    nth = 1440
+    th = np.linspace(0, 2 * np.pi, nth, endpoint=False)
+    z = np.linspace(0, 10, 11)
+    T, Z = np.meshgrid(th, z, indexing="ij")
+    V = np.stack([RC * np.cos(T), RC * np.sin(T), Z], -1).reshape(-1, 3)
+    F = grid_faces(nth, len(z), wrap_u=True)
+    sgn = -1.0 if concave else 1.0
+    mesh = oriented(V, F, sgn * np.array([V[F[0]].mean(0)[0], V[F[0]].mean(0)[1], 0.0]))
+    t = np.linspace(0, 2 * np.pi, n_cc, endpoint=False)
+    u = np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], 1)
+    cc = RC * u + [0, 0, 5.0]
+    path = ToolPath(Axis(), Cone(0, 2, 100, 2), Cone(0, 8, 100, 8), BallTool(RHO), 0.05, 0.05,
+                    [make_pass(0.5, cc, sgn * u, closed=True)])
+    return mesh, path
+
+
+@pytest.mark.parametrize("concave", [False, True])
+def test_chord_errors_on_a_cylinder_are_the_sagittas(concave):
+    n = 36
+    mesh, path = cylinder_case(n, concave=concave)
+    rep = verify_path(mesh, path)
+    half = np.pi / n
+    sag_cc = RC * (1 - np.cos(half))
+    mesh_sag = RC * (1 - np.cos(np.pi / 1440))
+    assert rep.cc_chord == pytest.approx(sag_cc, abs=mesh_sag + 1e-9)
+    rc = RC - RHO if concave else RC + RHO
+    sag_c = rc * (1 - np.cos(half))
+    if concave:  # the centre chords leave the offset surface: undercut
+        assert rep.path_undercut == pytest.approx(sag_c, abs=mesh_sag + 1e-9)
+        assert rep.path_overcut < mesh_sag + 1e-9
+    else:  # the centre chords cut below the offset surface: overcut
+        assert rep.path_overcut == pytest.approx(sag_c, abs=mesh_sag + 1e-9)
+        assert rep.path_undercut < mesh_sag + 1e-9
+    assert rep.cc_on_mesh < 1e-9 and rep.n_levels == 1 and len(rep.pair_cusp) == 0
+
+
+def stadium(t=0.5, length=30.0):
+    """Profile of a thin plate: flat sides y = ±t for x in [0, length], half-round leading
+    edge at x = 0 and trailing edge at x = length (radius t); 1° steps on the edges, 0.25 mm
+    on the sides. Returns (top, leading edge, bottom, trailing edge) (k, 2) pieces, in order
+    around the profile."""
+    side = np.arange(0.25, length, 0.25)
+    le = np.radians(np.arange(90, 271, 1.0))
+    te = np.radians(np.arange(-90, 91, 1.0))
+    top = np.stack([side[::-1], np.full_like(side, t)], 1)  # x decreasing on y = +t
+    lep = np.stack([t * np.cos(le), t * np.sin(le)], 1)  # (0, t) → (0, −t) around x < 0
+    bot = np.stack([side, np.full_like(side, -t)], 1)
+    tep = np.stack([length + t * np.cos(te), t * np.sin(te)], 1)
+    return top, lep, bot, tep
+
+
+def thin_edge_case(with_edge_poses):
+    t = 0.5
+    top, lep, bot, tep = stadium(t)
+    prof = np.vstack([top, lep, bot, tep[:-1]])
+    prof = prof[np.r_[True, np.linalg.norm(np.diff(prof, axis=0), axis=1) > 1e-9]]
+    z = np.linspace(0, 10, 21)
+    n = len(prof)
+    V = np.stack([np.repeat(prof[:, :1], len(z), 1), np.repeat(prof[:, 1:], len(z), 1),
+                  np.tile(z, (n, 1))], -1).reshape(-1, 3)
+    mesh = TriMesh.from_arrays(V, grid_faces(n, len(z), wrap_u=True))  # oriented outward
+    # pass at z = 5: top side every 1 mm, the leading edge every 5° (or skipped), bottom side
+    xs = np.arange(29.0, 0.0 - 1e-9, -1.0)
+    cc = [np.stack([xs, np.full_like(xs, t)], 1)]
+    nn = [np.tile([0.0, 1.0], (len(xs), 1))]
+    if with_edge_poses:
+        a = np.radians(np.arange(95.0, 270.0, 5.0))
+        cc.append(np.stack([t * np.cos(a), t * np.sin(a)], 1))
+        nn.append(np.stack([np.cos(a), np.sin(a)], 1))
+    cc.append(np.stack([xs[::-1], np.full_like(xs, -t)], 1))
+    nn.append(np.tile([0.0, -1.0], (len(xs), 1)))
+    cc2, n2 = np.vstack(cc), np.vstack(nn)
+    cc3 = np.column_stack([cc2, np.full(len(cc2), 5.0)])
+    n3 = np.column_stack([n2, np.zeros(len(n2))])
+    path = ToolPath(Axis(), Cone(0, 2, 100, 2), Cone(0, 8, 100, 8), BallTool(RHO), 0.05, 0.05,
+                    [make_pass(0.5, cc3, n3, closed=False)])
+    return mesh, path, t
+
+
+def test_straight_move_across_a_thin_edge_is_a_large_overcut():
+    mesh, path, t = thin_edge_case(with_edge_poses=False)
+    assert mesh.face_normals[np.argmax(mesh.V[mesh.F].mean(1)[:, 1])][1] > 0  # outward
+    bad = verify_path(mesh, path)
+    # the centre moves straight from (0, t + ρ) to (0, −t − ρ): through the edge's centre,
+    # which is t inside the material, so the ball cuts ρ + t below the surface
+    assert bad.path_overcut == pytest.approx(RHO + t, abs=1e-3)
+    assert bad.max_gouge > 1.0  # the swept ball also gouges the region's surface
+    # the CC chord across the edge passes through the edge's centre too, only t from the
+    # surface: the CC check alone would call this a 0.5 mm chord error
+    assert bad.cc_chord == pytest.approx(t, abs=1e-3)
+    mesh, path, t = thin_edge_case(with_edge_poses=True)
+    good = verify_path(mesh, path)
+    # around the edge the centres are on a circle of radius t + ρ, 5° apart
+    sag = (t + RHO) * (1 - np.cos(np.radians(2.5)))
+    assert good.path_overcut == pytest.approx(sag, abs=2e-4)
+    assert good.max_gouge < sag + 2e-4
+
+
+# ----------------------------------------------------------------------------- on mesh / cone
+def test_points_off_their_cone_and_off_the_mesh_are_reported():
+    xs = R1 + np.arange(0, 30.01, 1.5)
+    mesh, path = plane_case(xs)
+    c = path.curves[3]
+    path.curves[3] = PassCurve(c.s + 0.01, c.closed, c.cc, c.normal, c.tip, c.axis, c.face)
+    c = path.curves[5]
+    lifted = c.cc + [0, 0.02, 0]
+    path.curves[5] = PassCurve(c.s, c.closed, lifted, c.normal, lifted.copy(), c.axis, c.face)
+    rep = verify_path(mesh, path)
+    # the LMC at s + 0.01 is the cylinder r = R1 + (s + 0.01)(R2 − R1): 0.3 mm away
+    assert rep.cc_on_cone == pytest.approx(0.01 * (R2 - R1), abs=1e-9)
+    assert rep.curve_on_cone[3] == pytest.approx(0.3, abs=1e-9)
+    assert rep.cc_on_mesh == pytest.approx(0.02, abs=1e-9)
+    assert rep.curve_on_mesh[5] == pytest.approx(0.02, abs=1e-9)
+    assert rep.path_undercut == pytest.approx(0.02, abs=1e-9)
+
+
+def test_pose_mismatch_between_cl_and_cc_data():
+    mesh, path = plane_case(R1 + np.arange(0, 30.01, 1.5))
+    c = path.curves[0]
+    tilted = np.tile([np.sin(0.1), np.cos(0.1), 0.0], (len(c.cc), 1))
+    path.curves[0] = PassCurve(c.s, c.closed, c.cc, c.normal, c.tip, tilted, c.face)
+    rep = verify_path(mesh, path)
+    expected = RHO * np.linalg.norm(tilted[0] - [0, 1, 0])
+    assert rep.pose_mismatch == pytest.approx(expected, abs=1e-12)
