@@ -71,7 +71,7 @@ def chain_graph_paths(n_nodes: int, links, *, strict: bool = True):
     order_nodes = np.lexsort((deg != 1, labels))  # by component, ends first
     first_idx = np.searchsorted(labels[order_nodes], comps)
     starts = order_nodes[first_idx]
-    for c, start in zip(comps, starts, strict=True):
+    for start in starts:
         closed = bool(deg[start] == 2)
         order = csgraph.depth_first_order(g, int(start), directed=False, return_predecessors=False)
         out.append((np.asarray(order, dtype=np.int64), closed))
@@ -304,7 +304,7 @@ class TriMesh:
                 nxt = np.full(len(self.V), -1, dtype=np.int64)
                 nxt[he[:, 0]] = he[:, 1]
                 # strict=False: a bow-tie vertex (two loops touching) splits the chains there
-                for order, closed in chain_graph_paths(len(self.V), he, strict=False):
+                for order, _closed in chain_graph_paths(len(self.V), he, strict=False):
                     if len(order) >= 2 and nxt[order[0]] != order[1]:
                         order = order[::-1]
                     loops.append(order)

@@ -2,8 +2,9 @@
 
 A pose (ARCHITECTURE.md, conventions) is: CC point, unit surface normal (out of the
 material, toward the tool), tool tip point (CL) and unit tool axis (tip → spindle).
-For a ball of radius ρ with the axis along the normal the ball centre is ``cc + ρ n`` and the
-tip is ``centre − ρ a`` (= cc).
+For a ball of radius ρ the ball centre is ``tip + ρ a`` (the tool as posed). With the axis along
+the normal the generator puts the centre at ``cc + (ρ + λ) n``, λ ≥ 0 being the few-µm lift that
+clears the facets around the CC point, so ``tip = cc + λ n``.
 """
 
 from __future__ import annotations
@@ -55,8 +56,8 @@ class PassCurve:
         return len(self.cc)
 
     def centres(self, radius: float) -> np.ndarray:
-        """(k, 3) ball centres ``cc + radius · normal`` (mm)."""
-        return self.cc + radius * self.normal
+        """(k, 3) ball centres of the tool as posed, ``tip + radius · axis`` (mm)."""
+        return self.tip + radius * self.axis
 
 
 @dataclass
