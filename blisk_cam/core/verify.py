@@ -8,7 +8,8 @@ first principles on the triangles themselves:
   tested with an exact point–triangle routine; candidates come from a bounding-volume tree
   whose node bounds are both an axis-aligned box and an oriented cylinder, so pruning is
   exact). The side is decided with the angle-weighted pseudo-normal of the closest feature
-  (face, edge or vertex; Bærentzen & Aanæs 2005), which is the correct inside/outside test.
+  (face, edge or vertex; Bærentzen & Aanæs 2005), which is the correct inside/outside test
+  on a closed mesh (on an open one, beyond a boundary it is the side of the nearest face).
 * **surface samples** — a deterministic barycentric grid on every triangle of the machined
   region (morph ratio in [0, 1]), finer than ``spacing``, with the smooth normal, plus the
   points where the grid edges cross the region's boundary cones.
@@ -20,8 +21,11 @@ first principles on the triangles themselves:
 * **scallops** — per pair of neighbouring levels, the material left using only those two
   passes, maximised over the samples *and* over the ridge where the two passes' envelopes
   meet (located on the sample grid edges by regula falsi on the exact distances), so the
-  figure does not depend on the sampling density to first order. The scallop height along
-  the surface normal (the textbook cusp height) is measured at the ridge points too.
+  figure is the ridge's, not the nearest sample's. The scallop height along the surface
+  normal (the textbook cusp height) is measured at the ridge points too.
+
+The swept volume assumes the ball centre moves on straight lines between poses (linear
+interpolation in the part frame); a ball is symmetric, so its axis does not matter.
 
 Units are mm throughout. The module is numpy/scipy only (no bpy, no trimesh).
 """
@@ -602,7 +606,9 @@ def surface_samples(
     ``n = ceil(longest edge / spacing)`` segments per side (its corners are shared mesh
     vertices); samples whose morph ratio lies outside ``s_range`` (± ``s_tol``) are dropped,
     and the points where the grid edges cross the two boundary cones are added (found by
-    regula falsi on the morph ratio along the edge).
+    regula falsi on the morph ratio along the edge). Triangles are selected by the ratios of
+    their corners (with a margin of 1e-3 of the range), which misses only a triangle bulging
+    into the region between corners that are all outside it.
 
     Parameters
     ----------
@@ -861,12 +867,17 @@ class VerifyReport:
     tool_radius, spacing (sample spacing used), n_samples, n_poses, n_curves, n_levels
     max_material_left : max over region samples and scallop ridges of the material left by
         all passes (signed distance from the surface to the swept cutter; NaN without samples)
-    max_gouge : max depth of the swept cutter below the region's surface, ≥ 0
-    max_cusp : max of ``pair_cusp`` (material left between neighbouring levels, two passes)
-    max_cusp_normal : max of ``pair_cusp_normal`` (scallop height along the surface normal)
-    cc_chord : max distance from the CC polylines (sub-sampled) to the mesh
+        — ``max_material_left_at`` its location
+    max_gouge : max depth of the swept cutter below the region's surface, ≥ 0 — measured at
+        the samples and at the feet of the sub-sampled centre polylines (where the deepest
+        cuts are); ``max_gouge_at`` its location
+    max_cusp : max of ``pair_cusp``
+    max_cusp_normal : max of ``pair_cusp_normal``
+    cc_chord : max distance from the CC polylines (``subsamples`` − 1 points inside every
+        segment, closing segments included) to the mesh; ``cc_chord_at`` where
     path_overcut : max of ρ − signed dist(centre polyline, mesh) over the sub-sampled centre
-        polylines, ≥ 0 (the straight moves cut into the mesh by this much)
+        polylines, ≥ 0 (the straight moves cut into the mesh by this much; the sign makes a
+        centre inside the material count as ρ + depth); ``path_overcut_at`` where
     path_undercut : max of signed dist(centre polyline, mesh) − ρ, ≥ 0 (the centre polyline
         leaves the exact offset surface by this much)
     cc_on_mesh : max distance of the CC points to the mesh
@@ -878,8 +889,15 @@ class VerifyReport:
 
     Arrays
     ------
-    levels (p,), pair_s (p−1, 2), pair_cusp (p−1,), pair_cusp_normal (p−1,), pair_gouge
-    (p−1,), pair_where (p−1, 3) location of each pair's max, pair_n_samples (p−1,);
+    levels (p,) distinct s of the passes; pair_s (p−1, 2) consecutive levels;
+    pair_cusp (p−1,) max material left at the surface between two consecutive levels
+        (samples with s in the pair's interval) by those two levels' passes only, including
+        the ridge where their envelopes meet (located to ~1e-9 mm);
+    pair_cusp_normal (p−1,) the same scallop measured as a height along the smooth surface
+        normal (the textbook cusp height; on a plane ρ − sqrt(ρ² − w²/4) where pair_cusp is
+        sqrt(ρ² + w²/4) − ρ), taken at the ridge points within 25 % of the pair's top and at
+        its highest sample; pair_gouge (p−1,) max depth below the surface by the two passes;
+    pair_where (p−1, 3) location of each pair's max, pair_n_samples (p−1,);
     curve_* (n_curves,) per-curve figures; sample_points (k, 3), sample_values (k,) material
     left at the samples; vertex_values (n_vertices,) material left at the mesh vertices, NaN
     outside the region; timings (dict of seconds).
@@ -898,7 +916,9 @@ class VerifyReport:
     max_cusp: float
     max_cusp_normal: float
     cc_chord: float
+    cc_chord_at: np.ndarray
     path_overcut: float
+    path_overcut_at: np.ndarray
     path_undercut: float
     cc_on_mesh: float
     cc_on_cone: float
@@ -986,7 +1006,7 @@ def verify_path(
     *,
     spacing: float | None = None,
     subsamples: int = 8,
-    refine: int = 4,
+    refine: int = 3,
 ) -> VerifyReport:
     """Measure a tool path on its mesh, independently of the generator.
 
@@ -1026,6 +1046,7 @@ def verify_path(
     under = np.full(ncur, np.nan)
     nerr = 0.0
     mismatch = 0.0
+    chord_at = over_at = np.full(3, np.nan)
     feet_p, feet_f, feet_b = [], [], []
     if ncur:
         cc_all = np.vstack([np.asarray(c.cc, float) for c in curves])
@@ -1049,18 +1070,24 @@ def verify_path(
         sub = [_subsample(c, c.cc, subsamples, False) for c in curves]
         sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
         if len(sid):
-            cc_chord = _group_max(ncur, sid, md.query(np.vstack(sub)).distance)
+            subp = np.vstack(sub)
+            dch = md.query(subp).distance
+            cc_chord = _group_max(ncur, sid, dch)
+            chord_at = subp[int(np.argmax(dch))]
         # centre polylines against the exact offset
         cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
         sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
         sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
         cq = md.query(np.vstack(sub))
         dev = cq.signed_distance - rho
+        over_at = np.vstack(sub)[int(np.argmin(dev))]
         over = np.maximum(_group_max(ncur, sid, -dev), 0.0)
         under = np.maximum(_group_max(ncur, sid, dev), 0.0)
-        feet_p.append(cq.point)
-        feet_f.append(cq.face)
-        feet_b.append(cq.bary)
+        # the feet of the centres that come closer than ρ: where the deepest gouges are
+        cut_in = dev < 0
+        feet_p.append(cq.point[cut_in])
+        feet_f.append(cq.face[cut_in])
+        feet_b.append(cq.bary[cut_in])
     tim["poses"] = time.perf_counter() - t1
 
     # ---------------------------------------------------------- samples
@@ -1069,7 +1096,7 @@ def verify_path(
     spacing = smp.spacing
     P = smp.points
     normals = smp.normals
-    if feet_p:  # the feet of the centre samples: where the deepest gouges are
+    if feet_p:
         fp = np.vstack(feet_p)
         fs = cones.ratio_of_points(fp, axis)
         ok = (fs >= -1e-9) & (fs <= 1.0 + 1e-9)
@@ -1180,8 +1207,12 @@ def verify_path(
         hp, hn_, hv, hq = (np.concatenate(x) for x in (hp, hn_, hv, hq))
         heights = np.where(hv > 0, np.nan, hv)
         hmax = np.maximum(4.0 * hv, 1e-6 * rho)
+        # the height is the material left divided by the cosine of a slowly varying angle:
+        # only points within 25 % of their pair's highest can hold the pair's highest
+        top = _group_max(npairs, hq, hv)
+        near_top = hv >= 0.75 * top[hq]
         for i in range(npairs):
-            m = (hv > 0) & (hq == i)
+            m = (hv > 0) & (hq == i) & near_top
             if np.any(m):
                 h1 = cut[i].height_along(hp[m], hn_[m], hmax[m])
                 h2 = cut[i + 1].height_along(hp[m], hn_[m], hmax[m])
@@ -1194,8 +1225,12 @@ def verify_path(
     t1 = time.perf_counter()
     all_pts, all_vals = P, values
     if len(ridge_pts) and ncur:
-        all_pts = np.vstack([P, ridge_pts])
-        all_vals = np.concatenate([values, whole.distance(ridge_pts)])
+        # all passes leave at most what two of them leave: only ridge points above the
+        # samples' maximum can raise it
+        cand = ridge_val > _nanmax(values, -np.inf)
+        if np.any(cand):
+            all_pts = np.vstack([P, ridge_pts[cand]])
+            all_vals = np.concatenate([values, whole.distance(ridge_pts[cand])])
     fin = np.isfinite(all_vals)
     if np.any(fin):
         i_max = int(np.argmax(np.where(fin, all_vals, -np.inf)))
@@ -1227,7 +1262,9 @@ def verify_path(
         max_cusp=_nanmax(pair_cusp),
         max_cusp_normal=_nanmax(pair_cn),
         cc_chord=_nanmax(cc_chord),
+        cc_chord_at=np.asarray(chord_at),
         path_overcut=_nanmax(over, 0.0),
+        path_overcut_at=np.asarray(over_at),
         path_undercut=_nanmax(under, 0.0),
         cc_on_mesh=_nanmax(on_mesh),
         cc_on_cone=_nanmax(on_cone),

@@ -30,8 +30,12 @@ from blisk_cam.core.verify import (
     verify_path,
 )
 
-trimesh = pytest.importorskip("trimesh")
+try:  # an independent point-triangle routine for the brute-force cross-checks
+    import trimesh
+except ImportError:  # pragma: no cover
+    trimesh = None
 
+needs_trimesh = pytest.mark.skipif(trimesh is None, reason="trimesh not installed")
 RHO = 6.0
 
 
@@ -151,14 +155,36 @@ def winding_number(P, tri):
     return out
 
 
+def icosphere(subdiv):
+    """Unit icosphere (closed, outward) by repeated midpoint subdivision."""
+    g = (1 + 5**0.5) / 2
+    V = np.array([[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
+                  [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]], float)
+    F = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9],
+                  [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2],
+                  [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
+                  [8, 6, 7], [9, 8, 1]])
+    for _ in range(subdiv):
+        e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+        uniq, inv = np.unique(e, axis=0, return_inverse=True)
+        mid = len(V) + inv.reshape(3, -1).T  # midpoints of (01, 12, 20)
+        V = np.vstack([V, V[uniq].mean(1)])
+        a, b, c = F.T
+        m01, m12, m20 = mid.T
+        F = np.vstack([np.stack(x, 1) for x in ((a, m01, m20), (b, m12, m01), (c, m20, m12),
+                                                 (m01, m12, m20))])
+    return V / np.linalg.norm(V, axis=1, keepdims=True), F
+
+
 def noisy_sphere(seed, subdiv=2):
-    ico = trimesh.creation.icosphere(subdivisions=subdiv, radius=10.0)
+    V, F = icosphere(subdiv)
     rng = np.random.default_rng(seed)
-    V = ico.vertices * (1 + 0.08 * rng.standard_normal((len(ico.vertices), 1)))
-    return TriMesh.from_arrays(V, ico.faces)
+    V = 10.0 * V * (1 + 0.08 * rng.standard_normal((len(V), 1)))
+    return TriMesh.from_arrays(V, F)
 
 
 # ----------------------------------------------------------------------------- point → mesh
+@needs_trimesh
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 10_000), spread=st.floats(0.5, 25.0))
 def test_closest_points_match_brute_force(seed, spread):
@@ -204,8 +230,11 @@ def test_closest_on_triangles_degenerate_and_regions():
     q, d2, feat, bary = closest_on_triangles(P, np.tile(A, (k, 1)), np.tile(B, (k, 1)),
                                              np.tile(C, (k, 1)))
     np.testing.assert_array_equal(feat, [0, 1, 2, 3, 4, 5, 6])
-    ref = trimesh.triangles.closest_point(np.tile([A, B, C], (k, 1, 1)), P)
+    ref = [[1, 1, 0], [1.5, 0, 0], [1.5, 1.5, 0], [0, 1.5, 0], [0, 0, 0], [3, 0, 0], [0, 3, 0]]
     np.testing.assert_allclose(q, ref, atol=1e-12)
+    if trimesh is not None:
+        ref = trimesh.triangles.closest_point(np.tile([A, B, C], (k, 1, 1)), P)
+        np.testing.assert_allclose(q, ref, atol=1e-12)
 
 
 # ----------------------------------------------------------------------------- samples
@@ -493,6 +522,7 @@ def test_straight_move_across_a_thin_edge_is_a_large_overcut():
     # the centre moves straight from (0, t + ρ) to (0, −t − ρ): through the edge's centre,
     # which is t inside the material, so the ball cuts ρ + t below the surface
     assert bad.path_overcut == pytest.approx(RHO + t, abs=1e-3)
+    np.testing.assert_allclose(bad.path_overcut_at, [0.0, 0.0, 5.0], atol=1e-9)
     assert bad.max_gouge > 1.0  # the swept ball also gouges the region's surface
     # the CC chord across the edge passes through the edge's centre too, only t from the
     # surface: the CC check alone would call this a 0.5 mm chord error
@@ -531,3 +561,28 @@ def test_pose_mismatch_between_cl_and_cc_data():
     rep = verify_path(mesh, path)
     expected = RHO * np.linalg.norm(tilted[0] - [0, 1, 0])
     assert rep.pose_mismatch == pytest.approx(expected, abs=1e-12)
+
+
+def test_closing_move_of_a_closed_pass_is_checked():
+    mesh, path = cylinder_case(36)
+    c = path.curves[0]
+    keep = np.arange(35)  # drop the point at 350°: the closing move spans 20°
+    path.curves[0] = PassCurve(c.s, True, c.cc[keep], c.normal[keep], c.tip[keep], c.axis[keep],
+                               c.face[keep])
+    rep = verify_path(mesh, path)
+    assert rep.cc_chord == pytest.approx(RC * (1 - np.cos(np.radians(10))), abs=1e-4)
+    assert rep.path_overcut == pytest.approx((RC + RHO) * (1 - np.cos(np.radians(10))), abs=1e-4)
+
+
+def test_several_curves_on_one_level_make_one_pass():
+    xs = R1 + np.arange(0, 30.01, 1.5)
+    mesh, path = plane_case(xs)
+    split = []
+    for c in path.curves:  # each pass as two curves, z 0..15 and 15..30, same s
+        for sl in (slice(0, 6), slice(5, 11)):
+            split.append(PassCurve(c.s, False, c.cc[sl], c.normal[sl], c.tip[sl], c.axis[sl],
+                                   c.face[sl]))
+    path.curves = split
+    rep = verify_path(mesh, path)
+    assert rep.n_levels == len(xs) and rep.n_curves == 2 * len(xs)
+    np.testing.assert_allclose(rep.pair_cusp, np.sqrt(RHO**2 + 0.75**2) - RHO, atol=1e-9)
