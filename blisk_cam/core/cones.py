@@ -29,6 +29,7 @@ __all__ = [
     "Axis",
     "Cone",
     "MorphingCones",
+    "check_monotone_sweep",
     "fit_cone",
     "meridional",
 ]
@@ -49,7 +50,8 @@ class Axis:
     def __post_init__(self):
         o = np.asarray(self.origin, dtype=np.float64)
         d = np.asarray(self.direction, dtype=np.float64)
-        if o.shape != (3,) or d.shape != (3,) or not (np.all(np.isfinite(o)) and np.all(np.isfinite(d))):
+        finite = np.all(np.isfinite(o)) and np.all(np.isfinite(d))
+        if o.shape != (3,) or d.shape != (3,) or not finite:
             raise ConeError("axis: origin and direction must be three finite numbers each")
         n = float(np.linalg.norm(d))
         if n < 1e-12:
@@ -117,7 +119,9 @@ class Cone:
         if not np.all(np.isfinite(vals)):
             raise ConeError(f"cone {tuple(vals)}: all four numbers must be finite")
         if vals[0] < 0 or vals[2] < 0:
-            raise ConeError(f"cone {tuple(vals)}: radii r1, r2 must be ≥ 0 (distance from the axis)")
+            raise ConeError(
+                f"cone {tuple(vals)}: radii r1, r2 must be ≥ 0 (distance from the axis)"
+            )
         if np.hypot(vals[2] - vals[0], vals[3] - vals[1]) < 1e-9:
             raise ConeError(
                 f"cone {tuple(vals)}: P1 and P2 coincide; give two distinct generatrix points"
@@ -143,6 +147,12 @@ class Cone:
     def p2(self) -> np.ndarray:
         return np.array([self.r2, self.z2])
 
+    @property
+    def vertices(self) -> np.ndarray:
+        """(2, 2) float, mm: the generatrix end points P1, P2 as rows (r, z), the same shape
+        convention as :attr:`.lmrs.Profile.vertices`."""
+        return np.array([[self.r1, self.z1], [self.r2, self.z2]])
+
     def signed_distance(self, r, z):
         """Signed distance (mm) from meridional points to the generatrix line: D̂ × ((r,z) − P1)."""
         d = self.p2 - self.p1
@@ -160,6 +170,66 @@ class Cone:
         return q[..., 0], q[..., 1]
 
 
+def check_monotone_sweep(P, Q) -> float:
+    """Refuse a morph whose generatrices fold over inside the region (ConeError).
+
+    The family is X(s, λ) = (1 − s) P(λ) + s Q(λ) with P, Q polylines over a common
+    parameter: on the strip j between vertices j and j + 1 it is the bilinear patch
+    X = (1 − s)((1 − λ) P_j + λ P_j+1) + s((1 − λ) Q_j + λ Q_j+1), (s, λ) ∈ [0, 1]².
+    Its Jacobian J = ∂X/∂s × ∂X/∂λ is bilinear in (s, λ), so its extremes on the square are at
+    the four corners: J(0,0) = E_j × dP_j, J(0,1) = E_j+1 × dP_j, J(1,0) = E_j × dQ_j,
+    J(1,1) = E_j+1 × dQ_j with E_j = Q_j − P_j and dP_j = P_j+1 − P_j. The morph field is
+    single-valued (f_s strictly monotone in s) over the region exactly when all these corner
+    values, over all strips, have one strict sign — for one strip (two cones) this says the
+    quadrilateral P1 P2 Q2 Q1 is strictly convex. Cross-products are compared as sines
+    (divided by the lengths) against 1e-9.
+
+    Parameters
+    ----------
+    P, Q : (m, 2) float, mm — the two generatrices' vertices (r, z) at a common parameter,
+        m ≥ 2 (for cones: P1, P2 and Q1, Q2).
+
+    Returns
+    -------
+    sign : float, ±1 — the sign of J (−1: cone 2 lies on the left of P's direction).
+    """
+    P = np.asarray(P, dtype=np.float64)
+    Q = np.asarray(Q, dtype=np.float64)
+    E = Q - P
+    dP = np.diff(P, axis=0)
+    dQ = np.diff(Q, axis=0)
+    nE = np.linalg.norm(E, axis=1)
+    nP = np.linalg.norm(dP, axis=1)
+    nQ = np.linalg.norm(dQ, axis=1)
+    tiny = 1e-300
+    corners = np.stack(
+        [
+            _cross2(E[:-1], dP) / np.maximum(nE[:-1] * nP, tiny),
+            _cross2(E[1:], dP) / np.maximum(nE[1:] * nP, tiny),
+            _cross2(E[:-1], dQ) / np.maximum(nE[:-1] * nQ, tiny),
+            _cross2(E[1:], dQ) / np.maximum(nE[1:] * nQ, tiny),
+        ],
+        axis=1,
+    )  # (m − 1, 4): sines of the angles between the morph rays and the generatrix segments
+    sign = 1.0 if np.sum(corners) > 0 else -1.0
+    bad = sign * corners <= 1e-9
+    if np.any(bad):
+        j, c = np.argwhere(bad)[0]
+        s_c, lam = (0.0 if c in (0, 1) else 1.0), (0.0 if c in (0, 2) else 1.0)
+        x = (1 - s_c) * ((1 - lam) * P[j] + lam * P[j + 1]) + s_c * (
+            (1 - lam) * Q[j] + lam * Q[j + 1]
+        )
+        raise ConeError(
+            "cone 1 and cone 2 cross inside the region: the morphing generatrices fold over "
+            f"near (r, z) = ({x[0]:.3f}, {x[1]:.3f}) mm (the segments joining corresponding "
+            "points of the hub and tip generatrices, e.g. P1→Q1 and P2→Q2, cross or run along "
+            "a generatrix), so the surfaces at different s intersect and the morph field is "
+            "not single-valued: move an end point of cone 1 or cone 2 so that the quadrilateral "
+            "P1 P2 Q2 Q1 is convex"
+        )
+    return sign
+
+
 @dataclass(frozen=True)
 class MorphingCones:
     """The family of linear morphing cones between ``cone1`` (s = 0) and ``cone2`` (s = 1).
@@ -170,7 +240,10 @@ class MorphingCones:
       swapped, because interpolating crossed end points would twist the family;
     * the cones must not coincide and must not cross between the segments' end points
       (each segment strictly on one side of the other's line), otherwise the LMCs of different
-      ``s`` intersect inside the region and the morph field is not single-valued.
+      ``s`` intersect inside the region and the morph field is not single-valued;
+    * the family must sweep the region monotonically (:func:`check_monotone_sweep`: the
+      quadrilateral P1 P2 Q2 Q1 strictly convex), which also excludes the folds where the
+      segments P1→Q1 and P2→Q2 cross although neither cone crosses the other.
 
     The field is oriented so that ``f_s > 0`` on the cone-2 side of the LMC at ``s``.
     """
@@ -186,7 +259,9 @@ class MorphingCones:
             c2 = Cone(c2.r2, c2.z2, c2.r1, c2.z1)
             object.__setattr__(self, "cone2", c2)
         if np.allclose(c1.as_list(), c2.as_list(), atol=1e-9, rtol=0):
-            raise ConeError("cone 1 and cone 2 are the same cone; move the tip cone away from the hub cone")
+            raise ConeError(
+                "cone 1 and cone 2 are the same cone; move the tip cone away from the hub cone"
+            )
         # each end point of one segment strictly on one side of the other line
         s2_on_1 = c1.signed_distance(np.array([c2.r1, c2.r2]), np.array([c2.z1, c2.z2]))
         s1_on_2 = c2.signed_distance(np.array([c1.r1, c1.r2]), np.array([c1.z1, c1.z2]))
@@ -203,20 +278,26 @@ class MorphingCones:
             )
         # orientation: f_0 positive on the cone-2 side
         object.__setattr__(self, "_sign", 1.0 if s2_on_1[0] > 0 else -1.0)
-        # and the family must sweep monotonically: f_s at Q and P for intermediate s
-        ss = np.linspace(0.0, 1.0, 65)
-        a, b = self.generatrix(ss)
-        for s, aa, bb in zip(ss, a, b, strict=True):
-            if np.linalg.norm(bb - aa) < 1e-9 * max(scale, 1.0):
-                raise ConeError(
-                    f"the morphing cone at s = {s:.3f} degenerates to a point; the hub and tip "
-                    "generatrices are anti-parallel and of equal length: check the end points"
-                )
+        # and the family must sweep the region monotonically (no two LMCs meet inside it)
+        check_monotone_sweep(np.stack([c1.p1, c1.p2]), np.stack([c2.p1, c2.p2]))
 
     # --- the family -----------------------------------------------------------------------
     @property
     def sign(self) -> float:
         return self._sign  # type: ignore[attr-defined]
+
+    def polyline(self, s):
+        """Vertices of the generatrix at ratio ``s``: (2, 2) for a scalar ``s`` (rows A(s),
+        B(s)), (k, 2, 2) for (k,) ``s``. The interface shared with
+        :class:`.lmrs.MorphingProfiles` (whose polylines have more vertices)."""
+        a, b = self.generatrix(s)
+        return np.stack([a, b], axis=-2)
+
+    def segment_lines(self, s: float) -> np.ndarray:
+        """(1, 3) float: (α, β, γ) of :meth:`line_coefficients` as the single segment line
+        of the generatrix polyline at ``s`` (the interface shared with
+        :class:`.lmrs.MorphingProfiles`)."""
+        return np.array([self.line_coefficients(s)])
 
     def generatrix(self, s):
         """End points A(s), B(s) of the generatrix at ratio ``s`` (scalar or (k,)); each (…, 2)."""
@@ -246,7 +327,8 @@ class MorphingCones:
         return float(alpha), float(beta), float(gamma)
 
     def f(self, s: float, r, z):
-        """Signed meridional distance (mm) of points (r, z) to the LMC at ``s`` (+ toward cone 2)."""
+        """Signed meridional distance (mm) of points (r, z) to the LMC at ``s`` (+ toward
+        cone 2)."""
         alpha, beta, gamma = self.line_coefficients(s)
         return alpha * np.asarray(r, float) + beta * np.asarray(z, float) + gamma
 

@@ -8,6 +8,10 @@ Eq. 9, generalised: square ``α r(t) = −(β z(t) + γ)`` into a quadratic in t
 ``s``. The crossing edges are chained through the faces into closed loops or open curves;
 several components per level are returned separately.
 
+The same holds for the linear morphing revolution surfaces between two profile generatrices
+(paper 001 §4.2, :mod:`.lmrs`): their generatrix is a polyline, and each crossing edge is
+solved exactly on the line of the polyline segment the crossing lies on.
+
 Robustness: vertices within ``on_tol`` mm of the LMC count as lying on it and are assigned to
 the side *outside* the region for the end levels (``s = 0`` → below, ``s = 1`` → above), so a
 boundary loop that lies on cone 1 or cone 2 (float32 STL noise ≈ 1e-5 mm) comes out as the
@@ -17,11 +21,15 @@ first/last curve itself, made of the boundary vertices, instead of a ragged nois
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .cones import Axis, MorphingCones, meridional
 from .mesh import TriMesh, chain_graph_paths
+
+if TYPE_CHECKING:
+    from .lmrs import MorphingProfiles
 
 __all__ = ["LevelCurve", "MeshConeSlicer"]
 
@@ -56,17 +64,21 @@ class LevelCurve:
 
 
 class MeshConeSlicer:
-    """Slices one mesh with the LMC family of a cone pair; precomputes the morph field once.
+    """Slices one mesh with the LMC family of a cone pair (or the LMRS family of two profiles);
+    precomputes the morph field once.
 
     Parameters
     ----------
     mesh : TriMesh
     axis : Axis
-    morph : MorphingCones
+    morph : MorphingCones or MorphingProfiles (anything with ``ratio``, ``f``, ``polyline``,
+        ``segment_lines``, ``cone1``/``cone2``; ``segment_of`` when the generatrix has more
+        than one segment)
     on_tol : float, mm — vertices closer than this to a level's LMC are treated as on it.
     """
 
-    def __init__(self, mesh: TriMesh, axis: Axis, morph: MorphingCones, *, on_tol: float = 1e-4):
+    def __init__(self, mesh: TriMesh, axis: Axis, morph: MorphingCones | MorphingProfiles, *,
+                 on_tol: float = 1e-4):
         self.mesh = mesh
         self.axis = axis
         self.morph = morph
@@ -84,7 +96,9 @@ class MeshConeSlicer:
         self.vertex_normals = mesh.vertex_normals
         finite = np.isfinite(self.s)
         self.s_range = (
-            (float(self.s[finite].min()), float(self.s[finite].max())) if finite.any() else (np.inf, -np.inf)
+            (float(self.s[finite].min()), float(self.s[finite].max()))
+            if finite.any()
+            else (np.inf, -np.inf)
         )
         # margin in s that corresponds to on_tol mm (conservative: candidate faces only)
         self._s_margin = 1e-6 + 10.0 * self.on_tol / max(self._cone_gap(), 1e-9)
@@ -92,7 +106,8 @@ class MeshConeSlicer:
     def _cone_gap(self) -> float:
         """A typical meridional distance between cone 1 and cone 2 (mm)."""
         c1, c2 = self.morph.cone1, self.morph.cone2
-        return float(np.mean(np.abs(c1.signed_distance([c2.r1, c2.r2], [c2.z1, c2.z2]))))
+        v = c2.vertices
+        return float(np.mean(np.abs(c1.signed_distance(v[:, 0], v[:, 1]))))
 
     # ------------------------------------------------------------------------------------
     def vertex_side(self, s: float, vertices):
@@ -137,7 +152,7 @@ class MeshConeSlicer:
         e_dn = np.where(first_up, fe[rows, k_idx[:, 1]], fe[rows, k_idx[:, 0]])
         uedges, linv = np.unique(np.concatenate([e_up, e_dn]), return_inverse=True)
         links = linv.reshape(2, -1).T  # (c, 2) directed up → dn
-        pts, t = self._edge_roots(s, uedges)
+        pts, t = self._edge_roots(s, uedges, f_of=(uverts, f))
         ev = self.edges[uedges]
         vn = self.vertex_normals
         nrm = (1.0 - t)[:, None] * vn[ev[:, 0]] + t[:, None] * vn[ev[:, 1]]
@@ -167,24 +182,115 @@ class MeshConeSlicer:
         curves.sort(key=lambda c: -c.length())
         return curves
 
-    def _edge_roots(self, s: float, edge_ids):
-        """Exact crossing points of the LMC at ``s`` on edges (paper Eq. 9, generalised).
+    def _edge_roots(self, s: float, edge_ids, f_of=None):
+        """Exact crossing points of the LMC (or LMRS) at ``s`` on edges (paper Eq. 9,
+        generalised).
 
-        Along the edge X(t) = T1 + t (T2 − T1), z is linear and the radial vector is linear,
-        so r(t)² is quadratic. The cone α r + β z + γ = 0 (unit (α, β)) squares to
-        α² r(t)² − (β z(t) + γ)² = 0; of its roots in [0, 1] we keep the one where the
-        unsquared residual is smallest, then polish with one Newton step.
+        A cone's generatrix is one line α r + β z + γ = 0: the closed form of
+        :meth:`_roots_on_lines` with scalar coefficients. An LMRS generatrix (a polyline,
+        :class:`.lmrs.MorphingProfiles`) is one line per segment: each edge is solved on the
+        line of the segment its crossing lies on — the strip of the linearly interpolated
+        crossing (``morph.segment_of``), moved to the neighbouring segment while the root
+        falls off the segment (the crossing is then exact on the polyline), and the rare edge
+        still unresolved is solved on every segment, keeping the root on its segment with the
+        smallest residual.
+
+        ``f_of`` = (sorted vertex ids, their :meth:`vertex_side` values) when the caller has
+        them already (every edge end must be among them).
 
         Returns
         -------
         points : (k, 3) float, mm
         t : (k,) float in [0, 1]
         """
-        alpha, beta, gamma = self.morph.line_coefficients(s)
+        lines = self.morph.segment_lines(s)
         ev = self.edges[edge_ids]
         i0, i1 = ev[:, 0], ev[:, 1]
-        f0 = self.vertex_side(s, i0)
-        f1 = self.vertex_side(s, i1)
+        if f_of is None:
+            f0 = self.vertex_side(s, i0)
+            f1 = self.vertex_side(s, i1)
+        else:
+            ids, fv = f_of
+            f0 = fv[np.searchsorted(ids, i0)]
+            f1 = fv[np.searchsorted(ids, i1)]
+        if len(lines) == 1:
+            alpha, beta, gamma = (float(v) for v in lines[0])
+            t = self._roots_on_lines(alpha, beta, gamma, i0, i1, f0, f1)[0]
+        else:
+            t = self._roots_on_polyline(s, lines, i0, i1, f0, f1)
+        # vertices on the level (snapped to zero): the crossing is the vertex itself
+        t = np.where(f0 == 0.0, 0.0, np.where(f1 == 0.0, 1.0, t))
+        V = self.mesh.V
+        pts = V[i0] + t[:, None] * (V[i1] - V[i0])
+        pts[t == 1.0] = V[i1[t == 1.0]]  # exactly the vertex (x + (y − x) ≠ y in floats)
+        return pts, t
+
+    def _roots_on_polyline(self, s, lines, i0, i1, f0, f1):
+        """Edge parameters t of the crossings with the LMRS polyline at ``s`` (see
+        :meth:`_edge_roots`); ``lines`` (k, 3) are its segments' (α, β, γ)."""
+        G = self.morph.polyline(s)
+        k = len(lines)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tl = np.clip(np.where(f1 != f0, f0 / (f0 - f1), 0.5), 0.0, 1.0)
+        q_est = self.radial[i0] + tl[:, None] * (self.radial[i1] - self.radial[i0])
+        r_est = np.linalg.norm(q_est, axis=1)
+        z_est = self.z[i0] + tl * (self.z[i1] - self.z[i0])
+        j = np.asarray(self.morph.segment_of(r_est, z_est), dtype=np.int64)
+
+        def solve(idx, jj):
+            a, b, c = lines[jj, 0], lines[jj, 1], lines[jj, 2]
+            tt, err = self._roots_on_lines(a, b, c, i0[idx], i1[idx], f0[idx], f1[idx])
+            # parameter λ of the crossing along segment jj of G_s (extended at the ends)
+            q = self.radial[i0[idx]] + tt[:, None] * (self.radial[i1[idx]] - self.radial[i0[idx]])
+            zz = self.z[i0[idx]] + tt * (self.z[i1[idx]] - self.z[i0[idx]])
+            x = np.stack([np.linalg.norm(q, axis=1), zz], 1)
+            d = G[jj + 1] - G[jj]
+            lam = np.einsum("ij,ij->i", x - G[jj], d) / np.einsum("ij,ij->i", d, d)
+            # the end segments extend beyond the generatrix's end points
+            lam = np.where((jj == 0) & (lam < 0), 0.5, lam)
+            lam = np.where((jj == k - 1) & (lam > 1), 0.5, lam)
+            return tt, err, lam
+
+        idx = np.arange(len(i0))
+        t, err, lam = solve(idx, j)
+        eps = 1e-9
+        # a root of the line (residual at rounding level, the Newton-polished roots are
+        # ~1e-13 mm) that is off the segment: the crossing is on a neighbouring segment
+        root_tol = 1e-9 * max(1.0, float(np.abs(G).max()))
+        for _ in range(3):
+            move = (err <= root_tol) & (((lam < -eps) & (j > 0)) | ((lam > 1 + eps) & (j < k - 1)))
+            if not np.any(move):
+                break
+            m = np.nonzero(move)[0]
+            j[m] += np.where(lam[m] < 0, -1, 1)
+            t[m], err[m], lam[m] = solve(m, j[m])
+        # no root on that line within the edge, or still off its segment (near a vertex of
+        # G_s): try every segment
+        bad = np.nonzero((err > root_tol) | (lam < -eps) | (lam > 1 + eps))[0]
+        if len(bad):
+            best_t, best_e = t[bad].copy(), np.full(len(bad), np.inf)
+            for jj in range(k):
+                tt, ee, ll = solve(bad, np.full(len(bad), jj))
+                ok = (ll >= -eps) & (ll <= 1 + eps) & (ee < best_e)
+                best_t = np.where(ok, tt, best_t)
+                best_e = np.where(ok, ee, best_e)
+            t[bad] = best_t
+        return t
+
+    def _roots_on_lines(self, alpha, beta, gamma, i0, i1, f0, f1):
+        """Exact roots on edges i0→i1 of the meridional line α r + β z + γ = 0 ((α, β) unit;
+        scalars, or one line per edge).
+
+        Along the edge X(t) = T1 + t (T2 − T1), z is linear and the radial vector is linear,
+        so r(t)² is quadratic. The line squares to α² r(t)² − (β z(t) + γ)² = 0; of its roots
+        in [0, 1] we keep the one where the unsquared residual is smallest, then polish with
+        one Newton step.
+
+        Returns
+        -------
+        t : (k,) float in [0, 1]
+        residual : (k,) float, mm — |α r(t) + β z(t) + γ| at the returned t
+        """
         q0 = self.radial[i0]
         dq = self.radial[i1] - q0
         z0 = self.z[i0]
@@ -217,13 +323,10 @@ class MeshConeSlicer:
         # one Newton step on the unsquared residual g(t) = α r(t) + β z(t) + γ
         rr = np.linalg.norm(q0 + t[:, None] * dq, axis=1)
         g = alpha * rr + beta * (z0 + t * dz) + gamma
-        dg = alpha * np.einsum("ij,ij->i", q0 + t[:, None] * dq, dq) / np.maximum(rr, 1e-300) + beta * dz
+        qt = q0 + t[:, None] * dq
+        dg = alpha * np.einsum("ij,ij->i", qt, dq) / np.maximum(rr, 1e-300) + beta * dz
         with np.errstate(divide="ignore", invalid="ignore"):
             tn = np.where(np.abs(dg) > 1e-300, t - g / dg, t)
         t = np.where(np.isfinite(tn) & (tn >= 0) & (tn <= 1), tn, t)
-        # vertices on the level (snapped to zero): the crossing is the vertex itself
-        t = np.where(f0 == 0.0, 0.0, np.where(f1 == 0.0, 1.0, t))
-        V = self.mesh.V
-        pts = V[i0] + t[:, None] * (V[i1] - V[i0])
-        pts[t == 1.0] = V[i1[t == 1.0]]  # exactly the vertex (x + (y − x) ≠ y in floats)
-        return pts, t
+        rr = np.linalg.norm(q0 + t[:, None] * dq, axis=1)
+        return t, np.abs(alpha * rr + beta * (z0 + t * dz) + gamma)

@@ -95,9 +95,49 @@ def test_fit_cone_recovers_generatrix_and_reports_residual():
 
 def test_fit_cone_handles_disk_and_cylinder():
     th = np.linspace(0, 6, 50)
-    disk = np.stack([np.linspace(100, 150, 50) * np.cos(th), np.linspace(100, 150, 50) * np.sin(th), np.full(50, 7.0)], 1)
+    rr = np.linspace(100, 150, 50)
+    disk = np.stack([rr * np.cos(th), rr * np.sin(th), np.full(50, 7.0)], 1)
     fit, resid, _ = fit_cone(disk, Axis())
     assert abs(fit.z1 - 7) < 1e-9 and abs(fit.z2 - 7) < 1e-9 and resid < 1e-9
     cyl = np.stack([120 * np.cos(th), 120 * np.sin(th), np.linspace(0, 40, 50)], 1)
     fit, resid, _ = fit_cone(cyl, Axis())
     assert abs(fit.r1 - 120) < 1e-9 and abs(fit.r2 - 120) < 1e-9
+
+
+def test_folded_pair_is_refused_although_neither_cone_crosses_the_other():
+    # cone 2 lies wholly on one side of cone 1's line and cone 1 wholly on one side of cone 2's,
+    # but the segments P1→Q1 and P2→Q2 cross: LMCs of different s meet inside the region
+    c1, c2 = Cone(100, 0, 110, 0), Cone(120, 10, 130, 30)
+    for a, b in ((c1, c2), (c2, c1)):
+        on_other = a.signed_distance(np.array([b.r1, b.r2]), np.array([b.z1, b.z2]))
+        assert np.all(on_other > 0) or np.all(on_other < 0)
+    mc_free = MorphingCones(c1, Cone(100, 10, 115, 30))  # convex quadrilateral: accepted
+    assert mc_free.sign in (1.0, -1.0)
+    with pytest.raises(ConeError, match="cross inside the region"):
+        MorphingCones(c1, c2)
+    # and the fold is real: a point of the region lies on two LMCs with s in [0, 1]
+    a = (np.array([100.0, 0.0]), np.array([110.0, 0.0]))
+    b = (np.array([120.0, 10.0]), np.array([130.0, 30.0]))
+    x = np.array([115.0, 7.5])  # where P1→Q1 meets P2→Q2: A(0.75) = B(0.25)
+    on = []
+    for s in np.linspace(0, 1, 2001):
+        A = (1 - s) * a[0] + s * b[0]
+        B = (1 - s) * a[1] + s * b[1]
+        d = B - A
+        on.append(abs(d[0] * (x[1] - A[1]) - d[1] * (x[0] - A[0])) / np.linalg.norm(d))
+    on = np.array(on)
+    assert np.sum((on[1:-1] < on[:-2]) & (on[1:-1] < on[2:]) & (on[1:-1] < 0.05)) >= 2
+
+
+@pytest.mark.parametrize("name", [n for n in PAIRS])
+def test_accepted_pairs_sweep_monotonically(name):
+    """f_s(X) changes sign exactly once in s for points X of the region (the check's promise)."""
+    mc = MorphingCones(*PAIRS[name])
+    rng = np.random.default_rng(7)
+    s0, lam = rng.uniform(0, 1, 300), rng.uniform(0, 1, 300)
+    a, b = mc.generatrix(s0)
+    x = a + lam[:, None] * (b - a)
+    ss = np.linspace(-0.01, 1.01, 205)
+    f = np.array([mc.f(s, x[:, 0], x[:, 1]) for s in ss])  # (205, 300)
+    changes = np.sum(np.diff(np.sign(f), axis=0) != 0, axis=0)
+    assert np.all(changes == 1)
