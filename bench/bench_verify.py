@@ -18,6 +18,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from blisk_cam.core.cones import Axis, Cone  # noqa: E402
+from blisk_cam.core.cutter import Cutter  # noqa: E402
 from blisk_cam.core.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.toolpath import BallTool, PassCurve, ToolPath  # noqa: E402
 from blisk_cam.core.verify import MeshDistance, verify_path  # noqa: E402
@@ -74,6 +75,9 @@ def main(argv=None):
     ap.add_argument("--poses", type=int, default=20_000)
     ap.add_argument("--levels", type=int, default=50, help="passes (fewer: larger cusp)")
     ap.add_argument("--spacing", type=float, default=None)
+    ap.add_argument("--bull-triangles", type=int, default=20_000,
+                    help="triangles of the bull-nose line's case (0: skip it)")
+    ap.add_argument("--bull-poses", type=int, default=4_000)
     args = ap.parse_args(argv)
     mesh, path = build(args.triangles, args.poses, n_levels=args.levels)
     print(f"mesh: {mesh.n_faces} triangles, path: {path.n_poses} poses, "
@@ -94,6 +98,25 @@ def main(argv=None):
     figures = {k: v for k, v in rep.summary().items() if not k.startswith("pair")}
     print(json.dumps(figures, indent=1))
     print("pair cusp min/max:", np.nanmin(rep.pair_cusp), np.nanmax(rep.pair_cusp))
+    if args.bull_triangles > 0:
+        # bull-nose line: R 6, r 2, lead 10° along the feed, on a smaller case
+        mesh, path = build(args.bull_triangles, args.bull_poses, n_levels=args.levels)
+        cutter = Cutter.bull(6.0, 2.0)
+        lead = np.radians(10.0)
+        for c in path.curves:
+            feed = np.roll(c.cc, -1, axis=0) - np.roll(c.cc, 1, axis=0)
+            feed -= np.einsum("ij,ij->i", feed, c.normal)[:, None] * c.normal
+            feed /= np.linalg.norm(feed, axis=1)[:, None]
+            c.axis = np.cos(lead) * c.normal + np.sin(lead) * feed
+            c.tip = cutter.cl_points(c.cc, c.normal, c.axis)
+        path.tool = cutter
+        t = time.perf_counter()
+        rep = verify_path(mesh, path, spacing=args.spacing)
+        print(f"verify_path bull-nose R6 r2 lead 10° ({mesh.n_faces} triangles, {path.n_poses} "
+              f"poses, {rep.n_samples} samples): {time.perf_counter() - t:.2f} s")
+        print(json.dumps({k: rep.summary()[k] for k in ("max_material_left", "max_gouge",
+                                                        "max_cusp_normal", "cc_contact",
+                                                        "timings")}, indent=1))
 
 
 if __name__ == "__main__":

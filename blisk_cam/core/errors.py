@@ -19,3 +19,8 @@ class ConeError(BliskCamError):
 
 class ToleranceError(BliskCamError):
     """A tolerance or tool dimension is non-positive or absurd."""
+
+
+class ToolError(ToleranceError):
+    """The cutter is impossible (corner radius above the tool radius, negative or NaN
+    dimensions, taper angle out of range, a corner radius contradicting the tool type...)."""
