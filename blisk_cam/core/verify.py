@@ -40,7 +40,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .cones import Axis, MorphingCones, meridional
+from .cutter import as_cutter
 from .errors import ToleranceError
+from .lmrs import morph_between
 from .mesh import TriMesh
 from .toolpath import PassCurve, ToolPath
 
@@ -49,6 +51,7 @@ __all__ = [
     "MeshDistance",
     "SurfaceSamples",
     "SweptBall",
+    "SweptCutter",
     "VerifyReport",
     "closest_points",
     "closest_on_segments",
@@ -843,18 +846,216 @@ class SweptBall:
         return out
 
 
+def _slerp(a0, a1, t):
+    """Unit axes at parameters t (k,) on the great arcs from unit a0 to unit a1 (k, 3)."""
+    c = np.clip(_dot(a0, a1), -1.0, 1.0)
+    phi = np.arccos(c)
+    sphi = np.sin(phi)
+    small = sphi < 1e-9
+    sd = np.where(small, 1.0, sphi)
+    w0 = np.where(small, 1.0 - t, np.sin((1.0 - t) * phi) / sd)
+    w1 = np.where(small, t, np.sin(t * phi) / sd)
+    v = w0[:, None] * a0 + w1[:, None] * a1
+    return v / np.linalg.norm(v, axis=1)[:, None]
+
+
+_GOLD = 0.5 * (np.sqrt(5.0) - 1.0)
+
+
+class SweptCutter:
+    """The volume swept by any :class:`~.cutter.Cutter` along pose polylines.
+
+    Between two consecutive poses the tip moves on a straight line and the axis turns on the
+    great arc (slerp) at a uniform rate — the machine's motion to first order. ``distance``
+    is the signed distance from points to the swept volume, ``min over segments and t of
+    cutter.signed_distance(p, tip(t), axis(t))`` (mm; > 0 outside = material left, < 0 gouge),
+    computed from the cutter's exact shape:
+
+    * candidates — segments whose bounds (the hull of the posed axes from the tip to the flute
+      length, widened by the cutter's largest radius) come within the current upper bound;
+    * pruning — in the tool frame a query point p moves by at most D = |Δtip| + Δφ |p − tip|
+      over a segment (tip linear, axis turning at a uniform rate), and the signed distance is
+      1-Lipschitz: with v₀, v₁ at the two poses the minimum over the segment is
+      ≥ (v₀ + v₁ − D)/2, so segments whose bound is above the best pose value are done;
+    * the rest — ``nsub`` + 1 samples of t, then golden-section search around the best sample
+      (``iters`` steps shrink the bracket to 2/nsub · 0.618^iters of the segment; for a pure
+      translation the distance is convex in t, so this is the exact minimum).
+
+    Parameters
+    ----------
+    cutter : Cutter
+    tip_a, axis_a, tip_b, axis_b : (S, 3) float — segment end poses (mm, unit axes)
+    owner : (S,) int — an id per segment, reported by ``nearest``
+    nsub, iters : int — samples per segment and golden-section steps
+    """
+
+    def __init__(self, cutter, tip_a, axis_a, tip_b, axis_b, owner=None, *, nsub: int = 4,
+                 iters: int = 24, leaf_size: int = 8):
+        self.cutter = cutter
+        f64 = np.float64
+        self.ta = np.ascontiguousarray(tip_a, dtype=f64).reshape(-1, 3)
+        self.tb = np.ascontiguousarray(tip_b, dtype=f64).reshape(-1, 3)
+        self.aa = np.ascontiguousarray(axis_a, dtype=f64).reshape(-1, 3)
+        self.ab = np.ascontiguousarray(axis_b, dtype=f64).reshape(-1, 3)
+        self.aa = self.aa / np.linalg.norm(self.aa, axis=1)[:, None]
+        self.ab = self.ab / np.linalg.norm(self.ab, axis=1)[:, None]
+        S = len(self.ta)
+        self.owner = (np.zeros(S, np.int64) if owner is None
+                      else np.asarray(owner, dtype=np.int64))
+        self.nsub, self.iters = max(int(nsub), 2), max(int(iters), 0)
+        phi = np.arccos(np.clip(_dot(self.aa, self.ab), -1.0, 1.0)) if S else np.zeros(0)
+        self.phi = phi
+        self.dtip = np.linalg.norm(self.tb - self.ta, axis=1)
+        h = cutter.h
+        # the slerped axis leaves the chord of the two axes by at most 1 − cos(φ/2)
+        self.inflate = (cutter.max_radius + h * float(np.max(1.0 - np.cos(0.5 * phi), initial=0.0))
+                        ) * (1.0 + 1e-9) + 1e-9
+        self.tree = None
+        if S:
+            breaks = np.nonzero(np.diff(self.owner) != 0)[0] + 1
+            jump = np.nonzero(np.any(self.ta[1:] != self.tb[:-1], axis=1))[0] + 1
+            clusters = _run_clusters(np.union1d(breaks, jump), S, leaf_size)
+            corners = np.stack([self.ta, self.tb, self.ta + h * self.aa, self.tb + h * self.ab], 1)
+            self.tree = _Tree(corners, flat=False, clusters=clusters)
+            self.kd = cKDTree(self.ta + cutter.f * self.aa)
+
+    @classmethod
+    def from_curves(cls, cutter, curves, owners=None, **kw):
+        """Swept cutter of passes (``tip``, ``axis`` per pose; closed passes include the
+        closing move); ``owners`` (one int per curve, default the curve index) label them."""
+        parts = [[], [], [], [], []]
+        for i, c in enumerate(curves):
+            ta, tb = _curve_polyline(c, c.tip)
+            aa, ab = _curve_polyline(c, c.axis)
+            for lst, x in zip(parts, (ta, aa, tb, ab), strict=False):
+                lst.append(x)
+            parts[4].append(np.full(len(ta), i if owners is None else owners[i], dtype=np.int64))
+        if not parts[0]:
+            z = np.zeros((0, 3))
+            return cls(cutter, z, z, z, z, **kw)
+        return cls(cutter, *(np.vstack(x) for x in parts[:4]), np.concatenate(parts[4]), **kw)
+
+    def pose(self, seg, t):
+        """(tip (k, 3), axis (k, 3)) of segments ``seg`` (k,) at parameters t (k,)."""
+        tip = self.ta[seg] + t[:, None] * (self.tb[seg] - self.ta[seg])
+        return tip, _slerp(self.aa[seg], self.ab[seg], t)
+
+    def _segment_min(self, P, seg, v0, v1):
+        """Minimum over t ∈ [0, 1] of the distance from P (k, 3) to segments ``seg`` (k,)."""
+        k, m = len(P), self.nsub
+        ta, dt = self.ta[seg], self.tb[seg] - self.ta[seg]
+        a0, a1 = self.aa[seg], self.ab[seg]
+        phi = self.phi[seg]
+        sphi = np.sin(phi)
+        small = sphi < 1e-9
+        sden = np.where(small, 1.0, sphi)
+        sd = self.cutter.signed_distance
+
+        def f(t):
+            w0 = np.where(small, 1.0 - t, np.sin((1.0 - t) * phi) / sden)
+            w1 = np.where(small, t, np.sin(t * phi) / sden)
+            ax = w0[:, None] * a0 + w1[:, None] * a1
+            ax /= np.sqrt(np.einsum("ij,ij->i", ax, ax))[:, None]
+            return sd(P, ta + t[:, None] * dt, ax)
+
+        vals = np.empty((k, m + 1))
+        vals[:, 0], vals[:, m] = v0, v1
+        for j in range(1, m):
+            vals[:, j] = f(np.full(k, j / m))
+        jb = np.argmin(vals, axis=1)
+        best = vals[np.arange(k), jb]
+        lo = np.maximum(jb - 1, 0) / m
+        hi = np.minimum(jb + 1, m) / m
+        x1 = hi - _GOLD * (hi - lo)
+        x2 = lo + _GOLD * (hi - lo)
+        f1, f2 = f(x1), f(x2)
+        for _ in range(self.iters):
+            left = f1 < f2  # the minimum is in [lo, x2]
+            hi = np.where(left, x2, hi)
+            lo = np.where(left, lo, x1)
+            nx = np.where(left, hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo))
+            fn = f(nx)
+            x2, f2, x1, f1 = (np.where(left, x1, nx), np.where(left, f1, fn),
+                              np.where(left, nx, x2), np.where(left, fn, f2))
+        return np.minimum(best, np.minimum(f1, f2))
+
+    def nearest(self, points, chunk: int = _CHUNK // 4):
+        """Signed distance to the swept volume (k,) and the nearest segment (k,)."""
+        P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        k = len(P)
+        out = np.full(k, np.inf)
+        arg = np.full(k, -1, dtype=np.int64)
+        if self.tree is None or k == 0:
+            return out, arg
+        cut = self.cutter
+        S = len(self.ta)
+        for s0 in range(0, k, chunk):
+            Pc = P[s0 : s0 + chunk]
+            kc = len(Pc)
+            kk = int(min(4, S))
+            _, j = self.kd.query(Pc, k=kk)
+            j = np.asarray(j, dtype=np.int64).reshape(-1)
+            qi = np.repeat(np.arange(kc), kk)
+            u, _ = _group_argmin(kc, qi, cut.signed_distance(Pc[qi], self.ta[j], self.aa[j]), j)
+            r = np.maximum(u + self.inflate, 0.0)
+            q, sg = self.tree.pairs(Pc, r * r)
+            Pq = Pc[q]
+            v0 = cut.signed_distance(Pq, self.ta[sg], self.aa[sg])
+            v1 = cut.signed_distance(Pq, self.tb[sg], self.ab[sg])
+            vmin = np.minimum(v0, v1)
+            u, _ = _group_argmin(kc, q, vmin, sg)
+            # in the tool frame the point moves by ≤ |Δtip| + φ |p − tip| over the segment
+            # (tip linear, axis turning at a uniform rate): the distance is Lipschitz in t
+            reach = np.maximum(np.linalg.norm(Pq - self.ta[sg], axis=1),
+                               np.linalg.norm(Pq - self.tb[sg], axis=1))
+            D = (self.dtip[sg] + self.phi[sg] * reach) * (1.0 + 1e-9) + 1e-12
+            lb = 0.5 * (v0 + v1 - D)
+            ref = lb < u[q]
+            if np.any(ref):
+                vmin[ref] = np.minimum(vmin[ref], self._segment_min(Pq[ref], sg[ref], v0[ref],
+                                                                    v1[ref]))
+            best, a = _group_argmin(kc, q, vmin, sg)
+            out[s0 : s0 + kc] = best
+            arg[s0 : s0 + kc] = a
+        return out, arg
+
+    def distance(self, points):
+        """(k,) signed distance (mm) from points to the swept volume (> 0 outside)."""
+        return self.nearest(points)[0]
+
+    def height_along(self, points, directions, max_height, steps: int = 60):
+        """Distance along unit ``directions`` from ``points`` (outside the volume) to the first
+        hit of the swept volume, (k,) mm; ``inf`` where there is none within ``max_height``.
+        Sphere tracing: the signed distance is 1-Lipschitz, so a step of its value never
+        passes the first hit."""
+        P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        N = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),)).copy()
+        t = np.zeros(len(P))
+        live = np.ones(len(P), bool)
+        for _ in range(steps):
+            if not np.any(live):
+                break
+            idx = np.nonzero(live)[0]
+            d = self.distance(P[idx] + t[idx, None] * N[idx])
+            t[idx] += np.maximum(d, 0.0)
+            live[idx] = (d > 1e-10) & (t[idx] <= hmax[idx])
+        t[(t > hmax) | live] = np.inf
+        return t
+
+
 def swept_cutter(tool, curves, owners=None):
     """The swept-volume distance model for ``tool`` along ``curves`` (list of PassCurve).
 
-    Only the ball cutter is implemented (any tool axis: the ball is symmetric); bull-nose,
-    flat and taper cutters will provide the same interface (``distance``, ``nearest``,
-    ``height_along``).
+    ``tool`` is a :class:`~.cutter.Cutter`, a legacy ``BallTool`` or a paths-JSON tool dict.
+    A ball keeps the exact swept-sphere computation (:class:`SweptBall`; any axis: the ball is
+    symmetric); every other cutter is swept exactly from its shape (:class:`SweptCutter`).
+    Both provide ``distance``, ``nearest``, ``height_along`` and ``owner``.
     """
-    kind = getattr(tool, "type", "ball")
-    if kind != "ball":
-        raise NotImplementedError(
-            f"verify: the swept volume of a {kind!r} cutter is not implemented yet")
-    return SweptBall.from_curves(curves, float(tool.radius), owners)
+    cutter = as_cutter(tool)
+    if cutter.type == "ball":
+        return SweptBall.from_curves(curves, cutter.radius, owners)
+    return SweptCutter.from_curves(cutter, curves, owners)
 
 
 # ================================================================== report
@@ -904,6 +1105,7 @@ class VerifyReport:
     """
 
     tool_radius: float
+    tool: dict
     spacing: float
     n_samples: int
     n_poses: int
@@ -921,6 +1123,7 @@ class VerifyReport:
     path_overcut_at: np.ndarray
     path_undercut: float
     cc_on_mesh: float
+    cc_contact: float
     cc_on_cone: float
     normal_error_deg: float
     pose_mismatch: float
@@ -936,6 +1139,7 @@ class VerifyReport:
     curve_undercut: np.ndarray
     curve_on_mesh: np.ndarray
     curve_on_cone: np.ndarray
+    pose_cc_contact: np.ndarray
     sample_points: np.ndarray
     sample_values: np.ndarray
     vertex_values: np.ndarray
@@ -950,6 +1154,7 @@ class VerifyReport:
 
         return {
             "tool_radius": f(self.tool_radius),
+            "tool": dict(self.tool),
             "spacing": f(self.spacing),
             "n_samples": int(self.n_samples),
             "n_poses": int(self.n_poses),
@@ -963,6 +1168,7 @@ class VerifyReport:
             "path_overcut": f(self.path_overcut),
             "path_undercut": f(self.path_undercut),
             "cc_on_mesh": f(self.cc_on_mesh),
+            "cc_contact": f(self.cc_contact),
             "cc_on_cone": f(self.cc_on_cone),
             "normal_error_deg": f(self.normal_error_deg),
             "pose_mismatch": f(self.pose_mismatch),
@@ -1000,6 +1206,109 @@ def _ridges(samples, strip, g, npairs):
     return idx, strip[ea[idx]]
 
 
+@dataclass
+class _Run:
+    """A run of consecutive cutting poses of one pass (what verify measures)."""
+
+    s: float
+    closed: bool
+    cc: np.ndarray
+    normal: np.ndarray
+    tip: np.ndarray
+    axis: np.ndarray
+    ratio: np.ndarray  # (k,) morph ratio of each pose
+
+
+def _cut_runs(curves) -> list[_Run]:
+    """The cutting parts of passes: maximal runs of poses joined by cut moves.
+
+    Pose j's move code (``PassCurve.move``, missing = all "cut", code 0) is the kind of the
+    motion that ends at pose j, so the segment j−1 → j is cut when ``move[j]`` is 0 and the
+    closing segment of a closed pass when ``move[0]`` is. A pass cut all round stays closed."""
+    out = []
+    for c in curves:
+        k = len(c.cc)
+        if k == 0:
+            continue
+        arr = [np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in (c.cc, c.normal, c.tip,
+                                                                         c.axis)]
+        ratio = getattr(c, "ratio", None)
+        ratio = (np.full(k, float(c.s)) if ratio is None
+                 else np.asarray(ratio, dtype=np.float64).reshape(-1))
+        move = getattr(c, "move", None)
+        cutm = (np.ones(k, bool) if move is None or len(move) != k
+                else np.asarray(move).astype(np.int64) == 0)
+        if k == 1 or np.all(cutm):
+            out.append(_Run(float(c.s), bool(c.closed) and k > 2, *arr, ratio))
+            continue
+        # segment j−1 → j is cut where cutm[j]; a closed pass's closing segment k−1 → 0 where
+        # cutm[0]: then start the pass at a pose reached by a non-cut move (runs never wrap)
+        if c.closed and k > 2 and cutm[0]:
+            order = np.roll(np.arange(k), -int(np.nonzero(~cutm)[0][0]))
+            arr = [x[order] for x in arr]
+            ratio, cutm = ratio[order], cutm[order]
+        seg = cutm[1:]
+        j = 0
+        while j < len(seg):
+            if not seg[j]:
+                j += 1
+                continue
+            e = j
+            while e < len(seg) and seg[e]:
+                e += 1
+            idx = np.arange(j, e + 1)  # poses j..e (segments j → e)
+            out.append(_Run(float(c.s), False, *(x[idx] for x in arr), ratio[idx]))
+            j = e
+    return out
+
+
+def _cl_or_nan(cutter, cc, normal, axis):
+    """Tip points of the cutter touching ``cc``; NaN rows where the axis is tilted beyond
+    the cutter's side (no contact possible)."""
+    out = np.full_like(cc, np.nan)
+    th = np.arctan2(np.linalg.norm(np.cross(normal, axis), axis=1), _dot(normal, axis))
+    ok = th <= 0.5 * np.pi - cutter.beta
+    if np.any(ok):
+        out[ok] = cutter.cl_points(cc[ok], normal[ok], axis[ok])
+    return out
+
+
+def _interpolated_contacts(cutter, curves, nsub):
+    """Per pass, at ``nsub`` points of every segment (tip and CC linear, axis on the great arc,
+    normal interpolated and normalised): the posed cutter's extreme point toward −n, i.e. the
+    point that touches when the pose is right. Returns (points (q, 3), curve id (q,),
+    tips (q, 3), axes (q, 3))."""
+    pts, ids, tps, axs = [], [], [], []
+    t = np.arange(0, nsub) / nsub
+    for i, c in enumerate(curves):
+        tips_a, tips_b = _curve_polyline(c, c.tip)
+        ax_a, ax_b = _curve_polyline(c, c.axis)
+        n_a, n_b = _curve_polyline(c, c.normal)
+        m = len(tips_a)
+        tt = np.tile(t, m)
+        rep_ = np.repeat(np.arange(m), nsub)
+        tip = tips_a[rep_] + tt[:, None] * (tips_b - tips_a)[rep_]
+        ax = _slerp(ax_a[rep_] / np.linalg.norm(ax_a[rep_], axis=1)[:, None],
+                    ax_b[rep_] / np.linalg.norm(ax_b[rep_], axis=1)[:, None], tt)
+        nn = n_a[rep_] + tt[:, None] * (n_b - n_a)[rep_]
+        if not (c.closed and len(c.tip) > 2):  # the last pose itself
+            tip = np.vstack([tip, c.tip[-1:]])
+            ax = np.vstack([ax, c.axis[-1:] / np.linalg.norm(c.axis[-1])])
+            nn = np.vstack([nn, c.normal[-1:]])
+        nn /= np.maximum(np.linalg.norm(nn, axis=1), 1e-300)[:, None]
+        th = np.arctan2(np.linalg.norm(np.cross(nn, ax), axis=1), _dot(nn, ax))
+        ok = th <= 0.5 * np.pi - cutter.beta
+        off, _ = cutter.contact(nn[ok], ax[ok])
+        pts.append(tip[ok] - off)
+        ids.append(np.full(int(ok.sum()), i, dtype=np.int64))
+        tps.append(tip[ok])
+        axs.append(ax[ok])
+    if not pts:
+        z = np.zeros((0, 3))
+        return z, np.zeros(0, np.int64), z, z
+    return np.vstack(pts), np.concatenate(ids), np.vstack(tps), np.vstack(axs)
+
+
 def verify_path(
     mesh: TriMesh,
     path: ToolPath,
@@ -1025,14 +1334,21 @@ def verify_path(
     """
     t0 = time.perf_counter()
     tim = {}
-    rho = float(path.tool.radius)
-    if not (rho > 0):
-        raise ToleranceError(f"tool radius must be positive, got {rho} mm")
+    tool = path.tool
+    if isinstance(tool, dict) or getattr(tool, "type", "ball") != "ball":
+        cutter = as_cutter(tool)
+        rho = cutter.radius
+    else:  # a ball (Cutter or legacy BallTool): only its radius matters
+        rho = float(tool.radius)
+        if not (rho > 0):
+            raise ToleranceError(f"tool radius must be positive, got {rho} mm")
+        cutter = as_cutter(tool)
+    is_ball = cutter.type == "ball"
     if spacing is None:
         spacing = default_spacing(rho, path.cusp)
-    cones = MorphingCones(path.cone1, path.cone2)
+    cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
     axis = path.axis
-    curves = [c for c in path.curves if len(c.cc) > 0]
+    curves = _cut_runs(path.curves)
     ncur = len(curves)
     md = MeshDistance(mesh)
     tim["mesh_tree"] = time.perf_counter() - t0
@@ -1046,6 +1362,7 @@ def verify_path(
     under = np.full(ncur, np.nan)
     nerr = 0.0
     mismatch = 0.0
+    pose_contact = np.zeros(0)
     chord_at = over_at = np.full(3, np.nan)
     feet_p, feet_f, feet_b = [], [], []
     if ncur:
@@ -1059,12 +1376,24 @@ def verify_path(
         nerr = float(np.degrees(np.arccos(np.clip(_dot(sn, un), -1.0, 1.0))).max())
         tips = np.vstack([np.asarray(c.tip, float) for c in curves])
         axs = np.vstack([np.asarray(c.axis, float) for c in curves])
-        mismatch = float(np.linalg.norm(tips + rho * axs - (cc_all + rho * nrm_all), axis=1).max())
+        axs = axs / np.linalg.norm(axs, axis=1)[:, None]
+        if is_ball:
+            mismatch = float(np.linalg.norm(tips + rho * axs - (cc_all + rho * nrm_all),
+                                            axis=1).max())
+        else:  # the tip implied by the CC data (the cutter touching cc) against the path's
+            mm = np.linalg.norm(tips - _cl_or_nan(cutter, cc_all, un, axs), axis=1)
+            mismatch = float(np.inf if np.any(np.isnan(mm)) else mm.max())
+        # the CC point against the posed cutter's surface (0 when the cutter touches it there)
+        pose_contact = np.abs(cutter.signed_distance(cc_all, tips, axs))
         r, z = meridional(cc_all, axis)
         fvals = np.empty(len(cc_all))
         for i, c in enumerate(curves):
             m = cid == i
-            fvals[m] = cones.f(float(c.s), r[m], z[m])
+            if np.all(c.ratio == c.ratio[0]):
+                fvals[m] = cones.f(float(c.ratio[0]), r[m], z[m])
+            else:  # a spiral: every pose on its own LMC
+                fvals[m] = [cones.f(float(si), ri, zi) for si, ri, zi in zip(
+                    c.ratio, r[m], z[m], strict=True)]
         on_cone = _group_max(ncur, cid, np.abs(fvals))
         # chord of the CC polylines
         sub = [_subsample(c, c.cc, subsamples, False) for c in curves]
@@ -1074,13 +1403,21 @@ def verify_path(
             dch = md.query(subp).distance
             cc_chord = _group_max(ncur, sid, dch)
             chord_at = subp[int(np.argmax(dch))]
-        # centre polylines against the exact offset
-        cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
-        sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
-        sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
-        cq = md.query(np.vstack(sub))
-        dev = cq.signed_distance - rho
-        over_at = np.vstack(sub)[int(np.argmin(dev))]
+        if is_ball:
+            # centre polylines against the exact offset
+            cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
+            sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
+            sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
+            cq = md.query(np.vstack(sub))
+            dev = cq.signed_distance - rho
+            over_at = np.vstack(sub)[int(np.argmin(dev))]
+        else:
+            # the interpolated poses' lowest points (toward −n); the mesh point under each
+            # against the posed cutter (< 0: the surface is cut into there)
+            xs, sid, xtip, xax = _interpolated_contacts(cutter, curves, subsamples)
+            cq = md.query(xs)
+            dev = cutter.signed_distance(cq.point, xtip, xax)
+            over_at = cq.point[int(np.argmin(dev))] if len(xs) else np.full(3, np.nan)
         over = np.maximum(_group_max(ncur, sid, -dev), 0.0)
         under = np.maximum(_group_max(ncur, sid, dev), 0.0)
         # the feet of the centres that come closer than ρ: where the deepest gouges are
@@ -1250,6 +1587,7 @@ def verify_path(
     pair_s = np.stack([levels[:-1], levels[1:]], axis=1) if npairs else np.zeros((0, 2))
     return VerifyReport(
         tool_radius=rho,
+        tool=cutter.as_dict(),
         spacing=float(spacing),
         n_samples=int(len(P)),
         n_poses=int(sum(len(c.cc) for c in curves)),
@@ -1267,6 +1605,7 @@ def verify_path(
         path_overcut_at=np.asarray(over_at),
         path_undercut=_nanmax(under, 0.0),
         cc_on_mesh=_nanmax(on_mesh),
+        cc_contact=_nanmax(pose_contact, 0.0),
         cc_on_cone=_nanmax(on_cone),
         normal_error_deg=float(nerr),
         pose_mismatch=float(mismatch),
@@ -1282,6 +1621,7 @@ def verify_path(
         curve_undercut=under,
         curve_on_mesh=on_mesh,
         curve_on_cone=on_cone,
+        pose_cc_contact=pose_contact,
         sample_points=P,
         sample_values=values,
         vertex_values=vertex_values,
