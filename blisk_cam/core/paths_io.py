@@ -5,6 +5,22 @@
 "cc", "normal", "tip", "axis"}, ...]}``. Curves in machining order; closed curves do not repeat
 their first point; full float precision (``repr`` round-trip of float64). Readers ignore keys
 they do not know, so later versions can add fields without breaking version-1 readers.
+
+Fields added (still version 1; none of the above changed):
+
+* ``"tool"`` — the full cutter (:meth:`.cutter.Cutter.as_dict`: ``type``, ``radius``,
+  ``corner_radius``, the DIN 66215 fields d, r, e, f, alpha, beta, h, shank/holder); a
+  version-1 ``{"type": "ball", "radius": 6.0}`` still reads.
+* per curve ``"move"`` — the move type name of every pose (``"cut"``, ``"link"``,
+  ``"approach"``, ``"retract"``, ``"rapid"``: the motion that ends at the pose), ``"flags"`` —
+  the pose flag bit mask (int per pose), ``"ratio"`` — only when the morph ratio varies along
+  the pass (a spiral): every pose's.
+* ``"move_types"`` — the list of move names; ``"flag_bits"`` — ``{name: bit}``.
+* ``"program"`` (when the passes are linked) — every pose in machining order, links included:
+  ``{"tip": [[x, y, z], ...], "axis": [...], "move": [names], "rapid": [bool],
+  "curve": [index into "curves" or −1], "index": [pose index in that curve or −1],
+  "flags": [int]}``.
+* ``"profile1"``/``"profile2"`` — curved (LMRS) generatrices, see ``_generatrix_entries``.
 """
 
 from __future__ import annotations
@@ -15,10 +31,19 @@ import os
 import numpy as np
 
 from .cones import Axis, Cone
+from .cutter import Cutter
 from .errors import BliskCamError
-from .toolpath import BallTool, PassCurve, ToolPath
+from .lmrs import Profile
+from .toolpath import FLAG_NAMES, MOVE_NAMES, MOVE_RAPID, PassCurve, Program, ToolPath, move_codes
 
-__all__ = ["FORMAT", "VERSION", "path_to_dict", "path_from_dict", "write_paths_json", "read_paths_json"]
+__all__ = [
+    "FORMAT",
+    "VERSION",
+    "path_to_dict",
+    "path_from_dict",
+    "write_paths_json",
+    "read_paths_json",
+]
 
 FORMAT = "blisk_cam.paths"
 VERSION = 1
@@ -31,8 +56,7 @@ def path_to_dict(path: ToolPath) -> dict:
         "version": VERSION,
         "units": "mm",
         "axis": path.axis.as_list(),
-        "cone1": path.cone1.as_list(),
-        "cone2": path.cone2.as_list(),
+        **_generatrix_entries(path.cone1, path.cone2),
         "tool": path.tool.as_dict(),
         "tolerances": {"cusp": float(path.cusp), "chord": float(path.chord)},
         "curves": [
@@ -43,9 +67,13 @@ def path_to_dict(path: ToolPath) -> dict:
                 "normal": np.asarray(c.normal, dtype=float).tolist(),
                 "tip": np.asarray(c.tip, dtype=float).tolist(),
                 "axis": np.asarray(c.axis, dtype=float).tolist(),
+                **_curve_extras(c),
             }
             for c in path.curves
         ],
+        "move_types": list(MOVE_NAMES),
+        "flag_bits": {name: bit for bit, name in FLAG_NAMES.items()},
+        **({} if path.program is None else {"program": _program_to_dict(path.program)}),
         "stats": {k: v for k, v in path.stats.items() if isinstance(v, (int, float, str, list))},
     }
 
@@ -60,21 +88,27 @@ def path_from_dict(d: dict) -> ToolPath:
         ax = d["axis"]
         curves = [
             PassCurve(
-                s=float(c["s"]), closed=bool(c["closed"]),
+                s=float(c["s"]),
+                closed=bool(c["closed"]),
                 cc=np.asarray(c["cc"], dtype=np.float64).reshape(-1, 3),
                 normal=np.asarray(c["normal"], dtype=np.float64).reshape(-1, 3),
                 tip=np.asarray(c["tip"], dtype=np.float64).reshape(-1, 3),
                 axis=np.asarray(c["axis"], dtype=np.float64).reshape(-1, 3),
+                **_read_curve_extras(c),
             )
             for c in d["curves"]
         ]
-        tool = d.get("tool", {})
+        tool = d.get("tool", {"type": "ball", "radius": 0.0})
         return ToolPath(
             axis=Axis(tuple(ax[:3]), tuple(ax[3:6])),
-            cone1=Cone.from_list(d["cone1"]), cone2=Cone.from_list(d["cone2"]),
-            tool=BallTool(float(tool.get("radius", 0.0)), str(tool.get("type", "ball"))),
-            cusp=float(d["tolerances"]["cusp"]), chord=float(d["tolerances"]["chord"]),
-            curves=curves, stats=dict(d.get("stats", {})),
+            cone1=_read_generatrix(d, 1),
+            cone2=_read_generatrix(d, 2),
+            tool=Cutter.from_dict(tool),
+            cusp=float(d["tolerances"]["cusp"]),
+            chord=float(d["tolerances"]["chord"]),
+            curves=curves,
+            stats=dict(d.get("stats", {})),
+            program=_program_from_dict(d["program"]) if "program" in d else None,
         )
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise BliskCamError(f"paths file is incomplete or malformed: {err}") from err
@@ -100,3 +134,79 @@ def read_paths_json(filename) -> ToolPath:
         except json.JSONDecodeError as err:
             raise BliskCamError(f"{filename} is not valid JSON: {err}") from err
     return path_from_dict(d)
+
+
+# --- profile generatrices (LMRS, paper 001 §4.2) ----------------------------------------
+def _generatrix_entries(cone1, cone2) -> dict:
+    """``"cone1"``/``"cone2"`` as version 1 has them; a :class:`.lmrs.Profile` is written there
+    as its least-squares straight cone (so version-1 readers still see a cone) and in full as
+    ``"profile1"``/``"profile2"``: ``[[r, z], ...]`` (mm)."""
+    out = {}
+    for k, g in ((1, cone1), (2, cone2)):
+        out[f"cone{k}"] = (g.to_cone() if isinstance(g, Profile) else g).as_list()
+    for k, g in ((1, cone1), (2, cone2)):
+        if isinstance(g, Profile):
+            out[f"profile{k}"] = g.as_list()
+    return out
+
+
+def _read_generatrix(d: dict, k: int):
+    """Generatrix ``k`` (1 or 2) of a paths dict: ``"profile<k>"`` when present, else ``"cone<k>"``."""
+    if d.get(f"profile{k}") is not None:
+        return Profile.from_list(d[f"profile{k}"])
+    return Cone.from_list(d[f"cone{k}"])
+
+
+# --- moves, flags, program (issue #4) ----------------------------------------------------
+def _curve_extras(c: PassCurve) -> dict:
+    out = {"move": [MOVE_NAMES[int(m)] for m in c.move], "flags": [int(x) for x in c.flags]}
+    if c.ratio is not None:
+        out["ratio"] = np.asarray(c.ratio, dtype=float).tolist()
+    return out
+
+
+def _read_curve_extras(c: dict) -> dict:
+    k = len(c["cc"])
+    out = {}
+    for key in ("move", "flags", "ratio"):
+        if key in c and len(c[key]) != k:
+            raise BliskCamError(
+                f"paths file: a curve's {key!r} has {len(c[key])} entries for {k} poses"
+            )
+    if "move" in c:
+        out["move"] = move_codes(c["move"])
+    if "flags" in c:
+        out["flags"] = np.asarray(c["flags"], dtype=np.uint8)
+    if "ratio" in c:
+        out["ratio"] = np.asarray(c["ratio"], dtype=np.float64)
+    return out
+
+
+def _program_to_dict(p: Program) -> dict:
+    return {
+        "tip": np.asarray(p.tip, dtype=float).tolist(),
+        "axis": np.asarray(p.axis, dtype=float).tolist(),
+        "move": [MOVE_NAMES[int(m)] for m in p.move],
+        "rapid": [bool(m == MOVE_RAPID) for m in p.move],
+        "curve": [int(x) for x in p.curve],
+        "index": [int(x) for x in p.index],
+        "flags": [int(x) for x in p.flags],
+    }
+
+
+def _program_from_dict(d: dict) -> Program:
+    tip = np.asarray(d["tip"], dtype=np.float64).reshape(-1, 3)
+    m = len(tip)
+    for key in ("axis", "move", "curve", "index", "flags"):
+        if len(d[key]) != m:
+            raise BliskCamError(
+                f"paths file: program {key!r} has {len(d[key])} entries for {m} poses"
+            )
+    return Program(
+        tip=tip,
+        axis=np.asarray(d["axis"], dtype=np.float64).reshape(-1, 3),
+        move=move_codes(d["move"]),
+        curve=np.asarray(d["curve"], dtype=np.int64),
+        index=np.asarray(d["index"], dtype=np.int64),
+        flags=np.asarray(d["flags"], dtype=np.uint8),
+    )
