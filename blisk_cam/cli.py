@@ -3,12 +3,16 @@
 
 ::
 
-    python -m blisk_cam demo --out DIR
+    python -m blisk_cam demo --out DIR [--mesh-resolution R] [--no-paths] [--no-preview]
     python -m blisk_cam paths --mesh FILE(.stl|.obj|.ply) \\
         --cone1 R1 Z1 R2 Z2 --cone2 R1 Z1 R2 Z2 [--axis OX OY OZ DX DY DZ] \\
         --tool ball|bull|flat|taper --tool-radius 6 [--corner-radius 2] \\
         --cusp 0.05 --chord 0.05 [--lead DEG --tilt DEG] [--link oneway|zigzag|spiral] \\
-        --out paths.json [--blend out.blend] [--preview out.png]
+        --out paths.json [--blend out.blend] [--preview out.png] [--verify]
+
+Both commands run the add-on's operators (``blisk_cam.fit_cones``, ``generate_paths``,
+``export_paths``, ``render_preview``) on a scene whose ``scene.blisk_cam`` settings are filled
+from the arguments: the batch and the user interface share one code path.
 
 Exit status 0 on success. On bad input: a non-zero status (2 for a usage error, 1 for input
 the core or Blender rejects, 3 for an internal error) and exactly one line on stderr,
@@ -22,13 +26,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import re
 import sys
 import time
 from pathlib import Path
 
 from .core.errors import BliskCamError
 
-__all__ = ["main", "build_parser", "UsageError"]
+__all__ = ["main", "build_parser", "UsageError", "run_operator", "build_demo_scene"]
 
 PROG = "blisk_cam"
 
@@ -37,8 +42,8 @@ class UsageError(BliskCamError):
     """Bad command line (unknown option, missing or malformed argument)."""
 
 
-class NotImplementedYet(BliskCamError):
-    """A command whose pipeline is not wired yet."""
+class CliInternalError(Exception):
+    """An operator failed on something that is not bad input (exit status 3)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -127,6 +132,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO")
     demo.add_argument("--no-preview", action="store_true", help="do not render preview.png")
+    demo.add_argument(
+        "--no-paths", action="store_true", help="do not generate the paths (nor paths.json)"
+    )
+    demo.add_argument(
+        "--mesh-resolution", type=_positive, default=1.0, metavar="R",
+        help="demo mesh resolution (1: about 100k blade triangles; 0.3 for a quick look)",
+    )
+    demo.add_argument("--cusp", type=_positive, default=0.05, metavar="MM",
+                      help="scallop height of the demo paths (default 0.05)")
+    demo.add_argument("--chord", type=_positive, default=0.05, metavar="MM",
+                      help="chord error of the demo paths (default 0.05)")
     demo.set_defaults(func=_cmd_demo)
 
     paths = sub.add_parser(
@@ -167,6 +183,8 @@ def build_parser() -> argparse.ArgumentParser:
     paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
     paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
                        help="render engine of --preview")
+    paths.add_argument("--verify", action="store_true",
+                       help="also measure the material left and gouges (printed)")
     paths.set_defaults(func=_cmd_paths)
     return parser
 
@@ -218,10 +236,11 @@ def _import_bpy():
 
 
 @contextlib.contextmanager
-def _blender_session(register_addon=True):
+def _blender_session(register_addon=True, *, required=False):
     """An empty factory scene; the add-on registered for the duration if it was not already
-    (so that ``scene.blisk_cam`` exists and is saved in .blend files), and unregistered after.
-    Yields the scene."""
+    (so that ``scene.blisk_cam`` and the operators exist and settings are saved in .blend
+    files), and unregistered after. With ``required`` a failed registration is an error;
+    otherwise the command goes on without the add-on. Yields the scene."""
     bpy = _import_bpy()
     from .blender_io import quiet_output
 
@@ -235,9 +254,15 @@ def _blender_session(register_addon=True):
             try:
                 register()
                 registered_here = True
-            except Exception as exc:  # the CLI works without the UI; say so on stdout
+            except Exception as exc:
+                if required:
+                    raise CliInternalError(
+                        f"cannot register the Blisk CAM add-on: {type(exc).__name__}: {exc}"
+                    ) from None
                 print(f"note: add-on not registered ({type(exc).__name__}: {exc}); "
                       "settings are not stored in the .blend")
+    if required and not hasattr(bpy.types.Scene, "blisk_cam"):
+        raise CliInternalError("the Blisk CAM add-on is not registered in this Blender")
     try:
         yield bpy.context.scene
     finally:
@@ -397,12 +422,17 @@ def _cmd_demo(args):
     bpy = _import_bpy()
     from .core.demo import make_demo_blisk
 
-    demo = make_demo_blisk()
+    demo = make_demo_blisk(resolution=args.mesh_resolution)
     out.mkdir(parents=True, exist_ok=True)
-    with _blender_session() as scene:
+    with _blender_session(required=True) as scene:
         from . import render
 
         objs = build_demo_scene(scene, blades=args.blades, demo=demo)
+        settings = scene.blisk_cam
+        settings.cusp, settings.chord = args.cusp, args.chord
+        settings.verify = False
+        if not args.no_paths:
+            _paths_by_operators(bpy, scene, out / "paths.json")
         # frame the sector; the axis (far inside the hub) is shown only where it falls in view
         shown = [o for k, o in objs.items() if k != "axis"]
         view = demo_view_direction(demo)
@@ -413,11 +443,10 @@ def _cmd_demo(args):
         blend = _save_blend(bpy, out / "demo.blend")
         print(f"demo blend: {blend}")
         if not args.no_preview:
-            res = render.render_preview(
-                out / "preview.png", engine=args.engine, resolution=tuple(args.resolution),
-                objects=shown, scene=scene, view=view, keep_camera=True,
+            _render_by_operator(
+                bpy, out / "preview.png", args.engine, args.resolution,
+                frame="SCENE", view=view, keep_camera=True,
             )
-            print(f"preview:    {res.path} ({_engine_label(res.engine)}, {res.seconds:.1f} s)")
     print(f"done in {time.perf_counter() - t0:.1f} s")
     return 0
 
@@ -427,64 +456,116 @@ def _engine_label(engine):
 
 
 # --- paths -------------------------------------------------------------------------------
-def _run_paths(args, V, F):
-    """Generate the LMC finishing paths for the blade (V mm, F) and write args.out."""
-    from .core.fitting import fit_cones_to_mesh
-    from .core.mesh import TriMesh
-    from .core.pathgen import generate_paths
-    from .core.paths_io import write_paths_json
+def run_operator(bpy, name, **kwargs):
+    """Run ``bpy.ops.blisk_cam.<name>`` (EXEC, no file browser) with Blender's report output
+    captured. An ERROR report becomes a :class:`BliskCamError` carrying the message (a
+    :class:`CliInternalError` when the operator reported an internal error); returns the
+    operator's result set."""
+    from .blender_io import quiet_output
+    from .operators.common import INTERNAL_ERROR
 
-    if args.tool != "ball":
-        raise NotImplementedYet(
-            f"--tool {args.tool}: only the ball cutter is implemented so far (bull-nose, flat "
-            "and tapered cutters come with the cutter/orientation work); use --tool ball"
-        )
-    if args.lead or args.tilt:
-        raise NotImplementedYet(
-            "--lead/--tilt: the tool axis is the surface normal until lead/tilt orientation "
-            "lands; omit them (or give 0)"
-        )
-    if args.link not in (None, "oneway"):
-        raise NotImplementedYet(f"--link {args.link}: linking is not implemented yet")
-    if args.blend or args.preview:
-        raise NotImplementedYet(
-            "--blend/--preview with 'paths' are not wired yet; use the paths JSON "
-            "(or 'demo' for a .blend and a preview)"
-        )
-    mesh = TriMesh.from_arrays(V, F)
-    c1, c2 = args.cone1_obj, args.cone2_obj
-    if c1 is None or c2 is None:
-        fit = fit_cones_to_mesh(mesh, args.axis_obj)
-        c1 = c1 or fit.cone1
-        c2 = c2 or fit.cone2
+    op = getattr(bpy.ops.blisk_cam, name)
+    with quiet_output():
+        try:
+            return op("EXEC_DEFAULT", **kwargs)
+        except RuntimeError as exc:
+            message = str(exc).strip()
+            error = message
+        except TypeError as exc:  # a bad keyword: a bug in the caller
+            raise CliInternalError(f"{name}: {exc}") from None
+    message = error.removeprefix("Error:").strip()
+    # a failed poll: "Operator bpy.ops.blisk_cam.<name>.poll() <poll message>"
+    message = re.sub(r"^Operator bpy\.ops\.[\w.]+\.poll\(\)\s*(failed,)?\s*", "", message)
+    if message.startswith(INTERNAL_ERROR):
+        raise CliInternalError(message)
+    raise BliskCamError(message or f"blisk_cam.{name} cannot run in this scene")
+
+
+def _apply_paths_settings(bpy, scene, args, blade):
+    """Fill ``scene.blisk_cam`` from the command line (the same settings a user sets in the
+    panels; lead/tilt degrees → radians)."""
+    from .blender_io import axis_to_object
+
+    s = scene.blisk_cam
+    s.blade = blade
+    if args.axis:
+        s.axis_object = axis_to_object("Blisk Axis", args.axis_obj, kind="EMPTY")
+    s.cone1 = args.cone1 if args.cone1 is not None else (0.0, 0.0, 0.0, 0.0)
+    s.cone2 = args.cone2 if args.cone2 is not None else (0.0, 0.0, 0.0, 0.0)
+    s.tool_type = args.tool.upper()
+    s.tool_radius = args.tool_radius
+    if args.corner_radius is not None:
+        s.corner_radius = args.corner_radius
+    s.cusp = args.cusp
+    s.chord = args.chord
+    s.lead = math.radians(args.lead)
+    s.tilt = math.radians(args.tilt)
+    s.link_mode = {"oneway": "ONE_WAY", "zigzag": "ZIGZAG", "spiral": "SPIRAL"}[args.link]
+    s.verify = bool(getattr(args, "verify", False))
+    s.verify_map = False
+
+
+def _paths_by_operators(bpy, scene, out, *, fit=False, keep=(None, None)):
+    """fit_cones (when ``fit``; a cone given in ``keep`` is put back afterwards) →
+    generate_paths → export_paths, all by the operators; prints the fit and the summary.
+    Returns the JSON's path."""
+    from .operators.generate_paths import summary
+
+    s = scene.blisk_cam
+    if fit:
+        run_operator(bpy, "fit_cones")
+        for name, values in zip(("cone1", "cone2"), keep, strict=True):
+            if values is not None:
+                setattr(s, name, values)
         print(
-            f"fitted cones: cone1 {[round(x, 4) for x in fit.cone1.as_list()]} "
-            f"(residual {fit.residual1:.4f} mm), "
-            f"cone2 {[round(x, 4) for x in fit.cone2.as_list()]} "
-            f"(residual {fit.residual2:.4f} mm)"
+            f"fitted cones: cone1 {[round(x, 4) for x in s.cone1]} "
+            f"(residual {s.fit_residual1:.4f} mm), cone2 {[round(x, 4) for x in s.cone2]} "
+            f"(residual {s.fit_residual2:.4f} mm)"
         )
+    run_operator(bpy, "generate_paths")
+    out = Path(out).expanduser().resolve()
+    run_operator(bpy, "export_paths", filepath=str(out))
+    print(f"wrote {out}: {summary(s)}")
+    if s.stat_warnings:
+        import json
+
+        with open(out, encoding="utf-8") as fh:
+            for w in json.load(fh).get("stats", {}).get("warnings", []) or []:
+                print(f"warning: {w}")
+    return out
+
+
+def _render_by_operator(bpy, filepath, engine, resolution, **kwargs):
+    """``blisk_cam.render_preview`` to ``filepath``; prints what it wrote."""
+    from .render import resolve_engine
+
+    path = Path(filepath).expanduser().resolve()
     t0 = time.perf_counter()
-    path = generate_paths(
-        mesh, args.axis_obj, c1, c2, tool_radius=args.tool_radius, cusp=args.cusp, chord=args.chord
+    run_operator(
+        bpy, "render_preview", filepath=str(path), engine=engine,
+        resolution=tuple(resolution), **kwargs,
     )
-    out = write_paths_json(path, Path(args.out).expanduser())
-    print(
-        f"wrote {out}: {path.stats['passes']} passes, {len(path.curves)} curves, "
-        f"{path.n_poses} poses, {path.length():.1f} mm of cut in {time.perf_counter() - t0:.2f} s"
-    )
-    return 0
+    label = _engine_label(resolve_engine(engine))
+    print(f"preview:    {path} ({label}, {time.perf_counter() - t0:.1f} s)")
+    return path
 
 
 def _cmd_paths(args):
     _check_paths_args(args)
-    _import_bpy()
-    from .blender_io import import_mesh_file, object_to_arrays
+    bpy = _import_bpy()
+    from .blender_io import import_mesh_file
 
-    with _blender_session():
+    with _blender_session(required=True) as scene:
         obj = import_mesh_file(args.mesh)
         args.mesh_object = obj.name
-        V, F = object_to_arrays(obj)
-        return _run_paths(args, V, F)
+        _apply_paths_settings(bpy, scene, args, obj)
+        fit = args.cone1 is None or args.cone2 is None
+        _paths_by_operators(bpy, scene, args.out, fit=fit, keep=(args.cone1, args.cone2))
+        if args.blend:
+            print(f"blend: {_save_blend(bpy, args.blend)}")
+        if args.preview:
+            _render_by_operator(bpy, args.preview, args.engine, (1280, 720))
+    return 0
 
 
 # --- entry point -------------------------------------------------------------------------
@@ -516,6 +597,9 @@ def main(argv=None) -> int:
     except UsageError as exc:
         _fail(exc)
         return 2
+    except CliInternalError as exc:
+        _fail(f"internal error: {exc}")
+        return 3
     except BliskCamError as exc:
         _fail(exc)
         return 1

@@ -3,15 +3,21 @@
 Lengths are millimetres and angles radians, as in ``core``; operators convert to plain core
 dataclasses (cutter, tolerances) at the boundary, so nothing in ``core`` ever sees this group.
 Only the blade and the axis are object references (pointer properties, never Python globals).
+
+The ``stat_*`` and ``fit_*`` properties are written by the operators (statistics of the last
+generated path and residuals of the last cone fit) so that they survive a save and reload;
+the panels show them read-only.
 """
 
 import bpy
 from bpy.props import (
+    BoolProperty,
     EnumProperty,
     FloatProperty,
     FloatVectorProperty,
     IntProperty,
     PointerProperty,
+    StringProperty,
 )
 from bpy.types import PropertyGroup
 
@@ -44,6 +50,26 @@ COLOR_MODES = (
     ("MORPH", "Morph Ratio", "Colour each curve by its morph ratio s (cone 1 → cone 2)"),
     ("CUSP", "Cusp Height", "Colour by the measured scallop height left between passes"),
 )
+
+
+#: hard cap on the pose empties (objects); every pose is in the point cloud anyway
+MAX_POSE_EMPTIES = 10_000
+
+PREVIEW_ENGINES = (
+    ("AUTO", "Auto", "Workbench when an OpenGL context is available, else Cycles on the CPU"),
+    ("WORKBENCH", "Workbench", "Fast OpenGL preview (falls back to Cycles without OpenGL)"),
+    ("EEVEE", "EEVEE", "EEVEE (falls back to Cycles without OpenGL)"),
+    ("CYCLES", "Cycles", "Cycles on the CPU"),
+)
+
+
+def _update_display(self, context):
+    """Re-style the existing output curves (bevel, colours) when a display option changes."""
+    from . import output
+
+    scene = getattr(context, "scene", None)
+    if scene is not None:
+        output.restyle(scene)
 
 
 class BliskCamSettings(PropertyGroup):
@@ -139,12 +165,19 @@ class BliskCamSettings(PropertyGroup):
     )
 
     # Display and statistics -------------------------------------------------------------
+    show_gizmos: BoolProperty(
+        name="Show Cone Gizmos",
+        description="Show and edit the two cones in the 3D viewport",
+        default=True,
+    )
     pose_count: IntProperty(
         name="Poses Shown",
-        description="Number of tool poses drawn along the paths (0: none)",
+        description="Number of tool-pose arrows (empties) spread evenly along the paths when "
+        "they are generated (0: none); the pose point cloud always holds every pose",
         default=500,
         min=0,
-        soft_max=5000,
+        max=MAX_POSE_EMPTIES,
+        soft_max=2000,
     )
     curve_bevel: FloatProperty(
         name="Curve Bevel",
@@ -153,12 +186,14 @@ class BliskCamSettings(PropertyGroup):
         min=0.0,
         soft_max=5.0,
         precision=3,
+        update=_update_display,
     )
     color_mode: EnumProperty(
         name="Colour",
         description="Colouring of the tool path curves",
         items=COLOR_MODES,
         default="MORPH",
+        update=_update_display,
     )
     feed: FloatProperty(
         name="Feed",
@@ -166,6 +201,81 @@ class BliskCamSettings(PropertyGroup):
         default=1000.0,
         min=1.0,
         soft_max=20000.0,
+    )
+
+
+    # Verification -----------------------------------------------------------------------
+    verify: BoolProperty(
+        name="Verify",
+        description="After generating, measure the material left and the gouges of the path "
+        "on the mesh (independent check; takes about as long as the generation)",
+        default=True,
+    )
+    verify_map: BoolProperty(
+        name="Verify Colour Map",
+        description="After verifying, add a copy of the blade coloured by the material left "
+        "(green→blue) and gouges (red); grey outside the machined region",
+        default=False,
+    )
+
+    # Preview ----------------------------------------------------------------------------
+    preview_path: StringProperty(
+        name="Preview File",
+        description="PNG written by Render Preview",
+        default="//blisk_cam_preview.png",
+        subtype="FILE_PATH",
+    )
+    preview_engine: EnumProperty(
+        name="Engine",
+        description="Render engine of the preview",
+        items=PREVIEW_ENGINES,
+        default="AUTO",
+    )
+
+    # Results of the last run (written by the operators, shown read-only) ----------------
+    fit_residual1: FloatProperty(
+        name="Cone 1 Residual",
+        description="Largest distance of a hub boundary vertex from the fitted cone 1, mm "
+        "(-1: cones not fitted)",
+        default=-1.0,
+    )
+    fit_residual2: FloatProperty(
+        name="Cone 2 Residual",
+        description="Largest distance of a tip boundary vertex from the fitted cone 2, mm "
+        "(-1: cones not fitted)",
+        default=-1.0,
+    )
+    has_result: BoolProperty(name="Has Paths", default=False)
+    stat_blade: StringProperty(name="Blade of the Paths", default="")
+    stat_curves: IntProperty(name="Curves", default=0)
+    stat_passes: IntProperty(name="Passes", default=0)
+    stat_poses: IntProperty(name="Poses", default=0)
+    stat_length: FloatProperty(name="Path Length", description="Tool tip path length, mm",
+                               default=0.0)
+    stat_link_length: FloatProperty(
+        name="Link Length",
+        description="Length of the linking moves at feed (approach, retract, links), mm",
+        default=0.0,
+    )
+    stat_rapid_length: FloatProperty(name="Rapid Length",
+                                     description="Length of the rapid moves, mm", default=0.0)
+    stat_warnings: IntProperty(name="Warnings", default=0)
+    stat_seconds: FloatProperty(name="Generation Time", default=0.0)
+    stat_cusp: FloatProperty(
+        name="Cusp (generator)",
+        description="Largest scallop between passes measured by the generator, mm",
+        default=0.0,
+    )
+    stat_verified: BoolProperty(name="Verified", default=False)
+    stat_material_left: FloatProperty(
+        name="Max Material Left",
+        description="Largest material left measured by the independent check, mm",
+        default=0.0,
+    )
+    stat_gouge: FloatProperty(
+        name="Max Gouge",
+        description="Deepest gouge measured by the independent check, mm",
+        default=0.0,
     )
 
 

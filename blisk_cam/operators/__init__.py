@@ -1,9 +1,22 @@
 """Operators (``blisk_cam.*``): poll, gather inputs, call ``core``, write results, report.
 
 One operator per module; list every class in ``CLASSES`` (registered in this order after the
-property groups, unregistered in reverse). Planned bl_idnames (see ARCHITECTURE.md):
+property groups, unregistered in reverse). bl_idnames (see ARCHITECTURE.md):
 ``blisk_cam.fit_cones``, ``blisk_cam.generate_paths``, ``blisk_cam.clear_paths``,
-``blisk_cam.export_paths``, ``blisk_cam.render_preview``.
+``blisk_cam.export_paths``, ``blisk_cam.render_preview``. Shared helpers (poll reasons,
+settings → core request, error reports) are in :mod:`.common`.
 """
 
-CLASSES = []
+from .clear_paths import BLISKCAM_OT_clear_paths
+from .export_paths import BLISKCAM_OT_export_paths
+from .fit_cones import BLISKCAM_OT_fit_cones
+from .generate_paths import BLISKCAM_OT_generate_paths
+from .render_preview import BLISKCAM_OT_render_preview
+
+CLASSES = [
+    BLISKCAM_OT_fit_cones,
+    BLISKCAM_OT_generate_paths,
+    BLISKCAM_OT_clear_paths,
+    BLISKCAM_OT_export_paths,
+    BLISKCAM_OT_render_preview,
+]

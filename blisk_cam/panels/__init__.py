@@ -4,6 +4,20 @@ One module per panel group; list every class in ``CLASSES`` in display order (pa
 their sub-panels).
 """
 
-from .setup import BLISKCAM_PT_display, BLISKCAM_PT_setup, BLISKCAM_PT_tool
+from .paths import BLISKCAM_PT_display, BLISKCAM_PT_paths, BLISKCAM_PT_preview
+from .setup import (
+    BLISKCAM_PT_region,
+    BLISKCAM_PT_setup,
+    BLISKCAM_PT_tolerances,
+    BLISKCAM_PT_tool,
+)
 
-CLASSES = [BLISKCAM_PT_setup, BLISKCAM_PT_tool, BLISKCAM_PT_display]
+CLASSES = [
+    BLISKCAM_PT_setup,
+    BLISKCAM_PT_region,
+    BLISKCAM_PT_tool,
+    BLISKCAM_PT_tolerances,
+    BLISKCAM_PT_paths,
+    BLISKCAM_PT_display,
+    BLISKCAM_PT_preview,
+]

@@ -1,6 +1,7 @@
 """The batch CLI: ``python -m blisk_cam`` and ``scripts/blisk_batch.py`` as subprocesses (exit
 status, one line on stderr), the demo output, and the ``paths`` input pipeline in-process."""
 
+import json
 import os
 import subprocess
 import sys
@@ -61,12 +62,15 @@ def assert_one_error_line(proc, *words):
 
 def test_demo_writes_blend_and_visible_preview(tmp_path):
     out = tmp_path / "demo out"
-    proc = run_cli("demo", "--out", str(out), "--resolution", "640", "360")
+    proc = run_cli("demo", "--out", str(out), "--resolution", "640", "360",
+                   "--mesh-resolution", "0.3", "--cusp", "0.2", "--chord", "0.2")
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr
-    blend, png = out / "demo.blend", out / "preview.png"
-    assert blend.is_file() and png.is_file()
-    assert str(blend) in proc.stdout and str(png) in proc.stdout
+    blend, png, js = out / "demo.blend", out / "preview.png", out / "paths.json"
+    assert blend.is_file() and png.is_file() and js.is_file()
+    assert str(blend) in proc.stdout and str(png) in proc.stdout and str(js) in proc.stdout
+    paths = json.loads(js.read_text())
+    assert paths["tolerances"] == {"cusp": 0.2, "chord": 0.2} and len(paths["curves"]) > 5
 
     # the picture shows something: many pixels differ from the background, in several hues
     assert render.image_coverage(png) > 0.10
@@ -91,9 +95,13 @@ def test_demo_writes_blend_and_visible_preview(tmp_path):
     assert len(bpy.data.objects["Blade"].data.polygons) > 1000
     assert bpy.data.objects["Blisk Axis"].type == "EMPTY"
     assert bpy.context.scene.camera is not None
-    settings = bpy.context.scene.get("blisk_cam")  # ID properties even while unregistered
+    settings = bpy.context.scene.get("blisk_cam")  # ID properties while unregistered (4.x)
     if settings is not None:
         assert settings["blade"] == bpy.data.objects["Blade"]
+    # the paths made by the operators are in the blade's output collection
+    coll = bpy.data.collections["Blisk CAM – Blade"]
+    curves = bpy.data.objects["Blade CC paths"]
+    assert curves.name in coll.objects and len(curves.data.splines) == len(paths["curves"])
 
 
 def test_demo_rejects_bad_options(tmp_path):
@@ -204,7 +212,9 @@ def test_batch_script_passes_arguments_and_status(tmp_path):
 # --- paths: the input side, in-process ---------------------------------------------------
 
 
-def test_paths_reads_the_mesh_and_hands_arrays_to_the_pipeline(tmp_path, monkeypatch):
+def test_paths_reads_the_mesh_and_fills_the_settings_for_the_operators(tmp_path, monkeypatch):
+    """``paths`` imports the mesh and fills ``scene.blisk_cam`` from the flags; the operators
+    then read the blade through ``object_to_arrays`` (stubbed here: no path is computed)."""
     if NASA_STL.is_file():
         mesh, T = NASA_STL, read_binary_stl(NASA_STL)
     else:  # shared/ not beside the repo: a generated mesh shows the same wiring
@@ -212,11 +222,18 @@ def test_paths_reads_the_mesh_and_hands_arrays_to_the_pipeline(tmp_path, monkeyp
         mesh, T = write_binary_stl(tmp_path / "blade.stl", V, F), V[F]
     seen = {}
 
-    def fake_run_paths(args, V, F):
-        seen.update(args=args, V=V, F=F)
-        return 0
+    def fake_paths_by_operators(bpy_, scene, out, *, fit=False, keep=(None, None)):
+        from blisk_cam.blender_io import object_to_arrays
+        from blisk_cam.operators.common import blade_axis, path_request, settings_cones
 
-    monkeypatch.setattr(cli, "_run_paths", fake_run_paths)
+        s = scene.blisk_cam
+        V, F = object_to_arrays(s.blade)
+        c1, c2 = settings_cones(s)
+        seen.update(V=V, F=F, fit=fit, out=out,
+                    req=path_request(s, blade_axis(s, s.blade), c1, c2))
+        return out
+
+    monkeypatch.setattr(cli, "_paths_by_operators", fake_paths_by_operators)
     status = cli.main(
         ["paths", "--mesh", str(mesh), "--cone1", "177.5", "-1.7", "188", "45",
          "--cone2", "252.5", "4.3", "243.7", "36.2", "--axis", "0", "0", "0", "0", "0", "2",
@@ -225,15 +242,28 @@ def test_paths_reads_the_mesh_and_hands_arrays_to_the_pipeline(tmp_path, monkeyp
          "--out", str(tmp_path / "paths.json")]
     )
     assert status == 0
-    args, V, F = seen["args"], seen["V"], seen["F"]
+    V, F, req = seen["V"], seen["F"], seen["req"]
     assert V.dtype == np.float64 and F.dtype == np.int64 and len(F) == len(T)
     np.testing.assert_allclose(np.sort(V[F].reshape(-1, 3), axis=0),
                                np.sort(T.reshape(-1, 3), axis=0), atol=1e-9)
-    assert args.tool == "bull" and args.corner_radius == 2.0 and args.link == "zigzag"
-    assert args.cone1 == [177.5, -1.7, 188.0, 45.0]
-    assert args.axis_obj.direction == (0.0, 0.0, 1.0)
-    assert args.lead == 3.0 and args.tilt == -1.5
+    assert not seen["fit"]  # both cones given
+    assert req.tool_type == "bull" and req.corner_radius == 2.0 and req.link == "zigzag"
+    assert req.cone1.as_list() == [177.5, -1.7, 188.0, 45.0]  # typed decimals, not float32
+    assert req.axis.direction == (0.0, 0.0, 1.0) and req.axis.origin == (0.0, 0.0, 0.0)
+    assert req.lead == pytest.approx(np.radians(3.0), abs=1e-7)
+    assert req.tilt == pytest.approx(np.radians(-1.5), abs=1e-7)
+    assert (req.cusp, req.chord, req.tool_radius) == (0.05, 0.02, 6.0)
     from blisk_cam import is_registered
 
     assert not is_registered()  # the CLI unregistered what it registered
 
+
+def test_paths_bad_cones_one_line(tmp_path):
+    """Cones that miss the blade: the operator's error report becomes the one line, status 1."""
+    mesh = write_binary_stl(tmp_path / "ok.stl", *sample_surface())
+    proc = run_cli("paths", "--mesh", str(mesh), *PATHS_OPTS, "--out", str(tmp_path / "p.json"),
+                   "--cone1", "400", "0", "410", "40", "--cone2", "450", "0", "460", "40")
+    line = assert_one_error_line(proc, "cone")
+    assert proc.returncode == 1, line
+    assert "Operator" not in line and "poll()" not in line
+    assert not (tmp_path / "p.json").exists()

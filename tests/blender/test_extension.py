@@ -25,7 +25,16 @@ PACKAGE = ROOT / "blisk_cam"
 BUILD_SCRIPT = ROOT / "scripts" / "build_extension.py"
 REPO_MODULE = "blisk_cam_test_repo"
 ADDON_MODULE = f"bl_ext.{REPO_MODULE}.blisk_cam"
-PANELS = ("BLISKCAM_PT_setup", "BLISKCAM_PT_tool", "BLISKCAM_PT_display")
+PANELS = (
+    "BLISKCAM_PT_setup",
+    "BLISKCAM_PT_region",
+    "BLISKCAM_PT_tool",
+    "BLISKCAM_PT_tolerances",
+    "BLISKCAM_PT_paths",
+    "BLISKCAM_PT_display",
+    "BLISKCAM_PT_preview",
+)
+OPERATORS = ("fit_cones", "generate_paths", "clear_paths", "export_paths", "render_preview")
 
 
 def blender_ext_cli():
@@ -101,6 +110,8 @@ def assert_unregistered():
     assert not hasattr(bpy.types.Scene, "blisk_cam")
     for name in PANELS:
         assert not hasattr(bpy.types, name), name
+    for name in OPERATORS:
+        assert not hasattr(bpy.types, f"BLISK_CAM_OT_{name}"), name
     assert ADDON_MODULE not in enabled_modules()
 
 
@@ -198,6 +209,12 @@ def test_install_register_defaults_unregister(extension_zip, tmp_path):
         assert panel.bl_region_type == "UI"
         assert panel.bl_category == "Blisk CAM"
     assert bpy.types.BLISKCAM_PT_setup.bl_label == "Setup"
+    assert [getattr(bpy.types, n).bl_label for n in PANELS] == [
+        "Setup", "Region", "Tool", "Tolerances", "Paths", "Display", "Preview"
+    ]
+    for name in OPERATORS:
+        assert hasattr(bpy.ops.blisk_cam, name)
+        assert getattr(bpy.ops.blisk_cam, name).get_rna_type().identifier
 
     # default values (stored as float32 in RNA)
     settings = bpy.context.scene.blisk_cam
@@ -214,6 +231,8 @@ def test_install_register_defaults_unregister(extension_zip, tmp_path):
     assert settings.curve_bevel >= 0.0
     assert settings.color_mode in {"SOLID", "MORPH", "CUSP"}
     assert settings.feed > 0.0
+    assert settings.show_gizmos is True and settings.verify is True
+    assert not settings.verify_map and not settings.has_result
 
     props = type(settings).bl_rna.properties
     for name in ("lead", "tilt"):

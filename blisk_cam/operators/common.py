@@ -1,0 +1,188 @@
+"""What the operators share: which blade, why an operator cannot run (poll messages), scene
+settings → core request, exceptions → reports.
+
+No geometry here: the settings are turned into the plain core objects (``Axis``, ``Cone``,
+``PathRequest``) and the mesh into arrays; ``core`` does the rest.
+"""
+
+from __future__ import annotations
+
+import traceback
+
+import numpy as np
+
+from ..blender_io import InputError, object_axis, object_to_arrays
+from ..core.cones import Cone, MorphingCones
+from ..core.errors import BliskCamError, ConeError
+from ..core.pipeline import PathRequest
+
+__all__ = [
+    "INTERNAL_ERROR",
+    "TOOL_NAMES",
+    "LINK_NAMES",
+    "f32",
+    "settings_of",
+    "resolve_blade",
+    "blade_problem",
+    "cones_problem",
+    "settings_cones",
+    "blade_axis",
+    "read_blade",
+    "path_request",
+    "result_blade_name",
+    "report_exception",
+]
+
+#: prefix of the report of an unexpected exception (a bug, not bad input); the CLI maps it
+#: to exit status 3
+INTERNAL_ERROR = "Internal error"
+
+#: property enum → core name
+TOOL_NAMES = {"BALL": "ball", "BULL": "bull", "FLAT": "flat", "TAPER": "taper"}
+LINK_NAMES = {"ONE_WAY": "oneway", "ZIGZAG": "zigzag", "SPIRAL": "spiral"}
+
+
+def f32(value) -> float:
+    """A float property's value as the decimal the user typed.
+
+    Blender stores float properties in single precision: 0.05 comes back as
+    0.05000000074505806. The shortest decimal that rounds to the same float32 ("0.05") is
+    what was meant; values computed in double (fitted cones) change by < 1e-7 relative.
+    """
+    return float(str(np.float32(value)))
+
+
+def settings_of(context):
+    """``context.scene.blisk_cam`` or None (add-on not registered, no scene)."""
+    scene = getattr(context, "scene", None)
+    return getattr(scene, "blisk_cam", None) if scene is not None else None
+
+
+def resolve_blade(context):
+    """The blade setting, or the active object while the setting is empty (or None)."""
+    settings = settings_of(context)
+    blade = settings.blade if settings is not None else None
+    if blade is None:
+        blade = getattr(context, "active_object", None)
+    return blade
+
+
+def blade_problem(context) -> str | None:
+    """Why no blade can be read, in words the user can act on (None: fine). Cheap (poll)."""
+    if settings_of(context) is None:
+        return "Blisk CAM settings are missing: enable the Blisk CAM add-on"
+    blade = resolve_blade(context)
+    if blade is None:
+        return "No blade: choose the blade mesh in the Setup panel (or make it active)"
+    if blade.type != "MESH":
+        return (
+            f"'{blade.name}' is a {blade.type.lower()} object, not a mesh: choose the blade "
+            "mesh in the Setup panel"
+        )
+    if len(blade.data.polygons) == 0 and len(blade.modifiers) == 0:
+        return (
+            f"'{blade.name}' has no faces ({len(blade.data.vertices)} vertices): the blade "
+            "must be a surface mesh with triangles or quads"
+        )
+    return None
+
+
+def settings_cones(settings):
+    """(cone1, cone2) from the settings: ``Cone`` or None for a cone not set (all zero).
+
+    Raises ConeError naming the cone when its numbers are not a valid cone.
+    """
+    out = []
+    for k, values in ((1, settings.cone1), (2, settings.cone2)):
+        v = [f32(x) for x in values]
+        if not any(v):
+            out.append(None)
+            continue
+        try:
+            out.append(Cone.from_list(v))
+        except ConeError as exc:
+            raise ConeError(f"Cone {k} ({', '.join(f'{x:g}' for x in v)}): {exc}") from None
+    return tuple(out)
+
+
+def cones_problem(settings) -> str | None:
+    """Why the cones cannot be used for paths (None: fine). Cheap (poll)."""
+    try:
+        c1, c2 = settings_cones(settings)
+        missing = [str(k) for k, c in ((1, c1), (2, c2)) if c is None]
+        if missing:
+            return (
+                f"Cone {' and '.join(missing)} not set: press Fit Cones (Setup) or enter "
+                "r1 z1 r2 z2 in mm (Region)"
+            )
+        MorphingCones(c1, c2)
+    except BliskCamError as exc:
+        return str(exc)
+    return None
+
+
+def blade_axis(settings, blade):
+    """The blisk axis (core ``Axis``, mm): the axis Empty's local Z through its origin, or
+    the blade's world Z through the blade's origin."""
+    source = settings.axis_object if settings.axis_object is not None else blade
+    return object_axis(source)
+
+
+def read_blade(context, blade):
+    """The blade's evaluated mesh as arrays (V (n, 3) mm world, F (m, 3) int64)."""
+    if blade is None:
+        raise InputError("No blade: choose the blade mesh in the Setup panel")
+    return object_to_arrays(blade, context.evaluated_depsgraph_get())
+
+
+def path_request(settings, axis, cone1, cone2) -> PathRequest:
+    """The core request of the settings (mm, radians, lowercase tool/link names)."""
+    tool = TOOL_NAMES[settings.tool_type]
+    radius = f32(settings.tool_radius)
+    corner = f32(settings.corner_radius) if tool == "bull" else 0.0  # the torus radius
+    return PathRequest(
+        axis=axis,
+        cone1=cone1,
+        cone2=cone2,
+        tool_type=tool,
+        tool_radius=radius,
+        corner_radius=corner,
+        cusp=f32(settings.cusp),
+        chord=f32(settings.chord),
+        lead=f32(settings.lead),
+        tilt=f32(settings.tilt),
+        link=LINK_NAMES[settings.link_mode],
+    )
+
+
+def result_blade_name(context) -> str | None:
+    """Name of the blade whose generated paths the export/clear operators act on: the
+    current blade if it has paths, else the blade of the last result; None without paths."""
+    from ..output import find_output_collection
+
+    settings = settings_of(context)
+    if settings is None:
+        return None
+    blade = resolve_blade(context)
+    if blade is not None and find_output_collection(blade.name) is not None:
+        return blade.name
+    if settings.stat_blade and find_output_collection(settings.stat_blade) is not None:
+        return settings.stat_blade
+    return None
+
+
+def report_exception(op, exc) -> set:
+    """Report an exception on the operator; returns ``{'CANCELLED'}``.
+
+    Bad input (a ``BliskCamError``) is reported as its message; anything else is a bug: the
+    traceback goes to the console and the report says so.
+    """
+    if isinstance(exc, BliskCamError):
+        op.report({"ERROR"}, str(exc))
+    else:
+        traceback.print_exc()
+        op.report(
+            {"ERROR"},
+            f"{INTERNAL_ERROR} (please report it): {type(exc).__name__}: {exc}",
+        )
+    return {"CANCELLED"}

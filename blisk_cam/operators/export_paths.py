@@ -1,0 +1,72 @@
+"""``blisk_cam.export_paths``: write the last generated paths as the paths JSON."""
+
+import os
+
+import bpy
+from bpy.props import StringProperty
+from bpy_extras.io_utils import ExportHelper
+
+from ..core.errors import BliskCamError
+from .common import report_exception, result_blade_name, settings_of
+
+
+def write_text_atomically(text: str, filename: str) -> str:
+    """Write ``text`` to a temporary file beside ``filename`` and rename it into place (a
+    failure never leaves a half-written file). Returns the absolute file name."""
+    filename = os.path.abspath(filename)
+    directory = os.path.dirname(filename)
+    if not os.path.isdir(directory):
+        raise BliskCamError(f"cannot write {filename}: the directory {directory} does not exist")
+    tmp = filename + ".tmp"
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, filename)
+    except OSError as exc:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise BliskCamError(f"cannot write {filename}: {exc.strerror or exc}") from None
+    return filename
+
+
+class BLISKCAM_OT_export_paths(bpy.types.Operator, ExportHelper):
+    """Write the generated tool paths as a paths JSON file (mm)"""
+
+    bl_idname = "blisk_cam.export_paths"
+    bl_label = "Export Paths JSON"
+    bl_options = {"REGISTER"}
+
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    @classmethod
+    def poll(cls, context):
+        if settings_of(context) is None:
+            cls.poll_message_set("Blisk CAM settings are missing: enable the add-on")
+            return False
+        if result_blade_name(context) is None:
+            cls.poll_message_set("No generated paths: press Generate Paths first")
+            return False
+        return True
+
+    def execute(self, context):
+        from ..output import stored_paths_json
+
+        try:
+            name = result_blade_name(context)
+            text = stored_paths_json(name) if name else None
+            if text is None:
+                raise BliskCamError("No generated paths: press Generate Paths first")
+            if not self.filepath:
+                raise BliskCamError("No file name given for the paths JSON")
+            path = bpy.path.abspath(self.filepath)
+            if path.startswith("//"):
+                raise BliskCamError(
+                    f"'{self.filepath}' is relative to the .blend file, which is not saved: "
+                    "save the .blend first or give an absolute path"
+                )
+            written = write_text_atomically(text, path)
+        except Exception as exc:
+            return report_exception(self, exc)
+        self.report({"INFO"}, f"Wrote {written}")
+        return {"FINISHED"}

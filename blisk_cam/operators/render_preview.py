@@ -1,0 +1,117 @@
+"""``blisk_cam.render_preview``: a still PNG of the blade and its paths (``render.py``)."""
+
+import bpy
+from bpy.props import (
+    BoolProperty,
+    EnumProperty,
+    FloatVectorProperty,
+    IntVectorProperty,
+    StringProperty,
+)
+
+from ..core.errors import BliskCamError
+from ..properties import PREVIEW_ENGINES
+from .common import report_exception, resolve_blade, result_blade_name, settings_of
+
+#: the path curves are rendered with a bevel (tube radius) of at least this fraction of the
+#: framed extent (a curve without bevel does not render; a 0.2 mm tube on a 200 mm blade is
+#: under a pixel), for the render only
+RENDER_BEVEL_FRACTION = 0.004
+
+
+def _framed_objects(context, frame):
+    """(objects the camera frames, path curves to thicken for the render): the blade (its
+    paths lie on it; a curve only offers its loose bounding box), or every visible object."""
+    from ..output import find_output_collection, output_objects
+
+    if frame == "PATHS":
+        blade = resolve_blade(context)
+        name = result_blade_name(context)
+        objs = output_objects(find_output_collection(name)) if name else {}
+        curves = [objs[k] for k in ("cc", "tip") if objs.get(k) is not None]
+        if blade is not None and blade.type == "MESH" and not blade.hide_render:
+            return [blade], curves
+        shown = [ob for ob in curves if not ob.hide_render]
+        if shown:
+            return shown, curves
+    from ..render import _default_objects
+
+    scene = context.scene
+    curves = [ob for ob in scene.objects if ob.type == "CURVE"]
+    return _default_objects(scene), curves
+
+
+class BLISKCAM_OT_render_preview(bpy.types.Operator):
+    """Render a still preview (PNG) of the blade and its tool paths, camera auto-framed"""
+
+    bl_idname = "blisk_cam.render_preview"
+    bl_label = "Render Preview"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(
+        name="File", description="PNG to write (default: the Preview File setting)",
+        default="", subtype="FILE_PATH",
+    )
+    engine: EnumProperty(name="Engine", items=PREVIEW_ENGINES, default="AUTO")
+    resolution: IntVectorProperty(name="Resolution", size=2, default=(1280, 720), min=16,
+                                  max=8192)
+    frame: EnumProperty(
+        name="Frame",
+        items=(("PATHS", "Blade and Paths", "Frame the blade and its path curves"),
+               ("SCENE", "Scene", "Frame every visible object")),
+        default="PATHS",
+    )
+    view: FloatVectorProperty(
+        name="View", description="Direction from the subject toward the camera (world)",
+        size=3, default=(1.0, -0.8, 0.55),
+    )
+    keep_camera: BoolProperty(
+        name="Keep Camera", description="Leave the preview camera as the scene camera",
+        default=False,
+    )
+
+    @classmethod
+    def poll(cls, context):
+        if settings_of(context) is None:
+            cls.poll_message_set("Blisk CAM settings are missing: enable the add-on")
+            return False
+        return True
+
+    def execute(self, context):
+        from .. import render
+
+        settings = context.scene.blisk_cam
+        bevels = []
+        try:
+            raw = self.filepath or settings.preview_path
+            if not raw:
+                raise BliskCamError("No preview file name: set Preview File")
+            path = bpy.path.abspath(raw)
+            if path.startswith("//"):
+                raise BliskCamError(
+                    f"'{raw}' is relative to the .blend file, which is not saved: save the "
+                    ".blend first or give an absolute path"
+                )
+            objects, curves = _framed_objects(context, self.frame)
+            if not objects:
+                raise BliskCamError("Nothing to render: no visible blade or path object")
+            # thin curves do not show (no bevel: not rendered at all): thicken for this render
+            pts = render._world_points(objects, context.evaluated_depsgraph_get(), 2000)
+            extent = float((pts.max(axis=0) - pts.min(axis=0)).max()) if len(pts) else 1.0
+            for ob in curves:
+                if ob.data.bevel_depth < RENDER_BEVEL_FRACTION * extent:
+                    bevels.append((ob.data, ob.data.bevel_depth))
+                    ob.data.bevel_depth = RENDER_BEVEL_FRACTION * extent
+            result = render.render_preview(
+                path, engine=self.engine, resolution=tuple(self.resolution), objects=objects,
+                scene=context.scene, view=tuple(self.view), keep_camera=self.keep_camera,
+            )
+        except Exception as exc:
+            return report_exception(self, exc)
+        finally:
+            for data, depth in bevels:
+                data.bevel_depth = depth
+        label = {"BLENDER_WORKBENCH": "Workbench", "CYCLES": "Cycles CPU"}.get(
+            result.engine, result.engine)
+        self.report({"INFO"}, f"Preview {result.path} ({label}, {result.seconds:.1f} s)")
+        return {"FINISHED"}

@@ -1,0 +1,671 @@
+"""The Blender objects that show a generated tool path, in one collection per blade.
+
+Collection ``"Blisk CAM – <blade>"`` (en dash), a child of the blade's first collection:
+
+* ``"<blade> CC paths"`` — a curve object, one POLY spline per pass curve (cyclic for closed
+  curves) through the cutter-contact points; bevelled for renders; material per spline from
+  the colour mode (solid, morph ratio s of the pass, or the cusp measured next to the pass).
+* ``"<blade> tool tips"`` — the same for the tool tip (CL) points.
+* ``"<blade> links"`` (when the path is linked) — the approach, retract, link and rapid moves
+  of the program, a spline per run (grey at feed, red rapid); not rendered.
+* ``"<blade> poses"`` — one point-cloud mesh (vertices only, shown as points by a Geometry
+  Nodes "Mesh to Points" modifier) with *every* pose: vertex = tool tip, point attributes
+  ``axis`` (unit tool axis), ``normal`` (surface normal at CC), ``cc`` (CC point, mm),
+  ``s`` (morph ratio), ``pass`` (index of the pass level), ``curve`` (index of the curve),
+  ``move`` (move type code, names in the object's ``blisk_cam_move_types`` property) and
+  ``status`` (the path's per-pose flags, 0 when the path has none).
+* child collection ``"Blisk CAM – <blade> poses"`` — at most ``pose_count`` single-arrow
+  Empties spread evenly over all poses (tip at the origin, local +Z = tool axis), never one
+  per pose of a long path.
+* ``"<blade> verify"`` (when asked) — a copy of the blade's evaluated mesh with a point colour
+  attribute ``verify`` (material left green → blue, beyond the tolerance purple; gouge red;
+  grey outside the machined region) and the raw value ``material_left`` (mm, NaN outside).
+
+The paths JSON of the result (exactly what ``core.paths_io.write_paths_json`` writes) is kept
+in a Text datablock ``"Blisk CAM – <blade>.json"`` so ``export_paths`` works after a reload.
+Regenerating builds the new collection completely, then removes the old one: a failure or a
+cancel leaves the previous result as it was. The blade object itself is never modified.
+
+Coordinates: core works in mm, objects in Blender units (``mm / mm_per_blender_unit``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+
+import bpy
+import numpy as np
+
+from .blender_io import arrays_to_object, colored_material, mm_per_blender_unit
+from .core import toolpath as _toolpath
+from .core.errors import BliskCamError
+from .core.paths_io import path_to_dict
+
+__all__ = [
+    "COLLECTION_PREFIX",
+    "MOVE_TYPES",
+    "collection_name",
+    "find_output_collection",
+    "output_objects",
+    "stored_paths_json",
+    "paths_json_text",
+    "write_path_objects",
+    "clear_path_objects",
+    "restyle",
+    "pose_indices",
+    "verify_colors",
+    "curve_points_mm",
+]
+
+COLLECTION_PREFIX = "Blisk CAM – "  # en dash
+#: custom property names on the output collection
+KEY_BLADE = "blisk_cam_blade"
+KEY_TEXT = "blisk_cam_paths_text"
+KEY_CUSP = "blisk_cam_cusp"
+KEY_CHORD = "blisk_cam_chord"
+KEY_ROLE = "blisk_cam_role"  # on objects: "cc", "tip", "poses", "pose", "verify"
+KEY_NAME = "blisk_cam_name"  # on objects: the intended name (restored after the swap)
+#: per-spline values stored on the curve data (for re-colouring without the path)
+KEY_S = "blisk_cam_s"
+KEY_SPLINE_CUSP = "blisk_cam_spline_cusp"
+#: move type names, index = code, as in ``core.toolpath`` (unknown names met in a path are
+#: appended per object, see the point cloud's ``blisk_cam_move_types``)
+MOVE_TYPES = tuple(getattr(_toolpath, "MOVE_NAMES", ("cut", "link", "approach", "retract",
+                                                      "rapid")))
+MOVE_CUT = MOVE_TYPES.index("cut")
+MOVE_RAPID = MOVE_TYPES.index("rapid")
+#: number of colour bins of the path curves (one material each)
+COLOR_BINS = 12
+SOLID_RGBA = (0.05, 0.85, 0.95, 1.0)
+
+
+def collection_name(blade_name: str) -> str:
+    """``"Blisk CAM – <blade>"``."""
+    return f"{COLLECTION_PREFIX}{blade_name}"
+
+
+def find_output_collection(blade_name: str):
+    """The output collection of a blade (by its stored blade name, else by name), or None."""
+    for coll in bpy.data.collections:
+        if coll.get(KEY_BLADE) == blade_name and coll.name.startswith(COLLECTION_PREFIX):
+            return coll
+    coll = bpy.data.collections.get(collection_name(blade_name))
+    return coll if coll is not None and KEY_BLADE in coll else None
+
+
+def output_objects(coll) -> dict:
+    """Role → object(s) of an output collection: ``cc``, ``tip``, ``links``, ``poses``,
+    ``verify`` (objects or None) and ``pose_empties`` (list)."""
+    out = {"cc": None, "tip": None, "links": None, "poses": None, "verify": None,
+           "pose_empties": []}
+    if coll is None:
+        return out
+    for ob in coll.all_objects:
+        role = ob.get(KEY_ROLE)
+        if role == "pose":
+            out["pose_empties"].append(ob)
+        elif role in out:
+            out[role] = ob
+    return out
+
+
+def stored_paths_json(blade_name: str) -> str | None:
+    """The paths JSON kept for a blade's last result (exactly as written), or None."""
+    coll = find_output_collection(blade_name)
+    if coll is None:
+        return None
+    text = bpy.data.texts.get(coll.get(KEY_TEXT, ""))
+    return _from_text_lines(text.as_string()) if text is not None else None
+
+
+def _to_text_lines(json_text: str) -> str:
+    r"""The one-line JSON broken after every point (``"], ["`` → ``"],\n["``) for the Text
+    datablock: Blender's Text is quadratic in the length of a line (a 1 MB line takes
+    minutes) and fast with many short lines. Whitespace between JSON tokens is free, and
+    ``json.dumps`` output holds no raw newline, so removing every newline restores it."""
+    if "\n" in json_text:
+        raise BliskCamError("internal: the paths JSON to store holds a raw newline")
+    return json_text.replace("], [", "],\n[")
+
+
+def _from_text_lines(stored: str) -> str:
+    return stored.replace("\n", "")
+
+
+def paths_json_text(path) -> str:
+    """The paths JSON of ``path`` as text: byte for byte what ``write_paths_json`` writes."""
+    return json.dumps(path_to_dict(path), allow_nan=False)
+
+
+# --- colours -----------------------------------------------------------------------------
+_RAMP = np.array(
+    [  # blue → cyan → green → yellow → red
+        (0.10, 0.25, 1.00),
+        (0.05, 0.80, 0.95),
+        (0.15, 0.85, 0.25),
+        (0.98, 0.85, 0.10),
+        (0.95, 0.15, 0.10),
+    ]
+)
+
+
+def _ramp(t):
+    """(n,) values in [0, 1] → (n, 3) RGB along ``_RAMP``."""
+    t = np.clip(np.asarray(t, dtype=np.float64), 0.0, 1.0) * (len(_RAMP) - 1)
+    i = np.minimum(t.astype(int), len(_RAMP) - 2)
+    w = (t - i)[:, None]
+    return (1.0 - w) * _RAMP[i] + w * _RAMP[i + 1]
+
+
+def _bin_materials():
+    """The COLOR_BINS ramp materials (created or reused by name)."""
+    t = (np.arange(COLOR_BINS) + 0.5) / COLOR_BINS
+    return [
+        colored_material(f"Blisk CAM path {k:02d}", (*rgb, 1.0))
+        for k, rgb in enumerate(_ramp(t))
+    ]
+
+
+def spline_bins(mode: str, s, cusp, cusp_tolerance: float) -> np.ndarray:
+    """Material bin (index into the ramp materials) of each spline.
+
+    mode : "SOLID" (all 0 — the single solid material), "MORPH" (s in [0, 1] → bins) or
+    "CUSP" (measured cusp / tolerance in [0, 1] → bins; unknown cusp → bin 0).
+    """
+    s = np.asarray(s, dtype=np.float64)
+    if mode == "SOLID":
+        return np.zeros(len(s), dtype=np.int64)
+    if mode == "CUSP":
+        c = np.asarray(cusp, dtype=np.float64)
+        t = np.where(np.isfinite(c) & (c >= 0), c / max(cusp_tolerance, 1e-12), 0.0)
+    else:
+        t = s
+    return np.clip((np.clip(t, 0.0, 1.0) * COLOR_BINS).astype(np.int64), 0, COLOR_BINS - 1)
+
+
+def verify_colors(values, cusp: float, chord: float) -> np.ndarray:
+    """RGBA (n, 4) float of material-left values (mm; > 0 left, < 0 gouge, NaN outside).
+
+    0 → green, ``cusp`` → blue, above ``cusp + chord`` purple (out of tolerance); a gouge
+    pales to red at ``-chord`` and beyond; NaN grey.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    rgb = np.empty((len(v), 3))
+    nan = ~np.isfinite(v)
+    left = ~nan & (v >= 0)
+    gouge = ~nan & (v < 0)
+    green, blue = np.array([0.15, 0.75, 0.25]), np.array([0.10, 0.30, 0.95])
+    t = np.clip(v[left] / max(cusp, 1e-12), 0.0, 1.0)[:, None]
+    rgb[left] = (1.0 - t) * green + t * blue
+    over = left & (v > cusp + chord)
+    rgb[over] = (0.65, 0.10, 0.85)
+    g = np.clip(-v[gouge] / max(chord, 1e-12), 0.0, 1.0)[:, None]
+    rgb[gouge] = (1.0 - g) * np.array([1.0, 0.75, 0.7]) + g * np.array([0.9, 0.0, 0.0])
+    rgb[nan] = 0.5
+    return np.concatenate([rgb, np.ones((len(v), 1))], axis=1)
+
+
+# --- helpers -----------------------------------------------------------------------------
+def pose_indices(n_poses: int, count: int) -> np.ndarray:
+    """Indices of ``min(count, n_poses)`` poses spread evenly over ``n_poses`` (first and
+    last included), increasing and unique."""
+    n, k = int(n_poses), max(int(count), 0)
+    if n <= 0 or k <= 0:
+        return np.zeros(0, dtype=np.int64)
+    if k >= n:
+        return np.arange(n, dtype=np.int64)
+    if k == 1:
+        return np.zeros(1, dtype=np.int64)
+    return np.unique(np.round(np.linspace(0, n - 1, k)).astype(np.int64))
+
+
+def _level_cusp(levels, pair_levels, pair_values) -> np.ndarray:
+    """Cusp next to each level: max of the pairs it belongs to (NaN when unknown)."""
+    out = np.full(len(levels), np.nan)
+    for (a, b), v in zip(pair_levels, pair_values, strict=False):
+        if not np.isfinite(v):
+            continue
+        for s in (a, b):
+            i = int(np.argmin(np.abs(levels - s))) if len(levels) else -1
+            if i >= 0 and abs(levels[i] - s) < 1e-9:
+                out[i] = np.fmax(out[i], v)
+    return out
+
+
+def _curve_cusp(path, verify) -> np.ndarray:
+    """(n_curves,) measured cusp next to each curve's pass, mm (NaN when unknown)."""
+    s = np.array([c.s for c in path.curves], dtype=np.float64)
+    levels = np.unique(s)
+    if verify is not None and len(getattr(verify, "pair_cusp", ())):
+        pairs, vals = np.asarray(verify.pair_s), np.asarray(verify.pair_cusp)
+    else:
+        vals = np.asarray(path.stats.get("measured_cusp", []), dtype=np.float64)
+        pairs = np.stack([levels[:-1], levels[1:]], axis=1) if len(levels) > 1 else []
+        if len(vals) != len(pairs):
+            return np.full(len(s), np.nan)
+    lc = _level_cusp(levels, pairs, vals)
+    return lc[np.searchsorted(levels, s)] if len(levels) else np.zeros(0)
+
+
+def _remove_collection_tree(coll):
+    """Delete a collection, its child collections and their objects (and the objects' data
+    when nothing else uses it), in one ``batch_remove`` (removing objects one by one is
+    quadratic in their number)."""
+    colls = [coll, *coll.children_recursive]
+    objects = {ob for c in colls for ob in c.objects}
+    data = {ob.data for ob in objects if ob.data is not None}
+    bpy.data.batch_remove(list(objects))
+    orphans = [d for d in data if d.users == 0]
+    if orphans:
+        bpy.data.batch_remove(orphans)
+    bpy.data.batch_remove(colls)
+
+
+def _parent_collection(scene, blade):
+    """The blade's first collection in this scene (its master collection otherwise)."""
+    in_scene = list(scene.collection.children_recursive)
+    for coll in blade.users_collection:
+        if coll == scene.collection or coll in in_scene:
+            return coll
+    return scene.collection
+
+
+def _link_under(parent, coll):
+    if coll.name not in parent.children:
+        parent.children.link(coll)
+
+
+# --- curves ------------------------------------------------------------------------------
+def _curve_object(name, point_sets, closed, f, bevel_mm):
+    """A 3-D curve object of POLY splines through (k, 3) mm point sets."""
+    cu = bpy.data.curves.new(name, "CURVE")
+    cu.dimensions = "3D"
+    cu.bevel_depth = max(float(bevel_mm), 0.0) / f
+    cu.bevel_resolution = 2
+    cu.use_fill_caps = True
+    for pts, cyc in zip(point_sets, closed, strict=True):
+        pts = np.asarray(pts, dtype=np.float64)
+        if len(pts) == 0:
+            continue
+        sp = cu.splines.new("POLY")
+        sp.points.add(len(pts) - 1)
+        co = np.ones((len(pts), 4))
+        co[:, :3] = pts / f
+        sp.points.foreach_set("co", co.ravel())
+        sp.use_cyclic_u = bool(cyc) and len(pts) > 2
+    return bpy.data.objects.new(name, cu)
+
+
+def _style_curves(ob, mode, cusp_tolerance):
+    """Materials per spline from the stored per-spline s / cusp."""
+    cu = ob.data
+    s = np.asarray(cu.get(KEY_S, []), dtype=np.float64)
+    cusp = np.asarray(cu.get(KEY_SPLINE_CUSP, []), dtype=np.float64)
+    if len(cusp) != len(s):
+        cusp = np.full(len(s), np.nan)
+    cu.materials.clear()
+    if mode == "SOLID":
+        cu.materials.append(colored_material("Blisk CAM path solid", SOLID_RGBA))
+    else:
+        for mat in _bin_materials():
+            cu.materials.append(mat)
+    bins = spline_bins(mode, s, cusp, cusp_tolerance)
+    if len(bins) == len(cu.splines) and len(bins):
+        cu.splines.foreach_set("material_index", bins.astype(np.int32))
+
+
+def restyle(scene, settings=None):
+    """Apply the display settings (bevel, colour mode) to every output collection's path
+    curves, without regenerating. Called when a display option changes."""
+    settings = settings if settings is not None else getattr(scene, "blisk_cam", None)
+    if settings is None:
+        return
+    f = mm_per_blender_unit(scene)
+    for coll in bpy.data.collections:
+        if KEY_BLADE not in coll:
+            continue
+        objs = output_objects(coll)
+        for ob in (objs["cc"], objs["tip"]):
+            if ob is None or ob.type != "CURVE":
+                continue
+            ob.data.bevel_depth = float(settings.curve_bevel) / f
+            _style_curves(ob, settings.color_mode, float(coll.get(KEY_CUSP, settings.cusp)))
+        if objs["links"] is not None and objs["links"].type == "CURVE":
+            objs["links"].data.bevel_depth = 0.5 * float(settings.curve_bevel) / f
+
+
+def curve_points_mm(ob, scene=None) -> list:
+    """The spline points of a curve object in world mm: a list of (k, 3) arrays."""
+    f = mm_per_blender_unit(scene)
+    M = np.array(ob.matrix_world, dtype=np.float64)
+    out = []
+    for sp in ob.data.splines:
+        co = np.empty(len(sp.points) * 4, dtype=np.float64)
+        sp.points.foreach_get("co", co)
+        p = co.reshape(-1, 4)[:, :3]
+        out.append((p @ M[:3, :3].T + M[:3, 3]) * f)
+    return out
+
+
+def _links_object(name, program, f, bevel_mm):
+    """The linking moves of the program (approach, retract, links on the surface and rapids
+    through the air) as one curve object: a spline per run of non-cut moves, from the pose
+    before the run; material 0 for feed moves, 1 for rapids. None without links."""
+    tip = np.asarray(program.tip, dtype=np.float64)
+    runs = [(c, a, z) for c, a, z in program.runs() if c != MOVE_CUT]
+    if not runs:
+        return None
+    ob = _curve_object(name, [tip[max(a - 1, 0):z] for _, a, z in runs],
+                       [False] * len(runs), f, 0.5 * bevel_mm)
+    cu = ob.data
+    cu.materials.append(colored_material("Blisk CAM link", (0.85, 0.85, 0.85, 1.0)))
+    cu.materials.append(colored_material("Blisk CAM rapid", (0.9, 0.12, 0.1, 1.0)))
+    idx = np.array([1 if c == MOVE_RAPID else 0 for c, _, _ in runs], dtype=np.int32)
+    if len(cu.splines) == len(idx):
+        cu.splines.foreach_set("material_index", idx)
+    ob["blisk_cam_moves"] = [MOVE_TYPES[c] if 0 <= c < len(MOVE_TYPES) else str(c)
+                             for c, _, _ in runs]
+    return ob
+
+
+def tool_radius(tool, default: float) -> float:
+    """Cutter radius (mm) of a core cutter: ``radius``, else ``d / 2``, else ``default``."""
+    r = getattr(tool, "radius", None)
+    if r is None and getattr(tool, "d", None) is not None:
+        r = 0.5 * float(tool.d)
+    return float(r) if r is not None else float(default)
+
+
+# --- poses -------------------------------------------------------------------------------
+def _move_codes(path):
+    """(n_poses,) int move codes and the list of names (index = code)."""
+    names = list(MOVE_TYPES)
+    parts = []
+    for c in path.curves:
+        mv = getattr(c, "move", None)
+        if mv is None or len(mv) != len(c):
+            parts.append(np.zeros(len(c), dtype=np.int64))
+            continue
+        mv = np.asarray(mv)
+        if np.issubdtype(mv.dtype, np.integer):
+            parts.append(mv.astype(np.int64))
+            continue
+        mv = mv.astype(str)
+        uniq, inv = np.unique(mv, return_inverse=True)
+        for u in uniq:
+            if u not in names:
+                names.append(str(u))
+        lut = np.array([names.index(str(u)) for u in uniq], dtype=np.int64)
+        parts.append(lut[inv])
+    codes = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+    return codes, names
+
+
+def _flags(path):
+    parts = []
+    for c in path.curves:
+        fl = getattr(c, "flags", None)
+        if fl is None or len(fl) != len(c):
+            parts.append(np.zeros(len(c), dtype=np.int64))
+        else:
+            parts.append(np.asarray(fl).astype(np.int64))
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+
+
+def _set_attribute(mesh, name, kind, values):
+    attr = mesh.attributes.new(name, kind, "POINT")
+    field = {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color"}.get(kind, "value")
+    dtype = np.int32 if kind == "INT" else np.float32
+    attr.data.foreach_set(field, np.ascontiguousarray(values, dtype=dtype).ravel())
+    return attr
+
+
+def _points_node_group(radius_bu):
+    """A Geometry Nodes group "Blisk CAM Mesh to Points" (mesh vertices → points of the
+    given radius), or None when this Blender cannot build it."""
+    name = "Blisk CAM Mesh to Points"
+    ng = bpy.data.node_groups.get(name)
+    if ng is None:
+        ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
+        ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        gi = ng.nodes.new("NodeGroupInput")
+        go = ng.nodes.new("NodeGroupOutput")
+        m2p = ng.nodes.new("GeometryNodeMeshToPoints")
+        gi.location, m2p.location, go.location = (-300, 0), (0, 0), (300, 0)
+        ng.links.new(gi.outputs[0], m2p.inputs["Mesh"])
+        ng.links.new(m2p.outputs["Points"], go.inputs[0])
+    m2p = next(n for n in ng.nodes if n.bl_idname == "GeometryNodeMeshToPoints")
+    m2p.inputs["Radius"].default_value = float(radius_bu)
+    return ng
+
+
+def _point_cloud_object(name, path, f, radius_mm):
+    """The mesh of every pose (vertex = tip) with its attributes."""
+    n = path.n_poses
+
+    def cat(key):
+        if n == 0:
+            return np.zeros((0, 3))
+        return np.concatenate([np.asarray(getattr(c, key), dtype=np.float64) for c in path.curves])
+
+    tips, axes, nrm, cc = cat("tip"), cat("axis"), cat("normal"), cat("cc")
+    s_curve = np.array([c.s for c in path.curves], dtype=np.float64)
+    levels = np.unique(s_curve)
+    counts = [len(c) for c in path.curves]
+    curve_id = np.repeat(np.arange(len(path.curves)), counts)
+    s = s_curve[curve_id] if n else np.zeros(0)
+    pass_id = np.searchsorted(levels, s)
+    move, names = _move_codes(path)
+    me = bpy.data.meshes.new(name)
+    me.vertices.add(n)
+    me.vertices.foreach_set("co", np.ascontiguousarray(tips / f, dtype=np.float32).ravel())
+    _set_attribute(me, "axis", "FLOAT_VECTOR", axes)
+    _set_attribute(me, "normal_cc", "FLOAT_VECTOR", nrm)
+    _set_attribute(me, "cc", "FLOAT_VECTOR", cc / f)
+    _set_attribute(me, "s", "FLOAT", s)
+    _set_attribute(me, "pass", "INT", pass_id)
+    _set_attribute(me, "curve", "INT", curve_id)
+    _set_attribute(me, "move", "INT", move)
+    _set_attribute(me, "status", "INT", _flags(path))
+    me.update()
+    ob = bpy.data.objects.new(name, me)
+    ob["blisk_cam_move_types"] = names
+    ob.hide_render = True
+    with contextlib.suppress(Exception):  # display only: a failure leaves a plain vertex cloud
+        ng = _points_node_group(radius_mm / f)
+        mod = ob.modifiers.new("Points", "NODES")
+        mod.node_group = ng
+    return ob
+
+
+def _pose_empties(coll, prefix, path, idx, f, size_mm):
+    """Single-arrow Empties at the chosen poses (tip at the origin, local Z = tool axis)."""
+    from mathutils import Matrix
+
+    if len(idx) == 0:
+        return []
+    tips = np.concatenate([c.tip for c in path.curves])[idx]
+    axes = np.concatenate([c.axis for c in path.curves])[idx]
+    z = axes / np.maximum(np.linalg.norm(axes, axis=1), 1e-300)[:, None]
+    ref = np.where(np.abs(z[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    x = ref - np.einsum("ij,ij->i", ref, z)[:, None] * z
+    x /= np.linalg.norm(x, axis=1)[:, None]
+    y = np.cross(z, x)
+    M = np.zeros((len(idx), 4, 4))
+    M[:, :3, 0], M[:, :3, 1], M[:, :3, 2], M[:, :3, 3] = x, y, z, tips / f
+    M[:, 3, 3] = 1.0
+    width = len(str(len(idx)))
+    objs = []
+    for k, m in enumerate(M):  # one object per shown pose: at most pose_count (capped)
+        ob = bpy.data.objects.new(f"{prefix} pose {k:0{width}d}", None)
+        ob[KEY_NAME] = f"{prefix} pose {k:0{width}d}"
+        ob.empty_display_type = "SINGLE_ARROW"
+        ob.empty_display_size = size_mm / f
+        ob.matrix_world = Matrix(m.tolist())
+        ob[KEY_ROLE] = "pose"
+        ob["blisk_cam_pose_index"] = int(idx[k])
+        coll.objects.link(ob)
+        objs.append(ob)
+    return objs
+
+
+def _verify_object(name, V, F, values, cusp, chord, f, coll):
+    ob = arrays_to_object(name, V, F, coll, mm_per_unit=f)
+    me = ob.data
+    rgba = verify_colors(values, cusp, chord)
+    attr = me.color_attributes.new("verify", "FLOAT_COLOR", "POINT")
+    attr.data.foreach_set("color", np.ascontiguousarray(rgba, dtype=np.float32).ravel())
+    with contextlib.suppress(AttributeError, TypeError):
+        me.color_attributes.active_color = attr
+    with contextlib.suppress(AttributeError, TypeError):
+        me.color_attributes.render_color_index = me.color_attributes.find("verify")
+    _set_attribute(me, "material_left", "FLOAT", values)
+    mat = bpy.data.materials.get("Blisk CAM verify") or bpy.data.materials.new("Blisk CAM verify")
+    mat.diffuse_color = (0.6, 0.6, 0.6, 1.0)
+    if mat.node_tree is None and bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    tree = mat.node_tree
+    if tree is not None and not any(n.type == "ATTRIBUTE" for n in tree.nodes):
+        bsdf = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+        if bsdf is not None:
+            node = tree.nodes.new("ShaderNodeAttribute")
+            node.attribute_name = "verify"
+            node.location = (bsdf.location.x - 300, bsdf.location.y)
+            tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+    me.materials.append(mat)
+    ob.hide_render = True  # it coincides with the blade; for the viewport (Attribute colour)
+    return ob
+
+
+# --- write / clear -----------------------------------------------------------------------
+def write_path_objects(
+    scene,
+    blade,
+    path,
+    settings=None,
+    *,
+    json_text: str | None = None,
+    verify=None,
+    blade_arrays=None,
+    vertex_values=None,
+) -> dict:
+    """Show ``path`` (a core ``ToolPath``, mm) as objects in the blade's output collection,
+    replacing the previous ones, and keep its paths JSON in a Text datablock.
+
+    Parameters
+    ----------
+    scene : bpy.types.Scene
+    blade : bpy.types.Object — the machined blade (not modified)
+    path : core.toolpath.ToolPath
+    settings : scene.blisk_cam (display options: pose_count, curve_bevel, color_mode,
+        tool radius for the arrow size); default ``scene.blisk_cam``
+    json_text : str, optional — the paths JSON (default :func:`paths_json_text` of ``path``)
+    verify : core.verify.VerifyReport, optional — colours by measured cusp use its pairs
+    blade_arrays : (V (n, 3) mm, F (m, 3)) — the blade mesh as read; with ``vertex_values``
+        (n,) material left per *input* vertex (NaN outside) a verify colour-map copy is made
+
+    Returns
+    -------
+    dict — ``collection``, ``cc``, ``tip``, ``poses`` (objects), ``links`` (object or None:
+    the program's linking moves), ``pose_empties`` (list), ``verify`` (object or None),
+    ``text`` (the Text datablock)
+    """
+    settings = settings if settings is not None else scene.blisk_cam
+    if not path.curves:
+        raise BliskCamError("the path has no curves: nothing to show")
+    f = mm_per_blender_unit(scene)
+    bname = blade.name
+    name = collection_name(bname)
+    if json_text is None:
+        json_text = paths_json_text(path)
+
+    old = find_output_collection(bname)  # replaced once the new result is complete
+    new = bpy.data.collections.new(name + " (new)")
+    try:
+        new[KEY_BLADE] = bname
+        new[KEY_CUSP] = float(path.cusp)
+        new[KEY_CHORD] = float(path.chord)
+        s = [float(c.s) for c in path.curves]
+        cusp = _curve_cusp(path, verify)
+        objs = {"collection": new, "verify": None}
+        for role, label, key in (("cc", "CC paths", "cc"), ("tip", "tool tips", "tip")):
+            ob = _curve_object(
+                f"{bname} {label}", [getattr(c, key) for c in path.curves],
+                [c.closed for c in path.curves], f, settings.curve_bevel,
+            )
+            ob.data[KEY_S] = s
+            ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in cusp]
+            ob[KEY_ROLE] = role
+            ob[KEY_NAME] = f"{bname} {label}"
+            new.objects.link(ob)
+            _style_curves(ob, settings.color_mode, float(path.cusp))
+            objs[role] = ob
+        objs["tip"].hide_render = True  # the CC curves render; tips are for the viewport
+        objs["links"] = None
+        program = getattr(path, "program", None)
+        if program is not None and len(program):
+            ob = _links_object(f"{bname} links", program, f, settings.curve_bevel)
+            if ob is not None:
+                ob[KEY_ROLE] = "links"
+                ob[KEY_NAME] = f"{bname} links"
+                ob.hide_render = True
+                new.objects.link(ob)
+                objs["links"] = ob
+        radius = tool_radius(path.tool, settings.tool_radius)
+        pc = _point_cloud_object(f"{bname} poses", path, f, max(0.05 * radius, 1e-3))
+        pc[KEY_ROLE] = "poses"
+        pc[KEY_NAME] = f"{bname} poses"
+        new.objects.link(pc)
+        objs["poses"] = pc
+        poses_coll = bpy.data.collections.new(name + " poses (new)")
+        new.children.link(poses_coll)
+        idx = pose_indices(path.n_poses, min(int(settings.pose_count), _max_pose_empties()))
+        objs["pose_empties"] = _pose_empties(poses_coll, bname, path, idx, f, 2.0 * radius)
+        if blade_arrays is not None and vertex_values is not None:
+            V, F = blade_arrays
+            ob = _verify_object(f"{bname} verify", V, F, vertex_values, float(path.cusp),
+                                float(path.chord), f, new)
+            ob[KEY_ROLE] = "verify"
+            ob[KEY_NAME] = f"{bname} verify"
+            objs["verify"] = ob
+    except Exception:
+        _remove_collection_tree(new)
+        raise
+
+    # the new result is complete: replace the old one
+    old_text = bpy.data.texts.get(old.get(KEY_TEXT, "")) if old is not None else None
+    if old is not None:
+        _remove_collection_tree(old)
+    new.name = name
+    poses_coll.name = name + " poses"
+    for ob in new.all_objects:  # drop the ".001" suffixes the old objects forced
+        ob.name = ob.get(KEY_NAME, ob.name)
+        if ob.data is not None:
+            ob.data.name = ob.name
+    _link_under(_parent_collection(scene, blade), new)
+    text = old_text or bpy.data.texts.get(name + ".json") or bpy.data.texts.new(name + ".json")
+    text.from_string(_to_text_lines(json_text))
+    text.use_fake_user = True
+    new[KEY_TEXT] = text.name
+    objs["text"] = text
+    return objs
+
+
+def _max_pose_empties():
+    from .properties import MAX_POSE_EMPTIES
+
+    return MAX_POSE_EMPTIES
+
+
+def clear_path_objects(blade_name: str) -> bool:
+    """Remove a blade's output collection and its stored JSON. True if there was one."""
+    coll = find_output_collection(blade_name)
+    if coll is None:
+        return False
+    text = bpy.data.texts.get(coll.get(KEY_TEXT, ""))
+    _remove_collection_tree(coll)
+    if text is not None:
+        bpy.data.texts.remove(text)
+    return True
