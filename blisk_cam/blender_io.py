@@ -454,11 +454,11 @@ def colored_material(name, rgba):
     return mat
 
 
-def _style(obj, color, smooth):
+def _style(obj, color, smooth, material_name=None):
     if color is not None:
         rgba = tuple(float(c) for c in color) + (1.0,) * (4 - len(color))
         obj.color = rgba
-        mat = colored_material(f"Blisk CAM {obj.name}", rgba)
+        mat = colored_material(material_name or f"Blisk CAM {obj.name}", rgba)
         obj.data.materials.clear()
         obj.data.materials.append(mat)
     if smooth:
@@ -467,7 +467,8 @@ def _style(obj, color, smooth):
 
 
 def arrays_to_object(
-    name, V, F, collection=None, *, mm_per_unit=None, color=None, smooth=False
+    name, V, F, collection=None, *, mm_per_unit=None, color=None, smooth=False,
+    material_name=None,
 ):
     """A new mesh object from arrays in mm (world frame); the object has the identity matrix.
 
@@ -480,6 +481,8 @@ def arrays_to_object(
     mm_per_unit : float, optional — default :func:`mm_per_blender_unit` of the scene
     color : (r, g, b[, a]) floats in [0, 1], optional — object colour and a material
     smooth : bool — smooth shading
+    material_name : str, optional — name of the colour's material (created or reused;
+        default ``"Blisk CAM <object name>"``)
 
     Returns
     -------
@@ -515,7 +518,7 @@ def arrays_to_object(
 
     obj = bpy.data.objects.new(name, mesh)
     (collection if collection is not None else bpy.context.scene.collection).objects.link(obj)
-    _style(obj, color, smooth)
+    _style(obj, color, smooth, material_name)
     return obj
 
 
@@ -530,9 +533,32 @@ def _axis_frame(axis: Axis):
     return e1, e2, d
 
 
+def _generatrix_rows(generatrix, rows: int, extend: float) -> np.ndarray:
+    """(k, 2) meridional points (r, z), mm, of a generatrix from its first to its last point,
+    lengthened by ``extend`` mm at both ends along the end segments (r clamped ≥ 0). A
+    ``Cone`` gives ``rows + 1`` evenly spaced points (a straight line: exact); a ``Profile``
+    its vertices, each segment split into ``ceil(rows / segments)`` steps."""
+    if isinstance(generatrix, Cone):
+        P = np.array([generatrix.p1, generatrix.p2], dtype=np.float64)
+        per = rows
+    else:
+        P = np.asarray(generatrix.vertices, dtype=np.float64).copy()
+        per = max(1, -(-rows // (len(P) - 1)))
+    if extend:
+        for end, nb in ((0, 1), (-1, -2)):
+            u = P[end] - P[nb]
+            P[end] = P[end] + extend * u / np.linalg.norm(u)
+    t = np.arange(per) / per
+    rz = np.concatenate([(1.0 - t)[:, None] * a + t[:, None] * b for a, b in zip(P[:-1], P[1:],
+                                                                               strict=True)]
+                        + [P[-1:]])
+    rz[:, 0] = np.maximum(rz[:, 0], 0.0)
+    return rz
+
+
 def cone_to_object(
     name,
-    cone: Cone,
+    cone,
     axis: Axis,
     collection=None,
     *,
@@ -545,18 +571,22 @@ def cone_to_object(
     wire_color=None,
     fill=True,
     mm_per_unit=None,
+    material_name=None,
 ):
-    """A light mesh of a cone surface: the generatrix P1 → P2 revolved about the axis.
+    """A light mesh of a cone surface: the generatrix P1 → P2 revolved about the axis — or, for
+    a ``core.lmrs.Profile``, the surface of revolution of its polyline (a hub or tip that is
+    not a cone, paper 001 §4.2).
 
     Parameters
     ----------
-    cone : Cone — (r1, z1) → (r2, z2) in mm in the meridional half-plane
+    cone : Cone — (r1, z1) → (r2, z2) in mm in the meridional half-plane; or Profile — the
+        polyline [(r, z), ...] in mm
     axis : Axis
     theta : (θ0, θ1) radians — angular range, measured from world X projected normal to the
         axis (``atan2(y, x)`` for the axis +Z). A full turn gives a closed band.
     segments : int — number of angular steps
     rows : int — number of steps along the generatrix (a straight line: 1 is exact; more
-        only matter for the wire grid)
+        only matter for the wire grid); a profile has at least one row per segment
     extend : float, mm — lengthen the generatrix by this much at both ends (r clamped ≥ 0)
     color : RGBA, default a see-through blue
     wire : float, mm, optional — also show the grid lines as tubes of this thickness (a
@@ -564,17 +594,18 @@ def cone_to_object(
     wire_color : RGBA, optional — colour of the wire (default ``color`` made opaque)
     fill : bool — show the surface itself; ``False`` with ``wire`` shows the grid only (e.g.
         for a cone that coincides with a hub surface, where a fill would z-fight)
+    material_name : str, optional — base name of the materials (default from ``name``)
 
     Returns
     -------
-    bpy.types.Object — (rows + 1) × (segments [+1]) vertices, rows × segments quads.
+    bpy.types.Object — (rows' + 1) × (segments [+1]) vertices, rows' × segments quads; every
+    vertex on the (extended) generatrix revolved.
     """
+    if not isinstance(cone, Cone) and not hasattr(cone, "vertices"):
+        raise InputError(f"{name}: expected a Cone or a Profile, got {type(cone).__name__}")
     segments = max(int(segments), 3)
     rows = max(int(rows), 1)
-    p1, p2 = cone.p1, cone.p2
-    u = (p2 - p1) / np.linalg.norm(p2 - p1)
-    a, b = p1 - extend * u, p2 + extend * u
-    a[0], b[0] = max(a[0], 0.0), max(b[0], 0.0)
+    rz = _generatrix_rows(cone, rows, float(extend))
     t0, t1 = float(theta[0]), float(theta[1])
     full = abs(abs(t1 - t0) - 2.0 * math.pi) < 1e-9
     k = segments if full else segments + 1
@@ -582,23 +613,23 @@ def cone_to_object(
     e1, e2, d = _axis_frame(axis)
     radial = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2  # (k, 3)
     o = axis.o
-    t = np.linspace(0.0, 1.0, rows + 1)
-    rz = (1.0 - t)[:, None] * a + t[:, None] * b  # (rows + 1, 2)
-    rz[:, 0] = np.maximum(rz[:, 0], 0.0)
-    V = np.concatenate([o + z * d + r * radial for r, z in rz])
+    V = (o + rz[:, 1, None, None] * d + rz[:, 0, None, None] * radial[None]).reshape(-1, 3)
     i = np.arange(segments)
     j = (i + 1) % k
+    q = np.arange(len(rz) - 1)[:, None]
     # quads (a clean grid for the wire; loop triangles and renders split them)
-    F = np.concatenate(
-        [np.stack([q * k + i, q * k + j, (q + 1) * k + j, (q + 1) * k + i], 1) for q in range(rows)]
-    ).astype(np.int64)
+    F = np.stack([q * k + i, q * k + j, (q + 1) * k + j, (q + 1) * k + i], -1)
+    F = F.reshape(-1, 4).astype(np.int64)
+    base = material_name or f"Blisk CAM {name}"
     obj = arrays_to_object(
-        name, V, F, collection, mm_per_unit=mm_per_unit, color=color, smooth=True
+        name, V, F, collection, mm_per_unit=mm_per_unit, color=color, smooth=True,
+        material_name=base if material_name else None,
     )
     if wire:
         f = _factor(mm_per_unit)
         rgba = tuple(wire_color) if wire_color is not None else tuple(color[:3]) + (1.0,)
-        obj.data.materials.append(colored_material(f"Blisk CAM {obj.name} wire", rgba))
+        wire_name = f"{base} wire" if material_name else f"Blisk CAM {obj.name} wire"
+        obj.data.materials.append(colored_material(wire_name, rgba))
         mod = obj.modifiers.new("Wire", "WIREFRAME")
         mod.thickness = float(wire) / f
         mod.use_replace = not fill

@@ -9,6 +9,13 @@
         --tool ball|bull|flat|taper --tool-radius 6 [--corner-radius 2] \\
         --cusp 0.05 --chord 0.05 [--lead DEG --tilt DEG] [--link oneway|zigzag|spiral] \\
         --out paths.json [--blend out.blend] [--preview out.png] [--verify]
+        [--fit auto|cone|profile] [--cone1-profile FILE.csv] [--cone2-profile FILE.csv]
+        [--taper-angle DEG] [--lead-tip DEG] [--tilt-tip DEG] [--axis-mode MODE]
+        [--radial-tilt DEG] [--axis-point X Y Z] [--max-axis-turn DEG]
+        [--milling climb|conventional] [--approach MM] [--clearance-radius MM]
+        [--clearance-margin MM] [--no-fix-gouge]
+
+Angles are degrees on the command line (radians in the scene settings and the core).
 
 Both commands run the add-on's operators (``blisk_cam.fit_cones``, ``generate_paths``,
 ``export_paths``, ``render_preview``) on a scene whose ``scene.blisk_cam`` settings are filled
@@ -102,6 +109,52 @@ def _blade_count(text):
 
 
 ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
+#: --axis-mode → the scene setting ``axis_mode``
+AXIS_MODES = {
+    "local": "LOCAL",
+    "radial": "RADIAL",
+    "toward-axis": "TOWARD_AXIS",
+    "from-axis": "FROM_AXIS",
+    "toward-point": "TOWARD_POINT",
+    "from-point": "FROM_POINT",
+}
+FITS = ("auto", "cone", "profile")
+
+
+def read_profile_csv(path):
+    """A hub or tip generatrix polyline from a text file: one point ``r, z`` (mm) per line,
+    separated by a comma, semicolon or white space; ``#`` starts a comment; blank lines are
+    skipped. Returns a ``core.lmrs.Profile``; BliskCamError naming the file (and line) when
+    it is missing or not such a list."""
+    from .core.lmrs import Profile
+
+    path = Path(path).expanduser()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise BliskCamError(f"profile file {path} not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BliskCamError(f"cannot read profile file {path}: {exc}") from None
+    points = []
+    for number, line in enumerate(text.splitlines(), 1):
+        fields = re.split(r"[,;\s]+", line.split("#", 1)[0].strip())
+        fields = [f for f in fields if f]
+        if not fields:
+            continue
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            values = []
+        if len(values) != 2 or not all(math.isfinite(v) for v in values):
+            raise BliskCamError(
+                f"profile file {path}, line {number}: expected two numbers 'r, z' in mm, "
+                f"got '{line.strip()}'"
+            )
+        points.append(values)
+    try:
+        return Profile(points)
+    except BliskCamError as exc:
+        raise BliskCamError(f"profile file {path}: {exc}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -178,6 +231,44 @@ def build_parser() -> argparse.ArgumentParser:
     paths.add_argument(
         "--link", type=str.lower, choices=("oneway", "zigzag", "spiral"), default="oneway"
     )
+    paths.add_argument(
+        "--fit", type=str.lower, choices=FITS, default="auto",
+        help="what is fitted for a cone not given: per end a straight cone, or a polyline "
+        "profile when the cone misses the boundary loop by > 0.1 mm and the profile fits "
+        "better (auto, default); cones only (cone); profiles only (profile)",
+    )
+    paths.add_argument("--cone1-profile", metavar="FILE", default=None,
+                       help="hub generatrix as a polyline: 'r, z' per line in mm, # comments")
+    paths.add_argument("--cone2-profile", metavar="FILE", default=None,
+                       help="tip generatrix as a polyline (as --cone1-profile)")
+    paths.add_argument("--taper-angle", type=_positive, default=None, metavar="DEG",
+                       help="side angle of a taper cutter (default 3)")
+    paths.add_argument("--lead-tip", type=_finite, default=None, metavar="DEG",
+                       help="lead at the tip: lead varies linearly from --lead (hub) to this")
+    paths.add_argument("--tilt-tip", type=_finite, default=None, metavar="DEG",
+                       help="tilt at the tip: tilt varies linearly from --tilt (hub) to this")
+    paths.add_argument("--axis-mode", type=str.lower, choices=tuple(AXIS_MODES), default="local",
+                       help="tool axis: local lead/tilt (default); radial: lead and a lean "
+                       "away from the blisk axis (--radial-tilt); toward/from the blisk axis "
+                       "or a point (--axis-point)")
+    paths.add_argument("--radial-tilt", type=_finite, default=None, metavar="DEG",
+                       help="--axis-mode radial: lean away from (> 0) / toward the blisk axis")
+    paths.add_argument("--axis-point", type=_finite, nargs=3, default=None,
+                       metavar=("X", "Y", "Z"), help="the point of --axis-mode *-point, mm")
+    paths.add_argument("--max-axis-turn", type=_non_negative, default=0.0, metavar="DEG",
+                       help="smooth the tool axes to turn at most this much per pose "
+                       "(0: no smoothing, default)")
+    paths.add_argument("--milling", type=str.lower, choices=("climb", "conventional"),
+                       default="climb", help="climb (default) or conventional, M03 spindle")
+    paths.add_argument("--approach", type=_non_negative, default=2.0, metavar="MM",
+                       help="approach/retract distance along the tool axis (default 2)")
+    paths.add_argument("--clearance-radius", type=_positive, default=None, metavar="MM",
+                       help="radius of the clearance cylinder for rapids (default: the "
+                       "passes' largest radius + --clearance-margin)")
+    paths.add_argument("--clearance-margin", type=_non_negative, default=5.0, metavar="MM",
+                       help="margin of the automatic clearance radius (default 5)")
+    paths.add_argument("--no-fix-gouge", action="store_true",
+                       help="only flag local gouges (default: raise lead/tilt to clear them)")
     paths.add_argument("--out", required=True, metavar="FILE", help="paths JSON to write")
     paths.add_argument("--blend", metavar="FILE", default=None, help="also save a .blend")
     paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
@@ -190,8 +281,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_paths_args(args):
-    """Checks that need more than one argument; raises UsageError. Fills args.axis_obj,
-    args.cone1_obj, args.cone2_obj (core objects or None)."""
+    """Checks that need more than one argument; raises UsageError (BliskCamError for an
+    unreadable profile file). Fills args.axis_obj, args.cone1_obj, args.cone2_obj (core
+    ``Cone`` or ``Profile`` given on the command line, or None)."""
     from .core.cones import Axis, Cone
 
     try:
@@ -200,10 +292,14 @@ def _check_paths_args(args):
         raise UsageError(f"argument --axis: {exc}") from None
     for name in ("cone1", "cone2"):
         values = getattr(args, name)
+        profile = getattr(args, f"{name}_profile")
+        if values is not None and profile is not None:
+            raise UsageError(f"--{name} and --{name}-profile both give cone {name[-1]}; use one")
         try:
             setattr(args, f"{name}_obj", Cone.from_list(values) if values is not None else None)
         except BliskCamError as exc:
             raise UsageError(f"argument --{name}: {exc}") from None
+    _check_orientation_args(args)
     if args.tool == "bull":
         if args.corner_radius is None:
             raise UsageError("--tool bull needs --corner-radius")
@@ -221,6 +317,35 @@ def _check_paths_args(args):
         value = getattr(args, opt)
         if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
             raise UsageError(f"--{opt} {value}: the directory does not exist")
+    for name in ("cone1", "cone2"):  # read last: a bad file is bad input (status 1)
+        profile = getattr(args, f"{name}_profile")
+        if profile is not None:
+            setattr(args, f"{name}_obj", read_profile_csv(profile))
+
+
+def _check_orientation_args(args):
+    """Options that only make sense together (UsageError naming them)."""
+    if args.taper_angle is not None:
+        if args.tool != "taper":
+            raise UsageError(f"--taper-angle needs --tool taper (got --tool {args.tool})")
+        if not args.taper_angle < 60.0:
+            raise UsageError(f"--taper-angle {args.taper_angle:g} must be below 60 degrees")
+    mode = args.axis_mode
+    fixed = mode.endswith(("-axis", "-point"))
+    if args.radial_tilt is not None and mode != "radial":
+        raise UsageError("--radial-tilt needs --axis-mode radial")
+    if mode == "radial" and (args.tilt or args.tilt_tip):
+        raise UsageError("--axis-mode radial replaces --tilt/--tilt-tip by --radial-tilt")
+    if fixed and (args.lead or args.tilt or args.lead_tip is not None
+                  or args.tilt_tip is not None):
+        raise UsageError(f"--axis-mode {mode} fixes the tool axis; drop --lead/--tilt "
+                         "(and --lead-tip/--tilt-tip)")
+    if mode.endswith("-point") and args.axis_point is None:
+        raise UsageError(f"--axis-mode {mode} needs --axis-point X Y Z")
+    if args.axis_point is not None and not mode.endswith("-point"):
+        raise UsageError("--axis-point needs --axis-mode toward-point or from-point")
+    if not args.max_axis_turn < 90.0:
+        raise UsageError(f"--max-axis-turn {args.max_axis_turn:g} must be below 90 degrees")
 
 
 # --- Blender session ---------------------------------------------------------------------
@@ -433,6 +558,9 @@ def _cmd_demo(args):
         settings.verify = False
         if not args.no_paths:
             _paths_by_operators(bpy, scene, out / "paths.json")
+            for key in ("cone1", "cone2"):  # the output collection shows the cones now
+                objs[key].hide_render = True
+                objs[key].hide_viewport = True
         # frame the sector; the axis (far inside the hub) is shown only where it falls in view
         shown = [o for k, o in objs.items() if k != "axis"]
         view = demo_view_direction(demo)
@@ -482,45 +610,84 @@ def run_operator(bpy, name, **kwargs):
 
 
 def _apply_paths_settings(bpy, scene, args, blade):
-    """Fill ``scene.blisk_cam`` from the command line (the same settings a user sets in the
-    panels; lead/tilt degrees → radians)."""
+    """Fill ``scene.blisk_cam`` from the command line: the same settings a user sets in the
+    panels (degrees → radians), which ``operators.common.request_options`` then maps into
+    the core request for both."""
     from .blender_io import axis_to_object
 
     s = scene.blisk_cam
     s.blade = blade
     if args.axis:
         s.axis_object = axis_to_object("Blisk Axis", args.axis_obj, kind="EMPTY")
-    s.cone1 = args.cone1 if args.cone1 is not None else (0.0, 0.0, 0.0, 0.0)
-    s.cone2 = args.cone2 if args.cone2 is not None else (0.0, 0.0, 0.0, 0.0)
+    _apply_given_cones(s, args)
+    s.fit_generatrix = args.fit.upper()
     s.tool_type = args.tool.upper()
     s.tool_radius = args.tool_radius
     if args.corner_radius is not None:
         s.corner_radius = args.corner_radius
+    if args.taper_angle is not None:
+        s.taper_angle = math.radians(args.taper_angle)
     s.cusp = args.cusp
     s.chord = args.chord
+    s.axis_mode = AXIS_MODES[args.axis_mode]
     s.lead = math.radians(args.lead)
     s.tilt = math.radians(args.tilt)
+    s.vary_lead_tilt = args.lead_tip is not None or args.tilt_tip is not None
+    s.lead_tip = math.radians(args.lead_tip if args.lead_tip is not None else args.lead)
+    s.tilt_tip = math.radians(args.tilt_tip if args.tilt_tip is not None else args.tilt)
+    s.radial_tilt = math.radians(args.radial_tilt or 0.0)
+    if args.axis_point is not None:
+        s.axis_point = args.axis_point
+    s.max_axis_turn = math.radians(args.max_axis_turn)
+    s.fix_local_gouge = not args.no_fix_gouge
     s.link_mode = {"oneway": "ONE_WAY", "zigzag": "ZIGZAG", "spiral": "SPIRAL"}[args.link]
+    s.climb = args.milling == "climb"
+    s.approach = args.approach
+    s.clearance_radius = args.clearance_radius or 0.0
+    s.clearance_margin = args.clearance_margin
     s.verify = bool(getattr(args, "verify", False))
     s.verify_map = False
 
 
+def _apply_given_cones(s, args):
+    """The cones/profiles given on the command line into the settings (zeros for the others:
+    fitted)."""
+    from .operators.common import set_generatrix
+
+    for k in (1, 2):
+        given = getattr(args, f"cone{k}_obj", None)
+        if given is None:
+            setattr(s, f"cone{k}", (0.0, 0.0, 0.0, 0.0))
+            setattr(s, f"profile{k}", "")
+        else:
+            set_generatrix(s, k, given)
+
+
 def _paths_by_operators(bpy, scene, out, *, fit=False, keep=(None, None)):
-    """fit_cones (when ``fit``; a cone given in ``keep`` is put back afterwards) →
-    generate_paths → export_paths, all by the operators; prints the fit and the summary.
-    Returns the JSON's path."""
+    """fit_cones (when ``fit``; a generatrix given in ``keep`` — core ``Cone`` or
+    ``Profile`` — is put back afterwards) → generate_paths → export_paths, all by the
+    operators; prints the fit and the summary. Returns the JSON's path."""
+    from .operators.common import set_generatrix
     from .operators.generate_paths import summary
 
     s = scene.blisk_cam
     if fit:
         run_operator(bpy, "fit_cones")
-        for name, values in zip(("cone1", "cone2"), keep, strict=True):
-            if values is not None:
-                setattr(s, name, values)
+        for k, given in ((1, keep[0]), (2, keep[1])):
+            if given is not None:
+                set_generatrix(s, k, given)
+
+        def shown(k):
+            text = getattr(s, f"profile{k}")
+            if text:
+                import json
+
+                return f"profile of {len(json.loads(text))} points"
+            return str([round(x, 4) for x in getattr(s, f"cone{k}")])
+
         print(
-            f"fitted cones: cone1 {[round(x, 4) for x in s.cone1]} "
-            f"(residual {s.fit_residual1:.4f} mm), cone2 {[round(x, 4) for x in s.cone2]} "
-            f"(residual {s.fit_residual2:.4f} mm)"
+            f"fitted cones: cone1 {shown(1)} (residual {s.fit_residual1:.4f} mm), "
+            f"cone2 {shown(2)} (residual {s.fit_residual2:.4f} mm)"
         )
     run_operator(bpy, "generate_paths")
     out = Path(out).expanduser().resolve()
@@ -559,8 +726,9 @@ def _cmd_paths(args):
         obj = import_mesh_file(args.mesh)
         args.mesh_object = obj.name
         _apply_paths_settings(bpy, scene, args, obj)
-        fit = args.cone1 is None or args.cone2 is None
-        _paths_by_operators(bpy, scene, args.out, fit=fit, keep=(args.cone1, args.cone2))
+        keep = (args.cone1_obj, args.cone2_obj)
+        fit = keep[0] is None or keep[1] is None
+        _paths_by_operators(bpy, scene, args.out, fit=fit, keep=keep)
         if args.blend:
             print(f"blend: {_save_blend(bpy, args.blend)}")
         if args.preview:

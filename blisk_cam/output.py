@@ -17,6 +17,11 @@ Collection ``"Blisk CAM – <blade>"`` (en dash), a child of the blade's first c
 * child collection ``"Blisk CAM – <blade> poses"`` — at most ``pose_count`` single-arrow
   Empties spread evenly over all poses (tip at the origin, local +Z = tool axis), never one
   per pose of a long path.
+* ``"<blade> cone 1"``, ``"<blade> cone 2"``, ``"<blade> middle cone"`` — the hub and tip
+  generatrices revolved over the blade's angular range, and the LMC (or LMRS) at s = 0.5
+  (paper 001 Fig. 2): cone 1 as a wire grid (it usually coincides with the hub surface),
+  cone 2 see-through with its grid, the middle one a wire grid; rendered. Fit Cones writes
+  them too (before any path: :func:`write_cone_objects`), so the region shows at once.
 * ``"<blade> verify"`` (when asked) — a copy of the blade's evaluated mesh with a point colour
   attribute ``verify`` (material left green → blue, beyond the tolerance purple; gouge red;
   grey outside the machined region) and the raw value ``material_left`` (mm, NaN outside).
@@ -37,9 +42,16 @@ import json
 import bpy
 import numpy as np
 
-from .blender_io import arrays_to_object, colored_material, mm_per_blender_unit
+from .blender_io import (
+    _axis_frame,
+    arrays_to_object,
+    colored_material,
+    cone_to_object,
+    mm_per_blender_unit,
+)
 from .core import toolpath as _toolpath
 from .core.errors import BliskCamError
+from .core.lmrs import morph_between
 from .core.paths_io import path_to_dict
 
 __all__ = [
@@ -51,6 +63,9 @@ __all__ = [
     "stored_paths_json",
     "paths_json_text",
     "write_path_objects",
+    "write_cone_objects",
+    "has_paths",
+    "angular_range",
     "clear_path_objects",
     "restyle",
     "pose_indices",
@@ -64,7 +79,7 @@ KEY_BLADE = "blisk_cam_blade"
 KEY_TEXT = "blisk_cam_paths_text"
 KEY_CUSP = "blisk_cam_cusp"
 KEY_CHORD = "blisk_cam_chord"
-KEY_ROLE = "blisk_cam_role"  # on objects: "cc", "tip", "poses", "pose", "verify"
+KEY_ROLE = "blisk_cam_role"  # on objects: "cc", "tip", "poses", "pose", "verify", CONE_ROLES
 KEY_NAME = "blisk_cam_name"  # on objects: the intended name (restored after the swap)
 #: per-spline values stored on the curve data (for re-colouring without the path)
 KEY_S = "blisk_cam_s"
@@ -78,6 +93,13 @@ MOVE_RAPID = MOVE_TYPES.index("rapid")
 #: number of colour bins of the path curves (one material each)
 COLOR_BINS = 12
 SOLID_RGBA = (0.05, 0.85, 0.95, 1.0)
+#: roles, names and looks of the cone objects: (role, label, RGBA, fill)
+CONE_ROLES = ("cone1", "cone2", "cone_middle")
+_CONE_LOOKS = (
+    ("cone1", "cone 1", (0.10, 0.45, 1.00, 0.25), False),
+    ("cone2", "cone 2", (1.00, 0.40, 0.10, 0.25), True),
+    ("cone_middle", "middle cone", (0.20, 0.80, 0.30, 0.25), False),
+)
 
 
 def collection_name(blade_name: str) -> str:
@@ -96,9 +118,10 @@ def find_output_collection(blade_name: str):
 
 def output_objects(coll) -> dict:
     """Role → object(s) of an output collection: ``cc``, ``tip``, ``links``, ``poses``,
-    ``verify`` (objects or None) and ``pose_empties`` (list)."""
+    ``verify``, ``cone1``, ``cone2``, ``cone_middle`` (objects or None) and ``pose_empties``
+    (list)."""
     out = {"cc": None, "tip": None, "links": None, "poses": None, "verify": None,
-           "pose_empties": []}
+           "pose_empties": [], **dict.fromkeys(CONE_ROLES)}
     if coll is None:
         return out
     for ob in coll.all_objects:
@@ -108,6 +131,13 @@ def output_objects(coll) -> dict:
         elif role in out:
             out[role] = ob
     return out
+
+
+def has_paths(blade_name: str) -> bool:
+    """Whether the blade has generated paths (an output collection with its stored JSON; Fit
+    Cones alone makes a collection with the cone objects only)."""
+    coll = find_output_collection(blade_name)
+    return coll is not None and bool(coll.get(KEY_TEXT))
 
 
 def stored_paths_json(blade_name: str) -> str | None:
@@ -539,6 +569,90 @@ def _verify_object(name, V, F, values, cusp, chord, f, coll):
     return ob
 
 
+# --- cones -------------------------------------------------------------------------------
+def angular_range(points, axis, margin: float = 0.3) -> tuple[float, float]:
+    """(θ0, θ1) radians about ``axis`` covering ``points`` (n, 3) mm, widened by ``margin`` ×
+    their half width (+ 0.02 rad) on each side; angles as :func:`blender_io.cone_to_object`
+    measures them. A full turn when the points go (nearly) all around."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(p) == 0:
+        return 0.0, 2.0 * np.pi
+    e1, e2, _ = _axis_frame(axis)
+    rel = p - axis.o
+    th = np.arctan2(rel @ e2, rel @ e1)
+    mean = float(np.arctan2(np.mean(np.sin(th)), np.mean(np.cos(th))))
+    half = float(np.max(np.abs(np.angle(np.exp(1j * (th - mean))))))
+    half = half * (1.0 + margin) + 0.02
+    if half >= np.pi:
+        return 0.0, 2.0 * np.pi
+    return mean - half, mean + half
+
+
+def _middle_generatrix(g1, g2, s: float = 0.5):
+    """The generatrix at morph ratio ``s``: a Cone (LMC) or a Profile (LMRS)."""
+    morph = morph_between(g1, g2)
+    return morph.profile_at(s) if hasattr(morph, "profile_at") else morph.cone_at(s)
+
+
+def _cone_objects(collection, prefix, axis, g1, g2, points, f):
+    """The three cone objects (see the module docstring) in ``collection``; role → object."""
+    theta = angular_range(points, axis)
+    gens = {"cone1": g1, "cone2": g2, "cone_middle": _middle_generatrix(g1, g2)}
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    size = float(np.linalg.norm(np.ptp(p, axis=0))) if len(p) else 100.0
+    wire = max(0.003 * size, 1e-3)
+    objs = {}
+    for role, label, rgba, fill in _CONE_LOOKS:
+        name = f"{prefix} {label}"
+        ob = cone_to_object(
+            name, gens[role], axis, collection, theta=theta, segments=64, rows=6,
+            color=rgba, wire=wire, fill=fill, mm_per_unit=f,
+        )
+        ob[KEY_ROLE] = role
+        ob[KEY_NAME] = name
+        objs[role] = ob
+    return objs
+
+
+def write_cone_objects(scene, blade, cone1, cone2, axis, points) -> dict:
+    """Show cone 1, cone 2 and the middle generatrix (s = 0.5) in the blade's output
+    collection (created when missing, e.g. right after Fit Cones), replacing the cone objects
+    there; the paths, if any, are kept.
+
+    Parameters
+    ----------
+    scene, blade : the scene and the blade object (not modified)
+    cone1, cone2 : core ``Cone`` or ``Profile`` — hub and tip generatrices, mm
+    axis : core ``Axis``
+    points : (n, 3) float, mm — points whose angular range about the axis the cones cover
+        (the blade's vertices, or the CC points)
+
+    Returns
+    -------
+    dict — role (``cone1``, ``cone2``, ``cone_middle``) → object
+    """
+    f = mm_per_blender_unit(scene)
+    bname = blade.name
+    coll = find_output_collection(bname)
+    if coll is None:
+        coll = bpy.data.collections.new(collection_name(bname))
+        coll[KEY_BLADE] = bname
+        _link_under(_parent_collection(scene, blade), coll)
+    old = [output_objects(coll)[role] for role in CONE_ROLES]
+    old = [ob for ob in old if ob is not None]
+    data = [ob.data for ob in old if ob.data is not None]
+    if old:
+        bpy.data.batch_remove(old)
+        orphans = [d for d in data if d.users == 0]
+        if orphans:
+            bpy.data.batch_remove(orphans)
+    objs = _cone_objects(coll, bname, axis, cone1, cone2, points, f)
+    for ob in objs.values():
+        ob.name = ob[KEY_NAME]
+        ob.data.name = ob.name
+    return objs
+
+
 # --- write / clear -----------------------------------------------------------------------
 def write_path_objects(
     scene,
@@ -570,7 +684,8 @@ def write_path_objects(
     -------
     dict — ``collection``, ``cc``, ``tip``, ``poses`` (objects), ``links`` (object or None:
     the program's linking moves), ``pose_empties`` (list), ``verify`` (object or None),
-    ``text`` (the Text datablock)
+    ``cone1``, ``cone2``, ``cone_middle`` (the generatrices of the path and the one at
+    s = 0.5), ``text`` (the Text datablock)
     """
     settings = settings if settings is not None else scene.blisk_cam
     if not path.curves:
@@ -623,6 +738,8 @@ def write_path_objects(
         new.children.link(poses_coll)
         idx = pose_indices(path.n_poses, min(int(settings.pose_count), _max_pose_empties()))
         objs["pose_empties"] = _pose_empties(poses_coll, bname, path, idx, f, 2.0 * radius)
+        cc_all = np.concatenate([np.asarray(c.cc, dtype=np.float64) for c in path.curves])
+        objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
         if blade_arrays is not None and vertex_values is not None:
             V, F = blade_arrays
             ob = _verify_object(f"{bname} verify", V, F, vertex_values, float(path.cusp),

@@ -9,6 +9,8 @@ generated path and residuals of the last cone fit) so that they survive a save a
 the panels show them read-only.
 """
 
+import math
+
 import bpy
 from bpy.props import (
     BoolProperty,
@@ -45,6 +47,23 @@ LINK_MODES = (
     ("SPIRAL", "Spiral", "Blend successive passes into one continuous spiral"),
 )
 
+AXIS_MODES = (
+    ("LOCAL", "Lead/Tilt", "Lead and tilt in the local frame (feed, normal, side) of each pose"),
+    ("RADIAL", "Radial", "Lead in the feed direction, then lean away from (> 0) or toward (< 0) "
+     "the blisk axis by the radial tilt"),
+    ("TOWARD_AXIS", "Toward Axis", "Tool axis through the blisk axis (toward it, fixed line)"),
+    ("FROM_AXIS", "Away from Axis", "Tool axis away from the blisk axis (fixed line)"),
+    ("TOWARD_POINT", "Toward Point", "Tool axis toward the fixed point"),
+    ("FROM_POINT", "Away from Point", "Tool axis away from the fixed point"),
+)
+
+FIT_GENERATRICES = (
+    ("AUTO", "Auto", "Per end a straight cone, or a polyline profile when the cone misses the "
+     "boundary loop by more than 0.1 mm and the profile fits better (curved hub, LMRS)"),
+    ("CONE", "Cone", "Straight cones (the paper's linear morphing cones)"),
+    ("PROFILE", "Profile", "Least-squares polyline profiles (linear morphing revolution surfaces)"),
+)
+
 COLOR_MODES = (
     ("SOLID", "Solid", "One colour for all tool path curves"),
     ("MORPH", "Morph Ratio", "Colour each curve by its morph ratio s (cone 1 → cone 2)"),
@@ -72,6 +91,18 @@ def _update_display(self, context):
         output.restyle(scene)
 
 
+def _cone1_edited(self, _context):
+    """Editing cone 1's numbers (panel, gizmo, Python) replaces a fitted profile: the numbers
+    are what the user now means, never silently ignored."""
+    if self.profile1:
+        self.profile1 = ""
+
+
+def _cone2_edited(self, _context):
+    if self.profile2:
+        self.profile2 = ""
+
+
 class BliskCamSettings(PropertyGroup):
     """Inputs of one Blisk CAM job: geometry, cones, cutter, tolerances, display."""
 
@@ -95,6 +126,7 @@ class BliskCamSettings(PropertyGroup):
         size=4,
         default=(0.0, 0.0, 0.0, 0.0),
         precision=4,
+        update=_cone1_edited,
     )
     cone2: FloatVectorProperty(
         name="Cone 2",
@@ -102,6 +134,26 @@ class BliskCamSettings(PropertyGroup):
         size=4,
         default=(0.0, 0.0, 0.0, 0.0),
         precision=4,
+        update=_cone2_edited,
+    )
+    profile1: StringProperty(
+        name="Profile 1",
+        description="Hub generatrix as a polyline, JSON [[r, z], ...] in mm (empty: the straight "
+        "cone 1). Set by Fit Cones or --cone1-profile; used instead of cone 1, whose numbers "
+        "then hold its least-squares straight cone. Editing cone 1 clears it",
+        default="",
+    )
+    profile2: StringProperty(
+        name="Profile 2",
+        description="Tip generatrix as a polyline, JSON [[r, z], ...] in mm (empty: the straight "
+        "cone 2); see Profile 1",
+        default="",
+    )
+    fit_generatrix: EnumProperty(
+        name="Fit",
+        description="What Fit Cones fits to the hub and tip boundary loops",
+        items=FIT_GENERATRICES,
+        default="AUTO",
     )
 
     # Cutter -----------------------------------------------------------------------------
@@ -123,6 +175,15 @@ class BliskCamSettings(PropertyGroup):
         min=0.0,
         soft_max=50.0,
         precision=3,
+    )
+    taper_angle: FloatProperty(
+        name="Taper Angle",
+        description="Side angle of a tapered ball-end mill (half the cone angle)",
+        default=math.radians(3.0),
+        min=math.radians(0.01),
+        max=math.radians(59.0),
+        subtype="ANGLE",
+        unit="ROTATION",
     )
 
     # Tolerances -------------------------------------------------------------------------
@@ -160,8 +221,93 @@ class BliskCamSettings(PropertyGroup):
         subtype="ANGLE",
         unit="ROTATION",
     )
+    vary_lead_tilt: BoolProperty(
+        name="Vary to Tip",
+        description="Vary lead and tilt linearly from the hub values (cone 1) to the tip values "
+        "(cone 2)",
+        default=False,
+    )
+    lead_tip: FloatProperty(
+        name="Lead at Tip",
+        description="Lead angle at the tip (cone 2) when Vary to Tip is on",
+        default=0.0,
+        subtype="ANGLE",
+        unit="ROTATION",
+    )
+    tilt_tip: FloatProperty(
+        name="Tilt at Tip",
+        description="Tilt angle at the tip (cone 2) when Vary to Tip is on",
+        default=0.0,
+        subtype="ANGLE",
+        unit="ROTATION",
+    )
+    axis_mode: EnumProperty(
+        name="Tool Axis", description="How the tool axis is chosen", items=AXIS_MODES,
+        default="LOCAL",
+    )
+    radial_tilt: FloatProperty(
+        name="Radial Tilt",
+        description="Mode Radial: lean of the tool axis away from (> 0) or toward (< 0) the "
+        "blisk axis",
+        default=0.0,
+        subtype="ANGLE",
+        unit="ROTATION",
+    )
+    axis_point: FloatVectorProperty(
+        name="Axis Point",
+        description="Modes Toward/Away from Point: the fixed point, world frame, mm",
+        size=3,
+        default=(0.0, 0.0, 0.0),
+        precision=3,
+    )
+    max_axis_turn: FloatProperty(
+        name="Max Axis Turn",
+        description="Smooth the tool axes so that consecutive poses turn by at most this angle "
+        "(0: no smoothing)",
+        default=0.0,
+        min=0.0,
+        max=math.radians(89.0),
+        subtype="ANGLE",
+        unit="ROTATION",
+    )
+    fix_local_gouge: BoolProperty(
+        name="Fix Local Gouges",
+        description="Raise lead/tilt (up to 30°/20°) where the cutter would gouge the surface "
+        "next to the contact point (off: only flag those poses)",
+        default=True,
+    )
     link_mode: EnumProperty(
         name="Linking", description="Order of the passes", items=LINK_MODES, default="ONE_WAY"
+    )
+    climb: BoolProperty(
+        name="Climb Milling",
+        description="Climb milling for a clockwise (M03) spindle (off: conventional milling)",
+        default=True,
+    )
+    approach: FloatProperty(
+        name="Approach",
+        description="Approach and retract distance along the tool axis, mm",
+        default=2.0,
+        min=0.0,
+        soft_max=50.0,
+        precision=3,
+    )
+    clearance_radius: FloatProperty(
+        name="Clearance Radius",
+        description="Radius of the clearance cylinder for rapid moves, mm (0: the passes' "
+        "largest radius plus the clearance margin)",
+        default=0.0,
+        min=0.0,
+        soft_max=2000.0,
+        precision=3,
+    )
+    clearance_margin: FloatProperty(
+        name="Clearance Margin",
+        description="Margin of the automatic clearance radius above the passes, mm",
+        default=5.0,
+        min=0.0,
+        soft_max=100.0,
+        precision=3,
     )
 
     # Display and statistics -------------------------------------------------------------
@@ -169,6 +315,11 @@ class BliskCamSettings(PropertyGroup):
         name="Show Cone Gizmos",
         description="Show and edit the two cones in the 3D viewport",
         default=True,
+    )
+    live_preview: BoolProperty(
+        name="Live Preview",
+        description="Slice a few LMC curves while dragging a cone handle",
+        default=False,
     )
     pose_count: IntProperty(
         name="Poses Shown",

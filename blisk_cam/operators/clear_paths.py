@@ -1,4 +1,5 @@
-"""``blisk_cam.clear_paths``: remove the blade's output collection and its stored paths."""
+"""``blisk_cam.clear_paths``: remove the blade's output collection (paths, cone objects) and
+its stored paths."""
 
 import bpy
 
@@ -17,7 +18,7 @@ class BLISKCAM_OT_clear_paths(bpy.types.Operator):
         if settings_of(context) is None:
             cls.poll_message_set("Blisk CAM settings are missing: enable the add-on")
             return False
-        if result_blade_name(context) is None:
+        if result_blade_name(context, paths_only=False) is None:
             cls.poll_message_set("No generated paths to clear")
             return False
         return True
@@ -25,7 +26,7 @@ class BLISKCAM_OT_clear_paths(bpy.types.Operator):
     def execute(self, context):
         from ..output import clear_path_objects, collection_name
 
-        name = result_blade_name(context)
+        name = result_blade_name(context, paths_only=False)
         if name is None or not clear_path_objects(name):
             self.report({"ERROR"}, "No generated paths to clear")
             return {"CANCELLED"}

@@ -7,13 +7,15 @@ No geometry here: the settings are turned into the plain core objects (``Axis``,
 
 from __future__ import annotations
 
+import json
 import traceback
 
 import numpy as np
 
 from ..blender_io import InputError, object_axis, object_to_arrays
-from ..core.cones import Cone, MorphingCones
+from ..core.cones import Cone
 from ..core.errors import BliskCamError, ConeError
+from ..core.lmrs import Profile, morph_between
 from ..core.pipeline import PathRequest
 
 __all__ = [
@@ -26,6 +28,11 @@ __all__ = [
     "blade_problem",
     "cones_problem",
     "settings_cones",
+    "set_generatrix",
+    "profile_from_json",
+    "request_options",
+    "AXIS_MODE_NAMES",
+    "FIT_NAMES",
     "blade_axis",
     "read_blade",
     "path_request",
@@ -40,6 +47,17 @@ INTERNAL_ERROR = "Internal error"
 #: property enum → core name
 TOOL_NAMES = {"BALL": "ball", "BULL": "bull", "FLAT": "flat", "TAPER": "taper"}
 LINK_NAMES = {"ONE_WAY": "oneway", "ZIGZAG": "zigzag", "SPIRAL": "spiral"}
+#: axis mode enum → (core ``PathRequest.axis_mode``, fixed geometry: None, "axis" or "point")
+AXIS_MODE_NAMES = {
+    "LOCAL": ("local", None),
+    "RADIAL": ("radial", None),
+    "TOWARD_AXIS": ("toward_line", "axis"),
+    "FROM_AXIS": ("from_line", "axis"),
+    "TOWARD_POINT": ("toward_point", "point"),
+    "FROM_POINT": ("from_point", "point"),
+}
+#: fit enum → ``core.fitting.fit_cones_to_mesh(generatrix=...)``
+FIT_NAMES = {"AUTO": "auto", "CONE": "cone", "PROFILE": "profile"}
 
 
 def f32(value) -> float:
@@ -87,13 +105,43 @@ def blade_problem(context) -> str | None:
     return None
 
 
-def settings_cones(settings):
-    """(cone1, cone2) from the settings: ``Cone`` or None for a cone not set (all zero).
+def profile_from_json(text: str, what: str = "profile") -> Profile:
+    """A :class:`~blisk_cam.core.lmrs.Profile` from its stored JSON ``[[r, z], ...]`` (mm);
+    ConeError naming ``what`` when the text is not one."""
+    try:
+        values = json.loads(text)
+    except (TypeError, ValueError) as exc:
+        raise ConeError(f"{what}: the stored profile is not valid JSON ({exc}); fit the cones "
+                        "again or enter the cone") from None
+    try:
+        return Profile.from_list(values)
+    except ConeError as exc:
+        raise ConeError(f"{what}: {exc}") from None
 
-    Raises ConeError naming the cone when its numbers are not a valid cone.
+
+def set_generatrix(settings, k: int, generatrix) -> None:
+    """Store generatrix ``k`` (1 hub, 2 tip): a ``Cone`` in ``cone<k>``; a ``Profile`` in full
+    (full precision JSON) in ``profile<k>``, with its least-squares straight cone in
+    ``cone<k>`` for the gizmos and the panel. The cone is written first: writing it clears a
+    previous profile (the property's update)."""
+    cone = generatrix.to_cone() if isinstance(generatrix, Profile) else generatrix
+    setattr(settings, f"cone{k}", cone.as_list())
+    setattr(settings, f"profile{k}",
+            json.dumps(generatrix.as_list()) if isinstance(generatrix, Profile) else "")
+
+
+def settings_cones(settings):
+    """(generatrix1, generatrix2) from the settings: the stored ``Profile`` when there is one,
+    else the ``Cone``, or None for a cone not set (all zero).
+
+    Raises ConeError naming the cone when its numbers are not a valid cone (or profile).
     """
     out = []
     for k, values in ((1, settings.cone1), (2, settings.cone2)):
+        text = getattr(settings, f"profile{k}", "")
+        if text:
+            out.append(profile_from_json(text, f"Profile {k}"))
+            continue
         v = [f32(x) for x in values]
         if not any(v):
             out.append(None)
@@ -115,7 +163,7 @@ def cones_problem(settings) -> str | None:
                 f"Cone {' and '.join(missing)} not set: press Fit Cones (Setup) or enter "
                 "r1 z1 r2 z2 in mm (Region)"
             )
-        MorphingCones(c1, c2)
+        morph_between(c1, c2)
     except BliskCamError as exc:
         return str(exc)
     return None
@@ -135,38 +183,72 @@ def read_blade(context, blade):
     return object_to_arrays(blade, context.evaluated_depsgraph_get())
 
 
-def path_request(settings, axis, cone1, cone2) -> PathRequest:
-    """The core request of the settings (mm, radians, lowercase tool/link names)."""
+def request_options(settings, axis=None) -> dict:
+    """The ``PathRequest`` keyword arguments of the scene settings, except ``axis`` and the
+    cones: the one mapping from the panel's properties to the core (the CLI fills the same
+    properties), in core units (mm, radians, lowercase names).
+
+    ``axis`` (core ``Axis``) is needed by the modes toward/away from the blisk axis.
+    """
     tool = TOOL_NAMES[settings.tool_type]
-    radius = f32(settings.tool_radius)
-    corner = f32(settings.corner_radius) if tool == "bull" else 0.0  # the torus radius
-    return PathRequest(
-        axis=axis,
-        cone1=cone1,
-        cone2=cone2,
+    mode, fixed = AXIS_MODE_NAMES[settings.axis_mode]
+    vary = bool(settings.vary_lead_tilt)
+    opts = dict(
         tool_type=tool,
-        tool_radius=radius,
-        corner_radius=corner,
+        tool_radius=f32(settings.tool_radius),
+        corner_radius=f32(settings.corner_radius) if tool == "bull" else 0.0,  # torus radius
+        taper_angle=f32(settings.taper_angle) if tool == "taper" else None,
         cusp=f32(settings.cusp),
         chord=f32(settings.chord),
+        axis_mode=mode,
         lead=f32(settings.lead),
-        tilt=f32(settings.tilt),
+        tilt=f32(settings.tilt) if mode != "radial" else 0.0,
+        lead_tip=f32(settings.lead_tip) if vary else None,
+        tilt_tip=(f32(settings.tilt_tip) if mode != "radial" else 0.0) if vary else None,
+        radial_tilt=f32(settings.radial_tilt) if mode == "radial" else 0.0,
+        max_axis_turn=f32(settings.max_axis_turn) if settings.max_axis_turn > 0.0 else None,
+        fix_local_gouge=bool(settings.fix_local_gouge),
         link=LINK_NAMES[settings.link_mode],
+        climb=bool(settings.climb),
+        approach=f32(settings.approach),
+        clearance_radius=(f32(settings.clearance_radius)
+                          if settings.clearance_radius > 0.0 else None),
+        clearance_margin=f32(settings.clearance_margin),
     )
+    if fixed is not None:  # a fixed point or line decides the axis: no lead/tilt
+        opts.update(lead=0.0, tilt=0.0, lead_tip=None, tilt_tip=None)
+        if fixed == "axis":
+            if axis is None:
+                raise BliskCamError(f"tool-axis mode {settings.axis_mode} needs the blisk axis")
+            opts.update(axis_point=tuple(map(float, axis.o)),
+                            axis_direction=tuple(map(float, axis.d)))
+        else:
+            opts["axis_point"] = tuple(f32(x) for x in settings.axis_point)
+    return opts
 
 
-def result_blade_name(context) -> str | None:
+def path_request(settings, axis, cone1, cone2) -> PathRequest:
+    """The core request of the settings (see :func:`request_options`)."""
+    return PathRequest(axis=axis, cone1=cone1, cone2=cone2, **request_options(settings, axis))
+
+
+def result_blade_name(context, *, paths_only: bool = True) -> str | None:
     """Name of the blade whose generated paths the export/clear operators act on: the
-    current blade if it has paths, else the blade of the last result; None without paths."""
-    from ..output import find_output_collection
+    current blade if it has paths, else the blade of the last result; None without paths.
+    With ``paths_only=False`` an output collection holding only the fitted cones counts."""
+    from ..output import find_output_collection, has_paths
 
     settings = settings_of(context)
     if settings is None:
         return None
+
+    def ok(name):
+        return has_paths(name) if paths_only else find_output_collection(name) is not None
+
     blade = resolve_blade(context)
-    if blade is not None and find_output_collection(blade.name) is not None:
+    if blade is not None and ok(blade.name):
         return blade.name
-    if settings.stat_blade and find_output_collection(settings.stat_blade) is not None:
+    if settings.stat_blade and ok(settings.stat_blade):
         return settings.stat_blade
     return None
 

@@ -1,8 +1,16 @@
-"""``blisk_cam.fit_cones``: fit cone 1 (hub) and cone 2 (tip) to the blade's boundary loops."""
+"""``blisk_cam.fit_cones``: fit cone 1 (hub) and cone 2 (tip) to the blade's boundary loops.
+
+What is fitted follows ``scene.blisk_cam.fit_generatrix`` (straight cones, polyline profiles
+for a curved hub or tip — LMRS, paper 001 §4.2 — or per end whichever fits: ``core.fitting``).
+A fitted profile is stored in full in ``profile1``/``profile2``; the cone and the middle
+generatrix are shown at once in the blade's output collection (:func:`output.write_cone_objects`).
+"""
 
 import bpy
+import numpy as np
 
 from .common import (
+    FIT_NAMES,
     blade_axis,
     blade_problem,
     read_blade,
@@ -12,7 +20,8 @@ from .common import (
 
 
 class BLISKCAM_OT_fit_cones(bpy.types.Operator):
-    """Fit the hub and tip cones to the blade mesh's two open boundary loops"""
+    """Fit the hub and tip cones (or profiles, see Fit) to the blade mesh's two open boundary
+    loops"""
 
     bl_idname = "blisk_cam.fit_cones"
     bl_label = "Fit Cones"
@@ -27,8 +36,10 @@ class BLISKCAM_OT_fit_cones(bpy.types.Operator):
         return True
 
     def execute(self, context):
+        from .. import output
         from ..core.fitting import fit_cones_to_mesh
         from ..core.mesh import TriMesh
+        from .common import set_generatrix
 
         settings = context.scene.blisk_cam
         try:
@@ -40,19 +51,23 @@ class BLISKCAM_OT_fit_cones(bpy.types.Operator):
             blade = resolve_blade(context)
             axis = blade_axis(settings, blade)
             V, F = read_blade(context, blade)
-            fit = fit_cones_to_mesh(TriMesh.from_arrays(V, F), axis)
+            mesh = TriMesh.from_arrays(V, F)
+            fit = fit_cones_to_mesh(mesh, axis, generatrix=FIT_NAMES[settings.fit_generatrix])
+            if settings.blade is None:
+                settings.blade = blade
+            set_generatrix(settings, 1, fit.cone1)
+            set_generatrix(settings, 2, fit.cone2)
+            settings.fit_residual1 = fit.residual1
+            settings.fit_residual2 = fit.residual2
+            loops = mesh.V[np.concatenate([fit.hub_loop, fit.tip_loop])]
+            output.write_cone_objects(context.scene, blade, fit.cone1, fit.cone2, axis, loops)
         except Exception as exc:
             return report_exception(self, exc)
-        if settings.blade is None:
-            settings.blade = blade
-        settings.cone1 = fit.cone1.as_list()
-        settings.cone2 = fit.cone2.as_list()
-        settings.fit_residual1 = fit.residual1
-        settings.fit_residual2 = fit.residual2
+        kinds = fit.kinds
         extra = f"; {fit.other_loops} other boundary loop(s) ignored" if fit.other_loops else ""
         self.report(
             {"INFO"},
-            f"Fitted cones to '{blade.name}': residual {fit.residual1:.4f} mm (hub), "
-            f"{fit.residual2:.4f} mm (tip){extra}",
+            f"Fitted to '{blade.name}': hub {kinds[0]} residual {fit.residual1:.4f} mm, "
+            f"tip {kinds[1]} residual {fit.residual2:.4f} mm{extra}",
         )
         return {"FINISHED"}

@@ -39,12 +39,26 @@ class BLISKCAM_PT_setup(_BliskCamPanel, Panel):
         col.prop(settings, "axis_object")
         if settings.axis_object is None:
             col.label(text="Axis: the blade's world Z through its origin", icon="INFO")
+        layout.prop(settings, "fit_generatrix")
         layout.operator("blisk_cam.fit_cones", icon="MESH_CONE")
         if settings.fit_residual1 >= 0.0 and settings.fit_residual2 >= 0.0:
             layout.label(
                 text=f"Fit residual: hub {settings.fit_residual1:.4f} mm, "
                 f"tip {settings.fit_residual2:.4f} mm"
             )
+
+
+def _profile_points(text: str) -> int:
+    """Number of points of a stored profile JSON (0: none or unreadable; the operators
+    report what is wrong)."""
+    if not text:
+        return 0
+    import json
+
+    try:
+        return len(json.loads(text))
+    except (TypeError, ValueError):
+        return 0
 
 
 class BLISKCAM_PT_region(_BliskCamPanel, Panel):
@@ -59,11 +73,20 @@ class BLISKCAM_PT_region(_BliskCamPanel, Panel):
         col = layout.column(heading="Cones (r1 z1 r2 z2, mm)")
         col.prop(settings, "cone1")
         col.prop(settings, "cone2")
-        layout.prop(settings, "show_gizmos")
+        for k in (1, 2):
+            points = _profile_points(getattr(settings, f"profile{k}"))
+            if points:
+                layout.label(text=f"Cone {k} is a profile of {points} points (editing the "
+                             "numbers replaces it)", icon="CURVE_PATH")
+        row = layout.row(heading="Gizmos")
+        row.prop(settings, "show_gizmos", text="Show")
+        sub = row.row()
+        sub.active = settings.show_gizmos
+        sub.prop(settings, "live_preview")
 
 
 class BLISKCAM_PT_tool(_BliskCamPanel, Panel):
-    """Cutter, orientation and linking."""
+    """Cutter, tool axis (orientation) and linking."""
 
     bl_idname = "BLISKCAM_PT_tool"
     bl_label = "Tool"
@@ -75,12 +98,44 @@ class BLISKCAM_PT_tool(_BliskCamPanel, Panel):
         col.prop(settings, "tool_type")
         col.prop(settings, "tool_radius")
         sub = col.column()
-        sub.active = settings.tool_type in {"BULL", "TAPER"}
+        sub.active = settings.tool_type == "BULL"
         sub.prop(settings, "corner_radius")
-        col = layout.column()
-        col.prop(settings, "lead")
-        col.prop(settings, "tilt")
+        sub = col.column()
+        sub.active = settings.tool_type == "TAPER"
+        sub.prop(settings, "taper_angle")
+
+        col = layout.column(heading="Tool Axis")
+        col.prop(settings, "axis_mode", text="Mode")
+        mode = settings.axis_mode
+        angles = mode in {"LOCAL", "RADIAL"}
+        sub = col.column()
+        sub.active = angles
+        sub.prop(settings, "lead")
+        if mode == "RADIAL":
+            sub.prop(settings, "radial_tilt")
+        else:
+            sub.prop(settings, "tilt")
+        sub.prop(settings, "vary_lead_tilt")
+        tip = sub.column()
+        tip.active = angles and settings.vary_lead_tilt
+        tip.prop(settings, "lead_tip")
+        if mode != "RADIAL":
+            tip.prop(settings, "tilt_tip")
+        if mode in {"TOWARD_POINT", "FROM_POINT"}:
+            col.prop(settings, "axis_point")
+        col.prop(settings, "max_axis_turn")
+        sub = col.column()
+        sub.active = mode == "LOCAL"
+        sub.prop(settings, "fix_local_gouge")
+
+        col = layout.column(heading="Linking")
         col.prop(settings, "link_mode")
+        col.prop(settings, "climb")
+        col.prop(settings, "approach")
+        col.prop(settings, "clearance_radius")
+        sub = col.column()
+        sub.active = settings.clearance_radius == 0.0
+        sub.prop(settings, "clearance_margin")
 
 
 class BLISKCAM_PT_tolerances(_BliskCamPanel, Panel):
