@@ -31,6 +31,12 @@ Construction (units mm and radians; blisk axis +Z through the origin):
   cone (measured at the camber point, d = v H(t) with H the hub-to-tip distance), the circle
   radius grows by ρ_f − sqrt(ρ_f² − (ρ_f − d)²) for d < ρ_f, so the blade surface meets the
   hub tangentially. It only thickens sections: the row v = 0 stays on cone 1.
+  The flare is a circle of radius ρ_f in (height above the hub, offset in the LMC plane); where
+  the blade wall is not normal to the hub (the span runs radially while the hub cone leans
+  14°, plus lean and twist) that circle is sheared into an ellipse, whose tightest concave
+  principal radius is smaller than ρ_f: measured 5.73 mm for ρ_f = 8 mm (beside the trailing
+  edge, v ≈ 0.035) and 7.18 mm for ρ_f = 10 mm (test_demo). A ball of radius ρ fits the
+  whole fillet only if ρ ≤ ≈ 0.72 ρ_f.
 * **Mesh.** One open tube per blade: a periodic grid ``n_u × n_v`` (u around the section:
   LE arc, suction-or-pressure side, TE arc, other side; v hub → tip), two triangles per cell,
   normals out of the material. Points are concentrated at LE/TE (a dense arc around each edge
@@ -143,7 +149,8 @@ class DemoParams:
     fillet : bool
         Add the hub fillet (circular flare of the section near the hub).
     fillet_radius : float, 3 … 50 mm (and ≤ 0.4 of the blade height)
-        Fillet radius ρ_f; default 8 mm (≥ the 6 mm ball of paper 001 §4).
+        Fillet radius ρ_f; default 8 mm. The surface's tightest concave principal radius is
+        ≈ 0.72 ρ_f (5.7 mm for 8 mm, see **Fillet** above): a 6 mm ball needs ρ_f ≥ 8.5 mm.
     resolution : float, 0.1 … 10
         Mesh density k: ≈ 100 000 k² blade triangles (see :func:`blade_grid_shape`).
     hub_pitches : float, 1 … blade_count

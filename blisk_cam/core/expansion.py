@@ -149,10 +149,18 @@ class PolylineDistance:
         self.tree = cKDTree(samples)
         self.k = min(k, len(samples))
 
-    def __call__(self, points):
-        """(q,) distances (mm) from (q, 3) points to the nearest polyline segment."""
+    def __call__(self, points, near=None):
+        """(q,) distances (mm) from (q, 3) points to the nearest polyline segment.
+
+        near : (q, 3) float, optional — where to look for the candidate segments (default the
+            points themselves). A surface point queried against ball-centre paths ρ away
+            costs the KD-tree a search of radius ρ; its own would-be centre ``p + ρ n`` lies
+            next to the nearest centres and is found at once. The distance is still exact to
+            the candidates, so a poor hint can only overestimate it.
+        """
         p = np.asarray(points, dtype=np.float64)
-        _, idx = self.tree.query(p, k=self.k)
+        hint = p if near is None else np.asarray(near, dtype=np.float64)
+        _, idx = self.tree.query(hint, k=self.k)
         idx = np.asarray(idx).reshape(len(p), -1)
         seg = self.seg_of_sample[idx]  # (q, k)
         a = self.a[seg]
@@ -164,15 +172,18 @@ class PolylineDistance:
         return np.sqrt(np.min(np.einsum("qkj,qkj->qk", d, d), axis=1))
 
 
-def measure_cusp(level_points, dist_a, dist_b, radius: float):
+def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None):
     """Largest scallop between two passes, from surface points on levels between them.
 
     Parameters
     ----------
     level_points : list of (k_i, 3) float — surface points on successive levels from pass A
         to pass B (first = pass A's own level, last = pass B's), each an exact mesh ∩ LMC
-    dist_a, dist_b : callables, (q, 3) → (q,) distance to A's / B's ball-centre path
+    dist_a, dist_b : callables, (q, 3) → (q,) distance to A's / B's ball-centre path (with
+        an optional ``near=`` hint, see :class:`PolylineDistance`)
     radius : float, mm
+    level_normals : list of (k_i, 3) float, optional — unit surface normals at the points;
+        the candidate search then starts at ``p + ρ n`` (faster, same result)
 
     Returns
     -------
@@ -182,12 +193,17 @@ def measure_cusp(level_points, dist_a, dist_b, radius: float):
     """
     best = -np.inf
     prev = None
-    for pts in level_points:
+    for i, pts in enumerate(level_points):
         if len(pts) == 0:
             prev = None
             continue
-        ma = dist_a(pts) - radius
-        mb = dist_b(pts) - radius
+        if level_normals is None:
+            ma = dist_a(pts) - radius
+            mb = dist_b(pts) - radius
+        else:
+            near = pts + radius * level_normals[i]
+            ma = dist_a(pts, near=near) - radius
+            mb = dist_b(pts, near=near) - radius
         best = max(best, float(np.max(np.minimum(ma, mb))))
         if prev is not None:
             ppts, pma, pmb = prev

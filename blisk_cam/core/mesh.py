@@ -48,6 +48,9 @@ def chain_graph_paths(n_nodes: int, links, *, strict: bool = True):
     links = np.asarray(links, dtype=np.int64).reshape(-1, 2)
     if len(links) == 0:
         return []
+    fast = _chain_directed(n_nodes, links)
+    if fast is not None:
+        return fast
     g = sparse.coo_matrix(
         (np.ones(len(links)), (links[:, 0], links[:, 1])), shape=(n_nodes, n_nodes)
     ).tocsr()
@@ -78,6 +81,57 @@ def chain_graph_paths(n_nodes: int, links, *, strict: bool = True):
     return out
 
 
+def _chain_directed(n_nodes: int, links):
+    """:func:`chain_graph_paths` for the common case — the links, taken as directed, are
+    disjoint paths and cycles (every node at most one link out and one in, no 2-cycles):
+    list ranking by pointer jumping, O(k log k) numpy, no sparse graph. Chains follow the
+    link direction; a cycle starts at its lowest node. ``None`` when the links are not of
+    that form (the caller then takes the general route)."""
+    a, b = links[:, 0], links[:, 1]
+    outd = np.bincount(a, minlength=n_nodes)
+    ind = np.bincount(b, minlength=n_nodes)
+    if np.any(a == b) or outd.max() > 1 or ind.max() > 1:
+        return None
+    succ = np.arange(n_nodes)  # a tail points at itself
+    succ[a] = b
+    if np.any(succ[b] == a):
+        return None
+    steps = int(np.ceil(np.log2(max(len(links), 2)))) + 2
+
+    # nodes on a cycle never reach a tail; break each cycle before its lowest node
+    nxt = succ.copy()
+    for _ in range(steps):
+        nxt = nxt[nxt]
+    on_cycle = outd[nxt] > 0
+    closed_start = np.zeros(n_nodes, dtype=bool)
+    if np.any(on_cycle):
+        low = np.where(on_cycle, np.arange(n_nodes), n_nodes)
+        jump = succ.copy()
+        for _ in range(steps):
+            low = np.minimum(low, low[jump])
+            jump = jump[jump]
+        heads = np.unique(low[on_cycle])
+        pred = np.full(n_nodes, -1, dtype=np.int64)
+        pred[b] = a
+        tails = pred[heads]
+        succ[tails] = tails
+        closed_start[heads] = True
+    # distance to the tail by pointer jumping (exact doubling: d(x) = d(x → y) + d(y))
+    nxt = succ.copy()
+    dist = (succ != np.arange(n_nodes)).astype(np.int64)
+    for _ in range(steps):
+        dist = dist + dist[nxt]
+        nxt = nxt[nxt]
+    used = (outd + ind) > 0
+    nodes = np.flatnonzero(used)
+    order = nodes[np.lexsort((-dist[nodes], nxt[nodes]))]  # by tail, then head → tail
+    cut = np.flatnonzero(np.diff(nxt[order])) + 1
+    out = []
+    for chain in np.split(order, cut):
+        out.append((chain, bool(closed_start[chain[0]])))
+    return out
+
+
 @dataclass
 class TriMesh:
     """A checked, welded, consistently oriented triangle mesh.
@@ -88,7 +142,11 @@ class TriMesh:
     F : (m, 3) int64, counter-clockwise seen from outside (normals out of the material)
     flipped_faces : int — how many input faces had their winding reversed to make it consistent
     welded_vertices : int — how many input vertices were merged into others
-    dropped_faces : int — faces removed because two of their corners were the same vertex
+    dropped_faces : int — faces removed: two corners the same vertex, or a repeat of a face
+    vertex_map : (n_input,) int64 — input vertex i → mesh vertex index, −1 if dropped (unused
+        by every face, which includes unused NaN vertices); the identity when nothing was
+        welded or dropped. Use it to carry per-vertex results back to the input mesh.
+    face_map : (m_input,) int64 — input face j → mesh face index, −1 if dropped
     """
 
     V: np.ndarray
@@ -96,6 +154,8 @@ class TriMesh:
     flipped_faces: int = 0
     welded_vertices: int = 0
     dropped_faces: int = 0
+    vertex_map: np.ndarray | None = None
+    face_map: np.ndarray | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ construction
@@ -109,11 +169,25 @@ class TriMesh:
         F : (m, 3) array-like of int
         weld_tolerance : float, mm — vertices closer than this are merged. Default 1e-7 of the
             bounding-box diagonal (merges the duplicated corners of STL files, nothing else).
-        orient : bool — make the winding consistent and the normals point outward.
+        orient : bool — make the winding consistent and the normals point outward (see
+            :meth:`_orient` for the rule on open patches).
+
+        What is changed, and how it is recorded
+        ---------------------------------------
+        * Vertices no face uses are dropped; so are NaN/infinite vertices *if* no face uses
+          them (a face that uses one is refused, see Raises).
+        * Exactly equal vertices and vertices within ``weld_tolerance`` are merged; a merged
+          vertex keeps the coordinates of its lowest-index input vertex (a boundary vertex
+          lying exactly on a cone stays exactly there).
+        * Mesh vertices come in the order of their first input vertex: when nothing is welded
+          or dropped, ``V`` is the input and ``vertex_map`` is the identity.
+        * Faces with two equal corners (after welding) and repeated faces (the same three
+          vertices, in any order) are dropped; ``face_map`` records it.
 
         Raises
         ------
-        MeshError naming the problem (empty, NaN, bad indices, non-manifold, non-orientable).
+        MeshError naming the problem (empty, NaN/inf used by a face, bad indices,
+        non-manifold, non-orientable).
         """
         V = np.array(V, dtype=np.float64, copy=True)
         F = np.array(F, copy=True)
@@ -127,39 +201,72 @@ class TriMesh:
             if not np.all(np.isfinite(F)) or np.any(F != np.round(F)):
                 raise MeshError("face indices must be integers")
         F = F.astype(np.int64)
-        if F.min() < 0 or F.max() >= len(V):
+        n_in, m_in = len(V), len(F)
+        fmin, fmax = int(F.min()), int(F.max())
+        if fmin < 0 or fmax >= n_in:
+            raise MeshError(f"face indices out of range [0, {n_in - 1}] (found {fmin}..{fmax})")
+        used = np.zeros(n_in, dtype=bool)
+        used[F.ravel()] = True
+        bad = used & ~np.all(np.isfinite(V), axis=1)
+        if np.any(bad):
             raise MeshError(
-                f"face indices out of range [0, {len(V) - 1}] (found {F.min()}..{F.max()})"
+                f"{int(np.sum(bad))} vertices used by faces have NaN or infinite coordinates "
+                f"(the first is vertex {int(np.argmax(bad))}); fix or delete them before "
+                "generating paths"
             )
-        bad = ~np.all(np.isfinite(V), axis=1)
-        if np.any(bad[np.unique(F)]):
-            raise MeshError(
-                f"{int(np.sum(bad))} vertices have NaN or infinite coordinates; "
-                "fix or delete them before generating paths"
-            )
-        # drop unused vertices (and with them unused NaNs)
-        used, F = np.unique(F, return_inverse=True)
-        F = F.reshape(-1, 3)
-        V = V[used]
-        diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+        Vu = V[used]
+        diag = float(np.linalg.norm(Vu.max(axis=0) - Vu.min(axis=0)))
         if diag == 0.0:
             raise MeshError("all vertices coincide: the mesh has no extent")
         tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
-        n_before = len(V)
-        V, F = _weld(V, F, tol)
-        welded = n_before - len(V)
+        if not np.isfinite(tol) or tol < 0:
+            raise MeshError(f"weld tolerance must be a finite number ≥ 0 mm, got {weld_tolerance}")
+        # representative (lowest input index) of every used vertex: exact duplicates, then
+        # clusters closer than tol
+        iu = np.nonzero(used)[0]
+        rep = iu[_first_equal_row((Vu + 0.0).view(np.int64))]  # + 0.0: −0.0 equals 0.0
+        is_rep = np.zeros(n_in, dtype=bool)
+        is_rep[rep] = True
+        if tol > 0 and np.count_nonzero(is_rep) > 1:
+            ir = np.nonzero(is_rep)[0]
+            pairs = cKDTree(V[ir], balanced_tree=False, compact_nodes=False).query_pairs(
+                tol, output_type="ndarray"
+            )
+            if len(pairs):
+                g = sparse.coo_matrix(
+                    (np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(ir), len(ir))
+                )
+                _, lab = csgraph.connected_components(g, directed=False)
+                low = np.full(lab.max() + 1, n_in, dtype=np.int64)
+                np.minimum.at(low, lab, ir)
+                remap = np.arange(n_in)
+                remap[ir] = low[lab]
+                rep = remap[rep]
+                is_rep[:] = False
+                is_rep[rep] = True
+        new_id = np.cumsum(is_rep) - 1
+        vertex_map = np.full(n_in, -1, dtype=np.int64)
+        vertex_map[iu] = new_id[rep]
+        V = V[is_rep]
+        welded = len(iu) - len(V)
+        F = vertex_map[F]
         keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
-        dropped = int(np.sum(~keep))
-        F = F[keep]
-        if len(F) == 0:
+        if not np.any(keep):
             raise MeshError("every face is degenerate (corners coincide): the mesh has no area")
-        # duplicate faces (same three vertices) would make edges non-manifold
-        key = np.sort(F, axis=1)
-        _, first = np.unique(key, axis=0, return_index=True)
-        if len(first) < len(F):
-            dropped += len(F) - len(first)
-            F = F[np.sort(first)]
-        mesh = cls(V=V, F=F, welded_vertices=welded, dropped_faces=dropped)
+        # repeated faces (same three vertices) would make their edges non-manifold
+        kept = np.nonzero(keep)[0]
+        Fk = np.sort(F[kept], axis=1)
+        nv = np.int64(len(V))
+        if len(V) < 2_000_000:  # n³ < 2⁶³: one exact int64 key per face, in near-sorted runs
+            first = _first_equal_row(((Fk[:, 0] * nv + Fk[:, 1]) * nv + Fk[:, 2])[:, None])
+        else:
+            first = _first_equal_row(Fk)
+        keep[kept[first != np.arange(len(kept))]] = False
+        dropped = int(m_in - np.count_nonzero(keep))
+        face_map = np.full(m_in, -1, dtype=np.int64)
+        face_map[keep] = np.arange(np.count_nonzero(keep))
+        mesh = cls(V=V, F=F[keep], welded_vertices=welded, dropped_faces=dropped,
+                   vertex_map=vertex_map, face_map=face_map)
         if orient:
             mesh._orient()
         return mesh
@@ -177,34 +284,38 @@ class TriMesh:
         c = self._cache
         if "edges" not in c:
             F = self.F
-            he = np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)  # (3m, 2)
-            lo = np.minimum(he[:, 0], he[:, 1])
-            hi = np.maximum(he[:, 0], he[:, 1])
-            key = lo * np.int64(len(self.V)) + hi
-            uniq, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+            n = np.int64(len(self.V))
+            ha = F.ravel()  # half-edge 3f + k runs from corner k to corner k + 1 of face f
+            hb = F[:, [1, 2, 0]].ravel()
+            lo = np.minimum(ha, hb)
+            key = lo * n + np.maximum(ha, hb)
+            # stable sort: the keys come in long sorted runs (faces share vertices in order),
+            # which timsort exploits (~4x faster than np.unique's quicksort on 4M half-edges)
+            order = np.argsort(key, kind="stable")
+            ks = key[order]
+            head = np.empty(len(ks), dtype=bool)
+            head[0] = True
+            np.not_equal(ks[1:], ks[:-1], out=head[1:])
+            starts = np.flatnonzero(head)
+            counts = np.diff(starts, append=len(ks))
             if np.any(counts > 2):
                 raise MeshError(
                     f"{int(np.sum(counts > 2))} edges are shared by more than two faces "
                     "(non-manifold mesh); clean it (merge by distance, delete interior or "
                     "duplicate faces) and try again"
                 )
-            edges = np.stack([uniq // len(self.V), uniq % len(self.V)], axis=1)
-            face_of_he = np.repeat(np.arange(len(F)), 3)
-            order = np.argsort(inv, kind="stable")
-            inv_sorted = inv[order]
-            starts = np.searchsorted(inv_sorted, np.arange(len(uniq)))
-            ef = np.full((len(uniq), 2), -1, dtype=np.int64)
-            ef[:, 0] = face_of_he[order[starts]]
+            uniq = ks[starts]
+            inv = np.empty(len(key), dtype=np.int64)
+            inv[order] = np.cumsum(head) - 1
             second = counts == 2
-            ef[second, 1] = face_of_he[order[starts[second] + 1]]
             he_idx = np.full((len(uniq), 2), -1, dtype=np.int64)
             he_idx[:, 0] = order[starts]
             he_idx[second, 1] = order[starts[second] + 1]
-            c["edges"] = edges
+            c["edges"] = np.stack([uniq // n, uniq % n], axis=1)
             c["face_edges"] = inv.reshape(-1, 3)
-            c["edge_faces"] = ef
+            c["edge_faces"] = np.where(he_idx >= 0, he_idx // 3, -1)
             c["edge_halfedges"] = he_idx
-            c["halfedges"] = he
+            c["halfedges"] = np.stack([ha, hb], axis=1)
         return c
 
     @property
@@ -222,20 +333,53 @@ class TriMesh:
         """(e, 2) int64: the one or two faces of each edge (−1 where there is none)."""
         return self._edges()["edge_faces"]
 
+    #: the capped volume decides the outward side only when the caps' area is at most this
+    #: share of the component's area (a tube open at hub and tip: a few %; one blade side: ~1)
+    CAP_AREA_SHARE = 0.5
+    #: ... and when |volume| > this × area^{3/2} (a sphere: 0.094; a 1 mm thick,
+    #: 100 × 100 mm blade tube: ~0.002; a flat patch: 0)
+    VOLUME_CONCLUSIVE = 1e-4
+
     def _orient(self):
-        """Make the winding consistent (per connected component) and the normals outward."""
+        """Make the winding consistent per connected component, then turn it outward.
+
+        Consistency. Two faces sharing an edge must traverse it in opposite directions; the
+        faces are split into the two parity classes of a spanning forest and the *smaller*
+        class is flipped (ties: the class of the component's lowest-index face is kept), so a
+        mesh that is consistent already is never touched and a mostly-consistent one keeps
+        the majority's winding. A Möbius-like component raises :class:`MeshError`.
+
+        Outward (normals out of the material). Each component is closed by a fan over each
+        of its boundary loops (to the loop's centroid) and the sign of the enclosed volume
+        says whether its normals point out. This is trusted only when
+
+        * the caps are small against the surface (Σ |vector area of a loop| ≤
+          ``CAP_AREA_SHARE`` × the component's area: a blade tube open at hub and tip, a
+          closed mesh, a tube with a hole), and
+        * the volume is conclusive (|volume| > ``VOLUME_CONCLUSIVE`` × area^{3/2}).
+
+        Otherwise the component is a patch with no inside of its own — a single blade side,
+        a hub strip, a nearly flat sheet, whose capped "volume" only measures its sag and
+        would orient it by its curvature, not by the material — and its input winding (the
+        majority's, as above) is kept, deterministically. Such patches must come with their
+        normals out of the material (in Blender: Recalculate Outside on the whole blade, or
+        Flip).
+        """
         c = self._edges()
         ef, hei, he = c["edge_faces"], c["edge_halfedges"], c["halfedges"]
         interior = ef[:, 1] >= 0
         # two faces sharing an edge are consistent when they traverse it in opposite directions
         h0 = he[hei[interior, 0]]
         h1 = he[hei[interior, 1]]
-        inconsistent = (h0[:, 0] == h1[:, 0]).astype(np.int8)
+        inconsistent = h0[:, 0] == h1[:, 0]
         f0, f1 = ef[interior, 0], ef[interior, 1]
         m = len(self.F)
+        ncomp, labels = csgraph.connected_components(
+            sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m)), directed=False
+        )
         flip = np.zeros(m, dtype=bool)
         if np.any(inconsistent):
-            flip = _parity_flip(m, f0, f1, inconsistent)
+            flip = _parity_flip(m, f0, f1, inconsistent, labels, ncomp)
             if np.any(flip):
                 F = self.F.copy()
                 F[flip] = F[flip][:, ::-1]
@@ -250,12 +394,11 @@ class TriMesh:
                         "the mesh is not orientable (a Möbius-like strip or inconsistent "
                         "duplicate surfaces); recalculate normals in Blender or clean the mesh"
                     )
-        # outward: capped signed volume of each connected component
-        ncomp, labels = csgraph.connected_components(
-            sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m)), directed=False
+        vol, area, cap = self._capped_volume(labels, ncomp)
+        trusted = (cap <= self.CAP_AREA_SHARE * area) & (
+            np.abs(vol) > self.VOLUME_CONCLUSIVE * area**1.5
         )
-        vol = self._capped_signed_volume(labels, ncomp)
-        inward = vol < 0
+        inward = trusted & (vol < 0)
         if np.any(inward):
             F = self.F.copy()
             sel = inward[labels]
@@ -265,27 +408,36 @@ class TriMesh:
             self._cache.clear()
         self.flipped_faces = int(np.sum(flip))
 
-    def _capped_signed_volume(self, labels, ncomp):
-        """Signed volume per face component with every boundary loop closed by a fan to its
-        centroid (so an open blade tube — hub and tip left open — has a meaningful sign)."""
+    def _capped_volume(self, labels, ncomp):
+        """Per face component: signed volume with every boundary loop closed by a fan to its
+        centroid (mm³, > 0 when the normals point out), area (mm²) and the summed magnitude of
+        the loops' vector areas (mm², the size of the caps)."""
         V, F = self.V, self.F
-        a, b, cc = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
         ref = V.mean(axis=0)
-        per_face = np.einsum("ij,ij->i", a - ref, np.cross(b - ref, cc - ref)) / 6.0
+        n2 = triangle_normals(V, F)  # (b − a) × (c − a); a·(b × c) = a·n2 about any origin
+        self._set_face_normals(n2)
+        per_face = np.einsum("ij,ij->i", V[F[:, 0]] - ref, n2) / 6.0
         vol = np.bincount(labels, weights=per_face, minlength=ncomp)
-        for loop in self.boundary_loops():
-            pts = V[loop]
-            cen = pts.mean(axis=0)
-            nxt = np.roll(pts, -1, axis=0)
-            # boundary half-edges run in face order; the cap closes them in the same sense
-            cap = np.einsum("ij,ij->i", nxt - ref, np.cross(pts - ref, np.broadcast_to(cen - ref, pts.shape)))
-            face = self._boundary_face_of_vertex(loop[0])
-            vol[labels[face]] += cap.sum() / 6.0
-        return vol
-
-    def _boundary_face_of_vertex(self, v):
-        rows = np.nonzero(np.any(self.F == v, axis=1))[0]
-        return int(rows[0])
+        area = np.bincount(labels, weights=self.face_areas, minlength=ncomp)
+        cap = np.zeros(ncomp)
+        loops = self.boundary_loops()
+        if loops:
+            e = self._edges()
+            bnd = e["edge_faces"][:, 1] < 0
+            he_b = e["edge_halfedges"][bnd, 0]
+            face_from = np.full(len(V), -1, dtype=np.int64)
+            face_from[e["halfedges"][he_b, 0]] = he_b // 3  # face of the outgoing boundary edge
+            for loop in loops:
+                pts = V[loop] - ref
+                nxt = np.roll(pts, -1, axis=0)
+                cen = pts.mean(axis=0)
+                # boundary half-edges run in face order; the cap traverses them backwards
+                cvol = float(np.einsum("ij,ij->i", nxt, np.cross(pts, cen)).sum()) / 6.0
+                varea = 0.5 * np.cross(pts - cen, nxt - cen).sum(axis=0)
+                comp = labels[face_from[loop[0]]]
+                vol[comp] += cvol
+                cap[comp] += float(np.linalg.norm(varea))
+        return vol, area, cap
 
     def boundary_loops(self):
         """Boundary loops as lists of vertex ids, each ordered along the face winding.
@@ -319,18 +471,19 @@ class TriMesh:
     @property
     def face_normals(self) -> np.ndarray:
         """(m, 3) unit face normals (zero for zero-area faces)."""
-        c = self._cache
-        if "fn" not in c:
-            n = triangle_normals(self.V, self.F)
-            ln = np.linalg.norm(n, axis=1)
-            c["fn_area2"] = ln
-            c["fn"] = n / np.where(ln > 0, ln, 1.0)[:, None]
-        return c["fn"]
+        if "fn" not in self._cache:
+            self._set_face_normals(triangle_normals(self.V, self.F))
+        return self._cache["fn"]
+
+    def _set_face_normals(self, n2):
+        ln = np.sqrt(np.einsum("ij,ij->i", n2, n2))
+        self._cache["fn_area2"] = ln
+        self._cache["fn"] = n2 / np.where(ln > 0, ln, 1.0)[:, None]
 
     @property
     def face_areas(self) -> np.ndarray:
         """(m,) face areas, mm²."""
-        self.face_normals
+        _ = self.face_normals  # fills the cache
         return self._cache["fn_area2"] * 0.5
 
     @property
@@ -368,44 +521,61 @@ def _scatter_add(n, idx, values):
     return out
 
 
-def _weld(V, F, tol):
-    """Merge vertices closer than ``tol``; returns new (V, F)."""
-    # exact duplicates first (the common STL case), cheaply
-    uniq, inv = np.unique(V, axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    if tol > 0 and len(uniq) > 1:
-        pairs = cKDTree(uniq).query_pairs(tol, output_type="ndarray")
-        if len(pairs):
-            g = sparse.coo_matrix(
-                (np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(uniq), len(uniq))
-            )
-            _, lab = csgraph.connected_components(g, directed=False)
-            # representative: mean of each cluster
-            cnt = np.bincount(lab)
-            rep = _scatter_add(lab.max() + 1, lab, uniq) / cnt[:, None]
-            uniq, inv = rep, lab[inv]
-    return uniq, inv[F]
+def _first_equal_row(K):
+    """For each row of an integer array (k, c), the index of the first row equal to it.
+
+    Rows are grouped by a 64-bit mix of their columns, sorted stably (so the first of a group
+    is its lowest index); a hash collision is detected exactly and falls back to a lexsort.
+    O(k log k) on one int64 key instead of ``np.unique(axis=0)`` on rows.
+    """
+    K = np.ascontiguousarray(K, dtype=np.int64)
+    k = len(K)
+    if k == 0:
+        return np.zeros(0, dtype=np.int64)
+    if K.shape[1] == 1:
+        h = K[:, 0]
+    else:
+        with np.errstate(over="ignore"):
+            h = np.zeros(k, dtype=np.int64)
+            for j in range(K.shape[1]):
+                h = (h ^ K[:, j]) * np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15 (odd)
+                h ^= h >> np.int64(29)
+    order = np.argsort(h, kind="stable")
+    hs = h[order]
+    head = np.ones(k, dtype=bool)
+    head[1:] = hs[1:] != hs[:-1]
+    grp_first = order[np.maximum.accumulate(np.where(head, np.arange(k), 0))]
+    if not np.array_equal(K[order], K[grp_first]):  # a collision: exact (slower) path
+        order = np.lexsort(K.T[::-1])
+        Ks = K[order]
+        head[1:] = np.any(Ks[1:] != Ks[:-1], axis=1)
+        grp_first = order[np.maximum.accumulate(np.where(head, np.arange(k), 0))]
+    first = np.empty(k, dtype=np.int64)
+    first[order] = grp_first
+    return first
 
 
-def _parity_flip(m, f0, f1, inconsistent):
-    """Solve flip[f0] xor flip[f1] = inconsistent over a spanning forest (vectorised).
+def _parity_flip(m, f0, f1, inconsistent, labels, ncomp):
+    """Faces to flip so that flip[f0] xor flip[f1] = inconsistent on every interior edge.
 
-    Builds a BFS tree per component and accumulates the parity to the root by pointer
-    jumping (O(m log m)), no per-face Python loop.
+    Solved on a BFS spanning forest (parity to the root accumulated by pointer jumping,
+    O(m log m), no per-face Python loop); per component the smaller of the two classes is
+    flipped (ties: the class of the lowest-index face, the BFS root, is kept).
     """
     w = inconsistent.astype(np.float64) + 1.0  # 1 = consistent, 2 = flip (weights > 0)
     g = sparse.coo_matrix((w, (f0, f1)), shape=(m, m)).tocsr()
     g = g.maximum(g.T)
-    ncomp, labels = csgraph.connected_components(g, directed=False)
-    pred = np.full(m, -9999, dtype=np.int64)
+    size = np.bincount(labels, minlength=ncomp)
     roots = np.unique(labels, return_index=True)[1]
-    tree_parity = np.zeros(m, dtype=np.int8)
+    roots = roots[size[labels[roots]] > 1]
+    pred = np.full(m, -9999, dtype=np.int64)
     for r in roots:
         _, p = csgraph.breadth_first_order(g, int(r), directed=False, return_predecessors=True)
         sel = p >= 0
         pred[sel] = p[sel]
     has = pred >= 0
     idx = np.nonzero(has)[0]
+    tree_parity = np.zeros(m, dtype=np.int8)
     tree_parity[idx] = (np.asarray(g[idx, pred[idx]]).ravel() > 1.5).astype(np.int8)
     anc = np.where(has, pred, np.arange(m))
     par = tree_parity.copy()
@@ -413,4 +583,6 @@ def _parity_flip(m, f0, f1, inconsistent):
         par = par ^ par[anc]
         anc = anc[anc]
     # par[v] is now the xor of the tree edges from v to its root: flip v relative to the root
-    return par.astype(bool)
+    par = par.astype(bool)
+    invert = 2 * np.bincount(labels, weights=par, minlength=ncomp) > size
+    return par ^ invert[labels]

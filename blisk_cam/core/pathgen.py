@@ -10,12 +10,14 @@ operator to drive; ``generate_paths`` simply exhausts it.
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
-from .cones import Axis, Cone, MorphingCones, meridional
+from .cones import Axis, Cone, meridional
 from .errors import ConeError, ToleranceError
 from .expansion import (
     PolylineDistance,
@@ -24,19 +26,36 @@ from .expansion import (
     measure_cusp,
     strip_width,
 )
+from .lmrs import Profile, morph_between
 from .mesh import TriMesh
-from .sampling import densify_by_normal_turn, sample_polyline
+from .sampling import CENTRE_CHORD_SHARE, sample_polyline
 from .slicing import LevelCurve, MeshConeSlicer
 from .toolpath import BallTool, PassCurve, ToolPath
 
 __all__ = ["Progress", "generate_paths", "iter_generate_paths"]
 
+#: the measured scallop must not exceed this fraction of the tolerance: the generator's
+#: measure (ridge interpolated between five levels) runs up to ~2 % below verify's (ridge
+#: located on the exact distances, height along the normal)
+CUSP_LIMIT = 0.97
 #: a pass may end with a scallop this fraction of the tolerance or more, else it is widened
 CUSP_ACCEPT = 0.85
 #: the cusp aimed at when correcting the side step
-CUSP_TARGET = 0.94
+CUSP_TARGET = 0.92
+#: the ball-centre path may sag between poses by at most this share of the cusp height (and
+#: ``CENTRE_CHORD_SHARE`` of the chord tolerance): the sag adds to the scallop, and a pose
+#: costs far less machining time than a pass
+CENTRE_SAG_SHARE = 0.25
 #: safety cap on the number of passes (a path of more passes is not a finishing path)
 MAX_PASSES = 20_000
+#: spacing (mm, along the ball-centre path) of the probes for parts of the mesh intruding
+#: into the ball away from its contact point
+INTRUSION_PROBE_SPACING = 1.0
+#: probes either side of a hit whose points are lifted as well
+INTRUSION_WINDOW = 1
+#: a pose lifted by more than this share of the cusp height to clear such an intrusion is
+#: reported as uncut (below it the lift is scan noise, not a region the ball cannot reach)
+UNCUT_LIFT_SHARE = 0.1
 
 
 @dataclass
@@ -47,19 +66,28 @@ class Progress:
     message: str
 
 
-def _resample(points, closed, spacing):
-    """Points at uniform arc length ≤ ``spacing`` apart along a polyline (on its segments,
-    so on the mesh and the cone when the polyline is an exact intersection)."""
+def _resample(points, closed, spacing, normals=None, offset=0.0):
+    """Points ≤ ``spacing`` apart along a polyline (on its segments, so on the mesh and the
+    cone when the polyline is an exact intersection); with ``normals`` also the normals there
+    (interpolated along the segment, unit). With ``offset`` ρ the spacing is measured along
+    the offset polyline ``p + ρ n`` (the ball-centre path), which puts many samples where the
+    normal turns — around a thin leading edge, where the scallop between passes peaks."""
     P = np.vstack([points, points[:1]]) if closed else points
+    N = None if normals is None else (np.vstack([normals, normals[:1]]) if closed else normals)
     if len(P) < 2:
-        return points
-    L = np.linalg.norm(np.diff(P, axis=0), axis=1)
+        return points if normals is None else (points, normals)
+    L = np.linalg.norm(np.diff(P if N is None or offset == 0 else P + offset * N, axis=0), axis=1)
     cum = np.concatenate([[0.0], np.cumsum(L)])
     n = max(2, int(np.ceil(cum[-1] / spacing)) + 1)
     u = np.linspace(0.0, cum[-1], n, endpoint=not closed)
     seg = np.clip(np.searchsorted(cum, u, side="right") - 1, 0, len(L) - 1)
     w = (u - cum[seg]) / np.where(L[seg] > 0, L[seg], 1.0)
-    return P[seg] + w[:, None] * (P[seg + 1] - P[seg])
+    out = P[seg] + w[:, None] * (P[seg + 1] - P[seg])
+    if N is None:
+        return out
+    nn = N[seg] + w[:, None] * (N[seg + 1] - N[seg])
+    ln = np.linalg.norm(nn, axis=1)
+    return out, nn / np.where(ln > 0, ln, 1.0)[:, None]
 
 
 def _point_triangle_distance(p, tri):
@@ -83,12 +111,44 @@ def _point_triangle_distance(p, tri):
     return best
 
 
+def _unique_per_row(ids):
+    """Rows of non-negative ids with repeats replaced by −1 and the −1 columns that every
+    row has squeezed out: (q, c) → (q, c') int, c' ≤ c."""
+    if ids.size == 0:
+        return ids
+    srt = np.sort(ids, axis=1)
+    dup = np.zeros(srt.shape, dtype=bool)
+    dup[:, 1:] = srt[:, 1:] == srt[:, :-1]
+    srt[dup] = -1
+    srt = -np.sort(-srt, axis=1)  # valid ids first, −1 last
+    width = int((srt >= 0).sum(axis=1).max())
+    return srt[:, : max(width, 1)]
+
+
+def _next_step(trials, target):
+    """Next side step Δs aiming the scallop at ``target`` (mm), from the trials (Δs, H) so
+    far: the scallop grows like ``a Δs² + b`` (the offset b: chord sag of the centre path,
+    facets), fitted on the last two trials; with one trial, or a fit that makes no sense,
+    ``H ∝ Δs²``. The caller keeps the result inside its bracket."""
+    ds, H = trials[-1]
+    if len(trials) >= 2:
+        d0, h0 = trials[-2]
+        den = ds * ds - d0 * d0
+        if abs(den) > 1e-18:
+            a = (H - h0) / den
+            b = H - a * ds * ds
+            if a > 0 and target > b:
+                return float(np.sqrt((target - b) / a))
+    return ds * float(np.sqrt(target / H)) if H > 0 else 2.0 * ds
+
+
 class _Generator:
     def __init__(self, mesh, axis, cone1, cone2, radius, cusp, chord):
         check_tolerances(radius, cusp, chord)
         self.mesh = mesh
         self.axis = axis
-        self.morph = MorphingCones(cone1, cone2)
+        # LMC between two cones, LMRS (paper 001 §4.2) when either generatrix is a Profile
+        self.morph = morph_between(cone1, cone2)
         self.radius, self.cusp, self.chord = float(radius), float(cusp), float(chord)
         self.slicer = MeshConeSlicer(mesh, axis, self.morph)
         lo, hi = self.slicer.s_range
@@ -101,7 +161,15 @@ class _Generator:
             )
         self.s_clipped = np.clip(self.slicer.s, -1e6, 1e6)
         self._levels: dict[float, list[LevelCurve]] = {}
+        self._passes: dict[float, list[PassCurve]] = {}
+        self._uncut_lift: dict[int, np.ndarray] = {}  # id(PassCurve) → intrusion lift per pose
         self.max_turn = 2.0 * np.arccos(1.0 - self.chord / (4.0 * self.radius))
+        # the centre path's sag between poses adds to the scallop: keep it a small share of h
+        self.centre_chord = min(CENTRE_CHORD_SHARE * self.chord, CENTRE_SAG_SHARE * self.cusp)
+        #: facet penetrations below this (mm) are not lifted: 0.1 µm, or 1 % of the chord
+        self.facet_tolerance = min(1e-4, 0.01 * self.chord)
+        #: a pose lifted by more than this (mm) off an intrusion is reported as uncut
+        self.uncut_lift = UNCUT_LIFT_SHARE * self.cusp
         self.sample_spacing = max(min(0.25, 0.5 * np.sqrt(8 * self.radius * self.cusp) / 4), 0.02)
 
     def level(self, s):
@@ -118,14 +186,206 @@ class _Generator:
                 _, zz = meridional(c.points, self.axis)
                 start = int(np.argmax(zz))
             edge = c.edge if start is None else np.roll(c.edge, -start)
-            cc, nn, lam = sample_polyline(
-                c.points, c.normals, c.closed, chord=self.chord, radius=self.radius, start=start,
-                lift=lambda D, DN, seg, edge=edge, closed=c.closed: self.facet_lift(D, DN, seg, edge, closed),
-            )
+            rec = {}
+
+            def lift(D, DN, seg, edge=edge, closed=c.closed, rec=rec):
+                if "base" not in rec:  # the densified polyline is the same on every call
+                    rec["base"] = self.facet_lift(D, DN, seg, edge, closed)
+                    rec["extra"] = self.intrusion_lift(D, DN, rec["base"])
+                    rec["D"], rec["DN"] = D, DN
+                return rec["base"] + rec["extra"]
+
+            for _ in range(4):
+                cc, nn, lam, idx = sample_polyline(
+                    c.points, c.normals, c.closed, chord=self.chord, radius=self.radius,
+                    start=start, lift=lift, return_index=True, centre_chord=self.centre_chord,
+                )
+                # a pose whose ball still reaches into the mesh (an intrusion between the
+                # probes): lift the points between its neighbouring poses and sample again
+                short = self._pose_shortfall(cc + (self.radius + lam)[:, None] * nn, screen=True)
+                bad = np.nonzero(short > self.facet_tolerance + 1e-7)[0]
+                if len(bad) == 0:
+                    break
+                lo = idx[np.maximum(bad - 1, 0)]
+                hi = np.where(bad + 1 < len(idx), idx[np.minimum(bad + 1, len(idx) - 1)],
+                              len(rec["D"]) - 1)
+                mark = np.zeros(len(rec["D"]) + 1, dtype=np.int64)
+                np.add.at(mark, lo, 1)
+                np.add.at(mark, hi + 1, -1)
+                win = np.nonzero(np.cumsum(mark)[:-1] > 0)[0]
+                total = self._lift_points(rec["D"], rec["DN"], lift(None, None, None), win)
+                rec["extra"][win] = total - rec["base"][win]
             # the ball (axis = normal) touches at cc; its tip is cc lifted by λ along n
             out.append(PassCurve(s=s, closed=c.closed, cc=cc, normal=nn, tip=cc + lam[:, None] * nn,
                                  axis=nn.copy()))
+            self._uncut_lift[id(out[-1])] = rec["extra"][idx]
         return out
+
+    def _pose_shortfall(self, centres, screen: bool = False):
+        """ρ − exact distance (mm) from ball centres to the faces holding the (up to) 8 surface
+        samples nearest each within ρ + 0.05 mm (> 0: the ball reaches into the mesh; a face
+        reaching into the ball has a sample that close, see :meth:`_probe_tree`). With
+        ``screen`` only the centres with a sample deeper than ``facet_tolerance`` inside the
+        ball are measured (a cheap, tightly bounded KD search); the others get −inf."""
+        tree = self._probe_tree()
+        if screen:
+            out = np.full(len(centres), -np.inf)
+            bound = self.radius - self.facet_tolerance
+            d1, _ = tree.query(centres, k=1, distance_upper_bound=bound)
+            hit = np.isfinite(d1)
+            if np.any(hit):
+                out[hit] = self._pose_shortfall(centres[hit])
+            return out
+        _, near = tree.query(centres, k=8, distance_upper_bound=self.radius + 0.05)
+        near = np.where(near < tree.n, near, -1)
+        cand = _unique_per_row(self._probe_faces(near))
+        V, F = self.mesh.V, self.mesh.F
+        d = _point_triangle_distance(centres[:, None, :], V[F[np.maximum(cand, 0)]])
+        return self.radius - np.where(cand >= 0, d, np.inf).min(axis=1)
+
+    def _lift_points(self, D, DN, lam, idx):
+        """λ (mm) at the points ``idx`` that clears the mesh: fixed-point steps on the exact
+        distance to the faces holding the 8 surface samples nearest the centre (while the
+        ball is short the intruding samples are nearer than the contact region's, which lie
+        ρ away; at the end both are among them)."""
+        rho = self.radius
+        lam_i = lam[idx].copy()
+        active = np.arange(len(idx))
+        # the candidate faces come from the first centres (one KD search per point); the
+        # lift only moves the centre away from them
+        tree = self._probe_tree()
+        c0 = D[idx] + (rho + lam_i)[:, None] * DN[idx]
+        _, near = tree.query(c0, k=8, distance_upper_bound=rho + 0.05)
+        cand = _unique_per_row(self._probe_faces(np.where(near < tree.n, near, -1)))
+        tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]
+        for _ in range(12):
+            a = idx[active]
+            c = D[a] + (rho + lam_i[active])[:, None] * DN[a]
+            d = _point_triangle_distance(c[:, None, :], tri[active])
+            short = rho - np.where(cand[active] >= 0, d, np.inf).min(axis=1)
+            still = short > 1e-7
+            lam_i[active[still]] += short[still] * 1.05
+            active = active[still]
+            if len(active) == 0:
+                break
+        return lam_i
+
+    def intrusion_lift(self, D, DN, lam):
+        """Extra λ (mm) where a part of the mesh *away* from the CC point comes closer than ρ
+        to the ball centre ``p + (ρ + λ) n``: the surface is concave tighter than the ball
+        there (the demo blisk's 8 mm hub fillet where it meets the trailing edge has a concave
+        principal radius of 5.7 mm), so touching at ``p`` would gouge elsewhere. The ball is
+        lifted along its axis until it clears — it then leaves material at ``p``, which
+        :func:`generate_paths` reports (``stats["uncut_poses"]``, ``warnings``) instead of
+        gouging silently.
+
+        Probes every ``INTRUSION_PROBE_SPACING`` mm along the centre path: a mesh vertex, edge
+        midpoint or face centroid more than 1e-5 mm inside the ball is an intrusion (a face
+        can still reach in by up to ≈ L²/(32 ρ), L its longest edge, unseen: 0.3 µm for
+        0.3 mm triangles and a 6 mm ball). All points between
+        ``INTRUSION_WINDOW`` probes either side of a hit are then lifted by fixed-point steps
+        on the exact
+        distance to every face that can reach into the ball (:meth:`_near_face_distance`).
+        """
+        rho = self.radius
+        q = len(D)
+        extra = np.zeros(q)
+        if q == 0:
+            return extra
+        C = D + (rho + lam)[:, None] * DN
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))])
+        at = np.arange(0.0, arc[-1], INTRUSION_PROBE_SPACING)
+        probe = np.unique(np.append(np.searchsorted(arc, at), q - 1))
+        probe = probe[probe < q]
+        dd, _ = self._probe_tree().query(C[probe], k=1, distance_upper_bound=rho - 1e-5)
+        hp = np.nonzero(np.isfinite(dd))[0]
+        if len(hp) == 0:
+            return extra
+        # a face can reach into the ball while no vertex or centroid does: the windows extend
+        # INTRUSION_WINDOW probes either side of a hit
+        lo = probe[np.maximum(hp - INTRUSION_WINDOW, 0)]
+        hi = probe[np.minimum(hp + INTRUSION_WINDOW, len(probe) - 1)]
+        mark = np.zeros(q + 1, dtype=np.int64)
+        np.add.at(mark, lo, 1)
+        np.add.at(mark, hi + 1, -1)
+        idx = np.nonzero(np.cumsum(mark)[:q] > 0)[0]
+        lam_i = self._lift_points(D, DN, lam, idx)
+        extra[idx] = lam_i - lam[idx]
+        return extra
+
+    def _vertex_tree(self):
+        if not hasattr(self, "_vtree"):
+            self._vtree = cKDTree(self.mesh.V, leafsize=32, balanced_tree=False,
+                                  compact_nodes=False)
+        return self._vtree
+
+    def _probe_tree(self):
+        """KD-tree over the vertices, edge midpoints and face centroids: every point of the
+        surface lies within a quarter of its triangle's longest edge L of one of them, so a
+        face reaching into the ball by more than ≈ L²/(32 ρ) puts one of them inside."""
+        if not hasattr(self, "_ptree"):
+            V, F, e = self.mesh.V, self.mesh.F, self.mesh.edges
+            pts = np.vstack([V, 0.5 * (V[e[:, 0]] + V[e[:, 1]]), V[F].mean(axis=1)])
+            self._ptree = cKDTree(pts, leafsize=32, balanced_tree=False, compact_nodes=False)
+        return self._ptree
+
+    def _probe_faces(self, ids):
+        """Faces holding the probe-tree samples ``ids`` (q, k): the ring of a vertex, the two
+        faces of an edge midpoint, the face of a centroid. (q, c) int padded with −1."""
+        nv, ne = len(self.mesh.V), len(self.mesh.edges)
+        q, k = ids.shape
+        flat = ids.ravel()
+        none = flat < 0  # no sample (outside a search bound)
+        isv = (flat < nv) & ~none
+        ise = (flat >= nv) & (flat < nv + ne)
+        ring = self._vertex_faces(np.where(isv, flat, 0))  # (q k, w)
+        ring = np.where(isv[:, None], ring, -1)
+        ef = np.where(ise[:, None], self.mesh.edge_faces[np.clip(flat - nv, 0, ne - 1)], -1)
+        fc = np.where(~isv & ~ise & ~none, flat - nv - ne, -1)[:, None]
+        return np.concatenate([ring, ef, fc], axis=1).reshape(q, -1)
+
+    def _near_face_distance(self, c, radius):
+        """Exact distance (mm) from points ``c`` (q, 3) to the mesh where it is below
+        ``radius`` (``inf`` where no face comes that close), see :meth:`_near_face_pairs`."""
+        pt, _, d = self._near_face_pairs(c, radius)
+        out = np.full(len(c), np.inf)
+        np.minimum.at(out, pt, d)
+        return out
+
+    def _near_face_pairs(self, c, radius, chunk: int = 256):
+        """(point, face, exact distance) for every face that can come closer than ``radius``
+        to the points ``c`` (q, 3): a point of a triangle lies within (longest edge)/√3 of one
+        of its corners, so the faces around the vertices within ``radius`` + that bound of a
+        point contain all of them."""
+        if not hasattr(self, "_reach"):
+            e = self.mesh.edges
+            longest = np.linalg.norm(self.mesh.V[e[:, 0]] - self.mesh.V[e[:, 1]], axis=1).max()
+            self._reach = float(longest) / np.sqrt(3.0)
+        self._vertex_faces(np.zeros(0, dtype=np.int64))  # builds the vertex → faces table
+        ptr, fids = self._vf
+        V, F = self.mesh.V, self.mesh.F
+        none = np.zeros(0, dtype=np.int64)
+        out_pt, out_face, out_d = [none], [none], [np.zeros(0)]
+        tree = self._vertex_tree()
+        for s0 in range(0, len(c), chunk):
+            cc = c[s0 : s0 + chunk]
+            lists = tree.query_ball_point(cc, radius + self._reach + 1e-9)
+            cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
+            if cnt.sum() == 0:
+                continue
+            verts = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
+                                count=int(cnt.sum()))
+            fcnt = ptr[verts + 1] - ptr[verts]
+            tot = int(fcnt.sum())
+            first = np.repeat(ptr[verts] - (np.cumsum(fcnt) - fcnt), fcnt)
+            face = fids[first + np.arange(tot)]
+            pt = np.repeat(np.repeat(np.arange(len(cc)), cnt), fcnt)
+            key = np.unique(pt * np.int64(len(F)) + face)
+            pt, face = key // len(F), key % len(F)
+            out_pt.append(pt + s0)
+            out_face.append(face)
+            out_d.append(_point_triangle_distance(cc[pt], V[F[face]]))
+        return np.concatenate(out_pt), np.concatenate(out_face), np.concatenate(out_d)
 
     def facet_lift(self, D, DN, seg, edge, closed):
         """λ (mm) per point so that the ball centre ``p + (ρ + λ) n`` stays at least ρ from the
@@ -141,24 +401,30 @@ class _Generator:
         cos = np.einsum("qj,qfj->qf", DN, fn)
         plane = np.where(faces >= 0, self.radius * (1.0 - np.clip(cos, -1, 1)), 0.0).max(axis=1)
         lam = np.zeros(len(D))
-        need = np.nonzero(plane > 1e-6)[0]  # only where a facet plane is penetrated at all
+        # only where a facet plane is penetrated by more than a negligible depth (on a fine
+        # mesh the facets are within 0.1 µm of the smooth normal's ball almost everywhere)
+        need = np.nonzero(plane > self.facet_tolerance)[0]
         if len(need) == 0:
             return lam
         verts = np.unique(self.mesh.edges[np.concatenate([e0[need], e1[need]])])
         ring = self._vertex_faces(verts)  # (len(verts), w) padded with −1
-        pos = np.searchsorted(verts, self.mesh.edges[np.stack([e0[need], e1[need]], 1)].reshape(len(need), 4))
-        cand = ring[pos].reshape(len(need), -1)  # (q', 4w)
+        corners = self.mesh.edges[np.stack([e0[need], e1[need]], 1)].reshape(len(need), 4)
+        pos = np.searchsorted(verts, corners)
+        cand = _unique_per_row(ring[pos].reshape(len(need), -1))  # (q', c) padded with −1
         tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]  # (q', c, 3, 3)
         p, n = D[need], DN[need]
         lam_n = np.zeros(len(need))
+        active = np.arange(len(need))
         for _ in range(4):
-            c = p + (self.radius + lam_n)[:, None] * n
-            d = _point_triangle_distance(c[:, None, :], tri)
-            d = np.where(cand >= 0, d, np.inf).min(axis=1)
+            c = p[active] + (self.radius + lam_n[active])[:, None] * n[active]
+            d = _point_triangle_distance(c[:, None, :], tri[active])
+            d = np.where(cand[active] >= 0, d, np.inf).min(axis=1)
             short = self.radius - d
-            if np.all(short <= 1e-7):
+            still = short > 1e-7
+            lam_n[active[still]] += short[still] * 1.05
+            active = active[still]
+            if len(active) == 0:
                 break
-            lam_n += np.maximum(short, 0.0) * 1.05
         lam[need] = lam_n
         return lam
 
@@ -173,23 +439,34 @@ class _Generator:
         cnt = ptr[verts + 1] - ptr[verts]
         w = int(cnt.max()) if len(cnt) else 0
         idx = ptr[verts][:, None] + np.arange(w)[None, :]
-        return np.where(np.arange(w)[None, :] < cnt[:, None], fids[np.minimum(idx, len(fids) - 1)], -1)
+        valid = np.arange(w)[None, :] < cnt[:, None]
+        return np.where(valid, fids[np.minimum(idx, len(fids) - 1)], -1)
+
+    def sampled_pass(self, s):
+        """The sampled pass at ``s`` (list of PassCurve), made once and cached."""
+        if s not in self._passes:
+            self._passes[s] = self.make_pass(s)
+        return self._passes[s]
 
     def centre_distance(self, s):
-        """Distance to the exact ball-centre curves of level ``s`` (the offset of the exact
-        intersection polyline, densified where the normal turns): the scallop is measured
-        between ideal passes; the chord error of the sampled poses adds at most ``chord``."""
-        polys = []
-        for c in self.level(s):
-            p, n, _ = densify_by_normal_turn(c.points, c.normals, False, self.max_turn)
-            polys.append((p + self.radius * n, c.closed))
+        """Distance to the ball-centre polylines of the *sampled* pass at ``s`` — the straight
+        moves between the poses as machined, so the chord sag of the centre path is part of
+        the measured scallop (verify measures the same thing). Poses lifted off an intrusion
+        (:meth:`intrusion_lift`) count without that lift: material the ball cannot reach
+        there is reported, not chased with ever smaller side steps."""
+        polys = [
+            (c.tip + (self.radius - self._uncut_lift[id(c)])[:, None] * c.axis, c.closed)
+            for c in self.sampled_pass(s)
+        ]
         return PolylineDistance(polys, resample=self.sample_spacing)
 
     def level_samples(self, s):
-        return np.vstack(
-            [_resample(c.points, c.closed, self.sample_spacing) for c in self.level(s)]
-            or [np.zeros((0, 3))]
-        )
+        """Surface points ``sample_spacing`` apart on the level ``s`` and their normals."""
+        pn = [_resample(c.points, c.closed, self.sample_spacing, c.normals, self.radius)
+              for c in self.level(s)]
+        if not pn:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        return np.vstack([x[0] for x in pn]), np.vstack([x[1] for x in pn])
 
     def predict_step(self, s):
         """Δs from the strip width (Eqs. 11–14) at the level's points (5th percentile)."""
@@ -208,17 +485,18 @@ class _Generator:
         return float(np.percentile(ds, 5))
 
     def cusp_between(self, s_a, dist_a, s_b):
-        fr = (0.25, 0.5, 0.75)
-        levels = [self.level_samples(s_a)]
-        levels += [self.level_samples(s_a + f * (s_b - s_a)) for f in fr]
-        levels.append(self.level_samples(s_b))
+        """Largest scallop (mm) between the sampled passes at ``s_a`` and ``s_b``, from surface
+        points on the two levels and three levels between them."""
+        fr = (0.0, 0.25, 0.5, 0.75, 1.0)
+        samples = [self.level_samples(s_b if f == 1.0 else s_a + f * (s_b - s_a)) for f in fr]
         dist_b = self.centre_distance(s_b)
-        return measure_cusp(levels, dist_a, dist_b, self.radius)
+        return measure_cusp([x[0] for x in samples], dist_a, dist_b, self.radius,
+                            level_normals=[x[1] for x in samples])
 
     def run(self):
         t0 = time.perf_counter()
         h = self.cusp
-        first = self.make_pass(0.0)
+        first = self.sampled_pass(0.0)
         lo, hi = self.slicer.s_range
         if not first:
             raise ConeError(
@@ -233,6 +511,7 @@ class _Generator:
         passes = [first]
         cusps = []
         s = 0.0
+        prev = None  # (predicted Δs, accepted Δs) of the last pass
         while s < 1.0:
             if len(passes) > MAX_PASSES:
                 raise ToleranceError(
@@ -240,10 +519,14 @@ class _Generator:
                     f"for a {self.radius} mm ball on this blade"
                 )
             dist_a = self.centre_distance(s)
-            ds = min(max(self.predict_step(s), 1e-6), 1.0 - s)
-            feasible = None  # (ds, pass, H)
+            pred = max(self.predict_step(s), 1e-6)
+            # Eq. 13 knows neither the chord sag of the centre path nor the facets; the last
+            # measured step, scaled by the change of the prediction, does
+            ds = min(pred if prev is None else prev[1] * pred / prev[0], 1.0 - s)
+            feasible = None  # (ds, H, s_new)
             infeasible = None  # smallest ds known to exceed h
-            for _ in range(10):
+            trials = []
+            for _ in range(12):
                 s_new = 1.0 if ds >= 1.0 - s - 1e-12 else s + ds
                 if not self.level(s_new):
                     raise ConeError(
@@ -251,15 +534,15 @@ class _Generator:
                         "across the whole region between the cones; check the mesh"
                     )
                 H = self.cusp_between(s, dist_a, s_new)
-                if H <= h:
+                if H <= CUSP_LIMIT * h:
                     if feasible is None or ds > feasible[0]:
                         feasible = (ds, H, s_new)
                     if s_new >= 1.0 or H >= CUSP_ACCEPT * h:
                         break
                 else:
                     infeasible = ds if infeasible is None else min(infeasible, ds)
-                # secant on H ∝ ds², kept inside the bracket
-                guess = ds * np.sqrt(CUSP_TARGET * h / max(H, 1e-12)) if H > 0 else 2 * ds
+                trials.append((ds, H))
+                guess = _next_step(trials, CUSP_TARGET * h)
                 lo_b = feasible[0] if feasible else 0.0
                 hi_b = infeasible if infeasible is not None else 1.0 - s
                 if not (lo_b < guess < hi_b):
@@ -276,14 +559,32 @@ class _Generator:
                     "or a mesh fold); use a smaller ball or check the mesh there"
                 )
             ds, H, s_new = feasible
-            passes.append(self.make_pass(s_new))
+            if s_new < 1.0:
+                prev = (pred, ds)
+            passes.append(self.sampled_pass(s_new))
             cusps.append(H)
-            # release level caches we no longer need (keep the current one)
+            # release the caches we no longer need (keep the current level and pass)
             for key in [k for k in self._levels if k < s_new]:
                 del self._levels[key]
+            for key in [k for k in self._passes if k != s_new]:
+                del self._passes[key]
             s = s_new
             yield Progress(min(s, 1.0), f"pass {len(passes)} at s = {s:.4f}, cusp {H:.4f} mm")
         curves = [c for p in passes for c in p]
+        warnings = []
+        uncut = []  # (s, poses, max lift) of the curves with poses lifted off an intrusion
+        for c in curves:
+            extra = self._uncut_lift[id(c)]
+            if np.any(extra > self.uncut_lift):
+                uncut.append((c.s, int(np.sum(extra > self.uncut_lift)), float(extra.max())))
+        if uncut:
+            su = [u[0] for u in uncut]
+            warnings.append(
+                f"{sum(u[1] for u in uncut)} poses between s = {min(su):.4f} and "
+                f"{max(su):.4f} were lifted by up to {max(u[2] for u in uncut):.4f} mm off "
+                f"the surface: it is concave tighter than the {self.radius} mm ball there (the "
+                "ball would gouge elsewhere), so material is left; use a smaller ball there"
+            )
         self.result = ToolPath(
             axis=self.axis,
             cone1=self.morph.cone1,
@@ -297,12 +598,16 @@ class _Generator:
                 "curves": len(curves),
                 "poses": int(sum(len(c) for c in curves)),
                 "measured_cusp": [float(x) for x in cusps],
+                "uncut_poses": int(sum(u[1] for u in uncut)),
+                "max_uncut_lift": float(max((u[2] for u in uncut), default=0.0)),
+                "uncut_s": [float(u[0]) for u in uncut],
+                "warnings": warnings,
                 "seconds": time.perf_counter() - t0,
             },
         )
 
 
-def iter_generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone, cone2: Cone, *, tool_radius: float,
+def iter_generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2: Cone | Profile, *, tool_radius: float,
                         cusp: float, chord: float):
     """Generator form of :func:`generate_paths`: yields :class:`Progress`, returns the
     :class:`ToolPath` as the generator's return value (``StopIteration.value``)."""
@@ -311,7 +616,7 @@ def iter_generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone, cone2: Cone, *, 
     return gen.result
 
 
-def generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone, cone2: Cone, *, tool_radius: float,
+def generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2: Cone | Profile, *, tool_radius: float,
                    cusp: float, chord: float) -> ToolPath:
     """Boundary-conformed finishing passes for a ball of ``tool_radius`` (mm) between
     ``cone1`` (s = 0) and ``cone2`` (s = 1), scallop ≤ ``cusp`` and chord error ≤ ``chord`` (mm).
