@@ -1,8 +1,10 @@
 """Benchmark of blisk_cam.core.verify: a ~100k-triangle wavy surface of revolution and a
-ball path of ~20k poses on it (passes on z-planes, CC points on the analytic surface).
+ball path of ~20k poses on it (passes on z-planes, CC points on the analytic surface), then a
+bull-nose and a flat-mill path (lead 10°) on a 20k-triangle case, swept with the fast method
+and — with ``--exact`` — with the exact one, printing both times and how far apart they are.
 
-Run: ``python bench/bench_verify.py [--triangles 100000] [--poses 20000]``; prints the timings
-and the report summary as JSON.
+Run: ``python bench/bench_verify.py [--triangles 100000] [--poses 20000] [--exact]``; prints
+the timings and the report summary as JSON.
 """
 
 from __future__ import annotations
@@ -76,8 +78,10 @@ def main(argv=None):
     ap.add_argument("--levels", type=int, default=50, help="passes (fewer: larger cusp)")
     ap.add_argument("--spacing", type=float, default=None)
     ap.add_argument("--bull-triangles", type=int, default=20_000,
-                    help="triangles of the bull-nose line's case (0: skip it)")
+                    help="triangles of the bull-nose and flat lines' case (0: skip them)")
     ap.add_argument("--bull-poses", type=int, default=4_000)
+    ap.add_argument("--exact", action="store_true",
+                    help="also sweep the non-ball cutters with the exact (slow) method")
     args = ap.parse_args(argv)
     mesh, path = build(args.triangles, args.poses, n_levels=args.levels)
     print(f"mesh: {mesh.n_faces} triangles, path: {path.n_poses} poses, "
@@ -99,24 +103,33 @@ def main(argv=None):
     print(json.dumps(figures, indent=1))
     print("pair cusp min/max:", np.nanmin(rep.pair_cusp), np.nanmax(rep.pair_cusp))
     if args.bull_triangles > 0:
-        # bull-nose line: R 6, r 2, lead 10° along the feed, on a smaller case
-        mesh, path = build(args.bull_triangles, args.bull_poses, n_levels=args.levels)
-        cutter = Cutter.bull(6.0, 2.0)
-        lead = np.radians(10.0)
-        for c in path.curves:
-            feed = np.roll(c.cc, -1, axis=0) - np.roll(c.cc, 1, axis=0)
-            feed -= np.einsum("ij,ij->i", feed, c.normal)[:, None] * c.normal
-            feed /= np.linalg.norm(feed, axis=1)[:, None]
-            c.axis = np.cos(lead) * c.normal + np.sin(lead) * feed
-            c.tip = cutter.cl_points(c.cc, c.normal, c.axis)
-        path.tool = cutter
-        t = time.perf_counter()
-        rep = verify_path(mesh, path, spacing=args.spacing)
-        print(f"verify_path bull-nose R6 r2 lead 10° ({mesh.n_faces} triangles, {path.n_poses} "
-              f"poses, {rep.n_samples} samples): {time.perf_counter() - t:.2f} s")
-        print(json.dumps({k: rep.summary()[k] for k in ("max_material_left", "max_gouge",
-                                                        "max_cusp_normal", "cc_contact",
-                                                        "timings")}, indent=1))
+        # bull-nose R 6, r 2 and flat R 6, lead 10° along the feed, on a smaller case
+        for cutter in (Cutter.bull(6.0, 2.0), Cutter.flat(6.0)):
+            mesh, path = build(args.bull_triangles, args.bull_poses, n_levels=args.levels)
+            lead = np.radians(10.0)
+            for c in path.curves:
+                feed = np.roll(c.cc, -1, axis=0) - np.roll(c.cc, 1, axis=0)
+                feed -= np.einsum("ij,ij->i", feed, c.normal)[:, None] * c.normal
+                feed /= np.linalg.norm(feed, axis=1)[:, None]
+                c.axis = np.cos(lead) * c.normal + np.sin(lead) * feed
+                c.tip = cutter.cl_points(c.cc, c.normal, c.axis)
+            path.tool = cutter
+            reps = {}
+            for method in ("fast", "exact") if args.exact else ("fast",):
+                t = time.perf_counter()
+                reps[method] = rep = verify_path(mesh, path, spacing=args.spacing, method=method)
+                print(f"verify_path {cutter.type} R6{' r2' if cutter.r else ''} lead 10° "
+                      f"({mesh.n_faces} triangles, {path.n_poses} poses, {rep.n_samples} samples) "
+                      f"method {method}: {time.perf_counter() - t:.2f} s")
+                print(json.dumps({k: rep.summary()[k] for k in (
+                    "max_material_left", "max_gouge", "max_cusp_normal", "cc_contact",
+                    "timings")}, indent=1))
+            if len(reps) == 2:
+                fa, ex = reps["fast"], reps["exact"]
+                keys = ("max_material_left", "max_gouge", "max_cusp", "max_cusp_normal")
+                print("fast − exact:", {k: float(getattr(fa, k) - getattr(ex, k)) for k in keys},
+                      "max |Δ| over samples:",
+                      float(np.nanmax(np.abs(fa.sample_values - ex.sample_values))))
 
 
 if __name__ == "__main__":
