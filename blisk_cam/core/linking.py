@@ -158,7 +158,8 @@ class LinkOptions:
             v = float(getattr(self, name))
             if not (math.isfinite(v) and v > 0):
                 raise LinkError(
-                    f"{name.replace('_', ' ')} must be a positive number, got {getattr(self, name)!r}"
+                    f"{name.replace('_', ' ')} must be a positive number, "
+                    f"got {getattr(self, name)!r}"
                 )
         if self.direct_link is not None:
             v = float(self.direct_link)
@@ -666,7 +667,8 @@ def build_program(
     r_e, z_e = meridional(ends, axis)
     if np.any(clear.r_at(z_e) <= r_e):
         raise LinkError(
-            f"the clearance surface (radius {clear.radius:g} mm, slope {clear.slope:g}) is not outside "
+            f"the clearance surface (radius {clear.radius:g} mm, slope {clear.slope:g}) "
+            "is not outside "
             f"the passes' approach points (up to r = {r_e.max():.3f} mm); raise its radius"
         )
 

@@ -19,6 +19,12 @@ smallest change of lead and tilt within the limits that clears both directions (
 and flat cutters a larger lead shrinks the cross-feed radius; a ball cannot be fixed — its
 radius is the same in every orientation) and reports what is left.
 
+The curvature test is second order at the contact. Where the curvature changes within the
+cutter's reach (a hub fillet running into a trailing edge) :func:`fix_near_gouges` measures
+the posed cutter against the surface samples around the contact (exact signed distance) and
+searches the same lead/tilt changes until nothing lies deeper than a tolerance; what no change
+within the limits clears is flagged, never hidden.
+
 Lengths mm, curvatures 1/mm, angles radians.
 """
 
@@ -37,6 +43,7 @@ __all__ = [
     "GougeLimits",
     "LocalGougeReport",
     "fix_local_gouges",
+    "fix_near_gouges",
     "gouge_margin",
     "surface_normal_curvature",
 ]
@@ -216,3 +223,121 @@ def fix_local_gouges(
         ax = lead_tilt_axes(f[sel], n[sel], k[sel], lead[sel], tilt[sel])
         margin[sel] = gouge_margin(cutter, n[sel], ax, f[sel], k[sel], kappa_f[sel], kappa_k[sel])
     return lead, tilt, flagged, left, margin
+
+
+def fix_near_gouges(
+    cutter,
+    samples,
+    cc,
+    f,
+    n,
+    k,
+    lead,
+    tilt,
+    limits: GougeLimits,
+    *,
+    tol: float,
+    fix: bool = True,
+    tree=None,
+    chunk: int = 64,
+):
+    """Flag poses whose cutter reaches into the surface *away* from the contact and, where
+    possible, change lead/tilt until it clears.
+
+    The curvature test of :func:`fix_local_gouges` is second order at the CC point; where the
+    surface curvature changes within the cutter's reach (a hub fillet meeting a trailing edge,
+    the demo blisk's 4.2 mm concave corner) the cutter can still cut into the surface a few
+    millimetres away. Here every pose is checked against the surface ``samples`` (mesh
+    vertices and face centroids) within its bounding radius with the cutter's exact signed
+    distance (:meth:`.cutter.Cutter.signed_distance`); a pose deeper than ``tol`` tries the
+    same lead/tilt changes as :func:`fix_local_gouges`, cheapest first, until one clears.
+
+    Parameters
+    ----------
+    cutter : Cutter
+    samples : (q, 3) mm — surface points
+    cc, f, n, k : (m, 3) — CC points and local frames
+    lead, tilt : (m,) radians — current
+    limits : GougeLimits
+    tol : float, mm — depth accepted
+    fix : bool — False only flags
+    tree : scipy.spatial.cKDTree of ``samples`` or None (built)
+
+    Returns
+    -------
+    lead, tilt : (m,) — after the fix
+    flagged : (m,) bool — deeper than ``tol`` before; left : still deeper
+    depth : (m,) mm — final depth (≥ 0)
+    """
+    from scipy.spatial import cKDTree
+
+    S = np.asarray(samples, dtype=np.float64)
+    tree = cKDTree(S) if tree is None else tree
+    lead = np.asarray(lead, dtype=np.float64).copy()
+    tilt = np.asarray(tilt, dtype=np.float64).copy()
+    near = tree.query_ball_point(cc, r=2.0 * cutter.radius)  # the cutting end's near field
+    cnt = np.array([len(x) for x in near])
+    pose = np.repeat(np.arange(len(cc)), cnt)
+    pts = np.concatenate([np.asarray(x, dtype=np.int64) for x in near]) if len(pose) else pose
+
+    # depth of every pose as it stands: only the (point, pose) pairs inside the cylinder of
+    # the cutter's largest radius about its axis, above the tip, can be inside the cutter
+    ax = lead_tilt_axes(f, n, k, lead, tilt)
+    tip = cutter.cl_points(cc, n, ax)
+    rel = S[pts] - tip[pose]
+    t = np.einsum("ij,ij->i", rel, ax[pose])
+    inside = (t > -1e-6) & (
+        np.einsum("ij,ij->i", rel, rel) - t * t < (cutter.max_radius + 1e-6) ** 2
+    )
+    pp, qq = pose[inside], pts[inside]
+    depth = np.zeros(len(cc))
+    np.maximum.at(depth, pp, -cutter.signed_distance(S[qq], tip[pp], ax[pp]))
+    flagged = depth > tol
+    left = flagged.copy()
+    if not fix or not flagged.any():
+        return lead, tilt, flagged, left, depth
+    st = float(limits.step)
+    dl = np.arange(0.0, 2 * limits.max_lead + st / 2, st)
+    dt = np.arange(-2 * limits.max_tilt, 2 * limits.max_tilt + st / 2, st)
+    DL, DT = (x.ravel() for x in np.meshgrid(dl, dt, indexing="ij"))
+    order = np.argsort(np.hypot(DL, DT), kind="stable")
+    DL, DT = DL[order], DT[order]
+    for i in np.nonzero(flagged)[0]:  # few poses (concave corners): one at a time
+        own = pts[pose == i]
+        sgn = -1.0 if lead[i] < 0 else 1.0
+        cl = lead[i] + sgn * DL
+        ct = tilt[i] + DT
+        ok = (np.abs(cl) <= limits.max_lead + 1e-12) & (np.abs(ct) <= limits.max_tilt + 1e-12)
+        cl, ct = cl[ok], ct[ok]
+        for c0 in range(1, len(cl), chunk):  # candidate 0 is the current axis
+            c = slice(c0, c0 + chunk)
+            try:
+                d = _depth_candidates(cutter, S, own, cc[i], f[i], n[i], k[i], cl[c], ct[c])
+            except BliskCamError:
+                continue
+            good = np.nonzero(d <= tol)[0]
+            if len(good):
+                j = c0 + int(good[0])
+                lead[i], tilt[i], depth[i], left[i] = cl[j], ct[j], d[good[0]], False
+                break
+    return lead, tilt, flagged, left, depth
+
+
+def _depth_candidates(cutter, S, near, cc, f, n, k, leads, tilts):
+    """(c,) depth of the surface points ``S[near]`` inside the cutter posed at one CC point
+    with each candidate (lead, tilt) (pairs outside the cutter's bounding cylinder skipped)."""
+    c = len(leads)
+    F, N, K = (np.broadcast_to(v, (c, 3)) for v in (f, n, k))
+    ax = lead_tilt_axes(F, N, K, leads, tilts)
+    tip = cutter.cl_points(np.broadcast_to(cc, (c, 3)), N, ax)
+    P = S[near]
+    out = np.zeros(c)
+    if len(P) == 0:
+        return out
+    rel = P[None, :, :] - tip[:, None, :]  # (c, q, 3)
+    t = np.einsum("cqi,ci->cq", rel, ax)
+    r2 = np.einsum("cqi,cqi->cq", rel, rel) - t * t
+    inside = (t > -1e-6) & (r2 < (cutter.max_radius + 1e-6) ** 2)
+    ci, qi = np.nonzero(inside)
+    np.maximum.at(out, ci, -cutter.signed_distance(P[qi], tip[ci], ax[ci]))
+    return out

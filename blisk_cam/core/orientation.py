@@ -41,8 +41,9 @@ Other strategies (``AxisStrategy.mode``)
   Lead/tilt must be 0 with a fixed axis (they would contradict it).
 
 Smoothing: :func:`smooth_axes` limits the angle between consecutive axes to ``max_turn``
-(never flipping: every step is a rotation by less than 90°), deviating as little as a
-forward–backward clamp allows. Zero cutting speed: :func:`zero_speed_mask`.
+(never flipping: every step is a rotation by less than 90°); where the surface turns faster
+than the limit allows, the deviation is centred on the turn (half before, half after) rather
+than lagging behind it. Zero cutting speed: :func:`zero_speed_mask`.
 
 Angles are radians, lengths mm.
 """
@@ -99,7 +100,8 @@ def _as_range(name, value):
             raise OrientationError(f"{name} is not a number ({value!r}); give an angle in radians")
         if abs(x) > MAX_ANGLE:
             raise OrientationError(
-                f"{name} = {math.degrees(x):.1f}° is not below 89° in magnitude: the tool would lie "
+                f"{name} = {math.degrees(x):.1f}° is not below 89° in magnitude: "
+                "the tool would lie "
                 f"on or behind the surface; use an angle between −89° and 89° (typically 0–15°)"
             )
     return pair
@@ -179,7 +181,8 @@ class AxisStrategy:
         return any(x != 0.0 for x in self.lead + self.tilt + self.radial) or self.mode != "local"
 
     def at(self, which: str, s):
-        """(k,) angle ``which`` ('lead', 'tilt', 'radial') at morph ratios ``s`` (clipped to [0, 1])."""
+        """(k,) angle ``which`` ('lead', 'tilt', 'radial') at morph ratios ``s`` (clipped to
+        [0, 1])."""
         lo, hi = getattr(self, which)
         s = np.clip(np.asarray(s, dtype=np.float64), 0.0, 1.0)
         return lo + s * (hi - lo)
@@ -231,7 +234,8 @@ def local_frames(cc, normal, closed: bool):
 
 
 def lead_tilt_axes(f, n, k, lead, tilt):
-    """Unit tool axes ``normalize(n + tan(lead) f + tan(tilt) k)`` (k, 3); lead/tilt (k,) or scalar."""
+    """Unit tool axes ``normalize(n + tan(lead) f + tan(tilt) k)`` (k, 3); lead/tilt (k,) or
+    scalar."""
     tl = np.tan(np.asarray(lead, dtype=np.float64))
     tt = np.tan(np.asarray(tilt, dtype=np.float64))
     a = n + np.atleast_1d(tl)[..., None] * f + np.atleast_1d(tt)[..., None] * k
@@ -303,7 +307,8 @@ def axes_for_curve(
     ln = np.linalg.norm(a, axis=1)
     if np.any(ln < 1e-9):
         raise OrientationError(
-            f"mode {mode!r}: a CC point lies on the fixed {mode.split('_')[1]}; the axis through it "
+            f"mode {mode!r}: a CC point lies on the fixed {mode.split('_')[1]}; "
+            "the axis through it "
             "is undefined — move the point/line off the blade"
         )
     a = a / ln[:, None]
@@ -353,14 +358,61 @@ def _clamp(ref, want, delta, hint):
     return (v[0] / ln, v[1] / ln, v[2] / ln)
 
 
+def _clamp_sweeps(want, hint, delta: float, closed: bool):
+    """One forward and one backward clamp sweep (lists of 3-tuples in, list out).
+
+    A forward pass turns each axis toward its predecessor until within ``delta``, a backward
+    pass does the same toward the successor; closed passes repeat the backward sweep around
+    the loop until the closing pair holds. The result *lags*: where the wanted axis turns
+    faster than ``delta`` per pose the whole deficit ends up on one side of the turn."""
+    k = len(want)
+    out = list(want)
+    for i in range(1, k):
+        out[i] = _clamp(out[i - 1], want[i], delta, hint[i])
+    for i in range(k - 2, -1, -1):
+        out[i] = _clamp(out[i + 1], out[i], delta, hint[i])
+    if closed and k > 2:
+        for _ in range(8 * k):
+            turn = consecutive_turn(np.asarray(out), True)
+            if np.all(turn <= delta * (1 + 1e-9)):
+                break
+            j = int(np.argmax(turn))  # the pair (j, j+1) breaks: sweep backward from j
+            for step in range(k - 1):
+                i = (j - step) % k
+                out[i] = _clamp(out[(i + 1) % k], out[i], delta, hint[i])
+    return out
+
+
+def _centred_smoothing(A, N, delta: float, closed: bool):
+    """(k, 3) unit axes within ``delta`` of their neighbours, the deficit centred on the turn.
+
+    The clamp sweeps run forward-then-backward (the axis lags behind a fast turn of the
+    surface) and, on the reversed pass, backward-then-forward (it anticipates the turn); their
+    normalised mean splits the deviation evenly before and after the turn (in one dimension,
+    a ramp of slope σ > δ over an angle Θ: the lag is Θ (1 − δ/σ) at one end for either sweep,
+    half of it at both ends for the mean — a mean of two δ-Lipschitz sequences is δ-Lipschitz).
+    On the sphere the mean is only nearly within the limit, so a last clamp sweep enforces it.
+    """
+    want = [tuple(x) for x in A.tolist()]
+    hint = [tuple(x) for x in N.tolist()]
+    fwd = np.asarray(_clamp_sweeps(want, hint, delta, closed))
+    bwd = np.asarray(_clamp_sweeps(want[::-1], hint[::-1], delta, closed))[::-1]
+    both = fwd + bwd  # the bisector of the two (undefined only where they are opposite)
+    mid = np.where((np.linalg.norm(both, axis=1) > 1e-3)[:, None], _unit(both), fwd)
+    return np.asarray(_clamp_sweeps([tuple(x) for x in mid.tolist()], hint, delta, closed))
+
+
 def smooth_axes(axes, normals, max_turn: float, closed: bool = False):
     """Limit the angle between consecutive tool axes to ``max_turn`` (radians).
 
-    A forward pass turns each axis toward its predecessor until within the limit, a backward
-    pass does the same toward the successor (so every consecutive pair ends within the limit;
-    closed passes repeat the backward sweep around the loop until the closing pair holds).
-    Every change is a rotation of less than 90° toward a neighbour, so the axis never flips.
-    The loop runs over poses (a recursion); it only does work where the limit is exceeded.
+    Clamp sweeps turn each axis toward its neighbours until every consecutive pair is within
+    the limit (every change is a rotation by less than 90° toward a neighbour, so the axis
+    never flips); where the surface turns faster than the limit allows (around a thin edge)
+    the deviation from the wanted axis is split evenly before and after the turn
+    (:func:`_centred_smoothing`) instead of lagging behind it — a lagging axis carries the whole
+    deficit on one side of the turn, a centred one half of it on each side (issue #4: the lag
+    put the tool ≥ 89° from the normal around the demo blade's edges). The sweeps loop over
+    poses in Python; they only run on passes that exceed the limit.
 
     Parameters
     ----------
@@ -377,7 +429,8 @@ def smooth_axes(axes, normals, max_turn: float, closed: bool = False):
     Raises
     ------
     OrientationError where the smoothed axis would lie ≥ 89° from the normal (the limit is
-    too tight for how fast the surface turns: raise it).
+    too tight for how fast the surface turns per pose); the message gives the smallest limit
+    that works on this pass.
     """
     A = _unit(np.asarray(axes, dtype=np.float64)).copy()
     N = _unit(np.asarray(normals, dtype=np.float64))
@@ -387,34 +440,38 @@ def smooth_axes(axes, normals, max_turn: float, closed: bool = False):
     k = len(A)
     if k < 2 or np.all(consecutive_turn(A, closed) <= delta):
         return A
-    want = [tuple(x) for x in A.tolist()]
-    hint = [tuple(x) for x in N.tolist()]
-    out = list(want)
-    for i in range(1, k):
-        out[i] = _clamp(out[i - 1], want[i], delta, hint[i])
-    for i in range(k - 2, -1, -1):
-        out[i] = _clamp(out[i + 1], out[i], delta, hint[i])
-    if closed and k > 2:
-        for _ in range(8 * k):
-            arr = np.asarray(out)
-            turn = consecutive_turn(arr, True)
-            if np.all(turn <= delta * (1 + 1e-9)):
-                break
-            j = int(np.argmax(turn))  # the pair (j, j+1) breaks: sweep backward from j
-            for step in range(k - 1):
-                i = (j - step) % k
-                out[i] = _clamp(out[(i + 1) % k], out[i], delta, hint[i])
-    A = np.asarray(out)
-    if np.any(consecutive_turn(A, closed) > delta * (1 + 1e-9)):  # pragma: no cover - guard
+    out = _centred_smoothing(A, N, delta, closed)
+    if np.any(consecutive_turn(out, closed) > delta * (1 + 1e-9)):  # pragma: no cover - guard
         raise OrientationError("axis smoothing did not converge; raise the smoothing limit")
-    bad = np.einsum("ij,ij->i", A, N) <= math.cos(MAX_ANGLE)
+    bad = np.einsum("ij,ij->i", out, N) <= math.cos(MAX_ANGLE)
     if np.any(bad):
+        need = _smallest_feasible_limit(A, N, delta, closed)
         raise OrientationError(
             f"axis smoothing to {math.degrees(delta):.2f}° per pose leaves the tool ≥ 89° from the "
-            f"normal at {int(bad.sum())} poses (the surface turns faster, e.g. around a thin edge); "
-            "raise the smoothing limit"
+            f"normal at {int(bad.sum())} of {k} poses (the surface turns by up to "
+            f"{math.degrees(consecutive_turn(N, closed).max()):.1f}° per pose there, e.g. around "
+            f"a thin edge); raise the smoothing limit to at least {math.degrees(need):.2f}° "
+            "or switch smoothing off"
         )
-    return A
+    return out
+
+
+def _smallest_feasible_limit(A, N, delta: float, closed: bool) -> float:
+    """Smallest limit (radians, to 1 %) above ``delta`` for which :func:`_centred_smoothing`
+    keeps every axis below 89° from its normal (bisection; at most the largest wanted turn)."""
+
+    def ok(d):
+        out = _centred_smoothing(A, N, d, closed)
+        return bool(np.all(np.einsum("ij,ij->i", out, N) > math.cos(MAX_ANGLE)))
+
+    lo, hi = delta, max(float(consecutive_turn(A, closed).max()), delta)
+    hi = min(hi, math.pi / 2 - 1e-6)
+    if not ok(hi):
+        return hi
+    while hi - lo > 0.01 * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
+    return hi
 
 
 # ============================================================================ zero speed

@@ -26,6 +26,7 @@ Fields added (still version 1; none of the above changed):
 from __future__ import annotations
 
 import json
+import math
 import os
 
 import numpy as np
@@ -74,7 +75,13 @@ def path_to_dict(path: ToolPath) -> dict:
         "move_types": list(MOVE_NAMES),
         "flag_bits": {name: bit for bit, name in FLAG_NAMES.items()},
         **({} if path.program is None else {"program": _program_to_dict(path.program)}),
-        "stats": {k: v for k, v in path.stats.items() if isinstance(v, (int, float, str, list))},
+        # JSON has no infinity or NaN: such figures are left out
+        "stats": {
+            k: v
+            for k, v in path.stats.items()
+            if isinstance(v, (int, float, str, list))
+            and not (isinstance(v, float) and not math.isfinite(v))
+        },
     }
 
 
@@ -151,7 +158,8 @@ def _generatrix_entries(cone1, cone2) -> dict:
 
 
 def _read_generatrix(d: dict, k: int):
-    """Generatrix ``k`` (1 or 2) of a paths dict: ``"profile<k>"`` when present, else ``"cone<k>"``."""
+    """Generatrix ``k`` (1 or 2) of a paths dict: ``"profile<k>"`` when present, else
+    ``"cone<k>"``."""
     if d.get(f"profile{k}") is not None:
         return Profile.from_list(d[f"profile{k}"])
     return Cone.from_list(d[f"cone{k}"])

@@ -238,7 +238,8 @@ class ToolPath:
         return np.unique([c.s for c in self.curves])
 
     def length(self) -> float:
-        """Total cutting length of the tip polylines, mm (closed curves include the closing move)."""
+        """Total cutting length of the tip polylines, mm (closed curves include the closing
+        move)."""
         total = 0.0
         for c in self.curves:
             p = np.vstack([c.tip, c.tip[:1]]) if c.closed else c.tip

@@ -4,6 +4,7 @@ Angles are measured back from the produced axes (dot products with the frame), n
 from the inputs."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -128,17 +129,50 @@ def test_smoothing_leaves_axes_within_the_limit_alone():
     assert np.array_equal(smooth_axes(a, n, D(5), False), a)
 
 
+def _edge(poses_before=20, poses_turn=30, poses_after=20):
+    """Normals turning by 180° about y over ``poses_turn`` poses (a leading edge)."""
+    th = np.concatenate(
+        [np.zeros(poses_before), np.linspace(0, np.pi, poses_turn), np.full(poses_after, np.pi)]
+    )
+    return np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], 1)
+
+
 def test_smoothing_around_a_thin_edge():
-    # the normal turns by 180° over 30 poses (a leading edge); axis = normal
-    th = np.concatenate([np.zeros(20), np.linspace(0, np.pi, 30), np.full(20, np.pi)])
-    n = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], 1)
+    # the normal turns by 180° over 30 poses (6.2° per pose); axis = normal
+    n = _edge()
     assert consecutive_turn(n, False).max() > D(6)
     b = smooth_axes(n, n, D(3.5), False)
     assert consecutive_turn(b, False).max() <= D(3.5) * (1 + 1e-9)
     assert np.all(np.einsum("ij,ij->i", b, n) > 0)
-    # a limit too tight to follow the edge would leave the tool behind the surface: refused
-    with pytest.raises(OrientationError, match="raise the smoothing limit"):
-        smooth_axes(n, n, D(1), False)
+
+
+def test_smoothing_centres_the_deviation_on_the_turn():
+    # at 3° per pose the axis can follow 29 × 3° = 87° of the 180°: 93° are missing. A one-
+    # sided clamp lags by all of it (the axis ends 93° from the normal, behind the surface —
+    # issue #4: the ball spiral failed this way around the demo blade's edges); centred, each
+    # side of the edge carries about half: (180 − 87) / 2 = 46.5°
+    n = _edge(40, 30, 40)
+    b = smooth_axes(n, n, D(3.0), False)
+    assert consecutive_turn(b, False).max() <= D(3.0) * (1 + 1e-9)
+    dev = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", b, n), -1, 1)))
+    assert dev.max() <= 50.0, dev.max()
+    before, after = dev[:55].max(), dev[55:].max()
+    assert abs(before - after) <= 5.0, (before, after)  # balanced, not lagging
+    assert dev[0] < 1e-6 and dev[-1] < 1e-6  # far from the edge the axis is back on the normal
+
+
+def test_smoothing_too_tight_names_the_smallest_limit_that_works():
+    # a knife edge: the normal turns by 180° over 3 steps. Within 89° of the normals on both
+    # sides the axis must turn by at least 2° there: 3 × 0.5° is impossible. The error names
+    # the problem and a limit that works
+    n = _edge(10, 4, 10)
+    with pytest.raises(OrientationError, match="raise the smoothing limit to at least") as exc:
+        smooth_axes(n, n, D(0.5), False)
+    need = float(re.search(r"at least ([0-9.]+)°", str(exc.value)).group(1))
+    assert 2.0 / 3.0 <= need < 5.0
+    b = smooth_axes(n, n, D(need), False)  # measured: that limit holds and keeps the tool side
+    assert consecutive_turn(b, False).max() <= D(need) * (1 + 1e-9)
+    assert np.all(np.einsum("ij,ij->i", b, n) > math.cos(D(89)))
 
 
 def test_zero_speed_mask():

@@ -133,3 +133,15 @@ def test_malformed_additions_are_refused():
     d["tool"] = {"type": "bull", "radius": 6.0, "corner_radius": 7.0}
     with pytest.raises(BliskCamError, match="corner radius"):
         path_from_dict(d)
+
+
+def test_non_finite_stats_are_left_out_of_the_strict_json(tmp_path):
+    # JSON has no infinity: a stats figure that is ∞ (e.g. no concave region) must not make
+    # the write fail, and is not written
+    path = _path(Cutter.ball(6.0))
+    path.stats.update({"concave_radius": math.inf, "nan_figure": math.nan, "edge_radius": 0.3})
+    out = tmp_path / "p.json"
+    write_paths_json(path, out)
+    stats = json.loads(out.read_text())["stats"]
+    assert stats["edge_radius"] == 0.3
+    assert "concave_radius" not in stats and "nan_figure" not in stats
