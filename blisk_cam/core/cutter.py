@@ -31,7 +31,9 @@ in the meridional half-plane of the radial direction u = −(n − (n·a) a)/|n 
     tip = cc − ρ_c u − z_c a                                      (paper 003, Eqs. 2–3)
 
 For a ball this is ``tip = cc + ρ n − ρ a`` (centre ``cc + ρ n``). With the axis exactly along
-n a flat bottom touches with its whole face: the contact is taken at the tip (tip = cc).
+n a flat bottom touches with its whole face: the contact is taken at the tip (tip = cc); for
+tilts θ below ``_FLUSH_TILT`` (1e-12 rad) it slides continuously along the bottom out to the
+ring contact, where u (the direction of a ~θ-long vector) is no longer defined by rounding.
 
 Effective radius. Moving the cutter along the feed direction t (tangent, ⊥ the side
 direction s) sweeps an envelope whose cross-section in the plane (n, s) has, at the contact,
@@ -72,6 +74,13 @@ TOOL_TYPES = ("ball", "bull", "flat", "taper")
 DEFAULT_TAPER_ANGLE = math.radians(3.0)
 _MAX_ANGLE = math.radians(60.0)  # α and β are accepted in [0, 60°)
 _ANGLE_TOL = 1e-9  # rad: how far beyond the side angle a contact still counts as on the side
+#: rad: below this tilt θ of the axis from n a flat-bottomed cutter (α = 0, e > 0) touches on
+#: its bottom disc at ρ = e θ / _FLUSH_TILT along u, so the contact moves continuously from the
+#: tip (θ = 0, the whole disc flush; u undefined) out to the ring contact (ρ = e + r sin θ ≈ e)
+#: it reaches at θ = _FLUSH_TILT. The point is on the cutter; the cutter dips below the tangent
+#: plane by e sin θ (1 − θ / _FLUSH_TILT) ≤ e · _FLUSH_TILT / 4 (2.5e-12 mm for e = 10 mm)
+#: and its normal there (−a) is within θ of −n.
+_FLUSH_TILT = 1e-12
 
 
 @dataclass(frozen=True)
@@ -86,7 +95,8 @@ class ContactInfo:
     height : (k,) float, mm — its height above the tip along the axis
     radial : (k, 3) float — unit radial direction u of the contact's meridional half-plane
         (an arbitrary unit vector ⊥ a where the contact is on the axis)
-    region : (k,) int8 — 0: at the tip (flat bottom flush, or the apex of a conical bottom);
+    region : (k,) int8 — 0: on the bottom — the apex of a conical bottom, or a flat bottom
+        flush (the tip at θ = 0; within ``_FLUSH_TILT`` of it, a point of the bottom disc);
         1: on the corner arc (on the sharp edge for r = 0)
     point : (k, 3) float, mm — the contact point relative to the tip, ``rho u + height a``
     """
@@ -379,7 +389,11 @@ class Cutter:
         a = _unit_rows(axis, "axis")
         n, a = np.broadcast_arrays(n, a)
         c = np.einsum("ij,ij->i", n, a)
-        perp = n - c[:, None] * a
+        # n − (n·a) a as a × (n × a): the subtraction leaves a rounding residue ~1e-16 along a
+        # that, divided by |perp| ~ sin θ, tilts u out of the plane ⊥ a by 1e-16 / sin θ
+        # (6e-4 mm of contact off the cutter at θ = 1e-12). The double cross product is ⊥ a to
+        # rounding relative to its own length, so u stays a unit vector ⊥ a for every θ > 0.
+        perp = np.cross(a, np.cross(n, a))
         pl = np.linalg.norm(perp, axis=1)
         theta = np.arctan2(pl, c)  # accurate near 0, unlike arccos
         g = self._g
@@ -390,13 +404,16 @@ class Cutter:
                 f"normal; a {self.type} cutter touches with its cutting part only up to "
                 f"{math.degrees(g['th_hi']):.3g}° — reduce the lead/tilt")
         theta = np.minimum(theta, g["th_hi"])
-        on_axis = pl <= 1e-12
+        on_axis = pl <= 1e-300
         u = np.where(on_axis[:, None], _any_perpendicular(a),
                      -perp / np.where(on_axis, 1.0, pl)[:, None])
-        # tip contact: a conical bottom's apex (θ < α), or a flat bottom flush (θ = 0, e > 0)
-        tip_contact = (theta < g["th_lo"]) | (on_axis & (self.e > 0))
+        # bottom contact: a conical bottom's apex (θ < α), or a flat bottom (nearly) flush
+        # (α = 0, e > 0, θ < _FLUSH_TILT): see _FLUSH_TILT for the blend to the ring contact
+        flush = (self.alpha == 0.0) & (self.e > 0) & (theta < _FLUSH_TILT)
+        tip_contact = (theta < g["th_lo"]) | flush
         theta = np.where(tip_contact, theta, np.maximum(theta, g["th_lo"]))
         rho = np.where(tip_contact, 0.0, self.e + self.r * np.sin(theta))
+        rho = np.where(flush, self.e * (theta / _FLUSH_TILT), rho)
         z = np.where(tip_contact, 0.0, self.f - self.r * np.cos(theta))
         point = rho[:, None] * u + z[:, None] * a
         info = ContactInfo(theta=theta, rho=rho, height=z, radial=u,

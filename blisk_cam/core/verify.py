@@ -72,6 +72,21 @@ def _dot(a, b):
     return np.einsum("ij,ij->i", a, b)
 
 
+def _cross(x, y):
+    """Row-wise cross products of (k, 3) arrays (np.cross's overhead is large here)."""
+    x0, x1, x2 = x[:, 0], x[:, 1], x[:, 2]
+    y0, y1, y2 = y[:, 0], y[:, 1], y[:, 2]
+    return np.stack([x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0], axis=1)
+
+
+def _triple(n, x, y):
+    """Row-wise n · (x × y) of (k, 3) arrays."""
+    x0, x1, x2 = x[:, 0], x[:, 1], x[:, 2]
+    y0, y1, y2 = y[:, 0], y[:, 1], y[:, 2]
+    return n[:, 0] * (x1 * y2 - x2 * y1) + n[:, 1] * (x2 * y0 - x0 * y2) + \
+        n[:, 2] * (x0 * y1 - x1 * y0)
+
+
 def closest_on_segments(p, a, b):
     """Closest points on segments to points, pairwise.
 
@@ -100,6 +115,13 @@ def closest_on_triangles(p, a, b, c):
     otherwise the closest point is the nearest of the three edge (segment) closest points.
     Zero-area triangles are treated as their edges only.
 
+    Thin triangles (slivers, needles): the plane normal n is the cross product of the two
+    edges at the largest angle, the interior closest point q is the projection of p onto the
+    plane and its barycentric coordinates are the signed sub-areas n · ((b − q) × (c − q)) /
+    |n|², ..., whose rounding is ~ε / sin(largest angle) relative — not a Gram-determinant
+    solve (d00 d11 − d01², ~ε / sin²(angle at a)), which put points on a 0.8 mm needle
+    3e-6 mm high up to 9e-6 mm off it.
+
     Parameters
     ----------
     p, a, b, c : (k, 3) float, mm
@@ -112,18 +134,28 @@ def closest_on_triangles(p, a, b, c):
     bary : (k, 3) float — barycentric coordinates of ``q`` w.r.t. (a, b, c)
     """
     k = len(p)
-    ab, ac = b - a, c - a
-    ap = p - a
-    d00, d01, d11 = _dot(ab, ab), _dot(ab, ac), _dot(ac, ac)
-    d20, d21 = _dot(ap, ab), _dot(ap, ac)
-    den = d00 * d11 - d01 * d01
-    ok = den > 1e-24 * d00 * d11
+    ab, bc, ca = b - a, c - b, a - c
+    lab, lbc, lca = _dot(ab, ab), _dot(bc, bc), _dot(ca, ca)
+    # normal from the two edges at the largest angle (opposite the longest edge)
+    c_long = ((lab >= lbc) & (lab >= lca))[:, None]
+    a_long = (lbc >= lca)[:, None]
+    n = _cross(np.where(c_long, bc, np.where(a_long, ca, ab)),
+               np.where(c_long, ca, np.where(a_long, ab, bc)))
+    nn = _dot(n, n)
+    ok = nn > 1e-24 * np.maximum(np.maximum(lab, lbc), lca) ** 2
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = np.where(ok, 1.0 / np.where(ok, den, 1.0), 0.0)
-    v = (d11 * d20 - d01 * d21) * inv
-    w = (d00 * d21 - d01 * d20) * inv
-    u = 1.0 - v - w
+        inv = np.where(ok, 1.0 / np.where(ok, nn, 1.0), 0.0)
+    # projection of p onto the plane, then its barycentric coordinates as signed sub-areas
+    # (from the projection, not p: far from the plane the cross products of p − b, p − c
+    # would round by ε |p − b|²)
+    q_in = p + (_dot(a - p, n) * inv)[:, None] * n
+    qa, qb, qc = a - q_in, b - q_in, c - q_in
+    u = _triple(n, qb, qc) * inv
+    v = _triple(n, qc, qa) * inv
+    w = _triple(n, qa, qb) * inv
     inside = ok & (u >= 0) & (v >= 0) & (w >= 0)
+    s_uvw = np.where(inside, u + v + w, 1.0)  # 1 up to rounding (> 0 where inside)
+    u, v, w = u / s_uvw, v / s_uvw, w / s_uvw
 
     bary = np.zeros((k, 3))
     feature = np.zeros(k, dtype=np.int8)
@@ -142,7 +174,7 @@ def closest_on_triangles(p, a, b, c):
         feature = np.where(better, fcode, feature)
     bary = np.where(inside[:, None], np.stack([u, v, w], axis=1), bary)
     feature = np.where(inside, 0, feature).astype(np.int8)
-    q = bary[:, :1] * a + bary[:, 1:2] * b + bary[:, 2:] * c
+    q = np.where(inside[:, None], q_in, bary[:, :1] * a + bary[:, 1:2] * b + bary[:, 2:] * c)
     e = p - q
     d2 = _dot(e, e)
     return q, d2, feature, bary
@@ -266,10 +298,14 @@ class _Tree:
         self.prims = np.where((slot >= 0)[:, None], clusters[np.maximum(slot, 0)], -1)
 
         # the points of each leaf; padding (absent primitives, empty leaves) repeats points of
-        # the same leaf or of the previous leaf, which leaves every bound valid and tight
-        fill = self.prims.copy()
-        fill = np.where(fill >= 0, fill, fill[:, :1])
-        empty = fill[:, 0] < 0
+        # the same leaf or of the previous leaf, which leaves every bound valid and tight.
+        # Padding may sit in any slot (median splits leave −1 anywhere in a cluster): repeat
+        # the row's first present primitive, not slot 0 — a leaf whose slot 0 was padding
+        # used to be bounded by the previous leaf's points and lost its own primitives
+        present = self.prims >= 0
+        first = self.prims[np.arange(NL), np.argmax(present, axis=1)]  # −1 for an empty leaf
+        fill = np.where(present, self.prims, first[:, None])
+        empty = first < 0
         if np.any(empty):
             src = np.maximum.accumulate(np.where(~empty, np.arange(NL), -1))
             src = np.where(src >= 0, src, np.argmax(~empty))

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize_scalar
 
@@ -50,25 +50,35 @@ angle = st.floats(-1.2, 1.2, allow_nan=False)
 
 
 # ------------------------------------------------------------------ contact / CC → CL
+_NV, _CC = (0.3, -0.5, 0.8), (0.1, 0.2, -0.3)
+
+
 @pytest.mark.parametrize("name", list(CUTTERS))
 @settings(max_examples=60, deadline=None)
 @given(nv=vec, lead=angle, tilt=angle, cc=vec)
+# the axis (almost) along n: a ring contact's radial direction comes from a ~θ-long vector
+# (6e-4 mm off the cutter at θ = 1e-12 before the fix); 5e-13 is inside the flush blend
+@example(nv=_NV, lead=0.0, tilt=0.0, cc=_CC)
+@example(nv=_NV, lead=0.0, tilt=5e-13, cc=_CC)
+@example(nv=_NV, lead=0.0, tilt=1e-12, cc=_CC)
+@example(nv=_NV, lead=-1e-12, tilt=1e-12, cc=_CC)
+@example(nv=_NV, lead=0.0, tilt=1e-8, cc=_CC)
+@example(nv=_NV, lead=1e-6, tilt=0.0, cc=_CC)
+@example(nv=(1.0, 0.0, 0.0), lead=0.0, tilt=1e-12, cc=_CC)
 def test_contact_is_on_cutter_and_tangent(name, nv, lead, tilt, cc):
     cut = CUTTERS[name]
     n = unit(nv)
     a = pose_axis(n, lead, tilt)
-    theta = math.acos(np.clip(n @ a, -1, 1))
+    w = np.cross(a, np.cross(n, a))  # n − (n·a) a, exactly ⊥ a even for a ≈ n
+    theta = math.atan2(np.linalg.norm(w), n @ a)
     cc = 50.0 * np.asarray(cc)
     if theta > math.pi / 2 - cut.beta:
         with pytest.raises(ToolError, match="lead/tilt"):
             cut.cl_points(cc[None], n[None], a[None])
         return
     tip = cut.cl_points(cc[None], n[None], a[None])[0]
-    # the CC point is on the cutter's surface. With the axis almost along n the radial
-    # direction of a ring contact (e > 0) is ill-conditioned: rounding of n − (n·a) a (~1e-16)
-    # turns it by 1e-16 / sin θ, moving the contact by e times that
-    cond = 1e-15 * cut.e / max(math.sin(theta), 1e-300) if theta > 0 else 0.0
-    assert abs(cut.signed_distance(cc, tip, a)) <= 1e-9 + cond
+    # the CC point is on the cutter's surface
+    assert abs(cut.signed_distance(cc, tip, a)) <= 1e-9
     # no point of the tangent plane near the contact is inside the (convex) cutter, and the
     # cutter reaches the plane (it is tangent, not floating): the minimum over the plane is 0
     t1, t2 = frame(n)
@@ -76,13 +86,51 @@ def test_contact_is_on_cutter_and_tangent(name, nv, lead, tilt, cc):
     U, W = np.meshgrid(g, g)
     plane = cc + U.reshape(-1, 1) * t1 + W.reshape(-1, 1) * t2
     sd = cut.signed_distance(plane, tip, a)
-    assert sd.min() >= -1e-9 - cond
+    assert sd.min() >= -1e-9
     # lowest point of the cutter along −n lies on the plane: the support value in −n is at cc
     prof = cut.profile(4000)
-    rad = unit(-(n - (n @ a) * a)) if np.linalg.norm(n - (n @ a) * a) > 1e-12 else t1
+    rad = unit(-w) if np.linalg.norm(w) > 0 else t1
     depth = -(prof[:, 0] * (rad @ -n) + prof[:, 1] * (a @ -n))  # height above tip along n…
     lowest = (tip - cc) @ n + depth.min()
-    assert abs(lowest) <= 1e-6 * cut.d + cond
+    assert abs(lowest) <= 1e-6 * cut.d
+
+
+@pytest.mark.parametrize("name", ["bull", "flat"])
+def test_flush_contact_is_exact_and_continuous(name):
+    """Axis tilted from n by θ from 0 to 1e-3 (log-spaced, both sides of the flush blend at
+    1e-12 rad), vectorised: the CC point is on the cutter, the cutter does not dip below the
+    tangent plane (its support in −n, from the profile, is at cc), the contact moves from the
+    tip (θ = 0) continuously out to the bottom's rim, and is at the ring point e + r sin θ
+    along −(n − (n·a) a) above the blend."""
+    cut = CUTTERS[name]
+    rng = np.random.default_rng(11)
+    th = np.concatenate([[0.0], np.geomspace(1e-16, 1e-3, 400)])
+    k = len(th)
+    n = unit(rng.normal(size=(k, 3)))
+    t1 = unit(np.cross(n, rng.normal(size=(k, 3))))
+    a = unit(np.cos(th)[:, None] * n + np.sin(th)[:, None] * t1)
+    cc = rng.normal(size=(k, 3)) * 50
+    tip = cut.cl_points(cc, n, a)
+    assert np.abs(cut.signed_distance(cc, tip, a)).max() <= 1e-9
+    # support of the posed cutter in −n: the lowest point along n of the outline, in the
+    # meridional half-plane facing −n (exact: sin θ = |n × a| from the construction)
+    phi = np.concatenate([th, np.linspace(0.0, math.pi / 2, 200)])  # corner arc samples,
+    prof = np.vstack([cut.profile(200),  # including each pose's θ (exact support there)
+                      np.stack([cut.e + cut.r * np.sin(phi), cut.f - cut.r * np.cos(phi)], 1)])
+    lowest = (np.einsum("ij,ij->i", tip - cc, n)[:, None]
+              - prof[None, :, 0] * np.sin(th)[:, None] + prof[None, :, 1] * np.cos(th)[:, None])
+    assert np.abs(lowest.min(axis=1)).max() <= 1e-9
+    rho = np.linalg.norm(np.cross(cc - tip, a), axis=1)  # contact distance from the axis
+    assert rho[0] == 0.0  # the whole bottom is flush: contact at the tip
+    # it moves out monotonically and without a jump (consecutive θ differ by 8 %, so a
+    # continuous blend moves < 10 % of e per step; the old contact jumped 0 → e). Below 1e-14
+    # rad the axis built here is itself only θ ± 1e-16: no order to check there
+    dr = np.diff(rho[th >= 1e-14])
+    assert np.all(dr >= -1e-9) and np.all(dr <= 0.1 * cut.e)
+    ring = th >= 1e-11
+    assert np.allclose(rho[ring], cut.e + cut.r * np.sin(th[ring]), rtol=0, atol=1e-9)
+    # above the blend the contact is toward the side n leans to, i.e. along t1
+    assert np.all(np.einsum("ij,ij->i", cc - tip, t1)[ring] > 0)
 
 
 @pytest.mark.parametrize("name", ["ball", "bull", "taper", "bull_cone_bottom"])

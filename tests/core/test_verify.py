@@ -13,7 +13,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
@@ -200,6 +200,112 @@ def test_closest_points_match_brute_force(seed, spread):
     tri = mesh.V[mesh.F[cp.face]]
     np.testing.assert_allclose((cp.bary[:, :, None] * tri).sum(1), cp.point, atol=1e-9)
     assert np.all(cp.bary >= -1e-12)
+
+
+def sliver_mesh(seed, nrow, ncol, gap, needle):
+    """A small wavy strip mesh full of thin triangles: rows of vertices ``gap`` mm apart with
+    independent random x positions, zipped row to row (slivers where rows are close, long
+    needles where the x positions of neighbouring rows interleave unevenly); ``needle`` of
+    the x gaps shrink to 1e-4 of the rest. Faces are shuffled (the tree's leaf layout changes)."""
+    rng = np.random.default_rng(seed)
+    rows, V = [], []
+    for i in range(nrow):
+        dx = rng.uniform(0.2, 1.0, ncol - 1)
+        dx[rng.random(ncol - 1) < needle] *= 1e-4
+        x = np.concatenate([[0.0], np.cumsum(dx)])
+        y = np.full(ncol, i * gap)
+        rows.append(np.arange(i * ncol, (i + 1) * ncol))
+        V.append(np.stack([x, y, 0.3 * np.sin(0.7 * x) + 0.2 * np.cos(1.3 * y)], 1))
+    V = np.vstack(V)
+    F = []
+    for i in range(nrow - 1):  # zipper triangulation of rows i and i + 1 by their x order
+        a, b = rows[i], rows[i + 1]
+        j = k = 0
+        while j < ncol - 1 or k < ncol - 1:
+            if k == ncol - 1 or (j < ncol - 1 and V[a[j + 1], 0] <= V[b[k + 1], 0]):
+                F.append([a[j], a[j + 1], b[k]])
+                j += 1
+            else:
+                F.append([a[j], b[k + 1], b[k]])
+                k += 1
+    F = np.array(F)[rng.permutation(len(F))]
+    return TriMesh.from_arrays(V, F, orient=False)
+
+
+def brute_nearest(mesh, P):
+    """(k,) distances from P to every face by the exact point-triangle routine (no tree)."""
+    T = mesh.V[mesh.F]
+    k, m = len(P), len(T)
+    d2 = closest_on_triangles(np.repeat(P, m, 0), np.tile(T[:, 0], (k, 1)),
+                              np.tile(T[:, 1], (k, 1)), np.tile(T[:, 2], (k, 1)))[1]
+    return np.sqrt(d2.reshape(k, m).min(1))
+
+
+def assert_leaves_contain_their_faces(md):
+    """Every tree leaf's box and cylinder contain all corners of its own triangles."""
+    tree, T = md.tree, md.mesh.V[md.mesh.F]
+    leaf, slot = np.nonzero(tree.prims >= 0)
+    node = leaf + tree.NL
+    pts = T[tree.prims[leaf, slot]]  # (n, 3 corners, 3)
+    lo, hi = tree.lo[node][:, None], tree.hi[node][:, None]
+    assert np.all((pts >= lo - 1e-12) & (pts <= hi + 1e-12)), "a face is outside its leaf box"
+    d = pts - tree.c[node][:, None]
+    z = np.einsum("nci,ni->nc", d, tree.w[node])
+    r = np.sqrt(np.maximum(np.einsum("nci,nci->nc", d, d) - z * z, 0.0))
+    assert np.all(np.abs(z) <= tree.H[node][:, None] + 1e-9)
+    assert np.all(r <= tree.R[node][:, None] + 1e-9)
+
+
+def test_point_on_a_thin_face_of_the_scan_like_demo_blade():
+    """Regression: on this blade the leaf holding the thin face 24123 (edges 0.042, 0.970,
+    0.971 mm) had a padding slot first and was bounded by the previous leaf's triangles, so
+    the midpoint of its boundary edge 12510–12511 came out 0.0211 mm from the mesh (face
+    24124) instead of on it. Every edge midpoint of the mesh must be on it."""
+    from blisk_cam.core.demo import make_demo_blisk
+
+    d = make_demo_blisk(resolution=0.5, fillet_radius=10, scan_like=True, seed=4)
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    assert list(mesh.F[24123]) == [12510, 12511, 12311]
+    T = mesh.V[mesh.F[24123]]
+    np.testing.assert_allclose(np.sort(np.linalg.norm(T - np.roll(T, 1, 0), axis=1)),
+                               [0.0423, 0.9702, 0.9712], atol=1e-4)
+    md = MeshDistance(mesh)
+    p = 0.5 * (mesh.V[12510] + mesh.V[12511])
+    cp = md.query(p[None])
+    assert cp.distance[0] < 1e-12 and cp.face[0] == 24123
+    assert_leaves_contain_their_faces(md)
+    mids = 0.5 * (mesh.V[mesh.edges[:, 0]] + mesh.V[mesh.edges[:, 1]])
+    assert md.query(mids).distance.max() < 1e-9
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), nrow=st.integers(2, 6), ncol=st.integers(3, 30),
+       gap=st.sampled_from([1e-3, 0.02, 0.3, 1.0]), needle=st.sampled_from([0.0, 0.3]))
+# layouts whose partly filled leaf had a padding slot first (mis-bounded before the fix) and
+# needles of 1:10⁴ (points on them came out 1e-5 mm off with the Gram-determinant solve)
+@example(seed=9, nrow=6, ncol=14, gap=0.02, needle=0.3)
+@example(seed=12, nrow=4, ncol=15, gap=1e-3, needle=0.3)
+@example(seed=0, nrow=2, ncol=4, gap=1e-3, needle=0.3)
+def test_points_on_thin_triangles_are_on_the_mesh(seed, nrow, ncol, gap, needle):
+    """Slivers and needles in a small mesh (any face count, so the tree has padding): points
+    on every face (inside, on edges, at corners) are at distance 0, and points off the
+    surface at the brute-force distance over all faces; the leaves bound their faces."""
+    mesh = sliver_mesh(seed, nrow, ncol, gap, needle)
+    md = MeshDistance(mesh, leaf_size=8)
+    assert_leaves_contain_their_faces(md)
+    rng = np.random.default_rng(seed)
+    T = mesh.V[mesh.F]
+    w = np.vstack([rng.dirichlet([1.0, 1.0, 1.0], len(T)),  # interior
+                   np.tile([0.5, 0.5, 0.0], (len(T), 1)), np.tile([0.0, 0.3, 0.7], (len(T), 1)),
+                   np.tile([1.0, 0.0, 0.0], (len(T), 1))])  # edges and a corner
+    on = np.einsum("kc,kci->ki", w, np.tile(T, (4, 1, 1)))
+    cp = md.query(on)
+    assert cp.distance.max() < 1e-9  # rounding of a sliver's plane: up to ~1e-11 mm
+    np.testing.assert_allclose(cp.distance, brute_nearest(mesh, on), rtol=0, atol=1e-12)
+    off = on[rng.choice(len(on), min(len(on), 200), replace=False)]
+    off = off + rng.normal(0.0, [0.05, 0.05, 0.3], off.shape)
+    np.testing.assert_allclose(md.query(off).distance, brute_nearest(mesh, off), rtol=0,
+                               atol=1e-12)
 
 
 def test_sign_is_the_inside_outside_test_near_edges_and_vertices():
@@ -648,7 +754,8 @@ def test_bull_with_tilt_leaves_the_corner_radius_scallop():
     rep = verify_path(mesh, path)
     # the swept section is the corner circle at the contact (R_eff = r) and deviates from it
     # by O(w⁴) away from it: 7e-6 mm here
-    assert cutter.effective_radius([0, 1, 0], path.curves[0].axis[0], [1, 0, 0])[0] == 2.0
+    assert cutter.effective_radius([0, 1, 0], path.curves[0].axis[0], [1, 0, 0])[0] == \
+        pytest.approx(2.0, rel=1e-12)
     np.testing.assert_allclose(rep.pair_cusp_normal, 2.0 - np.sqrt(4.0 - 0.25), atol=2e-5)
     assert rep.max_gouge < 1e-9 and rep.cc_contact < 1e-9
 
