@@ -64,7 +64,9 @@ def tube_blade(n_u=96, n_v=40, cone1=(100.0, -10.0, 104.0, 30.0), cone2=(140.0, 
     i1 = np.roll(idx[:-1, :], -1, axis=1)
     i2 = idx[1:, :]
     i3 = np.roll(idx[1:, :], -1, axis=1)
-    F = np.vstack([np.stack([i0, i1, i3], -1).reshape(-1, 3), np.stack([i0, i3, i2], -1).reshape(-1, 3)])
+    F = np.vstack(
+        [np.stack([i0, i1, i3], -1).reshape(-1, 3), np.stack([i0, i3, i2], -1).reshape(-1, 3)]
+    )
     return V, F, mc
 
 

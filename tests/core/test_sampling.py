@@ -11,7 +11,8 @@ def _seg_dist(points, a, b):
     """Brute force: distance of each point to the nearest of the segments a[i]→b[i]."""
     ab = b - a
     ap = points[:, None, :] - a[None]
-    t = np.clip(np.einsum("pij,ij->pi", ap, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+    ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    t = np.clip(np.einsum("pij,ij->pi", ap, ab) / ab2, 0, 1)
     d = ap - t[..., None] * ab[None]
     return np.sqrt(np.einsum("pij,pij->pi", d, d)).min(axis=1)
 

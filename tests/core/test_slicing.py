@@ -7,7 +7,6 @@ from blisk_cam.core.errors import MeshError
 from blisk_cam.core.mesh import TriMesh
 from blisk_cam.core.slicing import MeshConeSlicer
 
-
 AX = Axis()
 
 
@@ -26,7 +25,8 @@ def _check_curve_on_mesh_and_cone(mesh, slicer, c, tol=1e-9):
     fe = mesh.edge_faces[c.edge]
     nxt = np.roll(fe, -1, axis=0) if c.closed else fe[1:]
     cur = fe if c.closed else fe[:-1]
-    assert np.all(np.any((cur[:, :, None] == nxt[:, None, :]) & (cur[:, :, None] >= 0), axis=(1, 2)))
+    shared = (cur[:, :, None] == nxt[:, None, :]) & (cur[:, :, None] >= 0)
+    assert np.all(np.any(shared, axis=(1, 2)))
 
 
 def test_tube_levels_are_closed_loops_on_mesh_and_cone(tube):
