@@ -524,13 +524,8 @@ def arrays_to_object(
 
 def _axis_frame(axis: Axis):
     """Orthonormal (e1, e2, d): e1 is world X projected normal to the axis (Y if X ∥ axis),
-    so that for the axis +Z the angle θ is the usual atan2(y, x)."""
-    d = axis.d
-    ref = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = ref - (ref @ d) * d
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(d, e1)
-    return e1, e2, d
+    so that for the axis +Z the angle θ is the usual atan2(y, x) (``Axis.angular_frame``)."""
+    return axis.angular_frame()
 
 
 def _generatrix_rows(generatrix, rows: int, extend: float) -> np.ndarray:

@@ -71,6 +71,17 @@ class Axis:
         """``[ox, oy, oz, dx, dy, dz]`` as in the paths JSON."""
         return [*self.origin, *self.direction]
 
+    def angular_frame(self):
+        """Orthonormal (e1, e2, d), each (3,) float64: e1 is world X projected normal to the
+        axis (world Y if X ∥ axis), e2 = d × e1, so that for the axis +Z the angle θ about it
+        is the usual atan2(y, x). The one convention for angles about the blisk axis (cone
+        objects, gizmo half-planes, the demo's blade placement)."""
+        d = self.d
+        ref = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        e1 = ref - (ref @ d) * d
+        e1 /= np.linalg.norm(e1)
+        return e1, np.cross(d, e1), d
+
     def radial_frame(self, points):
         """Unit radial directions e_r of (n, 3) points (arbitrary but consistent on the axis)."""
         p = np.asarray(points, dtype=np.float64) - self.o

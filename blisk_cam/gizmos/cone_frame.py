@@ -104,12 +104,7 @@ def axis_frame(axis: Axis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     -------
     e1, e2, d : (3,) float64 unit vectors
     """
-    d = axis.d
-    ref = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = ref - (ref @ d) * d
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(d, e1)
-    return e1, e2, d
+    return axis.angular_frame()
 
 
 def half_plane_angle(axis: Axis, point) -> float:
