@@ -74,6 +74,10 @@ def densify_by_normal_turn(points, normals, closed: bool, max_turn: float):
     return np.vstack([p, P[-1:]]), np.vstack([n, N[-1:]]), np.append(seg, len(n0) - 1)
 
 
+_einsum = np.einsum
+_max_reduce = np.maximum.reduce
+
+
 def _max_dev(X, i, j):
     """Largest distance of points i+1..j-1 of X to the segment X[i] X[j], for the stacked
     point sets of X (k, p, 3) at once (p = 2: the CC and the centre polylines). (p,) float."""
@@ -82,11 +86,13 @@ def _max_dev(X, i, j):
     a = X[i]
     q = X[i + 1 : j] - a  # (w, p, 3)
     ab = X[j] - a  # (p, 3)
-    L2 = (ab * ab).sum(axis=1)
-    t = (q * ab).sum(axis=2) / np.where(L2 > 0, L2, 1.0)
-    np.clip(t, 0.0, 1.0, out=t)
+    # einsum dot products (the same sums, one call each): this runs ~10 times per pose
+    L2 = _einsum("pj,pj->p", ab, ab)
+    t = _einsum("wpj,pj->wp", q, ab) / np.where(L2 > 0, L2, 1.0)
+    np.maximum(t, 0.0, out=t)
+    np.minimum(t, 1.0, out=t)
     d = q - t[:, :, None] * ab
-    return np.sqrt((d * d).sum(axis=2).max(axis=0))
+    return np.sqrt(_max_reduce(_einsum("wpj,wpj->wp", d, d), axis=0))
 
 
 def forward_step_indices(P, C, chord: float, max_step: float | None = None,
@@ -110,7 +116,8 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
     -------
     (q,) int indices
     """
-    tol = np.array([chord, chord if centre_chord is None else centre_chord])
+    tol_p = float(chord)
+    tol_c = float(chord if centre_chord is None else centre_chord)
     X = np.stack([np.asarray(P, dtype=np.float64), np.asarray(C, dtype=np.float64)], axis=1)
     k = len(X)
     last = k - 1
@@ -120,7 +127,8 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
     def ok(i, j):
         if max_step is not None and np.linalg.norm(X[j, 0] - X[i, 0]) > max_step:
             return False
-        return bool(np.all(_max_dev(X, i, j) <= tol))
+        dev = _max_dev(X, i, j)
+        return bool(dev[0] <= tol_p) and bool(dev[1] <= tol_c)
 
     prev = 2
     while i < last:

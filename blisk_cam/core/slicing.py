@@ -88,9 +88,9 @@ class MeshConeSlicer:
         p = V - axis.o
         self.radial = p - self.z[:, None] * axis.d  # (n, 3) radial vector of each vertex
         self.s = morph.ratio(self.r, self.z)  # (n,) morph field
-        sF = self.s[mesh.F]
-        self.face_smin = sF.min(axis=1)
-        self.face_smax = sF.max(axis=1)
+        s0, s1, s2 = self.s[mesh.F[:, 0]], self.s[mesh.F[:, 1]], self.s[mesh.F[:, 2]]
+        self.face_smin = np.minimum(np.minimum(s0, s1), s2)
+        self.face_smax = np.maximum(np.maximum(s0, s1), s2)
         self.edges = mesh.edges
         self.face_edges = mesh.face_edges
         self.vertex_normals = mesh.vertex_normals
@@ -102,6 +102,39 @@ class MeshConeSlicer:
         )
         # margin in s that corresponds to on_tol mm (conservative: candidate faces only)
         self._s_margin = 1e-6 + 10.0 * self.on_tol / max(self._cone_gap(), 1e-9)
+        self._index_face_ranges()
+
+    def _index_face_ranges(self):
+        """Faces sorted by their smallest s, so a level's candidates are found by two binary
+        searches instead of a test of every face: a face whose s range is at most ``w``
+        wide can only reach [s − m, s + m] if its smallest s lies in [s − m − w, s + m] (the
+        window is taken wider, the exact test follows); the few faces wider
+        than the 99.9th percentile of spans (and those with infinite s) are tested directly.
+        Faces with NaN s are never candidates (as with a direct test)."""
+        lo, hi = self.face_smin, self.face_smax
+        with np.errstate(invalid="ignore"):  # inf − inf: NaN, a wide face below
+            width = hi - lo
+        finite = np.isfinite(width)
+        cut = float(np.quantile(width[finite], 0.999)) if finite.any() else 0.0
+        narrow = np.nonzero(finite & (width <= cut))[0]
+        order = np.argsort(lo[narrow], kind="stable")
+        self._narrow_faces = narrow[order]
+        self._narrow_smin = lo[self._narrow_faces]
+        self._narrow_span = 2.0 * cut + 1e-9  # slack: the window only pre-selects
+        # wide or infinite (NaN ranges fail every comparison, so they are dropped here)
+        wide = ~(finite & (width <= cut)) & ~np.isnan(lo) & ~np.isnan(hi)
+        self._wide_faces = np.nonzero(wide)[0]
+
+    def _candidate_faces(self, s: float, m: float):
+        """Ascending ids of the faces with smin ≤ s + m and smax ≥ s − m."""
+        lo = s - m - self._narrow_span
+        i0 = int(np.searchsorted(self._narrow_smin, lo, side="left"))
+        i1 = int(np.searchsorted(self._narrow_smin, s + m, side="right"))
+        near = self._narrow_faces[i0:i1]
+        near = near[self.face_smax[near] >= s - m]
+        w = self._wide_faces
+        w = w[(self.face_smin[w] <= s + m) & (self.face_smax[w] >= s - m)]
+        return np.sort(np.concatenate([near, w]))
 
     def _cone_gap(self) -> float:
         """A typical meridional distance between cone 1 and cone 2 (mm)."""
@@ -126,7 +159,7 @@ class MeshConeSlicer:
         s = float(s)
         mesh = self.mesh
         m = self._s_margin
-        cand = np.nonzero((self.face_smin <= s + m) & (self.face_smax >= s - m))[0]
+        cand = self._candidate_faces(s, m)
         if len(cand) == 0:
             return []
         Fc = mesh.F[cand]
