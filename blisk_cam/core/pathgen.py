@@ -545,8 +545,8 @@ class _Generator:
         while s < 1.0:
             if len(passes) > MAX_PASSES:
                 raise ToleranceError(
-                    f"more than {MAX_PASSES} passes needed: the cusp height {h} mm is far too small "
-                    f"for a {self.radius} mm ball on this blade"
+                    f"more than {MAX_PASSES} passes needed: the cusp height {h} mm is far too "
+                    f"small for a {self.radius} mm ball on this blade"
                 )
             dist_a = self.centre_distance(s)
             pred = max(self.predict_step(s), 1e-6)
@@ -637,8 +637,10 @@ class _Generator:
         )
 
 
-def iter_generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2: Cone | Profile, *, tool_radius: float,
-                        cusp: float, chord: float):
+def iter_generate_paths(
+    mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2: Cone | Profile, *,
+    tool_radius: float, cusp: float, chord: float,
+):
     """Generator form of :func:`generate_paths`: yields :class:`Progress`, returns the
     :class:`ToolPath` as the generator's return value (``StopIteration.value``)."""
     gen = _Generator(mesh, axis, cone1, cone2, tool_radius, cusp, chord)
@@ -646,8 +648,10 @@ def iter_generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2:
     return gen.result
 
 
-def generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2: Cone | Profile, *, tool_radius: float,
-                   cusp: float, chord: float) -> ToolPath:
+def generate_paths(
+    mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2: Cone | Profile, *,
+    tool_radius: float, cusp: float, chord: float,
+) -> ToolPath:
     """Boundary-conformed finishing passes for a ball of ``tool_radius`` (mm) between
     ``cone1`` (s = 0) and ``cone2`` (s = 1), scallop ≤ ``cusp`` and chord error ≤ ``chord`` (mm).
 
@@ -655,7 +659,9 @@ def generate_paths(mesh: TriMesh, axis: Axis, cone1: Cone | Profile, cone2: Cone
     ------
     ConeError, ToleranceError, MeshError with a message that names the problem.
     """
-    it = iter_generate_paths(mesh, axis, cone1, cone2, tool_radius=tool_radius, cusp=cusp, chord=chord)
+    it = iter_generate_paths(
+        mesh, axis, cone1, cone2, tool_radius=tool_radius, cusp=cusp, chord=chord
+    )
     while True:
         try:
             next(it)
