@@ -44,8 +44,13 @@ class LevelCurve:
     closed : bool — a closed loop (last point connects to the first; not repeated)
     points : (k, 3) float, mm — on mesh edges, on the LMC
     normals : (k, 3) float — smooth normals (vertex normals interpolated along the edge)
-    edge : (k,) int — mesh edge of each point
-    t : (k,) float — parameter of each point along its edge (from ``edges[:, 0]``)
+    edge : (k,) int — mesh edge of each point (for a point inside a face, see ``face``: the
+        edge of the point before it, a side of that face)
+    t : (k,) float — parameter of each point along its edge (from ``edges[:, 0]``); NaN for a
+        point inside a face
+    face : (k,) int — −1 for a point on its mesh edge; for a point inside a face (the corner
+        of an LMRS level curve where it crosses the circle swept by a vertex of the generatrix,
+        see :meth:`MeshConeSlicer.slice`) that face's id. Defaults to all −1.
     """
 
     s: float
@@ -54,6 +59,11 @@ class LevelCurve:
     normals: np.ndarray
     edge: np.ndarray
     t: np.ndarray
+    face: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.face is None:
+            self.face = np.full(len(self.points), -1, dtype=np.int64)
 
     def __len__(self) -> int:
         return len(self.points)
@@ -193,6 +203,12 @@ class MeshConeSlicer:
         nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
         nxt = np.full(len(uedges), -1, dtype=np.int64)
         nxt[links[:, 0]] = links[:, 1]
+        kinked = len(self.morph.segment_lines(s)) > 1
+        if kinked:  # the face of each link, looked up by its (unordered) pair of edges
+            nu = np.int64(len(uedges))
+            lk = np.minimum(links[:, 0], links[:, 1]) * nu + np.maximum(links[:, 0], links[:, 1])
+            lk_order = np.argsort(lk, kind="stable")
+            lk_sorted, lk_face = lk[lk_order], faces[lk_order]
         curves = []
         for order, closed in chain_graph_paths(len(uedges), links):
             if len(order) >= 2 and nxt[order[0]] != order[1]:
@@ -206,14 +222,119 @@ class MeshConeSlicer:
             order = order[keep]
             if len(order) < 2:
                 continue
-            curves.append(
-                LevelCurve(
-                    s=s, closed=bool(closed and len(order) > 2), points=pts[order],
-                    normals=nrm[order], edge=uedges[order], t=t[order],
-                )
+            closed = bool(closed and len(order) > 2)
+            curve = LevelCurve(
+                s=s, closed=closed, points=pts[order], normals=nrm[order], edge=uedges[order],
+                t=t[order],
             )
+            if kinked:
+                a, b = order, np.roll(order, -1)
+                if not closed:
+                    a, b = a[:-1], b[:-1]
+                key = np.minimum(a, b) * nu + np.maximum(a, b)
+                pos = np.clip(np.searchsorted(lk_sorted, key), 0, len(lk_sorted) - 1)
+                seg_face = np.where(lk_sorted[pos] == key, lk_face[pos], -1)
+                curve = self._insert_kink_points(curve, seg_face)
+            curves.append(curve)
         curves.sort(key=lambda c: -c.length())
         return curves
+
+    def _insert_kink_points(self, curve: LevelCurve, seg_face) -> LevelCurve:
+        """The level curve with its corners inside faces added (LMRS only, paper 001 §4.2).
+
+        Inside one face the curve mesh ∩ LMRS(s) is the plane of the face cut with the
+        revolution of the polyline G_s: a piecewise conic that turns a corner where it crosses
+        the circle swept by a vertex A_j(s) of G_s (the boundary of morph strips j − 1 and j,
+        :meth:`.lmrs.MorphingProfiles.segment_of`). The straight segment between the curve's two
+        edge roots in that face cuts the corner. Where the two ends of a segment lie in
+        different strips, the corner of each strip boundary passed is inserted: the point of
+        the face's plane at height z = z_j on the circle r = r_j, (r_j, z_j) = A_j(s) — the
+        plane ∩ {z = z_j} is a line X0 + τ u (u = n × d, no axial part), and |q0 + τ u|² = r_j²
+        (q0 the radial vector of X0) is a quadratic in τ; of its two roots the one nearer the
+        segment is kept. Such a point lies on the surface exactly (it is A_j(s) revolved). It is
+        kept only when it falls inside the face (barycentrics ≥ −1e-9) and G_s really turns at
+        A_j (collinear segments need no corner); a segment joining two mesh vertices on the
+        level (a mesh edge, e.g. of the boundary loop at s = 0) is left as it is.
+
+        Parameters
+        ----------
+        curve : LevelCurve — points on edges, in order
+        seg_face : (q,) int — face of each segment i → i + 1 (and last → first when closed),
+            −1 where not known (the segment then stays as it is)
+
+        Returns
+        -------
+        LevelCurve — the same curve with the corner points inserted (``face`` ≥ 0 for them,
+        ``edge`` that of the point before, ``t`` NaN, normals interpolated in the face)
+        """
+        morph, axis, mesh = self.morph, self.axis, self.mesh
+        P = curve.points
+        k = len(P)
+        q = len(seg_face)
+        ia = np.arange(q)
+        ib = (ia + 1) % k
+        r, z = meridional(P, axis)
+        j = np.asarray(morph.segment_of(r, z), dtype=np.int64)
+        # two mesh vertices on the level (within on_tol, e.g. a boundary loop at s = 0 or 1):
+        # the segment is the mesh edge between them, the cut itself — no corner
+        at_vertex = (curve.t == 0.0) | (curve.t == 1.0)
+        n_cross = np.where((seg_face >= 0) & ~(at_vertex[ia] & at_vertex[ib]),
+                           np.abs(j[ib] - j[ia]), 0)
+        if not np.any(n_cross):
+            return curve
+        seg = np.repeat(ia, n_cross)
+        within = np.arange(len(seg)) - np.repeat(np.cumsum(n_cross) - n_cross, n_cross)
+        ray = np.minimum(j[ia], j[ib])[seg] + 1 + within  # vertex index of G_s, 1 … m − 1
+        G = morph.polyline(curve.s)
+        dG = np.diff(G, axis=0)
+        dG = dG / np.linalg.norm(dG, axis=1)[:, None]
+        turns = np.abs(dG[ray - 1, 0] * dG[ray, 1] - dG[ray - 1, 1] * dG[ray, 0]) > 1e-12
+        face = seg_face[seg]
+        a, b = P[ia[seg]], P[ib[seg]]
+        c = 0.5 * (a + b)
+        n = mesh.face_normals[face]
+        n = n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        d = np.asarray(axis.d, dtype=np.float64)
+        d = d / np.linalg.norm(d)
+        o = np.asarray(axis.o, dtype=np.float64)
+        rj, zj = G[ray, 0], G[ray, 1]
+        tri = mesh.V[mesh.F[face]]  # (p, 3, 3)
+        nd = n @ d
+        det = 1.0 - nd * nd  # |n × d|²: 0 when the face is normal to the axis
+        ok = turns & (det > 1e-12)
+        det = np.where(ok, det, 1.0)
+        # X0 = c + μ1 n + μ2 d on the face's plane and at height zj, nearest to c
+        h1 = np.einsum("ij,ij->i", n, tri[:, 0] - c)
+        h2 = o @ d + zj - c @ d
+        X0 = c + ((h1 - nd * h2) / det)[:, None] * n + ((h2 - nd * h1) / det)[:, None] * d
+        u = np.cross(n, d) / np.sqrt(det)[:, None]
+        q0 = X0 - o - zj[:, None] * d
+        bq = np.einsum("ij,ij->i", q0, u)
+        disc = bq * bq - np.einsum("ij,ij->i", q0, q0) + rj * rj
+        ok &= disc >= 0
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        cand = np.stack([X0 + (-bq + sq)[:, None] * u, X0 + (-bq - sq)[:, None] * u], 1)
+        pick = np.argmin(np.linalg.norm(cand - c[:, None, :], axis=2), axis=1)
+        X = cand[np.arange(len(seg)), pick]
+        bary = _barycentric(X, tri)
+        ok &= np.all(bary >= -1e-9, axis=1)
+        if not np.any(ok):
+            return curve
+        seg, X, face, bary = seg[ok], X[ok], face[ok], bary[ok]
+        # order: along the curve, then along each segment
+        along = np.einsum("ij,ij->i", X - P[ia[seg]], P[ib[seg]] - P[ia[seg]])
+        key = np.concatenate([np.arange(k, dtype=np.float64), seg + 0.5])
+        sub = np.concatenate([np.zeros(k), along])
+        perm = np.lexsort((sub, key))
+        cat = lambda own, new: np.concatenate([own, new])[perm]  # noqa: E731
+        return LevelCurve(
+            s=curve.s, closed=curve.closed,
+            points=cat(P, X),
+            normals=cat(curve.normals, mesh.interpolate_normals(face, bary)),
+            edge=cat(curve.edge, curve.edge[ia[seg]]),
+            t=cat(curve.t, np.full(len(seg), np.nan)),
+            face=cat(curve.face, face),
+        )
 
     def _edge_roots(self, s: float, edge_ids, f_of=None):
         """Exact crossing points of the LMC (or LMRS) at ``s`` on edges (paper Eq. 9,
@@ -363,3 +484,20 @@ class MeshConeSlicer:
         t = np.where(np.isfinite(tn) & (tn >= 0) & (tn <= 1), tn, t)
         rr = np.linalg.norm(q0 + t[:, None] * dq, axis=1)
         return t, np.abs(alpha * rr + beta * (z0 + t * dz) + gamma)
+
+
+def _barycentric(X, tri):
+    """Barycentric coordinates (p, 3) of points X (p, 3) in the planes of triangles (p, 3, 3)."""
+    v0 = tri[:, 1] - tri[:, 0]
+    v1 = tri[:, 2] - tri[:, 0]
+    v2 = X - tri[:, 0]
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    den = np.where(den != 0, den, 1.0)
+    b1 = (d11 * d20 - d01 * d21) / den
+    b2 = (d00 * d21 - d01 * d20) / den
+    return np.stack([1.0 - b1 - b2, b1, b2], axis=1)

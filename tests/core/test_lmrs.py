@@ -263,16 +263,43 @@ def test_folded_profile_pair_is_refused():
 
 # ------------------------------------------------------------------ slicing
 def _check_on_mesh_and_surface(mesh, sl, c, tol=1e-6):
+    on_edge = c.face < 0
+    assert np.all(np.isnan(c.t[~on_edge]))
     a, b = mesh.V[mesh.edges[c.edge, 0]], mesh.V[mesh.edges[c.edge, 1]]
     ab = b - a
     u = np.clip(np.einsum("ij,ij->i", c.points - a, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
-    assert np.linalg.norm(c.points - (a + u[:, None] * ab), axis=1).max() < 1e-9
+    off = np.linalg.norm(c.points - (a + u[:, None] * ab), axis=1)
+    assert off[on_edge].max() < 1e-9
+    if not np.all(on_edge):  # corners inside a face: in that face, which has the edge before
+        assert np.all(np.any(mesh.edge_faces[c.edge[~on_edge]] == c.face[~on_edge, None], 1))
+        p = c.points[~on_edge]
+        assert _distance_to_triangles(p, mesh.V[mesh.F[c.face[~on_edge]]]).max() < 1e-9
     r, z = meridional(c.points, AX)
     f = np.abs(sl.morph.f(c.s, r, z))
     # crossings solved on an edge are exact; mesh vertices within on_tol count as on the level
     at_vertex = (c.t == 0.0) | (c.t == 1.0)
     assert not np.any(f[~at_vertex] > tol), f[~at_vertex].max()
     assert np.all(f[at_vertex] <= sl.on_tol)
+
+
+
+def _distance_to_triangles(p, tri):
+    """Distance (mm) from points p (k, 3) to triangles tri (k, 3, 3), independently of the
+    slicer: the nearest of the plane foot (when inside) and the three edges."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    n = np.cross(b - a, c - a)
+    n = n / np.linalg.norm(n, axis=1)[:, None]
+    h = np.einsum("ij,ij->i", p - a, n)
+    foot = p - h[:, None] * n
+    inside = np.ones(len(p), dtype=bool)
+    for x, y in ((a, b), (b, c), (c, a)):
+        inside &= np.einsum("ij,ij->i", np.cross(y - x, foot - x), n) >= -1e-12
+    best = np.where(inside, np.abs(h), np.inf)
+    for x, y in ((a, b), (b, c), (c, a)):
+        xy = y - x
+        u = np.clip(np.einsum("ij,ij->i", p - x, xy) / np.einsum("ij,ij->i", xy, xy), 0, 1)
+        best = np.minimum(best, np.linalg.norm(p - (x + u[:, None] * xy), axis=1))
+    return best
 
 
 def test_rotor67_lmrs_levels_lie_on_mesh_and_surface(r67_mesh, r67_morph):
@@ -322,7 +349,14 @@ def test_profile_hub_follows_the_published_hub_line(r67_mesh, r67_meta, r67_hub_
         r, z = meridional(c.points, AX)
         off[name] = np.abs(published.signed_distance(r, z)).max()
     assert 1.5 < off["cone"] < 2.1  # measured 1.90 mm
-    assert off["profile"] <= resid + 2e-4  # measured 1.27e-3 mm for a residual of 1.26e-3
+    # the curve's corners inside faces (where it crosses a profile vertex's circle) lie on the
+    # profile's vertices, which may be a little further from the published line than the
+    # fit residual at the section points: measured 1.80e-3 mm (1.27e-3 without the corners)
+    Vp = prof.vertices
+    vtx_off = np.abs(published.signed_distance(Vp[:, 0], Vp[:, 1]))
+    zp = published.vertices[:, 1]
+    inside = (Vp[:, 1] > zp.min()) & (Vp[:, 1] < zp.max())
+    assert off["profile"] <= max(resid, vtx_off[inside].max()) + 2e-4
 
 
 # ------------------------------------------------------------------ full path, verified
@@ -420,3 +454,49 @@ def test_fit_profile_from_user_points_recovers_a_curved_hub():
             fit_profile(np.asarray(bad), AX)
     with pytest.raises(ConeError, match="axis"):
         fit_profile(xyz)
+
+
+# ------------------------------------------------------------------ corners at profile kinks
+@pytest.fixture(scope="module")
+def r67_fitted_slicer(r67_mesh):
+    """Rotor 67 with the generatrices fitted to its boundary loops (hub: a profile)."""
+    fit = fit_cones_to_mesh(r67_mesh, AX, generatrix="auto")
+    assert isinstance(fit.cone1, Profile) and len(fit.cone1.points) > 3
+    return fit, MeshConeSlicer(r67_mesh, AX, morph_between(fit.cone1, fit.cone2))
+
+
+def test_rotor67_level_segments_follow_the_surface_at_profile_kinks(r67_mesh, r67_fitted_slicer):
+    """Inside a face the level curve bends where it crosses the circle swept by a vertex of
+    G_s; the slicer inserts that corner, so every straight segment of the polyline stays on
+    the surface, and the inserted corners lie on the surface and inside their face.
+    Measured midpoint deviation: 0.023–0.037 mm without the corners, 0.002–0.0085 mm with
+    them — what is left is the sag of the plane conic over Rotor 67's faces of up to 5 mm,
+    as on a straight cone (0.004–0.009 mm at the same levels), hence the 1e-2 mm bound."""
+    _, sl = r67_fitted_slicer
+    n_corners = 0
+    for s in (0.004, 0.03, 0.2, 0.6):
+        curves = sl.slice(s)
+        assert curves
+        for c in curves:
+            _check_on_mesh_and_surface(r67_mesh, sl, c, tol=1e-9)
+            p = np.vstack([c.points, c.points[:1]]) if c.closed else c.points
+            mid = 0.5 * (p[1:] + p[:-1])
+            r, z = meridional(mid, AX)
+            assert np.abs(sl.morph.f(s, r, z)).max() < 1e-2
+            n_corners += int(np.sum(c.face >= 0))
+    assert n_corners > 10
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "cc_on_cone = 0.0217 mm, the same with and without the kink corners: the worst CC point "
+    "is on the s = 1.0 (tip) level and is itself an edge root of MeshConeSlicer.slice(1.0) "
+    "with |f| = 0.0217 mm — an end-level root problem, not a kink; open"))
+def test_rotor67_fitted_profile_path_cc_on_surface(r67_mesh, r67_fitted_slicer):
+    """A short run (8 mm ball, cusp = chord = 0.2): the CC points are on the LMRS of their
+    pass within 1e-3 + 0.02 e (the chord error bounds how far a sample of a chord of a conic
+    can be off; 0.040 mm before the corners were inserted)."""
+    fit, _ = r67_fitted_slicer
+    e = 0.2
+    path = generate_paths(r67_mesh, AX, fit.cone1, fit.cone2, tool_radius=4.0, cusp=0.2, chord=e)
+    rep = verify_path(r67_mesh, path, spacing=1.5)
+    assert rep.cc_on_cone <= 1e-3 + 0.02 * e, rep.cc_on_cone
