@@ -35,6 +35,28 @@ def factory_reset():
     yield
 
 
+@pytest.fixture(scope="module")
+def addon():
+    """The add-on registered directly for one test module (unregistered at its end; a module
+    may override this with a narrower scope)."""
+    import blisk_cam
+
+    was = blisk_cam.is_registered()
+    if not was:
+        blisk_cam.register()
+    yield
+    if not was:
+        blisk_cam.unregister()
+
+
+@pytest.fixture(scope="module")
+def demo():
+    """The demo blade at resolution 0.3 (9k triangles) and its true cones (arrays only)."""
+    from blisk_cam.core.demo import make_demo_blisk
+
+    return make_demo_blisk(resolution=0.3)
+
+
 def _is_blisk_cam_module(name):
     return name == "blisk_cam" or name.endswith(".blisk_cam")
 

@@ -14,16 +14,9 @@ import pytest
 import blisk_cam
 from blisk_cam import blender_io
 from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
-from blisk_cam.core.demo import make_demo_blisk
 from blisk_cam.gizmos import cone_frame as cf
 
 GIZMO_CLASSES = ("BLISKCAM_GT_cone_handle", "BLISKCAM_GT_cone_lines", "BLISKCAM_GGT_cones")
-
-
-@pytest.fixture(scope="module")
-def demo():
-    """The demo blade at resolution 0.3 (9k triangles) and its true cones (arrays only)."""
-    return make_demo_blisk(resolution=0.3)
 
 
 @pytest.fixture

@@ -17,9 +17,7 @@ import numpy as np
 import pytest
 from _mesh_files import REPO, write_binary_stl
 
-import blisk_cam
 from blisk_cam import blender_io, cli, output, render
-from blisk_cam.core.demo import make_demo_blisk
 from blisk_cam.core.mesh import TriMesh
 from blisk_cam.core.verify import closest_points
 from blisk_cam.operators import generate_paths as gen_mod
@@ -27,22 +25,6 @@ from blisk_cam.operators.common import blade_problem, cones_problem
 
 CUSP = CHORD = 0.3  # mm: coarse, the tests are about plumbing
 POSE_CAP = 40
-
-
-@pytest.fixture(scope="module")
-def addon():
-    """The add-on registered directly for this module (unregistered at its end)."""
-    was = blisk_cam.is_registered()
-    if not was:
-        blisk_cam.register()
-    yield
-    if not was:
-        blisk_cam.unregister()
-
-
-@pytest.fixture(scope="module")
-def demo():
-    return make_demo_blisk(resolution=0.3)
 
 
 def _new_scene():

@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 from _mesh_files import REPO, SHARED, read_binary_stl, sample_surface, write_binary_stl
 
-import blisk_cam
 from blisk_cam import blender_io, cli, output
 from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
 from blisk_cam.core.errors import BliskCamError
@@ -30,23 +29,6 @@ from blisk_cam.operators.common import path_request, settings_cones
 ROTOR67 = SHARED / "data" / "blades" / "rotor67_blade_extended_open.stl"
 needs_rotor67 = pytest.mark.skipif(not ROTOR67.is_file(), reason="shared blade data not found")
 TIMEOUT = 240
-
-
-@pytest.fixture(scope="module")
-def addon():
-    was = blisk_cam.is_registered()
-    if not was:
-        blisk_cam.register()
-    yield
-    if not was:
-        blisk_cam.unregister()
-
-
-@pytest.fixture(scope="module")
-def demo():
-    from blisk_cam.core.demo import make_demo_blisk
-
-    return make_demo_blisk(resolution=0.3)
 
 
 @pytest.fixture(scope="module")
