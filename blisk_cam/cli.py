@@ -39,6 +39,7 @@ import time
 from pathlib import Path
 
 from .core.errors import BliskCamError
+from .core.options import PATH_STAGES, CutterOptions, check_value, fields, from_user, to_user
 
 __all__ = ["main", "build_parser", "UsageError", "run_operator", "build_demo_scene"]
 
@@ -109,15 +110,6 @@ def _blade_count(text):
 
 
 ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
-#: --axis-mode → the scene setting ``axis_mode``
-AXIS_MODES = {
-    "local": "LOCAL",
-    "radial": "RADIAL",
-    "toward-axis": "TOWARD_AXIS",
-    "from-axis": "FROM_AXIS",
-    "toward-point": "TOWARD_POINT",
-    "from-point": "FROM_POINT",
-}
 FITS = ("auto", "cone", "profile")
 
 
@@ -202,7 +194,9 @@ def build_parser() -> argparse.ArgumentParser:
         "paths",
         help="tool paths for a blade mesh → paths JSON",
         description="Finishing tool paths between two cones on a blade mesh (mm). Without "
-        "--cone1/--cone2 the cones are fitted to the blade's boundary loops.",
+        "--cone1/--cone2 the cones are fitted to the blade's boundary loops. Lengths in mm, "
+        "angles in degrees. Needs only numpy and scipy; --blend and --preview need Blender's "
+        "Python module (bpy).",
     )
     paths.add_argument(
         "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
@@ -220,18 +214,6 @@ def build_parser() -> argparse.ArgumentParser:
         default=None, help="blisk axis: origin (mm) and direction (default 0 0 0 0 0 1)",
     )
     paths.add_argument(
-        "--tool", required=True, type=str.lower, choices=("ball", "bull", "flat", "taper")
-    )
-    paths.add_argument("--tool-radius", required=True, type=_positive, metavar="MM")
-    paths.add_argument("--corner-radius", type=_non_negative, default=None, metavar="MM")
-    paths.add_argument("--cusp", required=True, type=_positive, metavar="MM", help="scallop height")
-    paths.add_argument("--chord", required=True, type=_positive, metavar="MM", help="chord error")
-    paths.add_argument("--lead", type=_finite, default=0.0, metavar="DEG")
-    paths.add_argument("--tilt", type=_finite, default=0.0, metavar="DEG")
-    paths.add_argument(
-        "--link", type=str.lower, choices=("oneway", "zigzag", "spiral"), default="oneway"
-    )
-    paths.add_argument(
         "--fit", type=str.lower, choices=FITS, default="auto",
         help="what is fitted for a cone not given: per end a straight cone, or a polyline "
         "profile when the cone misses the boundary loop by > 0.1 mm and the profile fits "
@@ -241,41 +223,17 @@ def build_parser() -> argparse.ArgumentParser:
                        help="hub generatrix as a polyline: 'r, z' per line in mm, # comments")
     paths.add_argument("--cone2-profile", metavar="FILE", default=None,
                        help="tip generatrix as a polyline (as --cone1-profile)")
-    paths.add_argument("--taper-angle", type=_positive, default=None, metavar="DEG",
-                       help="side angle of a taper cutter (default 3)")
-    paths.add_argument("--lead-tip", type=_finite, default=None, metavar="DEG",
-                       help="lead at the tip: lead varies linearly from --lead (hub) to this")
-    paths.add_argument("--tilt-tip", type=_finite, default=None, metavar="DEG",
-                       help="tilt at the tip: tilt varies linearly from --tilt (hub) to this")
-    paths.add_argument("--axis-mode", type=str.lower, choices=tuple(AXIS_MODES), default="local",
-                       help="tool axis: local lead/tilt (default); radial: lead and a lean "
-                       "away from the blisk axis (--radial-tilt); toward/from the blisk axis "
-                       "or a point (--axis-point)")
-    paths.add_argument("--radial-tilt", type=_finite, default=None, metavar="DEG",
-                       help="--axis-mode radial: lean away from (> 0) / toward the blisk axis")
-    paths.add_argument("--axis-point", type=_finite, nargs=3, default=None,
-                       metavar=("X", "Y", "Z"), help="the point of --axis-mode *-point, mm")
-    paths.add_argument("--max-axis-turn", type=_non_negative, default=0.0, metavar="DEG",
-                       help="smooth the tool axes to turn at most this much per pose "
-                       "(0: no smoothing, default)")
-    paths.add_argument("--milling", type=str.lower, choices=("climb", "conventional"),
-                       default="climb", help="climb (default) or conventional, M03 spindle")
-    paths.add_argument("--approach", type=_non_negative, default=2.0, metavar="MM",
-                       help="approach/retract distance along the tool axis (default 2)")
-    paths.add_argument("--clearance-radius", type=_positive, default=None, metavar="MM",
-                       help="radius of the clearance cylinder for rapids (default: the "
-                       "passes' largest radius + --clearance-margin)")
-    paths.add_argument("--clearance-margin", type=_non_negative, default=5.0, metavar="MM",
-                       help="margin of the automatic clearance radius (default 5)")
-    paths.add_argument("--no-fix-gouge", action="store_true",
-                       help="only flag local gouges (default: raise lead/tilt to clear them)")
+    add_option_flags(paths, PATH_STAGES)
+    paths.add_argument("--tool-radius", type=_positive, default=None, metavar="MM",
+                       help="the cutter radius instead of --tool-diameter (half of it)")
     paths.add_argument("--out", required=True, metavar="FILE", help="paths JSON to write")
     paths.add_argument("--blend", metavar="FILE", default=None, help="also save a .blend")
     paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
     paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
                        help="render engine of --preview")
     paths.add_argument("--verify", action="store_true",
-                       help="also measure the material left and gouges (printed)")
+                       help="also measure the material left and gouges (printed and stored "
+                       "in the JSON's stats)")
     paths.set_defaults(func=_cmd_paths)
     return parser
 
@@ -283,7 +241,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _check_paths_args(args):
     """Checks that need more than one argument; raises UsageError (BliskCamError for an
     unreadable profile file). Fills args.axis_obj, args.cone1_obj, args.cone2_obj (core
-    ``Cone`` or ``Profile`` given on the command line, or None)."""
+    ``Cone`` or ``Profile`` given on the command line, or None) and args.stages (the option
+    stages of the request, float64, core units)."""
     from .core.cones import Axis, Cone
 
     try:
@@ -299,53 +258,119 @@ def _check_paths_args(args):
             setattr(args, f"{name}_obj", Cone.from_list(values) if values is not None else None)
         except BliskCamError as exc:
             raise UsageError(f"argument --{name}: {exc}") from None
-    _check_orientation_args(args)
-    if args.tool == "bull":
-        if args.corner_radius is None:
+    if args.tool_radius is not None:
+        if args.tool_diameter is not None:
+            raise UsageError("--tool-diameter and --tool-radius both give the tool size; use one")
+        args.tool_diameter = 2.0 * args.tool_radius
+    given = option_args(args, PATH_STAGES)
+    _check_orientation_args(args, given)
+    tool = given.get("tool_type", "ball")
+    diameter = given.get("tool_diameter", CutterOptions().tool_diameter)
+    corner = given.get("corner_radius")
+    if tool == "bull":
+        if corner is None:
             raise UsageError("--tool bull needs --corner-radius")
-        if not 0.0 < args.corner_radius < args.tool_radius:
+        if not 0.0 < corner < diameter / 2:
             raise UsageError(
-                f"--corner-radius {args.corner_radius:g} must be > 0 and < --tool-radius "
-                f"{args.tool_radius:g} for a bull-nose cutter"
+                f"--corner-radius {corner:g} must be > 0 and < half the --tool-diameter "
+                f"({diameter:g}) for a bull-nose cutter"
             )
-    elif args.corner_radius is not None and args.corner_radius > args.tool_radius:
+    elif corner is not None and corner > diameter / 2:
         raise UsageError(
-            f"--corner-radius {args.corner_radius:g} is larger than "
-            f"--tool-radius {args.tool_radius:g}"
+            f"--corner-radius {corner:g} is larger than the tool radius {diameter / 2:g}"
         )
+    if "taper_angle" in given and tool != "taper":
+        raise UsageError(f"--taper-angle needs --tool taper (got --tool {tool})")
     for opt in ("out", "blend", "preview"):
         value = getattr(args, opt)
         if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
             raise UsageError(f"--{opt} {value}: the directory does not exist")
+    args.stages = given
     for name in ("cone1", "cone2"):  # read last: a bad file is bad input (status 1)
         profile = getattr(args, f"{name}_profile")
         if profile is not None:
             setattr(args, f"{name}_obj", read_profile_csv(profile))
 
 
-def _check_orientation_args(args):
+def _check_orientation_args(args, given):
     """Options that only make sense together (UsageError naming them)."""
-    if args.taper_angle is not None:
-        if args.tool != "taper":
-            raise UsageError(f"--taper-angle needs --tool taper (got --tool {args.tool})")
-        if not args.taper_angle < 60.0:
-            raise UsageError(f"--taper-angle {args.taper_angle:g} must be below 60 degrees")
-    mode = args.axis_mode
-    fixed = mode.endswith(("-axis", "-point"))
-    if args.radial_tilt is not None and mode != "radial":
+    mode = given.get("axis_mode", "local")
+    word = mode.replace("_line", "_axis").replace("_", "-")
+    fixed = mode.endswith(("_line", "_point"))
+    if "radial_tilt" in given and mode != "radial":
         raise UsageError("--radial-tilt needs --axis-mode radial")
-    if mode == "radial" and (args.tilt or args.tilt_tip):
+    if mode == "radial" and (given.get("tilt") or given.get("tilt_tip")):
         raise UsageError("--axis-mode radial replaces --tilt/--tilt-tip by --radial-tilt")
-    if fixed and (args.lead or args.tilt or args.lead_tip is not None
-                  or args.tilt_tip is not None):
-        raise UsageError(f"--axis-mode {mode} fixes the tool axis; drop --lead/--tilt "
+    if fixed and (given.get("lead") or given.get("tilt") or "lead_tip" in given
+                  or "tilt_tip" in given):
+        raise UsageError(f"--axis-mode {word} fixes the tool axis; drop --lead/--tilt "
                          "(and --lead-tip/--tilt-tip)")
-    if mode.endswith("-point") and args.axis_point is None:
-        raise UsageError(f"--axis-mode {mode} needs --axis-point X Y Z")
-    if args.axis_point is not None and not mode.endswith("-point"):
+    if mode.endswith("_point") and "axis_point" not in given:
+        raise UsageError(f"--axis-mode {word} needs --axis-point X Y Z")
+    if "axis_point" in given and not mode.endswith("_point"):
         raise UsageError("--axis-point needs --axis-mode toward-point or from-point")
-    if not args.max_axis_turn < 90.0:
-        raise UsageError(f"--max-axis-turn {args.max_axis_turn:g} must be below 90 degrees")
+    if mode.endswith("_line"):
+        given.update(axis_point=tuple(map(float, args.axis_obj.o)),
+                     axis_direction=tuple(map(float, args.axis_obj.d)))
+
+
+# --- options declared once (core.options) → flags ----------------------------------------
+def _stage_title(stage) -> str:
+    return (stage.__doc__ or stage.__name__).strip().splitlines()[0].rstrip(".")
+
+
+def add_option_flags(parser, stages):
+    """One flag per declared option of ``stages`` (:mod:`blisk_cam.core.options`): its help,
+    unit and default from the declaration; angles in degrees. Every flag defaults to None
+    ("not given": the declaration's default applies); :func:`option_args` converts."""
+    for stage in stages:
+        group = parser.add_argument_group(_stage_title(stage))
+        for name, spec, default in fields(stage):
+            flag = spec.cli_flag(name)
+            if flag is None:
+                continue
+            shown = to_user(spec, default)
+            unit = {"deg": " degrees", "": ""}.get(spec.unit, f" {spec.unit}")
+            if spec.choices is not None:
+                words = [c.cli_word for c in spec.choices]
+                text = f"{spec.help} (default {spec.choice(default).cli_word})"
+                group.add_argument(flag, dest=name, type=str.lower, choices=words,
+                                   default=None, help=text)
+            elif isinstance(default, bool):
+                text = f"{spec.help} (default {'on' if default else 'off'})"
+                group.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction,
+                                   default=None, help=text)
+            else:
+                text = spec.help if shown is None else f"{spec.help} (default {shown:g}{unit})"
+                metavar = ("DEG" if spec.unit == "deg" else "MM" if spec.unit == "mm"
+                           else "N" if spec.unit == "" else spec.unit.upper())
+                kw = dict(nargs=spec.size, metavar=(("X", "Y", "Z") if spec.size == 3
+                                                    else (metavar,) * spec.size))
+                group.add_argument(flag, dest=name, type=_finite, default=None, help=text,
+                                   **(kw if spec.size > 1 else {"metavar": metavar}))
+
+
+def option_args(args, stages) -> dict:
+    """{option: core value} of the flags given (not None), in core units (radians), each
+    checked against its declaration (UsageError naming the flag and the bounds)."""
+    given = {}
+    for stage in stages:
+        for name, spec, _ in fields(stage):
+            value = getattr(args, name, None)
+            if value is None or spec.cli_flag(name) is None:
+                continue
+            if spec.choices is not None:
+                value = next(c.value for c in spec.choices if c.cli_word == value)
+            elif isinstance(value, list):
+                value = tuple(float(v) for v in value)
+            elif not isinstance(value, bool):
+                value = from_user(spec, float(value))
+            try:
+                check_value(name, spec, value, UsageError)
+            except UsageError as exc:
+                raise UsageError(f"argument {exc}") from None
+            given[name] = value
+    return given
 
 
 # --- Blender session ---------------------------------------------------------------------
@@ -609,60 +634,6 @@ def run_operator(bpy, name, **kwargs):
     raise BliskCamError(message or f"blisk_cam.{name} cannot run in this scene")
 
 
-def _apply_paths_settings(bpy, scene, args, blade):
-    """Fill ``scene.blisk_cam`` from the command line: the same settings a user sets in the
-    panels (degrees → radians), which ``operators.common.request_options`` then maps into
-    the core request for both."""
-    from .blender_io import axis_to_object
-
-    s = scene.blisk_cam
-    s.blade = blade
-    if args.axis:
-        s.axis_object = axis_to_object("Blisk Axis", args.axis_obj, kind="EMPTY")
-    _apply_given_cones(s, args)
-    s.fit_generatrix = args.fit.upper()
-    s.tool_type = args.tool.upper()
-    s.tool_radius = args.tool_radius
-    if args.corner_radius is not None:
-        s.corner_radius = args.corner_radius
-    if args.taper_angle is not None:
-        s.taper_angle = math.radians(args.taper_angle)
-    s.cusp = args.cusp
-    s.chord = args.chord
-    s.axis_mode = AXIS_MODES[args.axis_mode]
-    s.lead = math.radians(args.lead)
-    s.tilt = math.radians(args.tilt)
-    s.vary_lead_tilt = args.lead_tip is not None or args.tilt_tip is not None
-    s.lead_tip = math.radians(args.lead_tip if args.lead_tip is not None else args.lead)
-    s.tilt_tip = math.radians(args.tilt_tip if args.tilt_tip is not None else args.tilt)
-    s.radial_tilt = math.radians(args.radial_tilt or 0.0)
-    if args.axis_point is not None:
-        s.axis_point = args.axis_point
-    s.max_axis_turn = math.radians(args.max_axis_turn)
-    s.fix_local_gouge = not args.no_fix_gouge
-    s.link_mode = {"oneway": "ONE_WAY", "zigzag": "ZIGZAG", "spiral": "SPIRAL"}[args.link]
-    s.climb = args.milling == "climb"
-    s.approach = args.approach
-    s.clearance_radius = args.clearance_radius or 0.0
-    s.clearance_margin = args.clearance_margin
-    s.verify = bool(getattr(args, "verify", False))
-    s.verify_map = False
-
-
-def _apply_given_cones(s, args):
-    """The cones/profiles given on the command line into the settings (zeros for the others:
-    fitted)."""
-    from .operators.common import set_generatrix
-
-    for k in (1, 2):
-        given = getattr(args, f"cone{k}_obj", None)
-        if given is None:
-            setattr(s, f"cone{k}", (0.0, 0.0, 0.0, 0.0))
-            setattr(s, f"profile{k}", "")
-        else:
-            set_generatrix(s, k, given)
-
-
 def _paths_by_operators(bpy, scene, out, *, fit=False, keep=(None, None)):
     """fit_cones (when ``fit``; a generatrix given in ``keep`` — core ``Cone`` or
     ``Profile`` — is put back afterwards) → generate_paths → export_paths, all by the
@@ -717,23 +688,136 @@ def _render_by_operator(bpy, filepath, engine, resolution, **kwargs):
     return path
 
 
+def plan_from_args(args, log=print):
+    """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
+    plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
+    or None, {stage: seconds}). Every stage is timed (``seconds_<stage>`` in the JSON's
+    stats)."""
+    from .core.fitting import fit_cones_to_mesh
+    from .core.mesh import TriMesh
+    from .core.mesh_io import read_mesh
+    from .core.pipeline import PathRequest, plan_paths
+
+    times = {}
+    t = time.perf_counter()
+    V, F = read_mesh(args.mesh)
+    times["load"] = time.perf_counter() - t
+    t = time.perf_counter()
+    mesh = TriMesh.from_arrays(V, F)
+    times["weld"] = time.perf_counter() - t
+    c1, c2 = args.cone1_obj, args.cone2_obj
+    fit = None
+    if c1 is None or c2 is None:
+        t = time.perf_counter()
+        fit = fit_cones_to_mesh(mesh, args.axis_obj, generatrix=args.fit)
+        c1, c2 = c1 or fit.cone1, c2 or fit.cone2
+        times["fit"] = time.perf_counter() - t
+        log(f"fitted cones: cone1 {_shown_generatrix(fit.cone1)} (residual "
+            f"{fit.residual1:.4f} mm), cone2 {_shown_generatrix(fit.cone2)} (residual "
+            f"{fit.residual2:.4f} mm)")
+    req = PathRequest(args.axis_obj, c1, c2, **args.stages)
+    t = time.perf_counter()
+    plan = plan_paths(mesh, req)
+    times["plan"] = time.perf_counter() - t
+    if fit is not None and plan.fit is None:
+        plan.fit = fit
+    report = None
+    if args.verify:
+        from .core.verify import verify_path
+
+        t = time.perf_counter()
+        report = verify_path(mesh, plan.path)
+        times["verify"] = time.perf_counter() - t
+    return V, F, mesh, req, plan, report, times
+
+
+def _shown_generatrix(g):
+    from .core.lmrs import Profile
+
+    if isinstance(g, Profile):
+        return f"profile of {len(g.as_list())} points"
+    return str([round(x, 4) for x in g.as_list()])
+
+
+def _verify_figures(report) -> dict:
+    import numpy as np
+
+    out = {}
+    for key in ("max_material_left", "max_gouge"):
+        value = float(getattr(report, key))
+        if np.isfinite(value):
+            out[f"verify_{key}"] = value
+    return out
+
+
+def _summary_line(path, times, report) -> str:
+    program = path.program
+    text = (f"{int(path.stats.get('passes', len(path.levels)))} passes, {len(path.curves)} "
+            f"curves, {path.n_poses} poses, {path.length():.1f} mm of path")
+    if program is not None:
+        text += f", {len(program)} program poses"
+    if report is not None:
+        text += (f"; measured max material left {float(report.max_material_left):.4f} mm, "
+                 f"max gouge {float(report.max_gouge):.4f} mm")
+    return text
+
+
 def _cmd_paths(args):
+    t_wall = time.perf_counter()
     _check_paths_args(args)
+    from .core.paths_io import write_paths_json
+
+    V, F, mesh, req, plan, report, times = plan_from_args(args)
+    path = plan.path
+    if report is not None:
+        path.stats.update(_verify_figures(report))
+    out = Path(args.out).expanduser().resolve()
+    t = time.perf_counter()
+    # every stage up to the write (the write's own time is printed: it cannot be in the file)
+    path.stats.update({f"seconds_{k}": v for k, v in times.items()})
+    path.stats["seconds_wall"] = time.perf_counter() - t_wall
+    write_paths_json(path, out)
+    times["write"] = time.perf_counter() - t
+    wall = time.perf_counter() - t_wall
+    print(f"wrote {out}: {_summary_line(path, times, report)}")
+    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
+          + f"; wall {wall:.2f} s")
+    for w in path.stats.get("warnings", []) or []:
+        print(f"warning: {w}")
+    if args.blend or args.preview:
+        _blender_outputs(args, V, F, req, plan, report)
+    return 0
+
+
+def _blender_outputs(args, V, F, req, plan, report):
+    """--blend / --preview: the blade, the settings of the request and the path objects in a
+    fresh scene (the same objects Generate Paths makes), saved and/or rendered."""
     bpy = _import_bpy()
-    from .blender_io import import_mesh_file
+    from . import output
+    from .blender_io import arrays_to_object, axis_to_object
+    from .operators.common import set_settings_from_request
 
     with _blender_session(required=True) as scene:
-        obj = import_mesh_file(args.mesh)
-        args.mesh_object = obj.name
-        _apply_paths_settings(bpy, scene, args, obj)
-        keep = (args.cone1_obj, args.cone2_obj)
-        fit = keep[0] is None or keep[1] is None
-        _paths_by_operators(bpy, scene, args.out, fit=fit, keep=keep)
+        units = scene.unit_settings
+        units.system, units.scale_length, units.length_unit = "METRIC", 0.001, "MILLIMETERS"
+        blade = arrays_to_object(Path(args.mesh).stem, V, F, scene.collection,
+                                 color=(0.85, 0.62, 0.30, 1.0))
+        s = scene.blisk_cam
+        s.blade = blade
+        if args.axis:
+            s.axis_object = axis_to_object("Blisk Axis", args.axis_obj, kind="EMPTY")
+        set_settings_from_request(s, req, fit=args.fit)
+        output.write_path_objects(scene, blade, plan.path, s, verify=report)
+        if plan.fit is not None:
+            s.fit_residual1, s.fit_residual2 = plan.fit.residual1, plan.fit.residual2
+        from .operators.generate_paths import store_statistics
+
+        store_statistics(s, blade.name, plan.path, report,
+                         float(plan.path.stats.get("seconds_wall", 0.0)))
         if args.blend:
             print(f"blend: {_save_blend(bpy, args.blend)}")
         if args.preview:
             _render_by_operator(bpy, args.preview, args.engine, (1280, 720))
-    return 0
 
 
 # --- entry point -------------------------------------------------------------------------

@@ -9,7 +9,6 @@ generated path and residuals of the last cone fit) so that they survive a save a
 the panels show them read-only.
 """
 
-import math
 
 import bpy
 from bpy.props import (
@@ -23,6 +22,8 @@ from bpy.props import (
 )
 from bpy.types import PropertyGroup
 
+from .core.options import PATH_STAGES, fields
+
 
 def poll_mesh(_self, obj):
     """Pointer poll: mesh objects only (UI filter; Python assignment is not checked)."""
@@ -34,28 +35,8 @@ def poll_empty(_self, obj):
     return obj.type == "EMPTY"
 
 
-TOOL_TYPES = (
-    ("BALL", "Ball", "Ball-end mill: corner radius equals the tool radius"),
-    ("BULL", "Bull Nose", "Torus mill: flat bottom with a corner radius"),
-    ("FLAT", "Flat", "Flat-end mill: corner radius 0"),
-    ("TAPER", "Taper", "Tapered ball-end mill"),
-)
 
-LINK_MODES = (
-    ("ONE_WAY", "One Way", "Every pass in the same direction, retract between passes"),
-    ("ZIGZAG", "Zig-Zag", "Alternate the direction of successive passes"),
-    ("SPIRAL", "Spiral", "Blend successive passes into one continuous spiral"),
-)
 
-AXIS_MODES = (
-    ("LOCAL", "Lead/Tilt", "Lead and tilt in the local frame (feed, normal, side) of each pose"),
-    ("RADIAL", "Radial", "Lead in the feed direction, then lean away from (> 0) or toward (< 0) "
-     "the blisk axis by the radial tilt"),
-    ("TOWARD_AXIS", "Toward Axis", "Tool axis through the blisk axis (toward it, fixed line)"),
-    ("FROM_AXIS", "Away from Axis", "Tool axis away from the blisk axis (fixed line)"),
-    ("TOWARD_POINT", "Toward Point", "Tool axis toward the fixed point"),
-    ("FROM_POINT", "Away from Point", "Tool axis away from the fixed point"),
-)
 
 FIT_GENERATRICES = (
     ("AUTO", "Auto", "Per end a straight cone, or a polyline profile when the cone misses the "
@@ -156,71 +137,9 @@ class BliskCamSettings(PropertyGroup):
         default="AUTO",
     )
 
-    # Cutter -----------------------------------------------------------------------------
-    tool_type: EnumProperty(
-        name="Tool", description="Cutter shape", items=TOOL_TYPES, default="BALL"
-    )
-    tool_radius: FloatProperty(
-        name="Tool Radius",
-        description="Cutter radius in mm",
-        default=6.0,
-        min=0.001,
-        soft_max=50.0,
-        precision=3,
-    )
-    corner_radius: FloatProperty(
-        name="Corner Radius",
-        description="Corner radius of a bull-nose cutter in mm",
-        default=2.0,
-        min=0.0,
-        soft_max=50.0,
-        precision=3,
-    )
-    taper_angle: FloatProperty(
-        name="Taper Angle",
-        description="Side angle of a tapered ball-end mill (half the cone angle)",
-        default=math.radians(3.0),
-        min=math.radians(0.01),
-        max=math.radians(59.0),
-        subtype="ANGLE",
-        unit="ROTATION",
-    )
-
-    # Tolerances -------------------------------------------------------------------------
-    cusp: FloatProperty(
-        name="Cusp",
-        description="Largest scallop height left between passes in mm",
-        default=0.05,
-        min=1e-5,
-        soft_max=1.0,
-        precision=4,
-        step=0.1,
-    )
-    chord: FloatProperty(
-        name="Chord",
-        description="Largest chord error along a pass (surface and tool path) in mm",
-        default=0.05,
-        min=1e-5,
-        soft_max=1.0,
-        precision=4,
-        step=0.1,
-    )
-
-    # Orientation and linking ------------------------------------------------------------
-    lead: FloatProperty(
-        name="Lead",
-        description="Lead angle of the tool axis in the feed direction",
-        default=0.0,
-        subtype="ANGLE",
-        unit="ROTATION",
-    )
-    tilt: FloatProperty(
-        name="Tilt",
-        description="Tilt (side) angle of the tool axis across the feed direction",
-        default=0.0,
-        subtype="ANGLE",
-        unit="ROTATION",
-    )
+    # The core options (cutter, tolerances, tool axis, gouge fix, linking) are generated
+    # from their one declaration in core.options: see option_properties() below.
+    # Hand-made: the hub → tip variation behind its toggle, and the fixed point.
     vary_lead_tilt: BoolProperty(
         name="Vary to Tip",
         description="Vary lead and tilt linearly from the hub values (cone 1) to the tip values "
@@ -241,72 +160,11 @@ class BliskCamSettings(PropertyGroup):
         subtype="ANGLE",
         unit="ROTATION",
     )
-    axis_mode: EnumProperty(
-        name="Tool Axis", description="How the tool axis is chosen", items=AXIS_MODES,
-        default="LOCAL",
-    )
-    radial_tilt: FloatProperty(
-        name="Radial Tilt",
-        description="Mode Radial: lean of the tool axis away from (> 0) or toward (< 0) the "
-        "blisk axis",
-        default=0.0,
-        subtype="ANGLE",
-        unit="ROTATION",
-    )
     axis_point: FloatVectorProperty(
         name="Axis Point",
         description="Modes Toward/Away from Point: the fixed point, world frame, mm",
         size=3,
         default=(0.0, 0.0, 0.0),
-        precision=3,
-    )
-    max_axis_turn: FloatProperty(
-        name="Max Axis Turn",
-        description="Smooth the tool axes so that consecutive poses turn by at most this angle "
-        "(0: no smoothing)",
-        default=0.0,
-        min=0.0,
-        max=math.radians(89.0),
-        subtype="ANGLE",
-        unit="ROTATION",
-    )
-    fix_local_gouge: BoolProperty(
-        name="Fix Local Gouges",
-        description="Raise lead/tilt (up to 30°/20°) where the cutter would gouge the surface "
-        "next to the contact point (off: only flag those poses)",
-        default=True,
-    )
-    link_mode: EnumProperty(
-        name="Linking", description="Order of the passes", items=LINK_MODES, default="ONE_WAY"
-    )
-    climb: BoolProperty(
-        name="Climb Milling",
-        description="Climb milling for a clockwise (M03) spindle (off: conventional milling)",
-        default=True,
-    )
-    approach: FloatProperty(
-        name="Approach",
-        description="Approach and retract distance along the tool axis, mm",
-        default=2.0,
-        min=0.0,
-        soft_max=50.0,
-        precision=3,
-    )
-    clearance_radius: FloatProperty(
-        name="Clearance Radius",
-        description="Radius of the clearance cylinder for rapid moves, mm (0: the passes' "
-        "largest radius plus the clearance margin)",
-        default=0.0,
-        min=0.0,
-        soft_max=2000.0,
-        precision=3,
-    )
-    clearance_margin: FloatProperty(
-        name="Clearance Margin",
-        description="Margin of the automatic clearance radius above the passes, mm",
-        default=5.0,
-        min=0.0,
-        soft_max=100.0,
         precision=3,
     )
 
@@ -429,6 +287,61 @@ class BliskCamSettings(PropertyGroup):
         default=0.0,
     )
 
+
+def _tool_radius_get(self):
+    return 0.5 * self.tool_diameter
+
+
+def _tool_radius_set(self, value):
+    self.tool_diameter = 2.0 * value
+
+
+def option_property(name, spec, default):
+    """The Blender property of one core option (:mod:`blisk_cam.core.options`): same label,
+    help, default and bounds; angles in radians with subtype ANGLE (shown in degrees); an
+    optional option (default None) stored as ``spec.none_as``; choices as an enum of
+    ``Choice.blender_id`` (a bool with choices stays a checkbox)."""
+    common = dict(name=spec.label, description=spec.help)
+    if isinstance(default, bool):
+        return BoolProperty(default=default, **common)
+    if spec.choices is not None:
+        items = [(c.blender_id, c.label, c.help) for c in spec.choices]
+        return EnumProperty(items=items, default=spec.choice(default).blender_id, **common)
+    value = spec.none_as if default is None else default
+    if isinstance(value, int) and not isinstance(value, float) and spec.unit == "":
+        kw = {k: v for k, v in (("min", spec.lo), ("max", spec.hi)) if v is not None}
+        return IntProperty(default=value, **kw, **common)
+    kw = {}
+    if spec.lo is not None:  # an open bound: the smallest value the panel can show
+        kw["min"] = spec.lo + (10.0 ** -spec.precision if spec.lo_open else 0.0)
+    if spec.hi is not None:
+        kw["max"] = spec.hi - (10.0 ** -spec.precision if spec.hi_open else 0.0)
+    if spec.soft_max is not None:
+        kw["soft_max"] = spec.soft_max
+    if spec.unit == "deg":
+        kw.update(subtype="ANGLE", unit="ROTATION")
+    else:
+        kw["precision"] = spec.precision
+    if spec.size > 1:
+        return FloatVectorProperty(size=spec.size, default=value, **kw, **common)
+    return FloatProperty(default=float(value), **kw, **common)
+
+
+def option_properties(stages) -> dict:
+    """{property name: property} of every option of ``stages`` that Blender declares."""
+    out = {}
+    for stage in stages:
+        for name, spec, default in fields(stage):
+            if spec.blender:
+                out[spec.prop_name(name)] = option_property(name, spec, default)
+    return out
+
+
+BliskCamSettings.__annotations__.update(option_properties(PATH_STAGES))
+# the radius, for scripts and old files' habits: half the diameter, not stored
+BliskCamSettings.__annotations__["tool_radius"] = FloatProperty(
+    name="Tool Radius", description="Cutter radius in mm (half the diameter)",
+    get=_tool_radius_get, set=_tool_radius_set, min=0.0005, precision=3)
 
 CLASSES = [BliskCamSettings]
 

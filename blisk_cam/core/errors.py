@@ -24,3 +24,15 @@ class ToleranceError(BliskCamError):
 class ToolError(ToleranceError):
     """The cutter is impossible (corner radius above the tool radius, negative or NaN
     dimensions, taper angle out of range, a corner radius contradicting the tool type...)."""
+
+
+class OrientationError(BliskCamError):
+    """The tool-axis settings are impossible (lead/tilt out of range, contradicting modes)."""
+
+
+class LinkError(BliskCamError):
+    """The linking settings are impossible (unknown mode, non-positive distances)."""
+
+
+class OptionError(BliskCamError):
+    """An option value outside its bounds or choices (names the option and the bounds)."""

@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cones import Axis, MorphingCones, meridional
-from .errors import BliskCamError
+from .errors import LinkError
 from .mesh import TriMesh
 from .orientation import feed_directions
 from .toolpath import (
@@ -77,10 +77,6 @@ __all__ = [
 
 LINK_MODES = ("oneway", "zigzag", "spiral")
 ORDERS = ("hub_to_tip", "tip_to_hub")
-
-
-class LinkError(BliskCamError):
-    """Linking options are impossible or contradictory (names the option and the fix)."""
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cones import Axis
-from .errors import BliskCamError
+from .errors import OrientationError
 
 __all__ = [
     "AXIS_MODES",
@@ -75,10 +75,6 @@ __all__ = [
 AXIS_MODES = ("local", "radial", "toward_point", "from_point", "toward_line", "from_line")
 #: largest |lead|, |tilt|, |radial| accepted (just below 90°: at 90° the tool lies on the surface)
 MAX_ANGLE = math.radians(89.0)
-
-
-class OrientationError(BliskCamError):
-    """A tool orientation request is impossible or contradictory (names the option and the fix)."""
 
 
 def _unit(v):

@@ -128,9 +128,15 @@ def write_paths_json(path: ToolPath, filename, *, overwrite: bool = True) -> str
     if not overwrite and os.path.exists(filename):
         raise BliskCamError(f"{filename} exists; choose another name or allow overwriting")
     tmp = filename + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(path_to_dict(path), fh, allow_nan=False)
-    os.replace(tmp, filename)
+    try:
+        text = json.dumps(path_to_dict(path), allow_nan=False)
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, filename)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
     return filename
 
 

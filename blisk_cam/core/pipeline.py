@@ -30,15 +30,16 @@ modal operator can drive it and cancel between yields; ``plan_paths`` exhausts i
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from .cones import Axis, Cone
 from .cutter import Cutter
-from .errors import BliskCamError, ToleranceError
+from .errors import BliskCamError, ToleranceError, ToolError
 from .fitting import ConeFit, fit_cones_to_mesh
 from .linking import Clearance, LinkOptions, SurfaceProjector, build_program, order_passes
 from .lmrs import morph_between
@@ -50,6 +51,13 @@ from .local_gouge import (
     surface_normal_curvature,
 )
 from .mesh import TriMesh
+from .options import (
+    AxisOptions,
+    CutterOptions,
+    GougeOptions,
+    LinkingOptions,
+    ToleranceOptions,
+)
 from .orientation import (
     AxisStrategy,
     OrientationError,
@@ -91,73 +99,89 @@ class NotSupportedError(BliskCamError):
     """The request asks for something this version cannot do yet (names what, and the way out)."""
 
 
-@dataclass(frozen=True)
+#: the request's stages: attribute name → option class (:mod:`.options`)
+REQUEST_STAGES = {
+    "cutter": CutterOptions,
+    "tolerances": ToleranceOptions,
+    "orientation": AxisOptions,
+    "gouge": GougeOptions,
+    "linking": LinkingOptions,
+}
+#: option name → stage attribute, for the flat keywords and attributes of a request
+_OPTION_STAGE = {
+    f.name: stage for stage, cls in REQUEST_STAGES.items() for f in dataclasses.fields(cls)
+}
+
+
+@dataclass(frozen=True, init=False)
 class PathRequest:
-    """Everything that decides a finishing path, in core units.
+    """Everything that decides a finishing path, in core units (mm, radians).
+
+    The options live in one frozen stage object each (:mod:`.options` declares every option
+    once, with its unit, bounds and help): ``cutter`` (:class:`~.options.CutterOptions`),
+    ``tolerances``, ``orientation`` (tool axis), ``gouge`` (local gouge fix), ``linking``.
+    Build a request with the stage objects or with flat keywords — ``PathRequest(axis=ax,
+    tool_type="bull", tool_diameter=12, corner_radius=2, cusp=0.05, lead=radians(5))`` — and
+    read any option flat (``req.lead``, ``req.tool_radius``). ``tool_radius=`` is accepted
+    for ``tool_diameter=`` (half of it).
 
     Attributes
     ----------
     axis : Axis — the blisk axis
-    cone1, cone2 : Cone or None — hub (s = 0) and tip (s = 1) cones; None = fit from the mesh
-    tool_type : one of ``TOOL_TYPES``
-    tool_radius : float, mm — cutter radius d/2
-    corner_radius : float, mm — torus corner radius of a bull-nose cutter (0 otherwise)
-    taper_angle : float, radians, or None — side angle of a taper cutter (None: 3°)
-    cusp, chord : float, mm — scallop height and chord error tolerances
-    lead, tilt : float, radians — tool axis angles in the local (feed, normal, side) frame
-        (:mod:`.orientation` for the signs); at the hub (s = 0) when ``lead_tip``/``tilt_tip``
-        are given, which make them vary linearly to the tip (s = 1)
-    lead_tip, tilt_tip : float, radians, or None
-    axis_mode : one of :data:`.orientation.AXIS_MODES` ("local" default)
-    radial_tilt : float, radians — mode "radial": lean away from (> 0) / toward the blisk axis
-    axis_point, axis_direction : (3,) mm / (3,) — fixed axis point / line direction
-    max_axis_turn : float, radians, or None — axis smoothing: largest angle between
-        consecutive poses (None: no smoothing)
-    link : one of ``LINK_MODES``
-    climb : bool — climb milling for an M03 spindle (False: conventional)
-    order : "hub_to_tip" | "tip_to_hub"
-    approach : float, mm — approach/retract distance along the tool axis
-    clearance_radius : float, mm, or None — clearance cone radius at ``clearance_z0`` (None: the
-        passes' largest radius + ``clearance_margin``); ``clearance_slope`` dr/dz
-    direct_link : float, mm, or None — largest gap linked on the surface (None: 2 × radius)
-    fix_local_gouge : bool — raise lead/tilt within ``gouge_max_lead``/``gouge_max_tilt`` to
-        clear local gouges (else only flag them)
-    zero_speed_tol : float, mm — contact within this of the axis is flagged zero speed
+    cone1, cone2 : Cone, Profile or None — hub (s = 0) and tip (s = 1) generatrices; None =
+        fit from the mesh
+    cutter, tolerances, orientation, gouge, linking : the stage options
     extra : dict — options of later stages (kept so the request stays one object)
     """
 
     axis: Axis
-    cone1: Cone | None = None
-    cone2: Cone | None = None
-    tool_type: str = "ball"
-    tool_radius: float = 6.0
-    corner_radius: float = 0.0
-    cusp: float = 0.05
-    chord: float = 0.05
-    lead: float = 0.0
-    tilt: float = 0.0
-    link: str = "oneway"
-    extra: dict = field(default_factory=dict)
-    taper_angle: float | None = None
-    lead_tip: float | None = None
-    tilt_tip: float | None = None
-    axis_mode: str = "local"
-    radial_tilt: float = 0.0
-    axis_point: tuple | None = None
-    axis_direction: tuple | None = None
-    max_axis_turn: float | None = None
-    climb: bool = True
-    order: str = "hub_to_tip"
-    approach: float = 2.0
-    clearance_radius: float | None = None
-    clearance_z0: float = 0.0
-    clearance_slope: float = 0.0
-    clearance_margin: float = 5.0
-    direct_link: float | None = None
-    fix_local_gouge: bool = True
-    gouge_max_lead: float = math.radians(30.0)
-    gouge_max_tilt: float = math.radians(20.0)
-    zero_speed_tol: float = 1e-3
+    cone1: Cone | None
+    cone2: Cone | None
+    cutter: CutterOptions
+    tolerances: ToleranceOptions
+    orientation: AxisOptions
+    gouge: GougeOptions
+    linking: LinkingOptions
+    extra: dict
+
+    def __init__(self, axis: Axis, cone1=None, cone2=None, *, extra=None, **options):
+        stages = {name: options.pop(name, None) for name in REQUEST_STAGES}
+        if "tool_radius" in options:
+            if "tool_diameter" in options:
+                raise TypeError("give tool_diameter or tool_radius, not both")
+            radius = float(options.pop("tool_radius"))
+            if not radius > 0.0:  # also NaN
+                raise ToolError(f"tool radius must be > 0 mm, got {radius:g}")
+            options["tool_diameter"] = 2.0 * radius
+        routed = {name: {} for name in REQUEST_STAGES}
+        for key, value in options.items():
+            stage = _OPTION_STAGE.get(key)
+            if stage is None:
+                raise TypeError(f"PathRequest got an unknown option {key!r}")
+            routed[stage][key] = value
+        object.__setattr__(self, "axis", axis)
+        object.__setattr__(self, "cone1", cone1)
+        object.__setattr__(self, "cone2", cone2)
+        for name, cls in REQUEST_STAGES.items():
+            base = stages[name] if stages[name] is not None else cls()
+            if not isinstance(base, cls):
+                raise TypeError(f"PathRequest {name}= must be a {cls.__name__}")
+            value = dataclasses.replace(base, **routed[name]) if routed[name] else base
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "extra", dict(extra or {}))
+
+    def __getattr__(self, name):
+        # called only for names that are not attributes: the stage options, read flat
+        stage = _OPTION_STAGE.get(name)
+        if stage is None and name == "tool_radius":
+            stage = "cutter"
+        if stage is None or name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(object.__getattribute__(self, stage), name)
+
+    def stages(self) -> dict:
+        """{stage name: stage options}."""
+        return {name: getattr(self, name) for name in REQUEST_STAGES}
 
 
 @dataclass

@@ -16,12 +16,11 @@ from ..blender_io import InputError, object_axis, object_to_arrays
 from ..core.cones import Cone
 from ..core.errors import BliskCamError, ConeError
 from ..core.lmrs import Profile, morph_between
+from ..core.options import PATH_STAGES, fields
 from ..core.pipeline import PathRequest
 
 __all__ = [
     "INTERNAL_ERROR",
-    "TOOL_NAMES",
-    "LINK_NAMES",
     "f32",
     "settings_of",
     "resolve_blade",
@@ -31,11 +30,13 @@ __all__ = [
     "set_generatrix",
     "profile_from_json",
     "request_options",
-    "AXIS_MODE_NAMES",
+    "option_value",
+    "stage_values",
     "FIT_NAMES",
     "blade_axis",
     "read_blade",
     "path_request",
+    "set_settings_from_request",
     "result_blade_name",
     "report_exception",
 ]
@@ -44,18 +45,6 @@ __all__ = [
 #: to exit status 3
 INTERNAL_ERROR = "Internal error"
 
-#: property enum → core name
-TOOL_NAMES = {"BALL": "ball", "BULL": "bull", "FLAT": "flat", "TAPER": "taper"}
-LINK_NAMES = {"ONE_WAY": "oneway", "ZIGZAG": "zigzag", "SPIRAL": "spiral"}
-#: axis mode enum → (core ``PathRequest.axis_mode``, fixed geometry: None, "axis" or "point")
-AXIS_MODE_NAMES = {
-    "LOCAL": ("local", None),
-    "RADIAL": ("radial", None),
-    "TOWARD_AXIS": ("toward_line", "axis"),
-    "FROM_AXIS": ("from_line", "axis"),
-    "TOWARD_POINT": ("toward_point", "point"),
-    "FROM_POINT": ("from_point", "point"),
-}
 #: fit enum → ``core.fitting.fit_cones_to_mesh(generatrix=...)``
 FIT_NAMES = {"AUTO": "auto", "CONE": "cone", "PROFILE": "profile"}
 
@@ -183,37 +172,56 @@ def read_blade(context, blade):
     return object_to_arrays(blade, context.evaluated_depsgraph_get())
 
 
+def option_value(spec, default, raw):
+    """A Blender property's value as the core option (:mod:`blisk_cam.core.options`): enum
+    item → core value, float32 → the decimal typed (:func:`f32`), ``spec.none_as`` → None
+    for an optional option."""
+    if isinstance(default, bool):
+        return bool(raw)
+    if spec.choices is not None:
+        for c in spec.choices:
+            if c.blender_id == raw:
+                return c.value
+        raise BliskCamError(f"{spec.label}: unknown value {raw!r}")
+    if spec.size > 1:
+        return tuple(f32(x) for x in raw)
+    if isinstance(raw, int) and not isinstance(raw, float) and spec.unit == "":
+        return int(raw)
+    value = f32(raw)
+    if default is None and value == spec.none_as:
+        return None
+    return value
+
+
+def stage_values(settings, stage) -> dict:
+    """{option: core value} of the options of ``stage`` that Blender declares."""
+    return {
+        name: option_value(spec, default, getattr(settings, spec.prop_name(name)))
+        for name, spec, default in fields(stage)
+        if spec.blender
+    }
+
+
 def request_options(settings, axis=None) -> dict:
     """The ``PathRequest`` keyword arguments of the scene settings, except ``axis`` and the
-    cones: the one mapping from the panel's properties to the core (the CLI fills the same
-    properties), in core units (mm, radians, lowercase names).
+    cones, in core units (mm, radians, core names): every declared option
+    (:data:`blisk_cam.core.options.PATH_STAGES`) read generically, then the hand-made ones —
+    the hub → tip variation behind its toggle and the fixed point or line of the fixed axis
+    modes.
 
     ``axis`` (core ``Axis``) is needed by the modes toward/away from the blisk axis.
     """
-    tool = TOOL_NAMES[settings.tool_type]
-    mode, fixed = AXIS_MODE_NAMES[settings.axis_mode]
+    opts = {}
+    for stage in PATH_STAGES:
+        opts.update(stage_values(settings, stage))
+    mode = opts["axis_mode"]
+    fixed = "axis" if mode.endswith("_line") else "point" if mode.endswith("_point") else None
     vary = bool(settings.vary_lead_tilt)
-    opts = dict(
-        tool_type=tool,
-        tool_radius=f32(settings.tool_radius),
-        corner_radius=f32(settings.corner_radius) if tool == "bull" else 0.0,  # torus radius
-        taper_angle=f32(settings.taper_angle) if tool == "taper" else None,
-        cusp=f32(settings.cusp),
-        chord=f32(settings.chord),
-        axis_mode=mode,
-        lead=f32(settings.lead),
-        tilt=f32(settings.tilt) if mode != "radial" else 0.0,
+    opts.update(
+        tilt=opts["tilt"] if mode != "radial" else 0.0,
         lead_tip=f32(settings.lead_tip) if vary else None,
         tilt_tip=(f32(settings.tilt_tip) if mode != "radial" else 0.0) if vary else None,
-        radial_tilt=f32(settings.radial_tilt) if mode == "radial" else 0.0,
-        max_axis_turn=f32(settings.max_axis_turn) if settings.max_axis_turn > 0.0 else None,
-        fix_local_gouge=bool(settings.fix_local_gouge),
-        link=LINK_NAMES[settings.link_mode],
-        climb=bool(settings.climb),
-        approach=f32(settings.approach),
-        clearance_radius=(f32(settings.clearance_radius)
-                          if settings.clearance_radius > 0.0 else None),
-        clearance_margin=f32(settings.clearance_margin),
+        radial_tilt=opts["radial_tilt"] if mode == "radial" else 0.0,
     )
     if fixed is not None:  # a fixed point or line decides the axis: no lead/tilt
         opts.update(lead=0.0, tilt=0.0, lead_tip=None, tilt_tip=None)
@@ -221,10 +229,39 @@ def request_options(settings, axis=None) -> dict:
             if axis is None:
                 raise BliskCamError(f"tool-axis mode {settings.axis_mode} needs the blisk axis")
             opts.update(axis_point=tuple(map(float, axis.o)),
-                            axis_direction=tuple(map(float, axis.d)))
+                        axis_direction=tuple(map(float, axis.d)))
         else:
             opts["axis_point"] = tuple(f32(x) for x in settings.axis_point)
     return opts
+
+
+def set_settings_from_request(settings, req: PathRequest, *, fit: str | None = None) -> None:
+    """Fill the scene settings from a core request (the inverse of :func:`request_options`):
+    what the batch command line saves in a .blend, so that the file regenerates the same
+    path from the sidebar."""
+    for stage in PATH_STAGES:
+        for name, spec, _ in fields(stage):
+            if not spec.blender:
+                continue
+            value = getattr(req, name)
+            if spec.choices is not None and not isinstance(value, bool):
+                value = spec.choice(value).blender_id
+            elif value is None:
+                value = spec.none_as
+                if value is None:  # not used by this cutter (normalised away): keep
+                    continue
+            setattr(settings, spec.prop_name(name), value)
+    vary = req.lead_tip is not None or req.tilt_tip is not None
+    settings.vary_lead_tilt = vary
+    settings.lead_tip = req.lead if req.lead_tip is None else req.lead_tip
+    settings.tilt_tip = req.tilt if req.tilt_tip is None else req.tilt_tip
+    if req.axis_point is not None and req.axis_mode.endswith("_point"):
+        settings.axis_point = req.axis_point
+    if fit is not None:
+        settings.fit_generatrix = fit.upper()
+    for k, g in ((1, req.cone1), (2, req.cone2)):
+        if g is not None:
+            set_generatrix(settings, k, g)
 
 
 def path_request(settings, axis, cone1, cone2) -> PathRequest:

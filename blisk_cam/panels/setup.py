@@ -3,6 +3,15 @@
 
 from bpy.types import Panel
 
+from ..core.options import (
+    AxisOptions,
+    CutterOptions,
+    GougeOptions,
+    LinkingOptions,
+    ToleranceOptions,
+    fields,
+)
+
 CATEGORY = "Blisk CAM"
 
 
@@ -14,6 +23,32 @@ class _BliskCamPanel:
     @classmethod
     def poll(cls, context):
         return getattr(context.scene, "blisk_cam", None) is not None
+
+
+def _is_shown(settings, stage, spec) -> bool:
+    """Whether the option's ``show_if`` condition holds for the current settings."""
+    if spec.show_if is None:
+        return True
+    other, values = spec.show_if
+    other_spec = dict((n, sp) for n, sp, _ in fields(stage))[other]
+    current = getattr(settings, other_spec.prop_name(other))
+    if other_spec.choices is not None and not isinstance(current, bool):
+        return current in {other_spec.choice(v).blender_id for v in values}
+    return current in values
+
+
+def draw_stage(layout, settings, stage, heading=None):
+    """One row per Blender-declared option of ``stage`` (:mod:`blisk_cam.core.options`), in
+    declaration order; a row whose ``show_if`` does not hold is greyed out. Returns the
+    column (hand-made rows of the stage can follow)."""
+    col = layout.column(heading=heading) if heading else layout.column()
+    for name, spec, _ in fields(stage):
+        if not spec.blender:
+            continue
+        row = col.column()
+        row.active = _is_shown(settings, stage, spec)
+        row.prop(settings, spec.prop_name(name))
+    return col
 
 
 def _split(layout):
@@ -94,27 +129,12 @@ class BLISKCAM_PT_tool(_BliskCamPanel, Panel):
     def draw(self, context):
         settings = context.scene.blisk_cam
         layout = _split(self.layout)
-        col = layout.column()
-        col.prop(settings, "tool_type")
-        col.prop(settings, "tool_radius")
-        sub = col.column()
-        sub.active = settings.tool_type == "BULL"
-        sub.prop(settings, "corner_radius")
-        sub = col.column()
-        sub.active = settings.tool_type == "TAPER"
-        sub.prop(settings, "taper_angle")
-
-        col = layout.column(heading="Tool Axis")
-        col.prop(settings, "axis_mode", text="Mode")
+        draw_stage(layout, settings, CutterOptions)
+        col = draw_stage(layout, settings, AxisOptions, heading="Tool Axis")
         mode = settings.axis_mode
         angles = mode in {"LOCAL", "RADIAL"}
         sub = col.column()
         sub.active = angles
-        sub.prop(settings, "lead")
-        if mode == "RADIAL":
-            sub.prop(settings, "radial_tilt")
-        else:
-            sub.prop(settings, "tilt")
         sub.prop(settings, "vary_lead_tilt")
         tip = sub.column()
         tip.active = angles and settings.vary_lead_tilt
@@ -123,19 +143,9 @@ class BLISKCAM_PT_tool(_BliskCamPanel, Panel):
             tip.prop(settings, "tilt_tip")
         if mode in {"TOWARD_POINT", "FROM_POINT"}:
             col.prop(settings, "axis_point")
-        col.prop(settings, "max_axis_turn")
-        sub = col.column()
+        sub = draw_stage(col, settings, GougeOptions)
         sub.active = mode == "LOCAL"
-        sub.prop(settings, "fix_local_gouge")
-
-        col = layout.column(heading="Linking")
-        col.prop(settings, "link_mode")
-        col.prop(settings, "climb")
-        col.prop(settings, "approach")
-        col.prop(settings, "clearance_radius")
-        sub = col.column()
-        sub.active = settings.clearance_radius == 0.0
-        sub.prop(settings, "clearance_margin")
+        draw_stage(layout, settings, LinkingOptions, heading="Linking")
 
 
 class BLISKCAM_PT_tolerances(_BliskCamPanel, Panel):
@@ -147,9 +157,7 @@ class BLISKCAM_PT_tolerances(_BliskCamPanel, Panel):
     def draw(self, context):
         settings = context.scene.blisk_cam
         layout = _split(self.layout)
-        col = layout.column(heading="Tolerances (mm)")
-        col.prop(settings, "cusp")
-        col.prop(settings, "chord")
+        draw_stage(layout, settings, ToleranceOptions, heading="Tolerances (mm)")
         col = layout.column(heading="Check")
         col.prop(settings, "verify")
         sub = col.column()

@@ -20,6 +20,7 @@ from _mesh_files import (
 )
 
 from blisk_cam import cli, render
+from blisk_cam.core.errors import BliskCamError
 
 TIMEOUT = 240  # s per CLI process; a hang (e.g. bpy 4.5 at exit) fails instead of blocking
 PATHS_OPTS = ["--tool", "ball", "--tool-radius", "6", "--cusp", "0.05", "--chord", "0.05"]
@@ -176,7 +177,7 @@ def test_paths_bad_mesh_one_line(tmp_path, kind, words):
         (["--bogus"], ["unrecognized", "--bogus"]),
         (["--cusp", "abc"], ["--cusp", "abc"]),
         (["--tool-radius", "nan"], ["--tool-radius", "finite"]),
-        (["--chord", "-1"], ["--chord", "> 0"]),
+        (["--chord", "-1"], ["--chord", "≥ 0.0001"]),  # the one bound of core.options
         (["--tool", "drill"], ["--tool", "drill"]),
         (["--cone1", "1", "2", "3"], ["--cone1", "4"]),
         (["--cone1", "-5", "0", "10", "20"], ["--cone1", "r1"]),
@@ -212,28 +213,23 @@ def test_batch_script_passes_arguments_and_status(tmp_path):
 # --- paths: the input side, in-process ---------------------------------------------------
 
 
-def test_paths_reads_the_mesh_and_fills_the_settings_for_the_operators(tmp_path, monkeypatch):
-    """``paths`` imports the mesh and fills ``scene.blisk_cam`` from the flags; the operators
-    then read the blade through ``object_to_arrays`` (stubbed here: no path is computed)."""
+def test_paths_reads_the_mesh_into_the_core_request(tmp_path, monkeypatch):
+    """``paths`` reads the mesh (core ``mesh_io``, float64) and builds the core request from
+    the flags, with no Blender scene in between (planning stubbed: no path is computed)."""
     if NASA_STL.is_file():
         mesh, T = NASA_STL, read_binary_stl(NASA_STL)
-    else:  # shared/ not beside the repo: a generated mesh shows the same wiring
+    else:  # a generated mesh shows the same wiring
         V, F = sample_surface()
         mesh, T = write_binary_stl(tmp_path / "blade.stl", V, F), V[F]
     seen = {}
 
-    def fake_paths_by_operators(bpy_, scene, out, *, fit=False, keep=(None, None)):
-        from blisk_cam.blender_io import object_to_arrays
-        from blisk_cam.operators.common import blade_axis, path_request, settings_cones
+    def fake_plan_paths(trimesh, req):
+        seen.update(V=trimesh.V, F=trimesh.F, req=req)
+        raise BliskCamError("stubbed: no path")
 
-        s = scene.blisk_cam
-        V, F = object_to_arrays(s.blade)
-        c1, c2 = settings_cones(s)
-        seen.update(V=V, F=F, fit=fit, out=out,
-                    req=path_request(s, blade_axis(s, s.blade), c1, c2))
-        return out
+    import blisk_cam.core.pipeline as pipeline
 
-    monkeypatch.setattr(cli, "_paths_by_operators", fake_paths_by_operators)
+    monkeypatch.setattr(pipeline, "plan_paths", fake_plan_paths)
     status = cli.main(
         ["paths", "--mesh", str(mesh), "--cone1", "177.5", "-1.7", "188", "45",
          "--cone2", "252.5", "4.3", "243.7", "36.2", "--axis", "0", "0", "0", "0", "0", "2",
@@ -241,21 +237,19 @@ def test_paths_reads_the_mesh_and_fills_the_settings_for_the_operators(tmp_path,
          "--chord", "0.02", "--lead", "3", "--tilt", "-1.5", "--link", "zigzag",
          "--out", str(tmp_path / "paths.json")]
     )
-    assert status == 0
+    assert status == 1 and not (tmp_path / "paths.json").exists()
     V, F, req = seen["V"], seen["F"], seen["req"]
     assert V.dtype == np.float64 and F.dtype == np.int64 and len(F) == len(T)
     np.testing.assert_allclose(np.sort(V[F].reshape(-1, 3), axis=0),
                                np.sort(T.reshape(-1, 3), axis=0), atol=1e-9)
-    assert not seen["fit"]  # both cones given
     assert req.tool_type == "bull" and req.corner_radius == 2.0 and req.link == "zigzag"
     assert req.cone1.as_list() == [177.5, -1.7, 188.0, 45.0]  # typed decimals, not float32
     assert req.axis.direction == (0.0, 0.0, 1.0) and req.axis.origin == (0.0, 0.0, 0.0)
-    assert req.lead == pytest.approx(np.radians(3.0), abs=1e-7)
-    assert req.tilt == pytest.approx(np.radians(-1.5), abs=1e-7)
-    assert (req.cusp, req.chord, req.tool_radius) == (0.05, 0.02, 6.0)
+    assert req.lead == np.radians(3.0) and req.tilt == np.radians(-1.5)  # float64, exact
+    assert (req.cusp, req.chord, req.tool_radius, req.tool_diameter) == (0.05, 0.02, 6.0, 12.0)
     from blisk_cam import is_registered
 
-    assert not is_registered()  # the CLI unregistered what it registered
+    assert not is_registered()  # no Blender scene was needed
 
 
 def test_paths_bad_cones_one_line(tmp_path):

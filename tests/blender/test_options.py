@@ -138,16 +138,33 @@ def test_live_preview_and_the_new_options_have_panel_rows(addon):
 
 # --- the mapping settings → PathRequest, shared by the panel and the CLI ---------------------
 def _request_from_cli(argv):
+    """The CLI's request (float64, straight from the flags) and the same request after a
+    round trip through the scene settings (what a .blend saved by the CLI regenerates): both
+    must agree, option by option."""
+    from blisk_cam.core.options import PATH_STAGES, fields
+    from blisk_cam.core.pipeline import PathRequest
+    from blisk_cam.operators.common import set_settings_from_request
+
     args = cli.build_parser().parse_args(
         ["paths", "--mesh", "x.stl", "--cusp", "0.05", "--chord", "0.02", "--out", "p.json",
-         *argv])
+         "--axis", "1", "2", "3", "0", "0", "1", *argv])
     cli._check_paths_args(args)
+    req_cli = PathRequest(args.axis_obj, None, None, **args.stages)
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    blade = bpy.data.objects.new("B", bpy.data.meshes.new("B"))
-    cli._apply_paths_settings(bpy, scene, args, blade)
+    s = bpy.context.scene.blisk_cam
+    set_settings_from_request(s, req_cli, fit=args.fit)
     axis = Axis((1.0, 2.0, 3.0), (0.0, 0.0, 1.0))
-    return scene.blisk_cam, path_request(scene.blisk_cam, axis, None, None)
+    req = path_request(s, axis, None, None)
+    for stage in PATH_STAGES:
+        for name, _, _ in fields(stage):
+            a, b = getattr(req, name), getattr(req_cli, name)
+            if isinstance(a, float) and isinstance(b, float):
+                assert a == pytest.approx(b, rel=1e-6, abs=1e-7), name
+            elif isinstance(a, tuple) and isinstance(b, tuple):
+                assert a == pytest.approx(b, abs=1e-6), name
+            else:
+                assert a == b, name
+    return s, req
 
 
 def test_cli_flags_map_into_the_path_request(addon):
