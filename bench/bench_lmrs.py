@@ -28,7 +28,7 @@ from blisk_cam.core.lmrs import Profile, morph_between  # noqa: E402
 from blisk_cam.core.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.slicing import MeshConeSlicer  # noqa: E402
 
-BLADES = ROOT.parent / "shared" / "data" / "blades"
+BLADES = ROOT / "tests" / "data" / "blades"
 
 
 def main():

@@ -26,7 +26,7 @@ from blisk_cam.core.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.pathgen import generate_paths  # noqa: E402
 from blisk_cam.core.slicing import MeshConeSlicer  # noqa: E402
 
-BLADES = ROOT.parent / "shared" / "data" / "blades"
+BLADES = ROOT / "tests" / "data" / "blades"
 
 
 def read_binary_stl(path):

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
-SHARED = REPO.parent / "shared"
-NASA_STL = SHARED / "data" / "blades" / "rotor37_blade_extended_open.stl"
+BLADES = REPO / "tests" / "data" / "blades"  # NASA Rotor 37/67, see its README.md
+NASA_STL = BLADES / "rotor37_blade_extended_open.stl"
 
 _STL_RECORD = np.dtype(
     [("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")]

@@ -248,18 +248,7 @@ def test_cli_runs_the_same_operators(addon, demo, tmp_path):
     """python -m blisk_cam paths writes the JSON the operators write for the same inputs,
     and its --blend holds the objects, its --preview shows the paths."""
     stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
-    out, blend, png = tmp_path / "cli.json", tmp_path / "cli.blend", tmp_path / "cli.png"
-    cmd = [sys.executable, "-m", "blisk_cam", "paths", "--mesh", str(stl), "--tool", "ball",
-           "--tool-radius", "6", "--cusp", str(CUSP), "--chord", str(CHORD),
-           "--out", str(out), "--blend", str(blend), "--preview", str(png)]
-    env = {k: v for k, v in os.environ.items() if k not in ("BLISK_CAM_VERBOSE",)}
-    proc = subprocess.run(["timeout", "--kill-after=10", "240", *cmd], cwd=REPO, env=env,
-                          capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=270)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stderr == ""
-    assert "fitted cones" in proc.stdout and str(out) in proc.stdout
-
-    # the same inputs by hand in this process, as a user sets them in the panels
+    # the inputs by hand in this process, as a user sets them in the panels
     _new_scene()
     blade = blender_io.import_mesh_file(stl)
     s = bpy.context.scene.blisk_cam
@@ -271,6 +260,20 @@ def test_cli_runs_the_same_operators(addon, demo, tmp_path):
     assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
     mine = tmp_path / "mine.json"
     assert bpy.ops.blisk_cam.export_paths(filepath=str(mine)) == {"FINISHED"}
+    # the CLI with the cones the panel holds (float32 properties: their decimals), so both
+    # routes start from the same numbers
+    cones = [[str(np.float32(x)) for x in getattr(s, f"cone{k}")] for k in (1, 2)]
+    out, blend, png = tmp_path / "cli.json", tmp_path / "cli.blend", tmp_path / "cli.png"
+    cmd = [sys.executable, "-m", "blisk_cam", "paths", "--mesh", str(stl), "--tool", "ball",
+           "--tool-radius", "6", "--cusp", str(CUSP), "--chord", str(CHORD),
+           "--cone1", *cones[0], "--cone2", *cones[1],
+           "--out", str(out), "--blend", str(blend), "--preview", str(png)]
+    env = {k: v for k, v in os.environ.items() if k not in ("BLISK_CAM_VERBOSE",)}
+    proc = subprocess.run(["timeout", "--kill-after=10", "240", *cmd], cwd=REPO, env=env,
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=270)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == ""
+    assert str(out) in proc.stdout
     a, b = json.loads(out.read_text()), json.loads(mine.read_text())
     a.pop("stats"), b.pop("stats")  # timings differ
     assert a == b

@@ -15,7 +15,7 @@ import sys
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import REPO, SHARED, read_binary_stl, sample_surface, write_binary_stl
+from _mesh_files import BLADES, REPO, read_binary_stl, sample_surface, write_binary_stl
 
 from blisk_cam import blender_io, cli, output
 from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
@@ -26,8 +26,7 @@ from blisk_cam.core.mesh import TriMesh
 from blisk_cam.core.pipeline import make_cutter
 from blisk_cam.operators.common import path_request, settings_cones
 
-ROTOR67 = SHARED / "data" / "blades" / "rotor67_blade_extended_open.stl"
-needs_rotor67 = pytest.mark.skipif(not ROTOR67.is_file(), reason="shared blade data not found")
+ROTOR67 = BLADES / "rotor67_blade_extended_open.stl"
 TIMEOUT = 240
 
 
@@ -329,7 +328,6 @@ def test_fit_shows_the_cones_and_generate_keeps_them(addon, demo):
     assert output.find_output_collection("Blade") is None
 
 
-@needs_rotor67
 def test_fit_auto_stores_a_profile_for_the_curved_rotor67_hub(addon, rotor67_arrays, tmp_path):
     V, F = rotor67_arrays
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -370,7 +368,6 @@ def test_fit_auto_stores_a_profile_for_the_curved_rotor67_hub(addon, rotor67_arr
     assert s.profile1 == "" and settings_cones(s)[0].as_list() == [180.0, -5.0, 190.0, 40.0]
 
 
-@needs_rotor67
 def test_cli_fit_auto_on_rotor67_writes_profiles(rotor67_arrays, tmp_path):
     """--fit auto picks a profile for the curved hub; --cone2-profile gives the tip; the JSON
     carries both and every pass lies on its LMRS (morph ratio measured at the CC points)."""

@@ -51,8 +51,6 @@ def test_import_gives_the_source_triangles(tmp_path, kind):
 
 
 def test_import_real_nasa_blade_unchanged():
-    if not NASA_STL.is_file():
-        pytest.skip(f"NASA Rotor 37 blade not found at {NASA_STL} (shared/ not beside the repo)")
     T = read_binary_stl(NASA_STL)
     obj = blender_io.import_mesh_file(NASA_STL)
     V, F = blender_io.object_to_arrays(obj)

@@ -10,8 +10,8 @@ import pytest
 
 from blisk_cam.core.cones import Axis, Cone, MorphingCones
 
-SHARED = Path(__file__).resolve().parents[2].parent / "shared"
-BLADES = SHARED / "data" / "blades"
+#: NASA Rotor 37 and 67 (public test-case data, see tests/data/blades/README.md)
+BLADES = Path(__file__).resolve().parents[1] / "data" / "blades"
 
 
 def read_binary_stl(path):
@@ -28,8 +28,6 @@ def read_binary_stl(path):
 def nasa_blade(name):
     stl = BLADES / f"{name}_blade_extended_open.stl"
     meta = BLADES / f"{name}_blade.json"
-    if not stl.exists():
-        pytest.skip(f"NASA blade data not found at {BLADES} (shared/ must sit beside the repo)")
     V, F = read_binary_stl(stl)
     cones = json.loads(meta.read_text())["cones"]
     c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
