@@ -13,7 +13,10 @@ subpackages) exposes one explicit ``CLASSES`` list and may define ``register()``
 groups come first; everything is unregistered in reverse order.
 """
 
-__all__ = ["register", "unregister"]
+__all__ = ["__version__", "register", "unregister"]
+
+#: the extension's version (blender_manifest.toml says the same; a test checks it)
+__version__ = "0.1.0"
 
 # (kind, object) in the order they were registered: ("class", cls) or ("hook", module).
 _registered = []

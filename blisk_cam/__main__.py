@@ -2,6 +2,19 @@
 
 import sys
 
-from .cli import main
+try:
+    import numpy  # noqa: F401 - the core needs numpy and scipy
+    import scipy  # noqa: F401
+except ImportError as exc:
+    print(
+        f"blisk_cam: error: this Python ({sys.executable}, {sys.version.split()[0]}) lacks "
+        f"{exc.name}: run the command with the project's environment (.venv/bpy45/bin/python "
+        "after 'make demo' or 'make test'), Blender's own Python (blender -b --python "
+        "scripts/blisk_batch.py -- ...), or pip install numpy scipy",
+        file=sys.stderr,
+    )
+    sys.exit(1)
+
+from .cli import main  # noqa: E402
 
 sys.exit(main())

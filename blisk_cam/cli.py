@@ -155,6 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (batch mode).",
     )
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="{demo,paths}")
     sub.required = True
 
@@ -315,16 +318,12 @@ def _check_orientation_args(args, given):
 
 
 # --- options declared once (core.options) → flags ----------------------------------------
-def _stage_title(stage) -> str:
-    return (stage.__doc__ or stage.__name__).strip().splitlines()[0].rstrip(".")
-
-
 def add_option_flags(parser, stages):
     """One flag per declared option of ``stages`` (:mod:`blisk_cam.core.options`): its help,
     unit and default from the declaration; angles in degrees. Every flag defaults to None
     ("not given": the declaration's default applies); :func:`option_args` converts."""
     for stage in stages:
-        group = parser.add_argument_group(_stage_title(stage))
+        group = parser.add_argument_group(stage.title or stage.__name__)
         for name, spec, default in fields(stage):
             flag = spec.cli_flag(name)
             if flag is None:
@@ -838,7 +837,10 @@ def main(argv=None) -> int:
         _fail(f"no command given; use '{PROG} demo --out DIR' or '{PROG} paths --mesh FILE ...'")
         return 2
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:
+            raise UsageError(f"unrecognized arguments: {' '.join(extra)} (see "
+                             f"'{PROG} {args.command} --help')")
     except UsageError as exc:
         _fail(exc)
         return 2

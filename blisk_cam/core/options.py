@@ -222,9 +222,11 @@ def check_stage(stage) -> None:
 
 class _Stage:
     """Mixin: options checked on construction; ``error`` is the exception class a bad value
-    raises (the one the stage's own module raises)."""
+    raises (the one the stage's own module raises); ``title`` heads its group of flags and
+    panel rows."""
 
     error = OptionError
+    title = ""
 
     def __post_init__(self):
         check_stage(self)
@@ -266,6 +268,7 @@ AXIS_MODE_CHOICES = (
 class CutterOptions(_Stage):
     """The cutter (DIN 66215 shapes, :mod:`.cutter`). Sizes by diameter, as tools are named."""
 
+    title = "Cutter (sized by diameter)"
     error = ToolError
 
     tool_type: str = option(
@@ -318,6 +321,7 @@ def describe_tool(tool_type: str, diameter: float, corner_radius: float = 0.0,
 class ToleranceOptions(_Stage):
     """Scallop (cusp) and chord tolerances, mm."""
 
+    title = "Tolerances (mm)"
     error = ToleranceError
 
     cusp: float = option(
@@ -330,10 +334,11 @@ class ToleranceOptions(_Stage):
 
 @dataclass(frozen=True)
 class AxisOptions(_Stage):
-    """How the tool axis is chosen (:mod:`.orientation`). Lead tips the axis forward along
-    the feed (> 0: the tool leans toward the feed direction, cutting behind the tip); tilt
-    leans it sideways across the feed (> 0 toward the side k = f × n)."""
+    """How the tool axis is chosen (:mod:`.orientation`): a = normalize(n + tan(lead) f +
+    tan(tilt) k) with f the feed direction, n the surface normal and k = f × n; lead > 0
+    leans the spindle forward toward the feed, tilt > 0 to the right of the feed."""
 
+    title = "Tool axis (angles in degrees; lead > 0 leans the spindle forward toward the feed, tilt > 0 to the right of the feed, seen with the normal up)"
     error = OrientationError
 
     axis_mode: str = option(
@@ -369,6 +374,7 @@ class AxisOptions(_Stage):
 class GougeOptions(_Stage):
     """Local gouge check and fix (:mod:`.local_gouge`)."""
 
+    title = "Local gouge fix"
     error = OrientationError
 
     fix_local_gouge: bool = option(
@@ -384,6 +390,7 @@ class GougeOptions(_Stage):
 class LinkingOptions(_Stage):
     """Order of the passes and the moves between them (:mod:`.linking`)."""
 
+    title = "Linking"
     error = LinkError
 
     link: str = option(

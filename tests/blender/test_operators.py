@@ -491,8 +491,12 @@ def test_lead_tilt_degrees_become_radians_in_properties(addon):
     )
     cli._check_paths_args(args)
     scene = _new_scene()
-    blade = bpy.data.objects.new("B", bpy.data.meshes.new("B"))
-    cli._apply_paths_settings(bpy, scene, args, blade)
+    from blisk_cam.core.cones import Axis
+    from blisk_cam.core.pipeline import PathRequest
+    from blisk_cam.operators.common import set_settings_from_request
+
+    # what --blend saves: the CLI's request in the scene settings
+    set_settings_from_request(scene.blisk_cam, PathRequest(Axis(), **args.stages))
     s = scene.blisk_cam
     assert s.lead == pytest.approx(math.radians(3.0))
     assert s.tilt == pytest.approx(-math.radians(1.5))

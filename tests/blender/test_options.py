@@ -395,3 +395,37 @@ def test_cli_fit_auto_on_rotor67_writes_profiles(rotor67_arrays, tmp_path):
         else:
             np.testing.assert_allclose(morph.ratio(r, z), c["s"], atol=1e-6)
     assert d["curves"][0]["s"] == 0.0 and d["curves"][-1]["s"] == 1.0
+
+
+def test_properties_and_panel_rows_are_generated_from_the_declarations(addon):
+    """One declaration per option (core.options) → the property (name, label, default,
+    bounds, angle subtype) and its panel row."""
+    from blisk_cam.core.options import PATH_STAGES, fields
+    from blisk_cam.panels import CLASSES
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    s = bpy.context.scene.blisk_cam
+    drawn = set()
+    for cls in CLASSES:
+        drawn.update(_drawn(cls, bpy.context))
+    for stage in PATH_STAGES:
+        for name, spec, default in fields(stage):
+            if not spec.blender:
+                continue
+            prop = spec.prop_name(name)
+            rna = s.bl_rna.properties[prop]
+            assert rna.name == spec.label and rna.description == spec.help, name
+            assert prop in drawn, name
+            if spec.choices is not None and not isinstance(default, bool):
+                assert rna.default == spec.choice(default).blender_id, name
+            elif rna.type == "FLOAT":
+                want = spec.none_as if default is None else default
+                assert rna.default == pytest.approx(want, rel=1e-6), name
+                assert rna.subtype == ("ANGLE" if spec.unit == "deg" else "NONE"), name
+                if spec.lo is not None:
+                    assert rna.hard_min >= spec.lo - 1e-9, name
+    # the diameter is stored; the radius is its half
+    s.tool_diameter = 10.0
+    assert s.tool_radius == pytest.approx(5.0)
+    s.tool_radius = 3.0
+    assert s.tool_diameter == pytest.approx(6.0)
