@@ -338,7 +338,8 @@ class AxisOptions(_Stage):
     tan(tilt) k) with f the feed direction, n the surface normal and k = f × n; lead > 0
     leans the spindle forward toward the feed, tilt > 0 to the right of the feed."""
 
-    title = "Tool axis (angles in degrees; lead > 0 leans the spindle forward toward the feed, tilt > 0 to the right of the feed, seen with the normal up)"
+    title = ("Tool axis (angles in degrees; lead > 0 leans the spindle forward toward the "
+             "feed, tilt > 0 to the right of the feed, seen with the normal up)")
     error = OrientationError
 
     axis_mode: str = option(
