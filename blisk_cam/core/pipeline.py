@@ -32,7 +32,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -573,86 +574,200 @@ def _fit_concave(
     return min(expansion_radius(cutter, wide, req.cusp, edge), 0.95 * concave)
 
 
-def iter_plan_paths(mesh: TriMesh, req: PathRequest):
-    """Generator: yields Progress, returns a :class:`PlanResult`.
+@dataclass
+class PlanState:
+    """The program as the stages build it (:data:`PLAN_STAGES`): each stage reads what the
+    earlier ones left here and adds its part. Lengths mm, angles radians.
+
+    Attributes
+    ----------
+    mesh, req : the input (never modified)
+    cutter, strategy, limits : the request's cutter, axis strategy and gouge-fix limits
+    fit : ConeFit or None — set by "fit" when a cone was not given
+    cone1, cone2 : the generatrices in use
+    edge, concave : smallest convex / concave surface radius between the cones (inf: not
+        needed), rho : ball radius the passes are spaced for
+    passes : the CC passes of "passes"; morph, projector : the morph field and the surface
+        projector shared by the later stages
+    link_options : LinkOptions; curves : list of PassCurve in machining order ("order"),
+        oriented with tips by "orient"; gouge : LocalGougeReport
+    program : Program ("link"); stats : dict (every stage adds; "checks" summarises)
+    seconds : {stage name: seconds}
+    """
+
+    mesh: TriMesh
+    req: PathRequest
+    cutter: Cutter
+    strategy: AxisStrategy
+    limits: GougeLimits
+    fit: ConeFit | None = None
+    cone1: object = None
+    cone2: object = None
+    edge: float = math.inf
+    concave: float = math.inf
+    rho: float = 0.0
+    passes: object = None
+    morph: object = None
+    projector: SurfaceProjector | None = None
+    link_options: LinkOptions | None = None
+    curves: list = field(default_factory=list)
+    gouge: LocalGougeReport = field(default_factory=LocalGougeReport)
+    program: object = None
+    stats: dict = field(default_factory=dict)
+    seconds: dict = field(default_factory=dict)
+
+    def result(self) -> PlanResult:
+        path = ToolPath(
+            axis=self.req.axis,
+            cone1=self.passes.cone1,
+            cone2=self.passes.cone2,
+            tool=self.cutter,
+            cusp=self.req.cusp,
+            chord=self.req.chord,
+            curves=self.curves,
+            stats=self.stats,
+            program=self.program,
+        )
+        return PlanResult(path=path, fit=self.fit, gouge=self.gouge)
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One step of the plan: ``run(state)`` is a generator that may yield Progress (so a
+    modal operator can cancel between yields) and updates the :class:`PlanState`."""
+
+    name: str
+    run: object
+
+
+def _stage_fit(st: PlanState):
+    """Cones not given are fitted to the blade's boundary loops (:mod:`.fitting`); the pass
+    spacing radius follows from the cutter and the surface (:func:`expansion_radius`)."""
+    req = st.req
+    st.cone1, st.cone2 = req.cone1, req.cone2
+    if st.cone1 is None or st.cone2 is None:
+        st.fit = fit_cones_to_mesh(st.mesh, req.axis)
+        st.cone1 = st.cone1 or st.fit.cone1
+        st.cone2 = st.cone2 or st.fit.cone2
+    if st.cutter.type != "ball":
+        st.edge, st.concave = surface_radii(st.mesh, req.axis, morph_between(st.cone1, st.cone2))
+    st.rho = expansion_radius(st.cutter, st.strategy, req.cusp, st.edge)
+    if math.isfinite(st.concave):
+        st.rho = _fit_concave(st.cutter, st.strategy, st.limits, req, st.edge, st.concave,
+                              st.rho)
+    return
+    yield  # a generator: nothing to report in between
+
+
+def _stage_passes(st: PlanState):
+    """The CC passes: mesh ∩ LMC, sampled for the chord, spaced for the cusp (paper 001)."""
+    st.passes = yield from iter_generate_paths(
+        st.mesh, st.req.axis, st.cone1, st.cone2, tool_radius=st.rho, cusp=st.req.cusp,
+        chord=st.req.chord,
+    )
+    st.stats.update(st.passes.stats)
+    yield Progress(1.0, "orienting and linking")
+
+
+def _stage_order(st: PlanState):
+    """Machining order and direction of the passes, the spiral (:mod:`.linking`)."""
+    st.morph = morph_between(st.passes.cone1, st.passes.cone2)  # LMC, or LMRS for a Profile
+    st.projector = SurfaceProjector(st.mesh, st.req.axis, st.morph)
+    st.link_options = _link_options(st.req, st.rho)
+    st.curves = order_passes(st.passes.curves, st.link_options, st.morph, st.req.axis,
+                             st.projector)
+    return
+    yield
+
+
+def _stage_orient(st: PlanState):
+    """Tool axes, the local gouge check and fix, smoothing and the tool tips per pass."""
+    near_field = None
+    if st.cutter.type != "ball" and math.isfinite(st.concave):
+        # a concave region: check the cutter against the surface around each contact too
+        S = np.vstack([st.mesh.V, st.mesh.V[st.mesh.F].mean(axis=1)])
+        near_field = (S, cKDTree(S))
+    for c in st.curves:
+        _orient(c, st.mesh, st.projector, st.cutter, st.strategy, st.limits, st.req,
+                st.req.axis, st.gouge, near_field)
+    return
+    yield
+
+
+def _stage_link(st: PlanState):
+    """The linked program: approach, cut, links on the surface or via the clearance
+    surface (:func:`.linking.build_program`)."""
+    st.program = build_program(
+        st.curves,
+        st.link_options,
+        st.req.axis,
+        tool_radius=st.cutter.radius,
+        projector=st.projector,
+        cl_points=st.cutter.cl_points,
+    )
+    return
+    yield
+
+
+def _stage_checks(st: PlanState):
+    """The figures of the finished plan (stats)."""
+    curves = st.curves
+    turns = [consecutive_turn(c.axis, c.closed) for c in curves if len(c.cc) > 1]
+    st.stats.update(
+        {
+            "expansion_radius": float(st.rho),
+            # smallest convex / concave radius between the cones (None: not needed, a ball)
+            "edge_radius": float(st.edge) if math.isfinite(st.edge) else None,
+            "concave_radius": float(st.concave) if math.isfinite(st.concave) else None,
+            "curves": len(curves),
+            "poses": int(sum(len(c.cc) for c in curves)),
+            "max_axis_turn": float(max((t.max() for t in turns if len(t)), default=0.0)),
+            "local_gouge": st.gouge.summary(),
+            "zero_speed_poses": int(
+                sum(int(np.count_nonzero(c.flags & FLAG_ZERO_SPEED)) for c in curves)
+            ),
+            "link": st.link_options.mode,
+        }
+    )
+    return
+    yield
+
+
+#: the plan, in order: fit → passes → order → orient/gouge → link → checks. Later stages
+#: (collision) are appended by the caller: ``iter_plan_paths(mesh, req, extra=(stage,))``.
+PLAN_STAGES = (
+    Stage("fit", _stage_fit),
+    Stage("passes", _stage_passes),
+    Stage("order", _stage_order),
+    Stage("orient", _stage_orient),
+    Stage("link", _stage_link),
+    Stage("checks", _stage_checks),
+)
+
+
+def iter_plan_paths(mesh: TriMesh, req: PathRequest, *, extra=()):
+    """Generator: runs :data:`PLAN_STAGES` (then the ``extra`` stages) over one
+    :class:`PlanState`; yields Progress, returns a :class:`PlanResult`. Each stage's time
+    is in the stats as ``seconds_<stage>``.
 
     Raises
     ------
     BliskCamError (ToolError, OrientationError, LinkError, ConeError, ToleranceError …) with a
     message naming the problem, before any long work where the request itself is bad.
     """
-    cutter, strategy, opts, limits = _check(req)
-    fit = None
-    c1, c2 = req.cone1, req.cone2
-    if c1 is None or c2 is None:
-        fit = fit_cones_to_mesh(mesh, req.axis)
-        c1 = c1 or fit.cone1
-        c2 = c2 or fit.cone2
-    edge = concave = math.inf
-    if cutter.type != "ball":
-        edge, concave = surface_radii(mesh, req.axis, morph_between(c1, c2))
-    rho = expansion_radius(cutter, strategy, req.cusp, edge)
-    if math.isfinite(concave):
-        rho = _fit_concave(cutter, strategy, limits, req, edge, concave, rho)
-    passes = yield from iter_generate_paths(
-        mesh, req.axis, c1, c2, tool_radius=rho, cusp=req.cusp, chord=req.chord
-    )
-    yield Progress(1.0, "orienting and linking")
-    morph = morph_between(passes.cone1, passes.cone2)  # LMC, or LMRS for a Profile
-    projector = SurfaceProjector(mesh, req.axis, morph)
-    opts = _link_options(req, rho)
-    curves = order_passes(passes.curves, opts, morph, req.axis, projector)
-    report = LocalGougeReport()
-    near_field = None
-    if cutter.type != "ball" and math.isfinite(concave):
-        # a concave region: check the cutter against the surface around each contact too
-        S = np.vstack([mesh.V, mesh.V[mesh.F].mean(axis=1)])
-        near_field = (S, cKDTree(S))
-    for c in curves:
-        _orient(c, mesh, projector, cutter, strategy, limits, req, req.axis, report, near_field)
-    program = build_program(
-        curves,
-        opts,
-        req.axis,
-        tool_radius=cutter.radius,
-        projector=projector,
-        cl_points=cutter.cl_points,
-    )
-    turns = [consecutive_turn(c.axis, c.closed) for c in curves if len(c.cc) > 1]
-    stats = dict(passes.stats)
-    stats.update(
-        {
-            "expansion_radius": float(rho),
-            # smallest convex / concave radius between the cones (None: not needed, a ball)
-            "edge_radius": float(edge) if math.isfinite(edge) else None,
-            "concave_radius": float(concave) if math.isfinite(concave) else None,
-            "curves": len(curves),
-            "poses": int(sum(len(c.cc) for c in curves)),
-            "max_axis_turn": float(max((t.max() for t in turns if len(t)), default=0.0)),
-            "local_gouge": report.summary(),
-            "zero_speed_poses": int(
-                sum(int(np.count_nonzero(c.flags & FLAG_ZERO_SPEED)) for c in curves)
-            ),
-            "link": opts.mode,
-        }
-    )
-    path = ToolPath(
-        axis=req.axis,
-        cone1=passes.cone1,
-        cone2=passes.cone2,
-        tool=cutter,
-        cusp=req.cusp,
-        chord=req.chord,
-        curves=curves,
-        stats=stats,
-        program=program,
-    )
-    return PlanResult(path=path, fit=fit, gouge=report)
+    cutter, strategy, _, limits = _check(req)
+    st = PlanState(mesh=mesh, req=req, cutter=cutter, strategy=strategy, limits=limits)
+    for stage in (*PLAN_STAGES, *extra):
+        t0 = time.perf_counter()
+        yield from stage.run(st)
+        st.seconds[stage.name] = time.perf_counter() - t0
+    st.stats.update({f"seconds_{k}": v for k, v in st.seconds.items()})
+    return st.result()
 
 
-def plan_paths(mesh: TriMesh, req: PathRequest) -> PlanResult:
+def plan_paths(mesh: TriMesh, req: PathRequest, *, extra=()) -> PlanResult:
     """Run :func:`iter_plan_paths` to the end."""
-    it = iter_plan_paths(mesh, req)
+    it = iter_plan_paths(mesh, req, extra=extra)
     while True:
         try:
             next(it)
