@@ -37,6 +37,7 @@ import numpy as np
 
 from .core.cones import Axis, Cone
 from .core.errors import BliskCamError
+from .core.revolution import generatrix_rows, revolve
 
 __all__ = [
     "InputError",
@@ -522,35 +523,6 @@ def arrays_to_object(
     return obj
 
 
-def _axis_frame(axis: Axis):
-    """Orthonormal (e1, e2, d): e1 is world X projected normal to the axis (Y if X ∥ axis),
-    so that for the axis +Z the angle θ is the usual atan2(y, x) (``Axis.angular_frame``)."""
-    return axis.angular_frame()
-
-
-def _generatrix_rows(generatrix, rows: int, extend: float) -> np.ndarray:
-    """(k, 2) meridional points (r, z), mm, of a generatrix from its first to its last point,
-    lengthened by ``extend`` mm at both ends along the end segments (r clamped ≥ 0). A
-    ``Cone`` gives ``rows + 1`` evenly spaced points (a straight line: exact); a ``Profile``
-    its vertices, each segment split into ``ceil(rows / segments)`` steps."""
-    if isinstance(generatrix, Cone):
-        P = np.array([generatrix.p1, generatrix.p2], dtype=np.float64)
-        per = rows
-    else:
-        P = np.asarray(generatrix.vertices, dtype=np.float64).copy()
-        per = max(1, -(-rows // (len(P) - 1)))
-    if extend:
-        for end, nb in ((0, 1), (-1, -2)):
-            u = P[end] - P[nb]
-            P[end] = P[end] + extend * u / np.linalg.norm(u)
-    t = np.arange(per) / per
-    rz = np.concatenate([(1.0 - t)[:, None] * a + t[:, None] * b for a, b in zip(P[:-1], P[1:],
-                                                                               strict=True)]
-                        + [P[-1:]])
-    rz[:, 0] = np.maximum(rz[:, 0], 0.0)
-    return rz
-
-
 def cone_to_object(
     name,
     cone,
@@ -598,23 +570,8 @@ def cone_to_object(
     """
     if not isinstance(cone, Cone) and not hasattr(cone, "vertices"):
         raise InputError(f"{name}: expected a Cone or a Profile, got {type(cone).__name__}")
-    segments = max(int(segments), 3)
     rows = max(int(rows), 1)
-    rz = _generatrix_rows(cone, rows, float(extend))
-    t0, t1 = float(theta[0]), float(theta[1])
-    full = abs(abs(t1 - t0) - 2.0 * math.pi) < 1e-9
-    k = segments if full else segments + 1
-    th = t0 + (t1 - t0) * np.arange(k) / segments
-    e1, e2, d = _axis_frame(axis)
-    radial = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2  # (k, 3)
-    o = axis.o
-    V = (o + rz[:, 1, None, None] * d + rz[:, 0, None, None] * radial[None]).reshape(-1, 3)
-    i = np.arange(segments)
-    j = (i + 1) % k
-    q = np.arange(len(rz) - 1)[:, None]
-    # quads (a clean grid for the wire; loop triangles and renders split them)
-    F = np.stack([q * k + i, q * k + j, (q + 1) * k + j, (q + 1) * k + i], -1)
-    F = F.reshape(-1, 4).astype(np.int64)
+    V, F = revolve(generatrix_rows(cone, rows, float(extend)), axis, theta, segments)
     base = material_name or f"Blisk CAM {name}"
     obj = arrays_to_object(
         name, V, F, collection, mm_per_unit=mm_per_unit, color=color, smooth=True,
@@ -655,7 +612,7 @@ def axis_to_object(
     cylinder mesh from ``z_range[0]`` to ``z_range[1]`` mm along the axis, which renders.
     """
     f = _factor(mm_per_unit)
-    e1, e2, d = _axis_frame(axis)
+    e1, e2, d = axis.angular_frame()
     z0, z1 = float(z_range[0]), float(z_range[1])
     if kind == "EMPTY":
         from mathutils import Matrix

@@ -40,6 +40,7 @@ from pathlib import Path
 
 from .core.errors import BliskCamError
 from .core.options import PATH_STAGES, CutterOptions, check_value, fields, from_user, to_user
+from .core.revolution import angular_span
 
 __all__ = ["main", "build_parser", "UsageError", "run_operator", "build_demo_scene"]
 
@@ -446,20 +447,6 @@ def _rotate_about_axis(V, axis, angle):
     return (V - axis.o) @ R.T + axis.o
 
 
-def _angular_span(V, axis):
-    """(mean angle, half width) of points about the axis, angles as in blender_io._axis_frame."""
-    import numpy as np
-
-    from .blender_io import _axis_frame
-
-    e1, e2, d = _axis_frame(axis)
-    p = V - axis.o
-    th = np.arctan2(p @ e2, p @ e1)
-    mean = math.atan2(float(np.mean(np.sin(th))), float(np.mean(np.cos(th))))
-    rel = np.angle(np.exp(1j * (th - mean)))
-    return mean, float(np.max(np.abs(rel)))
-
-
 def build_demo_scene(scene=None, *, blades=3, demo=None):
     """Build the demo blisk in the current scene; returns a dict of the objects created.
 
@@ -516,7 +503,7 @@ def build_demo_scene(scene=None, *, blades=3, demo=None):
         objs["hub"] = arrays_to_object("Hub", Vh, Fh, coll, color=(0.42, 0.44, 0.48, 1.0))
 
     # cones over the angular range of the blades shown, a little wider
-    mean, half = _angular_span(Vb, axis)
+    mean, half = angular_span(Vb, axis)
     lo = min(offsets, default=0) * pitch + mean - half - 0.35 * pitch
     hi = max(offsets, default=0) * pitch + mean + half + 0.35 * pitch
     r, _ = meridional(Vb, axis)
@@ -554,10 +541,8 @@ def demo_view_direction(demo, *, turn=0.35, elevation=0.9):
     from the blade's mean angle and ``elevation`` radians up toward the axis direction."""
     import numpy as np
 
-    from .blender_io import _axis_frame
-
-    e1, e2, d = _axis_frame(demo.axis)
-    mean, _ = _angular_span(np.asarray(demo.blade_vertices, dtype=np.float64), demo.axis)
+    e1, e2, d = demo.axis.angular_frame()
+    mean, _ = angular_span(np.asarray(demo.blade_vertices, dtype=np.float64), demo.axis)
     a = mean + turn
     radial = math.cos(a) * e1 + math.sin(a) * e2
     return tuple(math.cos(elevation) * radial + math.sin(elevation) * d)

@@ -43,7 +43,6 @@ import bpy
 import numpy as np
 
 from .blender_io import (
-    _axis_frame,
     arrays_to_object,
     colored_material,
     cone_to_object,
@@ -53,6 +52,7 @@ from .core import toolpath as _toolpath
 from .core.errors import BliskCamError
 from .core.lmrs import morph_between
 from .core.paths_io import path_to_dict
+from .core.revolution import angular_range
 
 __all__ = [
     "COLLECTION_PREFIX",
@@ -570,24 +570,6 @@ def _verify_object(name, V, F, values, cusp, chord, f, coll):
 
 
 # --- cones -------------------------------------------------------------------------------
-def angular_range(points, axis, margin: float = 0.3) -> tuple[float, float]:
-    """(θ0, θ1) radians about ``axis`` covering ``points`` (n, 3) mm, widened by ``margin`` ×
-    their half width (+ 0.02 rad) on each side; angles as :func:`blender_io.cone_to_object`
-    measures them. A full turn when the points go (nearly) all around."""
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if len(p) == 0:
-        return 0.0, 2.0 * np.pi
-    e1, e2, _ = _axis_frame(axis)
-    rel = p - axis.o
-    th = np.arctan2(rel @ e2, rel @ e1)
-    mean = float(np.arctan2(np.mean(np.sin(th)), np.mean(np.cos(th))))
-    half = float(np.max(np.abs(np.angle(np.exp(1j * (th - mean))))))
-    half = half * (1.0 + margin) + 0.02
-    if half >= np.pi:
-        return 0.0, 2.0 * np.pi
-    return mean - half, mean + half
-
-
 def _middle_generatrix(g1, g2, s: float = 0.5):
     """The generatrix at morph ratio ``s``: a Cone (LMC) or a Profile (LMRS)."""
     morph = morph_between(g1, g2)

@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 
 from .errors import MeshError
 
-__all__ = ["TriMesh", "triangle_normals", "chain_graph_paths"]
+__all__ = ["TriMesh", "triangle_normals", "chain_graph_paths", "input_vertex_values"]
 
 
 def triangle_normals(V, F):
@@ -586,3 +586,23 @@ def _parity_flip(m, f0, f1, inconsistent, labels, ncomp):
     par = par.astype(bool)
     invert = 2 * np.bincount(labels, weights=par, minlength=ncomp) > size
     return par ^ invert[labels]
+
+
+def input_vertex_values(mesh, V, values) -> np.ndarray:
+    """Per-vertex values of a ``TriMesh`` carried back to the input vertices ``V`` (n, 3).
+
+    Uses ``mesh.vertex_map`` ((n,) input → mesh vertex, −1 if dropped) when the mesh has it;
+    otherwise the nearest mesh vertex within the weld distance (1e-6 of the bounding-box
+    diagonal), NaN where there is none.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    vmap = getattr(mesh, "vertex_map", None)
+    if vmap is not None and len(vmap) == len(V):
+        vmap = np.asarray(vmap, dtype=np.int64)
+        return np.where(vmap >= 0, values[np.maximum(vmap, 0)], np.nan)
+    tol = 1e-6 * max(float(np.linalg.norm(np.ptp(mesh.V, axis=0))), 1e-12)
+    dist, idx = cKDTree(mesh.V).query(V, k=1, distance_upper_bound=tol)
+    ok = np.isfinite(dist)
+    out = np.full(len(V), np.nan)
+    out[ok] = values[idx[ok]]
+    return out

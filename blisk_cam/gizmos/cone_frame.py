@@ -98,7 +98,7 @@ def axis_frame(axis: Axis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
     e1 is world X projected normal to the axis (world Y when the axis is within ~26° of X), so
     for the axis +Z the angle θ about it is the usual ``atan2(y, x)``; e2 = d × e1. Same
-    convention as ``blender_io._axis_frame`` (``cone_to_object``'s ``theta``).
+    convention as ``Axis.angular_frame`` (``cone_to_object``'s ``theta``).
 
     Returns
     -------

@@ -17,6 +17,7 @@ import bpy
 import numpy as np
 
 from ..core.errors import BliskCamError
+from ..core.mesh import input_vertex_values
 from .common import (
     blade_axis,
     blade_problem,
@@ -32,28 +33,6 @@ from .common import (
 _RUNNING: set[str] = set()
 #: the core's warnings about a path beyond this many are only counted in the summary
 MAX_WARNING_REPORTS = 3
-
-
-def input_vertex_values(mesh, V, values) -> np.ndarray:
-    """Per-vertex values of a ``TriMesh`` carried back to the input vertices ``V`` (n, 3).
-
-    Uses ``mesh.vertex_map`` ((n,) input → mesh vertex, −1 if dropped) when the mesh has it;
-    otherwise the nearest mesh vertex within the weld distance (1e-6 of the bounding-box
-    diagonal), NaN where there is none.
-    """
-    values = np.asarray(values, dtype=np.float64)
-    vmap = getattr(mesh, "vertex_map", None)
-    if vmap is not None and len(vmap) == len(V):
-        vmap = np.asarray(vmap, dtype=np.int64)
-        return np.where(vmap >= 0, values[np.maximum(vmap, 0)], np.nan)
-    from scipy.spatial import cKDTree
-
-    tol = 1e-6 * max(float(np.linalg.norm(np.ptp(mesh.V, axis=0))), 1e-12)
-    dist, idx = cKDTree(mesh.V).query(V, k=1, distance_upper_bound=tol)
-    ok = np.isfinite(dist)
-    out = np.full(len(V), np.nan)
-    out[ok] = values[idx[ok]]
-    return out
 
 
 class PathJob:
