@@ -10,8 +10,16 @@ import pytest
 
 from blisk_cam.core.cones import Axis, Cone, MorphingCones
 
+import os
+
 SHARED = Path(__file__).resolve().parents[2].parent / "shared"
-BLADES = SHARED / "data" / "blades"
+# the blades: $BLISK_CAM_BLADES, else tests/data/blades in the repository, else shared/ beside
+# the repository (a git worktree elsewhere sets the variable)
+_REPO_BLADES = Path(__file__).resolve().parents[1] / "data" / "blades"
+BLADES = Path(
+    os.environ.get("BLISK_CAM_BLADES")
+    or (_REPO_BLADES if _REPO_BLADES.is_dir() else SHARED / "data" / "blades")
+)
 
 
 def read_binary_stl(path):
