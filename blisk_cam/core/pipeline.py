@@ -72,6 +72,8 @@ __all__ = [
     "PathRequest",
     "PlanResult",
     "NotSupportedError",
+    "ZERO_SPEED_WARN_SHARE",
+    "zero_speed_warning",
     "convex_edge_radius",
     "surface_radii",
     "expansion_radius",
@@ -160,15 +162,41 @@ class PathRequest:
     zero_speed_tol: float = 1e-3
 
 
+#: warn when at least this share of the poses cuts at zero speed (``FLAG_ZERO_SPEED``)
+ZERO_SPEED_WARN_SHARE = 0.10
+
+
+def zero_speed_warning(n_zero: int, n_poses: int, share: float = ZERO_SPEED_WARN_SHARE):
+    """The warning for ``n_zero`` of ``n_poses`` poses cutting at zero speed, or None when
+    they are fewer than ``share`` of the poses."""
+    if n_poses <= 0 or n_zero < share * n_poses or n_zero == 0:
+        return None
+    return (
+        f"{n_zero} of {n_poses} poses ({100.0 * n_zero / n_poses:.0f} %) cut with the contact "
+        "on the tool axis, where the cutting speed is zero (the tool rubs instead of cutting, "
+        "a poor finish and fast wear): tilt the tool off the surface normal — set a lead "
+        "angle, e.g. --lead 10 (10°)"
+    )
+
+
 @dataclass
 class PlanResult:
     """The path and, when a cone was fitted, the fit (for the residual report).
 
-    ``gouge`` summarises the local gouge check (:class:`.local_gouge.LocalGougeReport`)."""
+    ``gouge`` summarises the local gouge check (:class:`.local_gouge.LocalGougeReport`).
+    ``warnings`` lists every message for the user: the generator's
+    (``path.stats["warnings"]``, e.g. uncut poses) and the planning's (``path.warnings``,
+    written as the paths JSON's top-level ``"warnings"``, e.g. zero cutting speed)."""
 
     path: ToolPath
     fit: ConeFit | None = None
     gouge: LocalGougeReport | None = None
+
+    @property
+    def warnings(self) -> list[str]:
+        return [str(w) for w in self.path.stats.get("warnings", []) or []] + list(
+            self.path.warnings
+        )
 
 
 def make_cutter(req: PathRequest) -> Cutter:
@@ -612,6 +640,10 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
             "link": opts.mode,
         }
     )
+    warnings = []
+    zs = zero_speed_warning(stats["zero_speed_poses"], stats["poses"])
+    if zs:
+        warnings.append(zs)
     path = ToolPath(
         axis=req.axis,
         cone1=passes.cone1,
@@ -622,6 +654,7 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
         curves=curves,
         stats=stats,
         program=program,
+        warnings=warnings,
     )
     return PlanResult(path=path, fit=fit, gouge=report)
 
