@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from blisk_cam.core.cones import Axis, Cone, MorphingCones
-
-import os
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared"
 # the blades: $BLISK_CAM_BLADES, else tests/data/blades in the repository, else shared/ beside

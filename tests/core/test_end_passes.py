@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import nasa_blade
 
 from blisk_cam.core.cones import Axis, meridional
 from blisk_cam.core.fitting import fit_cones_to_mesh
@@ -23,8 +24,6 @@ from blisk_cam.core.pathgen import END_INSET_CUSP_SHARE
 from blisk_cam.core.pipeline import PathRequest, plan_paths
 from blisk_cam.core.toolpath import MOVE_APPROACH, MOVE_RAPID
 from blisk_cam.core.verify import closest_points, verify_path
-
-from conftest import nasa_blade
 
 AX = Axis()
 RHO, H, E = 6.0, 0.05, 0.05
