@@ -696,17 +696,17 @@ def build_program(
         t = np.arange(1, n + 1) / n
         zz = z1[0] + t * (z2[0] - z1[0])
         along = _from_cyl(clear.r_at(zz), th1[0] + t * dth, zz, axis, fr)
-        if not first:
-            emit(up, a_from, MOVE_RAPID)
-        else:
-            emit(up, a_to, MOVE_RAPID)
+        a_up = a_to if first else a_from
+        emit(up, a_up, MOVE_RAPID)
         a_along = (
             _slerp(np.asarray(a_from), np.asarray(a_to), t)
             if not first
             else np.broadcast_to(a_to, along.shape)
         )
         emit(along[:-1], a_along[:-1], MOVE_RAPID) if n > 1 else None
-        emit(down, a_to, MOVE_RAPID)
+        # the first pass starts straight below its clearance point: ``down`` is ``up`` again
+        if n > 1 or not (np.array_equal(down, up) and np.array_equal(a_to, a_up)):
+            emit(down, a_to, MOVE_RAPID)
         emit(p_to, a_to, MOVE_RAPID)
 
     prev = None

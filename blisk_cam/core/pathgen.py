@@ -56,6 +56,10 @@ INTRUSION_WINDOW = 1
 #: a pose lifted by more than this share of the cusp height to clear such an intrusion is
 #: reported as uncut (below it the lift is scan noise, not a region the ball cannot reach)
 UNCUT_LIFT_SHARE = 0.1
+#: an end pass may be moved inside the region (off a ragged boundary, see
+#: :meth:`_Generator.end_level`) by at most the width w of the strip it then leaves uncut with
+#: w² / 2ρ ≤ this share of the cusp height (the height of a ball's profile w off its contact)
+END_INSET_CUSP_SHARE = 0.25
 
 
 @dataclass
@@ -181,6 +185,8 @@ class _Generator:
         self._centre_dist: dict[float, PolylineDistance] = {}
         self._level_samples: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         self._uncut_lift: dict[int, np.ndarray] = {}  # id(PassCurve) → intrusion lift per pose
+        #: end (0 or 1) → (ratio of the moved end pass, inset in mm), see :meth:`end_level`
+        self.end_inset: dict[int, tuple[float, float]] = {}
         self.max_turn = 2.0 * np.arccos(1.0 - self.chord / (4.0 * self.radius))
         # the centre path's sag between poses adds to the scallop: keep it a small share of h
         self.centre_chord = min(CENTRE_CHORD_SHARE * self.chord, CENTRE_SAG_SHARE * self.cusp)
@@ -189,6 +195,44 @@ class _Generator:
         #: a pose lifted by more than this (mm) off an intrusion is reported as uncut
         self.uncut_lift = UNCUT_LIFT_SHARE * self.cusp
         self.sample_spacing = max(min(0.25, 0.5 * np.sqrt(8 * self.radius * self.cusp) / 4), 0.02)
+
+    def end_level(self, end: float):
+        """The ratio of the first (``end`` = 0) or last (``end`` = 1) pass.
+
+        Normally ``end`` itself. But when a generatrix was *fitted* to the blade's boundary
+        loop (least squares, :mod:`.fitting`) the loop's vertices lie on both sides of it, up
+        to the fit's residual, and the level ``end`` runs in and out of the mesh: Rotor 67's
+        hub level broke into 15 open pieces of 2–22 points (23 approach/retract cycles). Then
+        the pass is moved a hair into the region: to the level just past every boundary vertex
+        that lies inside the region within ``sqrt(2 ρ · END_INSET_CUSP_SHARE · h)`` mm of the
+        end generatrix (the strip left between the pass and the boundary then stands at most
+        that share of the cusp height under a ball of radius ρ). The move is kept only when it
+        leaves fewer open pieces; a level without open pieces (given cones that cut through
+        the mesh, a boundary lying on the cone) is never moved, so such paths do not change.
+        """
+        curves = self.level(end)
+        n_open = sum(1 for c in curves if not c.closed)
+        if n_open == 0:
+            return end
+        mesh = self.mesh
+        bv = np.unique(mesh.edges[mesh.edge_faces[:, 1] < 0])
+        f = self.slicer.vertex_side(end, bv)  # mm, + toward cone 2, 0 within on_tol
+        inward = f if end == 0.0 else -f
+        reach = float(np.sqrt(2.0 * self.radius * END_INSET_CUSP_SHARE * self.cusp))
+        near = bv[(inward > 0) & (inward <= reach)]
+        sv = self.slicer.s[near]
+        sv = sv[np.isfinite(sv)]
+        if len(sv) == 0:
+            return end
+        edge = float(sv.max() - end) if end == 0.0 else float(end - sv.min())
+        s_new = float(end + 1.02 * edge) if end == 0.0 else float(end - 1.02 * edge)
+        if not 0.0 < s_new < 1.0:
+            return end
+        moved = self.level(s_new)
+        if not moved or sum(1 for c in moved if not c.closed) >= n_open:
+            return end
+        self.end_inset[int(end)] = (s_new, float(inward[(inward > 0) & (inward <= reach)].max()))
+        return s_new
 
     def level(self, s):
         if s not in self._levels:
@@ -526,9 +570,8 @@ class _Generator:
     def run(self):
         t0 = time.perf_counter()
         h = self.cusp
-        first = self.sampled_pass(0.0)
         lo, hi = self.slicer.s_range
-        if not first:
+        if not self.level(0.0):
             raise ConeError(
                 f"cone 1 does not cut the blade mesh (the mesh's morph ratios run from {lo:.3f} "
                 f"to {hi:.3f}); move cone 1 onto the blade's hub end"
@@ -538,11 +581,12 @@ class _Generator:
                 f"cone 2 does not cut the blade mesh (the mesh's morph ratios run from {lo:.3f} "
                 f"to {hi:.3f}); move cone 2 onto the blade's tip end"
             )
-        passes = [first]
+        s_lo, s_hi = self.end_level(0.0), self.end_level(1.0)
+        passes = [self.sampled_pass(s_lo)]
         cusps = []
-        s = 0.0
+        s = s_lo
         prev = None  # (predicted Δs, accepted Δs) of the last pass
-        while s < 1.0:
+        while s < s_hi:
             if len(passes) > MAX_PASSES:
                 raise ToleranceError(
                     f"more than {MAX_PASSES} passes needed: the cusp height {h} mm is far too "
@@ -552,12 +596,12 @@ class _Generator:
             pred = max(self.predict_step(s), 1e-6)
             # Eq. 13 knows neither the chord sag of the centre path nor the facets; the last
             # measured step, scaled by the change of the prediction, does
-            ds = min(pred if prev is None else prev[1] * pred / prev[0], 1.0 - s)
+            ds = min(pred if prev is None else prev[1] * pred / prev[0], s_hi - s)
             feasible = None  # (ds, H, s_new)
             infeasible = None  # smallest ds known to exceed h
             trials = []
             for _ in range(12):
-                s_new = 1.0 if ds >= 1.0 - s - 1e-12 else s + ds
+                s_new = s_hi if ds >= s_hi - s - 1e-12 else s + ds
                 if not self.level(s_new):
                     raise ConeError(
                         f"the LMC at s = {s_new:.4f} does not cut the mesh: the blade has a gap "
@@ -567,21 +611,21 @@ class _Generator:
                 if H <= CUSP_LIMIT * h:
                     if feasible is None or ds > feasible[0]:
                         feasible = (ds, H, s_new)
-                    if s_new >= 1.0 or H >= CUSP_ACCEPT * h:
+                    if s_new >= s_hi or H >= CUSP_ACCEPT * h:
                         break
                 else:
                     infeasible = ds if infeasible is None else min(infeasible, ds)
                 trials.append((ds, H))
                 guess = _next_step(trials, CUSP_TARGET * h)
                 lo_b = feasible[0] if feasible else 0.0
-                hi_b = infeasible if infeasible is not None else 1.0 - s
+                hi_b = infeasible if infeasible is not None else s_hi - s
                 if not (lo_b < guess < hi_b):
                     guess = 0.5 * (lo_b + hi_b) if infeasible is not None else min(2 * ds, hi_b)
-                if feasible and feasible[0] >= 1.0 - s - 1e-12:
+                if feasible and feasible[0] >= s_hi - s - 1e-12:
                     break
                 if abs(guess - ds) <= 1e-9:
                     break
-                ds = min(guess, 1.0 - s)
+                ds = min(guess, s_hi - s)
             if feasible is None:
                 raise ToleranceError(
                     f"cannot hold the cusp height {h} mm after s = {s:.4f}: even a tiny side "
@@ -589,7 +633,7 @@ class _Generator:
                     "or a mesh fold); use a smaller ball or check the mesh there"
                 )
             ds, H, s_new = feasible
-            if s_new < 1.0:
+            if s_new < s_hi:
                 prev = (pred, ds)
             passes.append(self.sampled_pass(s_new))
             cusps.append(H)
@@ -635,6 +679,11 @@ class _Generator:
                 "seconds": time.perf_counter() - t0,
             },
         )
+        if self.end_inset:  # only then: paths whose end levels were not moved stay identical
+            self.result.stats["end_levels"] = [float(s_lo), float(s_hi)]
+            self.result.stats["end_inset_mm"] = [
+                float(self.end_inset[k][1]) if k in self.end_inset else 0.0 for k in (0, 1)
+            ]
 
 
 def iter_generate_paths(

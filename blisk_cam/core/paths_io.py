@@ -21,6 +21,8 @@ Fields added (still version 1; none of the above changed):
   "curve": [index into "curves" or −1], "index": [pose index in that curve or −1],
   "flags": [int]}``.
 * ``"profile1"``/``"profile2"`` — curved (LMRS) generatrices, see ``_generatrix_entries``.
+* ``"warnings"`` — ``ToolPath.warnings``, a list of strings for the user (e.g. zero cutting
+  speed); absent when there are none, so a path without warnings is written as before.
 """
 
 from __future__ import annotations
@@ -82,6 +84,7 @@ def path_to_dict(path: ToolPath) -> dict:
             if isinstance(v, (int, float, str, list))
             and not (isinstance(v, float) and not math.isfinite(v))
         },
+        **({"warnings": [str(w) for w in path.warnings]} if path.warnings else {}),
     }
 
 
@@ -116,6 +119,7 @@ def path_from_dict(d: dict) -> ToolPath:
             curves=curves,
             stats=dict(d.get("stats", {})),
             program=_program_from_dict(d["program"]) if "program" in d else None,
+            warnings=_read_warnings(d),
         )
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise BliskCamError(f"paths file is incomplete or malformed: {err}") from err
@@ -172,6 +176,13 @@ def _read_generatrix(d: dict, k: int):
 
 
 # --- moves, flags, program (issue #4) ----------------------------------------------------
+def _read_warnings(d: dict) -> list[str]:
+    w = d.get("warnings", [])
+    if not isinstance(w, list) or not all(isinstance(x, str) for x in w):
+        raise BliskCamError('paths file: "warnings" must be a list of strings')
+    return list(w)
+
+
 def _curve_extras(c: PassCurve) -> dict:
     out = {"move": [MOVE_NAMES[int(m)] for m in c.move], "flags": [int(x) for x in c.flags]}
     if c.ratio is not None:

@@ -81,6 +81,8 @@ __all__ = [
     "PathRequest",
     "PlanResult",
     "NotSupportedError",
+    "ZERO_SPEED_WARN_SHARE",
+    "zero_speed_warning",
     "convex_edge_radius",
     "surface_radii",
     "expansion_radius",
@@ -185,15 +187,41 @@ class PathRequest:
         return {name: getattr(self, name) for name in REQUEST_STAGES}
 
 
+#: warn when at least this share of the poses cuts at zero speed (``FLAG_ZERO_SPEED``)
+ZERO_SPEED_WARN_SHARE = 0.10
+
+
+def zero_speed_warning(n_zero: int, n_poses: int, share: float = ZERO_SPEED_WARN_SHARE):
+    """The warning for ``n_zero`` of ``n_poses`` poses cutting at zero speed, or None when
+    they are fewer than ``share`` of the poses."""
+    if n_poses <= 0 or n_zero < share * n_poses or n_zero == 0:
+        return None
+    return (
+        f"{n_zero} of {n_poses} poses ({100.0 * n_zero / n_poses:.0f} %) cut with the contact "
+        "on the tool axis, where the cutting speed is zero (the tool rubs instead of cutting, "
+        "a poor finish and fast wear): tilt the tool off the surface normal — set a lead "
+        "angle, e.g. --lead 10 (10°)"
+    )
+
+
 @dataclass
 class PlanResult:
     """The path and, when a cone was fitted, the fit (for the residual report).
 
-    ``gouge`` summarises the local gouge check (:class:`.local_gouge.LocalGougeReport`)."""
+    ``gouge`` summarises the local gouge check (:class:`.local_gouge.LocalGougeReport`).
+    ``warnings`` lists every message for the user: the generator's
+    (``path.stats["warnings"]``, e.g. uncut poses) and the planning's (``path.warnings``,
+    written as the paths JSON's top-level ``"warnings"``, e.g. zero cutting speed)."""
 
     path: ToolPath
     fit: ConeFit | None = None
     gouge: LocalGougeReport | None = None
+
+    @property
+    def warnings(self) -> list[str]:
+        return [str(w) for w in self.path.stats.get("warnings", []) or []] + list(
+            self.path.warnings
+        )
 
 
 def make_cutter(req: PathRequest) -> Cutter:
@@ -592,6 +620,7 @@ class PlanState:
     link_options : LinkOptions; curves : list of PassCurve in machining order ("order"),
         oriented with tips by "orient"; gouge : LocalGougeReport
     program : Program ("link"); stats : dict (every stage adds; "checks" summarises)
+    warnings : list of str — for the user (the paths JSON's top-level "warnings")
     seconds : {stage name: seconds}
     """
 
@@ -614,6 +643,7 @@ class PlanState:
     gouge: LocalGougeReport = field(default_factory=LocalGougeReport)
     program: object = None
     stats: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
 
     def result(self) -> PlanResult:
@@ -627,6 +657,7 @@ class PlanState:
             curves=self.curves,
             stats=self.stats,
             program=self.program,
+            warnings=self.warnings,
         )
         return PlanResult(path=path, fit=self.fit, gouge=self.gouge)
 
@@ -729,6 +760,9 @@ def _stage_checks(st: PlanState):
             "link": st.link_options.mode,
         }
     )
+    zs = zero_speed_warning(st.stats["zero_speed_poses"], st.stats["poses"])
+    if zs:
+        st.warnings.append(zs)
     return
     yield
 

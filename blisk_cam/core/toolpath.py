@@ -215,7 +215,9 @@ class ToolPath:
     """A finishing path between two cones: passes in machining order, and the linked program.
 
     ``tool`` is a :class:`~.cutter.Cutter` (``BallTool(ρ)`` builds a ball). ``program`` is None
-    until the passes are linked (:mod:`.linking`).
+    until the passes are linked (:mod:`.linking`). ``warnings`` are messages for the user
+    about the path as a whole that the planning adds (e.g. zero cutting speed,
+    :mod:`.pipeline`); the generator's own warnings stay in ``stats["warnings"]``.
     """
 
     axis: Axis
@@ -227,6 +229,7 @@ class ToolPath:
     curves: list[PassCurve]
     stats: dict = field(default_factory=dict)
     program: Program | None = None
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def n_poses(self) -> int:

@@ -125,7 +125,7 @@ class PathJob:
         if fit is not None:
             settings.fit_residual1, settings.fit_residual2 = fit.residual1, fit.residual2
         store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0)
-        self.warnings = [str(w) for w in (path.stats.get("warnings", []) or [])]
+        self.warnings = self.plan.warnings  # the generator's and the planning's
         return summary(settings)
 
     def run(self, context) -> str:
@@ -152,7 +152,9 @@ def store_statistics(settings, blade_name, path, verify, seconds):
         feed_links = [k for k in range(len(MOVE_TYPES)) if k not in (MOVE_CUT, MOVE_RAPID)]
         link, rapid = program.length(feed_links), program.length([MOVE_RAPID])
     settings.stat_link_length, settings.stat_rapid_length = link, rapid
-    settings.stat_warnings = len(path.stats.get("warnings", []) or [])
+    settings.stat_warnings = len(path.stats.get("warnings", []) or []) + len(
+        getattr(path, "warnings", []) or []
+    )
     settings.stat_seconds = seconds
     cusps = [c for c in path.stats.get("measured_cusp", []) if np.isfinite(c)]
     settings.stat_cusp = max(cusps) if cusps else 0.0

@@ -173,6 +173,19 @@ def test_program_with_clearance_links(tube_passes):
     assert np.allclose(r[on], 170.0 + 0.1 * z[on])
     assert np.all(r[prog.curve < 0] <= 170.0 + 0.1 * z[prog.curve < 0] + 1e-9)
     assert prog.move[0] == MOVE_RAPID and prog.move[-1] == MOVE_RAPID
+    _no_repeated_poses(prog)
+
+
+def _no_repeated_poses(prog):
+    """No pose repeats the one before it (the program used to start with two identical
+    rapid poses: the clearance point above the first pass, twice)."""
+    same = np.all(prog.tip[1:] == prog.tip[:-1], axis=1) & np.all(
+        prog.axis[1:] == prog.axis[:-1], axis=1
+    )
+    assert not np.any(same), np.nonzero(same)[0]
+    # the program starts at the clearance above the first pass, then drops to its approach
+    # point, then approaches: rapid, rapid, approach
+    assert list(prog.move[:3]) == [MOVE_RAPID, MOVE_RAPID, MOVE_APPROACH]
 
 
 def test_program_with_surface_links(tube_passes):
@@ -183,6 +196,7 @@ def test_program_with_surface_links(tube_passes):
     # consecutive loops are a side step apart: linked on the surface, one approach, one retract
     assert kinds.count(MOVE_APPROACH) == 1 and kinds.count(MOVE_RETRACT) == 1
     assert kinds.count(MOVE_LINK) == len(out) - 1
+    _no_repeated_poses(prog)
     # link poses keep the cutter on the surface: no mesh vertex inside it beyond 0.05 mm, and
     # the nearest one within 0.05 mm of it (the cutter touches the projected point)
     inner = (prog.curve < 0) & (prog.move == MOVE_LINK)
