@@ -73,7 +73,8 @@ def _sub1(w, u, v):
     """(n,) angle turning u (n, 3) into v (n, 3) about unit w (3,) (their parts across w)."""
     up = u - np.outer(u @ w, w)
     vp = v - np.outer(v @ w, w)
-    return np.arctan2(np.cross(up, vp) @ w, np.einsum("ij,ij->i", up, vp)), np.linalg.norm(up, axis=1)
+    ang = np.arctan2(np.cross(up, vp) @ w, np.einsum("ij,ij->i", up, vp))
+    return ang, np.linalg.norm(up, axis=1)
 
 
 def _two_rotations(wa, wb, p, q):

@@ -48,8 +48,10 @@ __all__ = [
     "forward",
     "known_presets",
     "load_machine",
+    "machine_axis",
     "machine_from_dict",
     "rotation_matrices",
+    "tip_to_machine",
 ]
 
 KINEMATICS = ("table-table", "head-table", "head-head")

@@ -39,7 +39,9 @@ from blisk_cam.nc_cli import main as nc_main
 PRINT_MM = 0.5e-4  # 4 decimals
 TIP_TOL = 1e-3 + 2 * PRINT_MM
 AXIS_TOL = 1e-5
-needs_rs274 = pytest.mark.skipif(RS274 is None, reason="rs274 (LinuxCNC, linuxcnc-uspace) is not installed")
+needs_rs274 = pytest.mark.skipif(
+    RS274 is None, reason="rs274 (LinuxCNC, linuxcnc-uspace) is not installed"
+)
 
 
 @pytest.fixture(scope="module")
@@ -158,9 +160,10 @@ def test_fk_round_trip_demo(demo, post, machine, tmp_path):
         assert rep.minutes > 0 and rep.inserted >= 0
 
 
-@pytest.mark.parametrize("post, machine", [("linuxcnc", "ac-trunnion"), ("fanuc", "bc-head-table"),
-                                           ("siemens", "ac-trunnion"), ("heidenhain", "ac-trunnion"),
-                                           ("apt", "ac-trunnion")])
+@pytest.mark.parametrize("post, machine", [
+    ("linuxcnc", "ac-trunnion"), ("fanuc", "bc-head-table"), ("siemens", "ac-trunnion"),
+    ("heidenhain", "ac-trunnion"), ("apt", "ac-trunnion"),
+])
 def test_fk_round_trip_rotor37(rotor37, post, machine, tmp_path):
     if post == "linuxcnc" and RS274 is None:
         pytest.skip("rs274 (LinuxCNC, linuxcnc-uspace) is not installed")

@@ -219,7 +219,8 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
         offsets = -sigma * 2 * math.pi * np.arange(n_bl) / n_bl
         lim = machine.rotaries[1].limits
         if lim is not None:
-            res = _solve_blade(prog.tip, prog.axis, prog.move, machine, options, chord, None, labels)
+            res = _solve_blade(prog.tip, prog.axis, prog.move, machine, options, chord, None,
+                               labels)
             q2 = res[4][:, 1]
             ok = all(lim[0] <= q2.min() + off and q2.max() + off <= lim[1] for off in offsets)
             if not ok:
