@@ -20,7 +20,7 @@ Kinds (the programmed X, Y, Z are always the machine position of the **tool tip*
 
 This is the forward model whose time derivative is the Jacobian of paper 002, Eq. (4)–(6)
 (A/C table-table: X, Y, Z, A, C → tip P_W and axis O_W in the workpiece frame). Paper 003
-§III.A names the three frames used here: machine (x_M y_M z_M), workpiece, part.
+§IV.A (Fig. 4) names the three frames used here: machine (x_M y_M z_M), workpiece, part.
 
 Lengths mm, angles radians in this module (degrees only in the TOML and in messages).
 

@@ -2,7 +2,7 @@
 
 :func:`build_blocks` turns a linked :class:`~..toolpath.ToolPath` program into
 :class:`Blocks` once: inverse kinematics (:mod:`..kinematics`), linearization, feeds per move
-type, and the N blades (paper 003 §III: one blade's program rotated to all blades). Blade k is
+type, and the N blades (paper 003 §V.A: one blade's program rotated to all blades). Blade k is
 the blade-0 program turned by +k·360°/N right-handed about the paths' blisk axis. Where that
 axis is the innermost table rotary's line and the post can call a subprogram with a parameter
 (``indexed``), the blade-0 blocks are written once and called N times with the rotary offset;

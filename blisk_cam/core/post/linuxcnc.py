@@ -4,7 +4,7 @@ X Y Z are the machine tip positions and the two rotary words the joint angles of
 stream (:mod:`.blocks`); feed moves run in inverse time (G93: F = 1 / minutes of the block),
 because in G94 LinuxCNC reads F as a combined linear/rotary rate. Blades indexed on the
 innermost table rotary are an O-word subroutine called once per blade with the rotary offset
-(degrees) as parameter #1 (paper 003 §III: one blade's program rotated to all blades).
+(degrees) as parameter #1 (paper 003 §V.A: one blade's program rotated to all blades).
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@ workpiece frame).
 
 X Y Z are the paths' tip coordinates in G54 at the part origin with the part's axes;
 A3= B3= C3= the unit tool axis — all three components in every block, because the control
-reads a missing one as 0 (paper 002 §4: 840D post-processing of the blisk program).
+reads a missing one as 0 (paper 002 §4.2: the blisk was cut on a double-turntable machine
+with a Siemens 840D sl).
 
 Blades: when the blisk axis is the paths' z axis and the innermost table rotary, blade 0 is
 written once as a program section repeated with the blade number ``_BLADE`` as parameter and
