@@ -248,3 +248,24 @@ def test_linearization_on_demo_blade(demo, name):
 
 def test_reach_error_is_a_bliskcam_error():
     assert issubclass(ReachError, BliskCamError)
+
+
+def test_near_singular_pass_is_linearized():
+    """The axis passes 0.05° beside the C axis: C swings ~180° over a few mm; linearization
+    inserts blocks until every C step is ≤ 5° and the sampled tip stays within the chord."""
+    m = load_machine("ac-trunnion")
+    n = 21
+    t = np.linspace(-1, 1, n)
+    ang = np.radians(10) * t
+    eps = np.radians(0.05)
+    axes = np.stack([np.full(n, np.sin(eps)), np.sin(ang), np.cos(ang)], 1)
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    tips = np.stack([np.full(n, 200.0), 20 * t, np.full(n, 10.0)], 1)
+    mv = np.zeros(n, np.int8)
+    ik = solve_poses(m, tips, axes, moves=mv)
+    assert np.ptp(np.degrees(ik.angles[:, 1])) > 150
+    tip, ax, mv2, xyz, q, sing, src, rep = linearize(m, tips, axes, mv, ik, chord=0.01)
+    assert rep.unresolved == 0 and rep.inserted > 100
+    assert np.degrees(np.abs(np.diff(q, axis=0))).max() <= 5.0 + 1e-9
+    dev = joint_deviation(m, xyz[:-1], q[:-1], xyz[1:], q[1:], tip[:-1], tip[1:], samples=64)
+    assert dev.max() <= 0.0102
