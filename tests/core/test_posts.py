@@ -97,9 +97,11 @@ def check_program(post, machine, path, opts, tmp_path, name="p.nc"):
     full = blocks.expanded()
     tip, ax, rot, xyz = read_back(post, machine, out, tmp_path)
     if post == "linuxcnc":
-        # one motion per block (SAFE included) plus the safe start and the safe end
-        assert len(tip) == len(full) + 2
-        keep = np.concatenate([[False], full.kind != SAFE, [False]])
+        # one motion per pose block, two per SAFE (retract, index the rotaries), plus the safe
+        # start and the safe end
+        safe = full.kind == SAFE
+        assert len(tip) == len(full) + safe.sum() + 2
+        keep = np.concatenate([[False], np.repeat(~safe, np.where(safe, 2, 1)), [False]])
         tip, ax, rot = tip[keep], ax[keep], rot[keep]
     pose = full.poses
     assert len(tip) == pose.sum() == rep.blocks

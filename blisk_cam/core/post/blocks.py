@@ -243,7 +243,8 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
             s, src, rep = np.zeros(len(tip), bool), labels, LinearizeReport(0, 0.0, 0)
         reps.append(rep)
         prev = q[-1]
-        # safe retract before every blade (the index move follows as the first rapid)
+        # safe retract before every blade; the posts turn the rotaries to the next pose's at
+        # the safe height (the index), then the first rapid follows
         parts.append(dict(kind=np.array([SAFE], np.int8), tip=np.full((1, 3), np.nan),
                           axis=np.full((1, 3), np.nan), xyz=np.full((1, 3), np.nan),
                           angles=np.full((1, 2), np.nan), feed=np.zeros(1),

@@ -41,8 +41,9 @@ def _moves(ctx: PostContext, macro: bool) -> list[str]:
     last_f = None
     for i in range(len(b)):
         if b.kind[i] == SAFE:
+            r2 = f"[#2+{fmt(deg[i + 1, 1])}]" if macro else fmt(deg[i + 1, 1])
             out += ["G49", "G91 G28 Z0. (SAFE RETRACT, INDEX TO BLADE)", "G90",
-                    f"G43.4 H{o.tool_number}"]
+                    f"G00 {n1}{fmt(deg[i + 1, 0])} {n2}{r2}", f"G43.4 H{o.tool_number}"]
             last_f = None
             continue
         x, y, z = (fmt(v) for v in b.tip[i])

@@ -44,7 +44,7 @@ def write(ctx: PostContext) -> str:
     for i in range(len(b)):
         if b.kind[i] == SAFE:
             body += ["M129", f"L Z{_s(b.safe_z)} R0 FMAX M91 ; safe retract, index to blade",
-                     "M128"]
+                     f"L {n1}{_s(deg[i + 1, 0])} {n2}{_s(deg[i + 1, 1])} R0 FMAX", "M128"]
             continue
         x, y, z = (_s(v) for v in b.tip[i])
         words = f"L X{x} Y{y} Z{z} {n1}{_s(deg[i, 0])} {n2}{_s(deg[i, 1])} R0"
