@@ -36,3 +36,18 @@ class LinkError(BliskCamError):
 
 class OptionError(BliskCamError):
     """An option value outside its bounds or choices (names the option and the bounds)."""
+
+
+class MachineError(BliskCamError):
+    """The machine description is unusable (malformed TOML, missing or zero axis, reversed
+    limits, unknown kinematics or preset, a part frame whose x and z are not orthogonal)."""
+
+
+class ReachError(BliskCamError):
+    """A pose of the program cannot be reached by the machine (out of a rotary or linear
+    limit on every solution branch, or an orientation the rotaries cannot produce)."""
+
+
+class PostError(BliskCamError):
+    """The NC program cannot be written (unknown post, a machine the post does not support,
+    an output path in a missing directory)."""

@@ -1,0 +1,263 @@
+"""The one block stream every post writes: poses of the program solved for a machine.
+
+:func:`build_blocks` turns a linked :class:`~..toolpath.ToolPath` program into
+:class:`Blocks` once: inverse kinematics (:mod:`..kinematics`), linearization, feeds per move
+type, and the N blades (paper 003 §V.A: one blade's program rotated to all blades). Blade k is
+the blade-0 program turned by +k·360°/N right-handed about the paths' blisk axis. Where that
+axis is the innermost table rotary's line and the post can call a subprogram with a parameter
+(``indexed``), the blade-0 blocks are written once and called N times with the rotary offset;
+otherwise the CL data are rotated and solved again per blade.
+
+Arrays, one row per block (n blocks):
+
+=========  ===========  ==============================================================
+kind       (n,) int8    move code (:data:`..toolpath.MOVE_NAMES`) or ``SAFE`` (5): retract
+                        to the safe machine Z (no pose)
+tip        (n, 3) mm    tool tip, paths' frame
+axis       (n, 3)       unit tool axis, paths' frame
+xyz        (n, 3) mm    programmed X, Y, Z (machine tip position)
+angles     (n, 2) rad   rotary 1, rotary 2
+feed       (n,) mm/min  tip feed (0 for rapids and SAFE)
+blade      (n,) int     blade index
+source     (n,) int     index of the program pose, −1 for an inserted block or SAFE
+singular   (n,) bool    singular orientation (rotary kept from the previous block)
+=========  ===========  ==============================================================
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import BliskCamError, PostError
+from ..kinematics import LinearizeReport, linearize, solve_poses
+from ..machine import Machine, rotation_matrices
+from ..toolpath import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT, ToolPath
+
+__all__ = ["SAFE", "Blocks", "NcOptions", "build_blocks", "rotate_about_axis"]
+
+SAFE = 5
+
+
+@dataclass
+class NcOptions:
+    """What the NC program needs besides the path and the machine.
+
+    feed : mm/min, cut moves; link_feed, approach_feed, retract_feed : mm/min or None (None:
+    feed, feed/2, feed); spindle : rpm; spindle_cw : M03 (True) / M04; tool_number; coolant;
+    blades : N ≥ 1; chord : mm or None (None: the paths' chord tolerance) for linearization;
+    max_rotary_step : radians between consecutive feed blocks; safe_z : mm machine Z of the
+    safe retract (None: the machine's Z travel maximum, else 100); rapid_rate : mm/min and
+    rotary_rate : deg/min for the time estimate and inverse-time blocks; program_number;
+    blade_name : for the header; tool_length : mm gauge length (head pivot limits);
+    use_subprogram : index blades by a subprogram call where possible.
+    """
+
+    feed: float = 1000.0
+    link_feed: float | None = None
+    approach_feed: float | None = None
+    retract_feed: float | None = None
+    spindle: float = 10000.0
+    spindle_cw: bool = True
+    tool_number: int = 1
+    coolant: bool = True
+    blades: int = 1
+    chord: float | None = None
+    max_rotary_step: float = math.radians(5.0)
+    safe_z: float | None = None
+    rapid_rate: float = 10000.0
+    rotary_rate: float = 7200.0
+    program_number: int = 1000
+    blade_name: str = "blade"
+    tool_length: float = 0.0
+    use_subprogram: bool = True
+
+    def check(self):
+        for name in ("feed", "spindle", "rapid_rate", "rotary_rate"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise BliskCamError(f"NC option {name} must be a positive number, got {v!r}")
+        for name in ("link_feed", "approach_feed", "retract_feed", "chord"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise BliskCamError(f"NC option {name} must be a positive number, got {v!r}")
+        if int(self.blades) != self.blades or self.blades < 1:
+            raise BliskCamError(f"blades must be a whole number ≥ 1, got {self.blades!r}")
+        if int(self.tool_number) != self.tool_number or self.tool_number < 0:
+            raise BliskCamError(f"tool number must be a whole number ≥ 0, got {self.tool_number}")
+
+    def feeds(self) -> np.ndarray:
+        """(5,) feed per move code (rapid 0)."""
+        f = float(self.feed)
+        out = np.zeros(6)
+        out[MOVE_CUT] = f
+        out[MOVE_LINK] = self.link_feed or f
+        out[MOVE_APPROACH] = self.approach_feed or 0.5 * f
+        out[MOVE_RETRACT] = self.retract_feed or f
+        return out
+
+
+@dataclass
+class Blocks:
+    """The block stream (module docstring). ``offsets`` (N,) radians: with ``indexed`` the
+    rotary-2 offset of blade k's call (blocks hold blade 0 only), else zeros."""
+
+    kind: np.ndarray
+    tip: np.ndarray
+    axis: np.ndarray
+    xyz: np.ndarray
+    angles: np.ndarray
+    feed: np.ndarray
+    blade: np.ndarray
+    source: np.ndarray
+    singular: np.ndarray
+    blades: int = 1
+    indexed: bool = False  # blade 0 only, the post repeats it (see ``offsets``, ``pitch``)
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    blisk_axis: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    safe_z: float = 100.0
+    inserted: int = 0
+    max_deviation: float = 0.0
+    unresolved: int = 0
+
+    def __len__(self) -> int:
+        return len(self.kind)
+
+    @property
+    def z_turns(self) -> np.ndarray:
+        """(N,) radians: blade k's rotation about the paths' +z (indexed streams whose blisk
+        axis is ±z)."""
+        sign = 1.0 if self.blisk_axis[1][2] >= 0 else -1.0
+        return sign * 2 * math.pi * np.arange(self.blades) / self.blades
+
+    def expanded(self) -> Blocks:
+        """The stream as the machine runs it: an indexed stream repeated per blade (tip/axis
+        rotated, rotary 2 offset); an unrolled stream as is."""
+        if not self.indexed or self.blades == 1:
+            return self
+        parts = []
+        o, d = (np.asarray(x) for x in self.blisk_axis)
+        for k in range(self.blades):
+            R = rotation_matrices(d, [2 * math.pi * k / self.blades])[0]
+            q = self.angles.copy()
+            q[:, 1] += self.offsets[k]
+            parts.append(
+                dict(kind=self.kind, tip=(self.tip - o) @ R.T + o, axis=self.axis @ R.T,
+                     xyz=self.xyz, angles=q, feed=self.feed, blade=np.full(len(self), k),
+                     source=self.source, singular=self.singular)
+            )
+        cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        return Blocks(**cat, blades=self.blades, blisk_axis=self.blisk_axis,
+                      safe_z=self.safe_z, offsets=np.zeros(self.blades))
+
+    @property
+    def poses(self) -> np.ndarray:
+        """(n,) bool — blocks that are tool poses (not SAFE retracts)."""
+        return self.kind != SAFE
+
+
+def rotate_about_axis(points, vectors, origin, direction, angle):
+    """Points (n, 3) and vectors (n, 3) turned by ``angle`` radians right-handed about the
+    line (origin, unit direction)."""
+    R = rotation_matrices(direction, [angle])[0]
+    o = np.asarray(origin, dtype=np.float64)
+    return (np.asarray(points) - o) @ R.T + o, np.asarray(vectors) @ R.T
+
+
+def _indexable(machine: Machine, o, d) -> float:
+    """σ = ±1 when the blisk axis (paths' frame o, d) is the innermost table rotary's line
+    (same or opposite direction), else 0."""
+    if not machine.tables[1]:
+        return 0.0
+    r2 = machine.rotaries[1]
+    om = machine.part_to_machine0(o[None])[0]
+    dm = machine.part_rotation @ d
+    if np.linalg.norm(np.cross(dm, r2.axis)) > 1e-9:
+        return 0.0
+    v = om - r2.point
+    if np.linalg.norm(v - (v @ r2.axis) * r2.axis) > 1e-6:
+        return 0.0
+    return float(np.sign(dm @ r2.axis))
+
+
+def _solve_blade(path_tip, path_axis, move, machine, opts, chord, prev, labels):
+    ik = solve_poses(machine, path_tip, path_axis, prev=prev, labels=labels, moves=move,
+                     tool_length=opts.tool_length)
+    return linearize(machine, path_tip, path_axis, move, ik, chord=chord,
+                     max_step=opts.max_rotary_step, tool_length=opts.tool_length)
+
+
+def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
+                 indexable: bool | str = True, solve: bool = True) -> Blocks:
+    """Solve the path's program for the machine (module docstring). ``indexable``: the post
+    can write a subprogram called per blade with the rotary offset as parameter; ``"z"``: it
+    can, when the blisk axis is also the paths' z axis (a TCP post rotating its coordinates
+    about Z). ``solve``
+    False: CL data only (no kinematics; xyz = tip, angles 0) for machine-independent posts.
+
+    Raises ReachError (pose, axis, value) for an unreachable pose, BliskCamError when the
+    path has no linked program."""
+    options.check()
+    prog = path.program
+    if prog is None or len(prog) == 0:
+        raise PostError("the paths have no linked program (link the passes before posting)")
+    chord = float(options.chord or path.chord)
+    feeds = options.feeds()
+    n_bl = int(options.blades)
+    o, d = path.axis.o, path.axis.d
+    sigma = _indexable(machine, o, d) if (indexable and solve and options.use_subprogram) else 0.0
+    if indexable == "z" and (np.linalg.norm(np.cross(d, [0.0, 0, 1])) > 1e-9
+                             or np.hypot(o[0], o[1]) > 1e-6):
+        sigma = 0.0
+    lim_z = machine.linear.get("Z")
+    safe_z = options.safe_z if options.safe_z is not None else (lim_z[1] if lim_z else 100.0)
+    labels = np.arange(len(prog))
+    offsets = np.zeros(n_bl)
+    if n_bl > 1 and sigma != 0.0:
+        offsets = -sigma * 2 * math.pi * np.arange(n_bl) / n_bl
+        lim = machine.rotaries[1].limits
+        if lim is not None:
+            res = _solve_blade(prog.tip, prog.axis, prog.move, machine, options, chord, None,
+                               labels)
+            q2 = res[4][:, 1]
+            ok = all(lim[0] <= q2.min() + off and q2.max() + off <= lim[1] for off in offsets)
+            if not ok:
+                sigma = 0.0
+                offsets = np.zeros(n_bl)
+    indexed = n_bl > 1 and sigma != 0.0
+    parts = []
+    prev = None
+    reps = []
+    for k in range(1 if indexed else n_bl):
+        tip, ax = prog.tip, prog.axis
+        if k:
+            tip, ax = rotate_about_axis(tip, ax, o, d, 2 * math.pi * k / n_bl)
+        if solve:
+            t, a, m, x, q, s, src, rep = _solve_blade(
+                tip, ax, prog.move, machine, options, chord, prev, labels
+            )
+        else:
+            t, a, m, x, q = tip, ax, np.asarray(prog.move), tip, np.zeros((len(tip), 2))
+            s, src, rep = np.zeros(len(tip), bool), labels, LinearizeReport(0, 0.0, 0)
+        reps.append(rep)
+        prev = q[-1]
+        # safe retract before every blade; the posts turn the rotaries to the next pose's at
+        # the safe height (the index), then the first rapid follows
+        parts.append(dict(kind=np.array([SAFE], np.int8), tip=np.full((1, 3), np.nan),
+                          axis=np.full((1, 3), np.nan), xyz=np.full((1, 3), np.nan),
+                          angles=np.full((1, 2), np.nan), feed=np.zeros(1),
+                          blade=np.array([k]), source=np.array([-1]),
+                          singular=np.zeros(1, bool)))
+        parts.append(dict(kind=m.astype(np.int8), tip=t, axis=a, xyz=x, angles=q,
+                          feed=np.where(m == MOVE_RAPID, 0.0, feeds[m]),
+                          blade=np.full(len(t), k), source=src, singular=s))
+    cat = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    return Blocks(
+        **cat, blades=n_bl, indexed=indexed, offsets=offsets,
+        blisk_axis=(tuple(o), tuple(d)), safe_z=float(safe_z),
+        inserted=sum(r.inserted for r in reps),
+        max_deviation=max(r.max_deviation for r in reps),
+        unresolved=sum(r.unresolved for r in reps),
+    )

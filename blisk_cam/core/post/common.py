@@ -1,0 +1,145 @@
+"""What every post shares: the context, number formatting, header text, safe file writing."""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PostError
+from ..machine import Machine
+from ..toolpath import MOVE_RAPID, ToolPath
+from .blocks import SAFE, Blocks, NcOptions
+
+__all__ = ["PostContext", "fmt", "fvec", "header_lines", "tool_text", "version", "write_atomic"]
+
+DECIMALS = 4  # mm and degrees
+VEC_DECIMALS = 7  # unit vector components
+
+
+def version() -> str:
+    """Product version: ``blisk_cam.__version__`` when set, else the manifest's."""
+    try:
+        from ... import __version__  # type: ignore[attr-defined]
+
+        return str(__version__)
+    except ImportError:
+        pass
+    try:
+        import tomllib
+        from pathlib import Path
+
+        man = Path(__file__).resolve().parents[2] / "blender_manifest.toml"
+        return str(tomllib.loads(man.read_text(encoding="utf-8"))["version"])
+    except Exception:  # noqa: BLE001 - the version is informative only
+        return "unknown"
+
+
+def fmt(x: float, decimals: int = DECIMALS) -> str:
+    """Fixed-point number, no negative zero."""
+    s = f"{float(x):.{decimals}f}"
+    return "0." + "0" * decimals if float(s) == 0.0 else s
+
+
+def fvec(v) -> list[str]:
+    return [fmt(c, VEC_DECIMALS) for c in v]
+
+
+def tool_text(tool) -> str:
+    """"Ø12 ball", "Ø12 R2 bull nose", "Ø12 flat end", "Ø12 taper 3° ball"."""
+    d = f"Ø{tool.d:g}"
+    if tool.type == "ball":
+        return f"{d} ball"
+    if tool.type == "bull":
+        return f"{d} R{tool.r:g} bull nose"
+    if tool.type == "flat":
+        return f"{d} flat end"
+    return f"{d} tapered ball {math.degrees(tool.beta):g}°"
+
+
+@dataclass
+class PostContext:
+    path: ToolPath
+    machine: Machine
+    options: NcOptions
+    blocks: Blocks
+    post: str
+
+    @property
+    def rotary_names(self) -> tuple[str, str]:
+        return self.machine.axis_names
+
+
+def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
+    """Header comment text lines (without comment delimiters)."""
+    o = ctx.options
+    p = ctx.path
+    m = ctx.machine
+    lines = [
+        f"Blisk CAM {version()} - 5-axis blade finishing",
+        f"blade: {o.blade_name}  blades: {ctx.blocks.blades}",
+        f"tool T{o.tool_number}: {tool_text(p.tool)}",
+        f"tolerances: cusp {p.cusp:g} mm, chord {p.chord:g} mm, "
+        f"linearization chord {(o.chord or p.chord):g} mm",
+        f"machine: {m.name} ({m.kinematics}, {'/'.join(m.axis_names)})",
+        f"post: {ctx.post}  units: mm, degrees",
+    ]
+    if tcp:
+        lines.append(
+            "work offset at the part (paths) origin, axes along the paths x y z; X Y Z = tool tip"
+        )
+    else:
+        lines.append("joint program: X Y Z = machine tip position, no TCP; part frame from the "
+                     "machine description")
+    return lines
+
+
+def block_minutes(blocks: Blocks, options: NcOptions) -> np.ndarray:
+    """(n,) minutes per block: feed blocks by tip length / feed (at least the rotary move at
+    ``rotary_rate``), rapids by machine distance / rapid rate."""
+    n = len(blocks)
+    t = np.zeros(n)
+    tip = blocks.tip
+    q = blocks.angles
+    pose = blocks.poses
+    idx = np.nonzero(pose)[0]
+    for a, b in zip(idx[:-1], idx[1:], strict=True):
+        L = float(np.linalg.norm(tip[b] - tip[a]))
+        rot = float(np.degrees(np.abs(q[b] - q[a]).max()))
+        if blocks.kind[b] == MOVE_RAPID:
+            Lm = float(np.linalg.norm(blocks.xyz[b] - blocks.xyz[a]))
+            t[b] = max(Lm / options.rapid_rate, rot / (2 * options.rotary_rate))
+        else:
+            t[b] = max(L / blocks.feed[b], rot / options.rotary_rate, 1e-6)
+    t[~pose] = 0.0
+    return t
+
+
+def write_atomic(filename, text: str) -> str:
+    """Write ``text`` to ``filename`` through a temporary file in the same directory and
+    ``os.replace``: a failure never leaves a half-written file. A missing directory →
+    PostError."""
+    filename = os.fspath(filename)
+    folder = os.path.dirname(os.path.abspath(filename))
+    if not os.path.isdir(folder):
+        raise PostError(f"cannot write {filename}: the directory {folder} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=".blisk_nc_", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, filename)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return filename
+
+
+__all__ += ["SAFE", "block_minutes"]

@@ -1,0 +1,55 @@
+"""Heidenhain TNC conversational (Klartext) with M128 (tool centre point management).
+
+``L X Y Z <rot1> <rot2>`` blocks, numbered from 0; X Y Z the paths' tip coordinates with the
+preset at the part origin and the part's axes; rotary words the joint angles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..toolpath import MOVE_RAPID
+from .common import SAFE, PostContext, fmt, header_lines
+from .tcp import check_tcp
+
+NAME = "heidenhain"
+TCP = True
+INDEXABLE = False
+
+
+def check(machine):
+    check_tcp(machine, "heidenhain")
+
+
+def _s(x, decimals=4) -> str:
+    t = fmt(x, decimals)
+    return t if t.startswith("-") else "+" + t
+
+
+def write(ctx: PostContext) -> str:
+    o = ctx.options
+    b = ctx.blocks
+    n1, n2 = ctx.rotary_names
+    name = "BLISK"
+    body = [f"BEGIN PGM {name} MM"]
+    body += ["; " + h for h in header_lines(ctx, tcp=True)]
+    body += [
+        f"L Z{_s(b.safe_z)} R0 FMAX M91 ; safe start",
+        f"TOOL CALL {o.tool_number} Z S{o.spindle:g}",
+        f"L M{3 if o.spindle_cw else 4}",
+        f"L M{8 if o.coolant else 9}",
+        "M128",
+    ]
+    deg = np.degrees(b.angles)
+    for i in range(len(b)):
+        if b.kind[i] == SAFE:
+            body += ["M129", f"L Z{_s(b.safe_z)} R0 FMAX M91 ; safe retract, index to blade",
+                     f"L {n1}{_s(deg[i + 1, 0])} {n2}{_s(deg[i + 1, 1])} R0 FMAX", "M128"]
+            continue
+        x, y, z = (_s(v) for v in b.tip[i])
+        words = f"L X{x} Y{y} Z{z} {n1}{_s(deg[i, 0])} {n2}{_s(deg[i, 1])} R0"
+        f = "FMAX" if b.kind[i] == MOVE_RAPID else f"F{b.feed[i]:.0f}"
+        body.append(f"{words} {f}")
+    body += ["M129", f"L Z{_s(b.safe_z)} R0 FMAX M91", "L M9", "L M5", "M30",
+             f"END PGM {name} MM"]
+    return "\n".join(f"{k} {line}" for k, line in enumerate(body)) + "\n"
