@@ -24,3 +24,8 @@ class ToleranceError(BliskCamError):
 class ToolError(ToleranceError):
     """The cutter is impossible (corner radius above the tool radius, negative or NaN
     dimensions, taper angle out of range, a corner radius contradicting the tool type...)."""
+
+
+class CollisionError(BliskCamError):
+    """Collision checking cannot run: bad blade count/neighbours, an obstacle that contains the
+    blade, an impossible tool assembly or collision option."""
