@@ -551,6 +551,8 @@ class Detection:
         within the cap)
     part : (m,) int8 — ``PART_FLUTE`` (0) or ``PART_BODY`` (1), −1 for none
     point : (m, 3) float, mm — the closest point on the obstacle (NaN for none)
+    normal : (m, 3) float — unit normal of the obstacle triangle holding ``point``, turned
+        toward the tool axis (NaN for none)
     safety : float, mm — ds
     cap : float, mm
     """
@@ -559,6 +561,7 @@ class Detection:
     obstacle: np.ndarray
     part: np.ndarray
     point: np.ndarray
+    normal: np.ndarray
     safety: float
     cap: float
 
@@ -619,6 +622,7 @@ class CollisionScene:
         obst = np.full(m, -1, dtype=np.int64)
         kind = np.full(m, -1, dtype=np.int8)
         pt = np.full((m, 3), np.nan)
+        nr = np.full((m, 3), np.nan)
         for part, tree, P, T in cand:
             keep = _posed_sd(part, tree.cen[T], tips[P], axes[P]) - tree.rad[T] <= ub[P]
             P, T = P[keep], T[keep]
@@ -637,7 +641,11 @@ class CollisionScene:
             obst[P] = tree.owner[T]
             kind[P] = part.kind
             pt[P] = w
-        return best, obst, kind, pt
+            nn = tree.nrm[T]
+            foot = tips[P] + np.einsum("ij,ij->i", w - tips[P], axes[P])[:, None] * axes[P]
+            side = np.einsum("ij,ij->i", nn, foot - w)
+            nr[P] = np.where((side < 0)[:, None], -nn, nn)
+        return best, obst, kind, pt, nr
 
     def detect(self, tips, axes, *, chunk: int = _CHUNK, workers: int | None = None,
                progress=None) -> Detection:
@@ -665,7 +673,7 @@ class CollisionScene:
         axes = axes / ln[:, None]
         m = len(tips)
         out = (np.full(m, self.cap), np.full(m, -1, np.int64), np.full(m, -1, np.int8),
-               np.full((m, 3), np.nan))
+               np.full((m, 3), np.nan), np.full((m, 3), np.nan))
         if m == 0:
             return Detection(*out, self.safety, self.cap)
         spans = [(s, min(s + chunk, m)) for s in range(0, m, chunk)]
