@@ -53,7 +53,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .collision import PART_BODY, CollisionScene, Obstacle, Obstacles
+from .collision import PART_BODY, PART_FLUTE, CollisionScene, Obstacle, Obstacles, _posed_sd
 from .cutter import Cutter, as_cutter
 from .errors import CollisionError
 from .orientation import _clamp, consecutive_turn, lead_tilt_of, local_frames
@@ -173,6 +173,8 @@ class CollisionReport:
     curve_rotation : list of (k,) float, rad — angle between the final and the planned axis
     curve_rotation_normal : list of (k,) float, rad — the rotation toward the obstacle normal
         the same clearance would need (paper 004 Table 1), NaN where the pose did not collide
+    curve_rotation_first : list of (k,) float, rad — the first (Eq. 12) rotation of every
+        colliding pose, NaN elsewhere: compare with ``curve_rotation_normal``
     curve_lift : list of (k,) float, mm — lift along the normal (Eq. 15)
     program_status : (m,) int8 or None; program_clearance : (m,) float or None
     """
@@ -192,6 +194,7 @@ class CollisionReport:
     curve_clearance: list = field(default_factory=list)
     curve_rotation: list = field(default_factory=list)
     curve_rotation_normal: list = field(default_factory=list)
+    curve_rotation_first: list = field(default_factory=list)
     curve_lift: list = field(default_factory=list)
     program_status: np.ndarray | None = None
     program_clearance: np.ndarray | None = None
@@ -202,10 +205,12 @@ class CollisionReport:
         def fin(x):
             return float(x) if math.isfinite(x) else None
 
-        rot = np.concatenate(self.curve_rotation) if self.curve_rotation else np.zeros(0)
-        rn = (np.concatenate(self.curve_rotation_normal) if self.curve_rotation_normal
-              else np.zeros(0))
-        both = np.isfinite(rn) & (rot > 0)
+        def cat(x):
+            return np.concatenate(x) if x else np.zeros(0)
+
+        rot, rn, r1 = cat(self.curve_rotation), cat(self.curve_rotation_normal), \
+            cat(self.curve_rotation_first)
+        both = np.isfinite(rn) & np.isfinite(r1)
         return {
             "mode": self.mode,
             "checked_poses": int(self.n_checked),
@@ -215,7 +220,8 @@ class CollisionReport:
             "min_clearance": fin(self.min_clearance),
             "min_clearance_before": fin(self.min_clearance_before),
             "max_rotation_deg": float(np.degrees(rot.max())) if len(rot) else 0.0,
-            "mean_rotation_deg": float(np.degrees(rot[both].mean())) if both.any() else None,
+            "mean_first_rotation_deg": float(np.degrees(r1[both].mean())) if both.any()
+            else None,
             "mean_rotation_normal_deg": float(np.degrees(rn[both].mean())) if both.any()
             else None,
             "obstacles": self.obstacles,
@@ -269,46 +275,113 @@ def _touch_ok(cutter: Cutter, normal, axis):
     return th <= cutter._g["th_hi"]
 
 
-def _rotation_step(scene, cc, nrm, tip, ax, F, part, j, ball):
-    """One Eq. 12–13 step for k colliding poses: (new axes (k, 3), θ (k,), ok (k,))."""
+def _away(ax, tip, rho, cc, F, ball):
+    """(k, 3) unit directions ⊥ the axis from F toward its foot F′ on the axis (Eq. 13's
+    (F′ − F)/|F′ − F|), pivot P = ball centre (ball) or CC point."""
+    P = tip + rho * ax if ball else cc
+    PF = F - P
+    perp = PF - np.einsum("ij,ij->i", PF, ax)[:, None] * ax
+    return -perp
+
+
+def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=math.radians(60.0),
+                   direction=None):
+    """One rotation step (Eqs. 12–13, 16–17) for k colliding poses.
+
+    The axis turns in the plane M through the pivot P, F and F′, away from F. For a cylinder
+    whose side faces F the smallest angle that puts F at the distance R2 + j·ds from the axis
+    is Eq. 12/17's θ = arcsin(L_j / |PF|) − α; the tool here is a union of frustums and the
+    convex flute, so the same condition — the signed distance from F to the posed tool
+    assembly reaches j·ds — is solved for θ directly: the closed form first, then a 0.25°
+    scan of θ up to ``max_angle`` and a bisection (to 1e-9 rad) where it turns true. For the
+    cylinder the two agree.
+
+    ``direction`` (k, 3), optional: turn toward it (its part ⊥ the axis) instead of away
+    from F — the normal-direction rotation of paper 004's Ref. [18], for comparison.
+
+    Returns (new axes (k, 3), θ (k,) rad, ok (k,) bool — False where no angle up to
+    ``max_angle`` clears F)."""
     cutter = scene.cutter
-    P = tip + cutter.radius * ax if ball else cc
+    rho = cutter.radius
+    P = tip + rho * ax if ball else cc
     PF = F - P
     proj = np.einsum("ij,ij->i", PF, ax)
     perp = PF - proj[:, None] * ax
     lp = np.linalg.norm(perp, axis=1)
-    dist = np.linalg.norm(PF, axis=1)
-    alpha = np.arctan2(lp, proj)
-    zF = np.einsum("ij,ij->i", F - tip, ax)
-    R2 = np.where(part == PART_BODY, scene.assembly.radius_at(zF), scene.flute.rmax)
-    L = R2 + j * scene.safety + 1e-3  # Eq. 16 (j = 1: Eq. 11), 1 µm beyond
-    ratio = L / np.maximum(dist, 1e-300)
-    ok = (ratio < 1.0) & (lp > 1e-9)
-    theta = np.arcsin(np.minimum(ratio, 1.0)) - alpha  # Eq. 12 / 17
-    theta = np.maximum(theta, math.radians(0.25))  # the surface distance lags the line's
+    k = len(P)
     e = -perp / np.maximum(lp, 1e-300)[:, None]
-    new = _unit(np.cos(theta)[:, None] * ax + np.sin(theta)[:, None] * e)  # Eq. 13
-    return new, theta, ok
+    if direction is not None:
+        dn = direction - np.einsum("ij,ij->i", direction, ax)[:, None] * ax
+        ldn = np.linalg.norm(dn, axis=1)
+        lp = np.where(ldn > 1e-9, lp, 0.0)  # no plane: not ok below
+        e = dn / np.maximum(ldn, 1e-300)[:, None]
+    target = j * scene.safety + 1e-3  # Eq. 16: L_j = R2 + j ds, as a surface distance
+    not_target = owner != 0  # the flute may touch the target blade (it cuts it)
 
+    def axes_at(th, idx=slice(None)):  # Eq. 13 as a rotation by th in the plane M
+        return _unit(np.cos(th)[:, None] * ax[idx] + np.sin(th)[:, None] * e[idx])
 
-def _normal_rotation(scene, cc, tip, ax, F, nF, part, ball):
-    """Angle (k,) a rotation toward the obstacle normal needs (Ref. [18] in paper 004)."""
-    cutter = scene.cutter
-    P = tip + cutter.radius * ax if ball else cc
-    PF = F - P
+    def clear_at(th, idx):
+        a = axes_at(th, idx)
+        if ball:
+            t = P[idx] - rho * a
+        else:
+            t = tip[idx].copy()
+            good = _touch_ok(cutter, nrm[idx], a)
+            if np.any(good):
+                t[good] = cutter.cl_points(cc[idx][good], nrm[idx][good], a[good])
+        Fi = F[idx]
+        d = np.full(len(idx), np.inf)
+        for part, _ in scene.parts():
+            sd = _posed_sd(part, Fi, t, a)
+            if part.kind == PART_FLUTE:
+                sd = np.where(not_target[idx], sd, np.inf)
+            d = np.minimum(d, sd)
+        return d
+
+    # closed form (Eq. 12 with the part radius at F's height) as a first guess
     zF = np.einsum("ij,ij->i", F - tip, ax)
-    R2 = np.where(part == PART_BODY, scene.assembly.radius_at(zF), scene.flute.rmax)
-    L = R2 + scene.safety
-    nperp = nF - np.einsum("ij,ij->i", nF, ax)[:, None] * ax
-    ln = np.linalg.norm(nperp, axis=1)
-    en = nperp / np.maximum(ln, 1e-300)[:, None]
-    A = np.einsum("ij,ij->i", PF, ax)
-    B = np.einsum("ij,ij->i", PF, en)
-    c2 = np.einsum("ij,ij->i", PF, PF) - L * L
-    M = np.hypot(A, B)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        th = np.arctan2(B, A) + np.arccos(np.sqrt(np.maximum(c2, 0)) / M)
-    return np.where((c2 > 0) & (ln > 1e-9) & (M > 0), th, np.nan)
+    R2 = scene.assembly.radius_at(zF)
+    dist = np.linalg.norm(PF, axis=1)
+    ratio = (R2 + target) / np.maximum(dist, 1e-300)
+    alpha = np.arctan2(lp, proj)
+    th0 = np.where(ratio < 1, np.arcsin(np.minimum(ratio, 1.0)) - alpha, 0.0)
+    th0 = np.clip(th0, 0.0, max_angle)
+    ok = lp > 1e-9
+    theta = np.full(k, np.nan)
+    idx = np.arange(k)
+    eq12_ok = ok & (th0 > 0) & (direction is None)
+    if np.any(eq12_ok):
+        good = eq12_ok & (clear_at(np.where(eq12_ok, th0, 0.0)[idx], idx) >= target)
+        theta[good] = th0[good]
+        # an Eq. 12 angle that clears may overshoot where the closest point is a cap or a
+        # shoulder; the scan below finds the smallest
+    grid = np.arange(0.0, max_angle + 1e-12, math.radians(0.25))
+    lo = np.full(k, np.nan)
+    hi = np.full(k, np.nan)
+    todo = ok.copy()
+    prev = np.zeros(k)
+    for g in grid[1:]:
+        if not np.any(todo):
+            break
+        ii = np.nonzero(todo)[0]
+        hit = clear_at(np.full(len(ii), g), ii) >= target
+        hi[ii[hit]] = g
+        lo[ii[hit]] = prev[ii[hit]]
+        todo[ii[hit]] = False
+        prev[ii] = g
+    found = np.isfinite(hi)
+    ii = np.nonzero(found)[0]
+    a_lo, a_hi = lo[ii], hi[ii]
+    for _ in range(28):  # bisection: 0.25° / 2^28 ≈ 2e-11 rad
+        mid = 0.5 * (a_lo + a_hi)
+        hit = clear_at(mid, ii) >= target
+        a_hi = np.where(hit, mid, a_hi)
+        a_lo = np.where(hit, a_lo, mid)
+    theta[ii] = np.fmin(theta[ii], a_hi) if len(ii) else theta[ii]
+    ok &= np.isfinite(theta)
+    theta = np.where(ok, theta, 0.0)
+    return axes_at(theta), theta, ok
 
 
 def _depth_near(cutter, tree, S, tips, axes, radius):
@@ -376,6 +449,7 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
     tip, ax = tip0.copy(), ax0.copy()
     coll0 = det0.colliding
     rot_normal = np.full(n, np.nan)
+    first_theta = np.full(n, np.nan)
     lift = np.zeros(n)
     unresolved = np.zeros(n, bool)
     det = det0
@@ -385,19 +459,41 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         k_side = np.vstack([fr[2] for fr in frames])
         clr = det0.clearance.copy()
         pt, part, nF = det0.point.copy(), det0.part.copy(), det0.normal.copy()
+        owner = det0.obstacle.copy()
         active = np.nonzero(coll0)[0]
-        rot_normal[active] = _normal_rotation(scene, cc[active], tip[active], ax[active],
-                                              pt[active], nF[active], part[active], ball)
+        a = active
+        _, th_n, ok_n = _rotation_step(scene, cc[a], nrm[a], tip[a], ax[a], pt[a], owner[a], 1,
+                                       ball, direction=nF[a])
+        rot_normal[a] = np.where(ok_n, th_n, np.nan)
         for j in range(1, options.max_iterations + 1):
             if len(active) == 0:
                 break
             a = active
-            new, _, ok = _rotation_step(scene, cc[a], nrm[a], tip[a], ax[a], pt[a], part[a],
-                                        j, ball)
-            lead, tilt = lead_tilt_of(new, f[a], nrm[a], k_side[a])
-            ok &= np.isfinite(lead) & (np.abs(lead) <= options.max_lead + 1e-12)
-            ok &= np.isfinite(tilt) & (np.abs(tilt) <= options.max_tilt + 1e-12)
-            ok &= _touch_ok(cutter, nrm[a], new)
+            # plane M away from F (Eqs. 12-13); where F lies beyond the axis (a deep
+            # penetration) or that turn leaves the limits, the other sense and the obstacle
+            # normal's are tried too, and the smallest feasible turn is kept
+            best_th = np.full(len(a), np.inf)
+            new = ax[a].copy()
+            for variant in range(4):
+                if variant == 0:
+                    direction = None  # Eq. 13's (F' - F)/|F' - F|, with Eq. 12's first guess
+                elif variant == 1:
+                    e_away = _away(ax[a], tip[a], cutter.radius, cc[a], pt[a], ball)
+                    direction = -e_away
+                else:
+                    direction = nF[a] if variant == 2 else -nF[a]
+                cand, th, ok_v = _rotation_step(scene, cc[a], nrm[a], tip[a], ax[a], pt[a],
+                                                owner[a], j, ball, direction=direction)
+                if j == 1 and variant == 0:
+                    first_theta[a] = np.where(ok_v, th, np.nan)
+                lead, tilt = lead_tilt_of(cand, f[a], nrm[a], k_side[a])
+                ok_v &= np.isfinite(lead) & (np.abs(lead) <= options.max_lead + 1e-12)
+                ok_v &= np.isfinite(tilt) & (np.abs(tilt) <= options.max_tilt + 1e-12)
+                ok_v &= _touch_ok(cutter, nrm[a], cand)
+                take = ok_v & (th < best_th)
+                best_th = np.where(take, th, best_th)
+                new[take] = cand[take]
+            ok = np.isfinite(best_th)
             unresolved[a[~ok]] = True
             a, new = a[ok], new[ok]
             if len(a) == 0:
@@ -406,7 +502,7 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
             nt = cutter.cl_points(cc[a], nrm[a], new)
             d = scene.detect(nt, new)
             tip[a], ax[a] = nt, new
-            clr[a], pt[a], part[a] = d.clearance, d.point, d.part
+            clr[a], pt[a], part[a], owner[a] = d.clearance, d.point, d.part, d.obstacle
             active = a[d.colliding]
             yield 0.4 + 0.3 * j / options.max_iterations
         unresolved[active] = True
@@ -468,6 +564,7 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         curve_clearance=[det.clearance[offs[i]:offs[i + 1]] for i in range(len(curves))],
         curve_rotation=[rotation[offs[i]:offs[i + 1]] for i in range(len(curves))],
         curve_rotation_normal=[rot_normal[offs[i]:offs[i + 1]] for i in range(len(curves))],
+        curve_rotation_first=[first_theta[offs[i]:offs[i + 1]] for i in range(len(curves))],
         curve_lift=[lift[offs[i]:offs[i + 1]] for i in range(len(curves))],
     )
     program = None
