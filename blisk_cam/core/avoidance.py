@@ -5,7 +5,8 @@ For a cutting pose whose tool assembly comes closer than ds to an obstacle
 (:mod:`.collision`), let F be the closest obstacle point and P the pivot — the ball centre
 for a ball-end cutter (the ball keeps its contact at the CC point whatever the axis), the CC
 point for other cutters (their tip is recomputed from the CC point for the new axis with
-:meth:`.cutter.Cutter.cutter.cl_points`). In the plane M through P, F and F′ (F's foot on the
+:meth:`.cutter.Cutter.cl_points`, keeping the planned pose's small lift λ along the
+normal). In the plane M through P, F and F′ (F's foot on the
 axis, Eq. 10) the axis is turned away from F by the smallest angle that puts F at the distance
 L = R2 + ds from the axis line (Eq. 11; R2 the radius of the colliding part at F's height):
 
@@ -316,6 +317,10 @@ def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=math.ra
         lp = np.where(ldn > 1e-9, lp, 0.0)  # no plane: not ok below
         e = dn / np.maximum(ldn, 1e-300)[:, None]
     target = j * scene.safety + 1e-3  # Eq. 16: L_j = R2 + j ds, as a surface distance
+    lam = np.zeros_like(tip)  # the current pose's offset from the exact contact
+    if not ball:
+        good = _touch_ok(cutter, nrm, ax)
+        lam[good] = tip[good] - cutter.cl_points(cc[good], nrm[good], ax[good])
     not_target = owner != 0  # the flute may touch the target blade (it cuts it)
 
     def axes_at(th, idx=slice(None)):  # Eq. 13 as a rotation by th in the plane M
@@ -329,7 +334,8 @@ def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=math.ra
             t = tip[idx].copy()
             good = _touch_ok(cutter, nrm[idx], a)
             if np.any(good):
-                t[good] = cutter.cl_points(cc[idx][good], nrm[idx][good], a[good])
+                t[good] = cutter.cl_points(cc[idx][good], nrm[idx][good], a[good]) + \
+                    lam[idx][good]
         Fi = F[idx]
         d = np.full(len(idx), np.inf)
         for part, _ in scene.parts():
@@ -444,8 +450,15 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
     def cat(attr):
         return np.vstack([np.asarray(getattr(c, attr), dtype=np.float64) for c in curves])
 
-    cc, nrm, tip0, ax0 = cat("cc"), _unit(cat("normal")), cat("tip"), _unit(cat("axis"))
+    cc, nrm, tip0, ax_in = cat("cc"), _unit(cat("normal")), cat("tip"), cat("axis")
+    ax0 = _unit(ax_in)
     det0 = yield from _scaled(_detect_chunks(scene, tip0, ax0), 0.0, 0.4)
+    # the planned pose's offset from the exact contact (the path generator's few-µm lift λ
+    # along the normal, see :mod:`.toolpath`), kept when the axis turns
+    touch0 = _touch_ok(cutter, nrm, ax0)
+    off0 = np.zeros_like(tip0)
+    if np.any(touch0):
+        off0[touch0] = tip0[touch0] - cutter.cl_points(cc[touch0], nrm[touch0], ax0[touch0])
     tip, ax = tip0.copy(), ax0.copy()
     coll0 = det0.colliding
     rot_normal = np.full(n, np.nan)
@@ -499,7 +512,7 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
             if len(a) == 0:
                 active = a
                 break
-            nt = cutter.cl_points(cc[a], nrm[a], new)
+            nt = cutter.cl_points(cc[a], nrm[a], new) + off0[a]
             d = scene.detect(nt, new)
             tip[a], ax[a] = nt, new
             clr[a], pt[a], part[a], owner[a] = d.clearance, d.point, d.part, d.obstacle
@@ -528,7 +541,7 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
                 tip[g] = tip[g] + h[up][:, None] * nrm[g]  # Eq. 15
         # smoothing, pass by pass
         delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
-        before = ax.copy()
+        before, tip_before = ax.copy(), tip.copy()
         for ci, c in enumerate(curves):
             s, e = offs[ci], offs[ci + 1]
             if not fixed[s:e].any():
@@ -539,18 +552,27 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         ax[~moved & ~fixed] = before[~moved & ~fixed]
         mi = np.nonzero(moved)[0]
         if len(mi):
-            tip[mi] = cutter.cl_points(cc[mi], nrm[mi], ax[mi])
+            tip[mi] = cutter.cl_points(cc[mi], nrm[mi], ax[mi]) + off0[mi]
             d = scene.detect(tip[mi], ax[mi])
             back = mi[d.colliding]
-            tip[back], ax[back] = cutter.cl_points(cc[back], nrm[back], before[back]), \
-                before[back]
+            tip[back], ax[back] = tip_before[back], before[back]
         yield 0.8
         det = yield from _scaled(_detect_chunks(scene, tip, ax), 0.8, 0.95)
+        # a changed pose that collides after all (a lift, a neighbour's smoothing) goes back
+        # to its planned pose: unresolved poses are never moved
+        bad = det.colliding & ((_angle(ax, ax0) > 0) | np.any(tip != tip0, axis=1))
+        if np.any(bad):
+            b = np.nonzero(bad)[0]
+            tip[b], ax[b] = tip0[b], ax0[b]
+            for key in ("clearance", "obstacle", "part", "point", "normal"):
+                getattr(det, key)[b] = getattr(det0, key)[b]
     # per pose status
     changed = (_angle(ax, ax0) > 1e-9) | (np.linalg.norm(tip - tip0, axis=1) > 1e-9)
     status = np.where(det.colliding, STATUS_UNRESOLVED,
                       np.where(changed, STATUS_CORRECTED, STATUS_CLEAR)).astype(np.int8)
     rotation = _angle(ax, ax0)
+    same = np.all(ax == ax0, axis=1)
+    ax[same] = ax_in[same]  # unchanged poses keep their axes bit for bit
     for ci, c in enumerate(curves):
         s, e = offs[ci], offs[ci + 1]
         c.tip, c.axis = tip[s:e].copy(), ax[s:e].copy()

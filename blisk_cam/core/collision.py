@@ -495,8 +495,9 @@ def _refine(part, A, B, C, nrm, ok, tip, axis):
         nx2 = lo + g * (hi - lo)
         xn = np.where(left, nx1, nx2)
         fn = _posed_sd(part, E0 + xn[:, None] * D, t3, a3)
-        x2, f2, x1, f1 = (np.where(left, x1, nx2), np.where(left, f1, fn),
-                          np.where(left, nx1, x1), np.where(left, fn, f1))
+        # left: [lo, x2] keeps x1 as its upper probe; right: [x1, hi] keeps x2 as its lower
+        x1, f1, x2, f2 = (np.where(left, nx1, x2), np.where(left, fn, f2),
+                          np.where(left, x1, nx2), np.where(left, f1, fn))
     xm = 0.5 * (lo + hi)
     pm = E0 + xm[:, None] * D
     fm = _posed_sd(part, pm, t3, a3)

@@ -144,7 +144,8 @@ class ToolAssembly:
                    safety: float = DEFAULT_SAFETY) -> ToolAssembly:
         """Shank Ø``tool_diameter`` out of a shrink-fit holder: the shank from the flute
         for ``shank_length`` mm (the stick-out above the flute), then the holder's tapered
-        nose (half-angle ``nose_angle`` rad, from a wall of 2.5 mm around the shank) widening to
+        nose (half-angle ``nose_angle`` rad, from a wall of 2.5 mm around the shank) widening
+        toward Ø``holder_diameter`` over at most half the holder, a shoulder to
         Ø``holder_diameter``, which continues to ``holder_length`` mm above the nose start."""
         d = _num("tool diameter", tool_diameter)
         fl = _num("flute length", flute_length)
@@ -164,13 +165,10 @@ class ToolAssembly:
                                 f" (tool Ø{_fmt(d)} + 2 × 2.5 mm wall)")
         z1 = fl + sl
         nose = (hd / 2 - r_nose) / math.tan(na) if na > 0 else 0.0
-        nose = min(nose, hl)
-        pts = [(fl, d / 2), (z1, d / 2), (z1, r_nose)]
-        r_top = r_nose + nose * math.tan(na) if na > 0 else hd / 2
-        pts.append((z1 + nose, min(r_top, hd / 2)))
-        if nose < hl:
-            pts.append((z1 + nose, hd / 2))
-            pts.append((z1 + hl, hd / 2))
+        nose = min(nose, 0.5 * hl)  # at most half the holder: then a shoulder to its Ø
+        r_top = min(r_nose + nose * math.tan(na), hd / 2)
+        pts = [(fl, d / 2), (z1, d / 2), (z1, r_nose), (z1 + nose, r_top),
+               (z1 + nose, hd / 2), (z1 + hl, hd / 2)]
         keep = [pts[0]] + [p for a, p in zip(pts, pts[1:], strict=False) if p != a]
         return cls(fl, tuple(keep), safety)
 
