@@ -184,7 +184,10 @@ def _curve_extras(c: PassCurve) -> dict:
         out["collision"] = {
             "status": [int(x) for x in c.collision["status"]],
             "clearance": np.asarray(c.collision["clearance"], dtype=float).tolist(),
-            "rotation_deg": np.degrees(np.asarray(c.collision["rotation"], float)).tolist(),
+            # the degrees read from a file are written back as they were (exact round trip)
+            "rotation_deg": np.asarray(c.collision["rotation_deg"], float).tolist()
+            if "rotation_deg" in c.collision
+            else np.degrees(np.asarray(c.collision["rotation"], float)).tolist(),
         }
     return out
 
@@ -236,6 +239,7 @@ def _read_curve_extras(c: dict) -> dict:
             "status": np.asarray(col["status"], dtype=np.int8),
             "clearance": np.asarray(col["clearance"], dtype=np.float64),
             "rotation": np.radians(np.asarray(col["rotation_deg"], dtype=np.float64)),
+            "rotation_deg": np.asarray(col["rotation_deg"], dtype=np.float64),
         }
     return out
 
