@@ -54,7 +54,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .collision import PART_BODY, PART_FLUTE, CollisionScene, Obstacle, Obstacles, _posed_sd
+from .collision import PART_FLUTE, CollisionScene, Obstacle, Obstacles, _posed_sd
 from .cutter import Cutter, as_cutter
 from .errors import CollisionError
 from .orientation import _clamp, consecutive_turn, lead_tilt_of, local_frames
@@ -77,6 +77,8 @@ __all__ = [
 COLLISION_MODES = ("off", "check", "avoid")
 STATUS_CLEAR, STATUS_CORRECTED, STATUS_UNRESOLVED = 0, 1, 2
 _DETECT_CHUNK = 4096
+#: largest rotation searched per step (beyond the axis limits anyway), radians
+_MAX_SEARCH = math.radians(60.0)
 
 
 @dataclass(frozen=True)
@@ -285,7 +287,7 @@ def _away(ax, tip, rho, cc, F, ball):
     return -perp
 
 
-def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=math.radians(60.0),
+def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=_MAX_SEARCH,
                    direction=None):
     """One rotation step (Eqs. 12–13, 16–17) for k colliding poses.
 

@@ -35,12 +35,11 @@ from blisk_cam.core.cutter import Cutter
 from blisk_cam.core.demo import make_demo_blisk
 from blisk_cam.core.errors import BliskCamError, CollisionError
 from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.paths_io import path_from_dict, path_to_dict, read_paths_json, \
-    write_paths_json
+from blisk_cam.core.paths_io import path_from_dict, path_to_dict, read_paths_json, write_paths_json
 from blisk_cam.core.pipeline import PathRequest, plan_paths
 from blisk_cam.core.tool_assembly import AssemblyError, ToolAssembly
 from blisk_cam.core.toolpath import MOVE_CUT
-from blisk_cam.core.verify import closest_on_triangles, verify_path
+from blisk_cam.core.verify import verify_path
 
 FAR_BLADE = (np.array([[1000.0, 0, 0], [1001, 0, 0], [1000, 1, 0]]), np.array([[0, 1, 2]]))
 
