@@ -303,6 +303,11 @@ class _Frustum:
 
     def sd_rz(self, rho, z):
         z0, r0, z1, r1 = self.z0, self.r0, self.z1, self.r1
+        if r0 == r1:  # a cylinder: closed form
+            dr = rho - r0
+            dz = np.maximum(z0 - z, z - z1)
+            out = np.hypot(np.maximum(dr, 0.0), np.maximum(dz, 0.0))
+            return np.where((dr > 0) | (dz > 0), out, np.maximum(dr, dz))
         d2 = _seg_d2(rho, z, 0.0, z0, r0, z0)
         d2 = np.minimum(d2, _seg_d2(rho, z, r0, z0, r1, z1))
         d2 = np.minimum(d2, _seg_d2(rho, z, r1, z1, 0.0, z1))
@@ -460,50 +465,57 @@ def _inside_tri(q, A, B, C, n):
     return (side(A, B) >= 0) & (side(B, C) >= 0) & (side(C, A) >= 0)
 
 
-def _refine(part, A, B, C, nrm, ok, tip, axis):
-    """Exact minimum (k,) of the posed part's signed distance over triangles (A, B, C), and
-    the (k, 3) triangle point where it is taken (module docstring)."""
-    k = len(A)
-    best = np.full(k, np.inf)
-    where = np.zeros((k, 3))
-
-    def offer(val, pts):
-        nonlocal best, where
-        better = val < best
-        best = np.where(better, val, best)
-        where = np.where(better[:, None], pts, where)
-
-    for X in (A, B, C):
-        offer(_posed_sd(part, X, tip, axis), X)
-    # edges: golden section on the convex sd along each edge, all three edges at once
-    E0 = np.vstack([A, B, C])
-    E1 = np.vstack([B, C, A])
-    t3, a3 = np.vstack([tip] * 3), np.vstack([axis] * 3)
-    D = E1 - E0
-    g = 0.5 * (math.sqrt(5.0) - 1.0)
-    lo = np.zeros(3 * k)
-    hi = np.ones(3 * k)
-    x1 = hi - g * (hi - lo)
-    x2 = lo + g * (hi - lo)
-    f1 = _posed_sd(part, E0 + x1[:, None] * D, t3, a3)
-    f2 = _posed_sd(part, E0 + x2[:, None] * D, t3, a3)
-    for _ in range(_GOLDEN_STEPS):
+def _golden(part, E0, D, t, a, lo, hi, x1, f1, x2, f2, steps):
+    """``steps`` golden-section steps on sd along E0 + x D (arrays per edge)."""
+    g = _GOLDEN
+    for _ in range(steps):
         left = f1 <= f2
         hi = np.where(left, x2, hi)
         lo = np.where(left, lo, x1)
         nx1 = hi - g * (hi - lo)
         nx2 = lo + g * (hi - lo)
         xn = np.where(left, nx1, nx2)
-        fn = _posed_sd(part, E0 + xn[:, None] * D, t3, a3)
+        fn = _posed_sd(part, E0 + xn[:, None] * D, t, a)
         # left: [lo, x2] keeps x1 as its upper probe; right: [x1, hi] keeps x2 as its lower
         x1, f1, x2, f2 = (np.where(left, nx1, x2), np.where(left, fn, f2),
                           np.where(left, x1, nx2), np.where(left, f1, fn))
-    xm = 0.5 * (lo + hi)
-    pm = E0 + xm[:, None] * D
-    fm = _posed_sd(part, pm, t3, a3)
-    fm, pm = fm.reshape(3, k), pm.reshape(3, k, 3)
-    for j in range(3):
-        offer(fm[j], pm[j])
+    return lo, hi, x1, f1, x2, f2
+
+
+_GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
+
+
+def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
+    """Exact minimum (k,) of the posed part's signed distance over triangles (A, B, C), and
+    the (k, 3) triangle point where it is taken (module docstring).
+
+    With ``P`` (k,) pose index per pair and ``ub`` (m,) upper bounds of the poses'
+    clearances (lowered in place), work that cannot beat a pose's bound is skipped: cheap
+    candidates first (vertices, the interior), then only the edges whose Lipschitz lower
+    bound (f0 + f1 − L) / 2 reaches the bound are searched, and after 12 golden steps only
+    those whose bracket bound max(f1, f2) − (hi − lo) L still does. A pair so skipped
+    returns a value ≥ its true minimum that is above the pose's final minimum."""
+    k = len(A)
+    if P is None:
+        P = np.arange(k)
+        ub = np.full(k, np.inf)
+    best = np.full(k, np.inf)
+    where = np.zeros((k, 3))
+
+    def offer(val, pts, sel=None):
+        nonlocal best, where
+        if sel is None:
+            better = val < best
+            best = np.where(better, val, best)
+            where = np.where(better[:, None], pts, where)
+        else:
+            better = val < best[sel]
+            best[sel[better]] = val[better]
+            where[sel[better]] = pts[better]
+
+    fv = [_posed_sd(part, X, tip, axis) for X in (A, B, C)]
+    for X, f in zip((A, B, C), fv, strict=True):
+        offer(f, X)
     # interior: support points along ±n
     n = nrm
     ym = _posed_support(part, -n, tip, axis)
@@ -518,24 +530,61 @@ def _refine(part, A, B, C, nrm, ok, tip, axis):
     q = yp - hp[:, None] * n
     hit = below & _inside_tri(q, A, B, C, n)
     offer(np.where(hit, -hp, np.inf), q)
-    cuts = ok & ~above & ~below
-    w = np.where(cuts, -hm / np.where(hp - hm > 0, hp - hm, 1.0), 0.0)
-    q = ym + w[:, None] * (yp - ym)
-    hit = cuts & _inside_tri(q, A, B, C, n)
-    offer(np.where(hit, _posed_sd(part, q, tip, axis), np.inf), q)
-    # penetration candidates: where the part's axis line crosses the plane, inside T
-    na = np.einsum("ij,ij->i", n, axis)
-    good = ok & (np.abs(na) > 1e-9)
-    tl = np.einsum("ij,ij->i", A - tip, n) / np.where(good, na, 1.0)
-    q = tip + tl[:, None] * axis
-    hit = good & _inside_tri(q, A, B, C, n)
-    offer(np.where(hit, _posed_sd(part, q, tip, axis), np.inf), q)
-    # ... and the feet on the plane of the axis points at the part's bottom, middle and top
-    for zz in (part.z0, 0.5 * (part.z0 + part.z1), part.z1):
-        M = tip + zz * axis
-        q = M - np.einsum("ij,ij->i", M - A, n)[:, None] * n
-        hit = ok & _inside_tri(q, A, B, C, n)
-        offer(np.where(hit, _posed_sd(part, q, tip, axis), np.inf), q)
+    cuts = np.nonzero(ok & ~above & ~below)[0]
+    if len(cuts):
+        c_ = cuts
+        Ac, Bc, Cc, nc, tc, ac = A[c_], B[c_], C[c_], n[c_], tip[c_], axis[c_]
+        w = -hm[c_] / np.where(hp[c_] - hm[c_] > 0, hp[c_] - hm[c_], 1.0)
+        q = ym[c_] + w[:, None] * (yp[c_] - ym[c_])
+        hit = _inside_tri(q, Ac, Bc, Cc, nc)
+        offer(np.where(hit, _posed_sd(part, q, tc, ac), np.inf), q, c_)
+        # penetration candidates: where the axis line crosses the plane, and the feet on the
+        # plane of the axis points at the part's bottom, middle and top, inside T
+        na = np.einsum("ij,ij->i", nc, ac)
+        good = np.abs(na) > 1e-9
+        tl = np.einsum("ij,ij->i", Ac - tc, nc) / np.where(good, na, 1.0)
+        q = tc + tl[:, None] * ac
+        hit = good & _inside_tri(q, Ac, Bc, Cc, nc)
+        offer(np.where(hit, _posed_sd(part, q, tc, ac), np.inf), q, c_)
+        for zz in (part.z0, 0.5 * (part.z0 + part.z1), part.z1):
+            M = tc + zz * ac
+            q = M - np.einsum("ij,ij->i", M - Ac, nc)[:, None] * nc
+            hit = _inside_tri(q, Ac, Bc, Cc, nc)
+            offer(np.where(hit, _posed_sd(part, q, tc, ac), np.inf), q, c_)
+    np.minimum.at(ub, P, best)
+    # edges: golden section on the convex sd along each edge, pruned by the bounds
+    E0 = np.vstack([A, B, C])
+    D = np.vstack([B, C, A]) - E0
+    F0 = np.concatenate(fv)
+    F1 = np.concatenate([fv[1], fv[2], fv[0]])
+    L = np.linalg.norm(D, axis=1)
+    PP = np.tile(P, 3)
+    pair = np.tile(np.arange(k), 3)
+    act = np.nonzero(0.5 * (F0 + F1 - L) <= ub[PP])[0]
+    if len(act):
+        t3, a3 = np.tile(tip, (3, 1))[act], np.tile(axis, (3, 1))[act]
+        e0, d, ll = E0[act], D[act], L[act]
+        lo = np.zeros(len(act))
+        hi = np.ones(len(act))
+        x1 = hi - _GOLDEN
+        x2 = lo + _GOLDEN
+        f1 = _posed_sd(part, e0 + x1[:, None] * d, t3, a3)
+        f2 = _posed_sd(part, e0 + x2[:, None] * d, t3, a3)
+        lo, hi, x1, f1, x2, f2 = _golden(part, e0, d, t3, a3, lo, hi, x1, f1, x2, f2, 12)
+        up = np.minimum(f1, f2)
+        np.minimum.at(ub, PP[act], up)
+        xb = np.where(f1 <= f2, x1, x2)
+        offer(up, e0 + xb[:, None] * d, pair[act])
+        keep = np.maximum(f1, f2) - (hi - lo) * ll <= ub[PP[act]]
+        if np.any(keep):
+            sel = np.nonzero(keep)[0]
+            lo, hi, x1, f1, x2, f2 = _golden(part, e0[sel], d[sel], t3[sel], a3[sel], lo[sel],
+                                             hi[sel], x1[sel], f1[sel], x2[sel], f2[sel],
+                                             _GOLDEN_STEPS - 12)
+            xm = 0.5 * (lo + hi)
+            pm = e0[sel] + xm[:, None] * d[sel]
+            offer(_posed_sd(part, pm, t3[sel], a3[sel]), pm, pair[act][sel])
+    np.minimum.at(ub, P, best)
     return best, where
 
 
@@ -630,7 +679,7 @@ class CollisionScene:
             if len(P) == 0:
                 continue
             d, w = _refine(part, tree.A[T], tree.B[T], tree.C[T], tree.nrm[T], tree.ok[T],
-                           tips[P], axes[P])
+                           tips[P], axes[P], P, ub)
             order = np.lexsort((d, P))
             P, T, d, w = P[order], T[order], d[order], w[order]
             first = np.ones(len(P), bool)
