@@ -51,3 +51,8 @@ class ReachError(BliskCamError):
 class PostError(BliskCamError):
     """The NC program cannot be written (unknown post, a machine the post does not support,
     an output path in a missing directory)."""
+
+
+class CollisionError(BliskCamError):
+    """Collision checking cannot run: bad blade count/neighbours, an obstacle that contains the
+    blade, an impossible tool assembly or collision option."""

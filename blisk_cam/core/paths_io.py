@@ -23,6 +23,14 @@ Fields added (still version 1; none of the above changed):
 * ``"profile1"``/``"profile2"`` — curved (LMRS) generatrices, see ``_generatrix_entries``.
 * ``"warnings"`` — ``ToolPath.warnings``, a list of strings for the user (e.g. zero cutting
   speed); absent when there are none, so a path without warnings is written as before.
+* collision (only when the path was checked, :mod:`.avoidance`): per curve ``"collision":
+  {"status": [0 clear | 1 corrected | 2 unresolved per pose], "clearance": [mm per pose],
+  "rotation_deg": [degrees per pose from the planned axis]}``; in ``"program"`` the arrays
+  ``"collision_status"`` and ``"clearance"`` (every row, links included); top level
+  ``"collision"`` — the summary (checked poses, colliding before, corrected, unresolved, min
+  clearance, obstacles, assembly, safety, mode), and ``"tool" → "assembly"``
+  (``{"flute_length", "profile": [[z, r], ...], "safety"}``). Absent when not checked, so
+  unchecked paths write exactly what they did before.
 """
 
 from __future__ import annotations
@@ -60,7 +68,7 @@ def path_to_dict(path: ToolPath) -> dict:
         "units": "mm",
         "axis": path.axis.as_list(),
         **_generatrix_entries(path.cone1, path.cone2),
-        "tool": path.tool.as_dict(),
+        "tool": _tool_dict(path),
         "tolerances": {"cusp": float(path.cusp), "chord": float(path.chord)},
         "curves": [
             {
@@ -77,6 +85,7 @@ def path_to_dict(path: ToolPath) -> dict:
         "move_types": list(MOVE_NAMES),
         "flag_bits": {name: bit for bit, name in FLAG_NAMES.items()},
         **({} if path.program is None else {"program": _program_to_dict(path.program)}),
+        **({} if path.collision is None else {"collision": _jsonable(path.collision)}),
         # JSON has no infinity or NaN: such figures are left out
         "stats": {
             k: v
@@ -120,6 +129,7 @@ def path_from_dict(d: dict) -> ToolPath:
             stats=dict(d.get("stats", {})),
             program=_program_from_dict(d["program"]) if "program" in d else None,
             warnings=_read_warnings(d),
+            collision=dict(d["collision"]) if isinstance(d.get("collision"), dict) else None,
         )
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise BliskCamError(f"paths file is incomplete or malformed: {err}") from err
@@ -187,7 +197,39 @@ def _curve_extras(c: PassCurve) -> dict:
     out = {"move": [MOVE_NAMES[int(m)] for m in c.move], "flags": [int(x) for x in c.flags]}
     if c.ratio is not None:
         out["ratio"] = np.asarray(c.ratio, dtype=float).tolist()
+    if c.collision is not None:
+        out["collision"] = {
+            "status": [int(x) for x in c.collision["status"]],
+            "clearance": np.asarray(c.collision["clearance"], dtype=float).tolist(),
+            # the degrees read from a file are written back as they were (exact round trip)
+            "rotation_deg": np.asarray(c.collision["rotation_deg"], float).tolist()
+            if "rotation_deg" in c.collision
+            else np.degrees(np.asarray(c.collision["rotation"], float)).tolist(),
+        }
     return out
+
+
+def _tool_dict(path: ToolPath) -> dict:
+    out = path.tool.as_dict()
+    asm = (path.collision or {}).get("assembly")
+    if asm is not None:
+        out["assembly"] = asm
+    return out
+
+
+def _jsonable(x):
+    """Plain JSON values (non-finite floats → None)."""
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    return x
 
 
 def _read_curve_extras(c: dict) -> dict:
@@ -204,6 +246,18 @@ def _read_curve_extras(c: dict) -> dict:
         out["flags"] = np.asarray(c["flags"], dtype=np.uint8)
     if "ratio" in c:
         out["ratio"] = np.asarray(c["ratio"], dtype=np.float64)
+    if isinstance(c.get("collision"), dict):
+        col = c["collision"]
+        for key in ("status", "clearance", "rotation_deg"):
+            if len(col[key]) != k:
+                raise BliskCamError(f"paths file: a curve's collision {key!r} has "
+                                    f"{len(col[key])} entries for {k} poses")
+        out["collision"] = {
+            "status": np.asarray(col["status"], dtype=np.int8),
+            "clearance": np.asarray(col["clearance"], dtype=np.float64),
+            "rotation": np.radians(np.asarray(col["rotation_deg"], dtype=np.float64)),
+            "rotation_deg": np.asarray(col["rotation_deg"], dtype=np.float64),
+        }
     return out
 
 
@@ -216,13 +270,18 @@ def _program_to_dict(p: Program) -> dict:
         "curve": [int(x) for x in p.curve],
         "index": [int(x) for x in p.index],
         "flags": [int(x) for x in p.flags],
+        **({} if p.collision_status is None else {
+            "collision_status": [int(x) for x in p.collision_status],
+            "clearance": np.asarray(p.clearance, dtype=float).tolist()}),
     }
 
 
 def _program_from_dict(d: dict) -> Program:
     tip = np.asarray(d["tip"], dtype=np.float64).reshape(-1, 3)
     m = len(tip)
-    for key in ("axis", "move", "curve", "index", "flags"):
+    for key in ("axis", "move", "curve", "index", "flags", "collision_status", "clearance"):
+        if key not in d:
+            continue
         if len(d[key]) != m:
             raise BliskCamError(
                 f"paths file: program {key!r} has {len(d[key])} entries for {m} poses"
@@ -234,4 +293,7 @@ def _program_from_dict(d: dict) -> Program:
         curve=np.asarray(d["curve"], dtype=np.int64),
         index=np.asarray(d["index"], dtype=np.int64),
         flags=np.asarray(d["flags"], dtype=np.uint8),
+        collision_status=(np.asarray(d["collision_status"], dtype=np.int8)
+                          if "collision_status" in d else None),
+        clearance=np.asarray(d["clearance"], dtype=np.float64) if "clearance" in d else None,
     )

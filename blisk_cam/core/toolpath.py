@@ -113,6 +113,10 @@ class PassCurve:
     flags : (k,) uint8 — pose flags (module table); default 0
     ratio : (k,) float or None — per-pose morph ratio where it varies along the pass (a
         spiral); None means every pose lies on the LMC at ``s``
+    collision : dict or None — collision figures per pose (:mod:`.avoidance`): ``status``
+        (k,) int8 (0 clear, 1 corrected, 2 unresolved), ``clearance`` (k,) float mm,
+        ``rotation`` (k,) float rad (angle of the axis from the planned one); None when the
+        path was not checked
     """
 
     s: float
@@ -125,6 +129,7 @@ class PassCurve:
     move: np.ndarray | None = None
     flags: np.ndarray | None = None
     ratio: np.ndarray | None = None
+    collision: dict | None = None
 
     def __post_init__(self):
         k = len(self.cc)
@@ -174,6 +179,9 @@ class Program:
     index : (m,) int64 — pose index within that pass (−1 for a link pose); a closed pass ends
         with its first pose again (the closing cut)
     flags : (m,) uint8 — pose flags (pass poses carry their pass's flags)
+    collision_status : (m,) int8 or None — 0 clear, 1 corrected, 2 unresolved collision
+        (:mod:`.avoidance`); None when the path was not checked
+    clearance : (m,) float or None, mm — signed clearance of the tool assembly per pose
     """
 
     tip: np.ndarray
@@ -182,6 +190,8 @@ class Program:
     curve: np.ndarray
     index: np.ndarray
     flags: np.ndarray
+    collision_status: np.ndarray | None = None
+    clearance: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.tip)
@@ -218,6 +228,9 @@ class ToolPath:
     until the passes are linked (:mod:`.linking`). ``warnings`` are messages for the user
     about the path as a whole that the planning adds (e.g. zero cutting speed,
     :mod:`.pipeline`); the generator's own warnings stay in ``stats["warnings"]``.
+    until the passes are linked (:mod:`.linking`). ``collision`` is the collision summary
+    (:meth:`.avoidance.CollisionReport.summary`, JSON-ready) once the path was checked, else
+    None.
     """
 
     axis: Axis
@@ -230,6 +243,7 @@ class ToolPath:
     stats: dict = field(default_factory=dict)
     program: Program | None = None
     warnings: list[str] = field(default_factory=list)
+    collision: dict | None = None
 
     @property
     def n_poses(self) -> int:
