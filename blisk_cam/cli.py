@@ -753,8 +753,13 @@ def _cmd_paths(args):
 
     V, F, mesh, req, plan, report, times = plan_from_args(args)
     path = plan.path
+    verdict = None
     if report is not None:
+        from .core.verdict import judge, verdict_dict
+
         path.stats.update(_verify_figures(report))
+        verdict = judge(report, req.cusp, req.chord, path.tool, path)
+        path.verify = verdict_dict(verdict)
     out = Path(args.out).expanduser().resolve()
     t = time.perf_counter()
     # every stage up to the write (the write's own time is printed: it cannot be in the file)
@@ -766,8 +771,14 @@ def _cmd_paths(args):
     print(f"wrote {out}: {_summary_line(path, times, report)}")
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
           + f"; wall {wall:.2f} s")
-    for w in path.stats.get("warnings", []) or []:
+    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm")
+    for w in plan.warnings:
         print(f"warning: {w}")
+    if verdict is not None:
+        from .core.verdict import verdict_lines
+
+        for line in verdict_lines(verdict):
+            print(line)
     if args.blend or args.preview:
         _blender_outputs(args, V, F, req, plan, report)
     return 0

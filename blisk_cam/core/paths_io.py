@@ -86,6 +86,7 @@ def path_to_dict(path: ToolPath) -> dict:
         "flag_bits": {name: bit for bit, name in FLAG_NAMES.items()},
         **({} if path.program is None else {"program": _program_to_dict(path.program)}),
         **({} if path.collision is None else {"collision": _jsonable(path.collision)}),
+        **({} if path.verify is None else {"verify": _jsonable(path.verify)}),
         # JSON has no infinity or NaN: such figures are left out
         "stats": {
             k: v
@@ -130,6 +131,7 @@ def path_from_dict(d: dict) -> ToolPath:
             program=_program_from_dict(d["program"]) if "program" in d else None,
             warnings=_read_warnings(d),
             collision=dict(d["collision"]) if isinstance(d.get("collision"), dict) else None,
+            verify=dict(d["verify"]) if isinstance(d.get("verify"), dict) else None,
         )
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise BliskCamError(f"paths file is incomplete or malformed: {err}") from err

@@ -244,6 +244,7 @@ class ToolPath:
     program: Program | None = None
     warnings: list[str] = field(default_factory=list)
     collision: dict | None = None
+    verify: dict | None = None  # the verdict of an independent check (.verdict.verdict_dict)
 
     @property
     def n_poses(self) -> int:
