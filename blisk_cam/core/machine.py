@@ -297,6 +297,11 @@ def machine_from_dict(data: dict, source: str = "") -> Machine:
         rotaries.append(Rotary(name, axis, np.zeros(3) if point is None else point, limits))
     if rotaries[0].name == rotaries[1].name:
         raise MachineError(f"machine {where}: both rotaries are named {rotaries[0].name}")
+    if np.linalg.norm(np.cross(rotaries[0].axis, rotaries[1].axis)) < 1e-6:
+        raise MachineError(
+            f"machine {where}: rotaries {rotaries[0].name} and {rotaries[1].name} have parallel "
+            "axes; two parallel rotaries cannot orient the tool"
+        )
     linear = {}
     for ax, lim in dict(data.get("linear", {})).items():
         if ax not in ("X", "Y", "Z"):

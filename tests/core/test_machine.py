@@ -99,6 +99,7 @@ def test_presets_ship_and_ac_is_the_spec_example(tmp_path):
         (lambda t: t + "\n[[rotary]]\nname='B'\naxis=[0,1,0]\n", ["exactly two"]),
         (lambda t: t.replace("spindle = [0, 0, 1]", "spindle = [0, 1]"), ["spindle"]),
         (lambda t: t + "\nthis is not toml", ["not valid TOML"]),
+        (lambda t: t.replace("axis = [1, 0, 0]", "axis = [0, 0, -2]"), ["parallel"]),
     ],
 )
 def test_malformed_machine_toml(tmp_path, edit, words):

@@ -42,7 +42,8 @@ def _moves(ctx: PostContext, macro: bool) -> list[str]:
     for i in range(len(b)):
         if b.kind[i] == SAFE:
             r2 = f"[#2+{fmt(deg[i + 1, 1])}]" if macro else fmt(deg[i + 1, 1])
-            out += ["G49", "G91 G28 Z0. (SAFE RETRACT, INDEX TO BLADE)", "G90",
+            out += [] if (i == 0 and not macro) else ["G49"]
+            out += ["G91 G28 Z0. (SAFE RETRACT, INDEX TO BLADE)", "G90",
                     f"G00 {n1}{fmt(deg[i + 1, 0])} {n2}{r2}", f"G43.4 H{o.tool_number}"]
             last_f = None
             continue
@@ -77,8 +78,7 @@ def write(ctx: PostContext) -> str:
         "G54",
         f"S{o.spindle:g} {'M03' if o.spindle_cw else 'M04'}",
         "M08" if o.coolant else "M09",
-        f"G43.4 H{o.tool_number}",
-    ]
+    ]  # G43.4 (TCP + length compensation) follows the safe retract that starts every blade
     if b.indexed:
         for k, (turn, off) in enumerate(zip(np.degrees(b.z_turns), np.degrees(b.offsets),
                                             strict=True)):
