@@ -38,17 +38,15 @@ import sys
 import time
 from pathlib import Path
 
+from .cli_options import UsageError, add_option_flags, finite, option_args
 from .core.errors import BliskCamError
-from .core.options import PATH_STAGES, CutterOptions, check_value, fields, from_user, to_user
+from .core.options import PATH_STAGES, CutterOptions
 from .core.revolution import angular_span
+from .nc_cli import add_nc_arguments
 
 __all__ = ["main", "build_parser", "UsageError", "run_operator", "build_demo_scene"]
 
 PROG = "blisk_cam"
-
-
-class UsageError(BliskCamError):
-    """Bad command line (unknown option, missing or malformed argument)."""
 
 
 class CliInternalError(Exception):
@@ -64,14 +62,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 # --- argument types ----------------------------------------------------------------------
-def _finite(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text}'")
-    return value
+_finite = finite
 
 
 def _positive(text):
@@ -159,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths}")
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")
     sub.required = True
 
     demo = sub.add_parser(
@@ -238,7 +229,20 @@ def build_parser() -> argparse.ArgumentParser:
     paths.add_argument("--verify", action="store_true",
                        help="also measure the material left and gouges (printed and stored "
                        "in the JSON's stats)")
+    paths.add_argument("--nc", metavar="FILE", default=None,
+                       help="also post the path as an NC program (needs --machine, --post)")
+    add_nc_arguments(paths, with_paths=False)
     paths.set_defaults(func=_cmd_paths)
+
+    nc = sub.add_parser(
+        "nc",
+        help="paths JSON → NC program for a 5-axis machine",
+        description="Post a paths JSON for a machine (preset or TOML) and a controller: "
+        "inverse kinematics within the limits, rotary linearization, every blade. Lengths mm, "
+        "angles degrees. Needs only numpy and scipy.",
+    )
+    add_nc_arguments(nc)
+    nc.set_defaults(func=_cmd_nc)
     return parser
 
 
@@ -285,7 +289,11 @@ def _check_paths_args(args):
         )
     if "taper_angle" in given and tool != "taper":
         raise UsageError(f"--taper-angle needs --tool taper (got --tool {tool})")
-    for opt in ("out", "blend", "preview"):
+    if args.nc and not (args.machine and args.post):
+        raise UsageError("--nc needs --machine (preset or TOML) and --post (controller)")
+    if (args.machine or args.post) and not args.nc:
+        raise UsageError("--machine/--post post the path with --nc FILE; give --nc")
+    for opt in ("out", "blend", "preview", "nc"):
         value = getattr(args, opt)
         if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
             raise UsageError(f"--{opt} {value}: the directory does not exist")
@@ -316,61 +324,6 @@ def _check_orientation_args(args, given):
     if mode.endswith("_line"):
         given.update(axis_point=tuple(map(float, args.axis_obj.o)),
                      axis_direction=tuple(map(float, args.axis_obj.d)))
-
-
-# --- options declared once (core.options) → flags ----------------------------------------
-def add_option_flags(parser, stages):
-    """One flag per declared option of ``stages`` (:mod:`blisk_cam.core.options`): its help,
-    unit and default from the declaration; angles in degrees. Every flag defaults to None
-    ("not given": the declaration's default applies); :func:`option_args` converts."""
-    for stage in stages:
-        group = parser.add_argument_group(stage.title or stage.__name__)
-        for name, spec, default in fields(stage):
-            flag = spec.cli_flag(name)
-            if flag is None:
-                continue
-            shown = to_user(spec, default)
-            unit = {"deg": " degrees", "": ""}.get(spec.unit, f" {spec.unit}")
-            if spec.choices is not None:
-                words = [c.cli_word for c in spec.choices]
-                text = f"{spec.help} (default {spec.choice(default).cli_word})"
-                group.add_argument(flag, dest=name, type=str.lower, choices=words,
-                                   default=None, help=text)
-            elif isinstance(default, bool):
-                text = f"{spec.help} (default {'on' if default else 'off'})"
-                group.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction,
-                                   default=None, help=text)
-            else:
-                text = spec.help if shown is None else f"{spec.help} (default {shown:g}{unit})"
-                metavar = ("DEG" if spec.unit == "deg" else "MM" if spec.unit == "mm"
-                           else "N" if spec.unit == "" else spec.unit.upper())
-                kw = dict(nargs=spec.size, metavar=(("X", "Y", "Z") if spec.size == 3
-                                                    else (metavar,) * spec.size))
-                group.add_argument(flag, dest=name, type=_finite, default=None, help=text,
-                                   **(kw if spec.size > 1 else {"metavar": metavar}))
-
-
-def option_args(args, stages) -> dict:
-    """{option: core value} of the flags given (not None), in core units (radians), each
-    checked against its declaration (UsageError naming the flag and the bounds)."""
-    given = {}
-    for stage in stages:
-        for name, spec, _ in fields(stage):
-            value = getattr(args, name, None)
-            if value is None or spec.cli_flag(name) is None:
-                continue
-            if spec.choices is not None:
-                value = next(c.value for c in spec.choices if c.cli_word == value)
-            elif isinstance(value, list):
-                value = tuple(float(v) for v in value)
-            elif not isinstance(value, bool):
-                value = from_user(spec, float(value))
-            try:
-                check_value(name, spec, value, UsageError)
-            except UsageError as exc:
-                raise UsageError(f"argument {exc}") from None
-            given[name] = value
-    return given
 
 
 # --- Blender session ---------------------------------------------------------------------
@@ -779,9 +732,19 @@ def _cmd_paths(args):
 
         for line in verdict_lines(verdict):
             print(line)
+    if args.nc:
+        from .nc_cli import export_from_args
+
+        export_from_args(path, args, Path(args.nc).expanduser().resolve(), Path(args.mesh).stem)
     if args.blend or args.preview:
         _blender_outputs(args, V, F, req, plan, report)
     return 0
+
+
+def _cmd_nc(args):
+    from .nc_cli import run_nc
+
+    return run_nc(args)
 
 
 def _blender_outputs(args, V, F, req, plan, report):

@@ -4,7 +4,9 @@
 
     python -m blisk_cam nc --paths paths.json --machine ac-trunnion|FILE.toml \\
         --post linuxcnc|fanuc|siemens|heidenhain|apt --out FILE [--blades N] \\
-        [--feed MM_MIN] [--spindle RPM] [--tool-number T] [--coolant on|off]
+        [--feed MM_MIN] [--spindle RPM] [--tool-number T] [--no-coolant] ...
+
+(every NC option of :class:`~blisk_cam.core.post.blocks.NcOptions` has its flag)
 
 :func:`add_nc_arguments` fills a (sub)parser, :func:`run_nc` runs it: exit 0 on success, 1 with
 one line on stderr (``blisk_cam: error: ...``) for bad input or an unreachable pose (naming the
@@ -14,7 +16,6 @@ pose, the axis and the value).
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 
@@ -25,91 +26,73 @@ __all__ = ["add_nc_arguments", "run_nc", "main"]
 PROG = "blisk_cam"
 
 
-def _positive(text):
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
-    return v
-
-
-def _count(text):
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be ≥ 1")
-    return v
-
-
-def _tool_number(text):
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be ≥ 0")
-    return v
-
-
-def add_nc_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Add the ``nc`` options to ``parser`` (a subparser of the main CLI)."""
+def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True):
+    """Add the ``nc`` options to ``parser``: the files, the machine and post, and every
+    declared NC option (:class:`~blisk_cam.core.post.blocks.NcOptions`). ``with_paths``
+    False: for ``paths ... --nc FILE`` (the path comes from the same run)."""
+    from .cli_options import add_option_flags
+    from .core.machine import known_presets
     from .core.post import POSTS
+    from .core.post.blocks import NcOptions
 
-    parser.add_argument("--paths", required=True, metavar="FILE", help="paths JSON (version 1)")
-    parser.add_argument("--machine", required=True, metavar="PRESET|FILE.toml",
-                        help="machine preset (ac-trunnion, bc-trunnion, bc-head-table) or TOML")
-    parser.add_argument("--post", required=True, type=str.lower, metavar="POST",
-                        help="one of " + ", ".join(POSTS))
-    parser.add_argument("--out", required=True, metavar="FILE", help="NC program to write")
-    parser.add_argument("--blades", type=_count, default=1, metavar="N",
-                        help="repeat the blade's moves for N blades (k·360°/N)")
-    parser.add_argument("--feed", type=_positive, default=1000.0, metavar="MM_MIN")
-    parser.add_argument("--spindle", type=_positive, default=10000.0, metavar="RPM")
-    parser.add_argument("--tool-number", type=_tool_number, default=1, metavar="T")
-    parser.add_argument("--coolant", choices=("on", "off"), default="on")
+    if with_paths:
+        parser.add_argument("--paths", required=True, metavar="FILE",
+                            help="paths JSON (version 1) written by 'blisk_cam paths'")
+        parser.add_argument("--out", required=True, metavar="FILE", help="NC program to write")
+    parser.add_argument("--machine", required=with_paths, metavar="PRESET|FILE.toml",
+                        help=f"machine preset ({', '.join(known_presets())}) or a machine "
+                        "TOML file")
+    parser.add_argument("--post", required=with_paths, type=str.lower, metavar="POST",
+                        help="controller dialect: one of " + ", ".join(POSTS))
+    add_option_flags(parser, (NcOptions,))
     return parser
+
+
+def nc_options(args, **extra):
+    """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds)."""
+    from .cli_options import option_args
+    from .core.post.blocks import NcOptions
+
+    return NcOptions(**option_args(args, (NcOptions,)), **extra)
+
+
+def export_from_args(path, args, out, blade_name):
+    """Post ``path`` for ``args.machine``/``args.post`` into ``out``; prints the summary."""
+    from .core.nc import export_nc
+
+    report = export_nc(path, args.machine, args.post, nc_options(args, blade_name=blade_name),
+                       out)
+    print(report.summary())
+    return report
 
 
 def run_nc(args) -> int:
     """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
-    status (0 ok, 1 bad input with one line on stderr)."""
-    from .core.nc import export_nc
+    status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
+    from .cli_options import UsageError
     from .core.paths_io import read_paths_json
-    from .core.post.blocks import NcOptions
 
     try:
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")
         path = read_paths_json(args.paths)
-        opts = NcOptions(
-            feed=args.feed, spindle=args.spindle, tool_number=args.tool_number,
-            coolant=args.coolant == "on", blades=args.blades,
-            blade_name=os.path.splitext(os.path.basename(args.paths))[0],
-        )
-        report = export_nc(path, args.machine, args.post, opts, args.out)
+        export_from_args(path, args, args.out,
+                         os.path.splitext(os.path.basename(args.paths))[0])
+    except UsageError as err:
+        print(f"{PROG}: error: {' '.join(str(err).split())}", file=sys.stderr)
+        return 2
     except (BliskCamError, OSError) as err:
         msg = " ".join(str(err).split())
         print(f"{PROG}: error: {msg}", file=sys.stderr)
         return 1
-    print(report.summary())
     return 0
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        print(f"{PROG}: error: {message}", file=sys.stderr)
-        raise SystemExit(2)
-
-
 def main(argv=None) -> int:
-    """Stand-alone entry (``python -m blisk_cam.nc_cli ...``) until the lead wires ``nc`` into
-    the main CLI."""
-    parser = add_nc_arguments(_Parser(prog=f"{PROG} nc"))
-    return run_nc(parser.parse_args(argv))
+    """``blisk_cam nc ARGS`` (the same as ``python -m blisk_cam nc ARGS``)."""
+    from .cli import main as cli_main
+
+    return cli_main(["nc", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 
@@ -370,3 +371,45 @@ def test_report_and_options(demo, tmp_path):
     with pytest.raises(BliskCamError, match="blades"):
         export_nc(demo, "bc-trunnion", "apt", NcOptions(blades=0), tmp_path / "a.apt")
     assert MOVE_RAPID == 4
+
+
+def test_paths_and_nc_in_one_run_match_the_nc_command(tmp_path, capsys):
+    """``paths ... --nc`` (plan and post in one run, core API only) writes the same program as
+    ``nc`` on the JSON it wrote, and that program runs in rs274."""
+    from blisk_cam import cli
+    from blisk_cam.core.demo import make_demo_blisk
+
+    d = make_demo_blisk(resolution=0.3, fillet=True, fillet_radius=10.0)
+    stl = tmp_path / "blade.stl"
+    tri = np.asarray(d.blade_vertices)[np.asarray(d.blade_faces)].astype("<f4")
+    rec = np.zeros(len(tri), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["v"] = tri
+    stl.write_bytes(b"\0" * 80 + np.uint32(len(tri)).tobytes() + rec.tobytes())
+    cone1 = ["170", "-25", "185", "35"]
+    cone2 = [str(x) for x in d.tip_cone.as_list()]
+    one = tmp_path / "one.ngc"
+    rc = cli.main(["paths", "--mesh", str(stl), "--cone1", *cone1, "--cone2", *cone2,
+                   "--tool-diameter", "12", "--cusp", "0.5", "--chord", "0.1",
+                   "--axis-mode", "radial", "--radial-tilt", "75", "--out",
+                   str(tmp_path / "p.json"), "--nc", str(one), "--machine", "ac-trunnion",
+                   "--post", "linuxcnc", "--blades", "2", "--spindle", "9000"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "blocks" in out
+    two = tmp_path / "two.ngc"
+    rc = cli.main(["nc", "--paths", str(tmp_path / "p.json"), "--machine", "ac-trunnion",
+                   "--post", "linuxcnc", "--out", str(two), "--blades", "2", "--spindle",
+                   "9000"])
+    assert rc == 0
+    a = [x for x in one.read_text().splitlines() if not x.startswith("(blade:")]
+    b = [x for x in two.read_text().splitlines() if not x.startswith("(blade:")]
+    assert a == b and "S9000 M3" in a
+    if shutil.which("rs274"):
+        cp = subprocess.run(["rs274", "-g", str(one), str(tmp_path / "o.txt")],
+                            stdin=subprocess.DEVNULL, capture_output=True, timeout=120)
+        assert cp.returncode == 0
+    # the flags are checked with the declared bounds: a usage error, nothing written
+    bad = tmp_path / "bad.ngc"
+    rc = cli.main(["nc", "--paths", str(tmp_path / "p.json"), "--machine", "ac-trunnion",
+                   "--post", "linuxcnc", "--out", str(bad), "--max-rotary-step", "0"])
+    assert rc == 2 and not bad.exists()
+    assert "max rotary step" in capsys.readouterr().err.lower()

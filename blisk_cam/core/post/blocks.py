@@ -31,9 +31,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import BliskCamError, PostError
+from ..errors import PostError
 from ..kinematics import LinearizeReport, linearize, solve_poses
 from ..machine import Machine, rotation_matrices
+from ..options import Choice, _Stage, check_stage, option
 from ..toolpath import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT, ToolPath
 
 __all__ = ["SAFE", "Blocks", "NcOptions", "build_blocks", "rotate_about_axis"]
@@ -41,31 +42,49 @@ __all__ = ["SAFE", "Blocks", "NcOptions", "build_blocks", "rotate_about_axis"]
 SAFE = 5
 
 
-@dataclass
-class NcOptions:
-    """What the NC program needs besides the path and the machine.
-
-    feed : mm/min, cut moves; link_feed, approach_feed, retract_feed : mm/min or None (None:
-    feed, feed/2, feed); spindle : rpm; spindle_cw : M03 (True) / M04; tool_number; coolant;
-    blades : N ≥ 1; chord : mm or None (None: the paths' chord tolerance) for linearization;
-    max_rotary_step : radians between consecutive feed blocks; safe_z : mm machine Z of the
-    safe retract (None: the machine's Z travel maximum, else 100); rapid_rate : mm/min and
-    rotary_rate : deg/min for the time estimate and inverse-time blocks; program_number;
-    blade_name : for the header; tool_length : mm gauge length (head pivot limits);
-    use_subprogram : index blades by a subprogram call where possible.
+@dataclass(frozen=True)
+class NcOptions(_Stage):
+    """What the NC program needs besides the path and the machine (options declared once,
+    :mod:`..options`): feeds mm/min per move type (None: feed, feed/2, feed for link,
+    approach, retract), spindle rpm and direction, tool number, coolant, the number of
+    blades, the linearization chord (None: the path's chord tolerance) and the largest rotary
+    step between feed blocks. Not user options: ``safe_z`` (mm machine Z of the safe retract;
+    None: the Z travel maximum, else 100), ``rapid_rate`` (mm/min) and ``rotary_rate``
+    (deg/min) for the time estimate and inverse-time blocks, ``program_number``,
+    ``blade_name`` (header), ``tool_length`` (mm gauge length, head pivot limits),
+    ``use_subprogram`` (index blades by a subprogram call where possible).
     """
 
-    feed: float = 1000.0
-    link_feed: float | None = None
-    approach_feed: float | None = None
-    retract_feed: float | None = None
-    spindle: float = 10000.0
-    spindle_cw: bool = True
-    tool_number: int = 1
-    coolant: bool = True
-    blades: int = 1
+    title = "NC program"
+    error = PostError
+
+    feed: float = option(1000.0, "Feed", "Cutting feed, mm/min", unit="mm/min", lo=0.0,
+                         lo_open=True, soft_max=20000.0, precision=0)
+    link_feed: float | None = option(
+        None, "Link Feed", "Feed of the links between passes, mm/min (0 or not given: the "
+        "cutting feed)", unit="mm/min", lo=0.0, none_as=0.0, precision=0)
+    approach_feed: float | None = option(
+        None, "Approach Feed", "Feed of the approach moves, mm/min (0 or not given: half the "
+        "cutting feed)", unit="mm/min", lo=0.0, none_as=0.0, precision=0)
+    retract_feed: float | None = option(
+        None, "Retract Feed", "Feed of the retract moves, mm/min (0 or not given: the cutting "
+        "feed)", unit="mm/min", lo=0.0, none_as=0.0, precision=0)
+    spindle: float = option(10000.0, "Spindle", "Spindle speed, rpm", unit="rpm", lo=0.0,
+                            lo_open=True, soft_max=40000.0, precision=0)
+    spindle_cw: bool = option(
+        True, "Spindle Direction", "Spindle direction: cw (M03, the climb milling the paths "
+        "assume) or ccw (M04)", flag="--spindle-direction",
+        choices=(Choice(True, "CW (M03)", cli="cw"), Choice(False, "CCW (M04)", cli="ccw")))
+    tool_number: int = option(1, "Tool Number", "Tool number T in the magazine", lo=0)
+    coolant: bool = option(True, "Coolant", "Coolant (M08) on or off",
+                           choices=(Choice(True, "On", cli="on"), Choice(False, "Off", cli="off")))
+    blades: int = option(1, "Blades", "Repeat the blade's moves for N blades, blade k turned "
+                         "by k·360°/N about the blisk axis", lo=1)
     chord: float | None = None
-    max_rotary_step: float = math.radians(5.0)
+    max_rotary_step: float = option(
+        math.radians(5.0), "Max Rotary Step", "Largest rotary-axis turn between consecutive "
+        "feed blocks, degrees (blocks are inserted)", unit="deg", lo=0.0, lo_open=True,
+        hi=math.radians(90.0))
     safe_z: float | None = None
     rapid_rate: float = 10000.0
     rotary_rate: float = 7200.0
@@ -75,18 +94,21 @@ class NcOptions:
     use_subprogram: bool = True
 
     def check(self):
-        for name in ("feed", "spindle", "rapid_rate", "rotary_rate"):
+        """Bounds of every option (raised on construction too)."""
+        check_stage(self)
+        for name in ("rapid_rate", "rotary_rate"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise BliskCamError(f"NC option {name} must be a positive number, got {v!r}")
-        for name in ("link_feed", "approach_feed", "retract_feed", "chord"):
-            v = getattr(self, name)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise BliskCamError(f"NC option {name} must be a positive number, got {v!r}")
-        if int(self.blades) != self.blades or self.blades < 1:
-            raise BliskCamError(f"blades must be a whole number ≥ 1, got {self.blades!r}")
-        if int(self.tool_number) != self.tool_number or self.tool_number < 0:
-            raise BliskCamError(f"tool number must be a whole number ≥ 0, got {self.tool_number}")
+                raise PostError(f"NC option {name} must be a positive number, got {v!r}")
+        if self.chord is not None and not (math.isfinite(self.chord) and self.chord > 0):
+            raise PostError(f"NC option chord must be a positive number, got {self.chord!r}")
+        if int(self.blades) != self.blades:
+            raise PostError(f"blades must be a whole number ≥ 1, got {self.blades!r}")
+        if int(self.tool_number) != self.tool_number:
+            raise PostError(f"tool number must be a whole number ≥ 0, got {self.tool_number}")
+
+    def __post_init__(self):
+        self.check()
 
     def feeds(self) -> np.ndarray:
         """(5,) feed per move code (rapid 0)."""
