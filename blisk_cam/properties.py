@@ -22,7 +22,13 @@ from bpy.props import (
 )
 from bpy.types import PropertyGroup
 
+from .core.machine import known_presets
 from .core.options import PATH_STAGES, fields
+from .core.post import POSTS
+from .core.post.blocks import NcOptions
+
+#: option stages of the NC export (declared in core)
+NC_STAGES = (NcOptions,)
 
 
 def poll_mesh(_self, obj):
@@ -204,13 +210,6 @@ class BliskCamSettings(PropertyGroup):
         default="MORPH",
         update=_update_display,
     )
-    feed: FloatProperty(
-        name="Feed",
-        description="Feed rate in mm/min, for the machining time statistics",
-        default=1000.0,
-        min=1.0,
-        soft_max=20000.0,
-    )
 
 
     # Verification -----------------------------------------------------------------------
@@ -337,7 +336,30 @@ def option_properties(stages) -> dict:
     return out
 
 
+#: machine presets shipped in blisk_cam/machines, and a file of the user's
+MACHINE_ITEMS = [(name, name, f"The shipped machine preset '{name}'")
+                 for name in known_presets()] + [
+    ("FILE", "TOML File", "A machine description file (see the README)")]
+POST_ITEMS = [(name, name, f"NC program for {name}") for name in POSTS]
+
+
 BliskCamSettings.__annotations__.update(option_properties(PATH_STAGES))
+BliskCamSettings.__annotations__.update(option_properties(NC_STAGES))
+# the machine and the post of "Machine & NC" (their lists come from core: presets, posts)
+BliskCamSettings.__annotations__.update(
+    machine=EnumProperty(name="Machine", description="Machine preset, or a TOML file",
+                         items=MACHINE_ITEMS, default=MACHINE_ITEMS[0][0]),
+    machine_file=StringProperty(name="Machine File", subtype="FILE_PATH", default="",
+                                description="Machine description (TOML) when Machine is "
+                                "TOML File"),
+    post=EnumProperty(name="Post", description="Controller dialect of the NC program",
+                      items=POST_ITEMS, default=POST_ITEMS[0][0]),
+    nc_path=StringProperty(name="NC File", subtype="FILE_PATH", default="//blade.nc",
+                           description="NC program written by Export NC"),
+    export_anyway=BoolProperty(
+        name="Export Anyway", default=False,
+        description="Export NC even while poses are unresolved collisions (not recommended)"),
+)
 # the radius, for scripts and old files' habits: half the diameter, not stored
 BliskCamSettings.__annotations__["tool_radius"] = FloatProperty(
     name="Tool Radius", description="Cutter radius in mm (half the diameter)",

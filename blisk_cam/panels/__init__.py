@@ -4,7 +4,12 @@ One module per panel group; list every class in ``CLASSES`` in display order (pa
 their sub-panels).
 """
 
-from .paths import BLISKCAM_PT_display, BLISKCAM_PT_paths, BLISKCAM_PT_preview
+from .paths import (
+    BLISKCAM_PT_display,
+    BLISKCAM_PT_machine,
+    BLISKCAM_PT_paths,
+    BLISKCAM_PT_preview,
+)
 from .setup import (
     BLISKCAM_PT_region,
     BLISKCAM_PT_setup,
@@ -19,5 +24,6 @@ CLASSES = [
     BLISKCAM_PT_tolerances,
     BLISKCAM_PT_paths,
     BLISKCAM_PT_display,
+    BLISKCAM_PT_machine,
     BLISKCAM_PT_preview,
 ]

@@ -59,7 +59,7 @@ class BLISKCAM_PT_paths(_BliskCamPanel, Panel):
             col.label(text=f"Measured max gouge: {settings.stat_gouge:.4f} mm")
         else:
             col.label(text="Not verified (turn on Tolerances › Verify)")
-        _split(box).prop(settings, "feed")
+        _split(box).prop(settings, "feed")  # the NC program's cutting feed (Machine & NC)
 
 
 def _wrap(text, width):
@@ -105,3 +105,26 @@ class BLISKCAM_PT_preview(_BliskCamPanel, Panel):
         op = layout.operator("blisk_cam.render_preview", icon="RENDER_STILL")
         op.filepath = settings.preview_path
         op.engine = settings.preview_engine
+
+
+class BLISKCAM_PT_machine(_BliskCamPanel, Panel):
+    """Machine, post and NC options; Export NC."""
+
+    bl_idname = "BLISKCAM_PT_machine"
+    bl_label = "Machine & NC"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        from ..core.post.blocks import NcOptions
+        from .setup import draw_stage
+
+        settings = context.scene.blisk_cam
+        layout = _split(self.layout)
+        col = layout.column()
+        col.prop(settings, "machine")
+        if settings.machine == "FILE":
+            col.prop(settings, "machine_file")
+        col.prop(settings, "post")
+        draw_stage(layout, settings, NcOptions, heading="Program")
+        layout.prop(settings, "export_anyway")
+        layout.operator("blisk_cam.export_nc", icon="EXPORT")
