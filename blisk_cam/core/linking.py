@@ -175,7 +175,7 @@ class SurfaceProjector:
     the mesh between two given points (the spiral blend and on-surface links)."""
 
     def __init__(self, mesh: TriMesh, axis: Axis, morph: MorphingCones):
-        from .verify import MeshDistance  # the exact closest-point kernel (tested vs brute force)
+        from .geometry import MeshDistance  # the exact closest-point kernel (tested vs brute force)
 
         self.mesh, self.axis, self.morph = mesh, axis, morph
         self._md = MeshDistance(mesh)
