@@ -31,6 +31,7 @@ modal operator can drive it and cancel between yields; ``plan_paths`` exhausts i
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -557,6 +558,7 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
     BliskCamError (ToolError, OrientationError, LinkError, ConeError, ToleranceError …) with a
     message naming the problem, before any long work where the request itself is bad.
     """
+    t_plan = time.perf_counter()
     cutter, strategy, opts, limits = _check(req)
     fit = None
     c1, c2 = req.cone1, req.cone2
@@ -570,14 +572,18 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
     rho = expansion_radius(cutter, strategy, req.cusp, edge)
     if math.isfinite(concave):
         rho = _fit_concave(cutter, strategy, limits, req, edge, concave, rho)
-    passes = yield from iter_generate_paths(
+    times = {"seconds_fit": time.perf_counter() - t_plan}
+    gen = iter_generate_paths(
         mesh, req.axis, c1, c2, tool_radius=rho, cusp=req.cusp, chord=req.chord
     )
+    passes = yield from _timed(gen, times, "seconds_passes")
     yield Progress(1.0, "orienting and linking")
+    t1 = time.perf_counter()
     morph = morph_between(passes.cone1, passes.cone2)  # LMC, or LMRS for a Profile
     projector = SurfaceProjector(mesh, req.axis, morph)
     opts = _link_options(req, rho)
     curves = order_passes(passes.curves, opts, morph, req.axis, projector)
+    t2 = time.perf_counter()
     report = LocalGougeReport()
     near_field = None
     if cutter.type != "ball" and math.isfinite(concave):
@@ -586,6 +592,7 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
         near_field = (S, cKDTree(S))
     for c in curves:
         _orient(c, mesh, projector, cutter, strategy, limits, req, req.axis, report, near_field)
+    t3 = time.perf_counter()
     program = build_program(
         curves,
         opts,
@@ -594,6 +601,7 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
         projector=projector,
         cl_points=cutter.cl_points,
     )
+    t4 = time.perf_counter()
     turns = [consecutive_turn(c.axis, c.closed) for c in curves if len(c.cc) > 1]
     stats = dict(passes.stats)
     stats.update(
@@ -610,6 +618,12 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
                 sum(int(np.count_nonzero(c.flags & FLAG_ZERO_SPEED)) for c in curves)
             ),
             "link": opts.mode,
+            # wall time per stage, s; "seconds" (from pathgen) stays the pass generation
+            # alone. Time the caller spends between progress steps is not counted.
+            **times,
+            "seconds_orient": t3 - t2,
+            "seconds_link": (t2 - t1) + (t4 - t3),
+            "seconds_plan": times["seconds_fit"] + times["seconds_passes"] + (t4 - t1),
         }
     )
     path = ToolPath(
@@ -624,6 +638,22 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest):
         program=program,
     )
     return PlanResult(path=path, fit=fit, gouge=report)
+
+
+def _timed(gen, times: dict, key: str):
+    """``yield from gen``, adding to ``times[key]`` only the time spent inside ``gen`` (not the
+    caller's time between progress steps); returns the generator's value."""
+    times[key] = times.get(key, 0.0)
+    t0 = time.perf_counter()
+    while True:
+        try:
+            item = next(gen)
+        except StopIteration as stop:
+            times[key] += time.perf_counter() - t0
+            return stop.value
+        times[key] += time.perf_counter() - t0
+        yield item
+        t0 = time.perf_counter()
 
 
 def plan_paths(mesh: TriMesh, req: PathRequest) -> PlanResult:
