@@ -52,6 +52,7 @@ import numpy as np
 
 from .cones import Axis, MorphingCones, meridional
 from .errors import LinkError
+from .geometry import NearestFaces
 from .mesh import TriMesh
 from .orientation import feed_directions
 from .toolpath import (
@@ -171,15 +172,15 @@ class SurfaceProjector:
     the mesh between two given points (the spiral blend and on-surface links)."""
 
     def __init__(self, mesh: TriMesh, axis: Axis, morph: MorphingCones):
-        from .verify import MeshDistance  # the exact closest-point kernel (tested vs brute force)
-
+        # exact closest points without a whole-mesh tree: the generator projects only a few
+        # clustered points (links, the spiral blend), so nothing is built until it does
         self.mesh, self.axis, self.morph = mesh, axis, morph
-        self._md = MeshDistance(mesh)
+        self._nf = NearestFaces(mesh)
 
     def project(self, points):
         """(q (k, 3), normal (k, 3), face (k,)) — closest points on the mesh, smooth normals."""
-        cp = self._md.query(points)
-        return cp.point, self.mesh.interpolate_normals(cp.face, cp.bary), cp.face
+        q, face, bary = self._nf.query(points)
+        return q, self.mesh.interpolate_normals(face, bary), face
 
     def ratio(self, points):
         return self.morph.ratio_of_points(points, self.axis)

@@ -792,11 +792,28 @@ def iter_plan_paths(mesh: TriMesh, req: PathRequest, *, extra=()):
     cutter, strategy, _, limits = _check(req)
     st = PlanState(mesh=mesh, req=req, cutter=cutter, strategy=strategy, limits=limits)
     for stage in (*PLAN_STAGES, *extra):
-        t0 = time.perf_counter()
-        yield from stage.run(st)
-        st.seconds[stage.name] = time.perf_counter() - t0
+        yield from _timed(stage.run(st), st.seconds, stage.name)
+    # wall time per stage, s, inside the stages only (not the caller's time between progress
+    # steps); "seconds" (from pathgen) stays the pass generation alone
     st.stats.update({f"seconds_{k}": v for k, v in st.seconds.items()})
+    st.stats["seconds_plan"] = float(sum(st.seconds.values()))
     return st.result()
+
+
+def _timed(gen, times: dict, key: str):
+    """``yield from gen``, adding to ``times[key]`` only the time spent inside ``gen`` (not the
+    caller's time between progress steps); returns the generator's value."""
+    times[key] = times.get(key, 0.0)
+    t0 = time.perf_counter()
+    while True:
+        try:
+            item = next(gen)
+        except StopIteration as stop:
+            times[key] += time.perf_counter() - t0
+            return stop.value
+        times[key] += time.perf_counter() - t0
+        yield item
+        t0 = time.perf_counter()
 
 
 def plan_paths(mesh: TriMesh, req: PathRequest, *, extra=()) -> PlanResult:

@@ -150,3 +150,28 @@ def test_core_source_has_no_blender_import():
             if hits:
                 offenders.setdefault(str(path.relative_to(ROOT)), []).extend(hits)
     assert offenders == {}
+
+
+GENERATOR_MODULES = ("pathgen", "slicing", "sampling", "expansion", "linking", "orientation",
+                     "local_gouge", "pipeline", "fitting", "lmrs", "cones", "cutter", "mesh",
+                     "geometry")
+CHECKER_MODULES = {"verify", "surface_samples", "sweep"}
+
+
+def test_generator_never_imports_the_checker():
+    """The path generator shares only :mod:`geometry` with the checker (issue 9 §4): no
+    generator module imports ``verify`` (or its parts), at module level or inside a
+    function."""
+    offenders = []
+    for stem in GENERATOR_MODULES:
+        tree = ast.parse((CORE / f"{stem}.py").read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                names = {node.module or ""} | {a.name for a in node.names}
+            elif isinstance(node, ast.Import):
+                names = {a.name for a in node.names}
+            else:
+                continue
+            if any(n.split(".")[-1] in CHECKER_MODULES for n in names):
+                offenders.append(f"{stem}.py:{node.lineno}")
+    assert offenders == []

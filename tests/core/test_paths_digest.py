@@ -1,0 +1,110 @@
+"""The paths JSON of two reference requests does not change when the code is only made faster.
+
+The digests were recorded before the speed work of issue 13 (``plan_paths`` →
+``write_paths_json``, the ``stats`` key dropped: it holds timings). Floats are rounded to
+1e-9 mm (1e-9 of a radian or ratio) before hashing, so the digests hold on numpy 1.26 and
+2.x alike (their last-bit differences vanish). A failing digest means the path changed: if
+that is intended, say why in the commit and record the new digest here.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from blisk_cam.core.cones import Axis, Cone
+from blisk_cam.core.demo import make_demo_blisk
+from blisk_cam.core.mesh import TriMesh
+from blisk_cam.core.paths_io import write_paths_json
+from blisk_cam.core.pipeline import PathRequest, plan_paths
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: sha256 of the paths JSON without "stats", floats rounded to 1e-9 (see :func:`digest`)
+DIGESTS = {
+    "demo": "0d8653eb22c132fe4d946a71deb2ef009903fbcab94336857685891568abfc1f",
+    "rotor37": "e43c22007c67c27f405bfde45bfeed59070ed1ead2157c3f79d9c7174c6b0a23",
+}
+
+STAGE_KEYS = ("seconds_fit", "seconds_passes", "seconds_orient", "seconds_link", "seconds_plan")
+
+
+def blades_dir() -> Path | None:
+    """tests/data/blades/ first, then shared/data/blades/ beside the repository (or beside
+    the directory holding it, for a git worktree)."""
+    for d in (ROOT / "tests" / "data" / "blades", ROOT.parent / "shared" / "data" / "blades",
+              ROOT.parents[1] / "shared" / "data" / "blades"):
+        if (d / "rotor37_blade_extended_open.stl").exists():
+            return d
+    return None
+
+
+def read_binary_stl(path):
+    raw = Path(path).read_bytes()
+    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
+    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
+    V = data["v"].reshape(-1, 3).astype(np.float64)
+    return V, np.arange(len(V)).reshape(-1, 3)
+
+
+def _rounded(o):
+    if isinstance(o, float):
+        r = round(o, 9)
+        return 0.0 if r == 0 else r  # no "-0.0"
+    if isinstance(o, list):
+        return [_rounded(x) for x in o]
+    if isinstance(o, dict):
+        return {k: _rounded(v) for k, v in o.items()}
+    return o
+
+
+def digest(path, tmp_path) -> str:
+    """sha256 of the written paths JSON without ``stats``, floats rounded to 1e-9."""
+    f = write_paths_json(path, tmp_path / "paths.json")
+    data = json.loads(Path(f).read_text(encoding="utf-8"))
+    data.pop("stats", None)
+    text = json.dumps(_rounded(data), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def demo_case():
+    """The demo blade with the defaults of ``python -m blisk_cam demo`` (6 mm ball, cusp and
+    chord 0.05 mm, the demo's true hub/tip cones)."""
+    d = make_demo_blisk()
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    return mesh, PathRequest(axis=d.axis, cone1=d.hub_cone, cone2=d.tip_cone, cusp=0.05,
+                             chord=0.05)
+
+
+def rotor37_case():
+    """Rotor 37 (extended open STL) between its json cones: ball R6, cusp 0.05, chord 0.05."""
+    d = blades_dir()
+    if d is None:
+        pytest.skip("Rotor 37 data not found in tests/data/blades/ nor ../shared/data/blades/")
+    V, F = read_binary_stl(d / "rotor37_blade_extended_open.stl")
+    cones = json.loads((d / "rotor37_blade.json").read_text())["cones"]
+    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
+    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    req = PathRequest(axis=Axis(), cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
+                      cusp=0.05, chord=0.05)
+    return TriMesh.from_arrays(V, F), req
+
+
+@pytest.mark.parametrize("name", sorted(DIGESTS))
+def test_paths_json_digest_is_unchanged(name, tmp_path):
+    mesh, req = {"demo": demo_case, "rotor37": rotor37_case}[name]()
+    path = plan_paths(mesh, req).path
+    assert digest(path, tmp_path) == DIGESTS[name]
+    # the per-stage times are finite, non-negative, and add up to the plan's time
+    st = path.stats
+    for key in STAGE_KEYS + ("seconds",):
+        assert isinstance(st[key], float) and math.isfinite(st[key]) and st[key] >= 0.0, key
+    parts = st["seconds_fit"] + st["seconds_passes"] + st["seconds_orient"] + st["seconds_link"]
+    assert st["seconds_plan"] == pytest.approx(parts, abs=0.05 + 0.02 * st["seconds_plan"])
+    assert st["seconds"] <= st["seconds_passes"] + 1e-3
