@@ -95,6 +95,7 @@ _PENETRATION_PAIRS = 16
 #: poses whose lower bound is this far above ds (mm) refine only _FAR_PAIRS triangles
 _FAR_MARGIN = 1.0
 _FAR_PAIRS = 8
+_FAR_BEAM = 8
 
 
 # ====================================================================== obstacles
@@ -433,9 +434,13 @@ class _TriTree:
         self.ok = ln > 1e-14 * np.maximum(self.rad, 1e-300) ** 2
         self.nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
 
-    def candidates(self, part, tips, axes, ub):
+    def candidates(self, part, tips, axes, ub, far=np.inf):
         """(pose index, triangle index) pairs that may hold the part's minimum over the
-        obstacle; ``ub`` (m,) is lowered in place to upper bounds of the clearance."""
+        obstacle; ``ub`` (m,) is lowered in place to upper bounds of the clearance.
+
+        A pose whose nodes all have lower bounds ≥ ``far`` (mm; certainly clear) descends
+        with its ``_FAR_BEAM`` most promising nodes per level only (a beam search: its figure
+        is then bounded, not exact)."""
         m = len(tips)
         P = np.arange(m)
         N = np.zeros(m, dtype=np.int64)
@@ -447,8 +452,20 @@ class _TriTree:
             if len(P) == 0:
                 return P, N
             np.minimum.at(ub, P, _posed_sd(part, rep[N], t, a))
-            keep = lb[keep] <= ub[P]
-            P, N = P[keep], N[keep]
+            lb = lb[keep]
+            keep = lb <= ub[P]
+            P, N, lb = P[keep], N[keep], lb[keep]
+            if np.isfinite(far) and len(P) > _FAR_BEAM * 4:
+                start = np.searchsorted(P, P, side="left")  # P stays grouped by pose
+                lbmin = np.minimum.reduceat(lb, np.unique(start))[
+                    np.searchsorted(np.unique(start), start)]
+                fp = lbmin >= far
+                if np.any(fp):
+                    order = np.lexsort((lb, P))
+                    P, N, lb, fp = P[order], N[order], lb[order], fp[order]
+                    rank = np.arange(len(P)) - start
+                    keep = ~fp | (rank < _FAR_BEAM)
+                    P, N = P[keep], N[keep]
             if li + 1 < len(self.levels):
                 nxt = self.counts[li + 1]
                 P = np.repeat(P, 2)
@@ -673,7 +690,7 @@ class CollisionScene:
         ub = np.full(m, self.cap)
         cand = []
         for part, tree in self.parts():
-            P, T = tree.candidates(part, tips, axes, ub)
+            P, T = tree.candidates(part, tips, axes, ub, far=self.safety + _FAR_MARGIN)
             if len(P):
                 cand.append((part, tree, P, T))
         best = np.full(m, self.cap)

@@ -345,10 +345,13 @@ def test_demo_channel_avoidance(channel):
                                       replace=False)])
     brute = _brute_clearance(ob, asm, out.tool, tip1[pick], ax1[pick])
     assert np.all(brute >= opts.safety - 1e-6), brute
-    # and the detection agrees with the brute force within its sampling step
-    near = clear[pick] < 5.0
+    # and the detection agrees with the brute force within its sampling step where it is
+    # exact (below ds + 1 mm); above, both say "clear by more than 1 mm"
+    near = clear[pick] < opts.safety + 1.0
+    assert near.sum() >= 3
     assert np.all(brute[near] >= clear[pick][near] - 1e-6), (brute, clear[pick])
     assert np.all(brute[near] <= clear[pick][near] + 0.1), (brute, clear[pick])
+    assert np.all(brute[~near] >= opts.safety + 1.0 - 1e-6)
     # the corrected path still machines the blade as planned
     vr = verify_path(mesh, out)
     assert vr.max_gouge <= out.chord, vr.summary()
