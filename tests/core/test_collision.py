@@ -340,18 +340,23 @@ def test_demo_channel_avoidance(channel):
     ob = Obstacles.build(mesh.V, mesh.F, d.axis, N_BLADES, 1)
     cut = np.concatenate([c.move == MOVE_CUT for c in out.curves])
     rng = np.random.default_rng(1)
-    pick = np.concatenate([rng.choice(np.nonzero(corr & cut)[0], 12, replace=False),
-                           rng.choice(np.nonzero((status == STATUS_CLEAR) & cut)[0], 6,
+    tight = corr & cut & (clear < opts.safety + 1.0)
+    pick = np.concatenate([rng.choice(np.nonzero(tight)[0], 8, replace=False),
+                           rng.choice(np.nonzero(corr & cut & ~tight)[0], 5, replace=False),
+                           rng.choice(np.nonzero((status == STATUS_CLEAR) & cut)[0], 5,
                                       replace=False)])
     brute = _brute_clearance(ob, asm, out.tool, tip1[pick], ax1[pick])
     assert np.all(brute >= opts.safety - 1e-6), brute
     # and the detection agrees with the brute force within its sampling step where it is
     # exact (below ds + 1 mm); above, both say "clear by more than 1 mm"
     near = clear[pick] < opts.safety + 1.0
-    assert near.sum() >= 3
+    assert near.sum() >= 8
     assert np.all(brute[near] >= clear[pick][near] - 1e-6), (brute, clear[pick])
     assert np.all(brute[near] <= clear[pick][near] + 0.1), (brute, clear[pick])
     assert np.all(brute[~near] >= opts.safety + 1.0 - 1e-6)
+    # smoothing: the turn limit is only exceeded where a corrected pose meets one that
+    # cannot move (reported)
+    assert s["turn_over_limit"] == rep.n_turn_over < 0.15 * sum(len(c) for c in out.curves)
     # the corrected path still machines the blade as planned
     vr = verify_path(mesh, out)
     assert vr.max_gouge <= out.chord, vr.summary()
