@@ -96,6 +96,7 @@ _PENETRATION_PAIRS = 16
 _FAR_MARGIN = 1.0
 _FAR_PAIRS = 8
 _FAR_BEAM = 8
+_REP_FACTOR = 4.0
 
 
 # ====================================================================== obstacles
@@ -451,19 +452,19 @@ class _TriTree:
             P, N, t, a = P[keep], N[keep], t[keep], a[keep]
             if len(P) == 0:
                 return P, N
-            np.minimum.at(ub, P, _posed_sd(part, rep[N], t, a))
             lb = lb[keep]
-            keep = lb <= ub[P]
-            P, N, lb = P[keep], N[keep], lb[keep]
+            if r[0] < _REP_FACTOR * part.rmax + 8.0:  # nodes small enough for their points to help
+                np.minimum.at(ub, P, _posed_sd(part, rep[N], t, a))
+                keep = lb <= ub[P]
+                P, N, lb = P[keep], N[keep], lb[keep]
             if np.isfinite(far) and len(P) > _FAR_BEAM * 4:
-                start = np.searchsorted(P, P, side="left")  # P stays grouped by pose
-                lbmin = np.minimum.reduceat(lb, np.unique(start))[
-                    np.searchsorted(np.unique(start), start)]
-                fp = lbmin >= far
+                starts, sizes = _groups(P)  # P stays grouped by pose
+                fp = np.repeat((np.minimum.reduceat(lb, starts) >= far) & (sizes > _FAR_BEAM),
+                               sizes)
                 if np.any(fp):
                     order = np.lexsort((lb, P))
                     P, N, lb, fp = P[order], N[order], lb[order], fp[order]
-                    rank = np.arange(len(P)) - start
+                    rank = np.arange(len(P)) - np.repeat(starts, sizes)
                     keep = ~fp | (rank < _FAR_BEAM)
                     P, N = P[keep], N[keep]
             if li + 1 < len(self.levels):
@@ -481,6 +482,12 @@ class _TriTree:
         np.minimum.at(ub, P, sdc)
         keep = sdc - self.rad[T] <= ub[P]
         return P[keep], T[keep]
+
+
+def _groups(P):
+    """(starts, sizes) of the runs of equal values in the non-empty sorted array P."""
+    starts = np.concatenate([[0], np.flatnonzero(P[1:] != P[:-1]) + 1])
+    return starts, np.diff(np.append(starts, len(P)))
 
 
 def _inside_tri(q, A, B, C, n):
@@ -712,7 +719,8 @@ class CollisionScene:
             # within the bounds' gap, about the local triangle size, of the exact one)
             order = np.lexsort((lb, P))
             P, T, lb = P[order], T[order], lb[order]
-            start = np.searchsorted(P, P, side="left")
+            starts, sizes = _groups(P)
+            start = np.repeat(starts, sizes)
             rank = np.arange(len(P)) - start
             lbmin = lb[start]
             deep = ub[P] < 0
