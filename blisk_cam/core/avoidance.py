@@ -35,8 +35,11 @@ lifted along the surface normal by that excess (Eq. 15) and the pose re-checked.
 
 Smoothing: the corrected axes are kept, and their neighbours on the pass turned toward them
 until no consecutive turn exceeds max(``max_turn``, the planned turn there) (default 2° per
-pose) — a ramp in and out of every corrected run; a smoothed pose that would collide keeps its
-previous axis. Everything is then checked again (all poses, links and rapids included);
+pose) — a ramp in and out of every corrected run; then two rounds in which the corrected poses
+may move too (toward each other where neighbouring corrections differ). A smoothed pose that
+would collide, or leave the lead/tilt limits, keeps its axis of the round before; where the
+limit still cannot hold (a corrected pose next to an unresolved one) the report counts it
+(``n_turn_over``). Everything is then checked again (all poses, links and rapids included);
 link, approach, retract and rapid poses that collide are reported unresolved (status 2);
 approach/retract points follow the corrected axis of the pass end they belong to.
 
@@ -562,6 +565,11 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
                     continue
                 ax[s:e] = _smooth(ax0[s:e], ax[s:e], hold[s:e], nrm[s:e], delta, c.closed)
             moved = (_angle(ax, before) > 1e-12) & ~hold & _touch_ok(cutter, nrm, ax)
+            lead, tilt = lead_tilt_of(ax, f, nrm, k_side)
+            moved &= (np.abs(lead) <= options.max_lead + 1e-12) | \
+                (np.abs(lead) <= np.abs(lead_tilt_of(before, f, nrm, k_side)[0]))
+            moved &= (np.abs(tilt) <= options.max_tilt + 1e-12) | \
+                (np.abs(tilt) <= np.abs(lead_tilt_of(before, f, nrm, k_side)[1]))
             ax[~moved] = before[~moved]
             mi = np.nonzero(moved)[0]
             if len(mi) == 0:
