@@ -35,8 +35,11 @@ lifted along the surface normal by that excess (Eq. 15) and the pose re-checked.
 
 Smoothing: the corrected axes are kept, and their neighbours on the pass turned toward them
 until no consecutive turn exceeds max(``max_turn``, the planned turn there) (default 2° per
-pose) — a ramp in and out of every corrected run; a smoothed pose that would collide keeps its
-previous axis. Everything is then checked again (all poses, links and rapids included);
+pose) — a ramp in and out of every corrected run; then two rounds in which the corrected poses
+may move too (toward each other where neighbouring corrections differ). A smoothed pose that
+would collide, or leave the lead/tilt limits, keeps its axis of the round before; where the
+limit still cannot hold (a corrected pose next to an unresolved one) the report counts it
+(``n_turn_over``). Everything is then checked again (all poses, links and rapids included);
 link, approach, retract and rapid poses that collide are reported unresolved (status 2);
 approach/retract points follow the corrected axis of the pass end they belong to.
 
@@ -180,6 +183,9 @@ class CollisionReport:
         colliding pose, NaN elsewhere: compare with ``curve_rotation_normal``
     curve_lift : list of (k,) float, mm — lift along the normal (Eq. 15)
     program_status : (m,) int8 or None; program_clearance : (m,) float or None
+    n_turn_over : int — consecutive pass poses whose axes turn by more than max(max_turn,
+        the planned turn there) after avoidance (mostly a corrected pose next to an
+        unresolved one, which keeps its planned axis); max_turn_deg : the largest such turn
     """
 
     mode: str
@@ -201,6 +207,8 @@ class CollisionReport:
     curve_lift: list = field(default_factory=list)
     program_status: np.ndarray | None = None
     program_clearance: np.ndarray | None = None
+    n_turn_over: int = 0
+    max_turn_deg: float = 0.0
 
     def summary(self) -> dict:
         """JSON-ready top-level ``"collision"`` object of the paths file."""
@@ -227,6 +235,8 @@ class CollisionReport:
             else None,
             "mean_rotation_normal_deg": float(np.degrees(rn[both].mean())) if both.any()
             else None,
+            "turn_over_limit": int(self.n_turn_over),
+            "max_turn_over_deg": float(self.max_turn_deg),
             "obstacles": self.obstacles,
             "assembly": self.assembly,
             "assembly_text": self.assembly_text,
@@ -541,20 +551,31 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
                 g = fi[up]
                 lift[g] = h[up]
                 tip[g] = tip[g] + h[up][:, None] * nrm[g]  # Eq. 15
-        # smoothing, pass by pass
+        # smoothing, pass by pass: first the neighbours of the corrected poses turn toward
+        # them (the corrected ones stay), then two rounds in which the corrected poses may
+        # move too (toward each other where their turns differ); a moved pose that would
+        # collide keeps its axis of the round before. Unresolved poses stay as planned.
         delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
-        before, tip_before = ax.copy(), tip.copy()
-        for ci, c in enumerate(curves):
-            s, e = offs[ci], offs[ci + 1]
-            if not fixed[s:e].any():
-                continue
-            ax[s:e] = _smooth(ax0[s:e], ax[s:e], fixed[s:e], nrm[s:e], delta, c.closed)
-        moved = (_angle(ax, before) > 1e-12) & ~fixed
-        moved &= _touch_ok(cutter, nrm, ax)
-        ax[~moved & ~fixed] = before[~moved & ~fixed]
-        mi = np.nonzero(moved)[0]
-        if len(mi):
-            tip[mi] = cutter.cl_points(cc[mi], nrm[mi], ax[mi]) + off0[mi]
+        for rnd in range(3):
+            hold = fixed | unresolved if rnd == 0 else unresolved
+            before, tip_before = ax.copy(), tip.copy()
+            for ci, c in enumerate(curves):
+                s, e = offs[ci], offs[ci + 1]
+                if not fixed[s:e].any():
+                    continue
+                ax[s:e] = _smooth(ax0[s:e], ax[s:e], hold[s:e], nrm[s:e], delta, c.closed)
+            moved = (_angle(ax, before) > 1e-12) & ~hold & _touch_ok(cutter, nrm, ax)
+            lead, tilt = lead_tilt_of(ax, f, nrm, k_side)
+            moved &= (np.abs(lead) <= options.max_lead + 1e-12) | \
+                (np.abs(lead) <= np.abs(lead_tilt_of(before, f, nrm, k_side)[0]))
+            moved &= (np.abs(tilt) <= options.max_tilt + 1e-12) | \
+                (np.abs(tilt) <= np.abs(lead_tilt_of(before, f, nrm, k_side)[1]))
+            ax[~moved] = before[~moved]
+            mi = np.nonzero(moved)[0]
+            if len(mi) == 0:
+                break
+            tip[mi] = (cutter.cl_points(cc[mi], nrm[mi], ax[mi]) + off0[mi]
+                       + lift[mi][:, None] * nrm[mi])
             d = scene.detect(tip[mi], ax[mi])
             back = mi[d.colliding]
             tip[back], ax[back] = tip_before[back], before[back]
@@ -591,6 +612,16 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         curve_rotation_first=[first_theta[offs[i]:offs[i + 1]] for i in range(len(curves))],
         curve_lift=[lift[offs[i]:offs[i + 1]] for i in range(len(curves))],
     )
+    delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
+    for c0, c1 in zip(path.curves, curves, strict=True):
+        if len(c1) < 2:
+            continue
+        t0 = consecutive_turn(c0.axis, c0.closed)
+        t1 = consecutive_turn(c1.axis, c1.closed)
+        over = t1 > np.maximum(t0, delta) + 1e-9
+        report.n_turn_over += int(over.sum())
+        if over.any():
+            report.max_turn_deg = max(report.max_turn_deg, float(np.degrees(t1[over].max())))
     program = None
     if path.program is not None:
         program, pstat, pclr, pclr0 = yield from _program(scene, path.program, curves, offs,
