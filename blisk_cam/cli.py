@@ -39,6 +39,7 @@ import time
 from pathlib import Path
 
 from .cli_options import UsageError, add_option_flags, finite, option_args
+from .core.avoidance import CollisionOptions
 from .core.errors import BliskCamError
 from .core.options import PATH_STAGES, CutterOptions
 from .core.revolution import angular_span
@@ -229,6 +230,14 @@ def build_parser() -> argparse.ArgumentParser:
     paths.add_argument("--verify", action="store_true",
                        help="also measure the material left and gouges (printed and stored "
                        "in the JSON's stats)")
+    add_option_flags(paths, (CollisionOptions,))
+    paths.add_argument("--holder", metavar='"Z R Z R ..."', default=None,
+                       help="tool body above the flute as a revolved profile: z (along the axis "
+                       "from the tip) and radius pairs, mm, z non-decreasing, starting at the "
+                       "flute length (default: the cutter's shank and holder)")
+    paths.add_argument("--obstacle", metavar="FILE", action="append", default=[],
+                       help="an extra obstacle mesh (hub, whole blisk, fixture; .stl .obj "
+                       ".ply, mm, the blade's frame); repeatable")
     paths.add_argument("--nc", metavar="FILE", default=None,
                        help="also post the path as an NC program (needs --machine, --post)")
     add_nc_arguments(paths, with_paths=False)
@@ -298,10 +307,46 @@ def _check_paths_args(args):
         if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
             raise UsageError(f"--{opt} {value}: the directory does not exist")
     args.stages = given
+    args.collision = _collision_options(args)
     for name in ("cone1", "cone2"):  # read last: a bad file is bad input (status 1)
         profile = getattr(args, f"{name}_profile")
         if profile is not None:
             setattr(args, f"{name}_obj", read_profile_csv(profile))
+
+
+def parse_holder(text):
+    """'z r z r ...' (mm) → ((z, r), ...); UsageError naming what is wrong."""
+    try:
+        values = [float(x) for x in text.replace(",", " ").split()]
+    except ValueError:
+        raise UsageError(f"--holder '{text}': expected numbers 'z r z r ...' in mm") from None
+    if len(values) < 2 or len(values) % 2:
+        raise UsageError(f"--holder '{text}': expected pairs 'z r', got {len(values)} "
+                         "number(s)")
+    return tuple(zip(values[::2], values[1::2], strict=True))
+
+
+def _collision_options(args):
+    """The CollisionOptions of the flags: the mode defaults to avoid when a blade count or an
+    obstacle is given (else off)."""
+    from .core.cones import Axis
+    from .core.pipeline import PathRequest, make_cutter
+
+    given = option_args(args, (CollisionOptions,))
+    if args.holder is not None:
+        given["holder"] = parse_holder(args.holder)
+    if "mode" not in given:
+        given["mode"] = "avoid" if ("blade_count" in given or args.obstacle) else "off"
+    if given["mode"] != "off" and "blade_count" not in given:
+        raise UsageError(f"--collisions {given['mode']} needs --blade-count N (the neighbours "
+                         "are the blade turned by k·360°/N)")
+    try:
+        options = CollisionOptions(**given)
+        if options.mode != "off":
+            options.assembly(make_cutter(PathRequest(Axis(), **args.stages)))
+    except BliskCamError as exc:
+        raise UsageError(str(exc)) from None
+    return options
 
 
 def _check_orientation_args(args, given):
@@ -625,6 +670,17 @@ def _render_by_operator(bpy, filepath, engine, resolution, **kwargs):
     return path
 
 
+def read_obstacles(files):
+    """[(name, V, F)] of the --obstacle files (core.mesh_io; MeshError naming a bad file)."""
+    from .core.mesh_io import read_mesh
+
+    out = []
+    for f in files:
+        V, F = read_mesh(f)
+        out.append((Path(f).stem, V, F))
+    return out
+
+
 def plan_from_args(args, log=print):
     """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
     plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
@@ -653,9 +709,20 @@ def plan_from_args(args, log=print):
             f"{fit.residual1:.4f} mm), cone2 {_shown_generatrix(fit.cone2)} (residual "
             f"{fit.residual2:.4f} mm)")
     req = PathRequest(args.axis_obj, c1, c2, **args.stages)
+    extra = ()
+    if args.collision.mode != "off":
+        from .core.pipeline import collision_stage
+
+        t = time.perf_counter()
+        obstacles = read_obstacles(args.obstacle)
+        times["load"] += time.perf_counter() - t
+        extra = (collision_stage(args.collision, obstacles),)
     t = time.perf_counter()
-    plan = plan_paths(mesh, req)
+    plan = plan_paths(mesh, req, extra=extra)
     times["plan"] = time.perf_counter() - t
+    if extra:  # the collision stage's share of the plan
+        times["collision"] = float(plan.path.stats.get("seconds_collision", 0.0))
+        times["plan"] -= times["collision"]
     if fit is not None and plan.fit is None:
         plan.fit = fit
     report = None
@@ -717,6 +784,8 @@ def _cmd_paths(args):
     t = time.perf_counter()
     # every stage up to the write (the write's own time is printed: it cannot be in the file)
     path.stats.update({f"seconds_{k}": v for k, v in times.items()})
+    if plan.collision is not None:
+        path.stats["seconds_collision"] = times["collision"]
     path.stats["seconds_wall"] = time.perf_counter() - t_wall
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
@@ -732,13 +801,53 @@ def _cmd_paths(args):
 
         for line in verdict_lines(verdict):
             print(line)
-    if args.nc:
+    unresolved = _collision_lines(plan)
+    if args.nc and unresolved:
+        print(f"NC not written: {unresolved[0]} unresolved collision(s)")
+    elif args.nc:
         from .nc_cli import export_from_args
 
         export_from_args(path, args, Path(args.nc).expanduser().resolve(), Path(args.mesh).stem)
     if args.blend or args.preview:
         _blender_outputs(args, V, F, req, plan, report)
+    if unresolved:
+        _fail(f"{unresolved[0]} pose(s) are unresolved collisions (first: {unresolved[1]}); "
+              f"the outputs were written, the NC program was not")
+        return 4
     return 0
+
+
+def _mm(x) -> str:
+    return "n/a" if x is None else f"{float(x):.3f}"
+
+
+def _collision_lines(plan):
+    """Print the collision summary; returns (count, first pose) of the unresolved poses, or
+    None when every pose is clear or corrected (or nothing was checked)."""
+    rep = plan.collision
+    if rep is None:
+        return None
+    summary = plan.path.collision or {}
+    print(f"collisions ({summary.get('mode')}): {summary.get('checked_poses')} poses checked "
+          f"against {len(summary.get('obstacles', {}).get('names', []) or []) or 'the'} "
+          f"obstacle(s), {summary.get('colliding_before')} colliding before, "
+          f"{summary.get('corrected')} corrected, {summary.get('unresolved')} unresolved; "
+          f"min clearance {_mm(summary.get('min_clearance'))} mm ({rep.assembly_text})")
+    if not rep.n_unresolved:
+        return None
+    import numpy as np
+
+    from .core.avoidance import STATUS_UNRESOLVED
+
+    prog = plan.path.program
+    first = "?"
+    if prog is not None and prog.collision_status is not None:
+        j = int(np.flatnonzero(np.asarray(prog.collision_status) == STATUS_UNRESOLVED)[0])
+        x, y, z = (float(v) for v in prog.tip[j])
+        where = (f"pass {int(prog.curve[j])} pose {int(prog.index[j])}" if prog.curve[j] >= 0
+                 else "a link move")
+        first = f"program row {j}, {where}, tip ({x:.3f}, {y:.3f}, {z:.3f}) mm"
+    return int(rep.n_unresolved), first
 
 
 def _cmd_nc(args):

@@ -60,6 +60,7 @@ from scipy.spatial import cKDTree
 from .collision import PART_FLUTE, CollisionScene, Obstacle, Obstacles, _posed_sd
 from .cutter import Cutter, as_cutter
 from .errors import CollisionError
+from .options import Choice, _Stage, check_stage, option
 from .orientation import _clamp, consecutive_turn, lead_tilt_of, local_frames
 from .tool_assembly import DEFAULT_SAFETY, ToolAssembly
 from .toolpath import MOVE_APPROACH, MOVE_RETRACT, PassCurve, Program, ToolPath
@@ -85,7 +86,7 @@ _MAX_SEARCH = math.radians(60.0)
 
 
 @dataclass(frozen=True)
-class CollisionOptions:
+class CollisionOptions(_Stage):
     """What the front ends set (units mm, radians).
 
     Attributes
@@ -104,14 +105,37 @@ class CollisionOptions:
     gouge_tol : float or None, mm — ε of Eq. 14 (None: the path's chord tolerance / 4)
     """
 
-    mode: str = "check"
-    blade_count: int | None = None
-    neighbours: int = 2
-    flute_length: float | None = None
-    holder: tuple | None = None
-    safety: float = DEFAULT_SAFETY
-    max_lead: float = math.radians(30.0)
-    max_tilt: float = math.radians(30.0)
+    title = "Collisions (holder and shank against the blade, its neighbours, obstacles)"
+    error = CollisionError
+
+    mode: str = option(
+        "off", "Collisions", "Collision checking of holder, shank and flute: off; check "
+        "(colour and report, change nothing); avoid (turn the tool axis clear, paper 004). "
+        "The command line turns it to avoid when a blade count or an obstacle is given",
+        choices=(Choice("off", "Off", "No collision checking"),
+                 Choice("check", "Check", "Detect and report; change nothing"),
+                 Choice("avoid", "Avoid", "Detect, then turn the tool axis clear")),
+        flag="--collisions")
+    blade_count: int | None = option(
+        None, "Blade Count", "Blades on the blisk: the neighbours are the blade turned by "
+        "k·360°/N (0 in the panel: not set)", lo=2, none_as=0)
+    neighbours: int = option(2, "Neighbours", "Adjacent blades checked on each side", lo=0)
+    flute_length: float | None = option(
+        None, "Flute Length", "Cutting length of the tool from the tip, mm (0 or not given: "
+        "the cutter's own, 3 × the diameter)", unit="mm", lo=0.0, none_as=0.0,
+        soft_max=200.0)
+    holder: tuple | None = None  # (z, r) body profile above the flute, mm (flag --holder)
+    safety: float = option(DEFAULT_SAFETY, "Safety Distance", "Smallest allowed clearance "
+                           "ds between the tool body and any obstacle, mm", unit="mm", lo=0.0,
+                           soft_max=10.0)
+    max_lead: float = option(
+        math.radians(30.0), "Max Lead", "A corrected tool axis may lean at most this far "
+        "from the surface normal in the feed direction, degrees (either sign)", unit="deg",
+        lo=0.0, hi=math.radians(89.0))
+    max_tilt: float = option(
+        math.radians(30.0), "Max Tilt", "A corrected tool axis may lean at most this far "
+        "from the surface normal across the feed, degrees (either sign)", unit="deg",
+        lo=0.0, hi=math.radians(89.0))
     max_turn: float | None = None
     max_iterations: int = 8
     gouge_tol: float | None = None
@@ -138,6 +162,7 @@ class CollisionOptions:
         if self.gouge_tol is not None and not float(self.gouge_tol) >= 0:
             raise CollisionError(f"collision gouge tolerance must be ≥ 0 mm, got "
                                  f"{self.gouge_tol!r}")
+        check_stage(self)  # the declared bounds (as the panel and the flags show them)
 
     def assembly(self, cutter) -> ToolAssembly:
         """The :class:`~.tool_assembly.ToolAssembly` of these options for ``cutter``."""

@@ -78,8 +78,12 @@ from .toolpath import (
 )
 
 __all__ = [
+    "PLAN_STAGES",
     "PathRequest",
     "PlanResult",
+    "PlanState",
+    "Stage",
+    "collision_stage",
     "NotSupportedError",
     "ZERO_SPEED_WARN_SHARE",
     "zero_speed_warning",
@@ -216,6 +220,7 @@ class PlanResult:
     path: ToolPath
     fit: ConeFit | None = None
     gouge: LocalGougeReport | None = None
+    collision: object = None  # .avoidance.CollisionReport when the plan was checked
 
     @property
     def warnings(self) -> list[str]:
@@ -644,6 +649,7 @@ class PlanState:
     program: object = None
     stats: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    collision: object = None  # CollisionReport of the "collision" stage (when added)
     seconds: dict = field(default_factory=dict)
 
     def result(self) -> PlanResult:
@@ -658,8 +664,9 @@ class PlanState:
             stats=self.stats,
             program=self.program,
             warnings=self.warnings,
+            collision=None if self.collision is None else self.collision.summary(),
         )
-        return PlanResult(path=path, fit=self.fit, gouge=self.gouge)
+        return PlanResult(path=path, fit=self.fit, gouge=self.gouge, collision=self.collision)
 
 
 @dataclass(frozen=True)
@@ -765,6 +772,28 @@ def _stage_checks(st: PlanState):
         st.warnings.append(zs)
     return
     yield
+
+
+def collision_stage(options, obstacles=()) -> Stage:
+    """The "collision" stage (:mod:`.avoidance`, paper 004) for ``iter_plan_paths(...,
+    extra=(collision_stage(options, obstacles),))``: the planned passes and program are
+    checked against the blade, its rotated neighbours and the ``obstacles`` ((name, V, F)),
+    and corrected in mode "avoid". The report is ``PlanResult.collision``."""
+    from .avoidance import iter_run_collisions
+
+    def run(st: PlanState):
+        planned = st.result().path
+        it = iter_run_collisions(st.mesh, planned, obstacles, options)
+        while True:
+            try:
+                fraction = next(it)
+            except StopIteration as stop:
+                path, report = stop.value
+                break
+            yield Progress(float(fraction), "checking collisions")
+        st.curves, st.program, st.collision = path.curves, path.program, report
+
+    return Stage("collision", run)
 
 
 #: the plan, in order: fit → passes → order → orient/gouge → link → checks. Later stages
