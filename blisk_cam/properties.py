@@ -22,13 +22,15 @@ from bpy.props import (
 )
 from bpy.types import PropertyGroup
 
+from .core.avoidance import CollisionOptions
 from .core.machine import known_presets
 from .core.options import PATH_STAGES, fields
 from .core.post import POSTS
 from .core.post.blocks import NcOptions
 
-#: option stages of the NC export (declared in core)
+#: option stages of the NC export and the collision check (declared in core)
 NC_STAGES = (NcOptions,)
+COLLISION_STAGES = (CollisionOptions,)
 
 
 def poll_mesh(_self, obj):
@@ -345,6 +347,7 @@ POST_ITEMS = [(name, name, f"NC program for {name}") for name in POSTS]
 
 BliskCamSettings.__annotations__.update(option_properties(PATH_STAGES))
 BliskCamSettings.__annotations__.update(option_properties(NC_STAGES))
+BliskCamSettings.__annotations__.update(option_properties(COLLISION_STAGES))
 # the machine and the post of "Machine & NC" (their lists come from core: presets, posts)
 BliskCamSettings.__annotations__.update(
     machine=EnumProperty(name="Machine", description="Machine preset, or a TOML file",
@@ -356,6 +359,14 @@ BliskCamSettings.__annotations__.update(
                       items=POST_ITEMS, default=POST_ITEMS[0][0]),
     nc_path=StringProperty(name="NC File", subtype="FILE_PATH", default="//blade.nc",
                            description="NC program written by Export NC"),
+    holder=StringProperty(
+        name="Holder", default="",
+        description="Tool body above the flute as 'z r z r ...' in mm (z along the tool axis "
+        "from the tip, starting at the flute length; empty: the cutter's shank and holder)"),
+    obstacles=PointerProperty(
+        name="Obstacles", type=bpy.types.Collection,
+        description="Extra obstacle meshes (hub, whole blisk, fixture) for the collision "
+        "check"),
     export_anyway=BoolProperty(
         name="Export Anyway", default=False,
         description="Export NC even while poses are unresolved collisions (not recommended)"),
