@@ -390,11 +390,13 @@ def test_cli_fit_auto_on_rotor67_writes_profiles(rotor67_arrays, tmp_path):
     for c in d["curves"]:
         r, z = meridional(np.asarray(c["cc"]), Axis())
         if c["s"] in (0.0, 1.0):  # the boundary loops: on the fitted profile within its fit
-            g = g1 if c["s"] == 0.0 else g2
+            g = g1 if c["s"] < 0.5 else g2
             assert np.abs(g.signed_distance(r, z)).max() < 0.025  # residuals 0.009, 0.020 mm
         else:
             np.testing.assert_allclose(morph.ratio(r, z), c["s"], atol=1e-6)
-    assert d["curves"][0]["s"] == 0.0 and d["curves"][-1]["s"] == 1.0
+    # a fitted profile's end passes lie a hair inside the ragged boundary (issue 14: one piece
+    # each), a few 1e-5 of the span
+    assert 0.0 <= d["curves"][0]["s"] < 1e-3 and 1.0 - 1e-3 < d["curves"][-1]["s"] <= 1.0
 
 
 def test_properties_and_panel_rows_are_generated_from_the_declarations(addon):
