@@ -12,6 +12,7 @@ from .export_paths import BLISKCAM_OT_export_paths
 from .fit_cones import BLISKCAM_OT_fit_cones
 from .generate_paths import BLISKCAM_OT_generate_paths
 from .render_preview import BLISKCAM_OT_render_preview
+from .set_scene_mm import BLISKCAM_OT_set_scene_mm
 
 CLASSES = [
     BLISKCAM_OT_fit_cones,
@@ -19,4 +20,5 @@ CLASSES = [
     BLISKCAM_OT_clear_paths,
     BLISKCAM_OT_export_paths,
     BLISKCAM_OT_render_preview,
+    BLISKCAM_OT_set_scene_mm,
 ]
