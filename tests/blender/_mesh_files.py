@@ -2,13 +2,20 @@
 ASCII/binary PLY), a reader of binary STL used only as a test oracle, and an order-independent
 comparison of triangle soups. Not collected by pytest (no ``test_`` prefix)."""
 
+import os
 from pathlib import Path
 
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
 SHARED = REPO.parent / "shared"
-NASA_STL = SHARED / "data" / "blades" / "rotor37_blade_extended_open.stl"
+# the blades: $BLISK_CAM_BLADES, else tests/data/blades, else shared/ beside the repository
+BLADES = Path(
+    os.environ.get("BLISK_CAM_BLADES")
+    or (REPO / "tests" / "data" / "blades" if (REPO / "tests" / "data" / "blades").is_dir()
+        else SHARED / "data" / "blades")
+)
+NASA_STL = BLADES / "rotor37_blade_extended_open.stl"
 
 _STL_RECORD = np.dtype(
     [("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")]

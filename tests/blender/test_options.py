@@ -15,7 +15,7 @@ import sys
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import REPO, SHARED, read_binary_stl, sample_surface, write_binary_stl
+from _mesh_files import BLADES, REPO, read_binary_stl, sample_surface, write_binary_stl
 
 from blisk_cam import blender_io, cli, output
 from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
@@ -26,7 +26,7 @@ from blisk_cam.core.mesh import TriMesh
 from blisk_cam.core.pipeline import make_cutter
 from blisk_cam.operators.common import path_request, settings_cones
 
-ROTOR67 = SHARED / "data" / "blades" / "rotor67_blade_extended_open.stl"
+ROTOR67 = BLADES / "rotor67_blade_extended_open.stl"
 needs_rotor67 = pytest.mark.skipif(not ROTOR67.is_file(), reason="shared blade data not found")
 TIMEOUT = 240
 
