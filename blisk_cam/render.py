@@ -396,14 +396,15 @@ class _Saved:
 WORKBENCH_AA = {"fast": "FXAA", "high": "8"}
 
 
-def _setup_workbench(scene, saved, quality="fast"):
+def _setup_workbench(scene, saved, quality="fast", overlay=False):
     shading = scene.display.shading
     saved.set(shading, "light", "STUDIO")
     saved.set(shading, "color_type", "MATERIAL")
     saved.set(shading, "show_cavity", True)
     saved.set(shading, "cavity_type", "WORLD")
     saved.set(shading, "show_object_outline", True)
-    saved.set(shading, "show_specular_highlight", True)
+    # no sheen with an overlay: it greys the camera-facing title band and text
+    saved.set(shading, "show_specular_highlight", not overlay)
     saved.set(shading, "show_shadows", False)
     saved.set(shading, "show_backface_culling", False)
     saved.set(shading, "show_xray", False)
@@ -556,15 +557,26 @@ def _style_cones(scene, style, saved, temporary, extent):
         temporary.append(line)
 
 
-def _text(name, body, size, rgba, cam, loc, align="LEFT"):
+def _flat_material(name, rgba):
+    """A matte material for the overlay: no specular highlight (Workbench puts a grey sheen
+    on a camera-facing flat, which lifted a black band to 0.24 grey)."""
     from .blender_io import colored_material
+
+    mat = colored_material(name, rgba)
+    mat.specular_intensity = 0.0
+    mat.roughness = 1.0
+    mat.metallic = 0.0
+    return mat
+
+
+def _text(name, body, size, rgba, cam, loc, align="LEFT"):
 
     cu = bpy.data.curves.new(name, "FONT")
     cu.body = body
     cu.size = size
     cu.align_x = align
     cu.align_y = "BOTTOM"
-    cu.materials.append(colored_material(f"Blisk CAM render text {rgba}", rgba))
+    cu.materials.append(_flat_material(f"Blisk CAM render text {rgba}", rgba))
     ob = bpy.data.objects.new(name, cu)
     ob.parent = cam
     ob.location = loc
@@ -572,19 +584,16 @@ def _text(name, body, size, rgba, cam, loc, align="LEFT"):
 
 
 def _rect(name, w, h, rgba, cam, loc):
-    from .blender_io import colored_material
-
     me = bpy.data.meshes.new(name)
     me.from_pydata([(0, 0, 0), (w, 0, 0), (w, h, 0), (0, h, 0)], [], [(0, 1, 2, 3)])
-    me.materials.append(colored_material(f"Blisk CAM render swatch {tuple(rgba)}", rgba))
+    me.materials.append(_flat_material(f"Blisk CAM render swatch {tuple(rgba)}", rgba))
     ob = bpy.data.objects.new(name, me)
     ob.parent = cam
     ob.location = loc
     return ob
 
 
-def _overlay(scene, cam, resolution, *, title, legend, scale_mm, target_depth,
-             background=(0.045, 0.05, 0.06)):
+def _overlay(scene, cam, resolution, *, title, legend, scale_mm, target_depth):
     """Title, legend and scale bar as objects in front of the camera (children of it, in its
     local frame: x right, y up, −z forward), nearer than anything framed. Returns them."""
     data = cam.data
@@ -597,20 +606,21 @@ def _overlay(scene, cam, resolution, *, title, legend, scale_mm, target_depth,
     hx, hy = depth * tan_x, depth * tan_y  # half the visible width/height at that depth
     oy = 2.0 * data.shift_y * tan_big * depth  # the lens shift moves the visible window up
     line = 0.045 * hy * 2.0  # one text line: 4.5 % of the picture's height
-    white, grey = (0.95, 0.95, 0.95, 1.0), (0.7, 0.72, 0.75, 1.0)
+    white = (1.0, 1.0, 1.0, 1.0)
     left, top = -hx + 0.6 * line, oy + hy - 1.25 * line
     out = []
-    if title or legend is not None:  # a band of the background colour behind the header
+    if title or legend is not None:  # a black band behind the header (the studio light
+        # dims camera-facing text to ~0.6 grey: black keeps it readable)
         rows = (1.3 if title else 0.0) + (2.2 if legend is not None else 0.0)
         out.append(_rect("Blisk CAM render header", 2.0 * hx, (rows + 0.4) * line,
-                         tuple(background[:3]) + (1.0,), cam,
+                         (0.0, 0.0, 0.0, 1.0), cam,
                          (-hx, oy + hy - (rows + 0.4) * line, -1.01 * depth)))
     if title:
         out.append(_text("Blisk CAM render title", title, 0.8 * line, white, cam,
                          (left, top, -depth)))
     if legend is not None and legend.colors:
         y = top - 1.2 * line
-        out.append(_text("Blisk CAM render legend title", legend.title, 0.6 * line, grey, cam,
+        out.append(_text("Blisk CAM render legend title", legend.title, 0.6 * line, white, cam,
                          (left, y, -depth)))
         y -= 0.9 * line
         sw, sh = 0.9 * line, 0.55 * line
@@ -726,8 +736,7 @@ def render_preview(
             f = mm_per_blender_unit(scene)
             scale = (nice_length(0.25 * extent * f), f) if scale_bar and len(pts) else None
             temporary.extend(_overlay(scene, cam, (w, h), title=title, legend=legend,
-                                      scale_mm=scale, target_depth=target_depth,
-                                      background=background))
+                                      scale_mm=scale, target_depth=target_depth))
         r = scene.render
         saved.set(scene, "camera", cam)
         saved.set(r, "engine", eng)
@@ -754,7 +763,7 @@ def render_preview(
             with quiet_output():  # Cycles logs its GPU library probing (CUDA, HIP...)
                 _setup_cycles(scene, saved, temporary, quality)
         elif eng == "BLENDER_WORKBENCH":
-            _setup_workbench(scene, saved, quality)
+            _setup_workbench(scene, saved, quality, overlay=annotated)
 
         path.unlink(missing_ok=True)  # so that a stale file cannot pass for this render
         with quiet_output() as out:
