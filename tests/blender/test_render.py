@@ -399,7 +399,7 @@ def test_report_preview_title_legend_cones_and_view(report_scene, tmp_path):
         filepath=str(light), resolution=(640, 360), annotate=False,
         view=(1.0, -0.8, 0.55)) == {"FINISHED"}
     a, b = _pixels(old), _pixels(new)
-    # the bare blade shows more once the cones are outlines: measured 0.134 → 0.22 of the
+    # the bare blade shows more once the cones are outlines: measured 0.117 → 0.175 of the
     # picture on the demo blade (the dense wire grids and cone 2's fill covered it)
     share_old, share_light = _blade_share(a), _blade_share(_pixels(light))
     assert share_light > 1.3 * share_old, (share_old, share_light)
@@ -433,3 +433,28 @@ def test_report_preview_hidden_cones_and_labels(report_scene, tmp_path):
                                                                             20.0, 50.0]
     with pytest.raises(render.RenderError):
         render.nice_length(0.0)
+
+
+def test_spiral_is_cut_into_one_spline_per_colour_bin():
+    from blisk_cam import output
+    from blisk_cam.core.toolpath import BallTool, PassCurve, ToolPath
+
+    k = 241
+    t = np.linspace(0.0, 1.0, k)
+    cc = np.stack([200.0 * np.cos(6 * t), 200.0 * np.sin(6 * t), 40.0 * t], axis=1)
+    n = np.tile([0.0, 0.0, 1.0], (k, 1))
+    spiral = PassCurve(s=0.0, closed=False, cc=cc, normal=n, tip=cc, axis=n, ratio=t)
+    ring = PassCurve(s=0.5, closed=True, cc=cc[:50], normal=n[:50], tip=cc[:50], axis=n[:50])
+    path = ToolPath(axis=Axis(), cone1=Cone(100, 0, 100, 10), cone2=Cone(300, 0, 300, 10),
+                    tool=BallTool(6.0), cusp=0.1, chord=0.1, curves=[spiral, ring])
+    sets, closed, s, cusp = output.spline_pieces(path, "cc", [0.01, 0.02])
+    nb = output.COLOR_BINS
+    assert len(sets) == nb + 1 and closed == [False] * nb + [True]
+    # the pieces run through every bin of the ratio, in order, and join end to start
+    bins = output.spline_bins("MORPH", s[:nb], cusp[:nb], 0.1)
+    assert list(bins) == list(range(nb))
+    for a, b in zip(sets[: nb - 1], sets[1:nb], strict=True):
+        assert np.array_equal(a[-1], b[0])
+    assert np.array_equal(np.concatenate([p[:-1] for p in sets[: nb - 1]] + [sets[nb - 1]]), cc)
+    assert cusp == [0.01] * nb + [0.02] and s[nb] == 0.5
+    assert np.array_equal(sets[nb], cc[:50])  # a pass with one ratio is one spline, as before
