@@ -6,7 +6,8 @@
 #   make demo      demo blisk → demo_out/demo.blend, demo_out/preview.png
 #   make test      tests/core (plain pytest), tests/blender under bpy 4.5 and bpy 5.2
 #   make bench     every bench/*.py
-#   make package   dist/blisk_cam-<version>.zip with scipy wheels per platform and Python ABI
+#   make package   dist/blisk_cam-<version>-<platform>.zip, one per platform, with its scipy wheels
+#   make package-all  dist/blisk_cam-<version>.zip, one zip with the wheels of every platform
 #   make lint      ruff check
 
 SHELL := /bin/bash
@@ -48,7 +49,7 @@ define ensure_venv
 endef
 
 .PHONY: help venv45 venv52 venvs demo test test-core test-blender45 test-blender52 bench \
-        package lint clean
+        package package-all lint clean
 
 help:
 	@sed -n 's/^#   make /  make /p' $(firstword $(MAKEFILE_LIST))
@@ -102,6 +103,9 @@ bench: venv45
 
 package: venv45
 	$(VENV45)/bin/python scripts/build_extension.py --output-dir dist
+
+package-all: venv45
+	$(VENV45)/bin/python scripts/build_extension.py --output-dir dist --one-zip
 
 lint: venv45
 	$(VENV45)/bin/ruff check .

@@ -79,7 +79,10 @@ def mm_per_blender_unit(scene=None) -> float:
     scale = float(scene.unit_settings.scale_length) if scene is not None else 1.0
     if not math.isfinite(scale) or scale <= 0.0 or scale == 1.0:
         return 1.0
-    return scale * 1000.0
+    # RNA keeps scale_length as a float32 (0.001 reads back as 0.00100000005, which made a
+    # millimetre scene scale every coordinate by 1 + 4.7e-8): 7 significant digits recover
+    # the value that was set
+    return float(f"{scale:.7g}") * 1000.0
 
 
 def _factor(mm_per_unit, scene=None) -> float:

@@ -3,8 +3,9 @@
 Collection ``"Blisk CAM – <blade>"`` (en dash), a child of the blade's first collection:
 
 * ``"<blade> CC paths"`` — a curve object, one POLY spline per pass curve (cyclic for closed
-  curves) through the cutter-contact points; bevelled for renders; material per spline from
-  the colour mode (solid, morph ratio s of the pass, or the cusp measured next to the pass).
+  curves; a spiral is cut into one spline per colour bin of its ratio, :func:`spline_pieces`)
+  through the cutter-contact points; bevelled for renders; material per spline from the
+  colour mode (solid, morph ratio s of the pass, or the cusp measured next to the pass).
 * ``"<blade> tool tips"`` — the same for the tool tip (CL) points.
 * ``"<blade> links"`` (when the path is linked) — the approach, retract, link and rapid moves
   of the program, a spline per run (grey at feed, red rapid); not rendered.
@@ -70,6 +71,7 @@ __all__ = [
     "restyle",
     "pose_indices",
     "verify_colors",
+    "spline_pieces",
     "curve_points_mm",
 ]
 
@@ -212,6 +214,36 @@ def spline_bins(mode: str, s, cusp, cusp_tolerance: float) -> np.ndarray:
     else:
         t = s
     return np.clip((np.clip(t, 0.0, 1.0) * COLOR_BINS).astype(np.int64), 0, COLOR_BINS - 1)
+
+
+def spline_pieces(path, key: str = "cc", cusp=None):
+    """The splines of a path's curve object: (point sets (k, 3) mm, closed flags, s, cusp).
+
+    One spline per pass curve — except a spiral (a curve whose ``ratio`` varies per pose),
+    which is cut where its ratio enters another colour bin (:data:`COLOR_BINS`), so that
+    "Morph Ratio" colours it along its ratio instead of with the one colour of its first
+    pose; consecutive pieces share their end point, so the spiral stays unbroken. Each
+    piece's s is the mean ratio of its poses."""
+    cusp = np.full(len(path.curves), np.nan) if cusp is None else np.asarray(cusp, float)
+    sets, closed, s, sc = [], [], [], []
+    for c, cv in zip(path.curves, cusp, strict=True):
+        pts = np.asarray(getattr(c, key), dtype=np.float64)
+        if c.ratio is None or len(pts) < 3:
+            sets.append(pts)
+            closed.append(bool(c.closed))
+            s.append(float(c.s))
+            sc.append(float(cv))
+            continue
+        r = np.asarray(c.ratio, dtype=np.float64)
+        b = np.clip((np.clip(r, 0.0, 1.0) * COLOR_BINS).astype(np.int64), 0, COLOR_BINS - 1)
+        bounds = np.concatenate([[0], np.nonzero(np.diff(b))[0] + 1, [len(pts)]])
+        ring = np.vstack([pts, pts[:1]]) if c.closed else pts
+        for a, z in zip(bounds[:-1], bounds[1:], strict=True):
+            sets.append(ring[a : z + 1])  # up to the next piece's first point
+            closed.append(False)
+            s.append(float(r[a:z].mean()))
+            sc.append(float(cv))
+    return sets, closed, s, sc
 
 
 def verify_colors(values, cusp: float, chord: float) -> np.ndarray:
@@ -684,16 +716,13 @@ def write_path_objects(
         new[KEY_BLADE] = bname
         new[KEY_CUSP] = float(path.cusp)
         new[KEY_CHORD] = float(path.chord)
-        s = [float(c.s) for c in path.curves]
         cusp = _curve_cusp(path, verify)
         objs = {"collection": new, "verify": None}
         for role, label, key in (("cc", "CC paths", "cc"), ("tip", "tool tips", "tip")):
-            ob = _curve_object(
-                f"{bname} {label}", [getattr(c, key) for c in path.curves],
-                [c.closed for c in path.curves], f, settings.curve_bevel,
-            )
+            sets, closed, s, sc = spline_pieces(path, key, cusp)
+            ob = _curve_object(f"{bname} {label}", sets, closed, f, settings.curve_bevel)
             ob.data[KEY_S] = s
-            ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in cusp]
+            ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in sc]
             ob[KEY_ROLE] = role
             ob[KEY_NAME] = f"{bname} {label}"
             new.objects.link(ob)

@@ -37,6 +37,10 @@ from .core.errors import BliskCamError
 __all__ = [
     "RenderError",
     "PreviewResult",
+    "Legend",
+    "CONE_STYLES",
+    "nice_length",
+    "tool_label",
     "render_preview",
     "resolve_engine",
     "eevee_engine_name",
@@ -63,6 +67,52 @@ class PreviewResult:
     engine: str
     seconds: float
     coverage: float
+
+
+@dataclass(frozen=True)
+class Legend:
+    """What the path colours mean, drawn as a row of swatches under the title.
+
+    ``title`` e.g. "pass ratio s"; ``colors`` RGBA per swatch, left to right; ``low`` and
+    ``high`` the labels at the two ends ("0 hub", "1 tip")."""
+
+    title: str
+    colors: tuple
+    low: str = ""
+    high: str = ""
+
+
+#: share of the picture's height kept free at the top for the title and the legend
+HEADER_SHARE = 0.17
+#: how the cone objects (``blisk_cam_role`` cone1/cone2/cone_middle) show in a render:
+#: "outline" — only their borders as thin lines (the region stays readable, the blade is not
+#: hidden behind three dense wire grids), "hidden", or "full" (as in the viewport)
+CONE_STYLES = ("outline", "hidden", "full")
+_CONE_ROLES = ("cone1", "cone2", "cone_middle")
+
+
+def nice_length(x: float) -> float:
+    """The largest 1, 2 or 5 × 10^k not above ``x`` (> 0): a scale bar's length."""
+    if not (x > 0 and np.isfinite(x)):
+        raise RenderError(f"a scale bar needs a positive length, got {x!r}")
+    k = np.floor(np.log10(x))
+    for m in (5.0, 2.0, 1.0):
+        if m * 10.0**k <= x * (1 + 1e-12):
+            return float(m * 10.0**k)
+    return float(10.0**k)
+
+
+def tool_label(tool: dict) -> str:
+    """"Ø12 ball", "Ø10 bull r2", "Ø8 flat", "Ø6 taper 3°" from a paths-JSON tool dict (the
+    diameter is twice the radius, mm)."""
+    kind = str(tool.get("type", "ball"))
+    d = 2.0 * float(tool.get("radius", 0.0))
+    text = f"Ø{d:g} {kind}"
+    if kind == "bull" and tool.get("corner_radius"):
+        text += f" r{float(tool['corner_radius']):g}"
+    if kind == "taper" and tool.get("taper_angle") is not None:
+        text += f" {np.degrees(float(tool['taper_angle'])):.3g}°"
+    return text
 
 
 # --- engines -----------------------------------------------------------------------------
@@ -221,10 +271,12 @@ def _look_rotation(back):
     return np.stack([right, cam_up, back], axis=1)
 
 
-def frame_camera(scene, objects, *, view=DEFAULT_VIEW, resolution=(1280, 720), margin=0.06):
+def frame_camera(scene, objects, *, view=DEFAULT_VIEW, resolution=(1280, 720), margin=0.06,
+                 top_reserve=0.0):
     """Create (or reuse) the preview camera, aimed along ``-view`` and placed so that
     ``objects`` (their evaluated vertices, subsampled; bounding boxes for non-meshes) fill
-    the frame with ``margin`` (fraction) to spare.
+    the frame with ``margin`` (fraction) to spare. ``top_reserve`` (fraction of the height)
+    is kept free at the top of the picture (a header), by a vertical lens shift.
 
     Returns the camera object (linked to the scene's master collection).
     """
@@ -249,6 +301,11 @@ def frame_camera(scene, objects, *, view=DEFAULT_VIEW, resolution=(1280, 720), m
     w, h = resolution
     tan_big = (0.5 * data.sensor_width / data.lens) * (1.0 - margin)
     tan_x, tan_y = (tan_big, tan_big * h / w) if w >= h else (tan_big * w / h, tan_big)
+    reserve = min(max(float(top_reserve), 0.0), 0.5)
+    data.shift_x = 0.0
+    # the window is shifted up by reserve × its height: the objects fit the lower part
+    data.shift_y = reserve * tan_y / (2.0 * tan_big) if reserve else 0.0
+    tan_y = tan_y * (1.0 - reserve)
     # back off along the view direction until every point is inside the frustum, then
     # slide sideways to centre the picture (a few rounds: each changes the perspective)
     extent = max(float(np.ptp(rel[:, 0])), float(np.ptp(rel[:, 1])), 1e-9)
@@ -339,14 +396,15 @@ class _Saved:
 WORKBENCH_AA = {"fast": "FXAA", "high": "8"}
 
 
-def _setup_workbench(scene, saved, quality="fast"):
+def _setup_workbench(scene, saved, quality="fast", overlay=False):
     shading = scene.display.shading
     saved.set(shading, "light", "STUDIO")
     saved.set(shading, "color_type", "MATERIAL")
     saved.set(shading, "show_cavity", True)
     saved.set(shading, "cavity_type", "WORLD")
     saved.set(shading, "show_object_outline", True)
-    saved.set(shading, "show_specular_highlight", True)
+    # no sheen with an overlay: it greys the camera-facing title band and text
+    saved.set(shading, "show_specular_highlight", not overlay)
     saved.set(shading, "show_shadows", False)
     saved.set(shading, "show_backface_culling", False)
     saved.set(shading, "show_xray", False)
@@ -435,6 +493,162 @@ def image_coverage(path, background=None, *, threshold=0.03) -> float:
     return float(diff.mean())
 
 
+def _mesh_boundary_edges(ob):
+    """(k, 2, 3) world coordinates of the boundary edges of a mesh object's base mesh (edges
+    used by one face): the border of a cone patch."""
+    me = ob.data
+    n = len(me.loops)
+    if n == 0:
+        return np.zeros((0, 2, 3))
+    lv = np.empty(n, dtype=np.int32)
+    me.loops.foreach_get("vertex_index", lv)
+    start = np.empty(len(me.polygons), dtype=np.int32)
+    total = np.empty(len(me.polygons), dtype=np.int32)
+    me.polygons.foreach_get("loop_start", start)
+    me.polygons.foreach_get("loop_total", total)
+    nxt = np.arange(n) + 1
+    last = start + total - 1
+    nxt[last] = start  # each polygon's last loop closes to its first
+    e = np.sort(np.stack([lv, lv[nxt]], axis=1), axis=1)
+    keys, counts = np.unique(e, axis=0, return_counts=True)
+    border = keys[counts == 1]
+    co = np.empty(len(me.vertices) * 3, dtype=np.float64)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    m = np.array(ob.matrix_world, dtype=np.float64)
+    world = co @ m[:3, :3].T + m[:3, 3]
+    return world[border]
+
+
+def _style_cones(scene, style, saved, temporary, extent):
+    """Apply a :data:`CONE_STYLES` style to the scene's cone objects for one render."""
+    if style not in CONE_STYLES:
+        raise RenderError(f"cone style must be one of {', '.join(CONE_STYLES)}, got {style!r}")
+    if style == "full":
+        return
+    from .blender_io import colored_material
+
+    for ob in list(scene.objects):
+        role = ob.get("blisk_cam_role")
+        if role not in _CONE_ROLES or ob.type != "MESH" or ob.hide_render:
+            continue
+        saved.set(ob, "hide_render", True)
+        if style != "outline" or role == "cone_middle":
+            continue
+        seg = _mesh_boundary_edges(ob)
+        if len(seg) == 0:
+            continue
+        cu = bpy.data.curves.new(f"{ob.name} outline", "CURVE")
+        cu.dimensions = "3D"
+        cu.bevel_depth = 0.0012 * extent
+        cu.bevel_resolution = 1
+        pts = np.ones((len(seg), 2, 4))
+        pts[:, :, :3] = seg
+        for p in pts:
+            sp = cu.splines.new("POLY")
+            sp.points.add(1)
+            sp.points.foreach_set("co", p.ravel())
+        rgba = (0.5, 0.5, 0.5, 1.0)
+        if ob.data.materials and ob.data.materials[0] is not None:
+            rgba = tuple(ob.data.materials[0].diffuse_color)[:3] + (1.0,)
+        cu.materials.append(colored_material(f"Blisk CAM render {role} outline", rgba))
+        line = bpy.data.objects.new(f"{ob.name} outline", cu)
+        scene.collection.objects.link(line)
+        temporary.append(line)
+
+
+def _flat_material(name, rgba):
+    """A matte material for the overlay: no specular highlight (Workbench puts a grey sheen
+    on a camera-facing flat, which lifted a black band to 0.24 grey)."""
+    from .blender_io import colored_material
+
+    mat = colored_material(name, rgba)
+    mat.specular_intensity = 0.0
+    mat.roughness = 1.0
+    mat.metallic = 0.0
+    return mat
+
+
+def _text(name, body, size, rgba, cam, loc, align="LEFT"):
+
+    cu = bpy.data.curves.new(name, "FONT")
+    cu.body = body
+    cu.size = size
+    cu.align_x = align
+    cu.align_y = "BOTTOM"
+    cu.materials.append(_flat_material(f"Blisk CAM render text {rgba}", rgba))
+    ob = bpy.data.objects.new(name, cu)
+    ob.parent = cam
+    ob.location = loc
+    return ob
+
+
+def _rect(name, w, h, rgba, cam, loc):
+    me = bpy.data.meshes.new(name)
+    me.from_pydata([(0, 0, 0), (w, 0, 0), (w, h, 0), (0, h, 0)], [], [(0, 1, 2, 3)])
+    me.materials.append(_flat_material(f"Blisk CAM render swatch {tuple(rgba)}", rgba))
+    ob = bpy.data.objects.new(name, me)
+    ob.parent = cam
+    ob.location = loc
+    return ob
+
+
+def _overlay(scene, cam, resolution, *, title, legend, scale_mm, target_depth):
+    """Title, legend and scale bar as objects in front of the camera (children of it, in its
+    local frame: x right, y up, −z forward), nearer than anything framed. Returns them."""
+    data = cam.data
+    w, h = resolution
+    # just beyond the near clip: in front of everything the camera sees (also of objects
+    # that were not framed, e.g. cone outlines reaching toward the camera)
+    depth = 1.02 * data.clip_start
+    tan_big = 0.5 * data.sensor_width / data.lens
+    tan_x, tan_y = (tan_big, tan_big * h / w) if w >= h else (tan_big * w / h, tan_big)
+    hx, hy = depth * tan_x, depth * tan_y  # half the visible width/height at that depth
+    oy = 2.0 * data.shift_y * tan_big * depth  # the lens shift moves the visible window up
+    line = 0.045 * hy * 2.0  # one text line: 4.5 % of the picture's height
+    white = (1.0, 1.0, 1.0, 1.0)
+    left, top = -hx + 0.6 * line, oy + hy - 1.25 * line
+    out = []
+    if title or legend is not None:  # a black band behind the header (the studio light
+        # dims camera-facing text to ~0.6 grey: black keeps it readable)
+        rows = (1.3 if title else 0.0) + (2.2 if legend is not None else 0.0)
+        out.append(_rect("Blisk CAM render header", 2.0 * hx, (rows + 0.4) * line,
+                         (0.0, 0.0, 0.0, 1.0), cam,
+                         (-hx, oy + hy - (rows + 0.4) * line, -1.01 * depth)))
+    if title:
+        out.append(_text("Blisk CAM render title", title, 0.8 * line, white, cam,
+                         (left, top, -depth)))
+    if legend is not None and legend.colors:
+        y = top - 1.2 * line
+        out.append(_text("Blisk CAM render legend title", legend.title, 0.6 * line, white, cam,
+                         (left, y, -depth)))
+        y -= 0.9 * line
+        sw, sh = 0.9 * line, 0.55 * line
+        x = left
+        if legend.low:
+            out.append(_text("Blisk CAM render legend low", legend.low, 0.5 * line, white, cam,
+                             (x, y + 0.05 * line, -depth)))
+            x += 0.32 * line * (len(legend.low) + 1)
+        for k, rgba in enumerate(legend.colors):
+            out.append(_rect(f"Blisk CAM render swatch {k:02d}", sw, sh, tuple(rgba), cam,
+                             (x + k * sw, y, -depth)))
+        x += len(legend.colors) * sw + 0.3 * line
+        if legend.high:
+            out.append(_text("Blisk CAM render legend high", legend.high, 0.5 * line, white,
+                             cam, (x, y + 0.05 * line, -depth)))
+    if scale_mm is not None and target_depth > 0:
+        length_mm, mm_per_bu = scale_mm
+        bar = (length_mm / mm_per_bu) * depth / target_depth  # at the subject's depth
+        y = oy - hy + 0.9 * line
+        out.append(_rect("Blisk CAM render scale bar", bar, 0.18 * line, white, cam,
+                         (left, y, -depth)))
+        out.append(_text("Blisk CAM render scale label", f"{length_mm:g} mm", 0.55 * line,
+                         white, cam, (left + bar + 0.3 * line, y - 0.12 * line, -depth)))
+    for ob in out:
+        scene.collection.objects.link(ob)
+    return out
+
+
 def _default_objects(scene):
     return [
         ob
@@ -457,6 +671,10 @@ def render_preview(
     keep_camera=False,
     min_coverage=1e-3,
     quality="fast",
+    cones="full",
+    title=None,
+    legend=None,
+    scale_bar=False,
 ):
     """Render a still PNG of the scene, framed on ``objects``.
 
@@ -474,6 +692,11 @@ def render_preview(
     min_coverage : float — fraction of non-background pixels below which the picture counts
         as blank and :class:`RenderError` is raised
     quality : "fast" (Workbench FXAA, Cycles 8 samples) or "high" (8× AA, 64 samples)
+    cones : one of :data:`CONE_STYLES` — the cone objects in this render ("full": as they are)
+    title : str, optional — a line of text at the top left (blade, tool, tolerances)
+    legend : :class:`Legend`, optional — what the path colours mean, under the title
+    scale_bar : bool — a bar of a round length in mm at the bottom left, true at the depth of
+        the framed objects' centre
 
     Returns
     -------
@@ -496,7 +719,24 @@ def render_preview(
     had_camera = bpy.data.objects.get(CAMERA_NAME) is not None
     cam = None
     try:
-        cam = frame_camera(scene, objects, view=view, resolution=(w, h))
+        annotated = bool(title or legend is not None or scale_bar)
+        # room for the header and the scale bar when annotated
+        cam = frame_camera(scene, objects, view=view, resolution=(w, h),
+                           margin=0.06,
+                           top_reserve=HEADER_SHARE if (title or legend is not None) else 0.0)
+        pts = _world_points(objects, bpy.context.evaluated_depsgraph_get(), 2000)
+        extent = float(np.ptp(pts, axis=0).max()) if len(pts) else 1.0
+        _style_cones(scene, cones, saved, temporary, extent)
+        if annotated:
+            from .blender_io import mm_per_blender_unit
+
+            m = np.array(cam.matrix_world, dtype=np.float64)
+            centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0)) if len(pts) else m[:3, 3]
+            target_depth = float((m[:3, 3] - centre) @ (m[:3, 2] / np.linalg.norm(m[:3, 2])))
+            f = mm_per_blender_unit(scene)
+            scale = (nice_length(0.25 * extent * f), f) if scale_bar and len(pts) else None
+            temporary.extend(_overlay(scene, cam, (w, h), title=title, legend=legend,
+                                      scale_mm=scale, target_depth=target_depth))
         r = scene.render
         saved.set(scene, "camera", cam)
         saved.set(r, "engine", eng)
@@ -523,7 +763,7 @@ def render_preview(
             with quiet_output():  # Cycles logs its GPU library probing (CUDA, HIP...)
                 _setup_cycles(scene, saved, temporary, quality)
         elif eng == "BLENDER_WORKBENCH":
-            _setup_workbench(scene, saved, quality)
+            _setup_workbench(scene, saved, quality, overlay=annotated)
 
         path.unlink(missing_ok=True)  # so that a stale file cannot pass for this render
         with quiet_output() as out:
@@ -546,6 +786,10 @@ def render_preview(
                 bpy.data.objects.remove(item, do_unlink=True)
                 if isinstance(data, bpy.types.Light) and data.users == 0:
                     bpy.data.lights.remove(data)
+                elif isinstance(data, bpy.types.Curve) and data.users == 0:
+                    bpy.data.curves.remove(data)
+                elif isinstance(data, bpy.types.Mesh) and data.users == 0:
+                    bpy.data.meshes.remove(data)
             elif isinstance(item, bpy.types.World) and item.users == 0:
                 bpy.data.worlds.remove(item)
         if cam is not None:

@@ -15,6 +15,11 @@ Steps:
    (``bpy/<ver>/scripts/addons_core/bl_pkg/cli/blender_ext.py build``), then ``validate`` the
    zip.
 
+By default every platform gets its own zip (``blisk_cam-<version>-linux_x64.zip``, ...): the
+scipy wheels of all platforms together weigh ~200 MB, and a user needs one platform's.
+``--one-zip`` builds the single all-platform zip instead. A build for one platform (or
+without wheels) is one zip either way.
+
 ``--no-wheels`` skips step 1 (a small zip for tests: the test environment provides scipy).
 Runs with any Python ≥ 3.11 that has the bpy wheel installed (or pass ``--blender-ext``).
 """
@@ -245,10 +250,21 @@ def main(argv: list[str] | None = None) -> int:
         choices=sorted(SCIPY_FOR_PYTHON),
         help="Blender Python version to bundle scipy for (repeatable; default: all)",
     )
-    parser.add_argument(
+    split = parser.add_mutually_exclusive_group()
+    split.add_argument(
         "--split-platforms",
-        action="store_true",
-        help="one zip per platform instead of one zip for all",
+        dest="split_platforms",
+        action="store_const",
+        const=True,
+        default=None,
+        help="one zip per platform (the default when bundling wheels for several platforms)",
+    )
+    split.add_argument(
+        "--one-zip",
+        dest="split_platforms",
+        action="store_const",
+        const=False,
+        help="one zip with the wheels of every platform (large: ~210 MB for all of them)",
     )
     parser.add_argument(
         "--wheels-dir",
@@ -270,11 +286,10 @@ def main(argv: list[str] | None = None) -> int:
     platforms = args.platforms or list(PLATFORMS)
     pythons = args.pythons or list(SCIPY_FOR_PYTHON)
     try:
+        args.split_platforms = resolve_split(args, platforms)
         blender_ext = find_blender_ext(args.blender_ext)
         if not (PACKAGE_DIR / MANIFEST).is_file():
             raise BuildError(f"{PACKAGE_DIR / MANIFEST} is missing")
-        if args.no_wheels and args.split_platforms:
-            raise BuildError("--split-platforms needs the wheels (drop --no-wheels)")
         wheels = (
             [] if args.no_wheels else download_wheels(Path(args.wheels_dir), platforms, pythons)
         )
@@ -305,6 +320,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"build_extension: error: {exc}", file=sys.stderr)
         return 1
     return 0
+
+
+def resolve_split(args, platforms: list[str]) -> bool:
+    """One zip per platform? ``--split-platforms`` / ``--one-zip`` when given (BuildError for
+    ``--split-platforms`` without wheels); by default yes when wheels are bundled for more
+    than one platform."""
+    if args.split_platforms is True and args.no_wheels:
+        raise BuildError("--split-platforms needs the wheels (drop --no-wheels)")
+    if args.split_platforms is None:
+        return not args.no_wheels and len(set(platforms)) > 1
+    return bool(args.split_platforms)
 
 
 def expected_outputs(args, platforms: list[str]) -> list[Path]:

@@ -29,7 +29,15 @@ import numpy as np
 
 from .errors import ToleranceError
 
-__all__ = ["BoundCheck", "Verdict", "NON_BALL_NOTE", "judge", "verdict_dict", "verdict_lines"]
+__all__ = [
+    "BoundCheck",
+    "Verdict",
+    "NON_BALL_NOTE",
+    "judge",
+    "verdict_dict",
+    "verdict_from_dict",
+    "verdict_lines",
+]
 
 #: the explanation shown with a bull-nose, flat or taper cutter (formatted with the figures)
 NON_BALL_NOTE = (
@@ -207,6 +215,24 @@ def verdict_dict(verdict: Verdict) -> dict:
     if verdict.note:
         out["note"] = verdict.note
     return out
+
+
+def verdict_from_dict(d: dict) -> Verdict:
+    """The :class:`Verdict` of a :func:`verdict_dict` (e.g. a paths JSON's ``"verify"``), so
+    a reader of the file can print :func:`verdict_lines`. ToleranceError when malformed."""
+    try:
+        checks = []
+        for name, c in d["checks"].items():
+            value = float("nan") if c.get("value") is None else float(c["value"])
+            checks.append(BoundCheck(
+                name, value, float(c["bound"]), c["status"] == "PASS",
+                at=_point(c.get("at")), curve=c.get("curve"), pose=c.get("pose"),
+                s=c.get("s"), between=tuple(c["between"]) if c.get("between") else None,
+            ))
+        return Verdict(d["status"] == "PASS", checks, float(d["cusp"]), float(d["chord"]),
+                       note=d.get("note"))
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        raise ToleranceError(f"verify verdict is incomplete or malformed: {err}") from err
 
 
 _LABEL = {"material_left": "material left", "gouge": "gouge"}

@@ -14,6 +14,7 @@ from .export_paths import BLISKCAM_OT_export_paths
 from .fit_cones import BLISKCAM_OT_fit_cones
 from .generate_paths import BLISKCAM_OT_generate_paths
 from .render_preview import BLISKCAM_OT_render_preview
+from .set_scene_mm import BLISKCAM_OT_set_scene_mm
 
 CLASSES = [
     BLISKCAM_OT_fit_cones,
@@ -22,4 +23,5 @@ CLASSES = [
     BLISKCAM_OT_export_paths,
     BLISKCAM_OT_render_preview,
     BLISKCAM_OT_export_nc,
+    BLISKCAM_OT_set_scene_mm,
 ]

@@ -66,6 +66,7 @@ class PathJob:
         self.plan = None
         self.verify = None
         self.warnings = []
+        self.verdict = None  # core.verdict.Verdict once verified
         self.t0 = time.perf_counter()
         self._it = iter_plan_paths(self.mesh, self.request)
 
@@ -113,8 +114,20 @@ class PathJob:
         values = None
         if self.want_map and self.verify is not None:
             values = input_vertex_values(self.mesh, self.V, self.verify.vertex_values)
+        json_text = None
+        self.verdict = None
+        if self.verify is not None:  # the verdict goes into the paths JSON ("verify")
+            import json
+
+            from ..core.paths_io import path_to_dict
+            from ..core.verdict import judge, verdict_dict
+
+            self.verdict = judge(self.verify, path.cusp, path.chord, path.tool, path=path)
+            json_text = json.dumps({**path_to_dict(path), "verify": verdict_dict(self.verdict)},
+                                   allow_nan=False)
         output.write_path_objects(
             scene, blade, path, settings,
+            json_text=json_text,
             verify=self.verify,
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
@@ -126,6 +139,11 @@ class PathJob:
             settings.fit_residual1, settings.fit_residual2 = fit.residual1, fit.residual2
         store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0)
         self.warnings = self.plan.warnings  # the generator's and the planning's
+        if self.verdict is not None and not self.verdict.passed:
+            from ..core.verdict import verdict_lines
+
+            self.warnings = [*self.warnings, " ".join(x.strip() for x in verdict_lines(
+                self.verdict)[:3])]
         return summary(settings)
 
     def run(self, context) -> str:

@@ -11,7 +11,14 @@ from bpy.props import (
 
 from ..core.errors import BliskCamError
 from ..properties import PREVIEW_ENGINES
-from .common import report_exception, resolve_blade, result_blade_name, settings_of
+from .common import (
+    blade_axis,
+    read_blade,
+    report_exception,
+    resolve_blade,
+    result_blade_name,
+    settings_of,
+)
 
 #: the path curves are rendered with a bevel (tube radius) of at least this fraction of the
 #: framed extent (a curve without bevel does not render; a 0.2 mm tube on a 200 mm blade is
@@ -41,6 +48,67 @@ def _framed_objects(context, frame):
     return _default_objects(scene), curves
 
 
+def _pressure_side_view(context):
+    """Direction toward a camera facing the blade's pressure (concave) side, or None (no
+    blade, or sides that cannot be told apart: the fixed default view is used)."""
+    from ..core.views import pressure_side_view
+
+    blade = resolve_blade(context)
+    if blade is None or blade.type != "MESH":
+        return None
+    try:
+        V, F = read_blade(context, blade)
+        return tuple(float(x) for x in pressure_side_view(V, F, blade_axis(settings_of(context),
+                                                                          blade)))
+    except BliskCamError:
+        return None
+
+
+def _annotation(context):
+    """(title line, :class:`render.Legend`) of the current result: the blade, the tool
+    ("Ø12 ball"), the tolerances and the pass count from the stored paths JSON (else the
+    settings), and what the path colours mean in the current colour mode."""
+    import json
+
+    import numpy as np
+
+    from .. import output, render
+
+    settings = context.scene.blisk_cam
+    name = result_blade_name(context)
+    data = {}
+    if name:
+        text = output.stored_paths_json(name)
+        if text:
+            try:
+                data = json.loads(text)
+            except ValueError:
+                data = {}
+    blade = name or (settings.blade.name if settings.blade is not None else "")
+    tool = data.get("tool") or {"type": settings.tool_type.lower(),
+                                "radius": float(settings.tool_radius),
+                                "corner_radius": float(settings.corner_radius)}
+    tol = data.get("tolerances") or {"cusp": float(settings.cusp), "chord": float(settings.chord)}
+    parts = [blade, render.tool_label(tool),
+             f"cusp {float(tol['cusp']):g} mm, chord {float(tol['chord']):g} mm"]
+    n = (data.get("stats") or {}).get("passes")
+    if n:
+        parts.append(f"{int(n)} passes")
+    title = "   ·   ".join(p for p in parts if p)
+    mode = settings.color_mode
+    t = (np.arange(output.COLOR_BINS) + 0.5) / output.COLOR_BINS
+    ramp = tuple((*rgb, 1.0) for rgb in output._ramp(t))
+    if mode == "MORPH":
+        legend = render.Legend("path colour: pass ratio s (cone 1 → cone 2)", ramp,
+                               "0 hub", "1 tip")
+    elif mode == "CUSP":
+        legend = render.Legend("path colour: measured cusp between passes", ramp, "0",
+                               f"{float(tol['cusp']):g} mm")
+    else:
+        legend = render.Legend("path colour: tool path (CC points)", (output.SOLID_RGBA,))
+    return title, legend
+
+
 class BLISKCAM_OT_render_preview(bpy.types.Operator):
     """Render a still preview (PNG) of the blade and its tool paths, camera auto-framed"""
 
@@ -68,6 +136,19 @@ class BLISKCAM_OT_render_preview(bpy.types.Operator):
     keep_camera: BoolProperty(
         name="Keep Camera", description="Leave the preview camera as the scene camera",
         default=False,
+    )
+    annotate: BoolProperty(
+        name="Title and Legend",
+        description="Draw a title line (blade, tool, tolerances), a colour legend and a scale "
+        "bar into the picture",
+        default=True,
+    )
+    cones: EnumProperty(
+        name="Cones",
+        items=(("OUTLINE", "Outline", "Only the borders of cone 1 and cone 2, thin"),
+               ("HIDDEN", "Hidden", "No cones in the picture"),
+               ("FULL", "Full", "The cone objects as in the viewport")),
+        default="OUTLINE",
     )
 
     @classmethod
@@ -102,9 +183,16 @@ class BLISKCAM_OT_render_preview(bpy.types.Operator):
                 if ob.data.bevel_depth < RENDER_BEVEL_FRACTION * extent:
                     bevels.append((ob.data, ob.data.bevel_depth))
                     ob.data.bevel_depth = RENDER_BEVEL_FRACTION * extent
+            view = tuple(self.view)
+            if not self.properties.is_property_set("view"):
+                view = _pressure_side_view(context) or view
+            title = legend = None
+            if self.annotate:
+                title, legend = _annotation(context)
             result = render.render_preview(
                 path, engine=self.engine, resolution=tuple(self.resolution), objects=objects,
-                scene=context.scene, view=tuple(self.view), keep_camera=self.keep_camera,
+                scene=context.scene, view=view, keep_camera=self.keep_camera,
+                cones=self.cones.lower(), title=title, legend=legend, scale_bar=self.annotate,
             )
         except Exception as exc:
             return report_exception(self, exc)

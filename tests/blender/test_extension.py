@@ -34,7 +34,8 @@ PANELS = (
     "BLISKCAM_PT_display",
     "BLISKCAM_PT_preview",
 )
-OPERATORS = ("fit_cones", "generate_paths", "clear_paths", "export_paths", "render_preview")
+OPERATORS = ("fit_cones", "generate_paths", "clear_paths", "export_paths", "render_preview",
+             "set_scene_mm")
 
 
 def blender_ext_cli():

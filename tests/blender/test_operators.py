@@ -437,7 +437,8 @@ def test_bad_input_is_disabled_with_a_reason_or_reported(addon, demo, tmp_path):
     changing = {c.bl_idname for c in CLASSES} - {"blisk_cam.export_paths",
                                                   "blisk_cam.export_nc"}  # files only
     assert changing == {f"blisk_cam.{n}" for n in
-                        ("fit_cones", "generate_paths", "clear_paths", "render_preview")}
+                        ("fit_cones", "generate_paths", "clear_paths", "render_preview",
+                         "set_scene_mm")}
     for cls in CLASSES:
         if cls.bl_idname in changing:
             assert {"REGISTER", "UNDO"} <= set(cls.bl_options), cls.bl_idname

@@ -13,7 +13,7 @@ from blisk_cam.core.cutter import Cutter
 from blisk_cam.core.errors import ToleranceError
 from blisk_cam.core.mesh import TriMesh
 from blisk_cam.core.pathgen import generate_paths
-from blisk_cam.core.verdict import judge, verdict_dict, verdict_lines
+from blisk_cam.core.verdict import judge, verdict_dict, verdict_from_dict, verdict_lines
 from blisk_cam.core.verify import verify_path
 
 
@@ -111,3 +111,14 @@ def test_real_report_is_judged_and_located(tube_path):
     d = verdict_dict(v)
     assert d["checks"]["material_left"]["curve"] == left.curve
     assert math.isclose(d["checks"]["gouge"]["value"], rep.max_gouge)
+
+
+def test_dict_round_trip_gives_the_same_lines(tube_path):
+    mesh, path, rep = tube_path
+    for v in (judge(rep, path.cusp, path.chord, path.tool, path=path),
+              judge(fake_report(0.2, float("nan")), 0.05, 0.05,
+                    cutter=Cutter.from_spec("bull", 6.0, 2.0))):
+        d = json.loads(json.dumps(verdict_dict(v)))
+        assert verdict_lines(verdict_from_dict(d)) == verdict_lines(v)
+    with pytest.raises(ToleranceError, match="malformed"):
+        verdict_from_dict({"status": "PASS"})
