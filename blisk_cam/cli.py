@@ -565,9 +565,8 @@ def _cmd_demo(args):
         settings.verify = False
         if not args.no_paths:
             _paths_by_operators(bpy, scene, out / "paths.json")
-            for key in ("cone1", "cone2"):  # the output collection shows the cones now
-                objs[key].hide_render = True
-                objs[key].hide_viewport = True
+            for key in ("cone1", "cone2"):  # the output collection shows the cones now: once
+                bpy.data.objects.remove(objs.pop(key), do_unlink=True)
         # frame the sector; the axis (far inside the hub) is shown only where it falls in view
         shown = [o for k, o in objs.items() if k != "axis"]
         view = demo_view_direction(demo)
@@ -650,8 +649,9 @@ def _paths_by_operators(bpy, scene, out, *, fit=False, keep=(None, None)):
         import json
 
         with open(out, encoding="utf-8") as fh:
-            for w in json.load(fh).get("stats", {}).get("warnings", []) or []:
-                print(f"warning: {w}")
+            d = json.load(fh)
+        for w in (d.get("stats", {}).get("warnings", []) or []) + d.get("warnings", []):
+            print(f"warning: {w}")
     return out
 
 

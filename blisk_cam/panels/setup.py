@@ -66,6 +66,13 @@ class BLISKCAM_PT_setup(_BliskCamPanel, Panel):
     def draw(self, context):
         settings = context.scene.blisk_cam
         layout = _split(self.layout)
+        from ..units import scene_units_problem
+
+        problem = scene_units_problem(context.scene)
+        if problem:  # e.g. an STL in a metre scene shows Rotor 37 as 82 m wide
+            box = layout.box()
+            box.label(text=problem, icon="ERROR")
+            box.operator("blisk_cam.set_scene_mm", icon="DRIVER_DISTANCE")
         col = layout.column()
         col.prop(settings, "blade")
         active = getattr(context, "active_object", None)

@@ -90,9 +90,11 @@ def test_demo_writes_blend_and_visible_preview(tmp_path):
     # the .blend holds the scene: blades, hub, both cones, the axis, the camera, settings
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     names = set(bpy.data.objects.keys())
-    for name in ("Blade", "Blade +1", "Blade -1", "Hub", "Cone 1 (hub)", "Cone 2 (tip)",
+    for name in ("Blade", "Blade +1", "Blade -1", "Hub", "Blade cone 1", "Blade cone 2",
                  "Blisk Axis"):
         assert name in names, names
+    # each cone once: the output collection's, not a second copy from the demo scene
+    assert not {"Cone 1 (hub)", "Cone 2 (tip)"} & names
     assert len(bpy.data.objects["Blade"].data.polygons) > 1000
     assert bpy.data.objects["Blisk Axis"].type == "EMPTY"
     assert bpy.context.scene.camera is not None
