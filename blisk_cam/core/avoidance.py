@@ -79,6 +79,7 @@ __all__ = [
     "unresolved_rows",
     "worst_pose",
     "iter_run_collisions",
+    "next_unresolved",
     "run_collisions",
 ]
 
@@ -851,3 +852,31 @@ def unresolved_rows(path: ToolPath) -> np.ndarray:
     if rows is None:
         return np.zeros(0, dtype=np.int64)
     return np.nonzero(rows[2] == STATUS_UNRESOLVED)[0]
+
+
+def next_unresolved(path: ToolPath, current=None, tol: float = 1e-3):
+    """The unresolved pose after the one at ``current`` (a point, mm: e.g. the 3D cursor),
+    in machining order, wrapping around; the first one when ``current`` is at none of them.
+    Poses at the same tip (a closed pass's closing pose) count once.
+
+    Returns (tip (3,), unit axis (3,), row, k, n) — k-th (0-based) of n distinct unresolved
+    tips — or None when no pose is unresolved."""
+    rows = collision_rows(path)
+    idx = unresolved_rows(path)
+    if rows is None or len(idx) == 0:
+        return None
+    tips = rows[0][idx]
+    keep = []
+    for j in range(len(idx)):  # distinct tips, first occurrence, machining order
+        if not any(np.linalg.norm(tips[j] - tips[i]) <= tol for i in keep):
+            keep.append(j)
+    n = len(keep)
+    k = 0
+    if current is not None:
+        d = np.linalg.norm(tips[keep] - np.asarray(current, dtype=np.float64), axis=1)
+        at = np.nonzero(d <= tol)[0]
+        if len(at):
+            k = (int(at[0]) + 1) % n
+    j = keep[k]
+    a = rows[1][idx[j]]
+    return tips[j].copy(), a / np.linalg.norm(a), int(idx[j]), k, n
