@@ -56,9 +56,9 @@ from .blender_io import (
     mm_per_blender_unit,
 )
 from .core import toolpath as _toolpath
+from .core.avoidance import pose_collision_status
 from .core.errors import BliskCamError
 from .core.lmrs import morph_between
-from .core.avoidance import pose_collision_status
 from .core.paths_io import path_to_dict
 from .core.revolution import angular_range
 

@@ -145,31 +145,42 @@ def test_check_collisions_colours_writes_and_survives_reload(addon, demo, tmp_pa
         assert seen[1] != seen[0]
 
 
-def test_avoid_mode_and_face_selection(addon, demo, tmp_path):
-    """Mode avoid writes 'avoid'; a partial face selection makes the selection the blade and
-    the rest of the same mesh an obstacle (the user's mesh is not changed)."""
+def test_face_selection_makes_the_rest_an_obstacle(addon, demo, tmp_path):
+    """A whole-blisk mesh (hub strip + blade) with the blade's faces selected: the selection
+    is the blade, the rest of the same mesh an extra obstacle; the user's mesh is not
+    changed. Mode avoid is written as such."""
     blade, s = _setup(demo, tmp_path)
     s.mode = "AVOID"
+    V, F = demo.combined([0])  # the hub strip first, then blade 0
+    n_hub, n_blade = len(demo.hub_faces), len(demo.blade_faces)
+    assert len(F) == n_hub + n_blade
+    tmp = blender_io.arrays_to_object("whole", V, F)
+    old = blade.data
+    blade.data = tmp.data  # the blade object is now the whole blisk (same name: same paths)
+    bpy.data.objects.remove(tmp)
+    bpy.data.meshes.remove(old)
     me = blade.data
-    n = len(me.polygons)
-    z = np.zeros(n * 3, dtype=np.float32)
-    me.polygons.foreach_get("center", z)
-    sel = z.reshape(-1, 3)[:, 2] > -100.0  # every face: the whole mesh stays the blade
-    sel[:] = True
-    sel[np.arange(n) % 50 == 0] = False  # a few unselected faces: the rest of the mesh
+    sel = np.arange(len(F)) >= n_hub
     me.polygons.foreach_set("select", sel)
     co_before = np.zeros(len(me.vertices) * 3, dtype=np.float32)
     me.vertices.foreach_get("co", co_before)
-    with pytest.raises(RuntimeError, match="unselected faces"):
-        # the unselected faces are interleaved with the blade: they share its vertices,
-        # so the core refuses them as an obstacle that coincides with the blade
-        bpy.ops.blisk_cam.check_collisions()
+    assert bpy.ops.blisk_cam.check_collisions() == {"FINISHED"}
+    summary = _stored(blade)["collision"]
+    assert summary["mode"] == "avoid"
+    obs = dict(zip(summary["obstacles"]["names"], summary["obstacles"]["triangles"],
+                   strict=True))
+    assert obs["blade"] == n_blade
+    assert obs[f"{blade.name} (unselected faces)"] == n_hub
     co_after = np.zeros_like(co_before)
     me.vertices.foreach_get("co", co_after)
-    assert np.array_equal(co_before, co_after) and len(me.polygons) == n
-    me.polygons.foreach_set("select", np.ones(n, dtype=bool))  # all selected: whole mesh
-    assert bpy.ops.blisk_cam.check_collisions() == {"FINISHED"}
-    assert _stored(blade)["collision"]["mode"] == "avoid"
+    sel_after = np.zeros(len(F), dtype=bool)
+    me.polygons.foreach_get("select", sel_after)
+    assert np.array_equal(co_before, co_after) and np.array_equal(sel, sel_after)
+    assert len(me.polygons) == len(F)
+    # faces interleaved with the blade's share its vertices: refused with the way out
+    me.polygons.foreach_set("select", np.arange(len(F)) % 50 != 0)
+    with pytest.raises(RuntimeError, match="select only the blade faces"):
+        bpy.ops.blisk_cam.check_collisions()
 
 
 def test_bad_input_is_refused_clearly(addon, demo, tmp_path):
