@@ -32,6 +32,39 @@ def _setup(demo, tmp_path, *, generate=True):
     return blade, s
 
 
+class _Layout:
+    """Stands in for ``UILayout``: records the properties, operators and labels drawn."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = self.use_property_decorate = False
+        self.active = True
+        self.scale_y = 1.0
+
+    def prop(self, data, name, **_kw):
+        assert hasattr(data, name), name
+        self.log.append(name)
+
+    def _child(self, *_a, **_kw):
+        return _Layout(self.log)
+
+    row = column = box = split = _child
+
+    def label(self, text="", **_kw):
+        self.log.append("label: " + text)
+
+    def operator(self, idname, **_kw):
+        self.log.append(idname)
+
+
+def _drawn_panel():
+    from blisk_cam.panels.collisions import BLISKCAM_PT_collisions
+
+    log = []
+    BLISKCAM_PT_collisions.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
+    return log
+
+
 def _stored(blade):
     return json.loads(output.stored_paths_json(blade.name))
 
@@ -54,10 +87,24 @@ def test_check_collisions_colours_writes_and_survives_reload(addon, demo, tmp_pa
     blade, s = _setup(demo, tmp_path)
     before = _stored(blade)
     assert "collision" not in before and _pose_attribute(blade) is None
+    from blisk_cam.core.avoidance import CollisionOptions
+    from blisk_cam.core.options import fields
+
+    drawn = _drawn_panel()  # every declared option, the holder, obstacles and the button
+    declared = [spec.prop_name(n) for n, spec, _ in fields(CollisionOptions) if spec.blender]
+    assert [x for x in drawn if x in declared] == declared
+    assert {"holder", "obstacles", "blisk_cam.check_collisions"} <= set(drawn)
+    assert "blisk_cam.next_unresolved_pose" not in drawn
     s.mode = "OFF"  # the button checks even when the mode is off
     assert bpy.ops.blisk_cam.check_collisions() == {"FINISHED"}
     data = _stored(blade)
     summary = data["collision"]
+    drawn = _drawn_panel()  # the counts and the worst clearance of the stored summary
+    assert f"label: Unresolved: {summary['unresolved']}" in drawn
+    assert f"label: Colliding before: {summary['colliding_before']}" in drawn
+    assert any(x.startswith(f"label: Worst clearance: {summary['min_clearance']:.3f} mm")
+               for x in drawn)
+    assert "blisk_cam.next_unresolved_pose" in drawn
     assert summary["mode"] == "check"
     assert summary["checked_poses"] == len(data["program"]["tip"])
     status = _json_statuses(data)
