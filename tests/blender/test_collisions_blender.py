@@ -243,3 +243,13 @@ def test_bad_input_is_refused_clearly(addon, demo, tmp_path):
         bpy.ops.blisk_cam.check_collisions()
     assert "collision" not in _stored(blade)  # nothing was written
     assert not bpy.ops.blisk_cam.next_unresolved_pose.poll()
+    # the meshes of the Obstacles collection are extra obstacles (the blade itself is not)
+    coll = bpy.data.collections.new("Fixture")
+    bpy.context.scene.collection.children.link(coll)
+    blender_io.arrays_to_object("hub", demo.hub_vertices, demo.hub_faces, coll)
+    coll.objects.link(blade)
+    s.obstacles, s.holder = coll, HOLDER
+    assert bpy.ops.blisk_cam.check_collisions() == {"FINISHED"}
+    obs = _stored(blade)["collision"]["obstacles"]
+    assert obs["names"][-1] == "hub" and obs["triangles"][-1] == len(demo.hub_faces)
+    assert len(obs["names"]) == 1 + 4 + 1  # blade, ±1, ±2, hub: not the blade object again
