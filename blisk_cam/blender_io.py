@@ -45,6 +45,7 @@ __all__ = [
     "mm_per_blender_unit",
     "import_mesh_file",
     "object_to_arrays",
+    "blade_and_rest",
     "arrays_to_object",
     "cone_to_object",
     "axis_to_object",
@@ -356,7 +357,7 @@ def _remove_objects(objects):
                     bpy.data.meshes.remove(data)
 
 
-def object_to_arrays(obj, depsgraph=None, *, mm_per_unit=None):
+def object_to_arrays(obj, depsgraph=None, *, mm_per_unit=None, with_selection=False):
     """The evaluated mesh of an object as arrays: world frame, millimetres, triangles.
 
     Modifiers, shape keys and the object's world matrix are applied; n-gons are triangulated
@@ -374,6 +375,11 @@ def object_to_arrays(obj, depsgraph=None, *, mm_per_unit=None):
     -------
     V : (n, 3) float64, mm, world frame
     F : (m, 3) int64, indices into V
+
+    Raises
+    ------
+    selected : (m,) bool — only with ``with_selection=True``: whether the face each triangle
+        comes from is selected (the evaluated mesh's face selection, as Edit Mode left it)
 
     Raises
     ------
@@ -399,6 +405,12 @@ def object_to_arrays(obj, depsgraph=None, *, mm_per_unit=None):
         tri = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
         mesh.loop_triangles.foreach_get("vertices", tri)
         M = np.array(ev.matrix_world, dtype=np.float64)
+        if with_selection:
+            poly_sel = np.zeros(len(mesh.polygons), dtype=bool)
+            mesh.polygons.foreach_get("select", poly_sel)
+            tri_poly = np.empty(len(mesh.loop_triangles), dtype=np.int32)
+            mesh.loop_triangles.foreach_get("polygon_index", tri_poly)
+            selected = poly_sel[tri_poly] if len(tri_poly) else np.zeros(0, dtype=bool)
     finally:
         ev.to_mesh_clear()
 
@@ -414,7 +426,31 @@ def object_to_arrays(obj, depsgraph=None, *, mm_per_unit=None):
     msg = _non_finite_message(f"object '{obj.name}'", V)
     if msg:
         raise InputError(msg)
+    if with_selection:
+        return V, tri.reshape(-1, 3).astype(np.int64), selected
     return V, tri.reshape(-1, 3).astype(np.int64)
+
+
+def blade_and_rest(obj, depsgraph=None, *, mm_per_unit=None):
+    """The blade of a mesh object and the rest of the same mesh: when some but not all of its
+    faces are selected (Edit Mode selection, e.g. one blade of a whole blisk), the blade is
+    the selected faces and the unselected ones are returned as an obstacle; otherwise the
+    whole evaluated mesh is the blade. Read-only (the object and its mesh are not changed).
+
+    Returns
+    -------
+    (V, F) — the blade, mm world frame
+    rest : (V, F) or None — the other faces
+    counts : (selected triangles, all triangles)
+    """
+    from .core.collision import split_faces
+
+    V, F, sel = object_to_arrays(obj, depsgraph, mm_per_unit=mm_per_unit, with_selection=True)
+    n_sel = int(sel.sum())
+    if n_sel == 0 or n_sel == len(F):
+        return (V, F), None, (len(F), len(F))
+    blade, rest = split_faces(V, F, sel)
+    return blade, rest, (n_sel, len(F))
 
 
 # --- writing -----------------------------------------------------------------------------

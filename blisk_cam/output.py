@@ -15,6 +15,13 @@ Collection ``"Blisk CAM – <blade>"`` (en dash), a child of the blade's first c
   ``s`` (morph ratio), ``pass`` (index of the pass level), ``curve`` (index of the curve),
   ``move`` (move type code, names in the object's ``blisk_cam_move_types`` property) and
   ``status`` (the path's per-pose flags, 0 when the path has none).
+  When the path was checked for collisions (``blisk_cam.check_collisions``) the cloud also
+  has ``collision_status`` (0 clear, 1 corrected, 2 unresolved) and its points show it:
+  green, orange, red materials in Solid view and renders (the cloud then renders).
+* after a collision check: ``"<blade> tool assembly"`` — the revolved flute and holder at
+  the pose with the smallest clearance (origin at the tip, local +Z the tool axis), and
+  ``"<blade> neighbour ±k"`` — the blade turned by ±k·360°/N, grey, so renders show the
+  channel.
 * child collection ``"Blisk CAM – <blade> poses"`` — at most ``pose_count`` single-arrow
   Empties spread evenly over all poses (tip at the origin, local +Z = tool axis), never one
   per pose of a long path.
@@ -50,6 +57,7 @@ from .blender_io import (
     mm_per_blender_unit,
 )
 from .core import toolpath as _toolpath
+from .core.avoidance import pose_collision_status
 from .core.errors import BliskCamError
 from .core.lmrs import morph_between
 from .core.paths_io import path_to_dict
@@ -73,6 +81,8 @@ __all__ = [
     "verify_colors",
     "spline_pieces",
     "curve_points_mm",
+    "collision_summary",
+    "write_collision_objects",
 ]
 
 COLLECTION_PREFIX = "Blisk CAM – "  # en dash
@@ -83,6 +93,13 @@ KEY_CUSP = "blisk_cam_cusp"
 KEY_CHORD = "blisk_cam_chord"
 KEY_ROLE = "blisk_cam_role"  # on objects: "cc", "tip", "poses", "pose", "verify", CONE_ROLES
 KEY_NAME = "blisk_cam_name"  # on objects: the intended name (restored after the swap)
+KEY_COLLISION = "blisk_cam_collision"  # on the collection: the collision summary (JSON)
+KEY_STATUS = "blisk_cam_collision_status"  # on pose empties: their pose's collision status
+#: colours of the collision statuses 0 clear, 1 corrected, 2 unresolved
+STATUS_RGBA = ((0.10, 0.80, 0.20, 1.0), (1.00, 0.45, 0.02, 1.0), (0.95, 0.03, 0.03, 1.0))
+STATUS_NAMES = ("clear", "corrected", "unresolved")
+NEIGHBOUR_RGBA = (0.55, 0.55, 0.58, 1.0)
+ASSEMBLY_RGBA = (0.35, 0.45, 0.85, 0.6)
 #: per-spline values stored on the curve data (for re-colouring without the path)
 KEY_S = "blisk_cam_s"
 KEY_SPLINE_CUSP = "blisk_cam_spline_cusp"
@@ -120,16 +137,19 @@ def find_output_collection(blade_name: str):
 
 def output_objects(coll) -> dict:
     """Role → object(s) of an output collection: ``cc``, ``tip``, ``links``, ``poses``,
-    ``verify``, ``cone1``, ``cone2``, ``cone_middle`` (objects or None) and ``pose_empties``
-    (list)."""
+    ``verify``, ``tool_assembly``, ``cone1``, ``cone2``, ``cone_middle`` (objects or None),
+    ``pose_empties`` and ``neighbours`` (lists)."""
     out = {"cc": None, "tip": None, "links": None, "poses": None, "verify": None,
-           "pose_empties": [], **dict.fromkeys(CONE_ROLES)}
+           "tool_assembly": None, "pose_empties": [], "neighbours": [],
+           **dict.fromkeys(CONE_ROLES)}
     if coll is None:
         return out
     for ob in coll.all_objects:
         role = ob.get(KEY_ROLE)
         if role == "pose":
             out["pose_empties"].append(ob)
+        elif role == "neighbour":
+            out["neighbours"].append(ob)
         elif role in out:
             out[role] = ob
     return out
@@ -159,6 +179,21 @@ def _to_text_lines(json_text: str) -> str:
     if "\n" in json_text:
         raise BliskCamError("internal: the paths JSON to store holds a raw newline")
     return json_text.replace("], [", "],\n[")
+
+
+def collision_summary(blade_name: str) -> dict | None:
+    """The collision summary of a blade's stored paths (``ToolPath.collision``: checked
+    poses, colliding before, corrected, unresolved, min clearance...), or None when its
+    paths were not checked. Cheap (a copy kept on the collection): for panels."""
+    coll = find_output_collection(blade_name)
+    text = coll.get(KEY_COLLISION) if coll is not None else None
+    if not text:
+        return None
+    try:
+        out = json.loads(text)
+    except ValueError:
+        return None
+    return out if isinstance(out, dict) else None
 
 
 def _from_text_lines(stored: str) -> str:
@@ -531,15 +566,70 @@ def _point_cloud_object(name, path, f, radius_mm):
     _set_attribute(me, "curve", "INT", curve_id)
     _set_attribute(me, "move", "INT", move)
     _set_attribute(me, "status", "INT", _flags(path))
+    collision = pose_collision_status(path)
+    if collision is not None:
+        _set_attribute(me, "collision_status", "INT", collision)
     me.update()
     ob = bpy.data.objects.new(name, me)
     ob["blisk_cam_move_types"] = names
-    ob.hide_render = True
+    ob.hide_render = collision is None  # checked: the status colours render
     with contextlib.suppress(Exception):  # display only: a failure leaves a plain vertex cloud
-        ng = _points_node_group(radius_mm / f)
+        if collision is None:
+            ng = _points_node_group(radius_mm / f)
+        else:
+            ng = _status_points_node_group(radius_mm / f)
         mod = ob.modifiers.new("Points", "NODES")
         mod.node_group = ng
     return ob
+
+
+def _status_materials():
+    """The three status materials (clear, corrected, unresolved; created or reused)."""
+    return [colored_material(f"Blisk CAM collision {label}", rgba)
+            for label, rgba in zip(STATUS_NAMES, STATUS_RGBA, strict=True)]
+
+
+def _status_points_node_group(radius_bu):
+    """A Geometry Nodes group "Blisk CAM Collision Points": mesh vertices → points of the
+    given radius, one point cloud per ``collision_status`` value with its status material
+    (green, orange, red), each made an instance (a point cloud holds a single material)."""
+    name = "Blisk CAM Collision Points"
+    ng = bpy.data.node_groups.get(name)
+    if ng is None:
+        ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
+        ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        gi = ng.nodes.new("NodeGroupInput")
+        go = ng.nodes.new("NodeGroupOutput")
+        m2p = ng.nodes.new("GeometryNodeMeshToPoints")
+        attr = ng.nodes.new("GeometryNodeInputNamedAttribute")
+        attr.data_type = "INT"
+        attr.inputs["Name"].default_value = "collision_status"
+        g2i = ng.nodes.new("GeometryNodeGeometryToInstance")
+        gi.location, m2p.location, attr.location = (-600, 0), (-400, 0), (-600, -300)
+        g2i.location, go.location = (300, 0), (500, 0)
+        ng.links.new(gi.outputs[0], m2p.inputs["Mesh"])
+        for k, mat in enumerate(_status_materials()):
+            cmp = ng.nodes.new("FunctionNodeCompare")
+            cmp.data_type, cmp.operation = "INT", "EQUAL"
+            a = next(x for x in cmp.inputs if x.name == "A" and x.enabled)
+            b = next(x for x in cmp.inputs if x.name == "B" and x.enabled)
+            ng.links.new(attr.outputs["Attribute"], a)
+            b.default_value = k
+            sep = ng.nodes.new("GeometryNodeSeparateGeometry")
+            sep.domain = "POINT"
+            ng.links.new(m2p.outputs["Points"], sep.inputs["Geometry"])
+            ng.links.new(cmp.outputs["Result"], sep.inputs["Selection"])
+            sm = ng.nodes.new("GeometryNodeSetMaterial")
+            sm.inputs["Material"].default_value = mat
+            ng.links.new(sep.outputs["Selection"], sm.inputs["Geometry"])
+            ng.links.new(sm.outputs["Geometry"], g2i.inputs["Geometry"])
+            cmp.location, sep.location, sm.location = (-200, -200 * k), (0, -200 * k), \
+                (150, -200 * k)
+        ng.links.new(g2i.outputs[0], go.inputs[0])
+    m2p = next(n for n in ng.nodes if n.bl_idname == "GeometryNodeMeshToPoints")
+    m2p.inputs["Radius"].default_value = float(radius_bu)
+    return ng
 
 
 def _pose_empties(coll, prefix, path, idx, f, size_mm):
@@ -550,6 +640,8 @@ def _pose_empties(coll, prefix, path, idx, f, size_mm):
         return []
     tips = np.concatenate([c.tip for c in path.curves])[idx]
     axes = np.concatenate([c.axis for c in path.curves])[idx]
+    status = pose_collision_status(path)
+    status = None if status is None else status[idx]
     z = axes / np.maximum(np.linalg.norm(axes, axis=1), 1e-300)[:, None]
     ref = np.where(np.abs(z[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     x = ref - np.einsum("ij,ij->i", ref, z)[:, None] * z
@@ -568,6 +660,9 @@ def _pose_empties(coll, prefix, path, idx, f, size_mm):
         ob.matrix_world = Matrix(m.tolist())
         ob[KEY_ROLE] = "pose"
         ob["blisk_cam_pose_index"] = int(idx[k])
+        if status is not None:  # the object colour shows in Solid view (Object colour)
+            ob[KEY_STATUS] = int(status[k])
+            ob.color = STATUS_RGBA[int(status[k])]
         coll.objects.link(ob)
         objs.append(ob)
     return objs
@@ -716,6 +811,10 @@ def write_path_objects(
         new[KEY_BLADE] = bname
         new[KEY_CUSP] = float(path.cusp)
         new[KEY_CHORD] = float(path.chord)
+        if getattr(path, "collision", None):
+            from .core.paths_io import _jsonable
+
+            new[KEY_COLLISION] = json.dumps(_jsonable(path.collision), allow_nan=False)
         cusp = _curve_cusp(path, verify)
         objs = {"collection": new, "verify": None}
         for role, label, key in (("cc", "CC paths", "cc"), ("tip", "tool tips", "tip")):
@@ -797,3 +896,68 @@ def clear_path_objects(blade_name: str) -> bool:
     if text is not None:
         bpy.data.texts.remove(text)
     return True
+
+
+def write_collision_objects(scene, blade_name, path, *, neighbours=(), assembly=None) -> dict:
+    """Add the collision view to a blade's output collection (after
+    :func:`write_path_objects` of the checked path), replacing an earlier one:
+
+    * ``neighbours`` — iterable of (name, V (n, 3) mm, F (m, 3)) meshes (the blade turned by
+      ±k·360°/N), shown grey as ``"<blade> <name>"``;
+    * ``assembly`` — (V (n, 3) mm, F (m, 3|4)) of the tool assembly in the tool frame (tip at
+      the origin, axis +Z, :func:`blisk_cam.core.tool_assembly.assembly_mesh`): placed at the
+      pose with the smallest clearance (:func:`blisk_cam.core.avoidance.worst_pose`); the
+      exact tip (mm, double) is kept in its ``blisk_cam_tip_mm`` property.
+
+    Returns ``{"tool_assembly": object or None, "neighbours": [objects]}``.
+    """
+    from mathutils import Matrix
+
+    from .core.avoidance import worst_pose
+
+    coll = find_output_collection(blade_name)
+    if coll is None:
+        raise BliskCamError(f"the blade '{blade_name}' has no output collection")
+    f = mm_per_blender_unit(scene)
+    old = output_objects(coll)
+    stale = [ob for ob in [old["tool_assembly"], *old["neighbours"]] if ob is not None]
+    if stale:
+        data = [ob.data for ob in stale if ob.data is not None]
+        bpy.data.batch_remove(stale)
+        orphans = [d for d in data if d.users == 0]
+        if orphans:
+            bpy.data.batch_remove(orphans)
+    out = {"tool_assembly": None, "neighbours": []}
+    for name, V, F in neighbours:
+        label = f"{blade_name} {name.replace('blade', 'neighbour', 1)}"
+        ob = arrays_to_object(label, V, F, coll, mm_per_unit=f, color=NEIGHBOUR_RGBA,
+                              material_name="Blisk CAM neighbour")
+        ob[KEY_ROLE] = "neighbour"
+        ob[KEY_NAME] = label
+        ob.name = label
+        ob.data.name = label
+        out["neighbours"].append(ob)
+    worst = worst_pose(path)
+    if assembly is not None and worst is not None:
+        tip, axis, clearance, row = worst
+        V, F = assembly
+        label = f"{blade_name} tool assembly"
+        ob = arrays_to_object(label, V, F, coll, mm_per_unit=f, color=ASSEMBLY_RGBA,
+                              material_name="Blisk CAM tool assembly")  # tool frame
+        z = axis
+        ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        x = ref - (ref @ z) * z
+        x /= np.linalg.norm(x)
+        M = np.eye(4)
+        M[:3, 0], M[:3, 1], M[:3, 2], M[:3, 3] = x, np.cross(z, x), z, tip / f
+        ob.matrix_world = Matrix(M.tolist())
+        ob[KEY_ROLE] = "tool_assembly"
+        ob[KEY_NAME] = label
+        ob["blisk_cam_tip_mm"] = [float(v) for v in tip]
+        ob["blisk_cam_axis"] = [float(v) for v in axis]
+        ob["blisk_cam_clearance_mm"] = float(clearance)
+        ob["blisk_cam_row"] = int(row)
+        ob.name = label
+        ob.data.name = label
+        out["tool_assembly"] = ob
+    return out

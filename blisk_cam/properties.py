@@ -311,6 +311,8 @@ def option_property(name, spec, default):
     value = spec.none_as if default is None else default
     if isinstance(value, int) and not isinstance(value, float) and spec.unit == "":
         kw = {k: v for k, v in (("min", spec.lo), ("max", spec.hi)) if v is not None}
+        if default is None and "min" in kw and value < kw["min"]:
+            kw["min"] = value  # "not set" (e.g. Blade Count 0) must stay reachable
         return IntProperty(default=value, **kw, **common)
     kw = {}
     if spec.lo is not None:  # an open bound: the smallest value the panel can show

@@ -73,8 +73,13 @@ __all__ = [
     "STATUS_CORRECTED",
     "STATUS_UNRESOLVED",
     "avoid_collisions",
+    "collision_rows",
     "default_assembly",
+    "pose_collision_status",
+    "unresolved_rows",
+    "worst_pose",
     "iter_run_collisions",
+    "next_unresolved",
     "run_collisions",
 ]
 
@@ -800,3 +805,78 @@ def run_collisions(mesh_or_blade, path: ToolPath, obstacles_extra=(),
             return stop.value
         if progress is not None:
             progress(float(x))
+
+
+# ====================================================================== reading a checked path
+def pose_collision_status(path: ToolPath) -> np.ndarray | None:
+    """(n_poses,) int8 status of every pass pose (curve order, as the point cloud of the
+    Blender output), 0 for a curve without collision data; None when no curve was checked."""
+    if not any(c.collision is not None for c in path.curves):
+        return None
+    parts = [np.asarray(c.collision["status"], dtype=np.int8) if c.collision is not None
+             else np.zeros(len(c), dtype=np.int8) for c in path.curves]
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=np.int8)
+
+
+def collision_rows(path: ToolPath):
+    """(tips (m, 3), axes (m, 3), status (m,), clearance (m,)) of every checked pose: the
+    program rows when the program carries the collision data (links included), else the
+    pass poses of the checked curves; None when the path was not checked."""
+    prog = path.program
+    if prog is not None and prog.collision_status is not None and prog.clearance is not None:
+        return (np.asarray(prog.tip, float), np.asarray(prog.axis, float),
+                np.asarray(prog.collision_status, np.int8), np.asarray(prog.clearance, float))
+    curves = [c for c in path.curves if c.collision is not None]
+    if not curves:
+        return None
+    return (np.vstack([c.tip for c in curves]), np.vstack([c.axis for c in curves]),
+            np.concatenate([np.asarray(c.collision["status"], np.int8) for c in curves]),
+            np.concatenate([np.asarray(c.collision["clearance"], float) for c in curves]))
+
+
+def worst_pose(path: ToolPath):
+    """(tip (3,), unit axis (3,), clearance mm, row) of the checked pose with the smallest
+    clearance (the first one on a tie); None when the path was not checked."""
+    rows = collision_rows(path)
+    if rows is None or len(rows[3]) == 0:
+        return None
+    tips, axes, _, clr = rows
+    i = int(np.argmin(np.where(np.isfinite(clr), clr, np.inf)))
+    a = axes[i] / np.linalg.norm(axes[i])
+    return tips[i].copy(), a, float(clr[i]), i
+
+
+def unresolved_rows(path: ToolPath) -> np.ndarray:
+    """Indices (into :func:`collision_rows`) of the unresolved poses, in machining order."""
+    rows = collision_rows(path)
+    if rows is None:
+        return np.zeros(0, dtype=np.int64)
+    return np.nonzero(rows[2] == STATUS_UNRESOLVED)[0]
+
+
+def next_unresolved(path: ToolPath, current=None, tol: float = 1e-3):
+    """The unresolved pose after the one at ``current`` (a point, mm: e.g. the 3D cursor),
+    in machining order, wrapping around; the first one when ``current`` is at none of them.
+    Poses at the same tip (a closed pass's closing pose) count once.
+
+    Returns (tip (3,), unit axis (3,), row, k, n) — k-th (0-based) of n distinct unresolved
+    tips — or None when no pose is unresolved."""
+    rows = collision_rows(path)
+    idx = unresolved_rows(path)
+    if rows is None or len(idx) == 0:
+        return None
+    tips = rows[0][idx]
+    keep = []
+    for j in range(len(idx)):  # distinct tips, first occurrence, machining order
+        if not any(np.linalg.norm(tips[j] - tips[i]) <= tol for i in keep):
+            keep.append(j)
+    n = len(keep)
+    k = 0
+    if current is not None:
+        d = np.linalg.norm(tips[keep] - np.asarray(current, dtype=np.float64), axis=1)
+        at = np.nonzero(d <= tol)[0]
+        if len(at):
+            k = (int(at[0]) + 1) % n
+    j = keep[k]
+    a = rows[1][idx[j]]
+    return tips[j].copy(), a / np.linalg.norm(a), int(idx[j]), k, n

@@ -81,6 +81,7 @@ __all__ = [
     "PART_FLUTE",
     "detect_collisions",
     "rotate_about_axis",
+    "split_faces",
 ]
 
 PART_FLUTE, PART_BODY = 0, 1
@@ -108,6 +109,23 @@ def rotate_about_axis(points, axis: Axis, angle: float) -> np.ndarray:
     c, s = math.cos(angle), math.sin(angle)
     out = p * c + np.cross(k, p) * s + np.outer(p @ k, k) * (1.0 - c)
     return out + axis.o
+
+
+def split_faces(V, F, mask):
+    """Split a triangle mesh by a per-triangle mask: ((V, F) of the masked triangles,
+    (V, F) of the others), each with only the vertices it uses (renumbered); the second is
+    None when every triangle is masked."""
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != (len(F),):
+        raise CollisionError(f"face mask has {mask.shape} entries for {len(F)} triangles")
+
+    def part(sel):
+        used, inv = np.unique(F[sel].ravel(), return_inverse=True)
+        return V[used], inv.reshape(-1, 3).astype(np.int64)
+
+    return part(mask), (part(~mask) if np.any(~mask) else None)
 
 
 def _mesh_arrays(name, V, F):

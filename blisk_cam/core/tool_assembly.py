@@ -29,7 +29,7 @@ import numpy as np
 
 from .errors import CollisionError
 
-__all__ = ["AssemblyError", "ToolAssembly", "DEFAULT_SAFETY"]
+__all__ = ["AssemblyError", "ToolAssembly", "DEFAULT_SAFETY", "assembly_mesh"]
 
 #: default safety distance ds, mm (paper 004 Eq. 9)
 DEFAULT_SAFETY = 1.0
@@ -234,3 +234,36 @@ class ToolAssembly:
             rr = r0 + (np.clip(z, z0, z1) - z0) * (r1 - r0) / (z1 - z0)
             out = np.where(inside, np.maximum(out, rr), out)
         return out
+
+    def outline(self, cutter) -> np.ndarray:
+        """(k, 2) meridional outline (r, z), mm, of the whole tool in the tool frame: from the
+        tip (0, 0) up the cutter's profile to the flute length, then the body profile, closed
+        on the axis at the top — the revolution column order of
+        :func:`.revolution.revolve`."""
+        from dataclasses import replace
+
+        from .cutter import as_cutter
+
+        cutter = as_cutter(cutter)
+        try:
+            flute = replace(cutter, h=float(self.flute_length)).profile(24)
+        except Exception as err:  # ToolError: flute shorter than the corner
+            raise AssemblyError(f"flute length {_fmt(self.flute_length)} mm is impossible for "
+                                f"the cutter: {err}") from None
+        body = np.asarray(self.profile, dtype=np.float64)[:, ::-1]  # (z, r) → (r, z)
+        top = np.array([[0.0, self.top]])
+        out = np.vstack([flute, body, top])
+        keep = np.ones(len(out), bool)
+        keep[1:] = np.any(np.abs(np.diff(out, axis=0)) > 1e-12, axis=1)
+        return out[keep]
+
+
+def assembly_mesh(assembly: ToolAssembly, cutter, segments: int = 48):
+    """The tool assembly (cutter flute and body) as a quad mesh in the tool frame: tip at the
+    origin, the tool axis along +z (mm). Returns V (n, 3) float64 and F (m, 4) int64; the
+    first ``segments`` vertices are the tip (exactly (0, 0, 0))."""
+    from .cones import Axis
+    from .revolution import revolve
+
+    return revolve(assembly.outline(cutter), Axis((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+                   segments=segments)

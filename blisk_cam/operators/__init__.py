@@ -4,15 +4,18 @@ One operator per module; list every class in ``CLASSES`` (registered in this ord
 property groups, unregistered in reverse). bl_idnames (see ARCHITECTURE.md):
 ``blisk_cam.fit_cones``, ``blisk_cam.generate_paths``, ``blisk_cam.clear_paths``,
 ``blisk_cam.export_paths``, ``blisk_cam.render_preview``,
-``blisk_cam.export_nc``. Shared helpers (poll reasons,
+``blisk_cam.export_nc``, ``blisk_cam.check_collisions``,
+``blisk_cam.next_unresolved_pose``. Shared helpers (poll reasons,
 settings → core request, error reports) are in :mod:`.common`.
 """
 
+from .check_collisions import BLISKCAM_OT_check_collisions
 from .clear_paths import BLISKCAM_OT_clear_paths
 from .export_nc import BLISKCAM_OT_export_nc
 from .export_paths import BLISKCAM_OT_export_paths
 from .fit_cones import BLISKCAM_OT_fit_cones
 from .generate_paths import BLISKCAM_OT_generate_paths
+from .next_unresolved_pose import BLISKCAM_OT_next_unresolved_pose
 from .render_preview import BLISKCAM_OT_render_preview
 from .set_scene_mm import BLISKCAM_OT_set_scene_mm
 
@@ -24,4 +27,6 @@ CLASSES = [
     BLISKCAM_OT_render_preview,
     BLISKCAM_OT_export_nc,
     BLISKCAM_OT_set_scene_mm,
+    BLISKCAM_OT_check_collisions,
+    BLISKCAM_OT_next_unresolved_pose,
 ]

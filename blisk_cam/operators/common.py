@@ -39,6 +39,9 @@ __all__ = [
     "set_settings_from_request",
     "result_blade_name",
     "report_exception",
+    "collision_options",
+    "obstacle_arrays",
+    "stored_path",
 ]
 
 #: prefix of the report of an unexpected exception (a bug, not bad input); the CLI maps it
@@ -186,6 +189,8 @@ def option_value(spec, default, raw):
     if spec.size > 1:
         return tuple(f32(x) for x in raw)
     if isinstance(raw, int) and not isinstance(raw, float) and spec.unit == "":
+        if default is None and raw == spec.none_as:
+            return None  # e.g. Blade Count 0: not set
         return int(raw)
     value = f32(raw)
     if default is None and value == spec.none_as:
@@ -305,3 +310,63 @@ def report_exception(op, exc) -> set:
             f"{INTERNAL_ERROR} (please report it): {type(exc).__name__}: {exc}",
         )
     return {"CANCELLED"}
+
+
+def collision_options(settings):
+    """The core ``CollisionOptions`` of the settings for a check from the panel: every
+    declared option read generically, mode off → check (the button always checks), the
+    holder string parsed. BliskCamError naming the setting when one is missing or bad."""
+    from ..core.avoidance import CollisionOptions
+
+    values = stage_values(settings, CollisionOptions)
+    if values.get("mode", "off") == "off":
+        values["mode"] = "check"
+    if values.get("blade_count") is None:
+        raise BliskCamError("Blade Count is not set: set the Blade Count (the blades on the "
+                            "blisk, ≥ 2) in the Collisions panel; the neighbours are the blade "
+                            "turned by 360°/N")
+    text = (settings.holder or "").strip()
+    if text:
+        from ..cli import parse_holder
+
+        try:
+            values["holder"] = parse_holder(text)
+        except BliskCamError as exc:
+            raise BliskCamError(str(exc).replace("--holder", "Holder", 1)) from None
+    return CollisionOptions(**values)
+
+
+def obstacle_arrays(settings, depsgraph, *, exclude=()) -> list:
+    """[(name, V, F)] of the meshes in the settings' Obstacles collection (evaluated, world
+    frame, mm), leaving out ``exclude`` (object names: the blade) and Blisk CAM's own output
+    objects."""
+    from ..output import KEY_ROLE
+
+    coll = getattr(settings, "obstacles", None)
+    if coll is None:
+        return []
+    out = []
+    for ob in coll.all_objects:
+        if ob.name in exclude or KEY_ROLE in ob or ob.type not in ("MESH", "CURVE", "SURFACE",
+                                                                    "META", "FONT"):
+            continue
+        V, F = object_to_arrays(ob, depsgraph)
+        out.append((ob.name, V, F))
+    return out
+
+
+def stored_path(blade_name: str):
+    """The core ``ToolPath`` of a blade's stored paths JSON; BliskCamError when it has none."""
+    from ..core.paths_io import path_from_dict
+    from ..output import stored_paths_json
+
+    text = stored_paths_json(blade_name) if blade_name else None
+    if not text:
+        raise BliskCamError(f"'{blade_name}' has no generated paths: press Generate Paths "
+                            "first")
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        raise BliskCamError(f"the stored paths of '{blade_name}' are not valid JSON ({exc}): "
+                            "press Generate Paths again") from None
+    return path_from_dict(data)

@@ -4,6 +4,7 @@ One module per panel group; list every class in ``CLASSES`` in display order (pa
 their sub-panels).
 """
 
+from .collisions import BLISKCAM_PT_collisions
 from .paths import (
     BLISKCAM_PT_display,
     BLISKCAM_PT_machine,
@@ -24,6 +25,7 @@ CLASSES = [
     BLISKCAM_PT_tolerances,
     BLISKCAM_PT_paths,
     BLISKCAM_PT_display,
+    BLISKCAM_PT_collisions,
     BLISKCAM_PT_machine,
     BLISKCAM_PT_preview,
 ]
