@@ -21,7 +21,7 @@ class BLISKCAM_OT_next_unresolved_pose(bpy.types.Operator):
 
     bl_idname = "blisk_cam.next_unresolved_pose"
     bl_label = "Next Unresolved Pose"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
     def poll(cls, context):
