@@ -142,6 +142,7 @@ def read_profile_csv(path):
         raise BliskCamError(f"profile file {path}: {exc}") from None
 
 
+# long on purpose: declarative: the argument list of every command
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the CLI (subcommands ``demo`` and ``paths``)."""
     parser = _Parser(

@@ -659,6 +659,8 @@ def _default_objects(scene):
     ]
 
 
+# long on purpose: the render set-up in the order Blender needs it (scene, camera, overlays, engine,
+# restore); each block is a few settings
 def render_preview(
     filepath,
     engine="AUTO",

@@ -327,6 +327,8 @@ def _away(ax, tip, rho, cc, F, ball):
     return -perp
 
 
+# long on purpose: Eq. 10–13 and the fall-backs of one rotation step, vectorised over the poses of a
+# step
 def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=_MAX_SEARCH,
                    direction=None):
     """One rotation step (Eqs. 12–13, 16–17) for k colliding poses.
@@ -477,6 +479,8 @@ def _smooth(planned, cur, fixed, normals, delta, closed):
 
 
 # ====================================================================== avoidance
+# long on purpose: one pass of paper 004 §3 over the poses (detect, rotate, lift, re-smooth, re-
+# check) sharing a dozen per-pose arrays; the steps are the helpers it calls
 def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: CollisionOptions):
     """Generator: yields progress fractions, returns ``(ToolPath, CollisionReport)`` (see the
     module docstring). The input path is not changed."""

@@ -535,6 +535,7 @@ def _golden(part, E0, D, t, a, lo, hi, x1, f1, x2, f2, steps):
 _GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 
 
+# long on purpose: the bounded-error distance refinement of candidate pairs in one vectorised loop
 def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
     """Exact minimum (k,) of the posed part's signed distance over triangles (A, B, C), and
     the (k, 3) triangle point where it is taken (module docstring).

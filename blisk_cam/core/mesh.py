@@ -160,6 +160,7 @@ class TriMesh:
 
     # ------------------------------------------------------------------ construction
     @classmethod
+    # long on purpose: the weld → clean → orient sequence on the same arrays, with its maps kept
     def from_arrays(cls, V, F, *, weld_tolerance: float | None = None, orient: bool = True):
         """Check and prepare a mesh.
 

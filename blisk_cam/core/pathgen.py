@@ -567,6 +567,8 @@ class _Generator:
         return measure_cusp([x[0] for x in samples], dist_a, dist_b, self.radius,
                             level_normals=[x[1] for x in samples])
 
+    # long on purpose: the slice → sample → expand loop of paper 001 as one generator (it yields
+    # progress between levels)
     def run(self):
         t0 = time.perf_counter()
         h = self.cusp
