@@ -9,6 +9,7 @@ property groups, unregistered in reverse). bl_idnames (see ARCHITECTURE.md):
 settings → core request, error reports) are in :mod:`.common`.
 """
 
+from .animate_program import BLISKCAM_OT_animate_program
 from .check_collisions import BLISKCAM_OT_check_collisions
 from .clear_paths import BLISKCAM_OT_clear_paths
 from .export_nc import BLISKCAM_OT_export_nc
@@ -29,4 +30,5 @@ CLASSES = [
     BLISKCAM_OT_set_scene_mm,
     BLISKCAM_OT_check_collisions,
     BLISKCAM_OT_next_unresolved_pose,
+    BLISKCAM_OT_animate_program,
 ]

@@ -128,3 +128,8 @@ class BLISKCAM_PT_machine(_BliskCamPanel, Panel):
         draw_stage(layout, settings, NcOptions, heading="Program")
         layout.prop(settings, "export_anyway")
         layout.operator("blisk_cam.export_nc", icon="EXPORT")
+        row = layout.row(align=True)
+        row.operator("blisk_cam.animate_program", text="Animate (Part)",
+                     icon="PLAY").view = "PART"
+        row.operator("blisk_cam.animate_program", text="Animate (Machine)",
+                     icon="ORIENTATION_GIMBAL").view = "MACHINE"

@@ -80,3 +80,44 @@ def test_export_nc_refuses_unresolved_collisions(addon, demo, tmp_path, monkeypa
     assert not out.exists()
     s.export_anyway = True
     assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+
+
+@pytest.mark.parametrize("view", ["PART", "MACHINE"])
+def test_animate_program_puts_the_tool_on_the_program(addon, demo, tmp_path, view):
+    """Blender as the simulator: at every sampled frame the animated tool, seen from the
+    (moving) part, has its tip on the block's programmed tip and its axis along the block's
+    axis (float32 matrices: 1e-3 mm, 1e-5)."""
+    from blisk_cam.core.machine import load_machine
+    from blisk_cam.core.post.blocks import NcOptions, build_blocks
+    from blisk_cam.operators.common import stored_path
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
+    blade = blender_io.import_mesh_file(stl)
+    s = bpy.context.scene.blisk_cam
+    s.blade = blade
+    s.cone1 = (170.0, -25.0, 185.0, 35.0)
+    s.cone2 = demo.tip_cone.as_list()
+    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, 0.5
+    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    s.machine = "ac-trunnion"
+    assert bpy.ops.blisk_cam.animate_program(view=view) == {"FINISHED"}
+    blocks = build_blocks(stored_path(blade.name), load_machine("ac-trunnion"), NcOptions(),
+                          indexable=False).expanded()
+    scene = bpy.context.scene
+    assert (scene.frame_start, scene.frame_end) == (1, len(blocks))
+    tool = bpy.data.objects[f"{blade.name} animated tool"]
+    part = bpy.data.objects.get(f"{blade.name} moving part")
+    assert (part is not None) == (view == "MACHINE")
+    feed = np.flatnonzero(np.all(np.isfinite(blocks.tip), axis=1))  # blocks with a path tip
+    assert len(feed) > 0.9 * len(blocks)
+    for k in feed[np.linspace(0, len(feed) - 1, 15).astype(int)]:
+        scene.frame_set(int(k) + 1)
+        T = np.array(tool.matrix_world)
+        P = np.array(part.matrix_world) if part is not None else np.eye(4)
+        rel = np.linalg.inv(P) @ T
+        np.testing.assert_allclose(rel[:3, 3], blocks.tip[k], atol=1e-3)
+        np.testing.assert_allclose(rel[:3, 2], blocks.axis[k], atol=1e-5)
+    # the user's blade is not animated or moved
+    assert blade.animation_data is None and np.allclose(np.array(blade.matrix_world), np.eye(4))
