@@ -1,0 +1,745 @@
+"""Constant machining error linear interpolation: which dense poses become NC blocks
+(paper 002, Wang et al., *Machines* 2025, 13, 768, §3.2 and Fig. 11).
+
+A 5-axis machine moves its joints linearly between two blocks, so the cutter's real
+deviation between blocks depends on the rotary motion as much as on the tip path. Choosing
+blocks by the chord height of the tip path in the part frame (:func:`search_chord`, the
+baseline) therefore leaves some blocks far below the tolerance and others near it. The
+constant-error search (:func:`search_constant_error`) instead walks each densely planned pass
+and makes every block as long as the error bound of :mod:`.machining_error` (paper 002
+Eqs. 1–14) allows: the bound of each block ends up just below the permissible error [d_M],
+so the measured error of every block is near [d_M] and far fewer blocks are needed.
+
+Pipeline per pass (:func:`prepare_pass`): the pass's poses (a small chord, e.g. 0.002 mm) are
+solved for the machine (:func:`.kinematics.solve_poses`), then resampled to at most
+``max_spacing`` mm / ``max_turn`` rad between poses by joint-linear interpolation (the
+inserted poses are ``forward`` of the interpolated joints, so every dense pose is a machine
+pose); Jacobians and error gradients are precomputed per dense pose.
+
+A block runs from dense position ``s`` to ``e`` (floats: block ends may fall anywhere on the
+dense polyline; the joints there are interpolated between the two dense poses and the tip and
+axis follow by forward kinematics). Its bound (:func:`block_bounds`, vectorised over many
+candidate ends) is evaluated at every dense pose inside the block. The search grows blocks by
+galloping on the block length, then refines the end by two rounds of 16-way vectorised
+bisection (:func:`_search`).
+
+The exact evaluation (:func:`measure_blocks`) does not use the bound: it samples each
+block's joint motion, runs forward kinematics and takes the signed distance from the cutter
+(the centre of its corner circle, minus the corner radius) to the mesh, minus the same quantity
+on the planned dense path: the per-block maximum over/undercut.
+
+Units: mm and radians; joint vectors are (X, Y, Z, θ1, θ2).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .errors import BliskCamError
+from .kinematics import solve_poses
+from .machine import Machine, forward, load_machine
+from .machining_error import contact_lever, error_gradients, machine_jacobian, pose_error
+from .toolpath import MOVE_CUT, Program, ToolPath
+
+__all__ = [
+    "BOUNDS",
+    "METHODS",
+    "BlockSet",
+    "DensePass",
+    "InterpolationError",
+    "InterpolationReport",
+    "block_bounds",
+    "chord_heights",
+    "interpolate_program",
+    "match_chord_height",
+    "measure_blocks",
+    "prepare_pass",
+    "search_chord",
+    "search_constant_error",
+]
+
+METHODS = ("constant-error", "chord")
+#: "pointwise": max over the block's dense poses of |l_P + l_θ| (Eq. 14 per pose);
+#: "paper": per arc-shaped piece max |l_P| + max |l_θ| (paper 002 §3.2, Fig. 10), the larger
+BOUNDS = ("pointwise", "paper")
+
+
+class InterpolationError(BliskCamError):
+    """Bad input to the interpolation (non-positive tolerance, unknown method, …)."""
+
+
+def _unit(v):
+    v = np.asarray(v, dtype=np.float64)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+# ====================================================================== dense pass
+@dataclass
+class DensePass:
+    """A pass solved for the machine and resampled (module docstring).
+
+    q : (m, 5) joints; tip, axis, normal : (m, 3) paths' frame (axis, normal unit);
+    lever : (m, 3) mm tip → corner centre; centre : (m, 3) mm corner centres;
+    gP, gT : (m, 5) error gradients (:func:`.machining_error.error_gradients`);
+    Jc : (m, 3, 5) corner-centre Jacobian; source : (m,) float — position in the input pass
+    (fractional between its poses); rho : mm, curvature radius for the lateral remainder term.
+    """
+
+    q: np.ndarray
+    tip: np.ndarray
+    axis: np.ndarray
+    normal: np.ndarray
+    lever: np.ndarray
+    centre: np.ndarray
+    gP: np.ndarray
+    gT: np.ndarray
+    Jc: np.ndarray
+    source: np.ndarray
+    rho: float
+    machine: Machine | None = None
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    def joints_at(self, u) -> np.ndarray:
+        """(k, 5) joints at dense positions u (k,) (linear between dense poses)."""
+        u = np.clip(np.asarray(u, dtype=np.float64), 0, len(self.q) - 1)
+        i = np.minimum(np.floor(u).astype(np.int64), len(self.q) - 2)
+        f = (u - i)[:, None]
+        return self.q[i] * (1 - f) + self.q[i + 1] * f
+
+    def interp(self, arr, u) -> np.ndarray:
+        u = np.clip(np.asarray(u, dtype=np.float64), 0, len(self.q) - 1)
+        i = np.minimum(np.floor(u).astype(np.int64), len(self.q) - 2)
+        f = u - i
+        f = f.reshape((-1,) + (1,) * (arr.ndim - 1))
+        return arr[i] * (1 - f) + arr[i + 1] * f
+
+
+def prepare_pass(machine: Machine, cutter, tip, axis, normal, *, max_spacing: float = 0.1,
+                 max_turn: float = math.radians(0.1), prev=None, q=None) -> DensePass:
+    """Solve and resample one pass (module docstring).
+
+    tip (k, 3) mm, axis (k, 3) unit, normal (k, 3) unit surface normals at the CC points, in
+    the paths' frame, k ≥ 2. ``prev`` (2,) rad seeds the IK branch; ``q`` (k, 5) joints if
+    already solved. Raises ReachError for an unreachable pose."""
+    tip = np.asarray(tip, dtype=np.float64).reshape(-1, 3)
+    axis = _unit(np.asarray(axis, dtype=np.float64).reshape(-1, 3))
+    normal = _unit(np.asarray(normal, dtype=np.float64).reshape(-1, 3))
+    k = len(tip)
+    if k < 2:
+        raise InterpolationError("a pass needs at least two poses")
+    if q is None:
+        ik = solve_poses(machine, tip, axis, prev=prev)
+        q = np.hstack([ik.xyz, ik.angles])
+    q = np.asarray(q, dtype=np.float64)
+    seg = np.linalg.norm(np.diff(tip, axis=0), axis=1)
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", axis[1:], axis[:-1]), -1, 1))
+    rot = np.abs(np.diff(q[:, 3:], axis=0)).max(axis=1)
+    nsub = np.maximum.reduce([np.ceil(seg / max_spacing), np.ceil(turn / max_turn),
+                              np.ceil(rot / max_turn), np.ones(k - 1)]).astype(np.int64)
+    # dense positions in the input pass: i + j / nsub_i
+    starts = np.concatenate([[0], np.cumsum(nsub)])
+    m = int(starts[-1]) + 1
+    seg_id = np.repeat(np.arange(k - 1), nsub)
+    frac = (np.arange(m - 1) - starts[seg_id]) / nsub[seg_id]
+    src = np.concatenate([seg_id + frac, [k - 1]])
+    i0 = np.minimum(np.floor(src).astype(np.int64), k - 2)
+    f = (src - i0)[:, None]
+    qd = q[i0] * (1 - f) + q[i0 + 1] * f
+    nd = _unit(normal[i0] * (1 - f) + normal[i0 + 1] * f)
+    td, ad = forward(machine, qd[:, :3], qd[:, 3:])
+    exact = f[:, 0] == 0
+    td[exact] = tip[i0[exact]]
+    last = src == k - 1
+    td[last] = tip[-1]
+    lever = contact_lever(cutter, nd, ad)
+    JP, JO = machine_jacobian(machine, qd)
+    gP, gT, Jc = error_gradients(JP, JO, nd, ad, lever)
+    rho = float(cutter.r) if cutter.r > 0 else float(cutter.radius)
+    return DensePass(q=qd, tip=td, axis=ad, normal=nd, lever=lever, centre=td + lever, gP=gP,
+                     gT=gT, Jc=Jc, source=src, rho=rho, machine=machine)
+
+
+# ====================================================================== bounds
+def block_bounds(dp: DensePass, s: float, ends, *, bound: str = "pointwise",
+                 pose_model: str = "exact", detail: bool = False):
+    """Machining error bound (mm) of the blocks ``s → e`` for every candidate end e.
+
+    dp : DensePass; s : float dense position of the block start; ends : (K,) floats > s.
+    For each dense pose j with s < j < e: the chord parameter t_j of the joint-linear motion
+    nearest pose j in the corner-centre metric (paper 002 Eq. 1, see
+    :mod:`.machining_error`), the trajectory deviation ``Δq_j`` (Eqs. 2–3), ``l_P``,
+    ``l_θ`` (Eqs. 8–13, linearised). Bound = max_j |l_P + l_θ| (``pointwise``; or, ``paper``,
+    per arc-shaped piece between sign changes of d_M the sum max |l_P| + max |l_θ|, Fig. 10)
+    plus max_j of the lateral remainder ``|ΔC_⊥n|² / (2 ρ)`` (the cutter leaving the contact
+    sideways on a surface of offset curvature radius ≥ ρ; paper 002 neglects it, §3.1).
+
+    Returns (K,) bounds; with ``detail`` also (K,) max |l_P|, (K,) max |l_θ|, (K,) largest
+    linear (mm) and rotary (rad) trajectory deviation."""
+    ends = np.atleast_1d(np.asarray(ends, dtype=np.float64))
+    K = len(ends)
+    qs = dp.joints_at(np.array([s]))[0]
+    qe = dp.joints_at(ends)
+    j0 = int(math.floor(s)) + 1
+    j1 = int(math.ceil(float(ends.max()))) - 1  # inclusive
+    if j1 < j0:
+        z = np.zeros(K)
+        return (z, z, z, z, z) if detail else z
+    J = np.arange(j0, j1 + 1)
+    mask = J[None, :] < ends[:, None]  # (K, J)
+    Jc = dp.Jc[J]  # (J, 3, 5)
+    dq = qe - qs  # (K, 5)
+    u = np.einsum("jab,kb->kja", Jc, dq)  # (K, J, 3)
+    w = np.einsum("jab,jb->ja", Jc, qs[None] - dp.q[J])  # (J, 3)
+    uu = np.einsum("kja,kja->kj", u, u)
+    t = np.clip(-np.einsum("kja,ja->kj", u, w) / np.maximum(uu, 1e-300), 0.0, 1.0)
+    dqj = (qs[None, None] - dp.q[J][None]) + t[..., None] * dq[:, None, :]  # (K, J, 5)
+    if pose_model == "jacobian":  # Eq. (7), linear in Δq
+        lP = np.einsum("kjb,jb->kj", dqj, dp.gP[J])
+        lT = np.einsum("kjb,jb->kj", dqj, dp.gT[J])
+        dM = lP + lT
+        dC = w[None] + t[..., None] * u
+    else:  # the deviated pose by forward kinematics, Eqs. (8)–(14) with the finite rotation
+        Q = (qs[None, None] + t[..., None] * dq[:, None, :]).reshape(-1, 5)
+        tp, ax = forward(dp.machine, Q[:, :3], Q[:, 3:])
+        nJ = np.broadcast_to(dp.normal[J][None], (K, len(J), 3)).reshape(-1, 3)
+        tJ = np.broadcast_to(dp.tip[J][None], (K, len(J), 3)).reshape(-1, 3)
+        aJ = np.broadcast_to(dp.axis[J][None], (K, len(J), 3)).reshape(-1, 3)
+        rJ = np.broadcast_to(dp.lever[J][None], (K, len(J), 3)).reshape(-1, 3)
+        lP, lT, dM, dCf = pose_error(tJ, aJ, tp, ax, nJ, rJ, centre=True)
+        lP, lT, dM = (x.reshape(K, len(J)) for x in (lP, lT, dM))
+        dC = dCf.reshape(K, len(J), 3)
+    lat2 = np.maximum(np.einsum("kja,kja->kj", dC, dC) - dM * dM, 0.0)
+    rem = np.where(mask, lat2 / (2.0 * dp.rho), 0.0).max(axis=1)
+    if bound == "pointwise":
+        b = np.where(mask, np.abs(dM), 0.0).max(axis=1)
+    else:
+        aP = np.where(mask, np.abs(lP), 0.0)
+        aT = np.where(mask, np.abs(lT), 0.0)
+        sg = np.sign(dM)
+        brk = np.zeros(mask.shape, bool)
+        brk[:, 0] = True
+        brk[:, 1:] = sg[:, 1:] != sg[:, :-1]
+        starts = np.nonzero(brk.ravel())[0]
+        mP = np.maximum.reduceat(aP.ravel(), starts)
+        mT = np.maximum.reduceat(aT.ravel(), starts)
+        row = starts // mask.shape[1]
+        b = np.zeros(K)
+        np.maximum.at(b, row, mP + mT)
+    out = b + rem
+    if not detail:
+        return out
+    dev_lin = np.where(mask, np.linalg.norm(dqj[..., :3], axis=2), 0).max(axis=1)
+    dev_rot = np.where(mask, np.abs(dqj[..., 3:]).max(axis=2), 0).max(axis=1)
+    return (out, np.where(mask, np.abs(lP), 0).max(axis=1),
+            np.where(mask, np.abs(lT), 0).max(axis=1), dev_lin, dev_rot)
+
+
+def chord_heights(dp: DensePass, s: float, ends) -> np.ndarray:
+    """(K,) mm: chord height of the tip path in the part frame — the largest distance of the
+    dense tips inside the block from the straight segment tip(s) → tip(e) (the baseline)."""
+    ends = np.atleast_1d(np.asarray(ends, dtype=np.float64))
+    a = dp.interp(dp.tip, np.array([s]))[0]
+    b = dp.interp(dp.tip, ends)
+    j0 = int(math.floor(s)) + 1
+    j1 = int(math.ceil(float(ends.max()))) - 1
+    if j1 < j0:
+        return np.zeros(len(ends))
+    J = np.arange(j0, j1 + 1)
+    mask = J[None, :] < ends[:, None]
+    ab = b - a
+    L2 = np.maximum(np.einsum("ka,ka->k", ab, ab), 1e-300)
+    p = dp.tip[J][None] - a
+    t = np.clip(np.einsum("kja,ka->kj", np.broadcast_to(p, (len(ends),) + p.shape[1:]), ab)
+                / L2[:, None], 0, 1)
+    d = np.linalg.norm(p - t[..., None] * ab[:, None], axis=2)
+    return np.where(mask, d, 0.0).max(axis=1)
+
+
+def _search(dp: DensePass, fn, tol: float, *, fast=None, max_rotary_step=None,
+            min_step: float = 1e-3, ways: int = 8, rounds: int = 2):
+    """Greedy longest blocks: from s, the largest e with fn(s, e) ≤ tol (assumed monotone in
+    e up to the first failure). Galloping over geometric candidates (with ``fast``, a cheaper
+    estimate of fn, when given), then ``rounds`` rounds of ``ways``-way vectorised bisection with
+    fn; ``min_step`` dense steps is the shortest block. Returns the dense positions of the
+    block ends (B + 1,) starting at 0 and ending at m − 1."""
+    m = len(dp)
+    last = float(m - 1)
+    ends = [0.0]
+    G = np.exp2(np.linspace(-2.0, 2.0, 9))
+    fast = fast or fn
+
+    def ok(f, s, e):
+        e = np.atleast_1d(np.asarray(e, dtype=np.float64))
+        good = f(s, e) <= tol
+        if max_rotary_step is not None:
+            dq = np.abs(dp.joints_at(e)[:, 3:] - dp.joints_at(np.array([s]))[0, 3:]).max(axis=1)
+            good &= dq <= max_rotary_step
+        return good
+
+    def prefix(e, g):
+        """largest passing candidate before the first failure, and that failure."""
+        bad = np.nonzero(~g)[0]
+        if len(bad) == 0:
+            return e[-1], None
+        k = bad[0]
+        return (e[k - 1] if k > 0 else None), e[k]
+
+    def gallop(f, s, scale):
+        """(lo, hi): lo passes (None: not even s + min_step), hi fails (None: lo = last)."""
+        for _ in range(80):
+            e = np.unique(np.minimum(s + scale * G, last))
+            e = e[e > s + 1e-12]
+            lo, hi = prefix(e, ok(f, s, e))
+            if hi is None:
+                if e[-1] >= last:
+                    return last, None
+                scale *= 4.0
+                continue
+            if lo is None:
+                if e[0] - s <= min_step:
+                    return None, e[0]
+                scale /= 4.0
+                continue
+            return lo, hi
+        return None, s + min_step
+
+    def refine(f, s, a, b):
+        for _ in range(rounds):
+            e = np.linspace(a, b, ways + 2)[1:-1]
+            la, hb = prefix(e, ok(f, s, e))
+            if la is not None:
+                a = la
+            if hb is not None:
+                b = hb
+        return a
+
+    s = 0.0
+    L = 8.0
+    while s < last - 1e-9:
+        lo, hi = gallop(fast, s, L)
+        if fast is not fn and lo is not None:
+            # the fast estimate brackets; fn decides
+            if hi is None:
+                if ok(fn, s, last)[0]:
+                    lo = last
+                else:
+                    lo, hi = None, last
+            else:
+                c = s + 0.85 * (lo - s)
+                g = ok(fn, s, np.array([c, lo]))
+                if g[1]:
+                    pass
+                elif g[0]:
+                    lo, hi = c, lo
+                else:
+                    lo, hi = None, c
+            if lo is None:
+                lo, hi = gallop(fn, s, max(0.5 * (hi - s), min_step))
+        if lo is not None and hi is not None:
+            lo = refine(fn, s, lo, hi)
+        if lo is None:
+            lo = min(s + min_step, last)
+        ends.append(float(lo))
+        L = max(lo - s, min_step)
+        s = float(lo)
+    return np.asarray(ends)
+
+
+def search_constant_error(dp: DensePass, max_error: float, *, bound: str = "pointwise",
+                          max_rotary_step=None) -> np.ndarray:
+    """Block ends (B + 1,) dense positions: the longest blocks whose error bound
+    (:func:`block_bounds`) stays ≤ ``max_error`` mm = [d_M] (paper 002 Fig. 11)."""
+    _check_positive("max_error", max_error)
+    if bound not in BOUNDS:
+        raise InterpolationError(f"unknown bound {bound!r}; use one of {', '.join(BOUNDS)}")
+    return _search(dp, lambda s, e: block_bounds(dp, s, e, bound=bound), float(max_error),
+                   fast=lambda s, e: block_bounds(dp, s, e, bound=bound, pose_model="jacobian"),
+                   max_rotary_step=max_rotary_step)
+
+
+def search_chord(dp: DensePass, chord_height: float, *, max_rotary_step=None) -> np.ndarray:
+    """Block ends (B + 1,): the longest blocks whose tip chord height in the part frame
+    (:func:`chord_heights`) stays ≤ ``chord_height`` mm (the baseline of paper 002 §4.1)."""
+    _check_positive("chord_height", chord_height)
+    return _search(dp, lambda s, e: chord_heights(dp, s, e), float(chord_height),
+                   max_rotary_step=max_rotary_step)
+
+
+def _check_positive(name, v):
+    if v is None or not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
+        raise InterpolationError(f"{name} must be a positive number of mm, got {v!r}")
+
+
+# ====================================================================== exact evaluation
+def _clearance(machine, cutter, md, q):
+    """(k,) mm signed clearance of the cutter at joints q (k, 5) from the mesh: distance of
+    the corner circle's points to the mesh minus the corner radius (ball: centre − ρ)."""
+    tip, ax = forward(machine, q[:, :3], q[:, 3:])
+    r = float(cutter.r)
+    f = float(cutter.f)
+    e = float(cutter.e)
+    c = tip + f * ax
+    if e <= 1e-12:
+        return md.query(c).signed_distance - r, c
+    # points around the corner circle
+    ref = np.where(np.abs(ax[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+    u = _unit(np.cross(ax, ref))
+    v = np.cross(ax, u)
+    phi = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    P = c[:, None] + e * (np.cos(phi)[None, :, None] * u[:, None] + np.sin(phi)[None, :, None]
+                          * v[:, None])
+    d = md.query(P.reshape(-1, 3)).signed_distance.reshape(len(q), -1).min(axis=1)
+    return d - r, c
+
+
+def _foot(dp: DensePass, c) -> np.ndarray:
+    """(k,) dense positions of the foot points of corner centres c (k, 3) on the dense
+    centre polyline (the nearest dense pose's two segments, perpendicular projection)."""
+    from scipy.spatial import cKDTree
+
+    m = len(dp)
+    _, j = cKDTree(dp.centre).query(c)
+    best_u = j.astype(np.float64)
+    best_d = np.linalg.norm(c - dp.centre[j], axis=1)
+    for a in (j - 1, j):
+        ok = (a >= 0) & (a + 1 < m)
+        a = np.clip(a, 0, m - 2)
+        p0, p1 = dp.centre[a], dp.centre[a + 1]
+        d = p1 - p0
+        t = np.clip(np.einsum("ij,ij->i", c - p0, d) / np.maximum(np.einsum("ij,ij->i", d, d),
+                                                                    1e-300), 0, 1)
+        dist = np.linalg.norm(c - (p0 + t[:, None] * d), axis=1)
+        better = ok & (dist < best_d)
+        best_u = np.where(better, a + t, best_u)
+        best_d = np.where(better, dist, best_d)
+    return best_u
+
+
+def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
+                   samples: int = 32, ref=None):
+    """Exact per-block error, not using the bound.
+
+    Each block's joint-linear motion (ends (B + 1,) dense positions) is sampled at
+    ``samples`` interior points (more for long blocks: at least every dense pose);
+    ``machine.forward`` gives the cutter pose. With ``mesh`` (TriMesh or
+    :class:`.verify.MeshDistance`): the signed clearance of the cutter from the mesh
+    (:func:`_clearance`) minus that of the planned dense path (nearest dense pose) — > 0
+    undercut, < 0 overcut. Without a mesh: the corner centre's offset from the nearest dense
+    pose's centre along that pose's surface normal (no linearisation of the machine; the
+    surface taken as its tangent plane).
+
+    Returns (B,) max |error|, (B,) most negative (overcut, ≤ 0), (B,) most positive (≥ 0), mm.
+    """
+    ends = np.asarray(ends, dtype=np.float64)
+    B = len(ends) - 1
+    qs = dp.joints_at(ends)
+    span = np.diff(ends)
+    ns = np.maximum(samples, np.ceil(2 * span).astype(np.int64) + 1)
+    blk = np.repeat(np.arange(B), ns)
+    start = np.concatenate([[0], np.cumsum(ns)])[:-1]
+    k = np.arange(len(blk)) - start[blk]
+    t = (k + 1) / (ns[blk] + 1)
+    Q = qs[blk] + t[:, None] * (qs[blk + 1] - qs[blk])
+    tip, ax = forward(machine, Q[:, :3], Q[:, 3:])
+    lev = dp.interp(dp.lever, ends[blk] + t * span[blk])
+    # the lever follows the axis: re-derive it in the moved frame (ball: ρ a exactly)
+    if float(cutter.e) <= 1e-12:
+        lev = float(cutter.f) * ax
+    c = tip + lev
+    foot = _foot(dp, c)
+    if mesh is not None:
+        from .verify import MeshDistance
+
+        md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)
+        if ref is None:
+            ref, _ = _clearance(machine, cutter, md, dp.q)
+        val, _ = _clearance(machine, cutter, md, Q)
+        err = val - dp.interp(ref, foot)
+    else:
+        cf = dp.interp(dp.centre, foot)
+        nf = _unit(dp.interp(dp.normal, foot))
+        err = np.einsum("ij,ij->i", c - cf, nf)
+    mx = np.zeros(B)
+    lo = np.zeros(B)
+    hi = np.zeros(B)
+    np.maximum.at(mx, blk, np.abs(err))
+    np.minimum.at(lo, blk, err)
+    np.maximum.at(hi, blk, err)
+    return mx, lo, hi
+
+
+def match_chord_height(dp_list, machine, cutter, target: float, *, mesh=None,
+                       lo: float = 1e-5, hi: float = 1.0, iters: int = 14):
+    """The chord height whose measured maximum error (:func:`measure_blocks` over all
+    passes ``dp_list``) matches ``target`` mm from below — the largest h with measured ≤
+    target, by bisection on log h. Returns (h, ends per pass, measured per pass)."""
+    from .verify import MeshDistance
+
+    md = None if mesh is None else (mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh))
+    refs = [None] * len(dp_list)
+    if md is not None:
+        refs = [_clearance(machine, cutter, md, dp.q)[0] for dp in dp_list]
+
+    def run(h):
+        E, M = [], []
+        for dp, rf in zip(dp_list, refs, strict=True):
+            e = search_chord(dp, h)
+            E.append(e)
+            M.append(measure_blocks(machine, cutter, dp, e, mesh=md, ref=rf)[0])
+        return max(float(m.max()) for m in M), E, M
+
+    best = None
+    a, b = math.log(lo), math.log(hi)
+    for _ in range(iters):
+        mid = 0.5 * (a + b)
+        worst, E, M = run(math.exp(mid))
+        if worst <= target:
+            best = (math.exp(mid), E, M)
+            a = mid
+        else:
+            b = mid
+    if best is None:
+        h = math.exp(a)
+        worst, E, M = run(h)
+        best = (h, E, M)
+    return best
+
+
+# ====================================================================== program hook
+@dataclass
+class BlockSet:
+    """Chosen blocks of one pass: ``ends`` (B + 1,) dense positions, ``bound`` (B,) mm,
+    ``measured`` (B,) mm max |error| (or None), ``dense`` : DensePass."""
+
+    ends: np.ndarray
+    bound: np.ndarray
+    measured: np.ndarray | None
+    dense: DensePass
+
+
+@dataclass
+class InterpolationReport:
+    """What :func:`interpolate_program` did.
+
+    method; max_error (mm, constant-error) or chord_height (mm, chord); passes : cut runs
+    thinned; original : cut poses before; blocks : cut blocks after; dense : dense poses
+    searched; seconds_prepare, seconds_search : wall time; bound_band, measured_band :
+    (min, max) of the per-block maxima as fractions of the reference error (max_error; for
+    chord, the measured maximum); measured_max : mm; measured_kind : "mesh" or "path";
+    corner : (linear mm, rotary rad) smallest corner-transition thresholds of the passes
+    (paper 002 Fig. 11; the CNC's corner blending tolerances that keep the corner error below
+    the block's); sets : per-pass BlockSet.
+    """
+
+    method: str
+    max_error: float | None
+    chord_height: float | None
+    passes: int = 0
+    original: int = 0
+    blocks: int = 0
+    dense: int = 0
+    seconds_prepare: float = 0.0
+    seconds_search: float = 0.0
+    bound_band: tuple = (0.0, 0.0)
+    measured_band: tuple = (0.0, 0.0)
+    measured_max: float = 0.0
+    measured_kind: str = "path"
+    corner: tuple = (0.0, 0.0)
+    sets: list = field(default_factory=list, repr=False)
+
+    @property
+    def poses_per_second(self) -> float:
+        return self.dense / max(self.seconds_search, 1e-9)
+
+    def as_dict(self) -> dict:
+        return {
+            "method": self.method, "max_error_mm": self.max_error,
+            "chord_height_mm": self.chord_height, "passes": self.passes,
+            "cut_poses_before": self.original, "cut_blocks": self.blocks,
+            "dense_poses": self.dense, "search_s": round(self.seconds_search, 4),
+            "dense_poses_per_s": round(self.poses_per_second),
+            "measured_max_mm": self.measured_max, "measured_kind": self.measured_kind,
+            "measured_band_pct": [round(100 * x, 1) for x in self.measured_band],
+            "bound_band_pct": [round(100 * x, 1) for x in self.bound_band],
+            "corner_tolerance": {"linear_mm": self.corner[0],
+                                 "rotary_deg": math.degrees(self.corner[1])},
+        }
+
+    def summary(self) -> str:
+        ref = "[dM]" if self.method == "constant-error" else "max"
+        tol = (f"[dM] {self.max_error:g} mm" if self.method == "constant-error"
+               else f"chord height {self.chord_height:g} mm")
+        return (f"interpolation {self.method} ({tol}): {self.blocks} cut blocks from "
+                f"{self.original} poses in {self.passes} pass(es); measured ({self.measured_kind}) "
+                f"max {1000 * self.measured_max:.1f} µm, per-block maxima "
+                f"{100 * self.measured_band[0]:.1f}–{100 * self.measured_band[1]:.1f} % of {ref}")
+
+
+def _corner_thresholds(dp: DensePass, ends, bounds, dev_lin, dev_rot, max_error):
+    """Paper 002 Fig. 11: the corner thresholds start at the mean of the first two blocks'
+    largest trajectory deviations; at every later junction the corner error estimate
+    ``|g_lin| ε_T + |g_rot| ε_R`` (g = g_P + g_θ of the junction pose) must not exceed the
+    error of the blocks meeting there (and [d_M]): where it does, both thresholds shrink."""
+    if len(bounds) == 0:
+        return 0.0, 0.0
+    eT = float(np.mean(dev_lin[:2]))
+    eR = float(np.mean(dev_rot[:2]))
+    g = dp.interp(dp.gP + dp.gT, ends[1:-1])
+    gl = np.linalg.norm(g[:, :3], axis=1)
+    gr = np.linalg.norm(g[:, 3:], axis=1)
+    for k in range(2, len(bounds)):
+        lim = min(max(bounds[k - 1], bounds[k]), max_error)
+        ce = gl[k - 1] * eT + gr[k - 1] * eR
+        if ce > lim > 0:
+            f = lim / ce
+            eT *= f
+            eR *= f
+    return eT, eR
+
+
+def _pass_runs(prog: Program):
+    """[(p0, p1)] pose ranges (inclusive) of the cut polylines: each maximal run of cut moves
+    of one pass, starting at the pose before the run when it belongs to the same pass."""
+    out = []
+    m = np.asarray(prog.move)
+    cur = np.asarray(prog.curve)
+    i, n = 0, len(m)
+    while i < n:
+        if m[i] != MOVE_CUT:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and m[j + 1] == MOVE_CUT and cur[j + 1] == cur[i]:
+            j += 1
+        a = i - 1 if (i > 0 and cur[i - 1] == cur[i] and cur[i] >= 0) else i
+        if j - a >= 2:
+            out.append((a, j))
+        i = j + 1
+    return out
+
+
+def interpolate_program(path: ToolPath, machine, method: str = "constant-error", *,
+                        max_error: float | None = None, chord_height: float | None = None,
+                        mesh=None, bound: str = "pointwise", max_spacing: float = 0.1,
+                        max_turn: float = math.radians(0.1), max_rotary_step=None,
+                        measure: bool = True):
+    """Thin the cut poses of ``path.program`` into NC blocks for ``machine``.
+
+    Each maximal run of cut moves of one pass (with the pose before it, when on the same
+    pass) is a dense polyline; its blocks are chosen by ``method``: ``"constant-error"``
+    (longest blocks with error bound ≤ ``max_error`` mm, paper 002) or ``"chord"`` (tip chord
+    height ≤ ``chord_height`` mm in the part frame). Link, approach, retract and rapid poses are
+    kept as they are; the first and last pose of every run too. The new cut poses are machine
+    poses (``forward`` of the interpolated joints), so :func:`.post.blocks.build_blocks` solves
+    them back to the same joints; it must not linearise them again (the NC hook passes a large
+    chord for that).
+
+    ``mesh`` (TriMesh or MeshDistance): the measured error is taken against it; otherwise
+    against the planned path (:func:`measure_blocks`). Returns (ToolPath with the thinned
+    program, :class:`InterpolationReport`). Raises InterpolationError for bad input,
+    ReachError for an unreachable pose."""
+    if method not in METHODS:
+        raise InterpolationError(f"unknown interpolation method {method!r}; use one of "
+                                 f"{', '.join(METHODS)}")
+    if method == "constant-error":
+        _check_positive("max_error", max_error)
+    else:
+        _check_positive("chord_height", chord_height)
+    if bound not in BOUNDS:
+        raise InterpolationError(f"unknown bound {bound!r}; use one of {', '.join(BOUNDS)}")
+    _check_positive("max_spacing", max_spacing)
+    if not isinstance(machine, Machine):
+        machine = load_machine(machine)
+    prog = path.program
+    if prog is None or len(prog) == 0:
+        raise InterpolationError("the paths have no linked program (link the passes first)")
+    cutter = path.tool
+    rep = InterpolationReport(method=method, max_error=max_error if method != "chord" else None,
+                              chord_height=chord_height if method == "chord" else None)
+    md = None
+    if mesh is not None and measure:
+        from .verify import MeshDistance
+
+        md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)
+        rep.measured_kind = "mesh"
+    runs = _pass_runs(prog)
+    # IK of the whole program once (branch continuity as the posts will solve it)
+    ik = solve_poses(machine, prog.tip, prog.axis, moves=prog.move)
+    qall = np.hstack([ik.xyz, ik.angles])
+    keep_tip, keep_ax, keep_mv, keep_cur, keep_idx, keep_fl = [], [], [], [], [], []
+    pos = 0
+    corners = []
+    for a, b in runs:
+        # poses before the run unchanged
+        sl = slice(pos, a)
+        keep_tip.append(prog.tip[sl]); keep_ax.append(prog.axis[sl])  # noqa: E702
+        keep_mv.append(prog.move[sl]); keep_cur.append(prog.curve[sl])  # noqa: E702
+        keep_idx.append(prog.index[sl]); keep_fl.append(prog.flags[sl])  # noqa: E702
+        c = path.curves[int(prog.curve[a])]
+        idx = np.asarray(prog.index[a:b + 1])
+        normal = c.normal[idx]
+        t0 = time.perf_counter()
+        dp = prepare_pass(machine, cutter, prog.tip[a:b + 1], prog.axis[a:b + 1], normal,
+                          max_spacing=max_spacing, max_turn=max_turn, q=qall[a:b + 1])
+        t1 = time.perf_counter()
+        if method == "constant-error":
+            ends = search_constant_error(dp, max_error, bound=bound,
+                                         max_rotary_step=max_rotary_step)
+        else:
+            ends = search_chord(dp, chord_height, max_rotary_step=max_rotary_step)
+        t2 = time.perf_counter()
+        rep.seconds_prepare += t1 - t0
+        rep.seconds_search += t2 - t1
+        rep.dense += len(dp)
+        bnd = np.array([block_bounds(dp, s, np.array([e]), bound=bound, detail=True)
+                        for s, e in zip(ends[:-1], ends[1:], strict=True)]).reshape(-1, 5)
+        corners.append(_corner_thresholds(dp, ends, bnd[:, 0], bnd[:, 3], bnd[:, 4],
+                                          max_error if max_error else float(bnd[:, 0].max())))
+        meas = None
+        if measure:
+            meas = measure_blocks(machine, cutter, dp, ends, mesh=md)[0]
+        rep.sets.append(BlockSet(ends=ends, bound=bnd[:, 0], measured=meas, dense=dp))
+        rep.passes += 1
+        rep.original += b - a
+        rep.blocks += len(ends) - 1
+        # the run's poses: first kept as is, the block ends after it
+        qe = dp.joints_at(ends[1:-1])
+        tp, ax = forward(machine, qe[:, :3], qe[:, 3:])
+        srcf = dp.interp(dp.source, ends[1:-1])
+        si = np.clip(np.floor(srcf).astype(np.int64), 0, b - a)
+        keep_tip.append(np.vstack([prog.tip[a:a + 1], tp, prog.tip[b:b + 1]]))
+        keep_ax.append(np.vstack([prog.axis[a:a + 1], ax, prog.axis[b:b + 1]]))
+        keep_mv.append(np.concatenate([prog.move[a:a + 1], np.full(len(tp) + 1, MOVE_CUT,
+                                                                     np.int8)]))
+        keep_cur.append(np.full(len(tp) + 2, prog.curve[a]))
+        keep_idx.append(np.concatenate([prog.index[a:a + 1], idx[si], prog.index[b:b + 1]]))
+        keep_fl.append(np.concatenate([prog.flags[a:a + 1], prog.flags[a + si],
+                                       prog.flags[b:b + 1]]))
+        pos = b + 1
+    sl = slice(pos, len(prog))
+    keep_tip.append(prog.tip[sl]); keep_ax.append(prog.axis[sl])  # noqa: E702
+    keep_mv.append(prog.move[sl]); keep_cur.append(prog.curve[sl])  # noqa: E702
+    keep_idx.append(prog.index[sl]); keep_fl.append(prog.flags[sl])  # noqa: E702
+    new = Program(tip=np.vstack(keep_tip), axis=np.vstack(keep_ax),
+                  move=np.concatenate(keep_mv).astype(np.int8),
+                  curve=np.concatenate(keep_cur).astype(np.int64),
+                  index=np.concatenate(keep_idx).astype(np.int64),
+                  flags=np.concatenate(keep_fl).astype(np.uint8))
+    if rep.sets:
+        b_all = np.concatenate([s.bound for s in rep.sets])
+        refv = max_error if method == "constant-error" else None
+        if measure:
+            m_all = np.concatenate([s.measured for s in rep.sets])
+            rep.measured_max = float(m_all.max())
+            refm = refv if refv else rep.measured_max
+            rep.measured_band = (float(m_all.min() / refm), float(m_all.max() / refm))
+        refb = refv if refv else float(b_all.max())
+        rep.bound_band = (float(b_all.min() / refb), float(b_all.max() / refb))
+        rep.corner = (min(c[0] for c in corners), min(c[1] for c in corners))
+    return replace(path, program=new), rep
