@@ -166,55 +166,97 @@ def prepare_pass(machine: Machine, cutter, tip, axis, normal, *, max_spacing: fl
 
 
 # ====================================================================== bounds
-def block_bounds(dp: DensePass, s: float, ends, *, bound: str = "pointwise",
-                 pose_model: str = "exact", detail: bool = False):
-    """Machining error bound (mm) of the blocks ``s → e`` for every candidate end e.
+def concat_passes(passes) -> tuple[DensePass, np.ndarray]:
+    """Several DensePass → one (arrays stacked) and the (P + 1,) offsets of the passes in it;
+    the multi-pass search advances every pass by one block per step, so its numpy calls are
+    shared by all passes."""
+    passes = list(passes)
+    offs = np.concatenate([[0], np.cumsum([len(p) for p in passes])])
+    if len(passes) == 1:
+        return passes[0], offs
+    cat = {k: np.concatenate([getattr(p, k) for p in passes])
+           for k in ("q", "tip", "axis", "normal", "lever", "centre", "gP", "gT", "Jc", "source")}
+    return DensePass(**cat, rho=min(p.rho for p in passes), machine=passes[0].machine), offs
 
-    dp : DensePass; s : float dense position of the block start; ends : (K,) floats > s.
+
+_CHUNK_ELEMS = 200_000  # rows × dense poses per vectorised evaluation (memory)
+
+
+def _rows(dp, s, e):
+    """Dense indices inside blocks s → e (R,): (R, Jm) indices (clipped) and mask."""
+    j0 = np.floor(s).astype(np.int64) + 1
+    jm = int(max(1, int(np.max(np.ceil(e) - 1 - j0 + 1)) if len(s) else 1))
+    J = j0[:, None] + np.arange(jm)[None, :]
+    mask = J < e[:, None]
+    return np.clip(J, 0, len(dp) - 1), mask
+
+
+#: relative allowance added to every bound for what the model does not see: the faceted mesh
+#: (the planned path's own clearance varies between its poses) and the cutter between dense
+#: poses; the measured excess over the bare bound was ≤ 1.2 % on the demo blade (0.1 mm
+#: spacing), so 2 % keeps the bound conservative
+ALLOWANCE = 0.02
+
+
+def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
+                      pose_model: str = "exact", detail: bool = False,
+                      allowance: float = ALLOWANCE):
+    """Machining error bound (mm) of blocks s → e, one per row (s, e (R,) dense positions).
+
     For each dense pose j with s < j < e: the chord parameter t_j of the joint-linear motion
-    nearest pose j in the corner-centre metric (paper 002 Eq. 1, see
-    :mod:`.machining_error`), the trajectory deviation ``Δq_j`` (Eqs. 2–3), ``l_P``,
-    ``l_θ`` (Eqs. 8–13, linearised). Bound = max_j |l_P + l_θ| (``pointwise``; or, ``paper``,
-    per arc-shaped piece between sign changes of d_M the sum max |l_P| + max |l_θ|, Fig. 10)
+    nearest pose j in the corner-centre metric (paper 002 Eq. 1, see :mod:`.machining_error`),
+    the trajectory deviation ``Δq_j`` (Eqs. 2–3), then ``l_P``, ``l_θ``: ``pose_model``
+    "jacobian" maps Δq by the machine Jacobian (Eqs. 4–7, linear); "exact" (default) takes the
+    deviated pose by forward kinematics (no linearisation of the machine: at tight leading
+    edges the rotaries turn enough that Eq. 7 underestimates d_M by up to 5 %) and Eqs. 8–14
+    with the finite rotation. Bound = max_j |l_P + l_θ| (``pointwise``; or, ``paper``, per
+    arc-shaped piece between sign changes of d_M the sum max |l_P| + max |l_θ|, §3.2 Fig. 10)
     plus max_j of the lateral remainder ``|ΔC_⊥n|² / (2 ρ)`` (the cutter leaving the contact
-    sideways on a surface of offset curvature radius ≥ ρ; paper 002 neglects it, §3.1).
+    sideways, offset curvature radius ≥ ρ; paper 002 neglects it, §3.1), times
+    (1 + ``allowance``) (:data:`ALLOWANCE`).
 
-    Returns (K,) bounds; with ``detail`` also (K,) max |l_P|, (K,) max |l_θ|, (K,) largest
-    linear (mm) and rotary (rad) trajectory deviation."""
-    ends = np.atleast_1d(np.asarray(ends, dtype=np.float64))
-    K = len(ends)
-    qs = dp.joints_at(np.array([s]))[0]
-    qe = dp.joints_at(ends)
-    j0 = int(math.floor(s)) + 1
-    j1 = int(math.ceil(float(ends.max()))) - 1  # inclusive
-    if j1 < j0:
-        z = np.zeros(K)
-        return (z, z, z, z, z) if detail else z
-    J = np.arange(j0, j1 + 1)
-    mask = J[None, :] < ends[:, None]  # (K, J)
-    Jc = dp.Jc[J]  # (J, 3, 5)
-    dq = qe - qs  # (K, 5)
-    u = np.einsum("jab,kb->kja", Jc, dq)  # (K, J, 3)
-    w = np.einsum("jab,jb->ja", Jc, qs[None] - dp.q[J])  # (J, 3)
-    uu = np.einsum("kja,kja->kj", u, u)
-    t = np.clip(-np.einsum("kja,ja->kj", u, w) / np.maximum(uu, 1e-300), 0.0, 1.0)
-    dqj = (qs[None, None] - dp.q[J][None]) + t[..., None] * dq[:, None, :]  # (K, J, 5)
+    Returns (R,) bounds; with ``detail`` a tuple (bound, max |l_P|, max |l_θ|, largest linear
+    (mm) and rotary (rad) trajectory deviation), each (R,)."""
+    s = np.asarray(s, dtype=np.float64).reshape(-1)
+    e = np.asarray(e, dtype=np.float64).reshape(-1)
+    R = len(s)
+    if R == 0:
+        z = np.zeros(0)
+        return (z,) * 5 if detail else z
+    jm = int(np.max(np.ceil(e) - np.floor(s)))
+    step = max(1, _CHUNK_ELEMS // max(jm, 1))
+    if R > step:
+        parts = [block_bounds_rows(dp, s[i:i + step], e[i:i + step], bound=bound,
+                                   pose_model=pose_model, detail=detail, allowance=allowance)
+                 for i in range(0, R, step)]
+        if detail:
+            return tuple(np.concatenate([p[k] for p in parts]) for k in range(5))
+        return np.concatenate(parts)
+    J, mask = _rows(dp, s, e)
+    Jn = J.shape[1]
+    qs = dp.joints_at(s)
+    dq = dp.joints_at(e) - qs  # (R, 5)
+    qJ = dp.q[J]  # (R, Jn, 5)
+    Jc = dp.Jc[J]  # (R, Jn, 3, 5)
+    u = np.einsum("rjab,rb->rja", Jc, dq)
+    w = np.einsum("rjab,rjb->rja", Jc, qs[:, None] - qJ)
+    uu = np.einsum("rja,rja->rj", u, u)
+    t = np.clip(-np.einsum("rja,rja->rj", u, w) / np.maximum(uu, 1e-300), 0.0, 1.0)
+    dqj = (qs[:, None] - qJ) + t[..., None] * dq[:, None, :]  # (R, Jn, 5)
     if pose_model == "jacobian":  # Eq. (7), linear in Δq
-        lP = np.einsum("kjb,jb->kj", dqj, dp.gP[J])
-        lT = np.einsum("kjb,jb->kj", dqj, dp.gT[J])
+        lP = np.einsum("rjb,rjb->rj", dqj, dp.gP[J])
+        lT = np.einsum("rjb,rjb->rj", dqj, dp.gT[J])
         dM = lP + lT
-        dC = w[None] + t[..., None] * u
+        dC = w + t[..., None] * u
     else:  # the deviated pose by forward kinematics, Eqs. (8)–(14) with the finite rotation
-        Q = (qs[None, None] + t[..., None] * dq[:, None, :]).reshape(-1, 5)
+        Q = (qs[:, None] + t[..., None] * dq[:, None, :]).reshape(-1, 5)
         tp, ax = forward(dp.machine, Q[:, :3], Q[:, 3:])
-        nJ = np.broadcast_to(dp.normal[J][None], (K, len(J), 3)).reshape(-1, 3)
-        tJ = np.broadcast_to(dp.tip[J][None], (K, len(J), 3)).reshape(-1, 3)
-        aJ = np.broadcast_to(dp.axis[J][None], (K, len(J), 3)).reshape(-1, 3)
-        rJ = np.broadcast_to(dp.lever[J][None], (K, len(J), 3)).reshape(-1, 3)
-        lP, lT, dM, dCf = pose_error(tJ, aJ, tp, ax, nJ, rJ, centre=True)
-        lP, lT, dM = (x.reshape(K, len(J)) for x in (lP, lT, dM))
-        dC = dCf.reshape(K, len(J), 3)
-    lat2 = np.maximum(np.einsum("kja,kja->kj", dC, dC) - dM * dM, 0.0)
+        f = J.reshape(-1)
+        lP, lT, dM, dCf = pose_error(dp.tip[f], dp.axis[f], tp, ax, dp.normal[f], dp.lever[f],
+                                     centre=True)
+        lP, lT, dM = (x.reshape(R, Jn) for x in (lP, lT, dM))
+        dC = dCf.reshape(R, Jn, 3)
+    lat2 = np.maximum(np.einsum("rja,rja->rj", dC, dC) - dM * dM, 0.0)
     rem = np.where(mask, lat2 / (2.0 * dp.rho), 0.0).max(axis=1)
     if bound == "pointwise":
         b = np.where(mask, np.abs(dM), 0.0).max(axis=1)
@@ -228,10 +270,10 @@ def block_bounds(dp: DensePass, s: float, ends, *, bound: str = "pointwise",
         starts = np.nonzero(brk.ravel())[0]
         mP = np.maximum.reduceat(aP.ravel(), starts)
         mT = np.maximum.reduceat(aT.ravel(), starts)
-        row = starts // mask.shape[1]
-        b = np.zeros(K)
+        row = starts // Jn
+        b = np.zeros(R)
         np.maximum.at(b, row, mP + mT)
-    out = b + rem
+    out = (b + rem) * (1.0 + allowance)
     if not detail:
         return out
     dev_lin = np.where(mask, np.linalg.norm(dqj[..., :3], axis=2), 0).max(axis=1)
@@ -240,135 +282,185 @@ def block_bounds(dp: DensePass, s: float, ends, *, bound: str = "pointwise",
             np.where(mask, np.abs(lT), 0).max(axis=1), dev_lin, dev_rot)
 
 
-def chord_heights(dp: DensePass, s: float, ends) -> np.ndarray:
-    """(K,) mm: chord height of the tip path in the part frame — the largest distance of the
-    dense tips inside the block from the straight segment tip(s) → tip(e) (the baseline)."""
+def block_bounds(dp: DensePass, s: float, ends, **kw):
+    """(K,) bounds of the blocks s → e for every candidate end e (K,)
+    (:func:`block_bounds_rows`)."""
     ends = np.atleast_1d(np.asarray(ends, dtype=np.float64))
-    a = dp.interp(dp.tip, np.array([s]))[0]
-    b = dp.interp(dp.tip, ends)
-    j0 = int(math.floor(s)) + 1
-    j1 = int(math.ceil(float(ends.max()))) - 1
-    if j1 < j0:
-        return np.zeros(len(ends))
-    J = np.arange(j0, j1 + 1)
-    mask = J[None, :] < ends[:, None]
-    ab = b - a
-    L2 = np.maximum(np.einsum("ka,ka->k", ab, ab), 1e-300)
-    p = dp.tip[J][None] - a
-    t = np.clip(np.einsum("kja,ka->kj", np.broadcast_to(p, (len(ends),) + p.shape[1:]), ab)
-                / L2[:, None], 0, 1)
+    return block_bounds_rows(dp, np.full(len(ends), float(s)), ends, **kw)
+
+
+def chord_heights_rows(dp: DensePass, s, e) -> np.ndarray:
+    """(R,) mm: chord height of the tip path in the part frame — the largest distance of the
+    dense tips inside each block s → e (R,) from the straight segment tip(s) → tip(e) (the
+    baseline of paper 002 §4.1)."""
+    s = np.asarray(s, dtype=np.float64).reshape(-1)
+    e = np.asarray(e, dtype=np.float64).reshape(-1)
+    if len(s) == 0:
+        return np.zeros(0)
+    J, mask = _rows(dp, s, e)
+    a = dp.interp(dp.tip, s)
+    ab = dp.interp(dp.tip, e) - a
+    L2 = np.maximum(np.einsum("ra,ra->r", ab, ab), 1e-300)
+    p = dp.tip[J] - a[:, None]
+    t = np.clip(np.einsum("rja,ra->rj", p, ab) / L2[:, None], 0, 1)
     d = np.linalg.norm(p - t[..., None] * ab[:, None], axis=2)
     return np.where(mask, d, 0.0).max(axis=1)
 
 
-def _search(dp: DensePass, fn, tol: float, *, fast=None, max_rotary_step=None,
+def chord_heights(dp: DensePass, s: float, ends) -> np.ndarray:
+    """(K,) chord heights of the blocks s → e (:func:`chord_heights_rows`)."""
+    ends = np.atleast_1d(np.asarray(ends, dtype=np.float64))
+    return chord_heights_rows(dp, np.full(len(ends), float(s)), ends)
+
+
+def _search(dp: DensePass, offs, fn, tol: float, *, fast=None, max_rotary_step=None,
             min_step: float = 1e-3, ways: int = 8, rounds: int = 2):
-    """Greedy longest blocks: from s, the largest e with fn(s, e) ≤ tol (assumed monotone in
-    e up to the first failure). Galloping over geometric candidates (with ``fast``, a cheaper
-    estimate of fn, when given), then ``rounds`` rounds of ``ways``-way vectorised bisection with
-    fn; ``min_step`` dense steps is the shortest block. Returns the dense positions of the
-    block ends (B + 1,) starting at 0 and ending at m − 1."""
-    m = len(dp)
-    last = float(m - 1)
-    ends = [0.0]
+    """Greedy longest blocks of every pass (offsets ``offs`` (P + 1,) into ``dp``): from s,
+    the largest e with fn(s, e) ≤ tol (assumed monotone in e up to the first failure).
+    All passes advance one block per step (shared vectorised evaluations). Galloping over
+    geometric candidates (with ``fast``, a cheaper estimate of fn, when given; fn then checks
+    the bracket), then ``rounds`` rounds of ``ways``-way bisection with fn; ``min_step`` dense
+    steps is the shortest block. fn(s (R,), e (R,)) → (R,). Returns per pass the dense
+    positions of its block ends (B + 1,), from the pass's first pose to its last (global
+    positions minus the pass offset)."""
+    P = len(offs) - 1
+    last = (offs[1:] - 1).astype(np.float64)
     G = np.exp2(np.linspace(-2.0, 2.0, 9))
     fast = fast or fn
 
-    def ok(f, s, e):
-        e = np.atleast_1d(np.asarray(e, dtype=np.float64))
-        good = f(s, e) <= tol
+    def ok(f, s, E):
+        """(n, K) candidate ends E of blocks from s (n,) → bool (n, K)."""
+        n, K = E.shape
+        S = np.repeat(s, K)
+        good = (f(S, E.reshape(-1)) <= tol).reshape(n, K)
         if max_rotary_step is not None:
-            dq = np.abs(dp.joints_at(e)[:, 3:] - dp.joints_at(np.array([s]))[0, 3:]).max(axis=1)
-            good &= dq <= max_rotary_step
+            dq = np.abs(dp.joints_at(E.reshape(-1))[:, 3:] - dp.joints_at(S)[:, 3:]).max(axis=1)
+            good &= (dq <= max_rotary_step).reshape(n, K)
         return good
 
-    def prefix(e, g):
-        """largest passing candidate before the first failure, and that failure."""
-        bad = np.nonzero(~g)[0]
-        if len(bad) == 0:
-            return e[-1], None
-        k = bad[0]
-        return (e[k - 1] if k > 0 else None), e[k]
+    def prefix(E, g):
+        """per row: largest passing candidate before the first failure (nan: none) and that
+        failure (nan: none)."""
+        n, K = E.shape
+        bad = ~g
+        anyb = bad.any(axis=1)
+        k = np.where(anyb, np.argmax(bad, axis=1), K)
+        lo = np.where(k > 0, E[np.arange(n), np.maximum(k - 1, 0)], np.nan)
+        hi = np.where(anyb, E[np.arange(n), np.minimum(k, K - 1)], np.nan)
+        return lo, hi
 
-    def gallop(f, s, scale):
-        """(lo, hi): lo passes (None: not even s + min_step), hi fails (None: lo = last)."""
+    def gallop(f, rows, s, scale):
+        """lo (passes; nan: not even s + min_step), hi (fails; nan: lo is the pass end)."""
+        lo = np.full(len(rows), np.nan)
+        hi = np.full(len(rows), np.nan)
+        act = np.arange(len(rows))
+        scale = scale.copy()
         for _ in range(80):
-            e = np.unique(np.minimum(s + scale * G, last))
-            e = e[e > s + 1e-12]
-            lo, hi = prefix(e, ok(f, s, e))
-            if hi is None:
-                if e[-1] >= last:
-                    return last, None
-                scale *= 4.0
-                continue
-            if lo is None:
-                if e[0] - s <= min_step:
-                    return None, e[0]
-                scale /= 4.0
-                continue
-            return lo, hi
-        return None, s + min_step
+            if len(act) == 0:
+                break
+            E = np.minimum(s[act, None] + scale[act, None] * G[None], last[rows[act], None])
+            la, hb = prefix(E, ok(f, s[act], E))
+            end = np.isnan(hb) & (E[:, -1] >= last[rows[act]])
+            grow = np.isnan(hb) & ~end
+            tiny = np.isnan(la) & ~np.isnan(hb) & (E[:, 0] - s[act] <= min_step)
+            shrink = np.isnan(la) & ~np.isnan(hb) & ~tiny
+            done = ~(grow | shrink)
+            lo[act[done]] = la[done]
+            hi[act[done]] = hb[done]
+            scale[act[grow]] *= 4.0
+            scale[act[shrink]] /= 4.0
+            act = act[~done]
+        return lo, hi
 
     def refine(f, s, a, b):
         for _ in range(rounds):
-            e = np.linspace(a, b, ways + 2)[1:-1]
-            la, hb = prefix(e, ok(f, s, e))
-            if la is not None:
-                a = la
-            if hb is not None:
-                b = hb
+            E = a[:, None] + (b - a)[:, None] * (np.arange(1, ways + 1) / (ways + 1))[None]
+            la, hb = prefix(E, ok(f, s, E))
+            a = np.where(np.isnan(la), a, la)
+            b = np.where(np.isnan(hb), b, hb)
         return a
 
-    s = 0.0
-    L = 8.0
-    while s < last - 1e-9:
-        lo, hi = gallop(fast, s, L)
-        if fast is not fn and lo is not None:
+    ends = [[float(offs[p])] for p in range(P)]
+    rows = np.arange(P)[last > offs[:-1]]
+    s = offs[rows].astype(np.float64)
+    L = np.full(len(rows), 8.0)
+    while len(rows):
+        lo, hi = gallop(fast, rows, s, L)
+        if fast is not fn:
             # the fast estimate brackets; fn decides
-            if hi is None:
-                if ok(fn, s, last)[0]:
-                    lo = last
-                else:
-                    lo, hi = None, last
-            else:
-                c = s + 0.85 * (lo - s)
-                g = ok(fn, s, np.array([c, lo]))
-                if g[1]:
-                    pass
-                elif g[0]:
-                    lo, hi = c, lo
-                else:
-                    lo, hi = None, c
-            if lo is None:
-                lo, hi = gallop(fn, s, max(0.5 * (hi - s), min_step))
-        if lo is not None and hi is not None:
-            lo = refine(fn, s, lo, hi)
-        if lo is None:
-            lo = min(s + min_step, last)
-        ends.append(float(lo))
-        L = max(lo - s, min_step)
-        s = float(lo)
-    return np.asarray(ends)
+            has = ~np.isnan(lo)
+            at_end = has & np.isnan(hi)
+            if at_end.any():
+                i = np.nonzero(at_end)[0]
+                g = ok(fn, s[i], last[rows[i], None])[:, 0]
+                hi[i[~g]] = last[rows[i[~g]]]
+                lo[i[~g]] = np.nan
+            mid = has & ~at_end
+            if mid.any():
+                i = np.nonzero(mid)[0]
+                c = s[i] + 0.85 * (lo[i] - s[i])
+                g = ok(fn, s[i], np.stack([c, lo[i]], axis=1))
+                only_c = ~g[:, 1] & g[:, 0]
+                neither = ~g[:, 1] & ~g[:, 0]
+                hi[i[only_c]] = lo[i[only_c]]
+                lo[i[only_c]] = c[only_c]
+                hi[i[neither]] = c[neither]
+                lo[i[neither]] = np.nan
+            redo = np.isnan(lo) & ~np.isnan(hi)
+            if redo.any():
+                i = np.nonzero(redo)[0]
+                lo[i], hi[i] = gallop(fn, rows[i], s[i],
+                                      np.maximum(0.5 * (hi[i] - s[i]), min_step))
+        br = ~np.isnan(lo) & ~np.isnan(hi)
+        if br.any():
+            i = np.nonzero(br)[0]
+            lo[i] = refine(fn, s[i], lo[i], hi[i])
+        lo = np.where(np.isnan(lo), np.minimum(s + min_step, last[rows]), lo)
+        for r, v in zip(rows, lo, strict=True):
+            ends[r].append(float(v))
+        L = np.maximum(lo - s, min_step)
+        s = lo
+        keep = s < last[rows] - 1e-9
+        rows, s, L = rows[keep], s[keep], L[keep]
+    return [np.asarray(e) - offs[p] for p, e in enumerate(ends)]
 
 
-def search_constant_error(dp: DensePass, max_error: float, *, bound: str = "pointwise",
-                          max_rotary_step=None) -> np.ndarray:
-    """Block ends (B + 1,) dense positions: the longest blocks whose error bound
-    (:func:`block_bounds`) stays ≤ ``max_error`` mm = [d_M] (paper 002 Fig. 11)."""
+def _as_list(dense):
+    if isinstance(dense, DensePass):
+        return [dense], True
+    return list(dense), False
+
+
+def search_constant_error(dense, max_error: float, *, bound: str = "pointwise",
+                          max_rotary_step=None, pose_model: str = "exact"):
+    """Block ends: the longest blocks whose error bound (:func:`block_bounds_rows`) stays
+    ≤ ``max_error`` mm = [d_M] (paper 002 §3.2, Fig. 11). ``dense``: a DensePass (→ (B + 1,)
+    dense positions) or a list of them (→ list; searched together)."""
     _check_positive("max_error", max_error)
     if bound not in BOUNDS:
         raise InterpolationError(f"unknown bound {bound!r}; use one of {', '.join(BOUNDS)}")
-    return _search(dp, lambda s, e: block_bounds(dp, s, e, bound=bound), float(max_error),
-                   fast=lambda s, e: block_bounds(dp, s, e, bound=bound, pose_model="jacobian"),
-                   max_rotary_step=max_rotary_step)
+    passes, single = _as_list(dense)
+    dp, offs = concat_passes(passes)
+    fast = None
+    if pose_model == "exact":
+        fast = lambda s, e: block_bounds_rows(dp, s, e, bound=bound,  # noqa: E731
+                                              pose_model="jacobian")
+    out = _search(dp, offs, lambda s, e: block_bounds_rows(dp, s, e, bound=bound,
+                                                          pose_model=pose_model),
+                  float(max_error), fast=fast, max_rotary_step=max_rotary_step)
+    return out[0] if single else out
 
 
-def search_chord(dp: DensePass, chord_height: float, *, max_rotary_step=None) -> np.ndarray:
-    """Block ends (B + 1,): the longest blocks whose tip chord height in the part frame
-    (:func:`chord_heights`) stays ≤ ``chord_height`` mm (the baseline of paper 002 §4.1)."""
+def search_chord(dense, chord_height: float, *, max_rotary_step=None):
+    """Block ends: the longest blocks whose tip chord height in the part frame
+    (:func:`chord_heights_rows`) stays ≤ ``chord_height`` mm (the baseline of paper 002 §4.1).
+    ``dense`` as in :func:`search_constant_error`."""
     _check_positive("chord_height", chord_height)
-    return _search(dp, lambda s, e: chord_heights(dp, s, e), float(chord_height),
-                   max_rotary_step=max_rotary_step)
+    passes, single = _as_list(dense)
+    dp, offs = concat_passes(passes)
+    out = _search(dp, offs, lambda s, e: chord_heights_rows(dp, s, e), float(chord_height),
+                  max_rotary_step=max_rotary_step)
+    return out[0] if single else out
 
 
 def _check_positive(name, v):
@@ -487,11 +579,9 @@ def match_chord_height(dp_list, machine, cutter, target: float, *, mesh=None,
         refs = [_clearance(machine, cutter, md, dp.q)[0] for dp in dp_list]
 
     def run(h):
-        E, M = [], []
-        for dp, rf in zip(dp_list, refs, strict=True):
-            e = search_chord(dp, h)
-            E.append(e)
-            M.append(measure_blocks(machine, cutter, dp, e, mesh=md, ref=rf)[0])
+        E = search_chord(list(dp_list), h)
+        M = [measure_blocks(machine, cutter, dp, e, mesh=md, ref=rf)[0]
+             for dp, e, rf in zip(dp_list, E, refs, strict=True)]
         return max(float(m.max()) for m in M), E, M
 
     best = None
@@ -544,6 +634,7 @@ class InterpolationReport:
     original: int = 0
     blocks: int = 0
     dense: int = 0
+    input_poses: int = 0
     seconds_prepare: float = 0.0
     seconds_search: float = 0.0
     bound_band: tuple = (0.0, 0.0)
@@ -555,7 +646,13 @@ class InterpolationReport:
 
     @property
     def poses_per_second(self) -> float:
+        """Dense (resampled) poses searched per second."""
         return self.dense / max(self.seconds_search, 1e-9)
+
+    @property
+    def input_poses_per_second(self) -> float:
+        """Poses of the input program's cut runs searched per second."""
+        return self.input_poses / max(self.seconds_search, 1e-9)
 
     def as_dict(self) -> dict:
         return {
@@ -564,6 +661,7 @@ class InterpolationReport:
             "cut_poses_before": self.original, "cut_blocks": self.blocks,
             "dense_poses": self.dense, "search_s": round(self.seconds_search, 4),
             "dense_poses_per_s": round(self.poses_per_second),
+            "input_poses_per_s": round(self.input_poses_per_second),
             "measured_max_mm": self.measured_max, "measured_kind": self.measured_kind,
             "measured_band_pct": [round(100 * x, 1) for x in self.measured_band],
             "bound_band_pct": [round(100 * x, 1) for x in self.bound_band],
@@ -672,39 +770,43 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
     # IK of the whole program once (branch continuity as the posts will solve it)
     ik = solve_poses(machine, prog.tip, prog.axis, moves=prog.move)
     qall = np.hstack([ik.xyz, ik.angles])
+    t0 = time.perf_counter()
+    dense = []
+    for a, b in runs:
+        c = path.curves[int(prog.curve[a])]
+        normal = c.normal[np.asarray(prog.index[a:b + 1])]
+        dense.append(prepare_pass(machine, cutter, prog.tip[a:b + 1], prog.axis[a:b + 1],
+                                  normal, max_spacing=max_spacing, max_turn=max_turn,
+                                  q=qall[a:b + 1]))
+    t1 = time.perf_counter()
+    if not dense:
+        all_ends = []
+    elif method == "constant-error":
+        all_ends = search_constant_error(dense, max_error, bound=bound,
+                                         max_rotary_step=max_rotary_step)
+    else:
+        all_ends = search_chord(dense, chord_height, max_rotary_step=max_rotary_step)
+    t2 = time.perf_counter()
+    rep.seconds_prepare = t1 - t0
+    rep.seconds_search = t2 - t1
+    rep.dense = int(sum(len(d) for d in dense))
+    rep.input_poses = int(sum(b - a + 1 for a, b in runs))
     keep_tip, keep_ax, keep_mv, keep_cur, keep_idx, keep_fl = [], [], [], [], [], []
     pos = 0
     corners = []
-    for a, b in runs:
-        # poses before the run unchanged
-        sl = slice(pos, a)
+    for (a, b), dp, ends in zip(runs, dense, all_ends, strict=True):
+        sl = slice(pos, a)  # poses before the run unchanged
         keep_tip.append(prog.tip[sl]); keep_ax.append(prog.axis[sl])  # noqa: E702
         keep_mv.append(prog.move[sl]); keep_cur.append(prog.curve[sl])  # noqa: E702
         keep_idx.append(prog.index[sl]); keep_fl.append(prog.flags[sl])  # noqa: E702
-        c = path.curves[int(prog.curve[a])]
         idx = np.asarray(prog.index[a:b + 1])
-        normal = c.normal[idx]
-        t0 = time.perf_counter()
-        dp = prepare_pass(machine, cutter, prog.tip[a:b + 1], prog.axis[a:b + 1], normal,
-                          max_spacing=max_spacing, max_turn=max_turn, q=qall[a:b + 1])
-        t1 = time.perf_counter()
-        if method == "constant-error":
-            ends = search_constant_error(dp, max_error, bound=bound,
-                                         max_rotary_step=max_rotary_step)
-        else:
-            ends = search_chord(dp, chord_height, max_rotary_step=max_rotary_step)
-        t2 = time.perf_counter()
-        rep.seconds_prepare += t1 - t0
-        rep.seconds_search += t2 - t1
-        rep.dense += len(dp)
-        bnd = np.array([block_bounds(dp, s, np.array([e]), bound=bound, detail=True)
-                        for s, e in zip(ends[:-1], ends[1:], strict=True)]).reshape(-1, 5)
-        corners.append(_corner_thresholds(dp, ends, bnd[:, 0], bnd[:, 3], bnd[:, 4],
-                                          max_error if max_error else float(bnd[:, 0].max())))
+        det = block_bounds_rows(dp, ends[:-1], ends[1:], bound=bound, detail=True)
+        corners.append(_corner_thresholds(dp, ends, det[0], det[3], det[4],
+                                          max_error if max_error else float(det[0].max())))
         meas = None
         if measure:
             meas = measure_blocks(machine, cutter, dp, ends, mesh=md)[0]
-        rep.sets.append(BlockSet(ends=ends, bound=bnd[:, 0], measured=meas, dense=dp))
+        rep.sets.append(BlockSet(ends=ends, bound=det[0], measured=meas, dense=dp))
         rep.passes += 1
         rep.original += b - a
         rep.blocks += len(ends) - 1
@@ -715,8 +817,8 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
         si = np.clip(np.floor(srcf).astype(np.int64), 0, b - a)
         keep_tip.append(np.vstack([prog.tip[a:a + 1], tp, prog.tip[b:b + 1]]))
         keep_ax.append(np.vstack([prog.axis[a:a + 1], ax, prog.axis[b:b + 1]]))
-        keep_mv.append(np.concatenate([prog.move[a:a + 1], np.full(len(tp) + 1, MOVE_CUT,
-                                                                     np.int8)]))
+        keep_mv.append(np.concatenate([prog.move[a:a + 1],
+                                       np.full(len(tp) + 1, MOVE_CUT, np.int8)]))
         keep_cur.append(np.full(len(tp) + 2, prog.curve[a]))
         keep_idx.append(np.concatenate([prog.index[a:a + 1], idx[si], prog.index[b:b + 1]]))
         keep_fl.append(np.concatenate([prog.flags[a:a + 1], prog.flags[a + si],
