@@ -26,7 +26,7 @@ the value — never clamped.
 
 Linearization (paper 002 §2.2, Eqs. 1–3: the machine interpolates every axis linearly between
 blocks, so the tip leaves the planned straight CL segment where rotaries turn): between
-consecutive feed poses, joint-space motion is sampled densely; where the sampled tip strays
+consecutive poses (rapids too), joint-space motion is sampled densely; where the sampled tip strays
 more than the chord tolerance from the planned segment, or a rotary turns more than the step
 limit, a pose is inserted at the middle (tip linear, axis slerp) and solved again, until every
 piece passes.
@@ -73,7 +73,8 @@ def _sub1(w, u, v):
     """(n,) angle turning u (n, 3) into v (n, 3) about unit w (3,) (their parts across w)."""
     up = u - np.outer(u @ w, w)
     vp = v - np.outer(v @ w, w)
-    return np.arctan2(np.cross(up, vp) @ w, np.einsum("ij,ij->i", up, vp)), np.linalg.norm(up, axis=1)
+    ang = np.arctan2(np.cross(up, vp) @ w, np.einsum("ij,ij->i", up, vp))
+    return ang, np.linalg.norm(up, axis=1)
 
 
 def _two_rotations(wa, wb, p, q):
@@ -312,11 +313,13 @@ def linearize(
     samples: int = 16,
     max_rounds: int = 30,
     tool_length: float = 0.0,
+    rapids: bool = True,
 ):
     """Insert poses between feed poses until joint-linear motion follows the planned segments.
 
     tip, axis (n, 3); move (n,) codes; ik the solution of every pose. ``chord`` mm,
-    ``max_step`` radians (largest rotary turn between consecutive feed blocks).
+    ``max_step`` radians (largest rotary turn between consecutive blocks). ``rapids``: also
+    rapid segments (a joint-linear G0 swings the tip through the air as much as a G1 does).
 
     Returns (tip, axis, move, xyz, angles, singular, source, LinearizeReport) with the
     inserted poses in order; ``source`` (m,) is the index of the original pose, −1 inserted.
@@ -325,7 +328,8 @@ def linearize(
     axis = _unit(axis)
     move = np.asarray(move)
     n = len(tip)
-    seg = np.nonzero(move[1:] != MOVE_RAPID)[0] + 1  # segment (i-1 → i) per feed pose i
+    # segment (i-1 → i) per pose i
+    seg = np.arange(1, n) if rapids else np.nonzero(move[1:] != MOVE_RAPID)[0] + 1
     # working segments: original index, and both ends' state
     o = seg
     a_tip, b_tip = tip[o - 1], tip[o]

@@ -20,7 +20,7 @@ Kinds (the programmed X, Y, Z are always the machine position of the **tool tip*
 
 This is the forward model whose time derivative is the Jacobian of paper 002, Eq. (4)–(6)
 (A/C table-table: X, Y, Z, A, C → tip P_W and axis O_W in the workpiece frame). Paper 003
-§III.A names the three frames used here: machine (x_M y_M z_M), workpiece, part.
+§IV.A (Fig. 4) names the three frames used here: machine (x_M y_M z_M), workpiece, part.
 
 Lengths mm, angles radians in this module (degrees only in the TOML and in messages).
 
@@ -48,8 +48,10 @@ __all__ = [
     "forward",
     "known_presets",
     "load_machine",
+    "machine_axis",
     "machine_from_dict",
     "rotation_matrices",
+    "tip_to_machine",
 ]
 
 KINEMATICS = ("table-table", "head-table", "head-head")
@@ -295,6 +297,11 @@ def machine_from_dict(data: dict, source: str = "") -> Machine:
         rotaries.append(Rotary(name, axis, np.zeros(3) if point is None else point, limits))
     if rotaries[0].name == rotaries[1].name:
         raise MachineError(f"machine {where}: both rotaries are named {rotaries[0].name}")
+    if np.linalg.norm(np.cross(rotaries[0].axis, rotaries[1].axis)) < 1e-6:
+        raise MachineError(
+            f"machine {where}: rotaries {rotaries[0].name} and {rotaries[1].name} have parallel "
+            "axes; two parallel rotaries cannot orient the tool"
+        )
     linear = {}
     for ax, lim in dict(data.get("linear", {})).items():
         if ax not in ("X", "Y", "Z"):

@@ -31,7 +31,9 @@ class NcReport:
     linearization; axis_ranges : {name: (min, max)} — mm for X Y Z, degrees for rotaries
     (joint posts; the paths' X Y Z for TCP posts); singular : list[int] — program poses with a
     singular orientation; minutes : float — time estimate; max_deviation : mm — sampled tip
-    deviation of joint-linear motion after linearization; blades : int; indexed : bool.
+    deviation of joint-linear motion after linearization; blades : int; indexed : bool;
+    unresolved : int — segments still beyond the chord after the insertion round limit (0
+    normally; the summary warns otherwise).
     """
 
     filename: str
@@ -45,6 +47,7 @@ class NcReport:
     max_deviation: float = 0.0
     blades: int = 1
     indexed: bool = False
+    unresolved: int = 0
 
     def summary(self) -> str:
         rng = ", ".join(f"{k} {lo:.3f}…{hi:.3f}" for k, (lo, hi) in self.axis_ranges.items())
@@ -52,6 +55,8 @@ class NcReport:
             f"{self.filename}: {self.post} for {self.machine}, {self.blocks} blocks "
             f"({self.inserted} inserted), {self.blades} blade(s), ≈ {self.minutes:.1f} min; "
             f"{rng}; singular poses: {len(self.singular)}"
+            + (f"; WARNING: {self.unresolved} segments beyond the chord tolerance"
+               if self.unresolved else "")
         )
 
 
@@ -109,6 +114,7 @@ def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOpti
         max_deviation=float(blocks.max_deviation),
         blades=int(blocks.blades),
         indexed=bool(blocks.indexed),
+        unresolved=int(blocks.unresolved),
     )
 
 

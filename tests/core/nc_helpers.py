@@ -127,3 +127,73 @@ def parse_apt(text: str) -> tuple[np.ndarray, np.ndarray]:
     v = np.array([[float(x) for x in line[5:].split(",")]
                   for line in text.splitlines() if line.startswith("GOTO/")])
     return v[:, :3], v[:, 3:]
+
+
+def _eval_word(v: str, env: dict) -> float:
+    if not v.startswith("["):
+        return float(v)
+    expr = re.sub(r"#(\d+)", lambda m: repr(env[int(m.group(1))]), v)
+    expr = expr.replace("[", "(").replace("]", ")")
+    return float(eval(expr, {"__builtins__": {}}))  # noqa: S307 - test-only, own program text
+
+
+def parse_fanuc(text: str, names) -> tuple[np.ndarray, np.ndarray]:
+    """Fanuc motion blocks in execution order: main program, then every ``M98 P<sub>`` call
+    expanded with the macro variables set before it (#3 = COS[#1], #4 = SIN[#1] in the sub).
+    Returns xyz (k, 3), rotaries (k, 2) degrees."""
+    progs, cur = {}, None
+    for line in text.splitlines():
+        m = re.match(r"O(\d+)", line)
+        if m:
+            cur = int(m.group(1))
+            progs[cur] = []
+            continue
+        if cur is not None:
+            progs[cur].append(line)
+    main = min(progs)
+    word = r"\b([XYZABC])(\[[^\]]*\]|" + _NUM + ")"
+    xyz, rot = [], []
+
+    def run(lines, env):
+        for line in lines:
+            m = re.match(r"#(\d+)=(" + _NUM + r"|COS\[#1\]|SIN\[#1\])", line)
+            if m:
+                v = m.group(2)
+                env[int(m.group(1))] = (math.cos(math.radians(env[1])) if v.startswith("COS")
+                                        else math.sin(math.radians(env[1])) if v.startswith("SIN")
+                                        else float(v))
+                continue
+            m = re.match(r"M98 P(\d+)", line)
+            if m:
+                run(progs[int(m.group(1))], dict(env))
+                continue
+            if not re.match(r"G0[01] X", line):
+                continue
+            w = {k: _eval_word(v, env) for k, v in re.findall(word, line)}
+            xyz.append([w[k] for k in "XYZ"])
+            rot.append([w[names[0]], w[names[1]]])
+
+    run(progs[main], {})
+    return np.array(xyz), np.array(rot)
+
+
+def parse_siemens_program(text: str) -> tuple[np.ndarray, np.ndarray]:
+    """Siemens motion blocks in execution order: a ``BLADE_LOOP:`` section repeated while
+    ``IF _BLADE<N``, each pass under ``ROT Z=_BLADE*pitch`` (xyz and A3/B3/C3 turned)."""
+    lines = text.splitlines()
+    if "BLADE_LOOP:" not in lines:
+        return parse_siemens(text)
+    a = lines.index("BLADE_LOOP:")
+    b = next(i for i, t in enumerate(lines) if t.startswith("IF _BLADE<"))
+    n = int(re.search(r"<(\d+)", lines[b]).group(1))
+    pitch = float(re.search(r"ROT Z=_BLADE\*(" + _NUM + ")", lines[a + 1]).group(1))
+    head, _ = parse_siemens("\n".join(lines[:a]))
+    assert len(head) == 0
+    xyz0, ax0 = parse_siemens("\n".join(lines[a:b]))
+    xs, axs = [], []
+    for k in range(n):
+        t = math.radians(k * pitch)
+        R = np.array([[math.cos(t), -math.sin(t), 0], [math.sin(t), math.cos(t), 0], [0, 0, 1]])
+        xs.append(xyz0 @ R.T)
+        axs.append(ax0 @ R.T)
+    return np.vstack(xs), np.vstack(axs)

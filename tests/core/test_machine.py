@@ -8,6 +8,7 @@ import tomllib
 
 import numpy as np
 import pytest
+from nc_helpers import demo_path
 
 from blisk_cam.core.errors import BliskCamError, MachineError, ReachError
 from blisk_cam.core.kinematics import (
@@ -26,8 +27,6 @@ from blisk_cam.core.machine import (
     tip_to_machine,
 )
 from blisk_cam.core.toolpath import MOVE_CUT, MOVE_RAPID
-
-from nc_helpers import demo_path
 
 PRESETS = ("ac-trunnion", "bc-trunnion", "bc-head-table")
 
@@ -100,6 +99,7 @@ def test_presets_ship_and_ac_is_the_spec_example(tmp_path):
         (lambda t: t + "\n[[rotary]]\nname='B'\naxis=[0,1,0]\n", ["exactly two"]),
         (lambda t: t.replace("spindle = [0, 0, 1]", "spindle = [0, 1]"), ["spindle"]),
         (lambda t: t + "\nthis is not toml", ["not valid TOML"]),
+        (lambda t: t.replace("axis = [1, 0, 0]", "axis = [0, 0, -2]"), ["parallel"]),
     ],
 )
 def test_malformed_machine_toml(tmp_path, edit, words):
@@ -117,7 +117,7 @@ def test_unknown_preset_lists_known(tmp_path):
         load_machine(tmp_path / "missing.toml")
 
 
-def _random_axes(n, rng, max_polar=math.radians(100)):
+def _random_axes(n, rng, max_polar=1.745):
     pol = rng.uniform(math.radians(5), max_polar, n)
     az = rng.uniform(-math.pi, math.pi, n)
     return np.stack([np.sin(pol) * np.cos(az), np.sin(pol) * np.sin(az), np.cos(pol)], 1)
@@ -172,7 +172,8 @@ def test_continuous_axis_unwinds():
     """Three turns of the axis about the blisk axis: C runs on past 360° without a jump."""
     m = load_machine("ac-trunnion")
     phi = np.linspace(0, 6 * math.pi, 400)
-    axes = np.stack([np.sin(1.0) * np.cos(phi), np.sin(1.0) * np.sin(phi), np.full_like(phi, np.cos(1.0))], 1)
+    s1, c1 = np.sin(1.0), np.cos(1.0)
+    axes = np.stack([s1 * np.cos(phi), s1 * np.sin(phi), np.full_like(phi, c1)], 1)
     ik = solve_poses(m, np.zeros((400, 3)), axes)
     c = ik.angles[:, 1]
     assert np.abs(np.diff(c)).max() < math.radians(3)
@@ -248,3 +249,24 @@ def test_linearization_on_demo_blade(demo, name):
 
 def test_reach_error_is_a_bliskcam_error():
     assert issubclass(ReachError, BliskCamError)
+
+
+def test_near_singular_pass_is_linearized():
+    """The axis passes 0.05° beside the C axis: C swings ~180° over a few mm; linearization
+    inserts blocks until every C step is ≤ 5° and the sampled tip stays within the chord."""
+    m = load_machine("ac-trunnion")
+    n = 21
+    t = np.linspace(-1, 1, n)
+    ang = np.radians(10) * t
+    eps = np.radians(0.05)
+    axes = np.stack([np.full(n, np.sin(eps)), np.sin(ang), np.cos(ang)], 1)
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    tips = np.stack([np.full(n, 200.0), 20 * t, np.full(n, 10.0)], 1)
+    mv = np.zeros(n, np.int8)
+    ik = solve_poses(m, tips, axes, moves=mv)
+    assert np.ptp(np.degrees(ik.angles[:, 1])) > 150
+    tip, ax, mv2, xyz, q, sing, src, rep = linearize(m, tips, axes, mv, ik, chord=0.01)
+    assert rep.unresolved == 0 and rep.inserted > 100
+    assert np.degrees(np.abs(np.diff(q, axis=0))).max() <= 5.0 + 1e-9
+    dev = joint_deviation(m, xyz[:-1], q[:-1], xyz[1:], q[1:], tip[:-1], tip[1:], samples=64)
+    assert dev.max() <= 0.0102

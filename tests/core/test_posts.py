@@ -20,7 +20,8 @@ from nc_helpers import (
     demo_path,
     parse_apt,
     parse_canon,
-    parse_siemens,
+    parse_fanuc,
+    parse_siemens_program,
     parse_words,
     rotor37_path,
     run_rs274,
@@ -38,7 +39,9 @@ from blisk_cam.nc_cli import main as nc_main
 PRINT_MM = 0.5e-4  # 4 decimals
 TIP_TOL = 1e-3 + 2 * PRINT_MM
 AXIS_TOL = 1e-5
-needs_rs274 = pytest.mark.skipif(RS274 is None, reason="rs274 (LinuxCNC, linuxcnc-uspace) is not installed")
+needs_rs274 = pytest.mark.skipif(
+    RS274 is None, reason="rs274 (LinuxCNC, linuxcnc-uspace) is not installed"
+)
 
 
 @pytest.fixture(scope="module")
@@ -72,13 +75,15 @@ def read_back(post, machine, filename, tmp_path):
         tip, ax = forward(machine, xyz, np.radians(rot))
         return tip, ax, rot, xyz
     if post in ("fanuc", "heidenhain"):
-        start = r"G0[01] X" if post == "fanuc" else r"\d+ L X"
-        xyz, rot = parse_words(text, names, start=start)
+        if post == "fanuc":
+            xyz, rot = parse_fanuc(text, names)
+        else:
+            xyz, rot = parse_words(text, names, start=r"\d+ L X")
         # TCP: X Y Z are the tip in the part frame; the axis from the rotaries alone
         _, ax = forward(machine, np.zeros_like(xyz), np.radians(rot))
         return xyz, ax, rot, None
     if post == "siemens":
-        xyz, ax = parse_siemens(text)
+        xyz, ax = parse_siemens_program(text)
         return xyz, ax, None, None
     xyz, ax = parse_apt(text)
     return xyz, ax, None, None
@@ -92,9 +97,11 @@ def check_program(post, machine, path, opts, tmp_path, name="p.nc"):
     full = blocks.expanded()
     tip, ax, rot, xyz = read_back(post, machine, out, tmp_path)
     if post == "linuxcnc":
-        # one motion per block (SAFE included) plus the safe start and the safe end
-        assert len(tip) == len(full) + 2
-        keep = np.concatenate([[False], full.kind != SAFE, [False]])
+        # one motion per pose block, two per SAFE (retract, index the rotaries), plus the safe
+        # start and the safe end
+        safe = full.kind == SAFE
+        assert len(tip) == len(full) + safe.sum() + 2
+        keep = np.concatenate([[False], np.repeat(~safe, np.where(safe, 2, 1)), [False]])
         tip, ax, rot = tip[keep], ax[keep], rot[keep]
     pose = full.poses
     assert len(tip) == pose.sum() == rep.blocks
@@ -155,9 +162,10 @@ def test_fk_round_trip_demo(demo, post, machine, tmp_path):
         assert rep.minutes > 0 and rep.inserted >= 0
 
 
-@pytest.mark.parametrize("post, machine", [("linuxcnc", "ac-trunnion"), ("fanuc", "bc-head-table"),
-                                           ("siemens", "ac-trunnion"), ("heidenhain", "ac-trunnion"),
-                                           ("apt", "ac-trunnion")])
+@pytest.mark.parametrize("post, machine", [
+    ("linuxcnc", "ac-trunnion"), ("fanuc", "bc-head-table"), ("siemens", "ac-trunnion"),
+    ("heidenhain", "ac-trunnion"), ("apt", "ac-trunnion"),
+])
 def test_fk_round_trip_rotor37(rotor37, post, machine, tmp_path):
     if post == "linuxcnc" and RS274 is None:
         pytest.skip("rs274 (LinuxCNC, linuxcnc-uspace) is not installed")
@@ -166,19 +174,37 @@ def test_fk_round_trip_rotor37(rotor37, post, machine, tmp_path):
 
 @pytest.mark.parametrize("post, machine, indexed", [
     ("linuxcnc", "ac-trunnion", True),   # C is the blisk axis: O-word sub called per blade
-    ("fanuc", "ac-trunnion", False),     # rotated CL data, solved again
-    ("siemens", "bc-head-table", False),
+    ("fanuc", "ac-trunnion", True),      # M98 sub, macro variables: XY turned, C offset
+    ("siemens", "bc-head-table", True),  # repeated section under ROT Z
+    ("heidenhain", "ac-trunnion", False),  # rotated CL data, solved again
+    ("fanuc", "turned-axis", False),     # blisk axis not on C: rotated CL data
 ])
 def test_blades_rotate_about_the_blisk_axis(demo, post, machine, indexed, tmp_path):
     if post == "linuxcnc" and RS274 is None:
         pytest.skip("rs274 (LinuxCNC, linuxcnc-uspace) is not installed")
+    path = demo
+    if machine == "turned-axis":
+        import copy
+
+        from blisk_cam.core.cones import Axis
+        from blisk_cam.core.post.blocks import rotate_about_axis
+
+        path = copy.deepcopy(demo)  # the same blade, its blisk axis tilted by 1° about X
+        path.axis = Axis((0.0, 0.0, 0.0), (0.0, -math.sin(0.01745), math.cos(0.01745)))
+        path.program.tip, path.program.axis = rotate_about_axis(
+            demo.program.tip, demo.program.axis, [0, 0, 0], [1.0, 0, 0], 0.01745)
+        machine = "ac-trunnion"
     m = load_machine(machine)
-    rep, out = check_program(post, m, demo, NcOptions(blades=3), tmp_path)
+    rep, out = check_program(post, m, path, NcOptions(blades=3), tmp_path)
     assert rep.indexed is indexed and rep.blades == 3
     text = out.read_text()
-    if indexed:
+    if indexed and post == "linuxcnc":
         assert text.count("o100 call") == 3 and "C[#1+" in text
         assert "o100 call [-120.0000]" in text
+    if indexed and post == "fanuc":
+        assert text.count("M98 P1001") == 3 and "#2=-240.0000" in text
+    if indexed and post == "siemens":
+        assert "ROT Z=_BLADE*120.00000000" in text and "IF _BLADE<3 GOTOB BLADE_LOOP" in text
 
 
 @needs_rs274

@@ -2,7 +2,7 @@
 
 :func:`build_blocks` turns a linked :class:`~..toolpath.ToolPath` program into
 :class:`Blocks` once: inverse kinematics (:mod:`..kinematics`), linearization, feeds per move
-type, and the N blades (paper 003 §III: one blade's program rotated to all blades). Blade k is
+type, and the N blades (paper 003 §V.A: one blade's program rotated to all blades). Blade k is
 the blade-0 program turned by +k·360°/N right-handed about the paths' blisk axis. Where that
 axis is the innermost table rotary's line and the post can call a subprogram with a parameter
 (``indexed``), the blade-0 blocks are written once and called N times with the rotary offset;
@@ -114,7 +114,7 @@ class Blocks:
     source: np.ndarray
     singular: np.ndarray
     blades: int = 1
-    indexed: bool = False
+    indexed: bool = False  # blade 0 only, the post repeats it (see ``offsets``, ``pitch``)
     offsets: np.ndarray = field(default_factory=lambda: np.zeros(1))
     blisk_axis: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
     safe_z: float = 100.0
@@ -124,6 +124,13 @@ class Blocks:
 
     def __len__(self) -> int:
         return len(self.kind)
+
+    @property
+    def z_turns(self) -> np.ndarray:
+        """(N,) radians: blade k's rotation about the paths' +z (indexed streams whose blisk
+        axis is ±z)."""
+        sign = 1.0 if self.blisk_axis[1][2] >= 0 else -1.0
+        return sign * 2 * math.pi * np.arange(self.blades) / self.blades
 
     def expanded(self) -> Blocks:
         """The stream as the machine runs it: an indexed stream repeated per blade (tip/axis
@@ -183,9 +190,11 @@ def _solve_blade(path_tip, path_axis, move, machine, opts, chord, prev, labels):
 
 
 def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
-                 indexable: bool = True, solve: bool = True) -> Blocks:
+                 indexable: bool | str = True, solve: bool = True) -> Blocks:
     """Solve the path's program for the machine (module docstring). ``indexable``: the post
-    can write a subprogram called per blade with the rotary offset as parameter. ``solve``
+    can write a subprogram called per blade with the rotary offset as parameter; ``"z"``: it
+    can, when the blisk axis is also the paths' z axis (a TCP post rotating its coordinates
+    about Z). ``solve``
     False: CL data only (no kinematics; xyz = tip, angles 0) for machine-independent posts.
 
     Raises ReachError (pose, axis, value) for an unreachable pose, BliskCamError when the
@@ -199,6 +208,9 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
     n_bl = int(options.blades)
     o, d = path.axis.o, path.axis.d
     sigma = _indexable(machine, o, d) if (indexable and solve and options.use_subprogram) else 0.0
+    if indexable == "z" and (np.linalg.norm(np.cross(d, [0.0, 0, 1])) > 1e-9
+                             or np.hypot(o[0], o[1]) > 1e-6):
+        sigma = 0.0
     lim_z = machine.linear.get("Z")
     safe_z = options.safe_z if options.safe_z is not None else (lim_z[1] if lim_z else 100.0)
     labels = np.arange(len(prog))
@@ -207,7 +219,8 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
         offsets = -sigma * 2 * math.pi * np.arange(n_bl) / n_bl
         lim = machine.rotaries[1].limits
         if lim is not None:
-            res = _solve_blade(prog.tip, prog.axis, prog.move, machine, options, chord, None, labels)
+            res = _solve_blade(prog.tip, prog.axis, prog.move, machine, options, chord, None,
+                               labels)
             q2 = res[4][:, 1]
             ok = all(lim[0] <= q2.min() + off and q2.max() + off <= lim[1] for off in offsets)
             if not ok:
@@ -230,7 +243,8 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
             s, src, rep = np.zeros(len(tip), bool), labels, LinearizeReport(0, 0.0, 0)
         reps.append(rep)
         prev = q[-1]
-        # safe retract before every blade (the index move follows as the first rapid)
+        # safe retract before every blade; the posts turn the rotaries to the next pose's at
+        # the safe height (the index), then the first rapid follows
         parts.append(dict(kind=np.array([SAFE], np.int8), tip=np.full((1, 3), np.nan),
                           axis=np.full((1, 3), np.nan), xyz=np.full((1, 3), np.nan),
                           angles=np.full((1, 2), np.nan), feed=np.zeros(1),

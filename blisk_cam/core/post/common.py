@@ -89,11 +89,11 @@ def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
     ]
     if tcp:
         lines.append(
-            "work offset at the part (paths) origin with the paths' axes; X Y Z = tool tip"
+            "work offset at the part (paths) origin, axes along the paths x y z; X Y Z = tool tip"
         )
     else:
-        lines.append("joint program: X Y Z = machine tip position, no TCP; part frame from the "
-                     "machine description")
+        lines.append("joint program, no TCP: X Y Z = machine tip position; G54 at the machine "
+                     "description's origin, part frame from its [part] table")
     return lines
 
 

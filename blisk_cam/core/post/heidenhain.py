@@ -38,13 +38,13 @@ def write(ctx: PostContext) -> str:
         f"TOOL CALL {o.tool_number} Z S{o.spindle:g}",
         f"L M{3 if o.spindle_cw else 4}",
         f"L M{8 if o.coolant else 9}",
-        "M128",
-    ]
+    ]  # M128 follows the safe retract that starts every blade
     deg = np.degrees(b.angles)
     for i in range(len(b)):
         if b.kind[i] == SAFE:
-            body += ["M129", f"L Z{_s(b.safe_z)} R0 FMAX M91 ; safe retract, index to blade",
-                     "M128"]
+            body += [] if i == 0 else ["M129"]
+            body += [f"L Z{_s(b.safe_z)} R0 FMAX M91 ; safe retract, index to blade",
+                     f"L {n1}{_s(deg[i + 1, 0])} {n2}{_s(deg[i + 1, 1])} R0 FMAX", "M128"]
             continue
         x, y, z = (_s(v) for v in b.tip[i])
         words = f"L X{x} Y{y} Z{z} {n1}{_s(deg[i, 0])} {n2}{_s(deg[i, 1])} R0"

@@ -4,7 +4,7 @@ X Y Z are the machine tip positions and the two rotary words the joint angles of
 stream (:mod:`.blocks`); feed moves run in inverse time (G93: F = 1 / minutes of the block),
 because in G94 LinuxCNC reads F as a combined linear/rotary rate. Blades indexed on the
 innermost table rotary are an O-word subroutine called once per blade with the rotary offset
-(degrees) as parameter #1 (paper 003 §III: one blade's program rotated to all blades).
+(degrees) as parameter #1 (paper 003 §V.A: one blade's program rotated to all blades).
 """
 
 from __future__ import annotations
@@ -41,12 +41,14 @@ def _moves(ctx: PostContext, param: bool) -> list[str]:
     out = []
     deg = np.degrees(b.angles)
     for i in range(len(b)):
+        j = i + 1 if b.kind[i] == SAFE else i  # a SAFE turns the rotaries to the next pose
+        a1 = fmt(deg[j, 0])
+        a2 = f"[#1+{fmt(deg[j, 1])}]" if param else fmt(deg[j, 1])
         if b.kind[i] == SAFE:
             out.append(f"G53 G0 Z{fmt(b.safe_z)} (safe retract, index to blade)")
+            out.append(f"G0 {n1}{a1} {n2}{a2} (rotaries at the safe height)")
             continue
         x, y, z = (fmt(v) for v in b.xyz[i])
-        a1 = fmt(deg[i, 0])
-        a2 = f"[#1+{fmt(deg[i, 1])}]" if param else fmt(deg[i, 1])
         words = f"X{x} Y{y} Z{z} {n1}{a1} {n2}{a2}"
         if b.kind[i] == MOVE_RAPID:
             out.append(f"G0 {words}")

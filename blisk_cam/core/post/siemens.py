@@ -3,10 +3,18 @@ workpiece frame).
 
 X Y Z are the paths' tip coordinates in G54 at the part origin with the part's axes;
 A3= B3= C3= the unit tool axis — all three components in every block, because the control
-reads a missing one as 0 (paper 002 §4: 840D post-processing of the blisk program).
+reads a missing one as 0 (paper 002 §4.2: the blisk was cut on a double-turntable machine
+with a Siemens 840D sl).
+
+Blades: when the blisk axis is the paths' z axis and the innermost table rotary, blade 0 is
+written once as a program section repeated with the blade number ``_BLADE`` as parameter and
+the programmable frame ``ROT Z=_BLADE*pitch`` (under ORIWKS the frame turns the orientation
+vectors too); otherwise every blade's CL data are rotated and written out.
 """
 
 from __future__ import annotations
+
+import math
 
 from ..toolpath import MOVE_RAPID
 from .common import SAFE, PostContext, fmt, fvec, header_lines
@@ -14,17 +22,39 @@ from .tcp import check_tcp
 
 NAME = "siemens"
 TCP = True
-INDEXABLE = False
+INDEXABLE = "z"
 
 
 def check(machine):
     check_tcp(machine, "siemens")
 
 
+def _moves(ctx: PostContext) -> list[str]:
+    b = ctx.blocks
+    out = []
+    last_f = None
+    for i in range(len(b)):
+        if b.kind[i] == SAFE:
+            out.append(f"SUPA G0 Z{fmt(b.safe_z)} ; safe retract, index to blade")
+            last_f = None
+            continue
+        x, y, z = (fmt(v) for v in b.tip[i])
+        a, bb, c = fvec(b.axis[i])
+        words = f"X={x} Y={y} Z={z} A3={a} B3={bb} C3={c}"
+        if b.kind[i] == MOVE_RAPID:
+            out.append(f"G0 {words}")
+        else:
+            f = fmt(b.feed[i], 1)
+            out.append(f"G1 {words}" + (f" F{f}" if f != last_f else ""))
+            last_f = f
+    return out
+
+
 def write(ctx: PostContext) -> str:
     o = ctx.options
     b = ctx.blocks
-    lines = ["; " + h for h in header_lines(ctx, tcp=True)]
+    lines = ["DEF INT _BLADE"] if b.indexed else []
+    lines += ["; " + h for h in header_lines(ctx, tcp=True)]
     lines += [
         "G17 G90 G71 G94 G40",
         "SUPA G0 Z" + fmt(b.safe_z) + " D0",
@@ -37,20 +67,12 @@ def write(ctx: PostContext) -> str:
         "ORIWKS",
         "ORIVECT",
     ]
-    last_f = None
-    for i in range(len(b)):
-        if b.kind[i] == SAFE:
-            lines.append(f"SUPA G0 Z{fmt(b.safe_z)} ; safe retract, index to blade")
-            last_f = None
-            continue
-        x, y, z = (fmt(v) for v in b.tip[i])
-        a, bb, c = fvec(b.axis[i])
-        words = f"X={x} Y={y} Z={z} A3={a} B3={bb} C3={c}"
-        if b.kind[i] == MOVE_RAPID:
-            lines.append(f"G0 {words}")
-        else:
-            f = fmt(b.feed[i], 1)
-            lines.append(f"G1 {words}" + (f" F{f}" if f != last_f else ""))
-            last_f = f
+    if b.indexed:
+        pitch = math.copysign(360.0 / b.blades, b.blisk_axis[1][2])
+        lines += ["_BLADE=0", "BLADE_LOOP:", f"ROT Z=_BLADE*{fmt(pitch, 8)} ; blade turn"]
+        lines += _moves(ctx)
+        lines += ["_BLADE=_BLADE+1", f"IF _BLADE<{b.blades} GOTOB BLADE_LOOP", "ROT"]
+    else:
+        lines += _moves(ctx)
     lines += ["TRAFOOF", f"SUPA G0 Z{fmt(b.safe_z)} D0", "M9", "M5", "M30"]
     return "\n".join(lines) + "\n"
