@@ -4,7 +4,9 @@
 
     python -m blisk_cam nc --paths paths.json --machine ac-trunnion|FILE.toml \\
         --post linuxcnc|fanuc|siemens|heidenhain|apt --out FILE [--blades N] \\
-        [--feed MM_MIN] [--spindle RPM] [--tool-number T] [--coolant on|off]
+        [--feed MM_MIN] [--spindle RPM] [--tool-number T] [--coolant on|off] \\
+        [--interpolation constant-error --max-error MM | --interpolation chord \\
+         --chord-height MM] [--report FILE.json]
 
 :func:`add_nc_arguments` fills a (sub)parser, :func:`run_nc` runs it: exit 0 on success, 1 with
 one line on stderr (``blisk_cam: error: ...``) for bad input or an unreachable pose (naming the
@@ -71,6 +73,16 @@ def add_nc_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
     parser.add_argument("--spindle", type=_positive, default=10000.0, metavar="RPM")
     parser.add_argument("--tool-number", type=_tool_number, default=1, metavar="T")
     parser.add_argument("--coolant", choices=("on", "off"), default="on")
+    parser.add_argument("--interpolation", choices=("constant-error", "chord"), default=None,
+                        help="choose the cut blocks: constant-error (paper 002: every block's "
+                        "machining error bound ≤ --max-error) or chord (tip chord height ≤ "
+                        "--chord-height); default: the planned poses, linearized")
+    parser.add_argument("--max-error", type=_positive, default=None, metavar="MM",
+                        help="permissible machining error [dM] of constant-error blocks")
+    parser.add_argument("--chord-height", type=_positive, default=None, metavar="MM",
+                        help="chord height of chord blocks")
+    parser.add_argument("--report", default=None, metavar="FILE.json",
+                        help="write the export report (with the interpolation's) as JSON")
     return parser
 
 
@@ -85,18 +97,42 @@ def run_nc(args) -> int:
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")
         path = read_paths_json(args.paths)
+        interp = getattr(args, "interpolation", None)
+        max_error = getattr(args, "max_error", None)
+        chord_height = getattr(args, "chord_height", None)
+        if interp == "constant-error" and max_error is None:
+            raise BliskCamError("--interpolation constant-error needs --max-error MM")
+        if interp == "chord" and chord_height is None:
+            raise BliskCamError("--interpolation chord needs --chord-height MM")
+        if interp is None and (max_error is not None or chord_height is not None):
+            raise BliskCamError("--max-error/--chord-height need --interpolation")
         opts = NcOptions(
             feed=args.feed, spindle=args.spindle, tool_number=args.tool_number,
             coolant=args.coolant == "on", blades=args.blades,
             blade_name=os.path.splitext(os.path.basename(args.paths))[0],
+            interpolation=interp, max_error=max_error, chord_height=chord_height,
         )
         report = export_nc(path, args.machine, args.post, opts, args.out)
+        if getattr(args, "report", None):
+            _write_report(report, args.report)
     except (BliskCamError, OSError) as err:
         msg = " ".join(str(err).split())
         print(f"{PROG}: error: {msg}", file=sys.stderr)
         return 1
     print(report.summary())
     return 0
+
+
+def _write_report(report, filename):
+    import json
+
+    d = {k: getattr(report, k) for k in ("filename", "post", "machine", "blocks", "inserted",
+                                         "minutes", "max_deviation", "blades", "indexed")}
+    d["axis_ranges"] = {k: list(v) for k, v in report.axis_ranges.items()}
+    if report.interpolation is not None:
+        d["interpolation"] = report.interpolation.as_dict()
+    with open(filename, "w", encoding="utf-8") as fh:
+        json.dump(d, fh, indent=1)
 
 
 class _Parser(argparse.ArgumentParser):

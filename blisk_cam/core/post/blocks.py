@@ -53,6 +53,10 @@ class NcOptions:
     rotary_rate : deg/min for the time estimate and inverse-time blocks; program_number;
     blade_name : for the header; tool_length : mm gauge length (head pivot limits);
     use_subprogram : index blades by a subprogram call where possible.
+    interpolation : None (the cut poses as planned, linearized) or ``"constant-error"`` /
+    ``"chord"`` (:func:`..interpolation.interpolate_program` chooses the cut blocks, with
+    ``max_error`` / ``chord_height`` mm; linearization then leaves cut moves alone);
+    notes : extra header lines (the interpolation's result).
     """
 
     feed: float = 1000.0
@@ -73,6 +77,10 @@ class NcOptions:
     blade_name: str = "blade"
     tool_length: float = 0.0
     use_subprogram: bool = True
+    interpolation: str | None = None
+    max_error: float | None = None
+    chord_height: float | None = None
+    notes: tuple = ()
 
     def check(self):
         for name in ("feed", "spindle", "rapid_rate", "rotary_rate"):
@@ -185,8 +193,9 @@ def _indexable(machine: Machine, o, d) -> float:
 def _solve_blade(path_tip, path_axis, move, machine, opts, chord, prev, labels):
     ik = solve_poses(machine, path_tip, path_axis, prev=prev, labels=labels, moves=move,
                      tool_length=opts.tool_length)
+    keep = (np.asarray(move) == MOVE_CUT) if opts.interpolation else None
     return linearize(machine, path_tip, path_axis, move, ik, chord=chord,
-                     max_step=opts.max_rotary_step, tool_length=opts.tool_length)
+                     max_step=opts.max_rotary_step, tool_length=opts.tool_length, keep=keep)
 
 
 def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
