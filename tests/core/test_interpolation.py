@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+from nc_helpers import blade_file, read_binary_stl
 
 from blisk_cam.core import interpolation as I
 from blisk_cam.core.errors import BliskCamError
@@ -26,8 +27,6 @@ from blisk_cam.core.machining_error import (
 from blisk_cam.core.mesh import TriMesh
 from blisk_cam.core.pipeline import PathRequest, plan_paths
 from blisk_cam.core.verify import MeshDistance
-
-from nc_helpers import blade_file, read_binary_stl
 
 TOL = 0.01  # [dM], mm
 
@@ -258,3 +257,28 @@ def test_nc_export_and_cli(demo, tmp_path, capsys):
     with pytest.raises(SystemExit):
         nc_cli.main(base + ["--out", str(tmp_path / "e.ngc"), "--interpolation", "spline",
                             "--max-error", "0.01"])
+
+
+def test_search_properties(demo, machine):
+    """Ends cover each pass in order, fall between dense poses, respect the rotary step; the
+    paper's arc-wise bound (max |l_P| + max |l_θ| per arc) is never below the pointwise one;
+    searching passes together or one by one gives the same blocks."""
+    _, path = demo
+    dps = dense_passes(path, machine)[:3]
+    together = I.search_constant_error(dps, TOL)
+    for dp, e in zip(dps, together, strict=True):
+        assert e[0] == 0 and e[-1] == len(dp) - 1 and np.all(np.diff(e) > 0)
+        assert np.any(np.abs(e - np.round(e)) > 1e-6)  # block ends between dense poses
+        alone = I.search_constant_error(dp, TOL)
+        assert np.allclose(alone, e)
+        pw = I.block_bounds_rows(dp, e[:-1], e[1:])
+        pa = I.block_bounds_rows(dp, e[:-1], e[1:], bound="paper")
+        assert np.all(pa >= pw - 1e-12)
+        assert np.all(pw <= TOL * (1 + 1e-9))
+    step = math.radians(0.2)
+    e = I.search_constant_error(dps[0], TOL, max_rotary_step=step)
+    q = dps[0].joints_at(e)
+    assert np.abs(np.diff(q[:, 3:], axis=0)).max() <= step + 1e-12
+    # the chord baseline honours its chord height
+    e = I.search_chord(dps[0], 0.003)
+    assert np.all(I.chord_heights_rows(dps[0], e[:-1], e[1:]) <= 0.003 + 1e-12)
