@@ -12,9 +12,10 @@ so the measured error of every block is near [d_M] and far fewer blocks are need
 
 Pipeline per pass (:func:`prepare_pass`): the pass's poses (a small chord, e.g. 0.002 mm) are
 solved for the machine (:func:`.kinematics.solve_poses`), then resampled to at most
-``max_spacing`` mm / ``max_turn`` rad between poses by joint-linear interpolation (the
-inserted poses are ``forward`` of the interpolated joints, so every dense pose is a machine
-pose); Jacobians and error gradients are precomputed per dense pose.
+``max_spacing`` mm / ``max_turn`` rad between poses along the planned path (tip linear, axis
+on the great circle, each inserted pose solved); Jacobians and error gradients are
+precomputed per dense pose. Several passes are searched together (:func:`concat_passes`):
+each step advances every pass by one block, so the numpy calls are shared.
 
 A block runs from dense position ``s`` to ``e`` (floats: block ends may fall anywhere on the
 dense polyline; the joints there are interpolated between the two dense poses and the tip and
@@ -40,7 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .errors import BliskCamError
-from .kinematics import solve_poses
+from .kinematics import slerp, solve_poses
 from .machine import Machine, forward, load_machine
 from .machining_error import contact_lever, error_gradients, machine_jacobian, pose_error
 from .toolpath import MOVE_CUT, Program, ToolPath
@@ -121,8 +122,15 @@ class DensePass:
 
 
 def prepare_pass(machine: Machine, cutter, tip, axis, normal, *, max_spacing: float = 0.1,
-                 max_turn: float = math.radians(0.1), prev=None, q=None) -> DensePass:
+                 max_turn: float = math.radians(0.1), prev=None, q=None,
+                 planned: bool = True) -> DensePass:
     """Solve and resample one pass (module docstring).
+
+    ``planned`` (default): the inserted dense poses lie on the planned path in the part frame
+    (tip linear, axis on the great circle) and are solved by IK, so the blocks' error is
+    measured from the path as planned (the joint-linear motion between the planned poses
+    strays from it too: that is what linearization used to fix). False: the inserted poses
+    are ``forward`` of the interpolated joints (the planned poses run joint-linearly).
 
     tip (k, 3) mm, axis (k, 3) unit, normal (k, 3) unit surface normals at the CC points, in
     the paths' frame, k ≥ 2. ``prev`` (2,) rad seeds the IK branch; ``q`` (k, 5) joints if
@@ -152,11 +160,24 @@ def prepare_pass(machine: Machine, cutter, tip, axis, normal, *, max_spacing: fl
     f = (src - i0)[:, None]
     qd = q[i0] * (1 - f) + q[i0 + 1] * f
     nd = _unit(normal[i0] * (1 - f) + normal[i0 + 1] * f)
-    td, ad = forward(machine, qd[:, :3], qd[:, 3:])
-    exact = f[:, 0] == 0
-    td[exact] = tip[i0[exact]]
+    if planned:
+        # the planned path in the part frame (tip linear, axis great circle), solved
+        td = tip[i0] * (1 - f) + tip[i0 + 1] * f
+        ad = slerp(axis[i0], axis[i0 + 1], f[:, 0])
+        ins = f[:, 0] > 0
+        if ins.any():
+            res = solve_poses(machine, td[ins], ad[ins], prev=qd[ins, 3:], sequential=False)
+            qd[ins] = np.hstack([res.xyz, res.angles])
+        ad[~ins] = axis[i0[~ins]]
+        td[~ins] = tip[i0[~ins]]
+    else:
+        td, ad = forward(machine, qd[:, :3], qd[:, 3:])
+        exact = f[:, 0] == 0
+        td[exact] = tip[i0[exact]]
     last = src == k - 1
     td[last] = tip[-1]
+    ad[last] = axis[-1]
+    qd[last] = q[-1]
     lever = contact_lever(cutter, nd, ad)
     JP, JO = machine_jacobian(machine, qd)
     gP, gT, Jc = error_gradients(JP, JO, nd, ad, lever)
