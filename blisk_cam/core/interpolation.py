@@ -20,9 +20,13 @@ each step advances every pass by one block, so the numpy calls are shared.
 A block runs from dense position ``s`` to ``e`` (floats: block ends may fall anywhere on the
 dense polyline; the joints there are interpolated between the two dense poses and the tip and
 axis follow by forward kinematics). Its bound (:func:`block_bounds`, vectorised over many
-candidate ends) is evaluated at every dense pose inside the block. The search grows blocks by
-galloping on the block length, then refines the end by two rounds of 16-way vectorised
-bisection (:func:`_search`).
+candidate ends, :func:`block_bounds_rows`) is evaluated at every dense pose inside the block.
+The search grows blocks by galloping on the block length with the cheap Jacobian model
+(Eq. 7), checks the bracket with the exact pose deviation, then refines the end by two rounds
+of 8-way vectorised bisection (:func:`_search`). Corner transitions (Fig. 11): the thresholds
+[ε_m,T], [ε_m,R] start at the mean trajectory deviation of a pass's first two blocks and
+shrink wherever the corner error they allow would exceed the adjoining blocks' error; they are
+reported (the CNC's corner blending tolerances), the block ends do not depend on them.
 
 The exact evaluation (:func:`measure_blocks`) does not use the bound: it samples each
 block's joint motion, runs forward kinematics and takes the signed distance from the cutter
@@ -53,8 +57,13 @@ __all__ = [
     "DensePass",
     "InterpolationError",
     "InterpolationReport",
+    "ALLOWANCE",
+    "FLOOR",
     "block_bounds",
+    "block_bounds_rows",
     "chord_heights",
+    "chord_heights_rows",
+    "concat_passes",
     "interpolate_program",
     "match_chord_height",
     "measure_blocks",
@@ -719,7 +728,9 @@ class InterpolationReport:
         return (f"interpolation {self.method} ({tol}): {self.blocks} cut blocks from "
                 f"{self.original} poses in {self.passes} pass(es); measured ({self.measured_kind}) "
                 f"max {1000 * self.measured_max:.1f} µm, per-block maxima "
-                f"{100 * self.measured_band[0]:.1f}–{100 * self.measured_band[1]:.1f} % of {ref}")
+                f"{100 * self.measured_band[0]:.1f}–{100 * self.measured_band[1]:.1f} % of {ref}; "
+                f"corner tolerance {1000 * self.corner[0]:.1f} µm / "
+                f"{math.degrees(self.corner[1]):.4f}°")
 
 
 def _corner_thresholds(dp: DensePass, ends, bounds, dev_lin, dev_rot, max_error):
