@@ -58,7 +58,9 @@ __all__ = [
     "InterpolationError",
     "InterpolationReport",
     "ALLOWANCE",
+    "ALLOWANCE_TORUS",
     "FLOOR",
+    "FLOOR_TORUS",
     "block_bounds",
     "block_bounds_rows",
     "chord_heights",
@@ -76,6 +78,23 @@ METHODS = ("constant-error", "chord")
 #: "pointwise": max over the block's dense poses of |l_P + l_θ| (Eq. 14 per pose);
 #: "paper": per arc-shaped piece max |l_P| + max |l_θ| (paper 002 §3.2, Fig. 10), the larger
 BOUNDS = ("pointwise", "paper")
+
+
+#: relative allowance added to every bound for what the model does not see: the faceted mesh
+#: (the planned path's own clearance varies between its poses) and the cutter between dense
+#: poses; the measured excess over the bare bound was ≤ 1.2 % on the demo blade (0.1 mm
+#: spacing), so 2 % keeps the bound conservative
+ALLOWANCE = 0.02
+#: the same for a torus (bull nose): the spine point nearest the surface slides along the
+#: corner circle as the tool tilts, which the rigid corner-centre model of Eq. (11) does not
+#: follow; measured excess ≤ 3 % (demo leading edge, 6/2 bull nose)
+ALLOWANCE_TORUS = 0.05
+#: mm added to every bound: the evaluation floor (a block inside one dense segment has a
+#: model error of 0; measured against a faceted mesh it shows the clearance's variation
+#: between two dense poses, up to 0.1 µm on the Rotor 37 STL)
+FLOOR = 2e-4
+#: the floor for a torus: its clearance is a minimum over the sampled corner circle
+FLOOR_TORUS = 5e-4
 
 
 class InterpolationError(BliskCamError):
@@ -111,6 +130,8 @@ class DensePass:
     source: np.ndarray
     rho: float
     machine: Machine | None = None
+    allowance: float = ALLOWANCE
+    floor: float = FLOOR
 
     def __len__(self) -> int:
         return len(self.q)
@@ -192,7 +213,9 @@ def prepare_pass(machine: Machine, cutter, tip, axis, normal, *, max_spacing: fl
     gP, gT, Jc = error_gradients(JP, JO, nd, ad, lever)
     rho = float(cutter.r) if cutter.r > 0 else float(cutter.radius)
     return DensePass(q=qd, tip=td, axis=ad, normal=nd, lever=lever, centre=td + lever, gP=gP,
-                     gT=gT, Jc=Jc, source=src, rho=rho, machine=machine)
+                     gT=gT, Jc=Jc, source=src, rho=rho, machine=machine,
+                     allowance=ALLOWANCE_TORUS if float(cutter.e) > 1e-12 else ALLOWANCE,
+                     floor=FLOOR_TORUS if float(cutter.e) > 1e-12 else FLOOR)
 
 
 # ====================================================================== bounds
@@ -206,7 +229,9 @@ def concat_passes(passes) -> tuple[DensePass, np.ndarray]:
         return passes[0], offs
     cat = {k: np.concatenate([getattr(p, k) for p in passes])
            for k in ("q", "tip", "axis", "normal", "lever", "centre", "gP", "gT", "Jc", "source")}
-    return DensePass(**cat, rho=min(p.rho for p in passes), machine=passes[0].machine), offs
+    return DensePass(**cat, rho=min(p.rho for p in passes), machine=passes[0].machine,
+                     allowance=max(p.allowance for p in passes),
+                     floor=max(p.floor for p in passes)), offs
 
 
 _CHUNK_ELEMS = 200_000  # rows × dense poses per vectorised evaluation (memory)
@@ -221,20 +246,11 @@ def _rows(dp, s, e):
     return np.clip(J, 0, len(dp) - 1), mask
 
 
-#: relative allowance added to every bound for what the model does not see: the faceted mesh
-#: (the planned path's own clearance varies between its poses) and the cutter between dense
-#: poses; the measured excess over the bare bound was ≤ 1.2 % on the demo blade (0.1 mm
-#: spacing), so 2 % keeps the bound conservative
-ALLOWANCE = 0.02
-#: mm added to every bound: the evaluation floor (a block inside one dense segment has a
-#: model error of 0; measured against a faceted mesh it shows the clearance's variation
-#: between two dense poses, up to 0.1 µm on the Rotor 37 STL)
-FLOOR = 2e-4
 
 
 def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
                       pose_model: str = "exact", detail: bool = False,
-                      allowance: float = ALLOWANCE):
+                      allowance: float | None = None):
     """Machining error bound (mm) of blocks s → e, one per row (s, e (R,) dense positions).
 
     For each dense pose j with s < j < e: the chord parameter t_j of the joint-linear motion
@@ -247,13 +263,16 @@ def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
     arc-shaped piece between sign changes of d_M the sum max |l_P| + max |l_θ|, §3.2 Fig. 10)
     plus max_j of the lateral remainder ``|ΔC_⊥n|² / (2 ρ)`` (the cutter leaving the contact
     sideways, offset curvature radius ≥ ρ; paper 002 neglects it, §3.1), times
-    (1 + ``allowance``) (:data:`ALLOWANCE`), plus :data:`FLOOR`.
+    (1 + ``allowance``) (None: :data:`ALLOWANCE`, :data:`ALLOWANCE_TORUS` for a cutter with a
+    corner circle off the axis), plus :data:`FLOOR` (:data:`FLOOR_TORUS`).
 
     Returns (R,) bounds; with ``detail`` a tuple (bound, max |l_P|, max |l_θ|, largest linear
     (mm) and rotary (rad) trajectory deviation), each (R,)."""
     s = np.asarray(s, dtype=np.float64).reshape(-1)
     e = np.asarray(e, dtype=np.float64).reshape(-1)
     R = len(s)
+    if allowance is None:
+        allowance = dp.allowance
     if R == 0:
         z = np.zeros(0)
         return (z,) * 5 if detail else z
@@ -307,7 +326,7 @@ def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
         row = starts // Jn
         b = np.zeros(R)
         np.maximum.at(b, row, mP + mT)
-    out = (b + rem) * (1.0 + allowance) + FLOOR
+    out = (b + rem) * (1.0 + allowance) + dp.floor
     if not detail:
         return out
     dev_lin = np.where(mask, np.linalg.norm(dqj[..., :3], axis=2), 0).max(axis=1)
@@ -503,9 +522,24 @@ def _check_positive(name, v):
 
 
 # ====================================================================== exact evaluation
-def _clearance(machine, cutter, md, q):
+def _spine_point(cutter, tip, ax, normal):
+    """(k, 3) point of the cutter's corner circle (spine) nearest the surface of unit normal
+    ``normal`` (k, 3): ``tip + f a + e u`` with u the direction of −n across the axis (the
+    contact side); for a ball the centre ``tip + ρ a``."""
+    f, e = float(cutter.f), float(cutter.e)
+    c = tip + f * ax
+    if e <= 1e-12:
+        return c
+    u = -(normal - np.einsum("ij,ij->i", normal, ax)[:, None] * ax)
+    return c + e * _unit(u)
+
+
+def _clearance(machine, cutter, md, q, normal=None):
     """(k,) mm signed clearance of the cutter at joints q (k, 5) from the mesh: distance of
-    the corner circle's points to the mesh minus the corner radius (ball: centre − ρ)."""
+    the corner circle (spine) to the mesh minus the corner radius (ball: centre − ρ). For a
+    torus the spine is searched within ±12° of the contact side given by the surface
+    ``normal`` (k, 3): 2° steps, then 0.5° around the best (≤ 0.04 µm chord sag at
+    e = 4 mm)."""
     tip, ax = forward(machine, q[:, :3], q[:, 3:])
     r = float(cutter.r)
     f = float(cutter.f)
@@ -513,14 +547,20 @@ def _clearance(machine, cutter, md, q):
     c = tip + f * ax
     if e <= 1e-12:
         return md.query(c).signed_distance - r, c
-    # points around the corner circle
-    ref = np.where(np.abs(ax[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
-    u = _unit(np.cross(ax, ref))
+    u = _unit(-(normal - np.einsum("ij,ij->i", normal, ax)[:, None] * ax))
     v = np.cross(ax, u)
-    phi = np.linspace(0, 2 * np.pi, 48, endpoint=False)
-    P = c[:, None] + e * (np.cos(phi)[None, :, None] * u[:, None] + np.sin(phi)[None, :, None]
-                          * v[:, None])
-    d = md.query(P.reshape(-1, 3)).signed_distance.reshape(len(q), -1).min(axis=1)
+
+    def dist(phi):  # phi (k, p) radians → (k, p) mm
+        P = c[:, None] + e * (np.cos(phi)[..., None] * u[:, None] + np.sin(phi)[..., None]
+                              * v[:, None])
+        return md.query(P.reshape(-1, 3)).signed_distance.reshape(phi.shape)
+
+    k = len(q)
+    coarse = np.broadcast_to(np.radians(np.linspace(-12.0, 12.0, 13)), (k, 13))
+    dc = dist(coarse)
+    best = coarse[np.arange(k), np.argmin(dc, axis=1)]
+    fine = best[:, None] + np.radians(np.linspace(-2.0, 2.0, 9))[None]
+    d = np.minimum(dc.min(axis=1), dist(fine).min(axis=1))
     return d - r, c
 
 
@@ -574,23 +614,22 @@ def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
     t = (k + 1) / (ns[blk] + 1)
     Q = qs[blk] + t[:, None] * (qs[blk + 1] - qs[blk])
     tip, ax = forward(machine, Q[:, :3], Q[:, 3:])
-    lev = dp.interp(dp.lever, ends[blk] + t * span[blk])
-    # the lever follows the axis: re-derive it in the moved frame (ball: ρ a exactly)
-    if float(cutter.e) <= 1e-12:
-        lev = float(cutter.f) * ax
-    c = tip + lev
+    # the spine point on the contact side of the moved tool (ball: its centre)
+    n0 = _unit(dp.interp(dp.normal, ends[blk] + t * span[blk]))
+    c = _spine_point(cutter, tip, ax, n0)
     foot = _foot(dp, c)
+    nf = _unit(dp.interp(dp.normal, foot))
+    c = _spine_point(cutter, tip, ax, nf)
     if mesh is not None:
         from .verify import MeshDistance
 
         md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)
         if ref is None:
-            ref, _ = _clearance(machine, cutter, md, dp.q)
-        val, _ = _clearance(machine, cutter, md, Q)
+            ref, _ = _clearance(machine, cutter, md, dp.q, dp.normal)
+        val, _ = _clearance(machine, cutter, md, Q, nf)
         err = val - dp.interp(ref, foot)
     else:
         cf = dp.interp(dp.centre, foot)
-        nf = _unit(dp.interp(dp.normal, foot))
         err = np.einsum("ij,ij->i", c - cf, nf)
     mx = np.zeros(B)
     lo = np.zeros(B)
@@ -618,7 +657,7 @@ def match_chord_height(dp_list, machine, cutter, target: float, *, mesh=None,
     md = None if mesh is None else (mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh))
     refs = [None] * len(dp_list)
     if md is not None:
-        refs = [_clearance(machine, cutter, md, dp.q)[0] for dp in dp_list]
+        refs = [_clearance(machine, cutter, md, dp.q, dp.normal)[0] for dp in dp_list]
 
     def run(h, m=None):
         E = search_chord(dp_list, h)

@@ -282,3 +282,28 @@ def test_search_properties(demo, machine):
     # the chord baseline honours its chord height
     e = I.search_chord(dps[0], 0.003)
     assert np.all(I.chord_heights_rows(dps[0], e[:-1], e[1:]) <= 0.003 + 1e-12)
+
+
+def test_bull_nose_leading_edge(machine):
+    """A 6/2 bull nose: the corner centre is off the axis (Eqs. 11–13 rotate it with the
+    axis); the bound stays conservative against the mesh."""
+    from blisk_cam.core.cones import Cone
+    from blisk_cam.core.demo import make_demo_blisk
+
+    d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    req = PathRequest(axis=d.axis, cone1=Cone(170.0, -25.0, 185.0, 35.0), cone2=d.tip_cone,
+                      tool_type="bull", tool_radius=6.0, corner_radius=2.0, cusp=1.5,
+                      chord=0.002, axis_mode="radial", radial_tilt=math.radians(75.0))
+    path = plan_paths(mesh, req).path
+    dps = dense_passes(path, machine)[:3]
+    md = MeshDistance(mesh)
+    ends = I.search_constant_error(dps, TOL)
+    b = np.concatenate([I.block_bounds_rows(dp, e[:-1], e[1:]) for dp, e in zip(dps, ends,
+                                                                                strict=True)])
+    m = np.concatenate([I.measure_blocks(machine, path.tool, dp, e, mesh=md, samples=8,
+                                         per_dense=0.5)[0]
+                        for dp, e in zip(dps, ends, strict=True)])
+    w = int(np.argmax(m - b))
+    assert np.all(m <= b + 1e-9), (len(m), np.sum(m > b), m[w], b[w])
+    assert np.mean((m >= 0.7 * TOL) & (m <= TOL)) >= 0.9
