@@ -45,6 +45,8 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
     parser.add_argument("--post", required=with_paths, type=str.lower, metavar="POST",
                         help="controller dialect: one of " + ", ".join(POSTS))
     add_option_flags(parser, (NcOptions,))
+    parser.add_argument("--report", default=None, metavar="FILE.json",
+                        help="also write the export report (with the interpolation's) as JSON")
     return parser
 
 
@@ -60,10 +62,31 @@ def export_from_args(path, args, out, blade_name):
     """Post ``path`` for ``args.machine``/``args.post`` into ``out``; prints the summary."""
     from .core.nc import export_nc
 
-    report = export_nc(path, args.machine, args.post, nc_options(args, blade_name=blade_name),
-                       out)
+    try:
+        options = nc_options(args, blade_name=blade_name)
+    except BliskCamError as exc:  # options that only make sense together
+        from .cli_options import UsageError
+
+        raise UsageError(str(exc)) from None
+    report = export_nc(path, args.machine, args.post, options, out)
     print(report.summary())
+    if getattr(args, "report", None):
+        _write_report(report, args.report)
     return report
+
+
+def _write_report(report, filename):
+    """The export report as JSON (atomically)."""
+    import json
+
+    from .core.post.common import write_atomic
+
+    d = {k: getattr(report, k) for k in ("filename", "post", "machine", "blocks", "inserted",
+                                         "minutes", "max_deviation", "blades", "indexed")}
+    d["axis_ranges"] = {k: list(v) for k, v in report.axis_ranges.items()}
+    if report.interpolation is not None:
+        d["interpolation"] = report.interpolation.as_dict()
+    return write_atomic(filename, json.dumps(d, indent=1))
 
 
 def run_nc(args) -> int:

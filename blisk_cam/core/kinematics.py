@@ -314,12 +314,15 @@ def linearize(
     max_rounds: int = 30,
     tool_length: float = 0.0,
     rapids: bool = True,
+    keep=None,
 ):
     """Insert poses between feed poses until joint-linear motion follows the planned segments.
 
     tip, axis (n, 3); move (n,) codes; ik the solution of every pose. ``chord`` mm,
     ``max_step`` radians (largest rotary turn between consecutive blocks). ``rapids``: also
     rapid segments (a joint-linear G0 swings the tip through the air as much as a G1 does).
+    ``keep`` (n,) bool or None: poses whose incoming segment is left as it is (blocks chosen
+    by :func:`.interpolation.interpolate_program`, which already bounds their error).
 
     Returns (tip, axis, move, xyz, angles, singular, source, LinearizeReport) with the
     inserted poses in order; ``source`` (m,) is the index of the original pose, −1 inserted.
@@ -330,6 +333,8 @@ def linearize(
     n = len(tip)
     # segment (i-1 → i) per pose i
     seg = np.arange(1, n) if rapids else np.nonzero(move[1:] != MOVE_RAPID)[0] + 1
+    if keep is not None:
+        seg = seg[~np.asarray(keep, bool)[seg]]
     # working segments: original index, and both ends' state
     o = seg
     a_tip, b_tip = tip[o - 1], tip[o]

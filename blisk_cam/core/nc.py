@@ -33,7 +33,8 @@ class NcReport:
     singular orientation; minutes : float — time estimate; max_deviation : mm — sampled tip
     deviation of joint-linear motion after linearization; blades : int; indexed : bool;
     unresolved : int — segments still beyond the chord after the insertion round limit (0
-    normally; the summary warns otherwise).
+    normally; the summary warns otherwise); interpolation : the
+    :class:`.interpolation.InterpolationReport` when the cut blocks were interpolated.
     """
 
     filename: str
@@ -48,6 +49,7 @@ class NcReport:
     blades: int = 1
     indexed: bool = False
     unresolved: int = 0
+    interpolation: object = None
 
     def summary(self) -> str:
         rng = ", ".join(f"{k} {lo:.3f}…{hi:.3f}" for k, (lo, hi) in self.axis_ranges.items())
@@ -57,17 +59,41 @@ class NcReport:
             f"{rng}; singular poses: {len(self.singular)}"
             + (f"; WARNING: {self.unresolved} segments beyond the chord tolerance"
                if self.unresolved else "")
+            + (f"\n{self.interpolation.summary()}" if self.interpolation is not None else "")
         )
 
 
+def interpolate_for_nc(path: ToolPath, machine: Machine, options: NcOptions):
+    """``options.interpolation`` set: the path with its cut blocks chosen by
+    :func:`.interpolation.interpolate_program` (rotary steps ≤ ``options.max_rotary_step``),
+    the options with the header note, and the InterpolationReport; else (path, options, None)."""
+    if not options.interpolation:
+        return path, options, None
+    from dataclasses import replace
+
+    from .interpolation import interpolate_program
+
+    new, rep = interpolate_program(path, machine, options.interpolation,
+                                   max_error=options.max_error,
+                                   chord_height=options.chord_height,
+                                   max_rotary_step=options.max_rotary_step)
+    return new, replace(options, notes=(*options.notes, rep.summary())), rep
+
+
 def nc_program(path: ToolPath, machine: Machine | str, post: str,
-               options: NcOptions | None = None) -> tuple[str, Blocks]:
-    """The NC text and the block stream (no file)."""
+               options: NcOptions | None = None, *, reports: list | None = None
+               ) -> tuple[str, Blocks]:
+    """The NC text and the block stream (no file). With ``options.interpolation`` the cut
+    blocks are chosen first (:func:`interpolate_for_nc`); its report is appended to
+    ``reports`` when given."""
     options = options or NcOptions()
     if not isinstance(machine, Machine):
         machine = load_machine(machine)
     mod = get_post(post)
     mod.check(machine)
+    path, options, irep = interpolate_for_nc(path, machine, options)
+    if reports is not None and irep is not None:
+        reports.append(irep)
     blocks = build_blocks(path, machine, options, indexable=mod.INDEXABLE,
                           solve=getattr(mod, "SOLVE", True))
     ctx = PostContext(path=path, machine=machine, options=options, blocks=blocks, post=mod.NAME)
@@ -88,7 +114,8 @@ def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOpti
         raise PostError(f"cannot write {filename}: the directory {folder} does not exist")
     if not isinstance(machine, Machine):
         machine = load_machine(machine)
-    text, blocks = nc_program(path, machine, post, options)
+    ireps: list = []
+    text, blocks = nc_program(path, machine, post, options, reports=ireps)
     write_atomic(filename, text)
     mod = get_post(post)
     full = blocks.expanded()
@@ -115,6 +142,7 @@ def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOpti
         blades=int(blocks.blades),
         indexed=bool(blocks.indexed),
         unresolved=int(blocks.unresolved),
+        interpolation=ireps[0] if ireps else None,
     )
 
 

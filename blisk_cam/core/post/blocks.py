@@ -92,10 +92,35 @@ class NcOptions(_Stage):
     blade_name: str = "blade"
     tool_length: float = 0.0
     use_subprogram: bool = True
+    interpolation: str | None = option(
+        None, "Interpolation", "How the cut blocks are chosen: planned (the planned poses, "
+        "linearized), constant-error (paper 002: every block's machining error bound ≤ the "
+        "max error) or chord (tip chord height ≤ the chord height)",
+        choices=(Choice(None, "Planned", "The planned poses, linearized", ident="PLANNED",
+                        cli="planned"),
+                 Choice("constant-error", "Constant Error", "Paper 002: blocks keep the "
+                        "machining error near the bound", ident="CONSTANT_ERROR"),
+                 Choice("chord", "Chord Height", "Blocks by the tip path's chord height",
+                        ident="CHORD")))
+    max_error: float | None = option(
+        None, "Max Error", "Permissible machining error [dM] of constant-error blocks, mm",
+        unit="mm", lo=0.0, lo_open=True, none_as=0.0, precision=4)
+    chord_height: float | None = option(
+        None, "Chord Height", "Chord height of chord-height blocks, mm", unit="mm", lo=0.0,
+        lo_open=True, none_as=0.0, precision=4)
+    notes: tuple = ()  # extra header lines (the interpolation's result)
 
     def check(self):
         """Bounds of every option (raised on construction too)."""
         check_stage(self)
+        if self.interpolation == "constant-error" and self.max_error is None:
+            raise PostError("interpolation constant-error needs the max error "
+                            "(--max-error MM)")
+        if self.interpolation == "chord" and self.chord_height is None:
+            raise PostError("interpolation chord needs the chord height (--chord-height MM)")
+        if self.interpolation is None and (self.max_error or self.chord_height):
+            raise PostError("--max-error / --chord-height choose blocks only with "
+                            "--interpolation constant-error / chord")
         for name in ("rapid_rate", "rotary_rate"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -207,8 +232,9 @@ def _indexable(machine: Machine, o, d) -> float:
 def _solve_blade(path_tip, path_axis, move, machine, opts, chord, prev, labels):
     ik = solve_poses(machine, path_tip, path_axis, prev=prev, labels=labels, moves=move,
                      tool_length=opts.tool_length)
+    keep = (np.asarray(move) == MOVE_CUT) if opts.interpolation else None
     return linearize(machine, path_tip, path_axis, move, ik, chord=chord,
-                     max_step=opts.max_rotary_step, tool_length=opts.tool_length)
+                     max_step=opts.max_rotary_step, tool_length=opts.tool_length, keep=keep)
 
 
 def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,

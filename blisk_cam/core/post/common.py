@@ -86,6 +86,7 @@ def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
         f"linearization chord {(o.chord or p.chord):g} mm",
         f"machine: {m.name} ({m.kinematics}, {'/'.join(m.axis_names)})",
         f"post: {ctx.post}  units: mm, degrees",
+        *getattr(o, "notes", ()),
     ]
     if tcp:
         lines.append(
