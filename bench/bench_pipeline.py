@@ -9,8 +9,9 @@ For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` tria
   orient, link), write the paths JSON — wall time per stage and in total;
 * ``trimesh.intersections.mesh_multiplane`` for 50 planes of the same mesh in the same run,
   and the ratio whole run / trimesh (goal ≤ 2);
-* ``verify.verify_path`` on the planned path with 1 and 2 threads vs the plan's own time
-  (goal: verify ≤ plan), for the ball and a bull-nose cutter (``--no-verify`` skips it).
+* ``verify.verify_path`` with 1 and 2 threads vs the plan's own time (goal: verify ≤ plan),
+  for a ball and a bull-nose (R6, corner 2) path on the blade at ``--verify-triangles``
+  (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it).
 """
 
 from __future__ import annotations
@@ -134,30 +135,32 @@ def whole_run(stl, axis, c1, c2, chord, out):
     return t, mesh, res.path
 
 
-def bench_verify(name, mesh, path, plan_seconds, threads=(1, 2)):
+def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
+    """Plan a ball and a bull-nose path on the mesh, then verify each with 1 and 2 threads."""
+    from dataclasses import replace
+
     from blisk_cam.core.verify import verify_path
 
-    for tool in ("ball", "bull"):
-        p = path
-        if tool == "bull":  # the same poses, checked as a bull-nose cutter (a non-ball sweep)
-            from dataclasses import replace
-
-            from blisk_cam.core.cutter import Cutter
-
-            p = replace(path, tool=Cutter.bull(6.0, 2.0))
-        line = []
+    mesh = TriMesh.from_arrays(V, F)
+    ball = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
+                       cusp=0.05, chord=chord)
+    for req in (ball, replace(ball, tool_type="bull", corner_radius=2.0)):
+        path = plan_paths(mesh, req).path
+        plan = path.stats["seconds_plan"]
+        runs = []
         for n in threads:
             t0 = time.perf_counter()
-            rep = verify_path(mesh, p, workers=n)
-            line.append((n, time.perf_counter() - t0, rep))
-        base = line[0][1]
-        txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _ in line)
-        print(f"[{name}] verify ({tool}): {txt}; speed-up ×{base / line[-1][1]:.2f}; plan "
-              f"{plan_seconds:.2f} s; verify/plan {line[-1][1] / plan_seconds:.2f} (goal ≤ 1); "
-              f"max material left {line[-1][2].max_material_left:.4f} mm", flush=True)
+            rep = verify_path(mesh, path, workers=n)
+            runs.append((n, time.perf_counter() - t0, rep))
+        txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _ in runs)
+        steps = ", ".join(f"{k} {v:.2f}" for k, v in runs[-1][2].timings.items() if k != "total")
+        print(f"[{name}] verify {req.tool_type}, {len(F):,} triangles, {path.n_poses:,} poses: "
+              f"{txt}; speed-up x{runs[0][1] / runs[-1][1]:.2f}; plan {plan:.2f} s; "
+              f"verify/plan {runs[-1][1] / plan:.2f} (goal <= 1); steps ({runs[-1][0]} threads) "
+              f"{steps}", flush=True)
 
 
-def bench_blade(name, V, F, axis, c1, c2, chord, verify):
+def bench_blade(name, V, F, axis, c1, c2, chord):
     with tempfile.TemporaryDirectory() as tmp:
         stl = Path(tmp) / f"{name}.stl"
         write_binary_stl(stl, V, F)
@@ -174,8 +177,7 @@ def bench_blade(name, V, F, axis, c1, c2, chord, verify):
     else:
         print(f"[{name}] trimesh mesh_multiplane, 50 planes: {t_tm:.2f} s; whole run / trimesh "
               f"= {t['total'] / t_tm:.2f} (goal ≤ 2)", flush=True)
-    if verify:
-        bench_verify(name, mesh, path, st["seconds_plan"])
+    return mesh
 
 
 def main():
@@ -183,17 +185,25 @@ def main():
     ap.add_argument("--triangles", type=int, default=1_000_000)
     ap.add_argument("--chord", type=float, default=0.01)
     ap.add_argument("--no-verify", action="store_true")
+    ap.add_argument("--verify-triangles", type=int, default=200_000,
+                    help="blade size for the verify comparison (verify at 1M takes minutes)")
     ap.add_argument("--only", choices=("demo", "rotor37"))
     args = ap.parse_args()
     if args.only != "rotor37":
         V, F, axis, c1, c2 = demo_blade(args.triangles)
-        bench_blade("demo", V, F, axis, c1, c2, args.chord, not args.no_verify)
+        bench_blade("demo", V, F, axis, c1, c2, args.chord)
+        if not args.no_verify:
+            V, F, axis, c1, c2 = demo_blade(args.verify_triangles)
+            bench_verify("demo", V, F, axis, c1, c2, args.chord)
     if args.only != "demo":
         r = rotor37_blade(args.triangles)
         if r is None:
             print("[rotor37] data not found (tests/data/blades/ or ../shared/data/blades/)")
         else:
-            bench_blade("rotor37 subdivided", *r, args.chord, not args.no_verify)
+            bench_blade("rotor37 subdivided", *r, args.chord)
+            if not args.no_verify:
+                bench_verify("rotor37 subdivided", *rotor37_blade(args.verify_triangles),
+                             args.chord)
 
 
 if __name__ == "__main__":
