@@ -167,7 +167,7 @@ def bench_blade(name, V, F, axis, c1, c2, chord):
         t_tm = trimesh_multiplane(V, F)
         t, mesh, path = whole_run(stl, axis, c1, c2, chord, Path(tmp) / "paths.json")
     st = path.stats
-    stages = ", ".join(f"{k[8:]} {st[k]:.2f}" for k in STAGES)
+    stages = ", ".join(f"{k[8:]} {st.get(k, float('nan')):.2f}" for k in STAGES)
     print(f"[{name}] {len(F):,} triangles, 6 mm ball, cusp 0.05, chord {chord}: whole run "
           f"{t['total']:.2f} s = load {t['load']:.2f} + weld {t['weld']:.2f} + plan "
           f"{t['plan']:.2f} ({stages}) + write {t['write']:.2f} s; "
