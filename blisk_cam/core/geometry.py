@@ -15,6 +15,10 @@ checker: both use these kernels. Units are mm; numpy/scipy only (no bpy).
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,9 +33,47 @@ __all__ = [
     "closest_points",
     "closest_on_segments",
     "closest_on_triangles",
+    "map_chunks",
+    "parallel",
 ]
 
 _CHUNK = 16384  # queries per chunk in tree traversals (bounds the frontier memory)
+
+# threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
+_WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
+
+
+def default_workers() -> int:
+    """The cores this process may use (``os.sched_getaffinity`` where available)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
+        return max(1, os.cpu_count() or 1)
+
+
+@contextlib.contextmanager
+def parallel(workers: int | None):
+    """Within the block, chunked queries (:func:`map_chunks`: nearest primitives, pairs within
+    a radius, swept-cutter distances) run on ``workers`` threads (None: every core). numpy
+    and scipy's k-d tree release the GIL in their loops; each chunk is computed exactly as
+    on one thread, so the results do not depend on ``workers``."""
+    n = default_workers() if workers is None else max(1, int(workers))
+    token = _WORKERS.set(n)
+    try:
+        yield n
+    finally:
+        _WORKERS.reset(token)
+
+
+def map_chunks(fn, k: int, chunk: int):
+    """``[fn(s) for s in range(0, k, chunk)]``, on the threads of :func:`parallel` when
+    there are several chunks."""
+    starts = range(0, k, chunk)
+    n = min(_WORKERS.get(), len(starts))
+    if n <= 1:
+        return [fn(s) for s in starts]
+    with ThreadPoolExecutor(max_workers=n) as ex:
+        return list(ex.map(fn, starts))
 
 
 # ================================================================== exact kernels
@@ -423,7 +465,8 @@ def _nearest(tree: _Tree, P, d2fn, lbfn=None, chunk=_CHUNK):
     arg = np.full(k, -1, dtype=np.int64)
     if tree.m == 0:
         return d2, arg
-    for s in range(0, k, chunk):
+
+    def run(s):
         Pc = P[s : s + chunk]
         kc = len(Pc)
         _, j = tree.kd.query(Pc, k=tree.kd_k)
@@ -440,20 +483,23 @@ def _nearest(tree: _Tree, P, d2fn, lbfn=None, chunk=_CHUNK):
         best, a = _group_argmin(kc, qi, d2fn(Pc, qi, pr), pr)
         d2[s : s + chunk] = best
         arg[s : s + chunk] = a
+
+    map_chunks(run, k, chunk)
     return d2, arg
 
 
 def _within(tree: _Tree, P, radius, chunk=_CHUNK):
     """Candidate (query, primitive) pairs within ``radius`` (k,) of each point (superset)."""
-    qs, ps = [], []
     r2 = np.asarray(radius, dtype=np.float64) ** 2
-    for s in range(0, len(P), chunk):
+
+    def run(s):
         q, p = tree.pairs(P[s : s + chunk], r2[s : s + chunk])
-        qs.append(q + s)
-        ps.append(p)
-    if not qs:
+        return q + s, p
+
+    out = map_chunks(run, len(P), chunk)
+    if not out:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.concatenate(qs), np.concatenate(ps)
+    return np.concatenate([q for q, _ in out]), np.concatenate([p for _, p in out])
 
 
 # ================================================================== point → mesh
@@ -559,17 +605,41 @@ class NearestFaces:
     centroid); every face whose centroid lies within u + its own circumradius is then tested
     exactly. For the generator's few, clustered queries (links between passes, the spiral
     blend) this costs far less than :class:`MeshDistance`'s bounding-volume tree, and it
-    returns the same points: the minimum of the same exact point–triangle distances
-    (ties between faces at exactly the same distance go to the highest face id).
+    returns the same points and faces: the minimum of the same exact point–triangle
+    distances. Faces at exactly the same distance (a point on a shared edge or vertex) are
+    decided as :class:`MeshDistance` decides them — the face that comes last in its tree's
+    leaf order — so the leaf order (the tree's median splits only, no bounds) is computed,
+    once, the first time such a tie occurs.
 
     Parameters
     ----------
     mesh : TriMesh
     """
 
-    def __init__(self, mesh: TriMesh):
+    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8):
         self.mesh = mesh
+        self.leaf_size = leaf_size
         self._kd = None
+        self._rank = None
+
+    def _tree_rank(self):
+        """(m,) position of each face in :class:`MeshDistance`'s tree (``_Tree.prims``
+        flattened): the order in which its queries meet the faces."""
+        if self._rank is None:
+            pcen = self.mesh.V[self.mesh.F].mean(axis=1)  # exactly as _Tree computes it
+            clusters, _ = _median_slots(pcen, self.leaf_size)
+            clusters = clusters[np.any(clusters >= 0, axis=1)]
+            cnt = np.maximum((clusters >= 0).sum(axis=1), 1)
+            ccen = np.where((clusters >= 0)[:, :, None], pcen[np.maximum(clusters, 0)], 0.0)
+            ccen = ccen.sum(axis=1) / cnt[:, None]
+            slots, _ = _median_slots(ccen, 1)
+            slot = slots[:, 0]
+            prims = np.where((slot >= 0)[:, None], clusters[np.maximum(slot, 0)], -1).ravel()
+            rank = np.full(len(pcen), -1, dtype=np.int64)
+            ok = prims >= 0
+            rank[prims[ok]] = np.nonzero(ok)[0]
+            self._rank = rank
+        return self._rank
 
     def _build(self):
         V, F = self.mesh.V, self.mesh.F
@@ -608,7 +678,15 @@ class NearestFaces:
         best = np.full(k, np.inf)
         np.minimum.at(best, qi, d2)
         win = d2 <= best[qi]
+        qw, fw = qi[win], f[win]
         face = np.full(k, -1, dtype=np.int64)
-        np.maximum.at(face, qi[win], f[win])
+        face[qw] = fw
+        if len(qw) > np.count_nonzero(np.bincount(qw, minlength=k)):  # exact ties
+            rank = self._tree_rank()
+            top = np.full(k, -1, dtype=np.int64)
+            np.maximum.at(top, qw, rank[fw])
+            face = np.full(k, -1, dtype=np.int64)
+            last = rank[fw] == top[qw]
+            face[qw[last]] = fw[last]
         q, _, _, bary = closest_on_triangles(P, A[face], B[face], C[face])
         return q, face, bary

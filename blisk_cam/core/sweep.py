@@ -29,6 +29,7 @@ from .geometry import (
     _Tree,
     _within,
     closest_on_segments,
+    map_chunks,
 )
 from .toolpath import PassCurve
 
@@ -489,8 +490,11 @@ class SweptCutter:
         if self.tree is None or k == 0:
             return out, arg
         run = self._fast_chunk if self.method == "fast" else self._exact_chunk
-        for s0 in range(0, k, chunk):
+
+        def one(s0):
             out[s0 : s0 + chunk], arg[s0 : s0 + chunk] = run(P[s0 : s0 + chunk])
+
+        map_chunks(one, k, chunk)
         return out, arg
 
     def distance(self, points):

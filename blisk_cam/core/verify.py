@@ -47,6 +47,7 @@ from .geometry import (  # noqa: F401  (re-exported: verify's public names stay 
     closest_on_segments,
     closest_on_triangles,
     closest_points,
+    parallel,
 )
 from .lmrs import morph_between
 from .mesh import TriMesh
@@ -345,6 +346,7 @@ def verify_path(
     subsamples: int = 8,
     refine: int = 3,
     method: str = "fast",
+    workers: int | None = None,
 ) -> VerifyReport:
     """Measure a tool path on its mesh, independently of the generator.
 
@@ -358,13 +360,56 @@ def verify_path(
     refine : int — regula-falsi iterations locating each scallop ridge
     method : "fast" | "exact" — how the swept volume of a non-ball cutter is minimised over
         each move (:class:`SweptCutter`); a ball is always swept exactly (:class:`SweptBall`)
+    workers : int or None — threads for the point queries (None: every core of this
+        process); every point is measured independently, so the figures do not depend on it
 
     Returns
     -------
     VerifyReport
     """
+    with parallel(workers):
+        return _verify_path(mesh, path, spacing, subsamples, refine, method)
+
+
+def _verify_path(mesh, path, spacing, subsamples, refine, method):
+    """:func:`verify_path` on the threads set by the caller: the named steps in order."""
     t0 = time.perf_counter()
     tim = {}
+    cutter, rho, spacing = _tool_and_spacing(path, spacing, method)
+    cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
+    axis = path.axis
+    curves = _cut_runs(path.curves)
+    md = MeshDistance(mesh)
+    tim["mesh_tree"] = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
+    pc = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
+    tim["poses"] = time.perf_counter() - t1
+
+    t1 = time.perf_counter()
+    smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, spacing, pc)
+    spacing = smp.spacing
+    tim["samples"] = time.perf_counter() - t1
+
+    t1 = time.perf_counter()
+    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method)
+    tim["material"] = time.perf_counter() - t1
+
+    t1 = time.perf_counter()
+    sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
+                   lab, rho, refine, method)
+    tim["scallops"] = time.perf_counter() - t1
+
+    t1 = time.perf_counter()
+    tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
+    tim["totals"] = time.perf_counter() - t1
+    tim["total"] = time.perf_counter() - t0
+    return _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
+
+
+def _tool_and_spacing(path, spacing, method):
+    """(cutter, ρ, sample spacing) of the path's tool; ToleranceError on a bad method or
+    radius."""
     if str(method).strip().lower() not in SWEEP_METHODS:
         raise ToleranceError(f"verify method must be one of {', '.join(SWEEP_METHODS)}; "
                              f"got {method!r}")
@@ -377,231 +422,271 @@ def verify_path(
         if not (rho > 0):
             raise ToleranceError(f"tool radius must be positive, got {rho} mm")
         cutter = as_cutter(tool)
-    is_ball = cutter.type == "ball"
     if spacing is None:
         spacing = default_spacing(rho, path.cusp)
-    cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
-    axis = path.axis
-    curves = _cut_runs(path.curves)
+    return cutter, rho, spacing
+
+
+@dataclass
+class _PoseChecks:
+    """Per-curve figures of the poses themselves (NaN for a curve without poses)."""
+
+    on_mesh: np.ndarray
+    on_cone: np.ndarray
+    cc_chord: np.ndarray
+    over: np.ndarray
+    under: np.ndarray
+    nerr: float = 0.0
+    mismatch: float = 0.0
+    pose_contact: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    chord_at: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    over_at: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    #: mesh points (point, face, bary) under the centres that cut in: the deepest gouges
+    feet: tuple | None = None
+
+
+def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _PoseChecks:
+    """CC points on the mesh and on their LMC, normals, tips against the CC data, chord of the
+    CC polylines, and the tool's path against the exact offset (over/undercut)."""
     ncur = len(curves)
-    md = MeshDistance(mesh)
-    tim["mesh_tree"] = time.perf_counter() - t0
-
-    # ---------------------------------------------------------- per-pose checks
-    t1 = time.perf_counter()
-    on_mesh = np.full(ncur, np.nan)
-    on_cone = np.full(ncur, np.nan)
-    cc_chord = np.full(ncur, np.nan)
-    over = np.full(ncur, np.nan)
-    under = np.full(ncur, np.nan)
-    nerr = 0.0
-    mismatch = 0.0
-    pose_contact = np.zeros(0)
-    chord_at = over_at = np.full(3, np.nan)
-    feet_p, feet_f, feet_b = [], [], []
-    if ncur:
-        cc_all = np.vstack([np.asarray(c.cc, float) for c in curves])
-        nrm_all = np.vstack([np.asarray(c.normal, float) for c in curves])
-        cid = np.repeat(np.arange(ncur), [len(c.cc) for c in curves])
-        cp = md.query(cc_all)
-        on_mesh = _group_max(ncur, cid, cp.distance)
-        sn = mesh.interpolate_normals(cp.face, cp.bary)
-        un = nrm_all / np.maximum(np.linalg.norm(nrm_all, axis=1), 1e-300)[:, None]
-        nerr = float(np.degrees(np.arccos(np.clip(_dot(sn, un), -1.0, 1.0))).max())
-        tips = np.vstack([np.asarray(c.tip, float) for c in curves])
-        axs = np.vstack([np.asarray(c.axis, float) for c in curves])
-        axs = axs / np.linalg.norm(axs, axis=1)[:, None]
-        if is_ball:
-            mismatch = float(np.linalg.norm(tips + rho * axs - (cc_all + rho * nrm_all),
-                                            axis=1).max())
-        else:  # the tip implied by the CC data (the cutter touching cc) against the path's
-            mm = np.linalg.norm(tips - _cl_or_nan(cutter, cc_all, un, axs), axis=1)
-            mismatch = float(np.inf if np.any(np.isnan(mm)) else mm.max())
-        # the CC point against the posed cutter's surface (0 when the cutter touches it there)
-        pose_contact = np.abs(cutter.signed_distance(cc_all, tips, axs))
-        r, z = meridional(cc_all, axis)
-        fvals = np.empty(len(cc_all))
-        for i, c in enumerate(curves):
-            m = cid == i
-            if np.all(c.ratio == c.ratio[0]):
-                fvals[m] = cones.f(float(c.ratio[0]), r[m], z[m])
-            else:  # a spiral: every pose on its own LMC
-                fvals[m] = [cones.f(float(si), ri, zi) for si, ri, zi in zip(
-                    c.ratio, r[m], z[m], strict=True)]
-        on_cone = _group_max(ncur, cid, np.abs(fvals))
-        # chord of the CC polylines
-        sub = [_subsample(c, c.cc, subsamples, False) for c in curves]
+    pc = _PoseChecks(*(np.full(ncur, np.nan) for _ in range(5)))
+    if not ncur:
+        return pc
+    is_ball = cutter.type == "ball"
+    cc_all = np.vstack([np.asarray(c.cc, float) for c in curves])
+    nrm_all = np.vstack([np.asarray(c.normal, float) for c in curves])
+    cid = np.repeat(np.arange(ncur), [len(c.cc) for c in curves])
+    cp = md.query(cc_all)
+    pc.on_mesh = _group_max(ncur, cid, cp.distance)
+    sn = mesh.interpolate_normals(cp.face, cp.bary)
+    un = nrm_all / np.maximum(np.linalg.norm(nrm_all, axis=1), 1e-300)[:, None]
+    pc.nerr = float(np.degrees(np.arccos(np.clip(_dot(sn, un), -1.0, 1.0))).max())
+    tips = np.vstack([np.asarray(c.tip, float) for c in curves])
+    axs = np.vstack([np.asarray(c.axis, float) for c in curves])
+    axs = axs / np.linalg.norm(axs, axis=1)[:, None]
+    if is_ball:
+        pc.mismatch = float(np.linalg.norm(tips + rho * axs - (cc_all + rho * nrm_all),
+                                           axis=1).max())
+    else:  # the tip implied by the CC data (the cutter touching cc) against the path's
+        mm = np.linalg.norm(tips - _cl_or_nan(cutter, cc_all, un, axs), axis=1)
+        pc.mismatch = float(np.inf if np.any(np.isnan(mm)) else mm.max())
+    # the CC point against the posed cutter's surface (0 when the cutter touches it there)
+    pc.pose_contact = np.abs(cutter.signed_distance(cc_all, tips, axs))
+    pc.on_cone = _group_max(ncur, cid, np.abs(_lmc_values(curves, cones, axis, cc_all, cid)))
+    # chord of the CC polylines
+    sub = [_subsample(c, c.cc, subsamples, False) for c in curves]
+    sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
+    if len(sid):
+        subp = np.vstack(sub)
+        dch = md.query(subp).distance
+        pc.cc_chord = _group_max(ncur, sid, dch)
+        pc.chord_at = subp[int(np.argmax(dch))]
+    if is_ball:
+        # centre polylines against the exact offset
+        cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
+        sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
         sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
-        if len(sid):
-            subp = np.vstack(sub)
-            dch = md.query(subp).distance
-            cc_chord = _group_max(ncur, sid, dch)
-            chord_at = subp[int(np.argmax(dch))]
-        if is_ball:
-            # centre polylines against the exact offset
-            cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
-            sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
-            sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
-            cq = md.query(np.vstack(sub))
-            dev = cq.signed_distance - rho
-            over_at = np.vstack(sub)[int(np.argmin(dev))]
-        else:
-            # the interpolated poses' lowest points (toward −n); the mesh point under each
-            # against the posed cutter (< 0: the surface is cut into there)
-            xs, sid, xtip, xax = _interpolated_contacts(cutter, curves, subsamples)
-            cq = md.query(xs)
-            dev = cutter.signed_distance(cq.point, xtip, xax)
-            over_at = cq.point[int(np.argmin(dev))] if len(xs) else np.full(3, np.nan)
-        over = np.maximum(_group_max(ncur, sid, -dev), 0.0)
-        under = np.maximum(_group_max(ncur, sid, dev), 0.0)
-        # the feet of the centres that come closer than ρ: where the deepest gouges are
-        cut_in = dev < 0
-        feet_p.append(cq.point[cut_in])
-        feet_f.append(cq.face[cut_in])
-        feet_b.append(cq.bary[cut_in])
-    tim["poses"] = time.perf_counter() - t1
+        cq = md.query(np.vstack(sub))
+        dev = cq.signed_distance - rho
+        pc.over_at = np.vstack(sub)[int(np.argmin(dev))]
+    else:
+        # the interpolated poses' lowest points (toward −n); the mesh point under each
+        # against the posed cutter (< 0: the surface is cut into there)
+        xs, sid, xtip, xax = _interpolated_contacts(cutter, curves, subsamples)
+        cq = md.query(xs)
+        dev = cutter.signed_distance(cq.point, xtip, xax)
+        pc.over_at = cq.point[int(np.argmin(dev))] if len(xs) else np.full(3, np.nan)
+    pc.over = np.maximum(_group_max(ncur, sid, -dev), 0.0)
+    pc.under = np.maximum(_group_max(ncur, sid, dev), 0.0)
+    # the feet of the centres that come closer than ρ: where the deepest gouges are
+    cut_in = dev < 0
+    pc.feet = (cq.point[cut_in], cq.face[cut_in], cq.bary[cut_in])
+    return pc
 
-    # ---------------------------------------------------------- samples
-    t1 = time.perf_counter()
+
+def _lmc_values(curves, cones, axis, cc_all, cid):
+    """f_s(r, z) of every CC point on its curve's LMC (each pose its own for a spiral)."""
+    r, z = meridional(cc_all, axis)
+    fvals = np.empty(len(cc_all))
+    for i, c in enumerate(curves):
+        m = cid == i
+        if np.all(c.ratio == c.ratio[0]):
+            fvals[m] = cones.f(float(c.ratio[0]), r[m], z[m])
+        else:  # a spiral: every pose on its own LMC
+            fvals[m] = [cones.f(float(si), ri, zi) for si, ri, zi in zip(
+                c.ratio, r[m], z[m], strict=True)]
+    return fvals
+
+
+def _samples_and_feet(mesh, cones, axis, spacing, pc: _PoseChecks):
+    """The surface samples of the region plus the gouge feet inside it: (samples, points,
+    normals, ratios); the grid samples come first."""
     smp = surface_samples(mesh, cones, axis, spacing)
-    spacing = smp.spacing
-    P = smp.points
-    normals = smp.normals
-    if feet_p:
-        fp = np.vstack(feet_p)
+    P, normals, s_all = smp.points, smp.normals, smp.s
+    if pc.feet is not None:
+        fp, ff, fb = pc.feet
         fs = cones.ratio_of_points(fp, axis)
         ok = (fs >= -1e-9) & (fs <= 1.0 + 1e-9)
         fp = fp[ok]
-        fn = mesh.interpolate_normals(np.concatenate(feet_f)[ok], np.vstack(feet_b)[ok])
+        fn = mesh.interpolate_normals(ff[ok], fb[ok])
         P = np.vstack([P, fp])
         normals = np.vstack([normals, fn])
         s_all = np.concatenate([smp.s, fs[ok]])
-    else:
-        s_all = smp.s
-    tim["samples"] = time.perf_counter() - t1
+    return smp, P, normals, s_all
 
-    # ---------------------------------------------------------- material left, all passes
-    t1 = time.perf_counter()
+
+def _material_left(tool, curves, P, method):
+    """Material left by all passes at the points: (levels, level of each curve, the swept
+    volume, signed distances (k,), level of the nearest pass (k,) or −1)."""
+    ncur = len(curves)
     levels = np.unique([float(c.s) for c in curves]) if ncur else np.zeros(0)
     lev_of = np.searchsorted(levels, [float(c.s) for c in curves])
-    whole = swept_cutter(path.tool, curves, owners=lev_of, method=method)
+    whole = swept_cutter(tool, curves, owners=lev_of, method=method)
     if ncur:
         values, seg = whole.nearest(P)
         lab = np.where(seg >= 0, whole.owner[np.maximum(seg, 0)], -1)  # level of the nearest pass
     else:
         values, lab = np.full(len(P), np.nan), np.full(len(P), -1)
-    tim["material"] = time.perf_counter() - t1
+    return levels, lev_of, whole, values, lab
 
-    # ---------------------------------------------------------- scallops between levels
-    t1 = time.perf_counter()
+
+@dataclass
+class _Scallops:
+    """Figures per pair of neighbouring levels, and the located ridge points."""
+
+    pair_cusp: np.ndarray
+    pair_cn: np.ndarray
+    pair_gouge: np.ndarray
+    pair_where: np.ndarray
+    pair_n: np.ndarray
+    ridge_pts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    ridge_nrm: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    ridge_val: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    ridge_pair: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+
+def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values, lab, rho,
+              refine, method) -> _Scallops:
+    """Per pair of neighbouring levels: the material left by those two passes alone at the
+    samples and at the ridge where their envelopes meet, and the scallop height along the
+    normal there."""
     npairs = max(len(levels) - 1, 0)
-    pair_cusp = np.full(npairs, np.nan)
-    pair_cn = np.full(npairs, np.nan)
-    pair_gouge = np.full(npairs, np.nan)
-    pair_where = np.full((npairs, 3), np.nan)
-    pair_n = np.zeros(npairs, dtype=np.int64)
-    ridge_pts = np.zeros((0, 3))
-    ridge_nrm = np.zeros((0, 3))
-    ridge_val = np.zeros(0)
-    ridge_pair = np.zeros(0, dtype=np.int64)
-    if npairs:
-        cut = [swept_cutter(path.tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i],
-                            method=method) for i in range(len(levels))]
-        strip = np.searchsorted(levels, s_all, side="right") - 1
-        strip = np.where(s_all == levels[-1], npairs - 1, strip)
-        strip = np.where((s_all < levels[0]) | (s_all > levels[-1]), -1, strip)
-        valid = strip >= 0
-        # where the nearest pass of all is one of the strip's two, it is the pair's distance
-        # and tells which of the two is nearer; elsewhere measure both
-        near_lo = valid & (lab == strip)
-        near_hi = valid & (lab == strip + 1)
-        other = valid & ~near_lo & ~near_hi
-        mat = np.where(near_lo | near_hi, values, np.nan)
-        gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
-        if np.any(other):
-            dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs)
-            mat[other] = np.minimum(dlo, dhi)
-            gsign[other] = np.sign(dlo - dhi)
-        pair_n = np.bincount(strip[valid], minlength=npairs)
-        pair_cusp = _group_max(npairs, strip[valid], mat[valid])
-        pair_gouge = np.maximum(_group_max(npairs, strip[valid], -mat[valid]), 0.0)
-        arg = _group_argmax(npairs, strip[valid], mat[valid])
-        has = arg >= 0
-        pair_where[has] = P[valid][arg[has]]
-        # ridges on the sample grid (grid samples are the first len(smp) of P): grid edges in
-        # one strip whose ends are nearer to different passes
-        ng = len(smp)
-        eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
-        if len(eidx):
-            ends, inv = np.unique(smp.edges[eidx], return_inverse=True)
-            inv = inv.reshape(-1, 2)
-            dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
-            g = dlo - dhi
-            ga, gb = g[inv[:, 0]], g[inv[:, 1]]
-            ok = ((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0))
-            eidx, epair, ga, gb = eidx[ok], epair[ok], ga[ok], gb[ok]
-        if len(eidx):
-            ea, eb = smp.edges[eidx, 0], smp.edges[eidx, 1]
-            xa, xb = smp.points[ea], smp.points[eb]
-            ta, tb = np.zeros(len(eidx)), np.ones(len(eidx))
-            last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
-            for _ in range(max(int(refine), 1)):
-                t = (ta * gb - tb * ga) / (gb - ga)
-                x = xa + t[:, None] * (xb - xa)
-                la, lb = _two_level_distances(cut, x, epair, npairs)
-                gx = la - lb
-                repl_a = np.sign(gx) == np.sign(ga)
-                # Illinois: halve the kept end's value when the same end is replaced twice
-                ga = np.where(~repl_a & (last == 2), 0.5 * ga, ga)
-                gb = np.where(repl_a & (last == 1), 0.5 * gb, gb)
-                ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
-                tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
-                last = np.where(repl_a, 1, 2).astype(np.int8)
-            rv = np.minimum(la, lb)
-            rmax = _group_max(npairs, epair, rv)
-            better = np.isfinite(rmax) & ~(rmax <= pair_cusp)
-            ra = _group_argmax(npairs, epair, rv)
-            pair_cusp = np.where(better, rmax, pair_cusp)
-            pair_where[better] = x[ra[better]]
-            ridge_pts = x
-            rf = smp.edge_face[eidx]
-            FX = mesh.F[rf]
-            bX = _barycentric(x, mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
-            ridge_nrm = mesh.interpolate_normals(rf, bX)
-            ridge_val, ridge_pair = rv, epair
-        # scallop height along the smooth normal, at the ridge points and at each pair's
-        # highest sample
-        hp = [ridge_pts, P[valid][arg[has]]]
-        hn_ = [ridge_nrm, normals[valid][arg[has]]]
-        hv = [ridge_val, mat[valid][arg[has]]]
-        hq = [ridge_pair, np.nonzero(has)[0]]
-        hp, hn_, hv, hq = (np.concatenate(x) for x in (hp, hn_, hv, hq))
-        heights = np.where(hv > 0, np.nan, hv)
-        hmax = np.maximum(4.0 * hv, 1e-6 * rho)
-        # the height is the material left divided by the cosine of a slowly varying angle:
-        # only points within 25 % of their pair's highest can hold the pair's highest
-        top = _group_max(npairs, hq, hv)
-        near_top = hv >= 0.75 * top[hq]
-        for i in range(npairs):
-            m = (hv > 0) & (hq == i) & near_top
-            if np.any(m):
-                h1 = cut[i].height_along(hp[m], hn_[m], hmax[m])
-                h2 = cut[i + 1].height_along(hp[m], hn_[m], hmax[m])
-                heights[m] = np.minimum(h1, h2)
-        heights[~np.isfinite(heights)] = np.nan
-        pair_cn = _group_max(npairs, hq, heights)
-    tim["scallops"] = time.perf_counter() - t1
+    sc = _Scallops(np.full(npairs, np.nan), np.full(npairs, np.nan), np.full(npairs, np.nan),
+                   np.full((npairs, 3), np.nan), np.zeros(npairs, dtype=np.int64))
+    if not npairs:
+        return sc
+    cut = [swept_cutter(tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i],
+                        method=method) for i in range(len(levels))]
+    strip = np.searchsorted(levels, s_all, side="right") - 1
+    strip = np.where(s_all == levels[-1], npairs - 1, strip)
+    strip = np.where((s_all < levels[0]) | (s_all > levels[-1]), -1, strip)
+    valid = strip >= 0
+    # where the nearest pass of all is one of the strip's two, it is the pair's distance
+    # and tells which of the two is nearer; elsewhere measure both
+    near_lo = valid & (lab == strip)
+    near_hi = valid & (lab == strip + 1)
+    other = valid & ~near_lo & ~near_hi
+    mat = np.where(near_lo | near_hi, values, np.nan)
+    gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
+    if np.any(other):
+        dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs)
+        mat[other] = np.minimum(dlo, dhi)
+        gsign[other] = np.sign(dlo - dhi)
+    sc.pair_n = np.bincount(strip[valid], minlength=npairs)
+    sc.pair_cusp = _group_max(npairs, strip[valid], mat[valid])
+    sc.pair_gouge = np.maximum(_group_max(npairs, strip[valid], -mat[valid]), 0.0)
+    arg = _group_argmax(npairs, strip[valid], mat[valid])
+    has = arg >= 0
+    sc.pair_where[has] = P[valid][arg[has]]
+    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc)
+    # scallop height along the smooth normal, at the ridge points and at each pair's
+    # highest sample
+    hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
+    hn_ = np.concatenate([sc.ridge_nrm, normals[valid][arg[has]]])
+    hv = np.concatenate([sc.ridge_val, mat[valid][arg[has]]])
+    hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
+    sc.pair_cn = _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho)
+    return sc
 
-    # ---------------------------------------------------------- totals
-    t1 = time.perf_counter()
+
+def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops):
+    """Ridges on the sample grid (grid samples are the first len(smp) of the points): grid
+    edges in one strip whose ends are nearer to different passes, located by regula falsi
+    (Illinois) on the exact distances; raises the pairs' cusps in ``sc`` where a ridge point
+    is higher and stores the ridge points."""
+    ng = len(smp)
+    eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
+    if len(eidx):
+        ends, inv = np.unique(smp.edges[eidx], return_inverse=True)
+        inv = inv.reshape(-1, 2)
+        dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
+        g = dlo - dhi
+        ga, gb = g[inv[:, 0]], g[inv[:, 1]]
+        ok = ((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0))
+        eidx, epair, ga, gb = eidx[ok], epair[ok], ga[ok], gb[ok]
+    if not len(eidx):
+        return
+    ea, eb = smp.edges[eidx, 0], smp.edges[eidx, 1]
+    xa, xb = smp.points[ea], smp.points[eb]
+    ta, tb = np.zeros(len(eidx)), np.ones(len(eidx))
+    last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
+    for _ in range(max(int(refine), 1)):
+        t = (ta * gb - tb * ga) / (gb - ga)
+        x = xa + t[:, None] * (xb - xa)
+        la, lb = _two_level_distances(cut, x, epair, npairs)
+        gx = la - lb
+        repl_a = np.sign(gx) == np.sign(ga)
+        # Illinois: halve the kept end's value when the same end is replaced twice
+        ga = np.where(~repl_a & (last == 2), 0.5 * ga, ga)
+        gb = np.where(repl_a & (last == 1), 0.5 * gb, gb)
+        ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
+        tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
+        last = np.where(repl_a, 1, 2).astype(np.int8)
+    rv = np.minimum(la, lb)
+    rmax = _group_max(npairs, epair, rv)
+    better = np.isfinite(rmax) & ~(rmax <= sc.pair_cusp)
+    ra = _group_argmax(npairs, epair, rv)
+    sc.pair_cusp = np.where(better, rmax, sc.pair_cusp)
+    sc.pair_where[better] = x[ra[better]]
+    sc.ridge_pts = x
+    rf = smp.edge_face[eidx]
+    FX = mesh.F[rf]
+    bX = _barycentric(x, mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
+    sc.ridge_nrm = mesh.interpolate_normals(rf, bX)
+    sc.ridge_val, sc.ridge_pair = rv, epair
+
+
+def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
+    """Largest scallop height along the normal per pair (NaN where none): from the points
+    ``hp`` (normals ``hn_``, material left ``hv``, pair ``hq``) up to the nearer of the
+    pair's two swept volumes."""
+    heights = np.where(hv > 0, np.nan, hv)
+    hmax = np.maximum(4.0 * hv, 1e-6 * rho)
+    # the height is the material left divided by the cosine of a slowly varying angle:
+    # only points within 25 % of their pair's highest can hold the pair's highest
+    top = _group_max(npairs, hq, hv)
+    near_top = hv >= 0.75 * top[hq]
+    for i in range(npairs):
+        m = (hv > 0) & (hq == i) & near_top
+        if np.any(m):
+            h1 = cut[i].height_along(hp[m], hn_[m], hmax[m])
+            h2 = cut[i + 1].height_along(hp[m], hn_[m], hmax[m])
+            heights[m] = np.minimum(h1, h2)
+    heights[~np.isfinite(heights)] = np.nan
+    return _group_max(npairs, hq, heights)
+
+
+def _totals(mesh, smp, P, values, whole, sc: _Scallops, ncur):
+    """(max material left, max gouge, where each, per-vertex material left) over the samples
+    and the ridge points that can raise the maximum."""
     all_pts, all_vals = P, values
-    if len(ridge_pts) and ncur:
+    if len(sc.ridge_pts) and ncur:
         # all passes leave at most what two of them leave: only ridge points above the
         # samples' maximum can raise it
-        cand = ridge_val > _nanmax(values, -np.inf)
+        cand = sc.ridge_val > _nanmax(values, -np.inf)
         if np.any(cand):
-            all_pts = np.vstack([P, ridge_pts[cand]])
-            all_vals = np.concatenate([values, whole.distance(ridge_pts[cand])])
+            all_pts = np.vstack([P, sc.ridge_pts[cand]])
+            all_vals = np.concatenate([values, whole.distance(sc.ridge_pts[cand])])
     fin = np.isfinite(all_vals)
     if np.any(fin):
         i_max = int(np.argmax(np.where(fin, all_vals, -np.inf)))
@@ -615,9 +700,13 @@ def verify_path(
     vertex_values = np.full(mesh.n_vertices, np.nan)
     isv = smp.vertex >= 0
     vertex_values[smp.vertex[isv]] = values[: len(smp)][isv]
-    tim["totals"] = time.perf_counter() - t1
-    tim["total"] = time.perf_counter() - t0
+    return max_left, max_gouge, left_at, gouge_at, vertex_values
 
+
+def _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim) -> VerifyReport:
+    """The :class:`VerifyReport` of the steps' results."""
+    max_left, max_gouge, left_at, gouge_at, vertex_values = tot
+    npairs = max(len(levels) - 1, 0)
     pair_s = np.stack([levels[:-1], levels[1:]], axis=1) if npairs else np.zeros((0, 2))
     return VerifyReport(
         tool_radius=rho,
@@ -625,37 +714,37 @@ def verify_path(
         spacing=float(spacing),
         n_samples=int(len(P)),
         n_poses=int(sum(len(c.cc) for c in curves)),
-        n_curves=ncur,
+        n_curves=len(curves),
         n_levels=int(len(levels)),
         max_material_left=max_left,
         max_material_left_at=np.asarray(left_at),
         max_gouge=max_gouge,
         max_gouge_at=np.asarray(gouge_at),
-        max_cusp=_nanmax(pair_cusp),
-        max_cusp_normal=_nanmax(pair_cn),
-        cc_chord=_nanmax(cc_chord),
-        cc_chord_at=np.asarray(chord_at),
-        path_overcut=_nanmax(over, 0.0),
-        path_overcut_at=np.asarray(over_at),
-        path_undercut=_nanmax(under, 0.0),
-        cc_on_mesh=_nanmax(on_mesh),
-        cc_contact=_nanmax(pose_contact, 0.0),
-        cc_on_cone=_nanmax(on_cone),
-        normal_error_deg=float(nerr),
-        pose_mismatch=float(mismatch),
+        max_cusp=_nanmax(sc.pair_cusp),
+        max_cusp_normal=_nanmax(sc.pair_cn),
+        cc_chord=_nanmax(pc.cc_chord),
+        cc_chord_at=np.asarray(pc.chord_at),
+        path_overcut=_nanmax(pc.over, 0.0),
+        path_overcut_at=np.asarray(pc.over_at),
+        path_undercut=_nanmax(pc.under, 0.0),
+        cc_on_mesh=_nanmax(pc.on_mesh),
+        cc_contact=_nanmax(pc.pose_contact, 0.0),
+        cc_on_cone=_nanmax(pc.on_cone),
+        normal_error_deg=float(pc.nerr),
+        pose_mismatch=float(pc.mismatch),
         levels=levels,
         pair_s=pair_s,
-        pair_cusp=pair_cusp,
-        pair_cusp_normal=pair_cn,
-        pair_gouge=pair_gouge,
-        pair_where=pair_where,
-        pair_n_samples=pair_n,
-        curve_cc_chord=cc_chord,
-        curve_overcut=over,
-        curve_undercut=under,
-        curve_on_mesh=on_mesh,
-        curve_on_cone=on_cone,
-        pose_cc_contact=pose_contact,
+        pair_cusp=sc.pair_cusp,
+        pair_cusp_normal=sc.pair_cn,
+        pair_gouge=sc.pair_gouge,
+        pair_where=sc.pair_where,
+        pair_n_samples=sc.pair_n,
+        curve_cc_chord=pc.cc_chord,
+        curve_overcut=pc.over,
+        curve_undercut=pc.under,
+        curve_on_mesh=pc.on_mesh,
+        curve_on_cone=pc.on_cone,
+        pose_cc_contact=pc.pose_contact,
         sample_points=P,
         sample_values=values,
         vertex_values=vertex_values,

@@ -1,10 +1,15 @@
 """The paths JSON of two reference requests does not change when the code is only made faster.
 
-The digests were recorded before the speed work of issue 13 (``plan_paths`` →
-``write_paths_json``, the ``stats`` key dropped: it holds timings). Floats are rounded to
-1e-9 mm (1e-9 of a radian or ratio) before hashing, so the digests hold on numpy 1.26 and
-2.x alike (their last-bit differences vanish). A failing digest means the path changed: if
-that is intended, say why in the commit and record the new digest here.
+The digests (``plan_paths`` → ``write_paths_json``, the ``stats`` key dropped: it holds
+timings) were recorded on numpy 1.26 before the speed work of issue 13. Floats are rounded to
+1e-7 mm (1e-7 of a radian or ratio) before hashing, so last-bit differences between numpy
+versions vanish: numpy 1.26 and 2.x differ by up to 4e-11 here, and at 1e-9 nine of 90k
+values fell on different sides of a rounding step. They are not all: on the demo blade a
+few zero-speed poses (the contact at the ball's tip) sit on the edge of the local-gouge test,
+and their FLAG_LOCAL_GOUGE bit differs between numpy 1.26 and 2.x (10 of 4348 poses, every
+float equal to 1e-9), so numpy 2 has its own demo digest (also recorded before issue 13).
+A failing digest means the path changed: if that is intended, say why in the commit and
+record the new digest here.
 """
 
 from __future__ import annotations
@@ -25,11 +30,13 @@ from blisk_cam.core.pipeline import PLAN_STAGES, PathRequest, plan_paths
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: sha256 of the paths JSON without "stats", floats rounded to 1e-9 (see :func:`digest`)
+#: sha256 of the paths JSON without "stats", floats rounded to 1e-7 (see :func:`digest`)
 DIGESTS = {
-    "demo": "0d8653eb22c132fe4d946a71deb2ef009903fbcab94336857685891568abfc1f",
-    "rotor37": "e43c22007c67c27f405bfde45bfeed59070ed1ead2157c3f79d9c7174c6b0a23",
+    "demo": "0fdf968fafa6ca303877c5366f130c71c1dacf175dcf126e3957d2a9a2beb524",
+    "rotor37": "de899b694a041295af839e9afecf2e164d98f2760c2caac2949eb37952b8116f",
 }
+if int(np.__version__.split(".")[0]) >= 2:  # see the module docstring
+    DIGESTS["demo"] = "dd0ecb9f381c442073d31bf7f0e1199255abc176626d377036a0c220678f1c73"
 
 STAGE_KEYS = tuple(f"seconds_{s.name}" for s in PLAN_STAGES) + ("seconds_plan",)
 
@@ -55,7 +62,7 @@ def read_binary_stl(path):
 
 def _rounded(o):
     if isinstance(o, float):
-        r = round(o, 9)
+        r = round(o, 7)
         return 0.0 if r == 0 else r  # no "-0.0"
     if isinstance(o, list):
         return [_rounded(x) for x in o]
@@ -80,7 +87,7 @@ def as_before_issue_14(data: dict) -> dict:
 
 def digest(path, tmp_path) -> str:
     """sha256 of the written paths JSON without ``stats`` (as before issue 14, see
-    :func:`as_before_issue_14`), floats rounded to 1e-9."""
+    :func:`as_before_issue_14`), floats rounded to 1e-7."""
     f = write_paths_json(path, tmp_path / "paths.json")
     data = as_before_issue_14(json.loads(Path(f).read_text(encoding="utf-8")))
     data.pop("stats", None)

@@ -1,0 +1,215 @@
+"""Benchmark the whole batch run the user waits for (issue 13); prints figures (no assertions).
+
+    python bench/bench_pipeline.py [--triangles 1000000] [--chord 0.01] [--no-verify]
+
+For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` triangles:
+
+* the whole run as the CLI does it, through core functions (no bpy): read the binary STL
+  from disk, weld (``TriMesh.from_arrays``), plan (``pipeline.plan_paths``: fit, passes,
+  orient, link), write the paths JSON — wall time per stage and in total;
+* ``trimesh.intersections.mesh_multiplane`` for 50 planes of the same mesh in the same run,
+  and the ratio whole run / trimesh (goal ≤ 2);
+* ``verify.verify_path`` with 1 and 2 threads vs the plan's own time (goal: verify ≤ plan),
+  for a ball and a bull-nose (R6, corner 2) path on the blade at ``--verify-triangles``
+  (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from blisk_cam.core.cones import Axis, Cone  # noqa: E402
+from blisk_cam.core.demo import make_demo_blisk  # noqa: E402
+from blisk_cam.core.errors import BliskCamError  # noqa: E402
+from blisk_cam.core.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.paths_io import write_paths_json  # noqa: E402
+from blisk_cam.core.pipeline import PathRequest, plan_paths  # noqa: E402
+
+BLADES_DIRS = (ROOT / "tests" / "data" / "blades", ROOT.parent / "shared" / "data" / "blades",
+               ROOT.parents[1] / "shared" / "data" / "blades")
+STAGES = ("seconds_fit", "seconds_passes", "seconds_orient", "seconds_link")
+
+
+def blades_dir():
+    for d in BLADES_DIRS:
+        if (d / "rotor37_blade_extended_open.stl").exists():
+            return d
+    return None
+
+
+def read_binary_stl(path):
+    """(V (3m, 3), F (m, 3)) triangle soup of a binary STL, as an importer hands it over."""
+    raw = Path(path).read_bytes()
+    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
+    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
+    V = data["v"].reshape(-1, 3).astype(np.float64)
+    return V, np.arange(len(V)).reshape(-1, 3)
+
+
+def write_binary_stl(path, V, F):
+    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    data = np.zeros(len(F), dtype=rec)
+    data["v"] = V[F]
+    with open(path, "wb") as fh:
+        fh.write(b"\0" * 80)
+        fh.write(np.uint32(len(F)).tobytes())
+        fh.write(data.tobytes())
+
+
+def subdivide(V, F):
+    """Midpoint subdivision (×4 triangles), vectorised."""
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    uniq, inv = np.unique(E, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    mid = len(V) + inv.reshape(3, -1).T
+    V2 = np.vstack([V, 0.5 * (V[uniq[:, 0]] + V[uniq[:, 1]])])
+    a, b, c = F.T
+    ab, bc, ca = mid.T
+    quads = ([a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca])
+    return V2, np.concatenate([np.stack(x, 1) for x in quads])
+
+
+def demo_blade(target):
+    res = float(np.sqrt(target / 100_000.0))  # resolution 1 ≈ 100k blade triangles
+    d = make_demo_blisk(resolution=res)
+    return d.blade_vertices, d.blade_faces, d.axis, d.hub_cone, d.tip_cone
+
+
+def rotor37_blade(target):
+    d = blades_dir()
+    if d is None:
+        return None
+    V, F = read_binary_stl(d / "rotor37_blade_extended_open.stl")
+    m = TriMesh.from_arrays(V, F)
+    V, F = m.V, m.F
+    while len(F) * 2 < target:
+        V, F = subdivide(V, F)
+    cones = json.loads((d / "rotor37_blade.json").read_text())["cones"]
+    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
+    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    return V, F, Axis(), c1, c2
+
+
+def trimesh_multiplane(V, F, k=50):
+    try:
+        import trimesh
+        from trimesh.intersections import mesh_multiplane
+    except ImportError:
+        return None
+    tm = trimesh.Trimesh(V, F, process=False)
+    z5, z95 = np.percentile(V[:, 2], [5, 95])
+    z = np.linspace(float(z5), float(z95), k)
+    t0 = time.perf_counter()
+    mesh_multiplane(tm, [0, 0, 0], [0, 0, 1], z)
+    return time.perf_counter() - t0
+
+
+def whole_run(stl, axis, c1, c2, chord, out):
+    """load → weld → plan → write, as the CLI does (core functions only)."""
+    t = {}
+    t0 = time.perf_counter()
+    V, F = read_binary_stl(stl)
+    t["load"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    mesh = TriMesh.from_arrays(V, F)
+    t["weld"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    req = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
+                      cusp=0.05, chord=chord)
+    res = plan_paths(mesh, req)
+    t["plan"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    write_paths_json(res.path, out)
+    t["write"] = time.perf_counter() - t1
+    t["total"] = time.perf_counter() - t0
+    return t, mesh, res.path
+
+
+def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
+    """Plan a ball and a bull-nose path on the mesh, then verify each with 1 and 2 threads."""
+    from dataclasses import replace
+
+    from blisk_cam.core.verify import verify_path
+
+    mesh = TriMesh.from_arrays(V, F)
+    ball = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
+                       cusp=0.05, chord=chord)
+    for req in (ball, replace(ball, tool_type="bull", corner_radius=2.0)):
+        try:
+            path = plan_paths(mesh, req).path
+        except BliskCamError as exc:  # e.g. the demo's hub fillet is tighter than a bull
+            print(f"[{name}] verify {req.tool_type}: not planned ({exc})", flush=True)
+            continue
+        plan = path.stats["seconds_plan"]
+        runs = []
+        for n in threads:
+            t0 = time.perf_counter()
+            rep = verify_path(mesh, path, workers=n)
+            runs.append((n, time.perf_counter() - t0, rep))
+        txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _ in runs)
+        steps = ", ".join(f"{k} {v:.2f}" for k, v in runs[-1][2].timings.items() if k != "total")
+        print(f"[{name}] verify {req.tool_type}, {len(F):,} triangles, {path.n_poses:,} poses: "
+              f"{txt}; speed-up x{runs[0][1] / runs[-1][1]:.2f}; plan {plan:.2f} s; "
+              f"verify/plan {runs[-1][1] / plan:.2f} (goal <= 1); steps ({runs[-1][0]} threads) "
+              f"{steps}", flush=True)
+
+
+def bench_blade(name, V, F, axis, c1, c2, chord):
+    with tempfile.TemporaryDirectory() as tmp:
+        stl = Path(tmp) / f"{name}.stl"
+        write_binary_stl(stl, V, F)
+        t_tm = trimesh_multiplane(V, F)
+        t, mesh, path = whole_run(stl, axis, c1, c2, chord, Path(tmp) / "paths.json")
+    st = path.stats
+    stages = ", ".join(f"{k[8:]} {st.get(k, float('nan')):.2f}" for k in STAGES)
+    print(f"[{name}] {len(F):,} triangles, 6 mm ball, cusp 0.05, chord {chord}: whole run "
+          f"{t['total']:.2f} s = load {t['load']:.2f} + weld {t['weld']:.2f} + plan "
+          f"{t['plan']:.2f} ({stages}) + write {t['write']:.2f} s; "
+          f"{path.n_poses:,} poses", flush=True)
+    if t_tm is None:
+        print(f"[{name}] trimesh not installed: no mesh_multiplane comparison")
+    else:
+        print(f"[{name}] trimesh mesh_multiplane, 50 planes: {t_tm:.2f} s; whole run / trimesh "
+              f"= {t['total'] / t_tm:.2f} (goal ≤ 2)", flush=True)
+    return mesh
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--triangles", type=int, default=1_000_000)
+    ap.add_argument("--chord", type=float, default=0.01)
+    ap.add_argument("--no-verify", action="store_true")
+    ap.add_argument("--verify-triangles", type=int, default=200_000,
+                    help="blade size for the verify comparison (verify at 1M takes minutes)")
+    ap.add_argument("--only", choices=("demo", "rotor37"))
+    args = ap.parse_args()
+    if args.only != "rotor37":
+        V, F, axis, c1, c2 = demo_blade(args.triangles)
+        bench_blade("demo", V, F, axis, c1, c2, args.chord)
+        if not args.no_verify:
+            V, F, axis, c1, c2 = demo_blade(args.verify_triangles)
+            bench_verify("demo", V, F, axis, c1, c2, args.chord)
+    if args.only != "demo":
+        r = rotor37_blade(args.triangles)
+        if r is None:
+            print("[rotor37] data not found (tests/data/blades/ or ../shared/data/blades/)")
+        else:
+            bench_blade("rotor37 subdivided", *r, args.chord)
+            if not args.no_verify:
+                bench_verify("rotor37 subdivided", *rotor37_blade(args.verify_triangles),
+                             args.chord)
+
+
+if __name__ == "__main__":
+    main()
