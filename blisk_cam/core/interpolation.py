@@ -815,6 +815,8 @@ def _pass_runs(prog: Program):
     return out
 
 
+# long on purpose: per pass: prepare, search, measure, then the report; the steps are the helpers
+# it calls
 def interpolate_program(path: ToolPath, machine, method: str = "constant-error", *,
                         max_error: float | None = None, chord_height: float | None = None,
                         mesh=None, bound: str = "pointwise", max_spacing: float = 0.1,

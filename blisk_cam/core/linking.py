@@ -420,6 +420,8 @@ def _loop_at(loop: PassCurve, u):
     ]
 
 
+# long on purpose: one spiral turn per pair of levels, blending two loops on the mesh; its steps
+# share the turn's arrays
 def _spiral(
     loops, projector: SurfaceProjector, chord: float, rho: float, rounds: int = 12
 ) -> PassCurve:
@@ -621,6 +623,8 @@ def _from_cyl(r, th, z, axis: Axis, frame):
     )
 
 
+# long on purpose: walks the passes once, emitting approach, cut, link or retract-rapid-approach
+# moves into the same growing arrays
 def build_program(
     curves,
     opts: LinkOptions,
