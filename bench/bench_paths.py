@@ -23,19 +23,13 @@ sys.path.insert(0, str(ROOT))
 
 from blisk_cam.core.cones import Axis, Cone, MorphingCones  # noqa: E402
 from blisk_cam.core.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # noqa: E402
 from blisk_cam.core.pathgen import generate_paths  # noqa: E402
 from blisk_cam.core.slicing import MeshConeSlicer  # noqa: E402
 
 BLADES = ROOT / "tests" / "data" / "blades"
 
 
-def read_binary_stl(path):
-    raw = Path(path).read_bytes()
-    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
-    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
-    V = data["v"].reshape(-1, 3).astype(np.float64)
-    return V, np.arange(len(V)).reshape(-1, 3)
 
 
 def subdivide(V, F):

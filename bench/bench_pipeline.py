@@ -32,6 +32,7 @@ from blisk_cam.core.cones import Axis, Cone  # noqa: E402
 from blisk_cam.core.demo import make_demo_blisk  # noqa: E402
 from blisk_cam.core.errors import BliskCamError  # noqa: E402
 from blisk_cam.core.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # noqa: E402
 from blisk_cam.core.paths_io import write_paths_json  # noqa: E402
 from blisk_cam.core.pipeline import PathRequest, plan_paths  # noqa: E402
 
@@ -47,14 +48,6 @@ def blades_dir():
     return None
 
 
-def read_binary_stl(path):
-    """(V (3m, 3), F (m, 3)) triangle soup of a binary STL, as an importer hands it over."""
-    raw = Path(path).read_bytes()
-    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
-    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
-    V = data["v"].reshape(-1, 3).astype(np.float64)
-    return V, np.arange(len(V)).reshape(-1, 3)
 
 
 def write_binary_stl(path, V, F):

@@ -9,20 +9,12 @@ import numpy as np
 import pytest
 
 from blisk_cam.core.cones import Axis, Cone, MorphingCones
+from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
 
 #: NASA Rotor 37 and 67 (public test-case data, see tests/data/blades/README.md)
 BLADES = Path(__file__).resolve().parents[1] / "data" / "blades"
 
 
-def read_binary_stl(path):
-    """(V (3m, 3), F (m, 3)) of a binary STL, unwelded (tests only; the product reads
-    meshes through Blender's importers)."""
-    raw = Path(path).read_bytes()
-    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
-    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
-    V = data["v"].reshape(-1, 3).astype(np.float64)
-    return V, np.arange(len(V)).reshape(-1, 3)
 
 
 def nasa_blade(name):

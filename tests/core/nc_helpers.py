@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -25,13 +27,6 @@ def blade_file(name: str) -> Path | None:
     return None
 
 
-def read_binary_stl(path):
-    raw = Path(path).read_bytes()
-    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
-    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
-    V = data["v"].reshape(-1, 3).astype(np.float64)
-    return V, np.arange(len(V)).reshape(-1, 3)
 
 
 def demo_path():

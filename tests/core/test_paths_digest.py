@@ -25,6 +25,7 @@ import pytest
 from blisk_cam.core.cones import Axis, Cone
 from blisk_cam.core.demo import make_demo_blisk
 from blisk_cam.core.mesh import TriMesh
+from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
 from blisk_cam.core.paths_io import write_paths_json
 from blisk_cam.core.pipeline import PLAN_STAGES, PathRequest, plan_paths
 
@@ -51,13 +52,6 @@ def blades_dir() -> Path | None:
     return None
 
 
-def read_binary_stl(path):
-    raw = Path(path).read_bytes()
-    n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
-    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
-    V = data["v"].reshape(-1, 3).astype(np.float64)
-    return V, np.arange(len(V)).reshape(-1, 3)
 
 
 def _rounded(o):
