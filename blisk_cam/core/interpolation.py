@@ -595,7 +595,7 @@ def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
     ``samples`` interior points (more for long blocks: ``per_dense`` per dense pose); ``ref``
     (m,) the planned dense poses' clearance from the mesh, when already known;
     ``machine.forward`` gives the cutter pose. With ``mesh`` (TriMesh or
-    :class:`.verify.MeshDistance`): the signed clearance of the cutter from the mesh
+    :class:`.geometry.MeshDistance`): the signed clearance of the cutter from the mesh
     (:func:`_clearance`) minus that of the planned dense path (nearest dense pose) — > 0
     undercut, < 0 overcut. Without a mesh: the corner centre's offset from the nearest dense
     pose's centre along that pose's surface normal (no linearisation of the machine; the
@@ -621,7 +621,7 @@ def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
     nf = _unit(dp.interp(dp.normal, foot))
     c = _spine_point(cutter, tip, ax, nf)
     if mesh is not None:
-        from .verify import MeshDistance
+        from .geometry import MeshDistance
 
         md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)
         if ref is None:
@@ -651,7 +651,7 @@ def match_chord_height(dp_list, machine, cutter, target: float, *, mesh=None,
     ``mesh`` when given. The chord method's maximum jumps with h (one block growing over a
     fast rotary turn), so "equal" is the largest h whose maximum does not exceed the target.
     Returns (h, ends per pass, measured (B,) per pass)."""
-    from .verify import MeshDistance
+    from .geometry import MeshDistance
 
     dp_list = list(dp_list)
     md = None if mesh is None else (mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh))
@@ -857,7 +857,7 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
                               chord_height=chord_height if method == "chord" else None)
     md = None
     if mesh is not None and measure:
-        from .verify import MeshDistance
+        from .geometry import MeshDistance
 
         md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)
         rep.measured_kind = "mesh"
