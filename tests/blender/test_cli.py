@@ -225,7 +225,7 @@ def test_paths_reads_the_mesh_into_the_core_request(tmp_path, monkeypatch):
         mesh, T = write_binary_stl(tmp_path / "blade.stl", V, F), V[F]
     seen = {}
 
-    def fake_plan_paths(trimesh, req):
+    def fake_plan_paths(trimesh, req, **_stages):
         seen.update(V=trimesh.V, F=trimesh.F, req=req)
         raise BliskCamError("stubbed: no path")
 
