@@ -592,7 +592,7 @@ class _Generator:
             if len(passes) > MAX_PASSES:
                 raise ToleranceError(
                     f"more than {MAX_PASSES} passes needed: the cusp height {h} mm is far too "
-                    f"small for a {self.radius} mm ball on this blade"
+                    f"small for a Ø{2 * self.radius:g} ball (or its equivalent) on this blade"
                 )
             dist_a = self.centre_distance(s)
             pred = max(self.predict_step(s), 1e-6)
@@ -631,8 +631,9 @@ class _Generator:
             if feasible is None:
                 raise ToleranceError(
                     f"cannot hold the cusp height {h} mm after s = {s:.4f}: even a tiny side "
-                    f"step leaves more (a concave region tighter than the {self.radius} mm ball, "
-                    "or a mesh fold); use a smaller ball or check the mesh there"
+                    f"step leaves more (a concave region tighter than the "
+                    f"Ø{2 * self.radius:g} ball, or a mesh fold); use a smaller ball or check the "
+                    "mesh there"
                 )
             ds, H, s_new = feasible
             if s_new < s_hi:
@@ -658,7 +659,7 @@ class _Generator:
             warnings.append(
                 f"{sum(u[1] for u in uncut)} poses between s = {min(su):.4f} and "
                 f"{max(su):.4f} were lifted by up to {max(u[2] for u in uncut):.4f} mm off "
-                f"the surface: it is concave tighter than the {self.radius} mm ball there (the "
+                f"the surface: it is concave tighter than the Ø{2 * self.radius:g} ball there (the "
                 "ball would gouge elsewhere), so material is left; use a smaller ball there"
             )
         self.result = ToolPath(

@@ -105,7 +105,7 @@ def test_default_fillet_tighter_than_the_ball_is_lifted_and_reported_not_gouged(
     path = generate_paths(mesh, d.axis, d.hub_cone, d.tip_cone, tool_radius=RHO, cusp=H, chord=0.05)
     st = path.stats
     assert st["uncut_poses"] > 0 and st["max_uncut_lift"] > 1e-3
-    assert "concave tighter than the 6.0 mm ball" in st["warnings"][0]
+    assert "concave tighter than the Ø12 ball" in st["warnings"][0]  # tools by diameter
     assert 0.0 < min(st["uncut_s"]) and max(st["uncut_s"]) < 0.12  # in the fillet
     # no pose gouges: every ball centre is ρ from the mesh or more (exact closest points)
     cen = np.vstack([c.centres(RHO) for c in path.curves])
