@@ -816,3 +816,29 @@ def write_collision_objects(scene, blade_name, path, *, neighbours=(), assembly=
         ob.data.name = label
         out["tool_assembly"] = ob
     return out
+
+
+def write_block_error_object(scene, blade_name, starts, ends, ratio):
+    """The NC blocks chosen by the interpolation as a curve in the blade's output collection:
+    one segment per block, coloured by its measured maximum error as a share of the bound
+    (blue 0 → red 100 %, the path ramp; NaN in the first bin). Replaces the previous one."""
+    coll = find_output_collection(blade_name)
+    if coll is None:
+        raise BliskCamError(f"'{blade_name}' has no output collection: generate the paths first")
+    name = f"{blade_name} NC blocks"
+    old = bpy.data.objects.get(name)
+    if old is not None:
+        bpy.data.objects.remove(old, do_unlink=True)
+    f = mm_per_blender_unit(scene)
+    sets = [np.vstack([a, b]) for a, b in zip(starts, ends, strict=True)]
+    ob = _curve_object(name, sets, [False] * len(sets), f, 0.15)
+    mats = _bin_materials()
+    for m in mats:
+        ob.data.materials.append(m)
+    r = np.nan_to_num(np.asarray(ratio, dtype=np.float64), nan=0.0)
+    bins = spline_bins("CUSP", np.zeros(len(r)), r, 1.0)
+    ob.data.splines.foreach_set("material_index", bins.astype(np.int32))
+    ob.data["blisk_cam_block_error_share"] = [float(x) for x in r]
+    ob[KEY_ROLE] = "nc_blocks"
+    coll.objects.link(ob)
+    return ob

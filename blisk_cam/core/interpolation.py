@@ -51,6 +51,7 @@ from .machining_error import contact_lever, error_gradients, machine_jacobian, p
 from .toolpath import MOVE_CUT, Program, ToolPath
 
 __all__ = [
+    "block_segments",
     "BOUNDS",
     "METHODS",
     "BlockSet",
@@ -702,6 +703,27 @@ class BlockSet:
     bound: np.ndarray
     measured: np.ndarray | None
     dense: DensePass
+
+
+def block_segments(report) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chosen blocks of an :class:`InterpolationReport` for display: start and end tips
+    (B, 3) mm (the dense pass interpolated at the block ends) and each block's measured
+    maximum error as a fraction of the reference error (the max error; NaN where not
+    measured)."""
+    ref = report.max_error if report.max_error else report.measured_max
+    a, b, r = [], [], []
+    for bs in report.sets:
+        tips = bs.dense.tip
+        pos = np.arange(len(tips), dtype=np.float64)
+        at = np.column_stack([np.interp(bs.ends, pos, tips[:, k]) for k in range(3)])
+        a.append(at[:-1])
+        b.append(at[1:])
+        m = (np.full(len(bs.ends) - 1, np.nan) if bs.measured is None
+             else np.asarray(bs.measured, dtype=np.float64))
+        r.append(m / ref if ref else np.full(len(m), np.nan))
+    if not a:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
+    return np.vstack(a), np.vstack(b), np.concatenate(r)
 
 
 @dataclass

@@ -84,6 +84,12 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
             machine = self.machine or nc_machine(settings)
             options = NcOptions(**stage_values(settings, NcOptions), blade_name=name)
             report = export_nc(path, machine, post, options, filename)
+            if report.interpolation is not None:  # the blocks, coloured by measured error
+                from ..core.interpolation import block_segments
+                from ..output import write_block_error_object
+
+                write_block_error_object(context.scene, name, *block_segments(
+                    report.interpolation))
         except Exception as exc:
             return report_exception(self, exc)
         self.report({"INFO"}, report.summary())

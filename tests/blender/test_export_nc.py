@@ -121,3 +121,32 @@ def test_animate_program_puts_the_tool_on_the_program(addon, demo, tmp_path, vie
         np.testing.assert_allclose(rel[:3, 2], blocks.axis[k], atol=1e-5)
     # the user's blade is not animated or moved
     assert blade.animation_data is None and np.allclose(np.array(blade.matrix_world), np.eye(4))
+
+
+def test_export_nc_with_constant_error_colours_the_blocks(addon, demo, tmp_path):
+    """Machine & NC with constant-error interpolation: the program has fewer cut blocks than
+    the planned poses, and the blocks appear as a curve coloured by the measured error."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
+    blade = blender_io.import_mesh_file(stl)
+    s = bpy.context.scene.blisk_cam
+    s.blade = blade
+    s.cone1 = (170.0, -25.0, 185.0, 35.0)
+    s.cone2 = (185.0, -25.0, 200.0, 35.0)  # a narrow band: a few passes
+    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, 0.01
+    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    s.machine, s.post = "ac-trunnion", "linuxcnc"
+    s.interpolation, s.max_error = "CONSTANT_ERROR", 0.01
+    out = tmp_path / "ce.ngc"
+    assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    ob = bpy.data.objects[f"{blade.name} NC blocks"]
+    share = np.asarray(ob.data["blisk_cam_block_error_share"])
+    assert len(ob.data.splines) == len(share) > 10
+    assert np.all(share <= 1.0 + 0.1) and np.median(share) > 0.5  # near the bound
+    bins = np.array([sp.material_index for sp in ob.data.splines])
+    assert len(np.unique(bins)) > 1  # coloured, not one colour
+    if shutil.which("rs274"):
+        cp = subprocess.run(["rs274", "-g", str(out), str(tmp_path / "c.txt")],
+                            stdin=subprocess.DEVNULL, capture_output=True, timeout=120)
+        assert cp.returncode == 0
