@@ -10,7 +10,14 @@ import numpy as np
 from bpy.props import EnumProperty
 
 from ..core.errors import BliskCamError
-from .common import report_exception, result_blade_name, settings_of, stage_values, stored_path
+from .common import (
+    poll_generated_paths,
+    report_exception,
+    result_blade_name,
+    settings_of,
+    stage_values,
+    stored_path,
+)
 
 #: object names (prefixed with the blade name) of the animation
 TOOL_SUFFIX = "animated tool"
@@ -67,10 +74,7 @@ class BLISKCAM_OT_animate_program(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if settings_of(context) is None or result_blade_name(context) is None:
-            cls.poll_message_set("No generated paths: press Generate Paths first")
-            return False
-        return True
+        return poll_generated_paths(cls, context)
 
     def execute(self, context):
         from .. import output

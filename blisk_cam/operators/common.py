@@ -39,6 +39,8 @@ __all__ = [
     "set_settings_from_request",
     "result_blade_name",
     "report_exception",
+    "poll_generated_paths",
+    "output_filename",
     "collision_options",
     "obstacle_arrays",
     "stored_path",
@@ -293,6 +295,32 @@ def result_blade_name(context, *, paths_only: bool = True) -> str | None:
     if settings.stat_blade and ok(settings.stat_blade):
         return settings.stat_blade
     return None
+
+
+def poll_generated_paths(cls, context) -> bool:
+    """The poll of the operators that act on the generated paths (export, NC, animation):
+    False with the reason set when the add-on or the paths are missing."""
+    if settings_of(context) is None:
+        cls.poll_message_set("Blisk CAM settings are missing: enable the add-on")
+        return False
+    if result_blade_name(context) is None:
+        cls.poll_message_set("No generated paths: press Generate Paths first")
+        return False
+    return True
+
+
+def output_filename(filepath: str, what: str) -> str:
+    """The absolute file name of an operator's ``filepath`` (``//`` = beside the .blend);
+    BliskCamError when none is given or it is relative to a .blend never saved."""
+    import bpy
+
+    if not filepath:
+        raise BliskCamError(f"No file name given for the {what}")
+    filename = bpy.path.abspath(filepath)
+    if filename.startswith("//"):
+        raise BliskCamError(f"'{filepath}' is relative to the .blend file, which is not saved: "
+                            "save the .blend first or give an absolute path")
+    return filename
 
 
 def report_exception(op, exc) -> set:

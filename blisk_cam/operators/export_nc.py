@@ -8,7 +8,15 @@ from bpy_extras.io_utils import ExportHelper
 
 from ..core.errors import BliskCamError
 from ..core.post import POSTS
-from .common import report_exception, result_blade_name, settings_of, stage_values
+from .common import (
+    output_filename,
+    poll_generated_paths,
+    report_exception,
+    result_blade_name,
+    settings_of,
+    stage_values,
+    stored_path,
+)
 
 
 def nc_machine(settings):
@@ -45,41 +53,22 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
 
     @classmethod
     def poll(cls, context):
-        if settings_of(context) is None:
-            cls.poll_message_set("Blisk CAM settings are missing: enable the add-on")
-            return False
-        if result_blade_name(context) is None:
-            cls.poll_message_set("No generated paths: press Generate Paths first")
-            return False
-        return True
+        return poll_generated_paths(cls, context)
 
     def execute(self, context):
         from ..core.nc import export_nc
-        from ..core.paths_io import path_from_dict
         from ..core.post.blocks import NcOptions
-        from ..output import stored_paths_json
 
         settings = settings_of(context)
         try:
-            import json
-
             name = result_blade_name(context)
-            text = stored_paths_json(name) if name else None
-            if text is None:
-                raise BliskCamError("No generated paths: press Generate Paths first")
-            path = path_from_dict(json.loads(text))
+            path = stored_path(name)
             n = unresolved_collisions(path)
             if n and not settings.export_anyway:
                 raise BliskCamError(
                     f"{n} pose(s) are unresolved collisions: the program could crash the "
                     "machine. Correct them (Check Collisions, avoid) or tick Export Anyway")
-            if not self.filepath:
-                raise BliskCamError("No file name given for the NC program")
-            filename = bpy.path.abspath(self.filepath)
-            if filename.startswith("//"):
-                raise BliskCamError(f"'{self.filepath}' is relative to the .blend file, which "
-                                    "is not saved: save the .blend first or give an absolute "
-                                    "path")
+            filename = output_filename(self.filepath, "NC program")
             post = settings.post if self.post == "PANEL" else self.post
             machine = self.machine or nc_machine(settings)
             options = NcOptions(**stage_values(settings, NcOptions), blade_name=name)

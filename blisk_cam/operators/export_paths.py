@@ -7,7 +7,7 @@ from bpy.props import StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from ..core.errors import BliskCamError
-from .common import report_exception, result_blade_name, settings_of
+from .common import output_filename, poll_generated_paths, report_exception, result_blade_name
 
 
 def write_text_atomically(text: str, filename: str) -> str:
@@ -41,13 +41,7 @@ class BLISKCAM_OT_export_paths(bpy.types.Operator, ExportHelper):
 
     @classmethod
     def poll(cls, context):
-        if settings_of(context) is None:
-            cls.poll_message_set("Blisk CAM settings are missing: enable the add-on")
-            return False
-        if result_blade_name(context) is None:
-            cls.poll_message_set("No generated paths: press Generate Paths first")
-            return False
-        return True
+        return poll_generated_paths(cls, context)
 
     def execute(self, context):
         from ..output import stored_paths_json
@@ -57,15 +51,8 @@ class BLISKCAM_OT_export_paths(bpy.types.Operator, ExportHelper):
             text = stored_paths_json(name) if name else None
             if text is None:
                 raise BliskCamError("No generated paths: press Generate Paths first")
-            if not self.filepath:
-                raise BliskCamError("No file name given for the paths JSON")
-            path = bpy.path.abspath(self.filepath)
-            if path.startswith("//"):
-                raise BliskCamError(
-                    f"'{self.filepath}' is relative to the .blend file, which is not saved: "
-                    "save the .blend first or give an absolute path"
-                )
-            written = write_text_atomically(text, path)
+            written = write_text_atomically(text, output_filename(self.filepath,
+                                                                  "paths JSON"))
         except Exception as exc:
             return report_exception(self, exc)
         self.report({"INFO"}, f"Wrote {written}")
