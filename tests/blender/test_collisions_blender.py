@@ -9,7 +9,7 @@ import json
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import write_binary_stl
+from _mesh_files import radial_demo_paths
 
 from blisk_cam import blender_io, output
 
@@ -17,17 +17,7 @@ HOLDER = "36 6 60 6 60 16 120 16"
 
 
 def _setup(demo, tmp_path, *, generate=True):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
-    blade = blender_io.import_mesh_file(stl)
-    s = bpy.context.scene.blisk_cam
-    s.blade = blade
-    s.cone1 = (170.0, -25.0, 185.0, 35.0)  # above the hub fillet (reachable on A ≤ 110°)
-    s.cone2 = demo.tip_cone.as_list()
-    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, 0.1
-    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
-    if generate:
-        assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    blade, s = radial_demo_paths(demo, tmp_path, generate=generate)
     s.blade_count, s.holder = 24, HOLDER
     return blade, s
 

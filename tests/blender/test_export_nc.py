@@ -9,9 +9,8 @@ import subprocess
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import write_binary_stl
+from _mesh_files import radial_demo_paths
 
-from blisk_cam import blender_io
 from blisk_cam.core.machine import forward, load_machine
 
 
@@ -28,16 +27,7 @@ def _parse_linuxcnc_joints(text):
 
 
 def test_export_nc_posts_the_generated_paths(addon, demo, tmp_path):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
-    blade = blender_io.import_mesh_file(stl)
-    s = bpy.context.scene.blisk_cam
-    s.blade = blade
-    s.cone1 = (170.0, -25.0, 185.0, 35.0)  # above the hub fillet (reachable on A ≤ 110°)
-    s.cone2 = demo.tip_cone.as_list()
-    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, 0.1
-    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
-    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    blade, s = radial_demo_paths(demo, tmp_path, chord=0.1)
     # the NC options are generated properties with the declared defaults
     assert (s.feed, s.spindle, s.blades, s.tool_number) == (1000.0, 10000.0, 1, 1)
     s.machine, s.post, s.spindle = "ac-trunnion", "linuxcnc", 8000.0
@@ -63,16 +53,7 @@ def test_export_nc_posts_the_generated_paths(addon, demo, tmp_path):
 def test_export_nc_refuses_unresolved_collisions(addon, demo, tmp_path, monkeypatch):
     from blisk_cam.operators import export_nc
 
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
-    blade = blender_io.import_mesh_file(stl)
-    s = bpy.context.scene.blisk_cam
-    s.blade = blade
-    s.cone1 = (170.0, -25.0, 185.0, 35.0)
-    s.cone2 = demo.tip_cone.as_list()
-    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, 0.5
-    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
-    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    blade, s = radial_demo_paths(demo, tmp_path, chord=0.5)
     monkeypatch.setattr(export_nc, "unresolved_collisions", lambda path: 3)
     out = tmp_path / "x.nc"
     with pytest.raises(RuntimeError, match="3 pose"):
@@ -91,16 +72,7 @@ def test_animate_program_puts_the_tool_on_the_program(addon, demo, tmp_path, vie
     from blisk_cam.core.post.blocks import NcOptions, build_blocks
     from blisk_cam.operators.common import stored_path
 
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
-    blade = blender_io.import_mesh_file(stl)
-    s = bpy.context.scene.blisk_cam
-    s.blade = blade
-    s.cone1 = (170.0, -25.0, 185.0, 35.0)
-    s.cone2 = demo.tip_cone.as_list()
-    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, 0.5
-    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
-    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    blade, s = radial_demo_paths(demo, tmp_path, chord=0.5)
     s.machine = "ac-trunnion"
     assert bpy.ops.blisk_cam.animate_program(view=view) == {"FINISHED"}
     blocks = build_blocks(stored_path(blade.name), load_machine("ac-trunnion"), NcOptions(),
@@ -126,16 +98,8 @@ def test_animate_program_puts_the_tool_on_the_program(addon, demo, tmp_path, vie
 def test_export_nc_with_constant_error_colours_the_blocks(addon, demo, tmp_path):
     """Machine & NC with constant-error interpolation: the program has fewer cut blocks than
     the planned poses, and the blocks appear as a curve coloured by the measured error."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
-    blade = blender_io.import_mesh_file(stl)
-    s = bpy.context.scene.blisk_cam
-    s.blade = blade
-    s.cone1 = (170.0, -25.0, 185.0, 35.0)
-    s.cone2 = (185.0, -25.0, 200.0, 35.0)  # a narrow band: a few passes
-    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, 0.01
-    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
-    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    # a narrow band: a few passes
+    blade, s = radial_demo_paths(demo, tmp_path, chord=0.01, cone2=(185.0, -25.0, 200.0, 35.0))
     s.machine, s.post = "ac-trunnion", "linuxcnc"
     s.interpolation, s.max_error = "CONSTANT_ERROR", 0.01
     out = tmp_path / "ce.ngc"
