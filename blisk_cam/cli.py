@@ -853,6 +853,11 @@ def _collision_lines(plan):
           f"obstacle(s), {summary.get('colliding_before')} colliding before, "
           f"{summary.get('corrected')} corrected, {summary.get('unresolved')} unresolved; "
           f"min clearance {_mm(summary.get('min_clearance'))} mm ({rep.assembly_text})")
+    if summary.get("links_colliding"):
+        print(f"colliding links (retract, rapids, approach): {summary['links_colliding']}, "
+              f"{summary.get('links_rerouted', 0)} re-routed through the clearance surface "
+              f"({summary.get('link_poses_rerouted', 0)} poses), "
+              f"{summary.get('links_unresolved', 0)} unresolved")
     if not rep.n_unresolved:
         return None
     import numpy as np
@@ -865,9 +870,22 @@ def _collision_lines(plan):
         j = int(np.flatnonzero(np.asarray(prog.collision_status) == STATUS_UNRESOLVED)[0])
         x, y, z = (float(v) for v in prog.tip[j])
         where = (f"pass {int(prog.curve[j])} pose {int(prog.index[j])}" if prog.curve[j] >= 0
-                 else "a link move")
+                 else _link_name(summary, j))
         first = f"program row {j}, {where}, tip ({x:.3f}, {y:.3f}, {z:.3f}) mm"
     return int(rep.n_unresolved), first
+
+
+def _link_name(summary, row) -> str:
+    """The unresolved link holding program row ``row``, as the collision summary names it."""
+    for u in summary.get("unresolved_links", []) or []:
+        a, b = u["rows"]
+        if a <= row < b:
+            def pose(p, what):
+                return what if p is None else f"pass {p['curve']} pose {p['index']}"
+
+            return (f"the link from {pose(u['from'], 'the start')} to "
+                    f"{pose(u['to'], 'the end')} ({u['reason']})")
+    return "a link move"
 
 
 def _cmd_nc(args):

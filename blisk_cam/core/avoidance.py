@@ -40,8 +40,10 @@ may move too (toward each other where neighbouring corrections differ). A smooth
 would collide, or leave the lead/tilt limits, keeps its axis of the round before; where the
 limit still cannot hold (a corrected pose next to an unresolved one) the report counts it
 (``n_turn_over``). Everything is then checked again (all poses, links and rapids included);
-link, approach, retract and rapid poses that collide are reported unresolved (status 2);
-approach/retract points follow the corrected axis of the pass end they belong to.
+approach/retract points follow the corrected axis of the pass end they belong to. A run of
+link, approach, retract or rapid poses that still collides is re-routed — retract to the
+clearance surface, along it, approach — by :mod:`.link_avoidance`; where no route clears,
+its poses stay as planned and the colliding ones are unresolved (status 2).
 
 Status per pose: 0 clear (unchanged), 1 corrected (axis or tip changed, clear), 2 unresolved.
 In ``"check"`` mode nothing changes and every colliding pose gets status 2.
@@ -216,6 +218,8 @@ class CollisionReport:
     n_turn_over : int — consecutive pass poses whose axes turn by more than max(max_turn,
         the planned turn there) after avoidance (mostly a corrected pose next to an
         unresolved one, which keeps its planned axis); max_turn_deg : the largest such turn
+    links : dict — the link runs checked, colliding, re-routed and unresolved
+        (:func:`.link_avoidance.reroute_links`); empty without a program
     """
 
     mode: str
@@ -239,6 +243,7 @@ class CollisionReport:
     program_clearance: np.ndarray | None = None
     n_turn_over: int = 0
     max_turn_deg: float = 0.0
+    links: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
         """JSON-ready top-level ``"collision"`` object of the paths file."""
@@ -271,6 +276,7 @@ class CollisionReport:
             "assembly": self.assembly,
             "assembly_text": self.assembly_text,
             "safety": float(self.safety),
+            **self.links,
         }
 
 
@@ -660,6 +666,13 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
     if path.program is not None:
         program, pstat, pclr, pclr0 = yield from _program(scene, path.program, curves, offs,
                                                           tip0, ax0, status, det, det0)
+        # colliding links, retracts and rapids: re-routed through the clearance surface
+        from .link_avoidance import reroute_links  # (it imports this module)
+
+        program, report.links = yield from _scaled(reroute_links(
+            scene, program, path.program, path.axis, report.curve_rotation,
+            reroute=options.mode == "avoid", max_turn=options.max_turn), 0.99, 1.0)
+        pstat, pclr = program.collision_status, program.clearance
         report.program_status, report.program_clearance = pstat, pclr
         coll_before = pclr0 < scene.safety
         report.n_checked = len(pstat)

@@ -26,7 +26,8 @@ Fields added (still version 1; none of the above changed):
 * collision (only when the path was checked, :mod:`.avoidance`): per curve ``"collision":
   {"status": [0 clear | 1 corrected | 2 unresolved per pose], "clearance": [mm per pose],
   "rotation_deg": [degrees per pose from the planned axis]}``; in ``"program"`` the arrays
-  ``"collision_status"`` and ``"clearance"`` (every row, links included); top level
+  ``"collision_status"``, ``"clearance"`` and ``"rotation_deg"`` (every row, links
+  included; re-routed links, :mod:`.link_avoidance`, are rows like any other); top level
   ``"collision"`` — the summary (checked poses, colliding before, corrected, unresolved, min
   clearance, obstacles, assembly, safety, mode), and ``"tool" → "assembly"``
   (``{"flute_length", "profile": [[z, r], ...], "safety"}``). Absent when not checked, so
@@ -275,13 +276,16 @@ def _program_to_dict(p: Program) -> dict:
         **({} if p.collision_status is None else {
             "collision_status": [int(x) for x in p.collision_status],
             "clearance": np.asarray(p.clearance, dtype=float).tolist()}),
+        **({} if p.collision_status is None or p.rotation_deg is None else {
+            "rotation_deg": np.asarray(p.rotation_deg, dtype=float).tolist()}),
     }
 
 
 def _program_from_dict(d: dict) -> Program:
     tip = np.asarray(d["tip"], dtype=np.float64).reshape(-1, 3)
     m = len(tip)
-    for key in ("axis", "move", "curve", "index", "flags", "collision_status", "clearance"):
+    for key in ("axis", "move", "curve", "index", "flags", "collision_status", "clearance",
+                "rotation_deg"):
         if key not in d:
             continue
         if len(d[key]) != m:
@@ -298,4 +302,6 @@ def _program_from_dict(d: dict) -> Program:
         collision_status=(np.asarray(d["collision_status"], dtype=np.int8)
                           if "collision_status" in d else None),
         clearance=np.asarray(d["clearance"], dtype=np.float64) if "clearance" in d else None,
+        rotation_deg=(np.asarray(d["rotation_deg"], dtype=np.float64)
+                      if "rotation_deg" in d else None),
     )

@@ -182,6 +182,9 @@ class Program:
     collision_status : (m,) int8 or None — 0 clear, 1 corrected, 2 unresolved collision
         (:mod:`.avoidance`); None when the path was not checked
     clearance : (m,) float or None, mm — signed clearance of the tool assembly per pose
+    rotation_deg : (m,) float or None, degrees — angle of each pose's axis from its planned
+        axis (:mod:`.avoidance`, :mod:`.link_avoidance`; degrees, as the paths JSON writes
+        them, so a file reads back exactly); None when not checked
     """
 
     tip: np.ndarray
@@ -192,6 +195,7 @@ class Program:
     flags: np.ndarray
     collision_status: np.ndarray | None = None
     clearance: np.ndarray | None = None
+    rotation_deg: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.tip)
