@@ -721,10 +721,14 @@ def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
             better = val < best
             best = np.where(better, val, best)
             where = np.where(better[:, None], pts, where)
-        else:
-            better = val < best[sel]
-            best[sel[better]] = val[better]
-            where[sel[better]] = pts[better]
+        else:  # sel may repeat a pair (its three edges): the smallest value per pair
+            order = np.lexsort((val, sel))
+            first = np.ones(len(order), bool)
+            first[1:] = sel[order][1:] != sel[order][:-1]
+            o = order[first]
+            better = val[o] < best[sel[o]]
+            best[sel[o][better]] = val[o][better]
+            where[sel[o][better]] = pts[o][better]
 
     fv = [_posed_sd(part, X, tip, axis) for X in (A, B, C)]
     for X, f in zip((A, B, C), fv, strict=True):
