@@ -24,35 +24,51 @@ which S is a convex polygon, or the cutter's convex outline). The minimum of sd_
 triangle T is found exactly as follows:
 
 * the three vertices and, along each edge, the minimum of the convex function sd_S by golden
-  section (40 steps: the parameter bracket shrinks to 0.618⁴⁰ ≈ 4·10⁻⁹ of the edge, i.e.
-  ≤ 2·10⁻⁸ mm on a 5 mm edge; sd_S is 1-Lipschitz, so the error of the edge minimum is below
-  that);
+  section with a convexity bound: the secant through the bracket's two probes, extended,
+  bounds sd_S from below outside them, and the secants through each probe and its bracket
+  end bound it between them; an edge stops once that bound is within 10⁻⁹ mm of its best
+  value (at most 40 steps: 0.618⁴⁰ ≈ 4·10⁻⁹ of the edge), or above the pose's best so far
+  (it cannot hold the minimum);
 * the interior: with n the triangle's unit normal and y± the support points of S in the
   directions ±n (closed form for frustums and for the cutter's profile), if S lies entirely on
   one side of the triangle's plane the closest point of the plane to S is the support point's
-  foot: when that foot lies inside T, the interior minimum is its plane distance (exact). If
+  foot: when that foot lies inside T, the interior minimum is its plane distance (exact, and
+  T's minimum: its edges are not searched), otherwise that distance bounds sd_S over T. If
   the plane cuts S and the point of the segment y⁻y⁺ on the plane lies inside T, T intersects
   S (its depth is taken there). A minimum on the interior with S on both sides of the plane is
   impossible unless T intersects S.
 
-Positive clearances are therefore exact to ~10⁻⁸ mm. Negative values (penetration) are the
+Positive clearances are therefore exact to ~10⁻⁹ mm. Negative values (penetration) are the
 deepest signed distance found among those candidates and the feet on T's plane of the
 part's axis points (exact when a cylinder's side cuts a plane; otherwise an estimate that
-is ≤ 0 whenever T meets the part). Once a pose is known to penetrate, only its 16 most
-promising triangles are refined (the depth is an estimate there anyway), and a pose whose
-lower bound is ≥ ds + 1 mm only its 8 most promising ones: exact to ~10⁻⁸ mm where it matters
-(below ds + 1 mm), within the gap between the bounds (about the local triangle size) above.
+is ≤ 0 whenever T meets the part). Once a pose is known to penetrate, its search is a beam
+(the 8 nodes per level with the deepest representative points) and only its 16 triangles
+with the deepest centroids are refined (the depth is an estimate there anyway; the
+centroids count too, so the figure stays below the bound that showed the penetration), and
+a pose whose lower bound is ≥ ds + 1 mm descends as a beam of its 8 most promising nodes
+and refines its 8 most promising triangles: exact to ~10⁻⁹ mm where it matters (below
+ds + 1 mm), within the gap between the bounds (about the local triangle size) above.
+
+**Neighbours by turning the poses.** The neighbours are rigid copies of the blade (turned by
+±k·360°/N about the blisk axis), and distances are invariant under the rotation: one
+triangle tree over the blade serves every copy, each queried with the poses turned back by
+the copy's angle (tip and axis by −k·360°/N); the contact point and normal found are turned
+forward again. Extra obstacles (and a neighbour that is not an exact copy) share a second
+tree. Building the tree is then a fifth of the work for ±2 neighbours.
 
 **Culling** (paper 004 §2.2, Eqs. 3–6 project the handle to cull points; here a bounding
 volume hierarchy of the triangles replaces the projection): triangles are sorted along a
-Morton curve of their centroids; an implicit binary tree over that order (leaves of 8
-triangles) carries a bounding sphere and one representative triangle point per node. A
-frontier of (pose, node) pairs descends the tree for every part: the lower bound of a node is
-``sd_S(centre) − radius`` (sd_S is 1-Lipschitz), the upper bound of the pose's clearance is
-the smallest ``sd_S`` of any representative point met so far (a point on an obstacle), and a
-pair survives only while its lower bound is at most that upper bound (and the cap). Only the
-surviving triangles are refined exactly. Poses are processed in chunks, in threads (numpy
-releases the GIL).
+Morton curve of their centroids; an implicit 4-ary tree over that order (leaves of 8
+triangles) carries a bounding box and one representative triangle point per node. A
+frontier of (pose, node) pairs descends the tree for every part and copy: the lower bound of
+a node is ``sd_S(centre) − radius`` (sd_S is 1-Lipschitz; radius of the box's sphere) and,
+for the frustums on small nodes, the tangent plane of the convex sd_S at the centre,
+``sd_S(c) − Σ |∇sd_S(c)_i| h_i`` over the box of half-sizes h, and for a triangle the same
+plane at its centroid over its three vertices — far tighter where a shank runs along a
+surface. The upper bound of the pose's clearance is the smallest ``sd_S`` of any
+representative point met so far (a point on an obstacle), and a pair survives only while
+its lower bound is at most that upper bound (and the cap). Only the surviving triangles are
+refined exactly. Poses are processed in chunks, in threads (numpy releases the GIL).
 
 Units mm and radians. numpy/scipy only.
 """
