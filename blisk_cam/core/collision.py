@@ -380,17 +380,16 @@ class _Frustum:
         z0, r0, z1, r1 = self.z0, self.r0, self.z1, self.r1
         if r0 == r1:  # a cylinder: closed form
             dr = rho - r0
-            below = z0 - z > z - z1
-            dz = np.where(below, z0 - z, z - z1)
-            sz = np.where(below, -1.0, 1.0)
+            dlo, dhi = z0 - z, z - z1
+            dz = np.maximum(dlo, dhi)
             er, ez = np.maximum(dr, 0.0), np.maximum(dz, 0.0)
             out = np.hypot(er, ez)
-            outside = (dr > 0) | (dz > 0)
-            inv = 1.0 / np.where(outside, out, 1.0)
+            outside = out > 0
+            inv = np.divide(1.0, out, out=np.zeros_like(out), where=outside)
             radial = dr >= dz
+            gz = np.where(outside, ez * inv, ~radial)
             return (np.where(outside, out, np.maximum(dr, dz)),
-                    np.where(outside, er * inv, np.where(radial, 1.0, 0.0)),
-                    np.where(outside, ez * inv, np.where(radial, 0.0, 1.0)) * sz)
+                    np.where(outside, er * inv, radial), np.where(dlo > dhi, -gz, gz))
         best = None
         for a0, b0, a1, b1 in ((0.0, z0, r0, z0), (r0, z0, r1, z1), (r1, z1, 0.0, z1)):
             d2, qr, qz = _seg_near(rho, z, a0, b0, a1, b1)
@@ -457,13 +456,31 @@ def _posed_sd_grad(part, X, tip, axis):
     for every x."""
     if not hasattr(part, "sd_grad_rz"):
         return _posed_sd(part, X, tip, axis), None, None
+    sd, dv, al, be, valid = _posed_sd_ab(part, X, tip, axis)
+    return sd, al[:, None] * dv + be[:, None] * axis, valid
+
+
+def _posed_sd_ab(part, X, tip, axis):
+    """(sd, dv = X − tip, α, β, valid): the gradient of the posed part's sd at X is
+    α dv + β axis (∂sd/∂ρ along the unit radial (dv − z axis)/ρ, ∂sd/∂z along the axis)."""
     dv = X - tip
     z = np.einsum("ij,ij->i", dv, axis)
     rho = np.sqrt(np.maximum(np.einsum("ij,ij->i", dv, dv) - z * z, 0.0))
     sd, gr, gz = part.sd_grad_rz(rho, z)
     valid = (rho > 1e-9) & ((gr != 0.0) | (gz != 0.0))
-    u = (dv - z[:, None] * axis) / np.where(valid, rho, 1.0)[:, None]
-    return sd, gr[:, None] * u + gz[:, None] * axis, valid
+    al = gr / np.where(valid, rho, 1.0)
+    return sd, dv, al, gz - al * z, valid
+
+
+def _box_bound(part, c, tip, axis, r, h):
+    """(k,) lower bound of the posed part's sd over boxes (centre c, half-sizes h (k, 3),
+    sphere radius r): the larger of sd(c) − r and the tangent plane of the convex sd at c
+    over the box, sd(c) − Σ |∇sd(c)_i| h_i."""
+    sd, dv, al, be, valid = _posed_sd_ab(part, c, tip, axis)
+    s = np.abs(al * dv[:, 0] + be * axis[:, 0]) * h[:, 0]
+    s += np.abs(al * dv[:, 1] + be * axis[:, 1]) * h[:, 1]
+    s += np.abs(al * dv[:, 2] + be * axis[:, 2]) * h[:, 2]
+    return np.maximum(sd - r, np.where(valid, sd - s, -np.inf))
 
 
 def _posed_support(part, v, tip, axis):
@@ -572,10 +589,7 @@ class _TriTree:
         for li, (c, r, rep, h) in enumerate(self.levels):
             t, a = tips[P], axes[P]
             if grad and r[0] < _GRAD_RADIUS:
-                # the tangent plane of the convex sd at the box centre, over the box
-                sd, g, valid = _posed_sd_grad(part, c[N], t, a)
-                lb = np.where(valid, sd - np.einsum("ij,ij->i", np.abs(g), h[N]), -np.inf)
-                lb = np.maximum(lb, sd - r[N])
+                lb = _box_bound(part, c[N], t, a, r[N], h[N])
             else:
                 lb = _posed_sd(part, c[N], t, a) - r[N]
             keep = lb <= ub[pid[P]]
