@@ -90,6 +90,8 @@ STATUS_CLEAR, STATUS_CORRECTED, STATUS_UNRESOLVED = 0, 1, 2
 _DETECT_CHUNK = 4096
 #: largest rotation searched per step (beyond the axis limits anyway), radians
 _MAX_SEARCH = math.radians(60.0)
+#: (pose, angle) pairs evaluated at once by the rotation scan
+_SCAN_PAIRS = 200_000
 
 
 @dataclass(frozen=True)
@@ -412,20 +414,21 @@ def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=_MAX_SE
         theta[good] = th0[good]
         # an Eq. 12 angle that clears may overshoot where the closest point is a cap or a
         # shoulder; the scan below finds the smallest
-    grid = np.arange(0.0, max_angle + 1e-12, math.radians(0.25))
+    grid = np.arange(0.0, max_angle + 1e-12, math.radians(0.25))[1:]
     lo = np.full(k, np.nan)
     hi = np.full(k, np.nan)
-    todo = ok.copy()
-    prev = np.zeros(k)
-    for g in grid[1:]:
-        if not np.any(todo):
-            break
-        ii = np.nonzero(todo)[0]
-        hit = clear_at(np.full(len(ii), g), ii) >= target
-        hi[ii[hit]] = g
-        lo[ii[hit]] = prev[ii[hit]]
-        todo[ii[hit]] = False
-        prev[ii] = g
+    # the scan, all angles of a block of poses in one evaluation: the first angle that clears
+    todo = np.nonzero(ok)[0]
+    block = max(1, _SCAN_PAIRS // len(grid))
+    for s in range(0, len(todo), block):
+        ii = todo[s:s + block]
+        hit = (clear_at(np.tile(grid, len(ii)), np.repeat(ii, len(grid))) >= target) \
+            .reshape(len(ii), len(grid))
+        any_hit = hit.any(axis=1)
+        first = hit.argmax(axis=1)[any_hit]
+        jj = ii[any_hit]
+        hi[jj] = grid[first]
+        lo[jj] = np.where(first > 0, grid[np.maximum(first - 1, 0)], 0.0)
     found = np.isfinite(hi)
     ii = np.nonzero(found)[0]
     a_lo, a_hi = lo[ii], hi[ii]
@@ -440,16 +443,25 @@ def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=_MAX_SE
     return axes_at(theta), theta, ok
 
 
-def _depth_near(cutter, tree, S, tips, axes, radius):
-    """(k,) largest depth (mm, ≥ 0) of the target-blade samples inside the posed cutter."""
+def _depth_near(cutter, tree, S, tips, axes):
+    """(k,) largest depth (mm, ≥ 0) of the target-blade samples inside the posed cutter.
+
+    The cutter lies within ρ ≤ R (its largest radius), 0 ≤ z ≤ h of its axis: balls of
+    radius √(R² + Δ²/4) about the axis points z = 0, Δ, 2Δ, … (Δ = R) cover that cylinder
+    with far less volume than one ball about the tip (a sample found twice counts once)."""
     out = np.zeros(len(tips))
     if len(tips) == 0:
         return out
-    pairs = tree.query_ball_point(tips, r=radius)
+    R, h = float(cutter.max_radius), float(cutter.h)
+    zs = np.arange(0.0, h + R, R)
+    zs = np.minimum(zs, h)
+    centres = (tips[:, None, :] + zs[None, :, None] * axes[:, None, :]).reshape(-1, 3)
+    pairs = tree.query_ball_point(centres, r=math.hypot(R, 0.5 * R), return_sorted=False)
     cnt = np.fromiter((len(p) for p in pairs), dtype=np.int64, count=len(pairs))
     if cnt.sum() == 0:
         return out
-    pi = np.repeat(np.arange(len(tips)), cnt)
+    pi = np.repeat(np.arange(len(tips)), len(zs))
+    pi = np.repeat(pi, cnt)
     si = np.concatenate([np.asarray(p, dtype=np.int64) for p in pairs])
     sd = cutter.signed_distance(S[si], tips[pi], axes[pi])
     np.maximum.at(out, pi, -sd)
@@ -582,9 +594,8 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         eps = (path.chord / 4.0) if options.gouge_tol is None else float(options.gouge_tol)
         fi = np.nonzero(fixed)[0]
         if len(fi):
-            rad = fc.bounding_radius
-            d_new = _depth_near(fc, tree, S, tip[fi], ax[fi], rad)
-            d_old = _depth_near(fc, tree, S, tip0[fi], ax0[fi], rad)
+            d_new = _depth_near(fc, tree, S, tip[fi], ax[fi])
+            d_old = _depth_near(fc, tree, S, tip0[fi], ax0[fi])
             h = d_new - d_old
             up = h > eps
             if np.any(up):

@@ -24,35 +24,51 @@ which S is a convex polygon, or the cutter's convex outline). The minimum of sd_
 triangle T is found exactly as follows:
 
 * the three vertices and, along each edge, the minimum of the convex function sd_S by golden
-  section (40 steps: the parameter bracket shrinks to 0.618⁴⁰ ≈ 4·10⁻⁹ of the edge, i.e.
-  ≤ 2·10⁻⁸ mm on a 5 mm edge; sd_S is 1-Lipschitz, so the error of the edge minimum is below
-  that);
+  section with a convexity bound: the secant through the bracket's two probes, extended,
+  bounds sd_S from below outside them, and the secants through each probe and its bracket
+  end bound it between them; an edge stops once that bound is within 10⁻⁹ mm of its best
+  value (at most 40 steps: 0.618⁴⁰ ≈ 4·10⁻⁹ of the edge), or above the pose's best so far
+  (it cannot hold the minimum);
 * the interior: with n the triangle's unit normal and y± the support points of S in the
   directions ±n (closed form for frustums and for the cutter's profile), if S lies entirely on
   one side of the triangle's plane the closest point of the plane to S is the support point's
-  foot: when that foot lies inside T, the interior minimum is its plane distance (exact). If
+  foot: when that foot lies inside T, the interior minimum is its plane distance (exact, and
+  T's minimum: its edges are not searched), otherwise that distance bounds sd_S over T. If
   the plane cuts S and the point of the segment y⁻y⁺ on the plane lies inside T, T intersects
   S (its depth is taken there). A minimum on the interior with S on both sides of the plane is
   impossible unless T intersects S.
 
-Positive clearances are therefore exact to ~10⁻⁸ mm. Negative values (penetration) are the
+Positive clearances are therefore exact to ~10⁻⁹ mm. Negative values (penetration) are the
 deepest signed distance found among those candidates and the feet on T's plane of the
 part's axis points (exact when a cylinder's side cuts a plane; otherwise an estimate that
-is ≤ 0 whenever T meets the part). Once a pose is known to penetrate, only its 16 most
-promising triangles are refined (the depth is an estimate there anyway), and a pose whose
-lower bound is ≥ ds + 1 mm only its 8 most promising ones: exact to ~10⁻⁸ mm where it matters
-(below ds + 1 mm), within the gap between the bounds (about the local triangle size) above.
+is ≤ 0 whenever T meets the part). Once a pose is known to penetrate, its search is a beam
+(the 8 nodes per level with the deepest representative points) and only its 16 triangles
+with the deepest centroids are refined (the depth is an estimate there anyway; the
+centroids count too, so the figure stays below the bound that showed the penetration), and
+a pose whose lower bound is ≥ ds + 1 mm descends as a beam of its 8 most promising nodes
+and refines its 8 most promising triangles: exact to ~10⁻⁹ mm where it matters (below
+ds + 1 mm), within the gap between the bounds (about the local triangle size) above.
+
+**Neighbours by turning the poses.** The neighbours are rigid copies of the blade (turned by
+±k·360°/N about the blisk axis), and distances are invariant under the rotation: one
+triangle tree over the blade serves every copy, each queried with the poses turned back by
+the copy's angle (tip and axis by −k·360°/N); the contact point and normal found are turned
+forward again. Extra obstacles (and a neighbour that is not an exact copy) share a second
+tree. Building the tree is then a fifth of the work for ±2 neighbours.
 
 **Culling** (paper 004 §2.2, Eqs. 3–6 project the handle to cull points; here a bounding
 volume hierarchy of the triangles replaces the projection): triangles are sorted along a
-Morton curve of their centroids; an implicit binary tree over that order (leaves of 8
-triangles) carries a bounding sphere and one representative triangle point per node. A
-frontier of (pose, node) pairs descends the tree for every part: the lower bound of a node is
-``sd_S(centre) − radius`` (sd_S is 1-Lipschitz), the upper bound of the pose's clearance is
-the smallest ``sd_S`` of any representative point met so far (a point on an obstacle), and a
-pair survives only while its lower bound is at most that upper bound (and the cap). Only the
-surviving triangles are refined exactly. Poses are processed in chunks, in threads (numpy
-releases the GIL).
+Morton curve of their centroids; an implicit 4-ary tree over that order (leaves of 8
+triangles) carries a bounding box and one representative triangle point per node. A
+frontier of (pose, node) pairs descends the tree for every part and copy: the lower bound of
+a node is ``sd_S(centre) − radius`` (sd_S is 1-Lipschitz; radius of the box's sphere) and,
+for the frustums on small nodes, the tangent plane of the convex sd_S at the centre,
+``sd_S(c) − Σ |∇sd_S(c)_i| h_i`` over the box of half-sizes h, and for a triangle the same
+plane at its centroid over its three vertices — far tighter where a shank runs along a
+surface. The upper bound of the pose's clearance is the smallest ``sd_S`` of any
+representative point met so far (a point on an obstacle), and a pair survives only while
+its lower bound is at most that upper bound (and the cap). Only the surviving triangles are
+refined exactly. Poses are processed in chunks, in threads (numpy releases the GIL).
 
 Units mm and radians. numpy/scipy only.
 """
@@ -89,7 +105,11 @@ PART_NAMES = ("flute", "body")
 #: how far beyond ds the clearance is measured before it is capped, mm
 CAP_MARGIN = 5.0
 _LEAF = 8
+#: children per node of the triangle tree
+_BRANCH = 4
 _GOLDEN_STEPS = 40
+#: an edge's search stops once its convexity bound is this close to its best value, mm
+_EDGE_TOL = 1e-9
 _CHUNK = 1024
 #: triangles refined per pose once the pose is known to penetrate (depth estimate)
 _PENETRATION_PAIRS = 16
@@ -97,18 +117,18 @@ _PENETRATION_PAIRS = 16
 _FAR_MARGIN = 1.0
 _FAR_PAIRS = 8
 _FAR_BEAM = 8
+#: nodes kept per level for a pose known to penetrate (its depth is an estimate)
+_DEEP_BEAM = 8
 _REP_FACTOR = 4.0
+_GRAD_RADIUS = 2.0
 
 
 # ====================================================================== obstacles
 def rotate_about_axis(points, axis: Axis, angle: float) -> np.ndarray:
     """(n, 3) points turned by ``angle`` (rad, right-handed about ``axis.d``) about the blisk
     axis (Rodrigues' formula)."""
-    p = np.asarray(points, dtype=np.float64) - axis.o
-    k = axis.d
-    c, s = math.cos(angle), math.sin(angle)
-    out = p * c + np.cross(k, p) * s + np.outer(p @ k, k) * (1.0 - c)
-    return out + axis.o
+    o = np.asarray(axis.o, dtype=np.float64)
+    return (np.asarray(points, dtype=np.float64) - o) @ _rotation_matrix(axis, angle).T + o
 
 
 def split_faces(V, F, mask):
@@ -315,6 +335,16 @@ def _seg_d2(px, py, ax, ay, bx, by):
     return ex * ex + ey * ey
 
 
+def _seg_near(px, py, ax, ay, bx, by):
+    """(squared distance, nearest x, nearest y) from 2-D points to the segment a → b."""
+    dx, dy = bx - ax, by - ay
+    dd = dx * dx + dy * dy
+    t = np.clip(((px - ax) * dx + (py - ay) * dy) / (dd if dd > 0 else 1.0), 0.0, 1.0)
+    qx, qy = ax + t * dx, ay + t * dy
+    ex, ey = px - qx, py - qy
+    return ex * ex + ey * ey, qx, qy
+
+
 class _Frustum:
     """A solid frustum of the body: the revolution of the trapezoid (0, z0), (r0, z0),
     (r1, z1), (0, z1) (mm)."""
@@ -342,6 +372,39 @@ class _Frustum:
         inside = (z >= z0) & (z <= z1) & (rho <= self.radius_at(z))
         d = np.sqrt(d2)
         return np.where(inside, -d, d)
+
+    def sd_grad_rz(self, rho, z):
+        """(sd, ∂sd/∂ρ, ∂sd/∂z) at meridional points (k,): the gradient is the unit vector
+        from the nearest boundary point (away from it outside, toward it inside); (0, 0)
+        where the point is on the boundary (no gradient: the caller falls back)."""
+        z0, r0, z1, r1 = self.z0, self.r0, self.z1, self.r1
+        if r0 == r1:  # a cylinder: closed form
+            dr = rho - r0
+            dlo, dhi = z0 - z, z - z1
+            dz = np.maximum(dlo, dhi)
+            er, ez = np.maximum(dr, 0.0), np.maximum(dz, 0.0)
+            out = np.hypot(er, ez)
+            outside = out > 0
+            inv = np.divide(1.0, out, out=np.zeros_like(out), where=outside)
+            radial = dr >= dz
+            gz = np.where(outside, ez * inv, ~radial)
+            return (np.where(outside, out, np.maximum(dr, dz)),
+                    np.where(outside, er * inv, radial), np.where(dlo > dhi, -gz, gz))
+        best = None
+        for a0, b0, a1, b1 in ((0.0, z0, r0, z0), (r0, z0, r1, z1), (r1, z1, 0.0, z1)):
+            d2, qr, qz = _seg_near(rho, z, a0, b0, a1, b1)
+            if best is None:
+                best = [d2, qr, qz]
+            else:
+                closer = d2 < best[0]
+                best = [np.where(closer, d2, best[0]), np.where(closer, qr, best[1]),
+                        np.where(closer, qz, best[2])]
+        d2, qr, qz = best
+        inside = (z >= z0) & (z <= z1) & (rho <= self.radius_at(z))
+        d = np.sqrt(d2)
+        sgn = np.where(inside, -1.0, 1.0)
+        inv = np.where(d > 1e-12, sgn / np.where(d > 1e-12, d, 1.0), 0.0)
+        return sgn * d, (rho - qr) * inv, (z - qz) * inv
 
     def support_rz(self, s, c):
         """Meridional (ρ, z) of the support point in the direction with radial part s ≥ 0 and
@@ -386,6 +449,40 @@ def _posed_sd(part, X, tip, axis):
     return part.sd_rz(np.sqrt(np.maximum(rr, 0.0)), z)
 
 
+def _posed_sd_grad(part, X, tip, axis):
+    """(sd (k,), gradient (k, 3) or None, valid (k,) bool) of the posed part at points X:
+    the gradient of the convex sd, where the part provides it (frustums) and it exists
+    (off the axis and off the part's boundary). By convexity sd(x) ≥ sd(X) + g·(x − X)
+    for every x."""
+    if not hasattr(part, "sd_grad_rz"):
+        return _posed_sd(part, X, tip, axis), None, None
+    sd, dv, al, be, valid = _posed_sd_ab(part, X, tip, axis)
+    return sd, al[:, None] * dv + be[:, None] * axis, valid
+
+
+def _posed_sd_ab(part, X, tip, axis):
+    """(sd, dv = X − tip, α, β, valid): the gradient of the posed part's sd at X is
+    α dv + β axis (∂sd/∂ρ along the unit radial (dv − z axis)/ρ, ∂sd/∂z along the axis)."""
+    dv = X - tip
+    z = np.einsum("ij,ij->i", dv, axis)
+    rho = np.sqrt(np.maximum(np.einsum("ij,ij->i", dv, dv) - z * z, 0.0))
+    sd, gr, gz = part.sd_grad_rz(rho, z)
+    valid = (rho > 1e-9) & ((gr != 0.0) | (gz != 0.0))
+    al = gr / np.where(valid, rho, 1.0)
+    return sd, dv, al, gz - al * z, valid
+
+
+def _box_bound(part, c, tip, axis, r, h):
+    """(k,) lower bound of the posed part's sd over boxes (centre c, half-sizes h (k, 3),
+    sphere radius r): the larger of sd(c) − r and the tangent plane of the convex sd at c
+    over the box, sd(c) − Σ |∇sd(c)_i| h_i."""
+    sd, dv, al, be, valid = _posed_sd_ab(part, c, tip, axis)
+    s = np.abs(al * dv[:, 0] + be * axis[:, 0]) * h[:, 0]
+    s += np.abs(al * dv[:, 1] + be * axis[:, 1]) * h[:, 1]
+    s += np.abs(al * dv[:, 2] + be * axis[:, 2]) * h[:, 2]
+    return np.maximum(sd - r, np.where(valid, sd - s, -np.inf))
+
+
 def _posed_support(part, v, tip, axis):
     """(k, 3) support points of the posed part in directions v (k, 3)."""
     c = np.einsum("ij,ij->i", v, axis)
@@ -419,14 +516,22 @@ class _TriTree:
     """Triangles in Morton order with an implicit binary tree of bounding spheres (see the
     module docstring)."""
 
-    def __init__(self, A, B, C, owner):
-        cen = (A + B + C) / 3.0
+    def __init__(self, V, F, owner):
+        """V (n, 3) float mm, F (m, 3) int triangles, owner (m,) int obstacle per
+        triangle."""
+        V = np.ascontiguousarray(V, dtype=np.float64)
+        cen = (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0
         order = np.argsort(_morton(cen), kind="stable")
-        self.A, self.B, self.C = A[order], B[order], C[order]
+        Fo = F[order]
+        self.A, self.B, self.C = V[Fo[:, 0]], V[Fo[:, 1]], V[Fo[:, 2]]
         self.owner = owner[order]
         self.cen = cen[order]
-        self.rad = np.sqrt(np.max(np.stack([np.einsum("ij,ij->i", x - self.cen, x - self.cen)
-                                            for x in (self.A, self.B, self.C)]), axis=0))
+        r2 = None
+        for x in (self.A, self.B, self.C):
+            e = x - self.cen
+            q = np.einsum("ij,ij->i", e, e)
+            r2 = q if r2 is None else np.maximum(r2, q)
+        self.rad = np.sqrt(r2)
         n = len(self.A)
         self.n = n
         lo = np.minimum(np.minimum(self.A, self.B), self.C)
@@ -438,57 +543,79 @@ class _TriTree:
         levels = [(llo, lhi, rep)]
         while len(levels[-1][0]) > 1:
             lo_, hi_, rp = levels[-1]
-            if len(lo_) % 2:
-                lo_ = np.vstack([lo_, lo_[-1:]])
-                hi_ = np.vstack([hi_, hi_[-1:]])
-                rp = np.vstack([rp, rp[-1:]])
-            levels.append((np.minimum(lo_[0::2], lo_[1::2]), np.maximum(hi_[0::2], hi_[1::2]),
-                           rp[0::2]))
+            s = np.arange(0, len(lo_), _BRANCH)  # a node's children: _BRANCH consecutive
+            levels.append((np.minimum.reduceat(lo_, s, axis=0),
+                           np.maximum.reduceat(hi_, s, axis=0), rp[s]))
         levels = levels[::-1]  # root first
-        self.levels = [(0.5 * (lo_ + hi_), 0.5 * np.linalg.norm(hi_ - lo_, axis=1), rp)
-                       for lo_, hi_, rp in levels]
+        self.levels = [(0.5 * (lo_ + hi_), 0.5 * np.linalg.norm(hi_ - lo_, axis=1), rp,
+                        0.5 * (hi_ - lo_)) for lo_, hi_, rp in levels]
         self.counts = [len(x[0]) for x in self.levels]
-        nrm = np.cross(self.B - self.A, self.C - self.A)
-        ln = np.linalg.norm(nrm, axis=1)
+        u, v = self.B - self.A, self.C - self.A
+        nrm = np.empty_like(u)  # u × v (np.cross is several times slower)
+        nrm[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+        nrm[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+        nrm[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+        ln = np.sqrt(np.einsum("ij,ij->i", nrm, nrm))
         self.ok = ln > 1e-14 * np.maximum(self.rad, 1e-300) ** 2
         self.nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
 
-    def candidates(self, part, tips, axes, ub, far=np.inf):
-        """(pose index, triangle index) pairs that may hold the part's minimum over the
-        obstacle; ``ub`` (m,) is lowered in place to upper bounds of the clearance.
+    def candidates(self, part, tips, axes, ub, pid=None, far=np.inf):
+        """(query index, triangle index, centroid distance) of the pairs that may hold the
+        part's minimum over the tree's triangles.
 
-        A pose whose nodes all have lower bounds ≥ ``far`` (mm; certainly clear) descends
-        with its ``_FAR_BEAM`` most promising nodes per level only (a beam search: its figure
-        is then bounded, not exact)."""
+        ``tips``, ``axes`` (v, 3): the queries — poses expressed in the tree's frame (a
+        neighbour blade is queried with the pose turned back onto the blade, see
+        :class:`CollisionScene`); ``pid`` (v,) the pose of each query (default: the query
+        itself), indexing ``ub`` (m,), which is lowered in place to upper bounds of the poses'
+        clearances (shared by all queries of a pose). Returns (P (k,) query index, T (k,)
+        triangle index, sdc (k,) the part's signed distance at T's centroid).
+
+        Two beams (best-first by a bound, then cut to a fixed width per query and level):
+
+        * a pose whose nodes all have lower bounds ≥ ``far`` (mm; certainly clear) keeps its
+          ``_FAR_BEAM`` nodes with the smallest lower bound (its figure is then bounded,
+          not exact);
+        * a pose known to penetrate (bound < 0) keeps its ``_DEEP_BEAM`` nodes with the
+          deepest representative point (a node's representative is its first child's, so
+          the node that gave the bound stays, down to the triangle whose centroid it is:
+          the pose's reported clearance stays at most that bound)."""
         m = len(tips)
+        if pid is None:
+            pid = np.arange(m)
         P = np.arange(m)
         N = np.zeros(m, dtype=np.int64)
-        for li, (c, r, rep) in enumerate(self.levels):
+        beam = np.isfinite(far)
+        grad = hasattr(part, "sd_grad_rz")
+        for li, (c, r, rep, h) in enumerate(self.levels):
             t, a = tips[P], axes[P]
-            lb = _posed_sd(part, c[N], t, a) - r[N]
-            keep = lb <= ub[P]
+            if grad and r[0] < _GRAD_RADIUS:
+                lb = _box_bound(part, c[N], t, a, r[N], h[N])
+            else:
+                lb = _posed_sd(part, c[N], t, a) - r[N]
+            keep = lb <= ub[pid[P]]
             P, N, t, a = P[keep], N[keep], t[keep], a[keep]
             if len(P) == 0:
-                return P, N
+                return P, N, np.zeros(0), np.zeros(0)
             lb = lb[keep]
+            depth = None
             if r[0] < _REP_FACTOR * part.rmax + 8.0:  # nodes small enough for their points to help
-                np.minimum.at(ub, P, _posed_sd(part, rep[N], t, a))
-                keep = lb <= ub[P]
-                P, N, lb = P[keep], N[keep], lb[keep]
-            if np.isfinite(far) and len(P) > _FAR_BEAM * 4:
-                starts, sizes = _groups(P)  # P stays grouped by pose
-                fp = np.repeat((np.minimum.reduceat(lb, starts) >= far) & (sizes > _FAR_BEAM),
-                               sizes)
-                if np.any(fp):
-                    order = np.lexsort((lb, P))
-                    P, N, lb, fp = P[order], N[order], lb[order], fp[order]
-                    rank = np.arange(len(P)) - np.repeat(starts, sizes)
-                    keep = ~fp | (rank < _FAR_BEAM)
-                    P, N = P[keep], N[keep]
+                srep = _posed_sd(part, rep[N], t, a)
+                np.minimum.at(ub, pid[P], srep)
+                keep = lb <= ub[pid[P]]
+                P, N, lb, srep = P[keep], N[keep], lb[keep], srep[keep]
+                depth = srep
+            if beam and len(P) > _DEEP_BEAM * 4:
+                starts, sizes = _groups(P)  # P stays grouped by query (sorted)
+                deep = ub[pid[P[starts]]] < 0
+                width = np.where(deep, _DEEP_BEAM,
+                                 np.where(np.minimum.reduceat(lb, starts) >= far, _FAR_BEAM, 0))
+                cut = (width > 0) & (sizes > width)
+                if np.any(cut):
+                    P, N = _beam(P, N, lb, depth, ub[pid[P]], sizes, cut, deep, width)
             if li + 1 < len(self.levels):
                 nxt = self.counts[li + 1]
-                P = np.repeat(P, 2)
-                N = (2 * N[:, None] + np.arange(2)).ravel()
+                P = np.repeat(P, _BRANCH)
+                N = (_BRANCH * N[:, None] + np.arange(_BRANCH)).ravel()
                 ok = N < nxt
                 P, N = P[ok], N[ok]
         # leaves → triangles
@@ -496,10 +623,39 @@ class _TriTree:
         T = (_LEAF * N[:, None] + np.arange(_LEAF)).ravel()
         ok = T < self.n
         P, T = P[ok], T[ok]
-        sdc = _posed_sd(part, self.cen[T], tips[P], axes[P])
-        np.minimum.at(ub, P, sdc)
-        keep = sdc - self.rad[T] <= ub[P]
-        return P[keep], T[keep]
+        cen = self.cen[T]
+        sdc, g, valid = _posed_sd_grad(part, cen, tips[P], axes[P])
+        np.minimum.at(ub, pid[P], sdc)
+        lb = sdc - self.rad[T]
+        if g is not None:  # the tangent plane of the convex sd at the centroid, over T
+            lin = np.minimum(np.minimum(np.einsum("ij,ij->i", g, self.A[T] - cen),
+                                        np.einsum("ij,ij->i", g, self.B[T] - cen)),
+                             np.einsum("ij,ij->i", g, self.C[T] - cen))
+            lb = np.where(valid, np.maximum(lb, sdc + lin), lb)
+        keep = lb <= ub[pid[P]]
+        return P[keep], T[keep], sdc[keep], lb[keep]
+
+
+def _beam(P, N, lb, depth, ubp, sizes, cut, deep, width):
+    """Keep the ``width`` best nodes of every query group that is ``cut`` (P sorted, so the
+    groups are runs; the other groups stay whole, and P stays sorted). Best: the node whose
+    representative gave the pose's bound ``ubp`` first (for a deep query, the deepest
+    representatives first), then the smallest lower bound ``lb``."""
+    inc = np.repeat(cut, sizes)
+    ci = np.nonzero(inc)[0]
+    key = lb[ci]
+    if depth is not None:
+        dq = depth[ci]
+        key = np.where(np.repeat(deep, sizes)[ci], np.where(dq < 0, dq - 1e3, key),
+                       np.where(dq <= ubp[ci] + 1e-12, -2e3, key))
+    kmin = key.min()
+    span = float(key.max() - kmin) + 1.0
+    ci = ci[np.argsort(P[ci] * span + (key - kmin))]  # one float key: group, then key
+    cs, csz = _groups(P[ci])
+    rank = np.arange(len(ci)) - np.repeat(cs, csz)
+    keep = ~inc
+    keep[ci[rank < np.repeat(width[cut], csz)]] = True
+    return P[keep], N[keep]
 
 
 def _groups(P):
@@ -515,21 +671,65 @@ def _inside_tri(q, A, B, C, n):
     return (side(A, B) >= 0) & (side(B, C) >= 0) & (side(C, A) >= 0)
 
 
-def _golden(part, E0, D, t, a, lo, hi, x1, f1, x2, f2, steps):
-    """``steps`` golden-section steps on sd along E0 + x D (arrays per edge)."""
+def _edge_minima(part, E0, D, t, a, f0, f1, P, ub, tol=_EDGE_TOL):
+    """Minimum of the posed part's signed distance along each edge E0 + x D, x ∈ [0, 1]
+    (arrays per edge, (k, 3); f0, f1 (k,) the values at the ends), by golden section on
+    the convex function, with the convexity bound of the bracket: the secant through the
+    two probes, extended, bounds f below outside them, and the secants through each probe
+    and its bracket end bound it between them. An edge stops once that lower bound is
+    above its pose's upper bound ``ub[P]`` (it cannot hold the pose's minimum; ``ub`` (m,)
+    is lowered in place by the values found) or within ``tol`` (mm) of its best value,
+    at most ``_GOLDEN_STEPS`` steps (0.618⁴⁰ ≈ 4·10⁻⁹ of the edge).
+
+    Returns (value (k,), x (k,)) — the best value found and where; an edge stopped by the
+    bound returns a value ≥ its minimum that is above its pose's final minimum."""
+    k = len(E0)
+    val = np.minimum(f0, f1)
+    xv = np.where(f0 <= f1, 0.0, 1.0)
     g = _GOLDEN
-    for _ in range(steps):
-        left = f1 <= f2
-        hi = np.where(left, x2, hi)
-        lo = np.where(left, lo, x1)
+    lo, hi = np.zeros(k), np.ones(k)
+    flo, fhi = f0.copy(), f1.copy()
+    x1, x2 = np.full(k, 1.0 - g), np.full(k, g)
+    v1 = _posed_sd(part, E0 + x1[:, None] * D, t, a)
+    v2 = _posed_sd(part, E0 + x2[:, None] * D, t, a)
+    idx = np.arange(k)
+    for step in range(_GOLDEN_STEPS + 1):
+        left = v1 <= v2
+        up = np.where(left, v1, v2)
+        xu = np.where(left, x1, x2)
+        better = up < val[idx]
+        val[idx[better]] = up[better]
+        xv[idx[better]] = xu[better]
+        np.minimum.at(ub, P[idx], up)
+        # convexity lower bound of f over [lo, hi]
+        s12 = (v2 - v1) / (x2 - x1)
+        b_left = np.minimum(v1, v1 - s12 * (x1 - lo))
+        b_right = np.minimum(v2, v2 + s12 * (hi - x2))
+        sa = (v1 - flo) / (x1 - lo)
+        sb = (fhi - v2) / (hi - x2)
+        den = sa - sb
+        xi = np.clip((v2 - sb * x2 - v1 + sa * x1) / np.where(den != 0, den, 1.0), x1, x2)
+        mid = np.minimum(np.minimum(np.maximum(v1, v2 + sb * (x1 - x2)),
+                                    np.maximum(v1 + sa * (x2 - x1), v2)),
+                         np.where(den != 0, np.maximum(v1 + sa * (xi - x1), v2 + sb * (xi - x2)),
+                                  np.inf))
+        bound = np.minimum(np.minimum(b_left, b_right), mid)
+        go = (bound <= ub[P[idx]]) & (val[idx] - bound > tol)
+        if step == _GOLDEN_STEPS or not np.any(go):
+            break
+        if not np.all(go):
+            idx, lo, hi, flo, fhi, x1, x2, v1, v2, left = (
+                z[go] for z in (idx, lo, hi, flo, fhi, x1, x2, v1, v2, left))
+        # left: [lo, x2] keeps x1 as its upper probe; right: [x1, hi] keeps x2 as its lower
+        hi, fhi = np.where(left, x2, hi), np.where(left, v2, fhi)
+        lo, flo = np.where(left, lo, x1), np.where(left, flo, v1)
         nx1 = hi - g * (hi - lo)
         nx2 = lo + g * (hi - lo)
         xn = np.where(left, nx1, nx2)
-        fn = _posed_sd(part, E0 + xn[:, None] * D, t, a)
-        # left: [lo, x2] keeps x1 as its upper probe; right: [x1, hi] keeps x2 as its lower
-        x1, f1, x2, f2 = (np.where(left, nx1, x2), np.where(left, fn, f2),
-                          np.where(left, x1, nx2), np.where(left, f1, fn))
-    return lo, hi, x1, f1, x2, f2
+        fn = _posed_sd(part, E0[idx] + xn[:, None] * D[idx], t[idx], a[idx])
+        x1, v1, x2, v2 = (np.where(left, nx1, x2), np.where(left, fn, v2),
+                          np.where(left, x1, nx2), np.where(left, v1, fn))
+    return val, xv
 
 
 _GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
@@ -559,10 +759,14 @@ def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
             better = val < best
             best = np.where(better, val, best)
             where = np.where(better[:, None], pts, where)
-        else:
-            better = val < best[sel]
-            best[sel[better]] = val[better]
-            where[sel[better]] = pts[better]
+        else:  # sel may repeat a pair (its three edges): the smallest value per pair
+            order = np.lexsort((val, sel))
+            first = np.ones(len(order), bool)
+            first[1:] = sel[order][1:] != sel[order][:-1]
+            o = order[first]
+            better = val[o] < best[sel[o]]
+            best[sel[o][better]] = val[o][better]
+            where[sel[o][better]] = pts[o][better]
 
     fv = [_posed_sd(part, X, tip, axis) for X in (A, B, C)]
     for X, f in zip((A, B, C), fv, strict=True):
@@ -579,8 +783,12 @@ def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
     offer(np.where(hit, hm, np.inf), q)
     below = ok & (hp < 0)
     q = yp - hp[:, None] * n
-    hit = below & _inside_tri(q, A, B, C, n)
-    offer(np.where(hit, -hp, np.inf), q)
+    hit_b = below & _inside_tri(q, A, B, C, n)
+    offer(np.where(hit_b, -hp, np.inf), q)
+    # the part on one side of T's plane: its distance to the plane bounds sd over all of T
+    # (edges included); with the foot inside T that bound is T's minimum itself
+    plane_lb = np.where(above, hm, np.where(below, -hp, -np.inf))
+    solved = hit | hit_b
     cuts = np.nonzero(ok & ~above & ~below)[0]
     if len(cuts):
         c_ = cuts
@@ -610,31 +818,13 @@ def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
     F1 = np.concatenate([fv[1], fv[2], fv[0]])
     L = np.linalg.norm(D, axis=1)
     PP = np.tile(P, 3)
-    pair = np.tile(np.arange(k), 3)
-    act = np.nonzero(0.5 * (F0 + F1 - L) <= ub[PP])[0]
+    lb3 = np.maximum(0.5 * (F0 + F1 - L), np.tile(plane_lb, 3))
+    act = np.nonzero((lb3 <= ub[PP]) & ~np.tile(solved, 3))[0]
     if len(act):
-        t3, a3 = np.tile(tip, (3, 1))[act], np.tile(axis, (3, 1))[act]
-        e0, d, ll = E0[act], D[act], L[act]
-        lo = np.zeros(len(act))
-        hi = np.ones(len(act))
-        x1 = hi - _GOLDEN
-        x2 = lo + _GOLDEN
-        f1 = _posed_sd(part, e0 + x1[:, None] * d, t3, a3)
-        f2 = _posed_sd(part, e0 + x2[:, None] * d, t3, a3)
-        lo, hi, x1, f1, x2, f2 = _golden(part, e0, d, t3, a3, lo, hi, x1, f1, x2, f2, 12)
-        up = np.minimum(f1, f2)
-        np.minimum.at(ub, PP[act], up)
-        xb = np.where(f1 <= f2, x1, x2)
-        offer(up, e0 + xb[:, None] * d, pair[act])
-        keep = np.maximum(f1, f2) - (hi - lo) * ll <= ub[PP[act]]
-        if np.any(keep):
-            sel = np.nonzero(keep)[0]
-            lo, hi, x1, f1, x2, f2 = _golden(part, e0[sel], d[sel], t3[sel], a3[sel], lo[sel],
-                                             hi[sel], x1[sel], f1[sel], x2[sel], f2[sel],
-                                             _GOLDEN_STEPS - 12)
-            xm = 0.5 * (lo + hi)
-            pm = e0[sel] + xm[:, None] * d[sel]
-            offer(_posed_sd(part, pm, t3[sel], a3[sel]), pm, pair[act][sel])
+        val, x = _edge_minima(part, E0[act], D[act], np.tile(tip, (3, 1))[act],
+                              np.tile(axis, (3, 1))[act], F0[act], F1[act], PP[act], ub)
+        pair = np.tile(np.arange(k), 3)[act]
+        offer(val, E0[act] + x[:, None] * D[act], pair)
     np.minimum.at(ub, P, best)
     return best, where
 
@@ -675,6 +865,106 @@ class Detection:
         return len(self.clearance)
 
 
+class _Copies:
+    """One triangle tree and the rigid copies of it that are obstacles: the blade and its
+    neighbours (copy c is the blade turned by ``angles[c]`` about the blisk axis), or the
+    extra meshes (one copy, the identity; each triangle's owner is its obstacle).
+
+    A copy is queried by turning the poses back onto the tree (tip and axis by −angle):
+    distances are invariant under the rotation, so one tree over the blade serves every
+    neighbour, and the contact point and normal found are turned forward again."""
+
+    def __init__(self, tree: _TriTree, axis: Axis, angles, obstacles, blade: bool):
+        self.tree = tree
+        self.blade = blade
+        self.o = np.asarray(axis.o, dtype=np.float64)
+        self.obst = np.asarray(obstacles, dtype=np.int64)  # obstacle index per copy
+        self.R = np.stack([_rotation_matrix(axis, a) for a in angles])  # (c, 3, 3)
+        self.identity = not blade
+
+    @property
+    def n_copies(self) -> int:
+        return len(self.R)
+
+    def queries(self, tips, axes):
+        """(tips (c·m, 3), axes (c·m, 3), pose (c·m,), copy (c·m,)) of every pose turned back
+        onto the tree for each copy, copy-major (copy c's queries are rows c·m … c·m + m)."""
+        m = len(tips)
+        if self.identity:
+            return tips, axes, np.arange(m), np.zeros(m, dtype=np.int64)
+        rel = tips - self.o
+        tq = np.concatenate([rel @ R for R in self.R]) + self.o  # Rᵀ x, row-wise
+        aq = np.concatenate([axes @ R for R in self.R])
+        c = len(self.R)
+        return tq, aq, np.tile(np.arange(m), c), np.repeat(np.arange(c), m)
+
+    def obstacle(self, cid, T):
+        """(k,) obstacle index of triangle T (k,) of copy cid (k,)."""
+        return self.tree.owner[T] if self.identity else self.obst[cid]
+
+    def to_world(self, cid, points, normals):
+        """Points and normals (k, 3) found on copy cid (k,) in the tree's frame, turned
+        onto the copy."""
+        if self.identity:
+            return points, normals
+        R = self.R[cid]
+        return (np.einsum("kij,kj->ki", R, points - self.o) + self.o,
+                np.einsum("kij,kj->ki", R, normals))
+
+
+def _rotation_matrix(axis: Axis, angle: float) -> np.ndarray:
+    """(3, 3) rotation by ``angle`` (rad) about the direction ``axis.d`` (Rodrigues), the
+    matrix of :func:`rotate_about_axis` (about the origin ``axis.o``)."""
+    d = np.asarray(axis.d, dtype=np.float64)
+    c, s = math.cos(angle), math.sin(angle)
+    K = np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]])
+    return c * np.eye(3) + s * K + (1.0 - c) * np.outer(d, d)
+
+
+def _copy_angle(obstacles: Obstacles, i: int):
+    """The angle (rad) by which ``obstacles.meshes[i]`` is the blade turned about the axis,
+    or None when it is not (exactly) such a copy."""
+    blade, ob = obstacles.meshes[0], obstacles.meshes[i]
+    j = (i + 1) // 2
+    angle = (1 if i % 2 else -1) * j * 2.0 * math.pi / obstacles.blade_count
+    if ob.F.shape != blade.F.shape or ob.V.shape != blade.V.shape or \
+            not (ob.F is blade.F or np.array_equal(ob.F, blade.F)):
+        return None
+    # the copies of Obstacles.build are bit for bit these; others within rounding
+    turned = rotate_about_axis(blade.V, obstacles.axis, angle)
+    if not np.array_equal(turned, ob.V):
+        scale = max(1.0, float(np.abs(blade.V - obstacles.axis.o).max()))
+        if float(np.abs(turned - ob.V).max()) > 1e-12 * scale:
+            return None
+    return angle
+
+
+def _obstacle_groups(obstacles: Obstacles):
+    """[_Copies]: the blade with the neighbours that are its rotated copies, then one group
+    over every other obstacle (the extra meshes, and any neighbour given as its own mesh)."""
+    meshes = obstacles.meshes
+    angles, idx, other = [0.0], [0], []
+    for i in range(1, len(meshes)):
+        a = _copy_angle(obstacles, i) if i < obstacles.extra_start else None
+        if a is None:
+            other.append(i)
+        else:
+            angles.append(a)
+            idx.append(i)
+    blade = meshes[0]
+    tree = _TriTree(blade.V, blade.F, np.zeros(blade.n_triangles, dtype=np.int64))
+    groups = [_Copies(tree, obstacles.axis, angles, idx, blade=True)]
+    if other:
+        base = np.cumsum([0] + [len(meshes[i].V) for i in other])
+        V = np.concatenate([meshes[i].V for i in other])
+        F = np.concatenate([meshes[i].F + b for i, b in zip(other, base, strict=False)])
+        owner = np.concatenate([np.full(meshes[i].n_triangles, i, dtype=np.int64)
+                                for i in other])
+        groups.append(_Copies(_TriTree(V, F, owner), obstacles.axis, [0.0], [-1],
+                              blade=False))
+    return groups
+
+
 class CollisionScene:
     """Obstacles, cutter and assembly with the triangle trees built once (reused by the
     avoidance iterations).
@@ -697,72 +987,80 @@ class CollisionScene:
         self.cap = self.safety + CAP_MARGIN
         self.flute = _Flute(self.cutter, assembly.flute_length)
         self.body = [_Frustum(*f) for f in assembly.frustums()]
-        tri = [(i, m.V[m.F]) for i, m in enumerate(obstacles.meshes)]
-        allT = np.concatenate([t for _, t in tri])
-        owner = np.concatenate([np.full(len(t), i, dtype=np.int64) for i, t in tri])
-        self.tree_all = _TriTree(allT[:, 0], allT[:, 1], allT[:, 2], owner)
-        other = owner != 0
-        self.tree_other = (_TriTree(allT[other, 0], allT[other, 1], allT[other, 2], owner[other])
-                           if np.any(other) else None)
+        self._groups = _obstacle_groups(obstacles)
 
     def parts(self):
-        """[(part, tree)]: the flute against the non-target obstacles, the body frustums
-        against all."""
-        out = [(self.flute, self.tree_other)] if self.tree_other is not None else []
-        return out + [(f, self.tree_all) for f in self.body]
+        """[(part, groups)]: the flute against the non-target obstacles, the body frustums
+        against all; ``groups`` is a list of (:class:`_Copies`, first copy) — the flute skips
+        copy 0 of the blade (the target blade itself)."""
+        fl = [(g, 1 if g.blade else 0) for g in self._groups if not g.blade or g.n_copies > 1]
+        out = [(self.flute, fl)] if fl else []
+        return out + [(f, [(g, 0) for g in self._groups]) for f in self.body]
 
+    # long on purpose: candidates of every part and obstacle group, the per-pose pruning and the
+    # exact refinement share the per-pose bounds; split, they would pass a dozen arrays around
     def _chunk(self, tips, axes):
         m = len(tips)
         ub = np.full(m, self.cap)
+        queries = {id(g): g.queries(tips, axes) for g in self._groups}
         cand = []
-        for part, tree in self.parts():
-            P, T = tree.candidates(part, tips, axes, ub, far=self.safety + _FAR_MARGIN)
-            if len(P):
-                cand.append((part, tree, P, T))
+        for part, groups in self.parts():
+            for g, first in groups:
+                tq, aq, pid, cid = (x[first * m:] for x in queries[id(g)])
+                P, T, sdc, lb = g.tree.candidates(part, tq, aq, ub, pid,
+                                                  far=self.safety + _FAR_MARGIN)
+                if len(P):
+                    cand.append((part, g, tq[P], aq[P], pid[P], cid[P], T, sdc, lb))
         best = np.full(m, self.cap)
         obst = np.full(m, -1, dtype=np.int64)
         kind = np.full(m, -1, dtype=np.int8)
         pt = np.full((m, 3), np.nan)
         nr = np.full((m, 3), np.nan)
-        for part, tree, P, T in cand:
-            lb = _posed_sd(part, tree.cen[T], tips[P], axes[P]) - tree.rad[T]
+        for part, g, tq, aq, P, cid, T, sdc, lb in cand:
+            tree = g.tree
             keep = lb <= ub[P]
-            P, T, lb = P[keep], T[keep], lb[keep]
+            tq, aq, P, cid, T, sdc, lb = (x[keep] for x in (tq, aq, P, cid, T, sdc, lb))
             if len(P) == 0:
                 continue
             # a pose already known to penetrate (bound < 0) needs a depth, not the exact
-            # deepest point: only its _PENETRATION_PAIRS most promising triangles are refined
-            # (a flat obstacle across a cap would otherwise tie over thousands of them)
+            # deepest point: only its _PENETRATION_PAIRS triangles with the deepest centroids
+            # are refined (a flat obstacle across a cap would otherwise tie over thousands of
+            # them), and the centroid itself is offered (the pose's figure stays ≤ its bound)
             # ... and a pose whose lower bound is ≥ ds + _FAR_MARGIN is certainly clear:
             # only its _FAR_PAIRS most promising triangles are refined (its figure is then
             # within the bounds' gap, about the local triangle size, of the exact one)
-            order = np.lexsort((lb, P))
-            P, T, lb = P[order], T[order], lb[order]
+            deep = ub[P] < 0
+            bound = sdc <= ub[P] + 1e-12  # the centroid that gave the pose's bound: kept
+            order = np.lexsort((np.where(deep, sdc, np.where(bound, -np.inf, lb)), P))
+            tq, aq, P, cid, T, sdc, lb, deep = (x[order] for x in
+                                                (tq, aq, P, cid, T, sdc, lb, deep))
             starts, sizes = _groups(P)
             start = np.repeat(starts, sizes)
             rank = np.arange(len(P)) - start
-            lbmin = lb[start]
-            deep = ub[P] < 0
-            far = lbmin >= self.safety + _FAR_MARGIN
+            far = np.minimum.reduceat(lb, starts)[np.repeat(np.arange(len(starts)), sizes)] \
+                >= self.safety + _FAR_MARGIN
             keep = ~(deep | far) | (rank < np.where(deep, _PENETRATION_PAIRS, _FAR_PAIRS))
-            P, T = P[keep], T[keep]
+            beamed = (deep | far)[keep]
+            tq, aq, P, cid, T, sdc = (x[keep] for x in (tq, aq, P, cid, T, sdc))
             d, w = _refine(part, tree.A[T], tree.B[T], tree.C[T], tree.nrm[T], tree.ok[T],
-                           tips[P], axes[P], P, ub)
+                           tq, aq, P, ub)
+            cen = beamed & (sdc < d)
+            d = np.where(cen, sdc, d)
+            w = np.where(cen[:, None], tree.cen[T], w)
             order = np.lexsort((d, P))
-            P, T, d, w = P[order], T[order], d[order], w[order]
             first = np.ones(len(P), bool)
-            first[1:] = P[1:] != P[:-1]
-            P, T, d, w = P[first], T[first], d[first], w[first]
-            better = d < best[P]
-            P, T, d, w = P[better], T[better], d[better], w[better]
-            best[P] = d
-            obst[P] = tree.owner[T]
-            kind[P] = part.kind
-            pt[P] = w
-            nn = tree.nrm[T]
-            foot = tips[P] + np.einsum("ij,ij->i", w - tips[P], axes[P])[:, None] * axes[P]
-            side = np.einsum("ij,ij->i", nn, foot - w)
-            nr[P] = np.where((side < 0)[:, None], -nn, nn)
+            first[1:] = P[order][1:] != P[order][:-1]
+            sel = order[first]
+            sel = sel[d[sel] < best[P[sel]]]
+            Ps, Ts, ws, ts, as_ = P[sel], T[sel], w[sel], tq[sel], aq[sel]
+            best[Ps] = d[sel]
+            obst[Ps] = g.obstacle(cid[sel], Ts)
+            kind[Ps] = part.kind
+            nn = tree.nrm[Ts]
+            foot = ts + np.einsum("ij,ij->i", ws - ts, as_)[:, None] * as_
+            side = np.einsum("ij,ij->i", nn, foot - ws)
+            nn = np.where((side < 0)[:, None], -nn, nn)
+            pt[Ps], nr[Ps] = g.to_world(cid[sel], ws, nn)
         return best, obst, kind, pt, nr
 
     def detect(self, tips, axes, *, chunk: int = _CHUNK, workers: int | None = None,

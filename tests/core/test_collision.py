@@ -453,3 +453,116 @@ def test_bull_nose_keeps_its_contact():
         moved = c.collision["status"] == STATUS_CORRECTED
         assert np.all(np.abs(lead[moved]) <= opts.max_lead + 1e-9)
         assert np.all(np.abs(tilt[moved]) <= opts.max_tilt + 1e-9)
+
+
+# ----------------------------------------------------------------------------- rotated copies
+def _brute_force(ob, scene, tips, axes):
+    """Per pose: the exact minimum of every part's signed distance over every triangle of
+    the actual obstacle meshes (the neighbours as the rotated vertex arrays of
+    ``Obstacles.build``), each triangle refined on its own — no tree, no turned poses.
+    Only triangles whose centroid lies within the tool's reach of its axis segment are
+    refined (a conservative cut: the others are farther than the cap). Returns
+    (clearance (m,), obstacle (m,))."""
+    from blisk_cam.core.collision import _refine
+
+    top = scene.assembly.top
+    best = np.full(len(tips), np.inf)
+    who = np.full(len(tips), -1)
+    for i, mesh in enumerate(ob.meshes):
+        T = mesh.V[mesh.F]
+        cen = T.mean(1)
+        rad = np.max(np.linalg.norm(T - cen[:, None], axis=2), axis=1)
+        nrm = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+        ln = np.linalg.norm(nrm, axis=1)
+        for j, (tp, a) in enumerate(zip(tips, axes, strict=True)):
+            rel = cen - tp
+            z = np.clip(rel @ a, 0.0, top)
+            near = np.linalg.norm(rel - z[:, None] * a, axis=1) - rad <= \
+                scene.assembly.max_radius + scene.cap + 1.0
+            if not near.any():
+                continue
+            k = int(near.sum())
+            for part, _ in scene.parts():
+                if part.kind == 0 and i == 0:
+                    continue  # the flute cuts the target blade
+                d, _ = _refine(part, T[near, 0], T[near, 1], T[near, 2],
+                               nrm[near] / ln[near, None], ln[near] > 0,
+                               np.tile(tp, (k, 1)), np.tile(a, (k, 1)))
+                if d.min() < best[j]:
+                    best[j], who[j] = d.min(), i
+    return np.minimum(best, scene.cap), np.where(best < scene.cap, who, -1)
+
+
+def test_turned_pose_queries_equal_brute_force_over_rotated_copies():
+    """The neighbours are queried on ONE tree over the blade with the poses turned back by
+    their angle: the clearances, obstacle indices, contact points and normals must equal
+    the brute-force minimum over the actual rotated copies (random poses on both sides of
+    the +1 and −1 neighbour, a blisk axis off the origin and tilted, a holder with a
+    taper), to 1e-9 mm wherever the figure is exact (0 ≤ clearance < ds + 1 mm)."""
+    d = make_demo_blisk(resolution=0.1, fillet=False, blade_count=N_BLADES)
+    rng = np.random.default_rng(7)
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    Q *= np.sign(np.linalg.det(Q))
+    shift = np.array([30.0, -20.0, 15.0])
+    V = d.blade_vertices @ Q.T + shift
+    axis = Axis(tuple(shift), tuple(Q @ np.asarray(d.axis.d)))
+    ob = Obstacles.build(V, d.blade_faces, axis, N_BLADES, 1)
+    asm = ToolAssembly(12.0, ((12.0, 3.0), (30.0, 3.0), (40.0, 6.0), (70.0, 6.0)), 1.0)
+    sc = CollisionScene(ob, Cutter.ball(3.0), asm)
+    tips, axes = [], []
+    for idx in (1, 2):  # blade +1, blade -1
+        m = ob.meshes[idx]
+        fn = np.cross(m.V[m.F[:, 1]] - m.V[m.F[:, 0]], m.V[m.F[:, 2]] - m.V[m.F[:, 0]])
+        fn /= np.linalg.norm(fn, axis=1)[:, None]
+        for f in rng.choice(len(m.F), 40, replace=False):
+            p = m.V[m.F[f]].mean(0)
+            side = rng.choice([-1.0, 1.0])
+            n = side * fn[f]
+            a = np.cross(n, rng.normal(size=3))
+            a /= np.linalg.norm(a)
+            zc = rng.uniform(14.0, 65.0)  # beside the shank, the taper or the holder
+            reach = 3.0 if zc < 30.0 else (6.0 if zc > 40.0 else 3.0 + 0.3 * (zc - 30.0))
+            tips.append(p + n * (reach + rng.uniform(0.02, 1.9)) - zc * a)
+            axes.append(a)
+    tips, axes = np.array(tips), np.array(axes)
+    det = sc.detect(tips, axes)
+    ref, who = _brute_force(ob, sc, tips, axes)
+    exact = (ref >= 0.0) & (ref < sc.safety + 1.0)
+    assert exact.sum() >= 30 and set(who[exact]) == {1, 2}, (exact.sum(), set(who[exact]))
+    assert np.allclose(det.clearance[exact], ref[exact], rtol=0.0, atol=1e-9), \
+        np.abs(det.clearance - ref)[exact].max()
+    assert np.array_equal(det.obstacle[exact], who[exact])
+    # never below the truth where it is known (every figure is the distance to a real point)
+    assert np.all(det.clearance[ref >= 0] >= ref[ref >= 0] - 1e-9)
+    # penetration is reported as penetration (its depth is an estimate)
+    assert np.array_equal(det.clearance < 0, ref < 0)
+    # the contact point lies on the actual rotated copy, at the reported distance, and the
+    # normal is that triangle's (turned toward the tool axis)
+    from blisk_cam.core.geometry import closest_on_triangles
+
+    for j in np.nonzero(exact)[0]:
+        m = ob.meshes[who[j]]
+        T = m.V[m.F]
+        q = closest_on_triangles(np.tile(det.point[j], (len(T), 1)), T[:, 0], T[:, 1], T[:, 2])
+        q = q[0] if isinstance(q, tuple) else q
+        dist = np.linalg.norm(q - det.point[j], axis=1)
+        on = dist < 1e-9  # the triangles holding the point (several on an edge or vertex)
+        assert on.any()
+        tn = np.cross(T[on, 1] - T[on, 0], T[on, 2] - T[on, 0])
+        tn /= np.linalg.norm(tn, axis=1)[:, None]
+        assert np.min(np.abs(np.abs(tn @ det.normal[j]) - 1.0)) < 1e-9
+        # turned toward the tool axis
+        foot = tips[j] + float((det.point[j] - tips[j]) @ axes[j]) * axes[j]
+        assert float(det.normal[j] @ (foot - det.point[j])) >= 0
+    part_sd = []
+    for j in np.nonzero(exact)[0]:
+        ds_ = [float(np.min(p_.sd_rz(*_rz(det.point[j], tips[j], axes[j]))))
+               for p_, _ in sc.parts() if not (p_.kind == 0 and who[j] == 0)]
+        part_sd.append(min(ds_))
+    assert np.allclose(part_sd, det.clearance[exact], rtol=0.0, atol=1e-9)
+
+
+def _rz(x, tip, axis):
+    v = np.asarray(x) - tip
+    z = float(v @ axis)
+    return np.array([math.sqrt(max(float(v @ v) - z * z, 0.0))]), np.array([z])
