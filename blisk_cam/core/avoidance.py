@@ -18,7 +18,9 @@ L = R2 + ds from the axis line (Eq. 11; R2 the radius of the colliding part at F
 where a pose still collides (another point of the same blade, or the adjacent blade on the
 other side of the channel) the step repeats with L_j = R2 + j · ds (Eqs. 16–17) up to
 ``max_iterations`` times. A pose whose corrected axis leaves the limits (|lead| ≤ max_lead,
-|tilt| ≤ max_tilt from the surface normal, as in :mod:`.local_gouge`), or that the cutter can
+|tilt| ≤ max_tilt from the surface normal, as in :mod:`.local_gouge`; where the planned axis
+already leans further, e.g. a radial strategy, its own |lead| and |tilt| are the limits: the
+turn may not lean it further than planned), or that the cutter can
 no longer touch, or that the iterations do not clear, is **unresolved**: it keeps its planned
 pose and status 2 — it is never dropped.
 
@@ -108,7 +110,7 @@ class CollisionOptions(_Stage):
         (:class:`~.tool_assembly.ToolAssembly`); None: :func:`default_assembly`
     safety : float, mm — ds (default 1 mm)
     max_lead, max_tilt : float, rad — axis limits of a corrected pose from the surface normal
-        (default 30° each, either sign)
+        (default 30° each, either sign; a pose planned beyond them: its planned angles)
     max_turn : float or None, rad — smoothing limit between consecutive poses (None: 2°)
     max_iterations : int — rotation steps per pose (Eqs. 16–17)
     gouge_tol : float or None, mm — ε of Eq. 14 (None: the path's chord tolerance / 4)
@@ -139,11 +141,13 @@ class CollisionOptions(_Stage):
                            soft_max=10.0)
     max_lead: float = option(
         math.radians(30.0), "Max Lead", "A corrected tool axis may lean at most this far "
-        "from the surface normal in the feed direction, degrees (either sign)", unit="deg",
+        "from the surface normal in the feed direction, degrees (either sign); an axis planned further may "
+        "turn but not lean further than planned", unit="deg",
         lo=0.0, hi=math.radians(89.0))
     max_tilt: float = option(
         math.radians(30.0), "Max Tilt", "A corrected tool axis may lean at most this far "
-        "from the surface normal across the feed, degrees (either sign)", unit="deg",
+        "from the surface normal across the feed, degrees (either sign); an axis planned further may "
+        "turn but not lean further than planned", unit="deg",
         lo=0.0, hi=math.radians(89.0))
     max_turn: float | None = None
     max_iterations: int = 8
@@ -534,6 +538,12 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         frames = [local_frames(c.cc, c.normal, c.closed) for c in curves]
         f = np.vstack([fr[0] for fr in frames])
         k_side = np.vstack([fr[2] for fr in frames])
+        # the limits bound how far avoidance may lean an axis from the normal; where the plan
+        # itself leans further (a radial or fixed-point strategy), the turn may not lean it
+        # further than planned
+        lead0, tilt0 = lead_tilt_of(ax0, f, nrm, k_side)
+        lim_lead = np.maximum(options.max_lead, np.nan_to_num(np.abs(lead0)))
+        lim_tilt = np.maximum(options.max_tilt, np.nan_to_num(np.abs(tilt0)))
         clr = det0.clearance.copy()
         pt, part, nF = det0.point.copy(), det0.part.copy(), det0.normal.copy()
         owner = det0.obstacle.copy()
@@ -564,8 +574,8 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
                 if j == 1 and variant == 0:
                     first_theta[a] = np.where(ok_v, th, np.nan)
                 lead, tilt = lead_tilt_of(cand, f[a], nrm[a], k_side[a])
-                ok_v &= np.isfinite(lead) & (np.abs(lead) <= options.max_lead + 1e-12)
-                ok_v &= np.isfinite(tilt) & (np.abs(tilt) <= options.max_tilt + 1e-12)
+                ok_v &= np.isfinite(lead) & (np.abs(lead) <= lim_lead[a] + 1e-12)
+                ok_v &= np.isfinite(tilt) & (np.abs(tilt) <= lim_tilt[a] + 1e-12)
                 ok_v &= _touch_ok(cutter, nrm[a], cand)
                 take = ok_v & (th < best_th)
                 best_th = np.where(take, th, best_th)
@@ -617,10 +627,9 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
                 ax[s:e] = _smooth(ax0[s:e], ax[s:e], hold[s:e], nrm[s:e], delta, c.closed)
             moved = (_angle(ax, before) > 1e-12) & ~hold & _touch_ok(cutter, nrm, ax)
             lead, tilt = lead_tilt_of(ax, f, nrm, k_side)
-            moved &= (np.abs(lead) <= options.max_lead + 1e-12) | \
-                (np.abs(lead) <= np.abs(lead_tilt_of(before, f, nrm, k_side)[0]))
-            moved &= (np.abs(tilt) <= options.max_tilt + 1e-12) | \
-                (np.abs(tilt) <= np.abs(lead_tilt_of(before, f, nrm, k_side)[1]))
+            lead_b, tilt_b = lead_tilt_of(before, f, nrm, k_side)
+            moved &= (np.abs(lead) <= lim_lead + 1e-12) | (np.abs(lead) <= np.abs(lead_b))
+            moved &= (np.abs(tilt) <= lim_tilt + 1e-12) | (np.abs(tilt) <= np.abs(tilt_b))
             ax[~moved] = before[~moved]
             mi = np.nonzero(moved)[0]
             if len(mi) == 0:

@@ -455,6 +455,27 @@ def test_bull_nose_keeps_its_contact():
         assert np.all(np.abs(tilt[moved]) <= opts.max_tilt + 1e-9)
 
 
+
+def test_limits_below_the_planned_lean_still_allow_a_turn(channel):
+    """The planned axes lean 20° from the normal (radial strategy). With limits of 10° the
+    limits cannot hold for any pose, planned or corrected; avoidance may still turn an axis
+    as long as it leans no further than planned, and the turned poses are clear."""
+    d, mesh, path, *_ = channel
+    opts = CollisionOptions(mode="avoid", blade_count=N_BLADES, neighbours=1,
+                            flute_length=12.0, holder=HOLDER, safety=1.0,
+                            max_lead=math.radians(10), max_tilt=math.radians(10))
+    out, rep = run_collisions(mesh, path, [], opts)
+    assert rep.n_colliding_before > 20 and rep.n_corrected > 20, rep.summary()
+    for c0, c in zip(path.curves, out.curves, strict=True):
+        f, n, k = local_frames(c0.cc, c0.normal, c0.closed)
+        lead0, tilt0 = lead_tilt_of(c0.axis, f, n, k)
+        lead, tilt = lead_tilt_of(c.axis, f, n, k)
+        moved = c.collision["status"] == STATUS_CORRECTED
+        assert np.all(np.abs(tilt0) > math.radians(10))  # the plan is outside the limits
+        assert np.all(np.abs(lead[moved]) <= np.maximum(opts.max_lead, np.abs(lead0[moved])) + 1e-9)
+        assert np.all(np.abs(tilt[moved]) <= np.maximum(opts.max_tilt, np.abs(tilt0[moved])) + 1e-9)
+        assert np.all(c.collision["clearance"][moved] >= opts.safety - 1e-9)
+
 # ----------------------------------------------------------------------------- rotated copies
 def _brute_force(ob, scene, tips, axes):
     """Per pose: the exact minimum of every part's signed distance over every triangle of
