@@ -78,7 +78,7 @@ def run_interactive():
     runner.start(ctx)
     first_tick = time.perf_counter() - t0
     t_paths = t_map = None
-    plan_ticks, verify_ticks = [first_tick], []
+    plan_ticks, verify_ticks, show_tick = [], [], 0.0
     next_fire = time.perf_counter() + TICK
     while True:
         now = time.perf_counter()
@@ -88,17 +88,22 @@ def run_interactive():
         result = runner.step(ctx)
         b = time.perf_counter()
         next_fire = max(next_fire + TICK, b)
-        (plan_ticks if t_paths is None else verify_ticks).append(b - a)
         if t_paths is None and runner._job.written_json is not None:
-            t_paths = b - t0
+            t_paths, show_tick = b - t0, b - a
+        elif t_paths is None:
+            plan_ticks.append(b - a)
+        else:
+            verify_ticks.append(b - a)
         if result != {"RUNNING_MODAL"}:
             assert result == {"FINISHED"}, runner.reports
             t_map = b - t0
             break
     objs = output.output_objects(output.find_output_collection(runner._job.blade_name))
-    has_map = objs["verify"] is not None
-    return (t_paths, t_map, max(plan_ticks), max(verify_ticks[:-1] or [0.0]), has_map,
-            runner._job.verify_seconds, verify_ticks[-1] if verify_ticks else 0.0)
+    return {"paths": t_paths, "map": t_map, "has_map": objs["verify"] is not None,
+            "invoke": first_tick, "plan_tick": max(plan_ticks), "show_tick": show_tick,
+            "poll_tick": max(verify_ticks[:-1] or [0.0]),
+            "attach_tick": verify_ticks[-1] if verify_ticks else 0.0,
+            "worker": runner._job.verify_seconds}
 
 
 def main():
@@ -126,18 +131,23 @@ def main():
             sync.append(run_sync())
             scene_with_rotor37(args)
             inter.append(run_interactive())
-            tp, tm, mp, mv, has_map, tv, ta = inter[-1]
-            print(f"run {k + 1}: synchronous {sync[-1]:6.2f} s (paths and map together, UI "
-                  f"blocked throughout) | interactive: paths shown {tp:6.2f} s, colour map "
-                  f"{tm:6.2f} s{'' if has_map else ' (no map object!)'} (worker {tv:.2f} s, "
-                  f"attaching {1e3 * ta:.0f} ms); longest tick planning {1e3 * mp:5.0f} ms, "
-                  f"polling the worker {1e3 * mv:5.0f} ms")
+            x = inter[-1]
+            print(f"run {k + 1}: synchronous {sync[-1]:6.2f} s (paths and map together, the UI "
+                  f"blocked throughout) | interactive: paths shown {x['paths']:6.2f} s, colour "
+                  f"map {x['map']:6.2f} s{'' if x['has_map'] else ' (no map object!)'} "
+                  f"(verify worker {x['worker']:.2f} s)")
+            print(f"       UI frozen at most: invoke (read the mesh) {1e3 * x['invoke']:.0f} ms, "
+                  f"a planning tick {1e3 * x['plan_tick']:.0f} ms, writing the paths "
+                  f"{1e3 * x['show_tick']:.0f} ms, a tick polling the worker "
+                  f"{1e3 * x['poll_tick']:.0f} ms, attaching the figures "
+                  f"{1e3 * x['attach_tick']:.0f} ms")
         med = statistics.median
-        print(f"median of {args.repeat}: synchronous {med(sync):.2f} s; interactive paths "
-              f"shown {med([x[0] for x in inter]):.2f} s "
-              f"({med([x[0] for x in inter]) / med(sync):.2f} of synchronous), colour map "
-              f"{med([x[1] for x in inter]):.2f} s; longest UI freeze while verifying "
-              f"{1e3 * med([x[3] for x in inter]):.0f} ms")
+        ms_ = med(sync)
+        mp, mm = med([x["paths"] for x in inter]), med([x["map"] for x in inter])
+        print(f"median of {args.repeat}: synchronous {ms_:.2f} s; interactive paths shown "
+              f"{mp:.2f} s ({mp / ms_:.2f} of synchronous), colour map {mm:.2f} s "
+              f"({mm / ms_:.2f}); longest tick while verifying "
+              f"{1e3 * med([x['poll_tick'] for x in inter]):.0f} ms")
     finally:
         blisk_cam.unregister()
 

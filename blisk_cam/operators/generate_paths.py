@@ -121,9 +121,10 @@ class PathJob:
     def start_verify(self) -> bool:
         """Start measuring the planned path on a worker thread; False when verify is off.
 
-        The thread reads only this job's arrays (``mesh``, the planned ``ToolPath``) and
-        writes only ``_verify_result`` / ``_verify_error``: no ``bpy``. The main thread polls
-        :attr:`verify_ready` and then calls :meth:`attach_verify`."""
+        The thread reads only this job's arrays (``mesh``, ``V``, the planned ``ToolPath``)
+        and writes only ``_verify_result`` (report, verdict, paths JSON, colour-map values) /
+        ``_verify_error``: no ``bpy``. The main thread polls :attr:`verify_ready` and then
+        calls :meth:`attach_verify`, which only writes the Blender data."""
         if not self.want_verify or self.plan is None:
             return False
         from ..core.verify import verify_path
@@ -133,7 +134,11 @@ class PathJob:
         def work():
             t0 = time.perf_counter()
             try:
-                self._verify_result = verify_path(mesh, path)
+                report = verify_path(mesh, path)
+                # the rest of the figures too (pure core), so attaching is only bpy work
+                verdict, json_text = self._verdict_json(report)
+                values = self._map_values(report)
+                self._verify_result = (report, verdict, json_text, values)
             except BaseException as exc:  # handed to the main thread, reported there
                 self._verify_error = exc
             self.verify_seconds = time.perf_counter() - t0
@@ -171,15 +176,16 @@ class PathJob:
             del _VERIFYING[self.scene_name]
 
     # --- writing ------------------------------------------------------------------------
-    def _verdict_json(self):
-        """(verdict, paths JSON with the "verify" verdict) of the measured path."""
+    def _verdict_json(self, report):
+        """(verdict, paths JSON with the "verify" verdict) of the path measured by
+        ``report`` (core.verify.VerifyReport). No bpy: the worker thread calls it."""
         import json
 
         from ..core.paths_io import path_to_dict
         from ..core.verdict import judge, verdict_dict
 
         path = self.plan.path
-        verdict = judge(self.verify, path.cusp, path.chord, path.tool, path=path)
+        verdict = judge(report, path.cusp, path.chord, path.tool, path=path)
         return verdict, json.dumps({**path_to_dict(path), "verify": verdict_dict(verdict)},
                                    allow_nan=False)
 
@@ -192,9 +198,10 @@ class PathJob:
             )
         return blade
 
-    def _map_values(self):
-        if self.want_map and self.verify is not None:
-            return input_vertex_values(self.mesh, self.V, self.verify.vertex_values)
+    def _map_values(self, report):
+        """(n,) material left per input vertex for the colour map, or None (not asked)."""
+        if self.want_map and report is not None:
+            return input_vertex_values(self.mesh, self.V, report.vertex_values)
         return None
 
     def _warnings(self):
@@ -214,11 +221,11 @@ class PathJob:
         settings = scene.blisk_cam
         blade = self._blade()
         path = self.plan.path
-        values = self._map_values()
+        values = self._map_values(self.verify)
         json_text = None
         self.verdict = None
         if self.verify is not None:  # the verdict goes into the paths JSON ("verify")
-            self.verdict, json_text = self._verdict_json()
+            self.verdict, json_text = self._verdict_json(self.verify)
         output.write_path_objects(
             scene, blade, path, settings,
             json_text=json_text,
@@ -266,11 +273,9 @@ class PathJob:
                 f"the paths of '{self.blade_name}' changed while they were being verified; "
                 "the verify figures were dropped (generate again to verify)"
             )
-        self.verify = self._verify_result
+        self.verify, self.verdict, json_text, values = self._verify_result
         self._verify_result = None
         path = self.plan.path
-        self.verdict, json_text = self._verdict_json()
-        values = self._map_values()
         scene = context.scene
         settings = scene.blisk_cam
         output.attach_verify(
