@@ -553,6 +553,36 @@ def _verify_state(blade_name="Blade"):
     }
 
 
+class _Layout:
+    """Stands in for ``UILayout``: records the labels drawn (text only)."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = self.use_property_decorate = False
+        self.scale_y = 1.0
+
+    def _child(self, *_a, **_kw):
+        return _Layout(self.log)
+
+    row = column = box = split = _child
+
+    def label(self, text="", **_kw):
+        self.log.append(text)
+
+    def prop(self, *_a, **_kw):
+        pass
+
+    operator = prop
+
+
+def _paths_panel_labels():
+    from blisk_cam.panels.paths import BLISKCAM_PT_paths
+
+    log = []
+    BLISKCAM_PT_paths.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
+    return log
+
+
 def test_modal_steps_with_progress_and_esc_keeps_the_previous_result(addon, demo):
     scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, pose_count=10)
     assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
@@ -611,6 +641,9 @@ def test_interactive_generate_shows_the_paths_then_the_verify_map(addon, demo):
     assert state["map"] is None and state["map_objects"] == []
     assert not s.stat_verified and s.stat_verdict == "" and s.has_result
     assert gen_mod.verify_pending(scene.name) and job.verify_pending
+    labels = _paths_panel_labels()  # the panel: the paths' figures and "Verifying…"
+    assert "Verifying… (ESC skips it)" in labels and f"Blade: {s.stat_blade}" in labels
+    assert not [x for x in labels if x.startswith(("Verify:", "Measured", "Not verified"))]
     # the UI is free: the panel's Generate is enabled again (a new run would drop the verify)
     assert scene.name not in gen_mod._RUNNING
     assert bpy.ops.blisk_cam.generate_paths.poll()
@@ -628,6 +661,10 @@ def test_interactive_generate_shows_the_paths_then_the_verify_map(addon, demo):
     assert got["map_objects"] == ["Blade verify"]
     assert (s.stat_material_left, s.stat_gouge, s.stat_verdict, s.stat_poses) == ref_stats
     assert s.stat_verified
+    labels = _paths_panel_labels()  # then the verdict and the measured figures
+    assert f"Verify: {ref_json['verify']['status']}" in labels
+    assert f"Measured max material left: {s.stat_material_left:.4f} mm" in labels
+    assert not [x for x in labels if x.startswith("Verifying")]
 
 
 def test_cancelling_a_pending_verify_leaves_a_consistent_scene(addon, demo):
