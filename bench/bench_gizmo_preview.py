@@ -3,11 +3,13 @@
     python bench/bench_gizmo_preview.py [--resolution 3.17] [--steps 20] [--no-blender]
 
 On the demo blade (resolution 3.17 ≈ 1M triangles): the one-off mesh preparation when the
-preview starts (TriMesh weld/orient, edges, normals; with bpy also reading the blade from a
-Blender object), then a simulated drag of P1 (``--steps`` positions 0.2 mm apart), each step
-as the gizmo does it: a new slicer for the new cone pair (morph field) and one slice per
-preview level. Goal: ≤ 50 ms per curve (slicer set-up shared among the levels) and the draw
-geometry (cone wires, preview line segments) in well under a millisecond per cone.
+preview starts (TriMesh weld/orient, edges, normals, the meridional index; with bpy also
+reading the blade from a Blender object), then a simulated drag of P1 (``--steps`` positions
+0.2 mm apart), each step as the gizmo does it: a slicer for the new cone pair and one slice per
+preview level — first with the slicer over the whole mesh (as before the meridional index),
+then on the faces near the levels (``LmcPreview``'s default); p50/p95 per step. Goal: ≤ 50 ms
+per step, slicer set-up included, and the draw geometry (cone wires, preview line segments)
+in well under a millisecond per cone.
 """
 
 from __future__ import annotations
@@ -30,6 +32,11 @@ from blisk_cam.gizmos.lmc_preview import DEFAULT_LEVELS, LmcPreview  # noqa: E40
 
 def ms(x):
     return f"{1e3 * x:7.1f} ms"
+
+
+def p(xs, q):
+    """The q-th percentile of xs."""
+    return float(np.percentile(np.asarray(xs, dtype=np.float64), q))
 
 
 def blender_read_seconds(V, F):
@@ -66,33 +73,51 @@ def main():
         if t is not None:
             print(f"read blade from Blender (object_to_arrays, best of 3): {ms(t)}")
 
-    preview = LmcPreview()
-    first = preview.compute("demo", lambda: (V, F), demo.axis, c1, c2)
-    assert first.error is None, first.error
-    print(f"mesh preparation (once per blade revision): {ms(first.mesh_seconds)}")
-    print(
-        f"first preview: set-up {ms(first.setup_seconds)}, levels "
-        f"{ms(sum(first.level_seconds))}, {len(first.curves)} curves"
-    )
-
-    setups, levels, per_curve, steps = [], [], [], []
+    # the two ways side by side, their steps interleaved (the machine's load hits both alike)
+    modes = {"before": LmcPreview(indexed=False), "now": LmcPreview(indexed=True)}
+    labels = {"before": "whole mesh: a slicer over every face per step (before)",
+              "now": "indexed: a slicer on the faces near the levels only (now)"}
+    for name, preview in modes.items():
+        first = preview.compute("demo", lambda: (V, F), demo.axis, c1, c2)
+        assert first.error is None, first.error
+        print(f"{name}: set-up once per blade revision (TriMesh weld/orient, edges, normals"
+              f"{', meridional index' if preview.indexed else ''}): {ms(first.mesh_seconds)}; "
+              f"first preview: set-up {ms(first.setup_seconds)}, levels "
+              f"{ms(sum(first.level_seconds))}, {len(first.curves)} curves")
+    rec = {name: {"setup": [], "level": [], "curve": [], "step": [], "faces": []}
+           for name in modes}
+    res = {}
     for k in range(1, args.steps + 1):
         moved = [c1[0] + 0.2 * k, *c1[1:]]
-        t0 = time.perf_counter()
-        res = preview.compute("demo", lambda: (V, F), demo.axis, moved, c2)
-        steps.append(time.perf_counter() - t0)
-        assert res.error is None and res.mesh_seconds == 0.0
-        setups.append(res.setup_seconds)
-        levels.extend(res.level_seconds)
-        per_curve.append(res.seconds_per_curve)
-    print(f"drag of P1, {args.steps} steps (mesh cached):")
-    for label, xs in (("slicer set-up per step", setups), ("one level (slice)", levels)):
-        print(f"  {label:24s}median {ms(statistics.median(xs))}  max {ms(max(xs))}")
-    print(
-        f"  per curve (set-up/{len(DEFAULT_LEVELS)} + slice) median "
-        f"{ms(statistics.median(per_curve))}  max {ms(max(per_curve))}   (budget 50 ms)"
-    )
-    print(f"  whole step              median {ms(statistics.median(steps))}  max {ms(max(steps))}")
+        for name, preview in modes.items():
+            t0 = time.perf_counter()
+            r = preview.compute("demo", lambda: (V, F), demo.axis, moved, c2)
+            step = time.perf_counter() - t0
+            assert r.error is None and r.mesh_seconds == 0.0
+            x = rec[name]
+            x["step"].append(step)
+            x["setup"].append(r.setup_seconds)
+            x["level"].extend(r.level_seconds)
+            x["curve"].append(r.seconds_per_curve)
+            x["faces"].append(r.faces_sliced)
+            res[name] = r
+    same = all(np.array_equal(a.points, b.points) for a, b in
+               zip(res["before"].curves, res["now"].curves, strict=True))
+    print(f"drag of P1, {args.steps} steps 0.2 mm apart (mesh cached), both ways interleaved; "
+          f"last step's curves identical: {same}")
+    for name in modes:
+        x = rec[name]
+        print(f"-- {labels[name]}; faces sliced per step median "
+              f"{int(statistics.median(x['faces'])):,} of {len(F):,}")
+        for label, xs in (("slicer set-up per step", x["setup"]),
+                          ("one level (slice)", x["level"]),
+                          (f"per curve (set-up/{len(DEFAULT_LEVELS)} + slice)", x["curve"]),
+                          ("whole step", x["step"])):
+            print(f"    {label:32s}p50 {ms(p(xs, 50))}  p95 {ms(p(xs, 95))}  max {ms(max(xs))}")
+    b, n = rec["before"]["step"], rec["now"]["step"]
+    print(f"whole step p50 {ms(p(b, 50))} → {ms(p(n, 50))} ({p(b, 50) / p(n, 50):.1f}×), "
+          f"p95 {ms(p(b, 95))} → {ms(p(n, 95))}; budget 50 ms")
+    res = res["now"]
 
     plane = cf.MeridionalPlane(demo.axis, 0.0, 1.0)
     t0 = time.perf_counter()

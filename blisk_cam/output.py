@@ -97,6 +97,7 @@ __all__ = [
     "restyle",
     "pose_indices",
     "verify_colors",
+    "attach_verify",
     "spline_pieces",
     "curve_points_mm",
     "collision_summary",
@@ -733,6 +734,74 @@ def write_path_objects(
     new[KEY_TEXT] = text.name
     objs["text"] = text
     return objs
+
+
+def attach_verify(
+    scene,
+    blade,
+    path,
+    settings=None,
+    *,
+    json_text: str,
+    verify,
+    blade_arrays=None,
+    vertex_values=None,
+) -> dict:
+    """Add a verify run's figures to the output :func:`write_path_objects` wrote for ``path``
+    without them (the interactive Generate shows the paths first, then verifies): afterwards
+    the collection holds what ``write_path_objects(..., json_text=json_text, verify=verify,
+    blade_arrays=..., vertex_values=...)`` would have written.
+
+    * the per-spline measured cusp of the CC and tool-tip curves (from ``verify``'s pairs;
+      the splines themselves do not depend on it) and their materials;
+    * the Text datablock: ``json_text`` (the paths JSON with its ``"verify"`` verdict);
+    * with ``blade_arrays`` and ``vertex_values`` the ``"<blade> verify"`` colour-map copy
+      (replacing one already there).
+
+    Parameters as for :func:`write_path_objects`. Raises BliskCamError when the blade has no
+    output collection (cleared meanwhile). Returns dict — ``collection``, ``verify`` (object
+    or None), ``text``.
+    """
+    settings = settings if settings is not None else scene.blisk_cam
+    bname = blade.name
+    coll = find_output_collection(bname)
+    if coll is None:
+        raise BliskCamError(f"the paths of '{bname}' were removed before their verify "
+                            "finished; generate again")
+    f = mm_per_blender_unit(scene)
+    objs = output_objects(coll)
+    cusp = _curve_cusp(path, verify)
+    for role, key in (("cc", "cc"), ("tip", "tip")):
+        ob = objs[role]
+        if ob is None or ob.type != "CURVE":
+            continue
+        _, _, _, sc = spline_pieces(path, key, cusp)
+        ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in sc]
+        _style_curves(ob, settings.color_mode, float(path.cusp))
+    out = {"collection": coll, "verify": None}
+    if blade_arrays is not None and vertex_values is not None:
+        old = objs["verify"]
+        if old is not None:
+            data = old.data
+            bpy.data.objects.remove(old)
+            if data is not None and data.users == 0:
+                bpy.data.meshes.remove(data)
+        V, F = blade_arrays
+        ob = _verify_object(f"{bname} verify", V, F, vertex_values, float(path.cusp),
+                            float(path.chord), f, coll)
+        ob[KEY_ROLE] = "verify"
+        ob[KEY_NAME] = f"{bname} verify"
+        ob.name = ob[KEY_NAME]
+        ob.data.name = ob.name
+        out["verify"] = ob
+    text = bpy.data.texts.get(coll.get(KEY_TEXT, ""))
+    if text is None:
+        text = bpy.data.texts.new(collection_name(bname) + ".json")
+        text.use_fake_user = True
+        coll[KEY_TEXT] = text.name
+    text.from_string(_to_text_lines(json_text))
+    out["text"] = text
+    return out
 
 
 def _max_pose_empties():

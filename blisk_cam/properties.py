@@ -277,6 +277,12 @@ class BliskCamSettings(PropertyGroup):
         default=0.0,
     )
     stat_verified: BoolProperty(name="Verified", default=False)
+    stat_verdict: StringProperty(
+        name="Verdict",
+        description="PASS or FAIL of the measured figures against cusp + chord and chord "
+        "(empty when not verified)",
+        default="",
+    )
     stat_material_left: FloatProperty(
         name="Max Material Left",
         description="Largest material left measured by the independent check, mm",

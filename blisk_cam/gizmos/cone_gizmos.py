@@ -13,8 +13,9 @@ With ``scene.blisk_cam.live_preview`` the group also draws a few LMC curves of t
 (:mod:`.lmc_preview`, s = 0, 1/6, …, 1) for the cones being dragged: recomputed while a
 handle is dragged, at most every :data:`PREVIEW_INTERVAL` seconds (or every "last compute
 time", if longer), plus once after the drag; otherwise the cached curves are drawn while they
-match the cones. The prepared blade mesh is cached until a depsgraph update touches the blade
-(object transform, geometry or its mesh); no preview while the blade is in edit mode.
+match the cones. The prepared blade mesh (and its meridional index, see :mod:`.lmc_preview`)
+is cached until a depsgraph update touches the blade (object transform, geometry or its mesh)
+or its vertex or face count changes; no preview while the blade is in edit mode.
 
 What does not need a window is plain functions here, tested in
 ``tests/blender/test_gizmos.py``: :func:`handle_get` / :func:`handle_set` (the gizmos' target
@@ -152,9 +153,14 @@ def describe_handle(scene, name: str) -> str:
 
 # --- live preview --------------------------------------------------------------------------
 def _mesh_key(scene):
+    """What the cached preview mesh is for: blade and mesh names (the depsgraph handler
+    watches these), the unit scale, and the mesh's vertex and face counts — an edit that
+    changes them is seen even where no depsgraph update ran."""
     blade = _settings(scene).blade
-    data = blade.data.name if blade.data is not None else ""
-    return (blade.name, data, mm_per_blender_unit(scene))
+    me = blade.data
+    data = me.name if me is not None else ""
+    counts = (len(me.vertices), len(me.polygons)) if hasattr(me, "polygons") else (0, 0)
+    return (blade.name, data, mm_per_blender_unit(scene), *counts)
 
 
 def update_preview(

@@ -27,6 +27,7 @@ from .common import (
     resolve_blade,
     stored_path,
 )
+from .modal_job import ModalJobOperator
 
 #: names of scenes with a modal check running
 _RUNNING: set[str] = set()
@@ -121,13 +122,17 @@ class CollisionJob:
         return self.finish(context)
 
 
-class BLISKCAM_OT_check_collisions(bpy.types.Operator):
+class BLISKCAM_OT_check_collisions(ModalJobOperator, bpy.types.Operator):
     """Check the generated paths for collisions of flute, shank and holder with the blade,
     its neighbours and the obstacles; in Avoid mode turn the tool axis clear (ESC cancels)"""
 
     bl_idname = "blisk_cam.check_collisions"
     bl_label = "Check Collisions"
     bl_options = {"REGISTER", "UNDO"}
+
+    running = _RUNNING
+    status_label = "Blisk CAM collisions"
+    cancel_text = "Collision check cancelled; the previous result is kept"
 
     @classmethod
     def poll(cls, context):
@@ -154,57 +159,17 @@ class BLISKCAM_OT_check_collisions(bpy.types.Operator):
                         "them (see Next Unresolved Pose)")
         self.report({"INFO"}, text)
 
-    # --- modal ---------------------------------------------------------------------------
-    def invoke(self, context, event):
-        if bpy.app.background or context.window is None:
-            return self.execute(context)
-        try:
-            self._job = CollisionJob(context)
-        except Exception as exc:
-            return report_exception(self, exc)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.05, window=context.window)
-        wm.modal_handler_add(self)
-        wm.progress_begin(0, 100)
-        _RUNNING.add(self._job.scene_name)
-        self._status(context, "starting")
-        return {"RUNNING_MODAL"}
+    # --- modal (ModalJobOperator) ----------------------------------------------------------
+    def new_job(self, context):
+        return CollisionJob(context)
 
-    def _status(self, context, text):
-        if context.workspace is not None:
-            context.workspace.status_text_set(f"Blisk CAM collisions: {text} — ESC to cancel")
-
-    def _end(self, context):
-        wm = context.window_manager
-        if getattr(self, "_timer", None) is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
-        if context.workspace is not None:
-            context.workspace.status_text_set(None)
-        _RUNNING.discard(self._job.scene_name)
-
-    def modal(self, context, event):
+    def tick(self, context):
         job = self._job
-        if event.type == "ESC":
-            self._end(context)
-            self.report({"WARNING"}, "Collision check cancelled; the previous result is kept")
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        try:
-            if not job.done:
-                job.step(0.15)
-                context.window_manager.progress_update(int(95 * job.fraction))
-                self._status(context, f"{int(100 * job.fraction)} %")
-                return {"RUNNING_MODAL"}
-            text, unresolved = job.finish(context)
-        except Exception as exc:
-            self._end(context)
-            return report_exception(self, exc)
-        self._end(context)
+        if not job.done:
+            job.step(0.15)
+            context.window_manager.progress_update(int(95 * job.fraction))
+            self._status(context, f"{int(100 * job.fraction)} %")
+            return None
+        text, unresolved = job.finish(context)
         self._report_done(text, unresolved)
         return {"FINISHED"}
-
-    def cancel(self, context):
-        self._end(context)

@@ -1,16 +1,25 @@
 """``blisk_cam.generate_paths``: scene settings → ``core.pipeline`` → path objects.
 
-Interactively (invoke with a window) it runs as a modal operator driven by a timer: each tick
-advances ``core.pipeline.iter_plan_paths`` for a short time slice, the status bar shows the
-progress, ESC cancels and leaves the previous result as it was (the new objects are only
-built once the path is complete). In background mode, or called with EXEC_DEFAULT, it runs
-synchronously. After planning, ``core.verify.verify_path`` measures the path (when the
-``verify`` setting is on) and :func:`blisk_cam.output.write_path_objects` replaces the blade's
-output collection.
+Interactively (invoke with a window) it runs as a modal operator driven by a timer
+(:class:`.modal_job.ModalJobOperator`): each tick advances ``core.pipeline.iter_plan_paths``
+for a short time slice and the status bar shows the progress; ESC while planning cancels and
+leaves the previous result as it was (the new objects are only built once the path is
+complete). As soon as the path is planned its objects (curves, poses, empties, cones) replace
+the previous ones; with the ``verify`` setting on, ``core.verify.verify_path`` then measures
+the path on a worker thread (arrays only, no ``bpy``) while the UI stays free, the panel shows
+"Verifying…", and the timer attaches the figures when they are ready: the verdict in the paths
+JSON, the measured cusp per curve, the statistics and (``verify_map``) the colour-map copy of
+the blade (:func:`blisk_cam.output.attach_verify`). ESC while verifying, or a new Generate,
+drops the pending figures: the new paths stay, without verify figures or a colour map.
+
+In background mode, or called with EXEC_DEFAULT, it runs synchronously (plan, verify, then
+one :func:`blisk_cam.output.write_path_objects` with everything): the same objects and JSON as
+the interactive run once its verify is attached.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 
 import bpy
@@ -28,9 +37,12 @@ from .common import (
     resolve_blade,
     settings_cones,
 )
+from .modal_job import ModalJobOperator
 
-#: names of scenes with a modal generation running (names, never bpy objects)
+#: names of scenes with a modal generation planning (names, never bpy objects)
 _RUNNING: set[str] = set()
+#: scene name → the job whose paths are shown and whose verify is still running
+_VERIFYING: dict[str, PathJob] = {}
 #: the core's warnings about a path beyond this many are only counted in the summary
 MAX_WARNING_REPORTS = 3
 
@@ -67,6 +79,13 @@ class PathJob:
         self.verify = None
         self.warnings = []
         self.verdict = None  # core.verdict.Verdict once verified
+        # the interactive verify on a worker thread (start_verify … attach_verify)
+        self._thread = None
+        self._verify_result = self._verify_error = None
+        self.verify_cancelled = False
+        self.written_json = None  # the paths JSON show_paths wrote
+        self.paths_seconds = None  # seconds from the start until the paths were shown
+        self.verify_seconds = None  # seconds the worker took
         self.t0 = time.perf_counter()
         self._it = iter_plan_paths(self.mesh, self.request)
 
@@ -92,39 +111,121 @@ class PathJob:
         return self.plan is not None
 
     def run_verify(self):
-        """Measure the planned path (when asked)."""
+        """Measure the planned path (when asked), on this thread."""
         if self.want_verify and self.verify is None:
             from ..core.verify import verify_path
 
             self.verify = verify_path(self.mesh, self.plan.path)
 
-    def finish(self, context) -> str:
-        """Write the objects and statistics; returns the summary for the report."""
-        from .. import output
+    # --- verify on a worker thread (interactive) ---------------------------------------
+    def start_verify(self) -> bool:
+        """Start measuring the planned path on a worker thread; False when verify is off.
 
-        scene = context.scene
-        settings = scene.blisk_cam
+        The thread reads only this job's arrays (``mesh``, ``V``, the planned ``ToolPath``)
+        and writes only ``_verify_result`` (report, verdict, paths JSON, colour-map values) /
+        ``_verify_error``: no ``bpy``. The main thread polls :attr:`verify_ready` and then
+        calls :meth:`attach_verify`, which only writes the Blender data."""
+        if not self.want_verify or self.plan is None:
+            return False
+        from ..core.verify import verify_path
+
+        mesh, path = self.mesh, self.plan.path
+
+        def work():
+            t0 = time.perf_counter()
+            try:
+                report = verify_path(mesh, path)
+                # the rest of the figures too (pure core), so attaching is only bpy work
+                verdict, json_text = self._verdict_json(report)
+                values = self._map_values(report)
+                self._verify_result = (report, verdict, json_text, values)
+            except BaseException as exc:  # handed to the main thread, reported there
+                self._verify_error = exc
+            self.verify_seconds = time.perf_counter() - t0
+
+        self._verify_result = self._verify_error = None
+        self.verify_cancelled = False
+        self._thread = threading.Thread(target=work, name="blisk_cam verify", daemon=True)
+        self._thread.start()
+        return True
+
+    @property
+    def verify_pending(self) -> bool:
+        """A verify was started, is not cancelled and its figures are not attached yet."""
+        return (getattr(self, "_thread", None) is not None and not self.verify_cancelled
+                and self.verify is None)
+
+    @property
+    def verify_ready(self) -> bool:
+        """The worker has finished (with figures or an error)."""
+        t = getattr(self, "_thread", None)
+        return t is not None and not t.is_alive()
+
+    def wait_verify(self, timeout: float | None = None) -> bool:
+        """Block until the worker has finished (tests, bench, background); True if it has."""
+        t = getattr(self, "_thread", None)
+        if t is not None:
+            t.join(timeout)
+        return self.verify_ready
+
+    def cancel_verify(self):
+        """Drop the pending figures: they are never attached (the worker, which cannot be
+        interrupted inside ``verify_path``, finishes on its own and its result is freed)."""
+        self.verify_cancelled = True
+        if _VERIFYING.get(self.scene_name) is self:
+            del _VERIFYING[self.scene_name]
+
+    # --- writing ------------------------------------------------------------------------
+    def _verdict_json(self, report):
+        """(verdict, paths JSON with the "verify" verdict) of the path measured by
+        ``report`` (core.verify.VerifyReport). No bpy: the worker thread calls it."""
+        import json
+
+        from ..core.paths_io import path_to_dict
+        from ..core.verdict import judge, verdict_dict
+
+        path = self.plan.path
+        verdict = judge(report, path.cusp, path.chord, path.tool, path=path)
+        return verdict, json.dumps({**path_to_dict(path), "verify": verdict_dict(verdict)},
+                                   allow_nan=False)
+
+    def _blade(self):
         blade = bpy.data.objects.get(self.blade_name)
         if blade is None:
             raise BliskCamError(
                 f"the blade '{self.blade_name}' was deleted or renamed while the paths were "
                 "generated; generate again"
             )
+        return blade
+
+    def _map_values(self, report):
+        """(n,) material left per input vertex for the colour map, or None (not asked)."""
+        if self.want_map and report is not None:
+            return input_vertex_values(self.mesh, self.V, report.vertex_values)
+        return None
+
+    def _warnings(self):
+        warnings = list(self.plan.warnings)  # the generator's and the planning's
+        if self.verdict is not None and not self.verdict.passed:
+            from ..core.verdict import verdict_lines
+
+            warnings.append(" ".join(x.strip() for x in verdict_lines(self.verdict)[:3]))
+        return warnings
+
+    def finish(self, context) -> str:
+        """Write the objects and statistics (with the verify figures, if measured); returns
+        the summary for the report."""
+        from .. import output
+
+        scene = context.scene
+        settings = scene.blisk_cam
+        blade = self._blade()
         path = self.plan.path
-        values = None
-        if self.want_map and self.verify is not None:
-            values = input_vertex_values(self.mesh, self.V, self.verify.vertex_values)
+        values = self._map_values(self.verify)
         json_text = None
         self.verdict = None
         if self.verify is not None:  # the verdict goes into the paths JSON ("verify")
-            import json
-
-            from ..core.paths_io import path_to_dict
-            from ..core.verdict import judge, verdict_dict
-
-            self.verdict = judge(self.verify, path.cusp, path.chord, path.tool, path=path)
-            json_text = json.dumps({**path_to_dict(path), "verify": verdict_dict(self.verdict)},
-                                   allow_nan=False)
+            self.verdict, json_text = self._verdict_json(self.verify)
         output.write_path_objects(
             scene, blade, path, settings,
             json_text=json_text,
@@ -137,13 +238,56 @@ class PathJob:
         fit = self.plan.fit
         if fit is not None:
             settings.fit_residual1, settings.fit_residual2 = fit.residual1, fit.residual2
-        store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0)
-        self.warnings = self.plan.warnings  # the generator's and the planning's
-        if self.verdict is not None and not self.verdict.passed:
-            from ..core.verdict import verdict_lines
+        store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0,
+                         self.verdict)
+        self.warnings = self._warnings()
+        return summary(settings)
 
-            self.warnings = [*self.warnings, " ".join(x.strip() for x in verdict_lines(
-                self.verdict)[:3])]
+    def show_paths(self, context) -> str:
+        """Write the planned path's objects now, without verify figures, and start the
+        verify worker (when asked); returns the summary of the paths."""
+        from .. import output
+
+        text = self.finish(context)  # self.verify is None: the paths without figures
+        self.written_json = output.stored_paths_json(self.blade_name)
+        self.paths_seconds = time.perf_counter() - self.t0
+        if self.start_verify():
+            _VERIFYING[self.scene_name] = self
+        return text
+
+    def attach_verify(self, context) -> str:
+        """Attach the worker's figures to the shown paths (main thread); returns the summary.
+
+        Raises BliskCamError when the verify failed, or when the blade's output is no longer
+        the one :meth:`show_paths` wrote (cleared, regenerated or rewritten by a collision
+        check in the meantime): the figures would then describe another path."""
+        from .. import output
+
+        if _VERIFYING.get(self.scene_name) is self:
+            del _VERIFYING[self.scene_name]
+        if self._verify_error is not None:
+            raise self._verify_error
+        blade = self._blade()
+        if output.stored_paths_json(self.blade_name) != self.written_json:
+            raise BliskCamError(
+                f"the paths of '{self.blade_name}' changed while they were being verified; "
+                "the verify figures were dropped (generate again to verify)"
+            )
+        self.verify, self.verdict, json_text, values = self._verify_result
+        self._verify_result = None
+        path = self.plan.path
+        scene = context.scene
+        settings = scene.blisk_cam
+        output.attach_verify(
+            scene, blade, path, settings,
+            json_text=json_text,
+            verify=self.verify,
+            blade_arrays=(self.V, self.F) if values is not None else None,
+            vertex_values=values,
+        )
+        store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0,
+                         self.verdict)
+        self.warnings = self._warnings()
         return summary(settings)
 
     def run(self, context) -> str:
@@ -154,8 +298,24 @@ class PathJob:
         return self.finish(context)
 
 
-def store_statistics(settings, blade_name, path, verify, seconds):
-    """Statistics of the result on the settings (saved in the .blend, shown by the panel)."""
+def verify_pending(scene_name: str) -> bool:
+    """True while the paths of the scene are shown and their verify is still running."""
+    job = _VERIFYING.get(scene_name)
+    return job is not None and job.verify_pending
+
+
+def cancel_pending_verify(scene_name: str) -> bool:
+    """Drop the scene's pending verify (a new generation starts); True if there was one."""
+    job = _VERIFYING.pop(scene_name, None)
+    if job is None:
+        return False
+    job.cancel_verify()
+    return True
+
+
+def store_statistics(settings, blade_name, path, verify, seconds, verdict=None):
+    """Statistics of the result on the settings (saved in the .blend, shown by the panel);
+    ``verdict`` (core.verdict.Verdict) gives ``stat_verdict`` "PASS"/"FAIL" ("" without)."""
     settings.has_result = True
     settings.stat_blade = blade_name
     settings.stat_curves = len(path.curves)
@@ -183,6 +343,7 @@ def store_statistics(settings, blade_name, path, verify, seconds):
         settings.stat_gouge = gouge if np.isfinite(gouge) else 0.0
     else:
         settings.stat_material_left = settings.stat_gouge = 0.0
+    settings.stat_verdict = verdict.status if verdict is not None and verify is not None else ""
 
 
 def summary(settings) -> str:
@@ -202,12 +363,17 @@ def summary(settings) -> str:
     return text
 
 
-class BLISKCAM_OT_generate_paths(bpy.types.Operator):
+class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
     """Generate the finishing tool paths between the two cones (ESC cancels)"""
 
     bl_idname = "blisk_cam.generate_paths"
     bl_label = "Generate Paths"
     bl_options = {"REGISTER", "UNDO"}
+
+    running = _RUNNING
+    status_label = "Blisk CAM"
+    cancel_text = "Path generation cancelled; the previous paths are kept"
+    start_text = "reading the mesh"
 
     @classmethod
     def poll(cls, context):
@@ -221,6 +387,7 @@ class BLISKCAM_OT_generate_paths(bpy.types.Operator):
         return True
 
     def execute(self, context):
+        cancel_pending_verify(context.scene.name)
         try:
             job = PathJob(context)
             text = job.run(context)
@@ -234,61 +401,64 @@ class BLISKCAM_OT_generate_paths(bpy.types.Operator):
             self.report({"WARNING"}, w)
         self.report({"INFO"}, text)
 
-    # --- modal ---------------------------------------------------------------------------
-    def invoke(self, context, event):
-        if bpy.app.background or context.window is None:
-            return self.execute(context)
-        try:
-            self._job = PathJob(context)
-        except Exception as exc:
-            return report_exception(self, exc)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.05, window=context.window)
-        wm.modal_handler_add(self)
-        wm.progress_begin(0, 100)
-        _RUNNING.add(self._job.scene_name)
-        self._status(context, "reading the mesh")
-        return {"RUNNING_MODAL"}
+    # --- modal (ModalJobOperator) ----------------------------------------------------------
+    def new_job(self, context):
+        cancel_pending_verify(context.scene.name)  # a new Generate drops the old figures
+        return PathJob(context)
 
-    def _status(self, context, text):
-        if context.workspace is not None:
-            context.workspace.status_text_set(f"Blisk CAM: {text} — ESC to cancel")
-
-    def _end(self, context):
-        wm = context.window_manager
-        if getattr(self, "_timer", None) is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
-        if context.workspace is not None:
-            context.workspace.status_text_set(None)
-        _RUNNING.discard(self._job.scene_name)
-
-    def modal(self, context, event):
+    def tick(self, context):
+        """Plan → show the paths → poll the verify worker → attach its figures."""
         job = self._job
-        if event.type == "ESC":
-            self._end(context)
-            self.report({"WARNING"}, "Path generation cancelled; the previous paths are kept")
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        if not job.planned:
+            job.step(0.15)
+            wm.progress_update(int(90 * job.fraction))
+            self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
+            return None
+        if job.written_json is None:  # planned on the last tick: show the paths now
+            text = job.show_paths(context)
+            self.running.discard(job.scene_name)  # a new Generate may start (and cancel)
+            if not job.verify_pending:
+                self._report_done(job, text)
+                return {"FINISHED"}
+            wm.progress_update(95)
+            self._status(context, "paths shown, verifying them", escape="ESC skips the verify")
+            _tag_redraw(context)
+            return None
+        if job.verify_cancelled:  # a new Generate took over: the paths stay, no figures
+            self.report({"WARNING"}, "Verify dropped: a new generation started")
+            return {"FINISHED"}
+        if not job.verify_ready:
+            return None
         try:
-            if not job.planned:
-                job.step(0.15)
-                context.window_manager.progress_update(int(90 * job.fraction))
-                self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
-                if job.planned and job.want_verify:
-                    self._status(context, "verifying the path")
-                return {"RUNNING_MODAL"}
-            job.run_verify()
-            context.window_manager.progress_update(95)
-            text = job.finish(context)
-        except Exception as exc:
-            self._end(context)
-            return report_exception(self, exc)
-        self._end(context)
+            text = job.attach_verify(context)
+        except Exception as exc:  # the paths shown stay (FINISHED: one undo step)
+            report_exception(self, exc)
+            return {"FINISHED"}
         self._report_done(job, text)
+        _tag_redraw(context)
         return {"FINISHED"}
 
-    def cancel(self, context):
-        self._end(context)
+    def escape(self, context):
+        job = self._job
+        if job.written_json is None:
+            return ModalJobOperator.escape(self, context)
+        # the new paths are shown: keep them (FINISHED, one undo step), drop the figures
+        job.cancel_verify()
+        self.report({"WARNING"}, "Verify cancelled; the new paths are kept without verify "
+                    "figures (turn Verify off to skip it)")
+        return {"FINISHED"}
+
+    def end_job(self, context):
+        job = self._job
+        if job.verify_pending:  # ended by Blender (file load, window closed) or an error
+            job.cancel_verify()
+        _tag_redraw(context)
+
+
+def _tag_redraw(context):
+    """Redraw the sidebar (the panel's "Verifying…" line and the statistics)."""
+    screen = getattr(context, "screen", None)
+    for area in getattr(screen, "areas", ()):
+        if area.type in {"VIEW_3D", "PROPERTIES"}:
+            area.tag_redraw()

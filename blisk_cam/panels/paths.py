@@ -21,6 +21,7 @@ class BLISKCAM_PT_paths(_BliskCamPanel, Panel):
 
     def draw(self, context):
         from ..operators.common import blade_problem, cones_problem
+        from ..operators.generate_paths import verify_pending
 
         settings = context.scene.blisk_cam
         layout = self.layout
@@ -54,7 +55,12 @@ class BLISKCAM_PT_paths(_BliskCamPanel, Panel):
             col.label(text=f"{settings.stat_warnings} warning(s): see the Info log",
                       icon="ERROR")
         col.label(text=f"Cusp (generator): {settings.stat_cusp:.4f} mm")
-        if settings.stat_verified:
+        if verify_pending(context.scene.name):
+            col.label(text="Verifying… (ESC skips it)", icon="TIME")
+        elif settings.stat_verified:
+            if settings.stat_verdict:
+                col.label(text=f"Verify: {settings.stat_verdict}",
+                          icon="CHECKMARK" if settings.stat_verdict == "PASS" else "ERROR")
             col.label(text=f"Measured max material left: {settings.stat_material_left:.4f} mm")
             col.label(text=f"Measured max gouge: {settings.stat_gouge:.4f} mm")
         else:

@@ -243,3 +243,45 @@ def test_bad_input_is_refused_clearly(addon, demo, tmp_path):
     obs = _stored(blade)["collision"]["obstacles"]
     assert obs["names"][-1] == "hub" and obs["triangles"][-1] == len(demo.hub_faces)
     assert len(obs["names"]) == 1 + 4 + 1  # blade, ±1, ±2, hub: not the blade object again
+
+
+def test_modal_check_steps_esc_keeps_and_finishes_like_exec(addon, demo, tmp_path):
+    """Check Collisions through the shared modal machinery (``ModalJobOperator``), stepped
+    by hand: a second run is refused while one goes, ESC keeps the previous result, ticking
+    to the end writes what the synchronous operator writes."""
+    from blisk_cam.operators import check_collisions as cc_mod
+    from blisk_cam.operators.modal_job import ModalRunner
+
+    blade, s = _setup(demo, tmp_path)
+    before = output.stored_paths_json(blade.name)
+    op = ModalRunner(cc_mod.BLISKCAM_OT_check_collisions, cc_mod.CollisionJob(bpy.context))
+    op.start(bpy.context)
+    assert bpy.context.scene.name in cc_mod._RUNNING
+    assert not bpy.ops.blisk_cam.check_collisions.poll()
+    assert op.step(bpy.context, "MOUSEMOVE") == {"PASS_THROUGH"}
+    assert op.step(bpy.context, "ESC") == {"CANCELLED"}
+    assert op.reports[-1][0] == {"WARNING"} and "previous result is kept" in op.reports[-1][1]
+    assert output.stored_paths_json(blade.name) == before and not cc_mod._RUNNING
+
+    op = ModalRunner(cc_mod.BLISKCAM_OT_check_collisions, cc_mod.CollisionJob(bpy.context))
+    op.start(bpy.context)
+    fractions, result = [], {"RUNNING_MODAL"}
+    for _ in range(1000):
+        result = op.step(bpy.context)
+        fractions.append(op._job.fraction)
+        if result != {"RUNNING_MODAL"}:
+            break
+    assert result == {"FINISHED"}, op.reports
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and not cc_mod._RUNNING
+    assert op.reports[-1][0] == {"INFO"} and "poses checked" in op.reports[-1][1]
+    modal = _stored(blade)
+    output.write_path_objects(bpy.context.scene, blade, _from_json(before))
+    assert bpy.ops.blisk_cam.check_collisions() == {"FINISHED"}  # the same check, EXEC
+    assert _stored(blade)["collision"] == modal["collision"]
+    np.testing.assert_array_equal(_json_statuses(_stored(blade)), _json_statuses(modal))
+
+
+def _from_json(text):
+    from blisk_cam.core.paths_io import path_from_dict
+
+    return path_from_dict(json.loads(text))

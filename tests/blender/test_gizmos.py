@@ -246,6 +246,72 @@ def test_preview_curves_cache_and_depsgraph_invalidation(addon, blade_scene, dem
     assert not preview.has_mesh()
 
 
+def _fresh_slice(scene):
+    """The preview curves of the scene's cones sliced from scratch: the blade read again, a
+    slicer over its whole mesh (no cache, no index)."""
+    from blisk_cam.gizmos.lmc_preview import LmcPreview
+
+    s = scene.blisk_cam
+    V, F = blender_io.object_to_arrays(s.blade)
+    res = LmcPreview(indexed=False).compute("fresh", lambda: (V, F), addon_axis(scene),
+                                            tuple(s.cone1), tuple(s.cone2))
+    assert res.error is None
+    return res
+
+
+def addon_axis(scene):
+    from blisk_cam.gizmos import cone_gizmos
+
+    return cone_gizmos.scene_axis(scene)
+
+
+def _assert_same_curves(a, b):
+    assert [(c.s, c.closed, len(c.points)) for c in a.curves] == [
+        (c.s, c.closed, len(c.points)) for c in b.curves]
+    for x, y in zip(a.curves, b.curves, strict=True):
+        np.testing.assert_allclose(x.points, y.points, rtol=0, atol=1e-9)
+
+
+def test_preview_of_a_changed_mesh_equals_a_fresh_slice(addon, blade_scene):
+    """The cached mesh and meridional index follow the blade: after a mesh edit — seen by
+    the depsgraph handler, or only by the vertex and face counts of the key when no depsgraph
+    update ran — the preview is that of the edited mesh, as a slicer over all of it gives."""
+    scene = blade_scene
+    s = scene.blisk_cam
+    preview = addon.PREVIEW
+    res = addon.update_preview(scene, enabled=True)
+    assert res.error is None and preview.indexed
+    _assert_same_curves(res, _fresh_slice(scene))
+    s.cone1 = (151.0, -25.0, 166.0, 35.0)  # a drag step: sliced on the cached index
+    res = addon.update_preview(scene, enabled=True)
+    _assert_same_curves(res, _fresh_slice(scene))
+    loads, before = preview.mesh_loads, res
+
+    # every vertex 1 % further out (the mesh data, not the object): a depsgraph update
+    me = s.blade.data
+    co = np.empty(len(me.vertices) * 3)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    co[:, :2] *= 1.01
+    me.vertices.foreach_set("co", co.ravel())
+    me.update()
+    bpy.context.view_layer.update()
+    res = addon.update_preview(scene, enabled=True)
+    assert preview.mesh_loads == loads + 1 and res.error is None
+    _assert_same_curves(res, _fresh_slice(scene))
+    assert not np.allclose(res.curves[3].points, before.curves[3].points, atol=1e-3)
+
+    # the mesh rebuilt with one face less and no depsgraph update: the counts tell
+    V, F = blender_io.object_to_arrays(s.blade)
+    me.clear_geometry()
+    me.from_pydata(V[:, :].tolist(), [], F[:-1].tolist())
+    me.update()
+    assert preview.has_mesh()  # the handler has not run
+    res = addon.update_preview(scene, enabled=True)
+    assert preview.mesh_loads == loads + 2 and res.error is None
+    _assert_same_curves(res, _fresh_slice(scene))
+
+
 def test_preview_is_throttled_while_dragging(addon, blade_scene):
     scene = blade_scene
     s = scene.blisk_cam

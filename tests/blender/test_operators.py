@@ -22,6 +22,7 @@ from blisk_cam.core.mesh import TriMesh
 from blisk_cam.core.verify import closest_points
 from blisk_cam.operators import generate_paths as gen_mod
 from blisk_cam.operators.common import blade_problem, cones_problem
+from blisk_cam.operators.modal_job import ModalRunner
 
 CUSP = CHORD = 0.3  # mm: coarse, the tests are about plumbing
 POSE_CAP = 40
@@ -512,26 +513,74 @@ def test_lead_tilt_degrees_become_radians_in_properties(addon):
     assert req.lead == pytest.approx(math.radians(3.0), abs=1e-7)
 
 
-class _Event:
-    def __init__(self, type_):
-        self.type = type_
+def _runner(op_class=None):
+    """A Generate Paths run stepped by hand: the operator's own modal code (``tick``,
+    ``escape``, ``_end``...) bound by ``ModalRunner``, started as ``invoke`` does."""
+    op_class = op_class or gen_mod.BLISKCAM_OT_generate_paths
+    runner = ModalRunner(op_class, gen_mod.PathJob(bpy.context))
+    runner.start(bpy.context)
+    return runner
 
 
-class _ModalStandIn:
-    """What the modal operator keeps on ``self``, without Blender's event loop (none in
-    background mode): the real methods run on it."""
+def _until_paths_shown(runner, max_ticks=500):
+    """Timer ticks until the planned paths are written; the return set of the last tick."""
+    for _ in range(max_ticks):
+        result = runner.step(bpy.context)
+        if result != {"RUNNING_MODAL"} or runner._job.written_json is not None:
+            return result
+    raise AssertionError("the paths were not planned in time")
 
-    def __init__(self, job):
-        from blisk_cam.operators.generate_paths import BLISKCAM_OT_generate_paths as op
 
-        self._job, self._timer, self.reports = job, None, []
-        self._status = op._status.__get__(self)
-        self._end = op._end.__get__(self)
-        self._report_done = op._report_done.__get__(self)
-        self.modal = op.modal.__get__(self)
+def _without_stats(json_text):
+    d = json.loads(json_text)
+    d.pop("stats", None)  # wall times
+    return d
 
-    def report(self, kind, text):
-        self.reports.append((set(kind), text))
+
+def _verify_state(blade_name="Blade"):
+    """What the verify left in the output: the colour-map values, the per-spline cusp of the
+    CC curves, the curve materials, the stored JSON's verdict."""
+    objs = output.output_objects(output.find_output_collection(blade_name))
+    ob = objs["verify"]
+    cc = objs["cc"]
+    return {
+        "map": None if ob is None else _attr(ob.data, "material_left", 1),
+        "map_objects": sorted(o.name for o in bpy.data.objects if o.name.startswith(
+            f"{blade_name} verify")),
+        "spline_cusp": list(cc.data[output.KEY_SPLINE_CUSP]),
+        "materials": [sp.material_index for sp in cc.data.splines],
+        "verdict": json.loads(output.stored_paths_json(blade_name)).get("verify"),
+    }
+
+
+class _Layout:
+    """Stands in for ``UILayout``: records the labels drawn (text only)."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = self.use_property_decorate = False
+        self.scale_y = 1.0
+
+    def _child(self, *_a, **_kw):
+        return _Layout(self.log)
+
+    row = column = box = split = _child
+
+    def label(self, text="", **_kw):
+        self.log.append(text)
+
+    def prop(self, *_a, **_kw):
+        pass
+
+    operator = prop
+
+
+def _paths_panel_labels():
+    from blisk_cam.panels.paths import BLISKCAM_PT_paths
+
+    log = []
+    BLISKCAM_PT_paths.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
+    return log
 
 
 def test_modal_steps_with_progress_and_esc_keeps_the_previous_result(addon, demo):
@@ -541,21 +590,19 @@ def test_modal_steps_with_progress_and_esc_keeps_the_previous_result(addon, demo
 
     # ESC after a few ticks: cancelled, the previous result untouched, nothing left running
     scene.blisk_cam.cusp = 0.35
-    op = _ModalStandIn(gen_mod.PathJob(bpy.context))
-    gen_mod._RUNNING.add(scene.name)
+    op = _runner()
     assert "being generated" in _poll_error(bpy.ops.blisk_cam.generate_paths)
-    assert op.modal(bpy.context, _Event("TIMER")) == {"RUNNING_MODAL"}
-    assert op.modal(bpy.context, _Event("MOUSEMOVE")) == {"PASS_THROUGH"}
-    assert op.modal(bpy.context, _Event("ESC")) == {"CANCELLED"}
+    assert op.step(bpy.context) == {"RUNNING_MODAL"}
+    assert op.step(bpy.context, "MOUSEMOVE") == {"PASS_THROUGH"}
+    assert op.step(bpy.context, "ESC") == {"CANCELLED"}
     assert op.reports[-1][0] == {"WARNING"} and "previous paths are kept" in op.reports[-1][1]
     assert output.stored_paths_json("Blade") == first and not gen_mod._RUNNING
 
     # ticks to the end: progress goes up, the result replaces the previous one
-    op = _ModalStandIn(gen_mod.PathJob(bpy.context))
-    gen_mod._RUNNING.add(scene.name)
+    op = _runner()
     fractions, result = [], {"RUNNING_MODAL"}
     for _ in range(500):
-        result = op.modal(bpy.context, _Event("TIMER"))
+        result = op.step(bpy.context)
         fractions.append(op._job.fraction)
         if result != {"RUNNING_MODAL"}:
             break
@@ -564,3 +611,104 @@ def test_modal_steps_with_progress_and_esc_keeps_the_previous_result(addon, demo
     assert op.reports[-1][0] == {"INFO"} and "passes" in op.reports[-1][1]
     assert output.stored_paths_json("Blade") != first and not gen_mod._RUNNING
     assert json.loads(output.stored_paths_json("Blade"))["tolerances"]["cusp"] == 0.35
+    assert not gen_mod._VERIFYING  # verify off: nothing pending
+
+
+def test_interactive_generate_shows_the_paths_then_the_verify_map(addon, demo):
+    """The paths are in the scene on the tick the plan completes, before any verify figure;
+    the figures come on a later tick, from a worker thread, and the end result equals the
+    synchronous run's (same JSON but wall times, same colour map, cusp colours, verdict)."""
+    scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, verify=True, verify_map=True)
+    s = scene.blisk_cam
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}  # synchronous: the reference
+    ref_json = _without_stats(output.stored_paths_json("Blade"))
+    ref = _verify_state()
+    ref_stats = (s.stat_material_left, s.stat_gouge, s.stat_verdict, s.stat_poses)
+    assert ref["map"] is not None and ref_json["verify"]["status"] in ("PASS", "FAIL")
+    assert s.stat_verdict == ref_json["verify"]["status"]
+    output.clear_path_objects("Blade")
+
+    op = _runner()
+    assert _until_paths_shown(op) == {"RUNNING_MODAL"}
+    job = op._job
+    # the paths are shown: curves, poses, empties as the JSON says; no verify figure yet
+    assert output.has_paths("Blade")
+    shown = output.stored_paths_json("Blade")
+    assert "verify" not in json.loads(shown)
+    assert _without_stats(shown) == {k: v for k, v in ref_json.items() if k != "verify"}
+    _check_outputs_match_json(_measure_outputs("Blade"), json.loads(shown), POSE_CAP)
+    state = _verify_state()
+    assert state["map"] is None and state["map_objects"] == []
+    assert not s.stat_verified and s.stat_verdict == "" and s.has_result
+    assert gen_mod.verify_pending(scene.name) and job.verify_pending
+    labels = _paths_panel_labels()  # the panel: the paths' figures and "Verifying…"
+    assert "Verifying… (ESC skips it)" in labels and f"Blade: {s.stat_blade}" in labels
+    assert not [x for x in labels if x.startswith(("Verify:", "Measured", "Not verified"))]
+    # the UI is free: the panel's Generate is enabled again (a new run would drop the verify)
+    assert scene.name not in gen_mod._RUNNING
+    assert bpy.ops.blisk_cam.generate_paths.poll()
+
+    # ticks while the worker runs change nothing; once it is done one tick attaches it all
+    assert job.wait_verify(600.0)
+    assert job.verify is None and output.stored_paths_json("Blade") == shown
+    assert op.step(bpy.context) == {"FINISHED"}, op.reports
+    assert op.reports[-1][0] == {"INFO"} and "measured max material left" in op.reports[-1][1]
+    assert not gen_mod.verify_pending(scene.name) and not gen_mod._VERIFYING
+    assert _without_stats(output.stored_paths_json("Blade")) == ref_json
+    got = _verify_state()
+    np.testing.assert_array_equal(got["map"], ref["map"])
+    assert got["spline_cusp"] == ref["spline_cusp"] and got["materials"] == ref["materials"]
+    assert got["map_objects"] == ["Blade verify"]
+    assert (s.stat_material_left, s.stat_gouge, s.stat_verdict, s.stat_poses) == ref_stats
+    assert s.stat_verified
+    labels = _paths_panel_labels()  # then the verdict and the measured figures
+    assert f"Verify: {ref_json['verify']['status']}" in labels
+    assert f"Measured max material left: {s.stat_material_left:.4f} mm" in labels
+    assert not [x for x in labels if x.startswith("Verifying")]
+
+
+def test_cancelling_a_pending_verify_leaves_a_consistent_scene(addon, demo):
+    scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, verify=True, verify_map=True)
+    s = scene.blisk_cam
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}  # an old result with its map
+    assert _verify_state()["map"] is not None
+
+    # ESC while verifying: the new paths stay (FINISHED: one undo step), no stale colour map
+    s.cusp = 0.45
+    op = _runner()
+    _until_paths_shown(op)
+    job = op._job
+    new_json = output.stored_paths_json("Blade")
+    assert json.loads(new_json)["tolerances"]["cusp"] == pytest.approx(0.45)
+    assert _verify_state()["map_objects"] == []  # the old map went with the old paths
+    assert op.step(bpy.context, "ESC") == {"FINISHED"}
+    assert op.reports[-1][0] == {"WARNING"} and "Verify cancelled" in op.reports[-1][1]
+    assert not gen_mod.verify_pending(scene.name) and not gen_mod._RUNNING
+    job.wait_verify(600.0)  # the worker ends on its own; its figures are never attached
+    assert job.verify is None and output.stored_paths_json("Blade") == new_json
+    assert _verify_state()["map_objects"] == [] and not s.stat_verified
+
+    # a new Generate while verifying drops the pending figures: the new result is complete
+    op = _runner()
+    _until_paths_shown(op)
+    first_job = op._job
+    s.cusp = 0.4
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}  # synchronous, with verify
+    newest = output.stored_paths_json("Blade")
+    assert json.loads(newest)["tolerances"]["cusp"] == pytest.approx(0.4)
+    assert "verify" in json.loads(newest) and s.stat_verified
+    first_job.wait_verify(600.0)
+    assert op.step(bpy.context) == {"FINISHED"}
+    assert "new generation" in op.reports[-1][1]
+    assert output.stored_paths_json("Blade") == newest and first_job.verify is None
+    assert _verify_state()["map_objects"] == ["Blade verify"]
+
+    # the paths cleared while verifying: the figures are dropped with a reason, nothing made
+    op = _runner()
+    _until_paths_shown(op)
+    assert bpy.ops.blisk_cam.clear_paths() == {"FINISHED"}
+    op._job.wait_verify(600.0)
+    assert op.step(bpy.context) == {"FINISHED"}
+    assert op.reports[-1][0] == {"ERROR"} and "generate again" in op.reports[-1][1]
+    assert output.find_output_collection("Blade") is None
+    assert not [o for o in bpy.data.objects if o.name.startswith("Blade verify")]

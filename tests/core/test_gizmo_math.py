@@ -406,3 +406,65 @@ def test_lmc_preview_uses_the_morphing_family_of_the_core(tube_mesh):
     assert len(a.curves) == len(b.curves) == 1
     assert np.allclose(a.curves[0].points, b.curves[0].points)
     assert MorphingCones(Cone(*c1), Cone(*rev)).cone2.as_list() == c2
+
+
+def _curves_by_level(res):
+    return [(c.s, c.closed, c.points) for c in res.curves]
+
+
+def _same_curves(a, b):
+    """Same levels, same components in the same order, the same points (bit for bit)."""
+    assert [(s, cl, len(p)) for s, cl, p in a] == [(s, cl, len(p)) for s, cl, p in b]
+    for (_, _, p), (_, _, q) in zip(a, b, strict=True):
+        np.testing.assert_array_equal(p, q)
+
+
+def test_indexed_preview_equals_slicing_the_whole_mesh(make_tube):
+    """The slicer on the faces near the levels gives the curves of the slicer on the whole
+    mesh, for cone pairs crossing the blade anywhere (also partly off it), and a drag step
+    reusing the levels that did not move gives them too."""
+    V, F, mc = make_tube(n_u=96, n_v=40)
+    axis = Axis()
+    c1, c2 = mc.cone1.as_list(), mc.cone2.as_list()
+    rng = np.random.default_rng(7)
+    fast, whole = LmcPreview(), LmcPreview(indexed=False)
+    pairs = [(c1, c2)]
+    for _ in range(6):  # cones moved by up to a few mm, tilted
+        pairs.append(([x + rng.uniform(-3, 3) for x in c1], [x + rng.uniform(-3, 3) for x in c2]))
+    pairs += [(c1, c2), ([c1[0] + 0.5, *c1[1:]], c2)]  # a drag of P1: s = 1 is reused
+    n_reused = []
+    for a1, a2 in pairs:
+        f = fast.compute("t", CountingLoader(V, F), axis, a1, a2)
+        w = whole.compute("t", CountingLoader(V, F), axis, a1, a2)
+        assert f.error is None and w.error is None
+        assert 0 < f.faces_sliced < len(F) == w.faces_sliced
+        _same_curves(_curves_by_level(f), _curves_by_level(w))
+        n_reused.append(f.levels_reused)
+    assert n_reused[-1] == 1 and fast.mesh_loads == 1 and fast.index_builds == 1
+    # levels reused only while their LMC is the same: another axis rebuilds the index
+    tilted = Axis(origin=(0.0, 0.0, 0.5))
+    f = fast.compute("t", CountingLoader(V, F), tilted, c1, c2)
+    w = whole.compute("t", CountingLoader(V, F), tilted, c1, c2)
+    assert f.levels_reused == 0 and fast.index_builds == 2
+    _same_curves(_curves_by_level(f), _curves_by_level(w))
+
+
+def test_meridional_index_keeps_every_face_a_level_crosses(make_tube):
+    """faces_near ⊇ the faces with vertices on both sides of a level's LMC (brute force over
+    every face), and it leaves most faces out."""
+    from blisk_cam.core.mesh import TriMesh
+    from blisk_cam.gizmos.lmc_preview import MeridionalIndex
+
+    V, F, mc = make_tube(n_u=96, n_v=40)
+    mesh = TriMesh.from_arrays(V, F)
+    index = MeridionalIndex(mesh, Axis(), faces_per_cell=4)
+    r, z = meridional(mesh.V, Axis())
+    levels = (0.0, 0.3, 0.77, 1.0)
+    near = index.faces_near(mc, levels, 1e-3)
+    assert np.all(np.diff(near) > 0)
+    crossing = np.zeros(len(mesh.F), dtype=bool)
+    for s in levels:
+        f = mc.f(s, r, z)[mesh.F]  # (m, 3) signed distances, mm
+        crossing |= (f.min(axis=1) <= 1e-4) & (f.max(axis=1) > 1e-4)
+    assert np.isin(np.flatnonzero(crossing), near).all()
+    assert crossing.sum() <= len(near) < 0.5 * len(mesh.F)

@@ -1,0 +1,156 @@
+"""Benchmark of the panel's Generate on NASA Rotor 37 with verify (and its colour map) on;
+prints figures (no assertions). Needs the bpy wheel.
+
+    python bench/bench_panel.py [--repeat 1] [--no-map] [--cusp 0.05] [--chord 0.05]
+
+The blade (tests/data/blades/rotor37_blade_extended_open.stl) is put in a factory scene as a
+Blender object with its hub and tip cones; every other setting is the panel's default. Two
+runs per repetition:
+
+* synchronous — ``bpy.ops.blisk_cam.generate_paths()`` (EXEC, what background mode, the CLI
+  and the tests do): the paths and the colour map appear together at the end and the UI is
+  blocked the whole time;
+* interactive — the operator's modal code stepped by hand (``ModalRunner``: timers do not
+  fire in background mode) on an emulated 50 ms timer, as Blender runs it after ``invoke``:
+  time until the paths are in the scene, time until the colour map is there, the worker's
+  verify time, the tick attaching the figures, and the longest single tick (the longest the
+  UI is frozen) while planning (reading the mesh, writing the paths included) and while
+  polling the verify worker (a tick only checks the thread; it may wait for the GIL).
+
+Times run from the start of the operator (reading the mesh included). The machine may be
+shared: compare the figures of one run with each other.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+BLADES = ROOT / "tests" / "data" / "blades"
+TICK = 0.05  # s, the operator's timer interval
+
+
+def scene_with_rotor37(args):
+    import bpy
+
+    from blisk_cam import blender_io
+    from blisk_cam.core.mesh_io import read_mesh
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    V, F = read_mesh(BLADES / "rotor37_blade_extended_open.stl")[:2]
+    cones = json.loads((BLADES / "rotor37_blade.json").read_text())["cones"]
+    blade = blender_io.arrays_to_object("Rotor37", V, F)
+    s = bpy.context.scene.blisk_cam
+    s.blade = blade
+    s.cone1 = (*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
+    s.cone2 = (*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    s.verify, s.verify_map = True, not args.no_map
+    s.cusp, s.chord = args.cusp, args.chord
+    return len(F)
+
+
+def run_sync():
+    import bpy
+
+    t0 = time.perf_counter()
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    return time.perf_counter() - t0
+
+
+def run_interactive():
+    """(paths shown, colour map there, longest tick planning, longest tick verifying), s."""
+    import bpy
+
+    from blisk_cam import output
+    from blisk_cam.operators import generate_paths as gen
+    from blisk_cam.operators.modal_job import ModalRunner
+
+    ctx = bpy.context
+    t0 = time.perf_counter()
+    runner = ModalRunner(gen.BLISKCAM_OT_generate_paths, gen.PathJob(ctx))  # invoke
+    runner.start(ctx)
+    first_tick = time.perf_counter() - t0
+    t_paths = t_map = None
+    plan_ticks, verify_ticks, show_tick = [], [], 0.0
+    next_fire = time.perf_counter() + TICK
+    while True:
+        now = time.perf_counter()
+        if now < next_fire:
+            time.sleep(next_fire - now)  # the UI is free between timer events
+        a = time.perf_counter()
+        result = runner.step(ctx)
+        b = time.perf_counter()
+        next_fire = max(next_fire + TICK, b)
+        if t_paths is None and runner._job.written_json is not None:
+            t_paths, show_tick = b - t0, b - a
+        elif t_paths is None:
+            plan_ticks.append(b - a)
+        else:
+            verify_ticks.append(b - a)
+        if result != {"RUNNING_MODAL"}:
+            assert result == {"FINISHED"}, runner.reports
+            t_map = b - t0
+            break
+    objs = output.output_objects(output.find_output_collection(runner._job.blade_name))
+    return {"paths": t_paths, "map": t_map, "has_map": objs["verify"] is not None,
+            "invoke": first_tick, "plan_tick": max(plan_ticks), "show_tick": show_tick,
+            "poll_tick": max(verify_ticks[:-1] or [0.0]),
+            "attach_tick": verify_ticks[-1] if verify_ticks else 0.0,
+            "worker": runner._job.verify_seconds}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--no-map", action="store_true", help="verify without the colour map")
+    ap.add_argument("--cusp", type=float, default=0.05, help="mm (panel default 0.05)")
+    ap.add_argument("--chord", type=float, default=0.05, help="mm (panel default 0.05)")
+    args = ap.parse_args()
+
+    import bpy
+
+    import blisk_cam
+
+    blisk_cam.register()
+    try:
+        n = scene_with_rotor37(args)
+        s = bpy.context.scene.blisk_cam
+        print(f"Rotor 37: {n:,} triangles; tool {s.tool_type} Ø{2 * s.tool_radius:g}, cusp "
+              f"{s.cusp:g} mm, chord {s.chord:g} mm, verify on, colour map "
+              f"{'off' if args.no_map else 'on'}; bpy {bpy.app.version_string}")
+        sync, inter = [], []
+        for k in range(args.repeat):
+            scene_with_rotor37(args)
+            sync.append(run_sync())
+            scene_with_rotor37(args)
+            inter.append(run_interactive())
+            x = inter[-1]
+            print(f"run {k + 1}: synchronous {sync[-1]:6.2f} s (paths and map together, the UI "
+                  f"blocked throughout) | interactive: paths shown {x['paths']:6.2f} s, colour "
+                  f"map {x['map']:6.2f} s{'' if x['has_map'] else ' (no map object!)'} "
+                  f"(verify worker {x['worker']:.2f} s)")
+            print(f"       UI frozen at most: invoke (read the mesh) {1e3 * x['invoke']:.0f} ms, "
+                  f"a planning tick {1e3 * x['plan_tick']:.0f} ms, writing the paths "
+                  f"{1e3 * x['show_tick']:.0f} ms, a tick polling the worker "
+                  f"{1e3 * x['poll_tick']:.0f} ms, attaching the figures "
+                  f"{1e3 * x['attach_tick']:.0f} ms")
+        med = statistics.median
+        ms_ = med(sync)
+        mp, mm = med([x["paths"] for x in inter]), med([x["map"] for x in inter])
+        print(f"median of {args.repeat}: synchronous {ms_:.2f} s; interactive paths shown "
+              f"{mp:.2f} s ({mp / ms_:.2f} of synchronous), colour map {mm:.2f} s "
+              f"({mm / ms_:.2f}); longest tick while verifying "
+              f"{1e3 * med([x['poll_tick'] for x in inter]):.0f} ms")
+    finally:
+        blisk_cam.unregister()
+
+
+if __name__ == "__main__":
+    main()

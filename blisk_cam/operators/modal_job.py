@@ -1,0 +1,159 @@
+"""The modal machinery shared by the long-running operators (Generate Paths, Check Collisions).
+
+:class:`ModalJobOperator` is a mixin for a ``bpy.types.Operator`` whose work is a *job*: an
+object built from the scene up front (arrays and names only, never bpy objects across steps)
+and advanced step by step. Interactively (``invoke`` with a window) it runs modal on a timer:
+each tick calls the operator's :meth:`~ModalJobOperator.tick`, the status bar and the cursor
+progress show how far it is, ESC ends it through :meth:`~ModalJobOperator.escape` (by default:
+cancelled, the previous result kept). In background mode or without a window ``invoke`` runs
+``execute`` (synchronously). While a job runs, its scene's name is in the operator's
+``running`` set, which its ``poll`` reads to refuse a second run.
+
+:class:`ModalRunner` drives such an operator's modal methods without Blender's event loop
+(background mode has none: timers never fire): the tests and ``bench/bench_panel.py`` step
+the very code the timer runs.
+"""
+
+from __future__ import annotations
+
+import types
+
+import bpy
+
+from .common import report_exception
+
+__all__ = ["ModalJobOperator", "ModalRunner", "TimerEvent"]
+
+
+class ModalJobOperator:
+    """Mixin for an operator running a job modal (see the module docstring).
+
+    The operator class provides:
+
+    * ``running`` — a module-level ``set`` of scene names (class attribute);
+    * ``status_label`` — the status bar's prefix, e.g. ``"Blisk CAM collisions"``;
+    * ``cancel_text`` — the warning reported when ESC cancels;
+    * :meth:`new_job` and :meth:`tick`; optionally :meth:`escape` and :meth:`end_job`.
+    """
+
+    running: set = set()  # overridden by every operator class with its own set
+    status_label = "Blisk CAM"
+    cancel_text = "Cancelled; the previous result is kept"
+    start_text = "starting"
+    #: seconds between two timer ticks
+    timer_interval = 0.05
+
+    # --- to provide --------------------------------------------------------------------
+    def new_job(self, context):
+        """The job for the scene (raises ``BliskCamError`` on bad input)."""
+        raise NotImplementedError
+
+    def tick(self, context):
+        """Advance the job on a timer tick: None while it goes on, else the operator's
+        return set (it has reported); the mixin then ends the run."""
+        raise NotImplementedError
+
+    def escape(self, context):
+        """ESC: the return set after reporting (default: cancelled, previous result kept)."""
+        self.report({"WARNING"}, self.cancel_text)
+        return {"CANCELLED"}
+
+    def end_job(self, context):
+        """Called once when the run ends in any way (finished, ESC, error, Blender's cancel)."""
+
+    # --- machinery ---------------------------------------------------------------------
+    def invoke(self, context, event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            self._job = self.new_job(context)
+        except Exception as exc:
+            return report_exception(self, exc)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(self.timer_interval, window=context.window)
+        wm.modal_handler_add(self)
+        self.start(context)
+        return {"RUNNING_MODAL"}
+
+    def start(self, context):
+        """Progress and running state of a new run (the timer and handler are Blender's)."""
+        context.window_manager.progress_begin(0, 100)
+        self.running.add(self._job.scene_name)
+        self._status(context, self.start_text)
+
+    def _status(self, context, text, *, escape="ESC to cancel"):
+        if context.workspace is not None:
+            context.workspace.status_text_set(f"{self.status_label}: {text} — {escape}")
+
+    def _end(self, context):
+        wm = context.window_manager
+        if getattr(self, "_timer", None) is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+        self.running.discard(self._job.scene_name)
+        self.end_job(context)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            try:
+                result = self.escape(context)
+            finally:
+                self._end(context)
+            return result
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            result = self.tick(context)
+        except Exception as exc:
+            self._end(context)
+            return report_exception(self, exc)
+        if result is None:
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return result
+
+    def cancel(self, context):
+        self._end(context)
+
+
+class TimerEvent:
+    """A stand-in for the ``bpy.types.Event`` a modal handler receives (``type`` only)."""
+
+    def __init__(self, type_: str = "TIMER"):
+        self.type = type_
+
+
+class ModalRunner:
+    """A modal-job operator's methods bound to a plain object, for runs without an event loop.
+
+    ``ModalRunner(BLISKCAM_OT_x, job)`` holds what the operator keeps on ``self`` (``_job``,
+    ``_timer`` = None) and every method the add-on defines for it (the operator class and
+    its mixins, not ``bpy.types.Operator``'s), so ``runner.modal(context, TimerEvent())`` runs
+    the real code of one timer tick; ``report`` collects into ``reports``. :meth:`start`
+    does what ``invoke`` does after building the job, minus the timer.
+    """
+
+    def __init__(self, op_class, job):
+        self._job, self._timer, self.reports = job, None, []
+        self.op_class = op_class
+        top = op_class.__module__.split(".")[0]
+        for klass in reversed(op_class.__mro__):  # the add-on's classes, base first
+            if klass.__module__.split(".")[0] != top:
+                continue
+            for name, value in vars(klass).items():
+                if name.startswith("__"):
+                    continue
+                if isinstance(value, types.FunctionType):
+                    setattr(self, name, value.__get__(self))
+                else:  # class attributes; class/static methods bound as on the class
+                    setattr(self, name, getattr(op_class, name))
+
+    def report(self, kind, text):
+        self.reports.append((set(kind), text))
+
+    def step(self, context, type_: str = "TIMER"):
+        """One event through ``modal``; its return set."""
+        return self.modal(context, TimerEvent(type_))
