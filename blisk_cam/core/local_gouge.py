@@ -127,8 +127,8 @@ def surface_normal_curvature(mesh: TriMesh, faces, directions):
 def gouge_margin(cutter, normal, axis, f, k, kappa_f, kappa_k):
     """(k,) ``min over d in (f, k) of 1/R_c(d) + κ_s(d)`` (1/mm); < 0 gouges."""
     with np.errstate(divide="ignore"):
-        inv_f = 1.0 / cutter.effective_radius(normal, axis, f)
-        inv_k = 1.0 / cutter.effective_radius(normal, axis, k)
+        eff_f, eff_k = cutter.effective_radii(normal, axis, f, k)
+        inv_f, inv_k = 1.0 / eff_f, 1.0 / eff_k
     return np.minimum(inv_f + kappa_f, inv_k + kappa_k)
 
 

@@ -249,6 +249,8 @@ class _Generator:
                 start = int(np.argmax(zz))
             edge = c.edge if start is None else np.roll(c.edge, -start)
             rec = {}
+            steps = {}  # the forward step's searches, reused where a new sampling changes nothing
+            screened = {}  # the poses' screens, likewise
 
             def lift(D, DN, seg, edge=edge, closed=c.closed, rec=rec):
                 if "base" not in rec:  # the densified polyline is the same on every call
@@ -261,10 +263,12 @@ class _Generator:
                 cc, nn, lam, idx = sample_polyline(
                     c.points, c.normals, c.closed, chord=self.chord, radius=self.radius,
                     start=start, lift=lift, return_index=True, centre_chord=self.centre_chord,
+                    memo=steps,
                 )
                 # a pose whose ball still reaches into the mesh (an intrusion between the
                 # probes): lift the points between its neighbouring poses and sample again
-                short = self._pose_shortfall(cc + (self.radius + lam)[:, None] * nn, screen=True)
+                short = self._screened_shortfall(cc + (self.radius + lam)[:, None] * nn, idx,
+                                                 screened)
                 bad = np.nonzero(short > self.facet_tolerance + 1e-7)[0]
                 if len(bad) == 0:
                     break
@@ -281,6 +285,23 @@ class _Generator:
             out.append(PassCurve(s=s, closed=c.closed, cc=cc, normal=nn, tip=cc + lam[:, None] * nn,
                                  axis=nn.copy()))
             self._uncut_lift[id(out[-1])] = rec["extra"][idx]
+        return out
+
+    def _screened_shortfall(self, centres, idx, memo):
+        """:meth:`_pose_shortfall` with ``screen`` of the poses ``idx`` (ascending indices
+        into the densified polyline) with ball centres ``centres`` (q, 3), taking the answer of
+        the last call (kept in ``memo``) for every pose at the same index whose centre has not
+        moved: each pose's answer depends on its centre only."""
+        out = np.empty(len(centres))
+        todo = np.ones(len(centres), dtype=bool)
+        if memo:
+            pos = np.minimum(np.searchsorted(memo["idx"], idx), len(memo["idx"]) - 1)
+            same = (memo["idx"][pos] == idx) & np.all(memo["centres"][pos] == centres, axis=1)
+            out[same] = memo["short"][pos[same]]
+            todo = ~same
+        if np.any(todo):
+            out[todo] = self._pose_shortfall(centres[todo], screen=True)
+        memo.update(idx=idx, centres=centres, short=out)
         return out
 
     def _pose_shortfall(self, centres, screen: bool = False):
