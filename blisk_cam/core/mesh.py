@@ -505,8 +505,11 @@ class TriMesh:
     @property
     def face_areas(self) -> np.ndarray:
         """(m,) face areas, mm²."""
-        _ = self.face_normals  # fills the cache
-        return self._cache["fn_area2"] * 0.5
+        c = self._cache
+        if "areas" not in c:
+            _ = self.face_normals  # fills the cache
+            c["areas"] = c["fn_area2"] * 0.5
+        return c["areas"]
 
     @property
     def vertex_normals(self) -> np.ndarray:
