@@ -440,26 +440,34 @@ class Cutter:
         ``side`` (k, 3) or (3,) is projected onto the tangent plane ⊥ n. ∞ for a flat bottom
         flush with the surface; 0 at a sharp apex or edge taken across (flat mill, φ = 0).
         """
+        return self.effective_radii(normal, axis, side)[0]
+
+    def effective_radii(self, normal, axis, *sides) -> list[np.ndarray]:
+        """:meth:`effective_radius` for several ``sides`` at the same poses: one contact
+        computation for all of them (the local gouge check asks two sides of thousands of
+        candidate axes per flagged pose). The same values as separate calls."""
         n = _unit_rows(normal, "normal")
         _, info = self.contact(normal, axis)
         a = _unit_rows(axis, "axis")
         n, a = np.broadcast_arrays(n, a)
-        s = np.broadcast_to(np.atleast_2d(np.asarray(side, dtype=np.float64)), n.shape)
-        s = s - np.einsum("ij,ij->i", s, n)[:, None] * n
-        s = _unit_rows(s, "side (projected on the tangent plane)")
         th = info.theta
         sin_t = np.sin(th)
         tm = np.cos(th)[:, None] * info.radial + sin_t[:, None] * a
-        cos2 = np.clip(np.einsum("ij,ij->i", s, tm), -1.0, 1.0) ** 2
-        sin2 = 1.0 - cos2
         with np.errstate(divide="ignore", invalid="ignore"):
             rho_p = np.where(sin_t > 0, self.e / np.where(sin_t > 0, sin_t, 1.0) + self.r,
                              np.inf if self.e > 0 else self.r)
         rho_m = np.full(len(th), self.r)
-        with np.errstate(invalid="ignore"):
-            eff = rho_m * cos2 + np.where(sin2 > 0, rho_p * sin2, 0.0)
-        eff = np.where(info.region == 0, np.inf if self.alpha == 0 else 0.0, eff)
-        return eff
+        out = []
+        for side in sides:
+            s = np.broadcast_to(np.atleast_2d(np.asarray(side, dtype=np.float64)), n.shape)
+            s = s - np.einsum("ij,ij->i", s, n)[:, None] * n
+            s = _unit_rows(s, "side (projected on the tangent plane)")
+            cos2 = np.clip(np.einsum("ij,ij->i", s, tm), -1.0, 1.0) ** 2
+            sin2 = 1.0 - cos2
+            with np.errstate(invalid="ignore"):
+                eff = rho_m * cos2 + np.where(sin2 > 0, rho_p * sin2, 0.0)
+            out.append(np.where(info.region == 0, np.inf if self.alpha == 0 else 0.0, eff))
+        return out
 
     # ------------------------------------------------------------------ distance
     def signed_distance_rz(self, rho, z) -> np.ndarray:

@@ -127,9 +127,25 @@ def surface_normal_curvature(mesh: TriMesh, faces, directions):
 def gouge_margin(cutter, normal, axis, f, k, kappa_f, kappa_k):
     """(k,) ``min over d in (f, k) of 1/R_c(d) + κ_s(d)`` (1/mm); < 0 gouges."""
     with np.errstate(divide="ignore"):
-        inv_f = 1.0 / cutter.effective_radius(normal, axis, f)
-        inv_k = 1.0 / cutter.effective_radius(normal, axis, k)
+        eff_f, eff_k = cutter.effective_radii(normal, axis, f, k)
+        inv_f, inv_k = 1.0 / eff_f, 1.0 / eff_k
     return np.minimum(inv_f + kappa_f, inv_k + kappa_k)
+
+
+def _unfixable(cutter, kappa_f, kappa_k, tol):
+    """(q,) bool: poses no lead/tilt can clear, known without trying them — for a ball
+    (e = 0, no bottom or side angle) only. Its effective radius is ρ cos² + ρ sin² = ρ for
+    every axis (to a few roundings, far below the 1e-12 kept here), so the margin
+    min(1/R + κ_f, 1/R + κ_k) stays below −tol for every candidate when it does with R a
+    hair under ρ; and its contact never fails (a lead/tilt axis n + tan(lead) f + tan(tilt) k
+    has a · n > 0, inside the ball's 90°), so skipping these poses changes no chunk of the
+    search. Other cutters: none (their radius depends on the axis)."""
+    kappa_f, kappa_k = np.asarray(kappa_f, float), np.asarray(kappa_k, float)
+    if not (cutter.e == 0.0 and cutter.alpha == 0.0 and cutter.beta == 0.0 and cutter.r > 0):
+        return np.zeros(len(kappa_f), dtype=bool)
+    inv = 1.0 / (cutter.r * (1.0 - 1e-12))
+    best = np.minimum(inv + kappa_f, inv + kappa_k)
+    return best + 1e-12 * (inv + np.abs(kappa_f) + np.abs(kappa_k)) < -tol
 
 
 def fix_local_gouges(
@@ -191,10 +207,11 @@ def fix_local_gouges(
         np.abs(cand_tilt) <= limits.max_tilt + 1e-12
     )
     best = np.full(q, -1)
+    hopeless = _unfixable(cutter, kappa_f[idx], kappa_k[idx], tol)
     chunk = max(1, 200_000 // max(q, 1))
     for c0 in range(0, len(DL), chunk):
         sl = slice(c0, c0 + chunk)
-        open_ = best < 0
+        open_ = (best < 0) & ~hopeless
         if not np.any(open_):
             break
         qi, cj = np.nonzero(ok[:, sl] & open_[:, None])

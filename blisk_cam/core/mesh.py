@@ -23,9 +23,20 @@ __all__ = ["TriMesh", "triangle_normals", "chain_graph_paths", "input_vertex_val
 
 
 def triangle_normals(V, F):
-    """Un-normalised face normals (twice the area vector), (m, 3) float."""
-    a = V[F[:, 0]]
-    return np.cross(V[F[:, 1]] - a, V[F[:, 2]] - a)
+    """Un-normalised face normals (twice the area vector), (m, 3) float: ``np.cross`` of
+    the edge vectors (b − a) × (c − a), the same products and differences, computed on
+    contiguous coordinate columns (~3x faster at a million faces, the same values)."""
+    F = np.asarray(F)
+    x, y, z = (np.ascontiguousarray(V[:, j]) for j in range(3))
+    f0, f1, f2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
+    ax, ay, az = x[f0], y[f0], z[f0]
+    u0, u1, u2 = x[f1] - ax, y[f1] - ay, z[f1] - az
+    v0, v1, v2 = x[f2] - ax, y[f2] - ay, z[f2] - az
+    out = np.empty((len(F), 3), dtype=u0.dtype)
+    out[:, 0] = u1 * v2 - u2 * v1
+    out[:, 1] = u2 * v0 - u0 * v2
+    out[:, 2] = u0 * v1 - u1 * v0
+    return out
 
 
 def chain_graph_paths(n_nodes: int, links, *, strict: bool = True):
@@ -190,8 +201,8 @@ class TriMesh:
         MeshError naming the problem (empty, NaN/inf used by a face, bad indices,
         non-manifold, non-orientable).
         """
-        V = np.array(V, dtype=np.float64, copy=True)
-        F = np.array(F, copy=True)
+        V = np.asarray(V, dtype=np.float64)  # never written to: every result is a new array
+        F = np.asarray(F)
         if V.ndim != 2 or V.shape[1] != 3:
             raise MeshError(f"vertices must be an (n, 3) array, got shape {V.shape}")
         if F.size == 0 or len(V) == 0:
@@ -201,22 +212,22 @@ class TriMesh:
         if not np.issubdtype(F.dtype, np.integer):
             if not np.all(np.isfinite(F)) or np.any(F != np.round(F)):
                 raise MeshError("face indices must be integers")
-        F = F.astype(np.int64)
+        F = F.astype(np.int64, copy=False)
         n_in, m_in = len(V), len(F)
         fmin, fmax = int(F.min()), int(F.max())
         if fmin < 0 or fmax >= n_in:
             raise MeshError(f"face indices out of range [0, {n_in - 1}] (found {fmin}..{fmax})")
         used = np.zeros(n_in, dtype=bool)
         used[F.ravel()] = True
-        bad = used & ~np.all(np.isfinite(V), axis=1)
-        if np.any(bad):
+        bad = None if np.isfinite(V).all() else used & ~np.all(np.isfinite(V), axis=1)
+        if bad is not None and np.any(bad):
             raise MeshError(
                 f"{int(np.sum(bad))} vertices used by faces have NaN or infinite coordinates "
                 f"(the first is vertex {int(np.argmax(bad))}); fix or delete them before "
                 "generating paths"
             )
-        Vu = V[used]
-        diag = float(np.linalg.norm(Vu.max(axis=0) - Vu.min(axis=0)))
+        Vu = V if used.all() else V[used]
+        diag = float(np.linalg.norm(_extent(Vu)))
         if diag == 0.0:
             raise MeshError("all vertices coincide: the mesh has no extent")
         tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
@@ -224,18 +235,27 @@ class TriMesh:
             raise MeshError(f"weld tolerance must be a finite number ≥ 0 mm, got {weld_tolerance}")
         # representative (lowest input index) of every used vertex: exact duplicates, then
         # clusters closer than tol
-        iu = np.nonzero(used)[0]
-        rep = iu[_first_equal_row((Vu + 0.0).view(np.int64))]  # + 0.0: −0.0 equals 0.0
+        iu = np.arange(n_in) if Vu is V else np.nonzero(used)[0]
+        Vu = Vu + 0.0  # −0.0 equals 0.0
+        first, u_order = _first_equal_point(Vu)
+        rep = iu[first]
         is_rep = np.zeros(n_in, dtype=bool)
         is_rep[rep] = True
         if tol > 0 and np.count_nonzero(is_rep) > 1:
             ir = np.nonzero(is_rep)[0]
-            pairs = cKDTree(V[ir], balanced_tree=False, compact_nodes=False).query_pairs(
-                tol, output_type="ndarray"
-            )
+            pairs = None
+            if u_order is not None:  # the representatives, in the projection's order
+                u_order = iu[u_order]
+                pairs = _close_pairs(V, u_order[is_rep[u_order]], tol)
+            if pairs is None:  # no projection order, or too many points share a projection
+                pairs = cKDTree(V[ir], balanced_tree=False, compact_nodes=False).query_pairs(
+                    tol, output_type="ndarray"
+                )
+                pairs = ir[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
             if len(pairs):
+                loc = np.searchsorted(ir, pairs)  # input ids → positions among the reps
                 g = sparse.coo_matrix(
-                    (np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(ir), len(ir))
+                    (np.ones(len(loc)), (loc[:, 0], loc[:, 1])), shape=(len(ir), len(ir))
                 )
                 _, lab = csgraph.connected_components(g, directed=False)
                 low = np.full(lab.max() + 1, n_in, dtype=np.int64)
@@ -467,7 +487,7 @@ class TriMesh:
     # ------------------------------------------------------------------ geometry
     @cached_property
     def bbox_diagonal(self) -> float:
-        return float(np.linalg.norm(self.V.max(axis=0) - self.V.min(axis=0)))
+        return float(np.linalg.norm(_extent(self.V)))
 
     @property
     def face_normals(self) -> np.ndarray:
@@ -478,14 +498,18 @@ class TriMesh:
 
     def _set_face_normals(self, n2):
         ln = np.sqrt(np.einsum("ij,ij->i", n2, n2))
+        self._cache["n2"] = n2
         self._cache["fn_area2"] = ln
         self._cache["fn"] = n2 / np.where(ln > 0, ln, 1.0)[:, None]
 
     @property
     def face_areas(self) -> np.ndarray:
         """(m,) face areas, mm²."""
-        _ = self.face_normals  # fills the cache
-        return self._cache["fn_area2"] * 0.5
+        c = self._cache
+        if "areas" not in c:
+            _ = self.face_normals  # fills the cache
+            c["areas"] = c["fn_area2"] * 0.5
+        return c["areas"]
 
     @property
     def vertex_normals(self) -> np.ndarray:
@@ -496,7 +520,7 @@ class TriMesh:
         weighted mean, while its area, and so its weight, is ~0."""
         c = self._cache
         if "vn" not in c:
-            n2 = triangle_normals(self.V, self.F)  # twice the area vector
+            n2 = c["n2"] if "n2" in c else triangle_normals(self.V, self.F)  # 2 × area vector
             acc = np.zeros_like(self.V)
             for k in range(3):
                 acc += _scatter_add(len(self.V), self.F[:, k], n2)
@@ -514,12 +538,84 @@ class TriMesh:
         return n / np.where(ln > 0, ln, 1.0)[:, None]
 
 
+def _extent(P):
+    """(3,) max − min of the columns of P (k, 3): a reduction per column (``P.max(axis=0)``
+    walks (k, 3) rows three values at a time, ~9x slower at millions of rows)."""
+    return np.array([P[:, j].max() - P[:, j].min() for j in range(P.shape[1])])
+
+
 def _scatter_add(n, idx, values):
     """Sum (k, 3) values into (n, 3) rows by index, vectorised with bincount."""
     out = np.empty((n, values.shape[1]))
     for j in range(values.shape[1]):
         out[:, j] = np.bincount(idx, weights=values[:, j], minlength=n)
     return out
+
+
+#: a unit direction in no special relation to the coordinate axes or common planes: the
+#: weld sorts the vertices by their projection on it
+_WELD_DIRECTION = np.array([0.5377, 0.6233, 0.5677]) / np.linalg.norm([0.5377, 0.6233, 0.5677])
+#: the close-pair scan along that projection gives way to a k-d tree when a vertex has more
+#: than this many others within the weld tolerance of its projection
+_WELD_SCAN_MAX = 32
+
+
+def _first_equal_point(P):
+    """For each row of P (k, 3) float (finite, no −0.0), the index of the first row equal to
+    it, and the order of the rows by their projection u = P · ``_WELD_DIRECTION`` (stable, so
+    equal rows stay in index order) — or ``None`` for the order when rows that differ share a
+    projection value (then the groups come from :func:`_first_equal_row` on the bits).
+
+    Equal rows have equal projections (the same arithmetic), so they form runs in that order;
+    one stable argsort of one float key, no hashing, and the order serves the close-pair scan
+    (:func:`_close_pairs`) as well."""
+    k = len(P)
+    d = _WELD_DIRECTION
+    cols = [np.ascontiguousarray(P[:, j]) for j in range(3)]
+    u = (cols[0] * d[0] + cols[1] * d[1]) + cols[2] * d[2]
+    order = np.argsort(u, kind="stable")
+    us = u[order]
+    head = np.ones(k, dtype=bool)
+    same_u = us[1:] == us[:-1]
+    differ = ~same_u
+    for c in cols:
+        cs = c[order]
+        differ |= cs[1:] != cs[:-1]
+    head[1:] = differ
+    if np.any(head[1:] & same_u):  # different rows with the same projection: exact path
+        return _first_equal_row(P.view(np.int64)), None
+    grp_first = order[np.maximum.accumulate(np.where(head, np.arange(k), 0))]
+    first = np.empty(k, dtype=np.int64)
+    first[order] = grp_first
+    return first, order
+
+
+def _close_pairs(V, ids, tol):
+    """All pairs (p, 2) of the points ``ids`` (sorted by their projection on
+    ``_WELD_DIRECTION``) at most ``tol`` apart, as ``cKDTree.query_pairs`` finds them: two
+    such points have projections at most ``tol`` apart, so only neighbours in that order
+    within ``tol`` of projection are measured. ``None`` when a point has more than
+    ``_WELD_SCAN_MAX`` such neighbours (points crowding one plane across the direction: the
+    caller then asks a k-d tree)."""
+    d = _WELD_DIRECTION
+    P = V[ids]
+    u = (P[:, 0] * d[0] + P[:, 1] * d[1]) + P[:, 2] * d[2]
+    slack = tol * (1.0 + 1e-9) + 1e-12 * float(np.abs(u).max(initial=0.0))
+    out = []
+    for o in range(1, _WELD_SCAN_MAX + 2):
+        near = np.flatnonzero(u[o:] - u[:-o] <= slack)
+        if len(near) == 0:
+            break
+        if o > _WELD_SCAN_MAX:
+            return None
+        diff = P[near + o] - P[near]
+        d2 = diff[:, 0] * diff[:, 0] + diff[:, 1] * diff[:, 1] + diff[:, 2] * diff[:, 2]
+        close = near[d2 <= tol * tol]
+        out.append(np.stack([ids[close], ids[close + o]], axis=1))
+    if not out:
+        return np.zeros((0, 2), dtype=np.int64)
+    pairs = np.concatenate(out)
+    return np.sort(pairs, axis=1)
 
 
 def _first_equal_row(K):

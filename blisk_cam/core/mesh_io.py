@@ -53,7 +53,7 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
                         "surface mesh")
     if F.min() < 0 or F.max() >= len(V):
         raise MeshError(f"mesh file {path}: a face refers to a vertex that does not exist")
-    if not np.all(np.isfinite(V[np.unique(F)])):
+    if not np.isfinite(V).all() and not np.isfinite(V[np.unique(F)]).all():
         raise MeshError(f"mesh file {path} has NaN or infinite coordinates: repair the mesh")
     return V, F
 

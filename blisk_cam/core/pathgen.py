@@ -131,6 +131,18 @@ def _point_triangle_distance(p, tri):
     return best
 
 
+#: k-d tree queries of fewer points than this run on the calling thread: scipy starts its
+#: worker threads per call, which costs more than the search of a few hundred points
+#: (measured at 1M triangles: 10–50 ball centres ~30 µs a point on one thread, ~100 µs with
+#: workers=-1). Every point's answer is the same either way.
+THREADED_QUERY_MIN = 512
+
+
+def _workers(n: int) -> int:
+    """``workers`` for a k-d tree query of ``n`` points (see ``THREADED_QUERY_MIN``)."""
+    return -1 if n >= THREADED_QUERY_MIN else 1
+
+
 def _unique_per_row(ids):
     """Rows of non-negative ids with repeats replaced by −1 and the −1 columns that every
     row has squeezed out: (q, c) → (q, c') int, c' ≤ c."""
@@ -249,6 +261,8 @@ class _Generator:
                 start = int(np.argmax(zz))
             edge = c.edge if start is None else np.roll(c.edge, -start)
             rec = {}
+            steps = {}  # the forward step's searches, reused where a new sampling changes nothing
+            screened = {}  # the poses' screens, likewise
 
             def lift(D, DN, seg, edge=edge, closed=c.closed, rec=rec):
                 if "base" not in rec:  # the densified polyline is the same on every call
@@ -261,10 +275,12 @@ class _Generator:
                 cc, nn, lam, idx = sample_polyline(
                     c.points, c.normals, c.closed, chord=self.chord, radius=self.radius,
                     start=start, lift=lift, return_index=True, centre_chord=self.centre_chord,
+                    memo=steps,
                 )
                 # a pose whose ball still reaches into the mesh (an intrusion between the
                 # probes): lift the points between its neighbouring poses and sample again
-                short = self._pose_shortfall(cc + (self.radius + lam)[:, None] * nn, screen=True)
+                short = self._screened_shortfall(cc + (self.radius + lam)[:, None] * nn, idx,
+                                                 screened)
                 bad = np.nonzero(short > self.facet_tolerance + 1e-7)[0]
                 if len(bad) == 0:
                     break
@@ -283,6 +299,23 @@ class _Generator:
             self._uncut_lift[id(out[-1])] = rec["extra"][idx]
         return out
 
+    def _screened_shortfall(self, centres, idx, memo):
+        """:meth:`_pose_shortfall` with ``screen`` of the poses ``idx`` (ascending indices
+        into the densified polyline) with ball centres ``centres`` (q, 3), taking the answer of
+        the last call (kept in ``memo``) for every pose at the same index whose centre has not
+        moved: each pose's answer depends on its centre only."""
+        out = np.empty(len(centres))
+        todo = np.ones(len(centres), dtype=bool)
+        if memo:
+            pos = np.minimum(np.searchsorted(memo["idx"], idx), len(memo["idx"]) - 1)
+            same = (memo["idx"][pos] == idx) & np.all(memo["centres"][pos] == centres, axis=1)
+            out[same] = memo["short"][pos[same]]
+            todo = ~same
+        if np.any(todo):
+            out[todo] = self._pose_shortfall(centres[todo], screen=True)
+        memo.update(idx=idx, centres=centres, short=out)
+        return out
+
     def _pose_shortfall(self, centres, screen: bool = False):
         """ρ − exact distance (mm) from ball centres to the faces holding the (up to) 8 surface
         samples nearest each within ρ + 0.05 mm (> 0: the ball reaches into the mesh; a face
@@ -293,13 +326,14 @@ class _Generator:
         if screen:
             out = np.full(len(centres), -np.inf)
             bound = self.radius - self.facet_tolerance
-            d1, _ = tree.query(centres, k=1, distance_upper_bound=bound, workers=-1)
+            d1, _ = tree.query(centres, k=1, distance_upper_bound=bound,
+                               workers=_workers(len(centres)))
             hit = np.isfinite(d1)
             if np.any(hit):
                 out[hit] = self._pose_shortfall(centres[hit])
             return out
         _, near = tree.query(centres, k=8, distance_upper_bound=self.radius + 0.05,
-                             workers=-1)
+                             workers=_workers(len(centres)))
         near = np.where(near < tree.n, near, -1)
         cand = _unique_per_row(self._probe_faces(near))
         V, F = self.mesh.V, self.mesh.F
@@ -318,7 +352,8 @@ class _Generator:
         # lift only moves the centre away from them
         tree = self._probe_tree()
         c0 = D[idx] + (rho + lam_i)[:, None] * DN[idx]
-        _, near = tree.query(c0, k=8, distance_upper_bound=rho + 0.05, workers=-1)
+        _, near = tree.query(c0, k=8, distance_upper_bound=rho + 0.05,
+                             workers=_workers(len(c0)))
         cand = _unique_per_row(self._probe_faces(np.where(near < tree.n, near, -1)))
         tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]
         for _ in range(12):
@@ -361,7 +396,7 @@ class _Generator:
         probe = np.unique(np.append(np.searchsorted(arc, at), q - 1))
         probe = probe[probe < q]
         dd, _ = self._probe_tree().query(C[probe], k=1, distance_upper_bound=rho - 1e-5,
-                                         workers=-1)
+                                         workers=_workers(len(probe)))
         hp = np.nonzero(np.isfinite(dd))[0]
         if len(hp) == 0:
             return extra
@@ -389,9 +424,12 @@ class _Generator:
         face reaching into the ball by more than ≈ L²/(32 ρ) puts one of them inside."""
         if not hasattr(self, "_ptree"):
             V, F, e = self.mesh.V, self.mesh.F, self.mesh.edges
-            pts = np.vstack([V, 0.5 * (V[e[:, 0]] + V[e[:, 1]]), V[F].mean(axis=1)])
+            # centroids as V[F].mean(axis=1) sums them ((a + b) + c) / 3, without its (m, 3, 3)
+            # copy and strided reduction
+            cen = (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0
+            pts = np.vstack([V, 0.5 * (V[e[:, 0]] + V[e[:, 1]]), cen])
             # queried from ball centres ρ away from the surface, ~60 µs a point at 1M triangles:
-            # the callers split the queries over all cores (workers=-1); leaves of 64 measured
+            # the callers split large queries over all cores (_workers); leaves of 64 measured
             # ~10 % faster than 32 there (same answers: the tree's shape changes no distance)
             self._ptree = cKDTree(pts, leafsize=64, balanced_tree=False, compact_nodes=False)
         return self._ptree

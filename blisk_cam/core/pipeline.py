@@ -426,7 +426,7 @@ def _lead_for_concave(cutter: Cutter, strategy: AxisStrategy, limits, concave: f
     k = np.cross(f, n)
     a = lead_tilt_axes(f, n, k, L, T)
     try:
-        eff = np.maximum(cutter.effective_radius(n, a, f), cutter.effective_radius(n, a, k))
+        eff = np.maximum(*cutter.effective_radii(n, a, f, k))
     except BliskCamError:
         return None, math.inf
     eff = np.max(eff.reshape(len(leads), len(tilts)), axis=1)  # every requested tilt must fit

@@ -96,7 +96,7 @@ def _max_dev(X, i, j):
 
 
 def forward_step_indices(P, C, chord: float, max_step: float | None = None,
-                         centre_chord: float | None = None):
+                         centre_chord: float | None = None, *, memo: dict | None = None):
     """Greedy forward step: indices of P to keep so that every skipped point lies within
     ``chord`` of its straight move, for the CC points ``P`` and the centres ``C`` alike.
 
@@ -111,6 +111,11 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
     chord : float, mm
     max_step : float, mm, optional — also limit the CC move length
     centre_chord : float, mm, optional — tolerance for the centres (default ``chord``)
+    memo : dict, optional — carried from one call to the next on the same polyline whose
+        points changed in places only (the generator lifts a few ball centres and samples
+        again): a search from point i with the same first step whose tested points
+        i..max j are all unchanged has the same outcome, so it is taken from the last call
+        instead of being run again. The result is the same as without ``memo``.
 
     Returns
     -------
@@ -123,8 +128,18 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
     last = k - 1
     keep = [0]
     i = 0
+    old, unchanged_to = {}, None
+    key = (tol_p, tol_c, max_step)
+    if memo is not None and memo.get("key") == key and memo.get("X", X[:0]).shape == X.shape:
+        old = memo["trace"]
+        # unchanged_to[j]: number of changed points before j
+        changed = np.any(X != memo["X"], axis=(1, 2))
+        unchanged_to = np.concatenate([[0], np.cumsum(changed)])
+    trace = {}
+    reach = [0]  # the largest end tested from the current start
 
     def ok(i, j):
+        reach[0] = max(reach[0], j)
         if max_step is not None and np.linalg.norm(X[j, 0] - X[i, 0]) > max_step:
             return False
         dev = _max_dev(X, i, j)
@@ -134,6 +149,16 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
     while i < last:
         good = i + 1
         step = max(prev, 2)
+        was = old.get(i)
+        if (was is not None and was[0] == step
+                and unchanged_to[was[2] + 1] == unchanged_to[i]):
+            good = was[1]
+            trace[i] = was
+            keep.append(good)
+            prev = good - i
+            i = good
+            continue
+        reach[0] = i
         bad = None
         while True:
             j = i + step
@@ -158,14 +183,18 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
                 else:
                     hi = mid
             good = lo
+        trace[i] = (max(prev, 2), good, reach[0])
         keep.append(good)
         prev = good - i
         i = good
+    if memo is not None:
+        memo.update(key=key, X=X, trace=trace)
     return np.asarray(keep, dtype=np.int64)
 
 
 def sample_polyline(points, normals, closed: bool, *, chord: float, radius: float, start=None,
-                    lift=None, return_index: bool = False, centre_chord: float | None = None):
+                    lift=None, return_index: bool = False, centre_chord: float | None = None,
+                    memo: dict | None = None):
     """CC points and normals on an exact intersection polyline for a ball of ``radius``.
 
     Parameters
@@ -184,6 +213,9 @@ def sample_polyline(points, normals, closed: bool, *, chord: float, radius: floa
         the ``start`` roll) → (q,) mm, optional — how far each ball centre must be lifted along
         its normal beyond ``radius`` to clear the facets around the point (centres are then
         ``p + (ρ + λ) n``; the chord check uses these lifted centres)
+    memo : dict, optional — the same dict on every call for the same polyline: the forward
+        step reuses the searches of the last call where the centres did not change (see
+        :func:`forward_step_indices`); the result is the same
 
     Returns
     -------
@@ -213,7 +245,7 @@ def sample_polyline(points, normals, closed: bool, *, chord: float, radius: floa
     # (δ: smooth vs facet normal) and the straight move between densified centres cuts the
     # curved offset by up to a quarter of the tolerance: the centre path keeps 40 % spare
     # (0.75 let Rotor 37's tip boundary loop overcut by 1 % at e = 0.01)
-    idx = forward_step_indices(D, C, chord, centre_chord=cchord)
+    idx = forward_step_indices(D, C, chord, centre_chord=cchord, memo=memo)
     if closed:
         idx = idx[:-1]
     if return_index:

@@ -382,3 +382,18 @@ def test_bad_input(make, words):
     with pytest.raises(ToolError, match=words) as err:
         make()
     assert isinstance(err.value, BliskCamError)
+
+
+def test_effective_radii_of_several_sides_equal_separate_calls():
+    """One contact for several sides gives each side's effective radius bit for bit."""
+    rng = np.random.default_rng(11)
+    n = rng.normal(size=(200, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    tilt = rng.normal(scale=0.3, size=(200, 3))
+    a = n + tilt - np.einsum("ij,ij->i", tilt, n)[:, None] * n
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    f, k = rng.normal(size=(200, 3)), rng.normal(size=(200, 3))
+    for cut in CUTTERS.values():
+        ef, ek = cut.effective_radii(n, a, f, k)
+        assert np.array_equal(ef, cut.effective_radius(n, a, f), equal_nan=True)
+        assert np.array_equal(ek, cut.effective_radius(n, a, k), equal_nan=True)

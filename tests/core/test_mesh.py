@@ -162,3 +162,53 @@ def test_mobius_strip_is_refused():
     F = np.vstack([np.stack([a, b, c], -1), np.stack([a, c, d], -1)])
     with pytest.raises(MeshError, match="not orientable"):
         TriMesh.from_arrays(V, F)
+
+
+def _kd_pairs(P, tol):
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(P).query_pairs(tol, output_type="ndarray")
+    return {tuple(p) for p in np.sort(pairs, axis=1).tolist()}
+
+
+def test_weld_close_pairs_are_the_kd_tree_pairs():
+    """The close-pair scan along the weld direction finds exactly the pairs a k-d tree finds,
+    on clustered points (near duplicates) and on points crowding one plane across the
+    direction (the scan gives way to the tree there; the weld's result is the same)."""
+    from blisk_cam.core import mesh as M
+
+    rng = np.random.default_rng(3)
+    base = rng.random((4000, 3)) * 10.0
+    P = np.vstack([base, base[:1500] + rng.normal(scale=4e-6, size=(1500, 3))])
+    tol = 1e-5
+    order = np.argsort(P @ M._WELD_DIRECTION, kind="stable")
+    got = M._close_pairs(P, order, tol)
+    assert {tuple(p) for p in got.tolist()} == _kd_pairs(P, tol)
+    assert len(got) > 1000  # the clusters were there to find
+    # a plane across the direction: every point projects within tol of the others
+    e1 = np.cross(M._WELD_DIRECTION, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(M._WELD_DIRECTION, e1)
+    Q = rng.random((300, 1)) * e1 + rng.random((300, 1)) * e2
+    assert M._close_pairs(Q, np.argsort(Q @ M._WELD_DIRECTION, kind="stable"), 0.05) is None
+
+
+def test_weld_of_rows_sharing_a_projection_is_exact():
+    """Distinct vertices with equal projections on the weld direction take the exact bitwise
+    path; every group of equal rows still maps to its lowest index."""
+    from blisk_cam.core import mesh as M
+
+    rng = np.random.default_rng(4)
+    d = M._WELD_DIRECTION
+    A = rng.random((200, 3))
+    P = np.vstack([A, A[::-1], A[:50]])
+    P[5] = [d[1], 0.0, 0.0]  # projection d1 d0
+    P[6] = [0.0, d[0], 0.0]  # projection d0 d1: the same number, another row
+    first, order = M._first_equal_point(P + 0.0)
+    assert order is None
+    want = np.array([np.flatnonzero((P == row).all(axis=1))[0] for row in P])
+    assert np.array_equal(first, want)
+    first2, order2 = M._first_equal_point(np.delete(P, 6, axis=0) + 0.0)
+    assert order2 is not None
+    Q = np.delete(P, 6, axis=0)
+    assert np.array_equal(first2, [np.flatnonzero((Q == r).all(axis=1))[0] for r in Q])

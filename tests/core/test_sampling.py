@@ -83,3 +83,30 @@ def test_bad_chord_is_refused():
     p, n = _airfoil(50)
     with pytest.raises(ToleranceError):
         sample_polyline(p, n, True, chord=0.0, radius=6)
+
+
+def test_forward_step_memo_gives_the_indices_of_a_fresh_search():
+    """Sampling the same polyline again after lifting some centres (what the generator does
+    around an intrusion) with the searches of the last call reused gives exactly the indices
+    a fresh search gives, for lifts at the start, the middle, the end and everywhere."""
+    from blisk_cam.core.sampling import forward_step_indices
+
+    rng = np.random.default_rng(7)
+    t = np.linspace(0.0, 6.0, 1500)
+    P = np.stack([10 * np.cos(t), 10 * np.sin(t), 0.3 * t + 0.05 * np.sin(9 * t)], axis=1)
+    N = P / np.linalg.norm(P, axis=1)[:, None]
+    C = P + 6.0 * N
+    memo = {}
+    fresh = forward_step_indices(P, C, 0.01, centre_chord=0.006, memo=memo)
+    assert np.array_equal(fresh, forward_step_indices(P, C, 0.01, centre_chord=0.006))
+    reused = 0
+    for lo, hi in ((0, 40), (700, 760), (1450, 1500), (0, 1500), (300, 301)):
+        C = C.copy()
+        C[lo:hi] += rng.normal(scale=0.01, size=(hi - lo, 3))
+        got = forward_step_indices(P, C, 0.01, centre_chord=0.006, memo=memo)
+        assert np.array_equal(got, forward_step_indices(P, C, 0.01, centre_chord=0.006))
+        reused += hi - lo < 1500
+    # another tolerance: nothing may be reused from the memo
+    assert np.array_equal(forward_step_indices(P, C, 0.02, centre_chord=0.006, memo=memo),
+                          forward_step_indices(P, C, 0.02, centre_chord=0.006))
+    assert reused == 4
