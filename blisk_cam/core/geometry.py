@@ -38,7 +38,8 @@ __all__ = [
     "parallel",
 ]
 
-_CHUNK = 16384  # queries per chunk in tree traversals (bounds the frontier memory)
+_CHUNK = 2048  # queries per chunk in tree traversals (the frontier stays in cache: 16384
+#                 ran 1.5–2× slower on Rotor 37's verify, bench/bench_verify.py)
 
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
 _WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
@@ -305,10 +306,11 @@ class _Tree:
         cutter lies in the cylinder of radius ``max_radius`` about its axis segment, so the
         bound below the tips is tight instead of ``max_radius``).
     disc_axis : bool — with ``discs``: every node's cylinder takes the mean disc axis of its
-        primitives as its axis (instead of a principal direction), so a node of nearly
-        parallel discs is bounded by a flat puck (thin along the axes, ``radius`` wider
-        across) — tight above and below discs, where a principal-direction cylinder around a
-        run of discs would be ``radius`` thick.
+        primitives as its axis (instead of a principal direction) and the axis-aligned box
+        is replaced by an oriented box (the mean axis, the points' principal direction across
+        it, their cross product), so a node of nearly parallel discs is bounded by a flat
+        puck and box — tight above and below the discs, where a principal-direction
+        cylinder around a run of discs would be ``radius`` thick.
     """
 
     def __init__(self, corners, *, flat: bool, clusters=None, leaf_size: int = 8, discs=None,
@@ -453,7 +455,6 @@ class _Tree:
         nd = self.nd[node]
         if self.obb is not None:  # oriented box [c, w1, w2, w3, half] and the puck along w2
             d = P - nd[:, 0:3]
-            ok = np.ones(len(P), bool)
             acc = np.zeros(len(P))
             for j in range(3):
                 x = np.abs(np.einsum("ij,ij->i", d, nd[:, 3 + 3 * j: 6 + 3 * j]))
