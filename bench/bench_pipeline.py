@@ -131,7 +131,7 @@ def whole_run(stl, axis, c1, c2, chord, out):
     return t, mesh, res.path
 
 
-def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
+def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball", "bull")):
     """Plan a ball and a bull-nose path (R6 corner 2, lead 10°, tilt 5°) on the mesh, then
     verify each with 1 and 2 threads; the figures of every run must be the same."""
     from dataclasses import replace
@@ -143,7 +143,7 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
                        cusp=0.05, chord=chord)
     bull = replace(ball, tool_type="bull", corner_radius=2.0, lead=np.radians(10.0),
                    tilt=np.radians(5.0))
-    for req in (ball, bull):
+    for req in (r for r in (ball, bull) if r.tool_type in tools):
         try:
             path = plan_paths(mesh, req).path
         except BliskCamError as exc:  # e.g. the demo's hub fillet is tighter than a bull
@@ -152,9 +152,11 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
         plan = path.stats["seconds_plan"]
         runs = []
         for n in threads:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             rep = verify_path(mesh, path, workers=n)
             runs.append((n, time.perf_counter() - t0, rep))
+            print(f"[{name}] verify {req.tool_type}, {n} thread(s): {runs[-1][1]:.2f} s wall, "
+                  f"{time.process_time() - c0:.2f} s CPU", flush=True)
         same = all(r.summary() | {"timings": 0} == runs[0][2].summary() | {"timings": 0}
                    for _, _, r in runs)
         txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _ in runs)
@@ -197,15 +199,17 @@ def main():
     ap.add_argument("--verify-only", action="store_true",
                     help="skip the whole-run figures, measure verify only")
     ap.add_argument("--threads", default="1,2", help="verify threads to compare, e.g. 1,2")
+    ap.add_argument("--tools", default="ball,bull", help="verify tools: ball, bull or both")
     args = ap.parse_args()
     threads = tuple(int(x) for x in args.threads.split(","))
+    tools = tuple(args.tools.split(","))
     if args.only != "rotor37":
         if not args.verify_only:
             V, F, axis, c1, c2 = demo_blade(args.triangles)
             bench_blade("demo", V, F, axis, c1, c2, args.chord)
         if not args.no_verify:
             V, F, axis, c1, c2 = demo_blade(args.verify_triangles)
-            bench_verify("demo", V, F, axis, c1, c2, args.chord, threads)
+            bench_verify("demo", V, F, axis, c1, c2, args.chord, threads, tools)
     if args.only != "demo":
         r = rotor37_blade(args.triangles)
         if r is None:
@@ -215,7 +219,7 @@ def main():
                 bench_blade("rotor37 subdivided", *r, args.chord)
             if not args.no_verify:
                 bench_verify("rotor37", *rotor37_blade(args.verify_triangles), args.chord,
-                             threads)
+                             threads, tools)
 
 
 if __name__ == "__main__":

@@ -41,6 +41,8 @@ __all__ = [
 _CHUNK = 2048  # queries per chunk in tree traversals (the frontier stays in cache: 16384
 #                 ran 1.5–2× slower on Rotor 37's verify, bench/bench_verify.py)
 
+_FLAT_PAIRS = 8192  # (query, leaf) pairs below which a tree query tests all leaves at once
+
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
 _WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
 
@@ -497,6 +499,15 @@ class _Tree:
         """
         k = len(P)
         r2 = (np.sqrt(np.maximum(r2, 0.0)) + self.slack) ** 2
+        if k * self.NL <= _FLAT_PAIRS:
+            # few queries on a small tree (e.g. sphere tracing against one level's passes):
+            # test every leaf at once instead of L levels of small steps. A superset of the
+            # breadth-first answer in the same order (by query, then leaf): a leaf within the
+            # radius has every ancestor within it, and the extra leaves hold nothing within it
+            q = np.repeat(np.arange(k), self.NL)
+            node = np.tile(np.arange(self.NL, 2 * self.NL), k)
+            keep = self._within_bound(P[q], node, r2[q])
+            return q[keep], node[keep] - self.NL
         q = np.arange(k)
         node = np.ones(k, dtype=np.int64)
         keep = self._within_bound(P, node, r2)

@@ -71,6 +71,9 @@ class SweptBall:
         self.owner = (np.zeros(S, np.int64) if owner is None
                       else np.asarray(owner, dtype=np.int64))
         self.tree = None
+        self._d = self.b - self.a
+        dd = _dot(self._d, self._d)
+        self._dd = np.where(dd > 0, dd, 1.0)
         if S:
             # leaves = runs of consecutive segments of one polyline (thin bounding cylinders);
             # segments are given polyline by polyline, a new owner starts a new run
@@ -96,7 +99,14 @@ class SweptBall:
         return cls(np.vstack(aa), np.vstack(bb), radius, np.concatenate(oo))
 
     def _d2(self, P, qi, sg):
-        return closest_on_segments(P[qi], self.a[sg], self.b[sg])[1]
+        """Squared distances from P[qi] to segments sg: :func:`closest_on_segments`'s
+        arithmetic, operation for operation (the same bits), with b − a and |b − a|² taken
+        once per segment instead of once per pair."""
+        p, a, d = P[qi], self.a[sg], self._d[sg]
+        t = _dot(p - a, d) / self._dd[sg]
+        t = np.clip(t, 0.0, 1.0)
+        e = p - (a + t[:, None] * d)
+        return _dot(e, e)
 
     def nearest(self, points):
         """Signed distance to the swept volume (k,) and the nearest segment (k,) (exact)."""
@@ -324,7 +334,7 @@ class SweptCutter:
         erad = cut.e * (1.0 + 1e-9) + 1e-9
         self._tree_b = _Tree(np.stack([cf_a, cf_b], 1), flat=False, clusters=clusters,
                              discs=(ax2, self.phi, erad), disc_axis=True)
-        self._rb = max(f, cut.r / np.cos(cut.beta)) * (1.0 + 1e-9) + 1e-9
+        self._rb = _bottom_reach(cut) * (1.0 + 1e-9) + 1e-9
         # cluster id of each tree's leaf rows (a leaf holds one cluster; its first present
         # segment names it)
         cl_of = np.full(len(self.ta), -1, dtype=np.int64)
@@ -592,6 +602,13 @@ class SweptCutter:
             live[idx] = (d > 1e-10) & (t[idx] <= hmax[idx])
         t[(t > hmax) | live] = np.inf
         return t
+
+
+def _bottom_reach(cutter) -> float:
+    """R_b (mm): every point of the cutter below its corner centres' height f lies within
+    R_b = max(f, r / cos β) of the disc of radius e at height f (see
+    :meth:`SweptCutter._fast_trees`; tests/core/test_geometry.py checks it on the profiles)."""
+    return float(max(cutter.f, cutter.r / np.cos(cutter.beta)))
 
 
 def _sd_in_frame(cutter, x, axis):
