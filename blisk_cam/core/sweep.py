@@ -28,7 +28,6 @@ from .geometry import (
     _run_clusters,
     _Tree,
     _within,
-    closest_on_segments,
     map_chunks,
 )
 from .toolpath import PassCurve
