@@ -131,8 +131,9 @@ def whole_run(stl, axis, c1, c2, chord, out):
     return t, mesh, res.path
 
 
-def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball", "bull")):
-    """Plan a ball and a bull-nose path (R6 corner 2, lead 10°, tilt 5°) on the mesh, then
+def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball", "bull"),
+                 bull_lead_tilt=(0.0, 0.0)):
+    """Plan a ball and a bull-nose path (R6 corner 2, lead/tilt in degrees) on the mesh, then
     verify each with 1 and 2 threads; the figures of every run must be the same."""
     from dataclasses import replace
 
@@ -141,8 +142,8 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball",
     mesh = TriMesh.from_arrays(V, F)
     ball = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
                        cusp=0.05, chord=chord)
-    bull = replace(ball, tool_type="bull", corner_radius=2.0, lead=np.radians(10.0),
-                   tilt=np.radians(5.0))
+    lead, tilt = (np.radians(float(x)) for x in bull_lead_tilt)
+    bull = replace(ball, tool_type="bull", corner_radius=2.0, lead=lead, tilt=tilt)
     for req in (r for r in (ball, bull) if r.tool_type in tools):
         try:
             path = plan_paths(mesh, req).path
@@ -200,16 +201,20 @@ def main():
                     help="skip the whole-run figures, measure verify only")
     ap.add_argument("--threads", default="1,2", help="verify threads to compare, e.g. 1,2")
     ap.add_argument("--tools", default="ball,bull", help="verify tools: ball, bull or both")
+    ap.add_argument("--bull-lead-tilt", default="0,0",
+                    help="lead,tilt of the bull-nose path in degrees (Rotor 37 as stored: 10,5; "
+                         "subdivided to 200k its hub region is too tight for a lead)")
     args = ap.parse_args()
     threads = tuple(int(x) for x in args.threads.split(","))
     tools = tuple(args.tools.split(","))
+    blt = tuple(args.bull_lead_tilt.split(","))
     if args.only != "rotor37":
         if not args.verify_only:
             V, F, axis, c1, c2 = demo_blade(args.triangles)
             bench_blade("demo", V, F, axis, c1, c2, args.chord)
         if not args.no_verify:
             V, F, axis, c1, c2 = demo_blade(args.verify_triangles)
-            bench_verify("demo", V, F, axis, c1, c2, args.chord, threads, tools)
+            bench_verify("demo", V, F, axis, c1, c2, args.chord, threads, tools, blt)
     if args.only != "demo":
         r = rotor37_blade(args.triangles)
         if r is None:
@@ -219,7 +224,7 @@ def main():
                 bench_blade("rotor37 subdivided", *r, args.chord)
             if not args.no_verify:
                 bench_verify("rotor37", *rotor37_blade(args.verify_triangles), args.chord,
-                             threads, tools)
+                             threads, tools, blt)
 
 
 if __name__ == "__main__":
