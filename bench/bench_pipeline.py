@@ -1,6 +1,7 @@
 """Benchmark the whole batch run the user waits for (issue 13); prints figures (no assertions).
 
     python bench/bench_pipeline.py [--triangles 1000000] [--chord 0.01] [--no-verify]
+    python bench/bench_pipeline.py --verify-only --only rotor37 --verify-triangles 20000
 
 For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` triangles:
 
@@ -11,7 +12,8 @@ For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` tria
   and the ratio whole run / trimesh (goal ≤ 2);
 * ``verify.verify_path`` with 1 and 2 threads vs the plan's own time (goal: verify ≤ plan),
   for a ball and a bull-nose (R6, corner 2) path on the blade at ``--verify-triangles``
-  (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it).
+  (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it, ``--verify-only``
+  runs only it; ``--verify-triangles 20000`` is Rotor 37 as stored, ~20k triangles).
 """
 
 from __future__ import annotations
@@ -129,8 +131,10 @@ def whole_run(stl, axis, c1, c2, chord, out):
     return t, mesh, res.path
 
 
-def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
-    """Plan a ball and a bull-nose path on the mesh, then verify each with 1 and 2 threads."""
+def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball", "bull"),
+                 bull_lead_tilt=(0.0, 0.0)):
+    """Plan a ball and a bull-nose path (R6 corner 2, lead/tilt in degrees) on the mesh, then
+    verify each with 1 and 2 threads; the figures of every run must be the same."""
     from dataclasses import replace
 
     from blisk_cam.core.verify import verify_path
@@ -138,7 +142,9 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
     mesh = TriMesh.from_arrays(V, F)
     ball = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
                        cusp=0.05, chord=chord)
-    for req in (ball, replace(ball, tool_type="bull", corner_radius=2.0)):
+    lead, tilt = (np.radians(float(x)) for x in bull_lead_tilt)
+    bull = replace(ball, tool_type="bull", corner_radius=2.0, lead=lead, tilt=tilt)
+    for req in (r for r in (ball, bull) if r.tool_type in tools):
         try:
             path = plan_paths(mesh, req).path
         except BliskCamError as exc:  # e.g. the demo's hub fillet is tighter than a bull
@@ -147,10 +153,15 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2)):
         plan = path.stats["seconds_plan"]
         runs = []
         for n in threads:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             rep = verify_path(mesh, path, workers=n)
             runs.append((n, time.perf_counter() - t0, rep))
+            print(f"[{name}] verify {req.tool_type}, {n} thread(s): {runs[-1][1]:.2f} s wall, "
+                  f"{time.process_time() - c0:.2f} s CPU", flush=True)
+        same = all(r.summary() | {"timings": 0} == runs[0][2].summary() | {"timings": 0}
+                   for _, _, r in runs)
         txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _ in runs)
+        txt += "" if same else " (FIGURES DIFFER between thread counts)"
         steps = ", ".join(f"{k} {v:.2f}" for k, v in runs[-1][2].timings.items() if k != "total")
         print(f"[{name}] verify {req.tool_type}, {len(F):,} triangles, {path.n_poses:,} poses: "
               f"{txt}; speed-up x{runs[0][1] / runs[-1][1]:.2f}; plan {plan:.2f} s; "
@@ -186,22 +197,34 @@ def main():
     ap.add_argument("--verify-triangles", type=int, default=200_000,
                     help="blade size for the verify comparison (verify at 1M takes minutes)")
     ap.add_argument("--only", choices=("demo", "rotor37"))
+    ap.add_argument("--verify-only", action="store_true",
+                    help="skip the whole-run figures, measure verify only")
+    ap.add_argument("--threads", default="1,2", help="verify threads to compare, e.g. 1,2")
+    ap.add_argument("--tools", default="ball,bull", help="verify tools: ball, bull or both")
+    ap.add_argument("--bull-lead-tilt", default="0,0",
+                    help="lead,tilt of the bull-nose path in degrees (Rotor 37 as stored: 10,5; "
+                         "subdivided to 200k its hub region is too tight for a lead)")
     args = ap.parse_args()
+    threads = tuple(int(x) for x in args.threads.split(","))
+    tools = tuple(args.tools.split(","))
+    blt = tuple(args.bull_lead_tilt.split(","))
     if args.only != "rotor37":
-        V, F, axis, c1, c2 = demo_blade(args.triangles)
-        bench_blade("demo", V, F, axis, c1, c2, args.chord)
+        if not args.verify_only:
+            V, F, axis, c1, c2 = demo_blade(args.triangles)
+            bench_blade("demo", V, F, axis, c1, c2, args.chord)
         if not args.no_verify:
             V, F, axis, c1, c2 = demo_blade(args.verify_triangles)
-            bench_verify("demo", V, F, axis, c1, c2, args.chord)
+            bench_verify("demo", V, F, axis, c1, c2, args.chord, threads, tools, blt)
     if args.only != "demo":
         r = rotor37_blade(args.triangles)
         if r is None:
             print("[rotor37] data not found (tests/data/blades/ or ../shared/data/blades/)")
         else:
-            bench_blade("rotor37 subdivided", *r, args.chord)
+            if not args.verify_only:
+                bench_blade("rotor37 subdivided", *r, args.chord)
             if not args.no_verify:
-                bench_verify("rotor37 subdivided", *rotor37_blade(args.verify_triangles),
-                             args.chord)
+                bench_verify("rotor37", *rotor37_blade(args.verify_triangles), args.chord,
+                             threads, tools, blt)
 
 
 if __name__ == "__main__":

@@ -34,10 +34,14 @@ __all__ = [
     "closest_on_segments",
     "closest_on_triangles",
     "map_chunks",
+    "map_tasks",
     "parallel",
 ]
 
-_CHUNK = 16384  # queries per chunk in tree traversals (bounds the frontier memory)
+_CHUNK = 2048  # queries per chunk in tree traversals (the frontier stays in cache: 16384
+#                 ran 1.5–2× slower on Rotor 37's verify, bench/bench_verify.py)
+
+_FLAT_PAIRS = 8192  # (query, leaf) pairs below which a tree query tests all leaves at once
 
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
 _WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
@@ -74,6 +78,19 @@ def map_chunks(fn, k: int, chunk: int):
         return [fn(s) for s in starts]
     with ThreadPoolExecutor(max_workers=n) as ex:
         return list(ex.map(fn, starts))
+
+
+def map_tasks(fn, items):
+    """``[fn(x) for x in items]``, on the threads of :func:`parallel` when there are several
+    items (independent tasks, e.g. one per pass level). Inside a task :func:`map_chunks`
+    runs in its thread only (the pool's threads start from the default context), so the
+    tasks are the unit of parallelism."""
+    items = list(items)
+    n = min(_WORKERS.get(), len(items))
+    if n <= 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(max_workers=n) as ex:
+        return list(ex.map(fn, items))
 
 
 # ================================================================== exact kernels
@@ -290,9 +307,16 @@ class _Tree:
         node boxes and cylinders grow by these amounts (used by :class:`SweptCutter`: a posed
         cutter lies in the cylinder of radius ``max_radius`` about its axis segment, so the
         bound below the tips is tight instead of ``max_radius``).
+    disc_axis : bool — with ``discs``: every node's cylinder takes the mean disc axis of its
+        primitives as its axis (instead of a principal direction) and the axis-aligned box
+        is replaced by an oriented box (the mean axis, the points' principal direction across
+        it, their cross product), so a node of nearly parallel discs is bounded by a flat
+        puck and box — tight above and below the discs, where a principal-direction
+        cylinder around a run of discs would be ``radius`` thick.
     """
 
-    def __init__(self, corners, *, flat: bool, clusters=None, leaf_size: int = 8, discs=None):
+    def __init__(self, corners, *, flat: bool, clusters=None, leaf_size: int = 8, discs=None,
+                 disc_axis: bool = False):
         corners = np.asarray(corners, dtype=np.float64)
         m, nc, _ = corners.shape
         self.m = m
@@ -357,6 +381,11 @@ class _Tree:
             D = X - mean[:, None, :]
             _, vec = np.linalg.eigh(np.einsum("npi,npj->nij", D, D))
             wv = vec[:, :, 0] if flat else vec[:, :, 2]
+            if discs is not None and disc_axis:
+                ma = d_ax.reshape(1 << level, -1, 3).sum(axis=1)
+                mn = np.linalg.norm(ma, axis=1)
+                wv = np.where((mn > 1e-12)[:, None], ma / np.maximum(mn, 1e-300)[:, None], wv)
+                self._obb_level(nodes, D, mean, wv, d_ax, d_phi, reach)
             z = np.einsum("npi,ni->np", D, wv)
             rad2 = np.einsum("npi,npi->np", D, D) - z * z
             self.c[nodes] = mean
@@ -371,6 +400,11 @@ class _Tree:
                 self.R[nodes] += d_rad
         # bounds are computed from rounded numbers: widen them a little
         self.H += 1e-12 * (1.0 + np.abs(self.H))
+        self.obb = None
+        if discs is not None and disc_axis:
+            half = self._obb[:, 12:15]
+            self._obb[:, 12:15] = half + 1e-12 * (1.0 + np.abs(half))
+            self.obb = self._obb
         self.R += 1e-12 * (1.0 + np.abs(self.R))
         self._pack()
         # upper bounds for nearest queries: the primitives with the nearest centroids
@@ -380,8 +414,40 @@ class _Tree:
         scale = float(np.max(np.abs(corners))) if m else 1.0
         self.slack = 1e-9 * max(scale, 1.0)
 
+    def _obb_level(self, nodes, D, mean, w2, d_ax, d_phi, reach):
+        """Oriented boxes of one level's nodes (``disc_axis`` trees): axis w2 = the mean
+        disc axis, w1 the principal direction of the node's points across it, w3 = w2 × w1;
+        half extents = the points' extents plus the discs' reach along each direction."""
+        if not hasattr(self, "_obb"):
+            self._obb = np.zeros((len(self.H), 15))
+        n = len(nodes)
+        Dp = D - np.einsum("npi,ni->np", D, w2)[:, :, None] * w2[:, None, :]
+        _, vec = np.linalg.eigh(np.einsum("npi,npj->nij", Dp, Dp))
+        w1 = vec[:, :, 2]
+        w1 = w1 - np.einsum("ni,ni->n", w1, w2)[:, None] * w2
+        w1n = np.linalg.norm(w1, axis=1)
+        alt = np.cross(w2, np.where((np.abs(w2[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0],
+                                    [0.0, 1.0, 0.0]))
+        w1 = np.where((w1n > 1e-6)[:, None], w1 / np.maximum(w1n, 1e-300)[:, None],
+                      alt / np.linalg.norm(alt, axis=1)[:, None])
+        w3 = np.cross(w2, w1)
+        ax = d_ax.reshape(n, -1, 2, 3)
+        ph = d_phi.reshape(n, -1)
+        half = np.empty((n, 3))
+        for j, w in enumerate((w1, w2, w3)):
+            cw = np.einsum("npki,ni->npk", ax, w)
+            sw_ = np.sqrt(np.maximum(1.0 - cw * cw, 0.0))
+            half[:, j] = (np.abs(np.einsum("npi,ni->np", D, w)).max(axis=1)
+                          + reach(sw_[:, :, 0], sw_[:, :, 1], ph).max(axis=1))
+        self._obb[nodes] = np.hstack([mean, w1, w2, w3, half])
+
     def _pack(self):
-        """One (nodes, 14) array [lo, hi, c, w, H, R] so a level needs a single gather."""
+        """One (nodes, 14) array [lo, hi, c, w, H, R] so a level needs a single gather
+        (with oriented boxes: [c, w1, w2, w3, half (3), H, R], (nodes, 17))."""
+        if getattr(self, "obb", None) is not None:
+            self.nd = np.ascontiguousarray(
+                np.hstack([self.obb, self.H[:, None], self.R[:, None]]))
+            return
         self.nd = np.ascontiguousarray(
             np.hstack([self.lo, self.hi, self.c, self.w, self.H[:, None], self.R[:, None]]))
 
@@ -389,6 +455,23 @@ class _Tree:
         """Whether the lower bound of the distance from points P (k, 3) to ``node`` (k,)
         is at most sqrt(r2) (k,) — both the box and the cylinder bound must pass."""
         nd = self.nd[node]
+        if self.obb is not None:  # oriented box [c, w1, w2, w3, half] and the puck along w2
+            d = P - nd[:, 0:3]
+            acc = np.zeros(len(P))
+            for j in range(3):
+                x = np.abs(np.einsum("ij,ij->i", d, nd[:, 3 + 3 * j: 6 + 3 * j]))
+                x -= nd[:, 12 + j]
+                np.maximum(x, 0.0, out=x)
+                acc += x * x
+                if j == 1:
+                    ez = x
+            ok = acc <= r2
+            z2 = np.einsum("ij,ij->i", d, nd[:, 6:9])
+            rr = np.einsum("ij,ij->i", d, d) - z2 * z2
+            er = np.sqrt(np.maximum(rr, 0.0)) - nd[:, 16]
+            np.maximum(er, 0.0, out=er)
+            ok &= ez * ez + er * er <= r2
+            return ok
         g = np.maximum(nd[:, 0:3] - P, 0.0)
         g += np.maximum(P - nd[:, 3:6], 0.0)
         ok = np.einsum("ij,ij->i", g, g) <= r2
@@ -416,6 +499,15 @@ class _Tree:
         """
         k = len(P)
         r2 = (np.sqrt(np.maximum(r2, 0.0)) + self.slack) ** 2
+        if k * self.NL <= _FLAT_PAIRS:
+            # few queries on a small tree (e.g. sphere tracing against one level's passes):
+            # test every leaf at once instead of L levels of small steps. A superset of the
+            # breadth-first answer in the same order (by query, then leaf): a leaf within the
+            # radius has every ancestor within it, and the extra leaves hold nothing within it
+            q = np.repeat(np.arange(k), self.NL)
+            node = np.tile(np.arange(self.NL, 2 * self.NL), k)
+            keep = self._within_bound(P[q], node, r2[q])
+            return q[keep], node[keep] - self.NL
         q = np.arange(k)
         node = np.ones(k, dtype=np.int64)
         keep = self._within_bound(P, node, r2)
@@ -458,12 +550,19 @@ def _group_argmin(k, qi, values, ids):
     return best, arg
 
 
-def _nearest(tree: _Tree, P, d2fn, lbfn=None, chunk=_CHUNK):
+def _nearest(tree: _Tree, P, d2fn, lbfn=None, chunk=_CHUNK, fastfn=None):
     """Exact nearest primitive to each point.
 
     The primitives with the nearest centroids give an upper bound u; then every primitive in
     a node whose bounds lie within u, and whose own lower bound ``lbfn`` (if given) does, is
     evaluated exactly. Returns (d2 (k,), prim (k,)).
+
+    ``fastfn(P, qi, prim)`` (optional) returns (d2 (n,), tol (float)): the same squared
+    distances by a cheaper formula, each within ``tol`` of ``d2fn``'s (NaN: no estimate,
+    always evaluate). Then only the
+    candidates within 2 tol of their query's smallest ``fastfn`` value — a superset of every
+    candidate that can reach the exact minimum, ties included — are evaluated with ``d2fn``,
+    in their original order, so the result is the one without ``fastfn``, bit for bit.
     """
     k = len(P)
     d2 = np.full(k, np.inf)
@@ -485,6 +584,13 @@ def _nearest(tree: _Tree, P, d2fn, lbfn=None, chunk=_CHUNK):
             q2, p2 = q2[keep], p2[keep]
         qi = np.concatenate([qi, q2])
         pr = np.concatenate([pr, p2])
+        if fastfn is not None and len(qi):
+            fa, tol = fastfn(Pc, qi, pr)
+            always = np.isnan(fa)
+            fbest = np.full(kc, np.inf)
+            np.minimum.at(fbest, qi, np.where(always, np.inf, fa))
+            keep = always | (fa <= fbest[qi] + 2.0 * tol)
+            qi, pr = qi[keep], pr[keep]
         best, a = _group_argmin(kc, qi, d2fn(Pc, qi, pr), pr)
         d2[s : s + chunk] = best
         arg[s : s + chunk] = a
@@ -553,6 +659,57 @@ class MeshDistance:
         self._rad = np.linalg.norm(T - self._cen[:, None, :], axis=2).max(axis=1)
         self._n = mesh.face_normals  # zero for zero-area faces: the bound is then a sphere
         self.tree = _Tree(T, flat=True, leaf_size=leaf_size)
+        self._frames = None
+
+    def _face_frames(self):
+        """(m, 31) per face: A, unit normal n, then per edge (AB, BC, CA) its start, unit
+        direction, length and in-plane outward normal (direction × n); zero-area faces get
+        n = 0 (see :meth:`_fast_d2`); the same for slivers."""
+        if self._frames is None:
+            A, B, C = self._A, self._B, self._C
+            n = _cross(B - A, C - A)
+            nl = np.sqrt(_dot(n, n))
+            longest = np.sqrt(np.maximum.reduce([_dot(B - A, B - A), _dot(C - B, C - B),
+                                                 _dot(A - C, A - C)]))
+            # slivers (an angle below ~0.06°) are always evaluated exactly: their normal, from
+            # rounded edges, is off by ~ε / sin(angle)
+            ok = nl > 1e-3 * np.maximum(longest, 1e-300) ** 2
+            n = np.where(ok[:, None], n / np.where(ok, nl, 1.0)[:, None], 0.0)
+            cols = [A, n]
+            for S, E in ((A, B), (B, C), (C, A)):
+                d = E - S
+                L = np.sqrt(_dot(d, d))
+                e = d / np.where(L > 0, L, 1.0)[:, None]
+                cols += [S, e, L[:, None], _cross(e, n)]
+            self._frames = np.ascontiguousarray(np.hstack(cols))
+        return self._frames
+
+    def _fast_d2(self, P, qi, f):
+        """Squared point–triangle distances (n,) from per-face frames — the plane height z and
+        the in-plane distance to the triangle (0 inside; else the nearest edge segment, from
+        its signed offset s and its parameter t): z² + min_i (s_i² + (t_i − clamp t_i)²) —
+        and their error bound (a float, mm²). Zero-area faces and slivers give NaN (always
+        evaluated exactly)."""
+        G = self._face_frames()[f]
+        p = P[qi]
+        d = p - G[:, 0:3]
+        z = np.einsum("ij,ij->i", d, G[:, 3:6])
+        out = np.full(len(p), np.inf)
+        inside = np.ones(len(p), bool)
+        for j in range(3):
+            c = 6 + 10 * j
+            w = p - G[:, c : c + 3]
+            t = np.einsum("ij,ij->i", w, G[:, c + 3 : c + 6])
+            sg = np.einsum("ij,ij->i", w, G[:, c + 7 : c + 10])
+            inside &= sg <= 0.0
+            t -= np.clip(t, 0.0, G[:, c + 6])
+            np.minimum(out, sg * sg + t * t, out=out)
+        d2 = z * z + np.where(inside, 0.0, out)
+        dd = np.einsum("ij,ij->i", d, d)
+        d2 = np.where(np.any(G[:, 3:6] != 0.0, axis=1), d2, np.nan)
+        # both formulas round by a few ε |p − A|² (|p − A| ≥ every distance here); far wider
+        tol = 1e-10 * (1.0 + float(dd.max(initial=0.0)))
+        return d2, tol
 
     def _d2(self, P, qi, f):
         return closest_on_triangles(P[qi], self._A[f], self._B[f], self._C[f])[1]
@@ -579,7 +736,7 @@ class MeshDistance:
             z = np.zeros(0)
             return ClosestPoints(z, np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros((0, 3)),
                                  np.zeros(0, np.int8), z)
-        _, face = _nearest(self.tree, P, self._d2, self._lb2)
+        _, face = _nearest(self.tree, P, self._d2, self._lb2, fastfn=self._fast_d2)
         q, d2, feat, bary = closest_on_triangles(P, self._A[face], self._B[face], self._C[face])
         mesh = self.mesh
         fn = mesh.face_normals

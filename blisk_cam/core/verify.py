@@ -47,6 +47,7 @@ from .geometry import (  # noqa: F401  (re-exported: verify's public names stay 
     closest_on_segments,
     closest_on_triangles,
     closest_points,
+    map_tasks,
     parallel,
 )
 from .lmrs import morph_between
@@ -575,8 +576,9 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
                    np.full((npairs, 3), np.nan), np.zeros(npairs, dtype=np.int64))
     if not npairs:
         return sc
-    cut = [swept_cutter(tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i],
-                        method=method) for i in range(len(levels))]
+    cut = map_tasks(lambda i: swept_cutter(
+        tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i], method=method),
+        range(len(levels)))
     strip = np.searchsorted(levels, s_all, side="right") - 1
     strip = np.where(s_all == levels[-1], npairs - 1, strip)
     strip = np.where((s_all < levels[0]) | (s_all > levels[-1]), -1, strip)
@@ -666,11 +668,17 @@ def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
     # only points within 25 % of their pair's highest can hold the pair's highest
     top = _group_max(npairs, hq, hv)
     near_top = hv >= 0.75 * top[hq]
+
+    def one(i):  # a task per (pair, side): the pairs' points are disjoint
+        m = (hv > 0) & (hq == i // 2) & near_top
+        if not np.any(m):
+            return m, None
+        return m, cut[i // 2 + i % 2].height_along(hp[m], hn_[m], hmax[m])
+
+    res = map_tasks(one, range(2 * npairs))
     for i in range(npairs):
-        m = (hv > 0) & (hq == i) & near_top
-        if np.any(m):
-            h1 = cut[i].height_along(hp[m], hn_[m], hmax[m])
-            h2 = cut[i + 1].height_along(hp[m], hn_[m], hmax[m])
+        (m, h1), (_, h2) = res[2 * i], res[2 * i + 1]
+        if h1 is not None:
             heights[m] = np.minimum(h1, h2)
     heights[~np.isfinite(heights)] = np.nan
     return _group_max(npairs, hq, heights)
@@ -775,13 +783,17 @@ def _two_level_distances(cut, P, strip, npairs):
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
-    for lv in range(npairs + 1):
+
+    def one(lv):  # one task per level (on the threads of :func:`parallel`)
+        m = (strip == lv) | (strip == lv - 1)
+        return cut[lv].distance(P[m]) if np.any(m) else None
+
+    for lv, d in enumerate(map_tasks(one, range(npairs + 1))):
+        if d is None:
+            continue
         as_lo = strip == lv
         as_hi = strip == lv - 1
         m = as_lo | as_hi
-        if not np.any(m):
-            continue
-        d = cut[lv].distance(P[m])
         dlo[m] = np.where(as_lo[m], d, dlo[m])
         dhi[m] = np.where(as_hi[m], d, dhi[m])
     return dlo, dhi

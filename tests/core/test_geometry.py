@@ -33,10 +33,51 @@ def test_nearest_faces_equal_mesh_distance_ties_included():
 
 def test_threaded_queries_equal_one_thread():
     mesh, P = _mesh_and_points()
-    P = np.vstack([P] * 4)  # several chunks of 16384
+    P = np.vstack([P] * 4)  # several chunks
     md = MeshDistance(mesh)
     with parallel(1):
         a = md.query(P)
     with parallel(2):
         b = md.query(P)
     assert np.array_equal(a.face, b.face) and np.array_equal(a.distance, b.distance)
+
+
+def test_fast_filter_leaves_the_exact_search_unchanged():
+    """The face-frame distances only drop candidates that cannot reach the minimum: faces,
+    points and distances equal the search without the filter, bit for bit (points on edges
+    and vertices — ties — and points 6 mm off the surface, where many faces are near-equal)."""
+    from blisk_cam.core.geometry import _nearest
+
+    mesh, P = _mesh_and_points()
+    rng = np.random.default_rng(3)
+    far = mesh.V[rng.integers(0, mesh.n_vertices, 3000)]
+    far = far + 6.0 * mesh.vertex_normals[rng.integers(0, mesh.n_vertices, 3000)]
+    P = np.vstack([P, far])
+    md = MeshDistance(mesh)
+    d_fast, f_fast = _nearest(md.tree, P, md._d2, md._lb2, fastfn=md._fast_d2)
+    d_ref, f_ref = _nearest(md.tree, P, md._d2, md._lb2)
+    assert np.array_equal(f_fast, f_ref)
+    assert np.array_equal(d_fast, d_ref)
+
+
+def test_bottom_and_side_bounds_hold_every_cutter():
+    """The fast swept cutter's two bounds: every point of the profile region with z ≥ f is
+    within max_radius of the axis (the side), every point below f within R_b of the disc of
+    radius e at height f (the bottom) — for bull noses (with and without a conical bottom),
+    a flat end mill and a tapered ball."""
+    from blisk_cam.core.cutter import Cutter
+    from blisk_cam.core.sweep import _bottom_reach
+
+    cutters = (Cutter.bull(6.0, 2.0), Cutter("bull", 12.0, 2.0, alpha=np.radians(20.0)),
+               Cutter.flat(6.0), Cutter.taper(3.0, np.radians(10.0)), Cutter.bull(5.0, 4.9))
+    for cut in cutters:
+        rho, z = np.meshgrid(np.linspace(0.0, cut.max_radius + 1.0, 400),
+                             np.linspace(-1.0, cut.h + 1.0, 900), indexing="ij")
+        rho, z = rho.ravel(), z.ravel()
+        inside = cut.signed_distance_rz(rho, z) <= 0.0
+        hi = inside & (z >= cut.f)
+        assert np.all(rho[hi] <= cut.max_radius * (1 + 1e-12)), cut
+        lo = inside & (z < cut.f)
+        d = np.hypot(np.maximum(rho[lo] - cut.e, 0.0), cut.f - z[lo])
+        assert lo.any() == (cut.f > 0), cut  # a flat end mill has no part below f = 0
+        assert d.max(initial=0.0) <= _bottom_reach(cut) * (1 + 1e-12), cut
