@@ -141,13 +141,13 @@ class CollisionOptions(_Stage):
                            soft_max=10.0)
     max_lead: float = option(
         math.radians(30.0), "Max Lead", "A corrected tool axis may lean at most this far "
-        "from the surface normal in the feed direction, degrees (either sign); an axis planned further may "
-        "turn but not lean further than planned", unit="deg",
+        "from the surface normal in the feed direction, degrees (either sign); an axis planned "
+        "further may turn but not lean further than planned", unit="deg",
         lo=0.0, hi=math.radians(89.0))
     max_tilt: float = option(
         math.radians(30.0), "Max Tilt", "A corrected tool axis may lean at most this far "
-        "from the surface normal across the feed, degrees (either sign); an axis planned further may "
-        "turn but not lean further than planned", unit="deg",
+        "from the surface normal across the feed, degrees (either sign); an axis planned "
+        "further may turn but not lean further than planned", unit="deg",
         lo=0.0, hi=math.radians(89.0))
     max_turn: float | None = None
     max_iterations: int = 8
