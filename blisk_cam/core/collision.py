@@ -989,22 +989,25 @@ class CollisionScene:
         self.body = [_Frustum(*f) for f in assembly.frustums()]
         self._groups = _obstacle_groups(obstacles)
 
-    def parts(self):
-        """[(part, groups)]: the flute against the non-target obstacles, the body frustums
-        against all; ``groups`` is a list of (:class:`_Copies`, first copy) — the flute skips
-        copy 0 of the blade (the target blade itself)."""
-        fl = [(g, 1 if g.blade else 0) for g in self._groups if not g.blade or g.n_copies > 1]
+    def parts(self, flute_on_target: bool = False):
+        """[(part, groups)]: the flute against the non-target obstacles (against all with
+        ``flute_on_target``), the body frustums against all; ``groups`` is a list of
+        (:class:`_Copies`, first copy) — the flute skips copy 0 of the blade (the target blade
+        itself) unless ``flute_on_target``."""
+        skip = 0 if flute_on_target else 1
+        fl = [(g, skip if g.blade else 0) for g in self._groups
+              if not g.blade or g.n_copies > skip]
         out = [(self.flute, fl)] if fl else []
         return out + [(f, [(g, 0) for g in self._groups]) for f in self.body]
 
     # long on purpose: candidates of every part and obstacle group, the per-pose pruning and the
     # exact refinement share the per-pose bounds; split, they would pass a dozen arrays around
-    def _chunk(self, tips, axes):
+    def _chunk(self, tips, axes, flute_on_target=False):
         m = len(tips)
         ub = np.full(m, self.cap)
         queries = {id(g): g.queries(tips, axes) for g in self._groups}
         cand = []
-        for part, groups in self.parts():
+        for part, groups in self.parts(flute_on_target):
             for g, first in groups:
                 tq, aq, pid, cid = (x[first * m:] for x in queries[id(g)])
                 P, T, sdc, lb = g.tree.candidates(part, tq, aq, ub, pid,
@@ -1064,13 +1067,15 @@ class CollisionScene:
         return best, obst, kind, pt, nr
 
     def detect(self, tips, axes, *, chunk: int = _CHUNK, workers: int | None = None,
-               progress=None) -> Detection:
+               progress=None, flute_on_target: bool = False) -> Detection:
         """Clearance of every pose (module docstring).
 
         Parameters
         ----------
         tips : (m, 3) float, mm — tool tip (CL) points
         axes : (m, 3) float — unit tool axes (tip → spindle)
+        flute_on_target : bool — the flute counts against the target blade too (poses that do
+            not cut it, e.g. rapids: there a touch of the flute is a gouge)
         chunk : int — poses per work unit
         workers : int or None — threads (default: up to 2)
         progress : callable(fraction) or None
@@ -1098,7 +1103,7 @@ class CollisionScene:
 
         def work(span):
             s, e = span
-            return span, self._chunk(tips[s:e], axes[s:e])
+            return span, self._chunk(tips[s:e], axes[s:e], flute_on_target)
 
         if nw > 1 and len(spans) > 1:
             with ThreadPoolExecutor(nw) as ex:

@@ -35,8 +35,8 @@ ds − s/2 (ds/2 for ds ≥ 0.5 mm): no contact between the checked poses.
 
 **Check and tries** — every route pose is checked with the same detection
 (:meth:`.collision.CollisionScene.detect`); on the rapids the cutter (flute) must clear the
-blade it machines too (there it does not cut: it would gouge it), so they are checked in a
-scene where the target blade is an ordinary obstacle. A route with a colliding pose is built
+blade it machines too (there it does not cut: it would gouge it), so they are checked with
+``flute_on_target``. A route with a colliding pose is built
 again on the surface raised by Δ_k (a longer retract and approach): Δ_1 puts the tip beyond
 the blades' largest radius by the cutter radius and ds (the flute then clears every blade;
 Δ_1 = g where the surface is that far out already), each later try g = max(the body's
@@ -58,7 +58,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .avoidance import STATUS_CORRECTED, STATUS_UNRESOLVED
-from .collision import CollisionScene, Obstacle, Obstacles
 from .cones import Axis, meridional
 from .linking import Clearance, _cyl, _from_cyl, _slerp
 from .toolpath import MOVE_APPROACH, MOVE_RAPID, MOVE_RETRACT, Program
@@ -250,18 +249,6 @@ def _lifts(scene, axis: Axis, clear: Clearance, z_range):
     return [0.0] + [base + k * g for k in range(ROUTE_TRIES - 1)]
 
 
-def _strict_scene(scene):
-    """The scene with the target blade as an ordinary obstacle: the flute may not touch it
-    either (a rapid must not pass the cutter through the blade it machines). Its index 0
-    (the "target" the flute ignores) is one of the blade's own triangles, which the blade
-    itself holds again as an obstacle."""
-    ob = scene.obstacles
-    blade = ob.meshes[0]
-    first = Obstacle("blade (one face)", blade.V[blade.F[0]], np.array([[0, 1, 2]]))
-    strict = Obstacles((first, *ob.meshes), ob.axis, ob.blade_count, ob.neighbours)
-    return CollisionScene(strict, scene.cutter, scene.assembly)
-
-
 def _where(program: Program, row: int):
     if row < 0:
         return None
@@ -325,7 +312,6 @@ def reroute_links(scene, program: Program, planned: Program, axis: Axis, curve_r
         _, z_all = meridional(program.tip, axis)
         lifts = _lifts(scene, axis, clear, [z_all.min(), z_all.max()])
         todo = list(hit)
-        strict = None  # the scene in which the flute counts against the target blade too
         for k, lift in enumerate(lifts):
             built = []
             for r in todo:
@@ -345,13 +331,12 @@ def reroute_links(scene, program: Program, planned: Program, axis: Axis, curve_r
                 X = np.vstack([b[1][1] for b in built])
                 rapid = np.concatenate([b[1][2] for b in built]) == MOVE_RAPID
                 clr_r, names = np.empty(len(T)), np.empty(len(T), dtype=object)
-                for sel, sc in ((~rapid, scene), (rapid, strict)):
+                # on the rapids the flute does not cut: it counts against the target too
+                for sel, strict in ((~rapid, False), (rapid, True)):
                     if sel.any():
-                        if sc is None:
-                            strict = sc = _strict_scene(scene)
-                        det = sc.detect(T[sel], X[sel])
+                        det = scene.detect(T[sel], X[sel], flute_on_target=strict)
                         clr_r[sel] = det.clearance
-                        names[sel] = [sc.obstacles.names[i] if i >= 0 else "an obstacle"
+                        names[sel] = [scene.obstacles.names[i] if i >= 0 else "an obstacle"
                                       for i in det.obstacle]
                 o = 0
                 for r, res in built:

@@ -131,6 +131,11 @@ def test_flute_ignores_target_blade_but_not_neighbours():
                             np.array([[0.0, 0, 1]]))
     assert det.clearance[0] == pytest.approx(2.0, abs=1e-6)  # the shank, not the ball (1.0)
     assert det.part[0] == PART_BODY
+    # a pose that does not cut (a rapid): the flute counts against the target blade too
+    det = CollisionScene(ob, Cutter.ball(3.0), asm).detect(
+        np.array([[0.0, 0, 0]]), np.array([[0.0, 0, 1]]), flute_on_target=True)
+    assert det.clearance[0] == pytest.approx(1.0, abs=1e-6) and det.part[0] == 0
+    assert det.obstacle[0] == 0
     ob = Obstacles.build(*FAR_BLADE, Axis(), 2, 0, extra=[("wall", V, F)])
     det = detect_collisions(ob, Cutter.ball(3.0), asm, np.array([[0.0, 0, 0]]),
                             np.array([[0.0, 0, 1]]))
