@@ -57,9 +57,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .avoidance import STATUS_CORRECTED, STATUS_UNRESOLVED
+from .avoidance import STATUS_CORRECTED, STATUS_UNRESOLVED, _angle
 from .cones import Axis, meridional
 from .linking import Clearance, _cyl, _from_cyl, _slerp
+from .orientation import _unit
 from .toolpath import MOVE_APPROACH, MOVE_RAPID, MOVE_RETRACT, Program
 
 __all__ = [
@@ -129,16 +130,6 @@ def clearance_surface(program: Program, axis: Axis) -> Clearance:
         # not one surface (a program re-routed before, on raised surfaces): the lowest
         return Clearance(float(r.min()))
     return Clearance(float(icpt), 0.0, float(slope))
-
-
-def _unit(v):
-    v = np.asarray(v, dtype=np.float64)
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _angle(a, b):
-    """(k,) angles (rad) between unit rows, accurate near 0."""
-    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
 
 
 def _exit_length(tip, a, axis: Axis, clear: Clearance, lift: float):
