@@ -522,8 +522,12 @@ def _pose_empties(coll, prefix, path, idx, f, size_mm):
     return objs
 
 
-def _verify_object(name, V, F, values, cusp, chord, f, coll):
+def _verify_object(bname, V, F, values, cusp, chord, f, coll):
+    """The blade's verify colour-map copy "<bname> verify" in ``coll`` (role "verify")."""
+    name = f"{bname} verify"
     ob = arrays_to_object(name, V, F, coll, mm_per_unit=f)
+    ob[KEY_ROLE] = "verify"
+    ob[KEY_NAME] = name
     me = ob.data
     rgba = verify_colors(values, cusp, chord)
     attr = me.color_attributes.new("verify", "FLOAT_COLOR", "POINT")
@@ -708,11 +712,8 @@ def write_path_objects(
         objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
         if blade_arrays is not None and vertex_values is not None:
             V, F = blade_arrays
-            ob = _verify_object(f"{bname} verify", V, F, vertex_values, float(path.cusp),
-                                float(path.chord), f, new)
-            ob[KEY_ROLE] = "verify"
-            ob[KEY_NAME] = f"{bname} verify"
-            objs["verify"] = ob
+            objs["verify"] = _verify_object(bname, V, F, vertex_values, float(path.cusp),
+                                            float(path.chord), f, new)
     except Exception:
         _remove_collection_tree(new)
         raise
@@ -787,10 +788,8 @@ def attach_verify(
             if data is not None and data.users == 0:
                 bpy.data.meshes.remove(data)
         V, F = blade_arrays
-        ob = _verify_object(f"{bname} verify", V, F, vertex_values, float(path.cusp),
-                            float(path.chord), f, coll)
-        ob[KEY_ROLE] = "verify"
-        ob[KEY_NAME] = f"{bname} verify"
+        ob = _verify_object(bname, V, F, vertex_values, float(path.cusp), float(path.chord),
+                            f, coll)
         ob.name = ob[KEY_NAME]
         ob.data.name = ob.name
         out["verify"] = ob
