@@ -292,6 +292,33 @@ class TriMesh:
             mesh._orient()
         return mesh
 
+    def submesh(self, faces) -> TriMesh:
+        """The faces ``faces`` (ascending ids) as a mesh of their own, as they are (already
+        welded and oriented: no welding or orienting again). The kept vertices stay in their
+        order, so every edge keeps its direction (lower vertex index first) and the edges
+        their relative order: a slicer gives the same curves on it as on this mesh when the
+        faces include every face a level crosses. Its vertex normals are this mesh's
+        (area-weighted over *all* incident faces, not only the kept ones), so curve normals
+        come out as on the whole mesh.
+
+        Parameters
+        ----------
+        faces : (k,) int — ascending face indices
+
+        Returns
+        -------
+        TriMesh
+        """
+        F = self.F[faces]
+        used = np.zeros(self.n_vertices, dtype=bool)
+        used[F.ravel()] = True
+        verts = np.flatnonzero(used)  # ascending: the vertex order is kept
+        remap = np.empty(self.n_vertices, dtype=np.int64)
+        remap[verts] = np.arange(len(verts))
+        sub = TriMesh(V=self.V[verts], F=remap[F])
+        sub._cache["vn"] = self.vertex_normals[verts]
+        return sub
+
     # ------------------------------------------------------------------ topology
     @property
     def n_vertices(self) -> int:

@@ -218,25 +218,6 @@ class MeridionalIndex:
         return np.sort(self.faces[np.unique(np.concatenate(picked))])
 
 
-def submesh(mesh: TriMesh, faces) -> TriMesh:
-    """The faces ``faces`` (ascending ids) of ``mesh`` as a mesh of their own, as they are
-    (already welded and oriented: no welding or orienting again). The kept vertices stay in
-    their order, so every edge keeps its direction (lower vertex index first) and the edges
-    their relative order: a slicer gives the same curves on it as on ``mesh`` when the faces
-    include every face a level crosses."""
-    F = mesh.F[faces]
-    used = np.zeros(mesh.n_vertices, dtype=bool)
-    used[F.ravel()] = True
-    verts = np.flatnonzero(used)  # ascending: the vertex order is kept
-    remap = np.empty(mesh.n_vertices, dtype=np.int64)
-    remap[verts] = np.arange(len(verts))
-    sub = TriMesh(V=mesh.V[verts], F=remap[F])
-    # the whole mesh's vertex normals (area-weighted over *all* incident faces), not those of
-    # the cut-out faces only: the curves' normals come out as on the whole mesh
-    sub._cache["vn"] = mesh.vertex_normals[verts]
-    return sub
-
-
 class LmcPreview:
     """Cache of the prepared blade mesh, its meridional index and the last preview result.
 
@@ -327,7 +308,7 @@ class LmcPreview:
             return None
         if len(faces) > self.SUBMESH_SHARE * mesh.n_faces:
             return MeshConeSlicer(mesh, axis, morph, on_tol=_ON_TOL)
-        return MeshConeSlicer(submesh(mesh, faces), axis, morph, on_tol=_ON_TOL)
+        return MeshConeSlicer(mesh.submesh(faces), axis, morph, on_tol=_ON_TOL)
 
     @staticmethod
     def request_key(mesh_key, axis: Axis, cone1, cone2, levels) -> tuple:
