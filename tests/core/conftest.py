@@ -15,6 +15,13 @@ from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # binary STL â†
 BLADES = Path(__file__).resolve().parents[1] / "data" / "blades"
 
 
+def write_binary_stl(path, V, F):
+    """Write (V (n, 3) mm, F (m, 3)) as a binary STL (float32, zero normals); returns str."""
+    tri = np.asarray(V)[np.asarray(F)].astype("<f4")
+    rec = np.zeros(len(tri), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["v"] = tri
+    Path(path).write_bytes(b"\0" * 80 + np.uint32(len(tri)).tobytes() + rec.tobytes())
+    return str(path)
 
 
 def nasa_blade(name):

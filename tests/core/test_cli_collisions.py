@@ -6,23 +6,17 @@ import json
 
 import numpy as np
 import pytest
+from conftest import write_binary_stl
 
 from blisk_cam import cli
 from blisk_cam.core.demo import make_demo_blisk
 
 
-def _stl(path, V, F):
-    tri = np.asarray(V)[np.asarray(F)].astype("<f4")
-    rec = np.zeros(len(tri), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    rec["v"] = tri
-    path.write_bytes(b"\0" * 80 + np.uint32(len(tri)).tobytes() + rec.tobytes())
-    return str(path)
-
-
 @pytest.fixture(scope="module")
 def blade(tmp_path_factory):
     d = make_demo_blisk(resolution=0.3, fillet=True, fillet_radius=10.0)
-    stl = _stl(tmp_path_factory.mktemp("blade") / "blade.stl", d.blade_vertices, d.blade_faces)
+    stl = write_binary_stl(tmp_path_factory.mktemp("blade") / "blade.stl", d.blade_vertices,
+                           d.blade_faces)
     return stl, [str(x) for x in d.tip_cone.as_list()]
 
 

@@ -4,8 +4,8 @@ the CLI runs has its figure."""
 
 import json
 
-import numpy as np
 import pytest
+from conftest import write_binary_stl
 
 from blisk_cam import cli
 from blisk_cam.core.demo import make_demo_blisk
@@ -14,12 +14,9 @@ from blisk_cam.core.demo import make_demo_blisk
 @pytest.fixture(scope="module")
 def blade(tmp_path_factory):
     d = make_demo_blisk(resolution=0.5)
-    tri = np.asarray(d.blade_vertices)[np.asarray(d.blade_faces)].astype("<f4")
-    rec = np.zeros(len(tri), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    rec["v"] = tri
-    path = tmp_path_factory.mktemp("blade") / "blade.stl"
-    path.write_bytes(b"\0" * 80 + np.uint32(len(tri)).tobytes() + rec.tobytes())
-    return str(path), [str(x) for x in d.hub_cone.as_list()], [str(x) for x in d.tip_cone.as_list()]
+    path = write_binary_stl(tmp_path_factory.mktemp("blade") / "blade.stl", d.blade_vertices,
+                            d.blade_faces)
+    return path, [str(x) for x in d.hub_cone.as_list()], [str(x) for x in d.tip_cone.as_list()]
 
 
 def test_process_age_counts_the_interpreter():

@@ -16,6 +16,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import write_binary_stl
 from nc_helpers import (
     RS274,
     demo_path,
@@ -380,11 +381,7 @@ def test_paths_and_nc_in_one_run_match_the_nc_command(tmp_path, capsys):
     from blisk_cam.core.demo import make_demo_blisk
 
     d = make_demo_blisk(resolution=0.3, fillet=True, fillet_radius=10.0)
-    stl = tmp_path / "blade.stl"
-    tri = np.asarray(d.blade_vertices)[np.asarray(d.blade_faces)].astype("<f4")
-    rec = np.zeros(len(tri), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    rec["v"] = tri
-    stl.write_bytes(b"\0" * 80 + np.uint32(len(tri)).tobytes() + rec.tobytes())
+    stl = write_binary_stl(tmp_path / "blade.stl", d.blade_vertices, d.blade_faces)
     cone1 = ["170", "-25", "185", "35"]
     cone2 = [str(x) for x in d.tip_cone.as_list()]
     one = tmp_path / "one.ngc"
