@@ -766,16 +766,23 @@ class NearestFaces:
     gives each point an upper bound u (the exact distance to the face of the nearest
     centroid); every face whose centroid lies within u + its own circumradius is then tested
     exactly. For the generator's few, clustered queries (links between passes, the spiral
-    blend) this costs far less than :class:`MeshDistance`'s bounding-volume tree, and it
-    returns the same points and faces: the minimum of the same exact point–triangle
-    distances. Faces at exactly the same distance (a point on a shared edge or vertex) are
-    decided as :class:`MeshDistance` decides them — the face that comes last in its tree's
-    leaf order — so the leaf order (the tree's median splits only, no bounds) is computed,
-    once, the first time such a tie occurs.
+    blend, the passes' contacts in the orient stage) this costs far less than
+    :class:`MeshDistance`'s bounding-volume tree, and it returns the same points and faces:
+    the minimum of the same exact point–triangle distances. Faces at exactly the same
+    distance (a point on a shared edge or vertex) are decided as :class:`MeshDistance`
+    decides them — the face that comes last in its tree's leaf order — so the leaf order
+    (the tree's median splits only, no bounds) is computed, once, the first time such a tie
+    occurs.
+
+    Why the whole leaf order and not a key of the tied faces only: a face's place inside its
+    leaf is where ``np.argpartition``'s introselect left it in the last split, and the order
+    entering that split is what every enclosing split's introselect made of all the faces
+    of its segment — no local key of a face reproduces it.
 
     Parameters
     ----------
     mesh : TriMesh
+    leaf_size : int — the leaf size of the :class:`MeshDistance` tree whose ties are matched
     """
 
     def __init__(self, mesh: TriMesh, *, leaf_size: int = 8):
@@ -788,7 +795,9 @@ class NearestFaces:
         """(m,) position of each face in :class:`MeshDistance`'s tree (``_Tree.prims``
         flattened): the order in which its queries meet the faces."""
         if self._rank is None:
-            pcen = self.mesh.V[self.mesh.F].mean(axis=1)  # exactly as _Tree computes it
+            if self._kd is None:
+                self._build()
+            pcen = self._cen  # V[F].mean(axis=1) bit for bit, exactly as _Tree computes it
             clusters, _ = _median_slots(pcen, self.leaf_size)
             clusters = clusters[np.any(clusters >= 0, axis=1)]
             cnt = np.maximum((clusters >= 0).sum(axis=1), 1)
@@ -806,6 +815,8 @@ class NearestFaces:
     def _build(self):
         V, F = self.mesh.V, self.mesh.F
         self._A, self._B, self._C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+        # ((a + b) + c) / 3: the very operations of V[F].mean(axis=1) (a reduction over the
+        # middle axis adds the rows in order, then divides by the count), a third the time
         cen = (self._A + self._B + self._C) / 3.0
         rad2 = np.maximum(np.maximum(_dot(self._A - cen, self._A - cen),
                                      _dot(self._B - cen, self._B - cen)),

@@ -31,6 +31,37 @@ def test_nearest_faces_equal_mesh_distance_ties_included():
     assert np.array_equal(bary, cp.bary)
 
 
+def test_nearest_faces_follow_the_tie_rule_by_brute_force():
+    """The rule stated directly: every face's exact distance, the smallest wins; of faces at
+    exactly that distance, the one latest in MeshDistance's leaf order (``tree.prims``) —
+    on points on shared edges and vertices (ties), on edge points with t ≠ ½, and off it."""
+    from blisk_cam.core.geometry import closest_on_triangles
+
+    d = make_demo_blisk(resolution=0.12)
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    V, F = mesh.V, mesh.F
+    rng = np.random.default_rng(11)
+    e = F[rng.integers(0, len(F), 250)]
+    t = rng.random(250)[:, None]
+    P = np.vstack([0.5 * (V[e[:, 0]] + V[e[:, 1]]), V[e[:, 1]] + t * (V[e[:, 2]] - V[e[:, 1]]),
+                   V[rng.integers(0, len(V), 250)],
+                   V[rng.integers(0, len(V), 150)] + rng.normal(scale=1.0, size=(150, 3))])
+    prims = MeshDistance(mesh).tree.prims.ravel()
+    rank = np.full(len(F), -1)
+    rank[prims[prims >= 0]] = np.nonzero(prims >= 0)[0]
+    want = np.empty(len(P), dtype=np.int64)
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    for i, p in enumerate(P):
+        d2 = closest_on_triangles(np.broadcast_to(p, A.shape), A, B, C)[1]
+        tied = np.nonzero(d2 == d2.min())[0]
+        want[i] = tied[np.argmax(rank[tied])]
+    _, face, _ = NearestFaces(mesh).query(P)
+    assert np.array_equal(face, want)
+    # and one query per point gives each point the face of the batch
+    nf = NearestFaces(mesh)
+    assert np.array_equal([nf.query(p)[1][0] for p in P[::7]], want[::7])
+
+
 def test_threaded_queries_equal_one_thread():
     mesh, P = _mesh_and_points()
     P = np.vstack([P] * 4)  # several chunks
