@@ -767,50 +767,23 @@ class NearestFaces:
     centroid); every face whose centroid lies within u + its own circumradius is then tested
     exactly. For the generator's few, clustered queries (links between passes, the spiral
     blend, the passes' contacts in the orient stage) this costs far less than
-    :class:`MeshDistance`'s bounding-volume tree, and it returns the same points and faces:
-    the minimum of the same exact point–triangle distances. Faces at exactly the same
-    distance (a point on a shared edge or vertex) are decided as :class:`MeshDistance`
-    decides them — the face that comes last in its tree's leaf order — so the leaf order
-    (the tree's median splits only, no bounds) is computed, once, the first time such a tie
-    occurs.
-
-    Why the whole leaf order and not a key of the tied faces only: a face's place inside its
-    leaf is where ``np.argpartition``'s introselect left it in the last split, and the order
-    entering that split is what every enclosing split's introselect made of all the faces
-    of its segment — no local key of a face reproduces it.
+    :class:`MeshDistance`'s bounding-volume tree, and it returns the same distances and
+    points: the minimum of the same exact point–triangle distances. Of faces at exactly the same
+    distance (a point on a shared edge or vertex) the lowest face id wins: a rule of the mesh
+    alone. (It used to be "the face last in :class:`MeshDistance`'s leaf order", which needed
+    that tree's whole median-split chain, about 1 s per million faces, for every plan with a
+    tie; the distances, points and smooth normals are the same either way (to rounding), only
+    the face id of a point on an edge can differ, and with it the face whose curvature the
+    local-gouge check reads.)
 
     Parameters
     ----------
     mesh : TriMesh
-    leaf_size : int — the leaf size of the :class:`MeshDistance` tree whose ties are matched
     """
 
-    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8):
+    def __init__(self, mesh: TriMesh):
         self.mesh = mesh
-        self.leaf_size = leaf_size
         self._kd = None
-        self._rank = None
-
-    def _tree_rank(self):
-        """(m,) position of each face in :class:`MeshDistance`'s tree (``_Tree.prims``
-        flattened): the order in which its queries meet the faces."""
-        if self._rank is None:
-            if self._kd is None:
-                self._build()
-            pcen = self._cen  # V[F].mean(axis=1) bit for bit, exactly as _Tree computes it
-            clusters, _ = _median_slots(pcen, self.leaf_size)
-            clusters = clusters[np.any(clusters >= 0, axis=1)]
-            cnt = np.maximum((clusters >= 0).sum(axis=1), 1)
-            ccen = np.where((clusters >= 0)[:, :, None], pcen[np.maximum(clusters, 0)], 0.0)
-            ccen = ccen.sum(axis=1) / cnt[:, None]
-            slots, _ = _median_slots(ccen, 1)
-            slot = slots[:, 0]
-            prims = np.where((slot >= 0)[:, None], clusters[np.maximum(slot, 0)], -1).ravel()
-            rank = np.full(len(pcen), -1, dtype=np.int64)
-            ok = prims >= 0
-            rank[prims[ok]] = np.nonzero(ok)[0]
-            self._rank = rank
-        return self._rank
 
     def _build(self):
         V, F = self.mesh.V, self.mesh.F
@@ -855,11 +828,8 @@ class NearestFaces:
         face = np.full(k, -1, dtype=np.int64)
         face[qw] = fw
         if len(qw) > np.count_nonzero(np.bincount(qw, minlength=k)):  # exact ties
-            rank = self._tree_rank()
-            top = np.full(k, -1, dtype=np.int64)
-            np.maximum.at(top, qw, rank[fw])
-            face = np.full(k, -1, dtype=np.int64)
-            last = rank[fw] == top[qw]
-            face[qw[last]] = fw[last]
+            face = np.full(k, np.iinfo(np.int64).max, dtype=np.int64)
+            np.minimum.at(face, qw, fw)  # the lowest face id of the tied faces
+            face[face == np.iinfo(np.int64).max] = -1
         q, _, _, bary = closest_on_triangles(P, A[face], B[face], C[face])
         return q, face, bary
