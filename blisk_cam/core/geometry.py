@@ -27,12 +27,15 @@ from scipy.spatial import cKDTree
 from .mesh import TriMesh
 
 __all__ = [
+    "Cancelled",
     "ClosestPoints",
     "MeshDistance",
     "NearestFaces",
     "closest_points",
     "closest_on_segments",
     "closest_on_triangles",
+    "cancellable",
+    "check_cancel",
     "map_chunks",
     "map_tasks",
     "parallel",
@@ -42,6 +45,10 @@ _CHUNK = 2048  # queries per chunk in tree traversals (the frontier stays in cac
 #                 ran 1.5–2× slower on Rotor 37's verify, bench/bench_verify.py)
 
 _FLAT_PAIRS = 8192  # (query, leaf) pairs below which a tree query tests all leaves at once
+
+# packet traversal (:meth:`_Tree.leaf_pairs`): queries per group, levels walked per query at
+# the bottom of the tree, fewest queries for which groups are formed
+_GROUP, _GROUP_TAIL, _GROUP_MIN = 8, 0, 256
 
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
 _WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
@@ -69,11 +76,58 @@ def parallel(workers: int | None):
         _WORKERS.reset(token)
 
 
+# the caller's cancel hook (set by :func:`cancellable`): (is-set callable, what is running)
+_CANCEL = contextvars.ContextVar("blisk_cam_geometry_cancel", default=None)
+
+
+class Cancelled(Exception):
+    """A long computation stopped because its caller's cancel hook was set (ESC, a new run):
+    not an input error; nothing of the computation is returned."""
+
+
+@contextlib.contextmanager
+def cancellable(cancel, what: str = "the computation"):
+    """Within the block, :func:`check_cancel` (called by :func:`map_chunks` and
+    :func:`map_tasks` before every chunk and task) raises :class:`Cancelled` once ``cancel``
+    is set. ``cancel``: None (never), a ``threading.Event`` or a callable returning True to
+    stop (polled from the worker threads too, so it must be thread-safe)."""
+    if cancel is None:
+        yield
+        return
+    test = getattr(cancel, "is_set", None)
+    if test is None:
+        if not callable(cancel):
+            raise TypeError(f"cancel must be a threading.Event or a callable returning True to "
+                            f"stop, got {type(cancel).__name__}")
+        test = cancel
+    token = _CANCEL.set((test, what))
+    try:
+        yield
+    finally:
+        _CANCEL.reset(token)
+
+
+def check_cancel(hook=None):
+    """Raise :class:`Cancelled` if the cancel hook of :func:`cancellable` (or ``hook``, a
+    value of it taken in another thread) is set."""
+    hook = _CANCEL.get() if hook is None else hook
+    if hook is not None and hook[0]():
+        raise Cancelled(f"{hook[1]} was cancelled by the caller; no figures were produced")
+
+
 def map_chunks(fn, k: int, chunk: int):
     """``[fn(s) for s in range(0, k, chunk)]``, on the threads of :func:`parallel` when
-    there are several chunks."""
+    there are several chunks; the cancel hook of :func:`cancellable` is checked before every
+    chunk."""
     starts = range(0, k, chunk)
     n = min(_WORKERS.get(), len(starts))
+    hook = _CANCEL.get()
+    if hook is not None:
+        inner = fn
+
+        def fn(s):
+            check_cancel(hook)
+            return inner(s)
     if n <= 1:
         return [fn(s) for s in starts]
     with ThreadPoolExecutor(max_workers=n) as ex:
@@ -84,9 +138,21 @@ def map_tasks(fn, items):
     """``[fn(x) for x in items]``, on the threads of :func:`parallel` when there are several
     items (independent tasks, e.g. one per pass level). Inside a task :func:`map_chunks`
     runs in its thread only (the pool's threads start from the default context), so the
-    tasks are the unit of parallelism."""
+    tasks are the unit of parallelism; the cancel hook is checked before every task and
+    reaches the tasks' own chunks."""
     items = list(items)
     n = min(_WORKERS.get(), len(items))
+    hook = _CANCEL.get()
+    if hook is not None:
+        inner = fn
+
+        def fn(x):
+            check_cancel(hook)
+            token = _CANCEL.set(hook)  # the pool's threads: their chunks check it too
+            try:
+                return inner(x)
+            finally:
+                _CANCEL.reset(token)
     if n <= 1:
         return [fn(x) for x in items]
     with ThreadPoolExecutor(max_workers=n) as ex:
@@ -508,17 +574,57 @@ class _Tree:
             node = np.tile(np.arange(self.NL, 2 * self.NL), k)
             keep = self._within_bound(P[q], node, r2[q])
             return q[keep], node[keep] - self.NL
-        q = np.arange(k)
-        node = np.ones(k, dtype=np.int64)
-        keep = self._within_bound(P, node, r2)
+        if k >= _GROUP_MIN and self.L > _GROUP_TAIL + 1:
+            q, node = self._group_descent(P, r2, self.L - _GROUP_TAIL)
+        else:
+            q = np.arange(k)
+            node = np.ones(k, dtype=np.int64)
+        keep = self._within_bound(P[q], node, r2[q])
         q, node = q[keep], node[keep]
         two = np.arange(2)
-        for _ in range(self.L):
+        for _ in range(self.L - int(np.log2(node[0])) if len(node) else 0):
             q = np.repeat(q, 2)
             node = (2 * node[:, None] + two).reshape(-1)
             keep = self._within_bound(P[q], node, r2[q])
             q, node = q[keep], node[keep]
         return q, node - self.NL
+
+    def _group_descent(self, P, r2, depth):
+        """Packet traversal of the top ``depth`` levels: the queries in groups of
+        ``_GROUP`` neighbours (median splits), each group walks the tree as one sphere
+        around its mean whose radius holds every member's search sphere (r_q + |p_q − c|);
+        the nodes it reaches at level ``depth`` are handed to its members. Returns
+        (query, node) pairs sorted by query, then node: a superset of the per-query walk's
+        pairs at that level (a node within a member's radius is within the group's, the
+        distance to a bound being 1-Lipschitz), far fewer bound tests where the tree is
+        wide (the upper levels are tested once per group instead of once per query)."""
+        slots, _ = _median_slots(P, _GROUP)
+        slots = slots[np.any(slots >= 0, axis=1)]
+        ok = slots >= 0
+        ids = np.where(ok, slots, 0)
+        cnt = ok.sum(axis=1)
+        Pg = P[ids]
+        c = np.where(ok[:, :, None], Pg, 0.0).sum(axis=1) / cnt[:, None]
+        off = np.sqrt(np.einsum("gmi,gmi->gm", Pg - c[:, None, :], Pg - c[:, None, :]))
+        rg = np.where(ok, np.sqrt(r2[ids]) + off, 0.0).max(axis=1) * (1.0 + 1e-12) + self.slack
+        rg2 = rg * rg
+        ng = len(slots)
+        g = np.arange(ng)
+        node = np.ones(ng, dtype=np.int64)
+        keep = self._within_bound(c, node, rg2)
+        g, node = g[keep], node[keep]
+        two = np.arange(2)
+        for _ in range(depth):
+            g = np.repeat(g, 2)
+            node = (2 * node[:, None] + two).reshape(-1)
+            keep = self._within_bound(c[g], node, rg2[g])
+            g, node = g[keep], node[keep]
+        # hand the nodes to the members: (query, node), sorted by query (stable: by node)
+        mem = slots[g]
+        node = np.broadcast_to(node[:, None], mem.shape)[mem >= 0]
+        q = mem[mem >= 0]
+        order = np.argsort(q, kind="stable")
+        return q[order], node[order]
 
     def pairs(self, P, r2):
         """All (query, primitive) pairs whose node bounds come within sqrt(r2) of the query.
@@ -660,6 +766,21 @@ class MeshDistance:
         self._n = mesh.face_normals  # zero for zero-area faces: the bound is then a sphere
         self.tree = _Tree(T, flat=True, leaf_size=leaf_size)
         self._frames = None
+        # the capsule of each face: its longest edge (start S, vector D) and the height h of
+        # the opposite vertex over it (the angles at that edge's ends are acute, so every
+        # point of the face is within h of the edge segment; see :meth:`_lb2`)
+        E = np.stack([T[:, 1] - T[:, 0], T[:, 2] - T[:, 1], T[:, 0] - T[:, 2]], axis=1)
+        lg = np.argmax(np.einsum("mki,mki->mk", E, E), axis=1)
+        rows = np.arange(len(T))
+        S, D = T[rows, lg], E[rows, lg]
+        opp = T[rows, (lg + 2) % 3]
+        dd = _dot(D, D)
+        tc = np.clip(_dot(opp - S, D) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+        hv = opp - (S + tc[:, None] * D)
+        scale = float(np.abs(T).max()) if len(T) else 1.0
+        self._cap = np.ascontiguousarray(np.hstack([
+            S, D, (1.0 / np.where(dd > 0, dd, 1.0))[:, None],
+            (np.sqrt(_dot(hv, hv)) * (1.0 + 1e-9) + 1e-12 * max(scale, 1.0))[:, None]]))
 
     def _face_frames(self):
         """(m, 31) per face: A, unit normal n, then per edge (AB, BC, CA) its start, unit
@@ -715,13 +836,25 @@ class MeshDistance:
         return closest_on_triangles(P[qi], self._A[f], self._B[f], self._C[f])[1]
 
     def _lb2(self, P, qi, f):
-        """Squared distance to the disk (in the face plane, around the centroid) containing
-        each face: a lower bound of the distance to the face."""
-        d = P[qi] - self._cen[f]
+        """A lower bound of the squared distance to each face: the larger of the squared
+        distances to the disk (in the face plane, around the centroid) and to the capsule
+        (around the longest edge, radius the opposite vertex's height) that contain it. The
+        capsule is what prunes slivers and needles (a scanned blade's leading edge: a disk of
+        half their length around a face 0.03 mm wide let ~70 faces per ball centre through to
+        the point–triangle kernels on Rotor 37, the capsule ~10)."""
+        p = P[qi]
+        d = p - self._cen[f]
         z = _dot(d, self._n[f])
-        rad = np.sqrt(np.maximum(_dot(d, d) - z * z, 0.0))
+        dd = _dot(d, d)
+        rad = np.sqrt(np.maximum(dd - z * z, 0.0))
         e = np.maximum(rad - self._rad[f] * (1.0 + 1e-12), 0.0)
-        return np.maximum(z * z + e * e - 1e-12 * _dot(d, d), 0.0)
+        disk = z * z + e * e
+        G = self._cap[f]
+        w = p - G[:, 0:3]
+        t = np.clip(_dot(w, G[:, 3:6]) * G[:, 6], 0.0, 1.0)
+        w -= t[:, None] * G[:, 3:6]
+        c = np.maximum(np.sqrt(_dot(w, w)) - G[:, 7], 0.0)
+        return np.maximum(np.maximum(disk, c * c) - 1e-12 * dd, 0.0)
 
     def query(self, points) -> ClosestPoints:
         """Closest points on the mesh to (k, 3) points (mm); exact.

@@ -636,49 +636,82 @@ def _bracket_below(v0, s0, v1, s1, U):
     return tlo, thi
 
 
+def _sorted_group_argmin(k, qs, values, ids):
+    """:func:`~.geometry._group_argmin` for queries ``qs`` sorted ascending (the same
+    minimum and the same id: the last one achieving it), by segment reductions instead of
+    ``np.minimum.at``."""
+    best = np.full(k, np.inf)
+    arg = np.full(k, -1, dtype=np.int64)
+    if len(qs) == 0:
+        return best, arg
+    starts = np.flatnonzero(np.concatenate([[True], qs[1:] != qs[:-1]]))
+    g = qs[starts]
+    gmin = np.minimum.reduceat(values, starts)
+    best[g] = gmin
+    lens = np.diff(np.append(starts, len(qs)))
+    win = values <= np.repeat(gmin, lens)
+    last = np.maximum.reduceat(np.where(win, np.arange(len(qs)), -1), starts)
+    ok = last >= 0
+    arg[g[ok]] = ids[last[ok]]
+    return best, arg
+
+
 def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
     """Golden-section search of f(t) = cutter distance of the point at parameter t of its
     segment, per (point, segment) pair, on brackets [lo, hi] until (hi − lo) D ≤ xtol.
 
     ``scal`` = (za, zb, Ta, Tb, n0, m2, L2, φ) (m,) each: z(t) = cos tφ (za − t Ta) +
-    sin tφ (zb − t Tb), |d(t)|² = n0 − t m2 + t² L2. A pair stops early once its best value
-    minus its bracket's motion is above its point's best (``u``, updated every step).
-    Returns (best value per point (kc,), pair index of it or −1)."""
-    za, zb, Ta, Tb, n0, m2, L2, phi = scal
-
-    def f(i, t):
-        c, s = np.cos(t * phi[i]), np.sin(t * phi[i])
-        z = c * (za[i] - t * Ta[i]) + s * (zb[i] - t * Tb[i])
-        n = n0[i] - t * m2[i] + t * t * L2[i]
-        return cutter.signed_distance_rz(np.sqrt(np.maximum(n - z * z, 0.0)), z)
-
+    sin tφ (zb − t Tb), |d(t)|² = n0 − t m2 + t² L2; ``q`` (m,) the point of each pair,
+    sorted ascending. A pair stops early once its best value minus its bracket's motion is
+    above its point's best (``u``, updated every step). The live pairs' state is kept in
+    compact arrays (no gathers per step). Returns (best value per point (kc,), pair index of
+    it or −1)."""
     m = len(q)
-    allp = np.arange(m)
+    if m == 0:
+        return u.copy(), np.full(kc, -1, dtype=np.int64)
+    if np.any(q[1:] < q[:-1]):
+        order = np.argsort(q, kind="stable")
+        u, arg = _golden_pairs(cutter, q[order], kc, u, tuple(x[order] for x in scal),
+                               D[order], lo[order], hi[order], xtol)
+        return u, np.where(arg >= 0, order[np.maximum(arg, 0)], -1)
+    za, zb, Ta, Tb, n0, m2, L2, phi = scal
+    idx = np.arange(m)
+    lo, hi = lo.copy(), hi.copy()
+    sdrz = cutter.signed_distance_rz
+
+    def f(t):
+        tp = t * phi
+        c, s = np.cos(tp), np.sin(tp)
+        z = c * (za - t * Ta) + s * (zb - t * Tb)
+        n = n0 - t * m2 + t * t * L2
+        return sdrz(np.sqrt(np.maximum(n - z * z, 0.0)), z)
+
     x1 = hi - _GOLD * (hi - lo)
     x2 = lo + _GOLD * (hi - lo)
-    f1, f2 = f(allp, x1), f(allp, x2)
+    f1, f2 = f(x1), f(x2)
     u = u.copy()
     arg = np.full(kc, -1, dtype=np.int64)
-    act = allp
     for _ in range(200):
-        fb = np.minimum(f1[act], f2[act])
-        ub, a = _group_argmin(kc, q[act], fb, act)
+        fb = np.minimum(f1, f2)
+        ub, a = _sorted_group_argmin(kc, q, fb, idx)
         better = ub < u
         u = np.where(better, ub, u)
         arg = np.where(better, a, arg)
-        w = hi[act] - lo[act]
-        act = act[(w * D[act] > xtol) & (fb - w * D[act] <= u[q[act]])]
-        if len(act) == 0:
-            break
-        left = f1[act] < f2[act]  # the minimum is in [lo, x2]
-        hi[act] = np.where(left, x2[act], hi[act])
-        lo[act] = np.where(left, lo[act], x1[act])
-        nx = np.where(left, hi[act] - _GOLD * (hi[act] - lo[act]),
-                      lo[act] + _GOLD * (hi[act] - lo[act]))
-        fn = f(act, nx)
-        x2[act], f2[act], x1[act], f1[act] = (
-            np.where(left, x1[act], nx), np.where(left, f1[act], fn),
-            np.where(left, nx, x2[act]), np.where(left, fn, f2[act]))
+        wD = (hi - lo) * D
+        keep = (wD > xtol) & (fb - wD <= u[q])
+        if not keep.all():
+            if not keep.any():
+                break
+            (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2, f1, f2, q, idx) = (
+                x[keep] for x in (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2, f1, f2,
+                                  q, idx))
+        left = f1 < f2  # the minimum is in [lo, x2]
+        hi = np.where(left, x2, hi)
+        lo = np.where(left, lo, x1)
+        nx = np.where(left, hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo))
+        fn = f(nx)
+        x2, f2, x1, f1 = (np.where(left, x1, nx), np.where(left, f1, fn),
+                          np.where(left, nx, x2), np.where(left, fn, f2))
     return u, arg
 
 

@@ -41,9 +41,12 @@ from .cones import meridional
 from .cutter import as_cutter
 from .errors import ToleranceError
 from .geometry import (  # noqa: F401  (re-exported: verify's public names stay importable)
+    Cancelled,
     ClosestPoints,
     MeshDistance,
     _dot,
+    cancellable,
+    check_cancel,
     closest_on_segments,
     closest_on_triangles,
     closest_points,
@@ -70,6 +73,7 @@ from .sweep import (  # noqa: F401
 from .toolpath import PassCurve, ToolPath
 
 __all__ = [
+    "Cancelled",
     "ClosestPoints",
     "MeshDistance",
     "SurfaceSamples",
@@ -348,6 +352,7 @@ def verify_path(
     refine: int = 3,
     method: str = "fast",
     workers: int | None = None,
+    cancel=None,
 ) -> VerifyReport:
     """Measure a tool path on its mesh, independently of the generator.
 
@@ -363,12 +368,16 @@ def verify_path(
         each move (:class:`SweptCutter`); a ball is always swept exactly (:class:`SweptBall`)
     workers : int or None — threads for the point queries (None: every core of this
         process); every point is measured independently, so the figures do not depend on it
+    cancel : None, threading.Event or callable returning True to stop — checked between the
+        steps and before every chunk of points (:func:`.geometry.map_chunks`) and every
+        per-level task, from the worker threads too; once set, :class:`Cancelled` is raised
+        (within one chunk's time) and nothing is returned
 
     Returns
     -------
     VerifyReport
     """
-    with parallel(workers):
+    with parallel(workers), cancellable(cancel, "verify"):
         return _verify_path(mesh, path, spacing, subsamples, refine, method)
 
 
@@ -377,30 +386,36 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
     t0 = time.perf_counter()
     tim = {}
     cutter, rho, spacing = _tool_and_spacing(path, spacing, method)
+    check_cancel()
     cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
     axis = path.axis
     curves = _cut_runs(path.curves)
     md = MeshDistance(mesh)
     tim["mesh_tree"] = time.perf_counter() - t0
 
+    check_cancel()
     t1 = time.perf_counter()
     pc = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
     tim["poses"] = time.perf_counter() - t1
 
+    check_cancel()
     t1 = time.perf_counter()
     smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, spacing, pc)
     spacing = smp.spacing
     tim["samples"] = time.perf_counter() - t1
 
+    check_cancel()
     t1 = time.perf_counter()
     levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method)
     tim["material"] = time.perf_counter() - t1
 
+    check_cancel()
     t1 = time.perf_counter()
     sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
                    lab, rho, refine, method)
     tim["scallops"] = time.perf_counter() - t1
 
+    check_cancel()
     t1 = time.perf_counter()
     tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
     tim["totals"] = time.perf_counter() - t1
@@ -669,17 +684,24 @@ def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
     top = _group_max(npairs, hq, hv)
     near_top = hv >= 0.75 * top[hq]
 
-    def one(i):  # a task per (pair, side): the pairs' points are disjoint
-        m = (hv > 0) & (hq == i // 2) & near_top
+    live = (hv > 0) & near_top
+
+    def one(lv):  # a task per level: its passes bound pair lv − 1 from above and pair lv
+        # from below (one sphere tracing for both: every point is traced on its own)
+        m = live & ((hq == lv - 1) | (hq == lv))
         if not np.any(m):
             return m, None
-        return m, cut[i // 2 + i % 2].height_along(hp[m], hn_[m], hmax[m])
+        return m, cut[lv].height_along(hp[m], hn_[m], hmax[m])
 
-    res = map_tasks(one, range(2 * npairs))
-    for i in range(npairs):
-        (m, h1), (_, h2) = res[2 * i], res[2 * i + 1]
-        if h1 is not None:
-            heights[m] = np.minimum(h1, h2)
+    res = map_tasks(one, range(npairs + 1))
+    h_lo = np.full(len(hp), np.inf)  # up to the pair's lower level's passes
+    h_hi = np.full(len(hp), np.inf)
+    for lv, (m, h) in enumerate(res):
+        if h is not None:
+            as_lo = hq[m] == lv
+            h_lo[np.nonzero(m)[0][as_lo]] = h[as_lo]
+            h_hi[np.nonzero(m)[0][~as_lo]] = h[~as_lo]
+    heights = np.where(live, np.minimum(h_lo, h_hi), heights)
     heights[~np.isfinite(heights)] = np.nan
     return _group_max(npairs, hq, heights)
 

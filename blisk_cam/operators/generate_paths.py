@@ -10,7 +10,8 @@ the path on a worker thread (arrays only, no ``bpy``) while the UI stays free, t
 "Verifying…", and the timer attaches the figures when they are ready: the verdict in the paths
 JSON, the measured cusp per curve, the statistics and (``verify_map``) the colour-map copy of
 the blade (:func:`blisk_cam.output.attach_verify`). ESC while verifying, or a new Generate,
-drops the pending figures: the new paths stay, without verify figures or a colour map.
+drops the pending figures and stops the worker at its next chunk of points (``verify_path``'s
+cancel hook): the new paths stay, without verify figures or a colour map.
 
 In background mode, or called with EXEC_DEFAULT, it runs synchronously (plan, verify, then
 one :func:`blisk_cam.output.write_path_objects` with everything): the same objects and JSON as
@@ -81,6 +82,7 @@ class PathJob:
         self.verdict = None  # core.verdict.Verdict once verified
         # the interactive verify on a worker thread (start_verify … attach_verify)
         self._thread = None
+        self._cancel = None  # threading.Event of the running worker
         self._verify_result = self._verify_error = None
         self.verify_cancelled = False
         self.written_json = None  # the paths JSON show_paths wrote
@@ -130,11 +132,12 @@ class PathJob:
         from ..core.verify import verify_path
 
         mesh, path = self.mesh, self.plan.path
+        cancel = self._cancel = threading.Event()  # set by cancel_verify: the worker stops
 
         def work():
             t0 = time.perf_counter()
             try:
-                report = verify_path(mesh, path)
+                report = verify_path(mesh, path, cancel=cancel)
                 # the rest of the figures too (pure core), so attaching is only bpy work
                 verdict, json_text = self._verdict_json(report)
                 values = self._map_values(report)
@@ -169,9 +172,12 @@ class PathJob:
         return self.verify_ready
 
     def cancel_verify(self):
-        """Drop the pending figures: they are never attached (the worker, which cannot be
-        interrupted inside ``verify_path``, finishes on its own and its result is freed)."""
+        """Drop the pending figures: they are never attached, and the worker stops at its
+        next chunk of points (``verify_path``'s cancel hook; it ends with
+        ``core.geometry.Cancelled`` in ``_verify_error`` and no result)."""
         self.verify_cancelled = True
+        if getattr(self, "_cancel", None) is not None:
+            self._cancel.set()
         if _VERIFYING.get(self.scene_name) is self:
             del _VERIFYING[self.scene_name]
 

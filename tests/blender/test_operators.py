@@ -19,7 +19,7 @@ from _mesh_files import REPO, write_binary_stl
 
 from blisk_cam import blender_io, cli, output, render
 from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.verify import closest_points
+from blisk_cam.core.verify import Cancelled, closest_points
 from blisk_cam.operators import generate_paths as gen_mod
 from blisk_cam.operators.common import blade_problem, cones_problem
 from blisk_cam.operators.modal_job import ModalRunner
@@ -684,7 +684,10 @@ def test_cancelling_a_pending_verify_leaves_a_consistent_scene(addon, demo):
     assert op.step(bpy.context, "ESC") == {"FINISHED"}
     assert op.reports[-1][0] == {"WARNING"} and "Verify cancelled" in op.reports[-1][1]
     assert not gen_mod.verify_pending(scene.name) and not gen_mod._RUNNING
-    job.wait_verify(600.0)  # the worker ends on its own; its figures are never attached
+    assert job._cancel.is_set()  # the worker's cancel hook: it stops at its next chunk
+    job.wait_verify(600.0)  # the worker ends; its figures are never attached
+    if job._verify_error is not None:  # stopped by the hook (unless it had already finished)
+        assert isinstance(job._verify_error, Cancelled) and job._verify_result is None
     assert job.verify is None and output.stored_paths_json("Blade") == new_json
     assert _verify_state()["map_objects"] == [] and not s.stat_verified
 
@@ -697,6 +700,7 @@ def test_cancelling_a_pending_verify_leaves_a_consistent_scene(addon, demo):
     newest = output.stored_paths_json("Blade")
     assert json.loads(newest)["tolerances"]["cusp"] == pytest.approx(0.4)
     assert "verify" in json.loads(newest) and s.stat_verified
+    assert first_job._cancel.is_set()  # the new Generate stopped the old worker
     first_job.wait_verify(600.0)
     assert op.step(bpy.context) == {"FINISHED"}
     assert "new generation" in op.reports[-1][1]

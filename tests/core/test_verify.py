@@ -935,3 +935,54 @@ def test_unsweepable_moves_are_refused():
         SweptCutter(c, tips[:1], up, tips[1:], down)
     with pytest.raises(SweepError, match="non-finite"):
         SweptCutter(c, tips[:1], np.zeros((1, 3)), tips[1:], up)
+
+
+class _Counter:
+    """A cancel hook that counts its polls and says stop from poll ``stop_at`` on (None:
+    never); thread-safe enough for pytest (the GIL makes the increment atomic enough for a
+    count that is only compared after the run)."""
+
+    def __init__(self, stop_at=None):
+        self.calls, self.stop_at = 0, stop_at
+
+    def __call__(self):
+        self.calls += 1
+        return self.stop_at is not None and self.calls >= self.stop_at
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_cancelled_verify_stops_early_and_returns_nothing(sphere_bull, workers):
+    """The cancel hook is polled between the steps and before every chunk and per-level task;
+    once it says stop, verify_path raises Cancelled at that poll (one thread: no further
+    poll) and returns no report; an Event set beforehand stops it before any work."""
+    import threading
+
+    from blisk_cam.core.verify import Cancelled
+
+    mesh, path = sphere_bull
+    full = _Counter()
+    ref = verify_path(mesh, path, workers=workers, cancel=full)
+    assert full.calls > 20  # polled all along the run
+    stop = _Counter(stop_at=full.calls // 3)
+    out = None
+    with pytest.raises(Cancelled, match="cancelled by the caller"):
+        out = verify_path(mesh, path, workers=workers, cancel=stop)
+    assert out is None  # no partial report
+    if workers == 1:
+        assert stop.calls == full.calls // 3  # it stopped at the poll that said stop
+    else:  # the other thread may poll once more before the pool ends
+        assert stop.calls <= full.calls // 3 + workers
+    ev = threading.Event()
+    ev.set()
+    with pytest.raises(Cancelled):
+        verify_path(mesh, path, workers=workers, cancel=ev)
+    # an unset hook changes nothing
+    again = verify_path(mesh, path, workers=workers, cancel=threading.Event())
+    assert again.summary() | {"timings": 0} == ref.summary() | {"timings": 0}
+    np.testing.assert_array_equal(again.sample_values, ref.sample_values)
+
+
+def test_cancel_hook_of_the_wrong_type_is_refused(sphere_bull):
+    mesh, path = sphere_bull
+    with pytest.raises(TypeError, match="threading.Event or a callable"):
+        verify_path(mesh, path, cancel=3)
