@@ -1,17 +1,19 @@
 """``blisk_cam.generate_paths``: scene settings → ``core.pipeline`` → path objects.
 
 Interactively (invoke with a window) it runs as a modal operator driven by a timer
-(:class:`.modal_job.ModalJobOperator`): each tick advances ``core.pipeline.iter_plan_paths``
-for a short time slice and the status bar shows the progress; ESC while planning cancels and
-leaves the previous result as it was (the new objects are only built once the path is
-complete). As soon as the path is planned its objects (curves, poses, empties, cones) replace
-the previous ones; with the ``verify`` setting on, ``core.verify.verify_path`` then measures
-the path on a worker thread (arrays only, no ``bpy``) while the UI stays free, the panel shows
-"Verifying…", and the timer attaches the figures when they are ready: the verdict in the paths
-JSON, the measured cusp per curve, the statistics and (``verify_map``) the colour-map copy of
-the blade (:func:`blisk_cam.output.attach_verify`). ESC while verifying, or a new Generate,
-drops the pending figures and stops the worker at its next chunk of points (``verify_path``'s
-cancel hook): the new paths stay, without verify figures or a colour map.
+(:class:`.modal_job.ModalJobOperator`): the weld and ``core.pipeline.iter_plan_paths`` run on
+a worker thread (arrays only, no ``bpy``), each tick only polls it (waiting a few
+milliseconds at most, so the UI never freezes for a planning step) and the status bar shows
+the progress; ESC while planning stops the worker at its next step and leaves the previous
+result as it was (the new objects are only built once the path is complete). As soon as the
+path is planned its objects (curves, poses, empties, cones) replace the previous ones; with
+the ``verify`` setting on, ``core.verify.verify_path`` then measures the path on another
+worker thread while the UI stays free, the panel shows "Verifying…", and the timer attaches
+the figures when they are ready: the verdict in the paths JSON, the measured cusp per curve,
+the statistics and (``verify_map``) the colour-map copy of the blade
+(:func:`blisk_cam.output.attach_verify`). ESC while verifying, or a new Generate, drops the
+pending figures and stops the worker at its next chunk of points (``verify_path``'s cancel
+hook): the new paths stay, without verify figures or a colour map.
 
 In background mode, or called with EXEC_DEFAULT, it runs synchronously (plan, verify, then
 one :func:`blisk_cam.output.write_path_objects` with everything): the same objects and JSON as
@@ -56,9 +58,6 @@ class PathJob:
     """
 
     def __init__(self, context):
-        from ..core.mesh import TriMesh
-        from ..core.pipeline import iter_plan_paths
-
         settings = context.scene.blisk_cam
         problem = blade_problem(context) or cones_problem(settings)
         if problem:
@@ -70,7 +69,7 @@ class PathJob:
         axis = blade_axis(settings, blade)
         cone1, cone2 = settings_cones(settings)
         self.V, self.F = read_blade(context, blade)
-        self.mesh = TriMesh.from_arrays(self.V, self.F)
+        self.mesh = None  # welded by the first planning step (on the worker, interactively)
         self.request = path_request(settings, axis, cone1, cone2)
         self.want_verify = bool(settings.verify)
         self.want_map = bool(settings.verify_map) and self.want_verify
@@ -88,18 +87,26 @@ class PathJob:
         self.written_json = None  # the paths JSON show_paths wrote
         self.paths_seconds = None  # seconds from the start until the paths were shown
         self.verify_seconds = None  # seconds the worker took
+        # the interactive planning on a worker thread (poll_plan)
+        self._plan_thread = self._plan_cancel = self._plan_error = None
         self.t0 = time.perf_counter()
-        self._it = iter_plan_paths(self.mesh, self.request)
+        self._it = None  # core.pipeline.iter_plan_paths, made by the first step
 
     @property
     def planned(self) -> bool:
         return self.plan is not None
 
-    def step(self, budget: float = 0.1) -> bool:
-        """Advance the planning for about ``budget`` seconds (at least one step). True once
-        the path is planned."""
+    def step(self, budget: float = 0.1, cancel: threading.Event | None = None) -> bool:
+        """Advance the planning on this thread for about ``budget`` seconds (at least one
+        step; none once ``cancel`` is set). True once the path is planned."""
+        if self._it is None:
+            from ..core.mesh import TriMesh
+            from ..core.pipeline import iter_plan_paths
+
+            self.mesh = TriMesh.from_arrays(self.V, self.F)
+            self._it = iter_plan_paths(self.mesh, self.request)
         t_end = time.perf_counter() + budget
-        while self.plan is None:
+        while self.plan is None and not (cancel is not None and cancel.is_set()):
             try:
                 progress = next(self._it)
             except StopIteration as stop:
@@ -111,6 +118,43 @@ class PathJob:
             if time.perf_counter() >= t_end:
                 break
         return self.plan is not None
+
+    # --- planning on a worker thread (interactive) ---------------------------------------
+    def poll_plan(self, wait: float = 0.02) -> bool:
+        """Plan on a worker thread (started by the first call); wait up to ``wait`` seconds
+        for it and return True once the path is planned. The worker's error (a bad mesh, a
+        path that cannot be planned) is raised here, on the main thread.
+
+        The worker runs :meth:`step` to the end: it reads this job's arrays and request and
+        writes ``mesh``, ``plan``, ``fraction``, ``message`` (or ``_plan_error``); no ``bpy``.
+        """
+        if self._plan_thread is None:
+            cancel = self._plan_cancel = threading.Event()
+
+            def work():
+                try:
+                    self.step(float("inf"), cancel)
+                except BaseException as exc:  # handed to the main thread, raised there
+                    self._plan_error = exc
+
+            self._plan_thread = threading.Thread(target=work, name="blisk_cam plan",
+                                                 daemon=True)
+            self._plan_thread.start()
+        self._plan_thread.join(wait)
+        if self._plan_error is not None:
+            raise self._plan_error
+        return self.plan is not None and not self._plan_thread.is_alive()
+
+    def wait_plan(self, timeout: float | None = None) -> bool:
+        """Block until the planning worker has finished (tests, bench); True if it has."""
+        if self._plan_thread is not None:
+            self._plan_thread.join(timeout)
+        return self._plan_thread is not None and not self._plan_thread.is_alive()
+
+    def cancel_plan(self):
+        """Stop the planning worker at its next step (ESC, Blender ending the run)."""
+        if self._plan_cancel is not None:
+            self._plan_cancel.set()
 
     def run_verify(self):
         """Measure the planned path (when asked), on this thread."""
@@ -417,7 +461,7 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         job = self._job
         wm = context.window_manager
         if not job.planned:
-            job.step(0.15)
+            job.poll_plan()
             wm.progress_update(int(90 * job.fraction))
             self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
             return None
@@ -457,6 +501,7 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
 
     def end_job(self, context):
         job = self._job
+        job.cancel_plan()  # ESC or an error while planning: the worker stops at its next step
         if job.verify_pending:  # ended by Blender (file load, window closed) or an error
             job.cancel_verify()
         _tag_redraw(context)

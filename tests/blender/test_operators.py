@@ -528,6 +528,7 @@ def _until_paths_shown(runner, max_ticks=500):
         result = runner.step(bpy.context)
         if result != {"RUNNING_MODAL"} or runner._job.written_json is not None:
             return result
+        runner._job.wait_plan(0.05)  # the planning worker: give it time between ticks
     raise AssertionError("the paths were not planned in time")
 
 
@@ -597,6 +598,10 @@ def test_modal_steps_with_progress_and_esc_keeps_the_previous_result(addon, demo
     assert op.step(bpy.context, "ESC") == {"CANCELLED"}
     assert op.reports[-1][0] == {"WARNING"} and "previous paths are kept" in op.reports[-1][1]
     assert output.stored_paths_json("Blade") == first and not gen_mod._RUNNING
+    job = op._job  # the planning worker was told to stop, and stops without a result
+    assert job._plan_cancel.is_set() and job.wait_plan(600.0)
+    assert job.plan is None or job.fraction == 1.0  # (unless it had already finished)
+    assert output.stored_paths_json("Blade") == first
 
     # ticks to the end: progress goes up, the result replaces the previous one
     op = _runner()
@@ -606,6 +611,7 @@ def test_modal_steps_with_progress_and_esc_keeps_the_previous_result(addon, demo
         fractions.append(op._job.fraction)
         if result != {"RUNNING_MODAL"}:
             break
+        op._job.wait_plan(0.05)  # the planning worker: give it time between ticks
     assert result == {"FINISHED"}, op.reports
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     assert op.reports[-1][0] == {"INFO"} and "passes" in op.reports[-1][1]
