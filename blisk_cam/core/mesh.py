@@ -227,26 +227,25 @@ class TriMesh:
                 "generating paths"
             )
         Vu = V if used.all() else V[used]
-        # contiguous coordinate columns of the used vertices; + 0.0 turns −0.0 into 0.0
+        iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
+        # representative (lowest input index) of every used vertex: exact duplicates, then
+        # clusters closer than tol. + 0.0 turns −0.0 into 0.0 (contiguous columns)
         cols = [Vu[:, j] + 0.0 for j in range(3)]
-        diag = float(np.linalg.norm([c.max() - c.min() for c in cols]))
+        first = _first_equal_point(cols)
+        pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
+        rcols = [c[pos] for c in cols]  # every used vertex equals one of them
+        diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
         if diag == 0.0:
             raise MeshError("all vertices coincide: the mesh has no extent")
         tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
         if not np.isfinite(tol) or tol < 0:
             raise MeshError(f"weld tolerance must be a finite number ≥ 0 mm, got {weld_tolerance}")
-        # representative (lowest input index) of every used vertex: exact duplicates, then
-        # clusters closer than tol
-        iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
-        first = _first_equal_point(cols)
         rep = first if iu is None else iu[first]
-        is_rep = np.zeros(n_in, dtype=bool)
-        is_rep[rep] = True
-        if tol > 0 and np.count_nonzero(is_rep) > 1:
-            pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives
-            ir = pos if iu is None else iu[pos]  # = np.nonzero(is_rep)[0]
+        ir = pos if iu is None else iu[pos]  # the representatives' input ids
+        merged = False
+        if tol > 0 and len(pos) > 1:
             d = _WELD_DIRECTION
-            u = (cols[0][pos] * d[0] + cols[1][pos] * d[1]) + cols[2][pos] * d[2]
+            u = (rcols[0] * d[0] + rcols[1] * d[1]) + rcols[2] * d[2]
             u_order = np.argsort(u, kind="stable")
             us = u[u_order]
             pairs = None
@@ -268,16 +267,20 @@ class TriMesh:
                 remap = np.arange(n_in)
                 remap[ir] = low[lab]
                 rep = remap[rep]
-                is_rep[:] = False
-                is_rep[rep] = True
-        new_id = np.cumsum(is_rep, dtype=np.int64)
-        new_id -= 1
-        if iu is None:
-            vertex_map = new_id[rep]
-        else:
+                merged = True
+        if merged or iu is not None:
+            is_rep = np.zeros(n_in, dtype=bool)
+            is_rep[rep] = True
+            new_id = np.cumsum(is_rep, dtype=np.int64)
+            new_id -= 1
             vertex_map = np.full(n_in, -1, dtype=np.int64)
-            vertex_map[iu] = new_id[rep]
-        V = V[is_rep]
+            vertex_map[iu if iu is not None else slice(None)] = new_id[rep]
+            V = V[is_rep]
+        else:  # every vertex used, exact duplicates only: mesh vertex i is representative i
+            rank = np.empty(n_in, dtype=np.int64)
+            rank[pos] = np.arange(len(pos))
+            vertex_map = rank[first]
+            V = V[pos]
         welded = len(first) - len(V)
         F = vertex_map[F]
         keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
