@@ -70,11 +70,14 @@ def main():
             out = subprocess.run([sys.executable, "-c", CHILD.format(root=str(ROOT), stl=stl)],
                                  capture_output=True, text=True, check=True).stdout
             fresh.append(json.loads(out.strip().splitlines()[-1]))
-        runs = [timed(V, F) for _ in range(args.repeat)]
-    m = runs[-1][2]
+        runs, m = [], None
+        for _ in range(args.repeat):
+            m = None  # keep only the last mesh (and its caches) alive
+            wall, cpu, m = timed(V, F)
+            runs.append((wall, cpu))
     print(f"  mesh: {m.n_vertices:,} vertices, {m.n_faces:,} faces, welded "
           f"{m.welded_vertices:,}, flipped {m.flipped_faces:,}, dropped {m.dropped_faces:,}")
-    for name, rows in (("fresh process", fresh), ("in process", [r[:2] for r in runs])):
+    for name, rows in (("fresh process", fresh), ("in process", runs)):
         wall = sorted(r[0] for r in rows)
         cpu = sorted(r[1] for r in rows)
         print(f"  from_arrays, {name:13s} (n={len(rows)}): wall min {wall[0]:.3f} s, "

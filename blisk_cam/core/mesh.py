@@ -234,6 +234,7 @@ class TriMesh:
         first = _first_equal_point(cols)
         pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
         rcols = [c[pos] for c in cols]  # every used vertex equals one of them
+        del cols
         diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
         if diag == 0.0:
             raise MeshError("all vertices coincide: the mesh has no extent")
@@ -469,7 +470,10 @@ class TriMesh:
         ref = V.mean(axis=0)
         n2 = triangle_normals(V, F)  # (b − a) × (c − a); a·(b × c) = a·n2 about any origin
         self._set_face_normals(n2)
-        per_face = np.einsum("ij,ij->i", V[F[:, 0]] - ref, n2) / 6.0
+        corner = V.take(F[:, 0], axis=0)  # (V[F[:, 0]] − ref) · n2 / 6, in place
+        corner -= ref
+        per_face = np.einsum("ij,ij->i", corner, n2)
+        per_face /= 6.0
         vol = np.bincount(labels, weights=per_face, minlength=ncomp)
         area = np.bincount(labels, weights=self.face_areas, minlength=ncomp)
         cap = np.zeros(ncomp)
