@@ -227,27 +227,32 @@ class TriMesh:
                 "generating paths"
             )
         Vu = V if used.all() else V[used]
-        diag = float(np.linalg.norm(_extent(Vu)))
+        iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
+        # representative (lowest input index) of every used vertex: exact duplicates, then
+        # clusters closer than tol. + 0.0 turns −0.0 into 0.0 (contiguous columns)
+        cols = [Vu[:, j] + 0.0 for j in range(3)]
+        first = _first_equal_point(cols)
+        pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
+        rcols = [c[pos] for c in cols]  # every used vertex equals one of them
+        del cols
+        diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
         if diag == 0.0:
             raise MeshError("all vertices coincide: the mesh has no extent")
         tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
         if not np.isfinite(tol) or tol < 0:
             raise MeshError(f"weld tolerance must be a finite number ≥ 0 mm, got {weld_tolerance}")
-        # representative (lowest input index) of every used vertex: exact duplicates, then
-        # clusters closer than tol
-        iu = np.arange(n_in) if Vu is V else np.nonzero(used)[0]
-        Vu = Vu + 0.0  # −0.0 equals 0.0
-        first, u_order = _first_equal_point(Vu)
-        rep = iu[first]
-        is_rep = np.zeros(n_in, dtype=bool)
-        is_rep[rep] = True
-        if tol > 0 and np.count_nonzero(is_rep) > 1:
-            ir = np.nonzero(is_rep)[0]
+        rep = first if iu is None else iu[first]
+        ir = pos if iu is None else iu[pos]  # the representatives' input ids
+        merged = False
+        if tol > 0 and len(pos) > 1:
+            d = _WELD_DIRECTION
+            u = (rcols[0] * d[0] + rcols[1] * d[1]) + rcols[2] * d[2]
+            u_order = np.argsort(u, kind="stable")
+            us = u[u_order]
             pairs = None
-            if u_order is not None:  # the representatives, in the projection's order
-                u_order = iu[u_order]
-                pairs = _close_pairs(V, u_order[is_rep[u_order]], tol)
-            if pairs is None:  # no projection order, or too many points share a projection
+            if not np.any(us[1:] == us[:-1]):  # distinct vertices, distinct projections
+                pairs = _close_pairs(V, ir[u_order], tol, u=us)
+            if pairs is None:  # vertices sharing a projection, or crowding one across it
                 pairs = cKDTree(V[ir], balanced_tree=False, compact_nodes=False).query_pairs(
                     tol, output_type="ndarray"
                 )
@@ -263,33 +268,55 @@ class TriMesh:
                 remap = np.arange(n_in)
                 remap[ir] = low[lab]
                 rep = remap[rep]
-                is_rep[:] = False
-                is_rep[rep] = True
-        new_id = np.cumsum(is_rep) - 1
-        vertex_map = np.full(n_in, -1, dtype=np.int64)
-        vertex_map[iu] = new_id[rep]
-        V = V[is_rep]
-        welded = len(iu) - len(V)
+                merged = True
+        if merged or iu is not None:
+            is_rep = np.zeros(n_in, dtype=bool)
+            is_rep[rep] = True
+            new_id = np.cumsum(is_rep, dtype=np.int64)
+            new_id -= 1
+            vertex_map = np.full(n_in, -1, dtype=np.int64)
+            vertex_map[iu if iu is not None else slice(None)] = new_id[rep]
+            V = V[is_rep]
+        else:  # every vertex used, exact duplicates only: mesh vertex i is representative i
+            rank = np.empty(n_in, dtype=np.int64)
+            rank[pos] = np.arange(len(pos))
+            vertex_map = rank[first]
+            V = V[pos]
+        welded = len(first) - len(V)
         F = vertex_map[F]
         keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
         if not np.any(keep):
             raise MeshError("every face is degenerate (corners coincide): the mesh has no area")
-        # repeated faces (same three vertices) would make their edges non-manifold
-        kept = np.nonzero(keep)[0]
-        Fk = np.sort(F[kept], axis=1)
-        nv = np.int64(len(V))
-        if len(V) < 2_000_000:  # n³ < 2⁶³: one exact int64 key per face, in near-sorted runs
-            first = _first_equal_row(((Fk[:, 0] * nv + Fk[:, 1]) * nv + Fk[:, 2])[:, None])
-        else:
-            first = _first_equal_row(Fk)
-        keep[kept[first != np.arange(len(kept))]] = False
-        dropped = int(m_in - np.count_nonzero(keep))
+        # repeated faces (same three vertices) would make their edges non-manifold. Without
+        # an edge of three or more faces, two faces repeat each other exactly when they share
+        # an edge and the corner opposite it: checked on the edge table, which the mesh keeps.
+        # An edge of more faces (repeats, or non-manifold) takes the search over all faces.
+        Fk = F if keep.all() else F[keep]
+        try:
+            topo = _edge_table(Fk, len(V))
+        except MeshError:
+            topo = None
+        pairs = None if topo is None else _interior_pairs(topo)
+        if pairs is None or _repeats_on_edges(Fk, *pairs):
+            topo = pairs = None
+            kept = np.nonzero(keep)[0]
+            Fs = np.sort(F[kept], axis=1)
+            nv = np.int64(len(V))
+            if len(V) < 2_000_000:  # n³ < 2⁶³: one exact int64 key per face, in near-sorted runs
+                first = _first_equal_row(((Fs[:, 0] * nv + Fs[:, 1]) * nv + Fs[:, 2])[:, None])
+            else:
+                first = _first_equal_row(Fs)
+            keep[kept[first != np.arange(len(kept))]] = False
+            Fk = F[keep]
+        dropped = int(m_in - len(Fk))
         face_map = np.full(m_in, -1, dtype=np.int64)
-        face_map[keep] = np.arange(np.count_nonzero(keep))
-        mesh = cls(V=V, F=F[keep], welded_vertices=welded, dropped_faces=dropped,
+        face_map[keep] = np.arange(len(Fk))
+        mesh = cls(V=V, F=Fk, welded_vertices=welded, dropped_faces=dropped,
                    vertex_map=vertex_map, face_map=face_map)
+        if topo is not None:
+            mesh._cache.update(topo)
         if orient:
-            mesh._orient()
+            mesh._orient(pairs)
         return mesh
 
     def submesh(self, faces) -> TriMesh:
@@ -331,39 +358,7 @@ class TriMesh:
     def _edges(self):
         c = self._cache
         if "edges" not in c:
-            F = self.F
-            n = np.int64(len(self.V))
-            ha = F.ravel()  # half-edge 3f + k runs from corner k to corner k + 1 of face f
-            hb = F[:, [1, 2, 0]].ravel()
-            lo = np.minimum(ha, hb)
-            key = lo * n + np.maximum(ha, hb)
-            # stable sort: the keys come in long sorted runs (faces share vertices in order),
-            # which timsort exploits (~4x faster than np.unique's quicksort on 4M half-edges)
-            order = np.argsort(key, kind="stable")
-            ks = key[order]
-            head = np.empty(len(ks), dtype=bool)
-            head[0] = True
-            np.not_equal(ks[1:], ks[:-1], out=head[1:])
-            starts = np.flatnonzero(head)
-            counts = np.diff(starts, append=len(ks))
-            if np.any(counts > 2):
-                raise MeshError(
-                    f"{int(np.sum(counts > 2))} edges are shared by more than two faces "
-                    "(non-manifold mesh); clean it (merge by distance, delete interior or "
-                    "duplicate faces) and try again"
-                )
-            uniq = ks[starts]
-            inv = np.empty(len(key), dtype=np.int64)
-            inv[order] = np.cumsum(head) - 1
-            second = counts == 2
-            he_idx = np.full((len(uniq), 2), -1, dtype=np.int64)
-            he_idx[:, 0] = order[starts]
-            he_idx[second, 1] = order[starts[second] + 1]
-            c["edges"] = np.stack([uniq // n, uniq % n], axis=1)
-            c["face_edges"] = inv.reshape(-1, 3)
-            c["edge_faces"] = np.where(he_idx >= 0, he_idx // 3, -1)
-            c["edge_halfedges"] = he_idx
-            c["halfedges"] = np.stack([ha, hb], axis=1)
+            c.update(_edge_table(self.F, len(self.V)))
         return c
 
     @property
@@ -388,7 +383,7 @@ class TriMesh:
     #: 100 × 100 mm blade tube: ~0.002; a flat patch: 0)
     VOLUME_CONCLUSIVE = 1e-4
 
-    def _orient(self):
+    def _orient(self, pairs=None):
         """Make the winding consistent per connected component, then turn it outward.
 
         Consistency. Two faces sharing an edge must traverse it in opposite directions; the
@@ -412,32 +407,26 @@ class TriMesh:
         majority's, as above) is kept, deterministically. Such patches must come with their
         normals out of the material (in Blender: Recalculate Outside on the whole blade, or
         Flip).
+
+        pairs : the :func:`_interior_pairs` of the mesh's edge table, if the caller has them
         """
-        c = self._edges()
-        ef, hei, he = c["edge_faces"], c["edge_halfedges"], c["halfedges"]
-        interior = ef[:, 1] >= 0
+        h0, h1, f0, f1 = _interior_pairs(self._edges()) if pairs is None else pairs
         # two faces sharing an edge are consistent when they traverse it in opposite directions
-        h0 = he[hei[interior, 0]]
-        h1 = he[hei[interior, 1]]
-        inconsistent = h0[:, 0] == h1[:, 0]
-        f0, f1 = ef[interior, 0], ef[interior, 1]
+        # (half-edge 3f + k starts at corner k of face f)
+        inconsistent = self.F.ravel()[h0] == self.F.ravel()[h1]
         m = len(self.F)
-        ncomp, labels = csgraph.connected_components(
-            sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m)), directed=False
-        )
+        g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
+        # no pair of faces twice (that would be a repeated face); the components need no
+        # sorted columns: skip the conversion's per-row sort
+        g.has_canonical_format = True
+        ncomp, labels = csgraph.connected_components(g, directed=False)
         flip = np.zeros(m, dtype=bool)
         if np.any(inconsistent):
             flip = _parity_flip(m, f0, f1, inconsistent, labels, ncomp)
             if np.any(flip):
-                F = self.F.copy()
-                F[flip] = F[flip][:, ::-1]
-                self.F = F
-                self._cache.clear()
-                c = self._edges()
-                ef, hei, he = c["edge_faces"], c["edge_halfedges"], c["halfedges"]
-                h0 = he[hei[interior, 0]]
-                h1 = he[hei[interior, 1]]
-                if np.any(h0[:, 0] == h1[:, 0]):
+                self._flip_faces(flip)
+                h0, h1 = _interior_pairs(self._cache)[:2]
+                if np.any(self.F.ravel()[h0] == self.F.ravel()[h1]):
                     raise MeshError(
                         "the mesh is not orientable (a Möbius-like strip or inconsistent "
                         "duplicate surfaces); recalculate normals in Blender or clean the mesh"
@@ -448,13 +437,30 @@ class TriMesh:
         )
         inward = trusted & (vol < 0)
         if np.any(inward):
-            F = self.F.copy()
             sel = inward[labels]
-            F[sel] = F[sel][:, ::-1]
+            self._flip_faces(sel)
             flip ^= sel
-            self.F = F
-            self._cache.clear()
         self.flipped_faces = int(np.sum(flip))
+
+    def _flip_faces(self, sel):
+        """Reverse the winding of the faces ``sel`` ((m,) bool). The edge table, if cached,
+        follows without a rebuild — the edges and each edge's faces stay; a reversed face
+        (c, b, a) of (a, b, c) has as half-edges 0, 1, 2 its old 1, 0, 2 backwards, so its
+        face edges and the edges' half-edge ids are renumbered (the same arrays as a rebuild
+        gives). Everything else cached (normals, boundary loops) is dropped."""
+        F = self.F.copy()
+        F[sel] = F[sel][:, ::-1]
+        self.F = F
+        old = dict(self._cache)
+        self._cache.clear()
+        if "edges" in old:
+            fe = old["face_edges"].copy()
+            fe[sel] = fe[sel][:, [1, 0, 2]]
+            hei = old["edge_halfedges"]
+            moved = (hei >= 0) & sel[np.maximum(hei, 0) // 3]
+            hei = np.where(moved, hei + np.array([1, -1, 0])[hei % 3], hei)
+            self._cache.update(edges=old["edges"], face_edges=fe, edge_faces=old["edge_faces"],
+                               edge_halfedges=hei)
 
     def _capped_volume(self, labels, ncomp):
         """Per face component: signed volume with every boundary loop closed by a fan to its
@@ -464,7 +470,10 @@ class TriMesh:
         ref = V.mean(axis=0)
         n2 = triangle_normals(V, F)  # (b − a) × (c − a); a·(b × c) = a·n2 about any origin
         self._set_face_normals(n2)
-        per_face = np.einsum("ij,ij->i", V[F[:, 0]] - ref, n2) / 6.0
+        corner = V.take(F[:, 0], axis=0)  # (V[F[:, 0]] − ref) · n2 / 6, in place
+        corner -= ref
+        per_face = np.einsum("ij,ij->i", corner, n2)
+        per_face /= 6.0
         vol = np.bincount(labels, weights=per_face, minlength=ncomp)
         area = np.bincount(labels, weights=self.face_areas, minlength=ncomp)
         cap = np.zeros(ncomp)
@@ -474,7 +483,7 @@ class TriMesh:
             bnd = e["edge_faces"][:, 1] < 0
             he_b = e["edge_halfedges"][bnd, 0]
             face_from = np.full(len(V), -1, dtype=np.int64)
-            face_from[e["halfedges"][he_b, 0]] = he_b // 3  # face of the outgoing boundary edge
+            face_from[F.ravel()[he_b]] = he_b // 3  # face of the outgoing boundary edge
             for loop in loops:
                 pts = V[loop] - ref
                 nxt = np.roll(pts, -1, axis=0)
@@ -498,16 +507,20 @@ class TriMesh:
         if "loops" not in c:
             e = self._edges()
             boundary = e["edge_faces"][:, 1] < 0
-            he = e["halfedges"][e["edge_halfedges"][boundary, 0]]  # directed as in the face
+            he = _halfedge_ends(self.F, e["edge_halfedges"][boundary, 0])  # as in the face
             loops = []
             if len(he):
-                nxt = np.full(len(self.V), -1, dtype=np.int64)
+                # chained over the boundary vertices only, numbered in the same order (the
+                # chains come out the same as over all vertices, in a fraction of the time)
+                nodes, he = np.unique(he, return_inverse=True)
+                he = he.reshape(-1, 2)
+                nxt = np.full(len(nodes), -1, dtype=np.int64)
                 nxt[he[:, 0]] = he[:, 1]
                 # strict=False: a bow-tie vertex (two loops touching) splits the chains there
-                for order, _closed in chain_graph_paths(len(self.V), he, strict=False):
+                for order, _closed in chain_graph_paths(len(nodes), he, strict=False):
                     if len(order) >= 2 and nxt[order[0]] != order[1]:
                         order = order[::-1]
-                    loops.append(order)
+                    loops.append(nodes[order])
             c["loops"] = loops
         return c["loops"]
 
@@ -587,58 +600,112 @@ _WELD_DIRECTION = np.array([0.5377, 0.6233, 0.5677]) / np.linalg.norm([0.5377, 0
 _WELD_SCAN_MAX = 32
 
 
-def _first_equal_point(P):
-    """For each row of P (k, 3) float (finite, no −0.0), the index of the first row equal to
-    it, and the order of the rows by their projection u = P · ``_WELD_DIRECTION`` (stable, so
-    equal rows stay in index order) — or ``None`` for the order when rows that differ share a
-    projection value (then the groups come from :func:`_first_equal_row` on the bits).
-
-    Equal rows have equal projections (the same arithmetic), so they form runs in that order;
-    one stable argsort of one float key, no hashing, and the order serves the close-pair scan
-    (:func:`_close_pairs`) as well."""
-    k = len(P)
-    d = _WELD_DIRECTION
-    cols = [np.ascontiguousarray(P[:, j]) for j in range(3)]
-    u = (cols[0] * d[0] + cols[1] * d[1]) + cols[2] * d[2]
-    order = np.argsort(u, kind="stable")
-    us = u[order]
-    head = np.ones(k, dtype=bool)
-    same_u = us[1:] == us[:-1]
-    differ = ~same_u
-    for c in cols:
-        cs = c[order]
-        differ |= cs[1:] != cs[:-1]
-    head[1:] = differ
-    if np.any(head[1:] & same_u):  # different rows with the same projection: exact path
-        return _first_equal_row(P.view(np.int64)), None
-    grp_first = order[np.maximum.accumulate(np.where(head, np.arange(k), 0))]
-    first = np.empty(k, dtype=np.int64)
-    first[order] = grp_first
-    return first, order
+#: odd 64-bit multipliers of the weld's hash rounds (the golden ratio's and the mixing
+#: constants of MurmurHash3 / xxHash64 / SplitMix64)
+_HASH_MULT = np.array(
+    [0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xFF51AFD7ED558CCD,
+     0xC4CEB9FE1A85EC53, 0x94D049BB133111EB, 0xBF58476D1CE4E5B9, 0x27D4EB2F165667C5],
+    dtype=np.uint64,
+)
+#: rounds of the hash table before the exact fallback (≤ len(_HASH_MULT))
+_HASH_ROUNDS = 8
 
 
-def _close_pairs(V, ids, tol):
+def _first_equal_point(cols):
+    """For each point, the index of the first point equal to it, (k,) int64.
+
+    Parameters
+    ----------
+    cols : three (k,) float64 arrays — the x, y, z coordinates (finite, no −0.0, so equal
+        coordinates are equal bits)
+
+    A hash table built in vectorised rounds, no sort: each point's 64-bit hash of its bits
+    (multiplicative hashing, Knuth TAOCP vol. 3 §6.4) picks a slot of a table with ≥ k slots;
+    the slot keeps the lowest index of the points landing in it. A point whose coordinates
+    equal its slot holder's has found its first equal point (the holder is the lowest index
+    of everything in the slot, so of the point's group). The groups that lost their slot to
+    another group — all of a group's points share a slot — try again in a fresh table with
+    another multiplier; every round settles at least the group of each occupied slot's
+    holder, in practice all but a few per cent. What is left after ``_HASH_ROUNDS`` rounds
+    (never seen) is grouped exactly by :func:`_first_equal_row`. O(k) expected; about 2x
+    faster than one stable argsort of the 3M corners of a 1M-triangle STL.
+    """
+    c = [x.view(np.uint64) for x in cols]
+    k = len(c[0])
+    idx_t = np.int32 if k < 2**31 - 1 else np.int64
+    with np.errstate(over="ignore"):  # multiplicative hashing: the top bits are the mixed ones
+        h = c[0] * _HASH_MULT[0]
+        h ^= c[1]
+        h *= _HASH_MULT[1]
+        h ^= c[2]
+        h *= _HASH_MULT[2]
+    first = None
+    act = None  # the unsettled points (None: all)
+    ha, ca = h, c
+    for r in range(_HASH_ROUNDS):
+        n = k if act is None else len(act)
+        bits = max((n - 1).bit_length(), 1)
+        with np.errstate(over="ignore"):
+            slot = ((ha if r == 0 else ha * _HASH_MULT[r]) >> np.uint64(64 - bits)).view(np.intp)
+        ids = np.arange(k, dtype=idx_t) if act is None else act.astype(idx_t)
+        table = np.empty(1 << bits, dtype=idx_t)
+        # the lowest index of each slot: written last when writing in descending order, as
+        # numpy does; checked, and taken by np.minimum.at (2x slower) if it was not so
+        table[slot[::-1]] = ids[::-1]
+        cand = table[slot]
+        if np.any(cand > ids):
+            np.minimum.at(table, slot, ids)
+            cand = table[slot]
+        cand = cand.astype(np.intp)
+        eq = c[0][cand] == ca[0]
+        eq &= c[1][cand] == ca[1]
+        eq &= c[2][cand] == ca[2]
+        if act is None:
+            first = cand
+            if eq.all():
+                return first
+            act = np.flatnonzero(~eq)
+        else:
+            first[act[eq]] = cand[eq]
+            act = act[~eq]
+            if len(act) == 0:
+                return first
+        ha, ca = h[act], [x[act] for x in c]
+    sub = _first_equal_row(np.stack(ca, axis=1).view(np.int64))
+    first[act] = act[sub]  # act ascends and holds whole groups: act[sub] is the group's first
+    return first
+
+
+def _close_pairs(V, ids, tol, u=None):
     """All pairs (p, 2) of the points ``ids`` (sorted by their projection on
     ``_WELD_DIRECTION``) at most ``tol`` apart, as ``cKDTree.query_pairs`` finds them: two
     such points have projections at most ``tol`` apart, so only neighbours in that order
     within ``tol`` of projection are measured. ``None`` when a point has more than
     ``_WELD_SCAN_MAX`` such neighbours (points crowding one plane across the direction: the
-    caller then asks a k-d tree)."""
+    caller then asks a k-d tree). ``u`` : (len(ids),) float — the projections of ``V[ids]``
+    if the caller has them (computed as here)."""
     d = _WELD_DIRECTION
-    P = V[ids]
-    u = (P[:, 0] * d[0] + P[:, 1] * d[1]) + P[:, 2] * d[2]
-    slack = tol * (1.0 + 1e-9) + 1e-12 * float(np.abs(u).max(initial=0.0))
+    if u is None:
+        P = V[ids]
+        u = (P[:, 0] * d[0] + P[:, 1] * d[1]) + P[:, 2] * d[2]
+    slack = tol * (1.0 + 1e-9) + 1e-12 * max(float(u[-1]), -float(u[0]), 0.0)
     out = []
+    near = np.flatnonzero(u[1:] - u[:-1] <= slack)
     for o in range(1, _WELD_SCAN_MAX + 2):
-        near = np.flatnonzero(u[o:] - u[:-o] <= slack)
+        if o > 1:
+            # u[i + o] − u[i] ≤ slack needs u[i + o − 1] − u[i] ≤ slack (u ascends, rounding
+            # is monotone): only the previous offset's survivors are measured
+            near = near[near < len(u) - o]
+            near = near[u[near + o] - u[near] <= slack]
         if len(near) == 0:
             break
         if o > _WELD_SCAN_MAX:
             return None
-        diff = P[near + o] - P[near]
+        a, b = ids[near], ids[near + o]
+        diff = V[b] - V[a]
         d2 = diff[:, 0] * diff[:, 0] + diff[:, 1] * diff[:, 1] + diff[:, 2] * diff[:, 2]
-        close = near[d2 <= tol * tol]
-        out.append(np.stack([ids[close], ids[close + o]], axis=1))
+        close = d2 <= tol * tol
+        out.append(np.stack([a[close], b[close]], axis=1))
     if not out:
         return np.zeros((0, 2), dtype=np.int64)
     pairs = np.concatenate(out)
@@ -677,6 +744,85 @@ def _first_equal_row(K):
     first = np.empty(k, dtype=np.int64)
     first[order] = grp_first
     return first
+
+
+def _edge_table(F, n):
+    """The edges of faces F (m, 3) int64 over n vertices, as a dict of arrays:
+
+    * ``edges`` (e, 2) int64 — unique edges, lower vertex first, sorted;
+    * ``face_edges`` (m, 3) — edge ids of (v0v1, v1v2, v2v0) of each face;
+    * ``edge_halfedges`` (e, 2) — the half-edges (3f + k runs from corner k to corner k + 1
+      of face f) of each edge, ascending, −1 where there is no second;
+    * ``edge_faces`` (e, 2) — their faces (−1 where there is none).
+
+    Raises MeshError when an edge has more than two faces (non-manifold).
+    """
+    n = np.int64(n)
+    ha = F.ravel()
+    hb = F[:, [1, 2, 0]].ravel()
+    key = np.minimum(ha, hb)
+    key *= n
+    key += np.maximum(ha, hb)  # lower * n + higher vertex
+    del hb
+    # stable sort: the keys come in long sorted runs (faces share vertices in order),
+    # which timsort exploits (~4x faster than np.unique's quicksort on 4M half-edges)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    del key
+    head = np.empty(len(ks), dtype=bool)
+    head[0] = True
+    np.not_equal(ks[1:], ks[:-1], out=head[1:])
+    starts = np.flatnonzero(head)
+    counts = np.diff(starts, append=len(ks))
+    if np.any(counts > 2):
+        raise MeshError(
+            f"{int(np.sum(counts > 2))} edges are shared by more than two faces "
+            "(non-manifold mesh); clean it (merge by distance, delete interior or "
+            "duplicate faces) and try again"
+        )
+    uniq = ks[starts]
+    del ks
+    edge_id = np.cumsum(head, dtype=np.int64)
+    edge_id -= 1
+    inv = np.empty(len(order), dtype=np.int64)
+    inv[order] = edge_id
+    del edge_id
+    he1 = order.take(starts + 1, mode="clip")  # the second half-edge, where counts == 2
+    he1[counts == 1] = -1
+    he_idx = np.stack([order[starts], he1], axis=1)
+    lo = uniq // n
+    return {
+        "edges": np.stack([lo, uniq - lo * n], axis=1),
+        "face_edges": inv.reshape(-1, 3),
+        "edge_faces": he_idx // 3,  # floor division: −1 stays −1
+        "edge_halfedges": he_idx,
+    }
+
+
+def _halfedge_ends(F, h):
+    """(len(h), 2) int64: from and to vertex of the half-edges h (3f + k runs from corner k
+    to corner k + 1 of face f, F (m, 3))."""
+    f, k = np.divmod(h, 3)
+    return np.stack([F[f, k], F[f, (k + 1) % 3]], axis=1)
+
+
+def _interior_pairs(topo):
+    """(h0, h1, f0, f1): the two half-edges (p,) of each edge of two faces, in edge order, and
+    their faces, from an edge table (:func:`_edge_table`)."""
+    hei = topo["edge_halfedges"]
+    two = hei[:, 1] >= 0
+    h0, h1 = hei[two, 0], hei[two, 1]
+    return h0, h1, h0 // 3, h1 // 3
+
+
+def _repeats_on_edges(F, h0, h1, f0, f1):
+    """Whether two faces of F (m, 3) repeat each other (the same three vertices, in any
+    order), given the :func:`_interior_pairs` of their edge table (no edge of more than two
+    faces). Such faces share all their edges; two faces sharing an edge (a, b) are repeats
+    exactly when the corners opposite it are one vertex, that is when their vertex ids have
+    the same sum (a + b + c)."""
+    total = F[:, 0] + F[:, 1] + F[:, 2]
+    return bool(np.any(total[f0] == total[f1]))
 
 
 def _parity_flip(m, f0, f1, inconsistent, labels, ncomp):

@@ -194,8 +194,9 @@ def test_weld_close_pairs_are_the_kd_tree_pairs():
 
 
 def test_weld_of_rows_sharing_a_projection_is_exact():
-    """Distinct vertices with equal projections on the weld direction take the exact bitwise
-    path; every group of equal rows still maps to its lowest index."""
+    """Distinct vertices with equal projections on the weld direction: the close-pair search
+    gives way to the k-d tree; every group of equal rows still maps to its lowest index, and
+    a near duplicate still merges."""
     from blisk_cam.core import mesh as M
 
     rng = np.random.default_rng(4)
@@ -204,11 +205,82 @@ def test_weld_of_rows_sharing_a_projection_is_exact():
     P = np.vstack([A, A[::-1], A[:50]])
     P[5] = [d[1], 0.0, 0.0]  # projection d1 d0
     P[6] = [0.0, d[0], 0.0]  # projection d0 d1: the same number, another row
-    first, order = M._first_equal_point(P + 0.0)
-    assert order is None
     want = np.array([np.flatnonzero((P == row).all(axis=1))[0] for row in P])
-    assert np.array_equal(first, want)
-    first2, order2 = M._first_equal_point(np.delete(P, 6, axis=0) + 0.0)
-    assert order2 is not None
-    Q = np.delete(P, 6, axis=0)
-    assert np.array_equal(first2, [np.flatnonzero((Q == r).all(axis=1))[0] for r in Q])
+    assert np.array_equal(M._first_equal_point([P[:, j] + 0.0 for j in range(3)]), want)
+    P[7] = P[6] + [1e-9, 0.0, 0.0]  # within the default tolerance (1e-7 × diagonal) of P[6]
+    m = TriMesh.from_arrays(P, np.arange(len(P)).reshape(-1, 3), orient=False)
+    vm = m.vertex_map
+    assert vm[7] == vm[6] != vm[5]
+    assert np.array_equal(m.V[vm], np.where(np.arange(len(P))[:, None] == 7, P[6], P))
+    assert m.n_vertices == len(np.unique(P, axis=0)) - 1
+
+
+def test_exact_duplicates_through_hash_collisions_and_the_exact_fallback(monkeypatch):
+    """The hash rounds of the weld: every point maps to the lowest index of its equal points,
+    including after slot collisions; with a single round the rest goes to the exact lexsort
+    fallback, with the same answer."""
+    from blisk_cam.core import mesh as M
+
+    rng = np.random.default_rng(8)
+    base = rng.integers(-3, 4, size=(3000, 3)).astype(float) * 0.25  # ~340 distinct points
+    base[rng.random(3000) < 0.1] *= -1.0  # −0.0 must already be 0.0: the caller adds 0.0
+    P = base + 0.0
+    _, inv = np.unique(P, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    low = np.full(inv.max() + 1, len(P))
+    np.minimum.at(low, inv, np.arange(len(P)))
+    want = low[inv]
+    cols = [P[:, j] + 0.0 for j in range(3)]
+    assert np.array_equal(M._first_equal_point(cols), want)
+    calls = []
+    exact = M._first_equal_row
+    monkeypatch.setattr(M, "_HASH_ROUNDS", 1)
+    monkeypatch.setattr(M, "_first_equal_row", lambda K: calls.append(len(K)) or exact(K))
+    assert np.array_equal(M._first_equal_point(cols), want)
+    assert calls and 0 < calls[0] < len(P)  # collisions went to the fallback, not everything
+    distinct = rng.random((500, 3))
+    assert np.array_equal(M._first_equal_point([distinct[:, j] for j in range(3)]),
+                          np.arange(500))
+
+
+def _assert_edge_table_is_a_rebuild(m):
+    """The edge table the weld cached (and renumbered for flipped faces) is the one a fresh
+    mesh of the same V, F builds."""
+    fresh = TriMesh(V=m.V, F=m.F)
+    for key in ("edges", "face_edges", "edge_faces", "edge_halfedges"):
+        assert np.array_equal(m._edges()[key], fresh._edges()[key]), key
+
+
+def test_flipped_stl_soup_comes_out_consistently_oriented(tube_arrays):
+    """An STL soup with 40 % of its faces flipped: welded, and every edge then traversed once
+    in each direction (counted on the directed half-edges, not with the mesh's own tables)."""
+    V, F = tube_arrays
+    rng = np.random.default_rng(7)
+    flip = rng.random(len(F)) < 0.4
+    Fx = F.copy()
+    Fx[flip] = Fx[flip][:, ::-1]
+    soup = V[Fx].reshape(-1, 3)
+    m = TriMesh.from_arrays(soup, np.arange(len(soup)).reshape(-1, 3))
+    he = np.stack([m.F.ravel(), np.roll(m.F, -1, axis=1).ravel()], axis=1)
+    fwd = set(map(tuple, he.tolist()))
+    assert len(fwd) == len(he)  # no directed edge twice: no two faces disagree on one
+    open_edges = [e for e in fwd if e[::-1] not in fwd]
+    assert len(open_edges) == 2 * 48  # only the hub and tip loops (n_u = 48 each)
+    assert m.flipped_faces == int(flip.sum()) and _outward_fraction(m) > 0.9
+    _assert_edge_table_is_a_rebuild(m)
+    m_in = TriMesh.from_arrays(soup, np.arange(len(soup)).reshape(-1, 3)[:, ::-1])
+    assert np.array_equal(m_in.F, m.F)  # the whole soup reversed: turned outward as well
+    _assert_edge_table_is_a_rebuild(m_in)
+
+
+def test_a_repeated_face_whose_edges_have_no_third_face_is_dropped(tube_arrays):
+    """A lone triangle given twice (reversed or rotated) has edges of two faces only — no
+    non-manifold edge shows the repeat; it is still dropped."""
+    V, F = tube_arrays
+    V2 = np.vstack([V, [[500.0, 0.0, 0.0], [501.0, 0.0, 0.0], [500.0, 1.0, 0.0]]])
+    lone = np.array([[len(V), len(V) + 1, len(V) + 2]])
+    for again in (lone[:, ::-1], lone[:, [1, 2, 0]]):
+        m = TriMesh.from_arrays(V2, np.vstack([F, lone, again]))
+        assert m.dropped_faces == 1 and m.n_faces == len(F) + 1
+        assert m.face_map[-2] == len(F) and m.face_map[-1] == -1
+        _assert_edge_table_is_a_rebuild(m)
