@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import itertools
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -50,6 +51,8 @@ _FLAT_PAIRS = 8192  # (query, leaf) pairs below which a tree query tests all lea
 # the bottom of the tree, fewest queries for which groups are formed
 _GROUP, _GROUP_TAIL, _GROUP_MIN = 8, 0, 256
 
+# NearestFaces: circumradius size classes (6, half an octave each)
+_NF_CLASSES, _NF_PER_OCTAVE = 6, 2
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
 _WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
 
@@ -894,11 +897,15 @@ def closest_points(mesh: TriMesh, points) -> ClosestPoints:
 
 
 class NearestFaces:
-    """Exact closest points on a :class:`TriMesh` without a whole-mesh tree: a k-d tree of
-    the face centroids (built on the first query, a fraction of a second per million faces)
-    gives each point an upper bound u (the exact distance to the face of the nearest
-    centroid); every face whose centroid lies within u + its own circumradius is then tested
-    exactly. For the generator's few, clustered queries (links between passes, the spiral
+    """Exact closest points on a :class:`TriMesh` without a whole-mesh tree: k-d trees of
+    the face centroids, one per circumradius size class (half an octave each; built on the
+    first query, a fraction of a second per million faces), give each point an upper bound u
+    (the exact distance to the nearest of the faces of the nearest centroid of each class);
+    each class lists the faces whose centroid lies within u + the class's largest
+    circumradius (not the mesh's: a few long slivers no longer widen every search), and a face
+    is tested exactly only if its lower bounds — centroid distance − circumradius, distance
+    to its longest edge − the height of the opposite vertex (tight on thin faces) — do not
+    exceed u. For the generator's few, clustered queries (links between passes, the spiral
     blend, the passes' contacts in the orient stage) this costs far less than
     :class:`MeshDistance`'s bounding-volume tree, and it returns the same distances and
     points: the minimum of the same exact point–triangle distances. Of faces at exactly the same
@@ -916,21 +923,33 @@ class NearestFaces:
 
     def __init__(self, mesh: TriMesh):
         self.mesh = mesh
-        self._kd = None
+        self._trees = None
 
     def _build(self):
         V, F = self.mesh.V, self.mesh.F
-        self._A, self._B, self._C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+        A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+        self._A, self._B, self._C = A, B, C
         # ((a + b) + c) / 3: the very operations of V[F].mean(axis=1) (a reduction over the
         # middle axis adds the rows in order, then divides by the count), a third the time
-        cen = (self._A + self._B + self._C) / 3.0
-        rad2 = np.maximum(np.maximum(_dot(self._A - cen, self._A - cen),
-                                     _dot(self._B - cen, self._B - cen)),
-                          _dot(self._C - cen, self._C - cen))
-        self._rad = np.sqrt(rad2) * (1.0 + 1e-12)
-        self._rmax = float(self._rad.max()) if len(cen) else 0.0
-        self._cen = cen
-        self._kd = cKDTree(cen, balanced_tree=False, compact_nodes=False)
+        cen = (A + B + C) / 3.0
+        rad2 = np.maximum(np.maximum(_dot(A - cen, A - cen), _dot(B - cen, B - cen)),
+                          _dot(C - cen, C - cen))
+        rad = np.sqrt(rad2) * (1.0 + 1e-12)
+        self._cen, self._rad = cen, rad
+        # size classes: circumradius in (rmax / 2^((c+1)/n), rmax / 2^(c/n)], n per octave,
+        # the last class everything smaller; one centroid tree per class, searched with
+        # u + the largest circumradius of that class
+        n = len(F)
+        rmax = float(rad.max()) if n else 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cls = np.floor(_NF_PER_OCTAVE * np.log2(rmax / rad))
+        cls = np.clip(np.nan_to_num(cls, nan=0.0), 0, _NF_CLASSES - 1).astype(np.int64)
+        self._trees = []
+        for c in range(_NF_CLASSES):
+            ids = np.flatnonzero(cls == c)
+            if len(ids):
+                kd = cKDTree(cen[ids], balanced_tree=False, compact_nodes=False)
+                self._trees.append((ids, float(rad[ids].max()), kd))
 
     def query(self, points):
         """(point (k, 3), face (k,), bary (k, 3)) — exact closest points to (k, 3) points."""
@@ -938,31 +957,65 @@ class NearestFaces:
         k = len(P)
         if k == 0 or self.mesh.n_faces == 0:
             return np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros((0, 3))
-        if self._kd is None:
+        if self._trees is None:
             self._build()
         A, B, C = self._A, self._B, self._C
-        _, j = self._kd.query(P)
-        j = np.asarray(j, dtype=np.int64)
-        u = np.sqrt(closest_on_triangles(P, A[j], B[j], C[j])[1])
-        # every face within u of p has its centroid within u + its circumradius ≤ u + rmax
+        # the upper bound u: the nearest of the faces of the nearest centroid of each class
+        j = np.concatenate([ids[kd.query(P)[1]] for ids, _, kd in self._trees])
+        qj = np.tile(np.arange(k), len(self._trees))
+        u = np.full(k, np.inf)
+        np.minimum.at(u, qj, closest_on_triangles(P[qj], A[j], B[j], C[j])[1])
+        u = np.sqrt(u)
+        # every face within u of p has its centroid within u + its circumradius ≤ u + the
+        # largest circumradius of its class
         slack = 1e-9 * max(1.0, float(np.abs(P).max()))
-        lists = self._kd.query_ball_point(P, u + self._rmax + slack)
-        cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=k)
-        f = np.fromiter((i for x in lists for i in x), dtype=np.int64, count=int(cnt.sum()))
-        qi = np.repeat(np.arange(k), cnt)
-        d = P[qi] - self._cen[f]
-        keep = np.sqrt(_dot(d, d)) - self._rad[f] <= u[qi] + slack
+        qi, f = [], []
+        for ids, rc, kd in self._trees:
+            lists = kd.query_ball_point(P, u + rc + slack, return_sorted=False)
+            cnt = np.fromiter(map(len, lists), dtype=np.int64, count=k)
+            qi.append(np.repeat(np.arange(k), cnt))
+            f.append(ids[np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
+                                     count=int(cnt.sum()))])
+        qi, f = np.concatenate(qi), np.concatenate(f)
+        # lower bounds: centroid distance − circumradius, then the distance to the longest
+        # edge − the height of the third vertex over it (the largest angle is opposite the
+        # longest edge, so that vertex's foot lies on the edge and every point of the face is
+        # within the height of it: tight on thin faces); a face whose bound exceeds u + slack
+        # is farther than the best
+        pq = P[qi]
+        ub = u[qi] + slack
+        d = pq - self._cen[f]
+        keep = np.sqrt(_dot(d, d)) - self._rad[f] <= ub
+        pq, ub, qi, f = pq[keep], ub[keep], qi[keep], f[keep]
+        a, b, c = A[f], B[f], C[f]
+        ab, bc, ca = b - a, c - b, a - c
+        lab, lbc, lca = _dot(ab, ab), _dot(bc, bc), _dot(ca, ca)
+        c_long = ((lab >= lbc) & (lab >= lca))[:, None]
+        a_long = (lbc >= lca)[:, None]
+        s = np.where(c_long, a, np.where(a_long, b, c))
+        e = np.where(c_long, ab, np.where(a_long, bc, ca))
+        o = np.where(c_long, c, np.where(a_long, a, b)) - s  # the opposite vertex
+        ee = _dot(e, e)
+        inv = 1.0 / np.where(ee > 0, ee, 1.0)
+        h = np.sqrt(np.maximum(_dot(o, o) - _dot(o, e) ** 2 * inv, 0.0)) * (1.0 + 1e-12)
+        w = pq - s
+        t = np.clip(_dot(w, e) * inv, 0.0, 1.0)
+        w -= t[:, None] * e
+        keep = np.sqrt(_dot(w, w)) - h <= ub
         qi, f = qi[keep], f[keep]
-        d2 = closest_on_triangles(P[qi], A[f], B[f], C[f])[1]
+        q, d2, _, bary = closest_on_triangles(pq[keep], a[keep], b[keep], c[keep])
         best = np.full(k, np.inf)
         np.minimum.at(best, qi, d2)
         win = d2 <= best[qi]
         qw, fw = qi[win], f[win]
-        face = np.full(k, -1, dtype=np.int64)
-        face[qw] = fw
-        if len(qw) > np.count_nonzero(np.bincount(qw, minlength=k)):  # exact ties
-            face = np.full(k, np.iinfo(np.int64).max, dtype=np.int64)
-            np.minimum.at(face, qw, fw)  # the lowest face id of the tied faces
-            face[face == np.iinfo(np.int64).max] = -1
-        q, _, _, bary = closest_on_triangles(P, A[face], B[face], C[face])
+        face = np.full(k, np.iinfo(np.int64).max, dtype=np.int64)
+        np.minimum.at(face, qw, fw)  # of faces at exactly the best distance, the lowest id
+        face[face == np.iinfo(np.int64).max] = -1
+        # each (point, face) pair is listed once (a face is in one class): the winner's row
+        # of the exact kernel is the closest point (row-wise, the same as computed alone)
+        row = np.flatnonzero(f == face[qi])
+        if len(row) == k:
+            row = row[np.argsort(qi[row], kind="stable")]
+            return q[row], face, bary[row]
+        q, _, _, bary = closest_on_triangles(P, A[face], B[face], C[face])  # NaN points
         return q, face, bary

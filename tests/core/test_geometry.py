@@ -124,3 +124,40 @@ def test_bottom_and_side_bounds_hold_every_cutter():
         d = np.hypot(np.maximum(rho[lo] - cut.e, 0.0), cut.f - z[lo])
         assert lo.any() == (cut.f > 0), cut  # a flat end mill has no part below f = 0
         assert d.max(initial=0.0) <= _bottom_reach(cut) * (1 + 1e-12), cut
+
+
+def test_nearest_faces_on_thin_faces_of_many_sizes_by_brute_force():
+    """A surface of needles and slivers whose sizes span three octaves and more (every
+    circumradius size class, and the smallest-faces class holding everything below), points
+    on edges, vertices and off the surface: the smallest exact distance, of ties the lowest
+    face id, and the closest point of that face."""
+    from blisk_cam.core.geometry import closest_on_triangles
+
+    rng = np.random.default_rng(5)
+    x = np.cumsum(np.geomspace(0.002, 0.5, 60))  # column widths: 250 : 1
+    y = np.cumsum(rng.uniform(0.05, 0.2, 12))
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    V = np.column_stack([X.ravel(), Y.ravel(), 0.05 * np.sin(3 * X.ravel()) * Y.ravel()])
+    i = np.arange(len(x) - 1)[:, None] * len(y) + np.arange(len(y) - 1)[None, :]
+    i = i.ravel()
+    F = np.vstack([np.column_stack([i, i + len(y), i + 1]),
+                   np.column_stack([i + 1, i + len(y), i + len(y) + 1])])
+    F = F[rng.permutation(len(F))]
+    mesh = TriMesh.from_arrays(V, F)
+    V, F = mesh.V, mesh.F
+    e = F[rng.integers(0, len(F), 300)]
+    t = rng.random(300)[:, None]
+    P = np.vstack([0.5 * (V[e[:, 0]] + V[e[:, 1]]), V[e[:, 1]] + t * (V[e[:, 2]] - V[e[:, 1]]),
+                   V[rng.integers(0, len(V), 200)],
+                   V[rng.integers(0, len(V), 300)] + rng.normal(scale=0.3, size=(300, 3))])
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    want = np.empty(len(P), dtype=np.int64)
+    for k, p in enumerate(P):
+        d2 = closest_on_triangles(np.broadcast_to(p, A.shape), A, B, C)[1]
+        want[k] = np.nonzero(d2 == d2.min())[0].min()
+    nf = NearestFaces(mesh)
+    q, face, bary = nf.query(P)
+    assert len(nf._trees) >= 5  # several size classes are searched
+    assert np.array_equal(face, want)
+    q2, _, _, bary2 = closest_on_triangles(P, A[want], B[want], C[want])
+    assert np.array_equal(q, q2) and np.array_equal(bary, bary2)
