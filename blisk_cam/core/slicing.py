@@ -398,7 +398,7 @@ class MeshConeSlicer:
         f0, f1 = f01[:k], f01[k:]
         if len(lines) == 1:
             alpha, beta, gamma = (float(v) for v in lines[0])
-            t = self._roots_on_lines(alpha, beta, gamma, i0, i1, f0, f1)[0]
+            t = self._roots_on_lines(alpha, beta, gamma, i0, i1, f0, f1, residual=False)[0]
         else:
             t = self._roots_on_polyline(s, lines, i0, i1, f0, f1)
         # vertices on the level (snapped to zero): the crossing is the vertex itself
@@ -463,7 +463,7 @@ class MeshConeSlicer:
             t[bad] = best_t
         return t
 
-    def _roots_on_lines(self, alpha, beta, gamma, i0, i1, f0, f1):
+    def _roots_on_lines(self, alpha, beta, gamma, i0, i1, f0, f1, *, residual=True):
         """Exact roots on edges i0→i1 of the meridional line α r + β z + γ = 0 ((α, β) unit;
         scalars, or one line per edge).
 
@@ -475,7 +475,8 @@ class MeshConeSlicer:
         Returns
         -------
         t : (k,) float in [0, 1]
-        residual : (k,) float, mm — |α r(t) + β z(t) + γ| at the returned t
+        residual : (k,) float, mm — |α r(t) + β z(t) + γ| at the returned t (None when
+            ``residual`` is False: not computed)
         """
         q0 = self.radial[i0]
         dq = self.radial[i1] - q0
@@ -500,8 +501,9 @@ class MeshConeSlicer:
             in0, in1 = np.nonzero(inside[0])[0], np.nonzero(inside[1])[0]
             out = np.nonzero(~(inside[0] & inside[1]))[0]
             rows = np.concatenate([in0, in1, out])
-            tv = np.clip(np.nan_to_num(np.concatenate([r12[0, in0], r12[1, in1], lin[out]]),
-                                       nan=-1.0), 0.0, 1.0)
+            tv = np.concatenate([r12[0, in0], r12[1, in1], lin[out]])
+            # NaN → −1 then clipped (as np.nan_to_num(nan=−1) would, ±inf clip the same)
+            tv = np.clip(np.where(np.isnan(tv), -1.0, tv), 0.0, 1.0)
             rv = np.linalg.norm(q0[rows] + tv[:, None] * dq[rows], axis=1)
             ev = np.abs(_at(alpha, rows) * rv + _at(beta, rows) * (z0[rows] + tv * dz[rows])
                         + _at(gamma, rows))
@@ -521,6 +523,8 @@ class MeshConeSlicer:
             dg = alpha * np.einsum("ij,ij->i", qt, dq) / np.maximum(rr, 1e-300) + beta * dz
             tn = np.where(np.abs(dg) > 1e-300, t - g / dg, t)
         t = np.where(np.isfinite(tn) & (tn >= 0) & (tn <= 1), tn, t)
+        if not residual:
+            return t, None
         rr = np.linalg.norm(q0 + t[:, None] * dq, axis=1)
         return t, np.abs(alpha * rr + beta * (z0 + t * dz) + gamma)
 
