@@ -109,18 +109,18 @@ def _chain_directed(n_nodes: int, links):
         return None
     steps = int(np.ceil(np.log2(max(len(links), 2)))) + 2
 
-    # nodes on a cycle never reach a tail; break each cycle before its lowest node
-    nxt = succ.copy()
+    # nodes on a cycle never reach a tail; break each cycle before its lowest node. One
+    # doubling pass gives both: where each node ends up after 2^steps moves (a tail for a
+    # path node) and the lowest node it passes (for a cycle node: the lowest of its cycle,
+    # as a cycle only reaches its own nodes)
+    nxt = succ
+    low = np.arange(n_nodes)
     for _ in range(steps):
+        low = np.minimum(low, low[nxt])
         nxt = nxt[nxt]
     on_cycle = outd[nxt] > 0
     closed_start = np.zeros(n_nodes, dtype=bool)
     if np.any(on_cycle):
-        low = np.where(on_cycle, np.arange(n_nodes), n_nodes)
-        jump = succ.copy()
-        for _ in range(steps):
-            low = np.minimum(low, low[jump])
-            jump = jump[jump]
         heads = np.unique(low[on_cycle])
         pred = np.full(n_nodes, -1, dtype=np.int64)
         pred[b] = a

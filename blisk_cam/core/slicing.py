@@ -114,34 +114,65 @@ class MeshConeSlicer:
         self._s_margin = 1e-6 + 10.0 * self.on_tol / max(self._cone_gap(), 1e-9)
         self._index_face_ranges()
 
+    #: buckets of the face index (a 16-bit key: numpy's stable argsort is then a radix sort)
+    _N_BUCKETS = 1 << 16
+    #: the buckets cover this range of s (clamped to the mesh's): the levels asked lie in
+    #: [0, 1] or a hair beyond; faces outside fall into the end buckets
+    _BUCKET_RANGE = (-1.0, 2.0)
+
     def _index_face_ranges(self):
-        """Faces sorted by their smallest s, so a level's candidates are found by two binary
-        searches instead of a test of every face: a face whose s range is at most ``w``
+        """Faces bucketed by their smallest s, so a level's candidates are found in a few
+        buckets instead of a test of every face: a face whose s range is at most ``w``
         wide can only reach [s − m, s + m] if its smallest s lies in [s − m − w, s + m] (the
         window is taken wider, the exact test follows); the few faces wider
         than the 99.9th percentile of spans (and those with infinite s) are tested directly.
-        Faces with NaN s are never candidates (as with a direct test)."""
+        Faces with NaN s are never candidates (as with a direct test).
+
+        The buckets split the range of smallest s evenly (``_N_BUCKETS``, 16-bit keys, a
+        radix sort); a face's bucket is a monotone function of its smallest s, so the faces
+        whose smallest s lies in a window are all in the buckets of the window's two ends
+        and those between (a superset, tested exactly in :meth:`_candidate_faces`)."""
         lo, hi = self.face_smin, self.face_smax
         with np.errstate(invalid="ignore"):  # inf − inf: NaN, a wide face below
             width = hi - lo
         finite = np.isfinite(width)
         cut = float(np.quantile(width[finite], 0.999)) if finite.any() else 0.0
-        narrow = np.nonzero(finite & (width <= cut))[0]
-        order = np.argsort(lo[narrow], kind="stable")
+        is_narrow = finite & (width <= cut)
+        narrow = np.nonzero(is_narrow)[0]
+        lo_n = lo[narrow]
+        nb = self._N_BUCKETS
+        if len(narrow):
+            a, b = float(lo_n.min()), float(lo_n.max())
+            ra, rb = max(a, self._BUCKET_RANGE[0]), min(b, self._BUCKET_RANGE[1])
+            if ra < rb:
+                a, b = ra, rb
+        else:
+            a = b = 0.0
+        self._bucket_lo = np.float64(a)
+        self._bucket_scale = np.float64((nb - 1) / (b - a) if b > a else 0.0)
+        key = self._bucket_of(lo_n).astype(np.uint16)
+        order = np.argsort(key, kind="stable")  # by bucket, then by face id
         self._narrow_faces = narrow[order]
-        self._narrow_smin = lo[self._narrow_faces]
+        # faces of bucket k: _narrow_faces[_bucket_start[k]:_bucket_start[k + 1]]
+        self._bucket_start = np.concatenate([[0], np.cumsum(np.bincount(key, minlength=nb))])
         self._narrow_span = 2.0 * cut + 1e-9  # slack: the window only pre-selects
         # wide or infinite (NaN ranges fail every comparison, so they are dropped here)
-        wide = ~(finite & (width <= cut)) & ~np.isnan(lo) & ~np.isnan(hi)
+        wide = ~is_narrow & ~np.isnan(lo) & ~np.isnan(hi)
         self._wide_faces = np.nonzero(wide)[0]
+
+    def _bucket_of(self, x):
+        """Bucket (float, integral, 0 … ``_N_BUCKETS`` − 1) of smallest s ``x`` (scalar or
+        array): monotone in ``x``; the same arithmetic for both."""
+        v = (np.asarray(x, dtype=np.float64) - self._bucket_lo) * self._bucket_scale
+        return np.floor(np.clip(v, 0.0, self._N_BUCKETS - 1))
 
     def _candidate_faces(self, s: float, m: float):
         """Ascending ids of the faces with smin ≤ s + m and smax ≥ s − m."""
         lo = s - m - self._narrow_span
-        i0 = int(np.searchsorted(self._narrow_smin, lo, side="left"))
-        i1 = int(np.searchsorted(self._narrow_smin, s + m, side="right"))
-        near = self._narrow_faces[i0:i1]
-        near = near[self.face_smax[near] >= s - m]
+        k0, k1 = int(self._bucket_of(lo)), int(self._bucket_of(s + m))
+        near = self._narrow_faces[self._bucket_start[k0]:self._bucket_start[k1 + 1]]
+        smin = self.face_smin[near]
+        near = near[(smin >= lo) & (smin <= s + m) & (self.face_smax[near] >= s - m)]
         w = self._wide_faces
         w = w[(self.face_smin[w] <= s + m) & (self.face_smax[w] >= s - m)]
         return np.sort(np.concatenate([near, w]))
@@ -172,12 +203,11 @@ class MeshConeSlicer:
         cand = self._candidate_faces(s, m)
         if len(cand) == 0:
             return []
-        Fc = mesh.F[cand]
-        uverts, inv = np.unique(Fc, return_inverse=True)
-        f = self.vertex_side(s, uverts)
+        # the side of every corner (a vertex shared by several faces is evaluated once per
+        # corner: the same elementwise arithmetic, cheaper than de-duplicating with a sort)
+        f_corner = self.vertex_side(s, mesh.F[cand].ravel())
         # zero goes outside the region at the end levels, below otherwise
-        above_v = f > 0 if s < 1.0 else f >= 0
-        above = above_v[inv.reshape(-1, 3)]
+        above = (f_corner > 0 if s < 1.0 else f_corner >= 0).reshape(-1, 3)
         n_above = above.sum(axis=1)
         crossed = (n_above == 1) | (n_above == 2)
         if not np.any(crossed):
@@ -185,17 +215,19 @@ class MeshConeSlicer:
         faces = cand[crossed]
         ab = above[crossed]
         fe = self.face_edges[faces]  # (c, 3): edges v0v1, v1v2, v2v0
-        cross_e = ab != np.roll(ab, -1, axis=1)  # edge k joins corner k and k+1
+        cross_e = ab != ab[:, [1, 2, 0]]  # edge k joins corner k and k+1
         # each crossed face has exactly two crossing edges; orient the link from the edge
         # entered below→above to the one left above→below (counter-clockwise in the face)
         k_idx = np.nonzero(cross_e)[1].reshape(-1, 2)
         rows = np.arange(len(faces))
         first_up = ~ab[rows, k_idx[:, 0]]  # corner k below → corner k+1 above: going up
-        e_up = np.where(first_up, fe[rows, k_idx[:, 0]], fe[rows, k_idx[:, 1]])
-        e_dn = np.where(first_up, fe[rows, k_idx[:, 1]], fe[rows, k_idx[:, 0]])
-        uedges, linv = np.unique(np.concatenate([e_up, e_dn]), return_inverse=True)
+        e_k = fe[rows[:, None], k_idx]  # (c, 2)
+        e_up = np.where(first_up, e_k[:, 0], e_k[:, 1])
+        e_dn = np.where(first_up, e_k[:, 1], e_k[:, 0])
+        uedges, linv = _unique_inverse(np.concatenate([e_up, e_dn]))
         links = linv.reshape(2, -1).T  # (c, 2) directed up → dn
-        pts, t = self._edge_roots(s, uedges, f_of=(uverts, f))
+        lines = self.morph.segment_lines(s)
+        pts, t = self._edge_roots(s, uedges, lines=lines)
         ev = self.edges[uedges]
         vn = self.vertex_normals
         nrm = (1.0 - t)[:, None] * vn[ev[:, 0]] + t[:, None] * vn[ev[:, 1]]
@@ -203,7 +235,7 @@ class MeshConeSlicer:
         nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
         nxt = np.full(len(uedges), -1, dtype=np.int64)
         nxt[links[:, 0]] = links[:, 1]
-        kinked = len(self.morph.segment_lines(s)) > 1
+        kinked = len(lines) > 1
         if kinked:  # the face of each link, looked up by its (unordered) pair of edges
             nu = np.int64(len(uedges))
             lk = np.minimum(links[:, 0], links[:, 1]) * nu + np.maximum(links[:, 0], links[:, 1])
@@ -236,7 +268,8 @@ class MeshConeSlicer:
                 seg_face = np.where(lk_sorted[pos] == key, lk_face[pos], -1)
                 curve = self._insert_kink_points(curve, seg_face)
             curves.append(curve)
-        curves.sort(key=lambda c: -c.length())
+        if len(curves) > 1:
+            curves.sort(key=lambda c: -c.length())
         return curves
 
     def _insert_kink_points(self, curve: LevelCurve, seg_face) -> LevelCurve:
@@ -336,7 +369,7 @@ class MeshConeSlicer:
             face=cat(curve.face, face),
         )
 
-    def _edge_roots(self, s: float, edge_ids, f_of=None):
+    def _edge_roots(self, s: float, edge_ids, lines=None):
         """Exact crossing points of the LMC (or LMRS) at ``s`` on edges (paper Eq. 9,
         generalised).
 
@@ -349,34 +382,33 @@ class MeshConeSlicer:
         still unresolved is solved on every segment, keeping the root on its segment with the
         smallest residual.
 
-        ``f_of`` = (sorted vertex ids, their :meth:`vertex_side` values) when the caller has
-        them already (every edge end must be among them).
+        ``lines`` = ``morph.segment_lines(s)`` when the caller has them already.
 
         Returns
         -------
         points : (k, 3) float, mm
         t : (k,) float in [0, 1]
         """
-        lines = self.morph.segment_lines(s)
+        if lines is None:
+            lines = self.morph.segment_lines(s)
         ev = self.edges[edge_ids]
         i0, i1 = ev[:, 0], ev[:, 1]
-        if f_of is None:
-            f0 = self.vertex_side(s, i0)
-            f1 = self.vertex_side(s, i1)
-        else:
-            ids, fv = f_of
-            f0 = fv[np.searchsorted(ids, i0)]
-            f1 = fv[np.searchsorted(ids, i1)]
+        k = len(i0)
+        f01 = self.vertex_side(s, np.concatenate([i0, i1]))  # one call for both ends
+        f0, f1 = f01[:k], f01[k:]
         if len(lines) == 1:
             alpha, beta, gamma = (float(v) for v in lines[0])
-            t = self._roots_on_lines(alpha, beta, gamma, i0, i1, f0, f1)[0]
+            t = self._roots_on_lines(alpha, beta, gamma, i0, i1, f0, f1, residual=False)[0]
         else:
             t = self._roots_on_polyline(s, lines, i0, i1, f0, f1)
         # vertices on the level (snapped to zero): the crossing is the vertex itself
         t = np.where(f0 == 0.0, 0.0, np.where(f1 == 0.0, 1.0, t))
         V = self.mesh.V
-        pts = V[i0] + t[:, None] * (V[i1] - V[i0])
-        pts[t == 1.0] = V[i1[t == 1.0]]  # exactly the vertex (x + (y − x) ≠ y in floats)
+        v0 = V[i0]
+        pts = v0 + t[:, None] * (V[i1] - v0)
+        end = t == 1.0
+        if np.any(end):
+            pts[end] = V[i1[end]]  # exactly the vertex (x + (y − x) ≠ y in floats)
         return pts, t
 
     def _roots_on_polyline(self, s, lines, i0, i1, f0, f1):
@@ -431,7 +463,7 @@ class MeshConeSlicer:
             t[bad] = best_t
         return t
 
-    def _roots_on_lines(self, alpha, beta, gamma, i0, i1, f0, f1):
+    def _roots_on_lines(self, alpha, beta, gamma, i0, i1, f0, f1, *, residual=True):
         """Exact roots on edges i0→i1 of the meridional line α r + β z + γ = 0 ((α, β) unit;
         scalars, or one line per edge).
 
@@ -443,7 +475,8 @@ class MeshConeSlicer:
         Returns
         -------
         t : (k,) float in [0, 1]
-        residual : (k,) float, mm — |α r(t) + β z(t) + γ| at the returned t
+        residual : (k,) float, mm — |α r(t) + β z(t) + γ| at the returned t (None when
+            ``residual`` is False: not computed)
         """
         q0 = self.radial[i0]
         dq = self.radial[i1] - q0
@@ -457,33 +490,67 @@ class MeshConeSlicer:
         sq = np.sqrt(disc)
         with np.errstate(divide="ignore", invalid="ignore"):
             qq = -0.5 * (b + np.copysign(sq, b))
-            r1 = np.where(qq != 0, c / qq, np.nan)
-            r2 = np.where(a != 0, qq / a, np.nan)
+            r12 = np.empty((2, len(q0)))  # the two roots of the square (NaN: none)
+            r12[0] = np.where(qq != 0, c / qq, np.nan)
+            r12[1] = np.where(a != 0, qq / a, np.nan)
             lin = np.where(f1 != f0, f0 / (f0 - f1), 0.5)  # fallback: linear in f
-
-        def resid(t):
-            tt = np.clip(np.nan_to_num(t, nan=-1.0), 0.0, 1.0)
-            rr = np.linalg.norm(q0 + tt[:, None] * dq, axis=1)
-            return tt, np.abs(alpha * rr + beta * (z0 + tt * dz) + gamma)
-
-        t1, e1 = resid(r1)
-        t2, e2 = resid(r2)
-        t3, e3 = resid(lin)
-        t1 = np.where(np.isfinite(r1) & (r1 >= -1e-9) & (r1 <= 1 + 1e-9), t1, t3)
-        e1 = np.where(np.isfinite(r1) & (r1 >= -1e-9) & (r1 <= 1 + 1e-9), e1, e3)
-        t2 = np.where(np.isfinite(r2) & (r2 >= -1e-9) & (r2 <= 1 + 1e-9), t2, t3)
-        e2 = np.where(np.isfinite(r2) & (r2 >= -1e-9) & (r2 <= 1 + 1e-9), e2, e3)
-        t = np.where(e1 <= e2, t1, t2)
-        # one Newton step on the unsquared residual g(t) = α r(t) + β z(t) + γ
-        rr = np.linalg.norm(q0 + t[:, None] * dq, axis=1)
-        g = alpha * rr + beta * (z0 + t * dz) + gamma
-        qt = q0 + t[:, None] * dq
-        dg = alpha * np.einsum("ij,ij->i", qt, dq) / np.maximum(rr, 1e-300) + beta * dz
-        with np.errstate(divide="ignore", invalid="ignore"):
+            # a root outside the edge (or none) gives way to the fallback; the residual
+            # |α r(t) + β z(t) + γ| (t clipped into [0, 1]) is evaluated, in one pass, for
+            # the roots inside and for the fallback where a root is outside
+            inside = np.isfinite(r12) & (r12 >= -1e-9) & (r12 <= 1 + 1e-9)
+            in0, in1 = np.nonzero(inside[0])[0], np.nonzero(inside[1])[0]
+            out = np.nonzero(~(inside[0] & inside[1]))[0]
+            rows = np.concatenate([in0, in1, out])
+            tv = np.concatenate([r12[0, in0], r12[1, in1], lin[out]])
+            # NaN → −1 then clipped (as np.nan_to_num(nan=−1) would, ±inf clip the same)
+            tv = np.clip(np.where(np.isnan(tv), -1.0, tv), 0.0, 1.0)
+            rv = np.linalg.norm(q0[rows] + tv[:, None] * dq[rows], axis=1)
+            ev = np.abs(_at(alpha, rows) * rv + _at(beta, rows) * (z0[rows] + tv * dz[rows])
+                        + _at(gamma, rows))
+            n0, n01 = len(in0), len(in0) + len(in1)
+            tt, rr, e = np.empty((2, len(q0))), np.empty((2, len(q0))), np.empty((2, len(q0)))
+            for x, v in ((tt, tv), (rr, rv), (e, ev)):
+                x[:, out] = v[n01:]
+                x[0, in0] = v[:n0]
+                x[1, in1] = v[n0:n01]
+            # the candidate with the smaller residual; r(t) comes with it
+            pick = e[0] <= e[1]
+            t = np.where(pick, tt[0], tt[1])
+            rr = np.where(pick, rr[0], rr[1])
+            # one Newton step on the unsquared residual g(t) = α r(t) + β z(t) + γ
+            qt = q0 + t[:, None] * dq
+            g = alpha * rr + beta * (z0 + t * dz) + gamma
+            dg = alpha * np.einsum("ij,ij->i", qt, dq) / np.maximum(rr, 1e-300) + beta * dz
             tn = np.where(np.abs(dg) > 1e-300, t - g / dg, t)
         t = np.where(np.isfinite(tn) & (tn >= 0) & (tn <= 1), tn, t)
+        if not residual:
+            return t, None
         rr = np.linalg.norm(q0 + t[:, None] * dq, axis=1)
         return t, np.abs(alpha * rr + beta * (z0 + t * dz) + gamma)
+
+
+def _at(x, idx):
+    """``x[idx]`` for an array, ``x`` itself for a scalar (a line's coefficient, shared)."""
+    return x[idx] if np.ndim(x) else x
+
+
+def _unique_inverse(a):
+    """``np.unique(a, return_inverse=True)`` for a 1-D int array, by one stable argsort
+    (timsort: the edge ids of consecutive faces come in sorted runs).
+
+    Returns
+    -------
+    uniq : (u,) int, ascending
+    inverse : (len(a),) int64 — uniq[inverse] == a
+    """
+    order = np.argsort(a, kind="stable")
+    srt = a[order]
+    new = np.empty(len(a), dtype=bool)
+    new[:1] = True
+    np.not_equal(srt[1:], srt[:-1], out=new[1:])
+    inverse = np.empty(len(a), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return srt[new], inverse
 
 
 def _barycentric(X, tri):
