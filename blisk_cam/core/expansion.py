@@ -139,6 +139,10 @@ class PolylineDistance:
             raise ValueError("PolylineDistance needs at least one non-empty polyline")
         self.a = np.vstack(a_list)
         self.b = np.vstack(b_list)
+        # per segment once, not per candidate (the same products, so the same distances)
+        self.ab = self.b - self.a
+        L2 = np.einsum("sj,sj->s", self.ab, self.ab)
+        self.L2 = np.where(L2 > 0, L2, 1.0)
         L = np.linalg.norm(self.b - self.a, axis=1)
         n = np.maximum(1, np.ceil(L / resample).astype(np.int64))
         seg = np.repeat(np.arange(len(L)), n)
@@ -177,11 +181,9 @@ class PolylineDistance:
         _, idx = self.tree.query(hint, k=self.k)
         idx = np.asarray(idx).reshape(len(p), -1)
         seg = self.seg_of_sample[idx]  # (q, k)
-        a = self.a[seg]
-        ab = self.b[seg] - a
-        ap = p[:, None, :] - a
-        L2 = np.einsum("qkj,qkj->qk", ab, ab)
-        t = np.clip(np.einsum("qkj,qkj->qk", ap, ab) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
+        ab = self.ab[seg]
+        ap = p[:, None, :] - self.a[seg]
+        t = np.clip(np.einsum("qkj,qkj->qk", ap, ab) / self.L2[seg], 0.0, 1.0)
         d = ap - t[..., None] * ab
         return np.sqrt(np.min(np.einsum("qkj,qkj->qk", d, d), axis=1))
 
