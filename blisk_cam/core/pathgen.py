@@ -244,45 +244,53 @@ class _ProbeSamples:
     satisfy ``|m − x|² = (|u − x|² + |v − x|²)/2 − |u − v|²/4`` and
     ``|g − x|² = mean |a_i − x|² − (1/9) Σ_{i<j} |a_i − a_j|²``, so a sample within D of x has a
     vertex within ``sqrt(D² + L²/3)`` (L the longest edge), and every sample belongs to the
-    faces around that vertex. The candidates are measured exactly; the rare row where a
-    squared distance falls within ``PROBE_TIE_BAND`` of the bound (or of the next sample's, for
-    the k nearest) is answered by the full tree, so every answer is the full tree's.
+    faces around that vertex (with the L of those faces, at most). The candidates are
+    measured exactly; the rare row where a squared distance falls within ``PROBE_TIE_BAND`` of
+    the bound is answered by the full tree, so every answer is the full tree's. (The k nearest
+    samples the same way would cost more than the full tree's own search: the candidates of
+    the k-th nearest must be sorted per row.)
     """
 
     def __init__(self, mesh, vertex_faces, full_tree):
         V, F, e = mesh.V, mesh.F, mesh.edges
-        nv, ne = len(V), len(e)
-        cen = (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0  # as _probe_tree has them
-        self.points = np.vstack([V, 0.5 * (V[e[:, 0]] + V[e[:, 1]]), cen])
-        ptr, fids, corner = vertex_faces
-        fe = mesh.face_edges  # (v0v1, v1v2, v2v0): corner j starts edge j and ends edge j − 1
-        #: per (vertex, face) of the vertex → faces table: the face's centroid and its two
-        #: edges at the vertex
-        self.ring = np.stack([nv + ne + fids, nv + fe[fids, corner],
-                              nv + fe[fids, (corner + 2) % 3]], axis=1)
-        self.ptr = ptr
-        longest = float(np.sqrt(np.einsum("ij,ij->i", V[e[:, 0]] - V[e[:, 1]],
-                                          V[e[:, 0]] - V[e[:, 1]]).max())) if ne else 0.0
-        self.cover2 = longest * longest / 3.0
+        self.V, self.F, self.E, self.nv, self.ne = V, F, e, len(V), len(e)
+        self.ptr, self.fids, self.corner = vertex_faces
+        self.face_edges = mesh.face_edges  # (v0v1, v1v2, v2v0): corner j starts edge j
+        # L_f² / 3 of the faces around each vertex, at most (the reach of its samples)
+        de = V[e[:, 0]] - V[e[:, 1]]
+        face_l2 = np.einsum("ij,ij->i", de, de)[self.face_edges].max(axis=1) / 3.0
+        deg = np.diff(self.ptr)
+        self.vcover2 = np.zeros(self.nv)
+        if len(self.fids):
+            has = deg > 0
+            self.vcover2[has] = np.maximum.reduceat(face_l2[self.fids], self.ptr[:-1][has])
+        self.cover2 = float(self.vcover2.max()) if self.nv else 0.0
         self.vtree = cKDTree(V, leafsize=64, balanced_tree=False, compact_nodes=False)
         self._full_tree = full_tree  # callable: the k-d tree over all samples, built on demand
         self.fallback_rows = 0
 
-    def _candidates(self, C, radius):
-        """(row, sample id, squared distance) of the samples of the faces around the vertices
-        within ``radius`` ((q,) mm) of the points ``C`` (q, 3); a sample may repeat in a row."""
-        lists = self.vtree.query_ball_point(C, radius, workers=_workers(len(C)))
-        cnt = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
-        v = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
-                        count=int(cnt.sum()))
-        qv = np.repeat(np.arange(len(C)), cnt)
-        deg = self.ptr[v + 1] - self.ptr[v]
-        tot = int(deg.sum())
-        k = np.repeat(self.ptr[v] - (np.cumsum(deg) - deg), deg) + np.arange(tot)
-        row = np.concatenate([qv, np.repeat(np.repeat(qv, deg), 3)])
-        sid = np.concatenate([v, self.ring[k].ravel()])
-        d = self.points[sid] - C[row]
-        return row, sid, np.einsum("ij,ij->i", d, d)
+    def sample_points(self, sid):
+        """(k, 3) coordinates (mm) of the samples ``sid`` (k,): a vertex, ``0.5 (u + v)`` of
+        an edge, ``(a + b + c) / 3`` of a face — the very sums, so the very numbers, of
+        :meth:`_Generator._probe_tree`."""
+        V, nv, ne = self.V, self.nv, self.ne
+        out = np.empty((len(sid), 3))
+        isv, isc = sid < nv, sid >= nv + ne
+        ise = ~isv & ~isc
+        out[isv] = V[sid[isv]]
+        e = self.E[sid[ise] - nv]
+        out[ise] = 0.5 * (V[e[:, 0]] + V[e[:, 1]])
+        f = self.F[sid[isc] - nv - ne]
+        out[isc] = (V[f[:, 0]] + V[f[:, 1]] + V[f[:, 2]]) / 3.0
+        return out
+
+    def all_points(self):
+        """(nv + ne + nf, 3) every sample, in id order."""
+        V, F, e = self.V, self.F, self.E
+        # centroids as V[F].mean(axis=1) sums them ((a + b) + c) / 3, without its (m, 3, 3)
+        # copy and strided reduction
+        cen = (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0
+        return np.vstack([V, 0.5 * (V[e[:, 0]] + V[e[:, 1]]), cen])
 
     def any_within(self, C, bound):
         """(q,) bool: a sample lies closer than ``bound`` (mm) to the point — the k-d tree's
@@ -292,15 +300,37 @@ class _ProbeSamples:
         if q == 0:
             return out
         b2 = bound * bound
-        radius = np.full(q, np.sqrt(b2 + self.cover2) + PROBE_RADIUS_SLACK)
-        row, _, d2 = self._candidates(C, radius)
-        out[row[d2 < b2 * (1.0 - PROBE_TIE_BAND)]] = True
-        near = row[np.abs(d2 - b2) <= PROBE_TIE_BAND * b2]
-        amb = np.unique(near[~out[near]])
+        lo, hi = b2 * (1.0 - PROBE_TIE_BAND), b2 * (1.0 + PROBE_TIE_BAND)
+        lists = self.vtree.query_ball_point(C, np.sqrt(b2 + self.cover2) + PROBE_RADIUS_SLACK,
+                                            workers=_workers(q))
+        cnt = np.fromiter(map(len, lists), dtype=np.int64, count=q)
+        v = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
+                        count=int(cnt.sum()))
+        row = np.repeat(np.arange(q), cnt)
+        d = self.V[v] - C[row]
+        d2 = np.einsum("ij,ij->i", d, d)
+        out[row[d2 < lo]] = True
+        amb = [row[(d2 >= lo) & (d2 <= hi)]]
+        # the faces around the vertices that can hold a sample inside, of the rows not decided
+        reach = np.sqrt(b2 + self.vcover2[v]) + PROBE_RADIUS_SLACK
+        keep = ~out[row] & (d2 < reach * reach)
+        v, row = v[keep], row[keep]
+        deg = self.ptr[v + 1] - self.ptr[v]
+        k = np.repeat(self.ptr[v] - (np.cumsum(deg) - deg), deg) + np.arange(int(deg.sum()))
+        f, j = self.fids[k], self.corner[k]
+        fe = self.face_edges
+        row = np.tile(np.repeat(row, deg), 3)
+        d = self.sample_points(np.concatenate([self.nv + self.ne + f, self.nv + fe[f, j],
+                                               self.nv + fe[f, (j + 2) % 3]])) - C[row]
+        d2 = np.einsum("ij,ij->i", d, d)
+        out[row[d2 < lo]] = True
+        amb.append(row[(d2 >= lo) & (d2 <= hi)])
+        amb = np.unique(np.concatenate(amb))
+        amb = amb[~out[amb]]
         if len(amb):
             self.fallback_rows += len(amb)
-            d, _ = self._full_tree().query(C[amb], k=1, distance_upper_bound=bound)
-            out[amb] = np.isfinite(d)
+            dist, _ = self._full_tree().query(C[amb], k=1, distance_upper_bound=bound)
+            out[amb] = np.isfinite(dist)
         return out
 
 
@@ -548,18 +578,20 @@ class _Generator:
         return self._psamples
 
     def _probe_tree(self):
-        """k-d tree over all samples of :meth:`_probe_samples`, whose answers define theirs;
-        built only when a search needs it to settle a near tie (ρ away from the surface it
-        costs ~60 µs a point at 1M triangles, ~4× the search through the vertices)."""
+        """k-d tree over all samples of :meth:`_probe_samples`, whose answers define theirs:
+        it finds the 8 nearest of a lift (:meth:`_nearest_samples`) and settles the near ties
+        of :class:`_ProbeSamples`; built on first use (a mesh the ball clears everywhere never
+        needs it)."""
         if not hasattr(self, "_ptree"):
-            self._ptree = cKDTree(self._probe_samples().points, leafsize=64, balanced_tree=False,
-                                  compact_nodes=False)
+            self._ptree = cKDTree(self._probe_samples().all_points(), leafsize=64,
+                                  balanced_tree=False, compact_nodes=False)
         return self._ptree
 
     def _nearest_samples(self, centres):
         """(q, 8) ids of the samples nearest the ball centres (q, 3) within ρ + 0.05 mm, −1
-        where there are fewer (the k-d tree over all samples: through the vertices, the k
-        nearest would cost more than the tree's own search, see :class:`_ProbeSamples`)."""
+        where there are fewer: the k-d tree over all samples (through the vertices, as
+        :class:`_ProbeSamples` does for the screens, the candidates of the 8th nearest are
+        ~300 a centre to measure and sort per row: 2–3× the tree's own search, measured)."""
         tree = self._probe_tree()
         _, near = tree.query(centres, k=8, distance_upper_bound=self.radius + 0.05,
                              workers=_workers(len(centres)))

@@ -64,9 +64,17 @@ def test_any_within_is_the_full_trees_answer(gen):
         assert 0 < got.sum() < len(C)  # both answers occur
 
 
+def test_sample_points_are_the_full_trees(gen):
+    probes = gen._probe_samples()
+    pts = all_samples(gen.mesh)
+    assert np.array_equal(probes.all_points(), pts)
+    sid = np.random.default_rng(5).permutation(len(pts))[:5000]
+    assert np.array_equal(probes.sample_points(sid), pts[sid])
+
+
 def test_any_within_ties_go_to_the_full_tree(gen):
     probes = gen._probe_samples()
-    tree = cKDTree(probes.points)
+    tree = cKDTree(probes.all_points())
     rng = np.random.default_rng(3)
     C = tangent_centres(gen.mesh, rng, 200, np.zeros(200))
     d, _ = tree.query(C, k=1)
@@ -106,10 +114,9 @@ def test_fixed_point_lift_is_bit_for_bit_the_plain_one(gen):
     nn = mesh.interpolate_normals(f, w)
     for lam0 in (np.zeros(n), rng.uniform(-0.2, 0.0, n)):  # at the surface, and sunk in
         C = p + (RHO + lam0)[:, None] * nn
-        _, near = cKDTree(gen._probe_samples().points).query(C, k=8,
-                                                            distance_upper_bound=RHO + 0.05)
-        cand = _unique_per_row(gen._probe_faces(np.where(near < len(gen._probe_samples()
-                                                                     .points), near, -1)))
+        tree = cKDTree(all_samples(mesh))
+        _, near = tree.query(C, k=8, distance_upper_bound=RHO + 0.05)
+        cand = _unique_per_row(gen._probe_faces(np.where(near < tree.n, near, -1)))
         tri = mesh.V[mesh.F[np.maximum(cand, 0)]]
         ref = plain_lift(p, nn, lam0, tri, cand >= 0, RHO, 12)
         got = _fixed_point_lift(p, nn, lam0, tri, cand >= 0, RHO, 12)
