@@ -179,13 +179,19 @@ class PolylineDistance:
 
     def _distance(self, p, hint):
         _, idx = self.tree.query(hint, k=self.k)
-        idx = np.asarray(idx).reshape(len(p), -1)
-        seg = self.seg_of_sample[idx]  # (q, k)
+        # the k nearest samples lie on a few segments (several samples each): each segment
+        # once per point, the minimum over the rest would repeat its distance
+        seg = np.sort(self.seg_of_sample[np.asarray(idx).reshape(len(p), -1)], axis=1)
+        first = np.ones(seg.shape, dtype=bool)
+        first[:, 1:] = seg[:, 1:] != seg[:, :-1]
+        row, col = np.nonzero(first)
+        seg = seg[row, col]
         ab = self.ab[seg]
-        ap = p[:, None, :] - self.a[seg]
-        t = np.clip(np.einsum("qkj,qkj->qk", ap, ab) / self.L2[seg], 0.0, 1.0)
-        d = ap - t[..., None] * ab
-        return np.sqrt(np.min(np.einsum("qkj,qkj->qk", d, d), axis=1))
+        ap = p[row] - self.a[seg]
+        t = np.clip(np.einsum("ij,ij->i", ap, ab) / self.L2[seg], 0.0, 1.0)
+        d = ap - t[:, None] * ab
+        d2 = np.einsum("ij,ij->i", d, d)
+        return np.sqrt(np.minimum.reduceat(d2, np.flatnonzero(col == 0)))
 
 
 def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None):

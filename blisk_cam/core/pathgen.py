@@ -257,7 +257,9 @@ class _ProbeSamples:
         self.ptr, self.fids, self.corner = vertex_faces
         self.face_edges = mesh.face_edges  # (v0v1, v1v2, v2v0): corner j starts edge j
         # L_f² / 3 of the faces around each vertex, at most (the reach of its samples)
-        de = V[e[:, 0]] - V[e[:, 1]]
+        # V.take with contiguous indices: ~5x faster than V[e[:, 0]] (a strided index) here
+        de = V.take(np.ascontiguousarray(e[:, 0]), axis=0) - V.take(np.ascontiguousarray(
+            e[:, 1]), axis=0)
         face_l2 = np.einsum("ij,ij->i", de, de)[self.face_edges].max(axis=1) / 3.0
         deg = np.diff(self.ptr)
         self.vcover2 = np.zeros(self.nv)
@@ -287,10 +289,14 @@ class _ProbeSamples:
     def all_points(self):
         """(nv + ne + nf, 3) every sample, in id order."""
         V, F, e = self.V, self.F, self.E
+
+        def corner(ids, j):  # V.take with a contiguous index: a strided one gathers ~5x slower
+            return V.take(np.ascontiguousarray(ids[:, j]), axis=0)
+
         # centroids as V[F].mean(axis=1) sums them ((a + b) + c) / 3, without its (m, 3, 3)
         # copy and strided reduction
-        cen = (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0
-        return np.vstack([V, 0.5 * (V[e[:, 0]] + V[e[:, 1]]), cen])
+        cen = (corner(F, 0) + corner(F, 1) + corner(F, 2)) / 3.0
+        return np.vstack([V, 0.5 * (corner(e, 0) + corner(e, 1)), cen])
 
     def any_within(self, C, bound):
         """(q,) bool: a sample lies closer than ``bound`` (mm) to the point — the k-d tree's
