@@ -222,9 +222,9 @@ def _unique_per_row(ids):
     return srt[:, : max(width, 1)]
 
 
-#: relative width (on squared distances) of the band around a search bound or between the
-#: k-th and (k+1)-th nearest sample inside which :class:`_ProbeSamples` leaves the decision
-#: to the k-d tree over all samples: its own sums of squares differ from ours by a few ulps
+#: relative width (on squared distances) of the band around a search bound inside which
+#: :class:`_ProbeSamples` leaves the decision to the k-d tree over all samples: its own sums
+#: of squares differ from ours by a few ulps
 PROBE_TIE_BAND = 1e-12
 #: slack (mm) added to the vertex search radius of :class:`_ProbeSamples` for the rounding of
 #: the midpoints and centroids (~1e-14 mm at blade coordinates)
