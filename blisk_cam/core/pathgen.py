@@ -260,7 +260,9 @@ class _ProbeSamples:
         # V.take with contiguous indices: ~5x faster than V[e[:, 0]] (a strided index) here
         de = V.take(np.ascontiguousarray(e[:, 0]), axis=0) - V.take(np.ascontiguousarray(
             e[:, 1]), axis=0)
-        face_l2 = np.einsum("ij,ij->i", de, de)[self.face_edges].max(axis=1) / 3.0
+        l2 = np.einsum("ij,ij->i", de, de)
+        fe = self.face_edges
+        face_l2 = np.maximum(np.maximum(l2[fe[:, 0]], l2[fe[:, 1]]), l2[fe[:, 2]]) / 3.0
         deg = np.diff(self.ptr)
         self.vcover2 = np.zeros(self.nv)
         if len(self.fids):
@@ -308,7 +310,7 @@ class _ProbeSamples:
         b2 = bound * bound
         lo, hi = b2 * (1.0 - PROBE_TIE_BAND), b2 * (1.0 + PROBE_TIE_BAND)
         lists = self.vtree.query_ball_point(C, np.sqrt(b2 + self.cover2) + PROBE_RADIUS_SLACK,
-                                            workers=_workers(q))
+                                            workers=_workers(q), return_sorted=False)
         cnt = np.fromiter(map(len, lists), dtype=np.int64, count=q)
         v = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
                         count=int(cnt.sum()))
