@@ -139,6 +139,10 @@ class PolylineDistance:
             raise ValueError("PolylineDistance needs at least one non-empty polyline")
         self.a = np.vstack(a_list)
         self.b = np.vstack(b_list)
+        # per segment once, not per candidate (the same products, so the same distances)
+        self.ab = self.b - self.a
+        L2 = np.einsum("sj,sj->s", self.ab, self.ab)
+        self.L2 = np.where(L2 > 0, L2, 1.0)
         L = np.linalg.norm(self.b - self.a, axis=1)
         n = np.maximum(1, np.ceil(L / resample).astype(np.int64))
         seg = np.repeat(np.arange(len(L)), n)
@@ -175,15 +179,19 @@ class PolylineDistance:
 
     def _distance(self, p, hint):
         _, idx = self.tree.query(hint, k=self.k)
-        idx = np.asarray(idx).reshape(len(p), -1)
-        seg = self.seg_of_sample[idx]  # (q, k)
-        a = self.a[seg]
-        ab = self.b[seg] - a
-        ap = p[:, None, :] - a
-        L2 = np.einsum("qkj,qkj->qk", ab, ab)
-        t = np.clip(np.einsum("qkj,qkj->qk", ap, ab) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
-        d = ap - t[..., None] * ab
-        return np.sqrt(np.min(np.einsum("qkj,qkj->qk", d, d), axis=1))
+        # the k nearest samples lie on a few segments (several samples each): each segment
+        # once per point, the minimum over the rest would repeat its distance
+        seg = np.sort(self.seg_of_sample[np.asarray(idx).reshape(len(p), -1)], axis=1)
+        first = np.ones(seg.shape, dtype=bool)
+        first[:, 1:] = seg[:, 1:] != seg[:, :-1]
+        row, col = np.nonzero(first)
+        seg = seg[row, col]
+        ab = self.ab[seg]
+        ap = p[row] - self.a[seg]
+        t = np.clip(np.einsum("ij,ij->i", ap, ab) / self.L2[seg], 0.0, 1.0)
+        d = ap - t[:, None] * ab
+        d2 = np.einsum("ij,ij->i", d, d)
+        return np.sqrt(np.minimum.reduceat(d2, np.flatnonzero(col == 0)))
 
 
 def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None):

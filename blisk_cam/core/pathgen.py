@@ -131,6 +131,71 @@ def _point_triangle_distance(p, tri):
     return best
 
 
+#: a ball centre short of ρ by at most this (mm) counts as clear in the lift's fixed-point
+#: steps (:func:`_fixed_point_lift`)
+LIFT_TOLERANCE = 1e-7
+#: each fixed-point step lifts by the shortfall times this (overshoot, so the steps end)
+LIFT_GAIN = 1.05
+#: slack (mm) on the plane-distance bound of :func:`_fixed_point_lift`: far above the
+#: rounding of a point–plane distance at blade coordinates (~1e-13 mm at 200 mm), far below
+#: any distance the lift acts on
+PLANE_BOUND_SLACK = 1e-8
+
+
+def _fixed_point_lift(p, n, lam, tri, valid, rho, steps):
+    """λ (mm) per point after up to ``steps`` fixed-point steps that lift the ball centres
+    ``p + (ρ + λ) n`` clear of their candidate triangles: while the exact distance d to the
+    nearest candidate is below ``ρ − LIFT_TOLERANCE``, λ grows by ``LIFT_GAIN (ρ − d)``.
+
+    Only the triangles whose *plane* comes closer than ``ρ − LIFT_TOLERANCE`` (+ slack) can
+    decide a step (a point's distance to a triangle is at least that to its plane), so the
+    exact distance is computed for those alone, per candidate, with
+    :func:`_point_triangle_distance`: the nearest distance where a step is taken, and so λ,
+    are the same as over every candidate (bit for bit: the kernel is elementwise).
+
+    Parameters
+    ----------
+    p, n : (q, 3) float — points (mm) and unit normals
+    lam : (q,) float, mm — λ to start from (not modified)
+    tri : (q, c, 3, 3) float, mm — candidate triangles per point
+    valid : (q, c) bool — False for padding
+    rho : float, mm
+    steps : int
+
+    Returns
+    -------
+    (q,) float, mm
+    """
+    lam = np.array(lam, dtype=np.float64)
+    q = len(p)
+    if q == 0 or tri.shape[1] == 0:
+        return lam
+    a = tri[..., 0, :]
+    nrm = _cross(tri[..., 1, :] - a, tri[..., 2, :] - a)  # (q, c, 3), |nrm| = 2 area
+    n2 = np.einsum("qcj,qcj->qc", nrm, nrm)
+    inv = np.where(n2 > 0, 1.0 / np.sqrt(np.where(n2 > 0, n2, 1.0)), 0.0)  # 0: never pruned
+    an = np.einsum("qcj,qcj->qc", a, nrm)
+    limit = rho - LIFT_TOLERANCE + PLANE_BOUND_SLACK
+    active = np.arange(q)
+    for _ in range(steps):
+        c = p[active] + (rho + lam[active])[:, None] * n[active]
+        plane = np.abs(np.einsum("rj,rcj->rc", c, nrm[active]) - an[active]) * inv[active]
+        r, k = np.nonzero(valid[active] & (plane < limit))
+        dmin = np.full(len(active), np.inf)
+        if len(r):
+            d = _point_triangle_distance(c[r], tri[active[r], k])
+            cnt = np.bincount(r, minlength=len(active))
+            has = cnt > 0
+            dmin[has] = np.minimum.reduceat(d, (np.cumsum(cnt) - cnt)[has])
+        short = rho - dmin
+        still = short > LIFT_TOLERANCE
+        lam[active[still]] += short[still] * LIFT_GAIN
+        active = active[still]
+        if len(active) == 0:
+            break
+    return lam
+
+
 #: k-d tree queries of fewer points than this run on the calling thread: scipy starts its
 #: worker threads per call, which costs more than the search of a few hundred points
 #: (measured at 1M triangles: 10–50 ball centres ~30 µs a point on one thread, ~100 µs with
@@ -155,6 +220,126 @@ def _unique_per_row(ids):
     srt = -np.sort(-srt, axis=1)  # valid ids first, −1 last
     width = int((srt >= 0).sum(axis=1).max())
     return srt[:, : max(width, 1)]
+
+
+#: relative width (on squared distances) of the band around a search bound inside which
+#: :class:`_ProbeSamples` leaves the decision to the k-d tree over all samples: its own sums
+#: of squares differ from ours by a few ulps
+PROBE_TIE_BAND = 1e-12
+#: slack (mm) added to the vertex search radius of :class:`_ProbeSamples` for the rounding of
+#: the midpoints and centroids (~1e-14 mm at blade coordinates)
+PROBE_RADIUS_SLACK = 1e-9
+
+
+class _ProbeSamples:
+    """The surface samples of the intrusion checks — every vertex, edge midpoint and face
+    centroid, numbered ``v``, ``nv + e``, ``nv + ne + f`` — searched from ball centres with the
+    answers of a k-d tree over all of them (:meth:`_Generator._probe_tree`), found through a
+    k-d tree over the vertices alone.
+
+    A ball centre lies ~ρ from the surface, which touches the ball's sphere: a k-d search
+    around it must open every leaf whose box the sphere cuts, a patch of millimetres around
+    the contact, and it opens 6× fewer points among the vertices than among all samples.
+    What makes that exact: a midpoint m of an edge (u, v) and a centroid g of a face (a, b, c)
+    satisfy ``|m − x|² = (|u − x|² + |v − x|²)/2 − |u − v|²/4`` and
+    ``|g − x|² = mean |a_i − x|² − (1/9) Σ_{i<j} |a_i − a_j|²``, so a sample within D of x has a
+    vertex within ``sqrt(D² + L²/3)`` (L the longest edge), and every sample belongs to the
+    faces around that vertex (with the L of those faces, at most). The candidates are
+    measured exactly; the rare row where a squared distance falls within ``PROBE_TIE_BAND`` of
+    the bound is answered by the full tree, so every answer is the full tree's. (The k nearest
+    samples the same way would cost more than the full tree's own search: the candidates of
+    the k-th nearest must be sorted per row.)
+    """
+
+    def __init__(self, mesh, vertex_faces, full_tree):
+        V, F, e = mesh.V, mesh.F, mesh.edges
+        self.V, self.F, self.E, self.nv, self.ne = V, F, e, len(V), len(e)
+        self.ptr, self.fids, self.corner = vertex_faces
+        self.face_edges = mesh.face_edges  # (v0v1, v1v2, v2v0): corner j starts edge j
+        # L_f² / 3 of the faces around each vertex, at most (the reach of its samples)
+        # V.take with contiguous indices: ~5x faster than V[e[:, 0]] (a strided index) here
+        de = V.take(np.ascontiguousarray(e[:, 0]), axis=0) - V.take(np.ascontiguousarray(
+            e[:, 1]), axis=0)
+        l2 = np.einsum("ij,ij->i", de, de)
+        fe = self.face_edges
+        face_l2 = np.maximum(np.maximum(l2[fe[:, 0]], l2[fe[:, 1]]), l2[fe[:, 2]]) / 3.0
+        deg = np.diff(self.ptr)
+        self.vcover2 = np.zeros(self.nv)
+        if len(self.fids):
+            has = deg > 0
+            self.vcover2[has] = np.maximum.reduceat(face_l2[self.fids], self.ptr[:-1][has])
+        self.cover2 = float(self.vcover2.max()) if self.nv else 0.0
+        self.vtree = cKDTree(V, leafsize=64, balanced_tree=False, compact_nodes=False)
+        self._full_tree = full_tree  # callable: the k-d tree over all samples, built on demand
+        self.fallback_rows = 0
+
+    def sample_points(self, sid):
+        """(k, 3) coordinates (mm) of the samples ``sid`` (k,): a vertex, ``0.5 (u + v)`` of
+        an edge, ``(a + b + c) / 3`` of a face — the very sums, so the very numbers, of
+        :meth:`_Generator._probe_tree`."""
+        V, nv, ne = self.V, self.nv, self.ne
+        out = np.empty((len(sid), 3))
+        isv, isc = sid < nv, sid >= nv + ne
+        ise = ~isv & ~isc
+        out[isv] = V[sid[isv]]
+        e = self.E[sid[ise] - nv]
+        out[ise] = 0.5 * (V[e[:, 0]] + V[e[:, 1]])
+        f = self.F[sid[isc] - nv - ne]
+        out[isc] = (V[f[:, 0]] + V[f[:, 1]] + V[f[:, 2]]) / 3.0
+        return out
+
+    def all_points(self):
+        """(nv + ne + nf, 3) every sample, in id order."""
+        V, F, e = self.V, self.F, self.E
+
+        def corner(ids, j):  # V.take with a contiguous index: a strided one gathers ~5x slower
+            return V.take(np.ascontiguousarray(ids[:, j]), axis=0)
+
+        # centroids as V[F].mean(axis=1) sums them ((a + b) + c) / 3, without its (m, 3, 3)
+        # copy and strided reduction
+        cen = (corner(F, 0) + corner(F, 1) + corner(F, 2)) / 3.0
+        return np.vstack([V, 0.5 * (corner(e, 0) + corner(e, 1)), cen])
+
+    def any_within(self, C, bound):
+        """(q,) bool: a sample lies closer than ``bound`` (mm) to the point — the k-d tree's
+        ``isfinite(query(C, k=1, distance_upper_bound=bound)[0])``."""
+        q = len(C)
+        out = np.zeros(q, dtype=bool)
+        if q == 0:
+            return out
+        b2 = bound * bound
+        lo, hi = b2 * (1.0 - PROBE_TIE_BAND), b2 * (1.0 + PROBE_TIE_BAND)
+        lists = self.vtree.query_ball_point(C, np.sqrt(b2 + self.cover2) + PROBE_RADIUS_SLACK,
+                                            workers=_workers(q), return_sorted=False)
+        cnt = np.fromiter(map(len, lists), dtype=np.int64, count=q)
+        v = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
+                        count=int(cnt.sum()))
+        row = np.repeat(np.arange(q), cnt)
+        d = self.V[v] - C[row]
+        d2 = np.einsum("ij,ij->i", d, d)
+        out[row[d2 < lo]] = True
+        amb = [row[(d2 >= lo) & (d2 <= hi)]]
+        # the faces around the vertices that can hold a sample inside, of the rows not decided
+        reach = np.sqrt(b2 + self.vcover2[v]) + PROBE_RADIUS_SLACK
+        keep = ~out[row] & (d2 < reach * reach)
+        v, row = v[keep], row[keep]
+        deg = self.ptr[v + 1] - self.ptr[v]
+        k = np.repeat(self.ptr[v] - (np.cumsum(deg) - deg), deg) + np.arange(int(deg.sum()))
+        f, j = self.fids[k], self.corner[k]
+        fe = self.face_edges
+        row = np.tile(np.repeat(row, deg), 3)
+        d = self.sample_points(np.concatenate([self.nv + self.ne + f, self.nv + fe[f, j],
+                                               self.nv + fe[f, (j + 2) % 3]])) - C[row]
+        d2 = np.einsum("ij,ij->i", d, d)
+        out[row[d2 < lo]] = True
+        amb.append(row[(d2 >= lo) & (d2 <= hi)])
+        amb = np.unique(np.concatenate(amb))
+        amb = amb[~out[amb]]
+        if len(amb):
+            self.fallback_rows += len(amb)
+            dist, _ = self._full_tree().query(C[amb], k=1, distance_upper_bound=bound)
+            out[amb] = np.isfinite(dist)
+        return out
 
 
 def _next_step(trials, target):
@@ -322,20 +507,14 @@ class _Generator:
         reaching into the ball has a sample that close, see :meth:`_probe_tree`). With
         ``screen`` only the centres with a sample deeper than ``facet_tolerance`` inside the
         ball are measured (a cheap, tightly bounded KD search); the others get −inf."""
-        tree = self._probe_tree()
+        probes = self._probe_samples()
         if screen:
             out = np.full(len(centres), -np.inf)
-            bound = self.radius - self.facet_tolerance
-            d1, _ = tree.query(centres, k=1, distance_upper_bound=bound,
-                               workers=_workers(len(centres)))
-            hit = np.isfinite(d1)
+            hit = probes.any_within(centres, self.radius - self.facet_tolerance)
             if np.any(hit):
                 out[hit] = self._pose_shortfall(centres[hit])
             return out
-        _, near = tree.query(centres, k=8, distance_upper_bound=self.radius + 0.05,
-                             workers=_workers(len(centres)))
-        near = np.where(near < tree.n, near, -1)
-        cand = _unique_per_row(self._probe_faces(near))
+        cand = _unique_per_row(self._probe_faces(self._nearest_samples(centres)))
         V, F = self.mesh.V, self.mesh.F
         d = _point_triangle_distance(centres[:, None, :], V[F[np.maximum(cand, 0)]])
         return self.radius - np.where(cand >= 0, d, np.inf).min(axis=1)
@@ -346,27 +525,13 @@ class _Generator:
         ball is short the intruding samples are nearer than the contact region's, which lie
         ρ away; at the end both are among them)."""
         rho = self.radius
-        lam_i = lam[idx].copy()
-        active = np.arange(len(idx))
+        lam_i = lam[idx]
         # the candidate faces come from the first centres (one KD search per point); the
         # lift only moves the centre away from them
-        tree = self._probe_tree()
         c0 = D[idx] + (rho + lam_i)[:, None] * DN[idx]
-        _, near = tree.query(c0, k=8, distance_upper_bound=rho + 0.05,
-                             workers=_workers(len(c0)))
-        cand = _unique_per_row(self._probe_faces(np.where(near < tree.n, near, -1)))
+        cand = _unique_per_row(self._probe_faces(self._nearest_samples(c0)))
         tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]
-        for _ in range(12):
-            a = idx[active]
-            c = D[a] + (rho + lam_i[active])[:, None] * DN[a]
-            d = _point_triangle_distance(c[:, None, :], tri[active])
-            short = rho - np.where(cand[active] >= 0, d, np.inf).min(axis=1)
-            still = short > 1e-7
-            lam_i[active[still]] += short[still] * 1.05
-            active = active[still]
-            if len(active) == 0:
-                break
-        return lam_i
+        return _fixed_point_lift(D[idx], DN[idx], lam_i, tri, cand >= 0, rho, 12)
 
     def intrusion_lift(self, D, DN, lam):
         """Extra λ (mm) where a part of the mesh *away* from the CC point comes closer than ρ
@@ -382,8 +547,8 @@ class _Generator:
         can still reach in by up to ≈ L²/(32 ρ), L its longest edge, unseen: 0.3 µm for
         0.3 mm triangles and a 6 mm ball). All points between
         ``INTRUSION_WINDOW`` probes either side of a hit are then lifted by fixed-point steps
-        on the exact
-        distance to every face that can reach into the ball (:meth:`_near_face_distance`).
+        on the exact distance to the faces around the samples nearest the centre
+        (:meth:`_lift_points`).
         """
         rho = self.radius
         q = len(D)
@@ -395,9 +560,7 @@ class _Generator:
         at = np.arange(0.0, arc[-1], INTRUSION_PROBE_SPACING)
         probe = np.unique(np.append(np.searchsorted(arc, at), q - 1))
         probe = probe[probe < q]
-        dd, _ = self._probe_tree().query(C[probe], k=1, distance_upper_bound=rho - 1e-5,
-                                         workers=_workers(len(probe)))
-        hp = np.nonzero(np.isfinite(dd))[0]
+        hp = np.nonzero(self._probe_samples().any_within(C[probe], rho - 1e-5))[0]
         if len(hp) == 0:
             return extra
         # a face can reach into the ball while no vertex or centroid does: the windows extend
@@ -412,27 +575,35 @@ class _Generator:
         extra[idx] = lam_i - lam[idx]
         return extra
 
-    def _vertex_tree(self):
-        if not hasattr(self, "_vtree"):
-            self._vtree = cKDTree(self.mesh.V, leafsize=32, balanced_tree=False,
-                                  compact_nodes=False)
-        return self._vtree
+    def _probe_samples(self):
+        """The surface samples of the intrusion checks — vertices, edge midpoints and face
+        centroids: every point of the surface lies within a quarter of its triangle's longest
+        edge L of one of them, so a face reaching into the ball by more than ≈ L²/(32 ρ) puts
+        one of them inside. Searched through the vertices (:class:`_ProbeSamples`)."""
+        if not hasattr(self, "_psamples"):
+            self._vertex_faces(np.zeros(0, dtype=np.int64))  # builds the vertex → faces table
+            self._psamples = _ProbeSamples(self.mesh, self._vf, self._probe_tree)
+        return self._psamples
 
     def _probe_tree(self):
-        """KD-tree over the vertices, edge midpoints and face centroids: every point of the
-        surface lies within a quarter of its triangle's longest edge L of one of them, so a
-        face reaching into the ball by more than ≈ L²/(32 ρ) puts one of them inside."""
+        """k-d tree over all samples of :meth:`_probe_samples`, whose answers define theirs:
+        it finds the 8 nearest of a lift (:meth:`_nearest_samples`) and settles the near ties
+        of :class:`_ProbeSamples`; built on first use (a mesh the ball clears everywhere never
+        needs it)."""
         if not hasattr(self, "_ptree"):
-            V, F, e = self.mesh.V, self.mesh.F, self.mesh.edges
-            # centroids as V[F].mean(axis=1) sums them ((a + b) + c) / 3, without its (m, 3, 3)
-            # copy and strided reduction
-            cen = (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0
-            pts = np.vstack([V, 0.5 * (V[e[:, 0]] + V[e[:, 1]]), cen])
-            # queried from ball centres ρ away from the surface, ~60 µs a point at 1M triangles:
-            # the callers split large queries over all cores (_workers); leaves of 64 measured
-            # ~10 % faster than 32 there (same answers: the tree's shape changes no distance)
-            self._ptree = cKDTree(pts, leafsize=64, balanced_tree=False, compact_nodes=False)
+            self._ptree = cKDTree(self._probe_samples().all_points(), leafsize=64,
+                                  balanced_tree=False, compact_nodes=False)
         return self._ptree
+
+    def _nearest_samples(self, centres):
+        """(q, 8) ids of the samples nearest the ball centres (q, 3) within ρ + 0.05 mm, −1
+        where there are fewer: the k-d tree over all samples (through the vertices, as
+        :class:`_ProbeSamples` does for the screens, the candidates of the 8th nearest are
+        ~300 a centre to measure and sort per row: 2–3× the tree's own search, measured)."""
+        tree = self._probe_tree()
+        _, near = tree.query(centres, k=8, distance_upper_bound=self.radius + 0.05,
+                             workers=_workers(len(centres)))
+        return np.where(near < tree.n, near, -1)
 
     def _probe_faces(self, ids):
         """Faces holding the probe-tree samples ``ids`` (q, k): the ring of a vertex, the two
@@ -448,49 +619,6 @@ class _Generator:
         ef = np.where(ise[:, None], self.mesh.edge_faces[np.clip(flat - nv, 0, ne - 1)], -1)
         fc = np.where(~isv & ~ise & ~none, flat - nv - ne, -1)[:, None]
         return np.concatenate([ring, ef, fc], axis=1).reshape(q, -1)
-
-    def _near_face_distance(self, c, radius):
-        """Exact distance (mm) from points ``c`` (q, 3) to the mesh where it is below
-        ``radius`` (``inf`` where no face comes that close), see :meth:`_near_face_pairs`."""
-        pt, _, d = self._near_face_pairs(c, radius)
-        out = np.full(len(c), np.inf)
-        np.minimum.at(out, pt, d)
-        return out
-
-    def _near_face_pairs(self, c, radius, chunk: int = 256):
-        """(point, face, exact distance) for every face that can come closer than ``radius``
-        to the points ``c`` (q, 3): a point of a triangle lies within (longest edge)/√3 of one
-        of its corners, so the faces around the vertices within ``radius`` + that bound of a
-        point contain all of them."""
-        if not hasattr(self, "_reach"):
-            e = self.mesh.edges
-            longest = np.linalg.norm(self.mesh.V[e[:, 0]] - self.mesh.V[e[:, 1]], axis=1).max()
-            self._reach = float(longest) / np.sqrt(3.0)
-        self._vertex_faces(np.zeros(0, dtype=np.int64))  # builds the vertex → faces table
-        ptr, fids = self._vf
-        V, F = self.mesh.V, self.mesh.F
-        none = np.zeros(0, dtype=np.int64)
-        out_pt, out_face, out_d = [none], [none], [np.zeros(0)]
-        tree = self._vertex_tree()
-        for s0 in range(0, len(c), chunk):
-            cc = c[s0 : s0 + chunk]
-            lists = tree.query_ball_point(cc, radius + self._reach + 1e-9)
-            cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
-            if cnt.sum() == 0:
-                continue
-            verts = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
-                                count=int(cnt.sum()))
-            fcnt = ptr[verts + 1] - ptr[verts]
-            tot = int(fcnt.sum())
-            first = np.repeat(ptr[verts] - (np.cumsum(fcnt) - fcnt), fcnt)
-            face = fids[first + np.arange(tot)]
-            pt = np.repeat(np.repeat(np.arange(len(cc)), cnt), fcnt)
-            key = np.unique(pt * np.int64(len(F)) + face)
-            pt, face = key // len(F), key % len(F)
-            out_pt.append(pt + s0)
-            out_face.append(face)
-            out_d.append(_point_triangle_distance(cc[pt], V[F[face]]))
-        return np.concatenate(out_pt), np.concatenate(out_face), np.concatenate(out_d)
 
     def facet_lift(self, D, DN, seg, edge, closed):
         """λ (mm) per point so that the ball centre ``p + (ρ + λ) n`` stays at least ρ from the
@@ -517,20 +645,8 @@ class _Generator:
         pos = np.searchsorted(verts, corners)
         cand = _unique_per_row(ring[pos].reshape(len(need), -1))  # (q', c) padded with −1
         tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]  # (q', c, 3, 3)
-        p, n = D[need], DN[need]
-        lam_n = np.zeros(len(need))
-        active = np.arange(len(need))
-        for _ in range(4):
-            c = p[active] + (self.radius + lam_n[active])[:, None] * n[active]
-            d = _point_triangle_distance(c[:, None, :], tri[active])
-            d = np.where(cand[active] >= 0, d, np.inf).min(axis=1)
-            short = self.radius - d
-            still = short > 1e-7
-            lam_n[active[still]] += short[still] * 1.05
-            active = active[still]
-            if len(active) == 0:
-                break
-        lam[need] = lam_n
+        lam[need] = _fixed_point_lift(D[need], DN[need], np.zeros(len(need)), tri, cand >= 0,
+                                      self.radius, 4)
         return lam
 
     def _vertex_faces(self, verts):
@@ -539,8 +655,9 @@ class _Generator:
             F = self.mesh.F
             order = np.argsort(F.ravel(), kind="stable")
             vs = F.ravel()[order]
-            self._vf = (np.searchsorted(vs, np.arange(len(self.mesh.V) + 1)), order // 3)
-        ptr, fids = self._vf
+            self._vf = (np.searchsorted(vs, np.arange(len(self.mesh.V) + 1)), order // 3,
+                        order % 3)
+        ptr, fids = self._vf[:2]
         cnt = ptr[verts + 1] - ptr[verts]
         w = int(cnt.max()) if len(cnt) else 0
         idx = ptr[verts][:, None] + np.arange(w)[None, :]
