@@ -167,6 +167,50 @@ def _dot(a, b):
     return np.einsum("ij,ij->i", a, b)
 
 
+def _edge_capsules(A, B, C, scale: float):
+    """The capsule around each triangle's longest edge that holds the whole triangle.
+
+    The angles at the ends of the longest edge are acute, so every point of the face lies
+    within h (the opposite vertex's distance from the edge segment) of that segment: the
+    distance to the capsule is a lower bound of the distance to the face that stays tight on
+    slivers and needles (a scanned leading edge), where a disk or sphere around the centroid
+    is as wide as the face is long.
+
+    Parameters
+    ----------
+    A, B, C : (m, 3) mm — the corners
+    scale : float mm — the coordinates' magnitude (max |x|), for the rounding pad of h
+
+    Returns
+    -------
+    (m, 8) rows [S (3), D (3), 1/|D|² (1 for a point), h]: the longest edge S + t·D,
+    0 ≤ t ≤ 1 (the first of equal edges AB, BC, CA), and h padded by 1e-9 relative and
+    1e-12 · max(scale, 1) absolute. :func:`_capsule_distance` measures against them.
+    """
+    ab, bc, ca = B - A, C - B, A - C
+    lab, lbc, lca = _dot(ab, ab), _dot(bc, bc), _dot(ca, ca)
+    on_ab = ((lab >= lbc) & (lab >= lca))[:, None]
+    on_bc = (lbc >= lca)[:, None]
+    S = np.where(on_ab, A, np.where(on_bc, B, C))
+    D = np.where(on_ab, ab, np.where(on_bc, bc, ca))
+    O = np.where(on_ab, C, np.where(on_bc, A, B))  # the opposite vertex
+    dd = _dot(D, D)
+    inv = 1.0 / np.where(dd > 0, dd, 1.0)
+    hv = O - S
+    hv -= np.clip(_dot(hv, D) * inv, 0.0, 1.0)[:, None] * D
+    h = np.sqrt(_dot(hv, hv)) * (1.0 + 1e-9) + 1e-12 * max(float(scale), 1.0)
+    return np.ascontiguousarray(np.hstack([S, D, inv[:, None], h[:, None]]))
+
+
+def _capsule_distance(P, G):
+    """(k,) mm — distance from (k, 3) points to the capsules of the (k, 8) rows ``G`` of
+    :func:`_edge_capsules` (0 inside): a lower bound of the distance to each row's face."""
+    w = P - G[:, 0:3]
+    t = np.clip(_dot(w, G[:, 3:6]) * G[:, 6], 0.0, 1.0)
+    w -= t[:, None] * G[:, 3:6]
+    return np.maximum(np.sqrt(_dot(w, w)) - G[:, 7], 0.0)
+
+
 def _cross(x, y):
     """Row-wise cross products of (k, 3) arrays (np.cross's overhead is large here)."""
     x0, x1, x2 = x[:, 0], x[:, 1], x[:, 2]
@@ -769,21 +813,9 @@ class MeshDistance:
         self._n = mesh.face_normals  # zero for zero-area faces: the bound is then a sphere
         self.tree = _Tree(T, flat=True, leaf_size=leaf_size)
         self._frames = None
-        # the capsule of each face: its longest edge (start S, vector D) and the height h of
-        # the opposite vertex over it (the angles at that edge's ends are acute, so every
-        # point of the face is within h of the edge segment; see :meth:`_lb2`)
-        E = np.stack([T[:, 1] - T[:, 0], T[:, 2] - T[:, 1], T[:, 0] - T[:, 2]], axis=1)
-        lg = np.argmax(np.einsum("mki,mki->mk", E, E), axis=1)
-        rows = np.arange(len(T))
-        S, D = T[rows, lg], E[rows, lg]
-        opp = T[rows, (lg + 2) % 3]
-        dd = _dot(D, D)
-        tc = np.clip(_dot(opp - S, D) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-        hv = opp - (S + tc[:, None] * D)
-        scale = float(np.abs(T).max()) if len(T) else 1.0
-        self._cap = np.ascontiguousarray(np.hstack([
-            S, D, (1.0 / np.where(dd > 0, dd, 1.0))[:, None],
-            (np.sqrt(_dot(hv, hv)) * (1.0 + 1e-9) + 1e-12 * max(scale, 1.0))[:, None]]))
+        # the capsule of each face around its longest edge (see :meth:`_lb2`)
+        self._cap = _edge_capsules(self._A, self._B, self._C,
+                                   float(np.abs(T).max()) if len(T) else 1.0)
 
     def _face_frames(self):
         """(m, 31) per face: A, unit normal n, then per edge (AB, BC, CA) its start, unit
@@ -852,11 +884,7 @@ class MeshDistance:
         rad = np.sqrt(np.maximum(dd - z * z, 0.0))
         e = np.maximum(rad - self._rad[f] * (1.0 + 1e-12), 0.0)
         disk = z * z + e * e
-        G = self._cap[f]
-        w = p - G[:, 0:3]
-        t = np.clip(_dot(w, G[:, 3:6]) * G[:, 6], 0.0, 1.0)
-        w -= t[:, None] * G[:, 3:6]
-        c = np.maximum(np.sqrt(_dot(w, w)) - G[:, 7], 0.0)
+        c = _capsule_distance(p, self._cap[f])
         return np.maximum(np.maximum(disk, c * c) - 1e-12 * dd, 0.0)
 
     def query(self, points) -> ClosestPoints:
@@ -936,6 +964,7 @@ class NearestFaces:
                           _dot(C - cen, C - cen))
         rad = np.sqrt(rad2) * (1.0 + 1e-12)
         self._cen, self._rad = cen, rad
+        self._scale = float(np.abs(V).max()) if len(V) else 1.0  # for the capsules' pad
         # size classes: circumradius in (rmax / 2^((c+1)/n), rmax / 2^(c/n)], n per octave,
         # the last class everything smaller; one centroid tree per class, searched with
         # u + the largest circumradius of that class
@@ -977,31 +1006,16 @@ class NearestFaces:
             f.append(ids[np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
                                      count=int(cnt.sum()))])
         qi, f = np.concatenate(qi), np.concatenate(f)
-        # lower bounds: centroid distance − circumradius, then the distance to the longest
-        # edge − the height of the third vertex over it (the largest angle is opposite the
-        # longest edge, so that vertex's foot lies on the edge and every point of the face is
-        # within the height of it: tight on thin faces); a face whose bound exceeds u + slack
-        # is farther than the best
+        # lower bounds: centroid distance − circumradius, then the distance to the face's
+        # longest-edge capsule (:func:`_edge_capsules`, tight on thin faces); a face whose
+        # bound exceeds u + slack is farther than the best
         pq = P[qi]
         ub = u[qi] + slack
         d = pq - self._cen[f]
         keep = np.sqrt(_dot(d, d)) - self._rad[f] <= ub
         pq, ub, qi, f = pq[keep], ub[keep], qi[keep], f[keep]
         a, b, c = A[f], B[f], C[f]
-        ab, bc, ca = b - a, c - b, a - c
-        lab, lbc, lca = _dot(ab, ab), _dot(bc, bc), _dot(ca, ca)
-        c_long = ((lab >= lbc) & (lab >= lca))[:, None]
-        a_long = (lbc >= lca)[:, None]
-        s = np.where(c_long, a, np.where(a_long, b, c))
-        e = np.where(c_long, ab, np.where(a_long, bc, ca))
-        o = np.where(c_long, c, np.where(a_long, a, b)) - s  # the opposite vertex
-        ee = _dot(e, e)
-        inv = 1.0 / np.where(ee > 0, ee, 1.0)
-        h = np.sqrt(np.maximum(_dot(o, o) - _dot(o, e) ** 2 * inv, 0.0)) * (1.0 + 1e-12)
-        w = pq - s
-        t = np.clip(_dot(w, e) * inv, 0.0, 1.0)
-        w -= t[:, None] * e
-        keep = np.sqrt(_dot(w, w)) - h <= ub
+        keep = _capsule_distance(pq, _edge_capsules(a, b, c, self._scale)) <= ub
         qi, f = qi[keep], f[keep]
         q, d2, _, bary = closest_on_triangles(pq[keep], a[keep], b[keep], c[keep])
         best = np.full(k, np.inf)
