@@ -152,6 +152,19 @@ def _slerp(a0, a1, t):
 
 _GOLD = 0.5 * (np.sqrt(5.0) - 1.0)
 
+
+def _golden_step(f, lo, hi, x1, x2, f1, f2):
+    """One golden-section step on brackets [lo, hi] (arrays) with interior points
+    x1 < x2 and their values f1, f2: the bracket keeps the side of the smaller value and
+    one new point is evaluated (``f`` on an array). Returns (lo, hi, x1, x2, f1, f2)."""
+    left = f1 < f2  # the minimum is in [lo, x2]
+    hi = np.where(left, x2, hi)
+    lo = np.where(left, lo, x1)
+    nx = np.where(left, hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo))
+    fn = f(nx)
+    return (lo, hi, np.where(left, nx, x2), np.where(left, x1, nx), np.where(left, fn, f2),
+            np.where(left, f1, fn))
+
 #: how :class:`SweptCutter` finds the minimum over each move (see its docstring)
 SWEEP_METHODS = ("fast", "exact")
 
@@ -447,13 +460,7 @@ class SweptCutter:
         x2 = lo + _GOLD * (hi - lo)
         f1, f2 = f(x1), f(x2)
         for _ in range(self.iters):
-            left = f1 < f2  # the minimum is in [lo, x2]
-            hi = np.where(left, x2, hi)
-            lo = np.where(left, lo, x1)
-            nx = np.where(left, hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo))
-            fn = f(nx)
-            x2, f2, x1, f1 = (np.where(left, x1, nx), np.where(left, f1, fn),
-                              np.where(left, nx, x2), np.where(left, fn, f2))
+            lo, hi, x1, x2, f1, f2 = _golden_step(f, lo, hi, x1, x2, f1, f2)
         return np.minimum(best, np.minimum(f1, f2))
 
     def _upper_bound(self, Pc):
@@ -705,13 +712,7 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
             (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2, f1, f2, q, idx) = (
                 x[keep] for x in (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2, f1, f2,
                                   q, idx))
-        left = f1 < f2  # the minimum is in [lo, x2]
-        hi = np.where(left, x2, hi)
-        lo = np.where(left, lo, x1)
-        nx = np.where(left, hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo))
-        fn = f(nx)
-        x2, f2, x1, f1 = (np.where(left, x1, nx), np.where(left, f1, fn),
-                          np.where(left, nx, x2), np.where(left, fn, f2))
+        lo, hi, x1, x2, f1, f2 = _golden_step(f, lo, hi, x1, x2, f1, f2)
     return u, arg
 
 
