@@ -19,7 +19,7 @@ import contextlib
 import contextvars
 import itertools
 import os
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 
 import numpy as np
@@ -122,19 +122,7 @@ def map_chunks(fn, k: int, chunk: int):
     """``[fn(s) for s in range(0, k, chunk)]``, on the threads of :func:`parallel` when
     there are several chunks; the cancel hook of :func:`cancellable` is checked before every
     chunk."""
-    starts = range(0, k, chunk)
-    n = min(_WORKERS.get(), len(starts))
-    hook = _CANCEL.get()
-    if hook is not None:
-        inner = fn
-
-        def fn(s):
-            check_cancel(hook)
-            return inner(s)
-    if n <= 1:
-        return [fn(s) for s in starts]
-    with ThreadPoolExecutor(max_workers=n) as ex:
-        return list(ex.map(fn, starts))
+    return _map(fn, range(0, k, chunk), carry_hook=False)
 
 
 def map_tasks(fn, items):
@@ -143,6 +131,14 @@ def map_tasks(fn, items):
     runs in its thread only (the pool's threads start from the default context), so the
     tasks are the unit of parallelism; the cancel hook is checked before every task and
     reaches the tasks' own chunks."""
+    return _map(fn, items, carry_hook=True)
+
+
+def _map(fn, items, *, carry_hook: bool):
+    """``[fn(x) for x in items]`` on up to :func:`parallel` threads, the cancel hook checked
+    before every item (and, with ``carry_hook``, set in the pool thread's context while the
+    item runs, so its own chunks check it too). When an item raises (``Cancelled`` or an
+    error), the items not started yet are dropped, not run."""
     items = list(items)
     n = min(_WORKERS.get(), len(items))
     hook = _CANCEL.get()
@@ -151,7 +147,9 @@ def map_tasks(fn, items):
 
         def fn(x):
             check_cancel(hook)
-            token = _CANCEL.set(hook)  # the pool's threads: their chunks check it too
+            if not carry_hook:
+                return inner(x)
+            token = _CANCEL.set(hook)
             try:
                 return inner(x)
             finally:
@@ -159,7 +157,11 @@ def map_tasks(fn, items):
     if n <= 1:
         return [fn(x) for x in items]
     with ThreadPoolExecutor(max_workers=n) as ex:
-        return list(ex.map(fn, items))
+        futures = [ex.submit(fn, x) for x in items]
+        _, pending = wait(futures, return_when=FIRST_EXCEPTION)
+        for f in pending:  # an item raised: the items not started are not run (the pool
+            f.cancel()  # starts them in order, so the failed one comes first below)
+        return [f.result() for f in futures]
 
 
 # ================================================================== exact kernels
