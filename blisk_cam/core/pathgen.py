@@ -581,8 +581,8 @@ class _Generator:
         edge L of one of them, so a face reaching into the ball by more than ≈ L²/(32 ρ) puts
         one of them inside. Searched through the vertices (:class:`_ProbeSamples`)."""
         if not hasattr(self, "_psamples"):
-            self._vertex_faces(np.zeros(0, dtype=np.int64))  # builds the vertex → faces table
-            self._psamples = _ProbeSamples(self.mesh, self._vf, self._probe_tree)
+            self._psamples = _ProbeSamples(self.mesh, self._vertex_face_table(),
+                                           self._probe_tree)
         return self._psamples
 
     def _probe_tree(self):
@@ -649,15 +649,21 @@ class _Generator:
                                       self.radius, 4)
         return lam
 
-    def _vertex_faces(self, verts):
-        """(len(verts), w) faces around each vertex, padded with −1."""
+    def _vertex_face_table(self):
+        """The faces around each vertex, made once: (ptr (nv + 1,), face (3 m,), corner
+        (3 m,)) — the faces of vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being
+        their corner ``corner[...]``."""
         if not hasattr(self, "_vf"):
             F = self.mesh.F
             order = np.argsort(F.ravel(), kind="stable")
             vs = F.ravel()[order]
             self._vf = (np.searchsorted(vs, np.arange(len(self.mesh.V) + 1)), order // 3,
                         order % 3)
-        ptr, fids = self._vf[:2]
+        return self._vf
+
+    def _vertex_faces(self, verts):
+        """(len(verts), w) faces around each vertex, padded with −1."""
+        ptr, fids = self._vertex_face_table()[:2]
         cnt = ptr[verts + 1] - ptr[verts]
         w = int(cnt.max()) if len(cnt) else 0
         idx = ptr[verts][:, None] + np.arange(w)[None, :]
