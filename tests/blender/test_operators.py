@@ -584,6 +584,51 @@ def _paths_panel_labels():
     return log
 
 
+def _ticks_to_the_end(runner, max_ticks=500):
+    """Timer ticks until the run ends; the return set of the last tick."""
+    for _ in range(max_ticks):
+        result = runner.step(bpy.context)
+        if result != {"RUNNING_MODAL"}:
+            return result
+        runner._job.wait_plan(0.05)  # the planning worker: give it time between ticks
+    raise AssertionError("the run did not end in time")
+
+
+def test_modal_bad_input_is_reported_and_the_previous_result_kept(addon, demo):
+    """Interactively the weld and the plan run on the worker thread, so a bad mesh or cones
+    that miss the blade fail on a timer tick, not at invoke: the error is reported by name
+    (no traceback), the run ends cancelled, the previous paths stay, nothing keeps running."""
+    scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, pose_count=10)
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
+    first = output.stored_paths_json("Blade")
+    s = scene.blisk_cam
+
+    # cones beside the blade: the planner's ConeError
+    good_cones = tuple(s.cone1), tuple(s.cone2)
+    s.cone1, s.cone2 = (400.0, -25.0, 410.0, 35.0), (450.0, -25.0, 460.0, 35.0)
+    op = _runner()
+    assert _ticks_to_the_end(op) == {"CANCELLED"}
+    kind, text = op.reports[-1]
+    assert kind == {"ERROR"} and "miss the blade" in text and "internal" not in text.lower()
+    assert op._job._plan_thread is not None and op._job.wait_plan(60.0)
+    assert output.stored_paths_json("Blade") == first and not gen_mod._RUNNING
+
+    # every vertex on one point: the weld's MeshError, raised on the worker (the arrays read
+    # at invoke are finite; only the weld finds the mesh has no extent)
+    s.cone1, s.cone2 = good_cones
+    co = np.empty(len(blade.data.vertices) * 3)
+    blade.data.vertices.foreach_get("co", co)
+    blade.data.vertices.foreach_set("co", np.full_like(co, 50.0))
+    blade.data.update()
+    op = _runner()
+    assert op._job.mesh is None  # invoke only read the arrays: the weld is the worker's
+    assert _ticks_to_the_end(op) == {"CANCELLED"}
+    kind, text = op.reports[-1]
+    assert kind == {"ERROR"} and "all vertices coincide" in text, op.reports
+    assert output.stored_paths_json("Blade") == first and not gen_mod._RUNNING
+    assert bpy.ops.blisk_cam.generate_paths.poll()  # a new run may start
+
+
 def test_modal_steps_with_progress_and_esc_keeps_the_previous_result(addon, demo):
     scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, pose_count=10)
     assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
