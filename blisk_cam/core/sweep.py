@@ -648,8 +648,11 @@ class SweptForest:
     falsi steps, the sphere tracing of the scallop heights): one pass over full chunks
     replaces hundreds of small ones and chunk tails, whose cost was Python/numpy overhead
     per call. Each point's figures are its member's, bit for bit: they depend on the point's
-    own bound and candidates only (a candidate is a cluster whose own leaf bound passes,
-    whichever path the tree walk took to it).
+    own bound and candidates only. (How many points share a chunk decides how a member's
+    tree is walked — every leaf tested at once for a few points, a descent otherwise — and
+    the flat test can return a few more clusters, whose ancestors' bounds miss the radius:
+    their segments cannot come within it, so they never change a value; the per-level
+    queries' chunk tails took the flat test before too.)
 
     Other members (:class:`SweptBall`, the "exact" method) are asked member by member, one
     task each (:func:`.geometry.map_tasks`), each with its points in the order given.
