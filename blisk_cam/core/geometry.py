@@ -19,6 +19,7 @@ import contextlib
 import contextvars
 import itertools
 import os
+import threading
 from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 
@@ -156,8 +157,22 @@ def _map(fn, items, *, carry_hook: bool):
                 _CANCEL.reset(token)
     if n <= 1:
         return [fn(x) for x in items]
+    # once an item has raised, the items a pool thread starts afterwards return at once
+    # without running (or polling the hook): a thread that finishes its item could otherwise
+    # start, poll and fail every queued item before this thread wakes up to cancel them
+    failed = threading.Event()
+
+    def guarded(x):
+        if failed.is_set():
+            return None  # never read: an earlier item's exception is raised below
+        try:
+            return fn(x)
+        except BaseException:
+            failed.set()
+            raise
+
     with ThreadPoolExecutor(max_workers=n) as ex:
-        futures = [ex.submit(fn, x) for x in items]
+        futures = [ex.submit(guarded, x) for x in items]
         _, pending = wait(futures, return_when=FIRST_EXCEPTION)
         for f in pending:  # an item raised: the items not started are not run (the pool
             f.cancel()  # starts them in order, so the failed one comes first below)

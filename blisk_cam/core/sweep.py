@@ -29,10 +29,12 @@ from .geometry import (
     _Tree,
     _within,
     map_chunks,
+    map_tasks,
 )
 from .toolpath import PassCurve
 
-__all__ = ["SWEEP_METHODS", "SweepError", "SweptBall", "SweptCutter", "swept_cutter"]
+__all__ = ["SWEEP_METHODS", "SweepError", "SweptBall", "SweptCutter", "SweptForest",
+           "swept_cutter"]
 
 
 
@@ -164,6 +166,10 @@ def _golden_step(f, lo, hi, x1, x2, f1, f2):
     fn = f(nx)
     return (lo, hi, np.where(left, nx, x2), np.where(left, x1, nx), np.where(left, fn, f2),
             np.where(left, f1, fn))
+
+#: points per chunk of :class:`SweptForest`'s joint pass (its members are small: one level's
+#: passes, ~30 candidate clusters per point, so bigger chunks than a whole path's pay off)
+_FOREST_CHUNK = 4096
 
 #: how :class:`SweptCutter` finds the minimum over each move (see its docstring)
 SWEEP_METHODS = ("fast", "exact")
@@ -367,8 +373,10 @@ class SweptCutter:
         r = np.maximum(u + self._rb + self.bulge + sl, 0.0)
         q2, l2 = self._tree_b.leaf_pairs(Pc, r * r)
         nc = len(self._ls)
-        key = np.unique(np.concatenate([q1 * nc + self._cl_s[l1], q2 * nc + self._cl_b[l2]]))
-        key = key[(key % nc) >= 0] if len(key) else key
+        q = np.concatenate([q1, q2])
+        cl = np.concatenate([self._cl_s[l1], self._cl_b[l2]])
+        ok = cl >= 0  # empty leaves (padding of the complete tree) name no cluster
+        key = np.unique(q[ok] * nc + cl[ok])
         return key // nc, key % nc
 
     def _ring_points(self):
@@ -498,76 +506,11 @@ class SweptCutter:
 
     def _fast_chunk(self, Pc, delta: float = 1e-6):
         """The "fast" method on a chunk of points: (distance (k,), segment (k,)).
-        Steps 1–4 of the class docstring."""
-        cut = self.cutter
-        kc = len(Pc)
-        slack = self._slack
+        Steps 0–4 of the class docstring."""
         u, arg = self._upper_bound(Pc)
         q, leaf = self._candidate_clusters(Pc, u)
-        # 1. heights above the tips of a leaf's poses (a run of B segments: B + 1 poses),
-        # motion bounds: no distance evaluation yet
-        X = Pc[q][:, None, :] - self._lt[leaf]  # (n, B + 1, 3) point − tip
-        zz = np.einsum("npi,npi->np", X, self._la[leaf])
-        nn = np.einsum("npi,npi->np", X, X)
-        sgm = self._ls[leaf]  # (n, B) segment ids, −1 padded
-        z0, z1, n0, n1 = zz[:, :-1], zz[:, 1:], nn[:, :-1], nn[:, 1:]
-        phi, dtip = self._lphi[leaf], self._ldt[leaf]
-        reach = np.sqrt(np.maximum(n0, n1))
-        eps = (phi * phi * reach + 2.0 * phi * dtip) * (0.125 * (1.0 + 1e-9)) + slack
-        lb = np.maximum(-np.maximum(z0, z1), np.minimum(z0, z1) - cut.h) - eps
-        keep = (sgm >= 0) & (lb < u[q][:, None])
-        ii, jj = np.nonzero(keep)
-        q, sg = q[ii], sgm[ii, jj]
-        d0, d1 = X[ii, jj], X[ii, jj + 1]
-        a0 = self._la[leaf[ii], jj]
-        z0, n0 = zz[ii, jj], nn[ii, jj]
-        phi, dtip, reach, eps, lb = (x[ii, jj] for x in (phi, dtip, reach, eps, lb))
-        # 2. exact values at the two poses; the motion (Lipschitz) bound
-        need = np.zeros(zz.shape, bool)  # poses of kept segments, each evaluated once
-        need[:, :-1] |= keep
-        need[:, 1:] |= keep
-        vv = np.full(zz.shape, np.inf)
-        zn = zz[need]
-        vv[need] = cut.signed_distance_rz(np.sqrt(np.maximum(nn[need] - zn * zn, 0.0)), zn)
-        v0, v1 = vv[ii, jj], vv[ii, jj + 1]
-        vmin = np.minimum(v0, v1)
-        u, arg = _group_argmin(kc, np.concatenate([np.arange(kc), q]), np.concatenate([u, vmin]),
-                               np.concatenate([arg, sg]))
-        D = (dtip + phi * reach) * (1.0 + 1e-9) + slack
-        lb = np.maximum(lb, 0.5 * (v0 + v1 - D))
-        keep = np.nonzero(lb < u[q])[0]
-        q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D = (
-            x[keep] for x in (q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D))
-        # 3. convexity along the chord (tool frame of pose a): a bracket per segment
-        k_ = self._k[sg]
-        p1 = _rotate(d1, k_, np.cos(phi), -np.sin(phi))
-        ch = p1 - d0
-        g0 = _sd_in_frame(cut, d0 + delta * ch, a0)
-        g1 = _sd_in_frame(cut, p1 - delta * ch, a0)
-        s0 = (g0 - v0) / delta
-        s1 = (g1 - v1) / delta
-        U = u[q] + eps + 2.0 * delta * np.sqrt(_dot(ch, ch)) + slack
-        tlo, thi = _bracket_below(v0, s0, v1, s1, U)
-        free = ~self._chord_ok[sg]
-        tlo[free], thi[free] = 0.0, 1.0
-        keep = np.nonzero(tlo <= thi)[0]
-        if len(keep) == 0:
-            return u, arg
-        q, sg, d0, a0, z0, n0, phi, D, tlo, thi = (
-            x[keep] for x in (q, sg, d0, a0, z0, n0, phi, D, tlo, thi))
-        # 4. golden-section search of f on the bracket, from six scalars per pair:
-        # d(t) = d0 − t Δ, axis(t) = a cos tφ + b sin tφ ⇒ z(t), |d(t)|² in closed form
-        dl = self.tb[sg] - self.ta[sg]
-        bb = self._b[sg]
-        za, zb = z0, _dot(d0, bb)
-        Ta, Tb = _dot(dl, a0), _dot(dl, bb)
-        m2, L2 = 2.0 * _dot(d0, dl), _dot(dl, dl)
-        best, arg2 = _golden_pairs(cut, q, kc, u, (za, zb, Ta, Tb, n0, m2, L2, phi), D, tlo, thi,
-                                   self.xtol)
-        improved = best < u
-        u = np.where(improved, best, u)
-        arg = np.where(improved, sg[np.maximum(arg2, 0)], arg)
-        return u, arg
+        return _fast_search(self, Pc, u, arg, q, leaf, np.full(len(Pc), self._slack),
+                            self.xtol, delta)
 
     def nearest(self, points, chunk: int = _CHUNK // 2):
         """Signed distance to the swept volume (k,) and the nearest segment (k,)."""
@@ -604,6 +547,245 @@ class SweptCutter:
                 break
             idx = np.nonzero(live)[0]
             d = self.distance(P[idx] + t[idx, None] * N[idx])
+            t[idx] += np.maximum(d, 0.0)
+            live[idx] = (d > 1e-10) & (t[idx] <= hmax[idx])
+        t[(t > hmax) | live] = np.inf
+        return t
+
+
+def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
+    """Steps 1–4 of :class:`SweptCutter`'s "fast" method on a chunk of points ``Pc`` (k, 3):
+    (distance (k,), segment (k,)).
+
+    ``tab`` holds the cutter and the segment and cluster tables (``ta``, ``tb``, ``_k``,
+    ``_b``, ``_chord_ok`` per segment; ``_lt``, ``_la``, ``_ls``, ``_lphi``, ``_ldt`` per
+    cluster): a :class:`SweptCutter`, or a :class:`SweptForest` whose tables hold all its
+    members'. ``u``, ``arg`` (k,) are the points' first upper bounds and their segments
+    (step 0), ``q``, ``leaf`` the candidate (point, cluster) pairs sorted by point, ``slack``
+    (k,) mm the rounding allowance of each point's swept volume, ``xtol`` mm the search's
+    final bracket width. Every point's figures depend on its own rows only (its bound, its
+    candidates): the same bits whichever points share the chunk."""
+    cut = tab.cutter
+    kc = len(Pc)
+    # 1. heights above the tips of a leaf's poses (a run of B segments: B + 1 poses),
+    # motion bounds: no distance evaluation yet
+    X = Pc[q][:, None, :] - tab._lt[leaf]  # (n, B + 1, 3) point − tip
+    zz = np.einsum("npi,npi->np", X, tab._la[leaf])
+    nn = np.einsum("npi,npi->np", X, X)
+    sgm = tab._ls[leaf]  # (n, B) segment ids, −1 padded
+    z0, z1, n0, n1 = zz[:, :-1], zz[:, 1:], nn[:, :-1], nn[:, 1:]
+    phi, dtip = tab._lphi[leaf], tab._ldt[leaf]
+    reach = np.sqrt(np.maximum(n0, n1))
+    eps = (phi * phi * reach + 2.0 * phi * dtip) * (0.125 * (1.0 + 1e-9)) + slack[q][:, None]
+    lb = np.maximum(-np.maximum(z0, z1), np.minimum(z0, z1) - cut.h) - eps
+    keep = (sgm >= 0) & (lb < u[q][:, None])
+    ii, jj = np.nonzero(keep)
+    q, sg = q[ii], sgm[ii, jj]
+    d0, d1 = X[ii, jj], X[ii, jj + 1]
+    a0 = tab._la[leaf[ii], jj]
+    z0, n0 = zz[ii, jj], nn[ii, jj]
+    phi, dtip, reach, eps, lb = (x[ii, jj] for x in (phi, dtip, reach, eps, lb))
+    # 2. exact values at the two poses; the motion (Lipschitz) bound
+    need = np.zeros(zz.shape, bool)  # poses of kept segments, each evaluated once
+    need[:, :-1] |= keep
+    need[:, 1:] |= keep
+    vv = np.full(zz.shape, np.inf)
+    zn = zz[need]
+    vv[need] = cut.signed_distance_rz(np.sqrt(np.maximum(nn[need] - zn * zn, 0.0)), zn)
+    v0, v1 = vv[ii, jj], vv[ii, jj + 1]
+    vmin = np.minimum(v0, v1)
+    u, arg = _group_argmin(kc, np.concatenate([np.arange(kc), q]), np.concatenate([u, vmin]),
+                           np.concatenate([arg, sg]))
+    D = (dtip + phi * reach) * (1.0 + 1e-9) + slack[q]
+    lb = np.maximum(lb, 0.5 * (v0 + v1 - D))
+    keep = np.nonzero(lb < u[q])[0]
+    q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D = (
+        x[keep] for x in (q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D))
+    # 3. convexity along the chord (tool frame of pose a): a bracket per segment
+    k_ = tab._k[sg]
+    p1 = _rotate(d1, k_, np.cos(phi), -np.sin(phi))
+    ch = p1 - d0
+    g0 = _sd_in_frame(cut, d0 + delta * ch, a0)
+    g1 = _sd_in_frame(cut, p1 - delta * ch, a0)
+    s0 = (g0 - v0) / delta
+    s1 = (g1 - v1) / delta
+    U = u[q] + eps + 2.0 * delta * np.sqrt(_dot(ch, ch)) + slack[q]
+    tlo, thi = _bracket_below(v0, s0, v1, s1, U)
+    free = ~tab._chord_ok[sg]
+    tlo[free], thi[free] = 0.0, 1.0
+    keep = np.nonzero(tlo <= thi)[0]
+    if len(keep) == 0:
+        return u, arg
+    q, sg, d0, a0, z0, n0, phi, D, tlo, thi = (
+        x[keep] for x in (q, sg, d0, a0, z0, n0, phi, D, tlo, thi))
+    # 4. golden-section search of f on the bracket, from six scalars per pair:
+    # d(t) = d0 − t Δ, axis(t) = a cos tφ + b sin tφ ⇒ z(t), |d(t)|² in closed form
+    dl = tab.tb[sg] - tab.ta[sg]
+    bb = tab._b[sg]
+    za, zb = z0, _dot(d0, bb)
+    Ta, Tb = _dot(dl, a0), _dot(dl, bb)
+    m2, L2 = 2.0 * _dot(d0, dl), _dot(dl, dl)
+    best, arg2 = _golden_pairs(cut, q, kc, u, (za, zb, Ta, Tb, n0, m2, L2, phi), D, tlo, thi,
+                               xtol)
+    improved = best < u
+    u = np.where(improved, best, u)
+    arg = np.where(improved, sg[np.maximum(arg2, 0)], arg)
+    return u, arg
+
+
+class SweptForest:
+    """Swept volumes of one tool along several sets of passes (e.g. one per pass level, for
+    the scallops between neighbouring levels), queried together: point i against member
+    ``which[i]``.
+
+    When every member is a "fast" :class:`SweptCutter` of the same cutter, the queries of
+    all members run as one chunked pass: the points sorted by member, cut into chunks of
+    ``chunk`` points regardless of the members' boundaries; per chunk, step 0 (upper bound,
+    candidate clusters) by each member it holds on its own trees, then steps 1–4 over all the
+    chunk's (point, segment) pairs at once, on tables that hold every member's segments and
+    clusters (:func:`_fast_search`). The verify of a bull-nose path asks ~50 per-level
+    volumes for one to ten thousand points each, several times over (ridge ends, the regula
+    falsi steps, the sphere tracing of the scallop heights): one pass over full chunks
+    replaces hundreds of small ones and chunk tails, whose cost was Python/numpy overhead
+    per call. Each point's figures are its member's, bit for bit: they depend on the point's
+    own bound and candidates only. (How many points share a chunk decides how a member's
+    tree is walked — every leaf tested at once for a few points, a descent otherwise — and
+    the flat test can return a few more clusters, whose ancestors' bounds miss the radius:
+    their segments cannot come within it, so they never change a value; the per-level
+    queries' chunk tails took the flat test before too.)
+
+    Other members (:class:`SweptBall`, the "exact" method) are asked member by member, one
+    task each (:func:`.geometry.map_tasks`), each with its points in the order given.
+
+    Parameters
+    ----------
+    members : list of SweptCutter or SweptBall
+    chunk : int — points per chunk of the joint pass
+    """
+
+    def __init__(self, members, *, chunk: int = _FOREST_CHUNK):
+        self.members = list(members)
+        self.chunk = max(int(chunk), 1)
+        ms = self.members
+        live = [m for m in ms if isinstance(m, SweptCutter) and m.tree is not None]
+        self.fast = (bool(live) and all(isinstance(m, SweptCutter) and m.method == "fast"
+                                        for m in ms)
+                     and len({(repr(m.cutter.as_dict()), m.xtol) for m in live}) == 1)
+        if not self.fast:
+            return
+        self.cutter, self.xtol = live[0].cutter, live[0].xtol
+        has = np.array([m.tree is not None for m in ms])
+        nseg = np.array([len(m.ta) for m in ms], dtype=np.int64)
+        ncl = np.array([len(m._ls) if m.tree is not None else 0 for m in ms], dtype=np.int64)
+        self._has = has
+        self._so = np.cumsum(nseg) - nseg  # first segment of each member in the tables
+        self._co = np.cumsum(ncl) - ncl  # first cluster of each member
+        self._slk = np.array([m._slack if m.tree is not None else 0.0 for m in ms])
+
+        def cat(name):
+            return np.concatenate([getattr(m, name) for m in live])
+
+        self.ta, self.tb, self._k, self._b, self._chord_ok = (
+            cat(n) for n in ("ta", "tb", "_k", "_b", "_chord_ok"))
+        self._lt, self._la, self._lphi, self._ldt = (
+            cat(n) for n in ("_lt", "_la", "_lphi", "_ldt"))
+        self._ls = np.concatenate([np.where(m._ls >= 0, m._ls + so, -1)
+                                   for m, so in zip(ms, self._so, strict=True)
+                                   if m.tree is not None])
+
+    def _which(self, which, k):
+        w = np.asarray(which, dtype=np.int64).reshape(-1)
+        if len(w) != k:
+            raise ValueError(f"which must give one member per point: {len(w)} for {k} points")
+        if len(w) and (w.min() < 0 or w.max() >= len(self.members)):
+            raise ValueError(f"which must name members 0..{len(self.members) - 1}, got "
+                             f"{int(w.min())}..{int(w.max())}")
+        return w
+
+    def _per_member(self, w, ask):
+        """The fallback: ``ask(member, rows)`` per member holding queries (one task each);
+        [(rows, result)] in member order."""
+        def one(j):
+            rows = np.nonzero(w == j)[0]
+            return (rows, ask(self.members[j], rows)) if len(rows) else (rows, None)
+
+        return map_tasks(one, range(len(self.members)))
+
+    def nearest(self, points, which):
+        """Signed distance (k,) from points (k, 3) to the swept volume of member ``which``
+        (k,) each, and the nearest segment (k,) (numbered in the member, −1 where none)."""
+        P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        k = len(P)
+        w = self._which(which, k)
+        out = np.full(k, np.inf)
+        arg = np.full(k, -1, dtype=np.int64)
+        if not self.fast:
+            for rows, res in self._per_member(w, lambda m, rows: m.nearest(P[rows])):
+                if res is not None:
+                    out[rows], arg[rows] = res
+            return out, arg
+        order = np.argsort(w, kind="stable")
+        sel = order[self._has[w[order]]]  # members without segments: inf, −1
+        Ps, ws = P[sel], w[sel]
+        ds = np.empty(len(sel))
+        gs = np.empty(len(sel), dtype=np.int64)
+        ch = self.chunk
+
+        def one(s0):
+            ds[s0 : s0 + ch], gs[s0 : s0 + ch] = self._chunk(Ps[s0 : s0 + ch], ws[s0 : s0 + ch])
+
+        map_chunks(one, len(sel), ch)
+        out[sel] = ds
+        arg[sel] = np.where(gs >= 0, gs - self._so[ws], -1)
+        return out, arg
+
+    def _chunk(self, Pc, wc, delta: float = 1e-6):
+        """Points ``Pc`` (k, 3) of members ``wc`` (k,, sorted): step 0 member by member,
+        steps 1–4 at once. (distance (k,), segment in the joint tables (k,))."""
+        kc = len(Pc)
+        starts = np.flatnonzero(np.concatenate([[True], wc[1:] != wc[:-1]]))
+        ends = np.append(starts[1:], kc)
+        u = np.empty(kc)
+        arg = np.empty(kc, dtype=np.int64)
+        qs, ls = [], []
+        for s, e in zip(starts, ends, strict=True):
+            j = int(wc[s])
+            m = self.members[j]
+            uj, aj = m._upper_bound(Pc[s:e])
+            qj, lj = m._candidate_clusters(Pc[s:e], uj)
+            u[s:e] = uj
+            arg[s:e] = np.where(aj >= 0, aj + self._so[j], -1)
+            qs.append(qj + s)
+            ls.append(lj + self._co[j])
+        return _fast_search(self, Pc, u, arg, np.concatenate(qs), np.concatenate(ls),
+                            self._slk[wc], self.xtol, delta)
+
+    def distance(self, points, which):
+        """(k,) signed distance (mm) from points to their members' swept volumes."""
+        return self.nearest(points, which)[0]
+
+    def height_along(self, points, directions, max_height, which, steps: int = 60):
+        """:meth:`SweptCutter.height_along` (or the member's own) of every point against its
+        member ``which`` (k,): (k,) mm, ``inf`` where there is no hit within ``max_height``.
+        The sphere tracing of all members advances together, one joint query per step."""
+        P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        N = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        w = self._which(which, len(P))
+        hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),)).copy()
+        if not self.fast:
+            t = np.full(len(P), np.inf)
+            for rows, h in self._per_member(
+                    w, lambda m, rows: m.height_along(P[rows], N[rows], hmax[rows])):
+                if h is not None:
+                    t[rows] = h
+            return t
+        t = np.zeros(len(P))
+        live = np.ones(len(P), bool)
+        for _ in range(steps):
+            if not np.any(live):
+                break
+            idx = np.nonzero(live)[0]
+            d = self.distance(P[idx] + t[idx, None] * N[idx], w[idx])
             t[idx] += np.maximum(d, 0.0)
             live[idx] = (d > 1e-10) & (t[idx] <= hmax[idx])
         t[(t > hmax) | live] = np.inf

@@ -66,6 +66,7 @@ from .sweep import (  # noqa: F401
     SweepError,
     SweptBall,
     SweptCutter,
+    SweptForest,
     _curve_polyline,
     _slerp,
     swept_cutter,
@@ -591,9 +592,10 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
                    np.full((npairs, 3), np.nan), np.zeros(npairs, dtype=np.int64))
     if not npairs:
         return sc
-    cut = map_tasks(lambda i: swept_cutter(
+    # one swept volume per level, asked together (a forest: one joint pass per query)
+    cut = SweptForest(map_tasks(lambda i: swept_cutter(
         tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i], method=method),
-        range(len(levels)))
+        range(len(levels))))
     strip = np.searchsorted(levels, s_all, side="right") - 1
     strip = np.where(s_all == levels[-1], npairs - 1, strip)
     strip = np.where((s_all < levels[0]) | (s_all > levels[-1]), -1, strip)
@@ -676,7 +678,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops):
 def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
     """Largest scallop height along the normal per pair (NaN where none): from the points
     ``hp`` (normals ``hn_``, material left ``hv``, pair ``hq``) up to the nearer of the
-    pair's two swept volumes."""
+    pair's two swept volumes (``cut``: the levels' :class:`SweptForest`)."""
     heights = np.where(hv > 0, np.nan, hv)
     hmax = np.maximum(4.0 * hv, 1e-6 * rho)
     # the height is the material left divided by the cosine of a slowly varying angle:
@@ -685,22 +687,13 @@ def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
     near_top = hv >= 0.75 * top[hq]
 
     live = (hv > 0) & near_top
-
-    def one(lv):  # a task per level: its passes bound pair lv − 1 from above and pair lv
-        # from below (one sphere tracing for both: every point is traced on its own)
-        m = live & ((hq == lv - 1) | (hq == lv))
-        if not np.any(m):
-            return m, None
-        return m, cut[lv].height_along(hp[m], hn_[m], hmax[m])
-
-    res = map_tasks(one, range(npairs + 1))
+    # every live point traced up to its pair's lower level's passes and to its upper's
+    pi, lv, up = _two_level_queries(np.nonzero(live)[0], hq[live], npairs)
+    h = cut.height_along(hp[pi], hn_[pi], hmax[pi], lv)
     h_lo = np.full(len(hp), np.inf)  # up to the pair's lower level's passes
     h_hi = np.full(len(hp), np.inf)
-    for lv, (m, h) in enumerate(res):
-        if h is not None:
-            as_lo = hq[m] == lv
-            h_lo[np.nonzero(m)[0][as_lo]] = h[as_lo]
-            h_hi[np.nonzero(m)[0][~as_lo]] = h[~as_lo]
+    h_lo[pi[~up]] = h[~up]
+    h_hi[pi[up]] = h[up]
     heights = np.where(live, np.minimum(h_lo, h_hi), heights)
     heights[~np.isfinite(heights)] = np.nan
     return _group_max(npairs, hq, heights)
@@ -799,23 +792,26 @@ def _group_argmax(n, idx, vals):
     return arg
 
 
+def _two_level_queries(rows, strip, npairs):
+    """(row, level, upper?) of every point's queries to the two levels bounding its strip
+    (levels in [0, npairs]), interleaved point by point: each level's queries come in the
+    points' order."""
+    pi = np.repeat(rows, 2)
+    lv = np.stack([strip, strip + 1], axis=1).reshape(-1)
+    up = np.tile([False, True], len(rows))
+    ok = (lv >= 0) & (lv <= npairs)
+    return pi[ok], lv[ok], up[ok]
+
+
 def _two_level_distances(cut, P, strip, npairs):
-    """Distances of points to the passes of the two levels bounding their strip.
+    """Distances of points to the passes of the two levels bounding their strip (``cut``:
+    the levels' :class:`SweptForest`).
 
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
-
-    def one(lv):  # one task per level (on the threads of :func:`parallel`)
-        m = (strip == lv) | (strip == lv - 1)
-        return cut[lv].distance(P[m]) if np.any(m) else None
-
-    for lv, d in enumerate(map_tasks(one, range(npairs + 1))):
-        if d is None:
-            continue
-        as_lo = strip == lv
-        as_hi = strip == lv - 1
-        m = as_lo | as_hi
-        dlo[m] = np.where(as_lo[m], d, dlo[m])
-        dhi[m] = np.where(as_hi[m], d, dhi[m])
+    pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs)
+    d = cut.distance(P[pi], lv)
+    dlo[pi[~up]] = d[~up]
+    dhi[pi[up]] = d[up]
     return dlo, dhi

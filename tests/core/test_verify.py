@@ -913,6 +913,41 @@ def test_verify_fast_and_exact_agree_on_a_turning_path(sphere_bull):
     assert fa.sample_values[i] == pytest.approx(ex.sample_values[i], abs=1e-6)
 
 
+
+@pytest.mark.parametrize("ball", [False, True])
+def test_forest_answers_each_point_as_its_member(sphere_bull, ball):
+    """A SweptForest of per-level sweeps (one member without passes) gives every point its
+    own member's distance, segment and height along a direction, bit for bit, whichever
+    members and points share its chunks (small chunks cut across the members; the fast
+    joint pass for bull-nose members, member by member for balls)."""
+    from blisk_cam.core.sweep import SweptForest, swept_cutter
+
+    mesh, path = sphere_bull
+    tool = Cutter.ball(3.0) if ball else path.tool
+    groups = [path.curves[0::3], path.curves[1::3], [], path.curves[2::3]]
+    members = [swept_cutter(tool, g) for g in groups]
+    rng = np.random.default_rng(11)
+    k = 1500
+    P = mesh.V[rng.integers(0, mesh.n_vertices, k)] + rng.normal(0, 0.5, (k, 3))
+    which = rng.integers(0, len(members), k)
+    N = rng.normal(size=(k, 3))
+    N /= np.linalg.norm(N, axis=1)[:, None]
+    hmax = rng.uniform(0.05, 2.0, k)
+    forest = SweptForest(members, chunk=97)
+    assert forest.fast != ball
+    d, seg = forest.nearest(P, which)
+    h = forest.height_along(P, N, hmax, which)
+    for j, m in enumerate(members):
+        rows = which == j
+        dj, sj = m.nearest(P[rows])
+        np.testing.assert_array_equal(d[rows], dj)
+        np.testing.assert_array_equal(seg[rows], sj)
+        np.testing.assert_array_equal(h[rows], m.height_along(P[rows], N[rows], hmax[rows]))
+    assert np.all(np.isinf(d[which == 2])) and np.all(seg[which == 2] == -1)
+    assert np.isfinite(h).sum() > 50  # real hits are traced
+    with pytest.raises(ValueError, match="members 0..3"):
+        forest.nearest(P[:2], [0, 4])
+
 def test_unknown_sweep_method_is_refused(sphere_bull):
     from blisk_cam.core.errors import ToleranceError
 
