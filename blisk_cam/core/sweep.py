@@ -62,7 +62,7 @@ class SweptBall:
     owner : (S,) int — an id per segment (e.g. the curve index), reported by ``nearest``
     """
 
-    def __init__(self, a, b, radius: float, owner=None, *, leaf_size: int = 8):
+    def __init__(self, a, b, radius: float, owner=None, *, leaf_size: int = 3):
         self.a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 3)
         self.b = np.ascontiguousarray(b, dtype=np.float64).reshape(-1, 3)
         self.radius = float(radius)
@@ -119,6 +119,12 @@ class SweptBall:
         """(k,) signed distance (mm) from points to the swept volume (> 0 outside)."""
         return self.nearest(points)[0]
 
+    def near(self, points, margin):
+        """The segments near (k, 3) ``points``, for distances at points that move a little
+        (the iterates of a root search): see :class:`_NearSegments`. ``margin`` (k,) or
+        float, mm — how far the points may move before a full query is needed."""
+        return _NearSegments(self, points, margin)
+
     def height_along(self, points, directions, max_height):
         """Distance along unit ``directions`` from ``points`` (outside the volume) to the first
         hit of the swept volume, (k,) mm; ``inf`` where there is none within ``max_height``."""
@@ -134,6 +140,58 @@ class SweptBall:
             t = _ray_capsules_first_hit(P[qi], N[qi], self.a[sg], self.b[sg], self.radius)
             np.minimum.at(out, qi, t)
         out[out > hmax] = np.inf
+        return out
+
+
+class _NearSegments:
+    """The segments of a :class:`SweptBall` that can be nearest to points within a margin
+    of base points x (k, 3): for each x, every segment whose tree bounds come within
+    R = u (1 + 1e-9) + margin of it, u the distance to the segments of its nearest centroids
+    (an upper bound of the distance to the centre polylines), so the list holds every
+    segment within R of x.
+
+    :meth:`distance` at points y (k, 3), row i near x_i, takes the minimum of the same
+    squared point–segment distances (:meth:`SweptBall._d2`) over row i's segments only. A
+    segment not listed is farther than R − |y − x| from y (the distance is 1-Lipschitz), so
+    where that minimum's distance is below R − |y − x| (less a rounding pad) it is the
+    minimum over every segment — the very float :meth:`SweptBall.distance` returns (a minimum
+    does not depend on which larger values are also compared); the other rows are measured
+    by :meth:`SweptBall.distance` itself. At y = x the list always decides."""
+
+    def __init__(self, ball: SweptBall, points, margin):
+        self.ball = ball
+        self.base = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        k = len(self.base)
+        self.qi = self.sg = np.zeros(0, dtype=np.int64)
+        self.R = np.zeros(k)
+        tree = ball.tree
+        if tree is None or k == 0:
+            return
+        _, j = tree.kd.query(self.base, k=tree.kd_k)
+        pr = np.asarray(j, dtype=np.int64).reshape(-1)
+        qi = np.repeat(np.arange(k), tree.kd_k)
+        u2, _ = _group_argmin(k, qi, ball._d2(self.base, qi, pr), pr)
+        self.R = np.sqrt(u2) * (1.0 + 1e-9) + np.broadcast_to(np.asarray(margin, float), (k,))
+        self.qi, self.sg = _within(tree, self.base, self.R)
+
+    def distance(self, points):
+        """(k,) signed distances (mm) of points y (row i near base point i) to the swept
+        volume, bit for bit those of :meth:`SweptBall.distance`."""
+        Y = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        ball = self.ball
+        k = len(Y)
+        if ball.tree is None or k == 0:
+            return np.full(k, np.inf)
+        d2 = np.full(k, np.inf)
+        if len(self.qi):
+            np.minimum.at(d2, self.qi, ball._d2(Y, self.qi, self.sg))
+        e = Y - self.base
+        reach = self.R - np.sqrt(_dot(e, e))
+        # rounding of the distances and of the move: far below the pad
+        ok = np.sqrt(d2) <= reach * (1.0 - 1e-12) - 1e-12 * (1.0 + self.R)
+        out = np.sqrt(d2) - ball.radius
+        if not np.all(ok):
+            out[~ok] = ball.distance(Y[~ok])
         return out
 
 
@@ -588,6 +646,12 @@ class SweptCutter:
     def distance(self, points):
         """(k,) signed distance (mm) from points to the swept volume (> 0 outside)."""
         return self.nearest(points)[0]
+
+    def near(self, points, margin):
+        """The segments near (k, 3) ``points``, for distances at points that move a little
+        (the iterates of a root search): see :class:`_NearSegments`. ``margin`` (k,) or
+        float, mm — how far the points may move before a full query is needed."""
+        return _NearSegments(self, points, margin)
 
     def height_along(self, points, directions, max_height, steps: int = 60):
         """Distance along unit ``directions`` from ``points`` (outside the volume) to the first

@@ -605,17 +605,28 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     other = valid & ~near_lo & ~near_hi
     mat = np.where(near_lo | near_hi, values, np.nan)
     gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
+    known = None
+    if isinstance(cut[0], SweptBall):
+        # a ball's distance to one level is the minimum over that level's segments of the
+        # same point–segment distances as the whole path's: where the nearest pass of all is
+        # one of the strip's two, it is that level's distance, bit for bit (a swept cutter's
+        # search depends on its candidates: it is measured again)
+        known = (np.where(near_lo, values, np.nan), np.where(near_hi, values, np.nan),
+                 near_lo.copy(), near_hi.copy())
     if np.any(other):
         dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs)
         mat[other] = np.minimum(dlo, dhi)
         gsign[other] = np.sign(dlo - dhi)
+        if known is not None:
+            for arr, d, has in ((known[0], dlo, known[2]), (known[1], dhi, known[3])):
+                arr[other], has[other] = d, True
     sc.pair_n = np.bincount(strip[valid], minlength=npairs)
     sc.pair_cusp = _group_max(npairs, strip[valid], mat[valid])
     sc.pair_gouge = np.maximum(_group_max(npairs, strip[valid], -mat[valid]), 0.0)
     arg = _group_argmax(npairs, strip[valid], mat[valid])
     has = arg >= 0
     sc.pair_where[has] = P[valid][arg[has]]
-    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc)
+    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc, known)
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
     hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
@@ -626,17 +637,30 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     return sc
 
 
-def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops):
+def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, known=None):
     """Ridges on the sample grid (grid samples are the first len(smp) of the points): grid
     edges in one strip whose ends are nearer to different passes, located by regula falsi
     (Illinois) on the exact distances; raises the pairs' cusps in ``sc`` where a ridge point
-    is higher and stores the ridge points."""
+    is higher and stores the ridge points.
+
+    ``known`` (a ball only): (d_lo, d_hi, has_lo, has_hi) (k,) — the points' distances to
+    their strip's two levels already measured (:func:`_scallops`); only the others are
+    measured at the edges' ends. A ball's iterates are measured against the segments listed
+    near the first iterate (:meth:`.sweep.SweptBall.near`: the same floats, no tree walk
+    per iteration)."""
     ng = len(smp)
     eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
     if len(eidx):
         ends, inv = np.unique(smp.edges[eidx], return_inverse=True)
         inv = inv.reshape(-1, 2)
-        dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
+        if known is None:
+            dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
+        else:
+            dlo, dhi = known[0][ends], known[1][ends]
+            mlo, mhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs,
+                                            need=(~known[2][ends], ~known[3][ends]))
+            dlo = np.where(known[2][ends], dlo, mlo)
+            dhi = np.where(known[3][ends], dhi, mhi)
         g = dlo - dhi
         ga, gb = g[inv[:, 0]], g[inv[:, 1]]
         ok = ((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0))
@@ -647,10 +671,15 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops):
     xa, xb = smp.points[ea], smp.points[eb]
     ta, tb = np.zeros(len(eidx)), np.ones(len(eidx))
     last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
+    near = None
     for _ in range(max(int(refine), 1)):
         t = (ta * gb - tb * ga) / (gb - ga)
         x = xa + t[:, None] * (xb - xa)
-        la, lb = _two_level_distances(cut, x, epair, npairs)
+        if known is not None and near is None:
+            # the iterates after the first move by far less than a tenth of the edge
+            near = _two_level_near(cut, x, epair, npairs,
+                                   0.1 * np.linalg.norm(xb - xa, axis=1))
+        la, lb = _two_level_distances(cut, x, epair, npairs, near=near)
         gx = la - lb
         repl_a = np.sign(gx) == np.sign(ga)
         # Illinois: halve the kept end's value when the same end is replaced twice
@@ -799,23 +828,43 @@ def _group_argmax(n, idx, vals):
     return arg
 
 
-def _two_level_distances(cut, P, strip, npairs):
+def _two_level_near(cut, P, strip, npairs, margin):
+    """Per level lv (a ball's): :meth:`.sweep.SweptBall.near` at the points of strips lv and
+    lv − 1 (``margin`` (k,) mm), None where there are none; for
+    :func:`_two_level_distances`'s ``near``."""
+
+    def one(lv):
+        m = (strip == lv) | (strip == lv - 1)
+        return cut[lv].near(P[m], margin[m]) if np.any(m) else None
+
+    return map_tasks(one, range(npairs + 1))
+
+
+def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None):
     """Distances of points to the passes of the two levels bounding their strip.
 
+    ``need`` (optional): (need_lo, need_hi) (k,) bool — measure only these (NaN elsewhere).
+    ``near`` (optional): :func:`_two_level_near` of the same strips at points near these.
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
+    need_lo, need_hi = (True, True) if need is None else need
+
+    def masks(lv):
+        as_lo = (strip == lv) & need_lo
+        as_hi = (strip == lv - 1) & need_hi
+        return as_lo, as_hi, as_lo | as_hi
 
     def one(lv):  # one task per level (on the threads of :func:`parallel`)
-        m = (strip == lv) | (strip == lv - 1)
-        return cut[lv].distance(P[m]) if np.any(m) else None
+        m = masks(lv)[2]
+        if not np.any(m):
+            return None
+        return cut[lv].distance(P[m]) if near is None else near[lv].distance(P[m])
 
     for lv, d in enumerate(map_tasks(one, range(npairs + 1))):
         if d is None:
             continue
-        as_lo = strip == lv
-        as_hi = strip == lv - 1
-        m = as_lo | as_hi
+        as_lo, as_hi, m = masks(lv)
         dlo[m] = np.where(as_lo[m], d, dlo[m])
         dhi[m] = np.where(as_hi[m], d, dhi[m])
     return dlo, dhi
