@@ -107,23 +107,31 @@ class SweptBall:
         e = p - (a + t[:, None] * d)
         return _dot(e, e)
 
-    def nearest(self, points):
-        """Signed distance to the swept volume (k,) and the nearest segment (k,) (exact)."""
+    def nearest(self, points, near=None):
+        """Signed distance to the swept volume (k,) and the nearest segment (k,) (exact).
+
+        ``near`` (optional, (k, 3) mm): guesses of the ball centres nearest to the points
+        (e.g. a surface point + radius · its normal); they only make the search faster, the
+        result is the same bit for bit (see :func:`.geometry._nearest`)."""
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         if self.tree is None:
             return np.full(len(P), np.inf), np.full(len(P), -1, dtype=np.int64)
-        d2, seg = _nearest(self.tree, P, self._d2)
+        if near is not None:
+            near = np.ascontiguousarray(np.asarray(near, dtype=np.float64).reshape(-1, 3))
+        d2, seg = _nearest(self.tree, P, self._d2, near=near)
         return np.sqrt(d2) - self.radius, seg
 
-    def distance(self, points):
-        """(k,) signed distance (mm) from points to the swept volume (> 0 outside)."""
-        return self.nearest(points)[0]
+    def distance(self, points, near=None):
+        """(k,) signed distance (mm) from points to the swept volume (> 0 outside);
+        ``near`` as in :meth:`nearest`."""
+        return self.nearest(points, near)[0]
 
-    def near(self, points, margin):
+    def near(self, points, margin, guess=None):
         """The segments near (k, 3) ``points``, for distances at points that move a little
         (the iterates of a root search): see :class:`_NearSegments`. ``margin`` (k,) or
-        float, mm — how far the points may move before a full query is needed."""
-        return _NearSegments(self, points, margin)
+        float, mm — how far the points may move before a full query is needed; ``guess``
+        as ``near`` in :meth:`nearest`."""
+        return _NearSegments(self, points, margin, guess)
 
     def height_along(self, points, directions, max_height):
         """Distance along unit ``directions`` from ``points`` (outside the volume) to the first
@@ -158,16 +166,18 @@ class _NearSegments:
     does not depend on which larger values are also compared); the other rows are measured
     by :meth:`SweptBall.distance` itself. At y = x the list always decides."""
 
-    def __init__(self, ball: SweptBall, points, margin):
+    def __init__(self, ball: SweptBall, points, margin, guess=None):
         self.ball = ball
         self.base = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         k = len(self.base)
         self.qi = self.sg = np.zeros(0, dtype=np.int64)
         self.R = np.zeros(k)
+        self.guess = None if guess is None else np.ascontiguousarray(
+            np.asarray(guess, dtype=np.float64).reshape(-1, 3))
         tree = ball.tree
         if tree is None or k == 0:
             return
-        _, j = tree.kd.query(self.base, k=tree.kd_k)
+        _, j = tree.kd.query(self.base if self.guess is None else self.guess, k=tree.kd_k)
         pr = np.asarray(j, dtype=np.int64).reshape(-1)
         qi = np.repeat(np.arange(k), tree.kd_k)
         u2, _ = _group_argmin(k, qi, ball._d2(self.base, qi, pr), pr)
@@ -191,7 +201,7 @@ class _NearSegments:
         ok = np.sqrt(d2) <= reach * (1.0 - 1e-12) - 1e-12 * (1.0 + self.R)
         out = np.sqrt(d2) - ball.radius
         if not np.all(ok):
-            out[~ok] = ball.distance(Y[~ok])
+            out[~ok] = ball.distance(Y[~ok], None if self.guess is None else self.guess[~ok])
         return out
 
 
@@ -646,12 +656,6 @@ class SweptCutter:
     def distance(self, points):
         """(k,) signed distance (mm) from points to the swept volume (> 0 outside)."""
         return self.nearest(points)[0]
-
-    def near(self, points, margin):
-        """The segments near (k, 3) ``points``, for distances at points that move a little
-        (the iterates of a root search): see :class:`_NearSegments`. ``margin`` (k,) or
-        float, mm — how far the points may move before a full query is needed."""
-        return _NearSegments(self, points, margin)
 
     def height_along(self, points, directions, max_height, steps: int = 60):
         """Distance along unit ``directions`` from ``points`` (outside the volume) to the first

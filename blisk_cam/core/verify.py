@@ -406,7 +406,8 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
 
     check_cancel()
     t1 = time.perf_counter()
-    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method)
+    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
+                                                        P + rho * normals)
     tim["material"] = time.perf_counter() - t1
 
     check_cancel()
@@ -502,7 +503,10 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
         sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
         sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
-        cq = md.query(np.vstack(sub))
+        # the CC polylines' points: where the centres' closest points are (a k-d search
+        # from 6 mm off the surface is slow; the result does not depend on the guess)
+        cq = md.query(np.vstack(sub), near=np.vstack(
+            [_subsample(c, c.cc, subsamples, True) for c in curves]))
         dev = cq.signed_distance - rho
         pc.over_at = np.vstack(sub)[int(np.argmin(dev))]
     else:
@@ -551,15 +555,17 @@ def _samples_and_feet(mesh, cones, axis, spacing, pc: _PoseChecks):
     return smp, P, normals, s_all
 
 
-def _material_left(tool, curves, P, method):
+def _material_left(tool, curves, P, method, guess=None):
     """Material left by all passes at the points: (levels, level of each curve, the swept
-    volume, signed distances (k,), level of the nearest pass (k,) or −1)."""
+    volume, signed distances (k,), level of the nearest pass (k,) or −1). ``guess`` (k, 3):
+    where the nearest ball centres are likely (point + ρ · normal; a ball only, for speed)."""
     ncur = len(curves)
     levels = np.unique([float(c.s) for c in curves]) if ncur else np.zeros(0)
     lev_of = np.searchsorted(levels, [float(c.s) for c in curves])
     whole = swept_cutter(tool, curves, owners=lev_of, method=method)
     if ncur:
-        values, seg = whole.nearest(P)
+        values, seg = (whole.nearest(P, guess) if isinstance(whole, SweptBall)
+                       else whole.nearest(P))
         lab = np.where(seg >= 0, whole.owner[np.maximum(seg, 0)], -1)  # level of the nearest pass
     else:
         values, lab = np.full(len(P), np.nan), np.full(len(P), -1)
@@ -605,8 +611,9 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     other = valid & ~near_lo & ~near_hi
     mat = np.where(near_lo | near_hi, values, np.nan)
     gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
-    known = None
+    known = guess = None
     if isinstance(cut[0], SweptBall):
+        guess = P + rho * normals  # where the nearest ball centres are likely
         # a ball's distance to one level is the minimum over that level's segments of the
         # same point–segment distances as the whole path's: where the nearest pass of all is
         # one of the strip's two, it is that level's distance, bit for bit (a swept cutter's
@@ -614,7 +621,8 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
         known = (np.where(near_lo, values, np.nan), np.where(near_hi, values, np.nan),
                  near_lo.copy(), near_hi.copy())
     if np.any(other):
-        dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs)
+        dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs,
+                                        guess=None if guess is None else guess[other])
         mat[other] = np.minimum(dlo, dhi)
         gsign[other] = np.sign(dlo - dhi)
         if known is not None:
@@ -626,7 +634,7 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     arg = _group_argmax(npairs, strip[valid], mat[valid])
     has = arg >= 0
     sc.pair_where[has] = P[valid][arg[has]]
-    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc, known)
+    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc, known, rho)
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
     hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
@@ -637,7 +645,8 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     return sc
 
 
-def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, known=None):
+def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, known=None,
+                  rho=0.0):
     """Ridges on the sample grid (grid samples are the first len(smp) of the points): grid
     edges in one strip whose ends are nearer to different passes, located by regula falsi
     (Illinois) on the exact distances; raises the pairs' cusps in ``sc`` where a ridge point
@@ -647,7 +656,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     their strip's two levels already measured (:func:`_scallops`); only the others are
     measured at the edges' ends. A ball's iterates are measured against the segments listed
     near the first iterate (:meth:`.sweep.SweptBall.near`: the same floats, no tree walk
-    per iteration)."""
+    per iteration); its centres are looked for ``rho`` (mm) along the samples' normals."""
     ng = len(smp)
     eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
     if len(eidx):
@@ -657,8 +666,10 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
             dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
         else:
             dlo, dhi = known[0][ends], known[1][ends]
-            mlo, mhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs,
-                                            need=(~known[2][ends], ~known[3][ends]))
+            mlo, mhi = _two_level_distances(
+                cut, smp.points[ends], strip[ends], npairs,
+                need=(~known[2][ends], ~known[3][ends]),
+                guess=smp.points[ends] + rho * smp.normals[ends])
             dlo = np.where(known[2][ends], dlo, mlo)
             dhi = np.where(known[3][ends], dhi, mhi)
         g = dlo - dhi
@@ -678,7 +689,8 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         if known is not None and near is None:
             # the iterates after the first move by far less than a tenth of the edge
             near = _two_level_near(cut, x, epair, npairs,
-                                   0.1 * np.linalg.norm(xb - xa, axis=1))
+                                   0.1 * np.linalg.norm(xb - xa, axis=1),
+                                   x + rho * smp.normals[ea])
         la, lb = _two_level_distances(cut, x, epair, npairs, near=near)
         gx = la - lb
         repl_a = np.sign(gx) == np.sign(ga)
@@ -828,23 +840,24 @@ def _group_argmax(n, idx, vals):
     return arg
 
 
-def _two_level_near(cut, P, strip, npairs, margin):
+def _two_level_near(cut, P, strip, npairs, margin, guess):
     """Per level lv (a ball's): :meth:`.sweep.SweptBall.near` at the points of strips lv and
-    lv − 1 (``margin`` (k,) mm), None where there are none; for
-    :func:`_two_level_distances`'s ``near``."""
+    lv − 1 (``margin`` (k,) mm, ``guess`` (k, 3) where the nearest centres are likely), None
+    where there are none; for :func:`_two_level_distances`'s ``near``."""
 
     def one(lv):
         m = (strip == lv) | (strip == lv - 1)
-        return cut[lv].near(P[m], margin[m]) if np.any(m) else None
+        return cut[lv].near(P[m], margin[m], guess[m]) if np.any(m) else None
 
     return map_tasks(one, range(npairs + 1))
 
 
-def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None):
+def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=None):
     """Distances of points to the passes of the two levels bounding their strip.
 
     ``need`` (optional): (need_lo, need_hi) (k,) bool — measure only these (NaN elsewhere).
     ``near`` (optional): :func:`_two_level_near` of the same strips at points near these.
+    ``guess`` (optional, a ball's levels): (k, 3) where the nearest centres are likely.
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
@@ -859,7 +872,9 @@ def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None):
         m = masks(lv)[2]
         if not np.any(m):
             return None
-        return cut[lv].distance(P[m]) if near is None else near[lv].distance(P[m])
+        if near is not None:
+            return near[lv].distance(P[m])
+        return cut[lv].distance(P[m]) if guess is None else cut[lv].distance(P[m], guess[m])
 
     for lv, d in enumerate(map_tasks(one, range(npairs + 1))):
         if d is None:
