@@ -60,6 +60,10 @@ class SweptBall:
     a, b : (S, 3) float, mm — centre segments
     radius : float, mm
     owner : (S,) int — an id per segment (e.g. the curve index), reported by ``nearest``
+    leaf_size : int — consecutive segments per tree leaf. Points on the surface are ~ρ from
+        the centres and only the centres within ~1 mm along the pass matter; a leaf's
+        cylinder around a curved run of 8 × 0.74 mm let 7 leaves (53 segments) per point
+        through on Rotor 37, 3 let 8 segments through (1.2 are within reach), 30 % faster
     """
 
     def __init__(self, a, b, radius: float, owner=None, *, leaf_size: int = 3):
@@ -154,9 +158,9 @@ class SweptBall:
 class _NearSegments:
     """The segments of a :class:`SweptBall` that can be nearest to points within a margin
     of base points x (k, 3): for each x, every segment whose tree bounds come within
-    R = u (1 + 1e-9) + margin of it, u the distance to the segments of its nearest centroids
-    (an upper bound of the distance to the centre polylines), so the list holds every
-    segment within R of x.
+    R = u (1 + 1e-9) + margin of it, u the distance to the segments whose centroids are
+    nearest to x (or to its ``guess``; an upper bound of the distance to the centre
+    polylines), so the list holds every segment within R of x.
 
     :meth:`distance` at points y (k, 3), row i near x_i, takes the minimum of the same
     squared point–segment distances (:meth:`SweptBall._d2`) over row i's segments only. A
