@@ -695,7 +695,8 @@ class _Tree:
         mem = slots[g]
         node = np.broadcast_to(node[:, None], mem.shape)[mem >= 0]
         q = mem[mem >= 0]
-        order = np.argsort(q, kind="stable")
+        # a stable sort by query (radix sort on 16-bit keys: the same permutation, ~5x faster)
+        order = np.argsort(q.astype(np.int16) if len(P) <= 32767 else q, kind="stable")
         return q[order], node[order]
 
     def pairs(self, P, r2):
