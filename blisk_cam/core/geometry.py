@@ -19,6 +19,7 @@ import contextlib
 import contextvars
 import itertools
 import os
+import threading
 from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 
@@ -37,6 +38,7 @@ __all__ = [
     "closest_on_triangles",
     "cancellable",
     "check_cancel",
+    "alongside",
     "map_chunks",
     "map_tasks",
     "parallel",
@@ -132,6 +134,38 @@ def map_tasks(fn, items):
     tasks are the unit of parallelism; the cancel hook is checked before every task and
     reaches the tasks' own chunks."""
     return _map(fn, items, carry_hook=True)
+
+
+def alongside(fn):
+    """Start ``fn()`` on a thread of its own when :func:`parallel` allows several threads, so
+    that a step running on one core (e.g. building surface samples) overlaps the caller's
+    next steps; returns a function that waits for ``fn``'s result and returns it (or raises
+    its exception). With one thread ``fn`` runs, in the calling thread, when the result is
+    asked for — the order of the work is then the caller's. The thread has the caller's
+    cancel hook and one worker (its own chunked queries stay on it); ``fn`` must not touch
+    what the caller's steps change meanwhile."""
+    if _WORKERS.get() < 2:
+        return fn
+    ctx = contextvars.copy_context()
+    ctx.run(_WORKERS.set, 1)
+    box = {}
+
+    def run():
+        try:
+            box["value"] = ctx.run(fn)
+        except BaseException as exc:  # handed to the caller by result()
+            box["error"] = exc
+
+    thread = threading.Thread(target=run, name="blisk_cam-alongside", daemon=True)
+    thread.start()
+
+    def result():
+        thread.join()
+        if "error" in box:
+            raise box["error"]
+        return box["value"]
+
+    return result
 
 
 def _map(fn, items, *, carry_hook: bool):

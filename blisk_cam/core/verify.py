@@ -45,6 +45,7 @@ from .geometry import (  # noqa: F401  (re-exported: verify's public names stay 
     ClosestPoints,
     MeshDistance,
     _dot,
+    alongside,
     cancellable,
     check_cancel,
     closest_on_segments,
@@ -390,6 +391,12 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
     cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
     axis = path.axis
     curves = _cut_runs(path.curves)
+    # the surface samples do not depend on the poses: with several threads they are built
+    # on a thread of their own (one core) while the mesh tree and the pose checks run
+    # ("samples" then times the wait and the gouge feet)
+    mesh.face_normals, mesh.vertex_normals, mesh.edge_faces  # noqa: B018  (filled once:
+    # both threads read these caches)
+    samples = alongside(lambda: surface_samples(mesh, cones, axis, spacing))
     md = MeshDistance(mesh)
     tim["mesh_tree"] = time.perf_counter() - t0
 
@@ -400,7 +407,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
 
     check_cancel()
     t1 = time.perf_counter()
-    smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, spacing, pc)
+    smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, samples(), pc)
     spacing = smp.spacing
     tim["samples"] = time.perf_counter() - t1
 
@@ -538,10 +545,9 @@ def _lmc_values(curves, cones, axis, cc_all, cid):
     return fvals
 
 
-def _samples_and_feet(mesh, cones, axis, spacing, pc: _PoseChecks):
-    """The surface samples of the region plus the gouge feet inside it: (samples, points,
-    normals, ratios); the grid samples come first."""
-    smp = surface_samples(mesh, cones, axis, spacing)
+def _samples_and_feet(mesh, cones, axis, smp: SurfaceSamples, pc: _PoseChecks):
+    """The surface samples of the region (``smp``) plus the gouge feet inside it: (samples,
+    points, normals, ratios); the grid samples come first."""
     P, normals, s_all = smp.points, smp.normals, smp.s
     if pc.feet is not None:
         fp, ff, fb = pc.feet
