@@ -45,6 +45,7 @@ from .geometry import (  # noqa: F401  (re-exported: verify's public names stay 
     ClosestPoints,
     MeshDistance,
     _dot,
+    alongside,
     cancellable,
     check_cancel,
     closest_on_segments,
@@ -391,6 +392,12 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
     cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
     axis = path.axis
     curves = _cut_runs(path.curves)
+    # the surface samples do not depend on the poses: with several threads they are built
+    # on a thread of their own (one core) while the mesh tree and the pose checks run
+    # ("samples" then times the wait and the gouge feet)
+    mesh.face_normals, mesh.vertex_normals, mesh.edge_faces  # noqa: B018  (filled once:
+    # both threads read these caches)
+    samples = alongside(lambda: surface_samples(mesh, cones, axis, spacing))
     md = MeshDistance(mesh)
     tim["mesh_tree"] = time.perf_counter() - t0
 
@@ -401,13 +408,14 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
 
     check_cancel()
     t1 = time.perf_counter()
-    smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, spacing, pc)
+    smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, samples(), pc)
     spacing = smp.spacing
     tim["samples"] = time.perf_counter() - t1
 
     check_cancel()
     t1 = time.perf_counter()
-    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method)
+    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
+                                                        P + rho * normals)
     tim["material"] = time.perf_counter() - t1
 
     check_cancel()
@@ -503,7 +511,10 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
         sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
         sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
-        cq = md.query(np.vstack(sub))
+        # the CC polylines' points: where the centres' closest points are (a k-d search
+        # from 6 mm off the surface is slow; the result does not depend on the guess)
+        cq = md.query(np.vstack(sub), near=np.vstack(
+            [_subsample(c, c.cc, subsamples, True) for c in curves]))
         dev = cq.signed_distance - rho
         pc.over_at = np.vstack(sub)[int(np.argmin(dev))]
     else:
@@ -535,10 +546,9 @@ def _lmc_values(curves, cones, axis, cc_all, cid):
     return fvals
 
 
-def _samples_and_feet(mesh, cones, axis, spacing, pc: _PoseChecks):
-    """The surface samples of the region plus the gouge feet inside it: (samples, points,
-    normals, ratios); the grid samples come first."""
-    smp = surface_samples(mesh, cones, axis, spacing)
+def _samples_and_feet(mesh, cones, axis, smp: SurfaceSamples, pc: _PoseChecks):
+    """The surface samples of the region (``smp``) plus the gouge feet inside it: (samples,
+    points, normals, ratios); the grid samples come first."""
     P, normals, s_all = smp.points, smp.normals, smp.s
     if pc.feet is not None:
         fp, ff, fb = pc.feet
@@ -552,15 +562,17 @@ def _samples_and_feet(mesh, cones, axis, spacing, pc: _PoseChecks):
     return smp, P, normals, s_all
 
 
-def _material_left(tool, curves, P, method):
+def _material_left(tool, curves, P, method, guess=None):
     """Material left by all passes at the points: (levels, level of each curve, the swept
-    volume, signed distances (k,), level of the nearest pass (k,) or −1)."""
+    volume, signed distances (k,), level of the nearest pass (k,) or −1). ``guess`` (k, 3):
+    where the nearest ball centres are likely (point + ρ · normal; a ball only, for speed)."""
     ncur = len(curves)
     levels = np.unique([float(c.s) for c in curves]) if ncur else np.zeros(0)
     lev_of = np.searchsorted(levels, [float(c.s) for c in curves])
     whole = swept_cutter(tool, curves, owners=lev_of, method=method)
     if ncur:
-        values, seg = whole.nearest(P)
+        values, seg = (whole.nearest(P, guess) if isinstance(whole, SweptBall)
+                       else whole.nearest(P))
         lab = np.where(seg >= 0, whole.owner[np.maximum(seg, 0)], -1)  # level of the nearest pass
     else:
         values, lab = np.full(len(P), np.nan), np.full(len(P), -1)
@@ -607,17 +619,30 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     other = valid & ~near_lo & ~near_hi
     mat = np.where(near_lo | near_hi, values, np.nan)
     gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
+    known = guess = None
+    if isinstance(cut[0], SweptBall):
+        guess = P + rho * normals  # where the nearest ball centres are likely
+        # a ball's distance to one level is the minimum over that level's segments of the
+        # same point–segment distances as the whole path's: where the nearest pass of all is
+        # one of the strip's two, it is that level's distance, bit for bit (a swept cutter's
+        # search depends on its candidates: it is measured again)
+        known = (np.where(near_lo, values, np.nan), np.where(near_hi, values, np.nan),
+                 near_lo.copy(), near_hi.copy())
     if np.any(other):
-        dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs)
+        dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs,
+                                        guess=None if guess is None else guess[other])
         mat[other] = np.minimum(dlo, dhi)
         gsign[other] = np.sign(dlo - dhi)
+        if known is not None:
+            for arr, d, has in ((known[0], dlo, known[2]), (known[1], dhi, known[3])):
+                arr[other], has[other] = d, True
     sc.pair_n = np.bincount(strip[valid], minlength=npairs)
     sc.pair_cusp = _group_max(npairs, strip[valid], mat[valid])
     sc.pair_gouge = np.maximum(_group_max(npairs, strip[valid], -mat[valid]), 0.0)
     arg = _group_argmax(npairs, strip[valid], mat[valid])
     has = arg >= 0
     sc.pair_where[has] = P[valid][arg[has]]
-    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc)
+    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc, known, rho)
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
     hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
@@ -628,17 +653,33 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     return sc
 
 
-def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops):
+def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, known=None,
+                  rho=0.0):
     """Ridges on the sample grid (grid samples are the first len(smp) of the points): grid
     edges in one strip whose ends are nearer to different passes, located by regula falsi
     (Illinois) on the exact distances; raises the pairs' cusps in ``sc`` where a ridge point
-    is higher and stores the ridge points."""
+    is higher and stores the ridge points.
+
+    ``known`` (a ball only): (d_lo, d_hi, has_lo, has_hi) (k,) — the points' distances to
+    their strip's two levels already measured (:func:`_scallops`); only the others are
+    measured at the edges' ends. A ball's iterates are measured against the segments listed
+    near the first iterate (:meth:`.sweep.SweptBall.near`: the same floats, no tree walk
+    per iteration); its centres are looked for ``rho`` (mm) along the samples' normals."""
     ng = len(smp)
     eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
     if len(eidx):
         ends, inv = np.unique(smp.edges[eidx], return_inverse=True)
         inv = inv.reshape(-1, 2)
-        dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
+        if known is None:
+            dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
+        else:
+            dlo, dhi = known[0][ends], known[1][ends]
+            mlo, mhi = _two_level_distances(
+                cut, smp.points[ends], strip[ends], npairs,
+                need=(~known[2][ends], ~known[3][ends]),
+                guess=smp.points[ends] + rho * smp.normals[ends])
+            dlo = np.where(known[2][ends], dlo, mlo)
+            dhi = np.where(known[3][ends], dhi, mhi)
         g = dlo - dhi
         ga, gb = g[inv[:, 0]], g[inv[:, 1]]
         ok = ((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0))
@@ -649,10 +690,16 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops):
     xa, xb = smp.points[ea], smp.points[eb]
     ta, tb = np.zeros(len(eidx)), np.ones(len(eidx))
     last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
+    near = None
     for _ in range(max(int(refine), 1)):
         t = (ta * gb - tb * ga) / (gb - ga)
         x = xa + t[:, None] * (xb - xa)
-        la, lb = _two_level_distances(cut, x, epair, npairs)
+        if known is not None and near is None:
+            # the iterates after the first move by far less than a tenth of the edge
+            near = _two_level_near(cut, x, epair, npairs,
+                                   0.1 * np.linalg.norm(xb - xa, axis=1),
+                                   x + rho * smp.normals[ea])
+        la, lb = _two_level_distances(cut, x, epair, npairs, near=near)
         gx = la - lb
         repl_a = np.sign(gx) == np.sign(ga)
         # Illinois: halve the kept end's value when the same end is replaced twice
@@ -803,15 +850,68 @@ def _two_level_queries(rows, strip, npairs):
     return pi[ok], lv[ok], up[ok]
 
 
-def _two_level_distances(cut, P, strip, npairs):
+def _level_rows(strip, npairs):
+    """The points each level measures (its two strips), by one sort instead of a mask over
+    all points per level (53 levels × 100 000 points per call on Rotor 37): a function of lv
+    giving (rows of strip lv — lv is their lower level; rows of strip lv − 1 — lv is their
+    upper level), each in point order. ``strip`` outside [0, npairs) belongs to no level."""
+    order = np.argsort(strip, kind="stable")
+    start = np.searchsorted(strip[order], np.arange(npairs + 1))
+    none = np.zeros(0, dtype=np.int64)
+
+    def rows(lv):
+        lo = order[start[lv] : start[lv + 1]] if lv < npairs else none
+        hi = order[start[lv - 1] : start[lv]] if lv > 0 else none
+        return lo, hi
+
+    return rows
+
+
+def _two_level_near(cut, P, strip, npairs, margin, guess):
+    """Per level lv (a ball's): :meth:`.sweep.SweptBall.near` at the points of strips lv and
+    lv − 1 (``margin`` (k,) mm, ``guess`` (k, 3) where the nearest centres are likely), None
+    where there are none; for :func:`_two_level_distances`'s ``near`` (same points, same
+    ``strip``)."""
+    rows = _level_rows(strip, npairs)
+
+    def one(lv):
+        r = np.concatenate(rows(lv))
+        return cut[lv].near(P[r], margin[r], guess[r]) if len(r) else None
+
+    return map_tasks(one, range(npairs + 1))
+
+
+def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=None):
     """Distances of points to the passes of the two levels bounding their strip (``cut``:
     the levels' :class:`SweptForest`).
 
+    ``need`` (optional): (need_lo, need_hi) (k,) bool — measure only these (NaN elsewhere).
+    ``near`` (optional, with ``need`` None): :func:`_two_level_near` of the same strips at
+    points near these.
+    ``guess`` (optional, a ball's levels): (k, 3) where the nearest centres are likely.
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
+    if near is not None:  # a ball's levels: the segments listed per level, one task each
+        level_rows = _level_rows(strip, npairs)
+
+        def one(lv):
+            lo, hi = level_rows(lv)
+            if near[lv] is None:
+                return None
+            return lo, hi, near[lv].distance(P[np.concatenate([lo, hi])])
+
+        for res in map_tasks(one, range(npairs + 1)):
+            if res is not None:
+                lo, hi, d = res
+                dlo[lo] = d[: len(lo)]
+                dhi[hi] = d[len(lo) :]
+        return dlo, dhi
     pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs)
-    d = cut.distance(P[pi], lv)
+    if need is not None:
+        keep = np.where(up, need[1][pi], need[0][pi])
+        pi, lv, up = pi[keep], lv[keep], up[keep]
+    d = cut.distance(P[pi], lv, near=None if guess is None else guess[pi])
     dlo[pi[~up]] = d[~up]
     dhi[pi[up]] = d[up]
     return dlo, dhi
