@@ -21,6 +21,7 @@ from .cutter import as_cutter
 from .errors import BliskCamError, ToleranceError
 from .geometry import (
     _CHUNK,
+    _GROUP_MIN,
     _dot,
     _group_argmin,
     _nearest,
@@ -30,6 +31,7 @@ from .geometry import (
     _within,
     map_chunks,
     map_tasks,
+    query_groups,
 )
 from .toolpath import PassCurve
 
@@ -447,9 +449,11 @@ class SweptCutter:
         points (each pair once, sorted by query)."""
         sl = self._slack
         r = np.maximum(u + self.bulge + sl, 0.0)
-        q1, l1 = self.tree.leaf_pairs(Pc, r * r)
+        # both trees walk the same groups of neighbouring points (median splits, once)
+        groups = query_groups(Pc) if len(Pc) >= _GROUP_MIN else None
+        q1, l1 = self.tree.leaf_pairs(Pc, r * r, groups)
         r = np.maximum(u + self._rb + self.bulge + sl, 0.0)
-        q2, l2 = self._tree_b.leaf_pairs(Pc, r * r)
+        q2, l2 = self._tree_b.leaf_pairs(Pc, r * r, groups)
         nc = len(self._ls)
         q = np.concatenate([q1, q2])
         cl = np.concatenate([self._cl_s[l1], self._cl_b[l2]])
@@ -647,22 +651,30 @@ def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
     kc = len(Pc)
     # 1. heights above the tips of a leaf's poses (a run of B segments: B + 1 poses),
     # motion bounds: no distance evaluation yet
-    X = Pc[q][:, None, :] - tab._lt[leaf]  # (n, B + 1, 3) point − tip
-    zz = np.einsum("npi,npi->np", X, tab._la[leaf])
+    # (gathers by np.take on flat indices: the same values as fancy indexing, 2–4x faster)
+    tk = np.take
+    La = tk(tab._la, leaf, axis=0)  # (n, B + 1, 3) axes
+    X = tk(Pc, q, axis=0)[:, None, :] - tk(tab._lt, leaf, axis=0)  # (n, B + 1, 3) point − tip
+    zz = np.einsum("npi,npi->np", X, La)
     nn = np.einsum("npi,npi->np", X, X)
-    sgm = tab._ls[leaf]  # (n, B) segment ids, −1 padded
+    sgm = tk(tab._ls, leaf, axis=0)  # (n, B) segment ids, −1 padded
+    B = sgm.shape[1]
     z0, z1, n0, n1 = zz[:, :-1], zz[:, 1:], nn[:, :-1], nn[:, 1:]
-    phi, dtip = tab._lphi[leaf], tab._ldt[leaf]
+    phi, dtip = tk(tab._lphi, leaf, axis=0), tk(tab._ldt, leaf, axis=0)
     reach = np.sqrt(np.maximum(n0, n1))
-    eps = (phi * phi * reach + 2.0 * phi * dtip) * (0.125 * (1.0 + 1e-9)) + slack[q][:, None]
+    eps = ((phi * phi * reach + 2.0 * phi * dtip) * (0.125 * (1.0 + 1e-9))
+           + tk(slack, q)[:, None])
     lb = np.maximum(-np.maximum(z0, z1), np.minimum(z0, z1) - cut.h) - eps
-    keep = (sgm >= 0) & (lb < u[q][:, None])
-    ii, jj = np.nonzero(keep)
-    q, sg = q[ii], sgm[ii, jj]
-    d0, d1 = X[ii, jj], X[ii, jj + 1]
-    a0 = tab._la[leaf[ii], jj]
-    z0, n0 = zz[ii, jj], nn[ii, jj]
-    phi, dtip, reach, eps, lb = (x[ii, jj] for x in (phi, dtip, reach, eps, lb))
+    keep = (sgm >= 0) & (lb < tk(u, q)[:, None])
+    fi = np.flatnonzero(keep)  # kept (row, j) as row B + j, in np.nonzero's order
+    ii = fi // B
+    pi = fi + ii  # pose j of row ii in the (n, B + 1) arrays
+    q, sg = tk(q, ii), tk(sgm, fi)
+    X3, A3 = X.reshape(-1, 3), La.reshape(-1, 3)
+    d0, d1 = tk(X3, pi, axis=0), tk(X3, pi + 1, axis=0)
+    a0 = tk(A3, pi, axis=0)
+    z0, n0 = tk(zz, pi), tk(nn, pi)
+    phi, dtip, reach, eps, lb = (tk(x, fi) for x in (phi, dtip, reach, eps, lb))
     # 2. exact values at the two poses; the motion (Lipschitz) bound
     need = np.zeros(zz.shape, bool)  # poses of kept segments, each evaluated once
     need[:, :-1] |= keep
@@ -670,24 +682,24 @@ def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
     vv = np.full(zz.shape, np.inf)
     zn = zz[need]
     vv[need] = cut.signed_distance_rz(np.sqrt(np.maximum(nn[need] - zn * zn, 0.0)), zn)
-    v0, v1 = vv[ii, jj], vv[ii, jj + 1]
+    v0, v1 = tk(vv, pi), tk(vv, pi + 1)
     vmin = np.minimum(v0, v1)
     u, arg = _group_argmin(kc, np.concatenate([np.arange(kc), q]), np.concatenate([u, vmin]),
                            np.concatenate([arg, sg]))
-    D = (dtip + phi * reach) * (1.0 + 1e-9) + slack[q]
+    D = (dtip + phi * reach) * (1.0 + 1e-9) + tk(slack, q)
     lb = np.maximum(lb, 0.5 * (v0 + v1 - D))
-    keep = np.nonzero(lb < u[q])[0]
+    keep = np.nonzero(lb < tk(u, q))[0]
     q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D = (
-        x[keep] for x in (q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D))
+        tk(x, keep, axis=0) for x in (q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D))
     # 3. convexity along the chord (tool frame of pose a): a bracket per segment
-    k_ = tab._k[sg]
+    k_ = tk(tab._k, sg, axis=0)
     p1 = _rotate(d1, k_, np.cos(phi), -np.sin(phi))
     ch = p1 - d0
     g0 = _sd_in_frame(cut, d0 + delta * ch, a0)
     g1 = _sd_in_frame(cut, p1 - delta * ch, a0)
     s0 = (g0 - v0) / delta
     s1 = (g1 - v1) / delta
-    U = u[q] + eps + 2.0 * delta * np.sqrt(_dot(ch, ch)) + slack[q]
+    U = tk(u, q) + eps + 2.0 * delta * np.sqrt(_dot(ch, ch)) + tk(slack, q)
     tlo, thi = _bracket_below(v0, s0, v1, s1, U)
     free = ~tab._chord_ok[sg]
     tlo[free], thi[free] = 0.0, 1.0
@@ -695,11 +707,11 @@ def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
     if len(keep) == 0:
         return u, arg
     q, sg, d0, a0, z0, n0, phi, D, tlo, thi = (
-        x[keep] for x in (q, sg, d0, a0, z0, n0, phi, D, tlo, thi))
+        tk(x, keep, axis=0) for x in (q, sg, d0, a0, z0, n0, phi, D, tlo, thi))
     # 4. golden-section search of f on the bracket, from six scalars per pair:
     # d(t) = d0 − t Δ, axis(t) = a cos tφ + b sin tφ ⇒ z(t), |d(t)|² in closed form
-    dl = tab.tb[sg] - tab.ta[sg]
-    bb = tab._b[sg]
+    dl = tk(tab.tb, sg, axis=0) - tk(tab.ta, sg, axis=0)
+    bb = tk(tab._b, sg, axis=0)
     za, zb = z0, _dot(d0, bb)
     Ta, Tb = _dot(dl, a0), _dot(dl, bb)
     m2, L2 = 2.0 * _dot(d0, dl), _dot(dl, dl)
@@ -991,13 +1003,14 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
         u = np.where(better, ub, u)
         arg = np.where(better, a, arg)
         wD = (hi - lo) * D
-        keep = (wD > xtol) & (fb - wD <= u[q])
+        keep = (wD > xtol) & (fb - wD <= np.take(u, q))
         if not keep.all():
             if not keep.any():
                 break
+            keep = np.flatnonzero(keep)
             (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2, f1, f2, q, idx) = (
-                x[keep] for x in (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2, f1, f2,
-                                  q, idx))
+                np.take(x, keep) for x in (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2,
+                                           f1, f2, q, idx))
         lo, hi, x1, x2, f1, f2 = _golden_step(f, lo, hi, x1, x2, f1, f2)
     return u, arg
 
