@@ -726,10 +726,11 @@ class _Tree:
         ok = slots >= 0
         ids = np.where(ok, slots, 0)
         cnt = ok.sum(axis=1)
-        Pg = P[ids]
+        Pg = np.take(P, ids, axis=0)
         c = np.where(ok[:, :, None], Pg, 0.0).sum(axis=1) / cnt[:, None]
         off = np.sqrt(np.einsum("gmi,gmi->gm", Pg - c[:, None, :], Pg - c[:, None, :]))
-        rg = np.where(ok, np.sqrt(r2[ids]) + off, 0.0).max(axis=1) * (1.0 + 1e-12) + self.slack
+        rg = (np.where(ok, np.sqrt(np.take(r2, ids)) + off, 0.0).max(axis=1) * (1.0 + 1e-12)
+              + self.slack)
         rg2 = rg * rg
         ng = len(slots)
         g = np.arange(ng)
@@ -743,12 +744,12 @@ class _Tree:
             keep = self._within_bound(np.take(c, g, axis=0), node, np.take(rg2, g))
             g, node = g[keep], node[keep]
         # hand the nodes to the members: (query, node), sorted by query (stable: by node)
-        mem = slots[g]
+        mem = np.take(slots, g, axis=0)
         node = np.broadcast_to(node[:, None], mem.shape)[mem >= 0]
         q = mem[mem >= 0]
         # a stable sort by query (radix sort on 16-bit keys: the same permutation, ~5x faster)
         order = np.argsort(q.astype(np.int16) if len(P) <= 32767 else q, kind="stable")
-        return q[order], node[order]
+        return np.take(q, order), np.take(node, order)
 
     def pairs(self, P, r2):
         """All (query, primitive) pairs whose node bounds come within sqrt(r2) of the query.

@@ -456,9 +456,12 @@ class SweptCutter:
         q2, l2 = self._tree_b.leaf_pairs(Pc, r * r, groups)
         nc = len(self._ls)
         q = np.concatenate([q1, q2])
-        cl = np.concatenate([self._cl_s[l1], self._cl_b[l2]])
+        cl = np.concatenate([np.take(self._cl_s, l1), np.take(self._cl_b, l2)])
         ok = cl >= 0  # empty leaves (padding of the complete tree) name no cluster
-        key = np.unique(q[ok] * nc + cl[ok])
+        key = q[ok] * nc + cl[ok]
+        if len(Pc) * nc < 2**31:  # the same keys sorted as int32: faster
+            key = key.astype(np.int32)
+        key = np.unique(key).astype(np.int64)
         return key // nc, key % nc
 
     def _ring_points(self):
@@ -559,7 +562,9 @@ class SweptCutter:
         _, j = self.kd.query(Pc, k=kk)
         j = np.asarray(j, dtype=np.int64).reshape(-1) // self._ring_m
         qi = np.repeat(np.arange(len(Pc)), kk)
-        d = self.cutter.signed_distance(Pc[qi], self.ta[j], self.aa[j])
+        tk = np.take
+        d = self.cutter.signed_distance(tk(Pc, qi, axis=0), tk(self.ta, j, axis=0),
+                                        tk(self.aa, j, axis=0))
         return _group_argmin(len(Pc), qi, d, j)
 
     def _exact_chunk(self, Pc):
@@ -679,9 +684,10 @@ def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
     need = np.zeros(zz.shape, bool)  # poses of kept segments, each evaluated once
     need[:, :-1] |= keep
     need[:, 1:] |= keep
-    vv = np.full(zz.shape, np.inf)
-    zn = zz[need]
-    vv[need] = cut.signed_distance_rz(np.sqrt(np.maximum(nn[need] - zn * zn, 0.0)), zn)
+    need = np.flatnonzero(need)
+    vv = np.full(zz.size, np.inf)
+    zn = tk(zz, need)
+    vv[need] = cut.signed_distance_rz(np.sqrt(np.maximum(tk(nn, need) - zn * zn, 0.0)), zn)
     v0, v1 = tk(vv, pi), tk(vv, pi + 1)
     vmin = np.minimum(v0, v1)
     u, arg = _group_argmin(kc, np.concatenate([np.arange(kc), q]), np.concatenate([u, vmin]),
@@ -969,8 +975,11 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
     sin tφ (zb − t Tb), |d(t)|² = n0 − t m2 + t² L2; ``q`` (m,) the point of each pair,
     sorted ascending. A pair stops early once its best value minus its bracket's motion is
     above its point's best (``u``, updated every step). The live pairs' state is kept in
-    compact arrays (no gathers per step). Returns (best value per point (kc,), pair index of
-    it or −1)."""
+    compact arrays (no gathers per step; the nine constants of a pair as one (9, m) block,
+    compacted by one gather). Each step looks for new bests among the pairs below their
+    point's best only: a pair at or above it can neither be nor tie a smaller minimum, so
+    the bests and the pairs achieving them are those of all pairs. Returns (best value per
+    point (kc,), pair index of it or −1)."""
     m = len(q)
     if m == 0:
         return u.copy(), np.full(kc, -1, dtype=np.int64)
@@ -979,7 +988,8 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
         u, arg = _golden_pairs(cutter, q[order], kc, u, tuple(x[order] for x in scal),
                                D[order], lo[order], hi[order], xtol)
         return u, np.where(arg >= 0, order[np.maximum(arg, 0)], -1)
-    za, zb, Ta, Tb, n0, m2, L2, phi = scal
+    C = np.stack([*scal, D])  # (9, m): za, zb, Ta, Tb, n0, m2, L2, φ, D
+    za, zb, Ta, Tb, n0, m2, L2, phi, D = C
     idx = np.arange(m)
     lo, hi = lo.copy(), hi.copy()
     sdrz = cutter.signed_distance_rz
@@ -998,19 +1008,27 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
     arg = np.full(kc, -1, dtype=np.int64)
     for _ in range(200):
         fb = np.minimum(f1, f2)
-        ub, a = _sorted_group_argmin(kc, q, fb, idx)
-        better = ub < u
-        u = np.where(better, ub, u)
-        arg = np.where(better, a, arg)
+        uq = np.take(u, q)
+        # the pairs that may beat their point's best (NaN kept: it makes the group's
+        # minimum NaN, as over all pairs)
+        cand = np.flatnonzero(~(fb >= uq))
+        if len(cand):
+            ub, a = _sorted_group_argmin(kc, np.take(q, cand), np.take(fb, cand),
+                                         np.take(idx, cand))
+            better = ub < u
+            u = np.where(better, ub, u)
+            arg = np.where(better, a, arg)
+            uq = np.take(u, q)
         wD = (hi - lo) * D
-        keep = (wD > xtol) & (fb - wD <= np.take(u, q))
+        keep = (wD > xtol) & (fb - wD <= uq)
         if not keep.all():
             if not keep.any():
                 break
             keep = np.flatnonzero(keep)
-            (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2, f1, f2, q, idx) = (
-                np.take(x, keep) for x in (za, zb, Ta, Tb, n0, m2, L2, phi, D, lo, hi, x1, x2,
-                                           f1, f2, q, idx))
+            C = np.take(C, keep, axis=1)
+            za, zb, Ta, Tb, n0, m2, L2, phi, D = C
+            lo, hi, x1, x2, f1, f2, q, idx = (
+                np.take(x, keep) for x in (lo, hi, x1, x2, f1, f2, q, idx))
         lo, hi, x1, x2, f1, f2 = _golden_step(f, lo, hi, x1, x2, f1, f2)
     return u, arg
 
