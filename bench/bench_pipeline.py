@@ -227,13 +227,16 @@ def main():
     ap.add_argument("--verify-only", action="store_true",
                     help="skip the whole-run figures, measure verify only")
     ap.add_argument("--threads", default="1,2", help="verify threads to compare, e.g. 1,2")
-    ap.add_argument("--tools", default="ball,bull", help="verify tools: ball, bull or both")
+    ap.add_argument("--tools", default="ball,bull",
+                    help="verify tools: ball, bull, or both as ball,bull (the default)")
     ap.add_argument("--bull-lead-tilt", default="0,0",
                     help="lead,tilt of the bull-nose path in degrees (Rotor 37 as stored: 10,5; "
                          "subdivided to 200k its hub region is too tight for a lead)")
     args = ap.parse_args()
     threads = tuple(int(x) for x in args.threads.split(","))
     tools = tuple(args.tools.split(","))
+    if not tools or not set(tools) <= {"ball", "bull"}:
+        ap.error(f"--tools takes ball, bull or ball,bull, got {args.tools!r}")
     blt = tuple(args.bull_lead_tilt.split(","))
     if args.only != "rotor37":
         if not args.verify_only:
