@@ -624,20 +624,8 @@ class SweptCutter:
         hit of the swept volume, (k,) mm; ``inf`` where there is none within ``max_height``.
         Sphere tracing: the signed distance is 1-Lipschitz, so a step of its value never
         passes the first hit."""
-        P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        N = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-        hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),)).copy()
-        t = np.zeros(len(P))
-        live = np.ones(len(P), bool)
-        for _ in range(steps):
-            if not np.any(live):
-                break
-            idx = np.nonzero(live)[0]
-            d = self.distance(P[idx] + t[idx, None] * N[idx])
-            t[idx] += np.maximum(d, 0.0)
-            live[idx] = (d > 1e-10) & (t[idx] <= hmax[idx])
-        t[(t > hmax) | live] = np.inf
-        return t
+        return _sphere_trace(lambda X, idx: self.distance(X), points, directions, max_height,
+                             steps)
 
 
 def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
@@ -901,17 +889,29 @@ class SweptForest:
                 if h is not None:
                     t[rows] = h
             return t
-        t = np.zeros(len(P))
-        live = np.ones(len(P), bool)
-        for _ in range(steps):
-            if not np.any(live):
-                break
-            idx = np.nonzero(live)[0]
-            d = self.distance(P[idx] + t[idx, None] * N[idx], w[idx])
-            t[idx] += np.maximum(d, 0.0)
-            live[idx] = (d > 1e-10) & (t[idx] <= hmax[idx])
-        t[(t > hmax) | live] = np.inf
-        return t
+        return _sphere_trace(lambda X, idx: self.distance(X, w[idx]), P, N, hmax, steps)
+
+
+def _sphere_trace(distance, points, directions, max_height, steps: int):
+    """Distance along unit ``directions`` (k, 3) from ``points`` (k, 3) to the first zero of
+    a 1-Lipschitz signed distance, (k,) mm; ``inf`` where there is none within
+    ``max_height`` (scalar or (k,) mm) after ``steps`` steps. ``distance(X, idx)`` gives the
+    signed distance (m,) at the points X (m, 3), those of the live rows ``idx`` (m,): each
+    step of its value never passes the first hit."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    N = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),)).copy()
+    t = np.zeros(len(P))
+    live = np.ones(len(P), bool)
+    for _ in range(steps):
+        if not np.any(live):
+            break
+        idx = np.nonzero(live)[0]
+        d = distance(P[idx] + t[idx, None] * N[idx], idx)
+        t[idx] += np.maximum(d, 0.0)
+        live[idx] = (d > 1e-10) & (t[idx] <= hmax[idx])
+    t[(t > hmax) | live] = np.inf
+    return t
 
 
 def _bottom_reach(cutter) -> float:
