@@ -798,17 +798,16 @@ def _group_argmin(k, qi, values, ids):
     return best, arg
 
 
-def _nearest(tree: _Tree, P, d2fn, lbfn=None, chunk=_CHUNK, fastfn=None, near=None,
-             keepfn=None):
+def _nearest(tree: _Tree, P, d2fn, keepfn=None, chunk=_CHUNK, fastfn=None, near=None):
     """Exact nearest primitive to each point.
 
     The primitives with the nearest centroids give an upper bound u; then every primitive in
-    a node whose bounds lie within u, and whose own lower bound ``lbfn`` (if given) does, is
-    evaluated exactly. Returns (d2 (k,), prim (k,)).
+    a node whose bounds lie within u, and that ``keepfn`` (if given) keeps, is evaluated
+    exactly. Returns (d2 (k,), prim (k,)).
 
-    ``keepfn(P, qi, prim, u2)`` (optional, instead of ``lbfn``) returns the mask
-    ``lbfn(P, qi, prim) <= u2`` itself (u2 ≥ 0), e.g. testing a cheap bound first and the
-    rest only on the pairs it keeps.
+    ``keepfn(P, qi, prim, u2)`` (optional) returns the mask (n,) of the pairs (query ``qi``,
+    primitive ``prim``) whose lower bound of the squared distance is ≤ ``u2`` (n,) ≥ 0; a
+    valid lower bound never drops the nearest primitive.
 
     ``near`` (optional, (k, 3)): the centroids are looked up nearest to these points instead
     of P (a guess of where each point's nearest primitive is). Any points give a valid bound
@@ -841,9 +840,6 @@ def _nearest(tree: _Tree, P, d2fn, lbfn=None, chunk=_CHUNK, fastfn=None, near=No
         q2, p2 = tree.pairs(Pc, u2)
         if keepfn is not None and len(q2):
             keep = keepfn(Pc, q2, p2, u2[q2])
-            q2, p2 = q2[keep], p2[keep]
-        elif lbfn is not None and len(q2):
-            keep = lbfn(Pc, q2, p2) <= u2[q2]
             q2, p2 = q2[keep], p2[keep]
         qi = np.concatenate([qi, q2])
         pr = np.concatenate([pr, p2])
@@ -926,7 +922,7 @@ class MeshDistance:
         # (Rotor 37's centre polylines: 1.6 -> 1.1 s; surface points unchanged)
         self.tree = _Tree(T, flat=True, leaf_size=leaf_size, group_tail=2, leaf_obb=True)
         self._frames = None
-        # the capsule of each face around its longest edge (see :meth:`_lb2`)
+        # the capsule of each face around its longest edge (see :meth:`_lb_keep`)
         self._cap = _edge_capsules(self._A, self._B, self._C,
                                    float(np.abs(T).max()) if len(T) else 1.0)
 
@@ -983,28 +979,16 @@ class MeshDistance:
     def _d2(self, P, qi, f):
         return closest_on_triangles(P[qi], self._A[f], self._B[f], self._C[f])[1]
 
-    def _lb2(self, P, qi, f):
-        """A lower bound of the squared distance to each face: the larger of the squared
-        distances to the disk (in the face plane, around the centroid) and to the capsule
-        (around the longest edge, radius the opposite vertex's height) that contain it. The
-        capsule is what prunes slivers and needles (a scanned blade's leading edge: a disk of
-        half their length around a face 0.03 mm wide let ~70 faces per ball centre through to
-        the point–triangle kernels on Rotor 37, the capsule ~10)."""
-        p = P[qi]
-        d = p - self._cen[f]
-        z = _dot(d, self._n[f])
-        dd = _dot(d, d)
-        rad = np.sqrt(np.maximum(dd - z * z, 0.0))
-        e = np.maximum(rad - self._rad[f] * (1.0 + 1e-12), 0.0)
-        disk = z * z + e * e
-        c = _capsule_distance(p, self._cap[f])
-        return np.maximum(np.maximum(disk, c * c) - 1e-12 * dd, 0.0)
-
     def _lb_keep(self, P, qi, f, u2):
-        """``self._lb2(P, qi, f) <= u2`` (u2 (n,) ≥ 0), the same floats compared: the capsule
-        bound first (it drops most pairs: ~75 % of a ball centre's candidates on Rotor 37),
-        the disk bound only on the pairs it keeps. (max(a, b) − pad, clipped at 0, is ≤ u2
-        exactly when a − pad and b − pad both are.)"""
+        """Whether a lower bound of the squared distance to each face is ≤ ``u2`` (n,) ≥ 0
+        ((n,) bool): the larger of the squared distances to the disk (in the face plane,
+        around the centroid) and to the capsule (around the longest edge, radius the opposite
+        vertex's height) that contain the face, less a rounding pad of 1e-12 |p − centroid|².
+        The capsule is what prunes slivers and needles (a scanned blade's leading edge: a
+        disk of half their length around a face 0.03 mm wide let ~70 faces per ball centre
+        through to the point–triangle kernels on Rotor 37, the capsule ~10), and it is tested
+        first (it drops ~75 % of a ball centre's candidates there), the disk only on the
+        pairs it keeps: max(a, b) − pad ≤ u2 exactly when a − pad and b − pad both are."""
         p = P[qi]
         d = p - self._cen[f]
         dd = _dot(d, d)

@@ -97,8 +97,8 @@ def test_fast_filter_leaves_the_exact_search_unchanged():
     far = far + 6.0 * mesh.vertex_normals[rng.integers(0, mesh.n_vertices, 3000)]
     P = np.vstack([P, far])
     md = MeshDistance(mesh)
-    d_fast, f_fast = _nearest(md.tree, P, md._d2, md._lb2, fastfn=md._fast_d2)
-    d_ref, f_ref = _nearest(md.tree, P, md._d2, md._lb2)
+    d_fast, f_fast = _nearest(md.tree, P, md._d2, md._lb_keep, fastfn=md._fast_d2)
+    d_ref, f_ref = _nearest(md.tree, P, md._d2, md._lb_keep)
     assert np.array_equal(f_fast, f_ref)
     assert np.array_equal(d_fast, d_ref)
 
