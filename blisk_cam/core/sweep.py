@@ -793,10 +793,12 @@ class SweptForest:
                              f"{int(w.min())}..{int(w.max())}")
         return w
 
-    def _per_member(self, w, ask):
-        """The fallback: ``ask(member, rows)`` per member holding queries (one task each;
-        each member's rows ascending, from one stable sort of ``w``); [(rows, result)] in
-        member order."""
+    def per_member(self, w, ask):
+        """``ask(member, rows)`` for every member holding queries, one task each (the
+        fallback of the joint pass, and a member's own queries such as a ball's
+        :meth:`SweptBall.near`): ``w`` (k,) the member of each query; each member's rows
+        ascending, from one stable sort of ``w``; [(rows, result or None)] in member
+        order."""
         order = np.argsort(w, kind="stable")
         start = np.searchsorted(w[order], np.arange(len(self.members) + 1))
 
@@ -826,7 +828,7 @@ class SweptForest:
 
                 def ask(m, rows):
                     return m.nearest(P[rows], near=G[rows])
-            for rows, res in self._per_member(w, ask):
+            for rows, res in self.per_member(w, ask):
                 if res is not None:
                     out[rows], arg[rows] = res
             return out, arg
@@ -884,7 +886,7 @@ class SweptForest:
         hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),)).copy()
         if not self.fast:
             t = np.full(len(P), np.inf)
-            for rows, h in self._per_member(
+            for rows, h in self.per_member(
                     w, lambda m, rows: m.height_along(P[rows], N[rows], hmax[rows])):
                 if h is not None:
                     t[rows] = h

@@ -850,35 +850,14 @@ def _two_level_queries(rows, strip, npairs):
     return pi[ok], lv[ok], up[ok]
 
 
-def _level_rows(strip, npairs):
-    """The points each level measures (its two strips), by one sort instead of a mask over
-    all points per level (53 levels × 100 000 points per call on Rotor 37): a function of lv
-    giving (rows of strip lv — lv is their lower level; rows of strip lv − 1 — lv is their
-    upper level), each in point order. ``strip`` outside [0, npairs) belongs to no level."""
-    order = np.argsort(strip, kind="stable")
-    start = np.searchsorted(strip[order], np.arange(npairs + 1))
-    none = np.zeros(0, dtype=np.int64)
-
-    def rows(lv):
-        lo = order[start[lv] : start[lv + 1]] if lv < npairs else none
-        hi = order[start[lv - 1] : start[lv]] if lv > 0 else none
-        return lo, hi
-
-    return rows
-
-
 def _two_level_near(cut, P, strip, npairs, margin, guess):
-    """Per level lv (a ball's): :meth:`.sweep.SweptBall.near` at the points of strips lv and
-    lv − 1 (``margin`` (k,) mm, ``guess`` (k, 3) where the nearest centres are likely), None
-    where there are none; for :func:`_two_level_distances`'s ``near`` (same points, same
-    ``strip``)."""
-    rows = _level_rows(strip, npairs)
-
-    def one(lv):
-        r = np.concatenate(rows(lv))
-        return cut[lv].near(P[r], margin[r], guess[r]) if len(r) else None
-
-    return map_tasks(one, range(npairs + 1))
+    """A ball's per-level :meth:`.sweep.SweptBall.near` for :func:`_two_level_distances`'s
+    ``near``: the queries of :func:`_two_level_queries` of the points (k, 3) (``margin``
+    (k,) mm, ``guess`` (k, 3) where the nearest centres are likely) and, per level holding
+    any, its listed segments — [(rows of those queries, near)]."""
+    pi, lv, _ = _two_level_queries(np.arange(len(P)), strip, npairs)
+    return cut.per_member(lv, lambda m, rows: m.near(P[pi[rows]], margin[pi[rows]],
+                                                     guess[pi[rows]]))
 
 
 def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=None):
@@ -892,26 +871,21 @@ def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=N
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
-    if near is not None:  # a ball's levels: the segments listed per level, one task each
-        level_rows = _level_rows(strip, npairs)
-
-        def one(lv):
-            lo, hi = level_rows(lv)
-            if near[lv] is None:
-                return None
-            return lo, hi, near[lv].distance(P[np.concatenate([lo, hi])])
-
-        for res in map_tasks(one, range(npairs + 1)):
-            if res is not None:
-                lo, hi, d = res
-                dlo[lo] = d[: len(lo)]
-                dhi[hi] = d[len(lo) :]
-        return dlo, dhi
     pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs)
-    if need is not None:
-        keep = np.where(up, need[1][pi], need[0][pi])
-        pi, lv, up = pi[keep], lv[keep], up[keep]
-    d = cut.distance(P[pi], lv, near=None if guess is None else guess[pi])
+    if near is not None:  # a ball's levels: the segments listed per level, one task each
+        d = np.empty(len(pi))  # every query's level holds some: each row is filled
+
+        def one(item):
+            rows, listed = item
+            return rows, listed.distance(P[pi[rows]])
+
+        for rows, d_rows in map_tasks(one, [it for it in near if it[1] is not None]):
+            d[rows] = d_rows
+    else:
+        if need is not None:
+            keep = np.where(up, need[1][pi], need[0][pi])
+            pi, lv, up = pi[keep], lv[keep], up[keep]
+        d = cut.distance(P[pi], lv, near=None if guess is None else guess[pi])
     dlo[pi[~up]] = d[~up]
     dhi[pi[up]] = d[up]
     return dlo, dhi
