@@ -37,10 +37,11 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from blisk_cam.core.collision import CollisionScene, Obstacles  # noqa: E402
-from blisk_cam.core.cutter import Cutter  # noqa: E402
-from blisk_cam.core.demo import make_demo_blisk  # noqa: E402
-from blisk_cam.core.tool_assembly import ToolAssembly  # noqa: E402
+from blisk_cam.core.collision.obstacles import Obstacles  # noqa: E402
+from blisk_cam.core.collision.scene import CollisionScene  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.tool.assembly import ToolAssembly  # noqa: E402
+from blisk_cam.core.tool.cutter import Cutter  # noqa: E402
 
 HOLDER = ((12.0, 3.0), (47.0, 3.0), (47.0, 12.0), (107.0, 12.0))
 #: --mild: a short stick-out (Ø6 shank to 22 mm): few poses collide
@@ -98,10 +99,11 @@ class _Clock:
 
 def avoid_on_demo(repeat: int = 1) -> dict:
     """Avoidance on the demo (module docstring): best of ``repeat`` runs."""
-    from blisk_cam.core.avoidance import CollisionOptions, run_collisions
-    from blisk_cam.core.cones import Cone
-    from blisk_cam.core.mesh import TriMesh
-    from blisk_cam.core.pipeline import PathRequest, plan_paths
+    from blisk_cam.core.collision.avoid import run_collisions
+    from blisk_cam.core.collision.options import CollisionOptions
+    from blisk_cam.core.geometry.mesh import TriMesh
+    from blisk_cam.core.part.cones import Cone
+    from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 
     d = make_demo_blisk(fillet=False, blade_count=24)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)

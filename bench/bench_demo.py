@@ -20,9 +20,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from blisk_cam.core.cones import meridional  # noqa: E402
-from blisk_cam.core.demo import blade_triangle_count, make_demo_blisk  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.geometry.axis import meridional  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.part.blisk_params import blade_triangle_count  # noqa: E402
 
 
 def cone_error(b) -> float:

@@ -25,7 +25,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from blisk_cam.core.demo import make_demo_blisk  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.gizmos import cone_frame as cf  # noqa: E402
 from blisk_cam.gizmos.lmc_preview import DEFAULT_LEVELS, LmcPreview  # noqa: E402
 
@@ -44,7 +44,7 @@ def blender_read_seconds(V, F):
     try:
         import bpy  # noqa: F401
 
-        from blisk_cam import blender_io
+        from blisk_cam.blender import objects as blender_io
     except ImportError:
         return None
     obj = blender_io.arrays_to_object("BenchBlade", V, F)

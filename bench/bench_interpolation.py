@@ -28,16 +28,17 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests" / "core"))
 
-from blisk_cam.core import interpolation as I  # noqa: E402
-from blisk_cam.core.machine import load_machine  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.pipeline import PathRequest, plan_paths  # noqa: E402
-from blisk_cam.core.verify import MeshDistance  # noqa: E402
+from blisk_cam.core.geometry.distance import MeshDistance  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.machine import block_search as B  # noqa: E402
+from blisk_cam.core.machine import interpolation as I  # noqa: E402
+from blisk_cam.core.machine.description import load_machine  # noqa: E402
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
 
 
 def demo_case(cusp=3.0, chord=0.002):
-    from blisk_cam.core.cones import Cone
-    from blisk_cam.core.demo import make_demo_blisk
+    from blisk_cam.core.part.blisk import make_demo_blisk
+    from blisk_cam.core.part.cones import Cone
 
     d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
@@ -50,7 +51,8 @@ def demo_case(cusp=3.0, chord=0.002):
 def rotor37_case(cusp=1.0, chord=0.002):
     from nc_helpers import blade_file, read_binary_stl
 
-    from blisk_cam.core.cones import Axis, Cone
+    from blisk_cam.core.geometry.axis import Axis
+    from blisk_cam.core.part.cones import Cone
 
     stl = blade_file("rotor37_blade_extended_open.stl")
     meta = blade_file("rotor37_blade.json")
@@ -81,10 +83,10 @@ def compare(name, mesh, path, tol, machine):
     dps = [s.dense for s in rep.sets]
     target = float(m_ce.max())
     t = time.perf_counter()
-    h, E, M = I.match_chord_height(dps, machine, path.tool, target, mesh=md)
+    h, E, M = B.match_chord_height(dps, machine, path.tool, target, mesh=md)
     t_match = time.perf_counter() - t
     t = time.perf_counter()
-    I.search_chord(dps, h)
+    B.search_chord(dps, h)
     t_chord = time.perf_counter() - t
     m_ch = np.concatenate(M)
     n_ce, n_ch = len(m_ce), len(m_ch)
@@ -108,8 +110,8 @@ def compare(name, mesh, path, tol, machine):
     h2 = h
     for _ in range(60):
         h2 *= 1.02
-        E2 = I.search_chord(dps, h2)
-        M2 = [I.measure_blocks(machine, path.tool, dp, e)[0] for dp, e in zip(dps, E2,
+        E2 = B.search_chord(dps, h2)
+        M2 = [B.measure_blocks(machine, path.tool, dp, e)[0] for dp, e in zip(dps, E2,
                                                                             strict=True)]
         if max(float(x.max()) for x in M2) > target:
             break

@@ -24,8 +24,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_pipeline import demo_blade  # noqa: E402
 
-from blisk_cam.core import pathgen  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.paths import passes as pathgen  # noqa: E402
 
 TIMED = (
     (pathgen._Generator, "make_pass"),

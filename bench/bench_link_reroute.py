@@ -25,13 +25,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from blisk_cam.core.avoidance import CollisionOptions, run_collisions  # noqa: E402
-from blisk_cam.core.collision import split_faces  # noqa: E402
-from blisk_cam.core.cones import Cone  # noqa: E402
-from blisk_cam.core.demo import make_demo_blisk  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.pipeline import PathRequest, plan_paths  # noqa: E402
-from blisk_cam.core.toolpath import MOVE_CUT  # noqa: E402
+from blisk_cam.core.collision.avoid import run_collisions  # noqa: E402
+from blisk_cam.core.collision.obstacles import split_faces  # noqa: E402
+from blisk_cam.core.collision.options import CollisionOptions  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.part.cones import Cone  # noqa: E402
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.toolpath.types import MOVE_CUT  # noqa: E402
 
 HOLDER = ((12.0, 3.0), (47.0, 3.0), (47.0, 12.0), (107.0, 12.0))
 

@@ -23,10 +23,11 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_paths import read_binary_stl, subdivide, timeit  # noqa: E402
 
-from blisk_cam.core.cones import Axis, Cone  # noqa: E402
-from blisk_cam.core.lmrs import Profile, morph_between  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.slicing import MeshConeSlicer  # noqa: E402
+from blisk_cam.core.geometry.axis import Axis  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.part.cones import Cone  # noqa: E402
+from blisk_cam.core.part.profiles import Profile, morph_between  # noqa: E402
+from blisk_cam.core.paths.slicing import MeshConeSlicer  # noqa: E402
 
 BLADES = ROOT / "tests" / "data" / "blades"
 

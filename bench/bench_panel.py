@@ -40,8 +40,8 @@ TICK = 0.05  # s, the operator's timer interval
 def scene_with_rotor37(args):
     import bpy
 
-    from blisk_cam import blender_io
-    from blisk_cam.core.mesh_io import read_mesh
+    from blisk_cam.blender import objects as blender_io
+    from blisk_cam.core.geometry.mesh_io import read_mesh
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     V, F = read_mesh(BLADES / "rotor37_blade_extended_open.stl")[:2]
@@ -68,7 +68,7 @@ def run_interactive():
     """(paths shown, colour map there, longest tick planning, longest tick verifying), s."""
     import bpy
 
-    from blisk_cam import output
+    from blisk_cam.blender import path_objects as output
     from blisk_cam.operators import generate_paths as gen
     from blisk_cam.operators.modal_job import ModalRunner
 

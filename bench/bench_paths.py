@@ -21,11 +21,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from blisk_cam.core.cones import Axis, Cone, MorphingCones  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # noqa: E402
-from blisk_cam.core.pathgen import generate_paths  # noqa: E402
-from blisk_cam.core.slicing import MeshConeSlicer  # noqa: E402
+from blisk_cam.core.geometry.axis import Axis  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # noqa: E402
+from blisk_cam.core.part.cones import Cone, MorphingCones  # noqa: E402
+from blisk_cam.core.paths.passes import generate_paths  # noqa: E402
+from blisk_cam.core.paths.slicing import MeshConeSlicer  # noqa: E402
 
 BLADES = ROOT / "tests" / "data" / "blades"
 
@@ -139,7 +140,7 @@ def main():
     mesh = bench_slicing("rotor37 subdivided", V, F, c1, c2)
     for e in (0.05, 0.01):
         bench_full("rotor37 subdivided", mesh, c1, c2, e)
-    from blisk_cam.core.demo import make_demo_blisk
+    from blisk_cam.core.part.blisk import make_demo_blisk
 
     table = []
     for res_tri in (100_000, args.triangles):

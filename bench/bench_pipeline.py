@@ -33,13 +33,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from blisk_cam.core.cones import Axis, Cone  # noqa: E402
-from blisk_cam.core.demo import make_demo_blisk  # noqa: E402
 from blisk_cam.core.errors import BliskCamError  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # noqa: E402
-from blisk_cam.core.paths_io import write_paths_json  # noqa: E402
-from blisk_cam.core.pipeline import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.geometry.axis import Axis  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.part.cones import Cone  # noqa: E402
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.toolpath.paths_io import write_paths_json  # noqa: E402
 
 BLADES_DIRS = (ROOT / "tests" / "data" / "blades", ROOT.parent / "shared" / "data" / "blades",
                ROOT.parents[1] / "shared" / "data" / "blades")
@@ -156,7 +157,7 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball",
     verify each with 1 and 2 threads; the figures of every run must be the same."""
     from dataclasses import replace
 
-    from blisk_cam.core.verify import verify_path
+    from blisk_cam.core.verify.measure import verify_path
 
     mesh = TriMesh.from_arrays(V, F)
     ball = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,

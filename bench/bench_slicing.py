@@ -31,9 +31,9 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 import bench_pipeline as bp  # noqa: E402
 
-from blisk_cam.core import slicing  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.pipeline import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.paths import slicing  # noqa: E402
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
 
 
 def old_slicing(rev: str):

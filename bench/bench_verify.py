@@ -19,11 +19,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from blisk_cam.core.cones import Axis, Cone  # noqa: E402
-from blisk_cam.core.cutter import Cutter  # noqa: E402
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.toolpath import BallTool, PassCurve, ToolPath  # noqa: E402
-from blisk_cam.core.verify import MeshDistance, verify_path  # noqa: E402
+from blisk_cam.core.geometry.axis import Axis  # noqa: E402
+from blisk_cam.core.geometry.distance import MeshDistance  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.part.cones import Cone  # noqa: E402
+from blisk_cam.core.tool.cutter import Cutter  # noqa: E402
+from blisk_cam.core.toolpath.types import BallTool, PassCurve, ToolPath  # noqa: E402
+from blisk_cam.core.verify.measure import verify_path  # noqa: E402
 
 R, AMP, K, H = 40.0, 1.5, 5, 60.0
 

@@ -23,8 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from blisk_cam.core.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.mesh_io import read_mesh  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.geometry.mesh_io import read_mesh  # noqa: E402
 
 CHILD = """
 import json, sys, time

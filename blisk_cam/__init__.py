@@ -15,8 +15,7 @@ groups come first; everything is unregistered in reverse order.
 
 __all__ = ["__version__", "register", "unregister"]
 
-#: the extension's version (blender_manifest.toml says the same; a test checks it)
-__version__ = "0.1.0"
+from .core.version import __version__
 
 # (kind, object) in the order they were registered: ("class", cls) or ("hook", module).
 _registered = []

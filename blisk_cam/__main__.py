@@ -15,6 +15,6 @@ except ImportError as exc:
     )
     sys.exit(1)
 
-from .cli import main  # noqa: E402
+from .cli.main import main  # noqa: E402
 
 sys.exit(main())

@@ -22,15 +22,16 @@ from bpy.props import (
 )
 from bpy.types import PropertyGroup
 
-from .core.avoidance import CollisionOptions
-from .core.machine import known_presets
-from .core.options import PATH_STAGES, fields
-from .core.post import POSTS
+from .core.collision.options import CollisionOptions
+from .core.display import MAX_POSE_EMPTIES
+from .core.machine.description import known_presets
+from .core.options import PATH_OPTION_GROUPS, fields
 from .core.post.blocks import NcOptions
+from .core.post.export import POSTS
 
 #: option stages of the NC export and the collision check (declared in core)
-NC_STAGES = (NcOptions,)
-COLLISION_STAGES = (CollisionOptions,)
+NC_OPTION_GROUPS = (NcOptions,)
+COLLISION_OPTION_GROUPS = (CollisionOptions,)
 
 
 def poll_mesh(_self, obj):
@@ -60,9 +61,6 @@ COLOR_MODES = (
 )
 
 
-#: hard cap on the pose empties (objects); every pose is in the point cloud anyway
-MAX_POSE_EMPTIES = 10_000
-
 PREVIEW_ENGINES = (
     ("AUTO", "Auto", "Workbench when an OpenGL context is available, else Cycles on the CPU"),
     ("WORKBENCH", "Workbench", "Fast OpenGL preview (falls back to Cycles without OpenGL)"),
@@ -73,7 +71,7 @@ PREVIEW_ENGINES = (
 
 def _update_display(self, context):
     """Re-style the existing output curves (bevel, colours) when a display option changes."""
-    from . import output
+    from .blender import path_objects as output
 
     scene = getattr(context, "scene", None)
     if scene is not None:
@@ -353,9 +351,9 @@ MACHINE_ITEMS = [(name, name, f"The shipped machine preset '{name}'")
 POST_ITEMS = [(name, name, f"NC program for {name}") for name in POSTS]
 
 
-BliskCamSettings.__annotations__.update(option_properties(PATH_STAGES))
-BliskCamSettings.__annotations__.update(option_properties(NC_STAGES))
-BliskCamSettings.__annotations__.update(option_properties(COLLISION_STAGES))
+BliskCamSettings.__annotations__.update(option_properties(PATH_OPTION_GROUPS))
+BliskCamSettings.__annotations__.update(option_properties(NC_OPTION_GROUPS))
+BliskCamSettings.__annotations__.update(option_properties(COLLISION_OPTION_GROUPS))
 # the machine and the post of "Machine & NC" (their lists come from core: presets, posts)
 BliskCamSettings.__annotations__.update(
     machine=EnumProperty(name="Machine", description="Machine preset, or a TOML file",

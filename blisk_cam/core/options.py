@@ -1,13 +1,13 @@
 """User options, declared once.
 
 Every option a user can set — in the sidebar, on the command line or from Python — is one
-field of a frozen *stage* dataclass (the cutter, the tolerances, the tool axis, the local
+field of a frozen *option group* dataclass (the cutter, the tolerances, the tool axis, the local
 gouge limits, the linking; collision and NC add theirs). The field's metadata
 (:class:`Spec`: label, help, unit, bounds, choices, command-line flag) is the only place where
 the option is described. From it:
 
-* :func:`check_stage` validates the values with the same bounds for every front end (called
-  by each stage's ``__post_init__``);
+* :func:`check_group` validates the values with the same bounds for every front end (called
+  by each group's ``__post_init__``);
 * ``blisk_cam.properties`` generates the Blender properties (name = field name, in core units:
   an angle is a radian ``FloatProperty`` with subtype ANGLE, shown in degrees);
 * ``blisk_cam.panels`` draws the rows (:func:`fields`, :attr:`Spec.show_if`);
@@ -37,11 +37,11 @@ __all__ = [
     "LINK_CHOICES",
     "LinkingOptions",
     "OptionError",
-    "PATH_STAGES",
+    "PATH_OPTION_GROUPS",
     "Spec",
     "TOOL_CHOICES",
     "ToleranceOptions",
-    "check_stage",
+    "check_group",
     "describe_tool",
     "fields",
     "from_user",
@@ -87,7 +87,7 @@ class Spec:
     none_as : value — an optional option (default None) is stored as this in Blender, where a
         property cannot be empty (e.g. 0.0 = automatic)
     show_if : (field, values) or None — the panel shows the row only when that other option
-        of the stage has one of these values
+        of the group has one of these values
     precision : int — decimals shown in the panel
     size : int — numbers per value (3 for a point)
     prop : str or None — name of the Blender property when it differs from the field's
@@ -147,10 +147,10 @@ def option(default, label: str, help: str, **spec) -> Any:
     return field(default=default, metadata={"spec": Spec(label=label, help=help, **spec)})
 
 
-def fields(stage) -> list[tuple[str, Spec, Any]]:
-    """[(name, spec, default)] of the options of a stage class (or instance), in order."""
+def fields(group) -> list[tuple[str, Spec, Any]]:
+    """[(name, spec, default)] of the options of an option group class (or instance), in order."""
     out = []
-    for f in dataclasses.fields(stage):
+    for f in dataclasses.fields(group):
         spec = f.metadata.get("spec")
         if spec is not None:
             out.append((f.name, spec, f.default))
@@ -212,24 +212,24 @@ def check_value(name: str, spec: Spec, value, error=OptionError):
     return value
 
 
-def check_stage(stage) -> None:
-    """Check every option of a stage instance against its spec (the stage's ``error`` class,
+def check_group(group) -> None:
+    """Check every option of an option group against its spec (the group's ``error`` class,
     an :class:`OptionError` by default)."""
-    error = getattr(stage, "error", OptionError)
-    for name, spec, _ in fields(stage):
-        check_value(name, spec, getattr(stage, name), error)
+    error = getattr(group, "error", OptionError)
+    for name, spec, _ in fields(group):
+        check_value(name, spec, getattr(group, name), error)
 
 
-class _Stage:
+class OptionGroup:
     """Mixin: options checked on construction; ``error`` is the exception class a bad value
-    raises (the one the stage's own module raises); ``title`` heads its group of flags and
+    raises (the one the group's own module raises); ``title`` heads its group of flags and
     panel rows."""
 
     error = OptionError
     title = ""
 
     def __post_init__(self):
-        check_stage(self)
+        check_group(self)
 
 
 def _deg(x: float) -> float:
@@ -263,9 +263,9 @@ AXIS_MODE_CHOICES = (
 )
 
 
-# ----------------------------------------------------------------------------- stages
+# ----------------------------------------------------------------------- option groups
 @dataclass(frozen=True)
-class CutterOptions(_Stage):
+class CutterOptions(OptionGroup):
     """The cutter (DIN 66215 shapes, :mod:`.cutter`). Sizes by diameter, as tools are named."""
 
     title = "Cutter (sized by diameter)"
@@ -286,7 +286,7 @@ class CutterOptions(_Stage):
         show_if=("tool_type", ("taper",)))
 
     def __post_init__(self):
-        check_stage(self)
+        check_group(self)
         # a corner radius or taper angle means something for its own cutter only
         if self.tool_type != "bull":
             object.__setattr__(self, "corner_radius", 0.0)
@@ -318,7 +318,7 @@ def describe_tool(tool_type: str, diameter: float, corner_radius: float = 0.0,
 
 
 @dataclass(frozen=True)
-class ToleranceOptions(_Stage):
+class ToleranceOptions(OptionGroup):
     """Scallop (cusp) and chord tolerances, mm."""
 
     title = "Tolerances (mm)"
@@ -333,7 +333,7 @@ class ToleranceOptions(_Stage):
 
 
 @dataclass(frozen=True)
-class AxisOptions(_Stage):
+class AxisOptions(OptionGroup):
     """How the tool axis is chosen (:mod:`.orientation`): a = normalize(n + tan(lead) f +
     tan(tilt) k) with f the feed direction, n the surface normal and k = f × n; lead > 0
     leans the spindle forward toward the feed, tilt > 0 to the right of the feed."""
@@ -372,7 +372,7 @@ class AxisOptions(_Stage):
 
 
 @dataclass(frozen=True)
-class GougeOptions(_Stage):
+class GougeOptions(OptionGroup):
     """Local gouge check and fix (:mod:`.local_gouge`)."""
 
     title = "Local gouge fix"
@@ -388,7 +388,7 @@ class GougeOptions(_Stage):
 
 
 @dataclass(frozen=True)
-class LinkingOptions(_Stage):
+class LinkingOptions(OptionGroup):
     """Order of the passes and the moves between them (:mod:`.linking`)."""
 
     title = "Linking"
@@ -418,5 +418,5 @@ class LinkingOptions(_Stage):
     direct_link: float | None = None  # mm; None: 2 × the tool radius
 
 
-#: the stages of a path request, in the order the panels and ``--help`` show them
-PATH_STAGES = (CutterOptions, ToleranceOptions, AxisOptions, GougeOptions, LinkingOptions)
+#: the option groups of a path request, in the order the panels and ``--help`` show them
+PATH_OPTION_GROUPS = (CutterOptions, ToleranceOptions, AxisOptions, GougeOptions, LinkingOptions)

@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.cones import Axis, Cone, MorphingCones
 from ..core.errors import BliskCamError
+from ..core.geometry.axis import Axis
+from ..core.part.cones import Cone, MorphingCones
 
 __all__ = [
     "GizmoError",

@@ -32,9 +32,9 @@ import numpy as np
 from bpy.app.handlers import persistent
 from bpy.types import Gizmo, GizmoGroup
 
-from ..blender_io import mm_per_blender_unit, object_axis, object_to_arrays
-from ..core.cones import Axis
+from ..blender.objects import mm_per_blender_unit, object_axis, object_to_arrays
 from ..core.errors import BliskCamError
+from ..core.geometry.axis import Axis
 from . import cone_frame as cf
 from .lmc_preview import LmcPreview, Throttle
 

@@ -24,10 +24,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.cones import Axis, Cone, MorphingCones, meridional
 from ..core.errors import BliskCamError
-from ..core.mesh import TriMesh
-from ..core.slicing import MeshConeSlicer
+from ..core.geometry.axis import Axis, meridional
+from ..core.geometry.mesh import TriMesh
+from ..core.part.cones import Cone, MorphingCones
+from ..core.paths.slicing import MeshConeSlicer
 
 __all__ = ["DEFAULT_LEVELS", "LmcPreview", "MeridionalIndex", "PreviewCurve", "PreviewResult",
            "Throttle"]

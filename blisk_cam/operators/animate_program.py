@@ -9,13 +9,13 @@ import bpy
 import numpy as np
 from bpy.props import EnumProperty
 
+from ..blender.settings import group_values
 from ..core.errors import BliskCamError
 from .common import (
     poll_generated_paths,
     report_exception,
     result_blade_name,
     settings_of,
-    stage_values,
     stored_path,
 )
 
@@ -77,13 +77,13 @@ class BLISKCAM_OT_animate_program(bpy.types.Operator):
         return poll_generated_paths(cls, context)
 
     def execute(self, context):
-        from .. import output
-        from ..blender_io import arrays_to_object, mm_per_blender_unit
-        from ..core.avoidance import default_assembly
-        from ..core.machine import forward, load_machine
+        from ..blender import path_objects as output
+        from ..blender.objects import arrays_to_object, mm_per_blender_unit
+        from ..core.collision.options import default_assembly
+        from ..core.machine.description import forward, load_machine
+        from ..core.machine.motion import machine_view, part_view
         from ..core.post.blocks import NcOptions, build_blocks
-        from ..core.simulation import machine_view, part_view
-        from ..core.tool_assembly import assembly_mesh
+        from ..core.tool.assembly import assembly_mesh
         from .export_nc import nc_machine
 
         scene = context.scene
@@ -92,7 +92,7 @@ class BLISKCAM_OT_animate_program(bpy.types.Operator):
             name = result_blade_name(context)
             path = stored_path(name)
             machine = load_machine(nc_machine(settings))
-            blocks = build_blocks(path, machine, NcOptions(**stage_values(settings, NcOptions)),
+            blocks = build_blocks(path, machine, NcOptions(**group_values(settings, NcOptions)),
                                   indexable=False).expanded()
             if len(blocks) == 0:
                 raise BliskCamError("the program has no blocks to animate")

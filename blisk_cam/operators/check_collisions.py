@@ -18,15 +18,9 @@ import time
 
 import bpy
 
+from ..blender.settings import collision_options
 from ..core.errors import BliskCamError
-from .common import (
-    blade_problem,
-    collision_options,
-    obstacle_arrays,
-    report_exception,
-    resolve_blade,
-    stored_path,
-)
+from .common import blade_problem, obstacle_arrays, report_exception, resolve_blade, stored_path
 from .modal_job import ModalJobOperator
 
 #: names of scenes with a modal check running
@@ -37,8 +31,8 @@ class CollisionJob:
     """One check: inputs read up front (arrays and names only), then run step by step."""
 
     def __init__(self, context):
-        from ..blender_io import blade_and_rest
-        from ..core.avoidance import iter_run_collisions
+        from ..blender.objects import blade_and_rest
+        from ..core.collision.avoid import iter_run_collisions
 
         settings = context.scene.blisk_cam
         problem = blade_problem(context)
@@ -83,10 +77,11 @@ class CollisionJob:
         """Rewrite the output objects with the checked path; (summary line, unresolved)."""
         import json
 
-        from .. import output
-        from ..core.collision import Obstacles
-        from ..core.paths_io import path_to_dict
-        from ..core.tool_assembly import assembly_mesh
+        from ..blender import path_objects as output
+        from ..blender.collision_objects import write_collision_objects
+        from ..core.collision.obstacles import Obstacles
+        from ..core.tool.assembly import assembly_mesh
+        from ..core.toolpath.paths_io import path_to_dict
 
         blade = bpy.data.objects.get(self.blade_name)
         if blade is None:
@@ -100,7 +95,7 @@ class CollisionJob:
                                     self.options.neighbours, check_extra=False)
         neighbours = [(m.name, m.V, m.F) for m in obstacles.meshes[1:obstacles.extra_start]]
         assembly = assembly_mesh(self.options.assembly(path.tool), path.tool)
-        output.write_collision_objects(scene, blade.name, path, neighbours=neighbours,
+        write_collision_objects(scene, blade.name, path, neighbours=neighbours,
                                        assembly=assembly)
         return self.summary(report), int(report.n_unresolved)
 

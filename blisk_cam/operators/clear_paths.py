@@ -24,7 +24,7 @@ class BLISKCAM_OT_clear_paths(bpy.types.Operator):
         return True
 
     def execute(self, context):
-        from ..output import clear_path_objects, collection_name
+        from ..blender.path_objects import clear_path_objects, collection_name
 
         name = result_blade_name(context, paths_only=False)
         if name is None or not clear_path_objects(name):

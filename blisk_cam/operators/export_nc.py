@@ -6,15 +6,15 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
+from ..blender.settings import group_values
 from ..core.errors import BliskCamError
-from ..core.post import POSTS
+from ..core.post.export import POSTS
 from .common import (
     output_filename,
     poll_generated_paths,
     report_exception,
     result_blade_name,
     settings_of,
-    stage_values,
     stored_path,
 )
 
@@ -56,8 +56,8 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
         return poll_generated_paths(cls, context)
 
     def execute(self, context):
-        from ..core.nc import export_nc
         from ..core.post.blocks import NcOptions
+        from ..core.post.export import export_nc
 
         settings = settings_of(context)
         try:
@@ -71,11 +71,11 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
             filename = output_filename(self.filepath, "NC program")
             post = settings.post if self.post == "PANEL" else self.post
             machine = self.machine or nc_machine(settings)
-            options = NcOptions(**stage_values(settings, NcOptions), blade_name=name)
+            options = NcOptions(**group_values(settings, NcOptions), blade_name=name)
             report = export_nc(path, machine, post, options, filename)
             if report.interpolation is not None:  # the blocks, coloured by measured error
-                from ..core.interpolation import block_segments
-                from ..output import write_block_error_object
+                from ..blender.collision_objects import write_block_error_object
+                from ..core.machine.interpolation import block_segments
 
                 write_block_error_object(context.scene, name, *block_segments(
                     report.interpolation))

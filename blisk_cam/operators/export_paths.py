@@ -44,7 +44,7 @@ class BLISKCAM_OT_export_paths(bpy.types.Operator, ExportHelper):
         return poll_generated_paths(cls, context)
 
     def execute(self, context):
-        from ..output import stored_paths_json
+        from ..blender.path_objects import stored_paths_json
 
         try:
             name = result_blade_name(context)

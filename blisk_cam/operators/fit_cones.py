@@ -9,14 +9,8 @@ generatrix are shown at once in the blade's output collection (:func:`output.wri
 import bpy
 import numpy as np
 
-from .common import (
-    FIT_NAMES,
-    blade_axis,
-    blade_problem,
-    read_blade,
-    report_exception,
-    resolve_blade,
-)
+from ..blender.settings import FIT_NAMES
+from .common import blade_axis, blade_problem, read_blade, report_exception, resolve_blade
 
 
 class BLISKCAM_OT_fit_cones(bpy.types.Operator):
@@ -36,10 +30,10 @@ class BLISKCAM_OT_fit_cones(bpy.types.Operator):
         return True
 
     def execute(self, context):
-        from .. import output
-        from ..core.fitting import fit_cones_to_mesh
-        from ..core.mesh import TriMesh
-        from .common import set_generatrix
+        from ..blender import path_objects as output
+        from ..blender.settings import set_generatrix
+        from ..core.geometry.mesh import TriMesh
+        from ..core.part.fitting import fit_cones_to_mesh
 
         settings = context.scene.blisk_cam
         try:

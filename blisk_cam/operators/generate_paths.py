@@ -26,19 +26,17 @@ import threading
 import time
 
 import bpy
-import numpy as np
 
+from ..blender.settings import path_request, settings_cones, store_statistics, summary
 from ..core.errors import BliskCamError
-from ..core.mesh import input_vertex_values
+from ..core.geometry.mesh import input_vertex_values
 from .common import (
     blade_axis,
     blade_problem,
     cones_problem,
-    path_request,
     read_blade,
     report_exception,
     resolve_blade,
-    settings_cones,
 )
 from .modal_job import ModalJobOperator
 
@@ -100,8 +98,8 @@ class PathJob:
         """Advance the planning on this thread for about ``budget`` seconds (at least one
         step; none once ``cancel`` is set). True once the path is planned."""
         if self._it is None:
-            from ..core.mesh import TriMesh
-            from ..core.pipeline import iter_plan_paths
+            from ..core.geometry.mesh import TriMesh
+            from ..core.process.blade_finish import iter_plan_paths
 
             self.mesh = TriMesh.from_arrays(self.V, self.F)
             self._it = iter_plan_paths(self.mesh, self.request)
@@ -159,7 +157,7 @@ class PathJob:
     def run_verify(self):
         """Measure the planned path (when asked), on this thread."""
         if self.want_verify and self.verify is None:
-            from ..core.verify import verify_path
+            from ..core.verify.measure import verify_path
 
             self.verify = verify_path(self.mesh, self.plan.path)
 
@@ -173,7 +171,7 @@ class PathJob:
         calls :meth:`attach_verify`, which only writes the Blender data."""
         if not self.want_verify or self.plan is None:
             return False
-        from ..core.verify import verify_path
+        from ..core.verify.measure import verify_path
 
         mesh, path = self.mesh, self.plan.path
         cancel = self._cancel = threading.Event()  # set by cancel_verify: the worker stops
@@ -231,8 +229,8 @@ class PathJob:
         ``report`` (core.verify.VerifyReport). No bpy: the worker thread calls it."""
         import json
 
-        from ..core.paths_io import path_to_dict
-        from ..core.verdict import judge, verdict_dict
+        from ..core.toolpath.paths_io import path_to_dict
+        from ..core.verify.verdict import judge, verdict_dict
 
         path = self.plan.path
         verdict = judge(report, path.cusp, path.chord, path.tool, path=path)
@@ -257,7 +255,7 @@ class PathJob:
     def _warnings(self):
         warnings = list(self.plan.warnings)  # the generator's and the planning's
         if self.verdict is not None and not self.verdict.passed:
-            from ..core.verdict import verdict_lines
+            from ..core.verify.verdict import verdict_lines
 
             warnings.append(" ".join(x.strip() for x in verdict_lines(self.verdict)[:3]))
         return warnings
@@ -265,7 +263,7 @@ class PathJob:
     def finish(self, context) -> str:
         """Write the objects and statistics (with the verify figures, if measured); returns
         the summary for the report."""
-        from .. import output
+        from ..blender import path_objects as output
 
         scene = context.scene
         settings = scene.blisk_cam
@@ -296,7 +294,7 @@ class PathJob:
     def show_paths(self, context) -> str:
         """Write the planned path's objects now, without verify figures, and start the
         verify worker (when asked); returns the summary of the paths."""
-        from .. import output
+        from ..blender import path_objects as output
 
         text = self.finish(context)  # self.verify is None: the paths without figures
         self.written_json = output.stored_paths_json(self.blade_name)
@@ -311,7 +309,7 @@ class PathJob:
         Raises BliskCamError when the verify failed, or when the blade's output is no longer
         the one :meth:`show_paths` wrote (cleared, regenerated or rewritten by a collision
         check in the meantime): the figures would then describe another path."""
-        from .. import output
+        from ..blender import path_objects as output
 
         if _VERIFYING.get(self.scene_name) is self:
             del _VERIFYING[self.scene_name]
@@ -361,56 +359,6 @@ def cancel_pending_verify(scene_name: str) -> bool:
         return False
     job.cancel_verify()
     return True
-
-
-def store_statistics(settings, blade_name, path, verify, seconds, verdict=None):
-    """Statistics of the result on the settings (saved in the .blend, shown by the panel);
-    ``verdict`` (core.verdict.Verdict) gives ``stat_verdict`` "PASS"/"FAIL" ("" without)."""
-    settings.has_result = True
-    settings.stat_blade = blade_name
-    settings.stat_curves = len(path.curves)
-    settings.stat_passes = int(path.stats.get("passes", len(path.levels)))
-    settings.stat_poses = path.n_poses
-    settings.stat_length = path.length()
-    program = getattr(path, "program", None)
-    link = rapid = 0.0
-    if program is not None and len(program):
-        from ..output import MOVE_CUT, MOVE_RAPID, MOVE_TYPES
-
-        feed_links = [k for k in range(len(MOVE_TYPES)) if k not in (MOVE_CUT, MOVE_RAPID)]
-        link, rapid = program.length(feed_links), program.length([MOVE_RAPID])
-    settings.stat_link_length, settings.stat_rapid_length = link, rapid
-    settings.stat_warnings = len(path.stats.get("warnings", []) or []) + len(
-        getattr(path, "warnings", []) or []
-    )
-    settings.stat_seconds = seconds
-    cusps = [c for c in path.stats.get("measured_cusp", []) if np.isfinite(c)]
-    settings.stat_cusp = max(cusps) if cusps else 0.0
-    settings.stat_verified = verify is not None
-    if verify is not None:
-        left, gouge = float(verify.max_material_left), float(verify.max_gouge)
-        settings.stat_material_left = left if np.isfinite(left) else 0.0
-        settings.stat_gouge = gouge if np.isfinite(gouge) else 0.0
-    else:
-        settings.stat_material_left = settings.stat_gouge = 0.0
-    settings.stat_verdict = verdict.status if verdict is not None and verify is not None else ""
-
-
-def summary(settings) -> str:
-    """One line: counts, length, time and the measured figures."""
-    text = (
-        f"{settings.stat_passes} passes, {settings.stat_curves} curves, "
-        f"{settings.stat_poses} poses, {settings.stat_length:.1f} mm of path "
-        f"in {settings.stat_seconds:.1f} s"
-    )
-    if settings.stat_warnings:
-        text += f"; {settings.stat_warnings} warning(s)"
-    if settings.stat_verified:
-        text += (
-            f"; measured max material left {settings.stat_material_left:.4f} mm, "
-            f"max gouge {settings.stat_gouge:.4f} mm"
-        )
-    return text
 
 
 class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):

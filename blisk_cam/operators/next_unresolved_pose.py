@@ -10,7 +10,7 @@ from .common import report_exception, result_blade_name, stored_path
 
 
 def _unresolved_count(blade_name):
-    from ..output import collision_summary
+    from ..blender.collision_objects import collision_summary
 
     s = collision_summary(blade_name) if blade_name else None
     return int(s.get("unresolved") or 0) if s else 0
@@ -38,8 +38,8 @@ class BLISKCAM_OT_next_unresolved_pose(bpy.types.Operator):
     def execute(self, context):
         from mathutils import Vector
 
-        from ..blender_io import mm_per_blender_unit
-        from ..core.avoidance import next_unresolved
+        from ..blender.objects import mm_per_blender_unit
+        from ..core.collision.report import next_unresolved
         from ..core.errors import BliskCamError
 
         try:

@@ -29,7 +29,7 @@ RENDER_BEVEL_FRACTION = 0.004
 def _framed_objects(context, frame):
     """(objects the camera frames, path curves to thicken for the render): the blade (its
     paths lie on it; a curve only offers its loose bounding box), or every visible object."""
-    from ..output import find_output_collection, output_objects
+    from ..blender.path_objects import find_output_collection, output_objects
 
     if frame == "PATHS":
         blade = resolve_blade(context)
@@ -41,17 +41,17 @@ def _framed_objects(context, frame):
         shown = [ob for ob in curves if not ob.hide_render]
         if shown:
             return shown, curves
-    from ..render import _default_objects
+    from ..blender.render import default_objects
 
     scene = context.scene
     curves = [ob for ob in scene.objects if ob.type == "CURVE"]
-    return _default_objects(scene), curves
+    return default_objects(scene), curves
 
 
 def _pressure_side_view(context):
     """Direction toward a camera facing the blade's pressure (concave) side, or None (no
     blade, or sides that cannot be told apart: the fixed default view is used)."""
-    from ..core.views import pressure_side_view
+    from ..core.display import pressure_side_view
 
     blade = resolve_blade(context)
     if blade is None or blade.type != "MESH":
@@ -72,7 +72,8 @@ def _annotation(context):
 
     import numpy as np
 
-    from .. import output, render
+    from ..blender import path_objects as output
+    from ..blender import render
 
     settings = context.scene.blisk_cam
     name = result_blade_name(context)
@@ -159,7 +160,7 @@ class BLISKCAM_OT_render_preview(bpy.types.Operator):
         return True
 
     def execute(self, context):
-        from .. import render
+        from ..blender import render
 
         settings = context.scene.blisk_cam
         bevels = []

@@ -14,7 +14,7 @@ class BLISKCAM_OT_set_scene_mm(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        from ..units import is_scene_mm
+        from ..blender.units import is_scene_mm
 
         if context.scene is None:
             cls.poll_message_set("No scene")
@@ -25,7 +25,7 @@ class BLISKCAM_OT_set_scene_mm(bpy.types.Operator):
         return True
 
     def execute(self, context):
-        from ..units import set_scene_mm
+        from ..blender.units import set_scene_mm
 
         change = set_scene_mm(context.scene)
         if abs(change - 1.0) > 1e-6:

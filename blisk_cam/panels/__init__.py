@@ -5,18 +5,8 @@ their sub-panels).
 """
 
 from .collisions import BLISKCAM_PT_collisions
-from .paths import (
-    BLISKCAM_PT_display,
-    BLISKCAM_PT_machine,
-    BLISKCAM_PT_paths,
-    BLISKCAM_PT_preview,
-)
-from .setup import (
-    BLISKCAM_PT_region,
-    BLISKCAM_PT_setup,
-    BLISKCAM_PT_tolerances,
-    BLISKCAM_PT_tool,
-)
+from .paths import BLISKCAM_PT_display, BLISKCAM_PT_machine, BLISKCAM_PT_paths, BLISKCAM_PT_preview
+from .setup import BLISKCAM_PT_region, BLISKCAM_PT_setup, BLISKCAM_PT_tolerances, BLISKCAM_PT_tool
 
 CLASSES = [
     BLISKCAM_PT_setup,

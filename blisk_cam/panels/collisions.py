@@ -4,7 +4,7 @@ clearance of the last check (the stored summary), Next Unresolved Pose."""
 
 from bpy.types import Panel
 
-from ..core.avoidance import CollisionOptions
+from ..core.collision.options import CollisionOptions
 from .setup import _BliskCamPanel, _split, draw_stage
 
 
@@ -17,8 +17,8 @@ class BLISKCAM_PT_collisions(_BliskCamPanel, Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
+        from ..blender.collision_objects import collision_summary
         from ..operators.common import result_blade_name
-        from ..output import collision_summary
 
         settings = context.scene.blisk_cam
         layout = _split(self.layout)

@@ -66,7 +66,7 @@ class BLISKCAM_PT_setup(_BliskCamPanel, Panel):
     def draw(self, context):
         settings = context.scene.blisk_cam
         layout = _split(self.layout)
-        from ..units import scene_units_problem
+        from ..blender.units import scene_units_problem
 
         problem = scene_units_problem(context.scene)
         if problem:  # e.g. an STL in a metre scene shows Rotor 37 as 82 m wide

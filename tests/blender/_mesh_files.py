@@ -142,7 +142,7 @@ def radial_demo_paths(demo, tmp_path, *, chord=0.1, cone2=None, generate=True):
     generated. Returns (blade object, scene settings)."""
     import bpy
 
-    from blisk_cam import blender_io
+    from blisk_cam.blender import objects as blender_io
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)

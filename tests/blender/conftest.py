@@ -52,7 +52,7 @@ def addon():
 @pytest.fixture(scope="module")
 def demo():
     """The demo blade at resolution 0.3 (9k triangles) and its true cones (arrays only)."""
-    from blisk_cam.core.demo import make_demo_blisk
+    from blisk_cam.core.part.blisk import make_demo_blisk
 
     return make_demo_blisk(resolution=0.3)
 

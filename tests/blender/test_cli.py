@@ -19,7 +19,8 @@ from _mesh_files import (
     write_obj,
 )
 
-from blisk_cam import cli, render
+from blisk_cam.blender import render
+from blisk_cam.cli import main as cli
 from blisk_cam.core.errors import BliskCamError
 
 TIMEOUT = 240  # s per CLI process; a hang (e.g. bpy 4.5 at exit) fails instead of blocking
@@ -229,7 +230,7 @@ def test_paths_reads_the_mesh_into_the_core_request(tmp_path, monkeypatch):
         seen.update(V=trimesh.V, F=trimesh.F, req=req)
         raise BliskCamError("stubbed: no path")
 
-    import blisk_cam.core.pipeline as pipeline
+    import blisk_cam.core.process.blade_finish as pipeline
 
     monkeypatch.setattr(pipeline, "plan_paths", fake_plan_paths)
     status = cli.main(

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from _mesh_files import radial_demo_paths
 
-from blisk_cam import blender_io, output
+from blisk_cam.blender import objects as blender_io
+from blisk_cam.blender import path_objects as output
 
 HOLDER = "36 6 60 6 60 16 120 16"
 
@@ -77,7 +78,7 @@ def test_check_collisions_colours_writes_and_survives_reload(addon, demo, tmp_pa
     blade, s = _setup(demo, tmp_path)
     before = _stored(blade)
     assert "collision" not in before and _pose_attribute(blade) is None
-    from blisk_cam.core.avoidance import CollisionOptions
+    from blisk_cam.core.collision.options import CollisionOptions
     from blisk_cam.core.options import fields
 
     drawn = _drawn_panel()  # every declared option, the holder, obstacles and the button
@@ -282,6 +283,6 @@ def test_modal_check_steps_esc_keeps_and_finishes_like_exec(addon, demo, tmp_pat
 
 
 def _from_json(text):
-    from blisk_cam.core.paths_io import path_from_dict
+    from blisk_cam.core.toolpath.paths_io import path_from_dict
 
     return path_from_dict(json.loads(text))

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from _mesh_files import radial_demo_paths
 
-from blisk_cam.core.machine import forward, load_machine
+from blisk_cam.core.machine.description import forward, load_machine
 
 
 def _parse_linuxcnc_joints(text):
@@ -68,7 +68,7 @@ def test_animate_program_puts_the_tool_on_the_program(addon, demo, tmp_path, vie
     """Blender as the simulator: at every sampled frame the animated tool, seen from the
     (moving) part, has its tip on the block's programmed tip and its axis along the block's
     axis (float32 matrices: 1e-3 mm, 1e-5)."""
-    from blisk_cam.core.machine import load_machine
+    from blisk_cam.core.machine.description import load_machine
     from blisk_cam.core.post.blocks import NcOptions, build_blocks
     from blisk_cam.operators.common import stored_path
 

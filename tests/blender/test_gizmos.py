@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import blisk_cam
-from blisk_cam import blender_io
-from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
+from blisk_cam.blender import objects as blender_io
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.part.cones import Cone, MorphingCones
 from blisk_cam.gizmos import cone_frame as cf
 
 GIZMO_CLASSES = ("BLISKCAM_GT_cone_handle", "BLISKCAM_GT_cone_lines", "BLISKCAM_GGT_cones")
@@ -418,7 +419,7 @@ def test_line_batches_draw_the_cone_offscreen(tmp_path):
 
     import gpu
 
-    from blisk_cam import render
+    from blisk_cam.blender import render
 
     if not hasattr(gpu, "init"):
         pytest.skip("gpu.init() (GPU drawing in background mode) needs Blender 5.x")

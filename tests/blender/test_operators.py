@@ -17,9 +17,14 @@ import numpy as np
 import pytest
 from _mesh_files import REPO, write_binary_stl
 
-from blisk_cam import blender_io, cli, output, render
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.verify import Cancelled, closest_points
+from blisk_cam.blender import demo_scene, render
+from blisk_cam.blender import objects as blender_io
+from blisk_cam.blender import path_objects as output
+from blisk_cam.cli import main as cli
+from blisk_cam.cli import paths as cli_paths
+from blisk_cam.core.geometry.distance import closest_points
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.runtime import Cancelled
 from blisk_cam.operators import generate_paths as gen_mod
 from blisk_cam.operators.common import blade_problem, cones_problem
 from blisk_cam.operators.modal_job import ModalRunner
@@ -151,7 +156,7 @@ def generated(addon, demo, tmp_path_factory):
     contents measured, the result saved as a .blend. Built once for the module."""
     tmp = tmp_path_factory.mktemp("ops")
     _new_scene()
-    cli.build_demo_scene(bpy.context.scene, blades=1, demo=demo)
+    demo_scene.build_demo_scene(bpy.context.scene, blades=1, demo=demo)
     demo_blend = tmp / "demo.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(demo_blend))
 
@@ -493,11 +498,11 @@ def test_lead_tilt_degrees_become_radians_in_properties(addon):
          "--corner-radius", "2", "--cusp", "0.05", "--chord", "0.02", "--lead", "3",
          "--tilt", "-1.5", "--link", "zigzag", "--out", "p.json"]
     )
-    cli._check_paths_args(args)
+    cli_paths._check_paths_args(args)
     scene = _new_scene()
-    from blisk_cam.core.cones import Axis
-    from blisk_cam.core.pipeline import PathRequest
-    from blisk_cam.operators.common import set_settings_from_request
+    from blisk_cam.blender.settings import set_settings_from_request
+    from blisk_cam.core.geometry.axis import Axis
+    from blisk_cam.core.process.blade_finish import PathRequest
 
     # what --blend saves: the CLI's request in the scene settings
     set_settings_from_request(scene.blisk_cam, PathRequest(Axis(), **args.stages))
@@ -505,7 +510,7 @@ def test_lead_tilt_degrees_become_radians_in_properties(addon):
     assert s.lead == pytest.approx(math.radians(3.0))
     assert s.tilt == pytest.approx(-math.radians(1.5))
     assert (s.tool_type, s.link_mode) == ("BULL", "ZIGZAG")
-    from blisk_cam.operators.common import path_request
+    from blisk_cam.blender.settings import path_request
 
     req = path_request(s, None, None, None)
     assert req.tool_type == "bull" and req.link == "zigzag"

@@ -17,14 +17,18 @@ import numpy as np
 import pytest
 from _mesh_files import BLADES, REPO, read_binary_stl, sample_surface, write_binary_stl
 
-from blisk_cam import blender_io, cli, output
-from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
+from blisk_cam.blender import objects as blender_io
+from blisk_cam.blender import path_objects as output
+from blisk_cam.blender.settings import path_request, settings_cones
+from blisk_cam.cli import main as cli
+from blisk_cam.cli import paths as cli_paths
 from blisk_cam.core.errors import BliskCamError
-from blisk_cam.core.fitting import fit_cones_to_mesh
-from blisk_cam.core.lmrs import MorphingProfiles, Profile
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pipeline import make_cutter
-from blisk_cam.operators.common import path_request, settings_cones
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.cones import Cone, MorphingCones
+from blisk_cam.core.part.fitting import fit_cones_to_mesh
+from blisk_cam.core.part.profiles import MorphingProfiles, Profile
+from blisk_cam.core.process.blade_finish import make_cutter
 
 ROTOR67 = BLADES / "rotor67_blade_extended_open.stl"
 TIMEOUT = 240
@@ -140,21 +144,21 @@ def _request_from_cli(argv):
     """The CLI's request (float64, straight from the flags) and the same request after a
     round trip through the scene settings (what a .blend saved by the CLI regenerates): both
     must agree, option by option."""
-    from blisk_cam.core.options import PATH_STAGES, fields
-    from blisk_cam.core.pipeline import PathRequest
-    from blisk_cam.operators.common import set_settings_from_request
+    from blisk_cam.blender.settings import set_settings_from_request
+    from blisk_cam.core.options import PATH_OPTION_GROUPS, fields
+    from blisk_cam.core.process.blade_finish import PathRequest
 
     args = cli.build_parser().parse_args(
         ["paths", "--mesh", "x.stl", "--cusp", "0.05", "--chord", "0.02", "--out", "p.json",
          "--axis", "1", "2", "3", "0", "0", "1", *argv])
-    cli._check_paths_args(args)
+    cli_paths._check_paths_args(args)
     req_cli = PathRequest(args.axis_obj, None, None, **args.stages)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     s = bpy.context.scene.blisk_cam
     set_settings_from_request(s, req_cli, fit=args.fit)
     axis = Axis((1.0, 2.0, 3.0), (0.0, 0.0, 1.0))
     req = path_request(s, axis, None, None)
-    for stage in PATH_STAGES:
+    for stage in PATH_OPTION_GROUPS:
         for name, _, _ in fields(stage):
             a, b = getattr(req, name), getattr(req_cli, name)
             if isinstance(a, float) and isinstance(b, float):
@@ -243,12 +247,12 @@ def test_cli_bad_option_values_one_line(tmp_path, args, words, status):
 def test_read_profile_csv_comments_and_separators(tmp_path):
     f = tmp_path / "hub.csv"
     f.write_text("# hub line of my blisk\n\n150.0, -20  # first\n152;0\n155.5\t20\n")
-    prof = cli.read_profile_csv(f)
+    prof = cli_paths.read_profile_csv(f)
     assert isinstance(prof, Profile)
     assert prof.as_list() == [[150.0, -20.0], [152.0, 0.0], [155.5, 20.0]]
     f.write_text("150, 0\n")
     with pytest.raises(BliskCamError, match="at least two"):
-        cli.read_profile_csv(f)
+        cli_paths.read_profile_csv(f)
 
 
 # --- the options reach the paths JSON ---------------------------------------------------------
@@ -402,7 +406,7 @@ def test_cli_fit_auto_on_rotor67_writes_profiles(rotor67_arrays, tmp_path):
 def test_properties_and_panel_rows_are_generated_from_the_declarations(addon):
     """One declaration per option (core.options) → the property (name, label, default,
     bounds, angle subtype) and its panel row."""
-    from blisk_cam.core.options import PATH_STAGES, fields
+    from blisk_cam.core.options import PATH_OPTION_GROUPS, fields
     from blisk_cam.panels import CLASSES
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -410,7 +414,7 @@ def test_properties_and_panel_rows_are_generated_from_the_declarations(addon):
     drawn = set()
     for cls in CLASSES:
         drawn.update(_drawn(cls, bpy.context))
-    for stage in PATH_STAGES:
+    for stage in PATH_OPTION_GROUPS:
         for name, spec, default in fields(stage):
             if not spec.blender:
                 continue

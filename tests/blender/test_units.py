@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from _mesh_files import sample_surface, write_binary_stl
 
-from blisk_cam import blender_io, units
+from blisk_cam.blender import objects as blender_io
+from blisk_cam.blender import units
 
 
 def _setup(system, scale, unit):

@@ -4,7 +4,8 @@ import json
 
 import bpy
 
-from blisk_cam import blender_io, output
+from blisk_cam.blender import objects as blender_io
+from blisk_cam.blender import path_objects as output
 
 
 def test_verified_paths_json_has_the_verdict(addon, demo, tmp_path):

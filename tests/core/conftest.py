@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blisk_cam.core.cones import Axis, Cone, MorphingCones
-from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
+from blisk_cam.core.part.cones import Cone, MorphingCones
 
 #: NASA Rotor 37 and 67 (public test-case data, see tests/data/blades/README.md)
 BLADES = Path(__file__).resolve().parents[1] / "data" / "blades"

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blisk_cam.core.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
+from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -32,10 +32,10 @@ def blade_file(name: str) -> Path | None:
 def demo_path():
     """Demo blade above the hub fillet (the fillet turns the axis beyond A 110°), axis near
     radial (radial tilt 75°), coarse cusp/chord: ~600 poses."""
-    from blisk_cam.core.cones import Cone
-    from blisk_cam.core.demo import make_demo_blisk
-    from blisk_cam.core.mesh import TriMesh
-    from blisk_cam.core.pipeline import PathRequest, plan_paths
+    from blisk_cam.core.geometry.mesh import TriMesh
+    from blisk_cam.core.part.blisk import make_demo_blisk
+    from blisk_cam.core.part.cones import Cone
+    from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 
     d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
@@ -47,9 +47,10 @@ def demo_path():
 
 def rotor37_path():
     """Rotor 37 with its fitted cones, 3 mm ball, coarse; None when the data is missing."""
-    from blisk_cam.core.cones import Axis, Cone
-    from blisk_cam.core.mesh import TriMesh
-    from blisk_cam.core.pipeline import PathRequest, plan_paths
+    from blisk_cam.core.geometry.axis import Axis
+    from blisk_cam.core.geometry.mesh import TriMesh
+    from blisk_cam.core.part.cones import Cone
+    from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 
     stl = blade_file("rotor37_blade_extended_open.stl")
     meta = blade_file("rotor37_blade.json")

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from conftest import write_binary_stl
 
-from blisk_cam import cli
-from blisk_cam.core.demo import make_demo_blisk
+from blisk_cam.cli import main as cli
+from blisk_cam.core.part.blisk import make_demo_blisk
 
 
 @pytest.fixture(scope="module")

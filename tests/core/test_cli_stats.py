@@ -7,8 +7,9 @@ import json
 import pytest
 from conftest import write_binary_stl
 
-from blisk_cam import cli
-from blisk_cam.core.demo import make_demo_blisk
+from blisk_cam.cli import main as cli
+from blisk_cam.cli import paths as cli_paths
+from blisk_cam.core.part.blisk import make_demo_blisk
 
 
 @pytest.fixture(scope="module")
@@ -20,7 +21,7 @@ def blade(tmp_path_factory):
 
 
 def test_process_age_counts_the_interpreter():
-    age = cli.process_age()
+    age = cli_paths.process_age()
     assert age is not None and age > 0.0  # this pytest process has run for a while
 
 

@@ -15,32 +15,33 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from blisk_cam.core.avoidance import (
+from blisk_cam.core.collision.avoid import iter_run_collisions, run_collisions
+from blisk_cam.core.collision.obstacles import Obstacles, rotate_about_axis
+from blisk_cam.core.collision.options import CollisionOptions
+from blisk_cam.core.collision.posed_tool import PART_BODY
+from blisk_cam.core.collision.scene import CollisionScene, detect_collisions
+from blisk_cam.core.errors import BliskCamError, CollisionError
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.part.cones import Cone
+from blisk_cam.core.paths.orientation import lead_tilt_of, local_frames
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from blisk_cam.core.tool.assembly import AssemblyError, ToolAssembly
+from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.toolpath.paths_io import (
+    path_from_dict,
+    path_to_dict,
+    read_paths_json,
+    write_paths_json,
+)
+from blisk_cam.core.toolpath.types import (
+    MOVE_CUT,
     STATUS_CLEAR,
     STATUS_CORRECTED,
     STATUS_UNRESOLVED,
-    CollisionOptions,
-    iter_run_collisions,
-    run_collisions,
 )
-from blisk_cam.core.collision import (
-    PART_BODY,
-    CollisionScene,
-    Obstacles,
-    detect_collisions,
-    rotate_about_axis,
-)
-from blisk_cam.core.cones import Axis, Cone
-from blisk_cam.core.cutter import Cutter
-from blisk_cam.core.demo import make_demo_blisk
-from blisk_cam.core.errors import BliskCamError, CollisionError
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.orientation import lead_tilt_of, local_frames
-from blisk_cam.core.paths_io import path_from_dict, path_to_dict, read_paths_json, write_paths_json
-from blisk_cam.core.pipeline import PathRequest, plan_paths
-from blisk_cam.core.tool_assembly import AssemblyError, ToolAssembly
-from blisk_cam.core.toolpath import MOVE_CUT
-from blisk_cam.core.verify import verify_path
+from blisk_cam.core.verify.measure import verify_path
 
 FAR_BLADE = (np.array([[1000.0, 0, 0], [1001, 0, 0], [1000, 1, 0]]), np.array([[0, 1, 2]]))
 
@@ -489,7 +490,7 @@ def _brute_force(ob, scene, tips, axes):
     Only triangles whose centroid lies within the tool's reach of its axis segment are
     refined (a conservative cut: the others are farther than the cap). Returns
     (clearance (m,), obstacle (m,))."""
-    from blisk_cam.core.collision import _refine
+    from blisk_cam.core.collision.tri_tree import _refine
 
     top = scene.assembly.top
     best = np.full(len(tips), np.inf)
@@ -564,7 +565,7 @@ def test_turned_pose_queries_equal_brute_force_over_rotated_copies():
     assert np.array_equal(det.clearance < 0, ref < 0)
     # the contact point lies on the actual rotated copy, at the reported distance, and the
     # normal is that triangle's (turned toward the tool axis)
-    from blisk_cam.core.geometry import closest_on_triangles
+    from blisk_cam.core.geometry.closest import closest_on_triangles
 
     for j in np.nonzero(exact)[0]:
         m = ob.meshes[who[j]]

@@ -6,23 +6,23 @@ import math
 import numpy as np
 import pytest
 
-from blisk_cam.core.avoidance import (
-    STATUS_UNRESOLVED,
-    CollisionOptions,
+from blisk_cam.core.collision.avoid import run_collisions
+from blisk_cam.core.collision.obstacles import split_faces
+from blisk_cam.core.collision.options import CollisionOptions
+from blisk_cam.core.collision.report import (
     collision_rows,
     next_unresolved,
     pose_collision_status,
-    run_collisions,
     unresolved_rows,
     worst_pose,
 )
-from blisk_cam.core.collision import split_faces
-from blisk_cam.core.cones import Cone
-from blisk_cam.core.cutter import Cutter
-from blisk_cam.core.demo import make_demo_blisk
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pipeline import PathRequest, plan_paths
-from blisk_cam.core.tool_assembly import ToolAssembly, assembly_mesh
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.part.cones import Cone
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from blisk_cam.core.tool.assembly import ToolAssembly, assembly_mesh
+from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.toolpath.types import STATUS_UNRESOLVED
 
 HOLDER = ((36.0, 6.0), (60.0, 6.0), (60.0, 16.0), (120.0, 16.0))
 

@@ -3,8 +3,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blisk_cam.core.cones import Axis, Cone, MorphingCones, fit_cone, meridional
 from blisk_cam.core.errors import ConeError
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.part.cones import Cone, MorphingCones, fit_cone
 
 PAIRS = {
     "cones": (Cone(150, -20, 165, 40), Cone(215, -20, 225, 40)),

@@ -13,9 +13,9 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize_scalar
 
-from blisk_cam.core.cutter import Cutter, as_cutter
 from blisk_cam.core.errors import BliskCamError, ToolError
-from blisk_cam.core.toolpath import BallTool, PassCurve
+from blisk_cam.core.tool.cutter import Cutter, as_cutter
+from blisk_cam.core.toolpath.types import BallTool, PassCurve
 
 CUTTERS = {
     "ball": Cutter.ball(6.0),

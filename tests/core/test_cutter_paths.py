@@ -15,25 +15,26 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from blisk_cam.core.cones import Axis, MorphingCones
-from blisk_cam.core.demo import make_demo_blisk
-from blisk_cam.core.errors import BliskCamError, ToleranceError, ToolError
-from blisk_cam.core.linking import LinkError
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.orientation import (
+from blisk_cam.core.errors import (
+    BliskCamError,
+    LinkError,
     OrientationError,
-    consecutive_turn,
-    lead_tilt_of,
-    local_frames,
+    ToleranceError,
+    ToolError,
 )
-from blisk_cam.core.pipeline import PathRequest, plan_paths
-from blisk_cam.core.toolpath import (
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.part.cones import MorphingCones
+from blisk_cam.core.paths.orientation import consecutive_turn, lead_tilt_of, local_frames
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from blisk_cam.core.toolpath.types import (
     FLAG_AXIS_SMOOTHED,
     FLAG_GOUGE_FIXED,
     FLAG_LOCAL_GOUGE,
     MOVE_CUT,
 )
-from blisk_cam.core.verify import verify_path
+from blisk_cam.core.verify.measure import verify_path
 
 D = math.radians
 H, E = 0.05, 0.05
@@ -185,9 +186,9 @@ def test_non_ball_material_left_on_rotor37(r37):
 
 
 def test_local_gouge_flagged_fixed_and_left():
-    from blisk_cam.core.cutter import Cutter
-    from blisk_cam.core.local_gouge import GougeLimits, fix_local_gouges, gouge_margin
-    from blisk_cam.core.orientation import lead_tilt_axes
+    from blisk_cam.core.paths.gouge import GougeLimits, fix_local_gouges, gouge_margin
+    from blisk_cam.core.paths.orientation import lead_tilt_axes
+    from blisk_cam.core.tool.cutter import Cutter
 
     m = 4
     f = np.tile([1.0, 0, 0], (m, 1))
@@ -287,9 +288,9 @@ def _disc_cusp(R, lead, tilt, cusp, edge):
 @pytest.mark.parametrize("lead, tilt", [(10, 0), (10, -5), (15, 10)])
 @pytest.mark.parametrize("edge", [math.inf, 0.3])
 def test_equivalent_ball_gives_the_flat_mills_step(lead, tilt, edge):
-    from blisk_cam.core.cutter import Cutter
-    from blisk_cam.core.orientation import lead_tilt_axes
-    from blisk_cam.core.pipeline import _cusp_equivalent_radius
+    from blisk_cam.core.paths.orientation import lead_tilt_axes
+    from blisk_cam.core.paths.spacing import _cusp_equivalent_radius
+    from blisk_cam.core.tool.cutter import Cutter
 
     f, n = np.array([[1.0, 0, 0]]), np.array([[0.0, 0, 1]])
     a = lead_tilt_axes(f, n, np.cross(f, n), D(lead), D(tilt))[0]
@@ -352,9 +353,9 @@ def test_bull_nose_in_the_fillet_raises_its_lead_and_flags_what_is_left(fillet_d
 
 
 def test_near_field_gouge_fixed_by_tilt_or_flagged():
-    from blisk_cam.core.cutter import Cutter
-    from blisk_cam.core.local_gouge import GougeLimits, fix_near_gouges
-    from blisk_cam.core.orientation import lead_tilt_axes
+    from blisk_cam.core.paths.gouge import GougeLimits, fix_near_gouges
+    from blisk_cam.core.paths.orientation import lead_tilt_axes
+    from blisk_cam.core.tool.cutter import Cutter
 
     # a floor z = 0 rising at 12° beyond x = 2 mm (a shallow concave corner), and a vertical
     # wall at x = 3 mm (a corner nothing 6 mm wide fits into); feed along +y, CC at the origin

@@ -13,17 +13,16 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
-from blisk_cam.core.cones import meridional
-from blisk_cam.core.demo import (
-    DemoBlisk,
+from blisk_cam.core.errors import BliskCamError
+from blisk_cam.core.geometry.axis import meridional
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import DemoBlisk, make_demo_blisk
+from blisk_cam.core.part.blisk_params import (
     DemoParameterError,
     DemoParams,
     blade_grid_shape,
     blade_triangle_count,
-    make_demo_blisk,
 )
-from blisk_cam.core.errors import BliskCamError
-from blisk_cam.core.mesh import TriMesh
 
 CONE_TOL = 1e-9  # mm
 

@@ -16,14 +16,15 @@ import numpy as np
 import pytest
 from conftest import nasa_blade
 
-from blisk_cam.core.cones import Axis, meridional
-from blisk_cam.core.fitting import fit_cones_to_mesh
-from blisk_cam.core.lmrs import morph_between
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pathgen import END_INSET_CUSP_SHARE
-from blisk_cam.core.pipeline import PathRequest, plan_paths
-from blisk_cam.core.toolpath import MOVE_APPROACH, MOVE_RAPID
-from blisk_cam.core.verify import closest_points, verify_path
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.geometry.distance import closest_points
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.fitting import fit_cones_to_mesh
+from blisk_cam.core.part.profiles import morph_between
+from blisk_cam.core.paths.passes import END_INSET_CUSP_SHARE
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from blisk_cam.core.toolpath.types import MOVE_APPROACH, MOVE_RAPID
+from blisk_cam.core.verify.measure import verify_path
 
 AX = Axis()
 RHO, H, E = 6.0, 0.05, 0.05
@@ -50,7 +51,7 @@ def planned(request):
 def test_fitted_end_passes_are_one_closed_pass_each(planned):
     name, mesh, fit, path, given = planned
     # the fitted ends really are ragged: their level s = 0 / 1 breaks into open pieces
-    from blisk_cam.core.slicing import MeshConeSlicer
+    from blisk_cam.core.paths.slicing import MeshConeSlicer
 
     slicer = MeshConeSlicer(mesh, AX, morph_between(fit.cone1, fit.cone2))
     for end in (0.0, 1.0):

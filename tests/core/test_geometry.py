@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from blisk_cam.core.demo import make_demo_blisk
-from blisk_cam.core.geometry import MeshDistance, NearestFaces, parallel
-from blisk_cam.core.mesh import TriMesh
+from blisk_cam.core.geometry.distance import MeshDistance, NearestFaces
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.runtime import parallel
 
 
 def _mesh_and_points():
@@ -26,7 +27,7 @@ def _mesh_and_points():
 def test_nearest_faces_agree_with_mesh_distance():
     """Same exact distances as the checker's tree on points on shared edges and vertices
     (ties) and off the surface; the same face wherever only one face is that close."""
-    from blisk_cam.core.geometry import closest_on_triangles
+    from blisk_cam.core.geometry.closest import closest_on_triangles
 
     mesh, P = _mesh_and_points()
     cp = MeshDistance(mesh).query(P)
@@ -47,7 +48,7 @@ def test_nearest_faces_follow_the_tie_rule_by_brute_force():
     """The rule stated directly: every face's exact distance, the smallest wins; of faces at
     exactly that distance, the lowest face id — on points on shared edges and vertices
     (ties), on edge points with t ≠ ½, and off the surface."""
-    from blisk_cam.core.geometry import closest_on_triangles
+    from blisk_cam.core.geometry.closest import closest_on_triangles
 
     d = make_demo_blisk(resolution=0.12)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
@@ -89,7 +90,7 @@ def test_fast_filter_leaves_the_exact_search_unchanged():
     """The face-frame distances only drop candidates that cannot reach the minimum: faces,
     points and distances equal the search without the filter, bit for bit (points on edges
     and vertices — ties — and points 6 mm off the surface, where many faces are near-equal)."""
-    from blisk_cam.core.geometry import _nearest
+    from blisk_cam.core.geometry.bvh import nearest
 
     mesh, P = _mesh_and_points()
     rng = np.random.default_rng(3)
@@ -97,8 +98,8 @@ def test_fast_filter_leaves_the_exact_search_unchanged():
     far = far + 6.0 * mesh.vertex_normals[rng.integers(0, mesh.n_vertices, 3000)]
     P = np.vstack([P, far])
     md = MeshDistance(mesh)
-    d_fast, f_fast = _nearest(md.tree, P, md._d2, md._lb_keep, fastfn=md._fast_d2)
-    d_ref, f_ref = _nearest(md.tree, P, md._d2, md._lb_keep)
+    d_fast, f_fast = nearest(md.tree, P, md._d2, md._lb_keep, fastfn=md._fast_d2)
+    d_ref, f_ref = nearest(md.tree, P, md._d2, md._lb_keep)
     assert np.array_equal(f_fast, f_ref)
     assert np.array_equal(d_fast, d_ref)
 
@@ -108,8 +109,8 @@ def test_bottom_and_side_bounds_hold_every_cutter():
     within max_radius of the axis (the side), every point below f within R_b of the disc of
     radius e at height f (the bottom) — for bull noses (with and without a conical bottom),
     a flat end mill and a tapered ball."""
-    from blisk_cam.core.cutter import Cutter
-    from blisk_cam.core.sweep import _bottom_reach
+    from blisk_cam.core.tool.cutter import Cutter
+    from blisk_cam.core.verify.sweep import _bottom_reach
 
     cutters = (Cutter.bull(6.0, 2.0), Cutter("bull", 12.0, 2.0, alpha=np.radians(20.0)),
                Cutter.flat(6.0), Cutter.taper(3.0, np.radians(10.0)), Cutter.bull(5.0, 4.9))
@@ -131,7 +132,7 @@ def test_nearest_faces_on_thin_faces_of_many_sizes_by_brute_force():
     circumradius size class, and the smallest-faces class holding everything below), points
     on edges, vertices and off the surface: the smallest exact distance, of ties the lowest
     face id, and the closest point of that face."""
-    from blisk_cam.core.geometry import closest_on_triangles
+    from blisk_cam.core.geometry.closest import closest_on_triangles
 
     rng = np.random.default_rng(5)
     x = np.cumsum(np.geomspace(0.002, 0.5, 60))  # column widths: 250 : 1

@@ -19,8 +19,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
 from blisk_cam.core.errors import BliskCamError, MeshError
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.part.cones import Cone, MorphingCones
 from blisk_cam.gizmos import cone_frame as cf
 from blisk_cam.gizmos.lmc_preview import DEFAULT_LEVELS, LmcPreview, Throttle
 
@@ -452,7 +453,7 @@ def test_indexed_preview_equals_slicing_the_whole_mesh(make_tube):
 def test_meridional_index_keeps_every_face_a_level_crosses(make_tube):
     """faces_near ⊇ the faces with vertices on both sides of a level's LMC (brute force over
     every face), and it leaves most faces out."""
-    from blisk_cam.core.mesh import TriMesh
+    from blisk_cam.core.geometry.mesh import TriMesh
     from blisk_cam.gizmos.lmc_preview import MeridionalIndex
 
     V, F, mc = make_tube(n_u=96, n_v=40)

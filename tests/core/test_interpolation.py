@@ -15,18 +15,19 @@ import numpy as np
 import pytest
 from nc_helpers import blade_file, read_binary_stl
 
-from blisk_cam.core import interpolation as I
 from blisk_cam.core.errors import BliskCamError
-from blisk_cam.core.machine import forward, load_machine
-from blisk_cam.core.machining_error import (
+from blisk_cam.core.geometry.distance import MeshDistance
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.machine import block_search as B
+from blisk_cam.core.machine import interpolation as I
+from blisk_cam.core.machine.block_error import (
     contact_lever,
     error_gradients,
     machine_jacobian,
     pose_error,
 )
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pipeline import PathRequest, plan_paths
-from blisk_cam.core.verify import MeshDistance
+from blisk_cam.core.machine.description import forward, load_machine
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 
 TOL = 0.01  # [dM], mm
 
@@ -38,8 +39,8 @@ def machine():
 
 @pytest.fixture(scope="module")
 def demo():
-    from blisk_cam.core.cones import Cone
-    from blisk_cam.core.demo import make_demo_blisk
+    from blisk_cam.core.part.blisk import make_demo_blisk
+    from blisk_cam.core.part.cones import Cone
 
     d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
@@ -55,7 +56,8 @@ def rotor37():
     meta = blade_file("rotor37_blade.json")
     if stl is None or meta is None:
         pytest.skip("Rotor 37 data not found")
-    from blisk_cam.core.cones import Axis, Cone
+    from blisk_cam.core.geometry.axis import Axis
+    from blisk_cam.core.part.cones import Cone
 
     V, F = read_binary_stl(stl)
     cones = json.loads(meta.read_text())["cones"]
@@ -137,10 +139,10 @@ def test_gradients_match_exact_model(demo, machine):
 def _accept(mesh, dps, machine, cutter, name):
     md = MeshDistance(mesh)
     t0 = time.perf_counter()
-    ends = I.search_constant_error(dps, TOL)
+    ends = B.search_constant_error(dps, TOL)
     speed = sum(len(d) for d in dps) / (time.perf_counter() - t0)
-    bounds = [I.block_bounds_rows(dp, e[:-1], e[1:]) for dp, e in zip(dps, ends, strict=True)]
-    meas = [I.measure_blocks(machine, cutter, dp, e, mesh=md, samples=8,
+    bounds = [B.block_bounds_rows(dp, e[:-1], e[1:]) for dp, e in zip(dps, ends, strict=True)]
+    meas = [B.measure_blocks(machine, cutter, dp, e, mesh=md, samples=8,
                                  per_dense=0.5)[0]
             for dp, e in zip(dps, ends, strict=True)]
     m_ce = np.concatenate(meas)
@@ -157,7 +159,7 @@ def _accept(mesh, dps, machine, cutter, name):
     frac = np.mean((m_ce >= 0.7 * TOL) & (m_ce <= TOL + 1e-3))
     assert frac >= 0.9, f"{name}: only {frac:.1%} of blocks in band"
     # chord height at equal measured maximum
-    h, _, M = I.match_chord_height(dps, machine, cutter, float(m_ce.max()), mesh=md,
+    h, _, M = B.match_chord_height(dps, machine, cutter, float(m_ce.max()), mesh=md,
                                    samples=16)
     m_ch = np.concatenate(M)
     n_ch = len(m_ch)
@@ -216,23 +218,23 @@ def test_bad_input(demo, machine):
         I.interpolate_program(path, machine, "constant-error", max_error=TOL, bound="x")
     dp = dense_passes(path, machine)[0]
     with pytest.raises(BliskCamError, match="max_error"):
-        I.search_constant_error(dp, -0.1)
+        B.search_constant_error(dp, -0.1)
     with pytest.raises(BliskCamError, match="two poses"):
         I.prepare_pass(machine, path.tool, np.zeros((1, 3)), [[0, 0, 1]], [[0, 0, 1]])
 
 
 def test_nc_export_and_cli(demo, tmp_path, capsys):
-    from blisk_cam import nc_cli
-    from blisk_cam.core.paths_io import write_paths_json
+    from blisk_cam.cli.main import main as cli_main
+    from blisk_cam.core.toolpath.paths_io import write_paths_json
 
     _, path = demo
     pj = tmp_path / "p.json"
     write_paths_json(path, pj)
     base = ["--paths", str(pj), "--machine", "ac-trunnion", "--post", "linuxcnc"]
-    assert nc_cli.main(base + ["--out", str(tmp_path / "a.ngc")]) == 0
+    assert cli_main(["nc", *base, "--out", str(tmp_path / "a.ngc")]) == 0
     plain = capsys.readouterr().out
     assert "interpolation" not in plain
-    rc = nc_cli.main(base + ["--out", str(tmp_path / "b.ngc"), "--interpolation",
+    rc = cli_main(["nc", *base, "--out", str(tmp_path / "b.ngc"), "--interpolation",
                              "constant-error", "--max-error", "0.01", "--report",
                              str(tmp_path / "r.json")])
     assert rc == 0
@@ -245,17 +247,17 @@ def test_nc_export_and_cli(demo, tmp_path, capsys):
     n_a = sum(1 for ln in (tmp_path / "a.ngc").read_text().splitlines() if ln.startswith("G1"))
     n_b = sum(1 for ln in (tmp_path / "b.ngc").read_text().splitlines() if ln.startswith("G1"))
     assert n_b < n_a
-    assert nc_cli.main(base + ["--out", str(tmp_path / "c.ngc"), "--interpolation", "chord",
+    assert cli_main(["nc", *base, "--out", str(tmp_path / "c.ngc"), "--interpolation", "chord",
                                "--chord-height", "0.003"]) == 0
     capsys.readouterr()
     # usage errors (exit 2, one line): options that need each other, bounds, choices
-    assert nc_cli.main(base + ["--out", str(tmp_path / "d.ngc"), "--interpolation",
+    assert cli_main(["nc", *base, "--out", str(tmp_path / "d.ngc"), "--interpolation",
                                "constant-error"]) == 2
     assert "--max-error" in capsys.readouterr().err
-    assert nc_cli.main(base + ["--out", str(tmp_path / "e.ngc"), "--interpolation",
+    assert cli_main(["nc", *base, "--out", str(tmp_path / "e.ngc"), "--interpolation",
                                "constant-error", "--max-error", "-1"]) == 2
     assert "> 0" in capsys.readouterr().err
-    assert nc_cli.main(base + ["--out", str(tmp_path / "e.ngc"), "--interpolation", "spline",
+    assert cli_main(["nc", *base, "--out", str(tmp_path / "e.ngc"), "--interpolation", "spline",
                                "--max-error", "0.01"]) == 2
     assert "spline" in capsys.readouterr().err
     assert not (tmp_path / "d.ngc").exists() and not (tmp_path / "e.ngc").exists()
@@ -267,30 +269,30 @@ def test_search_properties(demo, machine):
     searching passes together or one by one gives the same blocks."""
     _, path = demo
     dps = dense_passes(path, machine)[:3]
-    together = I.search_constant_error(dps, TOL)
+    together = B.search_constant_error(dps, TOL)
     for dp, e in zip(dps, together, strict=True):
         assert e[0] == 0 and e[-1] == len(dp) - 1 and np.all(np.diff(e) > 0)
         assert np.any(np.abs(e - np.round(e)) > 1e-6)  # block ends between dense poses
-        alone = I.search_constant_error(dp, TOL)
+        alone = B.search_constant_error(dp, TOL)
         assert np.allclose(alone, e)
-        pw = I.block_bounds_rows(dp, e[:-1], e[1:])
-        pa = I.block_bounds_rows(dp, e[:-1], e[1:], bound="paper")
+        pw = B.block_bounds_rows(dp, e[:-1], e[1:])
+        pa = B.block_bounds_rows(dp, e[:-1], e[1:], bound="paper")
         assert np.all(pa >= pw - 1e-12)
         assert np.all(pw <= TOL * (1 + 1e-9))
     step = math.radians(0.2)
-    e = I.search_constant_error(dps[0], TOL, max_rotary_step=step)
+    e = B.search_constant_error(dps[0], TOL, max_rotary_step=step)
     q = dps[0].joints_at(e)
     assert np.abs(np.diff(q[:, 3:], axis=0)).max() <= step + 1e-12
     # the chord baseline honours its chord height
-    e = I.search_chord(dps[0], 0.003)
-    assert np.all(I.chord_heights_rows(dps[0], e[:-1], e[1:]) <= 0.003 + 1e-12)
+    e = B.search_chord(dps[0], 0.003)
+    assert np.all(B.chord_heights_rows(dps[0], e[:-1], e[1:]) <= 0.003 + 1e-12)
 
 
 def test_bull_nose_leading_edge(machine):
     """A 6/2 bull nose: the corner centre is off the axis (Eqs. 11–13 rotate it with the
     axis); the bound stays conservative against the mesh."""
-    from blisk_cam.core.cones import Cone
-    from blisk_cam.core.demo import make_demo_blisk
+    from blisk_cam.core.part.blisk import make_demo_blisk
+    from blisk_cam.core.part.cones import Cone
 
     d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
@@ -300,10 +302,10 @@ def test_bull_nose_leading_edge(machine):
     path = plan_paths(mesh, req).path
     dps = dense_passes(path, machine)[:2]
     md = MeshDistance(mesh)
-    ends = I.search_constant_error(dps, TOL)
-    b = np.concatenate([I.block_bounds_rows(dp, e[:-1], e[1:]) for dp, e in zip(dps, ends,
+    ends = B.search_constant_error(dps, TOL)
+    b = np.concatenate([B.block_bounds_rows(dp, e[:-1], e[1:]) for dp, e in zip(dps, ends,
                                                                                 strict=True)])
-    m = np.concatenate([I.measure_blocks(machine, path.tool, dp, e, mesh=md, samples=8,
+    m = np.concatenate([B.measure_blocks(machine, path.tool, dp, e, mesh=md, samples=8,
                                          per_dense=0.5)[0]
                         for dp, e in zip(dps, ends, strict=True)])
     w = int(np.argmax(m - b))

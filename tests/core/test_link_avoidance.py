@@ -21,21 +21,25 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from blisk_cam.core.avoidance import (
+from blisk_cam.core.collision.avoid import run_collisions
+from blisk_cam.core.collision.obstacles import Obstacles, split_faces
+from blisk_cam.core.collision.options import CollisionOptions
+from blisk_cam.core.collision.reroute import clearance_surface, link_runs
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.part.cones import Cone
+from blisk_cam.core.paths.linking import Clearance
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from blisk_cam.core.toolpath.paths_io import path_from_dict, path_to_dict
+from blisk_cam.core.toolpath.types import (
+    MOVE_APPROACH,
+    MOVE_RAPID,
+    MOVE_RETRACT,
     STATUS_CORRECTED,
     STATUS_UNRESOLVED,
-    CollisionOptions,
-    run_collisions,
+    Program,
 )
-from blisk_cam.core.collision import Obstacles, split_faces
-from blisk_cam.core.cones import Axis, Cone, meridional
-from blisk_cam.core.demo import make_demo_blisk
-from blisk_cam.core.link_avoidance import clearance_surface, link_runs
-from blisk_cam.core.linking import Clearance
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.paths_io import path_from_dict, path_to_dict
-from blisk_cam.core.pipeline import PathRequest, plan_paths
-from blisk_cam.core.toolpath import MOVE_APPROACH, MOVE_RAPID, MOVE_RETRACT, Program
 
 N_BLADES = 24
 HOLDER = ((12.0, 3.0), (47.0, 3.0), (47.0, 12.0), (107.0, 12.0))  # Ø6 shank, Ø24 holder

@@ -9,21 +9,22 @@ import numpy as np
 import pytest
 from conftest import tube_blade
 
-from blisk_cam.core.cones import Axis, meridional
-from blisk_cam.core.cutter import Cutter
-from blisk_cam.core.linking import (
+from blisk_cam.core.errors import LinkError
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.geometry.distance import MeshDistance
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.paths.linking import (
     Clearance,
-    LinkError,
     LinkOptions,
     SurfaceProjector,
     build_program,
     order_passes,
     ratio_gradient,
 )
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.orientation import local_frames
-from blisk_cam.core.slicing import MeshConeSlicer
-from blisk_cam.core.toolpath import (
+from blisk_cam.core.paths.orientation import local_frames
+from blisk_cam.core.paths.slicing import MeshConeSlicer
+from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.toolpath.types import (
     MOVE_APPROACH,
     MOVE_CUT,
     MOVE_LINK,
@@ -31,7 +32,6 @@ from blisk_cam.core.toolpath import (
     MOVE_RETRACT,
     PassCurve,
 )
-from blisk_cam.core.verify import MeshDistance
 
 AX = Axis()
 LEVELS = np.linspace(0.0, 1.0, 9)
@@ -216,7 +216,7 @@ def test_open_curves_need_links_even_in_spiral_mode():
         cc = np.stack([100 + 20 * t, 5 * np.sin(t), np.full(30, 10 * s)], 1)
         n = np.tile([0.0, 1.0, 0.0], (30, 1))
         curves.append(PassCurve(s=s, closed=False, cc=cc, normal=n, tip=cc.copy(), axis=n.copy()))
-    from blisk_cam.core.cones import Cone, MorphingCones
+    from blisk_cam.core.part.cones import Cone, MorphingCones
 
     mc = MorphingCones(Cone(90, 0, 140, 0), Cone(90, 10, 140, 10))
     out = order_passes(curves, LinkOptions(mode="spiral"), mc, AX, None)

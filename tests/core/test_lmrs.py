@@ -9,15 +9,21 @@ from conftest import BLADES, read_binary_stl
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
 from blisk_cam.core.errors import BliskCamError, ConeError
-from blisk_cam.core.fitting import PROFILE_THRESHOLD, fit_cones_to_mesh, fit_profile
-from blisk_cam.core.lmrs import MorphingProfiles, Profile, morph_between
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pathgen import generate_paths
-from blisk_cam.core.paths_io import path_from_dict, path_to_dict, read_paths_json, write_paths_json
-from blisk_cam.core.slicing import MeshConeSlicer
-from blisk_cam.core.verify import verify_path
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.cones import Cone, MorphingCones
+from blisk_cam.core.part.fitting import PROFILE_THRESHOLD, fit_cones_to_mesh, fit_profile
+from blisk_cam.core.part.profiles import MorphingProfiles, Profile, morph_between
+from blisk_cam.core.paths.passes import generate_paths
+from blisk_cam.core.paths.slicing import MeshConeSlicer
+from blisk_cam.core.toolpath.paths_io import (
+    path_from_dict,
+    path_to_dict,
+    read_paths_json,
+    write_paths_json,
+)
+from blisk_cam.core.verify.measure import verify_path
 
 AX = Axis()
 RHO, H, E = 6.0, 0.05, 0.05

@@ -11,14 +11,7 @@ import pytest
 from nc_helpers import demo_path
 
 from blisk_cam.core.errors import BliskCamError, MachineError, ReachError
-from blisk_cam.core.kinematics import (
-    _candidates,
-    joint_deviation,
-    linearize,
-    slerp,
-    solve_poses,
-)
-from blisk_cam.core.machine import (
+from blisk_cam.core.machine.description import (
     MACHINES_DIR,
     forward,
     known_presets,
@@ -26,7 +19,14 @@ from blisk_cam.core.machine import (
     machine_from_dict,
     tip_to_machine,
 )
-from blisk_cam.core.toolpath import MOVE_CUT, MOVE_RAPID
+from blisk_cam.core.machine.kinematics import (
+    _candidates,
+    joint_deviation,
+    linearize,
+    slerp,
+    solve_poses,
+)
+from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID
 
 PRESETS = ("ac-trunnion", "bc-trunnion", "bc-head-table")
 

@@ -5,24 +5,24 @@ import math
 
 import pytest
 
-from blisk_cam import cli
-from blisk_cam.core.cones import Axis
-from blisk_cam.core.errors import BliskCamError, LinkError, OrientationError, ToolError
+from blisk_cam.cli import main as cli
+from blisk_cam.cli import paths as cli_paths
+from blisk_cam.core.errors import BliskCamError, LinkError, OptionError, OrientationError, ToolError
+from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.core.options import (
-    PATH_STAGES,
+    PATH_OPTION_GROUPS,
     CutterOptions,
     LinkingOptions,
-    OptionError,
     Spec,
     check_value,
     describe_tool,
     fields,
 )
-from blisk_cam.core.pipeline import PathRequest
+from blisk_cam.core.process.blade_finish import PathRequest
 
 
 def _all_options():
-    return [(stage, name, spec, default) for stage in PATH_STAGES
+    return [(stage, name, spec, default) for stage in PATH_OPTION_GROUPS
             for name, spec, default in fields(stage)]
 
 
@@ -48,7 +48,7 @@ def test_every_flag_is_generated_and_maps_back_in_core_units():
                               "--tool", "bull", "--tool-diameter", "12", "--corner-radius",
                               "2", "--link", "zigzag", "--milling", "conventional",
                               "--no-fix-gouge", "--clearance-radius", "300"])
-    cli._check_paths_args(args)
+    cli_paths._check_paths_args(args)
     req = PathRequest(Axis(), **args.stages)
     assert req.lead == math.radians(10.0)  # degrees typed, radians in core, exactly
     assert (req.tool_type, req.tool_radius, req.corner_radius) == ("bull", 6.0, 2.0)

@@ -11,11 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blisk_cam.core.cones import Axis
-from blisk_cam.core.errors import BliskCamError
-from blisk_cam.core.orientation import (
+from blisk_cam.core.errors import BliskCamError, OrientationError
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.paths.orientation import (
     AxisStrategy,
-    OrientationError,
     axes_for_curve,
     consecutive_turn,
     lead_tilt_axes,

@@ -14,13 +14,20 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from blisk_cam.core.cones import Axis
-from blisk_cam.core.demo import make_demo_blisk
-from blisk_cam.core.fitting import fit_cones_to_mesh
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pathgen import generate_paths
-from blisk_cam.core.paths_io import path_from_dict, path_to_dict, read_paths_json, write_paths_json
-from blisk_cam.core.verify import closest_on_triangles, closest_points, verify_path
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.closest import closest_on_triangles
+from blisk_cam.core.geometry.distance import closest_points
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.part.fitting import fit_cones_to_mesh
+from blisk_cam.core.paths.passes import generate_paths
+from blisk_cam.core.toolpath.paths_io import (
+    path_from_dict,
+    path_to_dict,
+    read_paths_json,
+    write_paths_json,
+)
+from blisk_cam.core.verify.measure import verify_path
 
 RHO, H = 6.0, 0.05
 DEMO = dict(resolution=0.5, fillet=True, fillet_radius=10.0)

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from blisk_cam.core.demo import make_demo_blisk
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pathgen import (
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.paths.passes import (
     _fixed_point_lift,
     _Generator,
     _point_triangle_distance,

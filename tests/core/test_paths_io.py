@@ -7,11 +7,17 @@ import math
 import numpy as np
 import pytest
 
-from blisk_cam.core.cones import Axis, Cone
-from blisk_cam.core.cutter import Cutter
 from blisk_cam.core.errors import BliskCamError
-from blisk_cam.core.paths_io import path_from_dict, path_to_dict, read_paths_json, write_paths_json
-from blisk_cam.core.toolpath import (
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.part.cones import Cone
+from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.toolpath.paths_io import (
+    path_from_dict,
+    path_to_dict,
+    read_paths_json,
+    write_paths_json,
+)
+from blisk_cam.core.toolpath.types import (
     FLAG_LOCAL_GOUGE,
     FLAG_ZERO_SPEED,
     MOVE_APPROACH,

@@ -29,14 +29,14 @@ from nc_helpers import (
     run_rs274,
 )
 
+from blisk_cam.cli.main import main as cli_main
 from blisk_cam.core.errors import BliskCamError, PostError, ReachError
-from blisk_cam.core.machine import forward, load_machine
-from blisk_cam.core.nc import export_nc, nc_program
-from blisk_cam.core.paths_io import path_to_dict, write_paths_json
-from blisk_cam.core.post import POSTS, common
+from blisk_cam.core.machine.description import forward, load_machine
+from blisk_cam.core.post import common
 from blisk_cam.core.post.blocks import SAFE, NcOptions
-from blisk_cam.core.toolpath import MOVE_CUT, MOVE_RAPID
-from blisk_cam.nc_cli import main as nc_main
+from blisk_cam.core.post.export import POSTS, export_nc, nc_program
+from blisk_cam.core.toolpath.paths_io import path_to_dict, write_paths_json
+from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID
 
 PRINT_MM = 0.5e-4  # 4 decimals
 TIP_TOL = 1e-3 + 2 * PRINT_MM
@@ -188,7 +188,7 @@ def test_blades_rotate_about_the_blisk_axis(demo, post, machine, indexed, tmp_pa
     if machine == "turned-axis":
         import copy
 
-        from blisk_cam.core.cones import Axis
+        from blisk_cam.core.geometry.axis import Axis
         from blisk_cam.core.post.blocks import rotate_about_axis
 
         path = copy.deepcopy(demo)  # the same blade, its blisk axis tilted by 1° about X
@@ -285,7 +285,7 @@ def paths_files(demo, tmp_path_factory):
 
 
 def _cli(args, capsys):
-    rc = nc_main([str(a) for a in args])
+    rc = cli_main(["nc", *(str(a) for a in args)])
     cap = capsys.readouterr()
     return rc, cap.out, cap.err
 
@@ -338,8 +338,8 @@ def test_cli_needs_no_bpy(paths_files, tmp_path):
     out = tmp_path / "a.apt"
     code = (
         "import sys; sys.modules['bpy'] = None\n"
-        "from blisk_cam.nc_cli import main\n"
-        f"rc = main(['--paths', {str(paths_files['good'])!r}, '--machine', 'ac-trunnion', "
+        "from blisk_cam.cli.main import main\n"
+        f"rc = main(['nc', '--paths', {str(paths_files['good'])!r}, '--machine', 'ac-trunnion', "
         f"'--post', 'apt', '--out', {str(out)!r}])\n"
         "assert 'bpy' not in [m for m in sys.modules if sys.modules[m] is not None]\n"
         "sys.exit(rc)\n"
@@ -377,8 +377,8 @@ def test_report_and_options(demo, tmp_path):
 def test_paths_and_nc_in_one_run_match_the_nc_command(tmp_path, capsys):
     """``paths ... --nc`` (plan and post in one run, core API only) writes the same program as
     ``nc`` on the JSON it wrote, and that program runs in rs274."""
-    from blisk_cam import cli
-    from blisk_cam.core.demo import make_demo_blisk
+    from blisk_cam.cli import main as cli
+    from blisk_cam.core.part.blisk import make_demo_blisk
 
     d = make_demo_blisk(resolution=0.3, fillet=True, fillet_radius=10.0)
     stl = write_binary_stl(tmp_path / "blade.stl", d.blade_vertices, d.blade_faces)

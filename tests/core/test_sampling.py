@@ -4,7 +4,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from blisk_cam.core.errors import ToleranceError
-from blisk_cam.core.sampling import CENTRE_CHORD_SHARE, densify_by_normal_turn, sample_polyline
+from blisk_cam.core.paths.sampling import (
+    CENTRE_CHORD_SHARE,
+    densify_by_normal_turn,
+    sample_polyline,
+)
 
 
 def _seg_dist(points, a, b):
@@ -89,7 +93,7 @@ def test_forward_step_memo_gives_the_indices_of_a_fresh_search():
     """Sampling the same polyline again after lifting some centres (what the generator does
     around an intrusion) with the searches of the last call reused gives exactly the indices
     a fresh search gives, for lifts at the start, the middle, the end and everywhere."""
-    from blisk_cam.core.sampling import forward_step_indices
+    from blisk_cam.core.paths.sampling import forward_step_indices
 
     rng = np.random.default_rng(7)
     t = np.linspace(0.0, 6.0, 1500)

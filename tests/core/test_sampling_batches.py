@@ -4,7 +4,7 @@ one-test-at-a-time search it replaced, and those samples hold the chord toleranc
 import numpy as np
 import pytest
 
-from blisk_cam.core.sampling import _span_deviations, forward_step_indices
+from blisk_cam.core.paths.sampling import _span_deviations, forward_step_indices
 
 
 def _max_dev_reference(X, i, j):

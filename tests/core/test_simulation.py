@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 
-from blisk_cam.core.machine import forward, load_machine
-from blisk_cam.core.simulation import align_z, machine_view, part_view
+from blisk_cam.core.machine.description import forward, load_machine
+from blisk_cam.core.machine.motion import align_z, machine_view, part_view
 
 
 def test_align_z_is_a_rotation_taking_z_to_the_axis():

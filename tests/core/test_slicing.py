@@ -2,10 +2,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
 from blisk_cam.core.errors import MeshError
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.slicing import MeshConeSlicer
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.cones import Cone, MorphingCones
+from blisk_cam.core.paths.slicing import MeshConeSlicer
 
 AX = Axis()
 

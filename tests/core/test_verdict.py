@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from conftest import tube_blade
 
-from blisk_cam.core.cones import Axis
-from blisk_cam.core.cutter import Cutter
 from blisk_cam.core.errors import ToleranceError
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.pathgen import generate_paths
-from blisk_cam.core.verdict import judge, verdict_dict, verdict_from_dict, verdict_lines
-from blisk_cam.core.verify import verify_path
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.paths.passes import generate_paths
+from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.verify.measure import verify_path
+from blisk_cam.core.verify.verdict import judge, verdict_dict, verdict_from_dict, verdict_lines
 
 
 def fake_report(left, gouge, at_left=(1.0, 2.0, 3.0), at_gouge=(4.0, 5.0, 6.0), tool=None):

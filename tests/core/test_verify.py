@@ -16,20 +16,17 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from blisk_cam.core.cones import Axis, Cone, MorphingCones, meridional
-from blisk_cam.core.cutter import Cutter
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.toolpath import BallTool, PassCurve, ToolPath
-from blisk_cam.core.verify import (
-    MeshDistance,
-    SweptBall,
-    SweptCutter,
-    closest_on_segments,
-    closest_on_triangles,
-    default_spacing,
-    surface_samples,
-    verify_path,
-)
+from blisk_cam.core.geometry.axis import Axis, meridional
+from blisk_cam.core.geometry.closest import closest_on_segments, closest_on_triangles
+from blisk_cam.core.geometry.distance import MeshDistance
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.cones import Cone, MorphingCones
+from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.toolpath.types import BallTool, PassCurve, ToolPath
+from blisk_cam.core.verify.measure import verify_path
+from blisk_cam.core.verify.samples import default_spacing, surface_samples
+from blisk_cam.core.verify.sweep import SweptCutter
+from blisk_cam.core.verify.sweep_ball import SweptBall
 
 try:  # an independent point-triangle routine for the brute-force cross-checks
     import trimesh
@@ -261,7 +258,7 @@ def test_point_on_a_thin_face_of_the_scan_like_demo_blade():
     0.971 mm) had a padding slot first and was bounded by the previous leaf's triangles, so
     the midpoint of its boundary edge 12510–12511 came out 0.0211 mm from the mesh (face
     24124) instead of on it. Every edge midpoint of the mesh must be on it."""
-    from blisk_cam.core.demo import make_demo_blisk
+    from blisk_cam.core.part.blisk import make_demo_blisk
 
     d = make_demo_blisk(resolution=0.5, fillet_radius=10, scan_like=True, seed=4)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
@@ -920,7 +917,8 @@ def test_forest_answers_each_point_as_its_member(sphere_bull, ball):
     own member's distance, segment and height along a direction, bit for bit, whichever
     members and points share its chunks (small chunks cut across the members; the fast
     joint pass for bull-nose members, member by member for balls)."""
-    from blisk_cam.core.sweep import SweptForest, swept_cutter
+    from blisk_cam.core.verify.forest import SweptForest
+    from blisk_cam.core.verify.sweep import swept_cutter
 
     mesh, path = sphere_bull
     tool = Cutter.ball(3.0) if ball else path.tool
@@ -961,7 +959,7 @@ def test_unknown_sweep_method_is_refused(sphere_bull):
 
 
 def test_unsweepable_moves_are_refused():
-    from blisk_cam.core.verify import SweepError
+    from blisk_cam.core.verify.sweep import SweepError
 
     c = Cutter.bull(3.0, 1.0)
     tips = np.array([[0.0, 0, 0], [1.0, 0, 0]])
@@ -992,7 +990,7 @@ def test_cancelled_verify_stops_early_and_returns_nothing(sphere_bull, workers):
     poll) and returns no report; an Event set beforehand stops it before any work."""
     import threading
 
-    from blisk_cam.core.verify import Cancelled
+    from blisk_cam.core.runtime import Cancelled
 
     mesh, path = sphere_bull
     full = _Counter()

@@ -11,17 +11,22 @@ import math
 import numpy as np
 import pytest
 
-from blisk_cam.core.cones import Axis
 from blisk_cam.core.errors import BliskCamError
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.paths_io import path_from_dict, path_to_dict, read_paths_json, write_paths_json
-from blisk_cam.core.pipeline import (
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.process.blade_finish import (
     ZERO_SPEED_WARN_SHARE,
     PathRequest,
     plan_paths,
     zero_speed_warning,
 )
-from blisk_cam.core.toolpath import FLAG_ZERO_SPEED
+from blisk_cam.core.toolpath.paths_io import (
+    path_from_dict,
+    path_to_dict,
+    read_paths_json,
+    write_paths_json,
+)
+from blisk_cam.core.toolpath.types import FLAG_ZERO_SPEED
 
 
 @pytest.fixture(scope="module")

@@ -1,23 +1,9 @@
-"""NC post-processors: one module per controller dialect over one block stream
-(:mod:`.blocks`). ``POSTS`` names them; :func:`get_post` returns the module, which has
-``NAME``, ``TCP`` (X Y Z in the paths' frame), ``INDEXABLE`` (blades by subprogram call),
-``check(machine)`` (PostError when the post cannot drive the machine) and
-``write(ctx) -> str``."""
+"""NC posts (floor 6: imports ``machine``, ``toolpath`` and below; never the add-on).
 
-from __future__ import annotations
-
-import importlib
-
-from ..errors import PostError
-
-__all__ = ["POSTS", "get_post"]
-
-POSTS = ("linuxcnc", "fanuc", "siemens", "heidenhain", "apt")
-
-
-def get_post(name: str):
-    """The post module called ``name`` (PostError listing the known posts)."""
-    key = str(name).strip().lower()
-    if key not in POSTS:
-        raise PostError(f"unknown post {name!r}; known: {', '.join(POSTS)}")
-    return importlib.import_module(f".{key}", __name__)
+``export`` (paths → program file and report; ``POSTS`` names the posts, ``get_post`` returns
+one), ``blocks`` (the one block stream every post writes: poses solved for a machine),
+``common`` (context, number formatting, header, atomic writing), ``tcp`` (checks shared by
+the TCP posts), and one module per controller: ``linuxcnc``, ``fanuc``, ``siemens``,
+``heidenhain``, ``apt``. Each controller module has ``NAME``, ``TCP``, ``INDEXABLE``,
+``check(machine)`` and ``write(ctx) -> str``.
+"""

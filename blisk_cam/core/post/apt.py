@@ -3,8 +3,9 @@ paths' frame, for a downstream post-processor."""
 
 from __future__ import annotations
 
-from ..toolpath import MOVE_RAPID
-from .common import SAFE, PostContext, fmt, fvec, header_lines
+from ..toolpath.types import MOVE_RAPID
+from .blocks import SAFE
+from .common import PostContext, fmt, fvec, header_lines
 
 NAME = "apt"
 TCP = True

@@ -32,10 +32,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PostError
-from ..kinematics import LinearizeReport, linearize, solve_poses
-from ..machine import Machine, rotation_matrices
-from ..options import Choice, _Stage, check_stage, option
-from ..toolpath import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT, ToolPath
+from ..machine.description import Machine, rotation_matrices
+from ..machine.kinematics import LinearizeReport, linearize, solve_poses
+from ..options import Choice, OptionGroup, check_group, option
+from ..toolpath.types import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT, ToolPath
 
 __all__ = ["SAFE", "Blocks", "NcOptions", "build_blocks", "rotate_about_axis"]
 
@@ -43,7 +43,7 @@ SAFE = 5
 
 
 @dataclass(frozen=True)
-class NcOptions(_Stage):
+class NcOptions(OptionGroup):
     """What the NC program needs besides the path and the machine (options declared once,
     :mod:`..options`): feeds mm/min per move type (None: feed, feed/2, feed for link,
     approach, retract), spindle rpm and direction, tool number, coolant, the number of
@@ -112,7 +112,7 @@ class NcOptions(_Stage):
 
     def check(self):
         """Bounds of every option (raised on construction too)."""
-        check_stage(self)
+        check_group(self)
         if self.interpolation == "constant-error" and self.max_error is None:
             raise PostError("interpolation constant-error needs the max error "
                             "(--max-error MM)")

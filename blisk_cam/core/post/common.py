@@ -10,8 +10,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import PostError
-from ..machine import Machine
-from ..toolpath import MOVE_RAPID, ToolPath
+from ..machine.description import Machine
+from ..toolpath.types import MOVE_RAPID, ToolPath
+from ..version import __version__
 from .blocks import SAFE, Blocks, NcOptions
 
 __all__ = ["PostContext", "fmt", "fvec", "header_lines", "tool_text", "version", "write_atomic"]
@@ -21,21 +22,8 @@ VEC_DECIMALS = 7  # unit vector components
 
 
 def version() -> str:
-    """Product version: ``blisk_cam.__version__`` when set, else the manifest's."""
-    try:
-        from ... import __version__  # type: ignore[attr-defined]
-
-        return str(__version__)
-    except ImportError:
-        pass
-    try:
-        import tomllib
-        from pathlib import Path
-
-        man = Path(__file__).resolve().parents[2] / "blender_manifest.toml"
-        return str(tomllib.loads(man.read_text(encoding="utf-8"))["version"])
-    except Exception:  # noqa: BLE001 - the version is informative only
-        return "unknown"
+    """Product version, as the program header states it (:mod:`..version`)."""
+    return __version__
 
 
 def fmt(x: float, decimals: int = DECIMALS) -> str:

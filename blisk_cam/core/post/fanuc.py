@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..toolpath import MOVE_RAPID
-from .common import SAFE, PostContext, fmt, header_lines
+from ..toolpath.types import MOVE_RAPID
+from .blocks import SAFE
+from .common import PostContext, fmt, header_lines
 from .tcp import check_tcp
 
 NAME = "fanuc"

@@ -12,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PostError
-from ..toolpath import MOVE_RAPID
-from .common import SAFE, PostContext, block_minutes, fmt, header_lines
+from ..toolpath.types import MOVE_RAPID
+from .blocks import SAFE
+from .common import PostContext, block_minutes, fmt, header_lines
 
 NAME = "linuxcnc"
 TCP = False

@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import math
 
-from ..toolpath import MOVE_RAPID
-from .common import SAFE, PostContext, fmt, fvec, header_lines
+from ..toolpath.types import MOVE_RAPID
+from .blocks import SAFE
+from .common import PostContext, fmt, fvec, header_lines
 from .tcp import check_tcp
 
 NAME = "siemens"

@@ -1,0 +1,116 @@
+"""Command-line flags generated from the option declarations (:mod:`blisk_cam.core.options`):
+one flag per option with its help, unit and default (angles in degrees), and the parsed values
+back in core units, checked with the declared bounds. Used by every command of the CLI."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from ..core.errors import BliskCamError
+from ..core.options import check_value, fields, from_user, to_user
+
+__all__ = ["UsageError", "add_option_flags", "finite", "option_args"]
+
+
+class UsageError(BliskCamError):
+    """Bad command line (unknown option, missing or malformed argument)."""
+
+
+def finite(text):
+    """argparse type: a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got '{text}'")
+    return value
+
+
+def whole(text):
+    """argparse type: a whole number."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+
+
+def add_option_flags(parser, stages):
+    """One flag per declared option of ``stages``: help, unit and default from the
+    declaration; angles in degrees. Every flag defaults to None ("not given": the declared
+    default applies); :func:`option_args` converts and checks."""
+    for stage in stages:
+        group = parser.add_argument_group(stage.title or stage.__name__)
+        for name, spec, default in fields(stage):
+            flag = spec.cli_flag(name)
+            if flag is None:
+                continue
+            shown = to_user(spec, default)
+            unit = {"deg": " degrees", "": ""}.get(spec.unit, f" {spec.unit}")
+            if spec.choices is not None:
+                words = [c.cli_word for c in spec.choices]
+                text = f"{spec.help} (default {spec.choice(default).cli_word})"
+                group.add_argument(flag, dest=name, type=str.lower, choices=words,
+                                   default=None, help=text)
+            elif isinstance(default, bool):
+                text = f"{spec.help} (default {'on' if default else 'off'})"
+                group.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction,
+                                   default=None, help=text)
+            elif isinstance(default, int):
+                group.add_argument(flag, dest=name, type=whole, default=None, metavar="N",
+                                   help=f"{spec.help} (default {default})")
+            else:
+                text = spec.help if shown is None else f"{spec.help} (default {shown:g}{unit})"
+                metavar = ("DEG" if spec.unit == "deg" else "MM" if spec.unit == "mm"
+                           else "N" if spec.unit == "" else spec.unit.upper().replace("/", "_"))
+                if spec.size > 1:
+                    names = ("X", "Y", "Z") if spec.size == 3 else (metavar,) * spec.size
+                    group.add_argument(flag, dest=name, type=finite, default=None, help=text,
+                                       nargs=spec.size, metavar=names)
+                else:
+                    group.add_argument(flag, dest=name, type=finite, default=None, help=text,
+                                       metavar=metavar)
+
+
+def option_args(args, stages) -> dict:
+    """{option: core value} of the flags given (not None), in core units (radians), each
+    checked against its declaration (UsageError naming the flag and the bounds)."""
+    given = {}
+    for stage in stages:
+        for name, spec, default in fields(stage):
+            value = getattr(args, name, None)
+            if value is None or spec.cli_flag(name) is None:
+                continue
+            if spec.choices is not None:
+                value = next(c.value for c in spec.choices if c.cli_word == value)
+            elif isinstance(value, list):
+                value = tuple(float(v) for v in value)
+            elif not isinstance(value, (bool, int)):
+                value = from_user(spec, float(value))
+            if default is None and spec.none_as is not None and value == spec.none_as:
+                value = None  # "0: automatic"
+            try:
+                check_value(name, spec, value, UsageError)
+            except UsageError as exc:
+                raise UsageError(f"argument {exc}") from None
+            if value is not None:
+                given[name] = value
+    return given
+
+PROG = "blisk_cam"
+
+
+class CliInternalError(Exception):
+    """An operator failed on something that is not bad input (exit status 3)."""
+
+
+# --- entry point -------------------------------------------------------------------------
+def _one_line(text) -> str:
+    return " ".join(str(text).split()) or "unknown error"
+
+
+def _fail(message) -> None:
+    sys.stdout.flush()
+    print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr, flush=True)

@@ -1,0 +1,260 @@
+"""The batch command line: ``python -m blisk_cam ...`` (bpy wheel) or
+``blender -b --python scripts/blisk_batch.py -- ...`` (a Blender binary).
+
+::
+
+    python -m blisk_cam demo --out DIR [--mesh-resolution R] [--no-paths] [--no-preview]
+    python -m blisk_cam paths --mesh FILE(.stl|.obj|.ply) \
+        --cone1 R1 Z1 R2 Z2 --cone2 R1 Z1 R2 Z2 [--axis OX OY OZ DX DY DZ] \
+        --tool ball|bull|flat|taper --tool-radius 6 [--corner-radius 2] \
+        --cusp 0.05 --chord 0.05 [--lead DEG --tilt DEG] [--link oneway|zigzag|spiral] \
+        --out paths.json [--blend out.blend] [--preview out.png] [--verify]
+        [--fit auto|cone|profile] [--cone1-profile FILE.csv] [--cone2-profile FILE.csv]
+        [--taper-angle DEG] [--lead-tip DEG] [--tilt-tip DEG] [--axis-mode MODE]
+        [--radial-tilt DEG] [--axis-point X Y Z] [--max-axis-turn DEG]
+        [--milling climb|conventional] [--approach MM] [--clearance-radius MM]
+        [--clearance-margin MM] [--no-fix-gouge]
+
+Angles are degrees on the command line (radians in the scene settings and the core).
+
+Both commands run the add-on's operators (``blisk_cam.fit_cones``, ``generate_paths``,
+``export_paths``, ``render_preview``) on a scene whose ``scene.blisk_cam`` settings are filled
+from the arguments: the batch and the user interface share one code path.
+
+Exit status 0 on success. On bad input: a non-zero status (2 for a usage error, 1 for input
+the core or Blender rejects, 3 for an internal error) and exactly one line on stderr,
+``blisk_cam: error: <what is wrong>``. ``bpy`` is imported only inside the commands, so this
+module imports without Blender. Whatever the commands registered is unregistered before
+:func:`main` returns (bpy 4.5 hangs at exit while add-on classes are registered).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..core.collision.options import CollisionOptions
+from ..core.errors import BliskCamError
+from ..core.options import PATH_OPTION_GROUPS
+from ..core.version import __version__
+from .blender import _cmd_demo
+from .flags import PROG, CliInternalError, UsageError, _fail, add_option_flags, finite
+from .nc import add_nc_arguments
+from .paths import _cmd_paths
+
+__all__ = ["main", "build_parser"]
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser that raises instead of printing usage and exiting: the CLI prints one
+    line itself."""
+
+    def error(self, message):
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# --- argument types ----------------------------------------------------------------------
+_finite = finite
+
+
+def _positive(text):
+    value = _finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'")
+    return value
+
+
+def _non_negative(text):
+    value = _finite(text)
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"expected a number ≥ 0, got '{text}'")
+    return value
+
+
+def _pixels(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number of pixels, got '{text}'"
+        ) from None
+    if not 16 <= value <= 8192:
+        raise argparse.ArgumentTypeError(f"expected 16..8192 pixels, got {value}")
+    return value
+
+
+def _blade_count(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected at least 1 blade, got {value}")
+    return value
+
+
+ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
+FITS = ("auto", "cone", "profile")
+
+
+# long on purpose: declarative: the argument list of every command
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the CLI (subcommands ``demo`` and ``paths``)."""
+    parser = _Parser(
+        prog=PROG,
+        description="Blisk CAM: 5-axis finishing tool paths for blisk blades (batch mode).",
+    )
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")
+    sub.required = True
+
+    demo = sub.add_parser(
+        "demo",
+        help="build the demo blisk; write DIR/demo.blend and DIR/preview.png",
+        description="Build the parametric demo blisk (a few blades, a hub sector, the hub and "
+        "tip cones and the axis), save DIR/demo.blend and render DIR/preview.png.",
+    )
+    demo.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    demo.add_argument(
+        "--blades",
+        type=_blade_count,
+        default=3,
+        metavar="N",
+        help="blades shown around the machined one, which is included (default 3)",
+    )
+    demo.add_argument(
+        "--resolution", type=_pixels, nargs=2, default=(1280, 720), metavar=("W", "H")
+    )
+    demo.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO")
+    demo.add_argument("--no-preview", action="store_true", help="do not render preview.png")
+    demo.add_argument(
+        "--no-paths", action="store_true", help="do not generate the paths (nor paths.json)"
+    )
+    demo.add_argument(
+        "--mesh-resolution", type=_positive, default=1.0, metavar="R",
+        help="demo mesh resolution (1: about 100k blade triangles; 0.3 for a quick look)",
+    )
+    demo.add_argument("--cusp", type=_positive, default=0.05, metavar="MM",
+                      help="scallop height of the demo paths (default 0.05)")
+    demo.add_argument("--chord", type=_positive, default=0.05, metavar="MM",
+                      help="chord error of the demo paths (default 0.05)")
+    demo.set_defaults(func=_cmd_demo)
+
+    paths = sub.add_parser(
+        "paths",
+        help="tool paths for a blade mesh → paths JSON",
+        description="Finishing tool paths between two cones on a blade mesh (mm). Without "
+        "--cone1/--cone2 the cones are fitted to the blade's boundary loops. Lengths in mm, "
+        "angles in degrees. Needs only numpy and scipy; --blend and --preview need Blender's "
+        "Python module (bpy).",
+    )
+    paths.add_argument(
+        "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
+    )
+    paths.add_argument(
+        "--cone1", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
+        help="first (hub) cone generatrix, mm",
+    )
+    paths.add_argument(
+        "--cone2", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
+        help="last (tip) cone generatrix, mm",
+    )
+    paths.add_argument(
+        "--axis", type=_finite, nargs=6, metavar=("OX", "OY", "OZ", "DX", "DY", "DZ"),
+        default=None, help="blisk axis: origin (mm) and direction (default 0 0 0 0 0 1)",
+    )
+    paths.add_argument(
+        "--fit", type=str.lower, choices=FITS, default="auto",
+        help="what is fitted for a cone not given: per end a straight cone, or a polyline "
+        "profile when the cone misses the boundary loop by > 0.1 mm and the profile fits "
+        "better (auto, default); cones only (cone); profiles only (profile)",
+    )
+    paths.add_argument("--cone1-profile", metavar="FILE", default=None,
+                       help="hub generatrix as a polyline: 'r, z' per line in mm, # comments")
+    paths.add_argument("--cone2-profile", metavar="FILE", default=None,
+                       help="tip generatrix as a polyline (as --cone1-profile)")
+    add_option_flags(paths, PATH_OPTION_GROUPS)
+    paths.add_argument("--tool-radius", type=_positive, default=None, metavar="MM",
+                       help="the cutter radius instead of --tool-diameter (half of it)")
+    paths.add_argument("--out", required=True, metavar="FILE", help="paths JSON to write")
+    paths.add_argument("--blend", metavar="FILE", default=None, help="also save a .blend")
+    paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
+    paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
+                       help="render engine of --preview")
+    paths.add_argument("--verify", action="store_true",
+                       help="also measure the material left and gouges (printed and stored "
+                       "in the JSON's stats)")
+    add_option_flags(paths, (CollisionOptions,))
+    paths.add_argument("--holder", metavar='"Z R Z R ..."', default=None,
+                       help="tool body above the flute as a revolved profile: z (along the axis "
+                       "from the tip) and radius pairs, mm, z non-decreasing, starting at the "
+                       "flute length (default: the cutter's shank and holder)")
+    paths.add_argument("--obstacle", metavar="FILE", action="append", default=[],
+                       help="an extra obstacle mesh (hub, whole blisk, fixture; .stl .obj "
+                       ".ply, mm, the blade's frame); repeatable")
+    paths.add_argument("--nc", metavar="FILE", default=None,
+                       help="also post the path as an NC program (needs --machine, --post)")
+    add_nc_arguments(paths, with_paths=False)
+    paths.set_defaults(func=_cmd_paths)
+
+    nc = sub.add_parser(
+        "nc",
+        help="paths JSON → NC program for a 5-axis machine",
+        description="Post a paths JSON for a machine (preset or TOML) and a controller: "
+        "inverse kinematics within the limits, rotary linearization, every blade. Lengths mm, "
+        "angles degrees. Needs only numpy and scipy.",
+    )
+    add_nc_arguments(nc)
+    nc.set_defaults(func=_cmd_nc)
+    return parser
+
+
+def _cmd_nc(args):
+    from .nc import run_nc
+
+    return run_nc(args)
+
+
+def main(argv=None) -> int:
+    """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv:
+        _fail(f"no command given; use '{PROG} demo --out DIR' or '{PROG} paths --mesh FILE ...'")
+        return 2
+    try:
+        args, extra = parser.parse_known_args(argv)
+        if extra:
+            raise UsageError(f"unrecognized arguments: {' '.join(extra)} (see "
+                             f"'{PROG} {args.command} --help')")
+    except UsageError as exc:
+        _fail(exc)
+        return 2
+    except SystemExit as exc:  # --help
+        return exc.code if isinstance(exc.code, int) else 0
+    try:
+        return int(args.func(args) or 0)
+    except UsageError as exc:
+        _fail(exc)
+        return 2
+    except CliInternalError as exc:
+        _fail(f"internal error: {exc}")
+        return 3
+    except BliskCamError as exc:
+        _fail(exc)
+        return 1
+    except OSError as exc:
+        _fail(f"{exc.strerror or exc}: {exc.filename}" if exc.filename else exc)
+        return 1
+    except KeyboardInterrupt:
+        _fail("interrupted")
+        return 130
+    except Exception as exc:  # one line even for a bug; BLISK_CAM_DEBUG=1 shows the traceback
+        import os
+
+        if os.environ.get("BLISK_CAM_DEBUG"):
+            import traceback
+
+            traceback.print_exc()
+        _fail(f"internal error: {type(exc).__name__}: {exc}")
+        return 3

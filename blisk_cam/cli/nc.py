@@ -1,0 +1,112 @@
+"""The ``nc`` command: paths JSON → NC program (numpy/scipy only, no bpy).
+
+::
+
+    python -m blisk_cam nc --paths paths.json --machine ac-trunnion|FILE.toml \\
+        --post linuxcnc|fanuc|siemens|heidenhain|apt --out FILE [--blades N] \\
+        [--feed MM_MIN] [--spindle RPM] [--tool-number T] [--no-coolant] ...
+
+(every NC option of :class:`~blisk_cam.core.post.blocks.NcOptions` has its flag)
+
+:func:`add_nc_arguments` fills a (sub)parser, :func:`run_nc` runs it: exit 0 on success, 1 with
+one line on stderr (``blisk_cam: error: ...``) for bad input or an unreachable pose (naming the
+pose, the axis and the value).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from ..core.errors import BliskCamError
+
+__all__ = ["add_nc_arguments", "run_nc"]
+
+PROG = "blisk_cam"
+
+
+def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True):
+    """Add the ``nc`` options to ``parser``: the files, the machine and post, and every
+    declared NC option (:class:`~blisk_cam.core.post.blocks.NcOptions`). ``with_paths``
+    False: for ``paths ... --nc FILE`` (the path comes from the same run)."""
+    from ..core.machine.description import known_presets
+    from ..core.post.blocks import NcOptions
+    from ..core.post.export import POSTS
+    from .flags import add_option_flags
+
+    if with_paths:
+        parser.add_argument("--paths", required=True, metavar="FILE",
+                            help="paths JSON (version 1) written by 'blisk_cam paths'")
+        parser.add_argument("--out", required=True, metavar="FILE", help="NC program to write")
+    parser.add_argument("--machine", required=with_paths, metavar="PRESET|FILE.toml",
+                        help=f"machine preset ({', '.join(known_presets())}) or a machine "
+                        "TOML file")
+    parser.add_argument("--post", required=with_paths, type=str.lower, metavar="POST",
+                        help="controller dialect: one of " + ", ".join(POSTS))
+    add_option_flags(parser, (NcOptions,))
+    parser.add_argument("--report", default=None, metavar="FILE.json",
+                        help="also write the export report (with the interpolation's) as JSON")
+    return parser
+
+
+def nc_options(args, **extra):
+    """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds)."""
+    from ..core.post.blocks import NcOptions
+    from .flags import option_args
+
+    return NcOptions(**option_args(args, (NcOptions,)), **extra)
+
+
+def export_from_args(path, args, out, blade_name):
+    """Post ``path`` for ``args.machine``/``args.post`` into ``out``; prints the summary."""
+    from ..core.post.export import export_nc
+
+    try:
+        options = nc_options(args, blade_name=blade_name)
+    except BliskCamError as exc:  # options that only make sense together
+        from .flags import UsageError
+
+        raise UsageError(str(exc)) from None
+    report = export_nc(path, args.machine, args.post, options, out)
+    print(report.summary())
+    if getattr(args, "report", None):
+        _write_report(report, args.report)
+    return report
+
+
+def _write_report(report, filename):
+    """The export report as JSON (atomically)."""
+    import json
+
+    from ..core.post.common import write_atomic
+
+    d = {k: getattr(report, k) for k in ("filename", "post", "machine", "blocks", "inserted",
+                                         "minutes", "max_deviation", "blades", "indexed")}
+    d["axis_ranges"] = {k: list(v) for k, v in report.axis_ranges.items()}
+    if report.interpolation is not None:
+        d["interpolation"] = report.interpolation.as_dict()
+    return write_atomic(filename, json.dumps(d, indent=1))
+
+
+def run_nc(args) -> int:
+    """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
+    status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
+    from ..core.toolpath.paths_io import read_paths_json
+    from .flags import UsageError
+
+    try:
+        if not os.path.isfile(args.paths):
+            raise BliskCamError(f"paths file {args.paths} not found")
+        path = read_paths_json(args.paths)
+        export_from_args(path, args, args.out,
+                         os.path.splitext(os.path.basename(args.paths))[0])
+    except UsageError as err:
+        print(f"{PROG}: error: {' '.join(str(err).split())}", file=sys.stderr)
+        return 2
+    except (BliskCamError, OSError) as err:
+        msg = " ".join(str(err).split())
+        print(f"{PROG}: error: {msg}", file=sys.stderr)
+        return 1
+    return 0
+

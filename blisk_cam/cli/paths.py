@@ -1,0 +1,384 @@
+"""The ``paths`` command: mesh file → fitted cones → planned, checked and
+verified paths JSON (numpy/scipy only; Blender outputs through
+:mod:`.blender`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from pathlib import Path
+
+from ..core.collision.options import CollisionOptions
+from ..core.errors import BliskCamError
+from ..core.options import PATH_OPTION_GROUPS, CutterOptions
+from ..core.tool.assembly import AssemblyError, holder_profile
+from .blender import _blender_outputs
+from .flags import UsageError, _fail, option_args
+
+
+def read_profile_csv(path):
+    """A hub or tip generatrix polyline from a text file: one point ``r, z`` (mm) per line,
+    separated by a comma, semicolon or white space; ``#`` starts a comment; blank lines are
+    skipped. Returns a ``core.lmrs.Profile``; BliskCamError naming the file (and line) when
+    it is missing or not such a list."""
+    from ..core.part.profiles import Profile
+
+    path = Path(path).expanduser()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise BliskCamError(f"profile file {path} not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BliskCamError(f"cannot read profile file {path}: {exc}") from None
+    points = []
+    for number, line in enumerate(text.splitlines(), 1):
+        fields = re.split(r"[,;\s]+", line.split("#", 1)[0].strip())
+        fields = [f for f in fields if f]
+        if not fields:
+            continue
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            values = []
+        if len(values) != 2 or not all(math.isfinite(v) for v in values):
+            raise BliskCamError(
+                f"profile file {path}, line {number}: expected two numbers 'r, z' in mm, "
+                f"got '{line.strip()}'"
+            )
+        points.append(values)
+    try:
+        return Profile(points)
+    except BliskCamError as exc:
+        raise BliskCamError(f"profile file {path}: {exc}") from None
+
+
+def _check_paths_args(args):
+    """Checks that need more than one argument; raises UsageError (BliskCamError for an
+    unreadable profile file). Fills args.axis_obj, args.cone1_obj, args.cone2_obj (core
+    ``Cone`` or ``Profile`` given on the command line, or None) and args.stages (the option
+    stages of the request, float64, core units)."""
+    from ..core.geometry.axis import Axis
+    from ..core.part.cones import Cone
+
+    try:
+        args.axis_obj = Axis(tuple(args.axis[:3]), tuple(args.axis[3:])) if args.axis else Axis()
+    except BliskCamError as exc:
+        raise UsageError(f"argument --axis: {exc}") from None
+    for name in ("cone1", "cone2"):
+        values = getattr(args, name)
+        profile = getattr(args, f"{name}_profile")
+        if values is not None and profile is not None:
+            raise UsageError(f"--{name} and --{name}-profile both give cone {name[-1]}; use one")
+        try:
+            setattr(args, f"{name}_obj", Cone.from_list(values) if values is not None else None)
+        except BliskCamError as exc:
+            raise UsageError(f"argument --{name}: {exc}") from None
+    if args.tool_radius is not None:
+        if args.tool_diameter is not None:
+            raise UsageError("--tool-diameter and --tool-radius both give the tool size; use one")
+        args.tool_diameter = 2.0 * args.tool_radius
+    given = option_args(args, PATH_OPTION_GROUPS)
+    _check_orientation_args(args, given)
+    tool = given.get("tool_type", "ball")
+    diameter = given.get("tool_diameter", CutterOptions().tool_diameter)
+    corner = given.get("corner_radius")
+    if tool == "bull":
+        if corner is None:
+            raise UsageError("--tool bull needs --corner-radius")
+        if not 0.0 < corner < diameter / 2:
+            raise UsageError(
+                f"--corner-radius {corner:g} must be > 0 and < half the --tool-diameter "
+                f"({diameter:g}) for a bull-nose cutter"
+            )
+    elif corner is not None and corner > diameter / 2:
+        raise UsageError(
+            f"--corner-radius {corner:g} is larger than the tool radius {diameter / 2:g}"
+        )
+    if "taper_angle" in given and tool != "taper":
+        raise UsageError(f"--taper-angle needs --tool taper (got --tool {tool})")
+    if args.nc and not (args.machine and args.post):
+        raise UsageError("--nc needs --machine (preset or TOML) and --post (controller)")
+    if (args.machine or args.post) and not args.nc:
+        raise UsageError("--machine/--post post the path with --nc FILE; give --nc")
+    for opt in ("out", "blend", "preview", "nc"):
+        value = getattr(args, opt)
+        if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
+            raise UsageError(f"--{opt} {value}: the directory does not exist")
+    args.stages = given
+    args.collision = _collision_options(args)
+    for name in ("cone1", "cone2"):  # read last: a bad file is bad input (status 1)
+        profile = getattr(args, f"{name}_profile")
+        if profile is not None:
+            setattr(args, f"{name}_obj", read_profile_csv(profile))
+
+
+def parse_holder(text):
+    """'z r z r ...' (mm) → ((z, r), ...); UsageError naming what is wrong."""
+    try:
+        return holder_profile(text, "--holder")
+    except AssemblyError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _collision_options(args):
+    """The CollisionOptions of the flags: the mode defaults to avoid when a blade count or an
+    obstacle is given (else off)."""
+    from ..core.geometry.axis import Axis
+    from ..core.process.blade_finish import PathRequest, make_cutter
+
+    given = option_args(args, (CollisionOptions,))
+    if args.holder is not None:
+        given["holder"] = parse_holder(args.holder)
+    if "mode" not in given:
+        given["mode"] = "avoid" if ("blade_count" in given or args.obstacle) else "off"
+    if given["mode"] != "off" and "blade_count" not in given:
+        raise UsageError(f"--collisions {given['mode']} needs --blade-count N (the neighbours "
+                         "are the blade turned by k·360°/N)")
+    try:
+        options = CollisionOptions(**given)
+        if options.mode != "off":
+            options.assembly(make_cutter(PathRequest(Axis(), **args.stages)))
+    except BliskCamError as exc:
+        raise UsageError(str(exc)) from None
+    return options
+
+
+def _check_orientation_args(args, given):
+    """Options that only make sense together (UsageError naming them)."""
+    mode = given.get("axis_mode", "local")
+    word = mode.replace("_line", "_axis").replace("_", "-")
+    fixed = mode.endswith(("_line", "_point"))
+    if "radial_tilt" in given and mode != "radial":
+        raise UsageError("--radial-tilt needs --axis-mode radial")
+    if mode == "radial" and (given.get("tilt") or given.get("tilt_tip")):
+        raise UsageError("--axis-mode radial replaces --tilt/--tilt-tip by --radial-tilt")
+    if fixed and (given.get("lead") or given.get("tilt") or "lead_tip" in given
+                  or "tilt_tip" in given):
+        raise UsageError(f"--axis-mode {word} fixes the tool axis; drop --lead/--tilt "
+                         "(and --lead-tip/--tilt-tip)")
+    if mode.endswith("_point") and "axis_point" not in given:
+        raise UsageError(f"--axis-mode {word} needs --axis-point X Y Z")
+    if "axis_point" in given and not mode.endswith("_point"):
+        raise UsageError("--axis-point needs --axis-mode toward-point or from-point")
+    if mode.endswith("_line"):
+        given.update(axis_point=tuple(map(float, args.axis_obj.o)),
+                     axis_direction=tuple(map(float, args.axis_obj.d)))
+
+
+def read_obstacles(files):
+    """[(name, V, F)] of the --obstacle files (core.mesh_io; MeshError naming a bad file)."""
+    from ..core.geometry.mesh_io import read_mesh
+
+    out = []
+    for f in files:
+        V, F = read_mesh(f)
+        out.append((Path(f).stem, V, F))
+    return out
+
+
+def plan_from_args(args, log=print):
+    """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
+    plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
+    or None, {stage: seconds}). Every stage is timed (``seconds_<stage>`` in the JSON's
+    stats)."""
+    from ..core.geometry.mesh import TriMesh
+    from ..core.geometry.mesh_io import read_mesh
+    from ..core.part.fitting import fit_cones_to_mesh
+    from ..core.process.blade_finish import PathRequest, plan_paths
+
+    times = {}
+    t = time.perf_counter()
+    V, F = read_mesh(args.mesh)
+    times["load"] = time.perf_counter() - t
+    t = time.perf_counter()
+    mesh = TriMesh.from_arrays(V, F)
+    times["weld"] = time.perf_counter() - t
+    c1, c2 = args.cone1_obj, args.cone2_obj
+    fit = None
+    if c1 is None or c2 is None:
+        t = time.perf_counter()
+        fit = fit_cones_to_mesh(mesh, args.axis_obj, generatrix=args.fit)
+        c1, c2 = c1 or fit.cone1, c2 or fit.cone2
+        times["fit"] = time.perf_counter() - t
+        log(f"fitted cones: cone1 {_shown_generatrix(fit.cone1)} (residual "
+            f"{fit.residual1:.4f} mm), cone2 {_shown_generatrix(fit.cone2)} (residual "
+            f"{fit.residual2:.4f} mm)")
+    req = PathRequest(args.axis_obj, c1, c2, **args.stages)
+    extra = ()
+    if args.collision.mode != "off":
+        from ..core.process.blade_finish import collision_stage
+
+        t = time.perf_counter()
+        obstacles = read_obstacles(args.obstacle)
+        times["load"] += time.perf_counter() - t
+        extra = (collision_stage(args.collision, obstacles),)
+    t = time.perf_counter()
+    plan = plan_paths(mesh, req, extra=extra)
+    times["plan"] = time.perf_counter() - t
+    if extra:  # the collision stage's share of the plan
+        times["collision"] = float(plan.path.stats.get("seconds_collision", 0.0))
+        times["plan"] -= times["collision"]
+    if fit is not None and plan.fit is None:
+        plan.fit = fit
+    report = None
+    if args.verify:
+        from ..core.verify.measure import verify_path
+
+        t = time.perf_counter()
+        report = verify_path(mesh, plan.path)
+        times["verify"] = time.perf_counter() - t
+    return V, F, mesh, req, plan, report, times
+
+
+def _shown_generatrix(g):
+    from ..core.part.profiles import Profile
+
+    if isinstance(g, Profile):
+        return f"profile of {len(g.as_list())} points"
+    return str([round(x, 4) for x in g.as_list()])
+
+
+def _verify_figures(report) -> dict:
+    import numpy as np
+
+    out = {}
+    for key in ("max_material_left", "max_gouge"):
+        value = float(getattr(report, key))
+        if np.isfinite(value):
+            out[f"verify_{key}"] = value
+    return out
+
+
+def _summary_line(path, times, report) -> str:
+    program = path.program
+    text = (f"{int(path.stats.get('passes', len(path.levels)))} passes, {len(path.curves)} "
+            f"curves, {path.n_poses} poses, {path.length():.1f} mm of path")
+    if program is not None:
+        text += f", {len(program)} program poses"
+    if report is not None:
+        text += (f"; measured max material left {float(report.max_material_left):.4f} mm, "
+                 f"max gouge {float(report.max_gouge):.4f} mm")
+    return text
+
+
+def process_age():
+    """Seconds since this process started (the interpreter, Blender and the imports the
+    user also waits for), from Linux's /proc; None where that is not available."""
+    import os
+
+    try:
+        with open("/proc/self/stat") as fh:
+            after_name = fh.read().rsplit(")", 1)[1].split()
+        with open("/proc/uptime") as fh:
+            uptime = float(fh.read().split()[0])
+        # field 22 of stat (starttime, clock ticks after boot); fields 3.. follow the name
+        return max(0.0, uptime - int(after_name[19]) / os.sysconf("SC_CLK_TCK"))
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
+def _cmd_paths(args):
+    t_wall = time.perf_counter()
+    startup = process_age()
+    _check_paths_args(args)
+    from ..core.toolpath.paths_io import write_paths_json
+
+    V, F, mesh, req, plan, report, times = plan_from_args(args)
+    path = plan.path
+    verdict = None
+    if report is not None:
+        from ..core.verify.verdict import judge, verdict_dict
+
+        path.stats.update(_verify_figures(report))
+        verdict = judge(report, req.cusp, req.chord, path.tool, path)
+        path.verify = verdict_dict(verdict)
+    out = Path(args.out).expanduser().resolve()
+    t = time.perf_counter()
+    # every stage up to the write (the write's own time is printed: it cannot be in the file)
+    if startup is not None:  # the wall time counts from the process start, as the user waits
+        times = {"startup": startup, **times}
+    path.stats.update({f"seconds_{k}": v for k, v in times.items()})
+    if plan.collision is not None:
+        path.stats["seconds_collision"] = times["collision"]
+    path.stats["seconds_wall"] = time.perf_counter() - t_wall + (startup or 0.0)
+    write_paths_json(path, out)
+    times["write"] = time.perf_counter() - t
+    wall = time.perf_counter() - t_wall + (startup or 0.0)
+    print(f"wrote {out}: {_summary_line(path, times, report)}")
+    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
+          + f"; wall {wall:.2f} s")
+    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm")
+    for w in plan.warnings:
+        print(f"warning: {w}")
+    if verdict is not None:
+        from ..core.verify.verdict import verdict_lines
+
+        for line in verdict_lines(verdict):
+            print(line)
+    unresolved = _collision_lines(plan)
+    if args.nc and unresolved:
+        print(f"NC not written: {unresolved[0]} unresolved collision(s)")
+    elif args.nc:
+        from .nc import export_from_args
+
+        export_from_args(path, args, Path(args.nc).expanduser().resolve(), Path(args.mesh).stem)
+    if args.blend or args.preview:
+        _blender_outputs(args, V, F, req, plan, report)
+    if unresolved:
+        _fail(f"{unresolved[0]} pose(s) are unresolved collisions (first: {unresolved[1]}); "
+              f"the outputs were written, the NC program was not")
+        return 4
+    return 0
+
+
+def _mm(x) -> str:
+    return "n/a" if x is None else f"{float(x):.3f}"
+
+
+def _collision_lines(plan):
+    """Print the collision summary; returns (count, first pose) of the unresolved poses, or
+    None when every pose is clear or corrected (or nothing was checked)."""
+    rep = plan.collision
+    if rep is None:
+        return None
+    summary = plan.path.collision or {}
+    print(f"collisions ({summary.get('mode')}): {summary.get('checked_poses')} poses checked "
+          f"against {len(summary.get('obstacles', {}).get('names', []) or []) or 'the'} "
+          f"obstacle(s), {summary.get('colliding_before')} colliding before, "
+          f"{summary.get('corrected')} corrected, {summary.get('unresolved')} unresolved; "
+          f"min clearance {_mm(summary.get('min_clearance'))} mm ({rep.assembly_text})")
+    if summary.get("links_colliding"):
+        print(f"colliding links (retract, rapids, approach): {summary['links_colliding']}, "
+              f"{summary.get('links_rerouted', 0)} re-routed through the clearance surface "
+              f"({summary.get('link_poses_rerouted', 0)} poses), "
+              f"{summary.get('links_unresolved', 0)} unresolved")
+    if not rep.n_unresolved:
+        return None
+    import numpy as np
+
+    from ..core.toolpath.types import STATUS_UNRESOLVED
+
+    prog = plan.path.program
+    first = "?"
+    if prog is not None and prog.collision_status is not None:
+        j = int(np.flatnonzero(np.asarray(prog.collision_status) == STATUS_UNRESOLVED)[0])
+        x, y, z = (float(v) for v in prog.tip[j])
+        where = (f"pass {int(prog.curve[j])} pose {int(prog.index[j])}" if prog.curve[j] >= 0
+                 else _link_name(summary, j))
+        first = f"program row {j}, {where}, tip ({x:.3f}, {y:.3f}, {z:.3f}) mm"
+    return int(rep.n_unresolved), first
+
+
+def _link_name(summary, row) -> str:
+    """The unresolved link holding program row ``row``, as the collision summary names it."""
+    for u in summary.get("unresolved_links", []) or []:
+        a, b = u["rows"]
+        if a <= row < b:
+            def pose(p, what):
+                return what if p is None else f"pass {p['curve']} pose {p['index']}"
+
+            return (f"the link from {pose(u['from'], 'the start')} to "
+                    f"{pose(u['to'], 'the end')} ({u['reason']})")
+    return "a link move"

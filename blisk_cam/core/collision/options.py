@@ -1,0 +1,120 @@
+"""The collision options (declared once: the panel, the CLI and the paths
+JSON read them from here) and the default tool assembly. mm, degrees in
+user-facing fields.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..errors import CollisionError
+from ..options import Choice, OptionGroup, check_group, option
+from ..tool.assembly import DEFAULT_SAFETY, ToolAssembly
+from ..tool.cutter import Cutter, as_cutter
+
+__all__ = ["COLLISION_MODES", "CollisionOptions", "default_assembly"]
+
+COLLISION_MODES = ("off", "check", "avoid")
+
+
+@dataclass(frozen=True)
+class CollisionOptions(OptionGroup):
+    """What the front ends set (units mm, radians).
+
+    Attributes
+    ----------
+    mode : "off" | "check" | "avoid"
+    blade_count : int or None — blades on the blisk (required unless mode is "off")
+    neighbours : int — adjacent blades checked per side (default 2)
+    flute_length : float or None, mm — None: the cutter's flute length h
+    holder : sequence of (z, r) or None, mm — the body profile from the flute length up
+        (:class:`~.tool_assembly.ToolAssembly`); None: :func:`default_assembly`
+    safety : float, mm — ds (default 1 mm)
+    max_lead, max_tilt : float, rad — axis limits of a corrected pose from the surface normal
+        (default 30° each, either sign; a pose planned beyond them: its planned angles)
+    max_turn : float or None, rad — smoothing limit between consecutive poses (None: 2°)
+    max_iterations : int — rotation steps per pose (Eqs. 16–17)
+    gouge_tol : float or None, mm — ε of Eq. 14 (None: the path's chord tolerance / 4)
+    """
+
+    title = "Collisions (holder and shank against the blade, its neighbours, obstacles)"
+    error = CollisionError
+
+    mode: str = option(
+        "off", "Collisions", "Collision checking of holder, shank and flute: off; check "
+        "(colour and report, change nothing); avoid (turn the tool axis clear, paper 004). "
+        "The command line turns it to avoid when a blade count or an obstacle is given",
+        choices=(Choice("off", "Off", "No collision checking"),
+                 Choice("check", "Check", "Detect and report; change nothing"),
+                 Choice("avoid", "Avoid", "Detect, then turn the tool axis clear")),
+        flag="--collisions")
+    blade_count: int | None = option(
+        None, "Blade Count", "Blades on the blisk: the neighbours are the blade turned by "
+        "k·360°/N (0 in the panel: not set)", lo=2, none_as=0)
+    neighbours: int = option(2, "Neighbours", "Adjacent blades checked on each side", lo=0)
+    flute_length: float | None = option(
+        None, "Flute Length", "Cutting length of the tool from the tip, mm (0 or not given: "
+        "the cutter's own, 3 × the diameter)", unit="mm", lo=0.0, none_as=0.0,
+        soft_max=200.0)
+    holder: tuple | None = None  # (z, r) body profile above the flute, mm (flag --holder)
+    safety: float = option(DEFAULT_SAFETY, "Safety Distance", "Smallest allowed clearance "
+                           "ds between the tool body and any obstacle, mm", unit="mm", lo=0.0,
+                           soft_max=10.0)
+    max_lead: float = option(
+        math.radians(30.0), "Max Lead", "A corrected tool axis may lean at most this far "
+        "from the surface normal in the feed direction, degrees (either sign); an axis planned "
+        "further may turn but not lean further than planned", unit="deg",
+        lo=0.0, hi=math.radians(89.0))
+    max_tilt: float = option(
+        math.radians(30.0), "Max Tilt", "A corrected tool axis may lean at most this far "
+        "from the surface normal across the feed, degrees (either sign); an axis planned "
+        "further may turn but not lean further than planned", unit="deg",
+        lo=0.0, hi=math.radians(89.0))
+    max_turn: float | None = None
+    max_iterations: int = 8
+    gouge_tol: float | None = None
+
+    def __post_init__(self):
+        mode = str(self.mode).strip().lower()
+        if mode not in COLLISION_MODES:
+            raise CollisionError(f"collision mode must be one of {', '.join(COLLISION_MODES)}, "
+                                 f"got {self.mode!r}")
+        object.__setattr__(self, "mode", mode)
+        if mode != "off" and self.blade_count is None:
+            raise CollisionError("collision checking needs the blade count of the blisk (the "
+                                 "neighbours are the blade turned by 360°/N); give blade_count")
+        for name in ("max_lead", "max_tilt"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v)
+                    and 0 <= v <= math.radians(89)):
+                raise CollisionError(f"collision {name} must lie in [0°, 89°], got {v!r} rad")
+        if self.max_turn is not None and not (0 < float(self.max_turn) < math.pi / 2):
+            raise CollisionError(f"collision smoothing max_turn must lie in (0°, 90°), got "
+                                 f"{self.max_turn!r} rad")
+        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
+            raise CollisionError("collision max_iterations must be an integer ≥ 1")
+        if self.gouge_tol is not None and not float(self.gouge_tol) >= 0:
+            raise CollisionError(f"collision gouge tolerance must be ≥ 0 mm, got "
+                                 f"{self.gouge_tol!r}")
+        check_group(self)  # the declared bounds (as the panel and the flags show them)
+
+    def assembly(self, cutter) -> ToolAssembly:
+        """The :class:`~.tool_assembly.ToolAssembly` of these options for ``cutter``."""
+        cutter = as_cutter(cutter)
+        if self.holder is None:
+            return default_assembly(cutter, self.flute_length, self.safety)
+        fl = cutter.h if self.flute_length is None else self.flute_length
+        return ToolAssembly(fl, tuple(map(tuple, self.holder)), self.safety)
+
+
+def default_assembly(cutter: Cutter, flute_length: float | None = None,
+                     safety: float = DEFAULT_SAFETY) -> ToolAssembly:
+    """The cutter's own shank and holder (:class:`~.cutter.Cutter` fields): the shank
+    Ø ``shank_diameter`` for 2 d (plus the neck) above the flute, then the holder
+    Ø ``holder_diameter`` for ``holder_length``."""
+    fl = cutter.h if flute_length is None else float(flute_length)
+    rs, rh = 0.5 * cutter.shank_diameter, 0.5 * cutter.holder_diameter
+    z1 = fl + 2.0 * cutter.d + cutter.neck_length
+    return ToolAssembly(fl, ((fl, rs), (z1, rs), (z1, rh), (z1 + cutter.holder_length, rh)),
+                        safety)

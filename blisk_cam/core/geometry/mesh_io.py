@@ -1,0 +1,193 @@
+"""Mesh files → arrays, without Blender: binary and ASCII STL, Wavefront OBJ, PLY (ASCII and
+binary). The batch command line reads the blade with these so that a path needs no bpy; the
+sidebar reads the evaluated Blender mesh instead (``blender_io.object_to_arrays``).
+
+Units: the file's numbers are taken as millimetres. Polygons of OBJ and PLY are fanned into
+triangles. Returns V (n, 3) float64 and F (m, 3) int64, unwelded where the format repeats
+vertices (STL); :meth:`.mesh.TriMesh.from_arrays` welds.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MeshError
+
+__all__ = ["MESH_SUFFIXES", "read_mesh"]
+
+MESH_SUFFIXES = (".stl", ".obj", ".ply")
+
+
+def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
+    """(V (n, 3) float64 mm, F (m, 3) int64) of a mesh file.
+
+    Raises MeshError naming the file and the problem: missing, unreadable, an unknown
+    suffix, no triangles, indices out of range, non-finite coordinates.
+    """
+    path = Path(os.fspath(path)).expanduser()
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise MeshError(f"{path}: unsupported mesh format '{suffix or '(none)'}'; use one of "
+                        f"{', '.join(MESH_SUFFIXES)} (in mm)")
+    if not path.is_file():
+        raise MeshError(f"mesh file {path} not found")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise MeshError(f"cannot read mesh file {path}: {exc.strerror or exc}") from None
+    try:
+        reader = {".stl": _read_stl, ".obj": _read_obj, ".ply": _read_ply}[suffix]
+        V, F = reader(raw)
+    except MeshError as exc:
+        raise MeshError(f"cannot read mesh file {path}: {exc}") from None
+    except (ValueError, IndexError, KeyError, UnicodeDecodeError) as exc:
+        raise MeshError(f"cannot read mesh file {path}: not a valid {suffix[1:].upper()} file "
+                        f"({type(exc).__name__}: {exc})") from None
+    V = np.ascontiguousarray(V, dtype=np.float64).reshape(-1, 3)
+    F = np.ascontiguousarray(F, dtype=np.int64).reshape(-1, 3)
+    if len(F) == 0:
+        raise MeshError(f"mesh file {path} has no faces (no triangles): the blade must be a "
+                        "surface mesh")
+    if F.min() < 0 or F.max() >= len(V):
+        raise MeshError(f"mesh file {path}: a face refers to a vertex that does not exist")
+    if not np.isfinite(V).all() and not np.isfinite(V[np.unique(F)]).all():
+        raise MeshError(f"mesh file {path} has NaN or infinite coordinates: repair the mesh")
+    return V, F
+
+
+# ------------------------------------------------------------------------------- STL
+def _read_stl(raw: bytes):
+    if len(raw) >= 84:
+        n = int(np.frombuffer(raw, dtype="<u4", count=1, offset=80)[0])
+        if 84 + 50 * n == len(raw):
+            rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+            data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
+            V = data["v"].reshape(-1, 3).astype(np.float64)
+            return V, np.arange(len(V)).reshape(-1, 3)
+    text = raw.decode("ascii", errors="strict")
+    if not text.lstrip().lower().startswith("solid"):
+        raise MeshError("neither a binary STL (size does not match its triangle count) nor an "
+                        "ASCII STL (no 'solid' header)")
+    words = text.split()
+    vals = [words[i + 1: i + 4] for i, w in enumerate(words) if w.lower() == "vertex"]
+    V = np.asarray(vals, dtype=np.float64).reshape(-1, 3)
+    if len(V) % 3:
+        raise MeshError(f"{len(V)} vertices is not a whole number of triangles")
+    return V, np.arange(len(V)).reshape(-1, 3)
+
+
+# ------------------------------------------------------------------------------- OBJ
+def _fan(polys):
+    """Triangles of polygons given as lists of vertex indices (fan from the first)."""
+    tris = [(p[0], p[i], p[i + 1]) for p in polys for i in range(1, len(p) - 1)]
+    return np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+
+
+def _read_obj(raw: bytes):
+    verts, polys = [], []
+    for line in raw.decode("utf-8", errors="replace").splitlines():
+        parts = line.split()
+        if not parts:
+            continue
+        if parts[0] == "v":
+            verts.append([float(x) for x in parts[1:4]])
+        elif parts[0] == "f":
+            idx = []
+            for token in parts[1:]:
+                i = int(token.split("/")[0])
+                idx.append(i - 1 if i > 0 else len(verts) + i)  # negative: relative
+            if len(idx) >= 3:
+                polys.append(idx)
+    return np.asarray(verts, dtype=np.float64).reshape(-1, 3), _fan(polys)
+
+
+# ------------------------------------------------------------------------------- PLY
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+    "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+
+
+def _read_ply(raw: bytes):
+    end = raw.find(b"end_header")
+    if not raw.startswith(b"ply") or end < 0:
+        raise MeshError("no PLY header ('ply' … 'end_header')")
+    header = raw[:end].decode("ascii").splitlines()
+    body = raw[raw.index(b"\n", end) + 1:]
+    fmt = next((h.split()[1] for h in header if h.startswith("format")), "ascii")
+    elements = []  # [name, count, [(prop, type, list count type or None)]]
+    for h in header:
+        p = h.split()
+        if not p:
+            continue
+        if p[0] == "element":
+            elements.append([p[1], int(p[2]), []])
+        elif p[0] == "property" and elements:
+            if p[1] == "list":
+                elements[-1][2].append((p[4], _PLY_TYPES[p[3]], _PLY_TYPES[p[2]]))
+            else:
+                elements[-1][2].append((p[2], _PLY_TYPES[p[1]], None))
+    if fmt == "ascii":
+        return _ply_ascii(body, elements)
+    order = "<" if fmt == "binary_little_endian" else ">"
+    return _ply_binary(body, elements, order)
+
+
+def _ply_ascii(body: bytes, elements):
+    tokens = body.decode("ascii").split()
+    pos, V, polys = 0, None, []
+    for name, count, props in elements:
+        if name == "face":
+            for _ in range(count):
+                for prop, _t, list_t in props:
+                    if list_t is None:
+                        pos += 1
+                        continue
+                    k = int(tokens[pos])
+                    values = [int(x) for x in tokens[pos + 1: pos + 1 + k]]
+                    pos += 1 + k
+                    if prop in ("vertex_indices", "vertex_index"):
+                        polys.append(values)
+        else:
+            width = len(props)  # vertex and other scalar elements
+            block = np.asarray(tokens[pos: pos + width * count], dtype=np.float64)
+            pos += width * count
+            if name == "vertex":
+                names = [p[0] for p in props]
+                block = block.reshape(count, width)
+                V = block[:, [names.index(c) for c in ("x", "y", "z")]]
+    if V is None:
+        raise MeshError("no vertex element")
+    return V, _fan(polys)
+
+
+def _ply_binary(body: bytes, elements, order: str):
+    pos, V, F = 0, None, None
+    for name, count, props in elements:
+        if all(list_t is None for _, _, list_t in props):
+            dt = np.dtype([(p, order + t) for p, t, _ in props])
+            block = np.frombuffer(body, dtype=dt, count=count, offset=pos)
+            pos += dt.itemsize * count
+            if name == "vertex":
+                V = np.column_stack([block[c].astype(np.float64) for c in ("x", "y", "z")])
+            continue
+        # a face element: the common case of one list of equal-length polygons (triangles)
+        if len(props) != 1:
+            raise MeshError("face elements with more than one property are not supported; "
+                            "export the mesh as STL or OBJ")
+        _, t, list_t = props[0]
+        k = int(np.frombuffer(body, dtype=order + list_t, count=1, offset=pos)[0])
+        dt = np.dtype([("k", order + list_t), ("i", order + t, (k,))])
+        block = np.frombuffer(body, dtype=dt, count=count, offset=pos)
+        if np.any(block["k"] != k):
+            raise MeshError("mixed polygon sizes in a binary PLY are not supported; "
+                            "triangulate it or export as STL or OBJ")
+        pos += dt.itemsize * count
+        F = _fan(block["i"].astype(np.int64).tolist())
+    if V is None or F is None:
+        raise MeshError("no vertex or face element")
+    return V, F

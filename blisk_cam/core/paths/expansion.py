@@ -1,0 +1,266 @@
+"""CC-curve expansion: the next LMC ratio from the cusp height (paper 001 §3.2, Eqs. 11–15),
+predicted from the strip width and then corrected by measuring the scallop actually left.
+
+Prediction. Eq. 12–13 give the strip width ``d`` on the surface for a ball of radius ρ, a
+cusp height ``h`` and the normal curvature κ of the surface along the side direction
+``k = f × n``. Eq. 11 turns the side step ``k d`` into a change of ``s``; on a mesh that is the
+surface gradient of the morph field: ``Δs_j = |∇_S s| d_j`` (∇_S s is along ``k``), and Eq. 14
+takes the minimum over the CC points (we take a low percentile: one noisy curvature on a
+scanned mesh must not halve the step of a whole pass — the measurement below is the guard).
+
+Correction (ARCHITECTURE.md, math notes). The prediction is first order. We measure the
+scallop between the two passes — the material left at surface points on intermediate LMCs,
+``dist(p, swept centres) − ρ``, with the ridge between the two balls located per column by
+linear interpolation of each ball's material-left between neighbouring levels — and correct
+``Δs`` (secant on ``H ∝ Δs²`` inside a bracket) so that the maximum is close to ``h`` and
+never above it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import ToleranceError
+from ..geometry.mesh import TriMesh
+
+__all__ = [
+    "strip_width",
+    "face_gradient_and_curvature",
+    "PolylineDistance",
+    "measure_cusp",
+]
+
+
+def strip_width(radius, cusp, kappa):
+    """Strip width on the surface between two passes of a ball (paper 001 Eq. 13).
+
+    Derived in the normal section along ``k``: a surface circle of signed curvature κ
+    (κ > 0 convex, < 0 concave, radius R = 1/|κ|), ball centres at distance R ± ρ from its
+    centre, the cusp at R ± h; the law of cosines gives the half-angle φ/2 between the two
+    centres and ``d = R φ``. κ → 0 gives the flat case ``d = 2 sqrt(2ρh − h²)``.
+    A concave surface tighter than the ball (R ≤ ρ) cannot be finished by it: width 0.
+
+    Parameters
+    ----------
+    radius : float, mm (ρ)
+    cusp : float, mm (h), 0 < h < ρ
+    kappa : (k,) float, 1/mm
+
+    Returns
+    -------
+    d : (k,) float, mm
+    """
+    rho, h = float(radius), float(cusp)
+    kappa = np.asarray(kappa, dtype=np.float64)
+    flat = 2.0 * np.sqrt(max(2.0 * rho * h - h * h, 0.0))
+    d = np.full(kappa.shape, flat)
+    R = np.where(np.abs(kappa) > 1e-9, 1.0 / np.maximum(np.abs(kappa), 1e-300), np.inf)
+    convex = (kappa > 1e-9) & np.isfinite(R)
+    if np.any(convex):
+        Rc = R[convex]
+        a, b = Rc + rho, Rc + h
+        cos_half = (a * a + b * b - rho * rho) / (2 * a * b)
+        d[convex] = Rc * 2.0 * np.arccos(np.clip(cos_half, -1.0, 1.0))
+    concave = (kappa < -1e-9) & np.isfinite(R)
+    if np.any(concave):
+        Rc = R[concave]
+        a, b = Rc - rho, Rc - h
+        ok = a > 1e-9
+        cos_half = np.where(ok, (a * a + b * b - rho * rho) / (2 * np.where(ok, a, 1) * b), 1.0)
+        d[concave] = np.where(ok, Rc * 2.0 * np.arccos(np.clip(cos_half, -1.0, 1.0)), 0.0)
+    return d
+
+
+def face_gradient_and_curvature(mesh: TriMesh, values, faces=None):
+    """Per-face surface gradient of a vertex scalar field and the normal curvature along it.
+
+    The gradient of the linear interpolant is ``Σ_i v_i (n × e_i) / (2A)`` with ``e_i`` the
+    edge opposite corner ``i``. The curvature along the unit gradient direction ``u`` comes
+    from the linearly interpolated vertex normals: ``κ_u = u · (∂n/∂u)`` (> 0 convex for
+    outward normals).
+
+    Parameters
+    ----------
+    mesh : TriMesh
+    values : (n,) float — finite at the vertices of the faces of interest
+    faces : (q,) int, optional — only these faces (default all)
+
+    Returns
+    -------
+    grad : (q, 3) float — per-face gradient (1/mm for s)
+    kappa : (q,) float, 1/mm — normal curvature along the gradient direction
+    """
+    sel = slice(None) if faces is None else np.asarray(faces)
+    V, F = mesh.V, mesh.F[sel]
+    fn = mesh.face_normals[sel]
+    area2 = mesh.face_areas[sel] * 2.0
+    inv = np.where(area2 > 0, 1.0 / np.where(area2 > 0, area2, 1.0), 0.0)
+    vals = np.asarray(values, dtype=np.float64)
+    vals = np.where(np.isfinite(vals), vals, 0.0)
+    vn = mesh.vertex_normals
+    grad = np.zeros((len(F), 3))
+    jac = np.zeros((len(F), 3, 3))  # d n_a / d x_b
+    for i in range(3):
+        e = V[F[:, (i + 2) % 3]] - V[F[:, (i + 1) % 3]]  # edge opposite corner i (ccw)
+        g = np.cross(fn, e) * inv[:, None]  # gradient of the hat function of corner i
+        grad += vals[F[:, i]][:, None] * g
+        jac += vn[F[:, i]][:, :, None] * g[:, None, :]
+    gl = np.linalg.norm(grad, axis=1)
+    u = grad / np.where(gl > 0, gl, 1.0)[:, None]
+    kappa = np.einsum("ia,iab,ib->i", u, jac, u)
+    return grad, kappa
+
+
+class PolylineDistance:
+    """Exact distance from points to a set of polylines (ball-centre paths).
+
+    Candidate segments come from a KD-tree over points resampled along the polylines
+    (spacing ``resample``); the distance is then exact to the candidates' segments.
+
+    Parameters
+    ----------
+    polylines : list of ((k, 3) float, closed bool)
+    resample : float, mm
+    """
+
+    def __init__(self, polylines, resample: float = 0.25, k: int = 6):
+        a_list, b_list = [], []
+        for pts, closed in polylines:
+            pts = np.asarray(pts, dtype=np.float64)
+            if len(pts) == 0:
+                continue
+            q = np.vstack([pts, pts[:1]]) if closed and len(pts) > 2 else pts
+            if len(q) == 1:
+                q = np.vstack([q, q])
+            a_list.append(q[:-1])
+            b_list.append(q[1:])
+        if not a_list:
+            raise ValueError("PolylineDistance needs at least one non-empty polyline")
+        self.a = np.vstack(a_list)
+        self.b = np.vstack(b_list)
+        # per segment once, not per candidate (the same products, so the same distances)
+        self.ab = self.b - self.a
+        L2 = np.einsum("sj,sj->s", self.ab, self.ab)
+        self.L2 = np.where(L2 > 0, L2, 1.0)
+        L = np.linalg.norm(self.b - self.a, axis=1)
+        n = np.maximum(1, np.ceil(L / resample).astype(np.int64))
+        seg = np.repeat(np.arange(len(L)), n)
+        start = np.repeat(np.cumsum(n) - n, n)
+        u = (np.arange(len(seg)) - start + 0.5) / n[seg]
+        samples = self.a[seg] + u[:, None] * (self.b[seg] - self.a[seg])
+        self.seg_of_sample = seg
+        self.tree = cKDTree(samples)
+        self._memo: dict[int, tuple] = {}
+        self.k = min(k, len(samples))
+
+    def __call__(self, points, near=None):
+        """(q,) distances (mm) from (q, 3) points to the nearest polyline segment.
+
+        near : (q, 3) float, optional — where to look for the candidate segments (default the
+            points themselves). A surface point queried against ball-centre paths ρ away
+            costs the KD-tree a search of radius ρ; its own would-be centre ``p + ρ n`` lies
+            next to the nearest centres and is found at once. The distance is still exact to
+            the candidates, so a poor hint can only overestimate it.
+        """
+        p = np.asarray(points, dtype=np.float64)
+        hint = p if near is None else np.asarray(near, dtype=np.float64)
+        # the generator measures the same level against the same pass twice (as pass B of
+        # one step and pass A of the next): the last few answers are kept, keyed by the
+        # same point array, checked by value (so an array changed in place is measured anew)
+        memo = self._memo.get(id(points))
+        if memo is not None and np.array_equal(memo[0], p) and np.array_equal(memo[1], hint):
+            return memo[2].copy()
+        d = self._distance(p, hint)
+        if len(self._memo) >= 8:
+            self._memo.pop(next(iter(self._memo)))
+        self._memo[id(points)] = (p.copy(), hint.copy(), d.copy())
+        return d
+
+    def _distance(self, p, hint):
+        _, idx = self.tree.query(hint, k=self.k)
+        # the k nearest samples lie on a few segments (several samples each): each segment
+        # once per point, the minimum over the rest would repeat its distance
+        seg = np.sort(self.seg_of_sample[np.asarray(idx).reshape(len(p), -1)], axis=1)
+        first = np.ones(seg.shape, dtype=bool)
+        first[:, 1:] = seg[:, 1:] != seg[:, :-1]
+        row, col = np.nonzero(first)
+        seg = seg[row, col]
+        ab = self.ab[seg]
+        ap = p[row] - self.a[seg]
+        t = np.clip(np.einsum("ij,ij->i", ap, ab) / self.L2[seg], 0.0, 1.0)
+        d = ap - t[:, None] * ab
+        d2 = np.einsum("ij,ij->i", d, d)
+        return np.sqrt(np.minimum.reduceat(d2, np.flatnonzero(col == 0)))
+
+
+def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None):
+    """Largest scallop between two passes, from surface points on levels between them.
+
+    Parameters
+    ----------
+    level_points : list of (k_i, 3) float — surface points on successive levels from pass A
+        to pass B (first = pass A's own level, last = pass B's), each an exact mesh ∩ LMC
+    dist_a, dist_b : callables, (q, 3) → (q,) distance to A's / B's ball-centre path (with
+        an optional ``near=`` hint, see :class:`PolylineDistance`)
+    radius : float, mm
+    level_normals : list of (k_i, 3) float, optional — unit surface normals at the points;
+        the candidate search then starts at ``p + ρ n`` (faster, same result)
+
+    Returns
+    -------
+    cusp : float, mm — the maximum over the strip of ``min(d_A, d_B) − ρ``, the ridge being
+        located per column (nearest point on the next level) where the two balls' material
+        left, each interpolated linearly, are equal.
+    """
+    best = -np.inf
+    prev = None
+    for i, pts in enumerate(level_points):
+        if len(pts) == 0:
+            prev = None
+            continue
+        if level_normals is None:
+            ma = dist_a(pts) - radius
+            mb = dist_b(pts) - radius
+        else:
+            near = pts + radius * level_normals[i]
+            ma = dist_a(pts, near=near) - radius
+            mb = dist_b(pts, near=near) - radius
+        best = max(best, float(np.max(np.minimum(ma, mb))))
+        if prev is not None:
+            ppts, pma, pmb = prev
+            _, j = cKDTree(pts).query(ppts)
+            # along the column ppts → pts[j]: (pma, pmb) → (ma[j], mb[j]), linear in λ
+            ga = pma - pmb
+            gb = ma[j] - mb[j]
+            cross = (ga <= 0) & (gb >= 0) | (ga >= 0) & (gb <= 0)
+            if np.any(cross):
+                den = ga[cross] - gb[cross]
+                lam = np.where(np.abs(den) > 0, ga[cross] / np.where(den != 0, den, 1.0), 0.5)
+                lam = np.clip(lam, 0.0, 1.0)
+                ridge = (1 - lam) * pma[cross] + lam * ma[j][cross]
+                best = max(best, float(np.max(ridge)))
+        prev = (pts, ma, mb)
+    return best
+
+
+def check_tolerances(radius: float, cusp: float, chord: float):
+    """Reject non-positive or absurd tool radius, cusp height and chord tolerance."""
+    for name, v in (("tool radius", radius), ("cusp height", cusp), ("chord tolerance", chord)):
+        if not (np.isfinite(v) and v > 0):
+            raise ToleranceError(f"{name} must be a positive number of mm, got {v}")
+    if cusp >= radius:
+        raise ToleranceError(
+            f"cusp height {cusp} mm is not smaller than the ball radius {radius} mm: a scallop "
+            "that high is not a finishing tolerance; use a cusp height well below the radius"
+        )
+    if chord >= radius:
+        raise ToleranceError(
+            f"chord tolerance {chord} mm is not smaller than the ball radius {radius} mm; "
+            "use a chord tolerance well below the radius"
+        )
+    if cusp < 1e-4 or chord < 1e-4:
+        raise ToleranceError(
+            f"cusp {cusp} mm / chord {chord} mm below 0.1 µm is beyond what a mesh or a machine "
+            "can hold; use at least 0.0001 mm"
+        )

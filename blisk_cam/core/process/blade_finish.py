@@ -1,0 +1,646 @@
+"""One entry point from user settings to a finished tool path: the request the panel, the
+operators and the CLI all fill in, and the run that turns it into a :class:`ToolPath`.
+
+Stages (each its own module, one concept of the papers each):
+cone fitting (:mod:`.fitting`, when a cone is not given) → LMC passes of CC points
+(:mod:`.pathgen`, paper 001) → machining order and direction, spiral blending
+(:mod:`.linking`, paper 002) → tool axes from lead/tilt (:mod:`.orientation`, paper 003) →
+local gouge check and fix (:mod:`.local_gouge`) → axis smoothing → cutter location per cutter
+type (:mod:`.cutter`, paper 003) → the linked program with approach/retract/links.
+
+Pass spacing for non-ball cutters. :mod:`.pathgen` spaces passes for a ball. With lead/tilt
+given in the local frame, the cutter's swept envelope across the feed does not depend on the
+surface, so the passes are spaced for the ball that leaves the same scallop at the same step
+(:func:`expansion_radius`), the smallest over the requested lead/tilt range (the conservative
+choice). Two surface figures enter (:func:`surface_radii`): the smallest convex radius — a
+bull nose's or flat end's envelope trails the contact, and rolled around a thin leading edge
+it covers less than on a plane (issue #4: a flat at lead 10° left 0.17 mm for 0.05 mm at the
+demo blade's 0.3 mm edges) — and the smallest concave radius: a hub fillet tighter than the
+equivalent ball can only be finished if the local gouge fix may raise the lead until the
+cutter fits (the passes are then spaced for that lead range and a ball that fits the fillet),
+otherwise the request is refused before any path work with the figures and the way out
+(:func:`_fit_concave`). The true tips then come from the cutter itself. For fixed-axis modes
+the inclination is not known in advance and the range 0–80° is used.
+``PlanResult.path.stats`` records ``expansion_radius``, ``edge_radius``, ``concave_radius``.
+
+Angles are radians, lengths mm, as everywhere in core. ``iter_plan_paths`` yields
+:class:`~.pathgen.Progress` and returns a :class:`PlanResult` (``StopIteration.value``) so a
+modal operator can drive it and cancel between yields; ``plan_paths`` exhausts it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..collision.avoid import iter_run_collisions
+from ..errors import BliskCamError, OrientationError, ToleranceError, ToolError
+from ..geometry.axis import Axis
+from ..geometry.mesh import TriMesh
+from ..options import AxisOptions, CutterOptions, GougeOptions, LinkingOptions, ToleranceOptions
+from ..part.cones import Cone
+from ..part.fitting import ConeFit, fit_cones_to_mesh
+from ..part.profiles import morph_between
+from ..paths.gouge import (
+    GougeLimits,
+    LocalGougeReport,
+    fix_local_gouges,
+    fix_near_gouges,
+    surface_normal_curvature,
+)
+from ..paths.linking import Clearance, LinkOptions, SurfaceProjector, build_program, order_passes
+from ..paths.orientation import (
+    AxisStrategy,
+    axes_for_curve,
+    consecutive_turn,
+    lead_tilt_axes,
+    local_frames,
+    smooth_axes,
+)
+from ..paths.passes import iter_generate_paths
+from ..paths.spacing import expansion_radius, lead_for_concave, surface_radii
+from ..runtime import Progress
+from ..tool.cutter import Cutter
+from ..toolpath.types import (
+    FLAG_AXIS_SMOOTHED,
+    FLAG_GOUGE_FIXED,
+    FLAG_LOCAL_GOUGE,
+    FLAG_ZERO_SPEED,
+    ToolPath,
+)
+from .operation import (
+    Operation,
+    OperationResult,
+    Stage,
+    iter_run_operation,
+    run_operation,
+)
+
+__all__ = [
+    "PLAN_STAGES",
+    "PathRequest",
+    "PlanResult",
+    "PlanState",
+    "Stage",
+    "collision_stage",
+    "NotSupportedError",
+    "ZERO_SPEED_WARN_SHARE",
+    "zero_speed_warning",
+    "iter_plan_paths",
+    "make_cutter",
+    "plan_paths",
+]
+
+TOOL_TYPES = ("ball", "bull", "flat", "taper")
+LINK_MODES = ("oneway", "zigzag", "spiral")
+
+
+class NotSupportedError(BliskCamError):
+    """The request asks for something this version cannot do yet (names what, and the way out)."""
+
+
+#: the request's stages: attribute name → option class (:mod:`.options`)
+REQUEST_STAGES = {
+    "cutter": CutterOptions,
+    "tolerances": ToleranceOptions,
+    "orientation": AxisOptions,
+    "gouge": GougeOptions,
+    "linking": LinkingOptions,
+}
+#: option name → stage attribute, for the flat keywords and attributes of a request
+_OPTION_STAGE = {
+    f.name: stage for stage, cls in REQUEST_STAGES.items() for f in dataclasses.fields(cls)
+}
+
+
+@dataclass(frozen=True, init=False)
+class PathRequest:
+    """Everything that decides a finishing path, in core units (mm, radians).
+
+    The options live in one frozen stage object each (:mod:`.options` declares every option
+    once, with its unit, bounds and help): ``cutter`` (:class:`~.options.CutterOptions`),
+    ``tolerances``, ``orientation`` (tool axis), ``gouge`` (local gouge fix), ``linking``.
+    Build a request with the stage objects or with flat keywords — ``PathRequest(axis=ax,
+    tool_type="bull", tool_diameter=12, corner_radius=2, cusp=0.05, lead=radians(5))`` — and
+    read any option flat (``req.lead``, ``req.tool_radius``). ``tool_radius=`` is accepted
+    for ``tool_diameter=`` (half of it).
+
+    Attributes
+    ----------
+    axis : Axis — the blisk axis
+    cone1, cone2 : Cone, Profile or None — hub (s = 0) and tip (s = 1) generatrices; None =
+        fit from the mesh
+    cutter, tolerances, orientation, gouge, linking : the stage options
+    extra : dict — options of later stages (kept so the request stays one object)
+    """
+
+    axis: Axis
+    cone1: Cone | None
+    cone2: Cone | None
+    cutter: CutterOptions
+    tolerances: ToleranceOptions
+    orientation: AxisOptions
+    gouge: GougeOptions
+    linking: LinkingOptions
+    extra: dict
+
+    def __init__(self, axis: Axis, cone1=None, cone2=None, *, extra=None, **options):
+        stages = {name: options.pop(name, None) for name in REQUEST_STAGES}
+        if "tool_radius" in options:
+            if "tool_diameter" in options:
+                raise TypeError("give tool_diameter or tool_radius, not both")
+            radius = float(options.pop("tool_radius"))
+            if not radius > 0.0:  # also NaN
+                raise ToolError(f"tool radius must be > 0 mm, got {radius:g}")
+            options["tool_diameter"] = 2.0 * radius
+        routed = {name: {} for name in REQUEST_STAGES}
+        for key, value in options.items():
+            stage = _OPTION_STAGE.get(key)
+            if stage is None:
+                raise TypeError(f"PathRequest got an unknown option {key!r}")
+            routed[stage][key] = value
+        object.__setattr__(self, "axis", axis)
+        object.__setattr__(self, "cone1", cone1)
+        object.__setattr__(self, "cone2", cone2)
+        for name, cls in REQUEST_STAGES.items():
+            base = stages[name] if stages[name] is not None else cls()
+            if not isinstance(base, cls):
+                raise TypeError(f"PathRequest {name}= must be a {cls.__name__}")
+            value = dataclasses.replace(base, **routed[name]) if routed[name] else base
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "extra", dict(extra or {}))
+
+    def __getattr__(self, name):
+        # called only for names that are not attributes: the stage options, read flat
+        stage = _OPTION_STAGE.get(name)
+        if stage is None and name == "tool_radius":
+            stage = "cutter"
+        if stage is None or name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(object.__getattribute__(self, stage), name)
+
+    def stages(self) -> dict:
+        """{stage name: stage options}."""
+        return {name: getattr(self, name) for name in REQUEST_STAGES}
+
+
+#: warn when at least this share of the poses cuts at zero speed (``FLAG_ZERO_SPEED``)
+ZERO_SPEED_WARN_SHARE = 0.10
+
+
+def zero_speed_warning(n_zero: int, n_poses: int, share: float = ZERO_SPEED_WARN_SHARE):
+    """The warning for ``n_zero`` of ``n_poses`` poses cutting at zero speed, or None when
+    they are fewer than ``share`` of the poses."""
+    if n_poses <= 0 or n_zero < share * n_poses or n_zero == 0:
+        return None
+    return (
+        f"{n_zero} of {n_poses} poses ({100.0 * n_zero / n_poses:.0f} %) cut with the contact "
+        "on the tool axis, where the cutting speed is zero (the tool rubs instead of cutting, "
+        "a poor finish and fast wear): tilt the tool off the surface normal — set a lead "
+        "angle, e.g. --lead 10 (10°)"
+    )
+
+
+@dataclass
+class PlanResult(OperationResult):
+    """The path and, when a cone was fitted, the fit (for the residual report): the
+    :class:`~.operation.OperationResult` of blade finishing.
+
+    ``gouge`` summarises the local gouge check (:class:`.local_gouge.LocalGougeReport`).
+    ``warnings`` lists every message for the user: the generator's
+    (``path.stats["warnings"]``, e.g. uncut poses) and the planning's (``path.warnings``,
+    written as the paths JSON's top-level ``"warnings"``, e.g. zero cutting speed)."""
+
+    fit: ConeFit | None = None
+    gouge: LocalGougeReport | None = None
+    collision: object = None  # .avoidance.CollisionReport when the plan was checked
+
+    @property
+    def warnings(self) -> list[str]:
+        return [str(w) for w in self.path.stats.get("warnings", []) or []] + list(
+            self.path.warnings
+        )
+
+
+def make_cutter(req: PathRequest) -> Cutter:
+    """The request's :class:`~.cutter.Cutter` (ToolError on impossible dimensions)."""
+    if req.tool_type not in TOOL_TYPES:
+        raise BliskCamError(
+            f"unknown tool type {req.tool_type!r}; use one of {', '.join(TOOL_TYPES)}"
+        )
+    kw = {}
+    if req.tool_type == "taper" and req.taper_angle is not None:
+        kw["taper_angle"] = req.taper_angle
+    return Cutter.from_spec(req.tool_type, req.tool_radius, req.corner_radius, **kw)
+
+
+def _strategy(req: PathRequest) -> AxisStrategy:
+    lead = req.lead if req.lead_tip is None else (req.lead, req.lead_tip)
+    tilt = req.tilt if req.tilt_tip is None else (req.tilt, req.tilt_tip)
+    return AxisStrategy(
+        mode=req.axis_mode,
+        lead=lead,
+        tilt=tilt,
+        radial=req.radial_tilt,
+        point=req.axis_point,
+        direction=req.axis_direction,
+        max_turn=req.max_axis_turn,
+    )
+
+
+def _link_options(req: PathRequest, rho: float | None = None) -> LinkOptions:
+    if req.link not in LINK_MODES:
+        raise BliskCamError(f"unknown link mode {req.link!r}; use one of {', '.join(LINK_MODES)}")
+    clear = None
+    if req.clearance_radius is not None:
+        clear = Clearance(req.clearance_radius, req.clearance_z0, req.clearance_slope)
+    return LinkOptions(
+        mode=req.link,
+        climb=bool(req.climb),
+        order=req.order,
+        approach=req.approach,
+        clearance=clear,
+        clearance_margin=req.clearance_margin,
+        direct_link=req.direct_link,
+        chord=req.chord,
+        tool_radius=req.tool_radius if rho is None else rho,
+    )
+
+
+def _check(req: PathRequest):
+    cutter = make_cutter(req)
+    strategy = _strategy(req)
+    opts = _link_options(req)
+    limits = GougeLimits(max_lead=req.gouge_max_lead, max_tilt=req.gouge_max_tilt)
+    if not (math.isfinite(req.zero_speed_tol) and req.zero_speed_tol >= 0):
+        raise BliskCamError(f"zero-speed tolerance must be ≥ 0 mm, got {req.zero_speed_tol!r}")
+    if cutter.type == "flat" and strategy.mode == "local":
+        ss = np.linspace(0.0, 1.0, 101)
+        flush = (np.abs(strategy.at("lead", ss)) < math.radians(0.5)) & (
+            np.abs(strategy.at("tilt", ss)) < math.radians(0.5)
+        )
+        if np.any(flush):
+            raise OrientationError(
+                "a flat end mill with lead = tilt = 0 touches with its whole face (zero cutting "
+                "speed at the centre, no defined side step): give a lead of a few degrees "
+                "(e.g. --lead 5) or use a ball or bull-nose cutter"
+            )
+    if strategy.mode == "local" and req.fix_local_gouge:
+        (l0, l1), (t0, t1) = strategy.angle_bounds()
+        if max(abs(l0), abs(l1)) > limits.max_lead or max(abs(t0), abs(t1)) > limits.max_tilt:
+            raise OrientationError(
+                f"the requested lead/tilt exceed the local-gouge fix limits (lead ≤ "
+                f"{math.degrees(limits.max_lead):.1f}°, "
+                f"tilt ≤ {math.degrees(limits.max_tilt):.1f}°); "
+                "raise gouge_max_lead/gouge_max_tilt or switch fix_local_gouge off"
+            )
+    return cutter, strategy, opts, limits
+
+
+def _orient(
+    curve, mesh, projector, cutter, strategy, limits, req, blisk_axis, report, near_field=None
+):
+    """Axes, flags and tips of one pass in place."""
+    cc, nrm, closed = curve.cc, curve.normal, curve.closed
+    s = curve.ratios
+    flags = np.zeros(len(cc), dtype=np.uint8)
+    if strategy.mode == "local":
+        f, n, k = local_frames(cc, nrm, closed)
+        lead, tilt = strategy.at("lead", s), strategy.at("tilt", s)
+        if len(curve.face) == len(cc) and np.all(curve.face >= 0):
+            faces = curve.face
+        else:
+            _, _, faces = projector.project(cc)
+        kf = surface_normal_curvature(mesh, faces, f)
+        kk = surface_normal_curvature(mesh, faces, k)
+        lead2, tilt2, flagged, left, margin = fix_local_gouges(
+            cutter, f, n, k, lead, tilt, kf, kk, limits, fix=req.fix_local_gouge
+        )
+        if near_field is not None:  # the cutter's reach beyond the contact (a fillet corner)
+            S, tree = near_field
+            lead2, tilt2, nflag, nleft, _ = fix_near_gouges(
+                cutter, S, cc, f, n, k, lead2, tilt2, limits, tol=0.25 * req.chord,
+                fix=req.fix_local_gouge, tree=tree,
+            )
+            flagged, left = flagged | nflag, (left & ~nflag) | nleft
+        want = lead_tilt_axes(f, n, k, lead2, tilt2)
+        flags[flagged & ~left] |= FLAG_GOUGE_FIXED
+        flags[left] |= FLAG_LOCAL_GOUGE
+        report.add(
+            LocalGougeReport(
+                n_poses=len(cc),
+                n_flagged=int(flagged.sum()),
+                n_fixed=int((flagged & ~left).sum()),
+                n_left=int(left.sum()),
+                worst=float(min(0.0, margin[left].min())) if left.any() else 0.0,
+                left_at=cc[left],
+            )
+        )
+    else:
+        want = axes_for_curve(cc, nrm, closed, s, strategy, blisk_axis)
+        report.add(LocalGougeReport(n_poses=len(cc)))
+    axes = want
+    if strategy.max_turn is not None:
+        axes = smooth_axes(want, nrm, strategy.max_turn, closed)
+        moved = np.einsum("ij,ij->i", axes, want) < math.cos(1e-6)
+        flags[moved] |= FLAG_AXIS_SMOOTHED
+    flags[cutter.zero_speed(nrm, axes, req.zero_speed_tol)] |= FLAG_ZERO_SPEED
+    curve.axis = axes
+    curve.tip = cutter.cl_points(cc, nrm, axes)
+    curve.flags = curve.flags | flags
+
+
+def _fit_concave(
+    cutter, strategy, limits, req, edge: float, concave: float, rho: float
+) -> float:
+    """Pass spacing radius (mm) given a concave region of radius ``concave`` (a hub fillet)
+    and the radius ``rho`` the passes would be spaced for, or a ToleranceError naming the fix.
+
+    Nothing changes when the requested orientation already curves at least as much as the
+    region and ``rho`` fits it.
+    The local gouge fix (:mod:`.local_gouge`) raises the lead there until the cutter's
+    effective radius fits; the passes are then spaced for the whole lead range the path will
+    use (requested → needed, :func:`expansion_radius`) and for a ball that fits the concave
+    region itself (:mod:`.pathgen` spaces with a ball). When no lead within the gouge-fix
+    limit fits — or the fix is off, or the axis is not lead/tilt — the request cannot be
+    finished without gouging: say so, with the figures."""
+    kind = {"bull": "bull-nose", "flat": "flat end mill", "taper": "taper cutter"}[cutter.type]
+    (l0, l1), _ = strategy.angle_bounds()
+    lead0 = max(abs(l0), abs(l1))
+    lead_txt = f"{math.degrees(lead0):.1f}°"
+    need, best = (None, math.inf)
+    if strategy.mode == "local":
+        need, best = lead_for_concave(cutter, strategy, limits, concave)
+        if need is not None and need <= lead0 + 1e-12 and rho <= concave:
+            return rho  # the requested orientation already fits the concave region
+    if rho <= concave and (strategy.mode != "local" or not req.fix_local_gouge):
+        return rho  # the gouge check flags what does not fit (fix off / fixed axis)
+    if need is None or not req.fix_local_gouge:
+        req_eff = best
+        if strategy.mode == "local":
+            f = np.array([[1.0, 0.0, 0.0]])
+            n = np.array([[0.0, 0.0, 1.0]])
+            a = lead_tilt_axes(f, n, np.cross(f, n), max(abs(l0), abs(l1)), 0.0)
+            req_eff = float(cutter.effective_radius(n, a, np.cross(f, n))[0])
+        hint = (
+            f"a lead of {math.degrees(need):.1f}° would fit: switch the local gouge fix on"
+            if need is not None
+            else "use lead/tilt (mode 'local') so the gouge fix can raise the lead"
+            if strategy.mode != "local"
+            else f"no lead up to the gouge-fix limit {math.degrees(limits.max_lead):.0f}° fits "
+            f"(the smallest effective radius reachable is {best:.1f} mm)"
+        )
+        eff_txt = (
+            f"({req_eff:.1f} mm at lead {lead_txt})"
+            if math.isfinite(req_eff)
+            else f"(mode {strategy.mode!r} cannot raise the lead to fit it)"
+        )
+        raise ToleranceError(
+            f"the surface between the cones has a concave region of radius {concave:.2f} mm (e.g. "
+            f"the hub fillet) tighter than the {kind}'s effective radius across the feed "
+            f"{eff_txt}; {hint}. Use a ball of radius ≤ {concave:.2f} mm, or move the hub cone "
+            "off the fillet"
+        )
+    wide = AxisStrategy(
+        mode="local",
+        lead=(min(l0, -need) if l0 < 0 and l1 <= 0 else l0, max(l1, need) if l1 >= 0 else l1),
+        tilt=strategy.tilt,
+    )
+    return min(expansion_radius(cutter, wide, req.cusp, edge), 0.95 * concave)
+
+
+@dataclass
+class PlanState:
+    """The program as the stages build it (:data:`PLAN_STAGES`): each stage reads what the
+    earlier ones left here and adds its part. Lengths mm, angles radians.
+
+    Attributes
+    ----------
+    mesh, req : the input (never modified)
+    cutter, strategy, limits : the request's cutter, axis strategy and gouge-fix limits
+    fit : ConeFit or None — set by "fit" when a cone was not given
+    cone1, cone2 : the generatrices in use
+    edge, concave : smallest convex / concave surface radius between the cones (inf: not
+        needed), rho : ball radius the passes are spaced for
+    passes : the CC passes of "passes"; morph, projector : the morph field and the surface
+        projector shared by the later stages
+    link_options : LinkOptions; curves : list of PassCurve in machining order ("order"),
+        oriented with tips by "orient"; gouge : LocalGougeReport
+    program : Program ("link"); stats : dict (every stage adds; "checks" summarises)
+    warnings : list of str — for the user (the paths JSON's top-level "warnings")
+    seconds : {stage name: seconds}
+    """
+
+    mesh: TriMesh
+    req: PathRequest
+    cutter: Cutter
+    strategy: AxisStrategy
+    limits: GougeLimits
+    fit: ConeFit | None = None
+    cone1: object = None
+    cone2: object = None
+    edge: float = math.inf
+    concave: float = math.inf
+    rho: float = 0.0
+    passes: object = None
+    morph: object = None
+    projector: SurfaceProjector | None = None
+    link_options: LinkOptions | None = None
+    curves: list = field(default_factory=list)
+    gouge: LocalGougeReport = field(default_factory=LocalGougeReport)
+    program: object = None
+    stats: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+    collision: object = None  # CollisionReport of the "collision" stage (when added)
+    seconds: dict = field(default_factory=dict)
+
+    def result(self) -> PlanResult:
+        path = ToolPath(
+            axis=self.req.axis,
+            cone1=self.passes.cone1,
+            cone2=self.passes.cone2,
+            tool=self.cutter,
+            cusp=self.req.cusp,
+            chord=self.req.chord,
+            curves=self.curves,
+            stats=self.stats,
+            program=self.program,
+            warnings=self.warnings,
+            collision=None if self.collision is None else self.collision.summary(),
+        )
+        return PlanResult(path=path, fit=self.fit, gouge=self.gouge, collision=self.collision)
+
+
+def _stage_fit(st: PlanState):
+    """Cones not given are fitted to the blade's boundary loops (:mod:`.fitting`); the pass
+    spacing radius follows from the cutter and the surface (:func:`expansion_radius`)."""
+    req = st.req
+    st.cone1, st.cone2 = req.cone1, req.cone2
+    if st.cone1 is None or st.cone2 is None:
+        st.fit = fit_cones_to_mesh(st.mesh, req.axis)
+        st.cone1 = st.cone1 or st.fit.cone1
+        st.cone2 = st.cone2 or st.fit.cone2
+    if st.cutter.type != "ball":
+        st.edge, st.concave = surface_radii(st.mesh, req.axis, morph_between(st.cone1, st.cone2))
+    st.rho = expansion_radius(st.cutter, st.strategy, req.cusp, st.edge)
+    if math.isfinite(st.concave):
+        st.rho = _fit_concave(st.cutter, st.strategy, st.limits, req, st.edge, st.concave,
+                              st.rho)
+    return
+    yield  # a generator: nothing to report in between
+
+
+def _stage_passes(st: PlanState):
+    """The CC passes: mesh ∩ LMC, sampled for the chord, spaced for the cusp (paper 001)."""
+    st.passes = yield from iter_generate_paths(
+        st.mesh, st.req.axis, st.cone1, st.cone2, tool_radius=st.rho, cusp=st.req.cusp,
+        chord=st.req.chord,
+    )
+    st.stats.update(st.passes.stats)
+    yield Progress(1.0, "orienting and linking")
+
+
+def _stage_order(st: PlanState):
+    """Machining order and direction of the passes, the spiral (:mod:`.linking`)."""
+    st.morph = morph_between(st.passes.cone1, st.passes.cone2)  # LMC, or LMRS for a Profile
+    st.projector = SurfaceProjector(st.mesh, st.req.axis, st.morph)
+    st.link_options = _link_options(st.req, st.rho)
+    st.curves = order_passes(st.passes.curves, st.link_options, st.morph, st.req.axis,
+                             st.projector)
+    return
+    yield
+
+
+def _stage_orient(st: PlanState):
+    """Tool axes, the local gouge check and fix, smoothing and the tool tips per pass."""
+    near_field = None
+    if st.cutter.type != "ball" and math.isfinite(st.concave):
+        # a concave region: check the cutter against the surface around each contact too
+        S = np.vstack([st.mesh.V, st.mesh.V[st.mesh.F].mean(axis=1)])
+        near_field = (S, cKDTree(S))
+    for c in st.curves:
+        _orient(c, st.mesh, st.projector, st.cutter, st.strategy, st.limits, st.req,
+                st.req.axis, st.gouge, near_field)
+    return
+    yield
+
+
+def _stage_link(st: PlanState):
+    """The linked program: approach, cut, links on the surface or via the clearance
+    surface (:func:`.linking.build_program`)."""
+    st.program = build_program(
+        st.curves,
+        st.link_options,
+        st.req.axis,
+        tool_radius=st.cutter.radius,
+        projector=st.projector,
+        cl_points=st.cutter.cl_points,
+    )
+    return
+    yield
+
+
+def _stage_checks(st: PlanState):
+    """The figures of the finished plan (stats)."""
+    curves = st.curves
+    turns = [consecutive_turn(c.axis, c.closed) for c in curves if len(c.cc) > 1]
+    st.stats.update(
+        {
+            "expansion_radius": float(st.rho),
+            # smallest convex / concave radius between the cones (None: not needed, a ball)
+            "edge_radius": float(st.edge) if math.isfinite(st.edge) else None,
+            "concave_radius": float(st.concave) if math.isfinite(st.concave) else None,
+            "curves": len(curves),
+            "poses": int(sum(len(c.cc) for c in curves)),
+            "max_axis_turn": float(max((t.max() for t in turns if len(t)), default=0.0)),
+            "local_gouge": st.gouge.summary(),
+            "zero_speed_poses": int(
+                sum(int(np.count_nonzero(c.flags & FLAG_ZERO_SPEED)) for c in curves)
+            ),
+            "link": st.link_options.mode,
+        }
+    )
+    zs = zero_speed_warning(st.stats["zero_speed_poses"], st.stats["poses"])
+    if zs:
+        st.warnings.append(zs)
+    return
+    yield
+
+
+def collision_stage(options, obstacles=()) -> Stage:
+    """The "collision" stage (:mod:`.avoidance`, paper 004) for ``iter_plan_paths(...,
+    extra=(collision_stage(options, obstacles),))``: the planned passes and program are
+    checked against the blade, its rotated neighbours and the ``obstacles`` ((name, V, F)),
+    and corrected in mode "avoid". The report is ``PlanResult.collision``."""
+    def run(st: PlanState):
+        planned = st.result().path
+        it = iter_run_collisions(st.mesh, planned, obstacles, options)
+        while True:
+            try:
+                fraction = next(it)
+            except StopIteration as stop:
+                path, report = stop.value
+                break
+            yield Progress(float(fraction), "checking collisions")
+        st.curves, st.program, st.collision = path.curves, path.program, report
+
+    return Stage("collision", run)
+
+
+#: the plan, in order: fit → passes → order → orient/gouge → link → checks. Later stages
+#: (collision) are appended by the caller: ``iter_plan_paths(mesh, req, extra=(stage,))``.
+PLAN_STAGES = (
+    Stage("fit", _stage_fit),
+    Stage("passes", _stage_passes),
+    Stage("order", _stage_order),
+    Stage("orient", _stage_orient),
+    Stage("link", _stage_link),
+    Stage("checks", _stage_checks),
+)
+
+
+class BladeFinish(Operation):
+    """LMC blade finishing as an operation (paper 001): the blade mesh is the part, the
+    :class:`PathRequest` carries the tool and the options; the stock is not read."""
+
+    name = "blade_finish"
+
+    def start(self, part: TriMesh, request: PathRequest, stock=None) -> PlanState:
+        cutter, strategy, _, limits = _check(request)
+        return PlanState(mesh=part, req=request, cutter=cutter, strategy=strategy,
+                         limits=limits)
+
+    def stages(self, state: PlanState) -> tuple[Stage, ...]:
+        return PLAN_STAGES
+
+    def finish(self, state: PlanState, seconds: dict) -> PlanResult:
+        state.seconds = dict(seconds)
+        return state.result()
+
+
+#: the blade finishing operation
+BLADE_FINISH = BladeFinish()
+
+
+def iter_plan_paths(mesh: TriMesh, req: PathRequest, *, extra=()):
+    """Generator: runs :data:`PLAN_STAGES` (then the ``extra`` stages) over one
+    :class:`PlanState` (:func:`~.operation.iter_run_operation` of :data:`BLADE_FINISH`);
+    yields Progress, returns a :class:`PlanResult`. Each stage's wall time, inside the stage
+    only, is in the stats as ``seconds_<stage>`` ("seconds", from the pass generation, stays
+    the pass generation alone).
+
+    Raises
+    ------
+    BliskCamError (ToolError, OrientationError, LinkError, ConeError, ToleranceError …) with a
+    message naming the problem, before any long work where the request itself is bad.
+    """
+    return (yield from iter_run_operation(BLADE_FINISH, mesh, req, extra=extra))
+
+
+def plan_paths(mesh: TriMesh, req: PathRequest, *, extra=()) -> PlanResult:
+    """Run :func:`iter_plan_paths` to the end."""
+    return run_operation(BLADE_FINISH, mesh, req, extra=extra)

@@ -1,0 +1,189 @@
+"""Threads and cancellation for long core work: the worker count of a run
+(:func:`parallel`), chunked maps over a thread pool, work beside the
+calling thread (:func:`alongside`), and the cooperative cancel poll
+(:func:`cancellable`, :func:`check_cancel`, :class:`Cancelled`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import os
+import threading
+from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
+from dataclasses import dataclass
+
+__all__ = [
+    "Progress",
+    "Cancelled",
+    "cancellable",
+    "check_cancel",
+    "alongside",
+    "map_chunks",
+    "map_tasks",
+    "parallel",
+]
+# threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
+_WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
+
+
+def default_workers() -> int:
+    """The cores this process may use (``os.sched_getaffinity`` where available)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
+        return max(1, os.cpu_count() or 1)
+
+
+@contextlib.contextmanager
+def parallel(workers: int | None):
+    """Within the block, chunked queries (:func:`map_chunks`: nearest primitives, pairs within
+    a radius, swept-cutter distances) run on ``workers`` threads (None: every core). numpy
+    and scipy's k-d tree release the GIL in their loops; each chunk is computed exactly as
+    on one thread, so the results do not depend on ``workers``."""
+    n = default_workers() if workers is None else max(1, int(workers))
+    token = _WORKERS.set(n)
+    try:
+        yield n
+    finally:
+        _WORKERS.reset(token)
+
+
+# the caller's cancel hook (set by :func:`cancellable`): (is-set callable, what is running)
+_CANCEL = contextvars.ContextVar("blisk_cam_geometry_cancel", default=None)
+
+
+class Cancelled(Exception):
+    """A long computation stopped because its caller's cancel hook was set (ESC, a new run):
+    not an input error; nothing of the computation is returned."""
+
+
+@contextlib.contextmanager
+def cancellable(cancel, what: str = "the computation"):
+    """Within the block, :func:`check_cancel` (called by :func:`map_chunks` and
+    :func:`map_tasks` before every chunk and task) raises :class:`Cancelled` once ``cancel``
+    is set. ``cancel``: None (never), a ``threading.Event`` or a callable returning True to
+    stop (polled from the worker threads too, so it must be thread-safe)."""
+    if cancel is None:
+        yield
+        return
+    test = getattr(cancel, "is_set", None)
+    if test is None:
+        if not callable(cancel):
+            raise TypeError(f"cancel must be a threading.Event or a callable returning True to "
+                            f"stop, got {type(cancel).__name__}")
+        test = cancel
+    token = _CANCEL.set((test, what))
+    try:
+        yield
+    finally:
+        _CANCEL.reset(token)
+
+
+def check_cancel(hook=None):
+    """Raise :class:`Cancelled` if the cancel hook of :func:`cancellable` (or ``hook``, a
+    value of it taken in another thread) is set."""
+    hook = _CANCEL.get() if hook is None else hook
+    if hook is not None and hook[0]():
+        raise Cancelled(f"{hook[1]} was cancelled by the caller; no figures were produced")
+
+
+def map_chunks(fn, k: int, chunk: int):
+    """``[fn(s) for s in range(0, k, chunk)]``, on the threads of :func:`parallel` when
+    there are several chunks; the cancel hook of :func:`cancellable` is checked before every
+    chunk."""
+    return _map(fn, range(0, k, chunk), carry_hook=False)
+
+
+def map_tasks(fn, items):
+    """``[fn(x) for x in items]``, on the threads of :func:`parallel` when there are several
+    items (independent tasks, e.g. one per pass level). Inside a task :func:`map_chunks`
+    runs in its thread only (the pool's threads start from the default context), so the
+    tasks are the unit of parallelism; the cancel hook is checked before every task and
+    reaches the tasks' own chunks."""
+    return _map(fn, items, carry_hook=True)
+
+
+def alongside(fn):
+    """Start ``fn()`` on a thread of its own when :func:`parallel` allows several threads, so
+    that a step running on one core (e.g. building surface samples) overlaps the caller's
+    next steps; returns a function that waits for ``fn``'s result and returns it (or raises
+    its exception). With one thread ``fn`` runs, in the calling thread, when the result is
+    asked for — the order of the work is then the caller's. The thread has the caller's
+    cancel hook and one worker (its own chunked queries stay on it); ``fn`` must not touch
+    what the caller's steps change meanwhile."""
+    if _WORKERS.get() < 2:
+        return fn
+    ctx = contextvars.copy_context()
+    ctx.run(_WORKERS.set, 1)
+    box = {}
+
+    def run():
+        try:
+            box["value"] = ctx.run(fn)
+        except BaseException as exc:  # handed to the caller by result()
+            box["error"] = exc
+
+    thread = threading.Thread(target=run, name="blisk_cam-alongside", daemon=True)
+    thread.start()
+
+    def result():
+        thread.join()
+        if "error" in box:
+            raise box["error"]
+        return box["value"]
+
+    return result
+
+
+def _map(fn, items, *, carry_hook: bool):
+    """``[fn(x) for x in items]`` on up to :func:`parallel` threads, the cancel hook checked
+    before every item (and, with ``carry_hook``, set in the pool thread's context while the
+    item runs, so its own chunks check it too). When an item raises (``Cancelled`` or an
+    error), the items not started yet are dropped, not run."""
+    items = list(items)
+    n = min(_WORKERS.get(), len(items))
+    hook = _CANCEL.get()
+    if hook is not None:
+        inner = fn
+
+        def fn(x):
+            check_cancel(hook)
+            if not carry_hook:
+                return inner(x)
+            token = _CANCEL.set(hook)
+            try:
+                return inner(x)
+            finally:
+                _CANCEL.reset(token)
+    if n <= 1:
+        return [fn(x) for x in items]
+    # once an item has raised, the items a pool thread starts afterwards return at once
+    # without running (or polling the hook): a thread that finishes its item could otherwise
+    # start, poll and fail every queued item before this thread wakes up to cancel them
+    failed = threading.Event()
+
+    def guarded(x):
+        if failed.is_set():
+            return None  # never read: an earlier item's exception is raised below
+        try:
+            return fn(x)
+        except BaseException:
+            failed.set()
+            raise
+
+    with ThreadPoolExecutor(max_workers=n) as ex:
+        futures = [ex.submit(guarded, x) for x in items]
+        _, pending = wait(futures, return_when=FIRST_EXCEPTION)
+        for f in pending:  # an item raised: the items not started are not run (the pool
+            f.cancel()  # starts them in order, so the failed one comes first below)
+        return [f.result() for f in futures]
+
+
+@dataclass
+class Progress:
+    """A progress report of long work (yielded by the stages of an operation): ``fraction``
+    of the work done, 0–1, and a ``message`` for the user."""
+
+    fraction: float
+    message: str

@@ -1,0 +1,194 @@
+"""Several swept volumes of one tool queried together (one member per pass
+level): point i against member ``which[i]``, in full chunks over all
+members. mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..runtime import map_chunks, map_tasks
+from .sweep import SweptCutter, _fast_search, _sphere_trace
+
+__all__ = ["SweptForest"]
+
+#: points per chunk of :class:`SweptForest`'s joint pass (its members are small: one level's
+#: passes, ~30 candidate clusters per point, so bigger chunks than a whole path's pay off)
+_FOREST_CHUNK = 4096
+
+
+class SweptForest:
+    """Swept volumes of one tool along several sets of passes (e.g. one per pass level, for
+    the scallops between neighbouring levels), queried together: point i against member
+    ``which[i]``.
+
+    When every member is a "fast" :class:`SweptCutter` of the same cutter, the queries of
+    all members run as one chunked pass: the points sorted by member, cut into chunks of
+    ``chunk`` points regardless of the members' boundaries; per chunk, step 0 (upper bound,
+    candidate clusters) by each member it holds on its own trees, then steps 1–4 over all the
+    chunk's (point, segment) pairs at once, on tables that hold every member's segments and
+    clusters (:func:`_fast_search`). The verify of a bull-nose path asks ~50 per-level
+    volumes for one to ten thousand points each, several times over (ridge ends, the regula
+    falsi steps, the sphere tracing of the scallop heights): one pass over full chunks
+    replaces hundreds of small ones and chunk tails, whose cost was Python/numpy overhead
+    per call. Each point's figures are its member's, bit for bit: they depend on the point's
+    own bound and candidates only. (How many points share a chunk decides how a member's
+    tree is walked — every leaf tested at once for a few points, a descent otherwise — and
+    the flat test can return a few more clusters, whose ancestors' bounds miss the radius:
+    their segments cannot come within it, so they never change a value; the per-level
+    queries' chunk tails took the flat test before too.)
+
+    Other members (:class:`SweptBall`, the "exact" method) are asked member by member, one
+    task each (:func:`.geometry.map_tasks`), each with its points in the order given.
+
+    Parameters
+    ----------
+    members : list of SweptCutter or SweptBall
+    chunk : int — points per chunk of the joint pass
+    """
+
+    def __init__(self, members, *, chunk: int = _FOREST_CHUNK):
+        self.members = list(members)
+        self.chunk = max(int(chunk), 1)
+        ms = self.members
+        live = [m for m in ms if isinstance(m, SweptCutter) and m.tree is not None]
+        self.fast = (bool(live) and all(isinstance(m, SweptCutter) and m.method == "fast"
+                                        for m in ms)
+                     and len({(repr(m.cutter.as_dict()), m.xtol) for m in live}) == 1)
+        if not self.fast:
+            return
+        self.cutter, self.xtol = live[0].cutter, live[0].xtol
+        has = np.array([m.tree is not None for m in ms])
+        nseg = np.array([len(m.ta) for m in ms], dtype=np.int64)
+        ncl = np.array([len(m._ls) if m.tree is not None else 0 for m in ms], dtype=np.int64)
+        self._has = has
+        self._so = np.cumsum(nseg) - nseg  # first segment of each member in the tables
+        self._co = np.cumsum(ncl) - ncl  # first cluster of each member
+        self._slk = np.array([m._slack if m.tree is not None else 0.0 for m in ms])
+
+        def cat(name):
+            return np.concatenate([getattr(m, name) for m in live])
+
+        self.ta, self.tb, self._k, self._b, self._chord_ok = (
+            cat(n) for n in ("ta", "tb", "_k", "_b", "_chord_ok"))
+        self._lt, self._la, self._lphi, self._ldt = (
+            cat(n) for n in ("_lt", "_la", "_lphi", "_ldt"))
+        self._ls = np.concatenate([np.where(m._ls >= 0, m._ls + so, -1)
+                                   for m, so in zip(ms, self._so, strict=True)
+                                   if m.tree is not None])
+
+    def __len__(self):
+        return len(self.members)
+
+    def __getitem__(self, j):
+        """Member ``j`` (a per-level query of its own, e.g. a ball's listed segments)."""
+        return self.members[j]
+
+    def _which(self, which, k):
+        w = np.asarray(which, dtype=np.int64).reshape(-1)
+        if len(w) != k:
+            raise ValueError(f"which must give one member per point: {len(w)} for {k} points")
+        if len(w) and (w.min() < 0 or w.max() >= len(self.members)):
+            raise ValueError(f"which must name members 0..{len(self.members) - 1}, got "
+                             f"{int(w.min())}..{int(w.max())}")
+        return w
+
+    def per_member(self, w, ask):
+        """``ask(member, rows)`` for every member holding queries, one task each (the
+        fallback of the joint pass, and a member's own queries such as a ball's
+        :meth:`SweptBall.near`): ``w`` (k,) the member of each query; each member's rows
+        ascending, from one stable sort of ``w``; [(rows, result or None)] in member
+        order."""
+        order = np.argsort(w, kind="stable")
+        start = np.searchsorted(w[order], np.arange(len(self.members) + 1))
+
+        def one(j):
+            rows = order[start[j] : start[j + 1]]
+            return (rows, ask(self.members[j], rows)) if len(rows) else (rows, None)
+
+        return map_tasks(one, range(len(self.members)))
+
+    def nearest(self, points, which, near=None):
+        """Signed distance (k,) from points (k, 3) to the swept volume of member ``which``
+        (k,) each, and the nearest segment (k,) (numbered in the member, −1 where none).
+
+        ``near`` (k, 3), optional, for :class:`SweptBall` members only: where each point's
+        nearest centres are likely (:meth:`SweptBall.nearest`; the same result)."""
+        P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        k = len(P)
+        w = self._which(which, k)
+        out = np.full(k, np.inf)
+        arg = np.full(k, -1, dtype=np.int64)
+        if not self.fast:
+            if near is None:
+                def ask(m, rows):
+                    return m.nearest(P[rows])
+            else:
+                G = np.asarray(near, dtype=np.float64).reshape(-1, 3)
+
+                def ask(m, rows):
+                    return m.nearest(P[rows], near=G[rows])
+            for rows, res in self.per_member(w, ask):
+                if res is not None:
+                    out[rows], arg[rows] = res
+            return out, arg
+        if near is not None:
+            raise ValueError("near is for swept balls: a swept cutter finds its own "
+                             "candidates")
+        order = np.argsort(w, kind="stable")
+        sel = order[self._has[w[order]]]  # members without segments: inf, −1
+        Ps, ws = P[sel], w[sel]
+        ds = np.empty(len(sel))
+        gs = np.empty(len(sel), dtype=np.int64)
+        ch = self.chunk
+
+        def one(s0):
+            ds[s0 : s0 + ch], gs[s0 : s0 + ch] = self._chunk(Ps[s0 : s0 + ch], ws[s0 : s0 + ch])
+
+        map_chunks(one, len(sel), ch)
+        out[sel] = ds
+        arg[sel] = np.where(gs >= 0, gs - self._so[ws], -1)
+        return out, arg
+
+    def _chunk(self, Pc, wc, delta: float = 1e-6):
+        """Points ``Pc`` (k, 3) of members ``wc`` (k,, sorted): step 0 member by member,
+        steps 1–4 at once. (distance (k,), segment in the joint tables (k,))."""
+        kc = len(Pc)
+        starts = np.flatnonzero(np.concatenate([[True], wc[1:] != wc[:-1]]))
+        ends = np.append(starts[1:], kc)
+        u = np.empty(kc)
+        arg = np.empty(kc, dtype=np.int64)
+        qs, ls = [], []
+        for s, e in zip(starts, ends, strict=True):
+            j = int(wc[s])
+            m = self.members[j]
+            uj, aj = m._upper_bound(Pc[s:e])
+            qj, lj = m._candidate_clusters(Pc[s:e], uj)
+            u[s:e] = uj
+            arg[s:e] = np.where(aj >= 0, aj + self._so[j], -1)
+            qs.append(qj + s)
+            ls.append(lj + self._co[j])
+        return _fast_search(self, Pc, u, arg, np.concatenate(qs), np.concatenate(ls),
+                            self._slk[wc], self.xtol, delta)
+
+    def distance(self, points, which, near=None):
+        """(k,) signed distance (mm) from points to their members' swept volumes (``near``:
+        see :meth:`nearest`)."""
+        return self.nearest(points, which, near)[0]
+
+    def height_along(self, points, directions, max_height, which, steps: int = 60):
+        """:meth:`SweptCutter.height_along` (or the member's own) of every point against its
+        member ``which`` (k,): (k,) mm, ``inf`` where there is no hit within ``max_height``.
+        The sphere tracing of all members advances together, one joint query per step."""
+        P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        N = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        w = self._which(which, len(P))
+        hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),)).copy()
+        if not self.fast:
+            t = np.full(len(P), np.inf)
+            for rows, h in self.per_member(
+                    w, lambda m, rows: m.height_along(P[rows], N[rows], hmax[rows])):
+                if h is not None:
+                    t[rows] = h
+            return t
+        return _sphere_trace(lambda X, idx: self.distance(X, w[idx]), P, N, hmax, steps)

@@ -1,0 +1,869 @@
+"""Independent measurement of a tool path on its mesh: scallops, gouges, chord errors.
+
+Nothing here shares code with the path generator (``slicing``, ``sampling``, ``expansion``);
+only the mesh, cone and path data structures are common. The figures are computed from
+first principles on the triangles themselves:
+
+* **point → mesh** — exact closest points on the triangles (every candidate triangle is
+  tested with an exact point–triangle routine; candidates come from a bounding-volume tree
+  whose node bounds are both an axis-aligned box and an oriented cylinder, so pruning is
+  exact). The side is decided with the angle-weighted pseudo-normal of the closest feature
+  (face, edge or vertex; Bærentzen & Aanæs 2005), which is the correct inside/outside test
+  on a closed mesh (on an open one, beyond a boundary it is the side of the nearest face).
+* **surface samples** — a deterministic barycentric grid on every triangle of the machined
+  region (morph ratio in [0, 1]), finer than ``spacing``, with the smooth normal, plus the
+  points where the grid edges cross the region's boundary cones.
+* **swept cutter** — the volume swept by the cutter along each pass (straight moves between
+  the poses, closed passes include the closing move). For a ball of radius ρ it is a union
+  of capsules around the centre polyline; the *material left* at a surface point p is the
+  signed distance from p to that volume, ``min_seg dist(p, seg) − ρ`` (> 0: material left,
+  < 0: gouge, in mm). Other cutters plug in through :func:`swept_cutter`.
+* **scallops** — per pair of neighbouring levels, the material left using only those two
+  passes, maximised over the samples *and* over the ridge where the two passes' envelopes
+  meet (located on the sample grid edges by regula falsi on the exact distances), so the
+  figure is the ridge's, not the nearest sample's. The scallop height along the surface
+  normal (the textbook cusp height) is measured at the ridge points too.
+
+The swept volume assumes the ball centre moves on straight lines between poses (linear
+interpolation in the part frame); a ball is symmetric, so its axis does not matter.
+
+Units are mm throughout. The module is numpy/scipy only (no bpy, no trimesh).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ToleranceError
+from ..geometry.axis import meridional
+from ..geometry.closest import ClosestPoints, closest_on_segments, closest_on_triangles
+from ..geometry.distance import MeshDistance, closest_points
+from ..geometry.mesh import TriMesh
+from ..geometry.vectors import dot
+from ..part.profiles import morph_between
+from ..runtime import Cancelled, alongside, cancellable, check_cancel, map_tasks, parallel
+from ..tool.cutter import as_cutter
+from ..toolpath.types import PassCurve, ToolPath
+from .forest import SweptForest
+from .samples import SurfaceSamples, _barycentric, default_spacing, surface_samples
+from .sweep import SWEEP_METHODS, SweepError, SweptCutter, _slerp, swept_cutter
+from .sweep_ball import SweptBall, _curve_polyline
+
+__all__ = [
+    "Cancelled",
+    "ClosestPoints",
+    "MeshDistance",
+    "SurfaceSamples",
+    "SweptBall",
+    "SWEEP_METHODS",
+    "SweepError",
+    "SweptCutter",
+    "VerifyReport",
+    "closest_points",
+    "closest_on_segments",
+    "closest_on_triangles",
+    "default_spacing",
+    "surface_samples",
+    "swept_cutter",
+    "verify_path",
+]
+
+
+# ================================================================== report
+@dataclass
+class VerifyReport:
+    """All figures of :func:`verify_path` (mm unless stated).
+
+    Scalars
+    -------
+    tool_radius, spacing (sample spacing used), n_samples, n_poses, n_curves, n_levels
+    max_material_left : max over region samples and scallop ridges of the material left by
+        all passes (signed distance from the surface to the swept cutter; NaN without samples)
+        — ``max_material_left_at`` its location
+    max_gouge : max depth of the swept cutter below the region's surface, ≥ 0 — measured at
+        the samples and at the feet of the sub-sampled centre polylines (where the deepest
+        cuts are); ``max_gouge_at`` its location
+    max_cusp : max of ``pair_cusp``
+    max_cusp_normal : max of ``pair_cusp_normal``
+    cc_chord : max distance from the CC polylines (``subsamples`` − 1 points inside every
+        segment, closing segments included) to the mesh; ``cc_chord_at`` where
+    path_overcut : max of ρ − signed dist(centre polyline, mesh) over the sub-sampled centre
+        polylines, ≥ 0 (the straight moves cut into the mesh by this much; the sign makes a
+        centre inside the material count as ρ + depth); ``path_overcut_at`` where
+    path_undercut : max of signed dist(centre polyline, mesh) − ρ, ≥ 0 (the centre polyline
+        leaves the exact offset surface by this much)
+    cc_on_mesh : max distance of the CC points to the mesh
+    cc_on_cone : max |f_s(r, z)| of the CC points to their LMC (meridional distance)
+    normal_error_deg : max angle between a pose's normal and the mesh's smooth normal at the
+        CC point's closest point, degrees
+    pose_mismatch : max |tip + ρ axis − (cc + ρ normal)| (the ball centre implied by the CL
+        data against the one implied by the CC data)
+
+    Arrays
+    ------
+    levels (p,) distinct s of the passes; pair_s (p−1, 2) consecutive levels;
+    pair_cusp (p−1,) max material left at the surface between two consecutive levels
+        (samples with s in the pair's interval) by those two levels' passes only, including
+        the ridge where their envelopes meet (located to ~1e-9 mm);
+    pair_cusp_normal (p−1,) the same scallop measured as a height along the smooth surface
+        normal (the textbook cusp height; on a plane ρ − sqrt(ρ² − w²/4) where pair_cusp is
+        sqrt(ρ² + w²/4) − ρ), taken at the ridge points within 25 % of the pair's top and at
+        its highest sample; pair_gouge (p−1,) max depth below the surface by the two passes;
+    pair_where (p−1, 3) location of each pair's max, pair_n_samples (p−1,);
+    curve_* (n_curves,) per-curve figures; sample_points (k, 3), sample_values (k,) material
+    left at the samples; vertex_values (n_vertices,) material left at the mesh vertices, NaN
+    outside the region; timings (dict of seconds).
+    """
+
+    tool_radius: float
+    tool: dict
+    spacing: float
+    n_samples: int
+    n_poses: int
+    n_curves: int
+    n_levels: int
+    max_material_left: float
+    max_material_left_at: np.ndarray
+    max_gouge: float
+    max_gouge_at: np.ndarray
+    max_cusp: float
+    max_cusp_normal: float
+    cc_chord: float
+    cc_chord_at: np.ndarray
+    path_overcut: float
+    path_overcut_at: np.ndarray
+    path_undercut: float
+    cc_on_mesh: float
+    cc_contact: float
+    cc_on_cone: float
+    normal_error_deg: float
+    pose_mismatch: float
+    levels: np.ndarray
+    pair_s: np.ndarray
+    pair_cusp: np.ndarray
+    pair_cusp_normal: np.ndarray
+    pair_gouge: np.ndarray
+    pair_where: np.ndarray
+    pair_n_samples: np.ndarray
+    curve_cc_chord: np.ndarray
+    curve_overcut: np.ndarray
+    curve_undercut: np.ndarray
+    curve_on_mesh: np.ndarray
+    curve_on_cone: np.ndarray
+    pose_cc_contact: np.ndarray
+    sample_points: np.ndarray
+    sample_values: np.ndarray
+    vertex_values: np.ndarray
+    timings: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """Plain-Python figures for JSON or printing (no large arrays)."""
+
+        def f(x):
+            x = float(x)
+            return x if np.isfinite(x) else None
+
+        return {
+            "tool_radius": f(self.tool_radius),
+            "tool": dict(self.tool),
+            "spacing": f(self.spacing),
+            "n_samples": int(self.n_samples),
+            "n_poses": int(self.n_poses),
+            "n_curves": int(self.n_curves),
+            "n_levels": int(self.n_levels),
+            "max_material_left": f(self.max_material_left),
+            "max_gouge": f(self.max_gouge),
+            "max_cusp": f(self.max_cusp),
+            "max_cusp_normal": f(self.max_cusp_normal),
+            "cc_chord": f(self.cc_chord),
+            "path_overcut": f(self.path_overcut),
+            "path_undercut": f(self.path_undercut),
+            "cc_on_mesh": f(self.cc_on_mesh),
+            "cc_contact": f(self.cc_contact),
+            "cc_on_cone": f(self.cc_on_cone),
+            "normal_error_deg": f(self.normal_error_deg),
+            "pose_mismatch": f(self.pose_mismatch),
+            "pair_s": [[f(a), f(b)] for a, b in self.pair_s],
+            "pair_cusp": [f(x) for x in self.pair_cusp],
+            "pair_cusp_normal": [f(x) for x in self.pair_cusp_normal],
+            "timings": {k: round(float(v), 4) for k, v in self.timings.items()},
+        }
+
+
+def _nanmax(x, default=np.nan):
+    x = np.asarray(x, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    return float(x.max()) if len(x) else default
+
+
+def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
+    """Points along a pass polyline: ``nsub − 1`` interior points per segment (and the
+    nodes themselves when ``include_nodes``)."""
+    a, b = _curve_polyline(c, pts)
+    t = np.arange(0 if include_nodes else 1, nsub) / nsub
+    out = (a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]).reshape(-1, 3)
+    if include_nodes and not (c.closed and len(pts) > 2):
+        out = np.vstack([out, np.asarray(pts, float)[-1:]])
+    return out
+
+
+def _ridges(samples, strip, g, npairs):
+    """Grid edges inside one strip across which g changes sign: (edge ids, pair ids)."""
+    ea, eb = samples.edges[:, 0], samples.edges[:, 1]
+    same = (strip[ea] == strip[eb]) & (strip[ea] >= 0) & (strip[ea] < npairs)
+    ga, gb = g[ea], g[eb]
+    cross = same & (((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0)))
+    idx = np.nonzero(cross)[0]
+    return idx, strip[ea[idx]]
+
+
+@dataclass
+class _Run:
+    """A run of consecutive cutting poses of one pass (what verify measures)."""
+
+    s: float
+    closed: bool
+    cc: np.ndarray
+    normal: np.ndarray
+    tip: np.ndarray
+    axis: np.ndarray
+    ratio: np.ndarray  # (k,) morph ratio of each pose
+
+
+def _cut_runs(curves) -> list[_Run]:
+    """The cutting parts of passes: maximal runs of poses joined by cut moves.
+
+    Pose j's move code (``PassCurve.move``, missing = all "cut", code 0) is the kind of the
+    motion that ends at pose j, so the segment j−1 → j is cut when ``move[j]`` is 0 and the
+    closing segment of a closed pass when ``move[0]`` is. A pass cut all round stays closed."""
+    out = []
+    for c in curves:
+        k = len(c.cc)
+        if k == 0:
+            continue
+        arr = [np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in (c.cc, c.normal, c.tip,
+                                                                         c.axis)]
+        ratio = getattr(c, "ratio", None)
+        ratio = (np.full(k, float(c.s)) if ratio is None
+                 else np.asarray(ratio, dtype=np.float64).reshape(-1))
+        move = getattr(c, "move", None)
+        cutm = (np.ones(k, bool) if move is None or len(move) != k
+                else np.asarray(move).astype(np.int64) == 0)
+        if k == 1 or np.all(cutm):
+            out.append(_Run(float(c.s), bool(c.closed) and k > 2, *arr, ratio))
+            continue
+        # segment j−1 → j is cut where cutm[j]; a closed pass's closing segment k−1 → 0 where
+        # cutm[0]: then start the pass at a pose reached by a non-cut move (runs never wrap)
+        if c.closed and k > 2 and cutm[0]:
+            order = np.roll(np.arange(k), -int(np.nonzero(~cutm)[0][0]))
+            arr = [x[order] for x in arr]
+            ratio, cutm = ratio[order], cutm[order]
+        seg = cutm[1:]
+        j = 0
+        while j < len(seg):
+            if not seg[j]:
+                j += 1
+                continue
+            e = j
+            while e < len(seg) and seg[e]:
+                e += 1
+            idx = np.arange(j, e + 1)  # poses j..e (segments j → e)
+            out.append(_Run(float(c.s), False, *(x[idx] for x in arr), ratio[idx]))
+            j = e
+    return out
+
+
+def _cl_or_nan(cutter, cc, normal, axis):
+    """Tip points of the cutter touching ``cc``; NaN rows where the axis is tilted beyond
+    the cutter's side (no contact possible)."""
+    out = np.full_like(cc, np.nan)
+    th = np.arctan2(np.linalg.norm(np.cross(normal, axis), axis=1), dot(normal, axis))
+    ok = th <= 0.5 * np.pi - cutter.beta
+    if np.any(ok):
+        out[ok] = cutter.cl_points(cc[ok], normal[ok], axis[ok])
+    return out
+
+
+def _interpolated_contacts(cutter, curves, nsub):
+    """Per pass, at ``nsub`` points of every segment (tip and CC linear, axis on the great arc,
+    normal interpolated and normalised): the posed cutter's extreme point toward −n, i.e. the
+    point that touches when the pose is right. Returns (points (q, 3), curve id (q,),
+    tips (q, 3), axes (q, 3))."""
+    pts, ids, tps, axs = [], [], [], []
+    t = np.arange(0, nsub) / nsub
+    for i, c in enumerate(curves):
+        tips_a, tips_b = _curve_polyline(c, c.tip)
+        ax_a, ax_b = _curve_polyline(c, c.axis)
+        n_a, n_b = _curve_polyline(c, c.normal)
+        m = len(tips_a)
+        tt = np.tile(t, m)
+        rep_ = np.repeat(np.arange(m), nsub)
+        tip = tips_a[rep_] + tt[:, None] * (tips_b - tips_a)[rep_]
+        ax = _slerp(ax_a[rep_] / np.linalg.norm(ax_a[rep_], axis=1)[:, None],
+                    ax_b[rep_] / np.linalg.norm(ax_b[rep_], axis=1)[:, None], tt)
+        nn = n_a[rep_] + tt[:, None] * (n_b - n_a)[rep_]
+        if not (c.closed and len(c.tip) > 2):  # the last pose itself
+            tip = np.vstack([tip, c.tip[-1:]])
+            ax = np.vstack([ax, c.axis[-1:] / np.linalg.norm(c.axis[-1])])
+            nn = np.vstack([nn, c.normal[-1:]])
+        nn /= np.maximum(np.linalg.norm(nn, axis=1), 1e-300)[:, None]
+        th = np.arctan2(np.linalg.norm(np.cross(nn, ax), axis=1), dot(nn, ax))
+        ok = th <= 0.5 * np.pi - cutter.beta
+        off, _ = cutter.contact(nn[ok], ax[ok])
+        pts.append(tip[ok] - off)
+        ids.append(np.full(int(ok.sum()), i, dtype=np.int64))
+        tps.append(tip[ok])
+        axs.append(ax[ok])
+    if not pts:
+        z = np.zeros((0, 3))
+        return z, np.zeros(0, np.int64), z, z
+    return np.vstack(pts), np.concatenate(ids), np.vstack(tps), np.vstack(axs)
+
+
+def verify_path(
+    mesh: TriMesh,
+    path: ToolPath,
+    *,
+    spacing: float | None = None,
+    subsamples: int = 8,
+    refine: int = 3,
+    method: str = "fast",
+    workers: int | None = None,
+    cancel=None,
+) -> VerifyReport:
+    """Measure a tool path on its mesh, independently of the generator.
+
+    Parameters
+    ----------
+    mesh : TriMesh — the machined surface (normals out of the material)
+    path : ToolPath — passes with cc, normal, tip, axis per pose
+    spacing : float, mm — surface sample spacing; default :func:`default_spacing` of the
+        tool radius and the path's cusp tolerance (a third of the nominal pass spacing)
+    subsamples : int — points per segment for the chord checks (CC and centre polylines)
+    refine : int — regula-falsi iterations locating each scallop ridge
+    method : "fast" | "exact" — how the swept volume of a non-ball cutter is minimised over
+        each move (:class:`SweptCutter`); a ball is always swept exactly (:class:`SweptBall`)
+    workers : int or None — threads for the point queries (None: every core of this
+        process); every point is measured independently, so the figures do not depend on it
+    cancel : None, threading.Event or callable returning True to stop — checked between the
+        steps and before every chunk of points (:func:`.geometry.map_chunks`) and every
+        per-level task, from the worker threads too; once set, :class:`Cancelled` is raised
+        (within one chunk's time) and nothing is returned
+
+    Returns
+    -------
+    VerifyReport
+    """
+    with parallel(workers), cancellable(cancel, "verify"):
+        return _verify_path(mesh, path, spacing, subsamples, refine, method)
+
+
+def _verify_path(mesh, path, spacing, subsamples, refine, method):
+    """:func:`verify_path` on the threads set by the caller: the named steps in order."""
+    t0 = time.perf_counter()
+    tim = {}
+    cutter, rho, spacing = _tool_and_spacing(path, spacing, method)
+    check_cancel()
+    cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
+    axis = path.axis
+    curves = _cut_runs(path.curves)
+    # the surface samples do not depend on the poses: with several threads they are built
+    # on a thread of their own (one core) while the mesh tree and the pose checks run
+    # ("samples" then times the wait and the gouge feet)
+    mesh.face_normals, mesh.vertex_normals, mesh.edge_faces  # noqa: B018  (filled once:
+    # both threads read these caches)
+    samples = alongside(lambda: surface_samples(mesh, cones, axis, spacing))
+    md = MeshDistance(mesh)
+    tim["mesh_tree"] = time.perf_counter() - t0
+
+    check_cancel()
+    t1 = time.perf_counter()
+    pc = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
+    tim["poses"] = time.perf_counter() - t1
+
+    check_cancel()
+    t1 = time.perf_counter()
+    smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, samples(), pc)
+    spacing = smp.spacing
+    tim["samples"] = time.perf_counter() - t1
+
+    check_cancel()
+    t1 = time.perf_counter()
+    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
+                                                        P + rho * normals)
+    tim["material"] = time.perf_counter() - t1
+
+    check_cancel()
+    t1 = time.perf_counter()
+    sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
+                   lab, rho, refine, method)
+    tim["scallops"] = time.perf_counter() - t1
+
+    check_cancel()
+    t1 = time.perf_counter()
+    tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
+    tim["totals"] = time.perf_counter() - t1
+    tim["total"] = time.perf_counter() - t0
+    return _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
+
+
+def _tool_and_spacing(path, spacing, method):
+    """(cutter, ρ, sample spacing) of the path's tool; ToleranceError on a bad method or
+    radius."""
+    if str(method).strip().lower() not in SWEEP_METHODS:
+        raise ToleranceError(f"verify method must be one of {', '.join(SWEEP_METHODS)}; "
+                             f"got {method!r}")
+    tool = path.tool
+    if isinstance(tool, dict) or getattr(tool, "type", "ball") != "ball":
+        cutter = as_cutter(tool)
+        rho = cutter.radius
+    else:  # a ball (Cutter or legacy BallTool): only its radius matters
+        rho = float(tool.radius)
+        if not (rho > 0):
+            raise ToleranceError(f"tool radius must be positive, got {rho} mm")
+        cutter = as_cutter(tool)
+    if spacing is None:
+        spacing = default_spacing(rho, path.cusp)
+    return cutter, rho, spacing
+
+
+@dataclass
+class _PoseChecks:
+    """Per-curve figures of the poses themselves (NaN for a curve without poses)."""
+
+    on_mesh: np.ndarray
+    on_cone: np.ndarray
+    cc_chord: np.ndarray
+    over: np.ndarray
+    under: np.ndarray
+    nerr: float = 0.0
+    mismatch: float = 0.0
+    pose_contact: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    chord_at: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    over_at: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    #: mesh points (point, face, bary) under the centres that cut in: the deepest gouges
+    feet: tuple | None = None
+
+
+def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _PoseChecks:
+    """CC points on the mesh and on their LMC, normals, tips against the CC data, chord of the
+    CC polylines, and the tool's path against the exact offset (over/undercut)."""
+    ncur = len(curves)
+    pc = _PoseChecks(*(np.full(ncur, np.nan) for _ in range(5)))
+    if not ncur:
+        return pc
+    is_ball = cutter.type == "ball"
+    cc_all = np.vstack([np.asarray(c.cc, float) for c in curves])
+    nrm_all = np.vstack([np.asarray(c.normal, float) for c in curves])
+    cid = np.repeat(np.arange(ncur), [len(c.cc) for c in curves])
+    cp = md.query(cc_all)
+    pc.on_mesh = _group_max(ncur, cid, cp.distance)
+    sn = mesh.interpolate_normals(cp.face, cp.bary)
+    un = nrm_all / np.maximum(np.linalg.norm(nrm_all, axis=1), 1e-300)[:, None]
+    pc.nerr = float(np.degrees(np.arccos(np.clip(dot(sn, un), -1.0, 1.0))).max())
+    tips = np.vstack([np.asarray(c.tip, float) for c in curves])
+    axs = np.vstack([np.asarray(c.axis, float) for c in curves])
+    axs = axs / np.linalg.norm(axs, axis=1)[:, None]
+    if is_ball:
+        pc.mismatch = float(np.linalg.norm(tips + rho * axs - (cc_all + rho * nrm_all),
+                                           axis=1).max())
+    else:  # the tip implied by the CC data (the cutter touching cc) against the path's
+        mm = np.linalg.norm(tips - _cl_or_nan(cutter, cc_all, un, axs), axis=1)
+        pc.mismatch = float(np.inf if np.any(np.isnan(mm)) else mm.max())
+    # the CC point against the posed cutter's surface (0 when the cutter touches it there)
+    pc.pose_contact = np.abs(cutter.signed_distance(cc_all, tips, axs))
+    pc.on_cone = _group_max(ncur, cid, np.abs(_lmc_values(curves, cones, axis, cc_all, cid)))
+    # chord of the CC polylines
+    sub = [_subsample(c, c.cc, subsamples, False) for c in curves]
+    sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
+    if len(sid):
+        subp = np.vstack(sub)
+        dch = md.query(subp).distance
+        pc.cc_chord = _group_max(ncur, sid, dch)
+        pc.chord_at = subp[int(np.argmax(dch))]
+    if is_ball:
+        # centre polylines against the exact offset
+        cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
+        sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
+        sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
+        # the CC polylines' points: where the centres' closest points are (a k-d search
+        # from 6 mm off the surface is slow; the result does not depend on the guess)
+        cq = md.query(np.vstack(sub), near=np.vstack(
+            [_subsample(c, c.cc, subsamples, True) for c in curves]))
+        dev = cq.signed_distance - rho
+        pc.over_at = np.vstack(sub)[int(np.argmin(dev))]
+    else:
+        # the interpolated poses' lowest points (toward −n); the mesh point under each
+        # against the posed cutter (< 0: the surface is cut into there)
+        xs, sid, xtip, xax = _interpolated_contacts(cutter, curves, subsamples)
+        cq = md.query(xs)
+        dev = cutter.signed_distance(cq.point, xtip, xax)
+        pc.over_at = cq.point[int(np.argmin(dev))] if len(xs) else np.full(3, np.nan)
+    pc.over = np.maximum(_group_max(ncur, sid, -dev), 0.0)
+    pc.under = np.maximum(_group_max(ncur, sid, dev), 0.0)
+    # the feet of the centres that come closer than ρ: where the deepest gouges are
+    cut_in = dev < 0
+    pc.feet = (cq.point[cut_in], cq.face[cut_in], cq.bary[cut_in])
+    return pc
+
+
+def _lmc_values(curves, cones, axis, cc_all, cid):
+    """f_s(r, z) of every CC point on its curve's LMC (each pose its own for a spiral)."""
+    r, z = meridional(cc_all, axis)
+    fvals = np.empty(len(cc_all))
+    for i, c in enumerate(curves):
+        m = cid == i
+        if np.all(c.ratio == c.ratio[0]):
+            fvals[m] = cones.f(float(c.ratio[0]), r[m], z[m])
+        else:  # a spiral: every pose on its own LMC
+            fvals[m] = [cones.f(float(si), ri, zi) for si, ri, zi in zip(
+                c.ratio, r[m], z[m], strict=True)]
+    return fvals
+
+
+def _samples_and_feet(mesh, cones, axis, smp: SurfaceSamples, pc: _PoseChecks):
+    """The surface samples of the region (``smp``) plus the gouge feet inside it: (samples,
+    points, normals, ratios); the grid samples come first."""
+    P, normals, s_all = smp.points, smp.normals, smp.s
+    if pc.feet is not None:
+        fp, ff, fb = pc.feet
+        fs = cones.ratio_of_points(fp, axis)
+        ok = (fs >= -1e-9) & (fs <= 1.0 + 1e-9)
+        fp = fp[ok]
+        fn = mesh.interpolate_normals(ff[ok], fb[ok])
+        P = np.vstack([P, fp])
+        normals = np.vstack([normals, fn])
+        s_all = np.concatenate([smp.s, fs[ok]])
+    return smp, P, normals, s_all
+
+
+def _material_left(tool, curves, P, method, guess=None):
+    """Material left by all passes at the points: (levels, level of each curve, the swept
+    volume, signed distances (k,), level of the nearest pass (k,) or −1). ``guess`` (k, 3):
+    where the nearest ball centres are likely (point + ρ · normal; a ball only, for speed)."""
+    ncur = len(curves)
+    levels = np.unique([float(c.s) for c in curves]) if ncur else np.zeros(0)
+    lev_of = np.searchsorted(levels, [float(c.s) for c in curves])
+    whole = swept_cutter(tool, curves, owners=lev_of, method=method)
+    if ncur:
+        values, seg = (whole.nearest(P, guess) if isinstance(whole, SweptBall)
+                       else whole.nearest(P))
+        lab = np.where(seg >= 0, whole.owner[np.maximum(seg, 0)], -1)  # level of the nearest pass
+    else:
+        values, lab = np.full(len(P), np.nan), np.full(len(P), -1)
+    return levels, lev_of, whole, values, lab
+
+
+@dataclass
+class _Scallops:
+    """Figures per pair of neighbouring levels, and the located ridge points."""
+
+    pair_cusp: np.ndarray
+    pair_cn: np.ndarray
+    pair_gouge: np.ndarray
+    pair_where: np.ndarray
+    pair_n: np.ndarray
+    ridge_pts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    ridge_nrm: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    ridge_val: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    ridge_pair: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+
+def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values, lab, rho,
+              refine, method) -> _Scallops:
+    """Per pair of neighbouring levels: the material left by those two passes alone at the
+    samples and at the ridge where their envelopes meet, and the scallop height along the
+    normal there."""
+    npairs = max(len(levels) - 1, 0)
+    sc = _Scallops(np.full(npairs, np.nan), np.full(npairs, np.nan), np.full(npairs, np.nan),
+                   np.full((npairs, 3), np.nan), np.zeros(npairs, dtype=np.int64))
+    if not npairs:
+        return sc
+    # one swept volume per level, asked together (a forest: one joint pass per query)
+    cut = SweptForest(map_tasks(lambda i: swept_cutter(
+        tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i], method=method),
+        range(len(levels))))
+    strip = np.searchsorted(levels, s_all, side="right") - 1
+    strip = np.where(s_all == levels[-1], npairs - 1, strip)
+    strip = np.where((s_all < levels[0]) | (s_all > levels[-1]), -1, strip)
+    valid = strip >= 0
+    # where the nearest pass of all is one of the strip's two, it is the pair's distance
+    # and tells which of the two is nearer; elsewhere measure both
+    near_lo = valid & (lab == strip)
+    near_hi = valid & (lab == strip + 1)
+    other = valid & ~near_lo & ~near_hi
+    mat = np.where(near_lo | near_hi, values, np.nan)
+    gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
+    known = guess = None
+    if isinstance(cut[0], SweptBall):
+        guess = P + rho * normals  # where the nearest ball centres are likely
+        # a ball's distance to one level is the minimum over that level's segments of the
+        # same point–segment distances as the whole path's: where the nearest pass of all is
+        # one of the strip's two, it is that level's distance, bit for bit (a swept cutter's
+        # search depends on its candidates: it is measured again)
+        known = (np.where(near_lo, values, np.nan), np.where(near_hi, values, np.nan),
+                 near_lo.copy(), near_hi.copy())
+    if np.any(other):
+        dlo, dhi = _two_level_distances(cut, P[other], strip[other], npairs,
+                                        guess=None if guess is None else guess[other])
+        mat[other] = np.minimum(dlo, dhi)
+        gsign[other] = np.sign(dlo - dhi)
+        if known is not None:
+            for arr, d, has in ((known[0], dlo, known[2]), (known[1], dhi, known[3])):
+                arr[other], has[other] = d, True
+    sc.pair_n = np.bincount(strip[valid], minlength=npairs)
+    sc.pair_cusp = _group_max(npairs, strip[valid], mat[valid])
+    sc.pair_gouge = np.maximum(_group_max(npairs, strip[valid], -mat[valid]), 0.0)
+    arg = _group_argmax(npairs, strip[valid], mat[valid])
+    has = arg >= 0
+    sc.pair_where[has] = P[valid][arg[has]]
+    _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc, known, rho)
+    # scallop height along the smooth normal, at the ridge points and at each pair's
+    # highest sample
+    hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
+    hn_ = np.concatenate([sc.ridge_nrm, normals[valid][arg[has]]])
+    hv = np.concatenate([sc.ridge_val, mat[valid][arg[has]]])
+    hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
+    sc.pair_cn = _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho)
+    return sc
+
+
+def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, known=None,
+                  rho=0.0):
+    """Ridges on the sample grid (grid samples are the first len(smp) of the points): grid
+    edges in one strip whose ends are nearer to different passes, located by regula falsi
+    (Illinois) on the exact distances; raises the pairs' cusps in ``sc`` where a ridge point
+    is higher and stores the ridge points.
+
+    ``known`` (a ball only): (d_lo, d_hi, has_lo, has_hi) (k,) — the points' distances to
+    their strip's two levels already measured (:func:`_scallops`); only the others are
+    measured at the edges' ends. A ball's iterates are measured against the segments listed
+    near the first iterate (:meth:`.sweep.SweptBall.near`: the same floats, no tree walk
+    per iteration); its centres are looked for ``rho`` (mm) along the samples' normals."""
+    ng = len(smp)
+    eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
+    if len(eidx):
+        ends, inv = np.unique(smp.edges[eidx], return_inverse=True)
+        inv = inv.reshape(-1, 2)
+        if known is None:
+            dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
+        else:
+            dlo, dhi = known[0][ends], known[1][ends]
+            mlo, mhi = _two_level_distances(
+                cut, smp.points[ends], strip[ends], npairs,
+                need=(~known[2][ends], ~known[3][ends]),
+                guess=smp.points[ends] + rho * smp.normals[ends])
+            dlo = np.where(known[2][ends], dlo, mlo)
+            dhi = np.where(known[3][ends], dhi, mhi)
+        g = dlo - dhi
+        ga, gb = g[inv[:, 0]], g[inv[:, 1]]
+        ok = ((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0))
+        eidx, epair, ga, gb = eidx[ok], epair[ok], ga[ok], gb[ok]
+    if not len(eidx):
+        return
+    ea, eb = smp.edges[eidx, 0], smp.edges[eidx, 1]
+    xa, xb = smp.points[ea], smp.points[eb]
+    ta, tb = np.zeros(len(eidx)), np.ones(len(eidx))
+    last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
+    near = None
+    for _ in range(max(int(refine), 1)):
+        t = (ta * gb - tb * ga) / (gb - ga)
+        x = xa + t[:, None] * (xb - xa)
+        if known is not None and near is None:
+            # the iterates after the first move by far less than a tenth of the edge
+            near = _two_level_near(cut, x, epair, npairs,
+                                   0.1 * np.linalg.norm(xb - xa, axis=1),
+                                   x + rho * smp.normals[ea])
+        la, lb = _two_level_distances(cut, x, epair, npairs, near=near)
+        gx = la - lb
+        repl_a = np.sign(gx) == np.sign(ga)
+        # Illinois: halve the kept end's value when the same end is replaced twice
+        ga = np.where(~repl_a & (last == 2), 0.5 * ga, ga)
+        gb = np.where(repl_a & (last == 1), 0.5 * gb, gb)
+        ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
+        tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
+        last = np.where(repl_a, 1, 2).astype(np.int8)
+    rv = np.minimum(la, lb)
+    rmax = _group_max(npairs, epair, rv)
+    better = np.isfinite(rmax) & ~(rmax <= sc.pair_cusp)
+    ra = _group_argmax(npairs, epair, rv)
+    sc.pair_cusp = np.where(better, rmax, sc.pair_cusp)
+    sc.pair_where[better] = x[ra[better]]
+    sc.ridge_pts = x
+    rf = smp.edge_face[eidx]
+    FX = mesh.F[rf]
+    bX = _barycentric(x, mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
+    sc.ridge_nrm = mesh.interpolate_normals(rf, bX)
+    sc.ridge_val, sc.ridge_pair = rv, epair
+
+
+def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
+    """Largest scallop height along the normal per pair (NaN where none): from the points
+    ``hp`` (normals ``hn_``, material left ``hv``, pair ``hq``) up to the nearer of the
+    pair's two swept volumes (``cut``: the levels' :class:`SweptForest`)."""
+    heights = np.where(hv > 0, np.nan, hv)
+    hmax = np.maximum(4.0 * hv, 1e-6 * rho)
+    # the height is the material left divided by the cosine of a slowly varying angle:
+    # only points within 25 % of their pair's highest can hold the pair's highest
+    top = _group_max(npairs, hq, hv)
+    near_top = hv >= 0.75 * top[hq]
+
+    live = (hv > 0) & near_top
+    # every live point traced up to its pair's lower level's passes and to its upper's
+    pi, lv, up = _two_level_queries(np.nonzero(live)[0], hq[live], npairs)
+    h = cut.height_along(hp[pi], hn_[pi], hmax[pi], lv)
+    h_lo = np.full(len(hp), np.inf)  # up to the pair's lower level's passes
+    h_hi = np.full(len(hp), np.inf)
+    h_lo[pi[~up]] = h[~up]
+    h_hi[pi[up]] = h[up]
+    heights = np.where(live, np.minimum(h_lo, h_hi), heights)
+    heights[~np.isfinite(heights)] = np.nan
+    return _group_max(npairs, hq, heights)
+
+
+def _totals(mesh, smp, P, values, whole, sc: _Scallops, ncur):
+    """(max material left, max gouge, where each, per-vertex material left) over the samples
+    and the ridge points that can raise the maximum."""
+    all_pts, all_vals = P, values
+    if len(sc.ridge_pts) and ncur:
+        # all passes leave at most what two of them leave: only ridge points above the
+        # samples' maximum can raise it
+        cand = sc.ridge_val > _nanmax(values, -np.inf)
+        if np.any(cand):
+            all_pts = np.vstack([P, sc.ridge_pts[cand]])
+            all_vals = np.concatenate([values, whole.distance(sc.ridge_pts[cand])])
+    fin = np.isfinite(all_vals)
+    if np.any(fin):
+        i_max = int(np.argmax(np.where(fin, all_vals, -np.inf)))
+        i_min = int(np.argmin(np.where(fin, all_vals, np.inf)))
+        max_left = float(all_vals[i_max])
+        max_gouge = max(0.0, -float(all_vals[i_min]))
+        left_at, gouge_at = all_pts[i_max], all_pts[i_min]
+    else:
+        max_left, max_gouge = np.nan, 0.0
+        left_at = gouge_at = np.full(3, np.nan)
+    vertex_values = np.full(mesh.n_vertices, np.nan)
+    isv = smp.vertex >= 0
+    vertex_values[smp.vertex[isv]] = values[: len(smp)][isv]
+    return max_left, max_gouge, left_at, gouge_at, vertex_values
+
+
+def _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim) -> VerifyReport:
+    """The :class:`VerifyReport` of the steps' results."""
+    max_left, max_gouge, left_at, gouge_at, vertex_values = tot
+    npairs = max(len(levels) - 1, 0)
+    pair_s = np.stack([levels[:-1], levels[1:]], axis=1) if npairs else np.zeros((0, 2))
+    return VerifyReport(
+        tool_radius=rho,
+        tool=cutter.as_dict(),
+        spacing=float(spacing),
+        n_samples=int(len(P)),
+        n_poses=int(sum(len(c.cc) for c in curves)),
+        n_curves=len(curves),
+        n_levels=int(len(levels)),
+        max_material_left=max_left,
+        max_material_left_at=np.asarray(left_at),
+        max_gouge=max_gouge,
+        max_gouge_at=np.asarray(gouge_at),
+        max_cusp=_nanmax(sc.pair_cusp),
+        max_cusp_normal=_nanmax(sc.pair_cn),
+        cc_chord=_nanmax(pc.cc_chord),
+        cc_chord_at=np.asarray(pc.chord_at),
+        path_overcut=_nanmax(pc.over, 0.0),
+        path_overcut_at=np.asarray(pc.over_at),
+        path_undercut=_nanmax(pc.under, 0.0),
+        cc_on_mesh=_nanmax(pc.on_mesh),
+        cc_contact=_nanmax(pc.pose_contact, 0.0),
+        cc_on_cone=_nanmax(pc.on_cone),
+        normal_error_deg=float(pc.nerr),
+        pose_mismatch=float(pc.mismatch),
+        levels=levels,
+        pair_s=pair_s,
+        pair_cusp=sc.pair_cusp,
+        pair_cusp_normal=sc.pair_cn,
+        pair_gouge=sc.pair_gouge,
+        pair_where=sc.pair_where,
+        pair_n_samples=sc.pair_n,
+        curve_cc_chord=pc.cc_chord,
+        curve_overcut=pc.over,
+        curve_undercut=pc.under,
+        curve_on_mesh=pc.on_mesh,
+        curve_on_cone=pc.on_cone,
+        pose_cc_contact=pc.pose_contact,
+        sample_points=P,
+        sample_values=values,
+        vertex_values=vertex_values,
+        timings=tim,
+    )
+
+
+def _group_max(n, idx, vals):
+    out = np.full(n, -np.inf)
+    if len(idx):
+        np.maximum.at(out, idx, np.where(np.isnan(vals), -np.inf, vals))
+    return np.where(np.isfinite(out) | (out == np.inf), out, np.nan)
+
+
+def _group_argmax(n, idx, vals):
+    best = np.full(n, -np.inf)
+    v = np.where(np.isnan(vals), -np.inf, vals)
+    np.maximum.at(best, idx, v)
+    win = (v >= best[idx]) & np.isfinite(v)
+    arg = np.full(n, -1, dtype=np.int64)
+    arg[idx[win]] = np.nonzero(win)[0]
+    return arg
+
+
+def _two_level_queries(rows, strip, npairs):
+    """(row, level, upper?) of every point's queries to the two levels bounding its strip
+    (levels in [0, npairs]), interleaved point by point: each level's queries come in the
+    points' order."""
+    pi = np.repeat(rows, 2)
+    lv = np.stack([strip, strip + 1], axis=1).reshape(-1)
+    up = np.tile([False, True], len(rows))
+    ok = (lv >= 0) & (lv <= npairs)
+    return pi[ok], lv[ok], up[ok]
+
+
+def _two_level_near(cut, P, strip, npairs, margin, guess):
+    """A ball's per-level :meth:`.sweep.SweptBall.near` for :func:`_two_level_distances`'s
+    ``near``: the queries of :func:`_two_level_queries` of the points (k, 3) (``margin``
+    (k,) mm, ``guess`` (k, 3) where the nearest centres are likely) and, per level holding
+    any, its listed segments — [(rows of those queries, near)]."""
+    pi, lv, _ = _two_level_queries(np.arange(len(P)), strip, npairs)
+    return cut.per_member(lv, lambda m, rows: m.near(P[pi[rows]], margin[pi[rows]],
+                                                     guess[pi[rows]]))
+
+
+def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=None):
+    """Distances of points to the passes of the two levels bounding their strip (``cut``:
+    the levels' :class:`SweptForest`).
+
+    ``need`` (optional): (need_lo, need_hi) (k,) bool — measure only these (NaN elsewhere).
+    ``near`` (optional, with ``need`` None): :func:`_two_level_near` of the same strips at
+    points near these.
+    ``guess`` (optional, a ball's levels): (k, 3) where the nearest centres are likely.
+    Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
+    dlo = np.full(len(P), np.nan)
+    dhi = np.full(len(P), np.nan)
+    pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs)
+    if near is not None:  # a ball's levels: the segments listed per level, one task each
+        d = np.empty(len(pi))  # every query's level holds some: each row is filled
+
+        def one(item):
+            rows, listed = item
+            return rows, listed.distance(P[pi[rows]])
+
+        for rows, d_rows in map_tasks(one, [it for it in near if it[1] is not None]):
+            d[rows] = d_rows
+    else:
+        if need is not None:
+            keep = np.where(up, need[1][pi], need[0][pi])
+            pi, lv, up = pi[keep], lv[keep], up[keep]
+        d = cut.distance(P[pi], lv, near=None if guess is None else guess[pi])
+    dlo[pi[~up]] = d[~up]
+    dhi[pi[up]] = d[up]
+    return dlo, dhi
