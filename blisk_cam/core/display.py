@@ -11,8 +11,20 @@ from .errors import MeshError
 from .geometry.axis import Axis
 from .toolpath.types import MOVE_NAMES
 
-__all__ = ["COLOR_BINS", "MOVE_TYPES", "curve_cusp", "flags_of", "move_codes_of", "pose_indices",
-           "ramp", "spline_bins", "spline_pieces", "verify_colors"]
+__all__ = [
+    "COLOR_BINS",
+    "MOVE_TYPES",
+    "curve_cusp",
+    "flags_of",
+    "move_codes_of",
+    "pose_indices",
+    "ramp",
+    "spline_bins",
+    "spline_pieces",
+    "verify_colors",
+    "pressure_side_view",
+    "side_concavity",
+]
 
 #: number of colour bins of the path curves (one material each)
 COLOR_BINS = 12
@@ -186,8 +198,6 @@ def flags_of(path):
         else:
             parts.append(np.asarray(fl).astype(np.int64))
     return np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
-
-__all__ = ["pressure_side_view", "side_concavity"]
 
 
 def _face_data(V, F):

@@ -12,7 +12,13 @@ import numpy as np
 
 from ..errors import ConeError
 
-__all__ = ["Axis", "meridional"]
+__all__ = [
+    "Axis",
+    "meridional",
+    "angular_range",
+    "angular_span",
+    "revolve",
+]
 
 
 @dataclass(frozen=True)
@@ -87,8 +93,6 @@ def meridional(points, axis: Axis):
     radial = p - z[:, None] * axis.d
     r = np.sqrt(np.einsum("ij,ij->i", radial, radial))
     return r, z
-
-__all__ = ["angular_range", "angular_span", "revolve"]
 
 
 def angular_span(points, axis: Axis) -> tuple[float, float]:

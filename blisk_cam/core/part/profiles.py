@@ -51,7 +51,13 @@ from ..geometry.axis import Axis, meridional
 from ..geometry.vectors import cross2
 from .cones import Cone, MorphingCones, check_monotone_sweep
 
-__all__ = ["MorphingProfiles", "Profile", "as_profile", "morph_between"]
+__all__ = [
+    "MorphingProfiles",
+    "Profile",
+    "as_profile",
+    "morph_between",
+    "generatrix_rows",
+]
 
 #: points × segments handled per vectorised block (bounds the temporary arrays' size)
 _BLOCK = 1 << 20
@@ -608,8 +614,6 @@ def morph_between(generatrix1, generatrix2):
     for g in (generatrix1, generatrix2):
         as_profile(g)  # ConeError unless a Cone or a Profile
     return MorphingProfiles(generatrix1, generatrix2)
-
-__all__ = ["generatrix_rows"]
 
 
 def generatrix_rows(generatrix, rows: int, extend: float) -> np.ndarray:

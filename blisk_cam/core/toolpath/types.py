@@ -56,6 +56,9 @@ __all__ = [
     "Program",
     "ToolPath",
     "move_codes",
+    "STATUS_CLEAR",
+    "STATUS_CORRECTED",
+    "STATUS_UNRESOLVED",
 ]
 
 MOVE_CUT, MOVE_LINK, MOVE_APPROACH, MOVE_RETRACT, MOVE_RAPID = 0, 1, 2, 3, 4
@@ -66,7 +69,12 @@ FLAG_LOCAL_GOUGE = 1
 FLAG_ZERO_SPEED = 2
 FLAG_GOUGE_FIXED = 4
 FLAG_AXIS_SMOOTHED = 8
-#: bit → name
+
+#: collision status of a pose (the collision check writes it per pose): clear, corrected by
+#: avoidance, unresolved
+STATUS_CLEAR, STATUS_CORRECTED, STATUS_UNRESOLVED = 0, 1, 2
+
+#: flag bit → name
 FLAG_NAMES = {
     FLAG_LOCAL_GOUGE: "local_gouge",
     FLAG_ZERO_SPEED: "zero_speed",
@@ -268,6 +276,3 @@ class ToolPath:
             p = np.vstack([c.tip, c.tip[:1]]) if c.closed else c.tip
             total += float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
         return total
-
-__all__ = ["STATUS_CLEAR", "STATUS_CORRECTED", "STATUS_UNRESOLVED"]
-STATUS_CLEAR, STATUS_CORRECTED, STATUS_UNRESOLVED = 0, 1, 2
