@@ -40,8 +40,8 @@ def _angle(a, b):
 # ----------------------------------------------------------------------------- dot, cross2
 def test_dot_is_the_row_wise_sum_of_products():
     a, b = RNG.normal(size=(50, 3)), RNG.normal(size=(50, 3))
-    assert np.allclose(dot(a, b), [float(np.sum(x * y)) for x, y in zip(a, b)], rtol=0,
-                       atol=1e-13)
+    want = [float(np.sum(x * y)) for x, y in zip(a, b, strict=True)]
+    assert np.allclose(dot(a, b), want, rtol=0, atol=1e-13)
 
 
 def test_cross2_is_the_z_of_the_3d_cross_and_positive_counter_clockwise():
