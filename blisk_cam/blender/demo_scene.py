@@ -8,22 +8,12 @@ import contextlib
 import math
 
 from ..core.geometry.axis import angular_span
+from ..core.geometry.vectors import rotate_about
 
 __all__ = ["build_demo_scene"]
 
 
 # --- demo --------------------------------------------------------------------------------
-def _rotate_about_axis(V, axis, angle):
-    """Rotate (n, 3) points about the axis line by ``angle`` radians (right hand about d)."""
-    import numpy as np
-
-    d = axis.d
-    c, s = math.cos(angle), math.sin(angle)
-    K = np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]])
-    R = c * np.eye(3) + s * K + (1.0 - c) * np.outer(d, d)
-    return (V - axis.o) @ R.T + axis.o
-
-
 def build_demo_scene(scene=None, *, blades=3, demo=None):
     """Build the demo blisk in the current scene; returns a dict of the objects created.
 
@@ -65,7 +55,7 @@ def build_demo_scene(scene=None, *, blades=3, demo=None):
         if hasattr(demo, "blade"):  # core.demo: blade i = blade 0 turned by i pitches
             Vk, Fk = demo.blade(k)
         else:
-            Vk, Fk = _rotate_about_axis(Vb, axis, k * pitch), Fb
+            Vk, Fk = rotate_about(Vb, axis.d, k * pitch, axis.o, form="outer"), Fb
         objs[f"blade{k:+d}"] = arrays_to_object(
             f"Blade {k:+d}", Vk, Fk, coll, color=(0.62, 0.64, 0.68, 1.0)
         )

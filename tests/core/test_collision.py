@@ -16,13 +16,14 @@ import pytest
 from scipy.spatial import cKDTree
 
 from blisk_cam.core.collision.avoid import iter_run_collisions, run_collisions
-from blisk_cam.core.collision.obstacles import Obstacles, rotate_about_axis
+from blisk_cam.core.collision.obstacles import Obstacles
 from blisk_cam.core.collision.options import CollisionOptions
 from blisk_cam.core.collision.posed_tool import PART_BODY
 from blisk_cam.core.collision.scene import CollisionScene, detect_collisions
 from blisk_cam.core.errors import BliskCamError, CollisionError
 from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.geometry.vectors import rotate_about
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.cones import Cone
 from blisk_cam.core.paths.orientation import lead_tilt_of, local_frames
@@ -156,7 +157,8 @@ def test_neighbours_are_rotated_copies():
     V = np.array([[100.0, 0, 0], [110.0, 0, 0], [100.0, 0, 10.0]])
     ob = Obstacles.build(V, np.array([[0, 1, 2]]), Axis(), 8, 2)
     assert ob.names == ["blade", "blade +1", "blade -1", "blade +2", "blade -2"]
-    assert np.allclose(ob.meshes[1].V, rotate_about_axis(V, Axis(), math.pi / 4))
+    turned = rotate_about(V, Axis().d, math.pi / 4, Axis().o, form="outer")
+    assert np.allclose(ob.meshes[1].V, turned)
     assert np.allclose(ob.meshes[4].V[0], [0.0, -100.0, 0.0], atol=1e-9)
 
 

@@ -11,6 +11,7 @@ import pytest
 from nc_helpers import demo_path
 
 from blisk_cam.core.errors import BliskCamError, MachineError, ReachError
+from blisk_cam.core.geometry.vectors import slerp
 from blisk_cam.core.machine.description import (
     MACHINES_DIR,
     forward,
@@ -23,7 +24,6 @@ from blisk_cam.core.machine.kinematics import (
     _candidates,
     joint_deviation,
     linearize,
-    slerp,
     solve_poses,
 )
 from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID

@@ -118,9 +118,10 @@ def check_program(post, machine, path, opts, tmp_path, name="p.nc"):
     for k in range(n):
         sel = (bl == k) & (src >= 0)
         assert np.array_equal(src[sel], np.arange(len(prog)))
-        from blisk_cam.core.post.blocks import rotate_about_axis
+        from blisk_cam.core.geometry.vectors import rotate_about
 
-        ptip, pax = rotate_about_axis(prog.tip, prog.axis, o, d, 2 * math.pi * k / n)
+        turn = 2 * math.pi * k / n
+        ptip, pax = rotate_about(prog.tip, d, turn, o), rotate_about(prog.axis, d, turn)
         assert np.abs(tip[sel] - ptip).max() < TIP_TOL
         assert _angle(ax[sel], pax).max() < AXIS_TOL
     if rot is not None:
@@ -189,12 +190,12 @@ def test_blades_rotate_about_the_blisk_axis(demo, post, machine, indexed, tmp_pa
         import copy
 
         from blisk_cam.core.geometry.axis import Axis
-        from blisk_cam.core.post.blocks import rotate_about_axis
+        from blisk_cam.core.geometry.vectors import rotate_about
 
         path = copy.deepcopy(demo)  # the same blade, its blisk axis tilted by 1° about X
         path.axis = Axis((0.0, 0.0, 0.0), (0.0, -math.sin(0.01745), math.cos(0.01745)))
-        path.program.tip, path.program.axis = rotate_about_axis(
-            demo.program.tip, demo.program.axis, [0, 0, 0], [1.0, 0, 0], 0.01745)
+        path.program.tip = rotate_about(demo.program.tip, [1.0, 0, 0], 0.01745, [0, 0, 0])
+        path.program.axis = rotate_about(demo.program.axis, [1.0, 0, 0], 0.01745)
         machine = "ac-trunnion"
     m = load_machine(machine)
     rep, out = check_program(post, m, path, NcOptions(blades=3), tmp_path)

@@ -62,7 +62,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import CollisionError
-from ..geometry.vectors import angle_between
+from ..geometry.vectors import angle_between, unit
 from ..paths.orientation import clamp_turn, consecutive_turn, lead_tilt_of, local_frames
 from ..tool.cutter import Cutter
 from ..toolpath.types import (
@@ -91,10 +91,6 @@ _SCAN_PAIRS = 200_000
 
 
 # ====================================================================== helpers
-def _unit(v):
-    return v / np.linalg.norm(v, axis=1)[:, None]
-
-
 def _copy_curve(c: PassCurve) -> PassCurve:
     return replace(c, cc=c.cc.copy(), normal=c.normal.copy(), tip=c.tip.copy(),
                    axis=c.axis.copy(), face=np.asarray(c.face).copy(),
@@ -177,7 +173,7 @@ def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=_MAX_SE
     not_target = owner != 0  # the flute may touch the target blade (it cuts it)
 
     def axes_at(th, idx=slice(None)):  # Eq. 13 as a rotation by th in the plane M
-        return _unit(np.cos(th)[:, None] * ax[idx] + np.sin(th)[:, None] * e[idx])
+        return unit(np.cos(th)[:, None] * ax[idx] + np.sin(th)[:, None] * e[idx], keep_zero=False)
 
     def clear_at(th, idx):
         a = axes_at(th, idx)
@@ -315,8 +311,8 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
     def cat(attr):
         return np.vstack([np.asarray(getattr(c, attr), dtype=np.float64) for c in curves])
 
-    cc, nrm, tip0, ax_in = cat("cc"), _unit(cat("normal")), cat("tip"), cat("axis")
-    ax0 = _unit(ax_in)
+    cc, nrm, tip0, ax_in = cat("cc"), unit(cat("normal"), keep_zero=False), cat("tip"), cat("axis")
+    ax0 = unit(ax_in, keep_zero=False)
     det0 = yield from _scaled(_detect_chunks(scene, tip0, ax0), 0.0, 0.4)
     # the planned pose's offset from the exact contact (the path generator's few-µm lift λ
     # along the normal, see :mod:`.toolpath`), kept when the axis turns

@@ -12,18 +12,12 @@ from scipy.spatial import cKDTree
 
 from ..errors import CollisionError
 from ..geometry.axis import Axis
+from ..geometry.vectors import rotate_about
 
-__all__ = ["Obstacle", "Obstacles", "rotate_about_axis", "split_faces"]
+__all__ = ["Obstacle", "Obstacles", "split_faces"]
 
 
 # ====================================================================== obstacles
-def rotate_about_axis(points, axis: Axis, angle: float) -> np.ndarray:
-    """(n, 3) points turned by ``angle`` (rad, right-handed about ``axis.d``) about the blisk
-    axis (Rodrigues' formula)."""
-    o = np.asarray(axis.o, dtype=np.float64)
-    return (np.asarray(points, dtype=np.float64) - o) @ _rotation_matrix(axis, angle).T + o
-
-
 def split_faces(V, F, mask):
     """Split a triangle mesh by a per-triangle mask: ((V, F) of the masked triangles,
     (V, F) of the others), each with only the vertices it uses (renumbered); the second is
@@ -127,8 +121,8 @@ class Obstacles:
         pitch = 2.0 * math.pi / n
         for j in range(1, k + 1):
             for sign, tag in ((1, "+"), (-1, "-")):
-                meshes.append(Obstacle(f"blade {tag}{j}", rotate_about_axis(V, axis,
-                                                                           sign * j * pitch), F))
+                turned = rotate_about(V, axis.d, sign * j * pitch, axis.o, form="outer")
+                meshes.append(Obstacle(f"blade {tag}{j}", turned, F))
         names = {m.name for m in meshes}
         for e in extra:
             if isinstance(e, Obstacle):
@@ -217,11 +211,3 @@ def _winding_numbers(V, F, P, chunk: int = 200_000) -> np.ndarray:
             out[j] += 2.0 * np.arctan2(num, den).sum()
     return out / (4.0 * math.pi)
 
-
-def _rotation_matrix(axis: Axis, angle: float) -> np.ndarray:
-    """(3, 3) rotation by ``angle`` (rad) about the direction ``axis.d`` (Rodrigues), the
-    matrix of :func:`rotate_about_axis` (about the origin ``axis.o``)."""
-    d = np.asarray(axis.d, dtype=np.float64)
-    c, s = math.cos(angle), math.sin(angle)
-    K = np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]])
-    return c * np.eye(3) + s * K + (1.0 - c) * np.outer(d, d)

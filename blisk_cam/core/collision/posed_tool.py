@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import CollisionError
+from ..geometry.closest import segment_distance2_2d
 from ..tool.cutter import Cutter
 
 __all__ = ["PART_BODY", "PART_FLUTE"]
@@ -20,15 +21,6 @@ CAP_MARGIN = 5.0
 
 
 # ====================================================================== parts
-def _seg_d2(px, py, ax, ay, bx, by):
-    dx, dy = bx - ax, by - ay
-    dd = dx * dx + dy * dy
-    qx, qy = px - ax, py - ay
-    t = np.clip((qx * dx + qy * dy) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    ex, ey = qx - t * dx, qy - t * dy
-    return ex * ex + ey * ey
-
-
 def _seg_near(px, py, ax, ay, bx, by):
     """(squared distance, nearest x, nearest y) from 2-D points to the segment a → b."""
     dx, dy = bx - ax, by - ay
@@ -60,9 +52,9 @@ class _Frustum:
             dz = np.maximum(z0 - z, z - z1)
             out = np.hypot(np.maximum(dr, 0.0), np.maximum(dz, 0.0))
             return np.where((dr > 0) | (dz > 0), out, np.maximum(dr, dz))
-        d2 = _seg_d2(rho, z, 0.0, z0, r0, z0)
-        d2 = np.minimum(d2, _seg_d2(rho, z, r0, z0, r1, z1))
-        d2 = np.minimum(d2, _seg_d2(rho, z, r1, z1, 0.0, z1))
+        d2 = segment_distance2_2d(rho, z, 0.0, z0, r0, z0)
+        d2 = np.minimum(d2, segment_distance2_2d(rho, z, r0, z0, r1, z1))
+        d2 = np.minimum(d2, segment_distance2_2d(rho, z, r1, z1, 0.0, z1))
         inside = (z >= z0) & (z <= z1) & (rho <= self.radius_at(z))
         d = np.sqrt(d2)
         return np.where(inside, -d, d)

@@ -58,7 +58,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..geometry.axis import Axis, cylindrical, from_cylindrical, meridional
-from ..geometry.vectors import angle_between, slerp_pair, unit
+from ..geometry.vectors import angle_between, slerp, unit
 from ..paths.linking import Clearance
 from ..toolpath.types import (
     MOVE_APPROACH,
@@ -220,7 +220,7 @@ def _route(A, B, A0, B0, axis: Axis, clear: Clearance, lift, step, turn, height)
         zz = z1[0] + u * (z2[0] - z1[0])
         pts = from_cylindrical(clear.r_at(zz) + lift, th1[0] + u * dth, zz, axis, fr)
         pts[-1] = W  # the exact point above B
-        add(pts, slerp_pair(A[1], B[1], u), MOVE_RAPID, slerp_pair(A0, B0, u))
+        add(pts, slerp(A[1], B[1], u), MOVE_RAPID, slerp(A0, B0, u))
     if B is not None:  # (program start: a rapid to the point above B) then down B's axis
         if A is None:
             add(W, B[1], MOVE_RAPID, B0)

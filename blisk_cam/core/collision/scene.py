@@ -84,9 +84,10 @@ import numpy as np
 
 from ..errors import CollisionError
 from ..geometry.axis import Axis
+from ..geometry.vectors import rotate_about, rotation_matrix
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import as_cutter
-from .obstacles import Obstacles, _rotation_matrix, rotate_about_axis
+from .obstacles import Obstacles
 from .posed_tool import CAP_MARGIN, _Flute, _Frustum
 from .tri_tree import (
     _CHUNK,
@@ -151,7 +152,7 @@ class _Copies:
         self.blade = blade
         self.o = np.asarray(axis.o, dtype=np.float64)
         self.obst = np.asarray(obstacles, dtype=np.int64)  # obstacle index per copy
-        self.R = np.stack([_rotation_matrix(axis, a) for a in angles])  # (c, 3, 3)
+        self.R = np.stack([rotation_matrix(axis.d, a, form="outer") for a in angles])  # (c, 3, 3)
         self.identity = not blade
 
     @property
@@ -194,7 +195,7 @@ def _copy_angle(obstacles: Obstacles, i: int):
             not (ob.F is blade.F or np.array_equal(ob.F, blade.F)):
         return None
     # the copies of Obstacles.build are bit for bit these; others within rounding
-    turned = rotate_about_axis(blade.V, obstacles.axis, angle)
+    turned = rotate_about(blade.V, obstacles.axis.d, angle, obstacles.axis.o, form="outer")
     if not np.array_equal(turned, ob.V):
         scale = max(1.0, float(np.abs(blade.V - obstacles.axis.o).max()))
         if float(np.abs(turned - ob.V).max()) > 1e-12 * scale:

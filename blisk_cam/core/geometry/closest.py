@@ -11,7 +11,8 @@ import numpy as np
 
 from .vectors import dot
 
-__all__ = ["ClosestPoints", "closest_on_segments", "closest_on_triangles"]
+__all__ = ["ClosestPoints", "barycentric", "closest_on_segments", "closest_on_triangles",
+           "segment_distance", "segment_distance2_2d", "segment_offsets"]
 
 
 def _edge_capsules(A, B, C, scale: float):
@@ -73,12 +74,35 @@ def _triple(n, x, y):
         n[:, 2] * (x0 * y1 - x1 * y0)
 
 
+def segment_offsets(p, a, d, dd):
+    """The closest points on segments given as start + direction, pairwise (broadcast).
+
+    The one arithmetic of the segment distances here; callers that keep d and |d|² per
+    segment (the swept ball) pass them instead of b.
+
+    Parameters
+    ----------
+    p : (..., 3) float, mm — points
+    a, d : (..., 3) float, mm — segments a + t d, 0 ≤ t ≤ 1
+    dd : (...) float, mm² — |d|², with 0 replaced by 1 (a point segment)
+
+    Returns
+    -------
+    t : (...) float in [0, 1] — the closest point is a + t d
+    e : (..., 3) float, mm — the offsets p − (a + t d)
+    """
+    t = np.einsum("...j,...j->...", p - a, d) / dd
+    t = np.clip(t, 0.0, 1.0)
+    return t, p - (a + t[..., None] * d)
+
+
 def closest_on_segments(p, a, b):
     """Closest points on segments to points, pairwise.
 
     Parameters
     ----------
-    p, a, b : (k, 3) float, mm — query points and segment end points (a = b is a point)
+    p, a, b : (k, 3) float, mm — query points and segment end points (a = b is a point);
+        any leading shape (..., 3) that broadcasts works alike
 
     Returns
     -------
@@ -86,12 +110,75 @@ def closest_on_segments(p, a, b):
     d2 : (k,) float, mm² — squared distance
     """
     d = b - a
-    dd = dot(d, d)
-    t = dot(p - a, d) / np.where(dd > 0, dd, 1.0)
-    t = np.clip(t, 0.0, 1.0)
-    q = a + t[:, None] * d
-    e = p - q
-    return t, dot(e, e)
+    dd = np.einsum("...j,...j->...", d, d)
+    t, e = segment_offsets(p, a, d, np.where(dd > 0, dd, 1.0))
+    return t, np.einsum("...j,...j->...", e, e)
+
+
+def segment_distance(p, a, b):
+    """Distances from points to segments, pairwise (broadcast).
+
+    Parameters
+    ----------
+    p : (..., 3) float, mm — points, e.g. (n, s, 3): s points per segment
+    a, b : (..., 3) float, mm — segment ends, broadcast against ``p`` (e.g. (n, 1, 3));
+        a = b is a point
+
+    Returns
+    -------
+    (...,) float, mm — ``|p − q|`` (``np.linalg.norm``), q the closest point of segment a → b
+    """
+    d = b - a
+    dd = np.einsum("...j,...j->...", d, d)
+    return np.linalg.norm(segment_offsets(p, a, d, np.where(dd > 0, dd, 1.0))[1], axis=-1)
+
+
+def segment_distance2_2d(px, py, ax, ay, bx, by):
+    """Squared distances from 2-D points to one 2-D segment, coordinates apart.
+
+    The coordinates come as separate arrays (a meridian's ρ and z, say) so that no (k, 2)
+    array is stacked in the callers' inner loops.
+
+    Parameters
+    ----------
+    px, py : (...) float, mm — the points
+    ax, ay, bx, by : float, mm — the segment a → b (a = b is a point)
+
+    Returns
+    -------
+    (...) float, mm²
+    """
+    dx, dy = bx - ax, by - ay
+    dd = dx * dx + dy * dy
+    qx, qy = px - ax, py - ay
+    t = np.clip((qx * dx + qy * dy) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    ex, ey = qx - t * dx, qy - t * dy
+    return ex * ex + ey * ey
+
+
+def barycentric(p, a, b, c):
+    """Barycentric coordinates of the projections of points on the planes of triangles.
+
+    Solved from the Gram matrix of the edges ab, ac (the projection p' of p satisfies
+    p' = u a + v b + w c, u + v + w = 1). A degenerate triangle (zero Gram determinant)
+    divides by 1 instead of 0: finite coordinates that mean nothing.
+
+    Parameters
+    ----------
+    p, a, b, c : (k, 3) float, mm — points and triangle corners, pairwise
+
+    Returns
+    -------
+    (k, 3) float — (u, v, w), summing to 1; all in [0, 1] when p' lies in the triangle
+    """
+    ab, ac, ap = b - a, c - a, p - a
+    d00, d01, d11 = dot(ab, ab), dot(ab, ac), dot(ac, ac)
+    d20, d21 = dot(ap, ab), dot(ap, ac)
+    den = d00 * d11 - d01 * d01
+    den = np.where(den != 0, den, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.stack([1.0 - v - w, v, w], axis=1)
 
 
 def closest_on_triangles(p, a, b, c):

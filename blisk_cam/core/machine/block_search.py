@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import BliskCamError
 from ..geometry.distance import MeshDistance
+from ..geometry.vectors import unit
 from .block_error import pose_error
 from .description import Machine, forward
 
@@ -59,11 +60,6 @@ FLOOR_TORUS = 5e-4
 
 class InterpolationError(BliskCamError):
     """Bad input to the interpolation (non-positive tolerance, unknown method, …)."""
-
-
-def _unit(v):
-    v = np.asarray(v, dtype=np.float64)
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 # ====================================================================== dense pass
@@ -424,7 +420,7 @@ def _spine_point(cutter, tip, ax, normal):
     if e <= 1e-12:
         return c
     u = -(normal - np.einsum("ij,ij->i", normal, ax)[:, None] * ax)
-    return c + e * _unit(u)
+    return c + e * unit(u, keep_zero=False)
 
 
 def _clearance(machine, cutter, md, q, normal=None):
@@ -440,7 +436,7 @@ def _clearance(machine, cutter, md, q, normal=None):
     c = tip + f * ax
     if e <= 1e-12:
         return md.query(c).signed_distance - r, c
-    u = _unit(-(normal - np.einsum("ij,ij->i", normal, ax)[:, None] * ax))
+    u = unit(-(normal - np.einsum("ij,ij->i", normal, ax)[:, None] * ax), keep_zero=False)
     v = np.cross(ax, u)
 
     def dist(phi):  # phi (k, p) radians → (k, p) mm
@@ -507,10 +503,10 @@ def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
     Q = qs[blk] + t[:, None] * (qs[blk + 1] - qs[blk])
     tip, ax = forward(machine, Q[:, :3], Q[:, 3:])
     # the spine point on the contact side of the moved tool (ball: its centre)
-    n0 = _unit(dp.interp(dp.normal, ends[blk] + t * span[blk]))
+    n0 = unit(dp.interp(dp.normal, ends[blk] + t * span[blk]), keep_zero=False)
     c = _spine_point(cutter, tip, ax, n0)
     foot = _foot(dp, c)
-    nf = _unit(dp.interp(dp.normal, foot))
+    nf = unit(dp.interp(dp.normal, foot), keep_zero=False)
     c = _spine_point(cutter, tip, ax, nf)
     if mesh is not None:
         md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)

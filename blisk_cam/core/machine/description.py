@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MachineError
+from ..geometry.vectors import rotate
 
 __all__ = [
     "KINEMATICS",
@@ -50,7 +51,6 @@ __all__ = [
     "load_machine",
     "machine_axis",
     "machine_from_dict",
-    "rotation_matrices",
     "tip_to_machine",
 ]
 
@@ -59,22 +59,9 @@ MACHINES_DIR = Path(__file__).resolve().parents[2] / "machines"
 _ORTHO_TOL = 1e-6  # |x·z| accepted for the part frame (unit vectors)
 
 
-def rotation_matrices(axis, angles) -> np.ndarray:
-    """(n, 3, 3) right-handed rotations by ``angles`` (n,) radians about the unit ``axis``
-    (3,) (Rodrigues)."""
-    k = np.asarray(axis, dtype=np.float64)
-    t = np.asarray(angles, dtype=np.float64).reshape(-1)
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    s, c = np.sin(t)[:, None, None], np.cos(t)[:, None, None]
-    return np.eye(3)[None] + s * K[None] + (1.0 - c) * (K @ K)[None]
-
-
-def _rotate(axis, angles, v) -> np.ndarray:
-    """(n, 3) vectors v (n, 3) or (3,) turned by ``angles`` (n,) about the unit ``axis``."""
-    k = np.asarray(axis, dtype=np.float64)
-    t = np.asarray(angles, dtype=np.float64).reshape(-1)[:, None]
-    v = np.broadcast_to(np.asarray(v, dtype=np.float64), (len(t), 3))
-    return v * np.cos(t) + np.cross(k, v) * np.sin(t) + k * (v @ k)[:, None] * (1 - np.cos(t))
+def _turn(v, axis, angles):
+    """:func:`~..geometry.vectors.rotate` in the rotaries' arithmetic (``scale_last``)."""
+    return rotate(v, axis, angles, scale_last=True)
 
 
 @dataclass(frozen=True)
@@ -98,7 +85,7 @@ class Rotary:
 
     def transform(self, angles, p) -> np.ndarray:
         """(n, 3) points p (n, 3) turned by ``angles`` (n,) about this axis line."""
-        return _rotate(self.axis, angles, np.asarray(p) - self.point) + self.point
+        return _turn(np.asarray(p) - self.point, self.axis, angles) + self.point
 
 
 @dataclass(frozen=True)
@@ -173,13 +160,13 @@ def forward(machine: Machine, xyz, angles) -> tuple[np.ndarray, np.ndarray]:
     if kind == "table-table":
         # m = T1 T2 m0  ⇒  m0 = T2⁻¹ T1⁻¹ m; the axis likewise
         m0 = r2.transform(-q[:, 1], r1.transform(-q[:, 0], xyz))
-        a0 = _rotate(r2.axis, -q[:, 1], _rotate(r1.axis, -q[:, 0], s))
+        a0 = _turn(_turn(s, r1.axis, -q[:, 0]), r2.axis, -q[:, 1])
     elif kind == "head-table":
         m0 = r2.transform(-q[:, 1], xyz)
-        a0 = _rotate(r2.axis, -q[:, 1], _rotate(r1.axis, q[:, 0], s))
+        a0 = _turn(_turn(s, r1.axis, q[:, 0]), r2.axis, -q[:, 1])
     else:
         m0 = xyz
-        a0 = _rotate(r1.axis, q[:, 0], _rotate(r2.axis, q[:, 1], s))
+        a0 = _turn(_turn(s, r2.axis, q[:, 1]), r1.axis, q[:, 0])
     return machine.machine0_to_part(m0), a0 @ machine.part_rotation
 
 
@@ -203,8 +190,8 @@ def machine_axis(machine: Machine, angles) -> np.ndarray:
     if machine.kinematics == "table-table":
         return np.broadcast_to(s, (len(q), 3)).copy()
     if machine.kinematics == "head-table":
-        return _rotate(r1.axis, q[:, 0], s)
-    return _rotate(r1.axis, q[:, 0], _rotate(r2.axis, q[:, 1], s))
+        return _turn(s, r1.axis, q[:, 0])
+    return _turn(_turn(s, r2.axis, q[:, 1]), r1.axis, q[:, 0])
 
 
 # --- reading ------------------------------------------------------------------------------

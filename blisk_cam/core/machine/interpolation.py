@@ -45,6 +45,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..geometry.distance import MeshDistance
+from ..geometry.vectors import slerp, unit
 from ..toolpath.types import MOVE_CUT, Program, ToolPath
 from .block_error import contact_lever, error_gradients, machine_jacobian
 from .block_search import (
@@ -56,14 +57,13 @@ from .block_search import (
     DensePass,
     InterpolationError,
     _check_positive,
-    _unit,
     block_bounds_rows,
     measure_blocks,
     search_chord,
     search_constant_error,
 )
 from .description import Machine, forward, load_machine
-from .kinematics import slerp, solve_poses
+from .kinematics import solve_poses
 
 __all__ = [
     "block_segments",
@@ -92,8 +92,8 @@ def prepare_pass(machine: Machine, cutter, tip, axis, normal, *, max_spacing: fl
     the paths' frame, k ≥ 2. ``prev`` (2,) rad seeds the IK branch; ``q`` (k, 5) joints if
     already solved. Raises ReachError for an unreachable pose."""
     tip = np.asarray(tip, dtype=np.float64).reshape(-1, 3)
-    axis = _unit(np.asarray(axis, dtype=np.float64).reshape(-1, 3))
-    normal = _unit(np.asarray(normal, dtype=np.float64).reshape(-1, 3))
+    axis = unit(np.asarray(axis, dtype=np.float64).reshape(-1, 3), keep_zero=False)
+    normal = unit(np.asarray(normal, dtype=np.float64).reshape(-1, 3), keep_zero=False)
     k = len(tip)
     if k < 2:
         raise InterpolationError("a pass needs at least two poses")
@@ -115,11 +115,12 @@ def prepare_pass(machine: Machine, cutter, tip, axis, normal, *, max_spacing: fl
     i0 = np.minimum(np.floor(src).astype(np.int64), k - 2)
     f = (src - i0)[:, None]
     qd = q[i0] * (1 - f) + q[i0 + 1] * f
-    nd = _unit(normal[i0] * (1 - f) + normal[i0 + 1] * f)
+    nd = unit(normal[i0] * (1 - f) + normal[i0 + 1] * f, keep_zero=False)
     if planned:
         # the planned path in the part frame (tip linear, axis great circle), solved
         td = tip[i0] * (1 - f) + tip[i0 + 1] * f
-        ad = slerp(axis[i0], axis[i0 + 1], f[:, 0])
+        # the unit axes renormalised once more, as the machine's slerp always did (its bits)
+        ad = slerp(unit(axis[i0], keep_zero=False), unit(axis[i0 + 1], keep_zero=False), f[:, 0])
         ins = f[:, 0] > 0
         if ins.any():
             res = solve_poses(machine, td[ins], ad[ins], prev=qd[ins, 3:], sequential=False)

@@ -40,10 +40,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ReachError
+from ..geometry.closest import segment_distance
+from ..geometry.vectors import slerp, unit
 from ..toolpath.types import MOVE_NAMES, MOVE_RAPID
 from .description import Machine, forward, machine_axis, tip_to_machine
 
-__all__ = ["IKResult", "LinearizeReport", "linearize", "solve_poses", "slerp"]
+__all__ = ["IKResult", "LinearizeReport", "linearize", "solve_poses"]
 
 TWO_PI = 2.0 * math.pi
 #: |component of the axis across ωb| below which a pose is singular (β free)
@@ -62,11 +64,6 @@ class IKResult:
     xyz: np.ndarray
     angles: np.ndarray
     singular: np.ndarray
-
-
-def _unit(v):
-    v = np.asarray(v, dtype=np.float64)
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def _sub1(w, u, v):
@@ -116,7 +113,7 @@ def _frame(machine: Machine):
 
 def _candidates(machine: Machine, axis):
     """Both branches: theta (n, 2 branches, 2 joints), reach (n,), singular (n,)."""
-    a0 = _unit(axis) @ machine.part_rotation.T
+    a0 = unit(axis, keep_zero=False) @ machine.part_rotation.T
     s = np.broadcast_to(machine.spindle, a0.shape)
     wa, wb, swap = _frame(machine)
     A, B, reach, sing = _two_rotations(wa, wb, a0, s)
@@ -259,30 +256,6 @@ def _check_linear(machine, xyz, angles, labels, moves, tool_length):
             )
 
 
-def slerp(a0, a1, t):
-    """(n, 3) unit vectors between unit a0, a1 (n, 3) at fractions t (n,) (great circle)."""
-    a0 = _unit(a0)
-    a1 = _unit(a1)
-    t = np.asarray(t, dtype=np.float64)[:, None]
-    d = np.clip(np.einsum("ij,ij->i", a0, a1), -1.0, 1.0)[:, None]
-    om = np.arccos(d)
-    so = np.sin(om)
-    small = so[:, 0] < 1e-9
-    so[small] = 1.0
-    out = (np.sin((1 - t) * om) * a0 + np.sin(t * om) * a1) / so
-    lin = (1 - t) * a0 + t * a1
-    out[small] = lin[small]
-    return _unit(out)
-
-
-def _seg_dist(p, a, b):
-    """(n, s) distance of points p (n, s, 3) from segments a→b (n, 3)."""
-    ab = b - a
-    L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30)
-    t = np.clip(np.einsum("isj,ij->is", p - a[:, None], ab) / L2[:, None], 0, 1)
-    return np.linalg.norm(p - (a[:, None] + t[..., None] * ab[:, None]), axis=2)
-
-
 @dataclass
 class LinearizeReport:
     inserted: int
@@ -298,7 +271,9 @@ def joint_deviation(machine, xyz0, q0, xyz1, q1, tip0, tip1, samples: int = 16):
     X = xyz0[:, None] + t[None, :, None] * (xyz1 - xyz0)[:, None]
     Q = q0[:, None] + t[None, :, None] * (q1 - q0)[:, None]
     tp, _ = forward(machine, X.reshape(-1, 3), Q.reshape(-1, 2))
-    return _seg_dist(tp.reshape(n, samples, 3), tip0, tip1).max(axis=1) if n else np.zeros(0)
+    if not n:
+        return np.zeros(0)
+    return segment_distance(tp.reshape(n, samples, 3), tip0[:, None], tip1[:, None]).max(axis=1)
 
 
 def linearize(
@@ -328,7 +303,7 @@ def linearize(
     inserted poses in order; ``source`` (m,) is the index of the original pose, −1 inserted.
     """
     tip = np.asarray(tip, dtype=np.float64)
-    axis = _unit(axis)
+    axis = unit(axis, keep_zero=False)
     move = np.asarray(move)
     n = len(tip)
     # segment (i-1 → i) per pose i
@@ -362,7 +337,9 @@ def linearize(
         o, a_tip, b_tip, a_ax, b_ax = o[bad], a_tip[bad], b_tip[bad], a_ax[bad], b_ax[bad]
         a_x, b_x, a_q, b_q, a_t, b_t = a_x[bad], b_x[bad], a_q[bad], b_q[bad], a_t[bad], b_t[bad]
         m_tip = 0.5 * (a_tip + b_tip)
-        m_ax = slerp(a_ax, b_ax, np.full(len(o), 0.5))
+        # unit axes renormalised once more, as the machine's slerp always did (its bits)
+        m_ax = slerp(unit(a_ax, keep_zero=False), unit(b_ax, keep_zero=False),
+                     np.full(len(o), 0.5))
         m_t = 0.5 * (a_t + b_t)
         res = solve_poses(
             machine, m_tip, m_ax, prev=a_q, sequential=False, labels=o, moves=move[o],

@@ -65,6 +65,7 @@ import numpy as np
 from ..errors import ConeError
 from ..geometry.axis import Axis
 from ..geometry.mesh import triangle_normals
+from ..geometry.vectors import cross2, rotate_about
 from .blisk_params import (
     _SIDE_STRETCH,
     TWO_PI,
@@ -77,9 +78,8 @@ from .cones import Cone, MorphingCones
 
 __all__ = ["DemoBlisk", "make_demo_blisk"]
 
-
-def _cross2(a0, a1, b0, b1):
-    return a0 * b1 - a1 * b0
+#: the demo blisk's axis direction (its blades are copies about z)
+_Z = (0.0, 0.0, 1.0)
 
 
 def _atan_over(w):
@@ -108,7 +108,7 @@ class _BladeModel:
         c1, c2 = mc.cone1, mc.cone2
         d = c1.p2 - c1.p1
         d = d / np.linalg.norm(d)
-        q = [float(_cross2(d[0], d[1], *(qq - c1.p1))) for qq in (c2.p1, c2.p2)]
+        q = [float(cross2(d, qq - c1.p1)) for qq in (c2.p1, c2.p2)]
         sgn = 1.0 if q[0] > 0 else -1.0
         # H(t): distance of the tip-line point at generatrix parameter t from the hub line
         self.H0, self.H1 = sgn * q[0], sgn * q[1]
@@ -330,13 +330,6 @@ def _check_geometry(model: _BladeModel, pitch: float) -> None:
 
 
 # ---------------------------------------------------------------------------------- result
-def _rotate_z(V: np.ndarray, angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    out = np.empty_like(V)
-    out[:, 0] = c * V[:, 0] - s * V[:, 1]
-    out[:, 1] = s * V[:, 0] + c * V[:, 1]
-    out[:, 2] = V[:, 2]
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -413,7 +406,8 @@ class DemoBlisk:
         i = int(i) % self.blade_count
         if i == 0:
             return self.blade_vertices.copy(), self.blade_faces
-        return _rotate_z(self.blade_vertices, i * self.pitch), self.blade_faces
+        V = rotate_about(self.blade_vertices, _Z, i * self.pitch, form="coordinate")
+        return V, self.blade_faces
 
     def blade_instances(self, indices=None) -> list[tuple[np.ndarray, np.ndarray]]:
         """Several blades as ``[(V_i, F), ...]``; ``indices=None`` means all N blades

@@ -52,9 +52,10 @@ import numpy as np
 
 from ..errors import LinkError
 from ..geometry.axis import Axis, cylindrical, from_cylindrical, meridional
+from ..geometry.closest import segment_distance
 from ..geometry.distance import NearestFaces
 from ..geometry.mesh import TriMesh
-from ..geometry.vectors import slerp_pair
+from ..geometry.vectors import slerp
 from ..part.cones import MorphingCones
 from ..toolpath.types import (
     MOVE_APPROACH,
@@ -495,8 +496,8 @@ def _spiral(
                 continue
             qm, nm = q[sel], n[sel]
             q0, q1, n0, n1 = Q[i][p], Q[i][p + 1], N[i][p], N[i][p + 1]
-            dev = _seg_dist(qm, q0, q1)
-            devc = _seg_dist(qm + rho * nm, q0 + rho * n0, q1 + rho * n1)
+            dev = segment_distance(qm, q0, q1)
+            devc = segment_distance(qm + rho * nm, q0 + rho * n0, q1 + rho * n1)
             turn = np.arccos(np.clip(np.einsum("ij,ij->i", n0, n1), -1.0, 1.0))
             gap = U[i][p + 1] - U[i][p]
             bad = ((dev > 0.5 * chord) | (devc > 0.75 * chord) | (turn > max_turn)) & (gap > 1e-9)
@@ -541,15 +542,6 @@ def _spiral(
         face=FF,
         ratio=RR,
     )
-
-
-def _seg_dist(p, a, b):
-    """(k,) distances of points p to segments a → b (all (k, 3))."""
-    d = b - a
-    t = np.clip(
-        np.einsum("ij,ij->i", p - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0
-    )
-    return np.linalg.norm(a + t[:, None] * d - p, axis=1)
 
 
 def _start_at(loop: PassCurve, w, wn, wf) -> PassCurve:
@@ -667,7 +659,7 @@ def build_program(
         a_up = a_to if first else a_from
         emit(up, a_up, MOVE_RAPID)
         a_along = (
-            slerp_pair(np.asarray(a_from), np.asarray(a_to), t)
+            slerp(a_from, a_to, t)
             if not first
             else np.broadcast_to(a_to, along.shape)
         )
@@ -740,7 +732,7 @@ def _surface_link(p0, n0, a0, p1, n1, a1, projector, cl_points, step):
     q, nrm, _ = projector.project(p0 + t[:, None] * (p1 - p0))
     if np.any(nrm @ n0 <= 0) or np.any(nrm @ n1 <= 0):
         return None
-    a = slerp_pair(np.asarray(a0), np.asarray(a1), t)
+    a = slerp(a0, a1, t)
     if np.any(np.einsum("ij,ij->i", a, nrm) <= 0.05):
         return None
     return cl_points(q, nrm, a), a

@@ -18,16 +18,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ToleranceError
+from ..geometry.vectors import slerp, unit
 
 __all__ = ["densify_by_normal_turn", "forward_step_indices", "sample_polyline"]
 
 #: share of the chord tolerance the ball-centre path may use between poses
 CENTRE_CHORD_SHARE = 0.6
-
-
-def _unit(v):
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 def densify_by_normal_turn(points, normals, closed: bool, max_turn: float):
@@ -47,7 +43,7 @@ def densify_by_normal_turn(points, normals, closed: bool, max_turn: float):
     lies on (segment i joins input points i and i+1, the closing one wraps to 0)
     """
     P = np.asarray(points, dtype=np.float64)
-    N = _unit(np.asarray(normals, dtype=np.float64))
+    N = unit(np.asarray(normals, dtype=np.float64))
     if closed:
         P = np.vstack([P, P[:1]])
         N = np.vstack([N, N[:1]])
@@ -64,13 +60,7 @@ def densify_by_normal_turn(points, normals, closed: bool, max_turn: float):
     start = np.repeat(np.cumsum(nsub) - nsub, nsub)
     u = (np.arange(len(seg)) - start) / nsub[seg]
     p = P[seg] + u[:, None] * (P[seg + 1] - P[seg])
-    th = ang[seg]
-    sin_th = np.sin(th)
-    small = sin_th < 1e-9
-    with np.errstate(divide="ignore", invalid="ignore"):
-        wa = np.where(small, 1.0 - u, np.sin((1.0 - u) * th) / sin_th)
-        wb = np.where(small, u, np.sin(u * th) / sin_th)
-    n = _unit(wa[:, None] * n0[seg] + wb[:, None] * n1[seg])
+    n = slerp(n0[seg], n1[seg], u, weights_first=True)
     return np.vstack([p, P[-1:]]), np.vstack([n, N[-1:]]), np.append(seg, len(n0) - 1)
 
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.axis import Axis, meridional
+from ..geometry.closest import barycentric
 from ..geometry.mesh import TriMesh, chain_graph_paths
 from ..part.cones import MorphingCones
 from ..part.profiles import MorphingProfiles
@@ -347,7 +348,7 @@ class MeshConeSlicer:
         cand = np.stack([X0 + (-bq + sq)[:, None] * u, X0 + (-bq - sq)[:, None] * u], 1)
         pick = np.argmin(np.linalg.norm(cand - c[:, None, :], axis=2), axis=1)
         X = cand[np.arange(len(seg)), pick]
-        bary = _barycentric(X, tri)
+        bary = barycentric(X, tri[:, 0], tri[:, 1], tri[:, 2])
         ok &= np.all(bary >= -1e-9, axis=1)
         if not np.any(ok):
             return curve
@@ -549,20 +550,3 @@ def _unique_inverse(a):
     inverse = np.empty(len(a), dtype=np.int64)
     inverse[order] = np.cumsum(new) - 1
     return srt[new], inverse
-
-
-def _barycentric(X, tri):
-    """Barycentric coordinates (p, 3) of points X (p, 3) in the planes of triangles (p, 3, 3)."""
-    v0 = tri[:, 1] - tri[:, 0]
-    v1 = tri[:, 2] - tri[:, 0]
-    v2 = X - tri[:, 0]
-    d00 = np.einsum("ij,ij->i", v0, v0)
-    d01 = np.einsum("ij,ij->i", v0, v1)
-    d11 = np.einsum("ij,ij->i", v1, v1)
-    d20 = np.einsum("ij,ij->i", v2, v0)
-    d21 = np.einsum("ij,ij->i", v2, v1)
-    den = d00 * d11 - d01 * d01
-    den = np.where(den != 0, den, 1.0)
-    b1 = (d11 * d20 - d01 * d21) / den
-    b2 = (d00 * d21 - d01 * d20) / den
-    return np.stack([1.0 - b1 - b2, b1, b2], axis=1)

@@ -32,12 +32,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PostError
-from ..machine.description import Machine, rotation_matrices
+from ..geometry.vectors import rotate_about
+from ..machine.description import Machine
 from ..machine.kinematics import LinearizeReport, linearize, solve_poses
 from ..options import Choice, OptionGroup, check_group, option
 from ..toolpath.types import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT, ToolPath
 
-__all__ = ["SAFE", "Blocks", "NcOptions", "build_blocks", "rotate_about_axis"]
+__all__ = ["SAFE", "Blocks", "NcOptions", "build_blocks"]
 
 SAFE = 5
 
@@ -187,11 +188,12 @@ class Blocks:
         parts = []
         o, d = (np.asarray(x) for x in self.blisk_axis)
         for k in range(self.blades):
-            R = rotation_matrices(d, [2 * math.pi * k / self.blades])[0]
+            turn = 2 * math.pi * k / self.blades
             q = self.angles.copy()
             q[:, 1] += self.offsets[k]
             parts.append(
-                dict(kind=self.kind, tip=(self.tip - o) @ R.T + o, axis=self.axis @ R.T,
+                dict(kind=self.kind, tip=rotate_about(self.tip, d, turn, o),
+                     axis=rotate_about(self.axis, d, turn),
                      xyz=self.xyz, angles=q, feed=self.feed, blade=np.full(len(self), k),
                      source=self.source, singular=self.singular)
             )
@@ -203,14 +205,6 @@ class Blocks:
     def poses(self) -> np.ndarray:
         """(n,) bool — blocks that are tool poses (not SAFE retracts)."""
         return self.kind != SAFE
-
-
-def rotate_about_axis(points, vectors, origin, direction, angle):
-    """Points (n, 3) and vectors (n, 3) turned by ``angle`` radians right-handed about the
-    line (origin, unit direction)."""
-    R = rotation_matrices(direction, [angle])[0]
-    o = np.asarray(origin, dtype=np.float64)
-    return (np.asarray(points) - o) @ R.T + o, np.asarray(vectors) @ R.T
 
 
 def _indexable(machine: Machine, o, d) -> float:
@@ -281,7 +275,8 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
     for k in range(1 if indexed else n_bl):
         tip, ax = prog.tip, prog.axis
         if k:
-            tip, ax = rotate_about_axis(tip, ax, o, d, 2 * math.pi * k / n_bl)
+            turn = 2 * math.pi * k / n_bl
+            tip, ax = rotate_about(tip, d, turn, o), rotate_about(ax, d, turn)
         if solve:
             t, a, m, x, q, s, src, rep = _solve_blade(
                 tip, ax, prog.move, machine, options, chord, prev, labels

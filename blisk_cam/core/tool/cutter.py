@@ -60,6 +60,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ToolError
+from ..geometry.closest import segment_distance2_2d
 
 __all__ = [
     "DEFAULT_TAPER_ANGLE",
@@ -479,9 +480,9 @@ class Cutter:
         g = self._g
         e, f, r, h = self.e, self.f, self.r, self.h
         B, S, T = g["B"], g["S"], g["T"]
-        d2 = _seg_d2(rho, z, (0.0, 0.0), B)
-        d2 = np.minimum(d2, _seg_d2(rho, z, S, T))
-        d2 = np.minimum(d2, _seg_d2(rho, z, T, (0.0, h)))
+        d2 = segment_distance2_2d(rho, z, 0.0, 0.0, *B)
+        d2 = np.minimum(d2, segment_distance2_2d(rho, z, *S, *T))
+        d2 = np.minimum(d2, segment_distance2_2d(rho, z, *T, 0.0, h))
         vr, vz = rho - e, z - f
         vl = np.hypot(vr, vz)
         # the arc's normal sector: θ(v) = atan2(vr, −vz) within [α, π/2 − β], via half-planes
@@ -508,18 +509,6 @@ class Cutter:
         z = np.einsum("...j,...j->...", dv, a)
         rr = np.einsum("...j,...j->...", dv, dv) - z * z
         return self.signed_distance_rz(np.sqrt(np.maximum(rr, 0.0)), z)
-
-
-def _seg_d2(px, py, a, b):
-    """Squared distance from 2-D points (px, py) to the segment a → b."""
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    dd = dx * dx + dy * dy
-    qx, qy = px - a[0], py - a[1]
-    if dd <= 0:
-        return qx * qx + qy * qy
-    t = np.clip((qx * dx + qy * dy) / dd, 0.0, 1.0)
-    ex, ey = qx - t * dx, qy - t * dy
-    return ex * ex + ey * ey
 
 
 def _radius(radius) -> float:

@@ -39,17 +39,17 @@ import numpy as np
 
 from ..errors import ToleranceError
 from ..geometry.axis import meridional
-from ..geometry.closest import ClosestPoints, closest_on_segments, closest_on_triangles
+from ..geometry.closest import ClosestPoints, barycentric, closest_on_segments, closest_on_triangles
 from ..geometry.distance import MeshDistance, closest_points
 from ..geometry.mesh import TriMesh
-from ..geometry.vectors import dot
+from ..geometry.vectors import dot, slerp, unit
 from ..part.profiles import morph_between
 from ..runtime import Cancelled, alongside, cancellable, check_cancel, map_tasks, parallel
 from ..tool.cutter import as_cutter
 from ..toolpath.types import PassCurve, ToolPath
 from .forest import SweptForest
-from .samples import SurfaceSamples, _barycentric, default_spacing, surface_samples
-from .sweep import SWEEP_METHODS, SweepError, SweptCutter, _slerp, swept_cutter
+from .samples import SurfaceSamples, default_spacing, surface_samples
+from .sweep import SWEEP_METHODS, SweepError, SweptCutter, swept_cutter
 from .sweep_ball import SweptBall, _curve_polyline
 
 __all__ = [
@@ -302,8 +302,8 @@ def _interpolated_contacts(cutter, curves, nsub):
         tt = np.tile(t, m)
         rep_ = np.repeat(np.arange(m), nsub)
         tip = tips_a[rep_] + tt[:, None] * (tips_b - tips_a)[rep_]
-        ax = _slerp(ax_a[rep_] / np.linalg.norm(ax_a[rep_], axis=1)[:, None],
-                    ax_b[rep_] / np.linalg.norm(ax_b[rep_], axis=1)[:, None], tt)
+        ax = slerp(unit(ax_a[rep_], keep_zero=False), unit(ax_b[rep_], keep_zero=False), tt,
+                   weights_first=True)
         nn = n_a[rep_] + tt[:, None] * (n_b - n_a)[rep_]
         if not (c.closed and len(c.tip) > 2):  # the last pose itself
             tip = np.vstack([tip, c.tip[-1:]])
@@ -695,7 +695,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     sc.ridge_pts = x
     rf = smp.edge_face[eidx]
     FX = mesh.F[rf]
-    bX = _barycentric(x, mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
+    bX = barycentric(x, mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
     sc.ridge_nrm = mesh.interpolate_normals(rf, bX)
     sc.ridge_val, sc.ridge_pair = rv, epair
 

@@ -14,8 +14,8 @@ import numpy as np
 
 from ..errors import ToleranceError
 from ..geometry.axis import Axis
+from ..geometry.closest import barycentric
 from ..geometry.mesh import TriMesh
-from ..geometry.vectors import dot
 from ..part.cones import MorphingCones
 
 __all__ = ["SurfaceSamples", "default_spacing", "surface_samples"]
@@ -94,18 +94,6 @@ def default_spacing(tool_radius: float, cusp: float) -> float:
     if not (h > 0) or h >= rho:
         return rho / 8.0
     return 2.0 / 3.0 * np.sqrt(2.0 * rho * h - h * h)
-
-
-def _barycentric(P, A, B, C):
-    """Barycentric coordinates of the projections of P on the triangle planes (k, 3)."""
-    ab, ac, ap = B - A, C - A, P - A
-    d00, d01, d11 = dot(ab, ab), dot(ab, ac), dot(ac, ac)
-    d20, d21 = dot(ap, ab), dot(ap, ac)
-    den = d00 * d11 - d01 * d01
-    den = np.where(np.abs(den) > 0, den, 1.0)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    return np.stack([1.0 - v - w, v, w], axis=1)
 
 
 # ~160 lines, 50 of them the docstring: select faces, grid per n, crossings (one data flow)
@@ -257,7 +245,7 @@ def surface_samples(
         X = np.vstack(bp)
         fX = np.concatenate(bf)
         FX = F[fX]
-        bX = np.clip(_barycentric(X, V[FX[:, 0]], V[FX[:, 1]], V[FX[:, 2]]), 0.0, 1.0)
+        bX = np.clip(barycentric(X, V[FX[:, 0]], V[FX[:, 1]], V[FX[:, 2]]), 0.0, 1.0)
         bX /= bX.sum(axis=1, keepdims=True)
         P = np.vstack([P, X])
         face = np.concatenate([face, fX])

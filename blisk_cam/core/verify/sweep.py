@@ -19,25 +19,12 @@ from scipy.spatial import cKDTree
 
 from ..errors import BliskCamError, ToleranceError
 from ..geometry.bvh import CHUNK, GROUP_MIN, ClusterTree, group_argmin, query_groups, run_clusters
-from ..geometry.vectors import dot
+from ..geometry.vectors import dot, rotate, slerp
 from ..runtime import map_chunks
 from ..tool.cutter import as_cutter
 from .sweep_ball import SweptBall, _curve_polyline
 
 __all__ = ["SWEEP_METHODS", "SweepError", "SweptCutter", "swept_cutter"]
-
-
-def _slerp(a0, a1, t):
-    """Unit axes at parameters t (k,) on the great arcs from unit a0 to unit a1 (k, 3)."""
-    c = np.clip(dot(a0, a1), -1.0, 1.0)
-    phi = np.arccos(c)
-    sphi = np.sin(phi)
-    small = sphi < 1e-9
-    sd = np.where(small, 1.0, sphi)
-    w0 = np.where(small, 1.0 - t, np.sin((1.0 - t) * phi) / sd)
-    w1 = np.where(small, t, np.sin(t * phi) / sd)
-    v = w0[:, None] * a0 + w1[:, None] * a1
-    return v / np.linalg.norm(v, axis=1)[:, None]
 
 
 _GOLD = 0.5 * (np.sqrt(5.0) - 1.0)
@@ -62,12 +49,6 @@ SWEEP_METHODS = ("fast", "exact")
 class SweepError(BliskCamError):
     """A path cannot be swept: non-finite poses, zero axes, or an axis reversed between two
     consecutive poses."""
-
-
-def _rotate(v, k, c, s):
-    """Rows ``v`` (m, 3) rotated about unit rows ``k`` by the angles of cosine ``c`` and sine
-    ``s`` (m,) (Rodrigues; ``k`` = 0 rows are scaled by ``c``, used only with c = 1)."""
-    return v * c[:, None] + np.cross(k, v) * s[:, None] + k * (dot(k, v) * (1.0 - c))[:, None]
 
 
 class SweptCutter:
@@ -324,7 +305,7 @@ class SweptCutter:
     def pose(self, seg, t):
         """(tip (k, 3), axis (k, 3)) of segments ``seg`` (k,) at parameters t (k,)."""
         tip = self.ta[seg] + t[:, None] * (self.tb[seg] - self.ta[seg])
-        return tip, _slerp(self.aa[seg], self.ab[seg], t)
+        return tip, slerp(self.aa[seg], self.ab[seg], t, weights_first=True)
 
     def _segment_min(self, P, seg, v0, v1):
         """Minimum over t ∈ [0, 1] of the distance from P (k, 3) to segments ``seg`` (k,)
@@ -491,7 +472,7 @@ def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
         tk(x, keep, axis=0) for x in (q, sg, d0, d1, a0, z0, n0, phi, dtip, eps, v0, v1, D))
     # 3. convexity along the chord (tool frame of pose a): a bracket per segment
     k_ = tk(tab._k, sg, axis=0)
-    p1 = _rotate(d1, k_, np.cos(phi), -np.sin(phi))
+    p1 = rotate(d1, k_, -phi)
     ch = p1 - d0
     g0 = _sd_in_frame(cut, d0 + delta * ch, a0)
     g1 = _sd_in_frame(cut, p1 - delta * ch, a0)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.bvh import ClusterTree, group_argmin, nearest, run_clusters, within
-from ..geometry.closest import ray_capsules_first_hit
+from ..geometry.closest import ray_capsules_first_hit, segment_offsets
 from ..geometry.vectors import dot
 from ..toolpath.types import PassCurve
 
@@ -89,13 +89,10 @@ class SweptBall:
         return cls(np.vstack(aa), np.vstack(bb), radius, np.concatenate(oo))
 
     def _d2(self, P, qi, sg):
-        """Squared distances from P[qi] to segments sg: :func:`closest_on_segments`'s
-        arithmetic, operation for operation (the same bits), with b − a and |b − a|² taken
-        once per segment instead of once per pair."""
-        p, a, d = P[qi], self.a[sg], self._d[sg]
-        t = dot(p - a, d) / self._dd[sg]
-        t = np.clip(t, 0.0, 1.0)
-        e = p - (a + t[:, None] * d)
+        """Squared distances from P[qi] to segments sg: :func:`.closest.segment_offsets`,
+        the arithmetic of :func:`.closest.closest_on_segments` (the same bits), with b − a and
+        |b − a|² taken once per segment instead of once per pair."""
+        e = segment_offsets(P[qi], self.a[sg], self._d[sg], self._dd[sg])[1]
         return dot(e, e)
 
     def nearest(self, points, near=None):
