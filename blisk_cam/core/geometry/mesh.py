@@ -596,17 +596,16 @@ def _checked_arrays(V, F):
     used[F.ravel()] = True
     bad = None if np.isfinite(V).all() else used & ~np.all(np.isfinite(V), axis=1)
     if bad is not None and np.any(bad):
-        raise MeshError(
-            f"{int(np.sum(bad))} vertices used by faces have NaN or infinite coordinates "
-            f"(the first is vertex {int(np.argmax(bad))}); fix or delete them before "
-            "generating paths"
-        )
+        raise MeshError(f"{int(np.sum(bad))} vertices used by faces have NaN or infinite "
+                        f"coordinates (the first is vertex {int(np.argmax(bad))}); fix or delete "
+                        "them before generating paths")
     return V, F, used
 
 
 def _welded(V, used, weld_tolerance):
-    """The used vertices welded (exact duplicates, then clusters closer than the tolerance):
-    (V (k, 3), vertex_map (n,) input → mesh vertex or -1, number welded)."""
+    """The used vertices welded (exact duplicates, then clusters closer than the tolerance, to
+    their lowest input id): (V (k, 3), vertex_map (n,) input → mesh vertex or -1, number
+    welded)."""
     n_in = len(V)
     Vu = V if used.all() else V[used]
     iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
@@ -625,30 +624,8 @@ def _welded(V, used, weld_tolerance):
         raise MeshError(f"weld tolerance must be a finite number ≥ 0 mm, got {weld_tolerance}")
     rep = first if iu is None else iu[first]
     ir = pos if iu is None else iu[pos]  # the representatives' input ids
-    rep, merged = _merge_close(V, rcols, rep, ir, tol)
-    if merged or iu is not None:
-        is_rep = np.zeros(n_in, dtype=bool)
-        is_rep[rep] = True
-        new_id = np.cumsum(is_rep, dtype=np.int64)
-        new_id -= 1
-        vertex_map = np.full(n_in, -1, dtype=np.int64)
-        vertex_map[iu if iu is not None else slice(None)] = new_id[rep]
-        V = V[is_rep]
-    else:  # every vertex used, exact duplicates only: mesh vertex i is representative i
-        rank = np.empty(n_in, dtype=np.int64)
-        rank[pos] = np.arange(len(pos))
-        vertex_map = rank[first]
-        V = V[pos]
-    welded = len(first) - len(V)
-    return V, vertex_map, welded
-
-
-def _merge_close(V, rcols, rep, ir, tol):
-    """Merge the representatives ``ir`` (input ids, ascending; ``rcols`` their coordinate
-    columns) closer than ``tol`` mm into the lowest of each cluster: (rep, merged: bool)."""
-    n_in = len(V)
     merged = False
-    if tol > 0 and len(ir) > 1:
+    if tol > 0 and len(pos) > 1:  # clusters closer than tol: their lowest input id
         d = _WELD_DIRECTION
         u = (rcols[0] * d[0] + rcols[1] * d[1]) + rcols[2] * d[2]
         u_order = np.argsort(u, kind="stable")
@@ -673,7 +650,21 @@ def _merge_close(V, rcols, rep, ir, tol):
             remap[ir] = low[lab]
             rep = remap[rep]
             merged = True
-    return rep, merged
+    if merged or iu is not None:
+        is_rep = np.zeros(n_in, dtype=bool)
+        is_rep[rep] = True
+        new_id = np.cumsum(is_rep, dtype=np.int64)
+        new_id -= 1
+        vertex_map = np.full(n_in, -1, dtype=np.int64)
+        vertex_map[iu if iu is not None else slice(None)] = new_id[rep]
+        V = V[is_rep]
+    else:  # every vertex used, exact duplicates only: mesh vertex i is representative i
+        rank = np.empty(n_in, dtype=np.int64)
+        rank[pos] = np.arange(len(pos))
+        vertex_map = rank[first]
+        V = V[pos]
+    welded = len(first) - len(V)
+    return V, vertex_map, welded
 
 
 def _kept_faces(F, nv_mesh):
