@@ -56,7 +56,7 @@ Lengths mm, angles radians (the paths JSON writes ``rotation_deg``).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -132,8 +132,35 @@ def _away(ax, tip, rho, cc, F, ball):
     return -perp
 
 
-# long on purpose: Eq. 10–13 and the fall-backs of one rotation step, vectorised over the poses of a
-# step
+def _first_clearing_angle(clear_at, todo, target, max_angle, k):
+    """The smallest angle (rad) up to ``max_angle`` at which ``clear_at`` reaches ``target``,
+    for the poses ``todo`` of k: a 0.25° scan, then a bisection. Returns (poses (i,), angles
+    (i,)) for the poses where some angle clears."""
+    grid = np.arange(0.0, max_angle + 1e-12, math.radians(0.25))[1:]
+    lo = np.full(k, np.nan)
+    hi = np.full(k, np.nan)
+    # the scan, all angles of a block of poses in one evaluation: the first angle that clears
+    block = max(1, _SCAN_PAIRS // len(grid))
+    for s in range(0, len(todo), block):
+        ii = todo[s:s + block]
+        hit = (clear_at(np.tile(grid, len(ii)), np.repeat(ii, len(grid))) >= target) \
+            .reshape(len(ii), len(grid))
+        any_hit = hit.any(axis=1)
+        first = hit.argmax(axis=1)[any_hit]
+        jj = ii[any_hit]
+        hi[jj] = grid[first]
+        lo[jj] = np.where(first > 0, grid[np.maximum(first - 1, 0)], 0.0)
+    found = np.isfinite(hi)
+    ii = np.nonzero(found)[0]
+    a_lo, a_hi = lo[ii], hi[ii]
+    for _ in range(28):  # bisection: 0.25° / 2^28 ≈ 2e-11 rad
+        mid = 0.5 * (a_lo + a_hi)
+        hit = clear_at(mid, ii) >= target
+        a_hi = np.where(hit, mid, a_hi)
+        a_lo = np.where(hit, a_lo, mid)
+    return ii, a_hi
+
+
 def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=_MAX_SEARCH,
                    direction=None):
     """One rotation step (Eqs. 12–13, 16–17) for k colliding poses.
@@ -211,29 +238,7 @@ def _rotation_step(scene, cc, nrm, tip, ax, F, owner, j, ball, max_angle=_MAX_SE
         theta[good] = th0[good]
         # an Eq. 12 angle that clears may overshoot where the closest point is a cap or a
         # shoulder; the scan below finds the smallest
-    grid = np.arange(0.0, max_angle + 1e-12, math.radians(0.25))[1:]
-    lo = np.full(k, np.nan)
-    hi = np.full(k, np.nan)
-    # the scan, all angles of a block of poses in one evaluation: the first angle that clears
-    todo = np.nonzero(ok)[0]
-    block = max(1, _SCAN_PAIRS // len(grid))
-    for s in range(0, len(todo), block):
-        ii = todo[s:s + block]
-        hit = (clear_at(np.tile(grid, len(ii)), np.repeat(ii, len(grid))) >= target) \
-            .reshape(len(ii), len(grid))
-        any_hit = hit.any(axis=1)
-        first = hit.argmax(axis=1)[any_hit]
-        jj = ii[any_hit]
-        hi[jj] = grid[first]
-        lo[jj] = np.where(first > 0, grid[np.maximum(first - 1, 0)], 0.0)
-    found = np.isfinite(hi)
-    ii = np.nonzero(found)[0]
-    a_lo, a_hi = lo[ii], hi[ii]
-    for _ in range(28):  # bisection: 0.25° / 2^28 ≈ 2e-11 rad
-        mid = 0.5 * (a_lo + a_hi)
-        hit = clear_at(mid, ii) >= target
-        a_hi = np.where(hit, mid, a_hi)
-        a_lo = np.where(hit, a_lo, mid)
+    ii, a_hi = _first_clearing_angle(clear_at, np.nonzero(ok)[0], target, max_angle, k)
     theta[ii] = np.fmin(theta[ii], a_hi) if len(ii) else theta[ii]
     ok &= np.isfinite(theta)
     theta = np.where(ok, theta, 0.0)
@@ -294,154 +299,60 @@ def _smooth(planned, cur, fixed, normals, delta, closed):
 
 
 # ====================================================================== avoidance
-# long on purpose: one pass of paper 004 §3 over the poses (detect, rotate, lift, re-smooth, re-
-# check) sharing a dozen per-pose arrays; the steps are the helpers it calls
+@dataclass
+class _Poses:
+    """The poses of a path stacked (n rows): contact point, unit normal, planned and current
+    tip (mm) and axis, the planned tip's offset from the exact contact, and per-pose records
+    of the avoidance (normal-direction and first rotation, rad; lift, mm)."""
+
+    cc: np.ndarray
+    nrm: np.ndarray
+    tip0: np.ndarray
+    ax0: np.ndarray
+    off0: np.ndarray
+    tip: np.ndarray
+    ax: np.ndarray
+    rot_normal: np.ndarray
+    first_theta: np.ndarray
+    lift: np.ndarray
+
+
+def _stacked(curves, attr):
+    """(n, 3) float64: one per-pose attribute of all curves, stacked."""
+    return np.vstack([np.asarray(getattr(c, attr), dtype=np.float64) for c in curves])
+
+
+def _contact_offsets(cutter, cc, nrm, tip0, ax0):
+    """(n, 3) mm: each planned tip's offset from the exact contact (the path generator's
+    few-µm lift λ along the normal, see :mod:`.toolpath`), kept when the axis turns."""
+    touch0 = _touch_ok(cutter, nrm, ax0)
+    off0 = np.zeros_like(tip0)
+    if np.any(touch0):
+        off0[touch0] = tip0[touch0] - cutter.cl_points(cc[touch0], nrm[touch0], ax0[touch0])
+    return off0
+
+
 def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: CollisionOptions):
     """Generator: yields progress fractions, returns ``(ToolPath, CollisionReport)`` (see the
     module docstring). The input path is not changed."""
     cutter = scene.cutter
-    ball = cutter.type == "ball"
     curves = [_copy_curve(c) for c in path.curves]
     sizes = [len(c) for c in curves]
     offs = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
     n = int(offs[-1])
     if n == 0:
         raise CollisionError("the path has no poses to check")
-
-    def cat(attr):
-        return np.vstack([np.asarray(getattr(c, attr), dtype=np.float64) for c in curves])
-
-    cc, nrm, tip0, ax_in = cat("cc"), unit(cat("normal"), keep_zero=False), cat("tip"), cat("axis")
+    cc, nrm = _stacked(curves, "cc"), unit(_stacked(curves, "normal"), keep_zero=False)
+    tip0, ax_in = _stacked(curves, "tip"), _stacked(curves, "axis")
     ax0 = unit(ax_in, keep_zero=False)
     det0 = yield from _scaled(_detect_chunks(scene, tip0, ax0), 0.0, 0.4)
-    # the planned pose's offset from the exact contact (the path generator's few-µm lift λ
-    # along the normal, see :mod:`.toolpath`), kept when the axis turns
-    touch0 = _touch_ok(cutter, nrm, ax0)
-    off0 = np.zeros_like(tip0)
-    if np.any(touch0):
-        off0[touch0] = tip0[touch0] - cutter.cl_points(cc[touch0], nrm[touch0], ax0[touch0])
-    tip, ax = tip0.copy(), ax0.copy()
-    coll0 = det0.colliding
-    rot_normal = np.full(n, np.nan)
-    first_theta = np.full(n, np.nan)
-    lift = np.zeros(n)
-    unresolved = np.zeros(n, bool)
+    off0 = _contact_offsets(cutter, cc, nrm, tip0, ax0)
+    P = _Poses(cc, nrm, tip0, ax0, off0, tip0.copy(), ax0.copy(), np.full(n, np.nan),
+               np.full(n, np.nan), np.zeros(n))
     det = det0
-    if options.mode == "avoid" and coll0.any():
-        frames = [local_frames(c.cc, c.normal, c.closed) for c in curves]
-        f = np.vstack([fr[0] for fr in frames])
-        k_side = np.vstack([fr[2] for fr in frames])
-        # the limits bound how far avoidance may lean an axis from the normal; where the plan
-        # itself leans further (a radial or fixed-point strategy), the turn may not lean it
-        # further than planned
-        lead0, tilt0 = lead_tilt_of(ax0, f, nrm, k_side)
-        lim_lead = np.maximum(options.max_lead, np.nan_to_num(np.abs(lead0)))
-        lim_tilt = np.maximum(options.max_tilt, np.nan_to_num(np.abs(tilt0)))
-        clr = det0.clearance.copy()
-        pt, part, nF = det0.point.copy(), det0.part.copy(), det0.normal.copy()
-        owner = det0.obstacle.copy()
-        active = np.nonzero(coll0)[0]
-        a = active
-        _, th_n, ok_n = _rotation_step(scene, cc[a], nrm[a], tip[a], ax[a], pt[a], owner[a], 1,
-                                       ball, direction=nF[a])
-        rot_normal[a] = np.where(ok_n, th_n, np.nan)
-        for j in range(1, options.max_iterations + 1):
-            if len(active) == 0:
-                break
-            a = active
-            # plane M away from F (Eqs. 12-13); where F lies beyond the axis (a deep
-            # penetration) or that turn leaves the limits, the other sense and the obstacle
-            # normal's are tried too, and the smallest feasible turn is kept
-            best_th = np.full(len(a), np.inf)
-            new = ax[a].copy()
-            for variant in range(4):
-                if variant == 0:
-                    direction = None  # Eq. 13's (F' - F)/|F' - F|, with Eq. 12's first guess
-                elif variant == 1:
-                    e_away = _away(ax[a], tip[a], cutter.radius, cc[a], pt[a], ball)
-                    direction = -e_away
-                else:
-                    direction = nF[a] if variant == 2 else -nF[a]
-                cand, th, ok_v = _rotation_step(scene, cc[a], nrm[a], tip[a], ax[a], pt[a],
-                                                owner[a], j, ball, direction=direction)
-                if j == 1 and variant == 0:
-                    first_theta[a] = np.where(ok_v, th, np.nan)
-                lead, tilt = lead_tilt_of(cand, f[a], nrm[a], k_side[a])
-                ok_v &= np.isfinite(lead) & (np.abs(lead) <= lim_lead[a] + 1e-12)
-                ok_v &= np.isfinite(tilt) & (np.abs(tilt) <= lim_tilt[a] + 1e-12)
-                ok_v &= _touch_ok(cutter, nrm[a], cand)
-                take = ok_v & (th < best_th)
-                best_th = np.where(take, th, best_th)
-                new[take] = cand[take]
-            ok = np.isfinite(best_th)
-            unresolved[a[~ok]] = True
-            a, new = a[ok], new[ok]
-            if len(a) == 0:
-                active = a
-                break
-            nt = cutter.cl_points(cc[a], nrm[a], new) + off0[a]
-            d = scene.detect(nt, new)
-            tip[a], ax[a] = nt, new
-            clr[a], pt[a], part[a], owner[a] = d.clearance, d.point, d.part, d.obstacle
-            active = a[d.colliding]
-            yield 0.4 + 0.3 * j / options.max_iterations
-        unresolved[active] = True
-        # unresolved poses keep their planned pose
-        tip[unresolved], ax[unresolved] = tip0[unresolved], ax0[unresolved]
-        fixed = coll0 & ~unresolved
-        # Eqs. 14-15: removal depth against the target blade, lift along the normal
-        blade = scene.obstacles.meshes[0]
-        S = np.vstack([blade.V, blade.V[blade.F].mean(axis=1)])
-        tree = cKDTree(S)
-        fc = scene.flute.cutter
-        eps = (path.chord / 4.0) if options.gouge_tol is None else float(options.gouge_tol)
-        fi = np.nonzero(fixed)[0]
-        if len(fi):
-            d_new = _depth_near(fc, tree, S, tip[fi], ax[fi])
-            d_old = _depth_near(fc, tree, S, tip0[fi], ax0[fi])
-            h = d_new - d_old
-            up = h > eps
-            if np.any(up):
-                g = fi[up]
-                lift[g] = h[up]
-                tip[g] = tip[g] + h[up][:, None] * nrm[g]  # Eq. 15
-        # smoothing, pass by pass: first the neighbours of the corrected poses turn toward
-        # them (the corrected ones stay), then two rounds in which the corrected poses may
-        # move too (toward each other where their turns differ); a moved pose that would
-        # collide keeps its axis of the round before. Unresolved poses stay as planned.
-        delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
-        for rnd in range(3):
-            hold = fixed | unresolved if rnd == 0 else unresolved
-            before, tip_before = ax.copy(), tip.copy()
-            for ci, c in enumerate(curves):
-                s, e = offs[ci], offs[ci + 1]
-                if not fixed[s:e].any():
-                    continue
-                ax[s:e] = _smooth(ax0[s:e], ax[s:e], hold[s:e], nrm[s:e], delta, c.closed)
-            moved = (angle_between(ax, before) > 1e-12) & ~hold & _touch_ok(cutter, nrm, ax)
-            lead, tilt = lead_tilt_of(ax, f, nrm, k_side)
-            lead_b, tilt_b = lead_tilt_of(before, f, nrm, k_side)
-            moved &= (np.abs(lead) <= lim_lead + 1e-12) | (np.abs(lead) <= np.abs(lead_b))
-            moved &= (np.abs(tilt) <= lim_tilt + 1e-12) | (np.abs(tilt) <= np.abs(tilt_b))
-            ax[~moved] = before[~moved]
-            mi = np.nonzero(moved)[0]
-            if len(mi) == 0:
-                break
-            tip[mi] = (cutter.cl_points(cc[mi], nrm[mi], ax[mi]) + off0[mi]
-                       + lift[mi][:, None] * nrm[mi])
-            d = scene.detect(tip[mi], ax[mi])
-            back = mi[d.colliding]
-            tip[back], ax[back] = tip_before[back], before[back]
-        yield 0.8
-        det = yield from _scaled(_detect_chunks(scene, tip, ax), 0.8, 0.95)
-        # a changed pose that collides after all (a lift, a neighbour's smoothing) goes back
-        # to its planned pose: unresolved poses are never moved
-        bad = det.colliding & ((angle_between(ax, ax0) > 0) | np.any(tip != tip0, axis=1))
-        if np.any(bad):
-            b = np.nonzero(bad)[0]
-            tip[b], ax[b] = tip0[b], ax0[b]
-            for key in ("clearance", "obstacle", "part", "point", "normal"):
-                getattr(det, key)[b] = getattr(det0, key)[b]
+    if options.mode == "avoid" and det0.colliding.any():
+        det = yield from _avoid(scene, path, options, curves, offs, P, det0)
+    tip, ax = P.tip, P.ax
     # per pose status
     changed = (angle_between(ax, ax0) > 1e-9) | (np.linalg.norm(tip - tip0, axis=1) > 1e-9)
     status = np.where(det.colliding, STATUS_UNRESOLVED,
@@ -454,44 +365,14 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         c.tip, c.axis = tip[s:e].copy(), ax[s:e].copy()
         c.collision = {"status": status[s:e].copy(), "clearance": det.clearance[s:e].copy(),
                        "rotation": rotation[s:e].copy()}
-    report = CollisionReport(
-        mode=options.mode, safety=scene.safety,
-        obstacles=scene.obstacles.summary(), assembly=scene.assembly.as_dict(),
-        assembly_text=scene.assembly.describe(),
-        curve_status=[status[offs[i]:offs[i + 1]] for i in range(len(curves))],
-        curve_clearance=[det.clearance[offs[i]:offs[i + 1]] for i in range(len(curves))],
-        curve_rotation=[rotation[offs[i]:offs[i + 1]] for i in range(len(curves))],
-        curve_rotation_normal=[rot_normal[offs[i]:offs[i + 1]] for i in range(len(curves))],
-        curve_rotation_first=[first_theta[offs[i]:offs[i + 1]] for i in range(len(curves))],
-        curve_lift=[lift[offs[i]:offs[i + 1]] for i in range(len(curves))],
-    )
-    delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
-    for c0, c1 in zip(path.curves, curves, strict=True):
-        if len(c1) < 2:
-            continue
-        t0 = consecutive_turn(c0.axis, c0.closed)
-        t1 = consecutive_turn(c1.axis, c1.closed)
-        over = t1 > np.maximum(t0, delta) + 1e-9
-        report.n_turn_over += int(over.sum())
-        if over.any():
-            report.max_turn_deg = max(report.max_turn_deg, float(np.degrees(t1[over].max())))
+    report = _curve_report(scene, options, offs, P, status, det, rotation)
+    _count_turn_over(report, path, curves, options)
     program = None
     if path.program is not None:
-        program, pstat, pclr, pclr0 = yield from _program(scene, path.program, curves, offs,
-                                                          tip0, ax0, status, det, det0)
-        # colliding links, retracts and rapids: re-routed through the clearance surface
-        program, report.links = yield from _scaled(reroute_links(
-            scene, program, path.program, path.axis, report.curve_rotation,
-            reroute=options.mode == "avoid", max_turn=options.max_turn), 0.99, 1.0)
-        pstat, pclr = program.collision_status, program.clearance
-        report.program_status, report.program_clearance = pstat, pclr
-        coll_before = pclr0 < scene.safety
-        report.n_checked = len(pstat)
-        report.min_clearance = float(pclr.min()) if len(pclr) else math.nan
-        report.min_clearance_before = float(pclr0.min()) if len(pclr0) else math.nan
-        final = pstat
+        program, final, coll_before = yield from _checked_program(
+            scene, path, options, curves, offs, P, status, det, det0, report)
     else:
-        coll_before = coll0
+        coll_before = det0.colliding
         report.n_checked = n
         report.min_clearance = float(det.clearance.min()) if n else math.nan
         report.min_clearance_before = float(det0.clearance.min()) if n else math.nan
@@ -503,6 +384,217 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
     out.collision = report.summary()
     yield 1.0
     return out, report
+
+
+def _avoid(scene, path, options, curves, offs, P: _Poses, det0):
+    """Generator: paper 004 §3 on the colliding poses — rotate, lift, smooth, check again —
+    changing ``P.tip`` and ``P.ax`` in place; returns the Detection of the final poses."""
+    lim = _lean_limits(curves, options, P)
+    unresolved = yield from _rotate_colliding(scene, options, P, det0, lim)
+    # unresolved poses keep their planned pose
+    P.tip[unresolved], P.ax[unresolved] = P.tip0[unresolved], P.ax0[unresolved]
+    fixed = det0.colliding & ~unresolved
+    _lift_by_depth(scene, path, options, P, fixed)
+    _smooth_corrected(scene, options, curves, offs, P, fixed, unresolved, lim)
+    yield 0.8
+    det = yield from _scaled(_detect_chunks(scene, P.tip, P.ax), 0.8, 0.95)
+    # a changed pose that collides after all (a lift, a neighbour's smoothing) goes back
+    # to its planned pose: unresolved poses are never moved
+    bad = det.colliding & ((angle_between(P.ax, P.ax0) > 0) | np.any(P.tip != P.tip0, axis=1))
+    if np.any(bad):
+        b = np.nonzero(bad)[0]
+        P.tip[b], P.ax[b] = P.tip0[b], P.ax0[b]
+        for key in ("clearance", "obstacle", "part", "point", "normal"):
+            getattr(det, key)[b] = getattr(det0, key)[b]
+    return det
+
+
+def _lean_limits(curves, options, P: _Poses):
+    """(f, k_side (n, 3) local frame vectors, lim_lead, lim_tilt (n,) rad): how far
+    avoidance may lean each axis from the normal."""
+    frames = [local_frames(c.cc, c.normal, c.closed) for c in curves]
+    f = np.vstack([fr[0] for fr in frames])
+    k_side = np.vstack([fr[2] for fr in frames])
+    # the limits bound how far avoidance may lean an axis from the normal; where the plan
+    # itself leans further (a radial or fixed-point strategy), the turn may not lean it
+    # further than planned
+    lead0, tilt0 = lead_tilt_of(P.ax0, f, P.nrm, k_side)
+    lim_lead = np.maximum(options.max_lead, np.nan_to_num(np.abs(lead0)))
+    lim_tilt = np.maximum(options.max_tilt, np.nan_to_num(np.abs(tilt0)))
+    return f, k_side, lim_lead, lim_tilt
+
+
+def _rotate_colliding(scene, options, P: _Poses, det0, lim):
+    """Generator: rotation steps j = 1, 2, … (Eqs. 12–13, 16–17) of the colliding poses
+    until they clear or ``options.max_iterations``; changes ``P.tip``/``P.ax``, records
+    ``P.rot_normal`` and ``P.first_theta``; returns the (n,) bool mask of unresolved poses."""
+    cutter = scene.cutter
+    ball = cutter.type == "ball"
+    unresolved = np.zeros(len(P.tip), bool)
+    pt, nF = det0.point.copy(), det0.normal.copy()
+    owner = det0.obstacle.copy()
+    active = np.nonzero(det0.colliding)[0]
+    a = active
+    _, th_n, ok_n = _rotation_step(scene, P.cc[a], P.nrm[a], P.tip[a], P.ax[a], pt[a],
+                                   owner[a], 1, ball, direction=nF[a])
+    P.rot_normal[a] = np.where(ok_n, th_n, np.nan)
+    for j in range(1, options.max_iterations + 1):
+        if len(active) == 0:
+            break
+        a = active
+        best_th, new = _smallest_turn(scene, P, a, pt, nF, owner, j, lim)
+        ok = np.isfinite(best_th)
+        unresolved[a[~ok]] = True
+        a, new = a[ok], new[ok]
+        if len(a) == 0:
+            active = a
+            break
+        nt = cutter.cl_points(P.cc[a], P.nrm[a], new) + P.off0[a]
+        d = scene.detect(nt, new)
+        P.tip[a], P.ax[a] = nt, new
+        pt[a], owner[a] = d.point, d.obstacle
+        active = a[d.colliding]
+        yield 0.4 + 0.3 * j / options.max_iterations
+    unresolved[active] = True
+    return unresolved
+
+
+def _smallest_turn(scene, P: _Poses, a, pt, nF, owner, j, lim):
+    """Step j for the poses ``a``: the smallest turn within the limits among four planes.
+
+    Plane M away from F (Eqs. 12–13); where F lies beyond the axis (a deep penetration) or
+    that turn leaves the limits, the other sense and the obstacle normal's (± ``nF``) are
+    tried too. Records ``P.first_theta`` at j = 1. Returns (θ (k,) rad, inf where no turn
+    is feasible; new axes (k, 3))."""
+    cutter = scene.cutter
+    ball = cutter.type == "ball"
+    f, k_side, lim_lead, lim_tilt = lim
+    best_th = np.full(len(a), np.inf)
+    new = P.ax[a].copy()
+    for variant in range(4):
+        if variant == 0:
+            direction = None  # Eq. 13's (F' - F)/|F' - F|, with Eq. 12's first guess
+        elif variant == 1:
+            e_away = _away(P.ax[a], P.tip[a], cutter.radius, P.cc[a], pt[a], ball)
+            direction = -e_away
+        else:
+            direction = nF[a] if variant == 2 else -nF[a]
+        cand, th, ok_v = _rotation_step(scene, P.cc[a], P.nrm[a], P.tip[a], P.ax[a], pt[a],
+                                        owner[a], j, ball, direction=direction)
+        if j == 1 and variant == 0:
+            P.first_theta[a] = np.where(ok_v, th, np.nan)
+        lead, tilt = lead_tilt_of(cand, f[a], P.nrm[a], k_side[a])
+        ok_v &= np.isfinite(lead) & (np.abs(lead) <= lim_lead[a] + 1e-12)
+        ok_v &= np.isfinite(tilt) & (np.abs(tilt) <= lim_tilt[a] + 1e-12)
+        ok_v &= _touch_ok(cutter, P.nrm[a], cand)
+        take = ok_v & (th < best_th)
+        best_th = np.where(take, th, best_th)
+        new[take] = cand[take]
+    return best_th, new
+
+
+def _lift_by_depth(scene, path, options, P: _Poses, fixed):
+    """Eqs. 14–15: lift each corrected tip along the normal by the removal depth its new
+    axis adds on the target blade beyond ε (``gouge_tol``, default chord / 4); records
+    ``P.lift``."""
+    blade = scene.obstacles.meshes[0]
+    S = np.vstack([blade.V, blade.V[blade.F].mean(axis=1)])
+    tree = cKDTree(S)
+    fc = scene.flute.cutter
+    eps = (path.chord / 4.0) if options.gouge_tol is None else float(options.gouge_tol)
+    fi = np.nonzero(fixed)[0]
+    if len(fi):
+        d_new = _depth_near(fc, tree, S, P.tip[fi], P.ax[fi])
+        d_old = _depth_near(fc, tree, S, P.tip0[fi], P.ax0[fi])
+        h = d_new - d_old
+        up = h > eps
+        if np.any(up):
+            g = fi[up]
+            P.lift[g] = h[up]
+            P.tip[g] = P.tip[g] + h[up][:, None] * P.nrm[g]  # Eq. 15
+
+
+def _smooth_corrected(scene, options, curves, offs, P: _Poses, fixed, unresolved, lim):
+    """Smooth the axes around the corrected poses, pass by pass, in place.
+
+    First the neighbours of the corrected poses turn toward them (the corrected ones stay),
+    then two rounds in which the corrected poses may move too (toward each other where their
+    turns differ); a moved pose that would collide, or leave the limits, keeps its axis of
+    the round before. Unresolved poses stay as planned."""
+    cutter = scene.cutter
+    cc, nrm, ax0, tip, ax = P.cc, P.nrm, P.ax0, P.tip, P.ax
+    f, k_side, lim_lead, lim_tilt = lim
+    delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
+    for rnd in range(3):
+        hold = fixed | unresolved if rnd == 0 else unresolved
+        before, tip_before = ax.copy(), tip.copy()
+        for ci, c in enumerate(curves):
+            s, e = offs[ci], offs[ci + 1]
+            if not fixed[s:e].any():
+                continue
+            ax[s:e] = _smooth(ax0[s:e], ax[s:e], hold[s:e], nrm[s:e], delta, c.closed)
+        moved = (angle_between(ax, before) > 1e-12) & ~hold & _touch_ok(cutter, nrm, ax)
+        lead, tilt = lead_tilt_of(ax, f, nrm, k_side)
+        lead_b, tilt_b = lead_tilt_of(before, f, nrm, k_side)
+        moved &= (np.abs(lead) <= lim_lead + 1e-12) | (np.abs(lead) <= np.abs(lead_b))
+        moved &= (np.abs(tilt) <= lim_tilt + 1e-12) | (np.abs(tilt) <= np.abs(tilt_b))
+        ax[~moved] = before[~moved]
+        mi = np.nonzero(moved)[0]
+        if len(mi) == 0:
+            break
+        tip[mi] = (cutter.cl_points(cc[mi], nrm[mi], ax[mi]) + P.off0[mi]
+                   + P.lift[mi][:, None] * nrm[mi])
+        d = scene.detect(tip[mi], ax[mi])
+        back = mi[d.colliding]
+        tip[back], ax[back] = tip_before[back], before[back]
+
+
+def _curve_report(scene, options, offs, P: _Poses, status, det, rotation):
+    """The CollisionReport with its per-curve rows (status, clearance, rotations, lift)."""
+    def per_curve(x):
+        return [x[offs[i]:offs[i + 1]] for i in range(len(offs) - 1)]
+
+    return CollisionReport(
+        mode=options.mode, safety=scene.safety,
+        obstacles=scene.obstacles.summary(), assembly=scene.assembly.as_dict(),
+        assembly_text=scene.assembly.describe(),
+        curve_status=per_curve(status), curve_clearance=per_curve(det.clearance),
+        curve_rotation=per_curve(rotation), curve_rotation_normal=per_curve(P.rot_normal),
+        curve_rotation_first=per_curve(P.first_theta), curve_lift=per_curve(P.lift),
+    )
+
+
+def _count_turn_over(report, path, curves, options):
+    """Count in ``report`` the consecutive turns over max(planned turn, ``max_turn``)."""
+    delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
+    for c0, c1 in zip(path.curves, curves, strict=True):
+        if len(c1) < 2:
+            continue
+        t0 = consecutive_turn(c0.axis, c0.closed)
+        t1 = consecutive_turn(c1.axis, c1.closed)
+        over = t1 > np.maximum(t0, delta) + 1e-9
+        report.n_turn_over += int(over.sum())
+        if over.any():
+            report.max_turn_deg = max(report.max_turn_deg, float(np.degrees(t1[over].max())))
+
+
+def _checked_program(scene, path, options, curves, offs, P: _Poses, status, det, det0,
+                     report):
+    """Generator: the program with the corrected poses, its colliding links re-routed
+    through the clearance surface, its rows' status and clearance in ``report``; returns
+    (Program, final status (m,), colliding before (m,) bool)."""
+    program, pstat, pclr, pclr0 = yield from _program(scene, path.program, curves, offs,
+                                                      P.tip0, P.ax0, status, det, det0)
+    # colliding links, retracts and rapids: re-routed through the clearance surface
+    program, report.links = yield from _scaled(reroute_links(
+        scene, program, path.program, path.axis, report.curve_rotation,
+        reroute=options.mode == "avoid", max_turn=options.max_turn), 0.99, 1.0)
+    pstat, pclr = program.collision_status, program.clearance
+    report.program_status, report.program_clearance = pstat, pclr
+    report.n_checked = len(pstat)
+    report.min_clearance = float(pclr.min()) if len(pclr) else math.nan
+    report.min_clearance_before = float(pclr0.min()) if len(pclr0) else math.nan
+    return program, pstat, pclr0 < scene.safety
 
 
 def _scaled(gen, a, b):

@@ -252,8 +252,6 @@ def _where(program: Program, row: int):
     return {"curve": int(program.curve[row]), "index": int(program.index[row])}
 
 
-# long on purpose: the runs, the tries in batches (one detection per try) and the assembly of
-# the new program rows share the run bookkeeping
 def reroute_links(scene, program: Program, planned: Program, axis: Axis, curve_rotation,
                   *, reroute: bool = True, max_turn: float | None = None):
     """Re-route the colliding link runs of a checked program (module docstring).
@@ -281,17 +279,9 @@ def reroute_links(scene, program: Program, planned: Program, axis: Axis, curve_r
     [start, stop), the pass poses it connects ``from``/``to`` ({curve, index} or None), the
     ``tip`` of that row and the ``reason``).
     """
-    m = len(program)
     st = np.asarray(program.collision_status, dtype=np.int8)
-    clr = np.asarray(program.clearance, dtype=np.float64)
     ax0 = unit(planned.axis)
-    cur, idx = np.asarray(program.curve), np.asarray(program.index)
-    rot = np.zeros(m)
-    on = cur >= 0
-    if on.any():
-        rot[on] = np.array([curve_rotation[c][i] for c, i in zip(cur[on], idx[on],
-                                                                  strict=True)])
-    rot[~on] = angle_between(unit(program.axis[~on]), ax0[~on])
+    rot = _row_rotation(program, ax0, curve_rotation)
     runs = link_runs(program)
     hit = [r for r in runs if np.any(st[r.start:r.stop] == STATUS_UNRESOLVED)]
     info = {"link_runs": len(runs), "links_colliding": len(hit), "links_rerouted": 0,
@@ -301,62 +291,113 @@ def reroute_links(scene, program: Program, planned: Program, axis: Axis, curve_r
             "link_poses_rerouted": 0}
     routes, reasons = {}, {}
     if reroute and hit:
-        clear = clearance_surface(planned, axis)
-        step = max(float(scene.safety), _MIN_STEP)
-        turn = math.radians(2.0) if max_turn is None else float(max_turn)
-        # the tool's farthest point from the tip: an axis turn by Δ moves it by ≤ height · Δ
-        height = math.hypot(float(scene.assembly.top), float(scene.assembly.max_radius))
-        _, z_all = meridional(program.tip, axis)
-        lifts = _lifts(scene, axis, clear, [z_all.min(), z_all.max()])
-        todo = list(hit)
-        for k, lift in enumerate(lifts):
-            built = []
-            for r in todo:
-                A = None if r.before < 0 else (program.tip[r.before],
-                                               unit(program.axis[r.before]))
-                B = None if r.after < 0 else (program.tip[r.after],
-                                              unit(program.axis[r.after]))
-                A0 = None if r.before < 0 else ax0[r.before]
-                B0 = None if r.after < 0 else ax0[r.after]
-                res, why = _route(A, B, A0, B0, axis, clear, lift, step, turn, height)
-                if res is None:
-                    reasons[r] = why
-                else:
-                    built.append((r, res))
-            if built:
-                T = np.vstack([b[1][0] for b in built])
-                X = np.vstack([b[1][1] for b in built])
-                rapid = np.concatenate([b[1][2] for b in built]) == MOVE_RAPID
-                clr_r, names = np.empty(len(T)), np.empty(len(T), dtype=object)
-                # on the rapids the flute does not cut: it counts against the target too
-                for sel, strict in ((~rapid, False), (rapid, True)):
-                    if sel.any():
-                        det = scene.detect(T[sel], X[sel], flute_on_target=strict)
-                        clr_r[sel] = det.clearance
-                        names[sel] = [scene.obstacles.names[i] if i >= 0 else "an obstacle"
-                                      for i in det.obstacle]
-                o = 0
-                for r, res in built:
-                    n = len(res[0])
-                    c = clr_r[o:o + n]
-                    if np.all(c >= scene.safety):
-                        routes[r] = (*res, c)
-                    else:
-                        j = int(np.argmin(c))
-                        name = names[o + j]
-                        leg = {MOVE_RETRACT: "retract", MOVE_RAPID: "rapid",
-                               MOVE_APPROACH: "approach"}[int(res[2][j])]
-                        how = (f"comes within {c[j]:.3f} mm of" if c[j] >= 0 else
-                               f"runs {-c[j]:.3f} mm into")
-                        reasons[r] = (f"every route collides; on the highest clearance surface "
-                                      f"tried ({lift:.3f} mm above the linked one) the {leg} "
-                                      f"{how} '{name}' (ds {scene.safety:g} mm)")
-                    o += n
-            todo = [r for r in todo if r not in routes]
-            yield (k + 1) / len(lifts)
-            if not todo:
-                break
-    # the new program: rerouted runs replaced, the others kept
+        yield from _try_routes(scene, program, planned, axis, ax0, hit, max_turn, routes,
+                               reasons)
+    out, new_start = _spliced(program, runs, routes, st, rot)
+    bad = [r for r in hit if r not in routes]
+    info.update(links_rerouted=len(routes), links_unresolved=len(bad),
+                link_poses_rerouted=int(sum(len(v[0]) for v in routes.values())))
+    listed = []
+    for r in bad:
+        s0 = new_start[r]
+        j = s0 + int(np.argmax(st[r.start:r.stop] == STATUS_UNRESOLVED))
+        listed.append({
+            "row": j, "rows": [s0, s0 + r.stop - r.start],
+            "from": _where(program, r.before), "to": _where(program, r.after),
+            "tip": [float(x) for x in out.tip[j]],
+            "reason": reasons.get(r, "not re-routed (collision check mode)" if not reroute
+                                  else "no route was tried"),
+        })
+    info["unresolved_links"] = listed
+    return out, info
+
+
+def _row_rotation(program: Program, ax0, curve_rotation):
+    """(m,) rad: each row's axis angle from the planned one (pass rows: ``curve_rotation``)."""
+    cur, idx = np.asarray(program.curve), np.asarray(program.index)
+    rot = np.zeros(len(program))
+    on = cur >= 0
+    if on.any():
+        rot[on] = np.array([curve_rotation[c][i] for c, i in zip(cur[on], idx[on],
+                                                                  strict=True)])
+    rot[~on] = angle_between(unit(program.axis[~on]), ax0[~on])
+    return rot
+
+
+def _try_routes(scene, program: Program, planned: Program, axis: Axis, ax0, hit, max_turn,
+                routes, reasons):
+    """Generator: build and check the routes of the colliding runs ``hit`` on the raised
+    clearance surfaces, try by try (yields progress); fills ``routes`` (run → (tips, axes,
+    moves, planned axes, clearance)) and ``reasons`` (run → why it has no route)."""
+    clear = clearance_surface(planned, axis)
+    step = max(float(scene.safety), _MIN_STEP)
+    turn = math.radians(2.0) if max_turn is None else float(max_turn)
+    # the tool's farthest point from the tip: an axis turn by Δ moves it by ≤ height · Δ
+    height = math.hypot(float(scene.assembly.top), float(scene.assembly.max_radius))
+    _, z_all = meridional(program.tip, axis)
+    lifts = _lifts(scene, axis, clear, [z_all.min(), z_all.max()])
+    todo = list(hit)
+    for k, lift in enumerate(lifts):
+        built = []
+        for r in todo:
+            A = None if r.before < 0 else (program.tip[r.before],
+                                           unit(program.axis[r.before]))
+            B = None if r.after < 0 else (program.tip[r.after],
+                                          unit(program.axis[r.after]))
+            A0 = None if r.before < 0 else ax0[r.before]
+            B0 = None if r.after < 0 else ax0[r.after]
+            res, why = _route(A, B, A0, B0, axis, clear, lift, step, turn, height)
+            if res is None:
+                reasons[r] = why
+            else:
+                built.append((r, res))
+        if built:
+            _check_routes(scene, built, lift, routes, reasons)
+        todo = [r for r in todo if r not in routes]
+        yield (k + 1) / len(lifts)
+        if not todo:
+            break
+
+
+def _check_routes(scene, built, lift, routes, reasons):
+    """Detect the poses of the ``built`` (run, route) pairs in one go; a route that clears
+    goes to ``routes``, else its run's reason (the worst pose) to ``reasons``."""
+    T = np.vstack([b[1][0] for b in built])
+    X = np.vstack([b[1][1] for b in built])
+    rapid = np.concatenate([b[1][2] for b in built]) == MOVE_RAPID
+    clr_r, names = np.empty(len(T)), np.empty(len(T), dtype=object)
+    # on the rapids the flute does not cut: it counts against the target too
+    for sel, strict in ((~rapid, False), (rapid, True)):
+        if sel.any():
+            det = scene.detect(T[sel], X[sel], flute_on_target=strict)
+            clr_r[sel] = det.clearance
+            names[sel] = [scene.obstacles.names[i] if i >= 0 else "an obstacle"
+                          for i in det.obstacle]
+    o = 0
+    for r, res in built:
+        n = len(res[0])
+        c = clr_r[o:o + n]
+        if np.all(c >= scene.safety):
+            routes[r] = (*res, c)
+        else:
+            j = int(np.argmin(c))
+            name = names[o + j]
+            leg = {MOVE_RETRACT: "retract", MOVE_RAPID: "rapid",
+                   MOVE_APPROACH: "approach"}[int(res[2][j])]
+            how = (f"comes within {c[j]:.3f} mm of" if c[j] >= 0 else
+                   f"runs {-c[j]:.3f} mm into")
+            reasons[r] = (f"every route collides; on the highest clearance surface "
+                          f"tried ({lift:.3f} mm above the linked one) the {leg} "
+                          f"{how} '{name}' (ds {scene.safety:g} mm)")
+        o += n
+
+
+def _spliced(program: Program, runs, routes, st, rot):
+    """The new program: rerouted runs replaced by their routes, the others kept; returns
+    (Program, run → its first row in the new program)."""
+    m = len(program)
+    clr = np.asarray(program.clearance, dtype=np.float64)
+    cur, idx = np.asarray(program.curve), np.asarray(program.index)
     parts = {k: [] for k in ("tip", "axis", "move", "curve", "index", "flags", "st", "clr",
                              "rot")}
 
@@ -402,19 +443,4 @@ def reroute_links(scene, program: Program, planned: Program, axis: Axis, curve_r
                   flags=cat["flags"].astype(np.uint8),
                   collision_status=cat["st"].astype(np.int8), clearance=cat["clr"],
                   rotation_deg=np.degrees(cat["rot"]))
-    bad = [r for r in hit if r not in routes]
-    info.update(links_rerouted=len(routes), links_unresolved=len(bad),
-                link_poses_rerouted=int(sum(len(v[0]) for v in routes.values())))
-    listed = []
-    for r in bad:
-        s0 = new_start[r]
-        j = s0 + int(np.argmax(st[r.start:r.stop] == STATUS_UNRESOLVED))
-        listed.append({
-            "row": j, "rows": [s0, s0 + r.stop - r.start],
-            "from": _where(program, r.before), "to": _where(program, r.after),
-            "tip": [float(x) for x in out.tip[j]],
-            "reason": reasons.get(r, "not re-routed (collision check mode)" if not reroute
-                                  else "no route was tried"),
-        })
-    info["unresolved_links"] = listed
-    return out, info
+    return out, new_start

@@ -171,7 +171,6 @@ class TriMesh:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    # long on purpose: the weld → clean → orient sequence on the same arrays, with its maps kept
     def from_arrays(cls, V, F, *, weld_tolerance: float | None = None, orient: bool = True):
         """Check and prepare a mesh.
 
@@ -201,113 +200,11 @@ class TriMesh:
         MeshError naming the problem (empty, NaN/inf used by a face, bad indices,
         non-manifold, non-orientable).
         """
-        V = np.asarray(V, dtype=np.float64)  # never written to: every result is a new array
-        F = np.asarray(F)
-        if V.ndim != 2 or V.shape[1] != 3:
-            raise MeshError(f"vertices must be an (n, 3) array, got shape {V.shape}")
-        if F.size == 0 or len(V) == 0:
-            raise MeshError("the mesh has no faces: select a mesh object with triangles (or quads)")
-        if F.ndim != 2 or F.shape[1] != 3:
-            raise MeshError(f"faces must be an (m, 3) array of vertex indices, got shape {F.shape}")
-        if not np.issubdtype(F.dtype, np.integer):
-            if not np.all(np.isfinite(F)) or np.any(F != np.round(F)):
-                raise MeshError("face indices must be integers")
-        F = F.astype(np.int64, copy=False)
-        n_in, m_in = len(V), len(F)
-        fmin, fmax = int(F.min()), int(F.max())
-        if fmin < 0 or fmax >= n_in:
-            raise MeshError(f"face indices out of range [0, {n_in - 1}] (found {fmin}..{fmax})")
-        used = np.zeros(n_in, dtype=bool)
-        used[F.ravel()] = True
-        bad = None if np.isfinite(V).all() else used & ~np.all(np.isfinite(V), axis=1)
-        if bad is not None and np.any(bad):
-            raise MeshError(
-                f"{int(np.sum(bad))} vertices used by faces have NaN or infinite coordinates "
-                f"(the first is vertex {int(np.argmax(bad))}); fix or delete them before "
-                "generating paths"
-            )
-        Vu = V if used.all() else V[used]
-        iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
-        # representative (lowest input index) of every used vertex: exact duplicates, then
-        # clusters closer than tol. + 0.0 turns −0.0 into 0.0 (contiguous columns)
-        cols = [Vu[:, j] + 0.0 for j in range(3)]
-        first = _first_equal_point(cols)
-        pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
-        rcols = [c[pos] for c in cols]  # every used vertex equals one of them
-        del cols
-        diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
-        if diag == 0.0:
-            raise MeshError("all vertices coincide: the mesh has no extent")
-        tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
-        if not np.isfinite(tol) or tol < 0:
-            raise MeshError(f"weld tolerance must be a finite number ≥ 0 mm, got {weld_tolerance}")
-        rep = first if iu is None else iu[first]
-        ir = pos if iu is None else iu[pos]  # the representatives' input ids
-        merged = False
-        if tol > 0 and len(pos) > 1:
-            d = _WELD_DIRECTION
-            u = (rcols[0] * d[0] + rcols[1] * d[1]) + rcols[2] * d[2]
-            u_order = np.argsort(u, kind="stable")
-            us = u[u_order]
-            pairs = None
-            if not np.any(us[1:] == us[:-1]):  # distinct vertices, distinct projections
-                pairs = _close_pairs(V, ir[u_order], tol, u=us)
-            if pairs is None:  # vertices sharing a projection, or crowding one across it
-                pairs = cKDTree(V[ir], balanced_tree=False, compact_nodes=False).query_pairs(
-                    tol, output_type="ndarray"
-                )
-                pairs = ir[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
-            if len(pairs):
-                loc = np.searchsorted(ir, pairs)  # input ids → positions among the reps
-                g = sparse.coo_matrix(
-                    (np.ones(len(loc)), (loc[:, 0], loc[:, 1])), shape=(len(ir), len(ir))
-                )
-                _, lab = csgraph.connected_components(g, directed=False)
-                low = np.full(lab.max() + 1, n_in, dtype=np.int64)
-                np.minimum.at(low, lab, ir)
-                remap = np.arange(n_in)
-                remap[ir] = low[lab]
-                rep = remap[rep]
-                merged = True
-        if merged or iu is not None:
-            is_rep = np.zeros(n_in, dtype=bool)
-            is_rep[rep] = True
-            new_id = np.cumsum(is_rep, dtype=np.int64)
-            new_id -= 1
-            vertex_map = np.full(n_in, -1, dtype=np.int64)
-            vertex_map[iu if iu is not None else slice(None)] = new_id[rep]
-            V = V[is_rep]
-        else:  # every vertex used, exact duplicates only: mesh vertex i is representative i
-            rank = np.empty(n_in, dtype=np.int64)
-            rank[pos] = np.arange(len(pos))
-            vertex_map = rank[first]
-            V = V[pos]
-        welded = len(first) - len(V)
+        V, F, used = _checked_arrays(V, F)
+        m_in = len(F)
+        V, vertex_map, welded = _welded(V, used, weld_tolerance)
         F = vertex_map[F]
-        keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
-        if not np.any(keep):
-            raise MeshError("every face is degenerate (corners coincide): the mesh has no area")
-        # repeated faces (same three vertices) would make their edges non-manifold. Without
-        # an edge of three or more faces, two faces repeat each other exactly when they share
-        # an edge and the corner opposite it: checked on the edge table, which the mesh keeps.
-        # An edge of more faces (repeats, or non-manifold) takes the search over all faces.
-        Fk = F if keep.all() else F[keep]
-        try:
-            topo = _edge_table(Fk, len(V))
-        except MeshError:
-            topo = None
-        pairs = None if topo is None else _interior_pairs(topo)
-        if pairs is None or _repeats_on_edges(Fk, *pairs):
-            topo = pairs = None
-            kept = np.nonzero(keep)[0]
-            Fs = np.sort(F[kept], axis=1)
-            nv = np.int64(len(V))
-            if len(V) < 2_000_000:  # n³ < 2⁶³: one exact int64 key per face, in near-sorted runs
-                first = _first_equal_row(((Fs[:, 0] * nv + Fs[:, 1]) * nv + Fs[:, 2])[:, None])
-            else:
-                first = _first_equal_row(Fs)
-            keep[kept[first != np.arange(len(kept))]] = False
-            Fk = F[keep]
+        keep, Fk, topo, pairs = _kept_faces(F, len(V))
         dropped = int(m_in - len(Fk))
         face_map = np.full(m_in, -1, dtype=np.int64)
         face_map[keep] = np.arange(len(Fk))
@@ -674,6 +571,130 @@ def _first_equal_point(cols):
     sub = _first_equal_row(np.stack(ca, axis=1).view(np.int64))
     first[act] = act[sub]  # act ascends and holds whole groups: act[sub] is the group's first
     return first
+
+
+def _checked_arrays(V, F):
+    """(V (n, 3) float64, F (m, 3) int64, used (n,) bool): the input arrays checked (shapes,
+    indices, finite used vertices); raises MeshError naming the problem."""
+    V = np.asarray(V, dtype=np.float64)  # never written to: every result is a new array
+    F = np.asarray(F)
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise MeshError(f"vertices must be an (n, 3) array, got shape {V.shape}")
+    if F.size == 0 or len(V) == 0:
+        raise MeshError("the mesh has no faces: select a mesh object with triangles (or quads)")
+    if F.ndim != 2 or F.shape[1] != 3:
+        raise MeshError(f"faces must be an (m, 3) array of vertex indices, got shape {F.shape}")
+    if not np.issubdtype(F.dtype, np.integer):
+        if not np.all(np.isfinite(F)) or np.any(F != np.round(F)):
+            raise MeshError("face indices must be integers")
+    F = F.astype(np.int64, copy=False)
+    n_in = len(V)
+    fmin, fmax = int(F.min()), int(F.max())
+    if fmin < 0 or fmax >= n_in:
+        raise MeshError(f"face indices out of range [0, {n_in - 1}] (found {fmin}..{fmax})")
+    used = np.zeros(n_in, dtype=bool)
+    used[F.ravel()] = True
+    bad = None if np.isfinite(V).all() else used & ~np.all(np.isfinite(V), axis=1)
+    if bad is not None and np.any(bad):
+        raise MeshError(f"{int(np.sum(bad))} vertices used by faces have NaN or infinite "
+                        f"coordinates (the first is vertex {int(np.argmax(bad))}); fix or delete "
+                        "them before generating paths")
+    return V, F, used
+
+
+def _welded(V, used, weld_tolerance):
+    """The used vertices welded (exact duplicates, then clusters closer than the tolerance, to
+    their lowest input id): (V (k, 3), vertex_map (n,) input → mesh vertex or -1, number
+    welded)."""
+    n_in = len(V)
+    Vu = V if used.all() else V[used]
+    iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
+    # representative (lowest input index) of every used vertex: exact duplicates, then
+    # clusters closer than tol. + 0.0 turns −0.0 into 0.0 (contiguous columns)
+    cols = [Vu[:, j] + 0.0 for j in range(3)]
+    first = _first_equal_point(cols)
+    pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
+    rcols = [c[pos] for c in cols]  # every used vertex equals one of them
+    del cols
+    diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
+    if diag == 0.0:
+        raise MeshError("all vertices coincide: the mesh has no extent")
+    tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
+    if not np.isfinite(tol) or tol < 0:
+        raise MeshError(f"weld tolerance must be a finite number ≥ 0 mm, got {weld_tolerance}")
+    rep = first if iu is None else iu[first]
+    ir = pos if iu is None else iu[pos]  # the representatives' input ids
+    merged = False
+    if tol > 0 and len(pos) > 1:  # clusters closer than tol: their lowest input id
+        d = _WELD_DIRECTION
+        u = (rcols[0] * d[0] + rcols[1] * d[1]) + rcols[2] * d[2]
+        u_order = np.argsort(u, kind="stable")
+        us = u[u_order]
+        pairs = None
+        if not np.any(us[1:] == us[:-1]):  # distinct vertices, distinct projections
+            pairs = _close_pairs(V, ir[u_order], tol, u=us)
+        if pairs is None:  # vertices sharing a projection, or crowding one across it
+            pairs = cKDTree(V[ir], balanced_tree=False, compact_nodes=False).query_pairs(
+                tol, output_type="ndarray"
+            )
+            pairs = ir[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
+        if len(pairs):
+            loc = np.searchsorted(ir, pairs)  # input ids → positions among the reps
+            g = sparse.coo_matrix(
+                (np.ones(len(loc)), (loc[:, 0], loc[:, 1])), shape=(len(ir), len(ir))
+            )
+            _, lab = csgraph.connected_components(g, directed=False)
+            low = np.full(lab.max() + 1, n_in, dtype=np.int64)
+            np.minimum.at(low, lab, ir)
+            remap = np.arange(n_in)
+            remap[ir] = low[lab]
+            rep = remap[rep]
+            merged = True
+    if merged or iu is not None:
+        is_rep = np.zeros(n_in, dtype=bool)
+        is_rep[rep] = True
+        new_id = np.cumsum(is_rep, dtype=np.int64)
+        new_id -= 1
+        vertex_map = np.full(n_in, -1, dtype=np.int64)
+        vertex_map[iu if iu is not None else slice(None)] = new_id[rep]
+        V = V[is_rep]
+    else:  # every vertex used, exact duplicates only: mesh vertex i is representative i
+        rank = np.empty(n_in, dtype=np.int64)
+        rank[pos] = np.arange(len(pos))
+        vertex_map = rank[first]
+        V = V[pos]
+    welded = len(first) - len(V)
+    return V, vertex_map, welded
+
+
+def _kept_faces(F, nv_mesh):
+    """Faces without equal corners and without repeats: (keep (m,) bool, F[keep], the edge
+    table dict or None, interior pairs or None); raises MeshError if none is left."""
+    keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
+    if not np.any(keep):
+        raise MeshError("every face is degenerate (corners coincide): the mesh has no area")
+    # repeated faces (same three vertices) would make their edges non-manifold. Without
+    # an edge of three or more faces, two faces repeat each other exactly when they share
+    # an edge and the corner opposite it: checked on the edge table, which the mesh keeps.
+    # An edge of more faces (repeats, or non-manifold) takes the search over all faces.
+    Fk = F if keep.all() else F[keep]
+    try:
+        topo = _edge_table(Fk, nv_mesh)
+    except MeshError:
+        topo = None
+    pairs = None if topo is None else _interior_pairs(topo)
+    if pairs is None or _repeats_on_edges(Fk, *pairs):
+        topo = pairs = None
+        kept = np.nonzero(keep)[0]
+        Fs = np.sort(F[kept], axis=1)
+        nv = np.int64(nv_mesh)
+        if nv_mesh < 2_000_000:  # n³ < 2⁶³: one exact int64 key per face, in near-sorted runs
+            first = _first_equal_row(((Fs[:, 0] * nv + Fs[:, 1]) * nv + Fs[:, 2])[:, None])
+        else:
+            first = _first_equal_row(Fs)
+        keep[kept[first != np.arange(len(kept))]] = False
+        Fk = F[keep]
+    return keep, Fk, topo, pairs
 
 
 def _close_pairs(V, ids, tol, u=None):

@@ -255,6 +255,34 @@ def chord_heights(dp: DensePass, s: float, ends) -> np.ndarray:
     return chord_heights_rows(dp, np.full(len(ends), float(s)), ends)
 
 
+def _confirm_bracket(ok, gallop, fn, rows, s, lo, hi, last, min_step):
+    """Check the fast estimate's bracket [lo, hi) of the blocks from s with fn, in place:
+    the end is kept, moved down to 85 % of the way, or searched again with fn (lo NaN)."""
+    has = ~np.isnan(lo)
+    at_end = has & np.isnan(hi)
+    if at_end.any():
+        i = np.nonzero(at_end)[0]
+        g = ok(fn, s[i], last[rows[i], None])[:, 0]
+        hi[i[~g]] = last[rows[i[~g]]]
+        lo[i[~g]] = np.nan
+    mid = has & ~at_end
+    if mid.any():
+        i = np.nonzero(mid)[0]
+        c = s[i] + 0.85 * (lo[i] - s[i])
+        g = ok(fn, s[i], np.stack([c, lo[i]], axis=1))
+        only_c = ~g[:, 1] & g[:, 0]
+        neither = ~g[:, 1] & ~g[:, 0]
+        hi[i[only_c]] = lo[i[only_c]]
+        lo[i[only_c]] = c[only_c]
+        hi[i[neither]] = c[neither]
+        lo[i[neither]] = np.nan
+    redo = np.isnan(lo) & ~np.isnan(hi)
+    if redo.any():
+        i = np.nonzero(redo)[0]
+        lo[i], hi[i] = gallop(fn, rows[i], s[i],
+                              np.maximum(0.5 * (hi[i] - s[i]), min_step))
+
+
 def _search(dp: DensePass, offs, fn, tol: float, *, fast=None, max_rotary_step=None,
             min_step: float = 1e-3, ways: int = 8, rounds: int = 2):
     """Greedy longest blocks of every pass (offsets ``offs`` (P + 1,) into ``dp``): from s,
@@ -328,31 +356,8 @@ def _search(dp: DensePass, offs, fn, tol: float, *, fast=None, max_rotary_step=N
     L = np.full(len(rows), 8.0)
     while len(rows):
         lo, hi = gallop(fast, rows, s, L)
-        if fast is not fn:
-            # the fast estimate brackets; fn decides
-            has = ~np.isnan(lo)
-            at_end = has & np.isnan(hi)
-            if at_end.any():
-                i = np.nonzero(at_end)[0]
-                g = ok(fn, s[i], last[rows[i], None])[:, 0]
-                hi[i[~g]] = last[rows[i[~g]]]
-                lo[i[~g]] = np.nan
-            mid = has & ~at_end
-            if mid.any():
-                i = np.nonzero(mid)[0]
-                c = s[i] + 0.85 * (lo[i] - s[i])
-                g = ok(fn, s[i], np.stack([c, lo[i]], axis=1))
-                only_c = ~g[:, 1] & g[:, 0]
-                neither = ~g[:, 1] & ~g[:, 0]
-                hi[i[only_c]] = lo[i[only_c]]
-                lo[i[only_c]] = c[only_c]
-                hi[i[neither]] = c[neither]
-                lo[i[neither]] = np.nan
-            redo = np.isnan(lo) & ~np.isnan(hi)
-            if redo.any():
-                i = np.nonzero(redo)[0]
-                lo[i], hi[i] = gallop(fn, rows[i], s[i],
-                                      np.maximum(0.5 * (hi[i] - s[i]), min_step))
+        if fast is not fn:  # the fast estimate brackets; fn decides
+            _confirm_bracket(ok, gallop, fn, rows, s, lo, hi, last, min_step)
         br = ~np.isnan(lo) & ~np.isnan(hi)
         if br.any():
             i = np.nonzero(br)[0]

@@ -289,8 +289,87 @@ def _pass_runs(prog: Program):
     return out
 
 
-# long on purpose: per pass: prepare, search, measure, then the report; the steps are the helpers
-# it calls
+def _check_request(method, max_error, chord_height, bound, max_spacing):
+    """Raise InterpolationError for an unknown method or bound, or a tolerance that is not
+    positive."""
+    if method not in METHODS:
+        raise InterpolationError(f"unknown interpolation method {method!r}; use one of "
+                                 f"{', '.join(METHODS)}")
+    if method == "constant-error":
+        _check_positive("max_error", max_error)
+    else:
+        _check_positive("chord_height", chord_height)
+    if bound not in BOUNDS:
+        raise InterpolationError(f"unknown bound {bound!r}; use one of {', '.join(BOUNDS)}")
+    _check_positive("max_spacing", max_spacing)
+
+
+def _dense_passes(path: ToolPath, machine, runs, qall, max_spacing, max_turn):
+    """The DensePass of every cut run (``qall`` (m, 6): the joints of every program row)."""
+    prog = path.program
+    dense = []
+    for a, b in runs:
+        c = path.curves[int(prog.curve[a])]
+        normal = c.normal[np.asarray(prog.index[a:b + 1])]
+        dense.append(prepare_pass(machine, path.tool, prog.tip[a:b + 1], prog.axis[a:b + 1],
+                                  normal, max_spacing=max_spacing, max_turn=max_turn,
+                                  q=qall[a:b + 1]))
+    return dense
+
+
+def _record_run(rep, machine, cutter, dp, ends, a, b, bound, max_error, measure, md):
+    """Add run a..b's blocks (bounds, measured errors) to ``rep``; return its corner
+    thresholds (linear mm, rotary rad)."""
+    det = block_bounds_rows(dp, ends[:-1], ends[1:], bound=bound, detail=True)
+    corner = _corner_thresholds(dp, ends, det[0], det[3], det[4],
+                                max_error if max_error else float(det[0].max()))
+    meas = None
+    if measure:
+        meas = measure_blocks(machine, cutter, dp, ends, mesh=md)[0]
+    rep.sets.append(BlockSet(ends=ends, bound=det[0], measured=meas, dense=dp))
+    rep.passes += 1
+    rep.original += b - a
+    rep.blocks += len(ends) - 1
+    return corner
+
+
+def _kept_rows(prog: Program, sl):
+    """Program rows ``sl`` as they are: (tip, axis, move, curve, index, flags)."""
+    return (prog.tip[sl], prog.axis[sl], prog.move[sl], prog.curve[sl], prog.index[sl],
+            prog.flags[sl])
+
+
+def _run_rows(machine, prog: Program, a, b, dp, ends):
+    """Run a..b's rows thinned to its blocks: its first pose as is, the machine poses at the
+    block ends, its last pose: (tip, axis, move, curve, index, flags)."""
+    idx = np.asarray(prog.index[a:b + 1])
+    qe = dp.joints_at(ends[1:-1])
+    tp, ax = forward(machine, qe[:, :3], qe[:, 3:])
+    srcf = dp.interp(dp.source, ends[1:-1])
+    si = np.clip(np.floor(srcf).astype(np.int64), 0, b - a)
+    return (np.vstack([prog.tip[a:a + 1], tp, prog.tip[b:b + 1]]),
+            np.vstack([prog.axis[a:a + 1], ax, prog.axis[b:b + 1]]),
+            np.concatenate([prog.move[a:a + 1], np.full(len(tp) + 1, MOVE_CUT, np.int8)]),
+            np.full(len(tp) + 2, prog.curve[a]),
+            np.concatenate([prog.index[a:a + 1], idx[si], prog.index[b:b + 1]]),
+            np.concatenate([prog.flags[a:a + 1], prog.flags[a + si], prog.flags[b:b + 1]]))
+
+
+def _set_bands(rep, corners, method, max_error, measure):
+    """The report's bound and measured bands (fractions of the reference error) and the
+    smallest corner thresholds."""
+    b_all = np.concatenate([s.bound for s in rep.sets])
+    refv = max_error if method == "constant-error" else None
+    if measure:
+        m_all = np.concatenate([s.measured for s in rep.sets])
+        rep.measured_max = float(m_all.max())
+        refm = refv if refv else rep.measured_max
+        rep.measured_band = (float(m_all.min() / refm), float(m_all.max() / refm))
+    refb = refv if refv else float(b_all.max())
+    rep.bound_band = (float(b_all.min() / refb), float(b_all.max() / refb))
+    rep.corner = (min(c[0] for c in corners), min(c[1] for c in corners))
+
+
 def interpolate_program(path: ToolPath, machine, method: str = "constant-error", *,
                         max_error: float | None = None, chord_height: float | None = None,
                         mesh=None, bound: str = "pointwise", max_spacing: float = 0.1,
@@ -311,16 +390,7 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
     against the planned path (:func:`measure_blocks`). Returns (ToolPath with the thinned
     program, :class:`InterpolationReport`). Raises InterpolationError for bad input,
     ReachError for an unreachable pose."""
-    if method not in METHODS:
-        raise InterpolationError(f"unknown interpolation method {method!r}; use one of "
-                                 f"{', '.join(METHODS)}")
-    if method == "constant-error":
-        _check_positive("max_error", max_error)
-    else:
-        _check_positive("chord_height", chord_height)
-    if bound not in BOUNDS:
-        raise InterpolationError(f"unknown bound {bound!r}; use one of {', '.join(BOUNDS)}")
-    _check_positive("max_spacing", max_spacing)
+    _check_request(method, max_error, chord_height, bound, max_spacing)
     if not isinstance(machine, Machine):
         machine = load_machine(machine)
     prog = path.program
@@ -338,13 +408,7 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
     ik = solve_poses(machine, prog.tip, prog.axis, moves=prog.move)
     qall = np.hstack([ik.xyz, ik.angles])
     t0 = time.perf_counter()
-    dense = []
-    for a, b in runs:
-        c = path.curves[int(prog.curve[a])]
-        normal = c.normal[np.asarray(prog.index[a:b + 1])]
-        dense.append(prepare_pass(machine, cutter, prog.tip[a:b + 1], prog.axis[a:b + 1],
-                                  normal, max_spacing=max_spacing, max_turn=max_turn,
-                                  q=qall[a:b + 1]))
+    dense = _dense_passes(path, machine, runs, qall, max_spacing, max_turn)
     t1 = time.perf_counter()
     if not dense:
         all_ends = []
@@ -358,57 +422,22 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
     rep.seconds_search = t2 - t1
     rep.dense = int(sum(len(d) for d in dense))
     rep.input_poses = int(sum(b - a + 1 for a, b in runs))
-    keep_tip, keep_ax, keep_mv, keep_cur, keep_idx, keep_fl = [], [], [], [], [], []
+    rows = []
     pos = 0
     corners = []
     for (a, b), dp, ends in zip(runs, dense, all_ends, strict=True):
-        sl = slice(pos, a)  # poses before the run unchanged
-        keep_tip.append(prog.tip[sl]); keep_ax.append(prog.axis[sl])  # noqa: E702
-        keep_mv.append(prog.move[sl]); keep_cur.append(prog.curve[sl])  # noqa: E702
-        keep_idx.append(prog.index[sl]); keep_fl.append(prog.flags[sl])  # noqa: E702
-        idx = np.asarray(prog.index[a:b + 1])
-        det = block_bounds_rows(dp, ends[:-1], ends[1:], bound=bound, detail=True)
-        corners.append(_corner_thresholds(dp, ends, det[0], det[3], det[4],
-                                          max_error if max_error else float(det[0].max())))
-        meas = None
-        if measure:
-            meas = measure_blocks(machine, cutter, dp, ends, mesh=md)[0]
-        rep.sets.append(BlockSet(ends=ends, bound=det[0], measured=meas, dense=dp))
-        rep.passes += 1
-        rep.original += b - a
-        rep.blocks += len(ends) - 1
-        # the run's poses: first kept as is, the block ends after it
-        qe = dp.joints_at(ends[1:-1])
-        tp, ax = forward(machine, qe[:, :3], qe[:, 3:])
-        srcf = dp.interp(dp.source, ends[1:-1])
-        si = np.clip(np.floor(srcf).astype(np.int64), 0, b - a)
-        keep_tip.append(np.vstack([prog.tip[a:a + 1], tp, prog.tip[b:b + 1]]))
-        keep_ax.append(np.vstack([prog.axis[a:a + 1], ax, prog.axis[b:b + 1]]))
-        keep_mv.append(np.concatenate([prog.move[a:a + 1],
-                                       np.full(len(tp) + 1, MOVE_CUT, np.int8)]))
-        keep_cur.append(np.full(len(tp) + 2, prog.curve[a]))
-        keep_idx.append(np.concatenate([prog.index[a:a + 1], idx[si], prog.index[b:b + 1]]))
-        keep_fl.append(np.concatenate([prog.flags[a:a + 1], prog.flags[a + si],
-                                       prog.flags[b:b + 1]]))
+        rows.append(_kept_rows(prog, slice(pos, a)))  # poses before the run unchanged
+        corners.append(_record_run(rep, machine, cutter, dp, ends, a, b, bound, max_error,
+                                   measure, md))
+        rows.append(_run_rows(machine, prog, a, b, dp, ends))
         pos = b + 1
-    sl = slice(pos, len(prog))
-    keep_tip.append(prog.tip[sl]); keep_ax.append(prog.axis[sl])  # noqa: E702
-    keep_mv.append(prog.move[sl]); keep_cur.append(prog.curve[sl])  # noqa: E702
-    keep_idx.append(prog.index[sl]); keep_fl.append(prog.flags[sl])  # noqa: E702
-    new = Program(tip=np.vstack(keep_tip), axis=np.vstack(keep_ax),
-                  move=np.concatenate(keep_mv).astype(np.int8),
-                  curve=np.concatenate(keep_cur).astype(np.int64),
-                  index=np.concatenate(keep_idx).astype(np.int64),
-                  flags=np.concatenate(keep_fl).astype(np.uint8))
+    rows.append(_kept_rows(prog, slice(pos, len(prog))))
+    tip, axis, move, curve, index, flags = zip(*rows, strict=True)
+    new = Program(tip=np.vstack(tip), axis=np.vstack(axis),
+                  move=np.concatenate(move).astype(np.int8),
+                  curve=np.concatenate(curve).astype(np.int64),
+                  index=np.concatenate(index).astype(np.int64),
+                  flags=np.concatenate(flags).astype(np.uint8))
     if rep.sets:
-        b_all = np.concatenate([s.bound for s in rep.sets])
-        refv = max_error if method == "constant-error" else None
-        if measure:
-            m_all = np.concatenate([s.measured for s in rep.sets])
-            rep.measured_max = float(m_all.max())
-            refm = refv if refv else rep.measured_max
-            rep.measured_band = (float(m_all.min() / refm), float(m_all.max() / refm))
-        refb = refv if refv else float(b_all.max())
-        rep.bound_band = (float(b_all.min() / refb), float(b_all.max() / refb))
-        rep.corner = (min(c[0] for c in corners), min(c[1] for c in corners))
+        _set_bands(rep, corners, method, max_error, measure)
     return replace(path, program=new), rep

@@ -423,8 +423,6 @@ def _loop_at(loop: PassCurve, u):
     ]
 
 
-# long on purpose: one spiral turn per pair of levels, blending two loops on the mesh; its steps
-# share the turn's arrays
 def _spiral(
     loops, projector: SurfaceProjector, chord: float, rho: float, rounds: int = 12
 ) -> PassCurve:
@@ -443,6 +441,14 @@ def _spiral(
         loops[i + 1] = _start_at(loops[i + 1], w[0], wn[0], int(wf[0]))
     turns = list(zip(loops[:-1], loops[1:], strict=True))
     # first every pose fraction of loop i, then bisection of the segments that fail
+    U, Q, N, F, R = _turn_poses(turns, projector)
+    _refine_turns(turns, projector, U, Q, N, F, R, chord, rho, max_turn, rounds)
+    return _joined_pass(loops, Q, N, F, R)
+
+
+def _turn_poses(turns, projector: SurfaceProjector):
+    """Per turn (loop a → loop b), the blend at every pose fraction of a: lists of fractions
+    U (k,), CC points Q (k, 3), normals N (k, 3), faces F (k,) and ratios R (k,)."""
     U, Q, N, F, R = [], [], [], [], []
     As, Ts = [], []
     for a, b in turns:
@@ -477,6 +483,14 @@ def _spiral(
         N.append(nn)
         F.append(ff)
         R.append(rr)
+    return U, Q, N, F, R
+
+
+def _refine_turns(turns, projector: SurfaceProjector, U, Q, N, F, R, chord, rho, max_turn,
+                  rounds):
+    """Bisect (in place, up to ``rounds`` times) the turns' segments whose middle blend point
+    strays from the segment (CC: chord/2, ball centre: 3 chord/4) or whose normal turns
+    by more than ``max_turn``."""
     pending = [np.arange(len(u) - 1) for u in U]  # segment j = (u_j, u_j+1) to test
     for _ in range(rounds):
         if not any(len(p) for p in pending):
@@ -512,13 +526,18 @@ def _spiral(
             shift = np.arange(int(bad.sum()))
             lo = p[bad] + shift
             pending[i] = np.sort(np.concatenate([lo, lo + 1]))
+
+
+def _joined_pass(loops, Q, N, F, R) -> PassCurve:
+    """The spiral as one open pass: loop 0, the turns, loop n−1 closed on its start,
+    repeated points dropped."""
     cc, nn, ff, rr = (
         [loops[0].cc],
         [loops[0].normal],
         [_faces(loops[0])],
         [np.full(len(loops[0].cc), loops[0].s)],
     )
-    for i in range(len(turns)):
+    for i in range(len(Q)):  # the turns
         cc.append(Q[i])
         nn.append(N[i])
         ff.append(F[i])
@@ -578,8 +597,86 @@ def _faces(c: PassCurve):
     return c.face if len(c.face) == len(c.cc) else np.full(len(c.cc), -1, dtype=np.int64)
 
 
-# long on purpose: walks the passes once, emitting approach, cut, link or retract-rapid-approach
-# moves into the same growing arrays
+def _clearance_of(curves, opts: LinkOptions, axis: Axis, d_app: float) -> Clearance:
+    """The clearance surface of ``opts`` (default: the cylinder just outside every tip and
+    approach point); raises LinkError when it is not outside the approach points."""
+    ends = np.vstack(
+        [np.vstack([c.tip[[0, -1]], c.tip[[0, -1]] + d_app * c.axis[[0, -1]]]) for c in curves]
+    )
+    all_tips = np.vstack([c.tip for c in curves])
+    if opts.clearance is None:
+        r_all, _ = meridional(np.vstack([all_tips, ends]), axis)
+        clear = Clearance(float(r_all.max()) + float(opts.clearance_margin))
+    else:
+        clear = opts.clearance
+    r_e, z_e = meridional(ends, axis)
+    if np.any(clear.r_at(z_e) <= r_e):
+        raise LinkError(
+            f"the clearance surface (radius {clear.radius:g} mm, slope {clear.slope:g}) "
+            "is not outside "
+            f"the passes' approach points (up to r = {r_e.max():.3f} mm); raise its radius"
+        )
+    return clear
+
+
+class _Rows:
+    """The growing rows of a program: tips, axes, moves, pass and pose ids, flags."""
+
+    def __init__(self):
+        self.tips, self.axs, self.moves, self.cidx, self.pidx, self.flags = [], [], [], [], [], []
+
+    def emit(self, t, a, m, ci=-1, pi=None, fl=None):
+        """Append rows: tips t (k, 3), axes a, move(s) m, pass ci, pose ids pi, flags fl."""
+        t = np.atleast_2d(t)
+        a = np.broadcast_to(np.atleast_2d(a), t.shape)
+        k = len(t)
+        self.tips.append(t)
+        self.axs.append(a)
+        self.moves.append(np.full(k, m, dtype=np.int8) if np.ndim(m) == 0
+                          else np.asarray(m, np.int8))
+        self.cidx.append(np.full(k, ci, dtype=np.int64))
+        self.pidx.append(np.full(k, -1, dtype=np.int64) if pi is None
+                         else np.asarray(pi, np.int64))
+        self.flags.append(np.zeros(k, dtype=np.uint8) if fl is None else np.asarray(fl, np.uint8))
+
+    def program(self) -> Program:
+        """The rows as a Program."""
+        return Program(
+            tip=np.vstack(self.tips),
+            axis=np.vstack(self.axs),
+            move=np.concatenate(self.moves),
+            curve=np.concatenate(self.cidx),
+            index=np.concatenate(self.pidx),
+            flags=np.concatenate(self.flags),
+        )
+
+
+def _via_clearance(rows: _Rows, clear: Clearance, axis: Axis, rapid_step, p_from, a_from, p_to,
+                   a_to, first=False):
+    """Rapids: out from p_from to the clearance, along it, in to p_to (axes slerped)."""
+    _, th1, z1, fr = cylindrical(p_from[None, :], axis)
+    _, th2, z2, _ = cylindrical(p_to[None, :], axis)
+    up = from_cylindrical(clear.r_at(z1), th1, z1, axis, fr)[0]
+    down = from_cylindrical(clear.r_at(z2), th2, z2, axis, fr)[0]
+    dth = float((th2[0] - th1[0] + math.pi) % (2 * math.pi) - math.pi)
+    n = max(1, int(math.ceil(abs(dth) / rapid_step)))
+    t = np.arange(1, n + 1) / n
+    zz = z1[0] + t * (z2[0] - z1[0])
+    along = from_cylindrical(clear.r_at(zz), th1[0] + t * dth, zz, axis, fr)
+    a_up = a_to if first else a_from
+    rows.emit(up, a_up, MOVE_RAPID)
+    a_along = (
+        slerp(np.asarray(a_from), np.asarray(a_to), t)
+        if not first
+        else np.broadcast_to(a_to, along.shape)
+    )
+    rows.emit(along[:-1], a_along[:-1], MOVE_RAPID) if n > 1 else None
+    # the first pass starts straight below its clearance point: ``down`` is ``up`` again
+    if n > 1 or not (np.array_equal(down, up) and np.array_equal(a_to, a_up)):
+        rows.emit(down, a_to, MOVE_RAPID)
+    rows.emit(p_to, a_to, MOVE_RAPID)
+
+
 def build_program(
     curves,
     opts: LinkOptions,
@@ -610,65 +707,8 @@ def build_program(
     if projector is None or cl_points is None:
         direct = 0.0
     d_app = float(opts.approach)
-    # the clearance surface
-    ends = np.vstack(
-        [np.vstack([c.tip[[0, -1]], c.tip[[0, -1]] + d_app * c.axis[[0, -1]]]) for c in curves]
-    )
-    all_tips = np.vstack([c.tip for c in curves])
-    if opts.clearance is None:
-        r_all, _ = meridional(np.vstack([all_tips, ends]), axis)
-        clear = Clearance(float(r_all.max()) + float(opts.clearance_margin))
-    else:
-        clear = opts.clearance
-    r_e, z_e = meridional(ends, axis)
-    if np.any(clear.r_at(z_e) <= r_e):
-        raise LinkError(
-            f"the clearance surface (radius {clear.radius:g} mm, slope {clear.slope:g}) "
-            "is not outside "
-            f"the passes' approach points (up to r = {r_e.max():.3f} mm); raise its radius"
-        )
-
-    tips, axs, moves, cidx, pidx, flags = [], [], [], [], [], []
-
-    def emit(t, a, m, ci=-1, pi=None, fl=None):
-        t = np.atleast_2d(t)
-        a = np.broadcast_to(np.atleast_2d(a), t.shape)
-        k = len(t)
-        tips.append(t)
-        axs.append(a)
-        moves.append(np.full(k, m, dtype=np.int8) if np.ndim(m) == 0 else np.asarray(m, np.int8))
-        cidx.append(np.full(k, ci, dtype=np.int64))
-        pidx.append(np.full(k, -1, dtype=np.int64) if pi is None else np.asarray(pi, np.int64))
-        flags.append(np.zeros(k, dtype=np.uint8) if fl is None else np.asarray(fl, np.uint8))
-
-    def clearance_point(p):
-        r, th, z, fr = cylindrical(p[None, :], axis)
-        return r, th, z, fr
-
-    def via_clearance(p_from, a_from, p_to, a_to, first=False):
-        """Rapids: out from p_from to the clearance, along it, in to p_to (axes slerped)."""
-        _, th1, z1, fr = clearance_point(p_from)
-        _, th2, z2, _ = clearance_point(p_to)
-        up = from_cylindrical(clear.r_at(z1), th1, z1, axis, fr)[0]
-        down = from_cylindrical(clear.r_at(z2), th2, z2, axis, fr)[0]
-        dth = float((th2[0] - th1[0] + math.pi) % (2 * math.pi) - math.pi)
-        n = max(1, int(math.ceil(abs(dth) / opts.rapid_step)))
-        t = np.arange(1, n + 1) / n
-        zz = z1[0] + t * (z2[0] - z1[0])
-        along = from_cylindrical(clear.r_at(zz), th1[0] + t * dth, zz, axis, fr)
-        a_up = a_to if first else a_from
-        emit(up, a_up, MOVE_RAPID)
-        a_along = (
-            slerp(a_from, a_to, t)
-            if not first
-            else np.broadcast_to(a_to, along.shape)
-        )
-        emit(along[:-1], a_along[:-1], MOVE_RAPID) if n > 1 else None
-        # the first pass starts straight below its clearance point: ``down`` is ``up`` again
-        if n > 1 or not (np.array_equal(down, up) and np.array_equal(a_to, a_up)):
-            emit(down, a_to, MOVE_RAPID)
-        emit(p_to, a_to, MOVE_RAPID)
-
+    clear = _clearance_of(curves, opts, axis, d_app)
+    rows = _Rows()
     prev = None
     for ci, c in enumerate(curves):
         idx = np.arange(len(c.cc))
@@ -677,7 +717,8 @@ def build_program(
         t0, a0 = c.tip[0], c.axis[0]
         first_move = MOVE_APPROACH
         if prev is None:
-            via_clearance(t0 + d_app * a0, a0, t0 + d_app * a0, a0, first=True)
+            _via_clearance(rows, clear, axis, opts.rapid_step, t0 + d_app * a0, a0,
+                           t0 + d_app * a0, a0, first=True)
         else:
             pc, pj = prev
             link = None
@@ -696,29 +737,23 @@ def build_program(
             if link is not None:
                 lt, la = link
                 if len(lt):
-                    emit(lt, la, MOVE_LINK)
+                    rows.emit(lt, la, MOVE_LINK)
                 first_move = MOVE_LINK
             else:
                 pt, pa = pc.tip[pj], pc.axis[pj]
-                emit(pt + d_app * pa, pa, MOVE_RETRACT)
-                via_clearance(pt + d_app * pa, pa, t0 + d_app * a0, a0)
+                rows.emit(pt + d_app * pa, pa, MOVE_RETRACT)
+                _via_clearance(rows, clear, axis, opts.rapid_step, pt + d_app * pa, pa,
+                               t0 + d_app * a0, a0)
         mv = np.full(len(idx), MOVE_CUT, dtype=np.int8)
         mv[0] = first_move
-        emit(c.tip[idx], c.axis[idx], mv, ci, idx, c.flags[idx])
+        rows.emit(c.tip[idx], c.axis[idx], mv, ci, idx, c.flags[idx])
         prev = (c, int(idx[-1]))
     pc, pj = prev
     pt, pa = pc.tip[pj], pc.axis[pj]
-    emit(pt + d_app * pa, pa, MOVE_RETRACT)
-    _, th, z, fr = clearance_point(pt + d_app * pa)
-    emit(from_cylindrical(clear.r_at(z), th, z, axis, fr), pa, MOVE_RAPID)
-    return Program(
-        tip=np.vstack(tips),
-        axis=np.vstack(axs),
-        move=np.concatenate(moves),
-        curve=np.concatenate(cidx),
-        index=np.concatenate(pidx),
-        flags=np.concatenate(flags),
-    )
+    rows.emit(pt + d_app * pa, pa, MOVE_RETRACT)
+    _, th, z, fr = cylindrical((pt + d_app * pa)[None, :], axis)
+    rows.emit(from_cylindrical(clear.r_at(z), th, z, axis, fr), pa, MOVE_RAPID)
+    return rows.program()
 
 
 def _surface_link(p0, n0, a0, p1, n1, a1, projector, cl_points, step):

@@ -721,22 +721,12 @@ class _Generator:
         return measure_cusp([x[0] for x in samples], dist_a, dist_b, self.radius,
                             level_normals=[x[1] for x in samples])
 
-    # long on purpose: the slice → sample → expand loop of paper 001 as one generator (it yields
-    # progress between levels)
     def run(self):
+        """Generator: the slice → sample → expand loop of paper 001, pass after pass; yields
+        :class:`Progress` between levels and sets ``self.result`` (ToolPath)."""
         t0 = time.perf_counter()
         h = self.cusp
-        lo, hi = self.slicer.s_range
-        if not self.level(0.0):
-            raise ConeError(
-                f"cone 1 does not cut the blade mesh (the mesh's morph ratios run from {lo:.3f} "
-                f"to {hi:.3f}); move cone 1 onto the blade's hub end"
-            )
-        if not self.level(1.0):
-            raise ConeError(
-                f"cone 2 does not cut the blade mesh (the mesh's morph ratios run from {lo:.3f} "
-                f"to {hi:.3f}); move cone 2 onto the blade's tip end"
-            )
+        self._check_end_levels()
         s_lo, s_hi = self.end_level(0.0), self.end_level(1.0)
         passes = [self.sampled_pass(s_lo)]
         cusps = []
@@ -748,48 +738,7 @@ class _Generator:
                     f"more than {MAX_PASSES} passes needed: the cusp height {h} mm is far too "
                     f"small for a Ø{2 * self.radius:g} ball (or its equivalent) on this blade"
                 )
-            dist_a = self.centre_distance(s)
-            pred = max(self.predict_step(s), 1e-6)
-            # Eq. 13 knows neither the chord sag of the centre path nor the facets; the last
-            # measured step, scaled by the change of the prediction, does
-            ds = min(pred if prev is None else prev[1] * pred / prev[0], s_hi - s)
-            feasible = None  # (ds, H, s_new)
-            infeasible = None  # smallest ds known to exceed h
-            trials = []
-            for _ in range(12):
-                s_new = s_hi if ds >= s_hi - s - 1e-12 else s + ds
-                if not self.level(s_new):
-                    raise ConeError(
-                        f"the LMC at s = {s_new:.4f} does not cut the mesh: the blade has a gap "
-                        "across the whole region between the cones; check the mesh"
-                    )
-                H = self.cusp_between(s, dist_a, s_new)
-                if H <= CUSP_LIMIT * h:
-                    if feasible is None or ds > feasible[0]:
-                        feasible = (ds, H, s_new)
-                    if s_new >= s_hi or H >= CUSP_ACCEPT * h:
-                        break
-                else:
-                    infeasible = ds if infeasible is None else min(infeasible, ds)
-                trials.append((ds, H))
-                guess = _next_step(trials, CUSP_TARGET * h)
-                lo_b = feasible[0] if feasible else 0.0
-                hi_b = infeasible if infeasible is not None else s_hi - s
-                if not (lo_b < guess < hi_b):
-                    guess = 0.5 * (lo_b + hi_b) if infeasible is not None else min(2 * ds, hi_b)
-                if feasible and feasible[0] >= s_hi - s - 1e-12:
-                    break
-                if abs(guess - ds) <= 1e-9:
-                    break
-                ds = min(guess, s_hi - s)
-            if feasible is None:
-                raise ToleranceError(
-                    f"cannot hold the cusp height {h} mm after s = {s:.4f}: even a tiny side "
-                    f"step leaves more (a concave region tighter than the "
-                    f"Ø{2 * self.radius:g} ball, or a mesh fold); use a smaller ball or check the "
-                    "mesh there"
-                )
-            ds, H, s_new = feasible
+            pred, (ds, H, s_new) = self._next_level(s, s_hi, prev)
             if s_new < s_hi:
                 prev = (pred, ds)
             passes.append(self.sampled_pass(s_new))
@@ -801,6 +750,71 @@ class _Generator:
                 del self._passes[key]
             s = s_new
             yield Progress(min(s, 1.0), f"pass {len(passes)} at s = {s:.4f}, cusp {H:.4f} mm")
+        self._set_result(passes, cusps, s_lo, s_hi, t0)
+
+    def _check_end_levels(self):
+        """Raise ConeError when cone 1 or cone 2 does not cut the blade mesh."""
+        lo, hi = self.slicer.s_range
+        if not self.level(0.0):
+            raise ConeError(
+                f"cone 1 does not cut the blade mesh (the mesh's morph ratios run from {lo:.3f} "
+                f"to {hi:.3f}); move cone 1 onto the blade's hub end"
+            )
+        if not self.level(1.0):
+            raise ConeError(
+                f"cone 2 does not cut the blade mesh (the mesh's morph ratios run from {lo:.3f} "
+                f"to {hi:.3f}); move cone 2 onto the blade's tip end"
+            )
+
+    def _next_level(self, s, s_hi, prev):
+        """The next pass after level s: (predicted Δs, (Δs, its cusp H mm, level s + Δs)),
+        the largest trial step whose cusp holds (secant steps toward CUSP_TARGET · h)."""
+        h = self.cusp
+        dist_a = self.centre_distance(s)
+        pred = max(self.predict_step(s), 1e-6)
+        # Eq. 13 knows neither the chord sag of the centre path nor the facets; the last
+        # measured step, scaled by the change of the prediction, does
+        ds = min(pred if prev is None else prev[1] * pred / prev[0], s_hi - s)
+        feasible = None  # (ds, H, s_new)
+        infeasible = None  # smallest ds known to exceed h
+        trials = []
+        for _ in range(12):
+            s_new = s_hi if ds >= s_hi - s - 1e-12 else s + ds
+            if not self.level(s_new):
+                raise ConeError(
+                    f"the LMC at s = {s_new:.4f} does not cut the mesh: the blade has a gap "
+                    "across the whole region between the cones; check the mesh"
+                )
+            H = self.cusp_between(s, dist_a, s_new)
+            if H <= CUSP_LIMIT * h:
+                if feasible is None or ds > feasible[0]:
+                    feasible = (ds, H, s_new)
+                if s_new >= s_hi or H >= CUSP_ACCEPT * h:
+                    break
+            else:
+                infeasible = ds if infeasible is None else min(infeasible, ds)
+            trials.append((ds, H))
+            guess = _next_step(trials, CUSP_TARGET * h)
+            lo_b = feasible[0] if feasible else 0.0
+            hi_b = infeasible if infeasible is not None else s_hi - s
+            if not (lo_b < guess < hi_b):
+                guess = 0.5 * (lo_b + hi_b) if infeasible is not None else min(2 * ds, hi_b)
+            if feasible and feasible[0] >= s_hi - s - 1e-12:
+                break
+            if abs(guess - ds) <= 1e-9:
+                break
+            ds = min(guess, s_hi - s)
+        if feasible is None:
+            raise ToleranceError(
+                f"cannot hold the cusp height {h} mm after s = {s:.4f}: even a tiny side "
+                f"step leaves more (a concave region tighter than the "
+                f"Ø{2 * self.radius:g} ball, or a mesh fold); use a smaller ball or check the "
+                "mesh there"
+            )
+        return pred, feasible
+
+    def _set_result(self, passes, cusps, s_lo, s_hi, t0):
+        """``self.result``: the ToolPath of the sampled passes, with its stats and warnings."""
         curves = [c for p in passes for c in p]
         warnings = []
         uncut = []  # (s, poses, max lift) of the curves with poses lifted off an intrusion

@@ -183,6 +183,8 @@ def _likely_tests(i, step, last, g1, g2):
         good, step = j, 2 * step
 
 
+# long on purpose: one hot sequential search loop (memo, batches, exponential search, bisection
+# on shared state); next for a compiled kernel, and split it would thread that state per step
 def forward_step_indices(P, C, chord: float, max_step: float | None = None,
                          centre_chord: float | None = None, *, memo: dict | None = None):
     """Greedy forward step: indices of P to keep so that every skipped point lies within

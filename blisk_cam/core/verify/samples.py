@@ -96,7 +96,90 @@ def default_spacing(tool_radius: float, cusp: float) -> float:
     return 2.0 / 3.0 * np.sqrt(2.0 * rho * h - h * h)
 
 
-# ~160 lines, 50 of them the docstring: select faces, grid per n, crossings (one data flow)
+def _grid_samples(V, F, faces, nf):
+    """The barycentric grids of ``faces`` (nf (k,) segments per side), shared mesh vertices
+    once: (points (p, 3), face (p,), bary (p, 3), mesh vertex or -1 (p,), grid edges (e, 2),
+    their face (e,))."""
+    verts = np.unique(F[faces])
+    vmap = np.full(len(V), -1, dtype=np.int64)
+    vmap[verts] = np.arange(len(verts))
+    nv = len(verts)
+    # a face of each vertex, and the one-hot barycentric coordinates there
+    vface = np.full(len(V), -1, dtype=np.int64)
+    vcorner = np.zeros(len(V), dtype=np.int64)
+    for k in (2, 1, 0):
+        vface[F[faces, k]] = faces
+        vcorner[F[faces, k]] = k
+    pts = [V[verts]]
+    face_l = [vface[verts]]
+    bary_l = [np.eye(3)[vcorner[verts]]]
+    edges_l, eface_l = [], []
+    base = nv
+    for n in np.unique(nf):
+        fg = faces[nf == n]
+        g = len(fg)
+        bary, corner, tedges = _grid_template(int(n))
+        nc = corner < 0
+        bnc = bary[nc]
+        npt = len(bnc)
+        lmap = np.empty((g, len(bary)), dtype=np.int64)
+        for k in range(3):
+            lmap[:, corner == k] = vmap[F[fg, k]][:, None]
+        lmap[:, nc] = base + np.arange(g * npt).reshape(g, npt)
+        base += g * npt
+        if npt:
+            pts.append(np.einsum("pk,gkd->gpd", bnc, V[F[fg]]).reshape(-1, 3))
+            face_l.append(np.repeat(fg, npt))
+            bary_l.append(np.tile(bnc, (g, 1)))
+        edges_l.append(lmap[:, tedges].reshape(-1, 2))
+        eface_l.append(np.repeat(fg, len(tedges)))
+    P = np.vstack(pts)
+    face = np.concatenate(face_l)
+    bary = np.vstack(bary_l)
+    vertex = np.full(len(P), -1, dtype=np.int64)
+    vertex[:nv] = verts
+    edges = np.vstack(edges_l)
+    eface = np.concatenate(eface_l)
+    # grid edges of n = 1 faces are mesh edges shared by two faces: keep one copy
+    key = np.sort(edges, axis=1)
+    _, first = np.unique(key, axis=0, return_index=True)
+    first = np.sort(first)
+    edges, eface = key[first], eface[first]
+    return P, face, bary, vertex, edges, eface
+
+
+def _boundary_crossings(cones, axis, P, s, inside, edges, eface, s0, s1, s_tol):
+    """Where the grid edges with one end inside and one outside meet the boundary cones,
+    by regula falsi on the morph ratio: ([points (b, 3)], [faces (b,)]), empty lists if none."""
+    ea, eb = edges[:, 0], edges[:, 1]
+    cross = inside[ea] != inside[eb]
+    bp, bf = [], []
+    if np.any(cross):
+        ca, cb, cf = ea[cross], eb[cross], eface[cross]
+        pa, pb = P[ca], P[cb]
+        sa, sb = s[ca], s[cb]
+        out = np.where(inside[ca], sb, sa)
+        target = np.where(out < s0 - s_tol, s0, s1)
+        ga = np.clip(sa, -1e6, 1e6) - target
+        gb = np.clip(sb, -1e6, 1e6) - target
+        ta, tb = np.zeros(len(ca)), np.ones(len(ca))
+        for _ in range(30):
+            den = gb - ga
+            t = np.where(np.abs(den) > 0, ta - ga * (tb - ta) / np.where(den != 0, den, 1.0),
+                         0.5 * (ta + tb))
+            t = np.clip(t, ta + 0.01 * (tb - ta), tb - 0.01 * (tb - ta))
+            x = pa + t[:, None] * (pb - pa)
+            gx = np.clip(cones.ratio_of_points(x, axis), -1e6, 1e6) - target
+            left = np.sign(gx) == np.sign(ga)
+            ta, ga = np.where(left, t, ta), np.where(left, gx, ga)
+            tb, gb = np.where(left, tb, t), np.where(left, gb, gx)
+            if np.max(np.abs(gx)) < 1e-12:
+                break
+        bp.append(x)
+        bf.append(cf)
+    return bp, bf
+
+
 def surface_samples(
     mesh: TriMesh,
     cones: MorphingCones,
@@ -158,81 +241,11 @@ def surface_samples(
         spacing *= 1.25
         nf, total = count(spacing)
 
-    verts = np.unique(F[faces])
-    vmap = np.full(len(V), -1, dtype=np.int64)
-    vmap[verts] = np.arange(len(verts))
-    nv = len(verts)
-    # a face of each vertex, and the one-hot barycentric coordinates there
-    vface = np.full(len(V), -1, dtype=np.int64)
-    vcorner = np.zeros(len(V), dtype=np.int64)
-    for k in (2, 1, 0):
-        vface[F[faces, k]] = faces
-        vcorner[F[faces, k]] = k
-    pts = [V[verts]]
-    face_l = [vface[verts]]
-    bary_l = [np.eye(3)[vcorner[verts]]]
-    edges_l, eface_l = [], []
-    base = nv
-    for n in np.unique(nf):
-        fg = faces[nf == n]
-        g = len(fg)
-        bary, corner, tedges = _grid_template(int(n))
-        nc = corner < 0
-        bnc = bary[nc]
-        npt = len(bnc)
-        lmap = np.empty((g, len(bary)), dtype=np.int64)
-        for k in range(3):
-            lmap[:, corner == k] = vmap[F[fg, k]][:, None]
-        lmap[:, nc] = base + np.arange(g * npt).reshape(g, npt)
-        base += g * npt
-        if npt:
-            pts.append(np.einsum("pk,gkd->gpd", bnc, V[F[fg]]).reshape(-1, 3))
-            face_l.append(np.repeat(fg, npt))
-            bary_l.append(np.tile(bnc, (g, 1)))
-        edges_l.append(lmap[:, tedges].reshape(-1, 2))
-        eface_l.append(np.repeat(fg, len(tedges)))
-    P = np.vstack(pts)
-    face = np.concatenate(face_l)
-    bary = np.vstack(bary_l)
-    vertex = np.full(len(P), -1, dtype=np.int64)
-    vertex[:nv] = verts
-    edges = np.vstack(edges_l)
-    eface = np.concatenate(eface_l)
-    # grid edges of n = 1 faces are mesh edges shared by two faces: keep one copy
-    key = np.sort(edges, axis=1)
-    _, first = np.unique(key, axis=0, return_index=True)
-    first = np.sort(first)
-    edges, eface = key[first], eface[first]
-
+    P, face, bary, vertex, edges, eface = _grid_samples(V, F, faces, nf)
     s = cones.ratio_of_points(P, axis)
     inside = (s >= s0 - s_tol) & (s <= s1 + s_tol)
-    # boundary crossings on grid edges with one end inside and one outside
+    bp, bf = _boundary_crossings(cones, axis, P, s, inside, edges, eface, s0, s1, s_tol)
     ea, eb = edges[:, 0], edges[:, 1]
-    cross = inside[ea] != inside[eb]
-    bp, bf = [], []
-    if np.any(cross):
-        ca, cb, cf = ea[cross], eb[cross], eface[cross]
-        pa, pb = P[ca], P[cb]
-        sa, sb = s[ca], s[cb]
-        out = np.where(inside[ca], sb, sa)
-        target = np.where(out < s0 - s_tol, s0, s1)
-        ga = np.clip(sa, -1e6, 1e6) - target
-        gb = np.clip(sb, -1e6, 1e6) - target
-        ta, tb = np.zeros(len(ca)), np.ones(len(ca))
-        for _ in range(30):
-            den = gb - ga
-            t = np.where(np.abs(den) > 0, ta - ga * (tb - ta) / np.where(den != 0, den, 1.0),
-                         0.5 * (ta + tb))
-            t = np.clip(t, ta + 0.01 * (tb - ta), tb - 0.01 * (tb - ta))
-            x = pa + t[:, None] * (pb - pa)
-            gx = np.clip(cones.ratio_of_points(x, axis), -1e6, 1e6) - target
-            left = np.sign(gx) == np.sign(ga)
-            ta, ga = np.where(left, t, ta), np.where(left, gx, ga)
-            tb, gb = np.where(left, tb, t), np.where(left, gb, gx)
-            if np.max(np.abs(gx)) < 1e-12:
-                break
-        bp.append(x)
-        bf.append(cf)
     keep = np.nonzero(inside)[0]
     remap = np.full(len(P), -1, dtype=np.int64)
     remap[keep] = np.arange(len(keep))
