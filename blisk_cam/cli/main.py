@@ -1,5 +1,5 @@
-"""The batch command line: ``python -m blisk_cam ...`` (bpy wheel) or
-``blender -b --python scripts/blisk_batch.py -- ...`` (a Blender binary).
+"""The command line: ``python -m blisk_cam ...`` (bpy wheel) or
+``blender -b --python scripts/blender_cli.py -- ...`` (a Blender binary).
 
 ::
 
@@ -19,7 +19,7 @@ Angles are degrees on the command line (radians in the scene settings and the co
 
 Both commands run the add-on's operators (``blisk_cam.fit_cones``, ``generate_paths``,
 ``export_paths``, ``render_preview``) on a scene whose ``scene.blisk_cam`` settings are filled
-from the arguments: the batch and the user interface share one code path.
+from the arguments: the command line and the user interface share one code path.
 
 Exit status 0 on success. On bad input: a non-zero status (2 for a usage error, 1 for input
 the core or Blender rejects, 3 for an internal error) and exactly one line on stderr,

@@ -1,4 +1,4 @@
-"""The batch CLI: ``python -m blisk_cam`` and ``scripts/blisk_batch.py`` as subprocesses (exit
+"""The command line: ``python -m blisk_cam`` and ``scripts/blender_cli.py`` as subprocesses (exit
 status, one line on stderr), the demo output, and the ``paths`` input pipeline in-process."""
 
 import json
@@ -30,7 +30,7 @@ PATHS_OPTS = ["--tool", "ball", "--tool-radius", "6", "--cusp", "0.05", "--chord
 def run_cli(*args, script=False):
     """Run the CLI in a child process from the repository root; returns CompletedProcess."""
     if script:
-        cmd = [sys.executable, str(REPO / "scripts" / "blisk_batch.py"), "--", *args]
+        cmd = [sys.executable, str(REPO / "scripts" / "blender_cli.py"), "--", *args]
     else:
         cmd = [sys.executable, "-m", "blisk_cam", *args]
     env = dict(os.environ)
@@ -201,7 +201,7 @@ def test_no_command_and_unknown_command():
     assert_one_error_line(run_cli("frobnicate"), "frobnicate")
 
 
-def test_batch_script_passes_arguments_and_status(tmp_path):
+def test_blender_cli_script_passes_arguments_and_status(tmp_path):
     proc = run_cli(
         "paths", "--mesh", str(tmp_path / "none.stl"), *PATHS_OPTS, "--out", "p.json",
         script=True,

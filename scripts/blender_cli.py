@@ -1,13 +1,13 @@
 """Run the Blisk CAM command line inside a Blender binary.
 
-    blender -b --python scripts/blisk_batch.py -- demo --out DIR
-    blender -b --python scripts/blisk_batch.py -- paths --mesh blade.stl ... --out paths.json
+    blender -b --python scripts/blender_cli.py -- demo --out DIR
+    blender -b --python scripts/blender_cli.py -- paths --mesh blade.stl ... --out paths.json
 
 Takes the arguments after ``--`` and calls ``blisk_cam.cli.main`` with them, then exits with
 its status. Uses the installed and enabled extension (``bl_ext.<repository>.blisk_cam``) or a
 legacy add-on ``blisk_cam`` when Blender has one; otherwise puts this repository's root on
 ``sys.path`` and imports the package from the source tree. (Also works with a plain Python
-that has the ``bpy`` module: ``python scripts/blisk_batch.py -- demo --out DIR``.)
+that has the ``bpy`` module: ``python scripts/blender_cli.py -- demo --out DIR``.)
 """
 
 import importlib
