@@ -114,6 +114,34 @@ def build_parser() -> argparse.ArgumentParser:
         description="Build the parametric demo blisk (a few blades, a hub sector, the hub and "
         "tip cones and the axis), save DIR/demo.blend and render DIR/preview.png.",
     )
+    _add_demo_arguments(demo)
+    demo.set_defaults(func=_cmd_demo)
+
+    paths = sub.add_parser(
+        "paths",
+        help="tool paths for a blade mesh → paths JSON",
+        description="Finishing tool paths between two cones on a blade mesh (mm). Without "
+        "--cone1/--cone2 the cones are fitted to the blade's boundary loops. Lengths in mm, "
+        "angles in degrees. Needs only numpy and scipy; --blend and --preview need Blender's "
+        "Python module (bpy).",
+    )
+    _add_paths_arguments(paths)
+    paths.set_defaults(func=_cmd_paths)
+
+    nc = sub.add_parser(
+        "nc",
+        help="paths JSON → NC program for a 5-axis machine",
+        description="Post a paths JSON for a machine (preset or TOML) and a controller: "
+        "inverse kinematics within the limits, rotary linearization, every blade. Lengths mm, "
+        "angles degrees. Needs only numpy and scipy.",
+    )
+    add_nc_arguments(nc)
+    nc.set_defaults(func=_cmd_nc)
+    return parser
+
+
+def _add_demo_arguments(demo: argparse.ArgumentParser) -> None:
+    """The arguments of ``demo``."""
     demo.add_argument("--out", required=True, metavar="DIR", help="output directory")
     demo.add_argument(
         "--blades",
@@ -138,16 +166,11 @@ def build_parser() -> argparse.ArgumentParser:
                       help="scallop height of the demo paths (default 0.05)")
     demo.add_argument("--chord", type=_positive, default=0.05, metavar="MM",
                       help="chord error of the demo paths (default 0.05)")
-    demo.set_defaults(func=_cmd_demo)
 
-    paths = sub.add_parser(
-        "paths",
-        help="tool paths for a blade mesh → paths JSON",
-        description="Finishing tool paths between two cones on a blade mesh (mm). Without "
-        "--cone1/--cone2 the cones are fitted to the blade's boundary loops. Lengths in mm, "
-        "angles in degrees. Needs only numpy and scipy; --blend and --preview need Blender's "
-        "Python module (bpy).",
-    )
+
+def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
+    """The arguments of ``paths``: the mesh, the cones, every path option, the outputs, the
+    collision options and those of ``nc`` for ``--nc``."""
     paths.add_argument(
         "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
     )
@@ -195,18 +218,6 @@ def build_parser() -> argparse.ArgumentParser:
     paths.add_argument("--nc", metavar="FILE", default=None,
                        help="also post the path as an NC program (needs --machine, --post)")
     add_nc_arguments(paths, with_paths=False)
-    paths.set_defaults(func=_cmd_paths)
-
-    nc = sub.add_parser(
-        "nc",
-        help="paths JSON → NC program for a 5-axis machine",
-        description="Post a paths JSON for a machine (preset or TOML) and a controller: "
-        "inverse kinematics within the limits, rotary linearization, every blade. Lengths mm, "
-        "angles degrees. Needs only numpy and scipy.",
-    )
-    add_nc_arguments(nc)
-    nc.set_defaults(func=_cmd_nc)
-    return parser
 
 
 def _cmd_nc(args):
