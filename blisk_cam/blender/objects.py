@@ -216,8 +216,6 @@ def _stl_without_triangles(path: Path) -> bool:
     return False
 
 
-# long on purpose: one branch per importer and Blender version, each a few lines; split they would
-# repeat the checks around them
 def import_mesh_file(path, *, collection=None, name=None):
     """Import an STL (binary or ASCII), OBJ or PLY file with Blender's own importer.
 

@@ -588,8 +588,6 @@ def write_cone_objects(scene, blade, cone1, cone2, axis, points) -> dict:
 
 
 # --- write / clear -----------------------------------------------------------------------
-# long on purpose: builds the whole new collection before swapping it in (so a failure leaves the
-# old one); each object is one helper call
 def write_path_objects(
     scene,
     blade,

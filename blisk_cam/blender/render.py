@@ -659,8 +659,6 @@ def default_objects(scene):
     ]
 
 
-# long on purpose: the render set-up in the order Blender needs it (scene, camera, overlays, engine,
-# restore); each block is a few settings
 def _annotations(scene, cam, pts, extent, resolution, *, title, legend, scale_bar):
     """The overlay objects (title, legend, scale bar) of a preview framed by ``cam`` on the
     points ``pts`` (their largest extent ``extent``, Blender units)."""

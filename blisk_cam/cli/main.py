@@ -97,7 +97,6 @@ ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
 FITS = ("auto", "cone", "profile")
 
 
-# long on purpose: declarative: the argument list of every command
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the CLI (subcommands ``demo`` and ``paths``)."""
     parser = _Parser(
