@@ -9,7 +9,7 @@ import json
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import radial_demo_paths
+from _scenes import radial_demo_paths
 
 from blisk_cam.blender import objects as blender_io
 from blisk_cam.blender import path_objects as output
