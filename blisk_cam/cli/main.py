@@ -98,7 +98,7 @@ FITS = ("auto", "cone", "profile")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the CLI (subcommands ``demo`` and ``paths``)."""
+    """The argument parser of the CLI (subcommands ``demo``, ``paths`` and ``nc``)."""
     parser = _Parser(
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (batch mode).",
@@ -107,35 +107,26 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")
     sub.required = True
 
-    demo = sub.add_parser(
-        "demo",
-        help="build the demo blisk; write DIR/demo.blend and DIR/preview.png",
-        description="Build the parametric demo blisk (a few blades, a hub sector, the hub and "
-        "tip cones and the axis), save DIR/demo.blend and render DIR/preview.png.",
+    commands = (
+        ("demo", "build the demo blisk; write DIR/demo.blend and DIR/preview.png",
+         "Build the parametric demo blisk (a few blades, a hub sector, the hub and tip cones and "
+         "the axis), save DIR/demo.blend and render DIR/preview.png.",
+         _add_demo_arguments, _cmd_demo),
+        ("paths", "tool paths for a blade mesh → paths JSON",
+         "Finishing tool paths between two cones on a blade mesh (mm). Without --cone1/--cone2 "
+         "the cones are fitted to the blade's boundary loops. Lengths in mm, angles in degrees. "
+         "Needs only numpy and scipy; --blend and --preview need Blender's Python module (bpy).",
+         _add_paths_arguments, _cmd_paths),
+        ("nc", "paths JSON → NC program for a 5-axis machine",
+         "Post a paths JSON for a machine (preset or TOML) and a controller: inverse kinematics "
+         "within the limits, rotary linearization, every blade. Lengths mm, angles degrees. "
+         "Needs only numpy and scipy.",
+         add_nc_arguments, _cmd_nc),
     )
-    _add_demo_arguments(demo)
-    demo.set_defaults(func=_cmd_demo)
-
-    paths = sub.add_parser(
-        "paths",
-        help="tool paths for a blade mesh → paths JSON",
-        description="Finishing tool paths between two cones on a blade mesh (mm). Without "
-        "--cone1/--cone2 the cones are fitted to the blade's boundary loops. Lengths in mm, "
-        "angles in degrees. Needs only numpy and scipy; --blend and --preview need Blender's "
-        "Python module (bpy).",
-    )
-    _add_paths_arguments(paths)
-    paths.set_defaults(func=_cmd_paths)
-
-    nc = sub.add_parser(
-        "nc",
-        help="paths JSON → NC program for a 5-axis machine",
-        description="Post a paths JSON for a machine (preset or TOML) and a controller: "
-        "inverse kinematics within the limits, rotary linearization, every blade. Lengths mm, "
-        "angles degrees. Needs only numpy and scipy.",
-    )
-    add_nc_arguments(nc)
-    nc.set_defaults(func=_cmd_nc)
+    for name, help_text, description, add_arguments, run in commands:
+        command = sub.add_parser(name, help=help_text, description=description)
+        add_arguments(command)
+        command.set_defaults(func=run)
     return parser
 
 
