@@ -43,7 +43,7 @@ def _cli_main():
             repo_root = Path(__file__).resolve().parents[1]
             sys.path.insert(0, str(repo_root))
             package = "blisk_cam"
-    return importlib.import_module(f"{package}.cli").main
+    return importlib.import_module(f"{package}.cli.main").main
 
 
 def run(argv=None):

@@ -1,4 +1,4 @@
-"""blisk_cam.blender_io and blisk_cam.render in the bpy wheel (4.5 and 5.2): mesh files through
+"""blisk_cam.blender.objects and .render in the bpy wheel (4.5 and 5.2): mesh files through
 Blender's importers, evaluated objects to arrays (modifiers, world matrix, units), arrays and
 cones to objects, and headless previews (Workbench via EGL, Cycles CPU without GL)."""
 
