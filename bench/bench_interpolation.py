@@ -16,7 +16,6 @@ distance). Prints block counts, the per-block error band (% of [dM]) and search 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
@@ -26,7 +25,6 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests" / "core"))
 
 from blisk_cam.core.geometry.distance import MeshDistance  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
@@ -49,19 +47,10 @@ def demo_case(cusp=3.0, chord=0.002):
 
 
 def rotor37_case(cusp=1.0, chord=0.002):
-    from nc_helpers import blade_file, read_binary_stl
-
     from blisk_cam.core.geometry.axis import Axis
-    from blisk_cam.core.part.cones import Cone
+    from tests.support.blades import nasa_blade
 
-    stl = blade_file("rotor37_blade_extended_open.stl")
-    meta = blade_file("rotor37_blade.json")
-    if stl is None or meta is None:
-        return None
-    V, F = read_binary_stl(stl)
-    cones = json.loads(meta.read_text())["cones"]
-    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
-    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    V, F, c1, c2 = nasa_blade("rotor37")
     mesh = TriMesh.from_arrays(V, F)
     req = PathRequest(axis=Axis(), cone1=c1, cone2=c2, tool_radius=6.0, cusp=cusp, chord=chord,
                       axis_mode="radial", radial_tilt=math.radians(75.0))
@@ -135,11 +124,7 @@ def main(argv=None):
         mesh, path = demo_case()
         compare("demo blade (5 passes around the blade)", mesh, path, args.max_error, machine)
     if args.only in (None, "rotor37"):
-        case = rotor37_case()
-        if case is None:
-            print("Rotor 37 data not found: skipped")
-        else:
-            compare("Rotor 37", *case, args.max_error, machine)
+        compare("Rotor 37", *rotor37_case(), args.max_error, machine)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Figures of the link re-routing (blisk_cam.core.link_avoidance) on a demo scene.
+"""Figures of the link re-routing (blisk_cam.core.collision.reroute) on a demo scene.
 
 Scene (as tests/core/test_link_avoidance.py): one side of the demo blade (24 blades, ±1
 neighbours, the whole blade as the obstacle), passes from the hub to mid-span, every link

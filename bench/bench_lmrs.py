@@ -10,7 +10,6 @@ level's slice with (a) the json's straight hub cone (closed form, goal ≤ 50 ms
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -21,22 +20,21 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from bench_paths import read_binary_stl, subdivide, timeit  # noqa: E402
+from bench_paths import timeit  # noqa: E402
 
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.part.cones import Cone  # noqa: E402
 from blisk_cam.core.part.profiles import Profile, morph_between  # noqa: E402
 from blisk_cam.core.paths.slicing import MeshConeSlicer  # noqa: E402
-
-BLADES = ROOT / "tests" / "data" / "blades"
+from tests.support.blades import blade_meta, subdivided_blade  # noqa: E402
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--triangles", type=int, default=1_000_000)
     args = ap.parse_args()
-    meta = json.loads((BLADES / "rotor67_blade.json").read_text())
+    meta = blade_meta("rotor67")
     cones = meta["cones"]
     z0, z1 = meta["blade_axial_extent_mm"]
     line = np.asarray(cones["hub"]["published_line_rz_mm"], float)
@@ -46,11 +44,7 @@ def main():
     hub_cone = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
     tip = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
 
-    V, F = read_binary_stl(BLADES / "rotor67_blade_extended_open.stl")
-    m = TriMesh.from_arrays(V, F)
-    V, F = m.V, m.F
-    while len(F) * 2 < args.triangles:
-        V, F = subdivide(V, F)
+    V, F, _, _ = subdivided_blade("rotor67", args.triangles)
     mesh = TriMesh.from_arrays(V, F)
     print(f"Rotor 67 subdivided: {len(mesh.F)} triangles, {len(mesh.V)} vertices")
     for name, g in (("straight hub cone (LMC)", hub_cone),

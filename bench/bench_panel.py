@@ -24,7 +24,6 @@ shared: compare the figures of one run with each other.
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import time
@@ -33,7 +32,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-BLADES = ROOT / "tests" / "data" / "blades"
 TICK = 0.05  # s, the operator's timer interval
 
 
@@ -41,16 +39,15 @@ def scene_with_rotor37(args):
     import bpy
 
     from blisk_cam.blender import objects as blender_io
-    from blisk_cam.core.geometry.mesh_io import read_mesh
+    from tests.support.blades import nasa_blade
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    V, F = read_mesh(BLADES / "rotor37_blade_extended_open.stl")[:2]
-    cones = json.loads((BLADES / "rotor37_blade.json").read_text())["cones"]
+    V, F, c1, c2 = nasa_blade("rotor37")
     blade = blender_io.arrays_to_object("Rotor37", V, F)
     s = bpy.context.scene.blisk_cam
     s.blade = blade
-    s.cone1 = (*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
-    s.cone2 = (*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    s.cone1 = c1.as_list()
+    s.cone2 = c2.as_list()
     s.verify, s.verify_map = True, not args.no_map
     s.cusp, s.chord = args.cusp, args.chord
     return len(F)

@@ -11,7 +11,6 @@ figures (curves, poses, time) for the demo blade at 100k and 1M triangles.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -23,28 +22,10 @@ sys.path.insert(0, str(ROOT))
 
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # noqa: E402
-from blisk_cam.core.part.cones import Cone, MorphingCones  # noqa: E402
+from blisk_cam.core.part.cones import MorphingCones  # noqa: E402
 from blisk_cam.core.paths.passes import generate_paths  # noqa: E402
 from blisk_cam.core.paths.slicing import MeshConeSlicer  # noqa: E402
-
-BLADES = ROOT / "tests" / "data" / "blades"
-
-
-
-
-def subdivide(V, F):
-    """Midpoint subdivision (×4 triangles), vectorised."""
-    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, inv = np.unique(E, axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    mid = len(V) + inv.reshape(3, -1).T  # (m, 3): mids of v0v1, v1v2, v2v0
-    V2 = np.vstack([V, 0.5 * (V[uniq[:, 0]] + V[uniq[:, 1]])])
-    a, b, c = F.T
-    ab, bc, ca = mid.T
-    quads = ([a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca])
-    F2 = np.concatenate([np.stack(x, 1) for x in quads])
-    return V2, F2
+from tests.support.blades import subdivided_blade  # noqa: E402
 
 
 def timeit(fn, repeat=5):
@@ -54,18 +35,6 @@ def timeit(fn, repeat=5):
         out = fn()
         best = min(best, time.perf_counter() - t0)
     return best, out
-
-
-def rotor37(target):
-    V, F = read_binary_stl(BLADES / "rotor37_blade_extended_open.stl")
-    m = TriMesh.from_arrays(V, F)
-    V, F = m.V, m.F
-    while len(F) * 2 < target:
-        V, F = subdivide(V, F)
-    cones = json.loads((BLADES / "rotor37_blade.json").read_text())["cones"]
-    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
-    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
-    return V, F, c1, c2
 
 
 def bench_mesh(name, V, F):
@@ -135,7 +104,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--triangles", type=int, default=1_000_000)
     args = ap.parse_args()
-    V, F, c1, c2 = rotor37(args.triangles)
+    V, F, c1, c2 = subdivided_blade("rotor37", args.triangles)
     bench_mesh("rotor37 subdivided", V, F)
     mesh = bench_slicing("rotor37 subdivided", V, F, c1, c2)
     for e in (0.05, 0.01):

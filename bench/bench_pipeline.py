@@ -36,47 +36,14 @@ sys.path.insert(0, str(ROOT))
 from blisk_cam.core.errors import BliskCamError  # noqa: E402
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # noqa: E402
+from blisk_cam.core.geometry.mesh_io import read_mesh  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
-from blisk_cam.core.part.cones import Cone  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
 from blisk_cam.core.toolpath.paths_io import write_paths_json  # noqa: E402
+from tests.support.blades import subdivided_blade  # noqa: E402
+from tests.support.mesh_files import write_binary_stl  # noqa: E402
 
-BLADES_DIRS = (ROOT / "tests" / "data" / "blades", ROOT.parent / "shared" / "data" / "blades",
-               ROOT.parents[1] / "shared" / "data" / "blades")
 STAGES = ("seconds_fit", "seconds_passes", "seconds_orient", "seconds_link")
-
-
-def blades_dir():
-    for d in BLADES_DIRS:
-        if (d / "rotor37_blade_extended_open.stl").exists():
-            return d
-    return None
-
-
-
-
-def write_binary_stl(path, V, F):
-    rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    data = np.zeros(len(F), dtype=rec)
-    data["v"] = V[F]
-    with open(path, "wb") as fh:
-        fh.write(b"\0" * 80)
-        fh.write(np.uint32(len(F)).tobytes())
-        fh.write(data.tobytes())
-
-
-def subdivide(V, F):
-    """Midpoint subdivision (×4 triangles), vectorised."""
-    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, inv = np.unique(E, axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    mid = len(V) + inv.reshape(3, -1).T
-    V2 = np.vstack([V, 0.5 * (V[uniq[:, 0]] + V[uniq[:, 1]])])
-    a, b, c = F.T
-    ab, bc, ca = mid.T
-    quads = ([a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca])
-    return V2, np.concatenate([np.stack(x, 1) for x in quads])
 
 
 def demo_blade(target):
@@ -86,17 +53,8 @@ def demo_blade(target):
 
 
 def rotor37_blade(target):
-    d = blades_dir()
-    if d is None:
-        return None
-    V, F = read_binary_stl(d / "rotor37_blade_extended_open.stl")
-    m = TriMesh.from_arrays(V, F)
-    V, F = m.V, m.F
-    while len(F) * 2 < target:
-        V, F = subdivide(V, F)
-    cones = json.loads((d / "rotor37_blade.json").read_text())["cones"]
-    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
-    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    """Rotor 37 subdivided to about ``target`` triangles: V, F, axis, hub and tip cones."""
+    V, F, c1, c2 = subdivided_blade("rotor37", target)
     return V, F, Axis(), c1, c2
 
 
@@ -118,7 +76,7 @@ def whole_run(stl, axis, c1, c2, chord, out):
     """load → weld → plan → write, as the CLI does (core functions only)."""
     t = {}
     t0 = time.perf_counter()
-    V, F = read_binary_stl(stl)
+    V, F = read_mesh(stl)
     t["load"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F)
@@ -247,15 +205,11 @@ def main():
             V, F, axis, c1, c2 = demo_blade(args.verify_triangles)
             bench_verify("demo", V, F, axis, c1, c2, args.chord, threads, tools, blt)
     if args.only != "demo":
-        r = rotor37_blade(args.triangles)
-        if r is None:
-            print("[rotor37] data not found (tests/data/blades/ or ../shared/data/blades/)")
-        else:
-            if not args.verify_only:
-                bench_blade("rotor37 subdivided", *r, args.chord)
-            if not args.no_verify:
-                bench_verify("rotor37", *rotor37_blade(args.verify_triangles), args.chord,
-                             threads, tools, blt)
+        if not args.verify_only:
+            bench_blade("rotor37 subdivided", *rotor37_blade(args.triangles), args.chord)
+        if not args.no_verify:
+            bench_verify("rotor37", *rotor37_blade(args.verify_triangles), args.chord,
+                         threads, tools, blt)
 
 
 if __name__ == "__main__":

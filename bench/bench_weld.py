@@ -25,12 +25,13 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.geometry.mesh_io import read_mesh  # noqa: E402
+from tests.support.mesh_files import write_binary_stl  # noqa: E402
 
 CHILD = """
 import json, sys, time
 sys.path.insert(0, {root!r})
-from blisk_cam.core.mesh import TriMesh
-from blisk_cam.core.mesh_io import read_mesh
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.geometry.mesh_io import read_mesh
 V, F = read_mesh({stl!r})
 t, c = time.perf_counter(), time.process_time()
 TriMesh.from_arrays(V, F)
@@ -56,13 +57,10 @@ def main():
     if args.blade == "demo":
         V, F, *_ = bp.demo_blade(args.triangles)
     else:
-        r = bp.rotor37_blade(args.triangles)
-        if r is None:
-            sys.exit("Rotor 37 data not found (tests/data/blades/)")
-        V, F = r[0], r[1]
+        V, F, *_ = bp.rotor37_blade(args.triangles)
     with tempfile.TemporaryDirectory() as tmp:
         stl = str(Path(tmp) / "blade.stl")
-        bp.write_binary_stl(stl, V, F)
+        write_binary_stl(stl, V, F)
         V, F = read_mesh(stl)
         print(f"[{args.blade}] STL of {len(F):,} triangles, {len(V):,} corners")
         fresh = []

@@ -1,4 +1,4 @@
-"""``python -m blisk_cam ...``: the batch command line (see :mod:`blisk_cam.cli`)."""
+"""``python -m blisk_cam ...``: the command line (see :mod:`blisk_cam.cli`)."""
 
 import sys
 
@@ -10,7 +10,7 @@ except ImportError as exc:
         f"blisk_cam: error: this Python ({sys.executable}, {sys.version.split()[0]}) lacks "
         f"{exc.name}: run the command with the project's environment (.venv/bpy45/bin/python "
         "after 'make demo' or 'make test'), Blender's own Python (blender -b --python "
-        "scripts/blisk_batch.py -- ...), or pip install numpy scipy",
+        "scripts/blender_cli.py -- ...), or pip install numpy scipy",
         file=sys.stderr,
     )
     sys.exit(1)

@@ -216,8 +216,6 @@ def _stl_without_triangles(path: Path) -> bool:
     return False
 
 
-# long on purpose: one branch per importer and Blender version, each a few lines; split they would
-# repeat the checks around them
 def import_mesh_file(path, *, collection=None, name=None):
     """Import an STL (binary or ASCII), OBJ or PLY file with Blender's own importer.
 
@@ -245,6 +243,28 @@ def import_mesh_file(path, *, collection=None, name=None):
         faces, NaN/inf coordinates.
     """
     p = Path(path).expanduser()
+    ext = _check_mesh_file(p)
+    kind = ext[1:].upper()
+    new = _run_importer(p, ext, kind)
+    meshes = [ob for ob in new if ob.type == "MESH"]
+    others = [ob for ob in new if ob.type != "MESH"]
+    try:
+        _check_imported(p.name, kind, meshes)
+    except InputError:
+        _remove_objects(new)
+        raise
+    _remove_objects(others)
+    obj = _one_object(p, meshes, collection, name)
+    if len(obj.data.polygons) == 0:  # validation removed every (degenerate) face
+        _remove_objects([obj])
+        raise InputError(f"{p.name}: the mesh has no usable faces (all degenerate)")
+    return obj
+
+
+def _check_mesh_file(p: Path) -> str:
+    """The lower-case extension of the mesh file ``p``; :class:`InputError` before any import
+    when it is missing, not a file, of another type, empty, with NaN/inf in its text, or an
+    STL without triangles."""
     if not p.exists():
         raise InputError(f"mesh file not found: {p}")
     if not p.is_file():
@@ -268,7 +288,12 @@ def import_mesh_file(path, *, collection=None, name=None):
             f"{p.name}: the mesh has no faces (an STL without triangles); "
             "a blade surface needs triangles"
         )
+    return ext
 
+
+def _run_importer(p: Path, ext: str, kind: str) -> list:
+    """Blender's importer for ``ext`` on ``p`` (millimetres, axes as in the file, no
+    validation); the objects it added. :class:`InputError` when it fails."""
     scene = bpy.context.scene
     scale = 1.0 / mm_per_blender_unit(scene)
     op = getattr(bpy.ops.wm, SUPPORTED_EXTENSIONS[ext])
@@ -289,7 +314,6 @@ def import_mesh_file(path, *, collection=None, name=None):
         kwargs.update(forward_axis="Y", up_axis="Z", use_scene_unit=False)
 
     before = set(bpy.data.objects)
-    kind = ext[1:].upper()
     with quiet_output() as out:
         try:
             result = op(**kwargs)
@@ -302,29 +326,29 @@ def import_mesh_file(path, *, collection=None, name=None):
         detail = error or _blender_error_lines(out[0] if out else "") or "the importer gave up"
         detail = detail.removeprefix("Error: ")
         raise InputError(f"{p.name}: cannot read the file as {kind} ({detail})")
+    return [ob for ob in bpy.data.objects if ob not in before]
 
-    new = [ob for ob in bpy.data.objects if ob not in before]
-    meshes = [ob for ob in new if ob.type == "MESH"]
-    others = [ob for ob in new if ob.type != "MESH"]
-    try:
-        if not meshes:
-            raise InputError(
-                f"{p.name}: the file holds no mesh (nothing the {kind} importer reads)"
-            )
-        for ob in meshes:
-            msg = _non_finite_message(p.name, _vertex_coordinates(ob.data))
-            if msg:
-                raise InputError(msg)
-        if sum(len(ob.data.polygons) for ob in meshes) == 0:
-            raise InputError(
-                f"{p.name}: the mesh has no faces ({sum(len(ob.data.vertices) for ob in meshes)}"
-                " vertices, 0 triangles); a blade surface needs triangles"
-            )
-    except InputError:
-        _remove_objects(new)
-        raise
-    _remove_objects(others)
 
+def _check_imported(filename: str, kind: str, meshes) -> None:
+    """:class:`InputError` when the import gave no mesh, NaN/inf coordinates or no face."""
+    if not meshes:
+        raise InputError(
+            f"{filename}: the file holds no mesh (nothing the {kind} importer reads)"
+        )
+    for ob in meshes:
+        msg = _non_finite_message(filename, _vertex_coordinates(ob.data))
+        if msg:
+            raise InputError(msg)
+    if sum(len(ob.data.polygons) for ob in meshes) == 0:
+        raise InputError(
+            f"{filename}: the mesh has no faces ({sum(len(ob.data.vertices) for ob in meshes)}"
+            " vertices, 0 triangles); a blade surface needs triangles"
+        )
+
+
+def _one_object(p: Path, meshes, collection, name):
+    """The imported mesh objects as one validated object, named ``name`` (default: the file's
+    stem when joined) in ``collection`` (default: where the importer put it)."""
     if len(meshes) > 1:  # join in world frame (OBJ with several objects, kept as one mesh)
         parts = [object_to_arrays(ob, mm_per_unit=1.0) for ob in meshes if len(ob.data.polygons)]
         offsets = np.cumsum([0] + [len(v) for v, _ in parts[:-1]])
@@ -332,21 +356,17 @@ def import_mesh_file(path, *, collection=None, name=None):
         F = np.concatenate([f + o for (_, f), o in zip(parts, offsets, strict=True)])
         coll = collection or meshes[0].users_collection[0]
         _remove_objects(meshes)
-        obj = arrays_to_object(name or p.stem, V, F, coll, mm_per_unit=1.0)
-    else:
-        obj = meshes[0]
-        with quiet_output():
-            obj.data.validate(verbose=False, clean_customdata=False)
-        if name:
-            obj.name = name
-            obj.data.name = name
-        if collection is not None:
-            for c in list(obj.users_collection):
-                c.objects.unlink(obj)
-            collection.objects.link(obj)
-    if len(obj.data.polygons) == 0:  # validation removed every (degenerate) face
-        _remove_objects([obj])
-        raise InputError(f"{p.name}: the mesh has no usable faces (all degenerate)")
+        return arrays_to_object(name or p.stem, V, F, coll, mm_per_unit=1.0)
+    obj = meshes[0]
+    with quiet_output():
+        obj.data.validate(verbose=False, clean_customdata=False)
+    if name:
+        obj.name = name
+        obj.data.name = name
+    if collection is not None:
+        for c in list(obj.users_collection):
+            c.objects.unlink(obj)
+        collection.objects.link(obj)
     return obj
 
 

@@ -588,8 +588,6 @@ def write_cone_objects(scene, blade, cone1, cone2, axis, points) -> dict:
 
 
 # --- write / clear -----------------------------------------------------------------------
-# long on purpose: builds the whole new collection before swapping it in (so a failure leaves the
-# old one); each object is one helper call
 def write_path_objects(
     scene,
     blade,
@@ -635,57 +633,73 @@ def write_path_objects(
     old = find_output_collection(bname)  # replaced once the new result is complete
     new = bpy.data.collections.new(name + " (new)")
     try:
-        new[KEY_BLADE] = bname
-        new[KEY_CUSP] = float(path.cusp)
-        new[KEY_CHORD] = float(path.chord)
-        if getattr(path, "collision", None):
-            from ..core.toolpath.paths_io import jsonable
-
-            new[KEY_COLLISION] = json.dumps(jsonable(path.collision), allow_nan=False)
-        cusp = _curve_cusp(path, verify)
-        objs = {"collection": new, "verify": None}
-        for role, label, key in (("cc", "CC paths", "cc"), ("tip", "tool tips", "tip")):
-            sets, closed, s, sc = spline_pieces(path, key, cusp)
-            ob = _curve_object(f"{bname} {label}", sets, closed, f, settings.curve_bevel)
-            ob.data[KEY_S] = s
-            ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in sc]
-            ob[KEY_ROLE] = role
-            ob[KEY_NAME] = f"{bname} {label}"
-            new.objects.link(ob)
-            _style_curves(ob, settings.color_mode, float(path.cusp))
-            objs[role] = ob
-        objs["tip"].hide_render = True  # the CC curves render; tips are for the viewport
-        objs["links"] = None
-        program = getattr(path, "program", None)
-        if program is not None and len(program):
-            ob = _links_object(f"{bname} links", program, f, settings.curve_bevel)
-            if ob is not None:
-                ob[KEY_ROLE] = "links"
-                ob[KEY_NAME] = f"{bname} links"
-                ob.hide_render = True
-                new.objects.link(ob)
-                objs["links"] = ob
-        radius = tool_radius(path.tool, settings.tool_radius)
-        pc = _point_cloud_object(f"{bname} poses", path, f, max(0.05 * radius, 1e-3))
-        pc[KEY_ROLE] = "poses"
-        pc[KEY_NAME] = f"{bname} poses"
-        new.objects.link(pc)
-        objs["poses"] = pc
-        poses_coll = bpy.data.collections.new(name + " poses (new)")
-        new.children.link(poses_coll)
-        idx = pose_indices(path.n_poses, min(int(settings.pose_count), MAX_POSE_EMPTIES))
-        objs["pose_empties"] = _pose_empties(poses_coll, bname, path, idx, f, 2.0 * radius)
-        cc_all = np.concatenate([np.asarray(c.cc, dtype=np.float64) for c in path.curves])
-        objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
-        if blade_arrays is not None and vertex_values is not None:
-            V, F = blade_arrays
-            objs["verify"] = _verify_object(bname, V, F, vertex_values, float(path.cusp),
-                                            float(path.chord), f, new)
+        objs, poses_coll = _fill_output(new, bname, path, settings, f, verify, blade_arrays,
+                                        vertex_values)
     except Exception:
         _remove_collection_tree(new)
         raise
+    objs["text"] = _replace_output(scene, blade, old, new, poses_coll, json_text)
+    return objs
 
-    # the new result is complete: replace the old one
+
+def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_values):
+    """Fill the collection ``new`` with the objects of ``path`` for the blade named ``bname``
+    (see :func:`write_path_objects`); returns the objects (dict) and the collection of the
+    pose empties."""
+    name = collection_name(bname)
+    new[KEY_BLADE] = bname
+    new[KEY_CUSP] = float(path.cusp)
+    new[KEY_CHORD] = float(path.chord)
+    if getattr(path, "collision", None):
+        from ..core.toolpath.paths_io import jsonable
+
+        new[KEY_COLLISION] = json.dumps(jsonable(path.collision), allow_nan=False)
+    cusp = _curve_cusp(path, verify)
+    objs = {"collection": new, "verify": None}
+    for role, label, key in (("cc", "CC paths", "cc"), ("tip", "tool tips", "tip")):
+        sets, closed, s, sc = spline_pieces(path, key, cusp)
+        ob = _curve_object(f"{bname} {label}", sets, closed, f, settings.curve_bevel)
+        ob.data[KEY_S] = s
+        ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in sc]
+        ob[KEY_ROLE] = role
+        ob[KEY_NAME] = f"{bname} {label}"
+        new.objects.link(ob)
+        _style_curves(ob, settings.color_mode, float(path.cusp))
+        objs[role] = ob
+    objs["tip"].hide_render = True  # the CC curves render; tips are for the viewport
+    objs["links"] = None
+    program = getattr(path, "program", None)
+    if program is not None and len(program):
+        ob = _links_object(f"{bname} links", program, f, settings.curve_bevel)
+        if ob is not None:
+            ob[KEY_ROLE] = "links"
+            ob[KEY_NAME] = f"{bname} links"
+            ob.hide_render = True
+            new.objects.link(ob)
+            objs["links"] = ob
+    radius = tool_radius(path.tool, settings.tool_radius)
+    pc = _point_cloud_object(f"{bname} poses", path, f, max(0.05 * radius, 1e-3))
+    pc[KEY_ROLE] = "poses"
+    pc[KEY_NAME] = f"{bname} poses"
+    new.objects.link(pc)
+    objs["poses"] = pc
+    poses_coll = bpy.data.collections.new(name + " poses (new)")
+    new.children.link(poses_coll)
+    idx = pose_indices(path.n_poses, min(int(settings.pose_count), MAX_POSE_EMPTIES))
+    objs["pose_empties"] = _pose_empties(poses_coll, bname, path, idx, f, 2.0 * radius)
+    cc_all = np.concatenate([np.asarray(c.cc, dtype=np.float64) for c in path.curves])
+    objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
+    if blade_arrays is not None and vertex_values is not None:
+        V, F = blade_arrays
+        objs["verify"] = _verify_object(bname, V, F, vertex_values, float(path.cusp),
+                                        float(path.chord), f, new)
+    return objs, poses_coll
+
+
+def _replace_output(scene, blade, old, new, poses_coll, json_text):
+    """The complete result ``new`` replaces ``old`` (removed): final names, linked beside the
+    blade, the paths JSON in the Text datablock (the old one reused); returns the Text."""
+    name = collection_name(blade.name)
     old_text = bpy.data.texts.get(old.get(KEY_TEXT, "")) if old is not None else None
     if old is not None:
         _remove_collection_tree(old)
@@ -700,8 +714,7 @@ def write_path_objects(
     text.from_string(_to_text_lines(json_text))
     text.use_fake_user = True
     new[KEY_TEXT] = text.name
-    objs["text"] = text
-    return objs
+    return text
 
 
 def attach_verify(

@@ -659,8 +659,89 @@ def default_objects(scene):
     ]
 
 
-# long on purpose: the render set-up in the order Blender needs it (scene, camera, overlays, engine,
-# restore); each block is a few settings
+def _annotations(scene, cam, pts, extent, resolution, *, title, legend, scale_bar):
+    """The overlay objects (title, legend, scale bar) of a preview framed by ``cam`` on the
+    points ``pts`` (their largest extent ``extent``, Blender units)."""
+    from .objects import mm_per_blender_unit
+
+    m = np.array(cam.matrix_world, dtype=np.float64)
+    centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0)) if len(pts) else m[:3, 3]
+    target_depth = float((m[:3, 3] - centre) @ (m[:3, 2] / np.linalg.norm(m[:3, 2])))
+    f = mm_per_blender_unit(scene)
+    scale = (nice_length(0.25 * extent * f), f) if scale_bar and len(pts) else None
+    return _overlay(scene, cam, resolution, title=title, legend=legend, scale_mm=scale,
+                    target_depth=target_depth)
+
+
+def _set_render_output(scene, saved, cam, eng, resolution, path):
+    """Camera, engine, size and an 8-bit RGB PNG at exactly ``path``, colour management
+    neutral (every value saved in ``saved`` for restoring)."""
+    w, h = resolution
+    r = scene.render
+    saved.set(scene, "camera", cam)
+    saved.set(r, "engine", eng)
+    saved.set(r, "resolution_x", w)
+    saved.set(r, "resolution_y", h)
+    saved.set(r, "resolution_percentage", 100)
+    saved.set(r, "filepath", str(path))
+    saved.set(r, "use_file_extension", False)
+    saved.set(r, "film_transparent", False)
+    saved.set(r, "use_compositing", False)
+    saved.set(r, "use_sequencer", False)
+    saved.set(r.image_settings, "file_format", "PNG")
+    saved.set(r.image_settings, "color_mode", "RGB")
+    saved.set(r.image_settings, "color_depth", "8")
+    saved.set(scene.view_settings, "view_transform", "Standard")
+    saved.set(scene.view_settings, "look", "None")
+    saved.set(scene.view_settings, "exposure", 0.0)
+    saved.set(scene.view_settings, "gamma", 1.0)
+
+
+def _render_still(scene, eng, path):
+    """Render the scene to ``path``; :class:`RenderError` with Blender's first error line when
+    no image is written."""
+    path.unlink(missing_ok=True)  # so that a stale file cannot pass for this render
+    with quiet_output() as out:
+        try:
+            result = bpy.ops.render.render(write_still=True, scene=scene.name)
+            error = ""
+        except RuntimeError as exc:
+            result, error = None, str(exc)
+    if result is None or "FINISHED" not in result or not path.exists():
+        log = out[0] if out else ""
+        detail = error.strip() or next(
+            (ln for ln in log.splitlines() if "rror" in ln), "no image written"
+        )
+        raise RenderError(f"render with {eng} failed: {detail.splitlines()[0]}")
+
+
+def _remove_temporary(temporary):
+    """Remove the preview's own objects and worlds, with their data once unused."""
+    for item in temporary:
+        if isinstance(item, bpy.types.Object):
+            data = item.data
+            bpy.data.objects.remove(item, do_unlink=True)
+            if isinstance(data, bpy.types.Light) and data.users == 0:
+                bpy.data.lights.remove(data)
+            elif isinstance(data, bpy.types.Curve) and data.users == 0:
+                bpy.data.curves.remove(data)
+            elif isinstance(data, bpy.types.Mesh) and data.users == 0:
+                bpy.data.meshes.remove(data)
+        elif isinstance(item, bpy.types.World) and item.users == 0:
+            bpy.data.worlds.remove(item)
+
+
+def _release_camera(scene, cam, *, keep, existed):
+    """Leave the preview camera active (``keep``), or remove it unless it was there before."""
+    if keep:
+        scene.camera = cam
+    elif not existed:
+        data = cam.data
+        bpy.data.objects.remove(cam, do_unlink=True)
+        if data.users == 0:
+            bpy.data.cameras.remove(data)
+
+
 def render_preview(
     filepath,
     engine="AUTO",
@@ -730,33 +811,9 @@ def render_preview(
         extent = float(np.ptp(pts, axis=0).max()) if len(pts) else 1.0
         _style_cones(scene, cones, saved, temporary, extent)
         if annotated:
-            from .objects import mm_per_blender_unit
-
-            m = np.array(cam.matrix_world, dtype=np.float64)
-            centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0)) if len(pts) else m[:3, 3]
-            target_depth = float((m[:3, 3] - centre) @ (m[:3, 2] / np.linalg.norm(m[:3, 2])))
-            f = mm_per_blender_unit(scene)
-            scale = (nice_length(0.25 * extent * f), f) if scale_bar and len(pts) else None
-            temporary.extend(_overlay(scene, cam, (w, h), title=title, legend=legend,
-                                      scale_mm=scale, target_depth=target_depth))
-        r = scene.render
-        saved.set(scene, "camera", cam)
-        saved.set(r, "engine", eng)
-        saved.set(r, "resolution_x", w)
-        saved.set(r, "resolution_y", h)
-        saved.set(r, "resolution_percentage", 100)
-        saved.set(r, "filepath", str(path))
-        saved.set(r, "use_file_extension", False)
-        saved.set(r, "film_transparent", False)
-        saved.set(r, "use_compositing", False)
-        saved.set(r, "use_sequencer", False)
-        saved.set(r.image_settings, "file_format", "PNG")
-        saved.set(r.image_settings, "color_mode", "RGB")
-        saved.set(r.image_settings, "color_depth", "8")
-        saved.set(scene.view_settings, "view_transform", "Standard")
-        saved.set(scene.view_settings, "look", "None")
-        saved.set(scene.view_settings, "exposure", 0.0)
-        saved.set(scene.view_settings, "gamma", 1.0)
+            temporary.extend(_annotations(scene, cam, pts, extent, (w, h), title=title,
+                                          legend=legend, scale_bar=scale_bar))
+        _set_render_output(scene, saved, cam, eng, (w, h), path)
         # a plain-colour world of our own for the render; the scene's world is left alone
         world = _preview_world(background)
         temporary.append(world)
@@ -766,42 +823,12 @@ def render_preview(
                 _setup_cycles(scene, saved, temporary, quality)
         elif eng == "BLENDER_WORKBENCH":
             _setup_workbench(scene, saved, quality, overlay=annotated)
-
-        path.unlink(missing_ok=True)  # so that a stale file cannot pass for this render
-        with quiet_output() as out:
-            try:
-                result = bpy.ops.render.render(write_still=True, scene=scene.name)
-                error = ""
-            except RuntimeError as exc:
-                result, error = None, str(exc)
-        if result is None or "FINISHED" not in result or not path.exists():
-            log = out[0] if out else ""
-            detail = error.strip() or next(
-                (ln for ln in log.splitlines() if "rror" in ln), "no image written"
-            )
-            raise RenderError(f"render with {eng} failed: {detail.splitlines()[0]}")
+        _render_still(scene, eng, path)
     finally:
         saved.restore()
-        for item in temporary:
-            if isinstance(item, bpy.types.Object):
-                data = item.data
-                bpy.data.objects.remove(item, do_unlink=True)
-                if isinstance(data, bpy.types.Light) and data.users == 0:
-                    bpy.data.lights.remove(data)
-                elif isinstance(data, bpy.types.Curve) and data.users == 0:
-                    bpy.data.curves.remove(data)
-                elif isinstance(data, bpy.types.Mesh) and data.users == 0:
-                    bpy.data.meshes.remove(data)
-            elif isinstance(item, bpy.types.World) and item.users == 0:
-                bpy.data.worlds.remove(item)
+        _remove_temporary(temporary)
         if cam is not None:
-            if keep_camera:
-                scene.camera = cam
-            elif not had_camera:
-                data = cam.data
-                bpy.data.objects.remove(cam, do_unlink=True)
-                if data.users == 0:
-                    bpy.data.cameras.remove(data)
+            _release_camera(scene, cam, keep=keep_camera, existed=had_camera)
 
     coverage = image_coverage(path)
     if coverage < min_coverage:

@@ -24,7 +24,7 @@ def _import_bpy():
     except ImportError:
         raise BliskCamError(
             "this command needs Blender's Python module: pip install bpy (matching your "
-            "Python), or run it in Blender: blender -b --python scripts/blisk_batch.py -- ..."
+            "Python), or run it in Blender: blender -b --python scripts/blender_cli.py -- ..."
         ) from None
     return bpy
 

@@ -1,5 +1,5 @@
-"""The batch command line: ``python -m blisk_cam ...`` (bpy wheel) or
-``blender -b --python scripts/blisk_batch.py -- ...`` (a Blender binary).
+"""The command line: ``python -m blisk_cam ...`` (bpy wheel) or
+``blender -b --python scripts/blender_cli.py -- ...`` (a Blender binary).
 
 ::
 
@@ -19,7 +19,7 @@ Angles are degrees on the command line (radians in the scene settings and the co
 
 Both commands run the add-on's operators (``blisk_cam.fit_cones``, ``generate_paths``,
 ``export_paths``, ``render_preview``) on a scene whose ``scene.blisk_cam`` settings are filled
-from the arguments: the batch and the user interface share one code path.
+from the arguments: the command line and the user interface share one code path.
 
 Exit status 0 on success. On bad input: a non-zero status (2 for a usage error, 1 for input
 the core or Blender rejects, 3 for an internal error) and exactly one line on stderr,
@@ -97,9 +97,8 @@ ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
 FITS = ("auto", "cone", "profile")
 
 
-# long on purpose: declarative: the argument list of every command
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the CLI (subcommands ``demo`` and ``paths``)."""
+    """The argument parser of the CLI (subcommands ``demo``, ``paths`` and ``nc``)."""
     parser = _Parser(
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (batch mode).",
@@ -108,12 +107,31 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")
     sub.required = True
 
-    demo = sub.add_parser(
-        "demo",
-        help="build the demo blisk; write DIR/demo.blend and DIR/preview.png",
-        description="Build the parametric demo blisk (a few blades, a hub sector, the hub and "
-        "tip cones and the axis), save DIR/demo.blend and render DIR/preview.png.",
+    commands = (
+        ("demo", "build the demo blisk; write DIR/demo.blend and DIR/preview.png",
+         "Build the parametric demo blisk (a few blades, a hub sector, the hub and tip cones and "
+         "the axis), save DIR/demo.blend and render DIR/preview.png.",
+         _add_demo_arguments, _cmd_demo),
+        ("paths", "tool paths for a blade mesh → paths JSON",
+         "Finishing tool paths between two cones on a blade mesh (mm). Without --cone1/--cone2 "
+         "the cones are fitted to the blade's boundary loops. Lengths in mm, angles in degrees. "
+         "Needs only numpy and scipy; --blend and --preview need Blender's Python module (bpy).",
+         _add_paths_arguments, _cmd_paths),
+        ("nc", "paths JSON → NC program for a 5-axis machine",
+         "Post a paths JSON for a machine (preset or TOML) and a controller: inverse kinematics "
+         "within the limits, rotary linearization, every blade. Lengths mm, angles degrees. "
+         "Needs only numpy and scipy.",
+         add_nc_arguments, _cmd_nc),
     )
+    for name, help_text, description, add_arguments, run in commands:
+        command = sub.add_parser(name, help=help_text, description=description)
+        add_arguments(command)
+        command.set_defaults(func=run)
+    return parser
+
+
+def _add_demo_arguments(demo: argparse.ArgumentParser) -> None:
+    """The arguments of ``demo``."""
     demo.add_argument("--out", required=True, metavar="DIR", help="output directory")
     demo.add_argument(
         "--blades",
@@ -138,16 +156,11 @@ def build_parser() -> argparse.ArgumentParser:
                       help="scallop height of the demo paths (default 0.05)")
     demo.add_argument("--chord", type=_positive, default=0.05, metavar="MM",
                       help="chord error of the demo paths (default 0.05)")
-    demo.set_defaults(func=_cmd_demo)
 
-    paths = sub.add_parser(
-        "paths",
-        help="tool paths for a blade mesh → paths JSON",
-        description="Finishing tool paths between two cones on a blade mesh (mm). Without "
-        "--cone1/--cone2 the cones are fitted to the blade's boundary loops. Lengths in mm, "
-        "angles in degrees. Needs only numpy and scipy; --blend and --preview need Blender's "
-        "Python module (bpy).",
-    )
+
+def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
+    """The arguments of ``paths``: the mesh, the cones, every path option, the outputs, the
+    collision options and those of ``nc`` for ``--nc``."""
     paths.add_argument(
         "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
     )
@@ -195,18 +208,6 @@ def build_parser() -> argparse.ArgumentParser:
     paths.add_argument("--nc", metavar="FILE", default=None,
                        help="also post the path as an NC program (needs --machine, --post)")
     add_nc_arguments(paths, with_paths=False)
-    paths.set_defaults(func=_cmd_paths)
-
-    nc = sub.add_parser(
-        "nc",
-        help="paths JSON → NC program for a 5-axis machine",
-        description="Post a paths JSON for a machine (preset or TOML) and a controller: "
-        "inverse kinematics within the limits, rotary linearization, every blade. Lengths mm, "
-        "angles degrees. Needs only numpy and scipy.",
-    )
-    add_nc_arguments(nc)
-    nc.set_defaults(func=_cmd_nc)
-    return parser
 
 
 def _cmd_nc(args):

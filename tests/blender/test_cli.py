@@ -1,28 +1,29 @@
-"""The batch CLI: ``python -m blisk_cam`` and ``scripts/blisk_batch.py`` as subprocesses (exit
+"""The command line: ``python -m blisk_cam`` and ``scripts/blender_cli.py`` as subprocesses (exit
 status, one line on stderr), the demo output, and the ``paths`` input pipeline in-process."""
 
 import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import (
-    NASA_STL,
-    REPO,
-    read_binary_stl,
+
+from blisk_cam.blender import render
+from blisk_cam.cli import main as cli
+from blisk_cam.core.errors import BliskCamError
+from tests.support.blades import blade_stl
+from tests.support.mesh_files import (
     sample_surface,
+    stl_triangles,
     write_ascii_stl,
     write_binary_stl,
     write_obj,
 )
 
-from blisk_cam.blender import render
-from blisk_cam.cli import main as cli
-from blisk_cam.core.errors import BliskCamError
-
+REPO = Path(__file__).resolve().parents[2]
 TIMEOUT = 240  # s per CLI process; a hang (e.g. bpy 4.5 at exit) fails instead of blocking
 PATHS_OPTS = ["--tool", "ball", "--tool-radius", "6", "--cusp", "0.05", "--chord", "0.05"]
 
@@ -30,7 +31,7 @@ PATHS_OPTS = ["--tool", "ball", "--tool-radius", "6", "--cusp", "0.05", "--chord
 def run_cli(*args, script=False):
     """Run the CLI in a child process from the repository root; returns CompletedProcess."""
     if script:
-        cmd = [sys.executable, str(REPO / "scripts" / "blisk_batch.py"), "--", *args]
+        cmd = [sys.executable, str(REPO / "scripts" / "blender_cli.py"), "--", *args]
     else:
         cmd = [sys.executable, "-m", "blisk_cam", *args]
     env = dict(os.environ)
@@ -201,7 +202,7 @@ def test_no_command_and_unknown_command():
     assert_one_error_line(run_cli("frobnicate"), "frobnicate")
 
 
-def test_batch_script_passes_arguments_and_status(tmp_path):
+def test_blender_cli_script_passes_arguments_and_status(tmp_path):
     proc = run_cli(
         "paths", "--mesh", str(tmp_path / "none.stl"), *PATHS_OPTS, "--out", "p.json",
         script=True,
@@ -219,11 +220,8 @@ def test_batch_script_passes_arguments_and_status(tmp_path):
 def test_paths_reads_the_mesh_into_the_core_request(tmp_path, monkeypatch):
     """``paths`` reads the mesh (core ``mesh_io``, float64) and builds the core request from
     the flags, with no Blender scene in between (planning stubbed: no path is computed)."""
-    if NASA_STL.is_file():
-        mesh, T = NASA_STL, read_binary_stl(NASA_STL)
-    else:  # a generated mesh shows the same wiring
-        V, F = sample_surface()
-        mesh, T = write_binary_stl(tmp_path / "blade.stl", V, F), V[F]
+    mesh = blade_stl("rotor37")
+    T = stl_triangles(mesh)
     seen = {}
 
     def fake_plan_paths(trimesh, req, **_stages):

@@ -9,10 +9,11 @@ import json
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import radial_demo_paths
+from _scenes import radial_demo_paths
 
 from blisk_cam.blender import objects as blender_io
 from blisk_cam.blender import path_objects as output
+from blisk_cam.blender.collision_objects import collision_summary
 
 HOLDER = "36 6 60 6 60 16 120 16"
 
@@ -163,7 +164,7 @@ def test_check_collisions_colours_writes_and_survives_reload(addon, demo, tmp_pa
     blade = bpy.data.objects[blade_name]
     assert _stored(blade)["collision"] == summary
     assert np.array_equal(_pose_attribute(blade), status)
-    assert output.collision_summary(blade.name)["unresolved"] == summary["unresolved"]
+    assert collision_summary(blade.name)["unresolved"] == summary["unresolved"]
     objs = output.output_objects(output.find_output_collection(blade.name))
     assert objs["tool_assembly"] is not None and len(objs["neighbours"]) == 4
     # next unresolved pose: the cursor goes to an unresolved pose's tip, then the next one

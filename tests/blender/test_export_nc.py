@@ -9,7 +9,7 @@ import subprocess
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import radial_demo_paths
+from _scenes import radial_demo_paths
 
 from blisk_cam.core.machine.description import forward, load_machine
 

@@ -377,7 +377,7 @@ import json, sys
 import bpy, gpu
 import numpy as np
 from mathutils import Matrix
-from blisk_cam.core.cones import Axis
+from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.gizmos import cone_frame as cf
 from blisk_cam.gizmos.cone_gizmos import build_line_batches, draw_line_batches
 

@@ -11,11 +11,11 @@ import math
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import REPO, write_binary_stl
 
 from blisk_cam.blender import demo_scene, render
 from blisk_cam.blender import objects as blender_io
@@ -28,7 +28,9 @@ from blisk_cam.core.runtime import Cancelled
 from blisk_cam.operators import generate_paths as gen_mod
 from blisk_cam.operators.common import blade_problem, cones_problem
 from blisk_cam.operators.modal_job import ModalRunner
+from tests.support.mesh_files import write_binary_stl
 
+REPO = Path(__file__).resolve().parents[2]
 CUSP = CHORD = 0.3  # mm: coarse, the tests are about plumbing
 POSE_CAP = 40
 

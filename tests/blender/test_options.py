@@ -11,11 +11,11 @@ import math
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import BLADES, REPO, read_binary_stl, sample_surface, write_binary_stl
 
 from blisk_cam.blender import objects as blender_io
 from blisk_cam.blender import path_objects as output
@@ -29,14 +29,17 @@ from blisk_cam.core.part.cones import Cone, MorphingCones
 from blisk_cam.core.part.fitting import fit_cones_to_mesh
 from blisk_cam.core.part.profiles import MorphingProfiles, Profile
 from blisk_cam.core.process.blade_finish import make_cutter
+from tests.support.blades import blade_stl
+from tests.support.mesh_files import sample_surface, stl_triangles, write_binary_stl
 
-ROTOR67 = BLADES / "rotor67_blade_extended_open.stl"
+REPO = Path(__file__).resolve().parents[2]
+ROTOR67 = blade_stl("rotor67")
 TIMEOUT = 240
 
 
 @pytest.fixture(scope="module")
 def rotor67_arrays():
-    T = read_binary_stl(ROTOR67).astype(np.float64)
+    T = stl_triangles(ROTOR67).astype(np.float64)
     V, inv = np.unique(T.reshape(-1, 3), axis=0, return_inverse=True)
     return V, inv.reshape(-1, 3).astype(np.int64)
 

@@ -1,4 +1,4 @@
-"""blisk_cam.blender_io and blisk_cam.render in the bpy wheel (4.5 and 5.2): mesh files through
+"""blisk_cam.blender.objects and .render in the bpy wheel (4.5 and 5.2): mesh files through
 Blender's importers, evaluated objects to arrays (modifiers, world matrix, units), arrays and
 cones to objects, and headless previews (Workbench via EGL, Cycles CPU without GL)."""
 
@@ -8,21 +8,21 @@ import time
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import (
-    NASA_STL,
-    assert_same_triangles,
-    read_binary_stl,
-    sample_surface,
-    write_ascii_stl,
-    write_binary_stl,
-    write_obj,
-    write_ply,
-)
 
 from blisk_cam.blender import objects as blender_io
 from blisk_cam.blender import render
 from blisk_cam.core.geometry.axis import Axis, meridional
 from blisk_cam.core.part.cones import Cone
+from tests.support.blades import blade_stl
+from tests.support.mesh_files import (
+    assert_same_triangles,
+    sample_surface,
+    stl_triangles,
+    write_ascii_stl,
+    write_binary_stl,
+    write_obj,
+    write_ply,
+)
 
 # --- import ------------------------------------------------------------------------------
 
@@ -53,8 +53,8 @@ def test_import_gives_the_source_triangles(tmp_path, kind):
 
 
 def test_import_real_nasa_blade_unchanged():
-    T = read_binary_stl(NASA_STL)
-    obj = blender_io.import_mesh_file(NASA_STL)
+    T = stl_triangles(blade_stl("rotor37"))
+    obj = blender_io.import_mesh_file(blade_stl("rotor37"))
     V, F = blender_io.object_to_arrays(obj)
     assert len(F) == len(T) == 20196
     # welded: far fewer vertices than 3 per triangle

@@ -4,10 +4,10 @@
 import bpy
 import numpy as np
 import pytest
-from _mesh_files import sample_surface, write_binary_stl
 
 from blisk_cam.blender import objects as blender_io
 from blisk_cam.blender import units
+from tests.support.mesh_files import sample_surface, write_binary_stl
 
 
 def _setup(system, scale, unit):

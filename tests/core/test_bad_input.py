@@ -7,7 +7,6 @@ from contextlib import contextmanager
 
 import numpy as np
 import pytest
-from conftest import tube_blade
 
 from blisk_cam.core.errors import BliskCamError, ConeError, MeshError, ToleranceError
 from blisk_cam.core.geometry.axis import Axis
@@ -15,6 +14,7 @@ from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.part.cones import Cone
 from blisk_cam.core.paths.passes import generate_paths
 from blisk_cam.core.verify.measure import verify_path
+from tests.support.blades import tube_blade
 
 RHO, H, E = 6.0, 0.2, 0.1  # a coarse tolerance keeps the small tube fast
 AX = Axis()

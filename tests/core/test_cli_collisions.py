@@ -6,17 +6,17 @@ import json
 
 import numpy as np
 import pytest
-from conftest import write_binary_stl
 
 from blisk_cam.cli import main as cli
 from blisk_cam.core.part.blisk import make_demo_blisk
+from tests.support.mesh_files import write_binary_stl
 
 
 @pytest.fixture(scope="module")
 def blade(tmp_path_factory):
     d = make_demo_blisk(resolution=0.3, fillet=True, fillet_radius=10.0)
-    stl = write_binary_stl(tmp_path_factory.mktemp("blade") / "blade.stl", d.blade_vertices,
-                           d.blade_faces)
+    stl = str(write_binary_stl(tmp_path_factory.mktemp("blade") / "blade.stl", d.blade_vertices,
+                               d.blade_faces))
     return stl, [str(x) for x in d.tip_cone.as_list()]
 
 

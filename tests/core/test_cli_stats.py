@@ -5,18 +5,18 @@ the CLI runs has its figure."""
 import json
 
 import pytest
-from conftest import write_binary_stl
 
 from blisk_cam.cli import main as cli
 from blisk_cam.cli import paths as cli_paths
 from blisk_cam.core.part.blisk import make_demo_blisk
+from tests.support.mesh_files import write_binary_stl
 
 
 @pytest.fixture(scope="module")
 def blade(tmp_path_factory):
     d = make_demo_blisk(resolution=0.5)
-    path = write_binary_stl(tmp_path_factory.mktemp("blade") / "blade.stl", d.blade_vertices,
-                            d.blade_faces)
+    path = str(write_binary_stl(tmp_path_factory.mktemp("blade") / "blade.stl", d.blade_vertices,
+                                d.blade_faces))
     return path, [str(x) for x in d.hub_cone.as_list()], [str(x) for x in d.tip_cone.as_list()]
 
 

@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import nasa_blade
 
 from blisk_cam.core.geometry.axis import Axis, meridional
 from blisk_cam.core.geometry.distance import closest_points
@@ -25,6 +24,7 @@ from blisk_cam.core.paths.passes import END_INSET_CUSP_SHARE
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 from blisk_cam.core.toolpath.types import MOVE_APPROACH, MOVE_RAPID
 from blisk_cam.core.verify.measure import verify_path
+from tests.support.blades import nasa_blade
 
 AX = Axis()
 RHO, H, E = 6.0, 0.05, 0.05

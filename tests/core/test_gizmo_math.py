@@ -318,7 +318,7 @@ class CountingLoader:
 
 @pytest.fixture
 def tube_mesh(make_tube):
-    """A small analytic blade (tests/core/conftest.py): 3k triangles, sections on the LMCs."""
+    """A small analytic blade (tests/support/blades.py): 3k triangles, sections on the LMCs."""
     return make_tube(n_u=64, n_v=24)
 
 

@@ -13,7 +13,6 @@ import time
 
 import numpy as np
 import pytest
-from nc_helpers import blade_file, read_binary_stl
 
 from blisk_cam.core.errors import BliskCamError
 from blisk_cam.core.geometry.distance import MeshDistance
@@ -28,6 +27,7 @@ from blisk_cam.core.machine.block_error import (
 )
 from blisk_cam.core.machine.description import forward, load_machine
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from tests.support.blades import nasa_blade
 
 TOL = 0.01  # [dM], mm
 
@@ -52,17 +52,9 @@ def demo():
 
 @pytest.fixture(scope="module")
 def rotor37():
-    stl = blade_file("rotor37_blade_extended_open.stl")
-    meta = blade_file("rotor37_blade.json")
-    if stl is None or meta is None:
-        pytest.skip("Rotor 37 data not found")
     from blisk_cam.core.geometry.axis import Axis
-    from blisk_cam.core.part.cones import Cone
 
-    V, F = read_binary_stl(stl)
-    cones = json.loads(meta.read_text())["cones"]
-    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
-    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    V, F, c1, c2 = nasa_blade("rotor37")
     mesh = TriMesh.from_arrays(V, F)
     req = PathRequest(axis=Axis(), cone1=c1, cone2=c2, tool_radius=6.0, cusp=3.0, chord=0.002,
                       axis_mode="radial", radial_tilt=math.radians(75.0))

@@ -1,13 +1,12 @@
 """Ordering, climb/conventional, spiral blending and the linked program (blisk_cam.core.linking).
 
-The passes are exact mesh ∩ LMC curves of the analytic tube blade (conftest), so every figure
-is checked against the mesh and the cones themselves."""
+The passes are exact mesh ∩ LMC curves of the analytic tube blade (tests.support.blades), so
+every figure is checked against the mesh and the cones themselves."""
 
 import math
 
 import numpy as np
 import pytest
-from conftest import tube_blade
 
 from blisk_cam.core.errors import LinkError
 from blisk_cam.core.geometry.axis import Axis, meridional
@@ -32,6 +31,7 @@ from blisk_cam.core.toolpath.types import (
     MOVE_RETRACT,
     PassCurve,
 )
+from tests.support.blades import tube_blade
 
 AX = Axis()
 LEVELS = np.linspace(0.0, 1.0, 9)

@@ -5,7 +5,6 @@ import json
 
 import numpy as np
 import pytest
-from conftest import BLADES, read_binary_stl
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -24,6 +23,7 @@ from blisk_cam.core.toolpath.paths_io import (
     write_paths_json,
 )
 from blisk_cam.core.verify.measure import verify_path
+from tests.support.blades import BLADES, blade_meta, nasa_blade
 
 AX = Axis()
 RHO, H, E = 6.0, 0.05, 0.05
@@ -62,10 +62,7 @@ def point_on_family(mp, s, u):
 
 @pytest.fixture(scope="module")
 def r67_meta():
-    meta = BLADES / "rotor67_blade.json"
-    if not meta.exists():
-        pytest.skip(f"NASA blade data not found at {BLADES}")
-    return json.loads(meta.read_text())
+    return blade_meta("rotor67")
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +78,7 @@ def r67_hub_tip(r67_meta):
 
 @pytest.fixture(scope="module")
 def r67_mesh():
-    V, F = read_binary_stl(BLADES / "rotor67_blade_extended_open.stl")
+    V, F, _, _ = nasa_blade("rotor67")
     return TriMesh.from_arrays(V, F)
 
 

@@ -8,7 +8,6 @@ import tomllib
 
 import numpy as np
 import pytest
-from nc_helpers import demo_path
 
 from blisk_cam.core.errors import BliskCamError, MachineError, ReachError
 from blisk_cam.core.geometry.vectors import slerp
@@ -27,6 +26,7 @@ from blisk_cam.core.machine.kinematics import (
     solve_poses,
 )
 from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID
+from tests.support.nc import demo_path
 
 PRESETS = ("ac-trunnion", "bc-trunnion", "bc-head-table")
 

@@ -2,17 +2,17 @@
 
 import numpy as np
 import pytest
-from conftest import tube_blade
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from blisk_cam.core.errors import MeshError
 from blisk_cam.core.geometry.mesh import TriMesh
+from tests.support.blades import tube_blade
 
 
 def _outward_tube(**kw):
     V, F, _ = tube_blade(**kw)
-    return V, F[:, ::-1].copy()  # conftest's tube is wound inward; this is its outward winding
+    return V, F[:, ::-1].copy()  # tube_blade is wound inward; this is its outward winding
 
 
 @pytest.fixture(scope="module")

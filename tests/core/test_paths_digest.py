@@ -24,13 +24,10 @@ import pytest
 
 from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.core.geometry.mesh import TriMesh
-from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
 from blisk_cam.core.part.blisk import make_demo_blisk
-from blisk_cam.core.part.cones import Cone
 from blisk_cam.core.process.blade_finish import PLAN_STAGES, PathRequest, plan_paths
 from blisk_cam.core.toolpath.paths_io import write_paths_json
-
-ROOT = Path(__file__).resolve().parents[2]
+from tests.support.blades import nasa_blade
 
 #: sha256 of the paths JSON without "stats", floats rounded to 1e-7 (see :func:`digest`)
 DIGESTS = {
@@ -45,18 +42,6 @@ if int(np.__version__.split(".")[0]) >= 2:  # see the module docstring
 ALSO = {"demo": "84a7ca7bb90ab3a0d9ea8ae6e6c6189ecc2ad44176a1a734745bd6487dddd564"}
 
 STAGE_KEYS = tuple(f"seconds_{s.name}" for s in PLAN_STAGES) + ("seconds_plan",)
-
-
-def blades_dir() -> Path | None:
-    """tests/data/blades/ first, then shared/data/blades/ beside the repository (or beside
-    the directory holding it, for a git worktree)."""
-    for d in (ROOT / "tests" / "data" / "blades", ROOT.parent / "shared" / "data" / "blades",
-              ROOT.parents[1] / "shared" / "data" / "blades"):
-        if (d / "rotor37_blade_extended_open.stl").exists():
-            return d
-    return None
-
-
 
 
 def _rounded(o):
@@ -105,13 +90,7 @@ def demo_case():
 
 def rotor37_case():
     """Rotor 37 (extended open STL) between its json cones: ball R6, cusp 0.05, chord 0.05."""
-    d = blades_dir()
-    if d is None:
-        pytest.skip("Rotor 37 data not found in tests/data/blades/ nor ../shared/data/blades/")
-    V, F = read_binary_stl(d / "rotor37_blade_extended_open.stl")
-    cones = json.loads((d / "rotor37_blade.json").read_text())["cones"]
-    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
-    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    V, F, c1, c2 = nasa_blade("rotor37")
     req = PathRequest(axis=Axis(), cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
                       cusp=0.05, chord=0.05)
     return TriMesh.from_arrays(V, F), req

@@ -16,8 +16,17 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import write_binary_stl
-from nc_helpers import (
+
+from blisk_cam.cli.main import main as cli_main
+from blisk_cam.core.errors import BliskCamError, PostError, ReachError
+from blisk_cam.core.machine.description import forward, load_machine
+from blisk_cam.core.post import common
+from blisk_cam.core.post.blocks import SAFE, NcOptions
+from blisk_cam.core.post.export import POSTS, export_nc, nc_program
+from blisk_cam.core.toolpath.paths_io import path_to_dict, write_paths_json
+from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID
+from tests.support.mesh_files import write_binary_stl
+from tests.support.nc import (
     RS274,
     demo_path,
     parse_apt,
@@ -28,15 +37,6 @@ from nc_helpers import (
     rotor37_path,
     run_rs274,
 )
-
-from blisk_cam.cli.main import main as cli_main
-from blisk_cam.core.errors import BliskCamError, PostError, ReachError
-from blisk_cam.core.machine.description import forward, load_machine
-from blisk_cam.core.post import common
-from blisk_cam.core.post.blocks import SAFE, NcOptions
-from blisk_cam.core.post.export import POSTS, export_nc, nc_program
-from blisk_cam.core.toolpath.paths_io import path_to_dict, write_paths_json
-from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID
 
 PRINT_MM = 0.5e-4  # 4 decimals
 TIP_TOL = 1e-3 + 2 * PRINT_MM
@@ -53,10 +53,7 @@ def demo():
 
 @pytest.fixture(scope="module")
 def rotor37():
-    p = rotor37_path()
-    if p is None:
-        pytest.skip("Rotor 37 not found in tests/data/blades or ../shared/data/blades")
-    return p
+    return rotor37_path()
 
 
 def _angle(a, b):

@@ -6,7 +6,6 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import tube_blade
 
 from blisk_cam.core.errors import ToleranceError
 from blisk_cam.core.geometry.axis import Axis
@@ -15,6 +14,7 @@ from blisk_cam.core.paths.passes import generate_paths
 from blisk_cam.core.tool.cutter import Cutter
 from blisk_cam.core.verify.measure import verify_path
 from blisk_cam.core.verify.verdict import judge, verdict_dict, verdict_from_dict, verdict_lines
+from tests.support.blades import tube_blade
 
 
 def fake_report(left, gouge, at_left=(1.0, 2.0, 3.0), at_gouge=(4.0, 5.0, 6.0), tool=None):

@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-from conftest import nasa_blade
 
 from blisk_cam.core.display import _face_data, pressure_side_view, side_concavity
 from blisk_cam.core.errors import MeshError
 from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.part.blisk import make_demo_blisk
+from tests.support.blades import nasa_blade
 
 
 def _sides(V, F, ax):

@@ -1,14 +1,12 @@
-"""Helpers of the bpy-side tests: tiny mesh files written from arrays (binary/ASCII STL, OBJ,
-ASCII/binary PLY), a reader of binary STL used only as a test oracle, and an order-independent
-comparison of triangle soups. Not collected by pytest (no ``test_`` prefix)."""
+"""Mesh files written from arrays for the tests and benchmarks (binary/ASCII STL, OBJ,
+ASCII/binary PLY), a reader of binary STL used only as a test oracle, an order-independent
+comparison of triangle soups, and a small curved surface to write."""
+
+from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
-
-REPO = Path(__file__).resolve().parents[2]
-BLADES = REPO / "tests" / "data" / "blades"  # NASA Rotor 37/67, see its README.md
-NASA_STL = BLADES / "rotor37_blade_extended_open.stl"
 
 _STL_RECORD = np.dtype(
     [("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")]
@@ -33,11 +31,17 @@ def sample_surface(nu=5, nv=4):
 
 
 def _normals(V, F):
+    """Unit normals of the triangles (NaN for a degenerate or non-finite one)."""
+    V, F = np.asarray(V), np.asarray(F)
     n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    return n / np.linalg.norm(n, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return n / np.linalg.norm(n, axis=1, keepdims=True)
 
 
-def write_binary_stl(path, V, F, header=b"binary STL written by the Blisk CAM tests"):
+def write_binary_stl(path, V, F, header=b"binary STL written by the Blisk CAM tests") -> Path:
+    """Write (V (n, 3) mm, F (m, 3)) as a binary STL (float32, unit facet normals); returns
+    the path."""
+    V, F = np.asarray(V), np.asarray(F)
     rec = np.zeros(len(F), dtype=_STL_RECORD)
     rec["normal"] = _normals(V, F)
     rec["v"] = V[F]
@@ -53,7 +57,7 @@ def _f32(x):
     return repr(float(np.float32(x)))
 
 
-def write_ascii_stl(path, V, F, bad=None):
+def write_ascii_stl(path, V, F, bad=None) -> Path:
     """ASCII STL; ``bad`` replaces the text of the second coordinate of the first vertex."""
     lines = ["solid test"]
     for k, (tri, n) in enumerate(zip(V[F], _normals(V, F), strict=True)):
@@ -69,7 +73,8 @@ def write_ascii_stl(path, V, F, bad=None):
     return Path(path)
 
 
-def write_obj(path, V, F, bad=None):
+def write_obj(path, V, F, bad=None) -> Path:
+    """OBJ; ``bad`` replaces the text of the second coordinate of the second vertex."""
     lines = ["# OBJ written by the Blisk CAM tests", "o sample"]
     for i, p in enumerate(V):
         y = bad if (bad is not None and i == 1) else _f32(p[1])
@@ -79,7 +84,8 @@ def write_obj(path, V, F, bad=None):
     return Path(path)
 
 
-def write_ply(path, V, F, binary=False):
+def write_ply(path, V, F, binary=False) -> Path:
+    """ASCII or binary little-endian PLY (float32 vertices, int32 triangle lists)."""
     header = [
         "ply",
         "format binary_little_endian 1.0" if binary else "format ascii 1.0",
@@ -106,8 +112,9 @@ def write_ply(path, V, F, binary=False):
     return Path(path)
 
 
-def read_binary_stl(path):
-    """Triangles (m, 3, 3) float64 of a binary STL (test oracle only)."""
+def stl_triangles(path):
+    """Triangles (m, 3, 3) float64 of a binary STL (a test oracle, independent of the
+    readers under test)."""
     data = Path(path).read_bytes()
     n = int.from_bytes(data[80:84], "little")
     rec = np.frombuffer(data, dtype=_STL_RECORD, count=n, offset=84)
@@ -133,26 +140,3 @@ def assert_same_triangles(V, F, T_expected, atol=1e-4):
     want = canonical_triangles(T_expected)
     assert got.shape == want.shape, f"{got.shape[0]} triangles, expected {want.shape[0]}"
     np.testing.assert_allclose(got, want, rtol=0, atol=atol)
-
-
-def radial_demo_paths(demo, tmp_path, *, chord=0.1, cone2=None, generate=True):
-    """A fresh scene with the demo blade (imported from an STL) set up for a machine: cone 1
-    above the hub fillet (reachable on A ≤ 110°), cone 2 the demo's tip cone unless given,
-    Ø12 ball, cusp 0.5, the axis near radial (radial tilt 75°), no verify; the paths
-    generated. Returns (blade object, scene settings)."""
-    import bpy
-
-    from blisk_cam.blender import objects as blender_io
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    stl = write_binary_stl(tmp_path / "blade.stl", demo.blade_vertices, demo.blade_faces)
-    blade = blender_io.import_mesh_file(stl)
-    s = bpy.context.scene.blisk_cam
-    s.blade = blade
-    s.cone1 = (170.0, -25.0, 185.0, 35.0)
-    s.cone2 = demo.tip_cone.as_list() if cone2 is None else cone2
-    s.tool_diameter, s.cusp, s.chord = 12.0, 0.5, chord
-    s.axis_mode, s.radial_tilt, s.verify = "RADIAL", np.radians(75.0), False
-    if generate:
-        assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}
-    return blade, s

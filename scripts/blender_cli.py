@@ -1,13 +1,13 @@
 """Run the Blisk CAM command line inside a Blender binary.
 
-    blender -b --python scripts/blisk_batch.py -- demo --out DIR
-    blender -b --python scripts/blisk_batch.py -- paths --mesh blade.stl ... --out paths.json
+    blender -b --python scripts/blender_cli.py -- demo --out DIR
+    blender -b --python scripts/blender_cli.py -- paths --mesh blade.stl ... --out paths.json
 
 Takes the arguments after ``--`` and calls ``blisk_cam.cli.main`` with them, then exits with
 its status. Uses the installed and enabled extension (``bl_ext.<repository>.blisk_cam``) or a
 legacy add-on ``blisk_cam`` when Blender has one; otherwise puts this repository's root on
 ``sys.path`` and imports the package from the source tree. (Also works with a plain Python
-that has the ``bpy`` module: ``python scripts/blisk_batch.py -- demo --out DIR``.)
+that has the ``bpy`` module: ``python scripts/blender_cli.py -- demo --out DIR``.)
 """
 
 import importlib
@@ -43,7 +43,7 @@ def _cli_main():
             repo_root = Path(__file__).resolve().parents[1]
             sys.path.insert(0, str(repo_root))
             package = "blisk_cam"
-    return importlib.import_module(f"{package}.cli").main
+    return importlib.import_module(f"{package}.cli.main").main
 
 
 def run(argv=None):

@@ -1,9 +1,9 @@
-"""Shared by test_machine.py and test_posts.py: blade data lookup, small test paths, and one
-parser per NC dialect (the FK round trip reads the programs back)."""
+"""NC programs read back: one parser per dialect (the FK round trip of the posts reads the
+programs back), LinuxCNC's interpreter (rs274) run on a program, and the two paths the
+machine and post tests use (the demo blade and Rotor 37, small)."""
 
 from __future__ import annotations
 
-import json
 import math
 import re
 import shutil
@@ -12,31 +12,18 @@ from pathlib import Path
 
 import numpy as np
 
-from blisk_cam.core.geometry.mesh_io import read_mesh as read_binary_stl  # binary STL → (V, F)
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def blade_file(name: str) -> Path | None:
-    """``tests/data/blades/<name>`` first, then ``../shared/data/blades/<name>`` (beside the
-    repository, or beside the worktree folder); None when absent."""
-    for base in (ROOT / "tests" / "data" / "blades", ROOT.parent / "shared" / "data" / "blades",
-                 ROOT.parent.parent / "shared" / "data" / "blades"):
-        if (base / name).exists():
-            return base / name
-    return None
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.part.cones import Cone
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from tests.support.blades import nasa_blade
 
 
-
-
+# --- the paths posted by the tests ------------------------------------------------------------
 def demo_path():
     """Demo blade above the hub fillet (the fillet turns the axis beyond A 110°), axis near
     radial (radial tilt 75°), coarse cusp/chord: ~600 poses."""
-    from blisk_cam.core.geometry.mesh import TriMesh
-    from blisk_cam.core.part.blisk import make_demo_blisk
-    from blisk_cam.core.part.cones import Cone
-    from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
-
     d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
     req = PathRequest(axis=d.axis, cone1=Cone(170.0, -25.0, 185.0, 35.0), cone2=d.tip_cone,
@@ -46,20 +33,8 @@ def demo_path():
 
 
 def rotor37_path():
-    """Rotor 37 with its fitted cones, 3 mm ball, coarse; None when the data is missing."""
-    from blisk_cam.core.geometry.axis import Axis
-    from blisk_cam.core.geometry.mesh import TriMesh
-    from blisk_cam.core.part.cones import Cone
-    from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
-
-    stl = blade_file("rotor37_blade_extended_open.stl")
-    meta = blade_file("rotor37_blade.json")
-    if stl is None or meta is None:
-        return None
-    V, F = read_binary_stl(stl)
-    cones = json.loads(meta.read_text())["cones"]
-    c1 = Cone(*cones["hub"]["P1_rz_mm"], *cones["hub"]["P2_rz_mm"])
-    c2 = Cone(*cones["tip"]["P1_rz_mm"], *cones["tip"]["P2_rz_mm"])
+    """Rotor 37 with its fitted cones, 3 mm ball, coarse."""
+    V, F, c1, c2 = nasa_blade("rotor37")
     req = PathRequest(axis=Axis(), cone1=c1, cone2=c2, tool_radius=3.0, cusp=0.2, chord=0.1,
                       axis_mode="radial", radial_tilt=math.radians(75.0))
     return plan_paths(TriMesh.from_arrays(V, F), req).path
