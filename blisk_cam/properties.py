@@ -44,9 +44,6 @@ def poll_empty(_self, obj):
     return obj.type == "EMPTY"
 
 
-
-
-
 FIT_GENERATRICES = (
     ("AUTO", "Auto", "Per end a straight cone, or a polyline profile when the cone misses the "
      "boundary loop by more than 0.1 mm and the profile fits better (curved hub, LMRS)"),

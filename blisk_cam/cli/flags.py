@@ -11,7 +11,7 @@ import sys
 from ..core.errors import BliskCamError
 from ..core.options import check_value, fields, from_user, to_user
 
-__all__ = ["UsageError", "add_option_flags", "finite", "option_args"]
+__all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "finite", "option_args"]
 
 
 class UsageError(BliskCamError):
@@ -99,6 +99,8 @@ def option_args(args, stages) -> dict:
                 given[name] = value
     return given
 
+
+#: the program name in messages (``blisk_cam: error: ...``)
 PROG = "blisk_cam"
 
 

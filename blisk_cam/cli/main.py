@@ -101,7 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the CLI (subcommands ``demo``, ``paths`` and ``nc``)."""
     parser = _Parser(
         prog=PROG,
-        description="Blisk CAM: 5-axis finishing tool paths for blisk blades (batch mode).",
+        description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")

@@ -20,21 +20,20 @@ import os
 import sys
 
 from ..core.errors import BliskCamError
+from ..core.machine.description import known_presets
+from ..core.post.blocks import NcOptions
+from ..core.post.common import write_atomic
+from ..core.post.export import POSTS, export_nc
+from ..core.toolpath.paths_io import read_paths_json
+from .flags import PROG, UsageError, add_option_flags, option_args
 
 __all__ = ["add_nc_arguments", "run_nc"]
-
-PROG = "blisk_cam"
 
 
 def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True):
     """Add the ``nc`` options to ``parser``: the files, the machine and post, and every
     declared NC option (:class:`~blisk_cam.core.post.blocks.NcOptions`). ``with_paths``
     False: for ``paths ... --nc FILE`` (the path comes from the same run)."""
-    from ..core.machine.description import known_presets
-    from ..core.post.blocks import NcOptions
-    from ..core.post.export import POSTS
-    from .flags import add_option_flags
-
     if with_paths:
         parser.add_argument("--paths", required=True, metavar="FILE",
                             help="paths JSON (version 1) written by 'blisk_cam paths'")
@@ -52,20 +51,14 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
 
 def nc_options(args, **extra):
     """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds)."""
-    from ..core.post.blocks import NcOptions
-    from .flags import option_args
-
     return NcOptions(**option_args(args, (NcOptions,)), **extra)
 
 
 def export_from_args(path, args, out, blade_name):
     """Post ``path`` for ``args.machine``/``args.post`` into ``out``; prints the summary."""
-    from ..core.post.export import export_nc
-
     try:
         options = nc_options(args, blade_name=blade_name)
     except BliskCamError as exc:  # options that only make sense together
-        from .flags import UsageError
 
         raise UsageError(str(exc)) from None
     report = export_nc(path, args.machine, args.post, options, out)
@@ -79,7 +72,6 @@ def _write_report(report, filename):
     """The export report as JSON (atomically)."""
     import json
 
-    from ..core.post.common import write_atomic
 
     d = {k: getattr(report, k) for k in ("filename", "post", "machine", "blocks", "inserted",
                                          "minutes", "max_deviation", "blades", "indexed")}
@@ -92,9 +84,6 @@ def _write_report(report, filename):
 def run_nc(args) -> int:
     """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
     status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
-    from ..core.toolpath.paths_io import read_paths_json
-    from .flags import UsageError
-
     try:
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")

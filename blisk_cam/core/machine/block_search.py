@@ -135,8 +135,6 @@ def _rows(dp, s, e):
     return np.clip(J, 0, len(dp) - 1), mask
 
 
-
-
 def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
                       pose_model: str = "exact", detail: bool = False,
                       allowance: float | None = None):

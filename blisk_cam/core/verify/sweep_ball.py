@@ -15,7 +15,6 @@ from ..toolpath.types import PassCurve
 __all__ = ["SweptBall"]
 
 
-
 # ================================================================== swept cutters
 def _curve_polyline(c: PassCurve, pts):
     """Segments (a, b) of a pass polyline; closed passes include the closing move."""
