@@ -51,8 +51,8 @@ def write_collision_objects(scene, blade_name, path, *, neighbours=(), assembly=
     * ``neighbours`` — iterable of (name, V (n, 3) mm, F (m, 3)) meshes (the blade turned by
       ±k·360°/N), shown grey as ``"<blade> <name>"``;
     * ``assembly`` — (V (n, 3) mm, F (m, 3|4)) of the tool assembly in the tool frame (tip at
-      the origin, axis +Z, :func:`blisk_cam.core.tool_assembly.assembly_mesh`): placed at the
-      pose with the smallest clearance (:func:`blisk_cam.core.avoidance.worst_pose`); the
+      the origin, axis +Z, :func:`blisk_cam.core.tool.assembly.assembly_mesh`): placed at the
+      pose with the smallest clearance (:func:`blisk_cam.core.collision.report.worst_pose`); the
       exact tip (mm, double) is kept in its ``blisk_cam_tip_mm`` property.
 
     Returns ``{"tool_assembly": object or None, "neighbours": [objects]}``.

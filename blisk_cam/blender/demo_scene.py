@@ -52,7 +52,7 @@ def build_demo_scene(scene=None, *, blades=3, demo=None):
     for k in range(1, blades):
         offsets.append((k + 1) // 2 if k % 2 else -(k // 2))
     for k in offsets:
-        if hasattr(demo, "blade"):  # core.demo: blade i = blade 0 turned by i pitches
+        if hasattr(demo, "blade"):  # core.part.blisk: blade i = blade 0 turned by i pitches
             Vk, Fk = demo.blade(k)
         else:
             Vk, Fk = rotate_about(Vb, axis.d, k * pitch, axis.o, form="outer"), Fb

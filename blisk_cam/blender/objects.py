@@ -603,8 +603,8 @@ def cone_to_object(
     material_name=None,
 ):
     """A light mesh of a cone surface: the generatrix P1 → P2 revolved about the axis — or, for
-    a ``core.lmrs.Profile``, the surface of revolution of its polyline (a hub or tip that is
-    not a cone, paper 001 §4.2).
+    a ``core.part.profiles.Profile``, the surface of revolution of its polyline (a hub or tip that
+    is not a cone, paper 001 §4.2).
 
     Parameters
     ----------

@@ -34,8 +34,8 @@ Collection ``"Blisk CAM – <blade>"`` (en dash), a child of the blade's first c
   attribute ``verify`` (material left green → blue, beyond the tolerance purple; gouge red;
   grey outside the machined region) and the raw value ``material_left`` (mm, NaN outside).
 
-The paths JSON of the result (exactly what ``core.paths_io.write_paths_json`` writes) is kept
-in a Text datablock ``"Blisk CAM – <blade>.json"`` so ``export_paths`` works after a reload.
+The paths JSON of the result (exactly what ``core.toolpath.paths_io.write_paths_json`` writes) is
+kept in a Text datablock ``"Blisk CAM – <blade>.json"`` so ``export_paths`` works after a reload.
 Regenerating builds the new collection completely, then removes the old one: a failure or a
 cancel leaves the previous result as it was. The blade object itself is never modified.
 

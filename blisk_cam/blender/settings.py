@@ -37,7 +37,7 @@ __all__ = [
     "summary",
 ]
 
-#: fit enum → ``core.fitting.fit_cones_to_mesh(generatrix=...)``
+#: fit enum → ``core.part.fitting.fit_cones_to_mesh(generatrix=...)``
 FIT_NAMES = {"AUTO": "auto", "CONE": "cone", "PROFILE": "profile"}
 
 
@@ -52,7 +52,7 @@ def f32(value) -> float:
 
 
 def profile_from_json(text: str, what: str = "profile") -> Profile:
-    """A :class:`~blisk_cam.core.lmrs.Profile` from its stored JSON ``[[r, z], ...]`` (mm);
+    """A :class:`~blisk_cam.core.part.profiles.Profile` from its stored JSON ``[[r, z], ...]`` (mm);
     ConeError naming ``what`` when the text is not one."""
     try:
         values = json.loads(text)
@@ -221,7 +221,7 @@ def collision_options(settings):
 
 def store_statistics(settings, blade_name, path, verify, seconds, verdict=None):
     """Statistics of the result on the settings (saved in the .blend, shown by the panel);
-    ``verdict`` (core.verdict.Verdict) gives ``stat_verdict`` "PASS"/"FAIL" ("" without)."""
+    ``verdict`` (core.verify.verdict.Verdict) gives ``stat_verdict`` "PASS"/"FAIL" ("" without)."""
     settings.has_result = True
     settings.stat_blade = blade_name
     settings.stat_curves = len(path.curves)

@@ -21,7 +21,7 @@ from .flags import UsageError, _fail, option_args
 def read_profile_csv(path):
     """A hub or tip generatrix polyline from a text file: one point ``r, z`` (mm) per line,
     separated by a comma, semicolon or white space; ``#`` starts a comment; blank lines are
-    skipped. Returns a ``core.lmrs.Profile``; BliskCamError naming the file (and line) when
+    skipped. Returns a ``core.part.profiles.Profile``; BliskCamError naming the file (and line) when
     it is missing or not such a list."""
     from ..core.part.profiles import Profile
 
@@ -168,7 +168,8 @@ def _check_orientation_args(args, given):
 
 
 def read_obstacles(files):
-    """[(name, V, F)] of the --obstacle files (core.mesh_io; MeshError naming a bad file)."""
+    """[(name, V, F)] of the --obstacle files (core.geometry.mesh_io; MeshError naming a bad
+    file)."""
     from ..core.geometry.mesh_io import read_mesh
 
     out = []

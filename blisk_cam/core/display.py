@@ -1,6 +1,7 @@
 """Display values of a result, as arrays: colour ramps and bins of the path curves, the
 material-left colours of the verify map, the poses shown as empties, the measured cusp per
-pass, and the per-pose move codes and flags of a path. Pure numpy; ``blisk_cam.output`` turns
+pass, and the per-pose move codes and flags of a path. Pure numpy;
+``blisk_cam.blender.path_objects`` turns
 them into Blender materials and attributes."""
 
 from __future__ import annotations

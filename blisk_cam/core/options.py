@@ -266,7 +266,7 @@ AXIS_MODE_CHOICES = (
 # ----------------------------------------------------------------------- option groups
 @dataclass(frozen=True)
 class CutterOptions(OptionGroup):
-    """The cutter (DIN 66215 shapes, :mod:`.cutter`). Sizes by diameter, as tools are named."""
+    """The cutter (DIN 66215 shapes, :mod:`.tool.cutter`). Sizes by diameter, as tools are named."""
 
     title = "Cutter (sized by diameter)"
     error = ToolError
@@ -334,7 +334,7 @@ class ToleranceOptions(OptionGroup):
 
 @dataclass(frozen=True)
 class AxisOptions(OptionGroup):
-    """How the tool axis is chosen (:mod:`.orientation`): a = normalize(n + tan(lead) f +
+    """How the tool axis is chosen (:mod:`.paths.orientation`): a = normalize(n + tan(lead) f +
     tan(tilt) k) with f the feed direction, n the surface normal and k = f × n; lead > 0
     leans the spindle forward toward the feed, tilt > 0 to the right of the feed."""
 
@@ -373,7 +373,7 @@ class AxisOptions(OptionGroup):
 
 @dataclass(frozen=True)
 class GougeOptions(OptionGroup):
-    """Local gouge check and fix (:mod:`.local_gouge`)."""
+    """Local gouge check and fix (:mod:`.paths.gouge`)."""
 
     title = "Local gouge fix"
     error = OrientationError
@@ -389,7 +389,7 @@ class GougeOptions(OptionGroup):
 
 @dataclass(frozen=True)
 class LinkingOptions(OptionGroup):
-    """Order of the passes and the moves between them (:mod:`.linking`)."""
+    """Order of the passes and the moves between them (:mod:`.paths.linking`)."""
 
     title = "Linking"
     error = LinkError

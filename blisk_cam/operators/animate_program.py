@@ -1,6 +1,6 @@
 """``blisk_cam.animate_program``: Blender as the simulator. The tool assembly is animated
 along the NC block stream of the machine in the "Machine & NC" panel, one keyframe per block
-(``core.simulation``): in the part view the tool moves over the standing blade; in the machine
+(``core.machine.motion``): in the part view the tool moves over the standing blade; in the machine
 view the tool stands at the programmed X Y Z and a copy of the blade and its paths (the
 user's objects are not touched) turns with the tables. Scrubbing the timeline shows the
 motion; a preview render can be any frame of it."""

@@ -1,4 +1,4 @@
-"""``blisk_cam.check_collisions``: the blade's stored paths → ``core.avoidance`` (check, or
+"""``blisk_cam.check_collisions``: the blade's stored paths → ``core.collision.avoid`` (check, or
 avoid) → the output objects rewritten with the checked path.
 
 Inputs: the blade's evaluated mesh (when some but not all of its faces are selected — one

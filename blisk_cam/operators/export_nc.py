@@ -1,5 +1,5 @@
 """``blisk_cam.export_nc``: the last generated paths → an NC program for the machine and
-post of the "Machine & NC" panel (``core.nc.export_nc``: inverse kinematics within the
+post of the "Machine & NC" panel (``core.post.export.export_nc``: inverse kinematics within the
 limits, rotary linearization, every blade, written atomically)."""
 
 import bpy

@@ -1,7 +1,7 @@
 """``blisk_cam.fit_cones``: fit cone 1 (hub) and cone 2 (tip) to the blade's boundary loops.
 
 What is fitted follows ``scene.blisk_cam.fit_generatrix`` (straight cones, polyline profiles
-for a curved hub or tip — LMRS, paper 001 §4.2 — or per end whichever fits: ``core.fitting``).
+for a curved hub or tip — LMRS, paper 001 §4.2 — or per end whichever fits: ``core.part.fitting``).
 A fitted profile is stored in full in ``profile1``/``profile2``; the cone and the middle
 generatrix are shown at once in the blade's output collection (:func:`output.write_cone_objects`).
 """

@@ -1,8 +1,8 @@
-"""``blisk_cam.generate_paths``: scene settings → ``core.pipeline`` → path objects.
+"""``blisk_cam.generate_paths``: scene settings → ``core.process.blade_finish`` → path objects.
 
 Interactively (invoke with a window) it runs as a modal operator driven by a timer
-(:class:`.modal_job.ModalJobOperator`): the weld and ``core.pipeline.iter_plan_paths`` run on
-a worker thread (arrays only, no ``bpy``), each tick only polls it (waiting a few
+(:class:`.modal_job.ModalJobOperator`): the weld and ``core.process.blade_finish.iter_plan_paths``
+run on a worker thread (arrays only, no ``bpy``), each tick only polls it (waiting a few
 milliseconds at most, so the UI never freezes for a planning step) and the status bar shows
 the progress; ESC while planning stops the worker at its next step and leaves the previous
 result as it was (the new objects are only built once the path is complete). As soon as the
@@ -11,13 +11,13 @@ the ``verify`` setting on, ``core.verify.verify_path`` then measures the path on
 worker thread while the UI stays free, the panel shows "Verifying…", and the timer attaches
 the figures when they are ready: the verdict in the paths JSON, the measured cusp per curve,
 the statistics and (``verify_map``) the colour-map copy of the blade
-(:func:`blisk_cam.output.attach_verify`). ESC while verifying, or a new Generate, drops the
-pending figures and stops the worker at its next chunk of points (``verify_path``'s cancel
+(:func:`blisk_cam.blender.path_objects.attach_verify`). ESC while verifying, or a new Generate,
+drops the pending figures and stops the worker at its next chunk of points (``verify_path``'s cancel
 hook): the new paths stay, without verify figures or a colour map.
 
 In background mode, or called with EXEC_DEFAULT, it runs synchronously (plan, verify, then
-one :func:`blisk_cam.output.write_path_objects` with everything): the same objects and JSON as
-the interactive run once its verify is attached.
+one :func:`blisk_cam.blender.path_objects.write_path_objects` with everything): the same objects
+and JSON as the interactive run once its verify is attached.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ class PathJob:
         self.plan = None
         self.verify = None
         self.warnings = []
-        self.verdict = None  # core.verdict.Verdict once verified
+        self.verdict = None  # core.verify.verdict.Verdict once verified
         # the interactive verify on a worker thread (start_verify … attach_verify)
         self._thread = None
         self._cancel = None  # threading.Event of the running worker
@@ -88,7 +88,7 @@ class PathJob:
         # the interactive planning on a worker thread (poll_plan)
         self._plan_thread = self._plan_cancel = self._plan_error = None
         self.t0 = time.perf_counter()
-        self._it = None  # core.pipeline.iter_plan_paths, made by the first step
+        self._it = None  # core.process.blade_finish.iter_plan_paths, made by the first step
 
     @property
     def planned(self) -> bool:
@@ -216,7 +216,7 @@ class PathJob:
     def cancel_verify(self):
         """Drop the pending figures: they are never attached, and the worker stops at its
         next chunk of points (``verify_path``'s cancel hook; it ends with
-        ``core.geometry.Cancelled`` in ``_verify_error`` and no result)."""
+        ``core.runtime.Cancelled`` in ``_verify_error`` and no result)."""
         self.verify_cancelled = True
         if getattr(self, "_cancel", None) is not None:
             self._cancel.set()

@@ -1,5 +1,5 @@
 """``blisk_cam.next_unresolved_pose``: put the 3D cursor on the next pose that still collides
-(:func:`blisk_cam.core.avoidance.next_unresolved`, after the one the cursor is on; the
+(:func:`blisk_cam.core.collision.report.next_unresolved`, after the one the cursor is on; the
 cursor's Z turns along the tool axis) and, with a window, centre the 3D views on it."""
 
 from __future__ import annotations

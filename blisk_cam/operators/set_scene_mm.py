@@ -1,5 +1,5 @@
 """``blisk_cam.set_scene_mm``: switch the scene's units to millimetres with one click
-(:mod:`blisk_cam.units`)."""
+(:mod:`blisk_cam.blender.units`)."""
 
 import bpy
 

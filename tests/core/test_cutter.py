@@ -1,4 +1,4 @@
-"""Tests of blisk_cam.core.cutter: the posed cutter touches the surface at its CC point, is
+"""Tests of blisk_cam.core.tool.cutter: the posed cutter touches the surface at its CC point, is
 tangent there, stays on the tool side of the tangent plane, and its effective radius and
 the scallop it leaves are checked against figures computed another way (support functions
 of the profile outline, line searches on the exact signed distance)."""

@@ -1,4 +1,4 @@
-"""Measured truths about the demo blisk (blisk_cam.core.demo).
+"""Measured truths about the demo blisk (blisk_cam.core.part.blisk).
 
 Every check measures the generated arrays geometrically (cones, circles fitted to the edges,
 thicknesses, winding numbers, distances to a finer clean mesh) and compares with the

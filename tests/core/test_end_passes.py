@@ -6,7 +6,7 @@ vertices lie on both sides of it and the level s = 0 (s = 1) ran in and out of t
 Rotor 67's hub pass broke into 15 open pieces of 2–30 points (22 approach/retract cycles,
 72 rapid poses), Rotor 37's into 13 (12 cycles), against one closed pass with the given
 cones. The generator now moves such an end pass a hair into the region
-(:meth:`blisk_cam.core.pathgen._Generator.end_level`). Measured on the real blades with a
+(:meth:`blisk_cam.core.paths.passes._Generator.end_level`). Measured on the real blades with a
 6 mm ball, h = e = 0.05 mm, by the independent verifier.
 """
 

@@ -2,7 +2,7 @@
 preview cache (``blisk_cam.gizmos.lmc_preview``).
 
 Handle matrices ↔ cone end points are checked against the core's own meridional coordinates
-(``core.cones.meridional``), for random axes, half-plane angles and unit scales; draw
+(``core.geometry.axis.meridional``), for random axes, half-plane angles and unit scales; draw
 geometry is checked to lie on the cones it draws; the preview's curves to lie on their LMCs.
 """
 

@@ -1,4 +1,4 @@
-"""Re-routing of colliding links (issue 10, :mod:`blisk_cam.core.link_avoidance`): measured
+"""Re-routing of colliding links (issue 10, :mod:`blisk_cam.core.collision.reroute`): measured
 truths only.
 
 Scene: one side of the demo blade (24 blades, its neighbours as obstacles), passes up to

@@ -1,4 +1,5 @@
-"""Ordering, climb/conventional, spiral blending and the linked program (blisk_cam.core.linking).
+"""Ordering, climb/conventional, spiral blending and the linked program
+(blisk_cam.core.paths.linking).
 
 The passes are exact mesh ∩ LMC curves of the analytic tube blade (tests.support.blades), so
 every figure is checked against the mesh and the cones themselves."""

@@ -1,4 +1,4 @@
-"""Tool axis from lead/tilt, fixed axes, smoothing, zero speed (blisk_cam.core.orientation).
+"""Tool axis from lead/tilt, fixed axes, smoothing, zero speed (blisk_cam.core.paths.orientation).
 
 Angles are measured back from the produced axes (dot products with the frame), never read
 from the inputs."""

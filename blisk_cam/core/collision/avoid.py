@@ -5,7 +5,7 @@ For a cutting pose whose tool assembly comes closer than ds to an obstacle
 (:mod:`.collision`), let F be the closest obstacle point and P the pivot — the ball centre
 for a ball-end cutter (the ball keeps its contact at the CC point whatever the axis), the CC
 point for other cutters (their tip is recomputed from the CC point for the new axis with
-:meth:`.cutter.Cutter.cl_points`, keeping the planned pose's small lift λ along the
+:meth:`..tool.cutter.Cutter.cl_points`, keeping the planned pose's small lift λ along the
 normal). In the plane M through P, F and F′ (F's foot on the
 axis, Eq. 10) the axis is turned away from F by the smallest angle that puts F at the distance
 L = R2 + ds from the axis line (Eq. 11; R2 the radius of the colliding part at F's height):
@@ -18,7 +18,7 @@ L = R2 + ds from the axis line (Eq. 11; R2 the radius of the colliding part at F
 where a pose still collides (another point of the same blade, or the adjacent blade on the
 other side of the channel) the step repeats with L_j = R2 + j · ds (Eqs. 16–17) up to
 ``max_iterations`` times. A pose whose corrected axis leaves the limits (|lead| ≤ max_lead,
-|tilt| ≤ max_tilt from the surface normal, as in :mod:`.local_gouge`; where the planned axis
+|tilt| ≤ max_tilt from the surface normal, as in :mod:`..paths.gouge`; where the planned axis
 already leans further, e.g. a radial strategy, its own |lead| and |tilt| are the limits: the
 turn may not lean it further than planned), or that the cutter can
 no longer touch, or that the iterations do not clear, is **unresolved**: it keeps its planned
@@ -30,7 +30,7 @@ A cos θ + B sin θ = sqrt(|PF|² − L²) with A = PF · T, B = PF · n̂⊥ (n
 part ⊥ T), i.e. θₙ = atan2(B, A) + arccos(sqrt(|PF|² − L²) / hypot(A, B)) ≥ θ.
 
 Removal depth (Eqs. 14–15): turning the axis changes which part of the flute faces the target
-blade. The posed cutter (:class:`~.cutter.Cutter` up to the flute length) is measured against
+blade. The posed cutter (:class:`~..tool.cutter.Cutter` up to the flute length) is measured against
 the target blade's vertices and face centroids around the contact; where it lies deeper than
 it did with the planned axis by more than ε (``gouge_tol``, default chord / 4), the tip is
 lifted along the surface normal by that excess (Eq. 15) and the pose re-checked.
@@ -44,7 +44,7 @@ limit still cannot hold (a corrected pose next to an unresolved one) the report 
 (``n_turn_over``). Everything is then checked again (all poses, links and rapids included);
 approach/retract points follow the corrected axis of the pass end they belong to. A run of
 link, approach, retract or rapid poses that still collides is re-routed — retract to the
-clearance surface, along it, approach — by :mod:`.link_avoidance`; where no route clears,
+clearance surface, along it, approach — by :mod:`.reroute`; where no route clears,
 its poses stay as planned and the colliding ones are unresolved (status 2).
 
 Status per pose: 0 clear (unchanged), 1 corrected (axis or tip changed, clear), 2 unresolved.

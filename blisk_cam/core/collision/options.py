@@ -29,7 +29,7 @@ class CollisionOptions(OptionGroup):
     neighbours : int — adjacent blades checked per side (default 2)
     flute_length : float or None, mm — None: the cutter's flute length h
     holder : sequence of (z, r) or None, mm — the body profile from the flute length up
-        (:class:`~.tool_assembly.ToolAssembly`); None: :func:`default_assembly`
+        (:class:`~..tool.assembly.ToolAssembly`); None: :func:`default_assembly`
     safety : float, mm — ds (default 1 mm)
     max_lead, max_tilt : float, rad — axis limits of a corrected pose from the surface normal
         (default 30° each, either sign; a pose planned beyond them: its planned angles)
@@ -100,7 +100,7 @@ class CollisionOptions(OptionGroup):
         check_group(self)  # the declared bounds (as the panel and the flags show them)
 
     def assembly(self, cutter) -> ToolAssembly:
-        """The :class:`~.tool_assembly.ToolAssembly` of these options for ``cutter``."""
+        """The :class:`~..tool.assembly.ToolAssembly` of these options for ``cutter``."""
         cutter = as_cutter(cutter)
         if self.holder is None:
             return default_assembly(cutter, self.flute_length, self.safety)
@@ -110,7 +110,7 @@ class CollisionOptions(OptionGroup):
 
 def default_assembly(cutter: Cutter, flute_length: float | None = None,
                      safety: float = DEFAULT_SAFETY) -> ToolAssembly:
-    """The cutter's own shank and holder (:class:`~.cutter.Cutter` fields): the shank
+    """The cutter's own shank and holder (:class:`~..tool.cutter.Cutter` fields): the shank
     Ø ``shank_diameter`` for 2 d (plus the neck) above the flute, then the holder
     Ø ``holder_diameter`` for ``holder_length``."""
     fl = cutter.h if flute_length is None else float(flute_length)

@@ -100,7 +100,8 @@ class _Frustum:
 
 
 class _Flute:
-    """The cutter's cutting part up to the flute length (exact convex shape, :mod:`.cutter`)."""
+    """The cutter's cutting part up to the flute length (exact convex shape,
+    :mod:`..tool.cutter`)."""
 
     kind = PART_FLUTE
 

@@ -51,7 +51,7 @@ class CollisionReport:
         the planned turn there) after avoidance (mostly a corrected pose next to an
         unresolved one, which keeps its planned axis); max_turn_deg : the largest such turn
     links : dict — the link runs checked, colliding, re-routed and unresolved
-        (:func:`.link_avoidance.reroute_links`); empty without a program
+        (:func:`.reroute.reroute_links`); empty without a program
     """
 
     mode: str

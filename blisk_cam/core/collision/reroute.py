@@ -1,5 +1,5 @@
 """Re-routing of colliding links through the clearance surface (issue 10; the cutting poses
-are corrected first, :mod:`.avoidance`, paper 004 §3).
+are corrected first, :mod:`.avoid`, paper 004 §3).
 
 A **link run** is a maximal run of program rows that are not pass poses
 (``Program.curve < 0``): the retract, the rapids and the approach point between two passes,
@@ -22,7 +22,7 @@ the last (no B) the retract. The retract needs an axis that leads out of the bli
 radius must grow along it by at least ``MIN_RADIAL`` mm per mm (the axis within ~84° of the
 radial direction), else that run has no route.
 
-**Clearance surface** — the cone ``r(z) = R + slope (z − z0)`` of :mod:`.linking`, read back
+**Clearance surface** — the cone ``r(z) = R + slope (z − z0)`` of :mod:`..paths.linking`, read back
 from the program (:func:`clearance_surface`: its rapid rows on the surface), so a path read
 from a file is re-routed on the surface it was linked with.
 
@@ -113,7 +113,7 @@ def link_runs(program: Program) -> list[LinkRun]:
 
 
 def clearance_surface(program: Program, axis: Axis) -> Clearance:
-    """The clearance surface a :mod:`.linking` program was built with, from its rows on it:
+    """The clearance surface a :mod:`..paths.linking` program was built with, from its rows on it:
     rapid rows followed by another rapid (out to, along and down the surface) and a last
     rapid row. r = R + slope · z fitted by least squares (a cylinder when the radii agree to
     1 µm; where the rows lie on no one surface — a program re-routed before — a cylinder
@@ -262,7 +262,7 @@ def reroute_links(scene, program: Program, planned: Program, axis: Axis, curve_r
     ----------
     scene : CollisionScene
     program : Program — after the cutting poses were corrected, with ``collision_status``
-        and ``clearance`` per row (:func:`.avoidance.iter_avoid_collisions`)
+        and ``clearance`` per row (:func:`.avoid.iter_avoid_collisions`)
     planned : Program — the planned program (same rows): the planned axes
     axis : Axis — the blisk axis
     curve_rotation : list of (k,) float, rad — per pass, the angle of each pose's axis from

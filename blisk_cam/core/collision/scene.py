@@ -4,8 +4,8 @@ Obstacles (:class:`Obstacles`): the target blade, its neighbours — the blade t
 blisk axis by ±k·360°/N, k = 1..``neighbours`` — and any extra meshes (hub, whole blisk,
 fixture), each a named triangle mesh.
 
-Tool (:class:`~.tool_assembly.ToolAssembly`): the **flute** (the :class:`~.cutter.Cutter`'s own
-convex shape, from the tip to the assembly's flute length) and the **body** (the union of the
+Tool (:class:`~..tool.assembly.ToolAssembly`): the **flute** (the :class:`~..tool.cutter.Cutter`'s
+own convex shape, from the tip to the assembly's flute length) and the **body** (the union of the
 frustums of the holder profile above it). Clearance of a pose (mm, signed):
 
     clearance = min( dist(body, every obstacle incl. the target blade),
@@ -236,7 +236,7 @@ class CollisionScene:
     Parameters
     ----------
     obstacles : Obstacles
-    cutter : Cutter (or anything :func:`.cutter.as_cutter` reads)
+    cutter : Cutter (or anything :func:`..tool.cutter.as_cutter` reads)
     assembly : ToolAssembly
     """
 

@@ -16,7 +16,7 @@ CHUNK = 2048  # queries per chunk in tree traversals (the frontier stays in cach
 
 _FLAT_PAIRS = 8192  # (query, leaf) pairs below which a tree query tests all leaves at once
 
-# packet traversal (:meth:`_Tree.leaf_pairs`): queries per group, levels walked per query at
+# packet traversal (:meth:`ClusterTree.leaf_pairs`): queries per group, levels walked per query at
 # the bottom of the tree, fewest queries for which groups are formed
 _GROUP, _GROUP_TAIL, GROUP_MIN = 8, 0, 256
 
@@ -402,7 +402,7 @@ class ClusterTree:
 
 
 def query_groups(P):
-    """Groups of ``_GROUP`` neighbouring queries (k, 3) for :meth:`_Tree.leaf_pairs`'
+    """Groups of ``_GROUP`` neighbouring queries (k, 3) for :meth:`ClusterTree.leaf_pairs`'
     packet traversal: (g, _GROUP) query ids, −1 padded (median splits, empty groups
     dropped)."""
     slots, _ = _median_slots(P, _GROUP)

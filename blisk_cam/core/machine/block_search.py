@@ -69,7 +69,7 @@ class DensePass:
 
     q : (m, 5) joints; tip, axis, normal : (m, 3) paths' frame (axis, normal unit);
     lever : (m, 3) mm tip → corner centre; centre : (m, 3) mm corner centres;
-    gP, gT : (m, 5) error gradients (:func:`.machining_error.error_gradients`);
+    gP, gT : (m, 5) error gradients (:func:`.block_error.error_gradients`);
     Jc : (m, 3, 5) corner-centre Jacobian; source : (m,) float — position in the input pass
     (fractional between its poses); rho : mm, curvature radius for the lateral remainder term.
     """
@@ -141,7 +141,7 @@ def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
     """Machining error bound (mm) of blocks s → e, one per row (s, e (R,) dense positions).
 
     For each dense pose j with s < j < e: the chord parameter t_j of the joint-linear motion
-    nearest pose j in the corner-centre metric (paper 002 Eq. 1, see :mod:`.machining_error`),
+    nearest pose j in the corner-centre metric (paper 002 Eq. 1, see :mod:`.block_error`),
     the trajectory deviation ``Δq_j`` (Eqs. 2–3), then ``l_P``, ``l_θ``: ``pose_model``
     "jacobian" maps Δq by the machine Jacobian (Eqs. 4–7, linear); "exact" (default) takes the
     deviated pose by forward kinematics (no linearisation of the machine: at tight leading
@@ -486,7 +486,7 @@ def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
     ``samples`` interior points (more for long blocks: ``per_dense`` per dense pose); ``ref``
     (m,) the planned dense poses' clearance from the mesh, when already known;
     ``machine.forward`` gives the cutter pose. With ``mesh`` (TriMesh or
-    :class:`.geometry.MeshDistance`): the signed clearance of the cutter from the mesh
+    :class:`..geometry.distance.MeshDistance`): the signed clearance of the cutter from the mesh
     (:func:`_clearance`) minus that of the planned dense path (nearest dense pose) — > 0
     undercut, < 0 overcut. Without a mesh: the corner centre's offset from the nearest dense
     pose's centre along that pose's surface normal (no linearisation of the machine; the

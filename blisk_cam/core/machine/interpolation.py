@@ -6,7 +6,7 @@ deviation between blocks depends on the rotary motion as much as on the tip path
 blocks by the chord height of the tip path in the part frame (:func:`search_chord`, the
 baseline) therefore leaves some blocks far below the tolerance and others near it. The
 constant-error search (:func:`search_constant_error`) instead walks each densely planned pass
-and makes every block as long as the error bound of :mod:`.machining_error` (paper 002
+and makes every block as long as the error bound of :mod:`.block_error` (paper 002
 Eqs. 1–14) allows: the bound of each block ends up just below the permissible error [d_M],
 so the measured error of every block is near [d_M] and far fewer blocks are needed.
 

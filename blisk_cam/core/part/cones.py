@@ -77,7 +77,7 @@ class Cone:
     @property
     def vertices(self) -> np.ndarray:
         """(2, 2) float, mm: the generatrix end points P1, P2 as rows (r, z), the same shape
-        convention as :attr:`.lmrs.Profile.vertices`."""
+        convention as :attr:`.profiles.Profile.vertices`."""
         return np.array([[self.r1, self.z1], [self.r2, self.z2]])
 
     def signed_distance(self, r, z):
@@ -216,14 +216,14 @@ class MorphingCones:
     def polyline(self, s):
         """Vertices of the generatrix at ratio ``s``: (2, 2) for a scalar ``s`` (rows A(s),
         B(s)), (k, 2, 2) for (k,) ``s``. The interface shared with
-        :class:`.lmrs.MorphingProfiles` (whose polylines have more vertices)."""
+        :class:`.profiles.MorphingProfiles` (whose polylines have more vertices)."""
         a, b = self.generatrix(s)
         return np.stack([a, b], axis=-2)
 
     def segment_lines(self, s: float) -> np.ndarray:
         """(1, 3) float: (α, β, γ) of :meth:`line_coefficients` as the single segment line
         of the generatrix polyline at ``s`` (the interface shared with
-        :class:`.lmrs.MorphingProfiles`)."""
+        :class:`.profiles.MorphingProfiles`)."""
         return np.array([self.line_coefficients(s)])
 
     def generatrix(self, s):

@@ -7,7 +7,7 @@ and tell hub from tip by the mean radius (the hub is nearer the axis).
 
 When the hub (or tip) is a curved surface of revolution (paper 001 §4.2; NASA Rotor 67's hub
 is fitted by a straight cone only to ≈ 2 mm) the generatrix can instead be a least-squares
-polyline, a :class:`.lmrs.Profile` (:func:`fit_profile`): ``generatrix="profile"`` always,
+polyline, a :class:`.profiles.Profile` (:func:`fit_profile`): ``generatrix="profile"`` always,
 ``generatrix="auto"`` when the straight cone's largest residual exceeds
 :data:`PROFILE_THRESHOLD` mm and the profile fits better.
 """

@@ -2,8 +2,8 @@
 
 At a CC point, in a tangent direction d, the surface has the normal curvature κ_s(d) (> 0
 convex, < 0 concave, outward normals) and the cutter, as it sweeps along the pass, the
-effective radius R_c(d) (:meth:`.cutter.Cutter.effective_radius`: ρ for a ball, r + (R − r)/sin λ
-across the feed for a bull nose at lead λ, ∞ for a flat bottom flush with the surface). Two
+effective radius R_c(d) (:meth:`..tool.cutter.Cutter.effective_radius`: ρ for a ball, r + (R −
+r)/sin λ across the feed for a bull nose at lead λ, ∞ for a flat bottom flush with the surface). Two
 surfaces touching at a point with the tool above: the cutter stays out of the material near
 the contact in direction d iff ``1/R_c(d) + κ_s(d) ≥ 0``; on a concave region that is
 ``R_c(d) ≤ 1/|κ_s(d)|`` (paper 003 §IV.B: "the cutter orientation should be restricted in an
@@ -267,7 +267,7 @@ def fix_near_gouges(
     the demo blisk's 4.2 mm concave corner) the cutter can still cut into the surface a few
     millimetres away. Here every pose is checked against the surface ``samples`` (mesh
     vertices and face centroids) within its bounding radius with the cutter's exact signed
-    distance (:meth:`.cutter.Cutter.signed_distance`); a pose deeper than ``tol`` tries the
+    distance (:meth:`..tool.cutter.Cutter.signed_distance`); a pose deeper than ``tol`` tries the
     same lead/tilt changes as :func:`fix_local_gouges`, cheapest first, until one clears.
 
     Parameters

@@ -318,7 +318,7 @@ def order_passes(
 
     Parameters
     ----------
-    curves : list of PassCurve — CC passes in order of s (as :mod:`.pathgen` makes them)
+    curves : list of PassCurve — CC passes in order of s (as :mod:`.passes` makes them)
     opts : LinkOptions
     morph, axis : the LMC family and the blisk axis
     projector : SurfaceProjector — needed for the spiral

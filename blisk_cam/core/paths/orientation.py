@@ -470,6 +470,6 @@ def _smallest_feasible_limit(A, N, delta: float, closed: bool) -> float:
 def zero_speed_mask(normal, axis, tol: float = math.radians(1.0)):
     """(k,) bool: the axis within ``tol`` radians of the normal — a ball or bull-nose tool then
     touches at (or, for a bull nose, across) its tip where the cutting speed is zero (paper 003
-    §I). Cutters with their own rule provide ``zero_speed`` (see :mod:`.cutter`)."""
+    §I). Cutters with their own rule provide ``zero_speed`` (see :mod:`..tool.cutter`)."""
     c = np.einsum("ij,ij->i", unit(np.asarray(normal, float)), unit(np.asarray(axis, float)))
     return c >= math.cos(tol)

@@ -390,7 +390,7 @@ class _Generator:
         """The ratio of the first (``end`` = 0) or last (``end`` = 1) pass.
 
         Normally ``end`` itself. But when a generatrix was *fitted* to the blade's boundary
-        loop (least squares, :mod:`.fitting`) the loop's vertices lie on both sides of it, up
+        loop (least squares, :mod:`..part.fitting`) the loop's vertices lie on both sides of it, up
         to the fit's residual, and the level ``end`` runs in and out of the mesh: Rotor 67's
         hub level broke into 15 open pieces of 2–22 points (23 approach/retract cycles). Then
         the pass is moved a hair into the region: to the level just past every boundary vertex

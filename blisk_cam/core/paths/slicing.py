@@ -1,7 +1,7 @@
 """Mesh ∩ linear morphing cone → ordered polylines (paper 001 §3.1.1–3.1.2).
 
 Every vertex gets the ratio ``s`` of the LMC through it (the morph field, closed-form, see
-:mod:`.cones`). A level ``s_i`` crosses the faces whose vertex ratios straddle it; on each
+:mod:`..part.cones`). A level ``s_i`` crosses the faces whose vertex ratios straddle it; on each
 crossing edge the point is the exact root of the cone equation along the edge (the paper's
 Eq. 9, generalised: square ``α r(t) = −(β z(t) + γ)`` into a quadratic in the edge parameter
 ``t`` and keep the root where the unsquared equation holds), not a linear interpolation of
@@ -9,7 +9,7 @@ Eq. 9, generalised: square ``α r(t) = −(β z(t) + γ)`` into a quadratic in t
 several components per level are returned separately.
 
 The same holds for the linear morphing revolution surfaces between two profile generatrices
-(paper 001 §4.2, :mod:`.lmrs`): their generatrix is a polyline, and each crossing edge is
+(paper 001 §4.2, :mod:`..part.profiles`): their generatrix is a polyline, and each crossing edge is
 solved exactly on the line of the polyline segment the crossing lies on.
 
 Robustness: vertices within ``on_tol`` mm of the LMC count as lying on it and are assigned to
@@ -277,8 +277,8 @@ class MeshConeSlicer:
         Inside one face the curve mesh ∩ LMRS(s) is the plane of the face cut with the
         revolution of the polyline G_s: a piecewise conic that turns a corner where it crosses
         the circle swept by a vertex A_j(s) of G_s (the boundary of morph strips j − 1 and j,
-        :meth:`.lmrs.MorphingProfiles.segment_of`). The straight segment between the curve's two
-        edge roots in that face cuts the corner. Where the two ends of a segment lie in
+        :meth:`..part.profiles.MorphingProfiles.segment_of`). The straight segment between the
+        curve's two edge roots in that face cuts the corner. Where the two ends of a segment lie in
         different strips, the corner of each strip boundary passed is inserted: the point of
         the face's plane at height z = z_j on the circle r = r_j, (r_j, z_j) = A_j(s) — the
         plane ∩ {z = z_j} is a line X0 + τ u (u = n × d, no axial part), and |q0 + τ u|² = r_j²
@@ -374,8 +374,8 @@ class MeshConeSlicer:
 
         A cone's generatrix is one line α r + β z + γ = 0: the closed form of
         :meth:`_roots_on_lines` with scalar coefficients. An LMRS generatrix (a polyline,
-        :class:`.lmrs.MorphingProfiles`) is one line per segment: each edge is solved on the
-        line of the segment its crossing lies on — the strip of the linearly interpolated
+        :class:`..part.profiles.MorphingProfiles`) is one line per segment: each edge is solved on
+        the line of the segment its crossing lies on — the strip of the linearly interpolated
         crossing (``morph.segment_of``), moved to the neighbouring segment while the root
         falls off the segment (the crossing is then exact on the polyline), and the rare edge
         still unresolved is solved on every segment, keeping the root on its segment with the

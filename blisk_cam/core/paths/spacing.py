@@ -128,7 +128,7 @@ def surface_radii(mesh: TriMesh, axis: Axis, morph) -> tuple[float, float]:
 
     Per face whose centroid lies in the band 0 ≤ s ≤ 1: the shape operator is the symmetric
     part of the Jacobian of the linearly interpolated vertex normals (the curvature tool of
-    :mod:`.local_gouge`), restricted to the face's tangent plane; its eigenvalues are the
+    :mod:`.gouge`), restricted to the face's tangent plane; its eigenvalues are the
     principal curvatures (> 0 convex, outward normals). A thin leading/trailing edge sets the
     convex radius (the demo blade: 0.27 mm, Rotor 37: 0.08 mm), a hub fillet the concave one
     (the demo's 8 mm fillet: 4.2 mm where it meets the trailing edge)."""
@@ -162,7 +162,7 @@ def convex_edge_radius(mesh: TriMesh, axis: Axis, morph) -> float:
 def lead_for_concave(cutter: Cutter, strategy: AxisStrategy, limits, concave: float):
     """Smallest |lead| (radians) at which ``cutter`` curves at least as much as a concave
     surface of radius ``concave`` (mm) in both the feed and the side direction (the local
-    gouge condition, :mod:`.local_gouge`), searching leads from the requested one up to the
+    gouge condition, :mod:`.gouge`), searching leads from the requested one up to the
     gouge-fix limit at the requested tilts; None when no lead within the limit does.
 
     Returns (lead or None, the smallest effective radius (mm) reachable within the limit)."""
@@ -189,7 +189,7 @@ def expansion_radius(
 ) -> float:
     """Radius (mm) of the ball the passes are spaced for: over the strategy's lead/tilt range
     (a 5 × 5 grid), the smallest of the cutter's cross-feed effective radius (the osculating
-    circle of the swept envelope, :meth:`.cutter.Cutter.effective_radius`) and the radius of
+    circle of the swept envelope, :meth:`..tool.cutter.Cutter.effective_radius`) and the radius of
     the ball leaving the same scallop ``cusp`` on a plane and, with ``edge_radius`` (mm, the
     smallest convex radius the passes run around, :func:`convex_edge_radius`), on that edge
     (:func:`_cusp_equivalent_radius` — the osculating radius alone over-estimates a bull nose's

@@ -47,7 +47,7 @@ class NcReport:
     deviation of joint-linear motion after linearization; blades : int; indexed : bool;
     unresolved : int — segments still beyond the chord after the insertion round limit (0
     normally; the summary warns otherwise); interpolation : the
-    :class:`.interpolation.InterpolationReport` when the cut blocks were interpolated.
+    :class:`..machine.interpolation.InterpolationReport` when the cut blocks were interpolated.
     """
 
     filename: str
@@ -78,7 +78,8 @@ class NcReport:
 
 def interpolate_for_nc(path: ToolPath, machine: Machine, options: NcOptions):
     """``options.interpolation`` set: the path with its cut blocks chosen by
-    :func:`.interpolation.interpolate_program` (rotary steps ≤ ``options.max_rotary_step``),
+    :func:`..machine.interpolation.interpolate_program` (rotary steps ≤
+    ``options.max_rotary_step``),
     the options with the header note, and the InterpolationReport; else (path, options, None)."""
     if not options.interpolation:
         return path, options, None

@@ -2,13 +2,13 @@
 operators and the CLI all fill in, and the run that turns it into a :class:`ToolPath`.
 
 Stages (each its own module, one concept of the papers each):
-cone fitting (:mod:`.fitting`, when a cone is not given) → LMC passes of CC points
-(:mod:`.pathgen`, paper 001) → machining order and direction, spiral blending
-(:mod:`.linking`, paper 002) → tool axes from lead/tilt (:mod:`.orientation`, paper 003) →
-local gouge check and fix (:mod:`.local_gouge`) → axis smoothing → cutter location per cutter
-type (:mod:`.cutter`, paper 003) → the linked program with approach/retract/links.
-
-Pass spacing for non-ball cutters. :mod:`.pathgen` spaces passes for a ball. With lead/tilt
+cone fitting (:mod:`..part.fitting`, when a cone is not given) → LMC passes of CC points
+(:mod:`..paths.passes`, paper 001) → machining order and direction, spiral blending
+(:mod:`..paths.linking`, paper 002) → tool axes from lead/tilt (:mod:`..paths.orientation`, paper
+003) → local gouge check and fix (:mod:`..paths.gouge`) → axis smoothing → cutter location per
+cutter
+type (:mod:`..tool.cutter`, paper 003) → the linked program with approach/retract/links.
+ Pass spacing for non-ball cutters. :mod:`..paths.passes` spaces passes for a ball. With lead/tilt
 given in the local frame, the cutter's swept envelope across the feed does not depend on the
 surface, so the passes are spaced for the ball that leaves the same scallop at the same step
 (:func:`expansion_radius`), the smallest over the requested lead/tilt range (the conservative
@@ -24,7 +24,7 @@ the inclination is not known in advance and the range 0–80° is used.
 ``PlanResult.path.stats`` records ``expansion_radius``, ``edge_radius``, ``concave_radius``.
 
 Angles are radians, lengths mm, as everywhere in core. ``iter_plan_paths`` yields
-:class:`~.pathgen.Progress` and returns a :class:`PlanResult` (``StopIteration.value``) so a
+:class:`~..runtime.Progress` and returns a :class:`PlanResult` (``StopIteration.value``) so a
 modal operator can drive it and cancel between yields; ``plan_paths`` exhausts it.
 """
 
@@ -210,7 +210,7 @@ class PlanResult(OperationResult):
     """The path and, when a cone was fitted, the fit (for the residual report): the
     :class:`~.operation.OperationResult` of blade finishing.
 
-    ``gouge`` summarises the local gouge check (:class:`.local_gouge.LocalGougeReport`).
+    ``gouge`` summarises the local gouge check (:class:`..paths.gouge.LocalGougeReport`).
     ``warnings`` lists every message for the user: the generator's
     (``path.stats["warnings"]``, e.g. uncut poses) and the planning's (``path.warnings``,
     written as the paths JSON's top-level ``"warnings"``, e.g. zero cutting speed)."""
@@ -227,7 +227,7 @@ class PlanResult(OperationResult):
 
 
 def make_cutter(req: PathRequest) -> Cutter:
-    """The request's :class:`~.cutter.Cutter` (ToolError on impossible dimensions)."""
+    """The request's :class:`~..tool.cutter.Cutter` (ToolError on impossible dimensions)."""
     if req.tool_type not in TOOL_TYPES:
         raise BliskCamError(
             f"unknown tool type {req.tool_type!r}; use one of {', '.join(TOOL_TYPES)}"
@@ -362,10 +362,10 @@ def _fit_concave(
 
     Nothing changes when the requested orientation already curves at least as much as the
     region and ``rho`` fits it.
-    The local gouge fix (:mod:`.local_gouge`) raises the lead there until the cutter's
+    The local gouge fix (:mod:`..paths.gouge`) raises the lead there until the cutter's
     effective radius fits; the passes are then spaced for the whole lead range the path will
     use (requested → needed, :func:`expansion_radius`) and for a ball that fits the concave
-    region itself (:mod:`.pathgen` spaces with a ball). When no lead within the gouge-fix
+    region itself (:mod:`..paths.passes` spaces with a ball). When no lead within the gouge-fix
     limit fits — or the fix is off, or the axis is not lead/tilt — the request cannot be
     finished without gouging: say so, with the figures."""
     kind = {"bull": "bull-nose", "flat": "flat end mill", "taper": "taper cutter"}[cutter.type]
@@ -476,7 +476,7 @@ class PlanState:
 
 
 def _stage_fit(st: PlanState):
-    """Cones not given are fitted to the blade's boundary loops (:mod:`.fitting`); the pass
+    """Cones not given are fitted to the blade's boundary loops (:mod:`..part.fitting`); the pass
     spacing radius follows from the cutter and the surface (:func:`expansion_radius`)."""
     req = st.req
     st.cone1, st.cone2 = req.cone1, req.cone2
@@ -505,7 +505,7 @@ def _stage_passes(st: PlanState):
 
 
 def _stage_order(st: PlanState):
-    """Machining order and direction of the passes, the spiral (:mod:`.linking`)."""
+    """Machining order and direction of the passes, the spiral (:mod:`..paths.linking`)."""
     st.morph = morph_between(st.passes.cone1, st.passes.cone2)  # LMC, or LMRS for a Profile
     st.projector = SurfaceProjector(st.mesh, st.req.axis, st.morph)
     st.link_options = _link_options(st.req, st.rho)
@@ -531,7 +531,7 @@ def _stage_orient(st: PlanState):
 
 def _stage_link(st: PlanState):
     """The linked program: approach, cut, links on the surface or via the clearance
-    surface (:func:`.linking.build_program`)."""
+    surface (:func:`..paths.linking.build_program`)."""
     st.program = build_program(
         st.curves,
         st.link_options,
@@ -572,7 +572,7 @@ def _stage_checks(st: PlanState):
 
 
 def collision_stage(options, obstacles=()) -> Stage:
-    """The "collision" stage (:mod:`.avoidance`, paper 004) for ``iter_plan_paths(...,
+    """The "collision" stage (:mod:`..collision.avoid`, paper 004) for ``iter_plan_paths(...,
     extra=(collision_stage(options, obstacles),))``: the planned passes and program are
     checked against the blade, its rotated neighbours and the ``obstacles`` ((name, V, F)),
     and corrected in mode "avoid". The report is ``PlanResult.collision``."""

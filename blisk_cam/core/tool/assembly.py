@@ -255,7 +255,7 @@ class ToolAssembly:
         """(k, 2) meridional outline (r, z), mm, of the whole tool in the tool frame: from the
         tip (0, 0) up the cutter's profile to the flute length, then the body profile, closed
         on the axis at the top — the revolution column order of
-        :func:`.revolution.revolve`."""
+        :func:`..geometry.axis.revolve`."""
 
         cutter = as_cutter(cutter)
         try:

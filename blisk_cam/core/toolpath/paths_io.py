@@ -8,7 +8,7 @@ they do not know, so later versions can add fields without breaking version-1 re
 
 Fields added (still version 1; none of the above changed):
 
-* ``"tool"`` — the full cutter (:meth:`.cutter.Cutter.as_dict`: ``type``, ``radius``,
+* ``"tool"`` — the full cutter (:meth:`..tool.cutter.Cutter.as_dict`: ``type``, ``radius``,
   ``corner_radius``, the DIN 66215 fields d, r, e, f, alpha, beta, h, shank/holder); a
   version-1 ``{"type": "ball", "radius": 6.0}`` still reads.
 * per curve ``"move"`` — the move type name of every pose (``"cut"``, ``"link"``,
@@ -23,11 +23,11 @@ Fields added (still version 1; none of the above changed):
 * ``"profile1"``/``"profile2"`` — curved (LMRS) generatrices, see ``_generatrix_entries``.
 * ``"warnings"`` — ``ToolPath.warnings``, a list of strings for the user (e.g. zero cutting
   speed); absent when there are none, so a path without warnings is written as before.
-* collision (only when the path was checked, :mod:`.avoidance`): per curve ``"collision":
+* collision (only when the path was checked, :mod:`..collision.avoid`): per curve ``"collision":
   {"status": [0 clear | 1 corrected | 2 unresolved per pose], "clearance": [mm per pose],
   "rotation_deg": [degrees per pose from the planned axis]}``; in ``"program"`` the arrays
   ``"collision_status"``, ``"clearance"`` and ``"rotation_deg"`` (every row, links
-  included; re-routed links, :mod:`.link_avoidance`, are rows like any other); top level
+  included; re-routed links, :mod:`..collision.reroute`, are rows like any other); top level
   ``"collision"`` — the summary (checked poses, colliding before, corrected, unresolved, min
   clearance, obstacles, assembly, safety, mode), and ``"tool" → "assembly"``
   (``{"flute_length", "profile": [[z, r], ...], "safety"}``). Absent when not checked, so
@@ -169,8 +169,9 @@ def read_paths_json(filename) -> ToolPath:
 
 # --- profile generatrices (LMRS, paper 001 §4.2) ----------------------------------------
 def _generatrix_entries(cone1, cone2) -> dict:
-    """``"cone1"``/``"cone2"`` as version 1 has them; a :class:`.lmrs.Profile` is written there
-    as its least-squares straight cone (so version-1 readers still see a cone) and in full as
+    """``"cone1"``/``"cone2"`` as version 1 has them; a :class:`..part.profiles.Profile` is
+    written there as its least-squares straight cone (so version-1 readers still see a cone) and in
+    full as
     ``"profile1"``/``"profile2"``: ``[[r, z], ...]`` (mm)."""
     out = {}
     for k, g in ((1, cone1), (2, cone2)):

@@ -3,8 +3,8 @@ linked program (every move in machining order, links included).
 
 A pose (ARCHITECTURE.md, conventions) is: CC point, unit surface normal (out of the
 material, toward the tool), tool tip point (CL) and unit tool axis (tip → spindle). The tip
-follows from the cutter touching the CC point (:meth:`.cutter.Cutter.cl_points`); for a ball of
-radius ρ the ball centre is ``tip + ρ a``. The path generator, which spaces the passes for a
+follows from the cutter touching the CC point (:meth:`..tool.cutter.Cutter.cl_points`); for a ball
+of radius ρ the ball centre is ``tip + ρ a``. The path generator, which spaces the passes for a
 ball, puts the centre at ``cc + (ρ + λ) n``, λ ≥ 0 being the few-µm lift that clears the facets
 around the CC point, so ``tip = cc + λ n`` there.
 
@@ -23,7 +23,7 @@ code   name        feed?  meaning
 
 Pose flags (``FLAG_*``, a uint8 bit mask per pose): ``FLAG_LOCAL_GOUGE`` the cutter's
 curvature exceeds the surface's at the contact and lead/tilt could not fix it within the
-limits (:mod:`.local_gouge`); ``FLAG_ZERO_SPEED`` the contact lies on the rotation axis
+limits (:mod:`..paths.gouge`); ``FLAG_ZERO_SPEED`` the contact lies on the rotation axis
 (zero cutting speed, paper 003 §I); ``FLAG_GOUGE_FIXED`` lead/tilt were raised to clear a local
 gouge; ``FLAG_AXIS_SMOOTHED`` axis smoothing moved the axis away from the requested lead/tilt.
 """
@@ -100,7 +100,7 @@ def move_codes(names) -> np.ndarray:
 
 def BallTool(radius: float, type: str = "ball") -> Cutter:  # noqa: N802 - kept for old callers
     """A ball-end cutter of ``radius`` mm: the former ``BallTool`` class, now a
-    :class:`~.cutter.Cutter` (``Cutter.ball(radius)``)."""
+    :class:`~..tool.cutter.Cutter` (``Cutter.ball(radius)``)."""
     return Cutter.from_spec(type, radius)
 
 
@@ -122,7 +122,7 @@ class PassCurve:
     flags : (k,) uint8 — pose flags (module table); default 0
     ratio : (k,) float or None — per-pose morph ratio where it varies along the pass (a
         spiral); None means every pose lies on the LMC at ``s``
-    collision : dict or None — collision figures per pose (:mod:`.avoidance`): ``status``
+    collision : dict or None — collision figures per pose (:mod:`..collision.avoid`): ``status``
         (k,) int8 (0 clear, 1 corrected, 2 unresolved), ``clearance`` (k,) float mm,
         ``rotation`` (k,) float rad (angle of the axis from the planned one); None when the
         path was not checked
@@ -189,11 +189,11 @@ class Program:
         with its first pose again (the closing cut)
     flags : (m,) uint8 — pose flags (pass poses carry their pass's flags)
     collision_status : (m,) int8 or None — 0 clear, 1 corrected, 2 unresolved collision
-        (:mod:`.avoidance`); None when the path was not checked
+        (:mod:`..collision.avoid`); None when the path was not checked
     clearance : (m,) float or None, mm — signed clearance of the tool assembly per pose
     rotation_deg : (m,) float or None, degrees — angle of each pose's axis from its planned
-        axis (:mod:`.avoidance`, :mod:`.link_avoidance`; degrees, as the paths JSON writes
-        them, so a file reads back exactly); None when not checked
+        axis (:mod:`..collision.avoid`, :mod:`..collision.reroute`; degrees, as the paths JSON
+        writes them, so a file reads back exactly); None when not checked
     """
 
     tip: np.ndarray
@@ -237,12 +237,13 @@ class Program:
 class ToolPath:
     """A finishing path between two cones: passes in machining order, and the linked program.
 
-    ``tool`` is a :class:`~.cutter.Cutter` (``BallTool(ρ)`` builds a ball). ``program`` is None
-    until the passes are linked (:mod:`.linking`). ``warnings`` are messages for the user
+    ``tool`` is a :class:`~..tool.cutter.Cutter` (``BallTool(ρ)`` builds a ball). ``program`` is
+    None until the passes are linked (:mod:`..paths.linking`). ``warnings`` are messages for the
+    user
     about the path as a whole that the planning adds (e.g. zero cutting speed,
-    :mod:`.pipeline`); the generator's own warnings stay in ``stats["warnings"]``.
-    until the passes are linked (:mod:`.linking`). ``collision`` is the collision summary
-    (:meth:`.avoidance.CollisionReport.summary`, JSON-ready) once the path was checked, else
+    :mod:`..process.blade_finish`); the generator's own warnings stay in ``stats["warnings"]``.
+    until the passes are linked (:mod:`..paths.linking`). ``collision`` is the collision summary
+    (:meth:`..collision.report.CollisionReport.summary`, JSON-ready) once the path was checked, else
     None.
     """
 

@@ -39,7 +39,7 @@ class SweptForest:
     queries' chunk tails took the flat test before too.)
 
     Other members (:class:`SweptBall`, the "exact" method) are asked member by member, one
-    task each (:func:`.geometry.map_tasks`), each with its points in the order given.
+    task each (:func:`..runtime.map_tasks`), each with its points in the order given.
 
     Parameters
     ----------

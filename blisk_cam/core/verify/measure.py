@@ -349,7 +349,7 @@ def verify_path(
     workers : int or None — threads for the point queries (None: every core of this
         process); every point is measured independently, so the figures do not depend on it
     cancel : None, threading.Event or callable returning True to stop — checked between the
-        steps and before every chunk of points (:func:`.geometry.map_chunks`) and every
+        steps and before every chunk of points (:func:`..runtime.map_chunks`) and every
         per-level task, from the worker threads too; once set, :class:`Cancelled` is raised
         (within one chunk's time) and nothing is returned
 
@@ -641,7 +641,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     ``known`` (a ball only): (d_lo, d_hi, has_lo, has_hi) (k,) — the points' distances to
     their strip's two levels already measured (:func:`_scallops`); only the others are
     measured at the edges' ends. A ball's iterates are measured against the segments listed
-    near the first iterate (:meth:`.sweep.SweptBall.near`: the same floats, no tree walk
+    near the first iterate (:meth:`.sweep_ball.SweptBall.near`: the same floats, no tree walk
     per iteration); its centres are looked for ``rho`` (mm) along the samples' normals."""
     ng = len(smp)
     eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
@@ -829,7 +829,7 @@ def _two_level_queries(rows, strip, npairs):
 
 
 def _two_level_near(cut, P, strip, npairs, margin, guess):
-    """A ball's per-level :meth:`.sweep.SweptBall.near` for :func:`_two_level_distances`'s
+    """A ball's per-level :meth:`.sweep_ball.SweptBall.near` for :func:`_two_level_distances`'s
     ``near``: the queries of :func:`_two_level_queries` of the points (k, 3) (``margin``
     (k,) mm, ``guess`` (k, 3) where the nearest centres are likely) and, per level holding
     any, its listed segments — [(rows of those queries, near)]."""

@@ -52,7 +52,7 @@ class SweepError(BliskCamError):
 
 
 class SweptCutter:
-    """The volume swept by any :class:`~.cutter.Cutter` along pose polylines.
+    """The volume swept by any :class:`~..tool.cutter.Cutter` along pose polylines.
 
     Between two consecutive poses the tip moves on a straight line and the axis turns on the
     great arc (slerp) at a uniform rate — the machine's motion to first order. ``distance``
@@ -82,7 +82,7 @@ class SweptCutter:
          at height f) passes nearest the point (a k-d tree of 16 points per circle); two
          trees over runs of consecutive segments bound the cutter's side (the cylinder of
          radius max_radius about the axis from f to h) and its bottom (the discs of radius e
-         at height f, widened by R_b; see :meth:`_fast_trees`) — with :class:`_Tree`
+         at height f, widened by R_b; see :meth:`_fast_trees`) — with :class:`ClusterTree`
          ``discs`` the bounds below the tips reach radius · sin∠(node axis, tool axis), not
          the radius. The poses of a run are evaluated once for both segments they end;
       1. the cutter lies in the slab 0 ≤ z ≤ h of its frame, so sd ≥ −z and sd ≥ z − h for
@@ -558,7 +558,7 @@ def _bracket_below(v0, s0, v1, s1, U):
 
 
 def _sorted_group_argmin(k, qs, values, ids):
-    """:func:`~.geometry._group_argmin` for queries ``qs`` sorted ascending (the same
+    """:func:`~..geometry.bvh.group_argmin` for queries ``qs`` sorted ascending (the same
     minimum and the same id: the last one achieving it), by segment reductions instead of
     ``np.minimum.at``."""
     best = np.full(k, np.inf)
@@ -646,7 +646,7 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
 def swept_cutter(tool, curves, owners=None, method: str = "fast"):
     """The swept-volume distance model for ``tool`` along ``curves`` (list of PassCurve).
 
-    ``tool`` is a :class:`~.cutter.Cutter`, a legacy ``BallTool`` or a paths-JSON tool dict.
+    ``tool`` is a :class:`~..tool.cutter.Cutter`, a legacy ``BallTool`` or a paths-JSON tool dict.
     A ball keeps the exact swept-sphere computation (:class:`SweptBall`; any axis: the ball is
     symmetric); every other cutter is swept from its exact shape (:class:`SweptCutter`, with
     ``method`` "fast" or "exact", see there). Both provide ``distance``, ``nearest``,

@@ -99,7 +99,7 @@ class SweptBall:
 
         ``near`` (optional, (k, 3) mm): guesses of the ball centres nearest to the points
         (e.g. a surface point + radius · its normal); they only make the search faster, the
-        result is the same bit for bit (see :func:`.geometry._nearest`)."""
+        result is the same bit for bit (see :func:`..geometry.bvh.nearest`)."""
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         if self.tree is None:
             return np.full(len(P), np.inf), np.full(len(P), -1, dtype=np.int64)
