@@ -170,6 +170,13 @@ def test_zip_contents(extension_zip):
         "operators/__init__.py",
         "gizmos/__init__.py",
         "core/__init__.py",
+        # every package of the house reaches the zip (subpackages included)
+        *(f"core/{pkg}/__init__.py" for pkg in ("geometry", "tool", "part", "toolpath", "paths",
+                                                "verify", "machine", "collision", "post",
+                                                "process")),
+        "blender/__init__.py",
+        "cli/main.py",
+        "machines/ac-trunnion.toml",
     ):
         assert required in names, required
     assert not [n for n in names if n.endswith(".pyc") or "__pycache__" in n]
