@@ -29,7 +29,7 @@ import bpy
 
 from ..blender.settings import path_request, settings_cones, store_statistics, summary
 from ..core.errors import BliskCamError
-from ..core.geometry.mesh import input_vertex_values
+from ..core.geometry.weld import input_vertex_values
 from .common import (
     blade_axis,
     blade_problem,

@@ -175,7 +175,7 @@ def test_weld_close_pairs_are_the_kd_tree_pairs():
     """The close-pair scan along the weld direction finds exactly the pairs a k-d tree finds,
     on clustered points (near duplicates) and on points crowding one plane across the
     direction (the scan gives way to the tree there; the weld's result is the same)."""
-    from blisk_cam.core.geometry import mesh as M
+    from blisk_cam.core.geometry import weld as M
 
     rng = np.random.default_rng(3)
     base = rng.random((4000, 3)) * 10.0
@@ -197,7 +197,7 @@ def test_weld_of_rows_sharing_a_projection_is_exact():
     """Distinct vertices with equal projections on the weld direction: the close-pair search
     gives way to the k-d tree; every group of equal rows still maps to its lowest index, and
     a near duplicate still merges."""
-    from blisk_cam.core.geometry import mesh as M
+    from blisk_cam.core.geometry import weld as M
 
     rng = np.random.default_rng(4)
     d = M._WELD_DIRECTION
@@ -219,7 +219,7 @@ def test_exact_duplicates_through_hash_collisions_and_the_exact_fallback(monkeyp
     """The hash rounds of the weld: every point maps to the lowest index of its equal points,
     including after slot collisions; with a single round the rest goes to the exact lexsort
     fallback, with the same answer."""
-    from blisk_cam.core.geometry import mesh as M
+    from blisk_cam.core.geometry import weld as M
 
     rng = np.random.default_rng(8)
     base = rng.integers(-3, 4, size=(3000, 3)).astype(float) * 0.25  # ~340 distinct points
