@@ -142,7 +142,22 @@ def revolve(rz, axis: Axis, theta=(0.0, 2.0 * math.pi), segments: int = 128):
 
 
 def cylindrical(points, axis: Axis):
-    """(r, theta, z) of points about the blisk axis (theta from a fixed reference)."""
+    """Cylindrical coordinates of points about the blisk axis.
+
+    Parameters
+    ----------
+    points : (n, 3) float, mm
+    axis : Axis
+
+    Returns
+    -------
+    r : (n,) float, mm — distance from the axis
+    theta : (n,) float, radians — angle about the axis from a fixed reference (d × X, or
+        d × Y when the axis is near X)
+    z : (n,) float, mm — along the axis from its origin
+    frame : ((3,), (3,)) — the reference directions of theta = 0 and π/2, for
+        :func:`from_cylindrical`
+    """
     d = axis.d
     ref = np.cross(d, [1.0, 0, 0] if abs(d[0]) < 0.9 else [0, 1.0, 0])
     ref /= np.linalg.norm(ref)
@@ -154,6 +169,18 @@ def cylindrical(points, axis: Axis):
 
 
 def from_cylindrical(r, th, z, axis: Axis, frame):
+    """Points from cylindrical coordinates, the inverse of :func:`cylindrical`.
+
+    Parameters
+    ----------
+    r, th, z : (n,) float — mm, radians, mm
+    axis : Axis
+    frame : the ``frame`` :func:`cylindrical` returned
+
+    Returns
+    -------
+    (n, 3) float, mm
+    """
     ref, ref2 = frame
     return (
         axis.o

@@ -410,7 +410,20 @@ def query_groups(P):
 
 
 def group_argmin(k, qi, values, ids):
-    """Per query the minimum value and the id achieving it (−1 and inf where none)."""
+    """Per query the minimum value and the id achieving it (the last listed of equal ones).
+
+    Parameters
+    ----------
+    k : int — the number of queries
+    qi : (p,) int — the query of each candidate
+    values : (p,) float — the candidates' values (e.g. squared distances, mm²)
+    ids : (p,) int — the candidates' primitive ids
+
+    Returns
+    -------
+    best : (k,) float — inf for a query without candidates
+    arg : (k,) int64 — −1 for a query without candidates
+    """
     best = np.full(k, np.inf)
     np.minimum.at(best, qi, values)
     win = values <= best[qi]
@@ -480,7 +493,20 @@ def nearest(tree: ClusterTree, P, d2fn, keepfn=None, chunk=CHUNK, fastfn=None, n
 
 
 def within(tree: ClusterTree, P, radius, chunk=CHUNK):
-    """Candidate (query, primitive) pairs within ``radius`` (k,) of each point (superset)."""
+    """Candidate (query, primitive) pairs within ``radius`` of each point: a superset (the
+    nodes' bounds decide), every primitive truly within is listed.
+
+    Parameters
+    ----------
+    tree : ClusterTree
+    P : (k, 3) float, mm — query points
+    radius : (k,) float, mm
+    chunk : int — queries per chunk of the traversal
+
+    Returns
+    -------
+    query, primitive : (p,) int64 each
+    """
     r2 = np.asarray(radius, dtype=np.float64) ** 2
 
     def run(s):

@@ -1,27 +1,21 @@
-"""One entry point from user settings to a finished tool path: the request the panel, the
-operators and the CLI all fill in, and the run that turns it into a :class:`ToolPath`.
+"""Blade finishing (paper 001), the first operation of the process: the request the panel,
+the operators and the CLI all fill in (:class:`PathRequest`), and the run that turns it into a
+:class:`ToolPath` (:class:`BladeFinish`, driven by :mod:`.operation`).
 
-Stages (each its own module, one concept of the papers each):
-cone fitting (:mod:`..part.fitting`, when a cone is not given) → LMC passes of CC points
-(:mod:`..paths.passes`, paper 001) → machining order and direction, spiral blending
-(:mod:`..paths.linking`, paper 002) → tool axes from lead/tilt (:mod:`..paths.orientation`, paper
-003) → local gouge check and fix (:mod:`..paths.gouge`) → axis smoothing → cutter location per
-cutter
-type (:mod:`..tool.cutter`, paper 003) → the linked program with approach/retract/links.
- Pass spacing for non-ball cutters. :mod:`..paths.passes` spaces passes for a ball. With lead/tilt
-given in the local frame, the cutter's swept envelope across the feed does not depend on the
-surface, so the passes are spaced for the ball that leaves the same scallop at the same step
-(:func:`expansion_radius`), the smallest over the requested lead/tilt range (the conservative
-choice). Two surface figures enter (:func:`surface_radii`): the smallest convex radius — a
-bull nose's or flat end's envelope trails the contact, and rolled around a thin leading edge
-it covers less than on a plane (issue #4: a flat at lead 10° left 0.17 mm for 0.05 mm at the
-demo blade's 0.3 mm edges) — and the smallest concave radius: a hub fillet tighter than the
-equivalent ball can only be finished if the local gouge fix may raise the lead until the
-cutter fits (the passes are then spaced for that lead range and a ball that fits the fillet),
-otherwise the request is refused before any path work with the figures and the way out
-(:func:`_fit_concave`). The true tips then come from the cutter itself. For fixed-axis modes
-the inclination is not known in advance and the range 0–80° is used.
-``PlanResult.path.stats`` records ``expansion_radius``, ``edge_radius``, ``concave_radius``.
+Stages, each over one :class:`PlanState`, each stage's work in its own module:
+fit (:mod:`..part.fitting`, when a cone is not given; the spacing radius of the cutter,
+:mod:`..paths.spacing`) → passes (LMC passes of CC points, :mod:`..paths.passes`, paper 001)
+→ order (machining order and direction, spiral blending, :mod:`..paths.linking`, paper 002)
+→ orient (tool axes from lead/tilt, :mod:`..paths.orientation`, paper 003; local gouge check
+and fix, :mod:`..paths.gouge`; axis smoothing; cutter location per cutter type,
+:mod:`..tool.cutter`) → link (approach, retract, links) → checks (the figures in the stats);
+the collision check (:func:`collision_stage`) is an extra stage the caller adds.
+
+A hub fillet tighter than the spacing ball can only be finished if the local gouge fix may
+raise the lead until the cutter fits (the passes are then spaced for that lead range and a
+ball that fits the fillet); otherwise the request is refused before any path work with the
+figures and the way out (:func:`_fit_concave`). ``PlanResult.path.stats`` records
+``expansion_radius``, ``edge_radius``, ``concave_radius``.
 
 Angles are radians, lengths mm, as everywhere in core. ``iter_plan_paths`` yields
 :class:`~..runtime.Progress` and returns a :class:`PlanResult` (``StopIteration.value``) so a

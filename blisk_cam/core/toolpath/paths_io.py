@@ -223,7 +223,8 @@ def _tool_dict(path: ToolPath) -> dict:
 
 
 def jsonable(x):
-    """Plain JSON values (non-finite floats → None)."""
+    """``x`` as plain JSON values: dicts with str keys, lists for tuples and arrays, Python
+    bools, ints and floats; non-finite floats become None (JSON has no NaN or inf)."""
     if isinstance(x, dict):
         return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple, np.ndarray)):
