@@ -97,8 +97,8 @@ def read_imports(path: Path, name: str) -> list[Import]:
 
 def import_graph(files=None) -> dict[str, set[str]]:
     """{module: modules of the package it imports}, counting imports inside functions.
-    ``from pkg import sub`` is an edge to ``pkg.sub``; an edge from a module to a package
-    that contains it is left out (Python imports the parents first anyway)."""
+    ``from pkg import sub`` is an edge to the module ``pkg.sub``; ``from pkg import name`` an
+    edge to ``pkg`` (its ``__init__``), parents included."""
     files = files if files is not None else _files()
     graph = {}
     for name, path in files.items():
@@ -106,7 +106,7 @@ def import_graph(files=None) -> dict[str, set[str]]:
         for imp in read_imports(path, name):
             full = f"{imp.module}.{imp.name}" if imp.name else imp.module
             target = full if full in files else imp.module
-            if target in files and target != name and not name.startswith(target + "."):
+            if target in files and target != name:
                 edges.add(target)
         graph[name] = edges
     return graph
@@ -295,6 +295,19 @@ def test_a_deferred_import_is_an_edge(tmp_path):
     graph = import_graph(files)
     assert graph["blisk_cam.b"] == {"blisk_cam.a"}
     assert find_cycle(graph) == ["blisk_cam.a", "blisk_cam.b", "blisk_cam.a"]
+
+
+def test_a_name_from_the_parent_package_is_an_edge(tmp_path):
+    """The old core/post/common → blisk_cam circle: a module takes a name from its package's
+    ``__init__``, which imports the module back inside a function."""
+    pkg = tmp_path / "blisk_cam"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text('VERSION = "1"\n\ndef register():\n    from . import a\n')
+    (pkg / "a.py").write_text("from . import VERSION\n")
+    files = {"blisk_cam": pkg / "__init__.py", "blisk_cam.a": pkg / "a.py"}
+    graph = import_graph(files)
+    assert graph == {"blisk_cam": {"blisk_cam.a"}, "blisk_cam.a": {"blisk_cam"}}
+    assert find_cycle(graph) == ["blisk_cam", "blisk_cam.a", "blisk_cam"]
 
 
 def test_floor_rule_catches_an_upward_and_a_sideways_import():
