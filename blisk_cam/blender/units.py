@@ -1,7 +1,7 @@
 """Scene units: tell when a scene does not show millimetres, and switch it to millimetres.
 
 Blisk CAM works in millimetres. In the default scene (``scale_length`` = 1, metric, length
-unit metres) it reads one Blender unit as one millimetre (:func:`.blender_io.mm_per_blender_unit`)
+unit metres) it reads one Blender unit as one millimetre (:func:`.objects.mm_per_blender_unit`)
 — but Blender *displays* that unit as a metre: NASA Rotor 37, imported from an STL in mm,
 shows as 81.9 m wide. Blender's millimetre setup (``scale_length`` = 0.001, length unit
 millimetres) keeps the same factor (1 BU = 1 mm for the add-on) and shows 81.9 mm: switching

@@ -10,12 +10,12 @@ contains the blisk axis and makes the angle θ with the reference direction e1 a
     X(r, z) = o + z d + r e_r(θ),   e_r(θ) = cos θ e1 + sin θ e2,   r ≥ 0,
 
 with (e1, e2, d) the frame of :func:`axis_frame` (e1 = world X projected normal to the axis, the
-same convention as ``blender_io.cone_to_object``'s ``theta``). θ is usually the angle of the
+same convention as ``blender.objects.cone_to_object``'s ``theta``). θ is usually the angle of the
 blade's centroid (:func:`half_plane_angle`) so the handles sit next to the blade.
 
 Units: (r, z), the axis and cone values are millimetres (core convention); world positions and
-matrices are **Blender units** (BU), ``mm = BU × mm_per_unit`` (``blender_io.mm_per_blender_unit``).
-Angles in radians.
+matrices are **Blender units** (BU), ``mm = BU × mm_per_unit``
+(``blender.objects.mm_per_blender_unit``). Angles in radians.
 """
 
 from __future__ import annotations

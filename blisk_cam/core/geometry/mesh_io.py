@@ -1,6 +1,6 @@
 """Mesh files → arrays, without Blender: binary and ASCII STL, Wavefront OBJ, PLY (ASCII and
 binary). The batch command line reads the blade with these so that a path needs no bpy; the
-sidebar reads the evaluated Blender mesh instead (``blender_io.object_to_arrays``).
+sidebar reads the evaluated Blender mesh instead (``blender.objects.object_to_arrays``).
 
 Units: the file's numbers are taken as millimetres. Polygons of OBJ and PLY are fanned into
 triangles. Returns V (n, 3) float64 and F (m, 3) int64, unwelded where the format repeats
