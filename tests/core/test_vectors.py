@@ -18,6 +18,7 @@ from blisk_cam.core.geometry.vectors import (
     angle_between,
     cross2,
     dot,
+    perpendicular,
     rotate,
     rotate_about,
     rotation_matrix,
@@ -277,3 +278,16 @@ def test_barycentric_reconstructs_the_projection_of_the_point():
         warnings.simplefilter("error")
         deg = barycentric(P[:1], A[:1], A[:1], A[:1])
     assert np.all(np.isfinite(deg))
+
+
+def test_perpendicular_is_unit_and_normal_to_each_row_single_or_rows():
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(500, 3))
+    a[:4] = [[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0.95, 0.3, 0.05]]  # near and on X
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    p = perpendicular(a)
+    assert p.shape == a.shape
+    assert np.allclose(np.linalg.norm(p, axis=1), 1.0, atol=1e-14)
+    assert np.abs(np.einsum("ij,ij->i", p, a)).max() < 1e-14
+    for row, one in zip(a[:20], p[:20], strict=True):
+        assert np.array_equal(perpendicular(row), one)  # one vector: the same as its row

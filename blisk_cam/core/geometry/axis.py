@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConeError
+from .vectors import perpendicular
 
 __all__ = [
     "Axis",
@@ -70,8 +71,7 @@ class Axis:
         radial = p - (p @ d)[:, None] * d
         n = np.linalg.norm(radial, axis=1)
         # On the axis the radial direction is undefined: pick any vector normal to d.
-        fallback = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
-        fallback /= np.linalg.norm(fallback)
+        fallback = perpendicular(d)
         out = np.where(n[:, None] > 1e-12, radial / np.maximum(n, 1e-300)[:, None], fallback)
         return out
 
@@ -159,8 +159,7 @@ def cylindrical(points, axis: Axis):
         :func:`from_cylindrical`
     """
     d = axis.d
-    ref = np.cross(d, [1.0, 0, 0] if abs(d[0]) < 0.9 else [0, 1.0, 0])
-    ref /= np.linalg.norm(ref)
+    ref = perpendicular(d)
     ref2 = np.cross(d, ref)
     p = np.asarray(points, dtype=np.float64) - axis.o
     z = p @ d

@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-__all__ = ["angle_between", "cross2", "dot", "rotate", "rotate_about", "rotation_matrix",
-           "slerp", "unit"]
+__all__ = ["angle_between", "cross2", "dot", "perpendicular", "rotate", "rotate_about",
+           "rotation_matrix", "slerp", "unit"]
 
 
 # ================================================================== exact kernels
@@ -89,11 +89,22 @@ def unit(v, *, keep_zero=True):
 
 
 # ============================================================================ slerp
-def _perpendicular(a):
-    """A unit vector (3,) perpendicular to the unit vector ``a`` (3,)."""
-    p = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
-    p /= np.linalg.norm(p)
-    return p
+def perpendicular(a):
+    """A unit vector perpendicular to each unit vector: ``a × X`` normalised, or ``a × Y``
+    where ``a`` is within about 26° of X (|a_x| ≥ 0.9).
+
+    Parameters
+    ----------
+    a : (3,) or (k, 3) float, unit
+
+    Returns
+    -------
+    (3,) or (k, 3) float, unit, perpendicular to ``a`` row by row
+    """
+    a = np.asarray(a, dtype=np.float64)
+    ref = np.where(np.abs(a[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    p = np.cross(a, ref)
+    return p / np.linalg.norm(p, axis=-1, keepdims=True)
 
 
 def slerp(a0, a1, t, *, weights_first=False):
@@ -140,9 +151,9 @@ def slerp(a0, a1, t, *, weights_first=False):
             v = lin if pair else np.where(small[:, None], lin, v)
     anti = np.flatnonzero(small & (c < 0))
     if pair and len(anti):
-        v = np.cos(t * math.pi) * a0 + np.sin(t * math.pi) * _perpendicular(a0)
+        v = np.cos(t * math.pi) * a0 + np.sin(t * math.pi) * perpendicular(a0)
     elif len(anti):
-        p = np.array([_perpendicular(a0[i]) for i in anti]).reshape(-1, 3)
+        p = np.array([perpendicular(a0[i]) for i in anti]).reshape(-1, 3)
         ta = t[anti]
         v[anti] = np.cos(ta * math.pi) * a0[anti] + np.sin(ta * math.pi) * p
     return unit(v, keep_zero=False)

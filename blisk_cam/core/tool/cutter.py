@@ -61,6 +61,7 @@ import numpy as np
 
 from ..errors import ToolError
 from ..geometry.closest import segment_distance2_2d
+from ..geometry.vectors import perpendicular
 
 __all__ = [
     "DEFAULT_TAPER_ANGLE",
@@ -122,13 +123,6 @@ def _unit_rows(x, name):
         raise ToolError(f"{name}: {int(bad.sum())} vector(s) are zero or not finite; "
                         f"give unit {name} vectors")
     return v / n[:, None]
-
-
-def _any_perpendicular(a):
-    """(k, 3) unit vectors perpendicular to unit rows ``a``."""
-    ref = np.where((np.abs(a[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    p = np.cross(a, ref)
-    return p / np.linalg.norm(p, axis=1)[:, None]
 
 
 @dataclass(frozen=True)
@@ -406,7 +400,7 @@ class Cutter:
                 f"{math.degrees(g['th_hi']):.3g}° — reduce the lead/tilt")
         theta = np.minimum(theta, g["th_hi"])
         on_axis = pl <= 1e-300
-        u = np.where(on_axis[:, None], _any_perpendicular(a),
+        u = np.where(on_axis[:, None], perpendicular(a),
                      -perp / np.where(on_axis, 1.0, pl)[:, None])
         # bottom contact: a conical bottom's apex (θ < α), or a flat bottom (nearly) flush
         # (α = 0, e > 0, θ < _FLUSH_TILT): see _FLUSH_TILT for the blend to the ring contact
