@@ -426,7 +426,6 @@ class PlanState:
         oriented with tips by "orient"; gouge : LocalGougeReport
     program : Program ("link"); stats : dict (every stage adds; "checks" summarises)
     warnings : list of str — for the user (the paths JSON's top-level "warnings")
-    seconds : {stage name: seconds}
     """
 
     mesh: TriMesh
@@ -450,7 +449,6 @@ class PlanState:
     stats: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
     collision: object = None  # CollisionReport of the "collision" stage (when added)
-    seconds: dict = field(default_factory=dict)
 
     def result(self) -> PlanResult:
         path = ToolPath(
@@ -612,7 +610,6 @@ class BladeFinish(Operation):
         return PLAN_STAGES
 
     def finish(self, state: PlanState, seconds: dict) -> PlanResult:
-        state.seconds = dict(seconds)
         return state.result()
 
 
