@@ -67,7 +67,9 @@ demo: venv45
 	@echo "demo written: $(CURDIR)/demo_out/demo.blend and $(CURDIR)/demo_out/preview.png"
 
 # pytest exits 5 when it collected no test: that fails the target like any other failure.
-RUN_CORE = $(TIMEOUT) $(TIMEOUT_CORE) $(VENV45)/bin/python -m pytest tests/core $(PYTEST_FLAGS)
+# tests/core runs on every core (pytest-xdist; TEST_WORKERS=0 runs it in one process).
+TEST_WORKERS ?= auto
+RUN_CORE = $(TIMEOUT) $(TIMEOUT_CORE) $(VENV45)/bin/python -m pytest tests/core -n $(TEST_WORKERS) $(PYTEST_FLAGS)
 RUN_BLENDER45 = $(TIMEOUT) $(TIMEOUT_BLENDER) $(VENV45)/bin/python -m pytest tests/blender $(PYTEST_FLAGS)
 RUN_BLENDER52 = $(TIMEOUT) $(TIMEOUT_BLENDER) $(VENV52)/bin/python -m pytest tests/blender $(PYTEST_FLAGS)
 
