@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry.vectors import perpendicular
+from ..runtime import Progress, check_cancel
 from ..toolpath.types import MOVE_RAPID, ToolPath
 from . import kinematics as K
 from .description import Robot, RobotError
@@ -50,6 +51,7 @@ __all__ = [
 ]
 
 REASONS = ("reach", "limit", "singularity", "speed")
+_PTP_WEIGHT = 10.0  # cost of one second of joint move to a stroke's start
 
 
 @dataclass(frozen=True)
@@ -243,8 +245,10 @@ def _runs(mask):
     return list(zip(np.nonzero(d == 1)[0], np.nonzero(d == -1)[0] - 1, strict=True))
 
 
-def _solve_stroke(robot, index, start, tip, axis, feed, opt):
-    """One stroke → (Stroke or None, [Infeasible])."""
+def _solve_stroke(robot, index, start, tip, axis, feed, opt, prev_q=None):
+    """One stroke → (Stroke or None, [Infeasible]). ``prev_q`` (6,): the joints the previous
+    stroke ended at; the time of the joint move from there is added to the start's cost (so
+    the arm keeps its configuration across strokes when it can)."""
     frames = tool_frames(tip, axis)
     q, code, node_cost, psi = _nodes(robot, frames, opt)
     m, k = code.shape[:2]
@@ -252,12 +256,18 @@ def _solve_stroke(robot, index, start, tip, axis, feed, opt):
     dt = seg / (opt.feed / 60.0)
     feasible = code == 0
     # forward pass, all eight configurations at once: cost (8, K)
-    cost = np.where(feasible[0].T, node_cost[0].T, np.inf)
+    start_cost = node_cost[0].T
+    if prev_q is not None:
+        ptp = np.abs(np.nan_to_num(q[0], nan=1e3) - prev_q) / robot.speeds  # (K, 8, 6) s
+        start_cost = start_cost + _PTP_WEIGHT * ptp.max(-1).T
+    cost = np.where(feasible[0].T, start_cost, np.inf)
     back = np.zeros((m, 8, k), dtype=np.int64)
     died = np.full(8, -1)
     qc = np.moveaxis(q, 2, 1)  # (m, 8, K, 6)
     qj = np.ascontiguousarray(np.moveaxis(q, 3, 1).swapaxes(2, 3))  # (m, 6, 8, K)
     for j in range(1, m):
+        if j % 256 == 0:
+            check_cancel()
         if feed[j]:
             e = _edge(robot, qj[j - 1], qj[j], dt[j], opt)  # (8, K', K)
         else:  # a PTP: any joint motion
@@ -303,7 +313,8 @@ def plan_robot(robot: Robot, path: ToolPath, options: FreeAngleOptions | None = 
     Parameters
     ----------
     robot : Robot; path : ToolPath (its linked program, else its passes)
-    options : FreeAngleOptions; progress : callable(done, total) or None
+    options : FreeAngleOptions; progress : callable taking a :class:`..runtime.Progress`
+    after every stroke, or None. Cancellable (:func:`..runtime.cancellable`).
 
     Returns
     -------
@@ -314,13 +325,17 @@ def plan_robot(robot: Robot, path: ToolPath, options: FreeAngleOptions | None = 
     if not parts:
         raise RobotError("the path has no poses to program")
     strokes, bad = [], []
+    prev = None
     for i, (start, tip, axis, feed) in enumerate(parts):
-        s, infeasible = _solve_stroke(robot, i, start, tip, axis, feed, opt)
+        check_cancel()
+        s, infeasible = _solve_stroke(robot, i, start, tip, axis, feed, opt, prev)
         bad.extend(infeasible)
         if s is not None:
             strokes.append(s)
+            prev = s.q[-1]
         if progress is not None:
-            progress(i + 1, len(parts))
+            progress(Progress((i + 1) / len(parts), f"free angle: stroke {i + 1} of "
+                              f"{len(parts)} ({len(tip)} poses)"))
     plan = RobotPlan(robot, opt, strokes, bad)
     plan.stats = _stats(robot, strokes, opt)
     return plan
