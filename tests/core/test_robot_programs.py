@@ -125,6 +125,15 @@ def test_a_part_out_of_reach_is_reported_as_reach(path):
     assert not plan.feasible and {b.reason for b in plan.infeasible} == {"reach"}
 
 
+def test_a_feed_too_fast_for_the_joints_is_reported_as_speed(path, angled):
+    """Twenty times the polishing feed: the wrist cannot follow the leading edge's turn of the
+    axis (the same poses pass at 600 mm/min above)."""
+    plan = plan_robot(angled, _sliced(path, 60), FreeAngleOptions(feed=12000.0, samples=12))
+    assert not plan.feasible and {b.reason for b in plan.infeasible} == {"speed"}
+    with pytest.raises(RobotError, match="infeasible"):
+        P.robot_program(plan, "rapid")
+
+
 # --- programs read back ------------------------------------------------------------------------
 @pytest.mark.parametrize("dialect", P.DIALECTS)
 def test_program_read_back_reproduces_every_pose(path, angled, dialect):

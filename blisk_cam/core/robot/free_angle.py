@@ -227,15 +227,44 @@ def _nodes(robot, frames, opt):
 
 def _edge(robot, qa, qb, dt, opt):
     """Edge cost (8, K', K) between joints qa (6, 8, K') and qb (6, 8, K): inf where a joint
-    steps over the limit or runs over its speed (NaN joints: out of the limits)."""
+    steps over the limit or runs over its speed (NaN joints: out of the limits). A joint whose
+    range spans more than a turn steps by the shorter way round (its turn is fitted after)."""
     step = np.zeros(qa.shape[1:] + qb.shape[-1:])
     ratio = np.zeros_like(step)
+    multi = _multi_turn(robot)
     for i in range(6):
         d = np.abs(qb[i][:, None, :] - qa[i][:, :, None])
+        if multi[i]:  # turns fitted nearest the middle of the range: |d| ≤ 2π
+            np.minimum(d, 2.0 * np.pi - d, out=d)
         np.maximum(step, d, out=step)
         np.maximum(ratio, d * (1.0 / (robot.speeds[i] * max(dt, 1e-9))), out=ratio)
     bad = (step > opt.max_joint_step) | (ratio > 1.0) | ~np.isfinite(step)
     return np.where(bad, np.inf, ratio * ratio)
+
+
+def _multi_turn(robot):
+    """(6,) bool — joints whose range spans more than one turn."""
+    return (robot.limits[:, 1] - robot.limits[:, 0]) > 2.0 * np.pi
+
+
+def _unwrap_fit(robot, qs, margin):
+    """Joints (m, 6) of a stroke made continuous on the multi-turn joints and shifted by whole
+    turns into the limits less ``margin``; also (m,) bool of poses left outside."""
+    qs = qs.copy()
+    lo, hi = robot.limits[:, 0] + margin, robot.limits[:, 1] - margin
+    out = np.zeros(len(qs), bool)
+    for i in np.nonzero(_multi_turn(robot))[0]:
+        steps = np.mod(np.diff(qs[:, i]) + np.pi, 2.0 * np.pi) - np.pi
+        v = qs[0, i] + np.concatenate([[0.0], np.cumsum(steps)])
+        best = None
+        for n in (0, -1, 1, -2, 2):
+            w = v + 2.0 * np.pi * n
+            bad = (w < lo[i]) | (w > hi[i])
+            if best is None or bad.sum() < best[1].sum():
+                best = (w, bad)
+        qs[:, i] = best[0]
+        out |= best[1]
+    return qs, out
 
 
 def _runs(mask):
@@ -285,8 +314,11 @@ def _solve_stroke(robot, index, start, tip, axis, feed, opt, prev_q=None):
         kk[-1] = int(np.argmin(cost[best]))
         for j in range(m - 1, 0, -1):
             kk[j - 1] = back[j, best, kk[j]]
-        qs = qc[np.arange(m), best, kk]
-        return Stroke(index, start, best, _spin(frames, psi)[np.arange(m), kk], qs, feed), []
+        qs, outside = _unwrap_fit(robot, qc[np.arange(m), best, kk], opt.limit_margin)
+        if not outside.any():
+            return Stroke(index, start, best, _spin(frames, psi)[np.arange(m), kk], qs, feed), []
+        return None, [Infeasible(index, int(a), int(z), "limit", start + int(a), start + int(z))
+                      for a, z in _runs(outside)]
     # no configuration gets through: report where the best-placed one fails, and why
     node_any = feasible.any(1)  # (m, 8)
     c = int(np.argmax(node_any.sum(0) * (m + 1) + np.where(died < 0, m, died)))
