@@ -66,7 +66,7 @@ def main():
                 prog = robot_program(plan, d, path=path)
                 read = read_program(d, prog.files, prog.main)
                 qd = decode_joints(robot, d, read)
-                F = np.linalg.inv(robot.part_in_base()) @ K.flange_pose(robot, qd) @ robot.tool
+                F = robot.pose_of(K.flange_pose(robot, qd))
                 tip = np.abs(F[:, :3, 3] - path.program.tip).max()
                 ax = np.arccos(np.clip(np.einsum("ij,ij->i", -F[:, :3, 2], path.program.axis),
                                        -1, 1)).max()

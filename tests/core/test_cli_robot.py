@@ -45,7 +45,7 @@ def test_robot_writes_a_program_that_reads_back_onto_the_path(small_paths, tmp_p
     robot = load_robot("kr120-r2700-angled")
     read = read_program("krl", files, "blisk_main.src")
     q = decode_joints(robot, "krl", read)
-    F = np.linalg.inv(robot.part_in_base()) @ K.flange_pose(robot, q) @ robot.tool
+    F = robot.pose_of(K.flange_pose(robot, q))
     assert np.abs(F[:, :3, 3] - small.program.tip).max() < 1e-3 + 5e-5
     # run again into the same directory: our own files are replaced
     assert main(["robot", "--paths", str(paths), "--robot", "kr120-r2700-angled", "--post",

@@ -30,7 +30,8 @@ def _random_joints(robot, n, seed):
 
 def test_presets_load_and_the_angled_head_is_angled():
     names = known_robots()
-    assert {"kr120-r2700", "kr120-r2700-angled"} <= set(names)
+    assert {"kr120-r2700", "kr120-r2700-angled", "kr120-r2700-holds-blisk"} <= set(names)
+    assert load_robot("kr120-r2700-holds-blisk").holds_part
     inline, angled = load_robot("kr120-r2700"), load_robot("kr120-r2700-angled")
     assert inline.head_angle == pytest.approx(0.0, abs=1e-9)
     assert math.degrees(angled.head_angle) == pytest.approx(45.0, abs=1e-3)
@@ -65,6 +66,14 @@ def test_ik_round_trip_all_eight_configurations(robot):
     # the joints the pose came from are one of the solutions
     back = np.abs(K.wrap(Q - q[:, None])).max(-1)
     assert np.where(ok, back, np.inf).min(axis=1).max() < 1e-7
+
+
+@pytest.mark.parametrize("name", ["kr120-r2700-angled", "kr120-r2700-holds-blisk"])
+def test_flange_of_and_pose_of_are_inverse(name):
+    robot = load_robot(name)
+    q = _random_joints(robot, 50, 7)
+    flange = K.flange_pose(robot, q)
+    assert np.abs(robot.flange_of(robot.pose_of(flange)) - flange).max() < 1e-9
 
 
 def test_out_of_reach_has_no_solution(robot):
@@ -175,6 +184,17 @@ def test_unknown_key_names_the_nearest():
     d = _good()
     d["tool"]["orgin"] = [0, 0, 1]
     with pytest.raises(RobotError, match="did you mean 'origin'"):
+        robot_from_dict(d)
+
+
+def test_setup_is_checked():
+    d = _good()
+    d["setup"] = "robot-holds-blisk"
+    with pytest.raises(RobotError, match="unknown setup"):
+        robot_from_dict(d)
+    d["setup"] = "robot-holds-part"
+    d["rotary"] = {"axis": [0, 0, 1], "speed": 30}
+    with pytest.raises(RobotError, match="remove one"):
         robot_from_dict(d)
 
 

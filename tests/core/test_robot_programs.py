@@ -51,7 +51,7 @@ def plan(path, angled):
 
 def _poses_by_fk(robot, q):
     """Tool tip (n, 3) and paths' axis (n, 3) in the part frame of joints q (n, 6)."""
-    F = np.linalg.inv(robot.part_in_base()) @ K.flange_pose(robot, q) @ robot.tool
+    F = robot.pose_of(K.flange_pose(robot, q))
     return F[:, :3, 3], -F[:, :3, 2]
 
 
@@ -159,6 +159,33 @@ def test_program_read_back_reproduces_every_pose(path, angled, dialect):
                ("PTP ", "LIN ", "MoveJ ", "MoveL ", "MOVE ", ":J P[", ":L P[")))
                for t in prog.files.values()]
     assert max(n_moves) <= 100
+
+
+def test_robot_holding_the_blisk_at_a_fixed_spindle(path):
+    """The robot-holds-part set-up: the flange carries the part; RAPID's robhold work object
+    and stationary tool read back onto the path's poses; other dialects refuse clearly."""
+    robot = load_robot("kr120-r2700-holds-blisk")
+    small = _sliced(path, 120)
+    plan = plan_robot(robot, small, FreeAngleOptions(samples=12))
+    assert plan.feasible
+    q = np.vstack([s.q for s in plan.strokes])
+    F = robot.pose_of(K.flange_pose(robot, q))
+    assert np.abs(F[:, :3, 3] - small.program.tip).max() < 1e-6
+    assert np.abs(-F[:, :3, 2] - small.program.axis).max() < 1e-9
+    # the tool stands still in the cell: base · flange · part · pose is the fixed tool frame
+    fixed = robot.base @ K.flange_pose(robot, q) @ robot.part @ np.concatenate(
+        [s.frame for s in plan.strokes])
+    assert np.abs(fixed - robot.tool).max() < 1e-6
+    prog = P.robot_program(plan, "rapid", path=small)
+    assert "PERS wobjdata wBlisk := [TRUE, TRUE" in prog.files[prog.main]
+    assert "PERS tooldata tPolish := [FALSE" in prog.files[prog.main]
+    read = read_program("rapid", prog.files, prog.main)
+    qd = decode_joints(robot, "rapid", read)
+    assert np.abs(qd - prog.joints).max() < 1e-5
+    Fd = robot.pose_of(K.flange_pose(robot, qd))
+    assert np.abs(Fd[:, :3, 3] - small.program.tip).max() <= 1e-3 + 5e-5
+    with pytest.raises(RobotError, match="RAPID"):
+        P.robot_program(plan, "krl")
 
 
 def test_program_over_the_controller_size_is_an_error(path, angled, monkeypatch):

@@ -20,6 +20,12 @@ Frames (all 4×4 homogeneous, mm):
 * an optional external **rotary** axis holding the blisk (axis, point in the cell frame,
   limits, speed); the part frame turns with it.
 
+Two set-ups (``setup``): ``"robot-holds-tool"`` (default; the frames as above) and
+``"robot-holds-part"``: the robot carries the blisk against a fixed spindle or belt; then
+``[part]`` is the part frame **in the flange frame** and ``[tool]`` the fixed tool frame **in
+the cell frame** (no rotary). Either way a pose is the tool frame in the part frame, and
+:meth:`Robot.flange_of` / :meth:`Robot.pose_of` go between poses and flange frames.
+
 In the TOML lengths are mm and angles **degrees** (limits, offsets, speeds in °/s); in this
 module and the rest of the core, radians. Presets live in ``blisk_cam/robots/<name>.toml``;
 :func:`load_robot` takes a preset name or a path.
@@ -41,6 +47,7 @@ from ..errors import BliskCamError
 __all__ = [
     "OPW_KEYS",
     "ROBOTS_DIR",
+    "SETUPS",
     "Robot",
     "RobotError",
     "Rotary",
@@ -51,12 +58,13 @@ __all__ = [
 ]
 
 ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
+SETUPS = ("robot-holds-tool", "robot-holds-part")
 OPW_KEYS = ("a1", "a2", "b", "c1", "c2", "c3", "c4")
 _ORTHO_TOL = 1e-6
 
 # every key the TOML may hold, per table ("" = top level)
 _KNOWN = {
-    "": ("name", "opw", "joints", "tool", "base", "part", "rotary", "controller"),
+    "": ("name", "setup", "opw", "joints", "tool", "base", "part", "rotary", "controller"),
     "opw": OPW_KEYS,
     "joints": ("offsets", "signs", "limits", "speeds"),
     "tool": ("name", "origin", "x", "z", "mass"),
@@ -118,6 +126,11 @@ class Robot:
     tool_name: str = "polishing head"
     brand: str = ""
     source: str = ""
+    setup: str = "robot-holds-tool"
+
+    @property
+    def holds_part(self) -> bool:
+        return self.setup == "robot-holds-part"
 
     @property
     def head_angle(self) -> float:
@@ -126,11 +139,34 @@ class Robot:
         return math.acos(float(np.clip(self.tool[2, 2], -1.0, 1.0)))
 
     def part_in_base(self) -> np.ndarray:
-        """(4, 4) the part frame in the robot's base frame, the rotary at its parked angle."""
+        """(4, 4) the part frame in the robot's base frame, the rotary at its parked angle
+        (robot-holds-tool)."""
         part = self.part
         if self.rotary is not None:
             part = self.rotary.transform(self.rotary.angle) @ part
         return np.linalg.solve(self.base, part)
+
+    def flange_of(self, pose, *, part=None, tool=None) -> np.ndarray:
+        """(..., 4, 4) flange frames in the base frame that put the tool at ``pose`` (...,
+        4, 4: tool frame in the part frame). ``part``, ``tool``: the frames as a program
+        states them (default this robot's; the part in the cell for robot-holds-tool)."""
+        pose = np.asarray(pose, dtype=np.float64)
+        base_inv = np.linalg.inv(self.base)
+        tool = self.tool if tool is None else tool
+        if self.holds_part:  # base · flange · part · pose = tool (fixed, in the cell)
+            part = self.part if part is None else part
+            return base_inv @ tool @ np.linalg.inv(pose) @ np.linalg.inv(part)
+        part = self.base @ self.part_in_base() if part is None else part
+        return base_inv @ part @ pose @ np.linalg.inv(tool)
+
+    def pose_of(self, flange) -> np.ndarray:
+        """(..., 4, 4) tool frames in the part frame of flange frames in the base frame (the
+        inverse of :meth:`flange_of`)."""
+        flange = np.asarray(flange, dtype=np.float64)
+        if self.holds_part:
+            return np.linalg.inv(self.part) @ np.linalg.inv(flange) @ np.linalg.solve(
+                self.base, self.tool)
+        return np.linalg.inv(self.part_in_base()) @ flange @ self.tool
 
 
 def frame_matrix(origin, x, z) -> np.ndarray:
@@ -252,6 +288,9 @@ def robot_from_dict(data: dict, source: str = "") -> Robot:
     """Validate a parsed robot TOML (module docstring) → :class:`Robot`."""
     where = Path(source).name if source else "description"
     _check_keys(data, "", where)
+    setup = str(data.get("setup", SETUPS[0]))
+    if setup not in SETUPS:
+        raise RobotError(f"robot {where}: unknown setup {setup!r}; use one of {', '.join(SETUPS)}")
     opw_t = _table(data, "opw", where, required=True)
     opw = {k: _number(opw_t, k, f"{where} [opw]") for k in OPW_KEYS}
     for k in ("c2", "c3"):
@@ -306,6 +345,9 @@ def robot_from_dict(data: dict, source: str = "") -> Robot:
         rotary = Rotary(str(rt.get("name", "E1")), _unit(rt, "axis", w, None),
                         _numbers(rt, "point", w, 3, default=(0.0, 0.0, 0.0)), limits,
                         math.radians(speed), angle)
+    if rotary is not None and setup == "robot-holds-part":
+        raise RobotError(f"robot {where}: a [rotary] holds the part, but the setup is "
+                         "robot-holds-part; remove one")
     ctl = _table(data, "controller", where, required=False) or {}
     return Robot(
         name=str(data.get("name", where)),
@@ -321,4 +363,5 @@ def robot_from_dict(data: dict, source: str = "") -> Robot:
         tool_name=str((tool_t or {}).get("name", "polishing head")),
         brand=str(ctl.get("brand", "")),
         source=source,
+        setup=setup,
     )

@@ -209,7 +209,7 @@ def _nodes(robot, frames, opt):
     index+1 of the reason (REASONS) that rules it out; node cost (m, K, 8)."""
     psi = np.linspace(0.0, 2.0 * np.pi, opt.samples, endpoint=False)
     T = _spin(frames, psi)  # (m, K, 4, 4) in the part frame
-    flange = robot.part_in_base() @ T @ np.linalg.inv(robot.tool)
+    flange = robot.flange_of(T)
     m, k = T.shape[:2]
     q, ok = K.inverse(robot, flange.reshape(-1, 4, 4))
     q, in_lim = _fit_turns(robot, q, opt.limit_margin)

@@ -19,6 +19,10 @@ Configuration encodings (from the joints q, :mod:`.kinematics` for shoulder/elbo
 * Comau PDL2 config string: ``S`` (back), ``E`` (elbow), ``W`` (A5 < 0) and the turn flags
   ``T1:`` (axis 4), ``T2:`` (axis 6).
 
+The robot-holds-part set-up (a fixed spindle or belt) is written in RAPID only: a stationary
+``tooldata`` (robhold FALSE, its frame in the world) and a ``wobjdata`` held by the robot
+(robhold TRUE, its frame on the flange); the robtargets are the same tool-in-part poses.
+
 Nothing here writes a file: :func:`robot_program` returns the texts (the CLI writes them
 atomically). Lengths mm, angles radians in, degrees in the texts, feed mm/min.
 """
@@ -198,6 +202,9 @@ def robot_program(plan: RobotPlan, dialect: str, options: ProgramOptions | None 
     if not plan.feasible:
         raise RobotError(f"the plan has {len(plan.infeasible)} infeasible stretches (first: "
                          f"{plan.infeasible[0].text()}); no program written")
+    if plan.robot.holds_part and dialect != "rapid":
+        raise RobotError(f"the robot holds the part (a fixed tool): programs for that set-up "
+                         f"are written in RAPID (robhold work object), not {dialect}")
     opt = options or ProgramOptions()
     frames, q, ptp = _motions(plan)
     per = opt.lines or LINES[dialect]
@@ -296,10 +303,14 @@ def _rapid(plan, path, opt, frames, q, ptp, parts):
         calls.append(f"    {mod.lower()};")
     v = opt.feed / 60.0
     main = [f"MODULE {name}_MAIN"] + ["  " + h for h in _header(plan, path, opt, "!")]
+    # robot-holds-part: a stationary tool (tooldata robhold FALSE, its frame in the world)
+    # and a work object on the flange (wobjdata robhold TRUE, uframe in the flange frame)
+    held, fixed = ("TRUE", "FALSE") if r.holds_part else ("FALSE", "TRUE")
+    uframe = r.part if r.holds_part else _part_world(r)
     main += [
-        f"  PERS tooldata tPolish := [TRUE, {_pose_text(r.tool)}, [{opt.tool_mass:g}, "
+        f"  PERS tooldata tPolish := [{fixed}, {_pose_text(r.tool)}, [{opt.tool_mass:g}, "
         f"[{', '.join(_xyz(r.tool[:3, 3] / 2))}], [1, 0, 0, 0], 0, 0, 0]];",
-        f"  PERS wobjdata wBlisk := [FALSE, TRUE, \"\", {_pose_text(_part_world(r))}, "
+        f"  PERS wobjdata wBlisk := [{held}, TRUE, \"\", {_pose_text(uframe)}, "
         "[[0, 0, 0], [1, 0, 0, 0]]];",
         f"  CONST speeddata vPolish := [{_f(v, 3)}, 30, 5000, 1000];",
         f"  CONST speeddata vPtp := [{_f(20 * opt.ptp_percent, 1)}, 200, 5000, 1000];",

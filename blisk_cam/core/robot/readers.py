@@ -92,8 +92,9 @@ def _rapid(files, main):
         v = [float(x) for x in m.groups()[k - 1:k + 6]]
         return _frame(v[:3], matrix_from_quaternion(v[3:]))
 
-    tool = frame(re.search(r"PERS tooldata tPolish := \[TRUE, " + pose, text))
-    part = frame(re.search(r"PERS wobjdata wBlisk := \[FALSE, TRUE, \"\", " + pose, text))
+    tool = frame(re.search(r"PERS tooldata tPolish := \[(?:TRUE|FALSE), " + pose, text))
+    part = frame(re.search(r"PERS wobjdata wBlisk := \[(?:TRUE|FALSE), TRUE, \"\", " + pose,
+                           text))
     frames, jm, tags = [], [], []
     for call in _calls(text, r"^    (\w+_p\d+);$"):
         for line in files[f"{call}.mod"].splitlines():
@@ -176,8 +177,7 @@ def decode_joints(robot: Robot, dialect: str, read: ReadProgram) -> np.ndarray:
     the one written; on a linear move without a tag, the previous configuration with the
     turns nearest the previous joints (the controller's linear interpolation). Raises
     RobotError where no solution matches."""
-    base_inv = np.linalg.inv(robot.base)
-    flange = base_inv @ read.part @ read.frames @ np.linalg.inv(read.tool)
+    flange = robot.flange_of(read.frames, part=read.part, tool=read.tool)
     Q, ok = K.inverse(robot, flange)
     out = np.empty((len(Q), 6))
     prev = None
