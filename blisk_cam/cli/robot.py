@@ -5,7 +5,8 @@
     python -m blisk_cam robot --paths paths.json --robot kr120-r2700-angled|ROBOT.toml \\
         --post krl|rapid|pdl2|fanuc-ls --out DIR [--feed MM_MIN] [--force N] \\
         [--samples N] [--max-joint-step DEG] [--min-wrist DEG] [--name NAME] [--lines N] \\
-        [--blend MM] [--ptp-speed PERCENT]
+        [--blend MM] [--ptp-speed PERCENT] [--head-rpm N --head-diameter MM
+        --contact-width MM --preston KP [--removal FILE.csv]]
 
 Resolves the free angle about the tool axis over the path (:mod:`..core.robot.free_angle`),
 prints the figures (minimum wrist-singularity and joint-limit margins, largest joint step) and
@@ -26,6 +27,7 @@ from ..core.errors import BliskCamError
 from ..core.post.common import write_atomic
 from ..core.robot.description import known_robots, load_robot
 from ..core.robot.free_angle import FreeAngleOptions, plan_robot
+from ..core.robot.polishing import PolishingProcess, removal_per_pose
 from ..core.robot.programs import DIALECTS, ProgramOptions, robot_program
 from ..core.toolpath.paths_io import read_paths_json
 from .flags import PROG, UsageError, finite, whole
@@ -73,7 +75,45 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPar
                         help="approximation (blending) distance of the linear moves, mm")
     parser.add_argument("--ptp-speed", type=_positive, default=20.0, metavar="PERCENT",
                         help="joint-move speed to each stroke's start, %% of maximum (default 20)")
+    parser.add_argument("--head-rpm", type=_positive, default=None, metavar="N",
+                        help="polishing wheel speed, rev/min (with --force, --head-diameter, "
+                        "--contact-width, --preston: the Preston removal depth per pass)")
+    parser.add_argument("--head-diameter", type=_positive, default=None, metavar="MM",
+                        help="polishing wheel diameter, mm")
+    parser.add_argument("--contact-width", type=_positive, default=None, metavar="MM",
+                        help="contact width across the feed, mm")
+    parser.add_argument("--preston", type=_positive, default=None, metavar="KP",
+                        help="Preston coefficient of abrasive and alloy, mm²/N")
+    parser.add_argument("--removal", default=None, metavar="FILE.csv",
+                        help="also write the removal depth at every pose (needs the process "
+                        "values above)")
     return parser
+
+
+_PROCESS = ("head_rpm", "head_diameter", "contact_width", "preston")
+
+
+def _process(args):
+    """The polishing process of the flags, or None when none of them is given."""
+    given = [k for k in _PROCESS if getattr(args, k) is not None]
+    if not given and args.removal is None:
+        return None
+    missing = [k for k in _PROCESS if getattr(args, k) is None]
+    if args.force is None:
+        missing.insert(0, "force")
+    if missing:
+        raise UsageError("the polishing process needs " + ", ".join(
+            "--" + k.replace("_", "-") for k in missing))
+    return PolishingProcess(args.force, args.head_rpm, args.head_diameter, args.contact_width,
+                            args.preston, args.feed)
+
+
+def _removal_csv(process, path) -> str:
+    depth = removal_per_pose(process, path)
+    rows = ["pose,x_mm,y_mm,z_mm,removal_um"]
+    for j, (p, h) in enumerate(zip(path.program.tip, depth, strict=True), 1):
+        rows.append(f"{j},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f},{1000 * h:.4f}")
+    return "\n".join(rows) + "\n"
 
 
 def _progress(p):
@@ -112,8 +152,10 @@ def run_robot(args) -> int:
             opt = FreeAngleOptions(samples=args.samples, feed=args.feed,
                                    max_joint_step=math.radians(args.max_joint_step),
                                    min_wrist=math.radians(args.min_wrist))
+            process = _process(args)
             popt = ProgramOptions(name=args.name, feed=args.feed, ptp_percent=args.ptp_speed,
-                                  blend=args.blend, force=args.force, lines=args.lines)
+                                  blend=args.blend, force=args.force, lines=args.lines,
+                                  process=process)
         except BliskCamError as exc:
             raise UsageError(str(exc)) from None
         plan = plan_robot(robot, path, opt, progress=_progress)
@@ -132,6 +174,8 @@ def run_robot(args) -> int:
         os.makedirs(args.out, exist_ok=True)
         for target, text in zip(targets, prog.files.values(), strict=True):
             write_atomic(target, text)
+        if args.removal is not None:
+            write_atomic(args.removal, _removal_csv(process, path))
     except UsageError as err:
         print(f"{PROG}: error: {' '.join(str(err).split())}", file=sys.stderr)
         return 2
@@ -145,4 +189,6 @@ def run_robot(args) -> int:
           f"{st['min_limit_margin_deg']:.2f}°, max joint step {st['max_joint_step_deg']:.2f}°, "
           f"max joint speed {100 * st['max_speed_ratio']:.0f}% of its limit at "
           f"{args.feed:g} mm/min")
+    if process is not None:
+        print(f"polishing: {process.summary()}")
     return 0

@@ -80,3 +80,24 @@ def test_bad_robot_and_foreign_files_are_one_line_errors(small_paths, tmp_path, 
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 1 and "was not written by Blisk CAM" in err[-1]
     assert (out / "blisk_main.src").read_text() == "my own program\n"
+
+
+def test_polishing_process_values_and_removal_per_pose(small_paths, tmp_path, capsys):
+    paths, small = small_paths
+    csv = tmp_path / "removal.csv"
+    rc = main(["robot", "--paths", str(paths), "--robot", "kr120-r2700-angled", "--post",
+               "pdl2", "--out", str(tmp_path / "pdl"), "--samples", "12", "--force", "20",
+               "--head-rpm", "3000", "--head-diameter", "20", "--contact-width", "5",
+               "--preston", "4e-6", "--removal", str(csv)])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    assert "Preston removal 5.03 µm per pass" in cap.out
+    rows = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert len(rows) == len(small.program)
+    contact = np.isin(small.program.move, (0, 1))  # cut, link
+    assert np.all(rows[contact, 4] > 5.0) and np.all(rows[~contact, 4] == 0.0)
+    assert "Preston removal" in (tmp_path / "pdl" / "blisk_main.pdl").read_text()
+    rc = main(["robot", "--paths", str(paths), "--robot", "kr120-r2700-angled", "--post",
+               "pdl2", "--out", str(tmp_path / "p2"), "--head-rpm", "3000"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--force, --head-diameter" in err[0]

@@ -201,3 +201,28 @@ def test_setup_is_checked():
 def test_unknown_preset_lists_the_known():
     with pytest.raises(RobotError, match="kr120-r2700"):
         load_robot("kr999")
+
+
+# --- polishing process values ---------------------------------------------------------------
+def test_preston_depth_is_the_integral_of_any_contact_pressure():
+    """Preston's law integrated over a Hertz-like (elliptical) pressure patch of any length,
+    swept at the feed, averaged across the contact width, gives K_p F v / (w v_f)."""
+    from scipy.integrate import trapezoid
+
+    from blisk_cam.core.robot.polishing import PolishingProcess
+
+    proc = PolishingProcess(force=20.0, head_rpm=3000.0, head_diameter=20.0,
+                            contact_width=5.0, preston=4e-6, feed=600.0)
+    v = math.pi * 20.0 * 3000.0 / 60.0  # mm/s
+    for length in (2.0, 7.0):
+        x = np.linspace(-length / 2, length / 2, 801)
+        y = np.linspace(-2.5, 2.5, 801)
+        X, Y = np.meshgrid(x, y)
+        shape = np.sqrt(np.clip(1 - (2 * X / length) ** 2 - (2 * Y / 5.0) ** 2, 0, None))
+        p = shape * 20.0 / trapezoid(trapezoid(shape, x, axis=1), y)  # N/mm², total 20 N
+        # a surface point at lateral offset y passes under the patch at the feed (10 mm/s)
+        depth_y = 4e-6 * v * trapezoid(p, x, axis=1) / 10.0
+        assert trapezoid(depth_y, y) / 5.0 == pytest.approx(proc.removal_depth, rel=1e-3)
+    assert proc.removal_depth == pytest.approx(4e-6 * 20 * v / (5 * 10))
+    with pytest.raises(RobotError, match="contact width must be > 0"):
+        PolishingProcess(20.0, 3000.0, 20.0, 0.0, 4e-6, 600.0)

@@ -40,6 +40,7 @@ from . import kinematics as K
 from .description import Robot, RobotError
 from .free_angle import RobotPlan
 from .orientation import abc_from_matrix, quaternion_from_matrix, zyz_from_matrix
+from .polishing import PolishingProcess
 
 __all__ = [
     "DIALECTS",
@@ -62,7 +63,8 @@ class ProgramOptions:
     """name : program base name; feed : mm/min (linear moves); ptp_percent : joint-move
     speed, % of the axes' maximum; blend : mm (KRL $APO.CDIS, RAPID zone, Fanuc CNT 100 when
     > 0); force : N, the polishing head's contact force setpoint (header only); lines :
-    motions per part (default: :data:`LINES` of the dialect); tool_mass : kg (ABB loaddata)."""
+    motions per part (default: :data:`LINES` of the dialect); tool_mass : kg (ABB loaddata);
+    process : the polishing process values (:mod:`.polishing`) for the header, or None."""
 
     name: str = "BLISK"
     feed: float = 600.0
@@ -71,6 +73,7 @@ class ProgramOptions:
     force: float | None = None
     lines: int | None = None
     tool_mass: float = 10.0
+    process: PolishingProcess | None = None
 
     def __post_init__(self):
         if not self.name or not self.name.replace("_", "").isalnum() or not self.name[0].isalpha():
@@ -168,6 +171,8 @@ def _header(plan: RobotPlan, path: ToolPath | None, opt: ProgramOptions, c: str)
         lines.append(f"{c} path: {len(path.curves)} passes, cusp {path.cusp:g} mm")
     if opt.force is not None:
         lines.append(f"{c} contact force setpoint: {opt.force:g} N (force-controlled head)")
+    if opt.process is not None:
+        lines.append(f"{c} polishing: {opt.process.summary()}")
     if st:
         lines.append(f"{c} min wrist-singularity margin {st['min_wrist_deg']:.2f} deg, "
                      f"min joint-limit margin {st['min_limit_margin_deg']:.2f} deg, max joint "
