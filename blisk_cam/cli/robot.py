@@ -25,7 +25,7 @@ import sys
 
 from ..core.errors import BliskCamError
 from ..core.post.common import write_atomic
-from ..core.robot.description import known_robots, load_robot
+from ..core.robot.description import known_robots, load_robot, with_rotary_angle
 from ..core.robot.free_angle import FreeAngleOptions, plan_robot
 from ..core.robot.polishing import PolishingProcess, removal_per_pose
 from ..core.robot.programs import DIALECTS, ProgramOptions, robot_program
@@ -75,6 +75,9 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPar
                         help="approximation (blending) distance of the linear moves, mm")
     parser.add_argument("--ptp-speed", type=_positive, default=20.0, metavar="PERCENT",
                         help="joint-move speed to each stroke's start, %% of maximum (default 20)")
+    parser.add_argument("--rotary-deg", type=finite, default=None, metavar="DEG",
+                        help="angle at which the robot's external rotary (the TOML's [rotary]) "
+                        "holds the blisk while the program runs (default: its 'angle')")
     parser.add_argument("--head-rpm", type=_positive, default=None, metavar="N",
                         help="polishing wheel speed, rev/min (with --force, --head-diameter, "
                         "--contact-width, --preston: the Preston removal depth per pass)")
@@ -147,6 +150,8 @@ def run_robot(args) -> int:
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")
         robot = load_robot(args.robot)
+        if args.rotary_deg is not None:
+            robot = with_rotary_angle(robot, math.radians(args.rotary_deg))
         path = read_paths_json(args.paths)
         try:
             opt = FreeAngleOptions(samples=args.samples, feed=args.feed,

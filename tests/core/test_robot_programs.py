@@ -188,6 +188,35 @@ def test_robot_holding_the_blisk_at_a_fixed_spindle(path):
         P.robot_program(plan, "krl")
 
 
+def test_external_rotary_turns_the_part_frame(path):
+    """The blisk on a rotary about its own axis, parked at 8°, plans exactly as a part frame
+    turned by 8° (built by hand); KRL carries E1 and reads back."""
+    import tomllib
+
+    from blisk_cam.core.robot.description import ROBOTS_DIR, with_rotary_angle
+
+    d = tomllib.loads((ROBOTS_DIR / "kr120-r2700-angled.toml").read_text())
+    d["rotary"] = {"name": "E1", "axis": [0, 0, 1], "point": [2200, 0, 1800],
+                   "limits": [-180, 180], "speed": 60}
+    on_rotary = with_rotary_angle(robot_from_dict(d), math.radians(8.0))
+    t = math.radians(8.0)
+    d2 = {k: v for k, v in d.items() if k != "rotary"}
+    d2["part"] = dict(d["part"], x=[-math.cos(t), -math.sin(t), 0.0])
+    turned = robot_from_dict(d2)
+    small = _sliced(path, 60)
+    opt = FreeAngleOptions(samples=12)
+    a, b = plan_robot(on_rotary, small, opt), plan_robot(turned, small, opt)
+    assert a.feasible and b.feasible
+    qa, qb = (np.vstack([s.q for s in x.strokes]) for x in (a, b))
+    assert np.abs(qa - qb).max() < 1e-9
+    prog = P.robot_program(a, "krl", path=small)
+    assert ", E1 8.00000, S '" in prog.files["blisk_p001.src"]
+    q = decode_joints(on_rotary, "krl", read_program("krl", prog.files, prog.main))
+    assert np.abs(q - prog.joints).max() < 1e-5
+    with pytest.raises(RobotError, match="outside its limits"):
+        with_rotary_angle(on_rotary, math.radians(200.0))
+
+
 def test_program_over_the_controller_size_is_an_error(path, angled, monkeypatch):
     plan = plan_robot(angled, _sliced(path, 40), FreeAngleOptions(samples=12))
     monkeypatch.setattr(P, "MAX_PARTS", 5)

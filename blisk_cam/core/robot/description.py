@@ -33,6 +33,7 @@ module and the rest of the core, radians. Presets live in ``blisk_cam/robots/<na
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 import os
@@ -55,6 +56,7 @@ __all__ = [
     "known_robots",
     "load_robot",
     "robot_from_dict",
+    "with_rotary_angle",
 ]
 
 ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
@@ -176,6 +178,19 @@ def frame_matrix(origin, x, z) -> np.ndarray:
     T[:3, 1] = np.cross(z, x)
     T[:3, 3] = origin
     return T
+
+
+def with_rotary_angle(robot: Robot, angle: float) -> Robot:
+    """The robot with its external rotary parked at ``angle`` radians (RobotError without a
+    rotary or outside its limits)."""
+    rot = robot.rotary
+    if rot is None:
+        raise RobotError(f"robot {robot.name} has no external rotary; add a [rotary] table")
+    if rot.limits is not None and not rot.limits[0] <= angle <= rot.limits[1]:
+        raise RobotError(
+            f"rotary {rot.name} angle {math.degrees(angle):g}° is outside its limits "
+            f"[{math.degrees(rot.limits[0]):g}°, {math.degrees(rot.limits[1]):g}°]")
+    return dataclasses.replace(robot, rotary=dataclasses.replace(rot, angle=angle))
 
 
 # --- reading -----------------------------------------------------------------------------

@@ -251,6 +251,8 @@ def _krl(plan, path, opt, frames, q, ptp, parts):
             aa, bb, cc = _deg(abc[j])
             pos = f"X {x}, Y {y}, Z {zz}, A {aa}, B {bb}, C {cc}"
             if ptp[j]:
+                if r.rotary is not None:  # the external axis to its parked angle
+                    pos += f", E1 {_f(math.degrees(r.rotary.angle), _A)}"
                 s, t = config_tag("krl", r, q[j])
                 body.append(f"PTP {{E6POS: {pos}, S 'B{s:03b}', T 'B{t:06b}'}}")
             else:

@@ -73,8 +73,8 @@ def _krl(files, main):
            + r"), C (" + _N + r")")
     for call in _calls(text, r"^(\w+_P\d+)\( \)$"):
         for line in files[f"{call.lower()}.src"].splitlines():
-            m = re.match(r"(PTP|LIN) \{E6POS: " + pos + r"(?:, S 'B([01]+)', T 'B([01]+)')?\}",
-                         line)
+            m = re.match(r"(PTP|LIN) \{E6POS: " + pos + r"(?:, E1 " + _N
+                         + r")?(?:, S 'B([01]+)', T 'B([01]+)')?\}", line)
             if not m:
                 continue
             frames.append(_abc_frame(*map(float, m.group(2, 3, 4, 5, 6, 7))))
