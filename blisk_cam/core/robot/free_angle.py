@@ -332,10 +332,41 @@ def _solve_stroke(robot, index, start, tip, axis, feed, opt, prev_q=None):
         if len(vals):
             reason = REASONS[int(vals[np.argmax(counts)]) - 1]
         out.append(Infeasible(index, int(a), int(z), reason, start + int(a), start + int(z)))
-    if not out:
+    # between poses it can reach, the joints step too far or too fast: follow configuration c
+    # and start again after every break, so that each such step is reported
+    alive = None
+    for j in range(m):
+        ok_j = feasible[j, :, c]
+        if not ok_j.any():
+            alive = None
+            continue
+        if alive is None or not feed[j]:
+            alive = np.where(ok_j, 0.0, np.inf)
+            continue
+        e = _edge(robot, qj[j - 1][:, c:c + 1], qj[j][:, c:c + 1], dt[j], opt)[0]
+        new = np.where(ok_j, (alive[:, None] + e).min(0), np.inf)
+        if not np.isfinite(new).any():
+            out.append(Infeasible(index, j - 1, j, "speed", start + j - 1, start + j))
+            new = np.where(ok_j, 0.0, np.inf)
+        alive = new
+    if not out:  # every configuration died somewhere, each at a different place
         j = int(died[c]) if died[c] > 0 else m - 1
         out.append(Infeasible(index, j - 1, j, "speed", start + j - 1, start + j))
-    return None, out
+    return None, _merged(sorted(out, key=lambda b: b.first))
+
+
+def _merged(ranges):
+    """Touching or overlapping ranges of one reason as one range."""
+    out = []
+    for b in ranges:
+        if out and out[-1].reason == b.reason and b.first <= out[-1].last + 1:
+            a = out[-1]
+            last = max(a.last, b.last)
+            out[-1] = Infeasible(a.stroke, a.first, last, a.reason, a.program_first,
+                                 a.program_first + last - a.first)
+        else:
+            out.append(b)
+    return out
 
 
 def plan_robot(robot: Robot, path: ToolPath, options: FreeAngleOptions | None = None,
