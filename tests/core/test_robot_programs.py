@@ -95,10 +95,12 @@ def test_rotor37_inline_head_reports_singular_ranges(path):
     inline = load_robot("kr120-r2700")
     plan = plan_robot(inline, path)
     assert not plan.feasible
-    assert {b.reason for b in plan.infeasible} == {"singularity"}
+    reasons = {b.reason for b in plan.infeasible}
+    # near the singularity the wrist also spins too fast between the singular poses
+    assert "singularity" in reasons and reasons <= {"singularity", "speed"}
     # the ranges are real: every reported pose has the wrist near-singular at every angle;
     # the free angle only turns A6 (the head on the flange axis), so A5 is fixed by the pose
-    b = plan.infeasible[0]
+    b = next(b for b in plan.infeasible if b.reason == "singularity")
     _, tip, axis, _ = strokes_of(path)[b.stroke]
     F = tool_frames(tip, axis)[b.first]
     psi = np.linspace(0, 2 * np.pi, 12, endpoint=False)
