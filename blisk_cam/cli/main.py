@@ -14,6 +14,9 @@
         [--radial-tilt DEG] [--axis-point X Y Z] [--max-axis-turn DEG]
         [--milling climb|conventional] [--approach MM] [--clearance-radius MM]
         [--clearance-margin MM] [--no-fix-gouge]
+    python -m blisk_cam nc --paths paths.json --machine PRESET|FILE.toml --post POST --out FILE
+    python -m blisk_cam robot --paths paths.json --robot PRESET|FILE.toml \
+        --post krl|rapid|pdl2|fanuc-ls --out DIR [--feed MM_MIN] [--force N]
 
 Angles are degrees on the command line (radians in the scene settings and the core).
 
@@ -41,6 +44,7 @@ from .blender import _cmd_demo
 from .flags import PROG, CliInternalError, UsageError, _fail, add_option_flags, finite
 from .nc import add_nc_arguments
 from .paths import _cmd_paths
+from .robot import add_robot_arguments
 
 __all__ = ["main", "build_parser"]
 
@@ -98,13 +102,13 @@ FITS = ("auto", "cone", "profile")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the CLI (subcommands ``demo``, ``paths`` and ``nc``)."""
+    """The argument parser of the CLI (subcommands ``demo``, ``paths``, ``nc``, ``robot``)."""
     parser = _Parser(
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot}")
     sub.required = True
 
     commands = (
@@ -122,6 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
          "within the limits, rotary linearization, every blade. Lengths mm, angles degrees. "
          "Needs only numpy and scipy.",
          add_nc_arguments, _cmd_nc),
+        ("robot", "paths JSON → robot polishing program (KRL, RAPID, PDL2, Fanuc LS)",
+         "Program a 6-axis robot (preset or TOML) holding a polishing head along a paths JSON: "
+         "the angle about the tool axis resolved over the path, one arm configuration per "
+         "stroke, joint limits, speeds and singularities checked; the program split into the "
+         "files the controller accepts. Lengths mm, angles degrees. Needs only numpy and scipy.",
+         add_robot_arguments, _cmd_robot),
     )
     for name, help_text, description, add_arguments, run in commands:
         command = sub.add_parser(name, help=help_text, description=description)
@@ -214,6 +224,12 @@ def _cmd_nc(args):
     from .nc import run_nc
 
     return run_nc(args)
+
+
+def _cmd_robot(args):
+    from .robot import run_robot
+
+    return run_robot(args)
 
 
 def main(argv=None) -> int:
