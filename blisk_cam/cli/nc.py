@@ -44,6 +44,10 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
     parser.add_argument("--post", required=with_paths, type=str.lower, metavar="POST",
                         help="controller dialect: one of " + ", ".join(POSTS))
     add_option_flags(parser, (NcOptions,))
+    parser.add_argument("--allow-collisions", action="store_true",
+                        help="post a path whose collision check left unresolved poses (the "
+                        "program header then says how many and where); without it such a "
+                        "path is refused")
     parser.add_argument("--report", default=None, metavar="FILE.json",
                         help="also write the export report (with the interpolation's) as JSON")
     return parser
@@ -51,7 +55,8 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
 
 def nc_options(args, **extra):
     """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds)."""
-    return NcOptions(**option_args(args, (NcOptions,)), **extra)
+    return NcOptions(**option_args(args, (NcOptions,)),
+                     allow_collisions=bool(getattr(args, "allow_collisions", False)), **extra)
 
 
 def export_from_args(path, args, out, blade_name):
@@ -63,6 +68,8 @@ def export_from_args(path, args, out, blade_name):
         raise UsageError(str(exc)) from None
     report = export_nc(path, args.machine, args.post, options, out)
     print(report.summary())
+    if report.gate.warning:
+        print(f"{PROG}: warning: {report.gate.warning}", file=sys.stderr)
     if getattr(args, "report", None):
         _write_report(report, args.report)
     return report

@@ -319,17 +319,24 @@ def _cmd_paths(args):
         for line in verdict_lines(verdict):
             print(line)
     unresolved = _collision_lines(plan)
-    if args.nc and unresolved:
-        print(f"NC not written: {unresolved[0]} unresolved collision(s)")
-    elif args.nc:
+    nc_written = False
+    if args.nc:  # the one collision gate of every NC export (core/post/gate.py)
+        from ..core.post.gate import CollisionGateError
         from .nc import export_from_args
 
-        export_from_args(path, args, Path(args.nc).expanduser().resolve(), Path(args.mesh).stem)
+        try:
+            export_from_args(path, args, Path(args.nc).expanduser().resolve(),
+                             Path(args.mesh).stem)
+            nc_written = True
+        except CollisionGateError as exc:
+            print(f"NC not written: {exc}")
     if args.blend or args.preview:
         _blender_outputs(args, V, F, req, plan, report)
     if unresolved:
+        nc_text = ("the NC program was written with them marked (--allow-collisions)"
+                   if nc_written else "the NC program was not")
         _fail(f"{unresolved[0]} pose(s) are unresolved collisions (first: {unresolved[1]}); "
-              f"the outputs were written, the NC program was not")
+              f"the outputs were written, {nc_text}")
         return 4
     return 0
 

@@ -29,12 +29,6 @@ def nc_machine(settings):
     return bpy.path.abspath(settings.machine_file)
 
 
-def unresolved_collisions(path) -> int:
-    """Poses of ``path`` reported as unresolved collisions (0 when not checked)."""
-    summary = getattr(path, "collision", None) or {}
-    return int(summary.get("unresolved", 0) or 0)
-
-
 class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
     """Post the generated tool paths as an NC program for the chosen machine and controller"""
 
@@ -63,15 +57,13 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
         try:
             name = result_blade_name(context)
             path = stored_path(name)
-            n = unresolved_collisions(path)
-            if n and not settings.export_anyway:
-                raise BliskCamError(
-                    f"{n} pose(s) are unresolved collisions: the program could crash the "
-                    "machine. Correct them (Check Collisions, avoid) or tick Export Anyway")
             filename = output_filename(self.filepath, "NC program")
             post = settings.post if self.post == "PANEL" else self.post
             machine = self.machine or nc_machine(settings)
-            options = NcOptions(**group_values(settings, NcOptions), blade_name=name)
+            # the collision gate of every export (core/post/gate.py) refuses unresolved
+            # collisions unless Export Anyway is ticked, and then marks them in the header
+            options = NcOptions(**group_values(settings, NcOptions), blade_name=name,
+                                allow_collisions=bool(settings.export_anyway))
             report = export_nc(path, machine, post, options, filename)
             if report.interpolation is not None:  # the blocks, coloured by measured error
                 from ..blender.collision_objects import write_block_error_object
@@ -81,5 +73,7 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
                     report.interpolation))
         except Exception as exc:
             return report_exception(self, exc)
+        if report.gate.warning:
+            self.report({"WARNING"}, report.gate.warning)
         self.report({"INFO"}, report.summary())
         return {"FINISHED"}

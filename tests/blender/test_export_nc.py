@@ -51,16 +51,33 @@ def test_export_nc_posts_the_generated_paths(addon, demo, tmp_path):
 
 
 def test_export_nc_refuses_unresolved_collisions(addon, demo, tmp_path, monkeypatch):
+    """The operator goes through the core's collision gate (core/post/gate.py): refused
+    without Export Anyway; with it, the header says how many and where (issue 28 rows 1, 9)."""
     from blisk_cam.operators import export_nc
 
     blade, s = radial_demo_paths(demo, tmp_path, chord=0.5)
-    monkeypatch.setattr(export_nc, "unresolved_collisions", lambda path: 3)
+    real = export_nc.stored_path
+
+    def marked(name):
+        p = real(name)
+        m = len(p.program)
+        status = np.zeros(m, np.int8)
+        rows = np.flatnonzero(np.asarray(p.program.curve) == 0)[:3]
+        status[rows] = 2
+        p.program.collision_status = status
+        p.program.clearance = np.where(status == 2, -1.0, 5.0)
+        p.collision = {"mode": "check", "unresolved": 3, "checked_poses": m}
+        return p
+
+    monkeypatch.setattr(export_nc, "stored_path", marked)
     out = tmp_path / "x.nc"
     with pytest.raises(RuntimeError, match="3 pose"):
         bpy.ops.blisk_cam.export_nc(filepath=str(out))
     assert not out.exists()
     s.export_anyway = True
     assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    head = out.read_text().upper().split("G1 ")[0]
+    assert "EXPORTED ANYWAY WITH 3 UNRESOLVED COLLISION" in head and "PASS 0 POSES" in head
 
 
 @pytest.mark.parametrize("view", ["PART", "MACHINE"])

@@ -53,7 +53,8 @@ class NcOptions(OptionGroup):
     None: the Z travel maximum, else 100), ``rapid_rate`` (mm/min) and ``rotary_rate``
     (deg/min) for the time estimate and inverse-time blocks, ``program_number``,
     ``blade_name`` (header), ``tool_length`` (mm gauge length, head pivot limits),
-    ``use_subprogram`` (index blades by a subprogram call where possible).
+    ``use_subprogram`` (index blades by a subprogram call where possible),
+    ``allow_collisions`` (post despite unresolved collisions, :mod:`.gate`).
     """
 
     title = "NC program"
@@ -110,6 +111,9 @@ class NcOptions(OptionGroup):
         None, "Chord Height", "Chord height of chord-height blocks, mm", unit="mm", lo=0.0,
         lo_open=True, none_as=0.0, precision=4)
     notes: tuple = ()  # extra header lines (the interpolation's result)
+    #: post a path with unresolved collisions (``--allow-collisions``, Export Anyway); the
+    #: header then marks them (:mod:`.gate`)
+    allow_collisions: bool = False
 
     def check(self):
         """Bounds of every option (raised on construction too)."""
