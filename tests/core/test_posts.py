@@ -293,7 +293,9 @@ def test_cli_ok(paths_files, tmp_path, capsys):
     rc, so, se = _cli(["--paths", paths_files["good"], "--machine", "ac-trunnion", "--post",
                        "linuxcnc", "--out", out, "--blades", "2", "--feed", "800", "--spindle",
                        "12000", "--tool-number", "3", "--coolant", "off"], capsys)
-    assert rc == 0 and se == "" and out.exists()
+    # the one stderr line: the path was never checked for collisions (issue 28 row 1)
+    assert rc == 0 and out.exists() and len(se.splitlines()) == 1
+    assert "never checked for collisions" in se
     text = out.read_text()
     assert "T3 M6" in text and "S12000 M3" in text and "M9" in text and "blade: demo" in text
 
