@@ -27,7 +27,11 @@ def version() -> str:
 
 
 def fmt(x: float, decimals: int = DECIMALS) -> str:
-    """Fixed-point number, no negative zero."""
+    """Fixed-point number, no negative zero; PostError for nan or inf (no controller reads
+    them, and a program must never stop mid-cut on one)."""
+    if not math.isfinite(float(x)):
+        raise PostError(f"a program word would be {float(x)!r}: the path holds a number that is "
+                        "not finite; nothing was written")
     s = f"{float(x):.{decimals}f}"
     return "0." + "0" * decimals if float(s) == 0.0 else s
 

@@ -95,6 +95,21 @@ def interpolate_for_nc(path: ToolPath, machine: Machine, options: NcOptions):
     return new, replace(options, notes=(*options.notes, rep.summary())), rep
 
 
+def check_finite(path: ToolPath) -> None:
+    """PostError naming the first program row (or pass pose) whose tip or axis is not finite:
+    no post writes nan or inf."""
+    prog = path.program
+    arrays = ([("program row", prog.tip, prog.axis)] if prog is not None else
+              [(f"pass {i} pose", c.tip, c.axis) for i, c in enumerate(path.curves)])
+    for what, tip, axis in arrays:
+        bad = ~(np.isfinite(tip).all(axis=1) & np.isfinite(axis).all(axis=1))
+        if bad.any():
+            r = int(np.flatnonzero(bad)[0])
+            raise PostError(f"{what} {r} has a tip or axis that is not finite "
+                            f"(tip {np.asarray(tip[r]).tolist()}, axis "
+                            f"{np.asarray(axis[r]).tolist()}): nothing was written")
+
+
 def nc_program(path: ToolPath, machine: Machine | str, post: str,
                options: NcOptions | None = None, *, reports: list | None = None,
                gates: list | None = None) -> tuple[str, Blocks]:
@@ -104,6 +119,7 @@ def nc_program(path: ToolPath, machine: Machine | str, post: str,
     ``gates`` when given). With ``options.interpolation`` the cut blocks are chosen first
     (:func:`interpolate_for_nc`); its report is appended to ``reports`` when given."""
     options = options or NcOptions()
+    check_finite(path)
     gate = collision_gate(path, options.allow_collisions)
     if gate.notes:
         options = replace(options, notes=(*gate.notes, *options.notes))
