@@ -20,7 +20,7 @@ import os
 import sys
 
 from ..core.errors import BliskCamError
-from ..core.machine.description import known_presets
+from ..core.machine.description import known_presets, load_machine
 from ..core.post.blocks import NcOptions
 from ..core.post.common import write_atomic
 from ..core.post.export import POSTS, export_nc
@@ -92,9 +92,11 @@ def run_nc(args) -> int:
     """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
     status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
     try:
+        machine = load_machine(args.machine)  # cheap: a bad machine file before the paths
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")
         path = read_paths_json(args.paths)
+        args.machine = machine
         export_from_args(path, args, args.out,
                          os.path.splitext(os.path.basename(args.paths))[0])
     except UsageError as err:
