@@ -25,7 +25,7 @@ from ..core.post.blocks import NcOptions
 from ..core.post.common import write_atomic
 from ..core.post.export import POSTS, export_nc
 from ..core.toolpath.paths_io import read_paths_json
-from .flags import PROG, UsageError, add_option_flags, option_args
+from .flags import PROG, UsageError, add_option_flags, check_file_roles, option_args
 
 __all__ = ["add_nc_arguments", "run_nc"]
 
@@ -92,6 +92,10 @@ def run_nc(args) -> int:
     """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
     status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
     try:
+        check_file_roles(
+            [("--paths", args.paths),
+             ("--machine", args.machine if str(args.machine).endswith(".toml") else None)],
+            [("--out", args.out), ("--report", getattr(args, "report", None))])
         machine = load_machine(args.machine)  # cheap: a bad machine file before the paths
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")

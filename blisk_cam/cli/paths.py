@@ -15,7 +15,7 @@ from ..core.errors import BliskCamError
 from ..core.options import PATH_OPTION_GROUPS, CutterOptions
 from ..core.tool.assembly import AssemblyError, holder_profile
 from .blender import _blender_outputs
-from .flags import UsageError, _fail, option_args
+from .flags import UsageError, _fail, check_file_roles, option_args
 
 
 def read_profile_csv(path):
@@ -102,6 +102,13 @@ def _check_paths_args(args):
         raise UsageError("--nc needs --machine (preset or TOML) and --post (controller)")
     if (args.machine or args.post) and not args.nc:
         raise UsageError("--machine/--post post the path with --nc FILE; give --nc")
+    machine_file = args.machine if args.machine and args.machine.endswith(".toml") else None
+    check_file_roles(
+        [("--mesh", args.mesh), ("--cone1-profile", args.cone1_profile),
+         ("--cone2-profile", args.cone2_profile), ("--machine", machine_file),
+         *(("--obstacle", o) for o in args.obstacle)],
+        [("--out", args.out), ("--nc", args.nc), ("--blend", args.blend),
+         ("--preview", args.preview), ("--report", getattr(args, "report", None))])
     for opt in ("out", "blend", "preview", "nc"):
         value = getattr(args, opt)
         if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
