@@ -155,7 +155,7 @@ def test_fk_round_trip_demo(demo, post, machine, tmp_path):
     rep, out = check_program(post, m, demo, NcOptions(blade_name="demo"), tmp_path)
     text = out.read_text().lower()
     # header and program frame (fanuc comments are upper case)
-    assert "blisk cam" in text and "ø12 ball" in text and m.name.lower() in text and post in text
+    assert "blisk cam" in text and "d12 ball" in text and m.name.lower() in text and post in text
     assert "chord 0.1 mm" in text and "s10000" in text.replace("spindl/rpm,", "s")
     assert not any(".tmp" in f for f in os.listdir(out.parent))
     if post != "apt":

@@ -19,7 +19,7 @@ from ..machine.description import Machine, load_machine
 from ..machine.interpolation import interpolate_program
 from ..toolpath.types import ToolPath
 from .blocks import Blocks, NcOptions, build_blocks
-from .common import PostContext, block_minutes, write_atomic
+from .common import PostContext, ascii_text, block_minutes, write_atomic
 from .gate import GateResult, collision_gate
 
 __all__ = ["POSTS", "NcReport", "export_nc", "get_post", "nc_program"]
@@ -135,7 +135,10 @@ def nc_program(path: ToolPath, machine: Machine | str, post: str,
     blocks = build_blocks(path, machine, options, indexable=mod.INDEXABLE,
                           solve=getattr(mod, "SOLVE", True))
     ctx = PostContext(path=path, machine=machine, options=options, blocks=blocks, post=mod.NAME)
-    return mod.write(ctx), blocks
+    text = mod.write(ctx)
+    if not text.isascii():  # names from the user (machine, blade) can carry any character
+        text = ascii_text(text)
+    return text, blocks
 
 
 def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOptions | None,
