@@ -44,6 +44,13 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
     parser.add_argument("--post", required=with_paths, type=str.lower, metavar="POST",
                         help="controller dialect: one of " + ", ".join(POSTS))
     add_option_flags(parser, (NcOptions,))
+    if with_paths:  # 'paths' has it already (the collision options)
+        parser.add_argument("--blade-count", type=_whole_at_least_1, default=None,
+                            metavar="N", help="blades on the blisk: the program is repeated "
+                            "for N blades, blade k turned by k*360/N about the blisk axis "
+                            "(default 1: the one blade)")
+    parser.add_argument("--blades", type=_whole_at_least_1, default=None, metavar="N",
+                        help="deprecated: the old name of --blade-count (must agree with it)")
     parser.add_argument("--allow-collisions", action="store_true",
                         help="post a path whose collision check left unresolved poses (the "
                         "program header then says how many and where); without it such a "
@@ -53,9 +60,42 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
     return parser
 
 
+def _whole_at_least_1(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected at least 1 blade, got {value}")
+    return value
+
+
+def resolve_blade_count(args, warn=True):
+    """The one blade count of the command line: ``--blade-count``, or the deprecated
+    ``--blades`` (a note on stderr); UsageError when both are given and differ. Sets
+    ``args.blade_count`` (None when neither is given) and returns it."""
+    old = getattr(args, "blades", None)
+    count = getattr(args, "blade_count", None)
+    if old is not None:
+        if count is not None and count != old:
+            raise UsageError(f"--blades {old} and --blade-count {count} disagree; --blades is "
+                             "the old name of --blade-count (the blades on the blisk, used by "
+                             "the collision check and the NC program): give --blade-count once")
+        if warn:
+            print(f"{PROG}: warning: --blades is deprecated; use --blade-count {old}",
+                  file=sys.stderr)
+        count = old
+        args.blades = None
+    args.blade_count = count
+    return count
+
+
 def nc_options(args, **extra):
-    """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds)."""
-    return NcOptions(**option_args(args, (NcOptions,)),
+    """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds);
+    the blades from the one blade count (:func:`resolve_blade_count`, default 1)."""
+    count = resolve_blade_count(args)
+    count = count or getattr(args, "nc_blades", None) or 1
+    return NcOptions(**option_args(args, (NcOptions,)), blades=count,
                      allow_collisions=bool(getattr(args, "allow_collisions", False)), **extra)
 
 
@@ -92,6 +132,7 @@ def run_nc(args) -> int:
     """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
     status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
     try:
+        resolve_blade_count(args)
         check_file_roles(
             [("--paths", args.paths),
              ("--machine", args.machine if str(args.machine).endswith(".toml") else None)],

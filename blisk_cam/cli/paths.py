@@ -10,7 +10,7 @@ import re
 import time
 from pathlib import Path
 
-from ..core.collision.options import CollisionOptions
+from ..core.collision.options import DEFAULT_CHECK_MODE, CollisionOptions
 from ..core.errors import BliskCamError
 from ..core.options import PATH_OPTION_GROUPS, CutterOptions
 from ..core.tool.assembly import AssemblyError, holder_profile
@@ -79,6 +79,12 @@ def _check_paths_args(args):
         if args.tool_diameter is not None:
             raise UsageError("--tool-diameter and --tool-radius both give the tool size; use one")
         args.tool_diameter = 2.0 * args.tool_radius
+    from .nc import resolve_blade_count
+
+    old_only = args.blades is not None and args.blade_count is None
+    count = resolve_blade_count(args)  # --blades: the deprecated name (error on a mismatch)
+    if count == 1 and old_only:  # '--blades 1': the one blade's program, no neighbours
+        args.blade_count, args.nc_blades = None, 1
     given = option_args(args, PATH_OPTION_GROUPS)
     _check_orientation_args(args, given)
     tool = given.get("tool_type", "ball")
@@ -130,8 +136,8 @@ def parse_holder(text):
 
 
 def _collision_options(args):
-    """The CollisionOptions of the flags: the mode defaults to avoid when a blade count or an
-    obstacle is given (else off)."""
+    """The CollisionOptions of the flags: the mode defaults to check (DEFAULT_CHECK_MODE, as
+    the panel's Check Collisions) when a blade count or an obstacle is given (else off)."""
     from ..core.geometry.axis import Axis
     from ..core.process.blade_finish import PathRequest, make_cutter
 
@@ -139,7 +145,8 @@ def _collision_options(args):
     if args.holder is not None:
         given["holder"] = parse_holder(args.holder)
     if "mode" not in given:
-        given["mode"] = "avoid" if ("blade_count" in given or args.obstacle) else "off"
+        given["mode"] = (DEFAULT_CHECK_MODE if ("blade_count" in given or args.obstacle)
+                         else "off")
     if given["mode"] != "off" and "blade_count" not in given:
         raise UsageError(f"--collisions {given['mode']} needs --blade-count N (the neighbours "
                          "are the blade turned by k·360°/N)")

@@ -6,7 +6,7 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from ..blender.settings import group_values
+from ..blender.settings import nc_options
 from ..core.errors import BliskCamError
 from ..core.post.export import POSTS
 from .common import (
@@ -50,7 +50,6 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
         return poll_generated_paths(cls, context)
 
     def execute(self, context):
-        from ..core.post.blocks import NcOptions
         from ..core.post.export import export_nc
 
         settings = settings_of(context)
@@ -62,8 +61,8 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
             machine = self.machine or nc_machine(settings)
             # the collision gate of every export (core/post/gate.py) refuses unresolved
             # collisions unless Export Anyway is ticked, and then marks them in the header
-            options = NcOptions(**group_values(settings, NcOptions), blade_name=name,
-                                allow_collisions=bool(settings.export_anyway))
+            options = nc_options(settings, blade_name=name,
+                                 allow_collisions=bool(settings.export_anyway))
             report = export_nc(path, machine, post, options, filename)
             if report.interpolation is not None:  # the blocks, coloured by measured error
                 from ..blender.collision_objects import write_block_error_object

@@ -291,7 +291,8 @@ def _cli(args, capsys):
 def test_cli_ok(paths_files, tmp_path, capsys):
     out = tmp_path / "demo.ngc"
     rc, so, se = _cli(["--paths", paths_files["good"], "--machine", "ac-trunnion", "--post",
-                       "linuxcnc", "--out", out, "--blades", "2", "--feed", "800", "--spindle",
+                       "linuxcnc", "--out", out, "--blade-count", "2", "--feed", "800",
+                       "--spindle",
                        "12000", "--tool-number", "3", "--coolant", "off"], capsys)
     # the one stderr line: the path was never checked for collisions (issue 28 row 1)
     assert rc == 0 and out.exists() and len(se.splitlines()) == 1
@@ -389,12 +390,13 @@ def test_paths_and_nc_in_one_run_match_the_nc_command(tmp_path, capsys):
                    "--tool-diameter", "12", "--cusp", "0.5", "--chord", "0.1",
                    "--axis-mode", "radial", "--radial-tilt", "75", "--out",
                    str(tmp_path / "p.json"), "--nc", str(one), "--machine", "ac-trunnion",
-                   "--post", "linuxcnc", "--blades", "2", "--spindle", "9000"])
+                   "--post", "linuxcnc", "--blade-count", "2", "--collisions", "off",
+                   "--spindle", "9000"])
     out = capsys.readouterr().out
     assert rc == 0 and "blocks" in out
     two = tmp_path / "two.ngc"
     rc = cli.main(["nc", "--paths", str(tmp_path / "p.json"), "--machine", "ac-trunnion",
-                   "--post", "linuxcnc", "--out", str(two), "--blades", "2", "--spindle",
+                   "--post", "linuxcnc", "--out", str(two), "--blade-count", "2", "--spindle",
                    "9000"])
     assert rc == 0
     a = [x for x in one.read_text().splitlines() if not x.startswith("(blade:")]

@@ -80,8 +80,10 @@ class NcOptions(OptionGroup):
     tool_number: int = option(1, "Tool Number", "Tool number T in the magazine", lo=0)
     coolant: bool = option(True, "Coolant", "Coolant (M08) on or off",
                            choices=(Choice(True, "On", cli="on"), Choice(False, "Off", cli="off")))
+    # the blade count is entered once (issue 28): the front ends fill it from their one blade
+    # count (CLI --blade-count, the panel's Blade Count), so no flag or property of its own
     blades: int = option(1, "Blades", "Repeat the blade's moves for N blades, blade k turned "
-                         "by k·360°/N about the blisk axis", lo=1)
+                         "by k·360°/N about the blisk axis", lo=1, flag=None, blender=False)
     chord: float | None = None
     max_rotary_step: float = option(
         math.radians(5.0), "Max Rotary Step", "Largest rotary-axis turn between consecutive "
