@@ -194,6 +194,8 @@ def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
     paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
     paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
                        help="render engine of --preview")
+    paths.add_argument("--quiet", action="store_true",
+                       help="no progress lines on stderr (errors and warnings still print)")
     paths.add_argument("--verify", action="store_true",
                        help="also measure the material left and gouges (printed and stored "
                        "in the JSON's stats)")

@@ -18,14 +18,17 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 
 from ..core.errors import BliskCamError
 from ..core.machine.description import known_presets, load_machine
 from ..core.post.blocks import NcOptions
 from ..core.post.common import write_atomic
-from ..core.post.export import POSTS, export_nc
+from ..core.post.export import POSTS, export_nc, get_post
+from ..core.post.gate import collision_gate
 from ..core.toolpath.paths_io import read_paths_json
 from .flags import PROG, UsageError, add_option_flags, check_file_roles, option_args
+from .progress import StageProgress
 
 __all__ = ["add_nc_arguments", "run_nc"]
 
@@ -38,6 +41,8 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
         parser.add_argument("--paths", required=True, metavar="FILE",
                             help="paths JSON (version 1) written by 'blisk_cam paths'")
         parser.add_argument("--out", required=True, metavar="FILE", help="NC program to write")
+        parser.add_argument("--quiet", action="store_true",
+                            help="no progress lines on stderr (errors and warnings still print)")
     parser.add_argument("--machine", required=with_paths, metavar="PRESET|FILE.toml",
                         help=f"machine preset ({', '.join(known_presets())}) or a machine "
                         "TOML file")
@@ -142,8 +147,18 @@ def run_nc(args) -> int:
             raise BliskCamError(f"paths file {args.paths} not found")
         path = read_paths_json(args.paths)
         args.machine = machine
+        get_post(args.post).check(machine)  # cheap refusals before the progress line
+        collision_gate(path, bool(args.allow_collisions))
+        folder = os.path.dirname(os.path.abspath(os.fspath(args.out)))
+        if not os.path.isdir(folder):
+            raise BliskCamError(f"cannot write {args.out}: the directory {folder} does not "
+                                "exist")
+        progress = StageProgress(quiet=args.quiet)
+        t = time.perf_counter()
+        progress.report("nc", 0.0, "posting the NC program")
         export_from_args(path, args, args.out,
                          os.path.splitext(os.path.basename(args.paths))[0])
+        progress.done("nc", time.perf_counter() - t)
     except UsageError as err:
         print(f"{PROG}: error: {' '.join(str(err).split())}", file=sys.stderr)
         return 2

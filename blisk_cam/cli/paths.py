@@ -193,15 +193,19 @@ def read_obstacles(files):
     return out
 
 
-def plan_from_args(args, log=print):
+def plan_from_args(args, log=print, progress=None):
     """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
     plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
     or None, {stage: seconds}). Every stage is timed (``seconds_<stage>`` in the JSON's
-    stats)."""
+    stats). ``progress``: a :class:`.progress.StageProgress` for the percentage lines on
+    stderr (None: silent)."""
     from ..core.geometry.mesh import TriMesh
     from ..core.geometry.mesh_io import read_mesh
     from ..core.part.fitting import fit_cones_to_mesh
-    from ..core.process.blade_finish import PathRequest, plan_paths
+    from ..core.process.blade_finish import PathRequest, iter_plan_paths
+    from .progress import StageProgress
+
+    progress = progress or StageProgress(quiet=True)
 
     times = {}
     t = time.perf_counter()
@@ -230,8 +234,17 @@ def plan_from_args(args, log=print):
         times["load"] += time.perf_counter() - t
         extra = (collision_stage(args.collision, obstacles),)
     t = time.perf_counter()
-    plan = plan_paths(mesh, req, extra=extra)
+    it = iter_plan_paths(mesh, req, extra=extra)
+    while True:  # the stages yield Progress: a percentage line on stderr now and then
+        try:
+            p = next(it)
+        except StopIteration as stop:
+            plan = stop.value
+            break
+        progress.report("collisions" if "collision" in p.message else "plan", p.fraction,
+                        p.message)
     times["plan"] = time.perf_counter() - t
+    progress.done("plan" if not extra else "collisions", times["plan"])
     if extra:  # the collision stage's share of the plan
         times["collision"] = float(plan.path.stats.get("seconds_collision", 0.0))
         times["plan"] -= times["collision"]
@@ -242,8 +255,9 @@ def plan_from_args(args, log=print):
         from ..core.verify.measure import verify_path
 
         t = time.perf_counter()
-        report = verify_path(mesh, plan.path)
+        report = verify_path(mesh, plan.path, progress=progress.step("verify"))
         times["verify"] = time.perf_counter() - t
+        progress.done("verify", times["verify"])
     return V, F, mesh, req, plan, report, times
 
 
@@ -299,8 +313,10 @@ def _cmd_paths(args):
     startup = process_age()
     _check_paths_args(args)
     from ..core.toolpath.paths_io import write_paths_json
+    from .progress import StageProgress
 
-    V, F, mesh, req, plan, report, times = plan_from_args(args)
+    progress = StageProgress(quiet=args.quiet)
+    V, F, mesh, req, plan, report, times = plan_from_args(args, progress=progress)
     path = plan.path
     verdict = None
     if report is not None:
@@ -320,10 +336,7 @@ def _cmd_paths(args):
     path.stats["seconds_wall"] = time.perf_counter() - t_wall + (startup or 0.0)
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
-    wall = time.perf_counter() - t_wall + (startup or 0.0)
     print(f"wrote {out}: {_summary_line(path, times, report)}")
-    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
-          + f"; wall {wall:.2f} s")
     print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm")
     for w in plan.warnings:
         print(f"warning: {w}")
@@ -338,14 +351,24 @@ def _cmd_paths(args):
         from ..core.post.gate import CollisionGateError
         from .nc import export_from_args
 
+        t = time.perf_counter()
+        progress.report("nc", 0.0, "posting the NC program")
         try:
             export_from_args(path, args, Path(args.nc).expanduser().resolve(),
                              Path(args.mesh).stem)
             nc_written = True
         except CollisionGateError as exc:
             print(f"NC not written: {exc}")
+        times["nc"] = time.perf_counter() - t
+        progress.done("nc", times["nc"])
     if args.blend or args.preview:
+        t = time.perf_counter()
         _blender_outputs(args, V, F, req, plan, report)
+        times["blender"] = time.perf_counter() - t
+    # the wall time counts every stage the user waited for, the NC posting included
+    wall = time.perf_counter() - t_wall + (startup or 0.0)
+    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
+          + f"; wall {wall:.2f} s")
     if unresolved:
         nc_text = ("the NC program was written with them marked (--allow-collisions)"
                    if nc_written else "the NC program was not")

@@ -44,7 +44,15 @@ from ..geometry.distance import MeshDistance, closest_points
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import dot, slerp, unit
 from ..part.profiles import morph_between
-from ..runtime import Cancelled, alongside, cancellable, check_cancel, map_tasks, parallel
+from ..runtime import (
+    Cancelled,
+    Progress,
+    alongside,
+    cancellable,
+    check_cancel,
+    map_tasks,
+    parallel,
+)
 from ..tool.cutter import as_cutter
 from ..toolpath.types import PassCurve, ToolPath
 from .forest import SweptForest
@@ -333,6 +341,7 @@ def verify_path(
     method: str = "fast",
     workers: int | None = None,
     cancel=None,
+    progress=None,
 ) -> VerifyReport:
     """Measure a tool path on its mesh, independently of the generator.
 
@@ -352,21 +361,34 @@ def verify_path(
         steps and before every chunk of points (:func:`..runtime.map_chunks`) and every
         per-level task, from the worker threads too; once set, :class:`Cancelled` is raised
         (within one chunk's time) and nothing is returned
+    progress : None or callable(:class:`~..runtime.Progress`) — told the fraction done and
+        the step starting (mesh tree, poses, samples, material, scallops, totals), for a
+        front end's progress line; it does not change the figures
 
     Returns
     -------
     VerifyReport
     """
     with parallel(workers), cancellable(cancel, "verify"):
-        return _verify_path(mesh, path, spacing, subsamples, refine, method)
+        return _verify_path(mesh, path, spacing, subsamples, refine, method, progress)
 
 
-def _verify_path(mesh, path, spacing, subsamples, refine, method):
+#: the steps of verify and the fraction of a typical run done when each starts
+_STEPS = {"mesh tree": 0.0, "poses": 0.05, "samples": 0.35, "material": 0.45,
+          "scallops": 0.7, "totals": 0.95}
+
+
+def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None):
     """:func:`verify_path` on the threads set by the caller: the named steps in order."""
+    def step(name):
+        check_cancel()
+        if progress is not None:
+            progress(Progress(_STEPS[name], name))
+
+    step("mesh tree")
     t0 = time.perf_counter()
     tim = {}
     cutter, rho, spacing = _tool_and_spacing(path, spacing, method)
-    check_cancel()
     cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
     axis = path.axis
     curves = _cut_runs(path.curves)
@@ -379,34 +401,36 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
     md = MeshDistance(mesh)
     tim["mesh_tree"] = time.perf_counter() - t0
 
-    check_cancel()
+    step("poses")
     t1 = time.perf_counter()
     pc = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
     tim["poses"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("samples")
     t1 = time.perf_counter()
     smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, samples(), pc)
     spacing = smp.spacing
     tim["samples"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("material")
     t1 = time.perf_counter()
     levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
                                                         P + rho * normals)
     tim["material"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("scallops")
     t1 = time.perf_counter()
     sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
                    lab, rho, refine, method)
     tim["scallops"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("totals")
     t1 = time.perf_counter()
     tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
     tim["totals"] = time.perf_counter() - t1
     tim["total"] = time.perf_counter() - t0
+    if progress is not None:
+        progress(Progress(1.0, "done"))
     return _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
 
 
