@@ -244,10 +244,10 @@ def plan_from_args(args, log=print, progress=None):
         progress.report("collisions" if "collision" in p.message else "plan", p.fraction,
                         p.message)
     times["plan"] = time.perf_counter() - t
-    progress.done("plan" if not extra else "collisions", times["plan"])
     if extra:  # the collision stage's share of the plan
         times["collision"] = float(plan.path.stats.get("seconds_collision", 0.0))
         times["plan"] -= times["collision"]
+    progress.done("collisions" if extra else "plan", times["collision" if extra else "plan"])
     if fit is not None and plan.fit is None:
         plan.fit = fit
     report = None

@@ -484,6 +484,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
     nrm_all = np.vstack([np.asarray(c.normal, float) for c in curves])
     cid = np.repeat(np.arange(ncur), [len(c.cc) for c in curves])
     cp = md.query(cc_all)
+    check_cancel()  # between the sub-steps too: a cancel acts within a second
     pc.on_mesh = _group_max(ncur, cid, cp.distance)
     sn = mesh.interpolate_normals(cp.face, cp.bary)
     un = nrm_all / np.maximum(np.linalg.norm(nrm_all, axis=1), 1e-300)[:, None]
@@ -499,6 +500,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         pc.mismatch = float(np.inf if np.any(np.isnan(mm)) else mm.max())
     # the CC point against the posed cutter's surface (0 when the cutter touches it there)
     pc.pose_contact = np.abs(cutter.signed_distance(cc_all, tips, axs))
+    check_cancel()
     pc.on_cone = _group_max(ncur, cid, np.abs(_lmc_values(curves, cones, axis, cc_all, cid)))
     # chord of the CC polylines
     sub = [_subsample(c, c.cc, subsamples, False) for c in curves]
@@ -508,6 +510,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         dch = md.query(subp).distance
         pc.cc_chord = _group_max(ncur, sid, dch)
         pc.chord_at = subp[int(np.argmax(dch))]
+    check_cancel()
     if is_ball:
         # centre polylines against the exact offset
         cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
@@ -517,13 +520,16 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         # from 6 mm off the surface is slow; the result does not depend on the guess)
         cq = md.query(np.vstack(sub), near=np.vstack(
             [_subsample(c, c.cc, subsamples, True) for c in curves]))
+        check_cancel()
         dev = cq.signed_distance - rho
         pc.over_at = np.vstack(sub)[int(np.argmin(dev))]
     else:
         # the interpolated poses' lowest points (toward −n); the mesh point under each
         # against the posed cutter (< 0: the surface is cut into there)
         xs, sid, xtip, xax = _interpolated_contacts(cutter, curves, subsamples)
+        check_cancel()
         cq = md.query(xs)
+        check_cancel()
         dev = cutter.signed_distance(cq.point, xtip, xax)
         pc.over_at = cq.point[int(np.argmin(dev))] if len(xs) else np.full(3, np.nan)
     pc.over = np.maximum(_group_max(ncur, sid, -dev), 0.0)
