@@ -16,12 +16,16 @@ pose, the axis and the value).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
+from dataclasses import replace
+
+import numpy as np
 
 from ..core.errors import BliskCamError
-from ..core.machine.description import known_presets, load_machine
+from ..core.machine.description import Machine, known_presets, load_machine
 from ..core.post.blocks import NcOptions
 from ..core.post.common import write_atomic
 from ..core.post.export import POSTS, export_nc, get_post
@@ -54,6 +58,10 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
                             metavar="N", help="blades on the blisk: the program is repeated "
                             "for N blades, blade k turned by k*360/N about the blisk axis "
                             "(default 1: the one blade)")
+    parser.add_argument("--part-origin", type=_xyz, default=None, metavar="X,Y,Z",
+                        help="where the part (paths) origin sits, mm in the machine "
+                        "description's frame with the rotaries at 0 (instead of the machine's "
+                        "[part] origin); TCP programs state it as the work offset to set")
     parser.add_argument("--blades", type=_whole_at_least_1, default=None, metavar="N",
                         help="deprecated: the old name of --blade-count (must agree with it)")
     parser.add_argument("--allow-collisions", action="store_true",
@@ -63,6 +71,26 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
     parser.add_argument("--report", default=None, metavar="FILE.json",
                         help="also write the export report (with the interpolation's) as JSON")
     return parser
+
+
+def _xyz(text):
+    """argparse type: 'X,Y,Z' → three finite numbers (mm)."""
+    try:
+        v = [float(x) for x in str(text).split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 3 or not all(math.isfinite(x) for x in v):
+        raise argparse.ArgumentTypeError(f"expected three numbers X,Y,Z in mm, got '{text}'")
+    return tuple(v)
+
+
+def machine_of(args):
+    """The machine of ``args.machine`` (preset, TOML or a loaded Machine) with
+    ``--part-origin`` applied."""
+    machine = args.machine if isinstance(args.machine, Machine) else load_machine(args.machine)
+    if getattr(args, "part_origin", None) is not None:
+        machine = replace(machine, part_origin=np.array(args.part_origin, dtype=float))
+    return machine
 
 
 def _whole_at_least_1(text):
@@ -111,7 +139,7 @@ def export_from_args(path, args, out, blade_name):
     except BliskCamError as exc:  # options that only make sense together
 
         raise UsageError(str(exc)) from None
-    report = export_nc(path, args.machine, args.post, options, out)
+    report = export_nc(path, machine_of(args), args.post, options, out)
     print(report.summary())
     if report.gate.warning:
         print(f"{PROG}: warning: {report.gate.warning}", file=sys.stderr)
@@ -142,7 +170,7 @@ def run_nc(args) -> int:
             [("--paths", args.paths),
              ("--machine", args.machine if str(args.machine).endswith(".toml") else None)],
             [("--out", args.out), ("--report", getattr(args, "report", None))])
-        machine = load_machine(args.machine)  # cheap: a bad machine file before the paths
+        machine = machine_of(args)  # cheap: a bad machine file before the paths
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")
         path = read_paths_json(args.paths)

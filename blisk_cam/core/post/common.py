@@ -102,13 +102,18 @@ def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
         f"post: {ctx.post}  units: mm, degrees",
         *getattr(o, "notes", ()),
     ]
+    po = " ".join(f"{a}{fmt(v)}" for a, v in zip("XYZ", m.part_origin, strict=True))
     if tcp:
         lines.append(
             "work offset at the part (paths) origin, axes along the paths x y z; X Y Z = tool tip"
         )
+        lines.append(f"set the work offset (G54 / preset) to the part origin {po} mm, in the "
+                     "machine description's frame with the rotaries at 0")
     else:
         lines.append("joint program, no TCP: X Y Z = machine tip position; G54 at the machine "
                      "description's origin, part frame from its [part] table")
+        lines.append(f"part origin {po} mm from the machine description's origin (rotaries "
+                     "at 0)")
     return [ascii_text(line) for line in lines]
 
 
