@@ -54,7 +54,7 @@ from ..runtime import (
     parallel,
 )
 from ..tool.cutter import as_cutter
-from ..toolpath.types import PassCurve, ToolPath
+from ..toolpath.types import MOVE_CUT, PassCurve, ToolPath
 from .forest import SweptForest
 from .samples import SurfaceSamples, default_spacing, surface_samples
 from .sweep import SWEEP_METHODS, SweepError, SweptCutter, swept_cutter
@@ -124,6 +124,15 @@ class VerifyReport:
     curve_* (n_curves,) per-curve figures; sample_points (k, 3), sample_values (k,) material
     left at the samples; vertex_values (n_vertices,) material left at the mesh vertices, NaN
     outside the region; timings (dict of seconds).
+
+    Links (every program row that is not a cut: link, approach, retract, rapid)
+    -----
+    link_gouge : max depth (mm, ≥ 0) of the cutter below the mesh along the non-cut moves of
+        the program (sampled at ``subsamples`` points per move, axis interpolated; a ball
+        exactly, ρ − signed distance of its centre; another cutter by the mesh point nearest
+        its axis one radius above the tip); ``link_gouge_at`` where, ``link_gouge_row`` the
+        program row the move ends at; link_rows : the non-cut moves measured (0 without a
+        program)
     """
 
     tool_radius: float
@@ -166,6 +175,10 @@ class VerifyReport:
     sample_values: np.ndarray
     vertex_values: np.ndarray
     timings: dict = field(default_factory=dict)
+    link_gouge: float = 0.0
+    link_gouge_at: np.ndarray | None = None
+    link_gouge_row: int | None = None
+    link_rows: int = 0
 
     def summary(self) -> dict:
         """Plain-Python figures for JSON or printing (no large arrays)."""
@@ -198,6 +211,8 @@ class VerifyReport:
             "pair_cusp": [f(x) for x in self.pair_cusp],
             "pair_cusp_normal": [f(x) for x in self.pair_cusp_normal],
             "timings": {k: round(float(v), 4) for k, v in self.timings.items()},
+            "link_gouge": f(self.link_gouge),
+            "link_rows": int(self.link_rows),
         }
 
 
@@ -375,7 +390,7 @@ def verify_path(
 
 #: the steps of verify and the fraction of a typical run done when each starts
 _STEPS = {"mesh tree": 0.0, "poses": 0.05, "samples": 0.35, "material": 0.45,
-          "scallops": 0.7, "totals": 0.95}
+          "scallops": 0.7, "links": 0.93, "totals": 0.95}
 
 
 def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None):
@@ -424,6 +439,11 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
                    lab, rho, refine, method)
     tim["scallops"] = time.perf_counter() - t1
 
+    step("links")
+    t1 = time.perf_counter()
+    links = _link_checks(md, path.program, cutter, rho, subsamples)
+    tim["links"] = time.perf_counter() - t1
+
     step("totals")
     t1 = time.perf_counter()
     tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
@@ -431,7 +451,42 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
     tim["total"] = time.perf_counter() - t0
     if progress is not None:
         progress(Progress(1.0, "done"))
-    return _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
+    rep = _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
+    rep.link_gouge, rep.link_gouge_at, rep.link_gouge_row, rep.link_rows = links
+    return rep
+
+
+def _link_checks(md, program, cutter, rho, subsamples):
+    """(depth mm ≥ 0, where (3,) or None, program row or None, moves measured) of the
+    program's non-cut moves (:class:`VerifyReport`, "Links"): each move j−1 → j whose
+    ``move[j]`` is not a cut, sampled at ``subsamples`` + 1 poses (ends included), the tip
+    and the axis interpolated linearly (the axis renormalised)."""
+    if program is None or len(program) < 2:
+        return 0.0, None, None, 0
+    move = np.asarray(program.move)
+    rows = np.flatnonzero(move[1:] != MOVE_CUT) + 1
+    if not len(rows):
+        return 0.0, None, None, 0
+    tip = np.asarray(program.tip, dtype=np.float64)
+    ax = np.asarray(program.axis, dtype=np.float64)
+    t = np.linspace(0.0, 1.0, max(int(subsamples), 1) + 1)
+    T = tip[rows - 1][:, None, :] * (1 - t)[None, :, None] + tip[rows][:, None, :] * t[None, :,
+                                                                                        None]
+    A = ax[rows - 1][:, None, :] * (1 - t)[None, :, None] + ax[rows][:, None, :] * t[None, :,
+                                                                                       None]
+    T, A = T.reshape(-1, 3), A.reshape(-1, 3)
+    A = A / np.maximum(np.linalg.norm(A, axis=1), 1e-300)[:, None]
+    row_of = np.repeat(rows, len(t))
+    check_cancel()
+    if cutter.type == "ball":
+        q = md.query(T + rho * A)
+        depth = rho - q.signed_distance
+    else:
+        q = md.query(T + float(cutter.radius) * A)
+        depth = -cutter.signed_distance(q.point, T, A)
+    k = int(np.argmax(depth))
+    d = max(0.0, float(depth[k]))
+    return d, (np.asarray(q.point[k]) if d > 0 else None), int(row_of[k]), int(len(rows))
 
 
 def _tool_and_spacing(path, spacing, method):
