@@ -165,6 +165,10 @@ def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
         "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
     )
     paths.add_argument(
+        "--units", type=str.lower, choices=("mm", "m", "in"), default="mm",
+        help="units of the mesh file (and of --obstacle files): mm (default), m or in; the "
+        "mesh is scaled to mm (a blade whose size says other units is refused, naming this)")
+    paths.add_argument(
         "--cone1", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
         help="first (hub) cone generatrix, mm",
     )

@@ -181,15 +181,15 @@ def _check_orientation_args(args, given):
                      axis_direction=tuple(map(float, args.axis_obj.d)))
 
 
-def read_obstacles(files):
+def read_obstacles(files, units="mm"):
     """[(name, V, F)] of the --obstacle files (core.geometry.mesh_io; MeshError naming a bad
-    file)."""
-    from ..core.geometry.mesh_io import read_mesh
+    file), scaled from ``units`` to mm."""
+    from ..core.geometry.mesh_io import read_mesh, to_mm
 
     out = []
     for f in files:
         V, F = read_mesh(f)
-        out.append((Path(f).stem, V, F))
+        out.append((Path(f).stem, to_mm(V, units), F))
     return out
 
 
@@ -200,7 +200,7 @@ def plan_from_args(args, log=print, progress=None):
     stats). ``progress``: a :class:`.progress.StageProgress` for the percentage lines on
     stderr (None: silent)."""
     from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import read_mesh
+    from ..core.geometry.mesh_io import check_blade_size, read_mesh, to_mm
     from ..core.part.fitting import fit_cones_to_mesh
     from ..core.process.blade_finish import PathRequest, iter_plan_paths
     from .progress import StageProgress
@@ -210,6 +210,8 @@ def plan_from_args(args, log=print, progress=None):
     times = {}
     t = time.perf_counter()
     V, F = read_mesh(args.mesh)
+    V = to_mm(V, args.units)
+    check_blade_size(V, args.axis_obj)  # metres or inches: refused with the size and the fix
     times["load"] = time.perf_counter() - t
     t = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F)
@@ -230,7 +232,7 @@ def plan_from_args(args, log=print, progress=None):
         from ..core.process.blade_finish import collision_stage
 
         t = time.perf_counter()
-        obstacles = read_obstacles(args.obstacle)
+        obstacles = read_obstacles(args.obstacle, args.units)
         times["load"] += time.perf_counter() - t
         extra = (collision_stage(args.collision, obstacles),)
     t = time.perf_counter()
