@@ -80,18 +80,18 @@ class BLISKCAM_OT_animate_program(bpy.types.Operator):
         from ..blender import path_objects as output
         from ..blender.objects import arrays_to_object, mm_per_blender_unit
         from ..core.collision.options import default_assembly
-        from ..core.machine.description import forward, load_machine
+        from ..core.machine.description import forward
         from ..core.machine.motion import machine_view, part_view
         from ..core.post.blocks import build_blocks
         from ..core.tool.assembly import assembly_mesh
-        from .export_nc import nc_machine
+        from .export_nc import loaded_machine
 
         scene = context.scene
         settings = settings_of(context)
         try:
             name = result_blade_name(context)
             path = stored_path(name)
-            machine = load_machine(nc_machine(settings))
+            machine = loaded_machine(settings)
             blocks = build_blocks(path, machine, nc_options(settings),
                                   indexable=False).expanded()
             if len(blocks) == 0:

@@ -29,6 +29,22 @@ def nc_machine(settings):
     return bpy.path.abspath(settings.machine_file)
 
 
+def loaded_machine(settings, name=None):
+    """The core Machine of the settings (``name``: a preset or TOML instead of the panel's),
+    with the panel's Part Origin when it is set."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from ..core.machine.description import load_machine
+
+    machine = load_machine(name or nc_machine(settings))
+    if settings.use_part_origin:
+        machine = replace(machine, part_origin=np.array([float(x) for x in
+                                                         settings.part_origin]))
+    return machine
+
+
 class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
     """Post the generated tool paths as an NC program for the chosen machine and controller"""
 
@@ -58,7 +74,7 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
             path = stored_path(name)
             filename = output_filename(self.filepath, "NC program")
             post = settings.post if self.post == "PANEL" else self.post
-            machine = self.machine or nc_machine(settings)
+            machine = loaded_machine(settings, self.machine or None)
             # the collision gate of every export (core/post/gate.py) refuses unresolved
             # collisions unless Export Anyway is ticked, and then marks them in the header
             options = nc_options(settings, blade_name=name,

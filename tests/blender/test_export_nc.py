@@ -172,3 +172,18 @@ def test_one_blade_count_for_collisions_and_nc(addon, demo, tmp_path):
     out = tmp_path / "b.ngc"
     assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
     assert "blades: 3" in out.read_text()
+
+
+def test_part_origin_field_sets_the_work_offset(addon, demo, tmp_path):
+    """Issue 28 row 10: the Machine & NC panel's Part Origin places the part without a copied
+    preset; a TCP program states the work offset to set."""
+    blade, s = radial_demo_paths(demo, tmp_path, chord=0.5)
+    s.machine, s.post = "ac-trunnion", "fanuc"
+    s.use_part_origin, s.part_origin = True, (0.0, 0.0, 20.0)
+    out = tmp_path / "f.nc"
+    assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    head = out.read_text().upper()
+    assert "WORK OFFSET" in head and "Z20.0000" in head
+    s.use_part_origin = False
+    assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    assert "Z20.0000" not in out.read_text().upper().split("G90")[0]
