@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshError
+from .axis import meridional
 
 __all__ = ["BLADE_RADIUS_MM", "MESH_SUFFIXES", "UNITS", "check_blade_size", "read_mesh",
            "to_mm"]
@@ -213,8 +214,6 @@ def check_blade_size(V, axis) -> None:
     """MeshError, with the size and the fix, when the mesh's outer radius about ``axis`` (a
     :class:`.axis.Axis`) is not that of a blisk blade in mm (:data:`BLADE_RADIUS_MM`): a file
     in metres or inches names ``--units m`` / ``--units in`` and what the radius would be."""
-    from .axis import meridional
-
     r, _ = meridional(np.asarray(V, dtype=np.float64), axis)
     rmax = float(np.max(r)) if len(r) else 0.0
     lo, hi = BLADE_RADIUS_MM

@@ -44,18 +44,11 @@ from ..geometry.distance import MeshDistance, closest_points
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import dot, slerp, unit
 from ..part.profiles import morph_between
-from ..runtime import (
-    Cancelled,
-    Progress,
-    alongside,
-    cancellable,
-    check_cancel,
-    map_tasks,
-    parallel,
-)
+from ..runtime import Cancelled, Progress, alongside, cancellable, check_cancel, map_tasks, parallel
 from ..tool.cutter import as_cutter
-from ..toolpath.types import MOVE_CUT, PassCurve, ToolPath
+from ..toolpath.types import PassCurve, ToolPath
 from .forest import SweptForest
+from .links import cut_runs, link_checks
 from .samples import SurfaceSamples, default_spacing, surface_samples
 from .sweep import SWEEP_METHODS, SweepError, SweptCutter, swept_cutter
 from .sweep_ball import SweptBall, _curve_polyline
@@ -243,62 +236,6 @@ def _ridges(samples, strip, g, npairs):
     return idx, strip[ea[idx]]
 
 
-@dataclass
-class _Run:
-    """A run of consecutive cutting poses of one pass (what verify measures)."""
-
-    s: float
-    closed: bool
-    cc: np.ndarray
-    normal: np.ndarray
-    tip: np.ndarray
-    axis: np.ndarray
-    ratio: np.ndarray  # (k,) morph ratio of each pose
-
-
-def _cut_runs(curves) -> list[_Run]:
-    """The cutting parts of passes: maximal runs of poses joined by cut moves.
-
-    Pose j's move code (``PassCurve.move``, missing = all "cut", code 0) is the kind of the
-    motion that ends at pose j, so the segment j−1 → j is cut when ``move[j]`` is 0 and the
-    closing segment of a closed pass when ``move[0]`` is. A pass cut all round stays closed."""
-    out = []
-    for c in curves:
-        k = len(c.cc)
-        if k == 0:
-            continue
-        arr = [np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in (c.cc, c.normal, c.tip,
-                                                                         c.axis)]
-        ratio = getattr(c, "ratio", None)
-        ratio = (np.full(k, float(c.s)) if ratio is None
-                 else np.asarray(ratio, dtype=np.float64).reshape(-1))
-        move = getattr(c, "move", None)
-        cutm = (np.ones(k, bool) if move is None or len(move) != k
-                else np.asarray(move).astype(np.int64) == 0)
-        if k == 1 or np.all(cutm):
-            out.append(_Run(float(c.s), bool(c.closed) and k > 2, *arr, ratio))
-            continue
-        # segment j−1 → j is cut where cutm[j]; a closed pass's closing segment k−1 → 0 where
-        # cutm[0]: then start the pass at a pose reached by a non-cut move (runs never wrap)
-        if c.closed and k > 2 and cutm[0]:
-            order = np.roll(np.arange(k), -int(np.nonzero(~cutm)[0][0]))
-            arr = [x[order] for x in arr]
-            ratio, cutm = ratio[order], cutm[order]
-        seg = cutm[1:]
-        j = 0
-        while j < len(seg):
-            if not seg[j]:
-                j += 1
-                continue
-            e = j
-            while e < len(seg) and seg[e]:
-                e += 1
-            idx = np.arange(j, e + 1)  # poses j..e (segments j → e)
-            out.append(_Run(float(c.s), False, *(x[idx] for x in arr), ratio[idx]))
-            j = e
-    return out
-
-
 def _cl_or_nan(cutter, cc, normal, axis):
     """Tip points of the cutter touching ``cc``; NaN rows where the axis is tilted beyond
     the cutter's side (no contact possible)."""
@@ -406,7 +343,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
     cutter, rho, spacing = _tool_and_spacing(path, spacing, method)
     cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
     axis = path.axis
-    curves = _cut_runs(path.curves)
+    curves = cut_runs(path.curves)
     # the surface samples do not depend on the poses: with several threads they are built
     # on a thread of their own (one core) while the mesh tree and the pose checks run
     # ("samples" then times the wait and the gouge feet)
@@ -441,7 +378,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
 
     step("links")
     t1 = time.perf_counter()
-    links = _link_checks(md, path.program, cutter, rho, subsamples)
+    links = link_checks(md, path.program, cutter, rho, subsamples)
     tim["links"] = time.perf_counter() - t1
 
     step("totals")
@@ -454,39 +391,6 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
     rep = _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
     rep.link_gouge, rep.link_gouge_at, rep.link_gouge_row, rep.link_rows = links
     return rep
-
-
-def _link_checks(md, program, cutter, rho, subsamples):
-    """(depth mm ≥ 0, where (3,) or None, program row or None, moves measured) of the
-    program's non-cut moves (:class:`VerifyReport`, "Links"): each move j−1 → j whose
-    ``move[j]`` is not a cut, sampled at ``subsamples`` + 1 poses (ends included), the tip
-    and the axis interpolated linearly (the axis renormalised)."""
-    if program is None or len(program) < 2:
-        return 0.0, None, None, 0
-    move = np.asarray(program.move)
-    rows = np.flatnonzero(move[1:] != MOVE_CUT) + 1
-    if not len(rows):
-        return 0.0, None, None, 0
-    tip = np.asarray(program.tip, dtype=np.float64)
-    ax = np.asarray(program.axis, dtype=np.float64)
-    t = np.linspace(0.0, 1.0, max(int(subsamples), 1) + 1)
-    T = tip[rows - 1][:, None, :] * (1 - t)[None, :, None] + tip[rows][:, None, :] * t[None, :,
-                                                                                        None]
-    A = ax[rows - 1][:, None, :] * (1 - t)[None, :, None] + ax[rows][:, None, :] * t[None, :,
-                                                                                       None]
-    T, A = T.reshape(-1, 3), A.reshape(-1, 3)
-    A = A / np.maximum(np.linalg.norm(A, axis=1), 1e-300)[:, None]
-    row_of = np.repeat(rows, len(t))
-    check_cancel()
-    if cutter.type == "ball":
-        q = md.query(T + rho * A)
-        depth = rho - q.signed_distance
-    else:
-        q = md.query(T + float(cutter.radius) * A)
-        depth = -cutter.signed_distance(q.point, T, A)
-    k = int(np.argmax(depth))
-    d = max(0.0, float(depth[k]))
-    return d, (np.asarray(q.point[k]) if d > 0 else None), int(row_of[k]), int(len(rows))
 
 
 def _tool_and_spacing(path, spacing, method):
