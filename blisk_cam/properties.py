@@ -362,6 +362,15 @@ BliskCamSettings.__annotations__.update(
                       items=POST_ITEMS, default=POST_ITEMS[0][0]),
     nc_path=StringProperty(name="NC File", subtype="FILE_PATH", default="//blade.nc",
                            description="NC program written by Export NC"),
+    # the part origin of the set-up, instead of editing a copy of the preset (issue 28)
+    use_part_origin=BoolProperty(
+        name="Part Origin", default=False,
+        description="Place the part (paths) origin here instead of the machine's [part] "
+        "origin; TCP programs state it as the work offset to set"),
+    part_origin=FloatVectorProperty(
+        name="Part Origin", size=3, default=(0.0, 0.0, 0.0), precision=3,
+        description="Where the part (paths) origin sits, mm in the machine description's "
+        "frame with the rotaries at 0"),
     holder=StringProperty(
         name="Holder", default="",
         description="Tool body above the flute as 'z r z r ...' in mm (z along the tool axis "

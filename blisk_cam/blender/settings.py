@@ -12,7 +12,7 @@ import json
 
 import numpy as np
 
-from ..core.collision.options import CollisionOptions
+from ..core.collision.options import DEFAULT_CHECK_MODE, CollisionOptions
 from ..core.errors import BliskCamError, ConeError
 from ..core.options import PATH_OPTION_GROUPS, fields
 from ..core.part.cones import Cone
@@ -33,6 +33,7 @@ __all__ = [
     "set_settings_from_request",
     "path_request",
     "collision_options",
+    "nc_options",
     "store_statistics",
     "summary",
 ]
@@ -205,7 +206,7 @@ def collision_options(settings):
 
     values = group_values(settings, CollisionOptions)
     if values.get("mode", "off") == "off":
-        values["mode"] = "check"
+        values["mode"] = DEFAULT_CHECK_MODE
     if values.get("blade_count") is None:
         raise BliskCamError("Blade Count is not set: set the Blade Count (the blades on the "
                             "blisk, ≥ 2) in the Collisions panel; the neighbours are the blade "
@@ -217,6 +218,16 @@ def collision_options(settings):
         except AssemblyError as exc:
             raise BliskCamError(str(exc)) from None
     return CollisionOptions(**values)
+
+
+def nc_options(settings, **extra):
+    """The core ``NcOptions`` of the settings: every declared NC option, and the blades from
+    the one Blade Count of the scene (the Collisions and Machine & NC panels show the same
+    property; 0, not set: the one blade)."""
+    from ..core.post.blocks import NcOptions
+
+    return NcOptions(**group_values(settings, NcOptions),
+                     blades=max(int(settings.blade_count), 1), **extra)
 
 
 def store_statistics(settings, blade_name, path, verify, seconds, verdict=None):

@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 
 from ..core.errors import BliskCamError
 from ..core.options import check_value, fields, from_user, to_user
 
-__all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "finite", "option_args"]
+__all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "check_file_roles",
+           "finite", "option_args"]
 
 
 class UsageError(BliskCamError):
@@ -27,6 +29,35 @@ def finite(text):
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"expected a finite number, got '{text}'")
     return value
+
+
+def _same_file(a: str, b: str) -> bool:
+    """Whether two file names are one file: the same resolved path, or (both existing) the
+    same inode (a hard or symbolic link, another spelling)."""
+    ra, rb = os.path.realpath(os.path.expanduser(a)), os.path.realpath(os.path.expanduser(b))
+    if os.path.normcase(ra) == os.path.normcase(rb):
+        return True
+    try:
+        return os.path.samefile(ra, rb)
+    except OSError:
+        return False
+
+
+def check_file_roles(inputs, outputs) -> None:
+    """UsageError, before any work, when an output file is an input file or another output:
+    ``inputs`` and ``outputs`` are ``[(flag, file name or None)]``. Nothing the user owns is
+    overwritten by a slip of ``--out``."""
+    ins = [(f, v) for f, v in inputs if v]
+    outs = [(f, v) for f, v in outputs if v]
+    for k, (flag, name) in enumerate(outs):
+        for iflag, iname in ins:
+            if _same_file(name, iname):
+                raise UsageError(f"{flag} {name} is the input {iflag}: it would be overwritten; "
+                                 f"choose another output name")
+        for oflag, oname in outs[:k]:
+            if _same_file(name, oname):
+                raise UsageError(f"{flag} {name} is also {oflag}: one would replace the other; "
+                                 "give each output its own name")
 
 
 def whole(text):

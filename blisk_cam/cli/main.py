@@ -175,6 +175,10 @@ def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
         "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
     )
     paths.add_argument(
+        "--units", type=str.lower, choices=("mm", "m", "in"), default="mm",
+        help="units of the mesh file (and of --obstacle files): mm (default), m or in; the "
+        "mesh is scaled to mm (a blade whose size says other units is refused, naming this)")
+    paths.add_argument(
         "--cone1", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
         help="first (hub) cone generatrix, mm",
     )
@@ -204,6 +208,8 @@ def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
     paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
     paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
                        help="render engine of --preview")
+    paths.add_argument("--quiet", action="store_true",
+                       help="no progress lines on stderr (errors and warnings still print)")
     paths.add_argument("--verify", action="store_true",
                        help="also measure the material left and gouges (printed and stored "
                        "in the JSON's stats)")

@@ -16,16 +16,23 @@ pose, the axis and the value).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
+import time
+from dataclasses import replace
+
+import numpy as np
 
 from ..core.errors import BliskCamError
-from ..core.machine.description import known_presets
+from ..core.machine.description import Machine, known_presets, load_machine
 from ..core.post.blocks import NcOptions
 from ..core.post.common import write_atomic
-from ..core.post.export import POSTS, export_nc
+from ..core.post.export import POSTS, export_nc, get_post
+from ..core.post.gate import collision_gate
 from ..core.toolpath.paths_io import read_paths_json
-from .flags import PROG, UsageError, add_option_flags, option_args
+from .flags import PROG, UsageError, add_option_flags, check_file_roles, option_args
+from .progress import StageProgress
 
 __all__ = ["add_nc_arguments", "run_nc"]
 
@@ -38,20 +45,91 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
         parser.add_argument("--paths", required=True, metavar="FILE",
                             help="paths JSON (version 1) written by 'blisk_cam paths'")
         parser.add_argument("--out", required=True, metavar="FILE", help="NC program to write")
+        parser.add_argument("--quiet", action="store_true",
+                            help="no progress lines on stderr (errors and warnings still print)")
     parser.add_argument("--machine", required=with_paths, metavar="PRESET|FILE.toml",
                         help=f"machine preset ({', '.join(known_presets())}) or a machine "
                         "TOML file")
     parser.add_argument("--post", required=with_paths, type=str.lower, metavar="POST",
                         help="controller dialect: one of " + ", ".join(POSTS))
     add_option_flags(parser, (NcOptions,))
+    if with_paths:  # 'paths' has it already (the collision options)
+        parser.add_argument("--blade-count", type=_whole_at_least_1, default=None,
+                            metavar="N", help="blades on the blisk: the program is repeated "
+                            "for N blades, blade k turned by k*360/N about the blisk axis "
+                            "(default 1: the one blade)")
+    parser.add_argument("--part-origin", type=_xyz, default=None, metavar="X,Y,Z",
+                        help="where the part (paths) origin sits, mm in the machine "
+                        "description's frame with the rotaries at 0 (instead of the machine's "
+                        "[part] origin); TCP programs state it as the work offset to set")
+    parser.add_argument("--blades", type=_whole_at_least_1, default=None, metavar="N",
+                        help="deprecated: the old name of --blade-count (must agree with it)")
+    parser.add_argument("--allow-collisions", action="store_true",
+                        help="post a path whose collision check left unresolved poses (the "
+                        "program header then says how many and where); without it such a "
+                        "path is refused")
     parser.add_argument("--report", default=None, metavar="FILE.json",
                         help="also write the export report (with the interpolation's) as JSON")
     return parser
 
 
+def _xyz(text):
+    """argparse type: 'X,Y,Z' → three finite numbers (mm)."""
+    try:
+        v = [float(x) for x in str(text).split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 3 or not all(math.isfinite(x) for x in v):
+        raise argparse.ArgumentTypeError(f"expected three numbers X,Y,Z in mm, got '{text}'")
+    return tuple(v)
+
+
+def machine_of(args):
+    """The machine of ``args.machine`` (preset, TOML or a loaded Machine) with
+    ``--part-origin`` applied."""
+    machine = args.machine if isinstance(args.machine, Machine) else load_machine(args.machine)
+    if getattr(args, "part_origin", None) is not None:
+        machine = replace(machine, part_origin=np.array(args.part_origin, dtype=float))
+    return machine
+
+
+def _whole_at_least_1(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected at least 1 blade, got {value}")
+    return value
+
+
+def resolve_blade_count(args, warn=True):
+    """The one blade count of the command line: ``--blade-count``, or the deprecated
+    ``--blades`` (a note on stderr); UsageError when both are given and differ. Sets
+    ``args.blade_count`` (None when neither is given) and returns it."""
+    old = getattr(args, "blades", None)
+    count = getattr(args, "blade_count", None)
+    if old is not None:
+        if count is not None and count != old:
+            raise UsageError(f"--blades {old} and --blade-count {count} disagree; --blades is "
+                             "the old name of --blade-count (the blades on the blisk, used by "
+                             "the collision check and the NC program): give --blade-count once")
+        if warn:
+            print(f"{PROG}: warning: --blades is deprecated; use --blade-count {old}",
+                  file=sys.stderr)
+        count = old
+        args.blades = None
+    args.blade_count = count
+    return count
+
+
 def nc_options(args, **extra):
-    """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds)."""
-    return NcOptions(**option_args(args, (NcOptions,)), **extra)
+    """The :class:`NcOptions` of the parsed flags (UsageError for a value out of bounds);
+    the blades from the one blade count (:func:`resolve_blade_count`, default 1)."""
+    count = resolve_blade_count(args)
+    count = count or getattr(args, "nc_blades", None) or 1
+    return NcOptions(**option_args(args, (NcOptions,)), blades=count,
+                     allow_collisions=bool(getattr(args, "allow_collisions", False)), **extra)
 
 
 def export_from_args(path, args, out, blade_name):
@@ -61,8 +139,10 @@ def export_from_args(path, args, out, blade_name):
     except BliskCamError as exc:  # options that only make sense together
 
         raise UsageError(str(exc)) from None
-    report = export_nc(path, args.machine, args.post, options, out)
+    report = export_nc(path, machine_of(args), args.post, options, out)
     print(report.summary())
+    if report.gate.warning:
+        print(f"{PROG}: warning: {report.gate.warning}", file=sys.stderr)
     if getattr(args, "report", None):
         _write_report(report, args.report)
     return report
@@ -85,11 +165,28 @@ def run_nc(args) -> int:
     """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
     status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
     try:
+        resolve_blade_count(args)
+        check_file_roles(
+            [("--paths", args.paths),
+             ("--machine", args.machine if str(args.machine).endswith(".toml") else None)],
+            [("--out", args.out), ("--report", getattr(args, "report", None))])
+        machine = machine_of(args)  # cheap: a bad machine file before the paths
         if not os.path.isfile(args.paths):
             raise BliskCamError(f"paths file {args.paths} not found")
         path = read_paths_json(args.paths)
+        args.machine = machine
+        get_post(args.post).check(machine)  # cheap refusals before the progress line
+        collision_gate(path, bool(args.allow_collisions))
+        folder = os.path.dirname(os.path.abspath(os.fspath(args.out)))
+        if not os.path.isdir(folder):
+            raise BliskCamError(f"cannot write {args.out}: the directory {folder} does not "
+                                "exist")
+        progress = StageProgress(quiet=args.quiet)
+        t = time.perf_counter()
+        progress.report("nc", 0.0, "posting the NC program")
         export_from_args(path, args, args.out,
                          os.path.splitext(os.path.basename(args.paths))[0])
+        progress.done("nc", time.perf_counter() - t)
     except UsageError as err:
         print(f"{PROG}: error: {' '.join(str(err).split())}", file=sys.stderr)
         return 2

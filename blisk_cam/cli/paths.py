@@ -10,12 +10,12 @@ import re
 import time
 from pathlib import Path
 
-from ..core.collision.options import CollisionOptions
+from ..core.collision.options import DEFAULT_CHECK_MODE, CollisionOptions
 from ..core.errors import BliskCamError
 from ..core.options import PATH_OPTION_GROUPS, CutterOptions
 from ..core.tool.assembly import AssemblyError, holder_profile
 from .blender import _blender_outputs
-from .flags import UsageError, _fail, option_args
+from .flags import UsageError, _fail, check_file_roles, option_args
 
 
 def read_profile_csv(path):
@@ -79,6 +79,12 @@ def _check_paths_args(args):
         if args.tool_diameter is not None:
             raise UsageError("--tool-diameter and --tool-radius both give the tool size; use one")
         args.tool_diameter = 2.0 * args.tool_radius
+    from .nc import resolve_blade_count
+
+    old_only = args.blades is not None and args.blade_count is None
+    count = resolve_blade_count(args)  # --blades: the deprecated name (error on a mismatch)
+    if count == 1 and old_only:  # '--blades 1': the one blade's program, no neighbours
+        args.blade_count, args.nc_blades = None, 1
     given = option_args(args, PATH_OPTION_GROUPS)
     _check_orientation_args(args, given)
     tool = given.get("tool_type", "ball")
@@ -102,6 +108,13 @@ def _check_paths_args(args):
         raise UsageError("--nc needs --machine (preset or TOML) and --post (controller)")
     if (args.machine or args.post) and not args.nc:
         raise UsageError("--machine/--post post the path with --nc FILE; give --nc")
+    machine_file = args.machine if args.machine and args.machine.endswith(".toml") else None
+    check_file_roles(
+        [("--mesh", args.mesh), ("--cone1-profile", args.cone1_profile),
+         ("--cone2-profile", args.cone2_profile), ("--machine", machine_file),
+         *(("--obstacle", o) for o in args.obstacle)],
+        [("--out", args.out), ("--nc", args.nc), ("--blend", args.blend),
+         ("--preview", args.preview), ("--report", getattr(args, "report", None))])
     for opt in ("out", "blend", "preview", "nc"):
         value = getattr(args, opt)
         if value is not None and not Path(value).expanduser().resolve().parent.is_dir():
@@ -123,8 +136,8 @@ def parse_holder(text):
 
 
 def _collision_options(args):
-    """The CollisionOptions of the flags: the mode defaults to avoid when a blade count or an
-    obstacle is given (else off)."""
+    """The CollisionOptions of the flags: the mode defaults to check (DEFAULT_CHECK_MODE, as
+    the panel's Check Collisions) when a blade count or an obstacle is given (else off)."""
     from ..core.geometry.axis import Axis
     from ..core.process.blade_finish import PathRequest, make_cutter
 
@@ -132,7 +145,8 @@ def _collision_options(args):
     if args.holder is not None:
         given["holder"] = parse_holder(args.holder)
     if "mode" not in given:
-        given["mode"] = "avoid" if ("blade_count" in given or args.obstacle) else "off"
+        given["mode"] = (DEFAULT_CHECK_MODE if ("blade_count" in given or args.obstacle)
+                         else "off")
     if given["mode"] != "off" and "blade_count" not in given:
         raise UsageError(f"--collisions {given['mode']} needs --blade-count N (the neighbours "
                          "are the blade turned by k·360°/N)")
@@ -167,31 +181,37 @@ def _check_orientation_args(args, given):
                      axis_direction=tuple(map(float, args.axis_obj.d)))
 
 
-def read_obstacles(files):
+def read_obstacles(files, units="mm"):
     """[(name, V, F)] of the --obstacle files (core.geometry.mesh_io; MeshError naming a bad
-    file)."""
-    from ..core.geometry.mesh_io import read_mesh
+    file), scaled from ``units`` to mm."""
+    from ..core.geometry.mesh_io import read_mesh, to_mm
 
     out = []
     for f in files:
         V, F = read_mesh(f)
-        out.append((Path(f).stem, V, F))
+        out.append((Path(f).stem, to_mm(V, units), F))
     return out
 
 
-def plan_from_args(args, log=print):
+def plan_from_args(args, log=print, progress=None):
     """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
     plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
     or None, {stage: seconds}). Every stage is timed (``seconds_<stage>`` in the JSON's
-    stats)."""
+    stats). ``progress``: a :class:`.progress.StageProgress` for the percentage lines on
+    stderr (None: silent)."""
     from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import read_mesh
+    from ..core.geometry.mesh_io import check_blade_size, read_mesh, to_mm
     from ..core.part.fitting import fit_cones_to_mesh
-    from ..core.process.blade_finish import PathRequest, plan_paths
+    from ..core.process.blade_finish import PathRequest, iter_plan_paths
+    from .progress import StageProgress
+
+    progress = progress or StageProgress(quiet=True)
 
     times = {}
     t = time.perf_counter()
     V, F = read_mesh(args.mesh)
+    V = to_mm(V, args.units)
+    check_blade_size(V, args.axis_obj)  # metres or inches: refused with the size and the fix
     times["load"] = time.perf_counter() - t
     t = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F)
@@ -212,15 +232,24 @@ def plan_from_args(args, log=print):
         from ..core.process.blade_finish import collision_stage
 
         t = time.perf_counter()
-        obstacles = read_obstacles(args.obstacle)
+        obstacles = read_obstacles(args.obstacle, args.units)
         times["load"] += time.perf_counter() - t
         extra = (collision_stage(args.collision, obstacles),)
     t = time.perf_counter()
-    plan = plan_paths(mesh, req, extra=extra)
+    it = iter_plan_paths(mesh, req, extra=extra)
+    while True:  # the stages yield Progress: a percentage line on stderr now and then
+        try:
+            p = next(it)
+        except StopIteration as stop:
+            plan = stop.value
+            break
+        progress.report("collisions" if "collision" in p.message else "plan", p.fraction,
+                        p.message)
     times["plan"] = time.perf_counter() - t
     if extra:  # the collision stage's share of the plan
         times["collision"] = float(plan.path.stats.get("seconds_collision", 0.0))
         times["plan"] -= times["collision"]
+    progress.done("collisions" if extra else "plan", times["collision" if extra else "plan"])
     if fit is not None and plan.fit is None:
         plan.fit = fit
     report = None
@@ -228,8 +257,9 @@ def plan_from_args(args, log=print):
         from ..core.verify.measure import verify_path
 
         t = time.perf_counter()
-        report = verify_path(mesh, plan.path)
+        report = verify_path(mesh, plan.path, progress=progress.step("verify"))
         times["verify"] = time.perf_counter() - t
+        progress.done("verify", times["verify"])
     return V, F, mesh, req, plan, report, times
 
 
@@ -285,8 +315,10 @@ def _cmd_paths(args):
     startup = process_age()
     _check_paths_args(args)
     from ..core.toolpath.paths_io import write_paths_json
+    from .progress import StageProgress
 
-    V, F, mesh, req, plan, report, times = plan_from_args(args)
+    progress = StageProgress(quiet=args.quiet)
+    V, F, mesh, req, plan, report, times = plan_from_args(args, progress=progress)
     path = plan.path
     verdict = None
     if report is not None:
@@ -306,10 +338,7 @@ def _cmd_paths(args):
     path.stats["seconds_wall"] = time.perf_counter() - t_wall + (startup or 0.0)
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
-    wall = time.perf_counter() - t_wall + (startup or 0.0)
     print(f"wrote {out}: {_summary_line(path, times, report)}")
-    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
-          + f"; wall {wall:.2f} s")
     print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm")
     for w in plan.warnings:
         print(f"warning: {w}")
@@ -319,17 +348,34 @@ def _cmd_paths(args):
         for line in verdict_lines(verdict):
             print(line)
     unresolved = _collision_lines(plan)
-    if args.nc and unresolved:
-        print(f"NC not written: {unresolved[0]} unresolved collision(s)")
-    elif args.nc:
+    nc_written = False
+    if args.nc:  # the one collision gate of every NC export (core/post/gate.py)
+        from ..core.post.gate import CollisionGateError
         from .nc import export_from_args
 
-        export_from_args(path, args, Path(args.nc).expanduser().resolve(), Path(args.mesh).stem)
+        t = time.perf_counter()
+        progress.report("nc", 0.0, "posting the NC program")
+        try:
+            export_from_args(path, args, Path(args.nc).expanduser().resolve(),
+                             Path(args.mesh).stem)
+            nc_written = True
+        except CollisionGateError as exc:
+            print(f"NC not written: {exc}")
+        times["nc"] = time.perf_counter() - t
+        progress.done("nc", times["nc"])
     if args.blend or args.preview:
+        t = time.perf_counter()
         _blender_outputs(args, V, F, req, plan, report)
+        times["blender"] = time.perf_counter() - t
+    # the wall time counts every stage the user waited for, the NC posting included
+    wall = time.perf_counter() - t_wall + (startup or 0.0)
+    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
+          + f"; wall {wall:.2f} s")
     if unresolved:
+        nc_text = ("the NC program was written with them marked (--allow-collisions)"
+                   if nc_written else "the NC program was not")
         _fail(f"{unresolved[0]} pose(s) are unresolved collisions (first: {unresolved[1]}); "
-              f"the outputs were written, the NC program was not")
+              f"the outputs were written, {nc_text}")
         return 4
     return 0
 

@@ -2,7 +2,12 @@
 
 Every error names the problem and what the user can do about it; the Blender operators
 turn them into ``self.report({'ERROR'}, str(err))`` and the CLI into one line on stderr.
+:func:`check_known_keys` is the one check of the keys of a table read from a user's file
+(machine TOML and every later one): an unknown key is an error naming it and the nearest
+known key, never silently dropped.
 """
+
+import difflib
 
 
 class BliskCamError(ValueError):
@@ -56,3 +61,19 @@ class PostError(BliskCamError):
 class CollisionError(BliskCamError):
     """Collision checking cannot run: bad blade count/neighbours, an obstacle that contains the
     blade, an impossible tool assembly or collision option."""
+
+
+def check_known_keys(table, known, where: str, error=BliskCamError) -> None:
+    """Raise ``error`` for the first key of the mapping ``table`` that is not in ``known``:
+    the message names the key, the nearest known key (:func:`difflib.get_close_matches`, case
+    ignored) and ``where`` it is (e.g. ``"machine ac.toml rotary 1 (A)"``)."""
+    known = list(known)
+    for key in table:
+        if key in known:
+            continue
+        lower = {k.lower(): k for k in known}
+        close = difflib.get_close_matches(str(key).lower(), list(lower), n=1, cutoff=0.5)
+        hint = (f"did you mean {lower[close[0]]!r}?" if close
+                else f"known keys: {', '.join(known)}")
+        raise error(f"{where}: unknown key {key!r}; {hint} (an unknown key would be ignored, "
+                    "so it is refused)")

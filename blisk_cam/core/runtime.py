@@ -140,44 +140,66 @@ def _map(fn, items, *, carry_hook: bool):
     """``[fn(x) for x in items]`` on up to :func:`parallel` threads, the cancel hook checked
     before every item (and, with ``carry_hook``, set in the pool thread's context while the
     item runs, so its own chunks check it too). When an item raises (``Cancelled`` or an
-    error), the items not started yet are dropped, not run."""
+    error), or the calling thread is interrupted (Ctrl-C: ``KeyboardInterrupt`` while it
+    waits), the items not started yet are dropped, not run, and the running items stop at
+    their next chunk (the hook they carry is set too) — the caller does not wait for the
+    whole queue."""
     items = list(items)
     n = min(_WORKERS.get(), len(items))
     hook = _CANCEL.get()
-    if hook is not None:
-        inner = fn
-
-        def fn(x):
-            check_cancel(hook)
-            if not carry_hook:
-                return inner(x)
-            token = _CANCEL.set(hook)
-            try:
-                return inner(x)
-            finally:
-                _CANCEL.reset(token)
     if n <= 1:
+        if hook is not None:
+            return [_checked(fn, x, hook, carry_hook) for x in items]
         return [fn(x) for x in items]
-    # once an item has raised, the items a pool thread starts afterwards return at once
-    # without running (or polling the hook): a thread that finishes its item could otherwise
-    # start, poll and fail every queued item before this thread wakes up to cancel them
+    # once an item has raised (or the caller was interrupted), the items a pool thread starts
+    # afterwards return at once without running: a thread that finishes its item could
+    # otherwise start, poll and fail every queued item before this thread wakes up
     failed = threading.Event()
+    what = hook[1] if hook is not None else "the computation"
+
+    def stop():
+        return failed.is_set() or (hook is not None and bool(hook[0]()))
+
+    inner_hook = (stop, what)
 
     def guarded(x):
         if failed.is_set():
             return None  # never read: an earlier item's exception is raised below
         try:
-            return fn(x)
+            return _checked(fn, x, inner_hook, carry_hook)
         except BaseException:
             failed.set()
             raise
 
-    with ThreadPoolExecutor(max_workers=n) as ex:
+    ex = ThreadPoolExecutor(max_workers=n)
+    futures = []
+    try:
         futures = [ex.submit(guarded, x) for x in items]
         _, pending = wait(futures, return_when=FIRST_EXCEPTION)
         for f in pending:  # an item raised: the items not started are not run (the pool
             f.cancel()  # starts them in order, so the failed one comes first below)
         return [f.result() for f in futures]
+    except BaseException:  # an item's error, or Ctrl-C in this thread while it waited
+        failed.set()
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        # after a failure the running items end at their next poll; the queue is dropped
+        ex.shutdown(wait=not failed.is_set(), cancel_futures=True)
+
+
+def _checked(fn, x, hook, carry_hook):
+    """``fn(x)`` after polling ``hook``; with ``carry_hook`` the hook is this thread's cancel
+    hook while ``fn`` runs (its chunks poll it)."""
+    check_cancel(hook)
+    if not carry_hook:
+        return fn(x)
+    token = _CANCEL.set(hook)
+    try:
+        return fn(x)
+    finally:
+        _CANCEL.reset(token)
 
 
 @dataclass

@@ -9,7 +9,7 @@ import bpy
 import numpy as np
 from bpy.props import EnumProperty
 
-from ..blender.settings import group_values
+from ..blender.settings import nc_options
 from ..core.errors import BliskCamError
 from .common import (
     poll_generated_paths,
@@ -80,19 +80,19 @@ class BLISKCAM_OT_animate_program(bpy.types.Operator):
         from ..blender import path_objects as output
         from ..blender.objects import arrays_to_object, mm_per_blender_unit
         from ..core.collision.options import default_assembly
-        from ..core.machine.description import forward, load_machine
+        from ..core.machine.description import forward
         from ..core.machine.motion import machine_view, part_view
-        from ..core.post.blocks import NcOptions, build_blocks
+        from ..core.post.blocks import build_blocks
         from ..core.tool.assembly import assembly_mesh
-        from .export_nc import nc_machine
+        from .export_nc import loaded_machine
 
         scene = context.scene
         settings = settings_of(context)
         try:
             name = result_blade_name(context)
             path = stored_path(name)
-            machine = load_machine(nc_machine(settings))
-            blocks = build_blocks(path, machine, NcOptions(**group_values(settings, NcOptions)),
+            machine = loaded_machine(settings)
+            blocks = build_blocks(path, machine, nc_options(settings),
                                   indexable=False).expanded()
             if len(blocks) == 0:
                 raise BliskCamError("the program has no blocks to animate")

@@ -6,7 +6,7 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from ..blender.settings import group_values
+from ..blender.settings import nc_options
 from ..core.errors import BliskCamError
 from ..core.post.export import POSTS
 from .common import (
@@ -29,10 +29,20 @@ def nc_machine(settings):
     return bpy.path.abspath(settings.machine_file)
 
 
-def unresolved_collisions(path) -> int:
-    """Poses of ``path`` reported as unresolved collisions (0 when not checked)."""
-    summary = getattr(path, "collision", None) or {}
-    return int(summary.get("unresolved", 0) or 0)
+def loaded_machine(settings, name=None):
+    """The core Machine of the settings (``name``: a preset or TOML instead of the panel's),
+    with the panel's Part Origin when it is set."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from ..core.machine.description import load_machine
+
+    machine = load_machine(name or nc_machine(settings))
+    if settings.use_part_origin:
+        machine = replace(machine, part_origin=np.array([float(x) for x in
+                                                         settings.part_origin]))
+    return machine
 
 
 class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
@@ -56,22 +66,19 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
         return poll_generated_paths(cls, context)
 
     def execute(self, context):
-        from ..core.post.blocks import NcOptions
         from ..core.post.export import export_nc
 
         settings = settings_of(context)
         try:
             name = result_blade_name(context)
             path = stored_path(name)
-            n = unresolved_collisions(path)
-            if n and not settings.export_anyway:
-                raise BliskCamError(
-                    f"{n} pose(s) are unresolved collisions: the program could crash the "
-                    "machine. Correct them (Check Collisions, avoid) or tick Export Anyway")
             filename = output_filename(self.filepath, "NC program")
             post = settings.post if self.post == "PANEL" else self.post
-            machine = self.machine or nc_machine(settings)
-            options = NcOptions(**group_values(settings, NcOptions), blade_name=name)
+            machine = loaded_machine(settings, self.machine or None)
+            # the collision gate of every export (core/post/gate.py) refuses unresolved
+            # collisions unless Export Anyway is ticked, and then marks them in the header
+            options = nc_options(settings, blade_name=name,
+                                 allow_collisions=bool(settings.export_anyway))
             report = export_nc(path, machine, post, options, filename)
             if report.interpolation is not None:  # the blocks, coloured by measured error
                 from ..blender.collision_objects import write_block_error_object
@@ -81,5 +88,7 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
                     report.interpolation))
         except Exception as exc:
             return report_exception(self, exc)
+        if report.gate.warning:
+            self.report({"WARNING"}, report.gate.warning)
         self.report({"INFO"}, report.summary())
         return {"FINISHED"}

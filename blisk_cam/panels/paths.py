@@ -131,7 +131,14 @@ class BLISKCAM_PT_machine(_BliskCamPanel, Panel):
         if settings.machine == "FILE":
             col.prop(settings, "machine_file")
         col.prop(settings, "post")
-        draw_stage(layout, settings, NcOptions, heading="Program")
+        col.prop(settings, "use_part_origin")
+        sub = col.column()
+        sub.active = settings.use_part_origin
+        sub.prop(settings, "part_origin", text="")
+        col = draw_stage(layout, settings, NcOptions, heading="Program")
+        # the one Blade Count of the scene (also in the Collisions panel): the program is
+        # repeated for every blade; 0 (not set): the one blade
+        col.prop(settings, "blade_count")
         layout.prop(settings, "export_anyway")
         layout.operator("blisk_cam.export_nc", icon="EXPORT")
         row = layout.row(align=True)

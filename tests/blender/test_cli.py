@@ -224,13 +224,14 @@ def test_paths_reads_the_mesh_into_the_core_request(tmp_path, monkeypatch):
     T = stl_triangles(mesh)
     seen = {}
 
-    def fake_plan_paths(trimesh, req, **_stages):
+    def fake_iter_plan_paths(trimesh, req, **_stages):  # the CLI iterates for its progress
         seen.update(V=trimesh.V, F=trimesh.F, req=req)
         raise BliskCamError("stubbed: no path")
+        yield
 
     import blisk_cam.core.process.blade_finish as pipeline
 
-    monkeypatch.setattr(pipeline, "plan_paths", fake_plan_paths)
+    monkeypatch.setattr(pipeline, "iter_plan_paths", fake_iter_plan_paths)
     status = cli.main(
         ["paths", "--mesh", str(mesh), "--cone1", "177.5", "-1.7", "188", "45",
          "--cone2", "252.5", "4.3", "243.7", "36.2", "--axis", "0", "0", "0", "0", "0", "2",

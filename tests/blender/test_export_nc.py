@@ -29,7 +29,7 @@ def _parse_linuxcnc_joints(text):
 def test_export_nc_posts_the_generated_paths(addon, demo, tmp_path):
     blade, s = radial_demo_paths(demo, tmp_path, chord=0.1)
     # the NC options are generated properties with the declared defaults
-    assert (s.feed, s.spindle, s.blades, s.tool_number) == (1000.0, 10000.0, 1, 1)
+    assert (s.feed, s.spindle, s.tool_number) == (1000.0, 10000.0, 1)
     s.machine, s.post, s.spindle = "ac-trunnion", "linuxcnc", 8000.0
     out = tmp_path / "blade.ngc"
     assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
@@ -51,16 +51,33 @@ def test_export_nc_posts_the_generated_paths(addon, demo, tmp_path):
 
 
 def test_export_nc_refuses_unresolved_collisions(addon, demo, tmp_path, monkeypatch):
+    """The operator goes through the core's collision gate (core/post/gate.py): refused
+    without Export Anyway; with it, the header says how many and where (issue 28 rows 1, 9)."""
     from blisk_cam.operators import export_nc
 
     blade, s = radial_demo_paths(demo, tmp_path, chord=0.5)
-    monkeypatch.setattr(export_nc, "unresolved_collisions", lambda path: 3)
+    real = export_nc.stored_path
+
+    def marked(name):
+        p = real(name)
+        m = len(p.program)
+        status = np.zeros(m, np.int8)
+        rows = np.flatnonzero(np.asarray(p.program.curve) == 0)[:3]
+        status[rows] = 2
+        p.program.collision_status = status
+        p.program.clearance = np.where(status == 2, -1.0, 5.0)
+        p.collision = {"mode": "check", "unresolved": 3, "checked_poses": m}
+        return p
+
+    monkeypatch.setattr(export_nc, "stored_path", marked)
     out = tmp_path / "x.nc"
     with pytest.raises(RuntimeError, match="3 pose"):
         bpy.ops.blisk_cam.export_nc(filepath=str(out))
     assert not out.exists()
     s.export_anyway = True
     assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    head = out.read_text().upper().split("G1 ")[0]
+    assert "EXPORTED ANYWAY WITH 3 UNRESOLVED COLLISION" in head and "PASS 0 POSES" in head
 
 
 @pytest.mark.parametrize("view", ["PART", "MACHINE"])
@@ -114,3 +131,59 @@ def test_export_nc_with_constant_error_colours_the_blocks(addon, demo, tmp_path)
         cp = subprocess.run(["rs274", "-g", str(out), str(tmp_path / "c.txt")],
                             stdin=subprocess.DEVNULL, capture_output=True, timeout=120)
         assert cp.returncode == 0
+
+
+def test_one_blade_count_for_collisions_and_nc(addon, demo, tmp_path):
+    """Issue 28 row 14: the blade count is one property, drawn by the Collisions and the
+    Machine & NC panels; Export NC repeats the program for that many blades."""
+    from blisk_cam.panels.collisions import BLISKCAM_PT_collisions
+    from blisk_cam.panels.paths import BLISKCAM_PT_machine
+
+    class Layout:
+        def __init__(self, log):
+            self.log, self.use_property_split, self.use_property_decorate = log, False, False
+            self.active, self.scale_y, self.enabled = True, 1.0, True
+
+        def prop(self, data, name, **_kw):
+            assert hasattr(data, name), name
+            self.log.append(name)
+
+        def _child(self, *_a, **_kw):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+        def label(self, **_kw):
+            pass
+
+        def operator(self, idname, **_kw):
+            return type("Op", (), {})()
+
+    blade, s = radial_demo_paths(demo, tmp_path, chord=0.5)
+    drawn = {}
+    for cls in (BLISKCAM_PT_collisions, BLISKCAM_PT_machine):
+        log = []
+        cls.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+        drawn[cls.__name__] = log
+    assert all("blade_count" in log for log in drawn.values())
+    assert not any("blades" in log for log in drawn.values())
+    assert "blades" not in s.bl_rna.properties  # no second property to disagree
+    s.machine, s.post, s.blade_count = "ac-trunnion", "linuxcnc", 3
+    out = tmp_path / "b.ngc"
+    assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    assert "blades: 3" in out.read_text()
+
+
+def test_part_origin_field_sets_the_work_offset(addon, demo, tmp_path):
+    """Issue 28 row 10: the Machine & NC panel's Part Origin places the part without a copied
+    preset; a TCP program states the work offset to set."""
+    blade, s = radial_demo_paths(demo, tmp_path, chord=0.5)
+    s.machine, s.post = "ac-trunnion", "fanuc"
+    s.use_part_origin, s.part_origin = True, (0.0, 0.0, 20.0)
+    out = tmp_path / "f.nc"
+    assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    head = out.read_text().upper()
+    assert "WORK OFFSET" in head and "Z20.0000" in head
+    s.use_part_origin = False
+    assert bpy.ops.blisk_cam.export_nc(filepath=str(out)) == {"FINISHED"}
+    assert "Z20.0000" not in out.read_text().upper().split("G90")[0]

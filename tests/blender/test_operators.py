@@ -275,7 +275,8 @@ def test_cli_runs_the_same_operators(addon, demo, tmp_path):
     cmd = [sys.executable, "-m", "blisk_cam", "paths", "--mesh", str(stl), "--tool", "ball",
            "--tool-radius", "6", "--cusp", str(CUSP), "--chord", str(CHORD),
            "--cone1", *cones[0], "--cone2", *cones[1],
-           "--out", str(out), "--blend", str(blend), "--preview", str(png)]
+           "--out", str(out), "--blend", str(blend), "--preview", str(png),
+           "--quiet"]  # no progress lines: stderr stays empty (issue 28 row 13)
     env = {k: v for k, v in os.environ.items() if k not in ("BLISK_CAM_VERBOSE",)}
     proc = subprocess.run(["timeout", "--kill-after=10", "240", *cmd], cwd=REPO, env=env,
                           capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=270)

@@ -3,7 +3,6 @@ Blender's importers, evaluated objects to arrays (modifiers, world matrix, units
 cones to objects, and headless previews (Workbench via EGL, Cycles CPU without GL)."""
 
 import math
-import time
 
 import bpy
 import numpy as np
@@ -191,25 +190,26 @@ def test_object_to_arrays_triangulates_quads_and_rejects_bad_objects():
         blender_io.arrays_to_object("oob", np.zeros((3, 3)), [[0, 1, 3]])
 
 
-def test_million_triangles_in_bulk_under_a_second():
-    n = 709  # 2 × 708² = 1 002 528 triangles
+def grid_mesh(n):
+    """A wavy n × n vertex grid: 2 (n − 1)² triangles (V, F)."""
     x, y = np.meshgrid(np.arange(n, dtype=np.float64), np.arange(n, dtype=np.float64))
     V = np.stack([x.ravel(), y.ravel(), np.sin(0.1 * x.ravel())], axis=1)
     idx = np.arange(n * n).reshape(n, n)
     a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
     c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
-    F = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return V, np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+
+def test_triangles_in_bulk_round_trip():
+    """Object ↔ arrays in bulk keeps every triangle and the world matrix. No timing here
+    (issue 28: a loaded machine fails a timed assertion); the million-triangle figure is
+    printed by ``bench/bench_bulk_arrays.py``."""
+    V, F = grid_mesh(201)  # 80 000 triangles
     obj = blender_io.arrays_to_object("big", V, F)
     obj.location = (1.0, 2.0, 3.0)
-    best = math.inf
-    for _ in range(2):
-        t0 = time.perf_counter()
-        V2, F2 = blender_io.object_to_arrays(obj)
-        best = min(best, time.perf_counter() - t0)
-    assert len(F2) >= 1_000_000
+    V2, F2 = blender_io.object_to_arrays(obj)
     np.testing.assert_array_equal(F2, F)
     np.testing.assert_allclose(V2, V + [1.0, 2.0, 3.0], atol=1e-4)
-    assert best <= 1.0, f"object_to_arrays took {best:.2f} s for {len(F2)} triangles"
 
 
 # --- arrays / cones / axis → objects -----------------------------------------------------

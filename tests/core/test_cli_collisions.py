@@ -30,14 +30,14 @@ def _args(blade, out, *extra):
 def test_unresolved_collisions_exit_4_with_outputs_written(blade, tmp_path, capsys):
     out = tmp_path / "p.json"
     nc = tmp_path / "p.ngc"
-    rc = cli.main(_args(blade, out, "--blade-count", "24", "--holder",
+    rc = cli.main(_args(blade, out, "--blade-count", "24", "--collisions", "avoid", "--holder",
                         "36 6 60 6 60 16 120 16", "--nc", str(nc), "--machine",
                         "ac-trunnion", "--post", "linuxcnc"))
     err = capsys.readouterr().err.strip().splitlines()
     d = json.loads(out.read_text())
     status = np.concatenate([c["collision"]["status"] for c in d["curves"]])
     unresolved = d["collision"]["unresolved"]
-    assert d["collision"]["mode"] == "avoid"  # the default once a blade count is given
+    assert d["collision"]["mode"] == "avoid"
     assert len(d["program"]["collision_status"]) == len(d["program"]["tip"])
     if unresolved:
         assert rc == 4 and len(err) == 1 and f"{unresolved} pose(s)" in err[0]

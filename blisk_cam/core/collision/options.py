@@ -13,9 +13,15 @@ from ..options import Choice, OptionGroup, check_group, option
 from ..tool.assembly import DEFAULT_SAFETY, ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
 
-__all__ = ["COLLISION_MODES", "CollisionOptions", "default_assembly"]
+__all__ = ["COLLISION_MODES", "DEFAULT_CHECK_MODE", "CollisionOptions", "default_assembly"]
 
 COLLISION_MODES = ("off", "check", "avoid")
+#: the mode a front end uses when the user gives a blade count (or presses Check Collisions)
+#: without choosing one: check, the same in the panel and the command line. Check is the
+#: safer default: it changes nothing the user planned and verified (avoid turns tool axes,
+#: which can change the finish and approach the machine's reach), reports every collision,
+#: and the NC gate (post/gate.py) refuses to post unresolved poses; avoid is chosen on purpose
+DEFAULT_CHECK_MODE = "check"
 
 
 @dataclass(frozen=True)
@@ -44,7 +50,7 @@ class CollisionOptions(OptionGroup):
     mode: str = option(
         "off", "Collisions", "Collision checking of holder, shank and flute: off; check "
         "(colour and report, change nothing); avoid (turn the tool axis clear, paper 004). "
-        "The command line turns it to avoid when a blade count or an obstacle is given",
+        "The command line turns it to check when a blade count or an obstacle is given",
         choices=(Choice("off", "Off", "No collision checking"),
                  Choice("check", "Check", "Detect and report; change nothing"),
                  Choice("avoid", "Avoid", "Detect, then turn the tool axis clear")),

@@ -15,8 +15,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshError
+from .axis import meridional
 
-__all__ = ["MESH_SUFFIXES", "read_mesh"]
+__all__ = ["BLADE_RADIUS_MM", "MESH_SUFFIXES", "UNITS", "check_blade_size", "read_mesh",
+           "to_mm"]
+
+#: mm per unit of a mesh file (``--units``)
+UNITS = {"mm": 1.0, "m": 1000.0, "in": 25.4}
+#: the outer radius a blisk blade has about its axis, mm (smallest fan/compressor blisks to
+#: the largest): a mesh outside is in other units
+BLADE_RADIUS_MM = (20.0, 3000.0)
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply")
 
@@ -191,3 +199,33 @@ def _ply_binary(body: bytes, elements, order: str):
     if V is None or F is None:
         raise MeshError("no vertex or face element")
     return V, F
+
+
+def to_mm(V, units: str = "mm") -> np.ndarray:
+    """Vertices ``V`` (n, 3) given in ``units`` ("mm", "m", "in") scaled to mm."""
+    key = str(units).strip().lower()
+    if key not in UNITS:
+        raise MeshError(f"unknown mesh units {units!r}; use one of {', '.join(UNITS)}")
+    V = np.asarray(V, dtype=np.float64)
+    return V if UNITS[key] == 1.0 else V * UNITS[key]
+
+
+def check_blade_size(V, axis) -> None:
+    """MeshError, with the size and the fix, when the mesh's outer radius about ``axis`` (a
+    :class:`.axis.Axis`) is not that of a blisk blade in mm (:data:`BLADE_RADIUS_MM`): a file
+    in metres or inches names ``--units m`` / ``--units in`` and what the radius would be."""
+    r, _ = meridional(np.asarray(V, dtype=np.float64), axis)
+    rmax = float(np.max(r)) if len(r) else 0.0
+    lo, hi = BLADE_RADIUS_MM
+    if lo <= rmax <= hi:
+        return
+    fits = [(u, rmax * f) for u, f in UNITS.items() if u != "mm" and lo <= rmax * f <= hi]
+    if fits:
+        fix = " or ".join(f"--units {u} (outer radius {x:.4g} mm)" for u, x in fits)
+        hint = f"is the file in other units? give {fix}"
+    elif rmax > hi:
+        hint = "is the file in µm, or is the axis wrong (--axis)?"
+    else:
+        hint = "is the axis right (--axis)?"
+    raise MeshError(f"the mesh reaches {rmax:.3g} (file units) from the blisk axis, but a blisk "
+                    f"blade lies {lo:g}-{hi:g} mm from it; {hint}")

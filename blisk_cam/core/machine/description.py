@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MachineError
+from ..errors import MachineError, check_known_keys
 from ..geometry.vectors import rotate
 
 __all__ = [
@@ -55,6 +55,11 @@ __all__ = [
 ]
 
 KINEMATICS = ("table-table", "head-table", "head-head")
+#: the keys a machine TOML may have (anything else is a typo: MachineError naming the nearest)
+TOP_KEYS = ("name", "kinematics", "spindle", "rotary", "linear", "part", "pivot_length")
+ROTARY_KEYS = ("name", "axis", "point", "limits")
+LINEAR_KEYS = ("X", "Y", "Z")
+PART_KEYS = ("origin", "x", "z")
 MACHINES_DIR = Path(__file__).resolve().parents[2] / "machines"
 _ORTHO_TOL = 1e-6  # |x·z| accepted for the part frame (unit vectors)
 
@@ -260,6 +265,12 @@ def _range(value, what: str, *, degrees: bool) -> tuple[float, float]:
 def machine_from_dict(data: dict, source: str = "") -> Machine:
     """Validate a parsed machine TOML (module docstring) → :class:`Machine`."""
     where = Path(source).name if source else "description"
+    check_known_keys(data, TOP_KEYS, f"machine {where}", MachineError)
+    for sub, keys in (("linear", LINEAR_KEYS), ("part", PART_KEYS)):
+        if sub in data:
+            if not isinstance(data[sub], dict):
+                raise MachineError(f"machine {where}: [{sub}] must be a table")
+            check_known_keys(data[sub], keys, f"machine {where} [{sub}]", MachineError)
     kind = data.get("kinematics")
     if kind not in KINEMATICS:
         raise MachineError(
@@ -274,6 +285,9 @@ def machine_from_dict(data: dict, source: str = "") -> Machine:
         )
     rotaries = []
     for i, r in enumerate(rot, 1):
+        if not isinstance(r, dict):
+            raise MachineError(f"machine {where}: rotary {i} must be a [[rotary]] table")
+        check_known_keys(r, ROTARY_KEYS, f"machine {where} rotary {i}", MachineError)
         name = str(r.get("name", "")).upper()
         if name not in ("A", "B", "C"):
             raise MachineError(f"machine {where}: rotary {i} needs name A, B or C, got {name!r}")

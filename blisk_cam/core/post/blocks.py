@@ -53,7 +53,8 @@ class NcOptions(OptionGroup):
     None: the Z travel maximum, else 100), ``rapid_rate`` (mm/min) and ``rotary_rate``
     (deg/min) for the time estimate and inverse-time blocks, ``program_number``,
     ``blade_name`` (header), ``tool_length`` (mm gauge length, head pivot limits),
-    ``use_subprogram`` (index blades by a subprogram call where possible).
+    ``use_subprogram`` (index blades by a subprogram call where possible),
+    ``allow_collisions`` (post despite unresolved collisions, :mod:`.gate`).
     """
 
     title = "NC program"
@@ -79,8 +80,10 @@ class NcOptions(OptionGroup):
     tool_number: int = option(1, "Tool Number", "Tool number T in the magazine", lo=0)
     coolant: bool = option(True, "Coolant", "Coolant (M08) on or off",
                            choices=(Choice(True, "On", cli="on"), Choice(False, "Off", cli="off")))
+    # the blade count is entered once (issue 28): the front ends fill it from their one blade
+    # count (CLI --blade-count, the panel's Blade Count), so no flag or property of its own
     blades: int = option(1, "Blades", "Repeat the blade's moves for N blades, blade k turned "
-                         "by k·360°/N about the blisk axis", lo=1)
+                         "by k·360°/N about the blisk axis", lo=1, flag=None, blender=False)
     chord: float | None = None
     max_rotary_step: float = option(
         math.radians(5.0), "Max Rotary Step", "Largest rotary-axis turn between consecutive "
@@ -110,6 +113,9 @@ class NcOptions(OptionGroup):
         None, "Chord Height", "Chord height of chord-height blocks, mm", unit="mm", lo=0.0,
         lo_open=True, none_as=0.0, precision=4)
     notes: tuple = ()  # extra header lines (the interpolation's result)
+    #: post a path with unresolved collisions (``--allow-collisions``, Export Anyway); the
+    #: header then marks them (:mod:`.gate`)
+    allow_collisions: bool = False
 
     def check(self):
         """Bounds of every option (raised on construction too)."""

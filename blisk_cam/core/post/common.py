@@ -1,10 +1,12 @@
-"""What every post shares: the context, number formatting, header text, safe file writing."""
+"""What every post shares: the context, number formatting, header text (ASCII: controllers
+read no other), safe file writing (atomic, with the user's umask)."""
 
 from __future__ import annotations
 
 import math
 import os
 import tempfile
+import unicodedata
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,7 +17,15 @@ from ..toolpath.types import MOVE_RAPID, ToolPath
 from ..version import __version__
 from .blocks import SAFE, Blocks, NcOptions
 
-__all__ = ["PostContext", "fmt", "fvec", "header_lines", "tool_text", "version", "write_atomic"]
+__all__ = ["PostContext", "ascii_text", "fmt", "fvec", "header_lines", "tool_text", "version",
+           "write_atomic"]
+
+#: what the program text writes for the characters the project's messages use (controllers
+#: read ASCII only: a Fanuc comment with Ø is rejected or garbled)
+ASCII = {"Ø": "D", "ø": "D", "°": " deg", "≤": "<=", "≥": ">=", "≈": "~", "µ": "u", "μ": "u",
+         "…": "...", "–": "-", "—": "-", "−": "-", "·": "*", "×": "x", "→": "->", "←": "<-",
+         "±": "+/-", "²": "^2", "³": "^3", "‰": "/1000", "’": "'", "‘": "'", "“": '"',
+         "”": '"'}
 
 DECIMALS = 4  # mm and degrees
 VEC_DECIMALS = 7  # unit vector components
@@ -27,13 +37,28 @@ def version() -> str:
 
 
 def fmt(x: float, decimals: int = DECIMALS) -> str:
-    """Fixed-point number, no negative zero."""
+    """Fixed-point number, no negative zero; PostError for nan or inf (no controller reads
+    them, and a program must never stop mid-cut on one)."""
+    if not math.isfinite(float(x)):
+        raise PostError(f"a program word would be {float(x)!r}: the path holds a number that is "
+                        "not finite; nothing was written")
     s = f"{float(x):.{decimals}f}"
     return "0." + "0" * decimals if float(s) == 0.0 else s
 
 
 def fvec(v) -> list[str]:
     return [fmt(c, VEC_DECIMALS) for c in v]
+
+
+def ascii_text(text: str) -> str:
+    """``text`` in ASCII: the characters of :data:`ASCII` spelled out, accents dropped
+    (NFKD), anything else "?"."""
+    if text.isascii():
+        return text
+    out = "".join(ASCII.get(ch, ch) for ch in text)
+    out = unicodedata.normalize("NFKD", out)
+    return "".join(ch if ch.isascii() else ("" if unicodedata.combining(ch) else "?")
+                   for ch in out)
 
 
 def tool_text(tool) -> str:
@@ -62,7 +87,8 @@ class PostContext:
 
 
 def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
-    """Header comment text lines (without comment delimiters)."""
+    """Header comment text lines (without comment delimiters), ASCII (:func:`ascii_text`:
+    the tool is "D12 ball")."""
     o = ctx.options
     p = ctx.path
     m = ctx.machine
@@ -76,14 +102,19 @@ def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
         f"post: {ctx.post}  units: mm, degrees",
         *getattr(o, "notes", ()),
     ]
+    po = " ".join(f"{a}{fmt(v)}" for a, v in zip("XYZ", m.part_origin, strict=True))
     if tcp:
         lines.append(
             "work offset at the part (paths) origin, axes along the paths x y z; X Y Z = tool tip"
         )
+        lines.append(f"set the work offset (G54 / preset) to the part origin {po} mm, in the "
+                     "machine description's frame with the rotaries at 0")
     else:
         lines.append("joint program, no TCP: X Y Z = machine tip position; G54 at the machine "
                      "description's origin, part frame from its [part] table")
-    return lines
+        lines.append(f"part origin {po} mm from the machine description's origin (rotaries "
+                     "at 0)")
+    return [ascii_text(line) for line in lines]
 
 
 def block_minutes(blocks: Blocks, options: NcOptions) -> np.ndarray:
@@ -107,16 +138,25 @@ def block_minutes(blocks: Blocks, options: NcOptions) -> np.ndarray:
     return t
 
 
+def _umask() -> int:
+    """The process umask (read by setting it and putting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(filename, text: str) -> str:
     """Write ``text`` to ``filename`` through a temporary file in the same directory and
-    ``os.replace``: a failure never leaves a half-written file. A missing directory →
-    PostError."""
+    ``os.replace``: a failure never leaves a half-written file; the file gets the mode a plain
+    ``open`` would give (0666 less the umask). A missing directory → PostError."""
     filename = os.fspath(filename)
     folder = os.path.dirname(os.path.abspath(filename))
     if not os.path.isdir(folder):
         raise PostError(f"cannot write {filename}: the directory {folder} does not exist")
     fd, tmp = tempfile.mkstemp(prefix=".blisk_nc_", suffix=".tmp", dir=folder)
     try:
+        # mkstemp makes the file 0600; a program is the user's file like any other
+        os.chmod(tmp, 0o666 & ~_umask())
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
             fh.write(text)
             fh.flush()

@@ -19,7 +19,8 @@ from ..machine.description import Machine, load_machine
 from ..machine.interpolation import interpolate_program
 from ..toolpath.types import ToolPath
 from .blocks import Blocks, NcOptions, build_blocks
-from .common import PostContext, block_minutes, write_atomic
+from .common import PostContext, ascii_text, block_minutes, write_atomic
+from .gate import GateResult, collision_gate
 
 __all__ = ["POSTS", "NcReport", "export_nc", "get_post", "nc_program"]
 
@@ -41,7 +42,9 @@ class NcReport:
 
     filename : str; post : str; machine : str; blocks : int — pose blocks written (a
     subprogram's blocks count once per call); inserted : int — blocks added by
-    linearization; axis_ranges : {name: (min, max)} — mm for X Y Z, degrees for rotaries
+    linearization; gate : the :class:`.gate.GateResult` (header notes, console warning,
+    unresolved collision poses posted); axis_ranges : {name: (min, max)} — mm for X Y Z,
+    degrees for rotaries
     (joint posts; the paths' X Y Z for TCP posts); singular : list[int] — program poses with a
     singular orientation; minutes : float — time estimate; max_deviation : mm — sampled tip
     deviation of joint-linear motion after linearization; blades : int; indexed : bool;
@@ -63,6 +66,7 @@ class NcReport:
     indexed: bool = False
     unresolved: int = 0
     interpolation: object = None
+    gate: GateResult = field(default_factory=GateResult)
 
     def summary(self) -> str:
         rng = ", ".join(f"{k} {lo:.3f}…{hi:.3f}" for k, (lo, hi) in self.axis_ranges.items())
@@ -91,13 +95,36 @@ def interpolate_for_nc(path: ToolPath, machine: Machine, options: NcOptions):
     return new, replace(options, notes=(*options.notes, rep.summary())), rep
 
 
+def check_finite(path: ToolPath) -> None:
+    """PostError naming the first program row (or pass pose) whose tip or axis is not finite:
+    no post writes nan or inf."""
+    prog = path.program
+    arrays = ([("program row", prog.tip, prog.axis)] if prog is not None else
+              [(f"pass {i} pose", c.tip, c.axis) for i, c in enumerate(path.curves)])
+    for what, tip, axis in arrays:
+        bad = ~(np.isfinite(tip).all(axis=1) & np.isfinite(axis).all(axis=1))
+        if bad.any():
+            r = int(np.flatnonzero(bad)[0])
+            raise PostError(f"{what} {r} has a tip or axis that is not finite "
+                            f"(tip {np.asarray(tip[r]).tolist()}, axis "
+                            f"{np.asarray(axis[r]).tolist()}): nothing was written")
+
+
 def nc_program(path: ToolPath, machine: Machine | str, post: str,
-               options: NcOptions | None = None, *, reports: list | None = None
-               ) -> tuple[str, Blocks]:
-    """The NC text and the block stream (no file). With ``options.interpolation`` the cut
-    blocks are chosen first (:func:`interpolate_for_nc`); its report is appended to
-    ``reports`` when given."""
+               options: NcOptions | None = None, *, reports: list | None = None,
+               gates: list | None = None) -> tuple[str, Blocks]:
+    """The NC text and the block stream (no file). The collision gate first
+    (:func:`.gate.collision_gate`: CollisionGateError for unresolved collisions unless
+    ``options.allow_collisions``; its notes head the program, its result is appended to
+    ``gates`` when given). With ``options.interpolation`` the cut blocks are chosen first
+    (:func:`interpolate_for_nc`); its report is appended to ``reports`` when given."""
     options = options or NcOptions()
+    check_finite(path)
+    gate = collision_gate(path, options.allow_collisions)
+    if gate.notes:
+        options = replace(options, notes=(*gate.notes, *options.notes))
+    if gates is not None:
+        gates.append(gate)
     if not isinstance(machine, Machine):
         machine = load_machine(machine)
     mod = get_post(post)
@@ -108,7 +135,10 @@ def nc_program(path: ToolPath, machine: Machine | str, post: str,
     blocks = build_blocks(path, machine, options, indexable=mod.INDEXABLE,
                           solve=getattr(mod, "SOLVE", True))
     ctx = PostContext(path=path, machine=machine, options=options, blocks=blocks, post=mod.NAME)
-    return mod.write(ctx), blocks
+    text = mod.write(ctx)
+    if not text.isascii():  # names from the user (machine, blade) can carry any character
+        text = ascii_text(text)
+    return text, blocks
 
 
 def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOptions | None,
@@ -116,7 +146,8 @@ def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOpti
     """Write the NC program of ``path`` for ``machine`` with ``post`` to ``filename``.
 
     Raises MachineError, ReachError (pose/axis/value), PostError (unknown post, unsupported
-    machine, missing output directory), all :class:`.errors.BliskCamError`."""
+    machine, missing output directory, unresolved collisions not allowed:
+    :class:`.gate.CollisionGateError`), all :class:`.errors.BliskCamError`."""
 
     options = options or NcOptions()
     folder = os.path.dirname(os.path.abspath(os.fspath(filename)))
@@ -125,7 +156,8 @@ def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOpti
     if not isinstance(machine, Machine):
         machine = load_machine(machine)
     ireps: list = []
-    text, blocks = nc_program(path, machine, post, options, reports=ireps)
+    gates: list = []
+    text, blocks = nc_program(path, machine, post, options, reports=ireps, gates=gates)
     write_atomic(filename, text)
     mod = get_post(post)
     full = blocks.expanded()
@@ -153,6 +185,7 @@ def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOpti
         indexed=bool(blocks.indexed),
         unresolved=int(blocks.unresolved),
         interpolation=ireps[0] if ireps else None,
+        gate=gates[0],
     )
 
 

@@ -101,33 +101,39 @@ def path_to_dict(path: ToolPath) -> dict:
 
 
 def path_from_dict(d: dict) -> ToolPath:
-    """Read a paths dict (version 1 or a later one that only added fields)."""
+    """Read a paths dict (version 1 or a later one that only added fields), validated against
+    the contract: every number finite, every array of its shape (rows of 3 for points and
+    axes, one entry per pose for the per-pose lists), the version a whole number ≥ 1.
+    BliskCamError naming the field and the row (``curves[3].tip row 17 is not finite``)."""
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise BliskCamError(f"not a Blisk CAM paths file (format is not {FORMAT!r})")
-    if not isinstance(d.get("version"), int) or d["version"] < 1:
-        raise BliskCamError(f"paths file has an invalid version {d.get('version')!r}")
+    if (not isinstance(d.get("version"), int) or isinstance(d.get("version"), bool)
+            or d["version"] < 1):
+        raise BliskCamError(f"paths file has an invalid version {d.get('version')!r} (a whole "
+                            "number ≥ 1 is expected)")
     try:
-        ax = d["axis"]
+        ax = _numbers(d["axis"], "axis", 6)
         curves = [
             PassCurve(
-                s=float(c["s"]),
+                s=_number(c["s"], f"curves[{i}].s"),
                 closed=bool(c["closed"]),
-                cc=np.asarray(c["cc"], dtype=np.float64).reshape(-1, 3),
-                normal=np.asarray(c["normal"], dtype=np.float64).reshape(-1, 3),
-                tip=np.asarray(c["tip"], dtype=np.float64).reshape(-1, 3),
-                axis=np.asarray(c["axis"], dtype=np.float64).reshape(-1, 3),
-                **_read_curve_extras(c),
+                cc=_rows(c["cc"], f"curves[{i}].cc"),
+                normal=_rows(c["normal"], f"curves[{i}].normal", len(c["cc"])),
+                tip=_rows(c["tip"], f"curves[{i}].tip", len(c["cc"])),
+                axis=_rows(c["axis"], f"curves[{i}].axis", len(c["cc"])),
+                **_read_curve_extras(c, i),
             )
-            for c in d["curves"]
+            for i, c in enumerate(_list(d["curves"], "curves"))
         ]
         tool = d.get("tool", {"type": "ball", "radius": 0.0})
+        tol = d["tolerances"]
         return ToolPath(
             axis=Axis(tuple(ax[:3]), tuple(ax[3:6])),
             cone1=_read_generatrix(d, 1),
             cone2=_read_generatrix(d, 2),
             tool=Cutter.from_dict(tool),
-            cusp=float(d["tolerances"]["cusp"]),
-            chord=float(d["tolerances"]["chord"]),
+            cusp=_number(tol["cusp"], "tolerances.cusp", positive=True),
+            chord=_number(tol["chord"], "tolerances.chord", positive=True),
             curves=curves,
             stats=dict(d.get("stats", {})),
             program=_program_from_dict(d["program"]) if "program" in d else None,
@@ -136,7 +142,73 @@ def path_from_dict(d: dict) -> ToolPath:
             verify=dict(d["verify"]) if isinstance(d.get("verify"), dict) else None,
         )
     except (KeyError, TypeError, ValueError, IndexError) as err:
+        if isinstance(err, BliskCamError):
+            raise
         raise BliskCamError(f"paths file is incomplete or malformed: {err}") from err
+
+
+# --- validation at the door (issue 28): finite numbers, shapes, the field and row named ---
+def _list(value, name: str) -> list:
+    if not isinstance(value, list):
+        raise BliskCamError(f"paths file: {name} must be a list, got {type(value).__name__}")
+    return value
+
+
+def _number(value, name: str, *, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BliskCamError(f"paths file: {name} must be a number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x) or (positive and x <= 0):
+        raise BliskCamError(f"paths file: {name} must be a finite number"
+                            + (" > 0" if positive else "") + f", got {value!r}")
+    return x
+
+
+def _numbers(value, name: str, n: int) -> list[float]:
+    if not isinstance(value, list) or len(value) != n:
+        raise BliskCamError(f"paths file: {name} must be a list of {n} numbers, got {value!r}")
+    return [_number(v, f"{name}[{k}]") for k, v in enumerate(value)]
+
+
+def _rows(value, name: str, count: int | None = None, cols: int = 3) -> np.ndarray:
+    """(k, cols) float64 of a list of rows; BliskCamError naming ``name`` and the row when a
+    row is not ``cols`` numbers or not finite, or when ``count`` rows were expected."""
+    _list(value, name)
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or (a.size and (a.ndim != 2 or a.shape[1] != cols)):
+        for r, row in enumerate(value):
+            if not isinstance(row, list) or len(row) != cols:
+                raise BliskCamError(f"paths file: {name} row {r} must be {cols} numbers, got "
+                                    f"{row!r}")
+        raise BliskCamError(f"paths file: {name} must be rows of {cols} numbers")
+    a = a.reshape(-1, cols)
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        r = int(np.flatnonzero(bad)[0])
+        raise BliskCamError(f"paths file: {name} row {r} is not finite ({a[r].tolist()}); "
+                            "every coordinate must be a finite number (mm)")
+    if count is not None and len(a) != count:
+        raise BliskCamError(f"paths file: {name} has {len(a)} rows for {count} poses")
+    return a
+
+
+def _values(value, name: str, count: int) -> np.ndarray:
+    """(count,) float64 of a per-pose list of finite numbers (field and row named)."""
+    _list(value, name)
+    if len(value) != count:
+        raise BliskCamError(f"paths file: {name} has {len(value)} entries for {count} poses")
+    try:
+        a = np.asarray(value, dtype=np.float64).reshape(count)
+    except (TypeError, ValueError):
+        raise BliskCamError(f"paths file: {name} must be one number per pose") from None
+    bad = ~np.isfinite(a)
+    if bad.any():
+        r = int(np.flatnonzero(bad)[0])
+        raise BliskCamError(f"paths file: {name} row {r} is not finite ({value[r]!r})")
+    return a
 
 
 def write_paths_json(path: ToolPath, filename, *, overwrite: bool = True) -> str:
@@ -186,8 +258,8 @@ def _read_generatrix(d: dict, k: int):
     """Generatrix ``k`` (1 or 2) of a paths dict: ``"profile<k>"`` when present, else
     ``"cone<k>"``."""
     if d.get(f"profile{k}") is not None:
-        return Profile.from_list(d[f"profile{k}"])
-    return Cone.from_list(d[f"cone{k}"])
+        return Profile.from_list(_rows(d[f"profile{k}"], f"profile{k}", cols=2).tolist())
+    return Cone.from_list(_numbers(d[f"cone{k}"], f"cone{k}", 4))
 
 
 # --- moves, flags, program (issue #4) ----------------------------------------------------
@@ -238,31 +310,32 @@ def jsonable(x):
     return x
 
 
-def _read_curve_extras(c: dict) -> dict:
+def _read_curve_extras(c: dict, i: int = 0) -> dict:
     k = len(c["cc"])
     out = {}
     for key in ("move", "flags", "ratio"):
         if key in c and len(c[key]) != k:
             raise BliskCamError(
-                f"paths file: a curve's {key!r} has {len(c[key])} entries for {k} poses"
+                f"paths file: curves[{i}].{key} has {len(c[key])} entries for {k} poses"
             )
     if "move" in c:
         out["move"] = move_codes(c["move"])
     if "flags" in c:
         out["flags"] = np.asarray(c["flags"], dtype=np.uint8)
     if "ratio" in c:
-        out["ratio"] = np.asarray(c["ratio"], dtype=np.float64)
+        out["ratio"] = _values(c["ratio"], f"curves[{i}].ratio", k)
     if isinstance(c.get("collision"), dict):
         col = c["collision"]
         for key in ("status", "clearance", "rotation_deg"):
             if len(col[key]) != k:
-                raise BliskCamError(f"paths file: a curve's collision {key!r} has "
+                raise BliskCamError(f"paths file: curves[{i}].collision.{key} has "
                                     f"{len(col[key])} entries for {k} poses")
+        rot = _values(col["rotation_deg"], f"curves[{i}].collision.rotation_deg", k)
         out["collision"] = {
             "status": np.asarray(col["status"], dtype=np.int8),
-            "clearance": np.asarray(col["clearance"], dtype=np.float64),
-            "rotation": np.radians(np.asarray(col["rotation_deg"], dtype=np.float64)),
-            "rotation_deg": np.asarray(col["rotation_deg"], dtype=np.float64),
+            "clearance": _values(col["clearance"], f"curves[{i}].collision.clearance", k),
+            "rotation": np.radians(rot),
+            "rotation_deg": rot,
         }
     return out
 
@@ -285,7 +358,7 @@ def _program_to_dict(p: Program) -> dict:
 
 
 def _program_from_dict(d: dict) -> Program:
-    tip = np.asarray(d["tip"], dtype=np.float64).reshape(-1, 3)
+    tip = _rows(d["tip"], "program.tip")
     m = len(tip)
     for key in ("axis", "move", "curve", "index", "flags", "collision_status", "clearance",
                 "rotation_deg"):
@@ -293,18 +366,18 @@ def _program_from_dict(d: dict) -> Program:
             continue
         if len(d[key]) != m:
             raise BliskCamError(
-                f"paths file: program {key!r} has {len(d[key])} entries for {m} poses"
+                f"paths file: program.{key} has {len(d[key])} entries for {m} poses"
             )
     return Program(
         tip=tip,
-        axis=np.asarray(d["axis"], dtype=np.float64).reshape(-1, 3),
+        axis=_rows(d["axis"], "program.axis", m),
         move=move_codes(d["move"]),
         curve=np.asarray(d["curve"], dtype=np.int64),
         index=np.asarray(d["index"], dtype=np.int64),
         flags=np.asarray(d["flags"], dtype=np.uint8),
         collision_status=(np.asarray(d["collision_status"], dtype=np.int8)
                           if "collision_status" in d else None),
-        clearance=np.asarray(d["clearance"], dtype=np.float64) if "clearance" in d else None,
-        rotation_deg=(np.asarray(d["rotation_deg"], dtype=np.float64)
+        clearance=_values(d["clearance"], "program.clearance", m) if "clearance" in d else None,
+        rotation_deg=(_values(d["rotation_deg"], "program.rotation_deg", m)
                       if "rotation_deg" in d else None),
     )

@@ -44,10 +44,11 @@ from ..geometry.distance import MeshDistance, closest_points
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import dot, slerp, unit
 from ..part.profiles import morph_between
-from ..runtime import Cancelled, alongside, cancellable, check_cancel, map_tasks, parallel
+from ..runtime import Cancelled, Progress, alongside, cancellable, check_cancel, map_tasks, parallel
 from ..tool.cutter import as_cutter
 from ..toolpath.types import PassCurve, ToolPath
 from .forest import SweptForest
+from .links import cut_runs, link_checks
 from .samples import SurfaceSamples, default_spacing, surface_samples
 from .sweep import SWEEP_METHODS, SweepError, SweptCutter, swept_cutter
 from .sweep_ball import SweptBall, _curve_polyline
@@ -116,6 +117,15 @@ class VerifyReport:
     curve_* (n_curves,) per-curve figures; sample_points (k, 3), sample_values (k,) material
     left at the samples; vertex_values (n_vertices,) material left at the mesh vertices, NaN
     outside the region; timings (dict of seconds).
+
+    Links (every program row that is not a cut: link, approach, retract, rapid)
+    -----
+    link_gouge : max depth (mm, ≥ 0) of the cutter below the mesh along the non-cut moves of
+        the program (sampled at ``subsamples`` points per move, axis interpolated; a ball
+        exactly, ρ − signed distance of its centre; another cutter by the mesh point nearest
+        its axis one radius above the tip); ``link_gouge_at`` where, ``link_gouge_row`` the
+        program row the move ends at; link_rows : the non-cut moves measured (0 without a
+        program)
     """
 
     tool_radius: float
@@ -158,6 +168,10 @@ class VerifyReport:
     sample_values: np.ndarray
     vertex_values: np.ndarray
     timings: dict = field(default_factory=dict)
+    link_gouge: float = 0.0
+    link_gouge_at: np.ndarray | None = None
+    link_gouge_row: int | None = None
+    link_rows: int = 0
 
     def summary(self) -> dict:
         """Plain-Python figures for JSON or printing (no large arrays)."""
@@ -190,6 +204,8 @@ class VerifyReport:
             "pair_cusp": [f(x) for x in self.pair_cusp],
             "pair_cusp_normal": [f(x) for x in self.pair_cusp_normal],
             "timings": {k: round(float(v), 4) for k, v in self.timings.items()},
+            "link_gouge": f(self.link_gouge),
+            "link_rows": int(self.link_rows),
         }
 
 
@@ -218,62 +234,6 @@ def _ridges(samples, strip, g, npairs):
     cross = same & (((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0)))
     idx = np.nonzero(cross)[0]
     return idx, strip[ea[idx]]
-
-
-@dataclass
-class _Run:
-    """A run of consecutive cutting poses of one pass (what verify measures)."""
-
-    s: float
-    closed: bool
-    cc: np.ndarray
-    normal: np.ndarray
-    tip: np.ndarray
-    axis: np.ndarray
-    ratio: np.ndarray  # (k,) morph ratio of each pose
-
-
-def _cut_runs(curves) -> list[_Run]:
-    """The cutting parts of passes: maximal runs of poses joined by cut moves.
-
-    Pose j's move code (``PassCurve.move``, missing = all "cut", code 0) is the kind of the
-    motion that ends at pose j, so the segment j−1 → j is cut when ``move[j]`` is 0 and the
-    closing segment of a closed pass when ``move[0]`` is. A pass cut all round stays closed."""
-    out = []
-    for c in curves:
-        k = len(c.cc)
-        if k == 0:
-            continue
-        arr = [np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in (c.cc, c.normal, c.tip,
-                                                                         c.axis)]
-        ratio = getattr(c, "ratio", None)
-        ratio = (np.full(k, float(c.s)) if ratio is None
-                 else np.asarray(ratio, dtype=np.float64).reshape(-1))
-        move = getattr(c, "move", None)
-        cutm = (np.ones(k, bool) if move is None or len(move) != k
-                else np.asarray(move).astype(np.int64) == 0)
-        if k == 1 or np.all(cutm):
-            out.append(_Run(float(c.s), bool(c.closed) and k > 2, *arr, ratio))
-            continue
-        # segment j−1 → j is cut where cutm[j]; a closed pass's closing segment k−1 → 0 where
-        # cutm[0]: then start the pass at a pose reached by a non-cut move (runs never wrap)
-        if c.closed and k > 2 and cutm[0]:
-            order = np.roll(np.arange(k), -int(np.nonzero(~cutm)[0][0]))
-            arr = [x[order] for x in arr]
-            ratio, cutm = ratio[order], cutm[order]
-        seg = cutm[1:]
-        j = 0
-        while j < len(seg):
-            if not seg[j]:
-                j += 1
-                continue
-            e = j
-            while e < len(seg) and seg[e]:
-                e += 1
-            idx = np.arange(j, e + 1)  # poses j..e (segments j → e)
-            out.append(_Run(float(c.s), False, *(x[idx] for x in arr), ratio[idx]))
-            j = e
-    return out
 
 
 def _cl_or_nan(cutter, cc, normal, axis):
@@ -333,6 +293,7 @@ def verify_path(
     method: str = "fast",
     workers: int | None = None,
     cancel=None,
+    progress=None,
 ) -> VerifyReport:
     """Measure a tool path on its mesh, independently of the generator.
 
@@ -352,24 +313,37 @@ def verify_path(
         steps and before every chunk of points (:func:`..runtime.map_chunks`) and every
         per-level task, from the worker threads too; once set, :class:`Cancelled` is raised
         (within one chunk's time) and nothing is returned
+    progress : None or callable(:class:`~..runtime.Progress`) — told the fraction done and
+        the step starting (mesh tree, poses, samples, material, scallops, totals), for a
+        front end's progress line; it does not change the figures
 
     Returns
     -------
     VerifyReport
     """
     with parallel(workers), cancellable(cancel, "verify"):
-        return _verify_path(mesh, path, spacing, subsamples, refine, method)
+        return _verify_path(mesh, path, spacing, subsamples, refine, method, progress)
 
 
-def _verify_path(mesh, path, spacing, subsamples, refine, method):
+#: the steps of verify and the fraction of a typical run done when each starts
+_STEPS = {"mesh tree": 0.0, "poses": 0.05, "samples": 0.35, "material": 0.45,
+          "scallops": 0.7, "links": 0.93, "totals": 0.95}
+
+
+def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None):
     """:func:`verify_path` on the threads set by the caller: the named steps in order."""
+    def step(name):
+        check_cancel()
+        if progress is not None:
+            progress(Progress(_STEPS[name], name))
+
+    step("mesh tree")
     t0 = time.perf_counter()
     tim = {}
     cutter, rho, spacing = _tool_and_spacing(path, spacing, method)
-    check_cancel()
     cones = morph_between(path.cone1, path.cone2)  # LMC, or LMRS for profile generatrices
     axis = path.axis
-    curves = _cut_runs(path.curves)
+    curves = cut_runs(path.curves)
     # the surface samples do not depend on the poses: with several threads they are built
     # on a thread of their own (one core) while the mesh tree and the pose checks run
     # ("samples" then times the wait and the gouge feet)
@@ -379,35 +353,44 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method):
     md = MeshDistance(mesh)
     tim["mesh_tree"] = time.perf_counter() - t0
 
-    check_cancel()
+    step("poses")
     t1 = time.perf_counter()
     pc = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
     tim["poses"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("samples")
     t1 = time.perf_counter()
     smp, P, normals, s_all = _samples_and_feet(mesh, cones, axis, samples(), pc)
     spacing = smp.spacing
     tim["samples"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("material")
     t1 = time.perf_counter()
     levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
                                                         P + rho * normals)
     tim["material"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("scallops")
     t1 = time.perf_counter()
     sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
                    lab, rho, refine, method)
     tim["scallops"] = time.perf_counter() - t1
 
-    check_cancel()
+    step("links")
+    t1 = time.perf_counter()
+    links = link_checks(md, path.program, cutter, rho, subsamples)
+    tim["links"] = time.perf_counter() - t1
+
+    step("totals")
     t1 = time.perf_counter()
     tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
     tim["totals"] = time.perf_counter() - t1
     tim["total"] = time.perf_counter() - t0
-    return _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
+    if progress is not None:
+        progress(Progress(1.0, "done"))
+    rep = _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
+    rep.link_gouge, rep.link_gouge_at, rep.link_gouge_row, rep.link_rows = links
+    return rep
 
 
 def _tool_and_spacing(path, spacing, method):
@@ -460,6 +443,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
     nrm_all = np.vstack([np.asarray(c.normal, float) for c in curves])
     cid = np.repeat(np.arange(ncur), [len(c.cc) for c in curves])
     cp = md.query(cc_all)
+    check_cancel()  # between the sub-steps too: a cancel acts within a second
     pc.on_mesh = _group_max(ncur, cid, cp.distance)
     sn = mesh.interpolate_normals(cp.face, cp.bary)
     un = nrm_all / np.maximum(np.linalg.norm(nrm_all, axis=1), 1e-300)[:, None]
@@ -475,6 +459,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         pc.mismatch = float(np.inf if np.any(np.isnan(mm)) else mm.max())
     # the CC point against the posed cutter's surface (0 when the cutter touches it there)
     pc.pose_contact = np.abs(cutter.signed_distance(cc_all, tips, axs))
+    check_cancel()
     pc.on_cone = _group_max(ncur, cid, np.abs(_lmc_values(curves, cones, axis, cc_all, cid)))
     # chord of the CC polylines
     sub = [_subsample(c, c.cc, subsamples, False) for c in curves]
@@ -484,6 +469,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         dch = md.query(subp).distance
         pc.cc_chord = _group_max(ncur, sid, dch)
         pc.chord_at = subp[int(np.argmax(dch))]
+    check_cancel()
     if is_ball:
         # centre polylines against the exact offset
         cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
@@ -493,13 +479,16 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         # from 6 mm off the surface is slow; the result does not depend on the guess)
         cq = md.query(np.vstack(sub), near=np.vstack(
             [_subsample(c, c.cc, subsamples, True) for c in curves]))
+        check_cancel()
         dev = cq.signed_distance - rho
         pc.over_at = np.vstack(sub)[int(np.argmin(dev))]
     else:
         # the interpolated poses' lowest points (toward −n); the mesh point under each
         # against the posed cutter (< 0: the surface is cut into there)
         xs, sid, xtip, xax = _interpolated_contacts(cutter, curves, subsamples)
+        check_cancel()
         cq = md.query(xs)
+        check_cancel()
         dev = cutter.signed_distance(cq.point, xtip, xax)
         pc.over_at = cq.point[int(np.argmin(dev))] if len(xs) else np.full(3, np.nan)
     pc.over = np.maximum(_group_max(ncur, sid, -dev), 0.0)

@@ -62,7 +62,8 @@ class BoundCheck:
     ``at`` (3,) xyz of the worst point (None when unknown); ``curve``/``pose``/``s`` the pass
     (index into ``path.curves``), the pose in it and its ratio nearest to ``at`` (None without
     a path); ``between`` the ratios of the two passes whose scallop it is (material left only,
-    when the worst point is a scallop between neighbouring passes)."""
+    when the worst point is a scallop between neighbouring passes); ``row`` the program row
+    (the link check: the non-cut move ending at that row)."""
 
     name: str
     value: float
@@ -73,6 +74,7 @@ class BoundCheck:
     pose: int | None = None
     s: float | None = None
     between: tuple[float, float] | None = None
+    row: int | None = None  # program row (the link check: the move ending there)
 
     @property
     def margin(self) -> float:
@@ -173,6 +175,15 @@ def judge(report, cusp: float, chord: float, cutter=None, path=None) -> Verdict:
                 if math.isfinite(v) and abs(pc[j] - v) <= 1e-9 * max(1.0, abs(v)):
                     chk.between = (float(ps[j, 0]), float(ps[j, 1]))
         checks.append(chk)
+    link = getattr(report, "link_gouge", None)
+    if link is not None and int(getattr(report, "link_rows", 0) or 0) > 0:
+        # every row of the program is judged: the links, approaches, retracts and rapids
+        # may not cut into the part beyond the chord either (issue 28)
+        v = float(link)
+        row = getattr(report, "link_gouge_row", None)
+        checks.append(BoundCheck("link_gouge", v, float(e), bool(math.isfinite(v) and v <= e),
+                                 at=_point(getattr(report, "link_gouge_at", None)),
+                                 row=None if row is None else int(row)))
     note = None
     kind = str(tool.get("type", "ball")).lower()
     if kind in _KIND:
@@ -209,6 +220,8 @@ def verdict_dict(verdict: Verdict) -> dict:
             d["s"] = float(c.s)
         if c.between is not None:
             d["between"] = [float(x) for x in c.between]
+        if c.row is not None:
+            d["row"] = int(c.row)
         checks[c.name] = d
     out = {"status": verdict.status, "cusp": verdict.cusp, "chord": verdict.chord,
            "checks": checks}
@@ -228,6 +241,7 @@ def verdict_from_dict(d: dict) -> Verdict:
                 name, value, float(c["bound"]), c["status"] == "PASS",
                 at=_point(c.get("at")), curve=c.get("curve"), pose=c.get("pose"),
                 s=c.get("s"), between=tuple(c["between"]) if c.get("between") else None,
+                row=c.get("row"),
             ))
         return Verdict(d["status"] == "PASS", checks, float(d["cusp"]), float(d["chord"]),
                        note=d.get("note"))
@@ -235,8 +249,9 @@ def verdict_from_dict(d: dict) -> Verdict:
         raise ToleranceError(f"verify verdict is incomplete or malformed: {err}") from err
 
 
-_LABEL = {"material_left": "material left", "gouge": "gouge"}
-_RULE = {"material_left": "cusp + chord", "gouge": "chord"}
+_LABEL = {"material_left": "material left", "gouge": "gouge",
+          "link_gouge": "gouge of the links, approaches, retracts and rapids"}
+_RULE = {"material_left": "cusp + chord", "gouge": "chord", "link_gouge": "chord"}
 
 
 def verdict_lines(verdict: Verdict) -> list[str]:
@@ -255,6 +270,8 @@ def verdict_lines(verdict: Verdict) -> list[str]:
             where.append(f"between the passes at s = {c.between[0]:.4f} and {c.between[1]:.4f}")
         if c.curve is not None:
             where.append(f"near pass {c.curve} (s = {c.s:.4f}) pose {c.pose}")
+        if c.row is not None and not (c.passed and c.value == 0.0):
+            where.append(f"on the move to program row {c.row}")
         if c.at is not None:
             where.append("at ({:.3f}, {:.3f}, {:.3f}) mm".format(*c.at))
         if where:
