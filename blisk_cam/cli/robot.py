@@ -19,12 +19,14 @@ nothing: exit 1. Progress on stderr.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
 
 from ..core.errors import BliskCamError
 from ..core.post.common import write_atomic
+from ..core.post.gate import collision_gate
 from ..core.robot.description import known_robots, load_robot, with_rotary_angle
 from ..core.robot.free_angle import FreeAngleOptions, plan_robot
 from ..core.robot.polishing import PolishingProcess, removal_per_pose
@@ -90,6 +92,10 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPar
     parser.add_argument("--removal", default=None, metavar="FILE.csv",
                         help="also write the removal depth at every pose (needs the process "
                         "values above)")
+    parser.add_argument("--allow-collisions", action="store_true",
+                        help="program a path whose collision check left unresolved poses (the "
+                        "header then says how many and where); without it such a path is "
+                        "refused")
     return parser
 
 
@@ -163,6 +169,11 @@ def run_robot(args) -> int:
                                   process=process)
         except BliskCamError as exc:
             raise UsageError(str(exc)) from None
+        # the gate of every export: unresolved collisions refused unless allowed, then marked
+        gate = collision_gate(path, bool(args.allow_collisions))
+        if gate.warning:
+            print(f"{PROG}: warning: {gate.warning}", file=sys.stderr)
+        popt = dataclasses.replace(popt, notes=gate.notes)
         plan = plan_robot(robot, path, opt, progress=_progress)
         if not plan.feasible:
             for b in plan.infeasible[:20]:

@@ -101,3 +101,40 @@ def test_polishing_process_values_and_removal_per_pose(small_paths, tmp_path, ca
                "pdl2", "--out", str(tmp_path / "p2"), "--head-rpm", "3000"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "--force, --head-diameter" in err[0]
+
+
+def test_robot_goes_through_the_collision_gate(small_paths, tmp_path, capsys):
+    """Issue 28's one gate covers the robot posts too: unresolved collisions are refused
+    (nothing written) unless allowed, and then the program header says how many and where."""
+    _, small = small_paths
+    path = dataclasses.replace(small, program=dataclasses.replace(small.program))
+    m = len(path.program)
+    status = np.zeros(m, np.int8)
+    status[[30, 31, 32]] = 2
+    path.program.collision_status = status
+    path.program.clearance = np.where(status == 2, -0.5, 5.0)
+    path.program.rotation_deg = np.zeros(m)
+    path.collision = {"mode": "check", "checked_poses": m, "colliding_before": 3,
+                      "corrected": 0, "unresolved": 3, "min_clearance": -0.5}
+    bad = tmp_path / "colliding.json"
+    write_paths_json(path, bad)
+    c, i = int(path.program.curve[30]), int(path.program.index[30])
+    args = ["robot", "--paths", str(bad), "--robot", "kr120-r2700-angled", "--post", "krl",
+            "--samples", "24"]
+    refused = tmp_path / "refused"
+    assert main(args + ["--out", str(refused)]) == 1
+    err = capsys.readouterr().err
+    assert "3" in err and f"pass {c} poses {i}-{i + 2}" in err and "--allow-collisions" in err
+    assert not refused.exists()
+    allowed = tmp_path / "allowed"
+    assert main(args + ["--out", str(allowed), "--allow-collisions"]) == 0
+    capsys.readouterr()
+    header = (allowed / "blisk_main.src").read_text()
+    assert f"pass {c} poses {i}-{i + 2}" in header
+    # a path never checked: written, with the header line and a warning
+    unchecked = tmp_path / "unchecked"
+    assert small.collision is None
+    assert main(["robot", "--paths", str(small_paths[0]), "--robot", "kr120-r2700-angled",
+                 "--post", "krl", "--samples", "24", "--out", str(unchecked)]) == 0
+    assert "warning" in capsys.readouterr().err
+    assert "COLLISIONS NOT CHECKED" in (unchecked / "blisk_main.src").read_text()

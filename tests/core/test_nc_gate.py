@@ -15,6 +15,7 @@ from blisk_cam.cli.main import main as cli_main
 from blisk_cam.core.errors import PostError
 from blisk_cam.core.post.blocks import NcOptions
 from blisk_cam.core.post.export import export_nc
+from blisk_cam.core.post.gate import unresolved_ranges
 from blisk_cam.core.toolpath.paths_io import write_paths_json
 from tests.support.nc import demo_path
 
@@ -98,3 +99,19 @@ def test_nc_command_goes_through_the_same_gate(demo, tmp_path, capsys):
     assert "COLLISIONS NOT CHECKED" in out.read_text()
     d = json.loads(js.read_text())
     assert "collision" not in d
+
+
+def test_a_closed_pass_run_through_its_closing_pose_is_named_so(demo):
+    """A closed pass ends on its first pose again (index 0): the range to it reads 'poses a-b
+    and its closing pose', not 'poses a-0'."""
+    prog = demo.program
+    curve, index = np.asarray(prog.curve), np.asarray(prog.index)
+    ends = np.flatnonzero((curve[:-1] >= 0) & (curve[1:] == curve[:-1])
+                          & (index[1:] < index[:-1]))
+    assert len(ends), "the demo has a closed pass"
+    last = int(ends[0]) + 1  # the closing row
+    rows = [last - 2, last - 1, last]
+    text = unresolved_ranges(checked(demo, rows))
+    c = int(curve[last])
+    assert text == [f"pass {c} poses {int(index[last - 2])}-{int(index[last - 1])} and its "
+                    "closing pose"]

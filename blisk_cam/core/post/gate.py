@@ -89,8 +89,14 @@ def unresolved_ranges(path: ToolPath) -> list[str]:
                     c = int(curve[start])
                     if c >= 0:
                         i0, i1 = int(index[start]), int(index[j])
-                        out.append(f"pass {c} pose {i0}" if i0 == i1
-                                   else f"pass {c} poses {i0}-{i1}")
+                        if i1 < i0:  # a closed pass ends on its first pose again
+                            last = int(index[j - 1])
+                            out.append((f"pass {c} pose {i0}" if last == i0
+                                        else f"pass {c} poses {i0}-{last}")
+                                       + " and its closing pose")
+                        else:
+                            out.append(f"pass {c} pose {i0}" if i0 == i1
+                                       else f"pass {c} poses {i0}-{i1}")
                     else:
                         out.append(f"link row {start}" if start == j
                                    else f"link rows {start}-{j}")

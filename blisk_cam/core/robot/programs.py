@@ -64,7 +64,8 @@ class ProgramOptions:
     speed, % of the axes' maximum; blend : mm (KRL $APO.CDIS, RAPID zone, Fanuc CNT 100 when
     > 0); force : N, the polishing head's contact force setpoint (header only); lines :
     motions per part (default: :data:`LINES` of the dialect); tool_mass : kg (ABB loaddata);
-    process : the polishing process values (:mod:`.polishing`) for the header, or None."""
+    process : the polishing process values (:mod:`.polishing`) for the header, or None;
+    notes : header lines added as they are (the collision gate's, :mod:`..post.gate`), ASCII."""
 
     name: str = "BLISK"
     feed: float = 600.0
@@ -74,6 +75,7 @@ class ProgramOptions:
     lines: int | None = None
     tool_mass: float = 10.0
     process: PolishingProcess | None = None
+    notes: tuple = ()
 
     def __post_init__(self):
         if not self.name or not self.name.replace("_", "").isalnum() or not self.name[0].isalpha():
@@ -180,6 +182,7 @@ def _header(plan: RobotPlan, path: ToolPath | None, opt: ProgramOptions, c: str)
     if r.rotary is not None:
         lines.append(f"{c} external rotary {r.rotary.name} parked at "
                      f"{math.degrees(r.rotary.angle):g} deg")
+    lines += [f"{c} {note}" for note in opt.notes]
     return lines
 
 
