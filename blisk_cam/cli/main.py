@@ -36,6 +36,7 @@ import sys
 from ..core.collision.options import CollisionOptions
 from ..core.errors import BliskCamError
 from ..core.options import PATH_OPTION_GROUPS
+from ..core.kernels.backend import backend_name
 from ..core.version import __version__
 from .blender import _cmd_demo
 from .flags import PROG, CliInternalError, UsageError, _fail, add_option_flags, finite
@@ -103,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
     )
-    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__} (kernels: {backend_name()})")
     sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")
     sub.required = True
 

@@ -310,7 +310,8 @@ def _cmd_paths(args):
     print(f"wrote {out}: {_summary_line(path, times, report)}")
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in times.items())
           + f"; wall {wall:.2f} s")
-    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm")
+    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm; "
+          f"kernels: {path.stats.get('kernels', 'numpy')}")
     for w in plan.warnings:
         print(f"warning: {w}")
     if verdict is not None:
