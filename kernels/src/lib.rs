@@ -8,8 +8,82 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArra
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+mod closest;
 mod step;
 mod weld;
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// A rayon pool of `threads` workers (made once per count and kept).
+fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
+    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+    let n = threads.max(1);
+    let mut pools = POOLS.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap();
+    if let Some(p) = pools.get(&n) {
+        return Ok(p.clone());
+    }
+    let p = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .thread_name(|i| format!("blisk_cam-kernels-{i}"))
+        .build()
+        .map_err(|e| PyValueError::new_err(format!("cannot start {n} threads: {e}")))?;
+    let p = Arc::new(p);
+    pools.insert(n, p.clone());
+    Ok(p)
+}
+
+/// The faces of a mesh in parry's bounding-volume tree, for nearest-face queries (see
+/// `distance.NearestFaces`).
+#[pyclass(frozen)]
+struct FaceTree {
+    tree: closest::FaceTree,
+}
+
+#[pymethods]
+impl FaceTree {
+    /// V (n, 3) float64 mm, F (m, 3) int64 vertex ids (in range: checked).
+    #[new]
+    fn new(py: Python<'_>, v: PyReadonlyArray2<'_, f64>, f: PyReadonlyArray2<'_, i64>) -> PyResult<Self> {
+        let vv = points(&v, "V")?.to_vec();
+        if f.shape()[1] != 3 {
+            return Err(PyValueError::new_err("F must be (m, 3)"));
+        }
+        let fs = f.as_slice().map_err(|_| PyValueError::new_err("F must be C-contiguous"))?;
+        let n = vv.len() as i64;
+        if fs.iter().any(|&i| i < 0 || i >= n) {
+            return Err(PyValueError::new_err("F holds vertex ids out of range"));
+        }
+        let ff: Vec<[usize; 3]> =
+            fs.chunks_exact(3).map(|t| [t[0] as usize, t[1] as usize, t[2] as usize]).collect();
+        let tree = py.detach(|| closest::FaceTree::new(vv, ff));
+        Ok(FaceTree { tree })
+    }
+
+    /// (k,) int64: the nearest face of each point (k, 3) (least squared distance as
+    /// `closest_on_triangles` computes it, then the lowest id; -1 for a non-finite point),
+    /// on `threads` threads.
+    fn nearest<'py>(&self, py: Python<'py>, p: PyReadonlyArray2<'py, f64>, threads: usize)
+        -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let pp = points(&p, "points")?;
+        let pl = pool(threads)?;
+        let out = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
+        Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+/// The squared distances of `closest_on_triangles` (pairwise rows of p, a, b, c), (k,).
+#[pyfunction]
+fn triangle_d2<'py>(py: Python<'py>, p: PyReadonlyArray2<'py, f64>, a: PyReadonlyArray2<'py, f64>,
+                    b: PyReadonlyArray2<'py, f64>, c: PyReadonlyArray2<'py, f64>)
+    -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (pp, aa, bb, cc) = (points(&p, "p")?, points(&a, "a")?, points(&b, "b")?, points(&c, "c")?);
+    if aa.len() != pp.len() || bb.len() != pp.len() || cc.len() != pp.len() {
+        return Err(PyValueError::new_err("p, a, b, c must have the same length"));
+    }
+    let out: Vec<f64> = (0..pp.len()).map(|i| closest::triangle_d2(&pp[i], &aa[i], &bb[i], &cc[i])).collect();
+    Ok(PyArray1::from_vec(py, out))
+}
 
 /// Rows of a C-contiguous (n, 3) float64 array as points.
 fn points<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 3]]> {
@@ -95,5 +169,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(forward_step, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
+    m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
+    m.add_class::<FaceTree>()?;
     Ok(())
 }
