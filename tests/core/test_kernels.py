@@ -163,3 +163,44 @@ def test_mesh_from_arrays_identical_on_both_backends():
         ref = TriMesh.from_arrays(soup, Fs)
     np.testing.assert_array_equal(got.V, ref.V)
     np.testing.assert_array_equal(got.F, ref.F)
+
+
+@compiled
+def test_triangle_distance_port_is_bit_identical():
+    """The compiled nearest-face search decides with its port of closest_on_triangles' d2:
+    the same bits on general, degenerate, needle and sliver triangles."""
+    from blisk_cam.core.geometry.closest import closest_on_triangles
+    from blisk_cam.core.kernels.closest import triangle_d2
+
+    rng = np.random.default_rng(1)
+    n = 20_000
+    p = rng.normal(size=(n, 3)) * 10
+    a = rng.normal(size=(n, 3)) * 5
+    b = a + rng.normal(size=(n, 3))
+    c = a + rng.normal(size=(n, 3)) * np.array([1.0, 1e-4, 1.0])
+    c[:500] = a[:500]  # zero area
+    c[500:1000] = a[500:1000] + 1e-7 * (b[500:1000] - a[500:1000])  # needles
+    p[1000:1500] = a[1000:1500]  # on a vertex
+    np.testing.assert_array_equal(triangle_d2(p, a, b, c), closest_on_triangles(p, a, b, c)[1])
+
+
+@compiled
+def test_nearest_faces_identical_on_both_backends():
+    from blisk_cam.core.geometry.distance import NearestFaces
+    from blisk_cam.core.part.blisk import make_demo_blisk
+    from blisk_cam.core.runtime import parallel
+
+    d = make_demo_blisk(resolution=0.3)
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    rng = np.random.default_rng(2)
+    idx = rng.integers(0, len(mesh.V), 2000)
+    P = np.vstack([mesh.V[idx],  # vertices: ties among the faces around them
+                   mesh.V[idx] + rng.normal(scale=0.05, size=(2000, 3)),
+                   mesh.V[idx[:500]] + 6.0 * mesh.vertex_normals[idx[:500]]])
+    with backend.numpy_only():
+        ref = NearestFaces(mesh).query(P)
+    for threads in (1, 2):
+        with parallel(threads):
+            got = NearestFaces(mesh).query(P)
+        for g, r in zip(got, ref, strict=True):
+            np.testing.assert_array_equal(g, r)
