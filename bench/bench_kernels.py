@@ -75,18 +75,21 @@ def peak_rss_mb():
         return float("nan")
 
 
-def bench_blade(name, V, F, axis, c1, c2, chord, threads):
+def bench_blade(name, V, F, axis, c1, c2, chord, threads, repeat=1):
     runs = {}
     with tempfile.TemporaryDirectory() as tmp:
         stl = Path(tmp) / f"{name}.stl"
         write_binary_stl(stl, V, F)
         t_tm = trimesh_multiplane(V, F)
         order = ["compiled", "numpy"] if backend.extension() is not None else ["numpy"]
-        for which in order:
+        for which in order * repeat:  # alternating; each figure the least of its runs
             ctx = backend.numpy_only() if which == "numpy" else _Nothing()
             with ctx:
                 t, kname, data = whole_run(stl, axis, c1, c2, chord, Path(tmp) / "p.json",
                                            threads)
+            if kname in runs:
+                t = {k: min(v, runs[kname][0][k]) for k, v in t.items()}
+                assert data == runs[kname][1], "the same backend gave two different paths"
             runs[kname] = (t, data)
             st = ", ".join(f"{k} {t[k]:.2f}" for k in ("load", "weld", *STAGES, "write"))
             ratio = ("" if t_tm is None
@@ -130,13 +133,16 @@ def main():
     ap.add_argument("--chord", type=float, default=0.01)
     ap.add_argument("--only", choices=("demo", "rotor37"))
     ap.add_argument("--threads", type=int, default=None, help="default: every core")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs per backend, alternating; the least time of each is printed")
     args = ap.parse_args()
     print(f"kernels installed: {backend.backend_name()}; {os.cpu_count()} cores; load "
           f"{os.getloadavg()[0]:.1f} (other work on the machine slows every figure)", flush=True)
     if args.only != "rotor37":
-        bench_blade("demo", *demo_blade(args.triangles), args.chord, args.threads)
+        bench_blade("demo", *demo_blade(args.triangles), args.chord, args.threads, args.repeat)
     if args.only != "demo":
-        bench_blade("rotor37", *rotor37_blade(args.triangles), args.chord, args.threads)
+        bench_blade("rotor37", *rotor37_blade(args.triangles), args.chord, args.threads,
+                    args.repeat)
     print(f"peak memory of this process (both backends, both blades): {peak_rss_mb():.0f} MB")
 
 

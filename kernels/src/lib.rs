@@ -9,6 +9,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 mod closest;
+mod knn;
 mod step;
 mod weld;
 
@@ -69,6 +70,43 @@ impl FaceTree {
         let pl = pool(threads)?;
         let out = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
         Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+/// A k-d tree of points for k-nearest queries within a bound (see `passes._nearest_samples`).
+#[pyclass(frozen)]
+struct PointTree {
+    tree: knn::PointTree,
+}
+
+#[pymethods]
+impl PointTree {
+    /// points (n, 3) float64 mm.
+    #[new]
+    fn new(py: Python<'_>, points_: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+        let pts = points(&points_, "points")?.to_vec();
+        if pts.len() >= u32::MAX as usize {
+            return Err(PyValueError::new_err("too many points for one tree"));
+        }
+        let tree = py.detach(|| knn::PointTree::new(pts));
+        Ok(PointTree { tree })
+    }
+
+    /// (ids (q, k) int64, -1 padded; tie (q,) bool): the k nearest points of each query
+    /// (q, 3) closer than `bound` mm, by (distance, id); `tie`: the k-th and the next are at
+    /// the same distance (scipy may choose another of them). On `threads` threads.
+    fn query<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, k: usize, bound: f64,
+                  threads: usize)
+        -> PyResult<(Bound<'py, PyArray2<i64>>, Bound<'py, PyArray1<bool>>)> {
+        if k == 0 {
+            return Err(PyValueError::new_err("k must be at least 1"));
+        }
+        let qq = points(&q, "queries")?;
+        let pl = pool(threads)?;
+        let ub2 = bound * bound;
+        let (ids, tie) = py.detach(|| pl.install(|| self.tree.knn_many(qq, k, ub2)));
+        let ids = PyArray1::from_vec(py, ids).reshape([qq.len(), k])?;
+        Ok((ids, PyArray1::from_vec(py, tie)))
     }
 }
 
@@ -171,5 +209,6 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
     m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
     m.add_class::<FaceTree>()?;
+    m.add_class::<PointTree>()?;
     Ok(())
 }

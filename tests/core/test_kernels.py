@@ -204,3 +204,29 @@ def test_nearest_faces_identical_on_both_backends():
             got = NearestFaces(mesh).query(P)
         for g, r in zip(got, ref, strict=True):
             np.testing.assert_array_equal(g, r)
+
+
+@compiled
+def test_nearest_k_gives_scipys_sets():
+    """The compiled k nearest within a bound: scipy's set of k on every row (the rows with
+    equal k-th and (k + 1)-th distances flagged and answered by scipy, as the lift does)."""
+    from scipy.spatial import cKDTree
+
+    from blisk_cam.core.kernels.knn import nearest_k, point_tree
+
+    rng = np.random.default_rng(4)
+    X = rng.normal(size=(60_000, 3)) * [4.0, 4.0, 1.0]
+    X[:300] = X[300:600]  # exact duplicates: ties at the 8th place
+    Q = np.vstack([rng.normal(size=(5000, 3)) * [4.0, 4.0, 1.0], X[:600]])
+    kd = cKDTree(X, leafsize=64, balanced_tree=False, compact_nodes=False)
+
+    def scipy_rows(rows):
+        _, near = kd.query(rows, k=8, distance_upper_bound=0.4)
+        return np.where(near < kd.n, near, -1)
+
+    asked = []
+    got = nearest_k(point_tree(X), Q, 8, 0.4, 2,
+                    ties=lambda rows: asked.append(len(rows)) or scipy_rows(rows))
+    assert asked and asked[0] > 0  # the duplicates made ties
+    np.testing.assert_array_equal(np.sort(got, axis=1), np.sort(scipy_rows(Q), axis=1))
+    assert 0 < np.mean(got >= 0) < 1  # some rows have fewer than 8 within the bound
