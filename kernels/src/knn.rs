@@ -46,43 +46,76 @@ fn d2(a: &P3, b: &P3) -> f64 {
 
 impl PointTree {
     pub fn new(pts: Vec<P3>) -> Self {
-        let mut idx: Vec<u32> = (0..pts.len() as u32).collect();
-        let mut nodes = Vec::with_capacity(2 * pts.len() / LEAF + 2);
-        let mut boxes = Vec::with_capacity(2 * pts.len() / LEAF + 2);
-        if !pts.is_empty() {
-            Self::build(&pts, &mut idx, 0, &mut nodes, &mut boxes);
-        }
-        let sorted: Vec<P3> = idx.iter().map(|&i| pts[i as usize]).collect();
-        PointTree { pts: sorted, ids: idx, nodes, boxes }
+        // the points move with their ids (contiguous, not gathered through an index)
+        let mut items: Vec<(P3, u32)> = pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect();
+        drop(pts);
+        let (nodes, boxes) = if items.is_empty() {
+            (Vec::new(), Vec::new())
+        } else {
+            let mut region = [f64::INFINITY, f64::INFINITY, f64::INFINITY,
+                              f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+            for (p, _) in &items {
+                for j in 0..3 {
+                    region[j] = region[j].min(p[j]);
+                    region[j + 3] = region[j + 3].max(p[j]);
+                }
+            }
+            Self::build(&mut items, 0, region)
+        };
+        let ids = items.iter().map(|x| x.1).collect();
+        let sorted = items.into_iter().map(|x| x.0).collect();
+        PointTree { pts: sorted, ids, nodes, boxes }
     }
 
-    fn build(pts: &[P3], idx: &mut [u32], offset: usize, nodes: &mut Vec<Node>,
-             boxes: &mut Vec<[f64; 6]>) -> u32 {
-        let me = nodes.len() as u32;
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for &i in idx.iter() {
-            let p = &pts[i as usize];
-            for j in 0..3 {
-                lo[j] = lo[j].min(p[j]);
-                hi[j] = hi[j].max(p[j]);
+    /// The subtree of the points `idx` (at `offset` in the tree order) inside `region`:
+    /// split at the median along the region's longest side (the two halves built in
+    /// parallel when large); each node's box is the tight box of its points (bottom-up).
+    fn build(idx: &mut [(P3, u32)], offset: usize, region: [f64; 6])
+        -> (Vec<Node>, Vec<[f64; 6]>) {
+        if idx.len() <= LEAF {
+            let mut b = [f64::INFINITY, f64::INFINITY, f64::INFINITY,
+                         f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+            for (p, _) in idx.iter() {
+                for j in 0..3 {
+                    b[j] = b[j].min(p[j]);
+                    b[j + 3] = b[j + 3].max(p[j]);
+                }
             }
+            let leaf = Node::Leaf { start: offset as u32, end: (offset + idx.len()) as u32 };
+            return (vec![leaf], vec![b]);
         }
-        boxes.push([lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]]);
-        let dim = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap();
-        if idx.len() <= LEAF || !(hi[dim] > lo[dim]) {
-            // small, or all points equal (or NaN): one leaf
-            nodes.push(Node::Leaf { start: offset as u32, end: (offset + idx.len()) as u32 });
-            return me;
-        }
+        let ext = |j: usize| region[j + 3] - region[j];
+        let dim = (0..3).max_by(|&a, &b| ext(a).total_cmp(&ext(b))).unwrap();
         let m = idx.len() / 2;
-        idx.select_nth_unstable_by(m, |&a, &b| pts[a as usize][dim].total_cmp(&pts[b as usize][dim]));
-        nodes.push(Node::Split { left: 0, right: 0 });
+        idx.select_nth_unstable_by(m, |a, b| a.0[dim].total_cmp(&b.0[dim]));
+        let val = idx[m].0[dim];
+        let (mut lr, mut rr) = (region, region);
+        lr[dim + 3] = val;
+        rr[dim] = val;
+        let n = idx.len();
         let (l, r) = idx.split_at_mut(m);
-        let left = Self::build(pts, l, offset, nodes, boxes);
-        let right = Self::build(pts, r, offset + m, nodes, boxes);
-        nodes[me as usize] = Node::Split { left, right };
-        me
+        let ((ln, lb), (rn, rb)) = if n > 50_000 {
+            rayon::join(|| Self::build(l, offset, lr), || Self::build(r, offset + m, rr))
+        } else {
+            (Self::build(l, offset, lr), Self::build(r, offset + m, rr))
+        };
+        let (nl, nr) = (ln.len() as u32, rn.len() as u32);
+        let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
+        let mut boxes = Vec::with_capacity(1 + ln.len() + rn.len());
+        nodes.push(Node::Split { left: 1, right: 1 + nl });
+        let (a, b) = (lb[0], rb[0]);
+        boxes.push([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2]),
+                    a[3].max(b[3]), a[4].max(b[4]), a[5].max(b[5])]);
+        let shift = |node: Node, by: u32| match node {
+            Node::Split { left, right } => Node::Split { left: left + by, right: right + by },
+            leaf => leaf,
+        };
+        nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
+        nodes.extend(rn.into_iter().map(|x| shift(x, 1 + nl)));
+        let _ = nr;
+        boxes.extend(lb);
+        boxes.extend(rb);
+        (nodes, boxes)
     }
 
     /// The (up to) k nearest ids of `q` with squared distance below `ub2`, by (distance,

@@ -81,14 +81,16 @@ struct PointTree {
 
 #[pymethods]
 impl PointTree {
-    /// points (n, 3) float64 mm.
+    /// points (n, 3) float64 mm; built on `threads` threads.
     #[new]
-    fn new(py: Python<'_>, points_: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+    #[pyo3(signature = (points_, threads=1))]
+    fn new(py: Python<'_>, points_: PyReadonlyArray2<'_, f64>, threads: usize) -> PyResult<Self> {
         let pts = points(&points_, "points")?.to_vec();
         if pts.len() >= u32::MAX as usize {
             return Err(PyValueError::new_err("too many points for one tree"));
         }
-        let tree = py.detach(|| knn::PointTree::new(pts));
+        let pl = pool(threads)?;
+        let tree = py.detach(|| pl.install(|| knn::PointTree::new(pts)));
         Ok(PointTree { tree })
     }
 

@@ -12,12 +12,13 @@ from .backend import extension
 __all__ = ["point_tree", "nearest_k"]
 
 
-def point_tree(points):
-    """The compiled k-d tree of ``points`` (n, 3) mm; None when the numpy kernels run."""
+def point_tree(points, threads: int = 1):
+    """The compiled k-d tree of ``points`` (n, 3) mm, built on ``threads`` threads; None when
+    the numpy kernels run."""
     ext = extension()
     if ext is None:
         return None
-    return ext.PointTree(np.ascontiguousarray(points, dtype=np.float64))
+    return ext.PointTree(np.ascontiguousarray(points, dtype=np.float64), max(1, int(threads)))
 
 
 def nearest_k(tree, queries, k: int, bound: float, threads: int, ties=None):

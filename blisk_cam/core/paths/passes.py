@@ -597,9 +597,10 @@ class _Generator:
         ~300 a centre to measure and sort per row: 2–3× the tree's own search, measured)."""
         if extension() is not None:  # compiled; scipy settles its ties
             if getattr(self, "_cptree", None) is None:
-                self._cptree = compiled_knn.point_tree(self._probe_samples().all_points())
-            return compiled_knn.nearest_k(self._cptree, centres, 8, self.radius + 0.05,
-                                          workers(), ties=self._nearest_samples_scipy)
+                self._cptree = compiled_knn.point_tree(self._probe_samples().all_points(),
+                                                       workers())
+            return compiled_knn.nearest_k(self._cptree, centres, 8, self.radius + 0.05, workers(),
+                                          ties=self._nearest_samples_scipy)
         return self._nearest_samples_scipy(centres)
 
     def _nearest_samples_scipy(self, centres):
