@@ -76,7 +76,7 @@ define ensure_kernels
 	  --force-reinstall "$$out"/blisk_cam_kernels-*.whl; \
 	echo "$$want" > "$$stamp"; \
 	echo "kernels: installed into $(1): $$("$(1)/bin/python" -c \
-	  'import blisk_cam_kernels as k; print("compiled", k.__version__)')"
+	  'import blisk_cam_kernels as k; print("compiled", k.VERSION)')"
 endef
 
 .PHONY: help venv45 venv52 venvs kernels kernels45 kernels52 demo test test-core test-blender45 test-blender52 bench \

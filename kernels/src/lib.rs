@@ -207,6 +207,8 @@ fn first_equal_point<'py>(
 #[pymodule]
 fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // the wheel's package __init__ re-exports with `import *`, which skips dunder names
+    m.add("VERSION", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(forward_step, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
     m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;

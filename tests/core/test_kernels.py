@@ -54,7 +54,7 @@ def test_backend_without_env_is_the_installed_one():
         assert name == "numpy"
         assert len(err.strip().splitlines()) == 1 and "numpy" in err  # one warning line
     else:
-        assert name == f"compiled {ext.__version__}"
+        assert name == f"compiled {ext.VERSION}"
         assert err == ""
 
 

@@ -51,9 +51,9 @@ def extension():
 
 
 def backend_name() -> str:
-    """``"compiled 0.1.0"`` (the extension's version) or ``"numpy"``."""
+    """``"compiled 0.1.0"`` (the extension's ``VERSION``) or ``"numpy"``."""
     ext = extension()
-    return "numpy" if ext is None else f"compiled {ext.__version__}"
+    return "numpy" if ext is None else f"compiled {ext.VERSION}"
 
 
 @contextlib.contextmanager
