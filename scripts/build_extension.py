@@ -227,6 +227,14 @@ def build_kernel_wheels(out_dir: Path, platforms: list[str]) -> list[Path]:
     if cargo is None:
         print("kernels: no cargo here: no compiled kernels in the zips (the numpy kernels run)")
         return []
+    if importlib.util.find_spec("maturin") is not None:
+        maturin = [sys.executable, "-m", "maturin"]
+    elif shutil.which("maturin"):
+        maturin = [shutil.which("maturin")]
+    else:
+        print("kernels: maturin is not installed (requirements/*.txt): no compiled kernels in "
+              "the zips (the numpy kernels run)")
+        return []
     zig = importlib.util.find_spec("ziglang") is not None
     targets = _rust_targets(cargo)
     env = dict(os.environ, PATH=os.environ.get("PATH", "") + os.pathsep + str(Path(cargo).parent))
@@ -240,14 +248,14 @@ def build_kernel_wheels(out_dir: Path, platforms: list[str]) -> list[Path]:
             continue
         dest = out_dir / "kernels" / platform
         shutil.rmtree(dest, ignore_errors=True)
-        cmd = [sys.executable, "-m", "maturin", "build", "--release", "--quiet",
+        cmd = [*maturin, "build", "--release", "--quiet",
                "--manifest-path", str(KERNELS_DIR / "Cargo.toml"), "--target", target,
                "--interpreter", sys.executable, "-o", str(dest)]
         if platform == "linux-x64":
             cmd += ["--compatibility", "manylinux_2_28"]
         if zig:
             cmd.append("--zig")
-        print(f"kernels: building the {platform} wheel ({' '.join(cmd[2:])})", flush=True)
+        print(f"kernels: building the {platform} wheel ({' '.join(cmd)})", flush=True)
         done = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL)
         found = sorted(dest.glob("blisk_cam_kernels-*.whl"))
         if done.returncode != 0 or len(found) != 1:
