@@ -96,6 +96,7 @@ def bench_blade(name, V, F, axis, c1, c2, chord, threads, repeat=1):
                      else f"; whole run / trimesh 50 planes {t['total'] / t_tm:.2f}")
             print(f"[{name}] {len(F):,} triangles, kernels {kname}: whole run "
                   f"{t['total']:.2f} s ({st}){ratio}", flush=True)
+        cli_runs(name, stl, axis, c1, c2, chord, order)
         # the weld's exact-duplicate table alone, on the STL's corners
         Vs, _ = read_mesh(stl)
         cols = [np.ascontiguousarray(Vs[:, j]) + 0.0 for j in range(3)]
@@ -117,6 +118,41 @@ def bench_blade(name, V, F, axis, c1, c2, chord, threads, repeat=1):
               f"= x{tn['total'] / tc['total']:.2f} faster; passes x"
               f"{tn['passes'] / tc['passes']:.2f}; weld x{tn['weld'] / tc['weld']:.2f}; paths "
               f"JSON {'IDENTICAL' if same else 'DIFFERENT'} (stats aside)", flush=True)
+
+
+def cli_runs(name, stl, axis, c1, c2, chord, order):
+    """``python -m blisk_cam paths`` in a new process per backend (``BLISK_CAM_KERNELS``):
+    wall time at the prompt and the process's peak memory (``/usr/bin/time``, where present)."""
+    import shutil
+    import subprocess
+
+    cone = [str(x) for c in (c1, c2) for x in (c.r1, c.z1, c.r2, c.z2)]
+    timer = shutil.which("time") and Path("/usr/bin/time").is_file()
+    for which in order:
+        env = dict(os.environ)
+        env.pop(backend.ENV, None)
+        if which == "numpy":
+            env[backend.ENV] = "numpy"
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "p.json"
+            cmd = [sys.executable, "-m", "blisk_cam", "paths", "--mesh", str(stl),
+                   "--axis", *(str(x) for x in (*axis.origin, *axis.direction)),
+                   "--cone1", *cone[:4], "--cone2", *cone[4:], "--tool", "ball",
+                   "--tool-diameter", "12", "--cusp", "0.05", "--chord", str(chord),
+                   "--out", str(out)]
+            if timer:
+                cmd = ["/usr/bin/time", "-f", "PEAK_KB %M", *cmd]
+            t0 = time.perf_counter()
+            done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+            wall = time.perf_counter() - t0
+            if done.returncode != 0:
+                print(f"[{name}] CLI ({which}) failed: {done.stderr[-500:]}")
+                continue
+            kname = json.loads(out.read_text())["stats"].get("kernels", "?")
+        peak = [ln.split()[1] for ln in done.stderr.splitlines() if ln.startswith("PEAK_KB")]
+        mem = f", peak memory {int(peak[0]) / 1024:.0f} MB" if peak else ""
+        print(f"[{name}] CLI `python -m blisk_cam paths` (new process), kernels {kname}: "
+              f"{wall:.2f} s at the prompt{mem}", flush=True)
 
 
 class _Nothing:
