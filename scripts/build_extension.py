@@ -21,10 +21,11 @@ scipy wheels of all platforms together weigh ~200 MB, and a user needs one platf
 without wheels) is one zip either way.
 
 The compiled kernels (``kernels/``, Rust): with the wheels, one abi3 wheel per platform
-(Python 3.11 and 3.13 alike) is built with maturin (``--zig`` when ``ziglang`` is installed;
-Linux as manylinux_2_28) and bundled beside scipy. A platform whose Rust target is not
-installed (``rustup target add …``), or a machine without cargo, gets none: that zip runs the
-numpy kernels (the same paths, slower), and the script says so. ``--no-kernels`` skips them.
+(Python 3.11 and 3.13 alike) is built with maturin (``--zig`` when zig or ``ziglang`` is
+installed: Linux as manylinux_2_28; without it the Linux wheel has this machine's glibc tag)
+and bundled beside scipy. A platform whose Rust target is not installed (``rustup target add
+…``), or a machine without cargo or maturin, gets none: that zip runs the numpy kernels (the
+same paths, slower), and the script says so. ``--no-kernels`` skips them.
 
 ``--no-wheels`` skips step 1 (a small zip for tests: the test environment provides scipy).
 Runs with any Python ≥ 3.11 that has the bpy wheel installed (or pass ``--blender-ext``).
@@ -215,9 +216,24 @@ def _rust_targets(cargo: str) -> set[str]:
                              text=True, timeout=60, check=True).stdout
         return set(out.split())
     except (OSError, subprocess.SubprocessError):
-        host = subprocess.run([str(Path(cargo).with_name("rustc")), "-vV"], capture_output=True,
-                              text=True, timeout=60).stdout
-        return {line.split()[1] for line in host.splitlines() if line.startswith("host:")}
+        return {_host_target(cargo)}
+
+
+def _host_target(cargo: str) -> str:
+    out = subprocess.run([str(Path(cargo).with_name("rustc")), "-vV"], capture_output=True,
+                         text=True, timeout=60).stdout
+    return next((ln.split()[1] for ln in out.splitlines() if ln.startswith("host:")), "")
+
+
+def _zig_available() -> bool:
+    """zig for maturin's cross-linking: on PATH, or ziglang for this Python or python3."""
+    if shutil.which("zig") or importlib.util.find_spec("ziglang") is not None:
+        return True
+    try:
+        return subprocess.run([shutil.which("python3") or "python3", "-m", "ziglang", "version"],
+                              capture_output=True, timeout=60).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
 
 
 def build_kernel_wheels(out_dir: Path, platforms: list[str]) -> list[Path]:
@@ -235,7 +251,7 @@ def build_kernel_wheels(out_dir: Path, platforms: list[str]) -> list[Path]:
         print("kernels: maturin is not installed (requirements/*.txt): no compiled kernels in "
               "the zips (the numpy kernels run)")
         return []
-    zig = importlib.util.find_spec("ziglang") is not None
+    zig = _zig_available()
     targets = _rust_targets(cargo)
     env = dict(os.environ, PATH=os.environ.get("PATH", "") + os.pathsep + str(Path(cargo).parent))
     wheels = []
@@ -249,12 +265,17 @@ def build_kernel_wheels(out_dir: Path, platforms: list[str]) -> list[Path]:
         dest = out_dir / "kernels" / platform
         shutil.rmtree(dest, ignore_errors=True)
         cmd = [*maturin, "build", "--release", "--quiet",
-               "--manifest-path", str(KERNELS_DIR / "Cargo.toml"), "--target", target,
+               "--manifest-path", str(KERNELS_DIR / "Cargo.toml"),
                "--interpreter", sys.executable, "-o", str(dest)]
-        if platform == "linux-x64":
-            cmd += ["--compatibility", "manylinux_2_28"]
-        if zig:
+        if target != _host_target(cargo):  # the host's: make kernels' build is reused
+            cmd += ["--target", target]
+        if zig:  # Linux: glibc 2.28, as Blender 4.2+ requires
             cmd.append("--zig")
+            if platform == "linux-x64":
+                cmd += ["--compatibility", "manylinux_2_28"]
+        else:
+            print(f"kernels: no zig (pip install ziglang): the {platform} wheel needs this "
+                  "machine's glibc or newer; where it does not load, the numpy kernels run")
         print(f"kernels: building the {platform} wheel ({' '.join(cmd)})", flush=True)
         done = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL)
         found = sorted(dest.glob("blisk_cam_kernels-*.whl"))
