@@ -6,6 +6,7 @@
 #   make demo      demo blisk → demo_out/demo.blend, demo_out/preview.png
 #   make test      tests/core (plain pytest), tests/blender under bpy 4.5 and bpy 5.2
 #   make bench     every bench/*.py
+#   make kernels   build the compiled kernels (kernels/, Rust) and install them into both venvs
 #   make package   dist/blisk_cam-<version>-<platform>.zip, one per platform, with its scipy wheels
 #   make package-all  dist/blisk_cam-<version>.zip, one zip with the wheels of every platform
 #   make lint      ruff check
@@ -48,7 +49,37 @@ define ensure_venv
 	echo "$$want" > "$$stamp"
 endef
 
-.PHONY: help venv45 venv52 venvs demo test test-core test-blender45 test-blender52 bench \
+# The compiled kernels (kernels/: Rust, PyO3 abi3 — one wheel for Python 3.11 and 3.13), built
+# with maturin (from the requirements) into build/kernels/<hash>/ and installed into a venv
+# when the hash of kernels/'s sources differs from the venv's stamp. Without cargo (PATH or
+# ~/.cargo/bin) nothing is built: the numpy kernels run, and say so in one line.
+KERNEL_SRC = kernels/Cargo.toml kernels/Cargo.lock kernels/pyproject.toml $(sort $(wildcard kernels/src/*.rs))
+CARGO_HOME_BIN ?= $(HOME)/.cargo/bin
+
+# $(call ensure_kernels,VENV)
+define ensure_kernels
+	@want="$$(cat $(KERNEL_SRC) | sha256sum | cut -c1-16)"; \
+	stamp="$(1)/.blisk_cam-kernels"; \
+	if [ "$$(cat "$$stamp" 2>/dev/null)" = "$$want" ]; then exit 0; fi; \
+	export PATH="$$PATH:$(CARGO_HOME_BIN)"; \
+	if ! command -v cargo >/dev/null 2>&1; then \
+	  echo "kernels: cargo not found (PATH, $(CARGO_HOME_BIN)): not built; the numpy kernels run"; \
+	  exit 0; fi; \
+	out="build/kernels/$$want"; \
+	if ! ls "$$out"/blisk_cam_kernels-*.whl >/dev/null 2>&1; then \
+	  echo "kernels: building the compiled kernels (cargo, maturin; a clean build takes minutes)"; \
+	  rm -rf "$$out"; \
+	  "$(1)/bin/maturin" build --release --quiet --manifest-path kernels/Cargo.toml \
+	    -i "$(1)/bin/python" -o "$$out"; \
+	fi; \
+	"$(1)/bin/python" -m pip install --disable-pip-version-check --no-input -q --no-deps \
+	  --force-reinstall "$$out"/blisk_cam_kernels-*.whl; \
+	echo "$$want" > "$$stamp"; \
+	echo "kernels: installed into $(1): $$("$(1)/bin/python" -c \
+	  'import blisk_cam_kernels as k; print("compiled", k.VERSION)')"
+endef
+
+.PHONY: help venv45 venv52 venvs kernels kernels45 kernels52 demo test test-core test-blender45 test-blender52 bench \
         package package-all lint clean
 
 help:
@@ -62,7 +93,16 @@ venv52:
 
 venvs: venv45 venv52
 
-demo: venv45
+kernels45: venv45
+	$(call ensure_kernels,$(VENV45))
+
+# the abi3 wheel the first of the two builds serves the other's Python too
+kernels52: venv52
+	$(call ensure_kernels,$(VENV52))
+
+kernels: kernels45 kernels52
+
+demo: kernels45
 	$(VENV45)/bin/python -m blisk_cam demo --out demo_out
 	@echo "demo written: $(CURDIR)/demo_out/demo.blend and $(CURDIR)/demo_out/preview.png"
 
@@ -75,7 +115,7 @@ RUN_BLENDER52 = $(TIMEOUT) $(TIMEOUT_BLENDER) $(VENV52)/bin/python -m pytest tes
 
 # All three runs happen even if one fails; the target fails if any did (a pytest that
 # collected no test exits 5, a hang is killed by timeout: both count as failures).
-test: venvs
+test: kernels
 	@failed=""; \
 	echo "== tests/core (bpy 4.5 venv): $(RUN_CORE)"; \
 	$(RUN_CORE) || failed="$$failed tests/core(exit $$?)"; \
@@ -86,16 +126,16 @@ test: venvs
 	if [ -n "$$failed" ]; then echo "make test: FAILED:$$failed" >&2; exit 1; fi; \
 	echo "make test: all runs passed"
 
-test-core: venv45
+test-core: kernels45
 	$(RUN_CORE)
 
-test-blender45: venv45
+test-blender45: kernels45
 	$(RUN_BLENDER45)
 
-test-blender52: venv52
+test-blender52: kernels52
 	$(RUN_BLENDER52)
 
-bench: venv45
+bench: kernels45
 	@shopt -s nullglob; files=(bench/*.py); \
 	if [ $${#files[@]} -eq 0 ]; then echo "no bench/*.py"; exit 0; fi; \
 	for f in "$${files[@]}"; do \

@@ -20,6 +20,13 @@ scipy wheels of all platforms together weigh ~200 MB, and a user needs one platf
 ``--one-zip`` builds the single all-platform zip instead. A build for one platform (or
 without wheels) is one zip either way.
 
+The compiled kernels (``kernels/``, Rust): with the wheels, one abi3 wheel per platform
+(Python 3.11 and 3.13 alike) is built with maturin (``--zig`` when zig or ``ziglang`` is
+installed: Linux as manylinux_2_28; without it the Linux wheel has this machine's glibc tag)
+and bundled beside scipy. A platform whose Rust target is not installed (``rustup target add
+…``), or a machine without cargo or maturin, gets none: that zip runs the numpy kernels (the
+same paths, slower), and the script says so. ``--no-kernels`` skips them.
+
 ``--no-wheels`` skips step 1 (a small zip for tests: the test environment provides scipy).
 Runs with any Python ≥ 3.11 that has the bpy wheel installed (or pass ``--blender-ext``).
 """
@@ -52,6 +59,14 @@ PLATFORMS = {
 #         accepts it (numpy >= 1.23.5) and still has cp311 wheels for every platform.
 #   3.13: Blender 5.1+. numpy 2.x; scipy 1.18 (numpy >= 2.0, < 2.8).
 SCIPY_FOR_PYTHON = {"3.11": "1.15.3", "3.13": "1.18.1"}
+
+# Blender platform → Rust target of the compiled kernels' wheel.
+KERNEL_TARGETS = {
+    "linux-x64": "x86_64-unknown-linux-gnu",
+    "macos-arm64": "aarch64-apple-darwin",
+    "windows-x64": "x86_64-pc-windows-msvc",
+}
+KERNELS_DIR = ROOT / "kernels"
 
 # Never bundled, whatever pip pulls in.
 FORBIDDEN_WHEELS = ("numpy",)
@@ -187,6 +202,90 @@ def download_wheels(wheels_dir: Path, platforms: list[str], pythons: list[str]) 
     return chosen
 
 
+def _cargo() -> str | None:
+    found = shutil.which("cargo")
+    home = Path.home() / ".cargo" / "bin" / "cargo"
+    return found or (str(home) if home.is_file() else None)
+
+
+def _rust_targets(cargo: str) -> set[str]:
+    """The Rust targets installed here (rustup's list, or the host's alone)."""
+    rustup = shutil.which("rustup") or str(Path(cargo).with_name("rustup"))
+    try:
+        out = subprocess.run([rustup, "target", "list", "--installed"], capture_output=True,
+                             text=True, timeout=60, check=True).stdout
+        return set(out.split())
+    except (OSError, subprocess.SubprocessError):
+        return {_host_target(cargo)}
+
+
+def _host_target(cargo: str) -> str:
+    out = subprocess.run([str(Path(cargo).with_name("rustc")), "-vV"], capture_output=True,
+                         text=True, timeout=60).stdout
+    return next((ln.split()[1] for ln in out.splitlines() if ln.startswith("host:")), "")
+
+
+def _zig_available() -> bool:
+    """zig for maturin's cross-linking: on PATH, or ziglang for this Python or python3."""
+    if shutil.which("zig") or importlib.util.find_spec("ziglang") is not None:
+        return True
+    try:
+        return subprocess.run([shutil.which("python3") or "python3", "-m", "ziglang", "version"],
+                              capture_output=True, timeout=60).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
+
+
+def build_kernel_wheels(out_dir: Path, platforms: list[str]) -> list[Path]:
+    """The compiled kernels' abi3 wheel for each platform that can be built here (see the
+    module docstring); the others are named on stdout."""
+    cargo = _cargo()
+    if cargo is None:
+        print("kernels: no cargo here: no compiled kernels in the zips (the numpy kernels run)")
+        return []
+    if importlib.util.find_spec("maturin") is not None:
+        maturin = [sys.executable, "-m", "maturin"]
+    elif shutil.which("maturin"):
+        maturin = [shutil.which("maturin")]
+    else:
+        print("kernels: maturin is not installed (requirements/*.txt): no compiled kernels in "
+              "the zips (the numpy kernels run)")
+        return []
+    zig = _zig_available()
+    targets = _rust_targets(cargo)
+    env = dict(os.environ, PATH=os.environ.get("PATH", "") + os.pathsep + str(Path(cargo).parent))
+    wheels = []
+    for platform in platforms:
+        target = KERNEL_TARGETS[platform]
+        if target not in targets or (platform != "linux-x64" and not zig):
+            why = (f"the Rust target {target} is not installed (rustup target add {target})"
+                   if target not in targets else "cross-building needs ziglang (pip install)")
+            print(f"kernels: {why}: the {platform} zip runs the numpy kernels")
+            continue
+        dest = out_dir / "kernels" / platform
+        shutil.rmtree(dest, ignore_errors=True)
+        cmd = [*maturin, "build", "--release", "--quiet",
+               "--manifest-path", str(KERNELS_DIR / "Cargo.toml"),
+               "--interpreter", sys.executable, "-o", str(dest)]
+        if target != _host_target(cargo):  # the host's: make kernels' build is reused
+            cmd += ["--target", target]
+        if zig:  # Linux: glibc 2.28, as Blender 4.2+ requires
+            cmd.append("--zig")
+            if platform == "linux-x64":
+                cmd += ["--compatibility", "manylinux_2_28"]
+        else:
+            print(f"kernels: no zig (pip install ziglang): the {platform} wheel needs this "
+                  "machine's glibc or newer; where it does not load, the numpy kernels run")
+        print(f"kernels: building the {platform} wheel ({' '.join(cmd)})", flush=True)
+        done = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL)
+        found = sorted(dest.glob("blisk_cam_kernels-*.whl"))
+        if done.returncode != 0 or len(found) != 1:
+            raise BuildError(f"maturin could not build the kernels for {platform} "
+                             f"(exit {done.returncode}); --no-kernels leaves them out")
+        wheels.append(found[0])
+    return wheels
+
+
 def manifest_with_wheels(text: str, wheels: list[str], platforms: list[str]) -> str:
     """Insert top-level ``wheels``/``platforms`` keys before the first table of the manifest."""
     data = tomllib.loads(text)
@@ -235,6 +334,11 @@ def main(argv: list[str] | None = None) -> int:
         "--no-wheels",
         action="store_true",
         help="build without scipy wheels (for tests; Blender must provide scipy)",
+    )
+    parser.add_argument(
+        "--no-kernels",
+        action="store_true",
+        help="leave the compiled kernels out (the zip runs the numpy kernels)",
     )
     parser.add_argument(
         "--platform",
@@ -293,6 +397,8 @@ def main(argv: list[str] | None = None) -> int:
         wheels = (
             [] if args.no_wheels else download_wheels(Path(args.wheels_dir), platforms, pythons)
         )
+        if not (args.no_wheels or args.no_kernels):
+            wheels += build_kernel_wheels(Path(args.wheels_dir), platforms)
         staging = Path(args.staging_dir)
         stage(staging, wheels, platforms)
 

@@ -38,6 +38,7 @@ import sys
 
 from ..core.collision.options import CollisionOptions
 from ..core.errors import BliskCamError
+from ..core.kernels.backend import backend_name
 from ..core.options import PATH_OPTION_GROUPS
 from ..core.version import __version__
 from .blender import _cmd_demo
@@ -107,7 +108,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
     )
-    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    parser.add_argument("--version", action="version",
+                        version=f"{PROG} {__version__} (kernels: {backend_name()})")
     sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot}")
     sub.required = True
 

@@ -339,7 +339,8 @@ def _cmd_paths(args):
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
     print(f"wrote {out}: {_summary_line(path, times, report)}")
-    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm")
+    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm; "
+          f"kernels: {path.stats.get('kernels', 'numpy')}")
     for w in plan.warnings:
         print(f"warning: {w}")
     if verdict is not None:

@@ -22,6 +22,7 @@ __all__ = [
     "map_chunks",
     "map_tasks",
     "parallel",
+    "workers",
 ]
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
 _WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
@@ -47,6 +48,12 @@ def parallel(workers: int | None):
         yield n
     finally:
         _WORKERS.reset(token)
+
+
+def workers() -> int:
+    """The threads :func:`parallel` allows here (1 outside it, and inside a task of
+    :func:`map_tasks`): the compiled kernels' rayon pools take this many."""
+    return _WORKERS.get()
 
 
 # the caller's cancel hook (set by :func:`cancellable`): (is-set callable, what is running)

@@ -8,6 +8,7 @@ scipy); one test builds with the real scipy wheel of this platform and Python an
 Blender installs it.
 """
 
+import importlib.util
 import math
 import platform
 import subprocess
@@ -18,6 +19,7 @@ from pathlib import Path
 
 import addon_utils
 import bpy
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -335,8 +337,11 @@ def test_install_with_bundled_scipy_wheel(tmp_path):
     with zipfile.ZipFile(out) as zf:
         manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
         names = zf.namelist()
-    wheels = manifest["wheels"]
+    wheels = [w for w in manifest["wheels"] if not w.startswith("./wheels/blisk_cam_kernels-")]
+    kernels = [w for w in manifest["wheels"] if w.startswith("./wheels/blisk_cam_kernels-")]
     assert len(wheels) == 1 and wheels[0].startswith("./wheels/scipy-")
+    built = "no compiled kernels" not in proc.stdout  # no cargo or no maturin here
+    assert len(kernels) == (1 if built else 0), proc.stdout
     tag = "cp" + pyver.replace(".", "")
     assert f"-{tag}-{tag}-" in wheels[0]
     assert wheels[0][2:] in names
@@ -351,6 +356,16 @@ def test_install_with_bundled_scipy_wheel(tmp_path):
         site = site / f"python{pyver}" / "site-packages"
         assert (site / f"scipy-{scipy_version}.dist-info").is_dir(), sorted(site.glob("*"))
         assert not list(site.glob("numpy*"))
+        if kernels:  # the compiled kernels Blender installed from the zip load and run
+            (so,) = site.glob("blisk_cam_kernels/blisk_cam_kernels*.so")
+            spec = importlib.util.spec_from_file_location("blisk_cam_kernels", so)
+            ext = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(ext)
+            assert ext.__version__ == tomllib.loads(
+                (ROOT / "kernels" / "Cargo.toml").read_text())["package"]["version"]
+            P = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+            keep, _ = ext.forward_step(P, P, 0.01, 0.01)
+            assert keep.tolist() == [0, 2]  # collinear: the middle point is skipped
     finally:
         addon_utils.disable(ADDON_MODULE, default_set=True)
         uninstall(repo)

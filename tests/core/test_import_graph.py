@@ -197,7 +197,7 @@ def deferred_core_imports(imports: dict[str, list[Import]]) -> list[str]:
         for imp in imps:
             if imp.top:
                 continue
-            ours = imp.module.startswith("blisk_cam") or imp.module == ""
+            ours = imp.module.split(".")[0] == "blisk_cam" or imp.module == ""
             if ours or "# optional:" not in imp.text:
                 out.append(f"{mod}:{imp.line} imports {imp.module} inside a function")
     return out

@@ -14,6 +14,7 @@ record the new digest here.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -24,6 +25,7 @@ import pytest
 
 from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.kernels import backend
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.process.blade_finish import PLAN_STAGES, PathRequest, plan_paths
 from blisk_cam.core.toolpath.paths_io import write_paths_json
@@ -96,10 +98,17 @@ def rotor37_case():
     return TriMesh.from_arrays(V, F), req
 
 
+@pytest.mark.parametrize("kernels", ["installed", "numpy"])
 @pytest.mark.parametrize("name", sorted(DIGESTS))
-def test_paths_json_digest_is_unchanged(name, tmp_path):
-    mesh, req = {"demo": demo_case, "rotor37": rotor37_case}[name]()
-    path = plan_paths(mesh, req).path
+def test_paths_json_digest_is_unchanged(name, kernels, tmp_path):
+    """On the installed kernels and, when they are the compiled ones, on the numpy
+    reference too (the same digest: the compiled kernels change no output)."""
+    if kernels == "numpy" and backend.extension() is None:
+        pytest.skip("the numpy kernels are the installed ones: run above")
+    with backend.numpy_only() if kernels == "numpy" else contextlib.nullcontext():
+        mesh, req = {"demo": demo_case, "rotor37": rotor37_case}[name]()
+        path = plan_paths(mesh, req).path
+        assert path.stats["kernels"] == backend.backend_name()
     found = digest(path, tmp_path)
     assert found in (DIGESTS[name], ALSO.get(name)), found
     # the per-stage times are finite, non-negative, and add up to the plan's time

@@ -14,6 +14,7 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from ..errors import MeshError
+from ..kernels import weld as compiled_weld
 
 __all__ = ["input_vertex_values"]
 
@@ -60,6 +61,9 @@ def _first_equal_point(cols):
     (never seen) is grouped exactly by :func:`_first_equal_row`. O(k) expected; about 2x
     faster than one stable argsort of the 3M corners of a 1M-triangle STL.
     """
+    first = compiled_weld.first_equal_point(*cols)
+    if first is not None:  # the compiled kernel: the same answer
+        return first
     c = [x.view(np.uint64) for x in cols]
     k = len(c[0])
     idx_t = np.int32 if k < 2**31 - 1 else np.int64

@@ -19,9 +19,11 @@ from scipy.spatial import cKDTree
 from ..errors import ConeError, ToleranceError
 from ..geometry.axis import Axis, meridional
 from ..geometry.mesh import TriMesh
+from ..kernels import knn as compiled_knn
+from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
-from ..runtime import Progress
+from ..runtime import Progress, workers
 from ..toolpath.types import BallTool, PassCurve, ToolPath
 from .expansion import (
     PolylineDistance,
@@ -593,8 +595,17 @@ class _Generator:
         where there are fewer: the k-d tree over all samples (through the vertices, as
         :class:`_ProbeSamples` does for the screens, the candidates of the 8th nearest are
         ~300 a centre to measure and sort per row: 2–3× the tree's own search, measured)."""
-        tree = self._probe_tree()
-        _, near = tree.query(centres, k=8, distance_upper_bound=self.radius + 0.05,
+        if extension() is not None:  # compiled; scipy settles its ties
+            if getattr(self, "_cptree", None) is None:
+                self._cptree = compiled_knn.point_tree(self._probe_samples().all_points(),
+                                                       workers())
+            return compiled_knn.nearest_k(self._cptree, centres, 8, self.radius + 0.05, workers(),
+                                          ties=self._nearest_samples_scipy)
+        return self._nearest_samples_scipy(centres)
+
+    def _nearest_samples_scipy(self, centres):
+        bound, tree = self.radius + 0.05, self._probe_tree()
+        _, near = tree.query(centres, k=8, distance_upper_bound=bound,
                              workers=_workers(len(centres)))
         return np.where(near < tree.n, near, -1)
 

@@ -19,6 +19,8 @@ import numpy as np
 
 from ..errors import ToleranceError
 from ..geometry.vectors import slerp, unit
+from ..kernels import step as compiled_step
+from ..kernels.backend import extension
 
 __all__ = ["densify_by_normal_turn", "forward_step_indices", "sample_polyline"]
 
@@ -220,6 +222,8 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
     """
     tol_p = float(chord)
     tol_c = float(chord if centre_chord is None else centre_chord)
+    if max_step is None and extension() is not None:
+        return _compiled_forward_step(P, C, tol_p, tol_c, memo)
     # (3, 2, k): coordinate, polyline (CC, centre), point
     k = len(P)
     XT = np.empty((3, 2, k))
@@ -305,6 +309,25 @@ def forward_step_indices(P, C, chord: float, max_step: float | None = None,
     if memo is not None:
         memo.update(key=key, XT=XT, trace=trace)
     return np.asarray(keep, dtype=np.int64)
+
+
+def _compiled_forward_step(P, C, tol_p, tol_c, memo):
+    """:func:`forward_step_indices` by the compiled kernel (the same searches, tests and
+    arithmetic, so the same indices to the last bit); ``memo`` holds its own key, so a memo
+    of one backend is never read by the other."""
+    X = np.empty((2, len(P), 3))
+    X[0] = P
+    X[1] = C
+    key = (tol_p, tol_c, "compiled")
+    old = unchanged_to = None
+    if memo is not None and memo.get("key") == key and memo["X"].shape == X.shape:
+        changed = np.any(X != memo["X"], axis=(0, 2))
+        unchanged_to = np.concatenate([[0], np.cumsum(changed)])
+        old = memo["trace"]
+    keep, trace = compiled_step.forward_step(X[0], X[1], tol_p, tol_c, old, unchanged_to)
+    if memo is not None:
+        memo.update(key=key, X=X, trace=trace)
+    return keep
 
 
 def sample_polyline(points, normals, closed: bool, *, chord: float, radius: float, start=None,

@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable, Generator, Iterable
 from dataclasses import dataclass, field
 
+from ..kernels.backend import backend_name
 from ..runtime import Progress
 from ..toolpath.types import ToolPath
 
@@ -94,7 +95,8 @@ def iter_run_operation(operation: Operation, part, request, stock=None, *,
     """Generator: runs ``operation`` on ``part`` with ``request`` (and ``stock``): its
     stages, then the ``extra`` ones (e.g. a collision check); yields Progress, returns the
     :class:`OperationResult`. The stage times are in ``result.seconds`` and in the path's
-    stats (``seconds_<stage>``, ``seconds_plan`` their sum)."""
+    stats (``seconds_<stage>``, ``seconds_plan`` their sum), with the kernels that ran
+    (``kernels``: ``"compiled 0.1.0"`` or ``"numpy"``)."""
     state = operation.start(part, request, stock)
     seconds: dict[str, float] = {}
     for stage in (*operation.stages(state), *extra):
@@ -102,6 +104,7 @@ def iter_run_operation(operation: Operation, part, request, stock=None, *,
     result = operation.finish(state, seconds)
     result.path.stats.update({f"seconds_{k}": v for k, v in seconds.items()})
     result.path.stats["seconds_plan"] = float(sum(seconds.values()))
+    result.path.stats["kernels"] = backend_name()
     result.seconds = dict(seconds)
     return result
 

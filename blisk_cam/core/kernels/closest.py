@@ -1,0 +1,38 @@
+"""Nearest faces of a triangle mesh, compiled (parry3d-f64's bounding-volume tree prunes; the
+squared distances that decide are those of
+:func:`blisk_cam.core.geometry.closest.closest_on_triangles`, operation for operation, so
+the faces chosen are the numpy reference's)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .backend import extension
+
+__all__ = ["face_tree", "nearest_faces", "triangle_d2"]
+
+
+def face_tree(V, F):
+    """The compiled tree of the faces F (m, 3) of vertices V (n, 3) mm; None when the numpy
+    kernels run."""
+    ext = extension()
+    if ext is None:
+        return None
+    return ext.FaceTree(np.ascontiguousarray(V, dtype=np.float64),
+                        np.ascontiguousarray(F, dtype=np.int64))
+
+
+def nearest_faces(tree, points, threads: int):
+    """(k,) int64 — for each point (k, 3) mm, the face at the least squared distance (the
+    lowest id among equal ones; −1 for a non-finite point), on ``threads`` threads (the GIL
+    released)."""
+    return tree.nearest(np.ascontiguousarray(points, dtype=np.float64), max(1, int(threads)))
+
+
+def triangle_d2(p, a, b, c):
+    """The compiled squared distances of ``closest_on_triangles`` (pairwise (k, 3) rows), for
+    the tests that compare them with the reference; None when the numpy kernels run."""
+    ext = extension()
+    if ext is None:
+        return None
+    return ext.triangle_d2(*(np.ascontiguousarray(x, dtype=np.float64) for x in (p, a, b, c)))

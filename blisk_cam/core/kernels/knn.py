@@ -1,0 +1,34 @@
+"""The k nearest points within a bound, compiled (a k-d tree of our own: parry has no
+k-nearest query on points). Rows whose k-th and (k + 1)-th nearest are at the same distance
+are flagged: scipy's ``cKDTree`` chooses among them by its traversal, so the caller asks it
+for those rows; every other row holds scipy's set of k."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .backend import extension
+
+__all__ = ["point_tree", "nearest_k"]
+
+
+def point_tree(points, threads: int = 1):
+    """The compiled k-d tree of ``points`` (n, 3) mm, built on ``threads`` threads; None when
+    the numpy kernels run."""
+    ext = extension()
+    if ext is None:
+        return None
+    return ext.PointTree(np.ascontiguousarray(points, dtype=np.float64), max(1, int(threads)))
+
+
+def nearest_k(tree, queries, k: int, bound: float, threads: int, ties=None):
+    """(q, k) int64: the k nearest points of each query (q, 3) closer than ``bound`` mm
+    (squared distances below ``bound²``, summed as scipy sums them), −1 where fewer, by
+    (distance, id), on ``threads`` threads with the GIL released. ``ties``: a function
+    answering the rows (r, 3) whose k-th and (k + 1)-th nearest are at the same distance
+    (the caller's scipy query: it makes the choice among them), (r, k) int64."""
+    Q = np.ascontiguousarray(queries, dtype=np.float64)
+    ids, tie = tree.query(Q, int(k), float(bound), max(1, int(threads)))
+    if ties is not None and np.any(tie):
+        ids[tie] = ties(Q[tie])
+    return ids

@@ -1,0 +1,181 @@
+//! The k nearest points of a point cloud within a bound (`passes._Generator._nearest_samples`:
+//! the 8 surface samples nearest a ball centre, scipy's `cKDTree.query(k, distance_upper_bound)`).
+//!
+//! A k-d tree of our own (parry has bounding-volume trees of shapes, not k-nearest queries
+//! on points). Squared distances are summed as scipy's k-d tree sums them,
+//! `(d0² + d1²) + d2²`, and a point counts when its squared distance is below the bound's
+//! square, as in scipy. Among points at equal distance scipy's choice follows its own
+//! traversal: the search here keeps the k + 1 nearest by (distance, id) and reports a row
+//! whose k-th and (k + 1)-th are at the same distance, so that the caller asks scipy for
+//! that row; every other row's set of k is scipy's.
+
+use rayon::prelude::*;
+
+pub type P3 = [f64; 3];
+
+const LEAF: usize = 16;
+
+enum Node {
+    Leaf { start: u32, end: u32 },
+    Split { left: u32, right: u32 },
+}
+
+pub struct PointTree {
+    pts: Vec<P3>, // in tree order (leaf ranges are contiguous)
+    ids: Vec<u32>, // the input id of each
+    nodes: Vec<Node>,
+    boxes: Vec<[f64; 6]>, // per node: lo (3), hi (3)
+}
+
+/// Squared distance from q to a box, a lower bound of the squared distance (as summed by
+/// [`d2`]) to every point in it: each gap rounds below the point's difference.
+#[inline(always)]
+fn box_d2(q: &P3, b: &[f64; 6]) -> f64 {
+    let mut g = [0.0f64; 3];
+    for j in 0..3 {
+        g[j] = if q[j] < b[j] { b[j] - q[j] } else if q[j] > b[j + 3] { q[j] - b[j + 3] } else { 0.0 };
+    }
+    (g[0] * g[0] + g[1] * g[1]) + g[2] * g[2]
+}
+
+#[inline(always)]
+fn d2(a: &P3, b: &P3) -> f64 {
+    let (x, y, z) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    (x * x + y * y) + z * z
+}
+
+impl PointTree {
+    pub fn new(pts: Vec<P3>) -> Self {
+        // the points move with their ids (contiguous, not gathered through an index)
+        let mut items: Vec<(P3, u32)> = pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect();
+        drop(pts);
+        let (nodes, boxes) = if items.is_empty() {
+            (Vec::new(), Vec::new())
+        } else {
+            let mut region = [f64::INFINITY, f64::INFINITY, f64::INFINITY,
+                              f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+            for (p, _) in &items {
+                for j in 0..3 {
+                    region[j] = region[j].min(p[j]);
+                    region[j + 3] = region[j + 3].max(p[j]);
+                }
+            }
+            Self::build(&mut items, 0, region)
+        };
+        let ids = items.iter().map(|x| x.1).collect();
+        let sorted = items.into_iter().map(|x| x.0).collect();
+        PointTree { pts: sorted, ids, nodes, boxes }
+    }
+
+    /// The subtree of the points `idx` (at `offset` in the tree order) inside `region`:
+    /// split at the median along the region's longest side (the two halves built in
+    /// parallel when large); each node's box is the tight box of its points (bottom-up).
+    fn build(idx: &mut [(P3, u32)], offset: usize, region: [f64; 6])
+        -> (Vec<Node>, Vec<[f64; 6]>) {
+        if idx.len() <= LEAF {
+            let mut b = [f64::INFINITY, f64::INFINITY, f64::INFINITY,
+                         f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+            for (p, _) in idx.iter() {
+                for j in 0..3 {
+                    b[j] = b[j].min(p[j]);
+                    b[j + 3] = b[j + 3].max(p[j]);
+                }
+            }
+            let leaf = Node::Leaf { start: offset as u32, end: (offset + idx.len()) as u32 };
+            return (vec![leaf], vec![b]);
+        }
+        let ext = |j: usize| region[j + 3] - region[j];
+        let dim = (0..3).max_by(|&a, &b| ext(a).total_cmp(&ext(b))).unwrap();
+        let m = idx.len() / 2;
+        idx.select_nth_unstable_by(m, |a, b| a.0[dim].total_cmp(&b.0[dim]));
+        let val = idx[m].0[dim];
+        let (mut lr, mut rr) = (region, region);
+        lr[dim + 3] = val;
+        rr[dim] = val;
+        let n = idx.len();
+        let (l, r) = idx.split_at_mut(m);
+        let ((ln, lb), (rn, rb)) = if n > 50_000 {
+            rayon::join(|| Self::build(l, offset, lr), || Self::build(r, offset + m, rr))
+        } else {
+            (Self::build(l, offset, lr), Self::build(r, offset + m, rr))
+        };
+        let (nl, nr) = (ln.len() as u32, rn.len() as u32);
+        let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
+        let mut boxes = Vec::with_capacity(1 + ln.len() + rn.len());
+        nodes.push(Node::Split { left: 1, right: 1 + nl });
+        let (a, b) = (lb[0], rb[0]);
+        boxes.push([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2]),
+                    a[3].max(b[3]), a[4].max(b[4]), a[5].max(b[5])]);
+        let shift = |node: Node, by: u32| match node {
+            Node::Split { left, right } => Node::Split { left: left + by, right: right + by },
+            leaf => leaf,
+        };
+        nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
+        nodes.extend(rn.into_iter().map(|x| shift(x, 1 + nl)));
+        let _ = nr;
+        boxes.extend(lb);
+        boxes.extend(rb);
+        (nodes, boxes)
+    }
+
+    /// The (up to) k nearest ids of `q` with squared distance below `ub2`, by (distance,
+    /// id); and whether the k-th and the (k + 1)-th are at the same distance.
+    pub fn knn(&self, q: &P3, k: usize, ub2: f64, out: &mut [i64]) -> bool {
+        let mut best: Vec<(f64, u32)> = Vec::with_capacity(k + 2);
+        let cap = k + 1;
+        if !self.nodes.is_empty() {
+            let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
+            stack.push((0, box_d2(q, &self.boxes[0])));
+            while let Some((n, plane2)) = stack.pop() {
+                let bound = if best.len() == cap { best[cap - 1].0 } else { ub2 };
+                // a node behind a plane farther than the bound holds nothing nearer
+                if plane2 >= ub2 || (best.len() == cap && plane2 > bound) {
+                    continue;
+                }
+                match self.nodes[n as usize] {
+                    Node::Leaf { start, end } => {
+                        for s in start as usize..end as usize {
+                            let i = self.ids[s];
+                            let d = d2(q, &self.pts[s]);
+                            if !(d < ub2) {
+                                continue;
+                            }
+                            if best.len() == cap && (d, i) >= best[cap - 1] {
+                                continue;
+                            }
+                            let pos = best.partition_point(|&e| e < (d, i));
+                            best.insert(pos, (d, i));
+                            best.truncate(cap);
+                        }
+                    }
+                    Node::Split { left, right } => {
+                        let dl = box_d2(q, &self.boxes[left as usize]);
+                        let dr = box_d2(q, &self.boxes[right as usize]);
+                        if dl <= dr {
+                            stack.push((right, dr));
+                            stack.push((left, dl));
+                        } else {
+                            stack.push((left, dl));
+                            stack.push((right, dr));
+                        }
+                    }
+                }
+            }
+        }
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = if j < best.len().min(k) { best[j].1 as i64 } else { -1 };
+        }
+        best.len() == cap && best[k - 1].0 == best[k].0
+    }
+
+    pub fn knn_many(&self, qs: &[P3], k: usize, ub2: f64) -> (Vec<i64>, Vec<bool>) {
+        let mut ids = vec![-1i64; qs.len() * k];
+        let mut tie = vec![false; qs.len()];
+        ids.par_chunks_mut(k)
+            .zip(tie.par_iter_mut())
+            .zip(qs.par_iter())
+            .with_min_len(64)
+            .for_each(|((o, t), q)| *t = self.knn(q, k, ub2, o));
+        (ids, tie)
+    }
+}

@@ -1,0 +1,218 @@
+//! Compiled kernels of Blisk CAM, one Python extension module `blisk_cam_kernels`.
+//!
+//! Only `blisk_cam/core/kernels/` imports this module; the numpy code in `blisk_cam/core` is
+//! the reference and the fallback. Every kernel releases the GIL; the parallel ones run on
+//! a rayon pool of the caller's thread count (the user's `--threads`).
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+mod closest;
+mod knn;
+mod step;
+mod weld;
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// A rayon pool of `threads` workers (made once per count and kept).
+fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
+    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+    let n = threads.max(1);
+    let mut pools = POOLS.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap();
+    if let Some(p) = pools.get(&n) {
+        return Ok(p.clone());
+    }
+    let p = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .thread_name(|i| format!("blisk_cam-kernels-{i}"))
+        .build()
+        .map_err(|e| PyValueError::new_err(format!("cannot start {n} threads: {e}")))?;
+    let p = Arc::new(p);
+    pools.insert(n, p.clone());
+    Ok(p)
+}
+
+/// The faces of a mesh in parry's bounding-volume tree, for nearest-face queries (see
+/// `distance.NearestFaces`).
+#[pyclass(frozen)]
+struct FaceTree {
+    tree: closest::FaceTree,
+}
+
+#[pymethods]
+impl FaceTree {
+    /// V (n, 3) float64 mm, F (m, 3) int64 vertex ids (in range: checked).
+    #[new]
+    fn new(py: Python<'_>, v: PyReadonlyArray2<'_, f64>, f: PyReadonlyArray2<'_, i64>) -> PyResult<Self> {
+        let vv = points(&v, "V")?.to_vec();
+        if f.shape()[1] != 3 {
+            return Err(PyValueError::new_err("F must be (m, 3)"));
+        }
+        let fs = f.as_slice().map_err(|_| PyValueError::new_err("F must be C-contiguous"))?;
+        let n = vv.len() as i64;
+        if fs.iter().any(|&i| i < 0 || i >= n) {
+            return Err(PyValueError::new_err("F holds vertex ids out of range"));
+        }
+        let ff: Vec<[usize; 3]> =
+            fs.chunks_exact(3).map(|t| [t[0] as usize, t[1] as usize, t[2] as usize]).collect();
+        let tree = py.detach(|| closest::FaceTree::new(vv, ff));
+        Ok(FaceTree { tree })
+    }
+
+    /// (k,) int64: the nearest face of each point (k, 3) (least squared distance as
+    /// `closest_on_triangles` computes it, then the lowest id; -1 for a non-finite point),
+    /// on `threads` threads.
+    fn nearest<'py>(&self, py: Python<'py>, p: PyReadonlyArray2<'py, f64>, threads: usize)
+        -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let pp = points(&p, "points")?;
+        let pl = pool(threads)?;
+        let out = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
+        Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+/// A k-d tree of points for k-nearest queries within a bound (see `passes._nearest_samples`).
+#[pyclass(frozen)]
+struct PointTree {
+    tree: knn::PointTree,
+}
+
+#[pymethods]
+impl PointTree {
+    /// points (n, 3) float64 mm; built on `threads` threads.
+    #[new]
+    #[pyo3(signature = (points_, threads=1))]
+    fn new(py: Python<'_>, points_: PyReadonlyArray2<'_, f64>, threads: usize) -> PyResult<Self> {
+        let pts = points(&points_, "points")?.to_vec();
+        if pts.len() >= u32::MAX as usize {
+            return Err(PyValueError::new_err("too many points for one tree"));
+        }
+        let pl = pool(threads)?;
+        let tree = py.detach(|| pl.install(|| knn::PointTree::new(pts)));
+        Ok(PointTree { tree })
+    }
+
+    /// (ids (q, k) int64, -1 padded; tie (q,) bool): the k nearest points of each query
+    /// (q, 3) closer than `bound` mm, by (distance, id); `tie`: the k-th and the next are at
+    /// the same distance (scipy may choose another of them). On `threads` threads.
+    fn query<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, k: usize, bound: f64,
+                  threads: usize)
+        -> PyResult<(Bound<'py, PyArray2<i64>>, Bound<'py, PyArray1<bool>>)> {
+        if k == 0 {
+            return Err(PyValueError::new_err("k must be at least 1"));
+        }
+        let qq = points(&q, "queries")?;
+        let pl = pool(threads)?;
+        let ub2 = bound * bound;
+        let (ids, tie) = py.detach(|| pl.install(|| self.tree.knn_many(qq, k, ub2)));
+        let ids = PyArray1::from_vec(py, ids).reshape([qq.len(), k])?;
+        Ok((ids, PyArray1::from_vec(py, tie)))
+    }
+}
+
+/// The squared distances of `closest_on_triangles` (pairwise rows of p, a, b, c), (k,).
+#[pyfunction]
+fn triangle_d2<'py>(py: Python<'py>, p: PyReadonlyArray2<'py, f64>, a: PyReadonlyArray2<'py, f64>,
+                    b: PyReadonlyArray2<'py, f64>, c: PyReadonlyArray2<'py, f64>)
+    -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (pp, aa, bb, cc) = (points(&p, "p")?, points(&a, "a")?, points(&b, "b")?, points(&c, "c")?);
+    if aa.len() != pp.len() || bb.len() != pp.len() || cc.len() != pp.len() {
+        return Err(PyValueError::new_err("p, a, b, c must have the same length"));
+    }
+    let out: Vec<f64> = (0..pp.len()).map(|i| closest::triangle_d2(&pp[i], &aa[i], &bb[i], &cc[i])).collect();
+    Ok(PyArray1::from_vec(py, out))
+}
+
+/// Rows of a C-contiguous (n, 3) float64 array as points.
+fn points<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 3]]> {
+    if a.shape()[1] != 3 {
+        return Err(PyValueError::new_err(format!("{what} must be (n, 3), got {:?}", a.shape())));
+    }
+    let s = a
+        .as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))?;
+    // SAFETY: [f64; 3] has the size and alignment of three f64 in a row
+    Ok(unsafe { std::slice::from_raw_parts(s.as_ptr() as *const [f64; 3], s.len() / 3) })
+}
+
+fn slice1<'a, T: numpy::Element>(a: &'a PyReadonlyArray1<'_, T>, what: &str) -> PyResult<&'a [T]> {
+    a.as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))
+}
+
+/// Greedy forward step (see `sampling.forward_step_indices`): (keep (q,) int64, trace (k, 3)
+/// int64: per search start its first step, outcome and farthest end tested, -1 elsewhere).
+#[pyfunction]
+#[pyo3(signature = (p, c, tol_p, tol_c, old_trace=None, unchanged_to=None))]
+fn forward_step<'py>(
+    py: Python<'py>,
+    p: PyReadonlyArray2<'py, f64>,
+    c: PyReadonlyArray2<'py, f64>,
+    tol_p: f64,
+    tol_c: f64,
+    old_trace: Option<PyReadonlyArray2<'py, i64>>,
+    unchanged_to: Option<PyReadonlyArray1<'py, i64>>,
+) -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArray2<i64>>)> {
+    let pp = points(&p, "p")?;
+    let cc = points(&c, "c")?;
+    if pp.len() != cc.len() {
+        return Err(PyValueError::new_err("p and c must have the same length"));
+    }
+    let k = pp.len();
+    let old = match (&old_trace, &unchanged_to) {
+        (Some(t), Some(u)) => {
+            if t.shape() != [k, 3] || u.len() != k + 1 {
+                return Err(PyValueError::new_err("old_trace must be (k, 3), unchanged_to (k + 1,)"));
+            }
+            let ts = t
+                .as_slice()
+                .map_err(|_| PyValueError::new_err("old_trace must be C-contiguous"))?;
+            // SAFETY: as in `points`
+            let ts = unsafe { std::slice::from_raw_parts(ts.as_ptr() as *const [i64; 3], k) };
+            Some((ts, slice1(u, "unchanged_to")?))
+        }
+        (None, None) => None,
+        _ => return Err(PyValueError::new_err("old_trace and unchanged_to go together")),
+    };
+    let out = py.detach(|| step::forward_step(pp, cc, tol_p, tol_c, old));
+    let trace: Vec<i64> = out.trace.iter().flatten().copied().collect();
+    let trace = PyArray1::from_vec(py, trace).reshape([k, 3])?;
+    Ok((PyArray1::from_vec(py, out.keep), trace))
+}
+
+/// For each point of the columns x, y, z (float64, no -0.0), the index of the first point
+/// with the same coordinates (see `weld._first_equal_point`), (k,) int64.
+#[pyfunction]
+fn first_equal_point<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    y: PyReadonlyArray1<'py, f64>,
+    z: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    let (xs, ys, zs) = (slice1(&x, "x")?, slice1(&y, "y")?, slice1(&z, "z")?);
+    if xs.len() != ys.len() || xs.len() != zs.len() {
+        return Err(PyValueError::new_err("x, y and z must have the same length"));
+    }
+    let bits = |s: &[f64]| -> &[u64] {
+        // SAFETY: f64 and u64 have the same size and alignment
+        unsafe { std::slice::from_raw_parts(s.as_ptr() as *const u64, s.len()) }
+    };
+    let (bx, by, bz) = (bits(xs), bits(ys), bits(zs));
+    let first = py.detach(|| weld::first_equal_point(bx, by, bz));
+    Ok(PyArray1::from_vec(py, first))
+}
+
+#[pymodule]
+fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // the wheel's package __init__ re-exports with `import *`, which skips dunder names
+    m.add("VERSION", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(forward_step, m)?)?;
+    m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
+    m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
+    m.add_class::<FaceTree>()?;
+    m.add_class::<PointTree>()?;
+    Ok(())
+}

@@ -1,0 +1,232 @@
+"""The compiled kernels (core/kernels, the Rust extension) against the numpy reference on the
+same inputs: identical where the arithmetic is the same; and the backend selection.
+
+Tests comparing the two backends skip (saying why) when the extension is not built; the
+selection tests run everywhere."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from blisk_cam.core.geometry import weld
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.kernels import backend
+from blisk_cam.core.paths.sampling import forward_step_indices
+
+ROOT = Path(__file__).resolve().parents[2]
+
+compiled = pytest.mark.skipif(
+    backend.extension() is None,
+    reason="the compiled kernels are not built/installed (make kernels) or "
+           "BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
+)
+
+
+def _backend_in_subprocess(env_value):
+    env = {k: v for k, v in os.environ.items() if k != backend.ENV}
+    if env_value is not None:
+        env[backend.ENV] = env_value
+    done = subprocess.run(
+        [sys.executable, "-c",
+         "from blisk_cam.core.kernels.backend import backend_name; print(backend_name())"],
+        cwd=ROOT, env=env, capture_output=True, text=True, check=True)
+    return done.stdout.strip(), done.stderr
+
+
+def test_env_forces_numpy_without_a_warning():
+    name, err = _backend_in_subprocess("numpy")
+    assert name == "numpy"
+    assert err == ""  # the user's choice: nothing to warn about
+
+
+def test_backend_without_env_is_the_installed_one():
+    name, err = _backend_in_subprocess(None)
+    try:
+        import blisk_cam_kernels as ext  # noqa: F401 (is it installed here?)
+    except ImportError:
+        assert name == "numpy"
+        assert len(err.strip().splitlines()) == 1 and "numpy" in err  # one warning line
+    else:
+        assert name == f"compiled {ext.VERSION}"
+        assert err == ""
+
+
+def test_numpy_only_block_selects_numpy():
+    with backend.numpy_only():
+        assert backend.extension() is None
+        assert backend.backend_name() == "numpy"
+
+
+def test_version_flag_names_the_backend():
+    done = subprocess.run([sys.executable, "-m", "blisk_cam", "--version"], cwd=ROOT,
+                          capture_output=True, text=True, check=True)
+    assert f"(kernels: {backend.backend_name()})" in done.stdout
+
+
+def _wavy_polylines(k, seed):
+    """A CC polyline (a helix with noise and a sharp turn) and ball centres 6 mm off it
+    along rough normals, mm."""
+    rng = np.random.default_rng(seed)
+    s = np.linspace(0.0, 40.0, k)
+    P = np.stack([20 * np.cos(s / 20), 20 * np.sin(s / 20), 0.3 * s], axis=1)
+    P += rng.normal(scale=0.002, size=P.shape)
+    P[k // 2 :, 0] += np.linspace(0.0, 3.0, k - k // 2) ** 2  # a bend
+    N = P - P.mean(axis=0)
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    return P, P + 6.0 * N
+
+
+def _deviation(X, i, j):
+    """Independent measure: largest distance of the points between i and j to the chord."""
+    if j - i < 2:
+        return 0.0
+    a, b = X[i], X[j]
+    q = X[i + 1 : j]
+    t = np.clip((q - a) @ (b - a) / max((b - a) @ (b - a), 1e-300), 0, 1)
+    return float(np.linalg.norm(q - a - t[:, None] * (b - a), axis=1).max())
+
+
+@compiled
+@pytest.mark.parametrize("chord", [0.001, 0.01, 0.05])
+def test_forward_step_identical_on_both_backends(chord):
+    P, C = _wavy_polylines(3000, seed=int(chord * 1000))
+    got = forward_step_indices(P, C, chord, centre_chord=0.6 * chord)
+    with backend.numpy_only():
+        ref = forward_step_indices(P, C, chord, centre_chord=0.6 * chord)
+    np.testing.assert_array_equal(got, ref)
+    assert got[0] == 0 and got[-1] == len(P) - 1 and len(got) > 3
+    for i, j in zip(got[:-1], got[1:], strict=True):  # the tolerance holds (measured apart)
+        assert _deviation(P, i, j) <= chord and _deviation(C, i, j) <= 0.6 * chord
+
+
+@compiled
+def test_forward_step_memo_gives_the_same_as_without_on_both_backends():
+    P, C = _wavy_polylines(2000, seed=3)
+    C2 = C.copy()
+    C2[700:720] += 0.004  # a few centres lifted, as the generator does between calls
+    out = {}
+    for name in ("compiled", "numpy"):
+        with backend.numpy_only() if name == "numpy" else contextlib.nullcontext():
+            memo = {}
+            forward_step_indices(P, C, 0.01, memo=memo)
+            out[name] = (forward_step_indices(P, C2, 0.01, memo=memo),
+                         forward_step_indices(P, C2, 0.01))
+    np.testing.assert_array_equal(out["compiled"][0], out["compiled"][1])
+    np.testing.assert_array_equal(out["compiled"][0], out["numpy"][0])
+    np.testing.assert_array_equal(out["numpy"][0], out["numpy"][1])
+
+
+@compiled
+def test_forward_step_edge_cases_identical():
+    rng = np.random.default_rng(7)
+    cases = [np.zeros((1, 3)), np.zeros((2, 3)), np.zeros((5, 3)),  # one point, repeats
+             rng.normal(size=(3, 3)), np.cumsum(rng.normal(size=(400, 3)), axis=0)]
+    for P in cases:
+        got = forward_step_indices(P, P + 1.0, 0.1)
+        with backend.numpy_only():
+            ref = forward_step_indices(P, P + 1.0, 0.1)
+        np.testing.assert_array_equal(got, ref)
+
+
+@compiled
+def test_weld_first_equal_point_identical():
+    rng = np.random.default_rng(11)
+    base = np.round(rng.normal(size=(5000, 3)), 2)  # many exact duplicates after rounding
+    pts = base[rng.integers(0, len(base), size=40_000)] + 0.0
+    cols = [np.ascontiguousarray(pts[:, j]) for j in range(3)]
+    got = weld._first_equal_point(cols)
+    with backend.numpy_only():
+        ref = weld._first_equal_point(cols)
+    np.testing.assert_array_equal(got, ref)
+    # measured truth: the first point equal to each point
+    _, first_of_row, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    np.testing.assert_array_equal(got, first_of_row[inverse.ravel()])
+
+
+@compiled
+def test_mesh_from_arrays_identical_on_both_backends():
+    from blisk_cam.core.part.blisk import make_demo_blisk
+
+    d = make_demo_blisk(resolution=0.3)
+    V, F = d.blade_vertices, d.blade_faces
+    soup = V[F.ravel()]  # a triangle soup, as an STL reads
+    Fs = np.arange(len(soup)).reshape(-1, 3)
+    got = TriMesh.from_arrays(soup, Fs)
+    with backend.numpy_only():
+        ref = TriMesh.from_arrays(soup, Fs)
+    np.testing.assert_array_equal(got.V, ref.V)
+    np.testing.assert_array_equal(got.F, ref.F)
+
+
+@compiled
+def test_triangle_distance_port_is_bit_identical():
+    """The compiled nearest-face search decides with its port of closest_on_triangles' d2:
+    the same bits on general, degenerate, needle and sliver triangles."""
+    from blisk_cam.core.geometry.closest import closest_on_triangles
+    from blisk_cam.core.kernels.closest import triangle_d2
+
+    rng = np.random.default_rng(1)
+    n = 20_000
+    p = rng.normal(size=(n, 3)) * 10
+    a = rng.normal(size=(n, 3)) * 5
+    b = a + rng.normal(size=(n, 3))
+    c = a + rng.normal(size=(n, 3)) * np.array([1.0, 1e-4, 1.0])
+    c[:500] = a[:500]  # zero area
+    c[500:1000] = a[500:1000] + 1e-7 * (b[500:1000] - a[500:1000])  # needles
+    p[1000:1500] = a[1000:1500]  # on a vertex
+    np.testing.assert_array_equal(triangle_d2(p, a, b, c), closest_on_triangles(p, a, b, c)[1])
+
+
+@compiled
+def test_nearest_faces_identical_on_both_backends():
+    from blisk_cam.core.geometry.distance import NearestFaces
+    from blisk_cam.core.part.blisk import make_demo_blisk
+    from blisk_cam.core.runtime import parallel
+
+    d = make_demo_blisk(resolution=0.3)
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    rng = np.random.default_rng(2)
+    idx = rng.integers(0, len(mesh.V), 2000)
+    P = np.vstack([mesh.V[idx],  # vertices: ties among the faces around them
+                   mesh.V[idx] + rng.normal(scale=0.05, size=(2000, 3)),
+                   mesh.V[idx[:500]] + 6.0 * mesh.vertex_normals[idx[:500]]])
+    with backend.numpy_only():
+        ref = NearestFaces(mesh).query(P)
+    for threads in (1, 2):
+        with parallel(threads):
+            got = NearestFaces(mesh).query(P)
+        for g, r in zip(got, ref, strict=True):
+            np.testing.assert_array_equal(g, r)
+
+
+@compiled
+def test_nearest_k_gives_scipys_sets():
+    """The compiled k nearest within a bound: scipy's set of k on every row (the rows with
+    equal k-th and (k + 1)-th distances flagged and answered by scipy, as the lift does)."""
+    from scipy.spatial import cKDTree
+
+    from blisk_cam.core.kernels.knn import nearest_k, point_tree
+
+    rng = np.random.default_rng(4)
+    X = rng.normal(size=(60_000, 3)) * [4.0, 4.0, 1.0]
+    X[:300] = X[300:600]  # exact duplicates: ties at the 8th place
+    Q = np.vstack([rng.normal(size=(5000, 3)) * [4.0, 4.0, 1.0], X[:600]])
+    kd = cKDTree(X, leafsize=64, balanced_tree=False, compact_nodes=False)
+
+    def scipy_rows(rows):
+        _, near = kd.query(rows, k=8, distance_upper_bound=0.4)
+        return np.where(near < kd.n, near, -1)
+
+    asked = []
+    got = nearest_k(point_tree(X), Q, 8, 0.4, 2,
+                    ties=lambda rows: asked.append(len(rows)) or scipy_rows(rows))
+    assert asked and asked[0] > 0  # the duplicates made ties
+    np.testing.assert_array_equal(np.sort(got, axis=1), np.sort(scipy_rows(Q), axis=1))
+    assert 0 < np.mean(got >= 0) < 1  # some rows have fewer than 8 within the bound
