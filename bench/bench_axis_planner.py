@@ -1,0 +1,131 @@
+"""Benchmark of collision avoidance: the per-pose rotation (paper 004 §3, ``method="rotate"``)
+against the axis planner over the whole pass (:mod:`blisk_cam.core.collision.axis_plan`,
+``method="plan"``), on the demo blisk (24 blades) and on NASA Rotor 37 patterned to 36
+blades.
+
+Set-up (issue 25): Ø12 ball, 15 mm flute, Ø12 shank to 40 mm, Ø32 holder to 100 mm, safety
+1 mm, ±2 neighbours — the command line's ``--tool ball --tool-diameter 12 --flute-length 15
+--holder "15 6 40 6 40 16 100 16" --safety 1 --blade-count N --collisions avoid``. The demo
+path: cusp 0.05, chord 0.05, local axis (lead 0, tilt 0); Rotor 37: the README's radial
+75° lean, lead 5°, ``--max-tilt 85``.
+
+Printed per case and method: colliding share before, unresolved poses (count and share of
+the pass poses), the largest turn between consecutive pass poses (degrees, and per mm of
+path), verify's material left and gouge (mm; bound cusp + chord and chord), the avoidance
+wall time and its time per pose. Not a timed test: figures only.
+
+Run: ``python bench/bench_axis_planner.py [--case demo|r37|both] [--no-verify]
+[--methods rotate,plan]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+from blisk_cam.core.collision.avoid import run_collisions  # noqa: E402
+from blisk_cam.core.collision.options import CollisionOptions  # noqa: E402
+from blisk_cam.core.geometry.axis import Axis  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.verify.measure import verify_path  # noqa: E402
+
+HOLDER = ((15.0, 6.0), (40.0, 6.0), (40.0, 16.0), (100.0, 16.0))
+
+
+def case(name):
+    """(mesh, PathRequest, blade count, extra collision options)."""
+    if name == "demo":
+        b = make_demo_blisk()
+        mesh = TriMesh.from_arrays(b.blade_vertices, b.blade_faces)
+        req = PathRequest(b.axis, b.hub_cone, b.tip_cone, tool_type="ball", tool_diameter=12.0,
+                          cusp=0.05, chord=0.05)
+        return mesh, req, b.blade_count, {}
+    from support.blades import nasa_blade
+
+    V, F, c1, c2 = nasa_blade("rotor37")
+    mesh = TriMesh.from_arrays(V, F)
+    req = PathRequest(Axis(), c1, c2, tool_type="ball", tool_diameter=12.0, cusp=0.05,
+                      chord=0.05, axis_mode="radial", radial_tilt=math.radians(75),
+                      lead=math.radians(5))
+    return mesh, req, 36, {"max_tilt": math.radians(85)}
+
+
+def turn_figures(path):
+    """(largest turn between consecutive pass poses, deg; largest turn per mm, deg/mm)."""
+    worst, per_mm = 0.0, 0.0
+    for c in path.curves:
+        a = np.asarray(c.axis, float)
+        if len(a) < 2:
+            continue
+        cos = np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1)
+        t = np.degrees(np.arccos(cos))
+        ds = np.linalg.norm(np.diff(np.asarray(c.cc, float), axis=0), axis=1)
+        worst = max(worst, float(t.max()))
+        per_mm = max(per_mm, float(np.max(t / np.maximum(ds, 1e-3))))
+    return worst, per_mm
+
+
+def run(name, methods, verify):
+    mesh, req, blades, extra = case(name)
+    t = time.perf_counter()
+    planned = plan_paths(mesh, req).path
+    n = sum(len(c) for c in planned.curves)
+    print(f"\n== {name}: {n} pass poses in {len(planned.curves)} passes, "
+          f"planned in {time.perf_counter() - t:.1f} s; {blades} blades, Ø12 ball, flute 15, "
+          f"holder {HOLDER}")
+    for method in methods:
+        opts = CollisionOptions(mode="avoid", blade_count=blades, flute_length=15.0,
+                                holder=HOLDER, safety=1.0, **extra)
+        kw = {} if method == "rotate" else {}
+        if "method" in CollisionOptions.__dataclass_fields__:
+            opts = CollisionOptions(**{**opts.__dict__, "method": method})
+        elif method != "rotate":
+            print(f"  {method}: not available in this tree")
+            continue
+        t = time.perf_counter()
+        path, rep = run_collisions(mesh, planned, options=opts, **kw)
+        dt = time.perf_counter() - t
+        status = np.concatenate([np.asarray(c.collision["status"]) for c in path.curves])
+        unres = int(np.sum(status == 2))
+        before = rep.n_colliding_before
+        worst, per_mm = turn_figures(path)
+        line = (f"  {method:6s}: colliding before {before} rows ({100 * before / rep.n_checked:.1f} %"
+                f" of {rep.n_checked}), unresolved pass poses {unres} ({100 * unres / n:.1f} %),"
+                f" program rows unresolved {rep.n_unresolved}; max turn {worst:.2f}° "
+                f"({per_mm:.2f}°/mm); avoidance {dt:.2f} s ({1e3 * dt / n:.2f} ms/pose)")
+        ranges = (path.collision or {}).get("unresolved_ranges")
+        if ranges is not None:
+            line += f"; {len(ranges)} unresolved ranges"
+        print(line, flush=True)
+        if verify:
+            t = time.perf_counter()
+            vr = verify_path(mesh, path)
+            print(f"          verify: material left {vr.max_material_left:.4f} mm (bound "
+                  f"{req.cusp + req.chord:.3f}), gouge {vr.max_gouge:.4f} mm (bound "
+                  f"{req.chord:.3f}) [{time.perf_counter() - t:.0f} s]", flush=True)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--case", default="both", choices=("demo", "r37", "both"))
+    ap.add_argument("--methods", default="rotate,plan")
+    ap.add_argument("--no-verify", action="store_true")
+    a = ap.parse_args()
+    names = ("demo", "r37") if a.case == "both" else (a.case,)
+    for name in names:
+        run(name, a.methods.split(","), not a.no_verify)
+
+
+if __name__ == "__main__":
+    main()

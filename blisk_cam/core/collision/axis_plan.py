@@ -1,0 +1,590 @@
+"""Tool axes through the channel: an axis planner over the whole pass (collision avoidance by
+shortest path, the ``"plan"`` method of ``--collisions avoid``).
+
+Paper 004 §3 turns each colliding pose by its own smallest rotation and smooths afterwards
+(:mod:`.avoid`, method ``"rotate"``); neighbouring poses may then turn by tens of degrees and
+the ball leaves the surface between them. Here the axis of every pose of a pass is chosen
+*together* (the axis-field idea of commercial 5-axis CAM: interpolate the axis through the
+channel under a maximum angle step):
+
+1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
+   the arc length a full-size turn needs at the turn limit (``max lean / turn_per_mm``): the
+   ramps in and out. Outside the window the planned axis is kept.
+2. **Candidates.** Per window pose a grid of axes in (lead, tilt) about the pose's reference
+   (the planned axis, or the channel reference, below) inside the lean limits
+   (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the surface normal as in
+   :mod:`..paths.gouge`; a plan that leans further keeps its own lean as the limit), the
+   planned axis itself always among them. Each candidate's tip keeps the contact (ball: the
+   centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
+   CC point and normal, plus the plan's few-µm lift λ along the normal), and its clearance
+   comes from :meth:`.scene.CollisionScene.detect`, all candidates of all window poses in one
+   batched call. A candidate the cutter cannot touch the surface with, or (a machine given)
+   the rotaries cannot produce (:func:`..machine.kinematics.reachable_axes`), is excluded.
+   Where no grid candidate of a pose clears, the grid is refined about its best candidates
+   (half and quarter steps) before the pose is given up.
+3. **Shortest path (Viterbi).** Along each pass the sequence of candidates minimising
+
+       Σ_i [ C·[clr_i < ds] (C ≫ any lean cost; then the deepest such pose the least)
+             + ((lead_i − lead_ref,i)² + (tilt_i − tilt_ref,i)²) ]  +  w Σ_i turn_i²
+
+   subject to turn(i, i+1) ≤ max(turn_per_mm · |cc_{i+1} − cc_i| (capped per pose by
+   ``max_turn`` when given), the planned turn there) — a hard constraint, so the limit
+   holds between every two consecutive poses (the planned path always satisfies it: a
+   feasible sequence exists). Since a colliding candidate costs more than any lean, the path
+   leaves as few poses colliding as the limits allow.
+4. **The motion between poses.** Each chosen transition is sampled (the tip linear, the axis
+   turned uniformly, :data:`_MOTION_SAMPLES` points inside); a transition whose samples
+   collide while both ends are clear is forbidden and the pass planned again (up to
+   :data:`_MOTION_ROUNDS` rounds); what still collides is reported.
+
+**Channel reference.** With ``reference="channel"`` the lean cost is measured from the axis
+interpolated between the two blade sides of the gap: the radial direction of the channel's
+mid-plane at the pose (the meridional plane turned from the CC point's by half the pitch
+360°/N toward the side the surface normal faces), brought inside the lean limits, plus
+``edge_lead`` of extra lead where the pose lies within one tool diameter of the pass ends
+(leading and trailing edges of a blade pass).
+
+**Unresolved poses** (clearance < ds at the chosen axis) come as ranges per pass (pass,
+first, last pose, why): "no axis within the limits clears" (every candidate, refined
+included, collides — the pose is a fact about the tool and holder), "the turn limit" (a
+clear candidate exists but no sequence within the turn limit reaches it), "the machine's
+reach" (clear candidates only outside the rotaries' limits), or "the motion from the pose
+before collides".
+
+Lengths mm, angles radians; numpy only (the distance machinery of :mod:`.scene`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..geometry.vectors import angle_between, unit
+from ..machine.kinematics import reachable_axes
+from ..paths.orientation import lead_tilt_axes, lead_tilt_of
+from ..tool.cutter import Cutter
+
+__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
+           "sample_motion", "turn_limits"]
+
+#: shortest step the turn limit counts, mm (see :func:`turn_limits`)
+MIN_STEP = 0.05
+#: default turn limit per mm of path, rad/mm
+DEFAULT_TURN_PER_MM = math.radians(2.0)
+#: exact clearance grid per lean direction (odd: the reference is a grid point)
+_GRID = 7
+#: the states of the shortest path per lean direction (the exact grid interpolated)
+_FINE = 49
+#: widest lean swing searched about the reference, rad
+_SWING = math.radians(30.0)
+#: cost of a colliding state (the lean costs are ≤ a few rad²)
+_COLLIDE = 1e3
+#: margin on the lean change per station (the frame's own turn comes on top)
+_MARGIN = 1.05
+#: largest lean step per station, in fine steps
+_MAX_R = 8
+#: samples inside each transition checked for the motion, and verification rounds
+_MOTION_SAMPLES = 3
+_ROUNDS = 4
+
+REASON_NO_AXIS = "no axis within the lean limits clears"
+REASON_TURN = "the turn limit keeps the clear axes out of reach"
+REASON_REACH = "the clear axes are outside the machine's reach"
+REASON_MOTION = "the motion from the pose before collides"
+
+
+@dataclass
+class UnresolvedRange:
+    """A run of unresolved poses of one pass: ``curve`` (pass index), ``first``/``last``
+    (pose indices, inclusive), ``why`` (one of the REASON_* texts), ``min_clearance`` mm."""
+
+    curve: int
+    first: int
+    last: int
+    why: str
+    min_clearance: float
+
+    def as_dict(self) -> dict:
+        return {"pass": int(self.curve), "from": int(self.first), "to": int(self.last),
+                "why": self.why, "min_clearance": float(self.min_clearance)}
+
+
+@dataclass
+class AxisPlan:
+    """What :func:`plan_axes` chose: ``tip``, ``axis`` (n, 3) per pose (the input order),
+    ``clearance`` (n,) mm at the chosen pose, ``unresolved`` (n,) bool, ``ranges`` (list of
+    :class:`UnresolvedRange`), ``motion_clearance`` (n,) mm — the smallest clearance sampled
+    on the motion from the pose before (inf for a pass's first pose), ``n_candidates`` (the
+    candidate poses evaluated), ``n_window`` (poses planned)."""
+
+    tip: np.ndarray
+    axis: np.ndarray
+    clearance: np.ndarray
+    unresolved: np.ndarray
+    ranges: list = field(default_factory=list)
+    motion_clearance: np.ndarray | None = None
+    n_candidates: int = 0
+    n_window: int = 0
+
+
+# ====================================================================== geometry helpers
+def sample_motion(tip0, ax0, tip1, ax1, t):
+    """Poses on the motion between two poses (k rows each) at fractions ``t`` (s,) in (0, 1):
+    the tip linear, the axis turned uniformly in the plane of the two (slerp). Returns
+    (tips (k·s, 3), axes (k·s, 3)), pose-major."""
+    t = np.asarray(t, dtype=np.float64)
+    om = angle_between(ax0, ax1)[:, None, None]
+    so = np.sin(om)
+    tt = t[None, :, None]
+    small = so < 1e-9
+    w0 = np.where(small, 1 - tt, np.sin((1 - tt) * om) / np.where(small, 1.0, so))
+    w1 = np.where(small, tt, np.sin(tt * om) / np.where(small, 1.0, so))
+    ax = unit((w0 * ax0[:, None, :] + w1 * ax1[:, None, :]).reshape(-1, 3), keep_zero=False)
+    tp = ((1 - tt) * tip0[:, None, :] + tt * tip1[:, None, :]).reshape(-1, 3)
+    return tp, ax
+
+
+def channel_reference(cc, normal, blisk_axis, blade_count: int):
+    """(k, 3) unit axes interpolated between the two blade sides of the gap at each CC point:
+    the radial direction of the channel's mid-plane — the meridional plane of ``cc`` turned
+    about the blisk axis by half the pitch (π/N) toward the side the normal ``normal`` faces
+    (the neighbour across the channel)."""
+    o = np.asarray(blisk_axis.o, dtype=np.float64)
+    d = unit(np.asarray(blisk_axis.d, dtype=np.float64))
+    rel = np.asarray(cc, dtype=np.float64) - o
+    radial = rel - (rel @ d)[:, None] * d
+    r = np.linalg.norm(radial, axis=1)
+    er = radial / np.maximum(r, 1e-300)[:, None]
+    et = np.cross(d, er)
+    side = np.sign(np.einsum("ij,ij->i", normal, et))
+    side = np.where(side == 0, 1.0, side)
+    half = side * math.pi / blade_count
+    return unit(np.cos(half)[:, None] * er + np.sin(half)[:, None] * et, keep_zero=False)
+
+
+def turn_limits(cc, planned_axes, turn_per_mm, max_turn=None):
+    """(k − 1,) largest axis turn (rad) allowed between consecutive poses of a pass: the
+    planned turn there (the surface's own, which avoidance does not judge) plus
+    ``turn_per_mm`` × the CC distance (at least :data:`MIN_STEP` mm), the added part capped
+    by ``max_turn`` per pose when given."""
+    ds = np.linalg.norm(np.diff(np.asarray(cc, dtype=np.float64), axis=0), axis=1)
+    added = turn_per_mm * np.maximum(ds, MIN_STEP)
+    if max_turn is not None:
+        added = np.minimum(added, max_turn)
+    a = np.asarray(planned_axes, dtype=np.float64)
+    return angle_between(a[:-1], a[1:]) + added
+
+
+def _touch_ok(cutter: Cutter, normal, axis):
+    """(k,) bool: the cutting part can touch the surface with this axis."""
+    return angle_between(normal, axis) <= cutter._g["th_hi"]
+
+
+def _cl(cutter: Cutter, cc, nrm, ax, off, ball_centre):
+    """(k, 3) tips keeping the contact: ball — the centre fixed; others — from the contact."""
+    if ball_centre is not None:
+        return ball_centre - cutter.radius * ax
+    tip = cc + off
+    ok = _touch_ok(cutter, nrm, ax)
+    if np.any(ok):
+        tip[ok] = cutter.cl_points(cc[ok], nrm[ok], ax[ok]) + off[ok]
+    return tip
+
+
+
+
+# ====================================================================== the planner
+def _windows(offs, cc, colliding, reach_mm):
+    """(n,) bool: poses within ``reach_mm`` of arc length of a colliding pose of their pass."""
+    out = np.zeros(len(cc), bool)
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        hit = np.nonzero(colliding[s:e])[0]
+        if len(hit) == 0:
+            continue
+        arc = _arc(cc[s:e])
+        lo = np.searchsorted(arc, arc[hit] - reach_mm, side="left")
+        hi = np.searchsorted(arc, arc[hit] + reach_mm, side="right")
+        mark = np.zeros(e - s + 1, np.int64)
+        np.add.at(mark, lo, 1)
+        np.add.at(mark, hi, -1)
+        out[s:e] = np.cumsum(mark)[:-1] > 0
+    return out
+
+
+def _arc(cc):
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
+
+
+def _interp_matrix(n_fine, n_coarse):
+    """(n_fine, n_coarse) linear interpolation weights between two uniform grids of [−1, 1]."""
+    x = np.linspace(0.0, n_coarse - 1.0, n_fine)
+    j = np.minimum(np.floor(x).astype(np.int64), n_coarse - 2)
+    t = x - j
+    M = np.zeros((n_fine, n_coarse))
+    M[np.arange(n_fine), j] = 1 - t
+    M[np.arange(n_fine), j + 1] += t
+    return M
+
+
+@dataclass
+class _Run:
+    """A run of consecutive window poses of one pass: global indices ``g`` (r,), arc
+    positions, the stations (indices into ``g``), the fixed planned poses before/after."""
+
+    g: np.ndarray
+    arc: np.ndarray
+    st: np.ndarray
+    pre: int | None
+    post: int | None
+
+
+class _Planner:
+    """The state of one :func:`plan_axes` call (module docstring)."""
+
+    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine):
+        self.scene, self.P = scene, P
+        self.f, self.k, self.lim_l, self.lim_t = lim
+        self.ref_l, self.ref_t = ref_l, ref_t  # (n,) rad
+        self.rate, self.max_turn, self.machine = turn_per_mm, max_turn, machine
+        self.cutter = scene.cutter
+        self.ball = self.cutter.type == "ball"
+        self.safety = scene.safety
+        self.off_c = np.linspace(-_SWING, _SWING, _GRID)
+        self.off_f = np.linspace(-_SWING, _SWING, _FINE)
+        self.step = self.off_f[1] - self.off_f[0]
+        self.M = _interp_matrix(_FINE, _GRID)
+        self.n_eval = 0
+
+    # --- poses -----------------------------------------------------------------------------
+    def axes(self, g, dl, dt):
+        """(k, 3) axes at poses g (k,) leaning ref + (dl, dt) (k,)."""
+        P = self.P
+        return lead_tilt_axes(self.f[g], P.nrm[g], self.k[g], self.ref_l[g] + dl,
+                              self.ref_t[g] + dt)
+
+    def tips(self, g, ax):
+        P = self.P
+        centre = P.tip0[g] + self.cutter.radius * P.ax0[g] if self.ball else None
+        return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
+
+    def valid(self, g, dl, dt, ax):
+        """(k,) bool inside the lean limits, touching, (machine) reachable."""
+        ok = (np.abs(self.ref_l[g] + dl) <= self.lim_l[g] + 1e-9) & \
+            (np.abs(self.ref_t[g] + dt) <= self.lim_t[g] + 1e-9)
+        ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
+        if self.machine is not None and ok.any():
+            ok[ok] = reachable_axes(self.machine, ax[ok])
+        return ok
+
+    def clearance(self, tips, axes):
+        self.n_eval += len(tips)
+        if len(tips) == 0:
+            return np.zeros(0)
+        return self.scene.detect(tips, axes).clearance
+
+    # --- stations --------------------------------------------------------------------------
+    def stations(self, g, arc):
+        """Indices of the stations of a run (global poses g): the first and last pose, and
+        the next pose once one lean step's worth of arc (step / rate) has passed or the
+        planned axis has turned by one lean step (at the edges, where the normal swings)."""
+        h = _MARGIN * self.step / self.rate
+        ax = self.P.ax0[g]
+        out = [0]
+        for i in range(1, len(arc)):
+            if arc[i] - arc[out[-1]] >= h or \
+                    float(ax[i] @ ax[out[-1]]) < math.cos(self.step):
+                out.append(i)
+        if out[-1] != len(arc) - 1:
+            out.append(len(arc) - 1)
+        return np.asarray(out, np.int64)
+
+    def coarse(self, g):
+        """(s, G, G) exact clearance of the coarse lean grid at poses g (one batch), −inf
+        where the lean is not valid; (s, G, G) bool valid."""
+        G = _GRID
+        gg = np.repeat(g, G * G)
+        dl = np.tile(np.repeat(self.off_c, G), len(g))
+        dt = np.tile(np.tile(self.off_c, G), len(g))
+        ax = self.axes(gg, dl, dt)
+        ok = self.valid(gg, dl, dt, ax)
+        c = np.full(len(gg), -np.inf)
+        c[ok] = self.clearance(self.tips(gg[ok], ax[ok]), ax[ok])
+        return c.reshape(len(g), G, G), ok.reshape(len(g), G, G)
+
+    def fine_valid(self, g):
+        """(s, F, F) bool: valid fine states at poses g."""
+        F = _FINE
+        gg = np.repeat(g, F * F)
+        dl = np.tile(np.repeat(self.off_f, F), len(g))
+        dt = np.tile(np.tile(self.off_f, F), len(g))
+        return self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(len(g), F, F)
+
+    # --- the shortest path -----------------------------------------------------------------
+    def viterbi(self, node, radius, start=None, end=None):
+        """States (s, 2) (fine indices) minimising Σ node over stations, consecutive states
+        within ``radius`` (s − 1,) fine steps (Euclidean); ``start``/``end`` (F, F) bool: the
+        states allowed at the first/last station (None: all)."""
+        s, F, _ = node.shape
+        cost = node[0] + np.where(start, 0.0, np.inf) if start is not None else node[0].copy()
+        backs = []
+        for j in range(1, s):
+            r = int(min(max(radius[j - 1], 0), _MAX_R))
+            offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
+                    if a * a + b * b <= radius[j - 1] ** 2 + 1e-9]
+            pad = np.full((F + 2 * r, F + 2 * r), np.inf)
+            pad[r:r + F, r:r + F] = cost
+            stack = np.stack([pad[r - a:r - a + F, r - b:r - b + F] for a, b in offs])
+            arg = np.argmin(stack, axis=0)
+            best = np.take_along_axis(stack, arg[None], 0)[0]
+            backs.append((np.asarray(offs), arg))
+            cost = best + node[j]
+        if end is not None:
+            cost = cost + np.where(end, 0.0, np.inf)
+        if not np.isfinite(cost.min()):
+            return None
+        out = np.empty((s, 2), np.int64)
+        out[-1] = np.unravel_index(int(np.argmin(cost)), cost.shape)
+        for j in range(s - 1, 0, -1):
+            offs, arg = backs[j - 1]
+            a, b = offs[arg[out[j, 0], out[j, 1]]]
+            out[j - 1] = out[j] - (a, b)
+        return out
+
+    def near(self, g, dl0, dt0, reach):
+        """(F, F) bool: fine states within ``reach`` rad of lean offsets (dl0, dt0)."""
+        A = self.off_f[:, None] - dl0
+        B = self.off_f[None, :] - dt0
+        return A * A + B * B <= reach * reach + 1e-12
+
+
+def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
+              max_turn=None, machine=None, reference="planned", blisk_axis=None,
+              blade_count=None, edge_lead=0.0, seeds=None, progress=None) -> AxisPlan:
+    """Plan the tool axes of the passes (module docstring).
+
+    Parameters
+    ----------
+    scene : CollisionScene
+    curves : list of PassCurve; offs : (p + 1,) pose offsets of the passes in the stacked rows
+    P : the stacked poses (``cc``, ``nrm``, ``tip0``, ``ax0``, ``off0`` (n, 3))
+    lim : (f, k_side (n, 3), lim_lead, lim_tilt (n,) rad) — frames and lean limits
+    colliding : (n,) bool — the planned poses that collide
+    turn_per_mm : float, rad/mm; max_turn : float or None, rad per pose
+    machine : Machine or None — axes outside its rotaries' reach are excluded
+    reference : "planned" | "channel"; blisk_axis, blade_count: for "channel"
+    edge_lead : float, rad — extra lead at the pass ends (channel reference only)
+    seeds : (n, 3) or None — a clear axis found by another search (paper 004's rotation),
+        NaN where none: the fine states about it are measured exactly (a narrow clear pocket
+        the coarse grid steps over is then known to the shortest path)
+    progress : callable(fraction) or None
+
+    Returns
+    -------
+    AxisPlan
+    """
+    cc, nrm, tip0, ax0 = P.cc, P.nrm, P.tip0, P.ax0
+    n = len(cc)
+    f, k_side, lim_lead, lim_tilt = lim
+    win = _windows(offs, cc, colliding, _SWING / max(turn_per_mm, 1e-9) * _MARGIN + 1e-9)
+    tip, axis = tip0.copy(), ax0.copy()
+    clear = np.full(n, np.inf)
+    motion = np.full(n, np.inf)
+    if not win.any():
+        return AxisPlan(tip, axis, clear, np.zeros(n, bool), [], motion, 0, 0)
+    l0, t0 = lead_tilt_of(ax0, f, nrm, k_side)
+    l0, t0 = np.nan_to_num(l0), np.nan_to_num(t0)
+    ref_l, ref_t = l0.copy(), t0.copy()
+    if reference == "channel" and blisk_axis is not None and blade_count:
+        w = np.nonzero(win)[0]
+        ch = channel_reference(cc[w], nrm[w], blisk_axis, blade_count)
+        cl, ct = lead_tilt_of(ch, f[w], nrm[w], k_side[w])
+        good = np.isfinite(cl) & np.isfinite(ct)
+        ref_l[w] = np.where(good, np.clip(cl, -lim_lead[w], lim_lead[w]), ref_l[w])
+        ref_t[w] = np.where(good, np.clip(ct, -lim_tilt[w], lim_tilt[w]), ref_t[w])
+        if edge_lead:
+            ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
+                               -lim_lead[w], lim_lead[w])
+    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine)
+    runs = []
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        here = np.nonzero(win[s:e])[0]
+        if len(here) == 0:
+            continue
+        for run in np.split(here, np.nonzero(np.diff(here) > 1)[0] + 1):
+            g = s + run
+            arc = _arc(cc[g])
+            runs.append(_Run(g, arc, pl.stations(g, arc), s + run[0] - 1 if run[0] > 0 else None,
+                             s + run[-1] + 1 if run[-1] + 1 < e - s else None))
+    # the exact clearance of the coarse grid at every station of every run: one batch
+    st_all = np.concatenate([r.g[r.st] for r in runs])
+    C, okc = pl.coarse(st_all)
+    if progress is not None:
+        progress(0.5)
+    Fc = np.einsum("fa,sab,gb->sfg", pl.M, np.where(okc, C, -pl.safety - 50.0), pl.M)
+    anyclear = np.any(C >= pl.safety, axis=(1, 2))
+    if seeds is not None:
+        anyclear |= _seed_states(pl, st_all, seeds, Fc)
+    cut = np.cumsum([0] + [len(r.st) for r in runs])
+    chosen = [None] * len(runs)
+    dlp, dtp = l0 - ref_l, t0 - ref_t  # the planned lean as an offset
+    fvalid = [pl.fine_valid(r.g[r.st]) for r in runs]
+    result = None
+    for _ in range(_ROUNDS):
+        for ri, r in enumerate(runs):
+            Fr = Fc[cut[ri]:cut[ri + 1]]
+            dev = pl.off_f[:, None] ** 2 + pl.off_f[None, :] ** 2
+            node = np.where(Fr >= pl.safety, dev[None], _COLLIDE + pl.safety
+                            - np.maximum(Fr, -pl.safety - 50.0))
+            node = np.where(fvalid[ri], node, np.inf)
+            gap = np.diff(r.arc[r.st])
+            radius = pl.rate * np.maximum(gap, MIN_STEP) / _MARGIN / pl.step
+            start = end = None
+            if r.pre is not None:
+                gs = r.g[r.st[0]]
+                reach = pl.rate * max(r.arc[0] + np.linalg.norm(cc[gs] - cc[r.pre]), MIN_STEP)
+                start = pl.near(gs, dlp[gs], dtp[gs], reach / _MARGIN)
+            if r.post is not None:
+                ge = r.g[r.st[-1]]
+                end = pl.near(ge, dlp[ge], dtp[ge],
+                              pl.rate * max(np.linalg.norm(cc[r.post] - cc[ge]), MIN_STEP)
+                              / _MARGIN)
+            seq = pl.viterbi(node, radius, start, end)
+            if seq is None:  # keep the planned lean (always feasible in spirit)
+                seq = np.stack([np.full(len(r.st), _FINE // 2)] * 2, 1)
+            chosen[ri] = seq
+        result = _evaluate(pl, runs, chosen)
+        # states the interpolation called clear that collide: corrected, planned again
+        changed = False
+        for ri, r in enumerate(runs):
+            clr_st = result["clr"][r.g[r.st]]
+            a, b = chosen[ri][:, 0], chosen[ri][:, 1]
+            Fr = Fc[cut[ri]:cut[ri + 1]]
+            # a pose between stations that collides: its nearer station's state is marked
+            bad_pose = np.nonzero((result["clr"][r.g] < pl.safety)
+                                  | (result["motion"][r.g] < pl.safety))[0]
+            near = np.clip(np.searchsorted(r.st, bad_pose), 0, len(r.st) - 1)
+            mark = np.zeros(len(r.st), bool)
+            mark[near] = True
+            mark |= clr_st < pl.safety
+            sel = np.nonzero(mark & (Fr[np.arange(len(r.st)), a, b] >= pl.safety))[0]
+            if len(sel):
+                Fr[sel, a[sel], b[sel]] = np.minimum(clr_st[sel], pl.safety - 1e-3)
+                changed = True
+        if not changed:
+            break
+    if progress is not None:
+        progress(0.9)
+    idx = np.nonzero(win)[0]
+    tip[idx], axis[idx] = result["tip"][idx], result["axis"][idx]
+    clear[idx] = result["clr"][idx]
+    motion = np.minimum(motion, result["motion"])
+    unresolved = (clear < pl.safety) | (motion < pl.safety)
+    why = np.full(n, REASON_TURN, dtype=object)
+    for ri, r in enumerate(runs):
+        ac = anyclear[cut[ri]:cut[ri + 1]]
+        near = np.clip(np.searchsorted(r.arc[r.st], r.arc, side="left"), 0, len(r.st) - 1)
+        why[r.g] = np.where(ac[near], REASON_TURN, REASON_NO_AXIS)
+    why[(clear >= pl.safety) & (motion < pl.safety)] = REASON_MOTION
+    if machine is not None:
+        why[(why == REASON_TURN) & unresolved] = REASON_TURN + " or the machine's reach"
+    ranges = _ranges(offs, unresolved, why, np.minimum(clear, motion))
+    return AxisPlan(tip, axis, clear, unresolved, ranges, motion, pl.n_eval, int(win.sum()))
+
+
+def _seed_states(pl: _Planner, st, seeds, Fc):
+    """Measure exactly the 5 × 5 fine states about each station's seed axis and write them
+    into the interpolated clearance ``Fc`` (s, F, F); returns (s,) bool: some clear."""
+    out = np.zeros(len(st), bool)
+    have = np.nonzero(np.all(np.isfinite(seeds[st]), axis=1))[0]
+    if len(have) == 0:
+        return out
+    g = st[have]
+    sl, stt = lead_tilt_of(seeds[g], pl.f[g], pl.P.nrm[g], pl.k[g])
+    ok = np.isfinite(sl) & np.isfinite(stt)
+    have, g, sl, stt = have[ok], g[ok], sl[ok], stt[ok]
+    a0 = np.rint((sl - pl.ref_l[g] + _SWING) / pl.step).astype(np.int64)
+    b0 = np.rint((stt - pl.ref_t[g] + _SWING) / pl.step).astype(np.int64)
+    d = np.arange(-2, 3)
+    a = np.clip(a0[:, None, None] + d[None, :, None] + 0 * d[None, None, :], 0, _FINE - 1)
+    b = np.clip(b0[:, None, None] + 0 * d[None, :, None] + d[None, None, :], 0, _FINE - 1)
+    gg = np.repeat(g, 25)
+    a, b = a.reshape(-1), b.reshape(-1)
+    dl, dt = pl.off_f[a], pl.off_f[b]
+    ax = pl.axes(gg, dl, dt)
+    v = pl.valid(gg, dl, dt, ax)
+    c = np.full(len(gg), -np.inf)
+    c[v] = pl.clearance(pl.tips(gg[v], ax[v]), ax[v])
+    rows = np.repeat(have, 25)
+    Fc[rows[v], a[v], b[v]] = c[v]
+    np.logical_or.at(out, rows, c >= pl.safety)
+    return out
+
+
+def _evaluate(pl: _Planner, runs, chosen) -> dict:
+    """Poses of every run from its stations' states (the lean linear in arc length between
+    stations), their exact clearance and the motion's (from the pose before, and into the
+    fixed pose after): one batched detection. Returns dict of (n,)-indexed arrays."""
+    P = pl.P
+    n = len(P.cc)
+    tip, axis = P.tip0.copy(), P.ax0.copy()
+    gs, dls, dts = [], [], []
+    for r, seq in zip(runs, chosen, strict=True):
+        dl = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 0]])
+        dt = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 1]])
+        gs.append(r.g)
+        dls.append(dl)
+        dts.append(dt)
+    g = np.concatenate(gs)
+    ax = pl.axes(g, np.concatenate(dls), np.concatenate(dts))
+    axis[g] = ax
+    tip[g] = pl.tips(g, ax)
+    # the motion into each run pose and into the fixed pose after each run
+    prev_, next_ = [], []
+    for r in runs:
+        chain = np.r_[[r.pre] if r.pre is not None else [], r.g,
+                      [r.post] if r.post is not None else []].astype(np.int64)
+        prev_.append(chain[:-1])
+        next_.append(chain[1:])
+    a_p, a_i = np.concatenate(prev_), np.concatenate(next_)
+    tq = np.arange(1, _MOTION_SAMPLES + 1) / (_MOTION_SAMPLES + 1)
+    mt, ma = sample_motion(tip[a_p], axis[a_p], tip[a_i], axis[a_i], tq)
+    clr_all = pl.clearance(np.vstack([tip[g], mt]), np.vstack([axis[g], ma]))
+    clr = np.full(n, np.inf)
+    clr[g] = clr_all[:len(g)]
+    motion = np.full(n, np.inf)
+    np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
+    return {"tip": tip, "axis": axis, "clr": clr, "motion": motion}
+
+
+def _edge_weight(offs, cc, idx, cutter):
+    """(w,) 1 at a pass's ends falling to 0 one tool diameter along the pass."""
+    out = np.zeros(len(idx))
+    D = 2.0 * float(cutter.max_radius)
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        sel = (idx >= s) & (idx < e)
+        if not sel.any():
+            continue
+        arc = _arc(cc[s:e])
+        a = arc[idx[sel] - s]
+        out[sel] = np.clip(1.0 - np.minimum(a, arc[-1] - a) / max(D, 1e-9), 0.0, 1.0)
+    return out
+
+
+def _ranges(offs, unresolved, why, clearance):
+    out = []
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        u = np.nonzero(unresolved[s:e])[0]
+        if len(u) == 0:
+            continue
+        for run in np.split(u, np.nonzero(np.diff(u) > 1)[0] + 1):
+            reasons = [str(why[s + i]) for i in run]
+            main = max(set(reasons), key=reasons.count)
+            out.append(UnresolvedRange(ci, int(run[0]), int(run[-1]), main,
+                                       float(np.min(clearance[s + run]))))
+    return out
