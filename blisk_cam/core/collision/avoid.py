@@ -430,15 +430,6 @@ def _avoid_by_plan(scene, path, options, curves, offs, P: _Poses, det0, lim):
     """Generator: the axes of every pass chosen together (:func:`.axis_plan.plan_axes`);
     unresolved poses keep the planner's axis (the least colliding one the turn limit
     allows), so the turn limit holds everywhere. Returns (Detection, AxisPlan)."""
-    # paper 004's rotation first: the clear axis it finds per colliding pose seeds the
-    # planner's states (a narrow clear pocket between two coarse grid points)
-    S = replace(P, tip=P.tip.copy(), ax=P.ax.copy(), rot_normal=P.rot_normal.copy(),
-                first_theta=P.first_theta.copy())
-    unresolved = yield from _scaled(_rotate_colliding(scene, options, S, det0, lim), 0.4, 0.5)
-    seeds = np.full_like(P.ax0, np.nan)
-    found = det0.colliding & ~unresolved
-    seeds[found] = S.ax[found]
-    P.rot_normal[:], P.first_theta[:] = S.rot_normal, S.first_theta
     box = {}
 
     def prog(x):
@@ -449,7 +440,7 @@ def _avoid_by_plan(scene, path, options, curves, offs, P: _Poses, det0, lim):
                      machine=options.machine, reference=options.axis_reference,
                      blisk_axis=path.axis, blade_count=options.blade_count,
                      edge_lead=math.radians(5.0) if options.axis_reference == "channel" else 0.0,
-                     seeds=seeds, progress=prog)
+                     progress=prog)
     yield 0.8
     P.tip[:], P.ax[:] = plan.tip, plan.axis
     det = yield from _scaled(_detect_chunks(scene, P.tip, P.ax), 0.8, 0.95)

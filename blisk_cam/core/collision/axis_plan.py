@@ -63,7 +63,7 @@ import numpy as np
 
 from ..geometry.vectors import angle_between, unit
 from ..machine.kinematics import reachable_axes
-from ..paths.orientation import lead_tilt_axes, lead_tilt_of
+from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from ..tool.cutter import Cutter
 
 __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
@@ -73,18 +73,16 @@ __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
 MIN_STEP = 0.05
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
-#: exact clearance grid per lean direction (odd: the reference is a grid point)
+#: coarse clearance grid per lean direction, measured at every station (odd)
 _GRID = 7
-#: the states of the shortest path per lean direction (the exact grid interpolated)
-_FINE = 49
+#: the lean states of the shortest path per direction (odd; measured exactly where needed)
+_FINE = 13
 #: widest lean swing searched about the reference, rad
 _SWING = math.radians(30.0)
 #: cost of a colliding state (the lean costs are ≤ a few rad²)
 _COLLIDE = 1e3
-#: margin on the lean change per station (the frame's own turn comes on top)
-_MARGIN = 1.05
-#: largest lean step per station, in fine steps
-_MAX_R = 8
+#: largest lean step between stations, in state steps
+_MAX_R = 3
 #: samples inside each transition checked for the motion, and verification rounds
 _MOTION_SAMPLES = 3
 _ROUNDS = 4
@@ -232,7 +230,8 @@ def _interp_matrix(n_fine, n_coarse):
 @dataclass
 class _Run:
     """A run of consecutive window poses of one pass: global indices ``g`` (r,), arc
-    positions, the stations (indices into ``g``), the fixed planned poses before/after."""
+    positions, the stations (sorted indices into ``g``), the fixed planned poses
+    before/after (global indices or None)."""
 
     g: np.ndarray
     arc: np.ndarray
@@ -242,7 +241,9 @@ class _Run:
 
 
 class _Planner:
-    """The state of one :func:`plan_axes` call (module docstring)."""
+    """The state of one :func:`plan_axes` call (module docstring): the lean states, the
+    clearance known per station (interpolated from the coarse grid, or exact), the batched
+    evaluations."""
 
     def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine):
         self.scene, self.P = scene, P
@@ -257,13 +258,17 @@ class _Planner:
         self.step = self.off_f[1] - self.off_f[0]
         self.M = _interp_matrix(_FINE, _GRID)
         self.n_eval = 0
+        self.known = {}  # global pose → (F, F) clearance (−inf: not a valid lean)
+        self.exact = set()  # poses whose fine states were all measured
+        self.dlp = self.dtp = None
 
     # --- poses -----------------------------------------------------------------------------
     def axes(self, g, dl, dt):
-        """(k, 3) axes at poses g (k,) leaning ref + (dl, dt) (k,)."""
-        P = self.P
-        return lead_tilt_axes(self.f[g], P.nrm[g], self.k[g], self.ref_l[g] + dl,
-                              self.ref_t[g] + dt)
+        """(k, 3) axes at poses g (k,) leaning ref + (dl, dt) (k,), clipped into the lean
+        limits (the states beyond a limit lie on it: the limit itself is searched)."""
+        return lead_tilt_axes(self.f[g], self.P.nrm[g], self.k[g],
+                              np.clip(self.ref_l[g] + dl, -self.lim_l[g], self.lim_l[g]),
+                              np.clip(self.ref_t[g] + dt, -self.lim_t[g], self.lim_t[g]))
 
     def tips(self, g, ax):
         P = self.P
@@ -271,10 +276,8 @@ class _Planner:
         return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
 
     def valid(self, g, dl, dt, ax):
-        """(k,) bool inside the lean limits, touching, (machine) reachable."""
-        ok = (np.abs(self.ref_l[g] + dl) <= self.lim_l[g] + 1e-9) & \
-            (np.abs(self.ref_t[g] + dt) <= self.lim_t[g] + 1e-9)
-        ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
+        """(k,) bool: the cutter touches and (a machine given) the rotaries reach."""
+        ok = _touch_ok(self.cutter, self.P.nrm[g], ax)
         if self.machine is not None and ok.any():
             ok[ok] = reachable_axes(self.machine, ax[ok])
         return ok
@@ -285,84 +288,136 @@ class _Planner:
             return np.zeros(0)
         return self.scene.detect(tips, axes).clearance
 
+    def grid(self, g, offsets):
+        """Measure the lean grid ``offsets`` × ``offsets`` at poses g (one batch): (s, m, m)
+        clearance, −inf where the lean is not valid."""
+        m = len(offsets)
+        gg = np.repeat(g, m * m)
+        dl = np.tile(np.repeat(offsets, m), len(g))
+        dt = np.tile(np.tile(offsets, m), len(g))
+        ax = self.axes(gg, dl, dt)
+        ok = self.valid(gg, dl, dt, ax)
+        c = np.full(len(gg), -np.inf)
+        c[ok] = self.clearance(self.tips(gg[ok], ax[ok]), ax[ok])
+        return c.reshape(len(g), m, m)
+
+    def state_axes(self, gi):
+        """(F, F, 3) axes of every lean state at pose gi."""
+        F = _FINE
+        gg = np.full(F * F, gi)
+        return self.axes(gg, np.repeat(self.off_f, F), np.tile(self.off_f, F)).reshape(F, F, 3)
+
     # --- stations --------------------------------------------------------------------------
     def stations(self, g, arc):
         """Indices of the stations of a run (global poses g): the first and last pose, and
         the next pose once one lean step's worth of arc (step / rate) has passed or the
         planned axis has turned by one lean step (at the edges, where the normal swings)."""
-        h = _MARGIN * self.step / self.rate
+        h = self.step / self.rate
         ax = self.P.ax0[g]
         out = [0]
         for i in range(1, len(arc)):
-            if arc[i] - arc[out[-1]] >= h or \
-                    float(ax[i] @ ax[out[-1]]) < math.cos(self.step):
+            if arc[i] - arc[out[-1]] >= h or float(ax[i] @ ax[out[-1]]) < math.cos(self.step):
                 out.append(i)
         if out[-1] != len(arc) - 1:
             out.append(len(arc) - 1)
         return np.asarray(out, np.int64)
 
-    def coarse(self, g):
-        """(s, G, G) exact clearance of the coarse lean grid at poses g (one batch), −inf
-        where the lean is not valid; (s, G, G) bool valid."""
-        G = _GRID
-        gg = np.repeat(g, G * G)
-        dl = np.tile(np.repeat(self.off_c, G), len(g))
-        dt = np.tile(np.tile(self.off_c, G), len(g))
-        ax = self.axes(gg, dl, dt)
-        ok = self.valid(gg, dl, dt, ax)
-        c = np.full(len(gg), -np.inf)
-        c[ok] = self.clearance(self.tips(gg[ok], ax[ok]), ax[ok])
-        return c.reshape(len(g), G, G), ok.reshape(len(g), G, G)
+    def measure_coarse(self, g):
+        """Known clearance of poses g from the coarse grid, interpolated to the states."""
+        C = self.grid(g, self.off_c)
+        valid = np.isfinite(C)
+        Fc = np.einsum("fa,sab,gb->sfg", self.M, np.where(valid, C, -self.safety - 50.0),
+                       self.M)
+        for gi, fc in zip(g, Fc, strict=True):
+            self.known[int(gi)] = fc
+        # states that are not valid leans stay excluded
+        for gi in g:
+            self._exclude_invalid(int(gi))
 
-    def fine_valid(self, g):
-        """(s, F, F) bool: valid fine states at poses g."""
+    def _exclude_invalid(self, gi):
         F = _FINE
-        gg = np.repeat(g, F * F)
-        dl = np.tile(np.repeat(self.off_f, F), len(g))
-        dt = np.tile(np.tile(self.off_f, F), len(g))
-        return self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(len(g), F, F)
+        gg = np.full(F * F, gi)
+        dl, dt = np.repeat(self.off_f, F), np.tile(self.off_f, F)
+        ok = self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(F, F)
+        self.known[gi] = np.where(ok, self.known[gi], -np.inf)
+
+    def measure_exact(self, g):
+        """Measure every state of poses g exactly (one batch)."""
+        g = np.asarray([x for x in np.unique(g) if int(x) not in self.exact], np.int64)
+        if len(g) == 0:
+            return
+        C = self.grid(g, self.off_f)
+        for gi, c in zip(g, C, strict=True):
+            self.known[int(gi)] = c
+            self.exact.add(int(gi))
 
     # --- the shortest path -----------------------------------------------------------------
-    def viterbi(self, node, radius, start=None, end=None):
-        """States (s, 2) (fine indices) minimising Σ node over stations, consecutive states
-        within ``radius`` (s − 1,) fine steps (Euclidean); ``start``/``end`` (F, F) bool: the
-        states allowed at the first/last station (None: all)."""
-        s, F, _ = node.shape
-        cost = node[0] + np.where(start, 0.0, np.inf) if start is not None else node[0].copy()
+    def _moves(self, Ap, Ac, limit):
+        """Offsets (o, 2) and (o, F, F) bool: the state x at the later station may follow
+        the state x − offset at the earlier one (turn ≤ ``limit``, exact)."""
+        F, r = _FINE, _MAX_R
+        offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1) if a * a + b * b
+                <= r * r]
+        pad = np.full((F + 2 * r, F + 2 * r, 3), np.nan)
+        pad[r:r + F, r:r + F] = Ap
+        prev = np.stack([pad[r - a:r - a + F, r - b:r - b + F] for a, b in offs])
+        cos = np.einsum("oijk,ijk->oij", prev, Ac)
+        with np.errstate(invalid="ignore"):
+            ok = cos >= math.cos(limit) - 1e-12
+        return np.asarray(offs), ok
+
+    def node_costs(self, gi):
+        c = self.known[int(gi)]
+        dev = self.off_f[:, None] ** 2 + self.off_f[None, :] ** 2
+        node = np.where(c >= self.safety, dev, _COLLIDE + self.safety
+                        - np.maximum(c, -self.safety - 50.0))
+        return np.where(np.isfinite(c), node, np.inf)
+
+    def plan_run(self, r: _Run):
+        """(s, 2) fine states of the stations of run r minimising the costs under the exact
+        turn limit between stations (and from/to the fixed poses), or None."""
+        P, F = self.P, _FINE
+        gst = r.g[r.st]
+        A = [self.state_axes(int(gi)) for gi in gst]
+        cost = self.node_costs(gst[0])
+        if r.pre is not None:
+            lim0 = float(angle_between(P.ax0[[r.pre]], P.ax0[[gst[0]]])[0]) + self.rate * \
+                max(float(np.linalg.norm(P.cc[gst[0]] - P.cc[r.pre])), MIN_STEP)
+            cost = cost + np.where(A[0] @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
         backs = []
-        for j in range(1, s):
-            r = int(min(max(radius[j - 1], 0), _MAX_R))
-            offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
-                    if a * a + b * b <= radius[j - 1] ** 2 + 1e-9]
-            pad = np.full((F + 2 * r, F + 2 * r), np.inf)
-            pad[r:r + F, r:r + F] = cost
-            stack = np.stack([pad[r - a:r - a + F, r - b:r - b + F] for a, b in offs])
+        for j in range(1, len(gst)):
+            gap = r.arc[r.st[j]] - r.arc[r.st[j - 1]]
+            lim = float(angle_between(P.ax0[[gst[j - 1]]], P.ax0[[gst[j]]])[0]) + \
+                self.rate * max(gap, MIN_STEP)
+            offs, ok = self._moves(A[j - 1], A[j], lim)
+            rr = _MAX_R
+            pad = np.full((F + 2 * rr, F + 2 * rr), np.inf)
+            pad[rr:rr + F, rr:rr + F] = cost
+            stack = np.stack([pad[rr - a:rr - a + F, rr - b:rr - b + F] for a, b in offs])
+            stack = np.where(ok, stack, np.inf)
             arg = np.argmin(stack, axis=0)
             best = np.take_along_axis(stack, arg[None], 0)[0]
-            backs.append((np.asarray(offs), arg))
-            cost = best + node[j]
-        if end is not None:
-            cost = cost + np.where(end, 0.0, np.inf)
+            backs.append((offs, arg))
+            cost = best + self.node_costs(gst[j])
+        if r.post is not None:
+            gl = gst[-1]
+            lim1 = float(angle_between(P.ax0[[gl]], P.ax0[[r.post]])[0]) + self.rate * \
+                max(float(np.linalg.norm(P.cc[r.post] - P.cc[gl])), MIN_STEP)
+            cost = cost + np.where(A[-1] @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
         if not np.isfinite(cost.min()):
             return None
-        out = np.empty((s, 2), np.int64)
+        out = np.empty((len(gst), 2), np.int64)
         out[-1] = np.unravel_index(int(np.argmin(cost)), cost.shape)
-        for j in range(s - 1, 0, -1):
+        for j in range(len(gst) - 1, 0, -1):
             offs, arg = backs[j - 1]
             a, b = offs[arg[out[j, 0], out[j, 1]]]
             out[j - 1] = out[j] - (a, b)
         return out
 
-    def near(self, g, dl0, dt0, reach):
-        """(F, F) bool: fine states within ``reach`` rad of lean offsets (dl0, dt0)."""
-        A = self.off_f[:, None] - dl0
-        B = self.off_f[None, :] - dt0
-        return A * A + B * B <= reach * reach + 1e-12
-
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
               max_turn=None, machine=None, reference="planned", blisk_axis=None,
-              blade_count=None, edge_lead=0.0, seeds=None, progress=None) -> AxisPlan:
+              blade_count=None, edge_lead=0.0, progress=None) -> AxisPlan:
     """Plan the tool axes of the passes (module docstring).
 
     Parameters
@@ -376,9 +431,6 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     machine : Machine or None — axes outside its rotaries' reach are excluded
     reference : "planned" | "channel"; blisk_axis, blade_count: for "channel"
     edge_lead : float, rad — extra lead at the pass ends (channel reference only)
-    seeds : (n, 3) or None — a clear axis found by another search (paper 004's rotation),
-        NaN where none: the fine states about it are measured exactly (a narrow clear pocket
-        the coarse grid steps over is then known to the shortest path)
     progress : callable(fraction) or None
 
     Returns
@@ -388,12 +440,11 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     cc, nrm, tip0, ax0 = P.cc, P.nrm, P.tip0, P.ax0
     n = len(cc)
     f, k_side, lim_lead, lim_tilt = lim
-    win = _windows(offs, cc, colliding, _SWING / max(turn_per_mm, 1e-9) * _MARGIN + 1e-9)
+    win = _windows(offs, cc, colliding, _SWING / max(turn_per_mm, 1e-9) + 1e-9)
     tip, axis = tip0.copy(), ax0.copy()
     clear = np.full(n, np.inf)
-    motion = np.full(n, np.inf)
     if not win.any():
-        return AxisPlan(tip, axis, clear, np.zeros(n, bool), [], motion, 0, 0)
+        return AxisPlan(tip, axis, clear, np.zeros(n, bool), [], np.full(n, np.inf), 0, 0)
     l0, t0 = lead_tilt_of(ax0, f, nrm, k_side)
     l0, t0 = np.nan_to_num(l0), np.nan_to_num(t0)
     ref_l, ref_t = l0.copy(), t0.copy()
@@ -408,6 +459,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
     pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine)
+    pl.dlp, pl.dtp = l0 - ref_l, t0 - ref_t  # the planned lean as an offset
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -419,75 +471,41 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             arc = _arc(cc[g])
             runs.append(_Run(g, arc, pl.stations(g, arc), s + run[0] - 1 if run[0] > 0 else None,
                              s + run[-1] + 1 if run[-1] + 1 < e - s else None))
-    # the exact clearance of the coarse grid at every station of every run: one batch
-    st_all = np.concatenate([r.g[r.st] for r in runs])
-    C, okc = pl.coarse(st_all)
+    # the coarse grid at every station of every run: one batched measurement
+    pl.measure_coarse(np.concatenate([r.g[r.st] for r in runs]))
     if progress is not None:
         progress(0.5)
-    Fc = np.einsum("fa,sab,gb->sfg", pl.M, np.where(okc, C, -pl.safety - 50.0), pl.M)
-    anyclear = np.any(C >= pl.safety, axis=(1, 2))
-    if seeds is not None:
-        anyclear |= _seed_states(pl, st_all, seeds, Fc)
-    cut = np.cumsum([0] + [len(r.st) for r in runs])
     chosen = [None] * len(runs)
-    dlp, dtp = l0 - ref_l, t0 - ref_t  # the planned lean as an offset
-    fvalid = [pl.fine_valid(r.g[r.st]) for r in runs]
-    result = None
-    for _ in range(_ROUNDS):
+    for rnd in range(_ROUNDS):
         for ri, r in enumerate(runs):
-            Fr = Fc[cut[ri]:cut[ri + 1]]
-            dev = pl.off_f[:, None] ** 2 + pl.off_f[None, :] ** 2
-            node = np.where(Fr >= pl.safety, dev[None], _COLLIDE + pl.safety
-                            - np.maximum(Fr, -pl.safety - 50.0))
-            node = np.where(fvalid[ri], node, np.inf)
-            gap = np.diff(r.arc[r.st])
-            radius = pl.rate * np.maximum(gap, MIN_STEP) / _MARGIN / pl.step
-            start = end = None
-            if r.pre is not None:
-                gs = r.g[r.st[0]]
-                reach = pl.rate * max(r.arc[0] + np.linalg.norm(cc[gs] - cc[r.pre]), MIN_STEP)
-                start = pl.near(gs, dlp[gs], dtp[gs], reach / _MARGIN)
-            if r.post is not None:
-                ge = r.g[r.st[-1]]
-                end = pl.near(ge, dlp[ge], dtp[ge],
-                              pl.rate * max(np.linalg.norm(cc[r.post] - cc[ge]), MIN_STEP)
-                              / _MARGIN)
-            seq = pl.viterbi(node, radius, start, end)
-            if seq is None:  # keep the planned lean (always feasible in spirit)
-                seq = np.stack([np.full(len(r.st), _FINE // 2)] * 2, 1)
-            chosen[ri] = seq
+            chosen[ri] = pl.plan_run(r)
         result = _evaluate(pl, runs, chosen)
-        # states the interpolation called clear that collide: corrected, planned again
-        changed = False
-        for ri, r in enumerate(runs):
-            clr_st = result["clr"][r.g[r.st]]
-            a, b = chosen[ri][:, 0], chosen[ri][:, 1]
-            Fr = Fc[cut[ri]:cut[ri + 1]]
-            # a pose between stations that collides: its nearer station's state is marked
-            bad_pose = np.nonzero((result["clr"][r.g] < pl.safety)
-                                  | (result["motion"][r.g] < pl.safety))[0]
-            near = np.clip(np.searchsorted(r.st, bad_pose), 0, len(r.st) - 1)
-            mark = np.zeros(len(r.st), bool)
-            mark[near] = True
-            mark |= clr_st < pl.safety
-            sel = np.nonzero(mark & (Fr[np.arange(len(r.st)), a, b] >= pl.safety))[0]
-            if len(sel):
-                Fr[sel, a[sel], b[sel]] = np.minimum(clr_st[sel], pl.safety - 1e-3)
-                changed = True
-        if not changed:
+        if rnd == _ROUNDS - 1:
             break
-    if progress is not None:
-        progress(0.9)
+        # poses the plan leaves colliding: made stations, all their states measured exactly,
+        # and the runs planned again
+        todo = []
+        for r in runs:
+            bad = np.nonzero(result["clr"][r.g] < pl.safety)[0]
+            bad = np.asarray([i for i in bad if int(r.g[i]) not in pl.exact], np.int64)
+            if len(bad):
+                r.st = np.union1d(r.st, bad)
+                todo.append(r.g[bad])
+        if not todo:
+            break
+        pl.measure_exact(np.concatenate(todo))
+        if progress is not None:
+            progress(0.5 + 0.1 * (rnd + 1))
     idx = np.nonzero(win)[0]
     tip[idx], axis[idx] = result["tip"][idx], result["axis"][idx]
     clear[idx] = result["clr"][idx]
-    motion = np.minimum(motion, result["motion"])
+    motion = result["motion"]
     unresolved = (clear < pl.safety) | (motion < pl.safety)
     why = np.full(n, REASON_TURN, dtype=object)
-    for ri, r in enumerate(runs):
-        ac = anyclear[cut[ri]:cut[ri + 1]]
-        near = np.clip(np.searchsorted(r.arc[r.st], r.arc, side="left"), 0, len(r.st) - 1)
-        why[r.g] = np.where(ac[near], REASON_TURN, REASON_NO_AXIS)
+    for gi in np.nonzero(unresolved)[0]:
+        c = pl.known.get(int(gi))
+        if int(gi) in pl.exact and c is not None and not np.any(c >= pl.safety):
+            why[gi] = REASON_NO_AXIS
     why[(clear >= pl.safety) & (motion < pl.safety)] = REASON_MOTION
     if machine is not None:
         why[(why == REASON_TURN) & unresolved] = REASON_TURN + " or the machine's reach"
@@ -495,54 +513,32 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     return AxisPlan(tip, axis, clear, unresolved, ranges, motion, pl.n_eval, int(win.sum()))
 
 
-def _seed_states(pl: _Planner, st, seeds, Fc):
-    """Measure exactly the 5 × 5 fine states about each station's seed axis and write them
-    into the interpolated clearance ``Fc`` (s, F, F); returns (s,) bool: some clear."""
-    out = np.zeros(len(st), bool)
-    have = np.nonzero(np.all(np.isfinite(seeds[st]), axis=1))[0]
-    if len(have) == 0:
-        return out
-    g = st[have]
-    sl, stt = lead_tilt_of(seeds[g], pl.f[g], pl.P.nrm[g], pl.k[g])
-    ok = np.isfinite(sl) & np.isfinite(stt)
-    have, g, sl, stt = have[ok], g[ok], sl[ok], stt[ok]
-    a0 = np.rint((sl - pl.ref_l[g] + _SWING) / pl.step).astype(np.int64)
-    b0 = np.rint((stt - pl.ref_t[g] + _SWING) / pl.step).astype(np.int64)
-    d = np.arange(-2, 3)
-    a = np.clip(a0[:, None, None] + d[None, :, None] + 0 * d[None, None, :], 0, _FINE - 1)
-    b = np.clip(b0[:, None, None] + 0 * d[None, :, None] + d[None, None, :], 0, _FINE - 1)
-    gg = np.repeat(g, 25)
-    a, b = a.reshape(-1), b.reshape(-1)
-    dl, dt = pl.off_f[a], pl.off_f[b]
-    ax = pl.axes(gg, dl, dt)
-    v = pl.valid(gg, dl, dt, ax)
-    c = np.full(len(gg), -np.inf)
-    c[v] = pl.clearance(pl.tips(gg[v], ax[v]), ax[v])
-    rows = np.repeat(have, 25)
-    Fc[rows[v], a[v], b[v]] = c[v]
-    np.logical_or.at(out, rows, c >= pl.safety)
-    return out
-
-
 def _evaluate(pl: _Planner, runs, chosen) -> dict:
     """Poses of every run from its stations' states (the lean linear in arc length between
-    stations), their exact clearance and the motion's (from the pose before, and into the
-    fixed pose after): one batched detection. Returns dict of (n,)-indexed arrays."""
+    stations; a run without a feasible plan keeps its planned poses), their exact clearance
+    and the motion's (into each run pose and into the fixed pose after it), in one batch.
+    Returns dict of (n,)-indexed arrays."""
     P = pl.P
     n = len(P.cc)
     tip, axis = P.tip0.copy(), P.ax0.copy()
     gs, dls, dts = [], [], []
     for r, seq in zip(runs, chosen, strict=True):
-        dl = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 0]])
-        dt = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 1]])
+        if seq is None:
+            dl, dt = pl.dlp[r.g], pl.dtp[r.g]
+        else:
+            dl = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 0]])
+            dt = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 1]])
         gs.append(r.g)
         dls.append(dl)
         dts.append(dt)
     g = np.concatenate(gs)
-    ax = pl.axes(g, np.concatenate(dls), np.concatenate(dts))
+    dl, dt = np.concatenate(dls), np.concatenate(dts)
+    ax = pl.axes(g, dl, dt)
     axis[g] = ax
     tip[g] = pl.tips(g, ax)
-    # the motion into each run pose and into the fixed pose after each run
+    same = (np.abs(dl - pl.dlp[g]) < 1e-12) & (np.abs(dt - pl.dtp[g]) < 1e-12)
+    axis[g[same]], tip[g[same]] = P.ax0[g[same]], P.tip0[g[same]]  # the planned pose, exactly
+    _limit_turns(pl, runs, tip, axis)
     prev_, next_ = [], []
     for r in runs:
         chain = np.r_[[r.pre] if r.pre is not None else [], r.g,
@@ -558,6 +554,31 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     motion = np.full(n, np.inf)
     np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
     return {"tip": tip, "axis": axis, "clr": clr, "motion": motion}
+
+
+def _limit_turns(pl: _Planner, runs, tip, axis):
+    """Where the lean interpolated between stations turns faster than the limit between two
+    poses, the later axis is turned back toward the earlier one (forward, then from the
+    fixed pose after the run backward), its tip recomputed for the contact; in place."""
+    P = pl.P
+    for r in runs:
+        chain = np.r_[[r.pre] if r.pre is not None else [], r.g,
+                      [r.post] if r.post is not None else []].astype(np.int64)
+        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn)
+        moved = []
+        order = [(i, i + 1) for i in range(len(chain) - 1)]
+        if r.post is not None:  # the last pose is fixed: its neighbours turn toward it
+            order = order[:-1] + [(len(chain) - 1, len(chain) - 2)]
+        for a, b in order:
+            ia, ib = chain[a], chain[b]
+            lim = limit[min(a, b)]
+            if float(axis[ia] @ axis[ib]) < math.cos(lim) - 1e-12:
+                axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim * (1 - 1e-9),
+                                      tuple(P.nrm[ib]))
+                moved.append(ib)
+        if moved:
+            m = np.asarray(moved, np.int64)
+            tip[m] = pl.tips(m, axis[m])
 
 
 def _edge_weight(offs, cc, idx, cutter):
@@ -582,9 +603,9 @@ def _ranges(offs, unresolved, why, clearance):
         u = np.nonzero(unresolved[s:e])[0]
         if len(u) == 0:
             continue
-        for run in np.split(u, np.nonzero(np.diff(u) > 1)[0] + 1):
-            reasons = [str(why[s + i]) for i in run]
-            main = max(set(reasons), key=reasons.count)
-            out.append(UnresolvedRange(ci, int(run[0]), int(run[-1]), main,
+        w = np.asarray([str(why[s + i]) for i in u], dtype=object)
+        cut = np.nonzero((np.diff(u) > 1) | (w[1:] != w[:-1]))[0] + 1
+        for run, ws in zip(np.split(u, cut), np.split(w, cut), strict=True):
+            out.append(UnresolvedRange(ci, int(run[0]), int(run[-1]), str(ws[0]),
                                        float(np.min(clearance[s + run]))))
     return out

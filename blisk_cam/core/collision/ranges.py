@@ -39,10 +39,10 @@ def unresolved_ranges(offs, status, clearance, plan=None) -> list[dict]:
         u = np.nonzero(bad[s:e])[0]
         if len(u) == 0:
             continue
-        for run in np.split(u, np.nonzero(np.diff(u) > 1)[0] + 1):
-            whys = [by_plan.get((ci, int(i)), "collides") for i in run]
-            why = max(set(whys), key=whys.count)
-            out.append({"pass": ci, "from": int(run[0]), "to": int(run[-1]), "why": why,
+        w = np.asarray([by_plan.get((ci, int(i)), "collides") for i in u], dtype=object)
+        cut = np.nonzero((np.diff(u) > 1) | (w[1:] != w[:-1]))[0] + 1
+        for run, ws in zip(np.split(u, cut), np.split(w, cut), strict=True):
+            out.append({"pass": ci, "from": int(run[0]), "to": int(run[-1]), "why": str(ws[0]),
                         "min_clearance": float(np.min(clearance[s + run]))})
     return out
 
