@@ -130,3 +130,52 @@ def test_no_more_unresolved_than_per_pose_rotation(case):
                    for c in p.curves)
 
     assert unresolved(out["plan"][0]) <= unresolved(out["rotate"][0])
+
+
+def test_reachable_axes_agrees_with_the_joint_solution():
+    from dataclasses import replace
+
+    from blisk_cam.core.errors import ReachError
+    from blisk_cam.core.machine.description import load_machine
+    from blisk_cam.core.machine.kinematics import reachable_axes, solve_poses
+
+    m = load_machine("ac-trunnion")
+    A, C = m.rotaries
+    m = replace(m, rotaries=(replace(A, limits=(math.radians(20), math.radians(60))), C))
+    rng = np.random.default_rng(3)
+    ax = rng.normal(size=(300, 3))
+    ax /= np.linalg.norm(ax, axis=1)[:, None]
+    got = reachable_axes(m, ax)
+    for a, ok in zip(ax, got, strict=True):
+        try:
+            solve_poses(m, np.zeros((1, 3)), a[None])
+            want = True
+        except ReachError:
+            want = False
+        assert ok == want, a
+    assert got.any() and not got.all()  # the sample has both kinds
+
+
+def test_avoidance_stays_inside_the_machines_reach(case):
+    """Issue 28 row 8: with a machine given, a corrected axis never leaves the rotaries'
+    limits (the A range narrowed to the planned axes' own, ± 2°)."""
+    from dataclasses import replace
+
+    from blisk_cam.core.machine.description import load_machine
+    from blisk_cam.core.machine.kinematics import reachable_axes, solve_poses
+
+    _, mesh, path, out = case
+    sub = type(path)(**{**path.__dict__, "curves": path.curves[:3], "program": None})
+    ax0 = np.vstack([c.axis for c in sub.curves])
+    m = load_machine("ac-trunnion")
+    A, C = m.rotaries
+    m = replace(m, rotaries=(replace(A, limits=None), C))  # A free to find the planned range
+    a = solve_poses(m, np.vstack([c.tip for c in sub.curves]), ax0).angles[:, 0]
+    m = replace(m, rotaries=(replace(A, limits=(float(a.min()) - math.radians(2),
+                                                float(a.max()) + math.radians(2))), C))
+    opts = replace(out["plan"][2], machine=m)
+    new, rep = run_collisions(mesh, sub, [], opts)
+    ax = np.vstack([c.axis for c in new.curves])
+    changed = np.linalg.norm(ax - ax0, axis=1) > 1e-12
+    assert changed.any()
+    assert reachable_axes(m, ax[changed]).all()

@@ -15,7 +15,7 @@ from ..tool.assembly import ToolAssembly
 from ..toolpath.types import STATUS_UNRESOLVED
 from .posed_tool import PART_FLUTE
 
-__all__ = ["holder_hint", "unresolved_ranges"]
+__all__ = ["describe_ranges", "holder_hint", "unresolved_ranges"]
 
 #: unresolved poses sampled by the holder search (evenly over them)
 _HINT_POSES = 400
