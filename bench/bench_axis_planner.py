@@ -33,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 from blisk_cam.core.collision.avoid import run_collisions  # noqa: E402
+from blisk_cam.core.collision.axis_plan import turn_limits  # noqa: E402
 from blisk_cam.core.collision.options import CollisionOptions  # noqa: E402
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
@@ -61,19 +62,20 @@ def case(name):
     return mesh, req, 36, {"max_tilt": math.radians(85)}
 
 
-def turn_figures(path):
-    """(largest turn between consecutive pass poses, deg; largest turn per mm, deg/mm)."""
-    worst, per_mm = 0.0, 0.0
-    for c in path.curves:
+def turn_figures(planned, path, turn_per_mm):
+    """(largest turn between consecutive pass poses, deg; largest excess over the planner's
+    limit — the planned turn + turn_per_mm × the CC step —, deg; poses over that limit)."""
+    worst, excess, over = 0.0, 0.0, 0
+    for c0, c in zip(planned.curves, path.curves, strict=True):
         a = np.asarray(c.axis, float)
         if len(a) < 2:
             continue
-        cos = np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1)
-        t = np.degrees(np.arccos(cos))
-        ds = np.linalg.norm(np.diff(np.asarray(c.cc, float), axis=0), axis=1)
-        worst = max(worst, float(t.max()))
-        per_mm = max(per_mm, float(np.max(t / np.maximum(ds, 1e-3))))
-    return worst, per_mm
+        t = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
+        lim = turn_limits(c0.cc, c0.axis, turn_per_mm)
+        worst = max(worst, float(np.degrees(t.max())))
+        excess = max(excess, float(np.degrees((t - lim).max())))
+        over += int(np.sum(t > lim + 1e-9))
+    return worst, excess, over
 
 
 def run(name, methods, verify):
@@ -87,27 +89,29 @@ def run(name, methods, verify):
     for method in methods:
         opts = CollisionOptions(mode="avoid", blade_count=blades, flute_length=15.0,
                                 holder=HOLDER, safety=1.0, **extra)
-        kw = {} if method == "rotate" else {}
-        if "method" in CollisionOptions.__dataclass_fields__:
-            opts = CollisionOptions(**{**opts.__dict__, "method": method})
-        elif method != "rotate":
-            print(f"  {method}: not available in this tree")
+        if "method" not in CollisionOptions.__dataclass_fields__:
+            print(f"  {method}: not in this tree")
             continue
+        opts = CollisionOptions(**{**opts.__dict__, "method": method})
         t = time.perf_counter()
-        path, rep = run_collisions(mesh, planned, options=opts, **kw)
+        path, rep = run_collisions(mesh, planned, options=opts)
         dt = time.perf_counter() - t
         status = np.concatenate([np.asarray(c.collision["status"]) for c in path.curves])
         unres = int(np.sum(status == 2))
         before = rep.n_colliding_before
-        worst, per_mm = turn_figures(path)
-        line = (f"  {method:6s}: colliding before {before} rows ({100 * before / rep.n_checked:.1f} %"
-                f" of {rep.n_checked}), unresolved pass poses {unres} ({100 * unres / n:.1f} %),"
-                f" program rows unresolved {rep.n_unresolved}; max turn {worst:.2f}° "
-                f"({per_mm:.2f}°/mm); avoidance {dt:.2f} s ({1e3 * dt / n:.2f} ms/pose)")
-        ranges = (path.collision or {}).get("unresolved_ranges")
-        if ranges is not None:
-            line += f"; {len(ranges)} unresolved ranges"
-        print(line, flush=True)
+        worst, excess, over = turn_figures(planned, path, opts.turn_per_mm)
+        ranges = (path.collision or {}).get("unresolved_ranges") or []
+        print(f"  {method:6s}: colliding before {before} of {rep.n_checked} rows "
+              f"({100 * before / rep.n_checked:.1f} %); unresolved pass poses {unres} "
+              f"({100 * unres / n:.1f} %) in {len(ranges)} ranges, program rows "
+              f"{rep.n_unresolved}; max turn {worst:.2f}°, {over} turns over the limit "
+              f"(planned + 2°/mm), worst by {excess:.2f}°; avoidance {dt:.1f} s "
+              f"({1e3 * dt / n:.2f} ms per pass pose)", flush=True)
+        planner = (path.collision or {}).get("planner")
+        if planner:
+            print(f"          planner: {planner}")
+        if (path.collision or {}).get("tool_hint"):
+            print(f"          hint: {path.collision['tool_hint']}")
         if verify:
             t = time.perf_counter()
             vr = verify_path(mesh, path)

@@ -259,6 +259,13 @@ class _Planner:
         self.M = _interp_matrix(_FINE, _GRID)
         self.n_eval = 0
         self.known = {}  # global pose → (F, F) clearance (−inf: not a valid lean)
+        self.raw = {}  # global pose → (G, G) measured clearance of the coarse grid
+        # Lipschitz constant of the clearance in the axis angle (mm/rad): a ball turns about
+        # its centre, so no point of the tool moves further than its distance from the centre
+        a = scene.assembly
+        self.lip = (math.hypot(a.top - self.cutter.radius,
+                               max(a.max_radius, float(self.cutter.max_radius)))
+                    if self.ball else None)
         self.exact = set()  # poses whose fine states were all measured
         self.dlp = self.dtp = None
 
@@ -325,6 +332,8 @@ class _Planner:
     def measure_coarse(self, g):
         """Known clearance of poses g from the coarse grid, interpolated to the states."""
         C = self.grid(g, self.off_c)
+        for gi, c in zip(g, C, strict=True):
+            self.raw[int(gi)] = c
         valid = np.isfinite(C)
         Fc = np.einsum("fa,sab,gb->sfg", self.M, np.where(valid, C, -self.safety - 50.0),
                        self.M)
@@ -342,13 +351,42 @@ class _Planner:
         self.known[gi] = np.where(ok, self.known[gi], -np.inf)
 
     def measure_exact(self, g):
-        """Measure every state of poses g exactly (one batch)."""
+        """Know every state of poses g exactly: measured, or (a ball) proved colliding by
+        the Lipschitz bound from the coarse grid — a state y collides when some measured
+        coarse state x has clearance(x) + L·∠(x, y) < ds (L: the farthest point of the tool
+        from the ball's centre, about which the axis turns; a reported penetration is never
+        shallower than the true one, so the bound holds). One batch."""
         g = np.asarray([x for x in np.unique(g) if int(x) not in self.exact], np.int64)
         if len(g) == 0:
             return
-        C = self.grid(g, self.off_f)
-        for gi, c in zip(g, C, strict=True):
-            self.known[int(gi)] = c
+        new = np.asarray([x for x in g if int(x) not in self.raw], np.int64)
+        if len(new):
+            self.measure_coarse(new)
+        F, G = _FINE, _GRID
+        need = np.ones((len(g), F * F), bool)
+        bound = np.full((len(g), F * F), np.inf)
+        if self.lip is not None:
+            for j, gi in enumerate(g):
+                Af = self.state_axes(int(gi)).reshape(-1, 3)
+                Ac = self.axes(np.full(G * G, gi), np.repeat(self.off_c, G),
+                               np.tile(self.off_c, G))
+                ang = np.arccos(np.clip(Af @ Ac.T, -1.0, 1.0))
+                c = self.raw[int(gi)].reshape(-1)
+                c = np.where(np.isfinite(c), c, np.inf)
+                bound[j] = np.min(c[None, :] + self.lip * ang, axis=1)
+                need[j] = bound[j] >= self.safety
+        gg = np.repeat(g, F * F)[need.ravel()]
+        dl = np.tile(np.repeat(self.off_f, F), len(g))[need.ravel()]
+        dt = np.tile(np.tile(self.off_f, F), len(g))[need.ravel()]
+        ax = self.axes(gg, dl, dt)
+        ok = self.valid(gg, dl, dt, ax)
+        c = np.full(len(gg), -np.inf)
+        c[ok] = self.clearance(self.tips(gg[ok], ax[ok]), ax[ok])
+        out = np.where(np.isfinite(bound), np.minimum(bound, self.safety - 1e-6), -np.inf)
+        out[need] = c
+        prev = [self.known[int(gi)] for gi in g]
+        for gi, o, p in zip(g, out.reshape(len(g), F, F), prev, strict=True):
+            self.known[int(gi)] = np.where(np.isfinite(p), o, -np.inf)  # invalid stays out
             self.exact.add(int(gi))
 
     # --- the shortest path -----------------------------------------------------------------

@@ -18,7 +18,7 @@ from .posed_tool import PART_FLUTE
 __all__ = ["describe_ranges", "holder_hint", "unresolved_ranges"]
 
 #: unresolved poses sampled by the holder search (evenly over them)
-_HINT_POSES = 400
+_HINT_POSES = 100
 #: stick-out increments tried, mm
 _STICK_OUT = (5.0, 10.0, 15.0, 20.0, 30.0, 40.0, 60.0, 80.0, 100.0)
 
@@ -55,6 +55,26 @@ def describe_ranges(ranges, limit: int = 3) -> str:
     return "; ".join(parts) + (f"; and {more} more range(s)" if more > 0 else "")
 
 
+def _first(values, ok, largest):
+    """Bisection over ascending ``values`` for a predicate that holds from some value down
+    (``largest``: the largest value that holds) or up (the smallest): None if none does."""
+    lo, hi = 0, len(values) - 1
+    best = None
+    while lo <= hi:
+        mid = (lo + hi) // 2
+        if ok(values[mid]):
+            best = values[mid]
+            if largest:
+                lo = mid + 1
+            else:
+                hi = mid - 1
+        elif largest:
+            hi = mid - 1
+        else:
+            lo = mid + 1
+    return None if best is None else float(best)
+
+
 def _clears(scene, tips, axes):
     return scene.detect(tips, axes).clearance >= scene.safety
 
@@ -87,22 +107,28 @@ def holder_hint(scene, P, unresolved, plan=None) -> str:
     wide = prof[:, 1] > rs + 1e-9
     if wide.any():
         rh = float(prof[wide, 1].max())
-        for r in np.arange(rh - 1.0, rs - 1e-9, -1.0):
+
+        def slim(r):
             p = prof.copy()
             p[wide, 1] = np.minimum(p[wide, 1], r)
-            if ok_with(p):
-                found.append(f"a holder of Ø{2 * r:g} mm or less (now Ø{2 * rh:g})")
-                break
+            return p
+
+        radii = np.arange(rh - 1.0, rs - 1e-9, -1.0)  # descending: the first that clears
+        r = _first(radii[::-1], lambda r: ok_with(slim(r)), largest=True)
+        if r is not None:
+            found.append(f"a holder of Ø{2 * r:g} mm or less (now Ø{2 * rh:g})")
         first = int(np.argmax(wide))
         z0 = float(prof[first - 1, 0]) if first > 0 else float(prof[0, 0])
-        for dz in _STICK_OUT:
+
+        def longer(dz):
             p = prof.copy()
             p[first:, 0] += dz
-            p = np.vstack([p[:first], [[z0 + dz, rs]], p[first:]])
-            if ok_with(p):
-                found.append(f"the shank out to {z0 + dz:g} mm before the holder (now "
-                             f"{z0:g} mm)")
-                break
+            return np.vstack([p[:first], [[z0 + dz, rs]], p[first:]])
+
+        dz = _first(np.asarray(_STICK_OUT), lambda dz: ok_with(longer(dz)), largest=False)
+        if dz is not None:
+            found.append(f"the shank out to {z0 + dz:g} mm before the holder (now "
+                         f"{z0:g} mm)")
     n = int(np.sum(unresolved))
     if found:
         return (f"{n} unresolved pose(s) would clear with " + " or with ".join(found)
