@@ -179,3 +179,18 @@ def test_avoidance_stays_inside_the_machines_reach(case):
     changed = np.linalg.norm(ax - ax0, axis=1) > 1e-12
     assert changed.any()
     assert reachable_axes(m, ax[changed]).all()
+
+
+def test_channel_reference_is_the_mid_plane_radial():
+    from blisk_cam.core.collision.axis_plan import channel_reference
+    from blisk_cam.core.geometry.axis import Axis
+
+    n_blades = 12
+    th = np.radians([0.0, 40.0, 200.0])
+    cc = np.stack([150 * np.cos(th), 150 * np.sin(th), [5.0, -3.0, 10.0]], 1)
+    tangent = np.stack([-np.sin(th), np.cos(th), np.zeros(3)], 1)
+    normal = np.array([1.0, -1.0, 1.0])[:, None] * tangent  # facing ±θ
+    ref = channel_reference(cc, normal, Axis(), n_blades)
+    mid = th + np.array([1.0, -1.0, 1.0]) * math.pi / n_blades
+    want = np.stack([np.cos(mid), np.sin(mid), np.zeros(3)], 1)
+    assert np.allclose(ref, want, atol=1e-12)

@@ -1,5 +1,11 @@
-"""Collision avoidance by the smallest rotation of the tool axis (paper 004 §3), and the one
-entry point the front ends call (:func:`run_collisions`).
+"""Collision avoidance, and the one entry point the front ends call (:func:`run_collisions`).
+
+Mode "avoid" has two methods (``CollisionOptions.method``): **"plan"** (default) chooses the
+axes of every pass together by shortest path (:mod:`.axis_plan`: clear, within the lean
+limits and a turn limit per mm, the motion between poses checked; unresolved poses as
+ranges with a reason, :mod:`.ranges`); **"rotate"** is paper 004 §3, the smallest rotation
+of each colliding pose, described below (kept for comparison: its axes may jump between
+neighbouring poses).
 
 For a cutting pose whose tool assembly comes closer than ds to an obstacle
 (:mod:`.collision`), let F be the closest obstacle point and P the pivot — the ball centre

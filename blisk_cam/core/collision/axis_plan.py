@@ -8,34 +8,40 @@ the ball leaves the surface between them. Here the axis of every pose of a pass 
 channel under a maximum angle step):
 
 1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
-   the arc length a full-size turn needs at the turn limit (``max lean / turn_per_mm``): the
+   the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
    ramps in and out. Outside the window the planned axis is kept.
-2. **Candidates.** Per window pose a grid of axes in (lead, tilt) about the pose's reference
-   (the planned axis, or the channel reference, below) inside the lean limits
-   (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the surface normal as in
-   :mod:`..paths.gouge`; a plan that leans further keeps its own lean as the limit), the
-   planned axis itself always among them. Each candidate's tip keeps the contact (ball: the
-   centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
-   CC point and normal, plus the plan's few-µm lift λ along the normal), and its clearance
-   comes from :meth:`.scene.CollisionScene.detect`, all candidates of all window poses in one
-   batched call. A candidate the cutter cannot touch the surface with, or (a machine given)
-   the rotaries cannot produce (:func:`..machine.kinematics.reachable_axes`), is excluded.
-   Where no grid candidate of a pose clears, the grid is refined about its best candidates
-   (half and quarter steps) before the pose is given up.
-3. **Shortest path (Viterbi).** Along each pass the sequence of candidates minimising
+2. **States.** Per window pose the lean states: a grid of (lead, tilt) offsets about the
+   pose's reference (the planned axis, or the channel reference below), ±30° in 5° steps,
+   clipped into the lean limits (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the
+   surface normal as in :mod:`..paths.gouge`; a plan that leans further keeps its own lean
+   as the limit). A state's tip keeps the contact (ball: the centre fixed; bull nose / flat
+   / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the CC point and normal, plus the
+   plan's few-µm lift λ along the normal). A state the cutter cannot touch the surface with,
+   or (a machine given) the rotaries cannot produce (:func:`..machine.kinematics.
+   reachable_axes`), is excluded.
+3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
+   of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
+   edges). At each station a coarse 10° grid is measured by
+   :meth:`.scene.CollisionScene.detect` — every station of every pass in one batched call —
+   and interpolated onto the states. Poses the plan leaves colliding become stations whose
+   states are all known exactly: measured, or, for a ball, proved colliding by the Lipschitz
+   bound of the clearance in the axis angle (no tool point moves further than its distance
+   from the ball's centre, about which the axis turns).
+4. **Shortest path (Viterbi).** Along each run of window poses the state sequence minimising
 
-       Σ_i [ C·[clr_i < ds] (C ≫ any lean cost; then the deepest such pose the least)
-             + ((lead_i − lead_ref,i)² + (tilt_i − tilt_ref,i)²) ]  +  w Σ_i turn_i²
+       Σ_stations [ C·[clr < ds] (C ≫ any lean cost; then the least deep)
+                    + (lead − lead_ref)² + (tilt − tilt_ref)² ]
 
-   subject to turn(i, i+1) ≤ max(turn_per_mm · |cc_{i+1} − cc_i| (capped per pose by
-   ``max_turn`` when given), the planned turn there) — a hard constraint, so the limit
-   holds between every two consecutive poses (the planned path always satisfies it: a
-   feasible sequence exists). Since a colliding candidate costs more than any lean, the path
-   leaves as few poses colliding as the limits allow.
-4. **The motion between poses.** Each chosen transition is sampled (the tip linear, the axis
-   turned uniformly, :data:`_MOTION_SAMPLES` points inside); a transition whose samples
-   collide while both ends are clear is forbidden and the pass planned again (up to
-   :data:`_MOTION_ROUNDS` rounds); what still collides is reported.
+   with the exact turn between the states of consecutive stations within the planned turn
+   plus ``turn_per_mm`` × their arc distance (and from/to the fixed planned poses around the
+   run). Between stations the lean is linear in arc length; a pose pair that still turns
+   faster than :func:`turn_limits` is clamped (the later axis turned toward the earlier).
+   Since a colliding state costs more than any lean, the path leaves as few stations
+   colliding as the limits allow.
+5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
+   linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
+   exactly; poses left colliding become exact stations and the runs are planned again
+   (:data:`_ROUNDS` rounds).
 
 **Channel reference.** With ``reference="channel"`` the lean cost is measured from the axis
 interpolated between the two blade sides of the gap: the radial direction of the channel's
@@ -45,11 +51,11 @@ mid-plane at the pose (the meridional plane turned from the CC point's by half t
 (leading and trailing edges of a blade pass).
 
 **Unresolved poses** (clearance < ds at the chosen axis) come as ranges per pass (pass,
-first, last pose, why): "no axis within the limits clears" (every candidate, refined
-included, collides — the pose is a fact about the tool and holder), "the turn limit" (a
-clear candidate exists but no sequence within the turn limit reaches it), "the machine's
-reach" (clear candidates only outside the rotaries' limits), or "the motion from the pose
-before collides".
+first, last pose, why): "no axis within the limits clears" (every state collides — the
+pose is a fact about the tool and holder), "the turn limit" (a
+clear state exists, or was not ruled out, but no sequence within the turn limit reaches it), "the machine's
+reach" (named with the turn limit when a machine is given), or "the motion from the pose
+before collides". "No axis" is claimed only for poses whose every state is known exactly.
 
 Lengths mm, angles radians; numpy only (the distance machinery of :mod:`.scene`).
 """
@@ -89,7 +95,6 @@ _ROUNDS = 4
 
 REASON_NO_AXIS = "no axis within the lean limits clears"
 REASON_TURN = "the turn limit keeps the clear axes out of reach"
-REASON_REACH = "the clear axes are outside the machine's reach"
 REASON_MOTION = "the motion from the pose before collides"
 
 

@@ -83,7 +83,7 @@ class CollisionOptions(OptionGroup):
         "rotate (paper 004: each colliding pose by its smallest rotation, then smoothed)",
         choices=(Choice("plan", "Plan", "Axis planner over the whole pass"),
                  Choice("rotate", "Rotate", "Per-pose smallest rotation (paper 004)")),
-        flag="--avoid-method")
+        flag="--avoid-method", prop="avoid_method")
     turn_per_mm: float = option(
         math.radians(2.0), "Max Turn per mm", "Avoidance (plan) turns the tool axis by at most "
         "this many degrees per mm of path between consecutive poses (or the planned turn "
