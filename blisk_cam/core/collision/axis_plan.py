@@ -51,11 +51,11 @@ mid-plane at the pose (the meridional plane turned from the CC point's by half t
 (leading and trailing edges of a blade pass).
 
 **Unresolved poses** (clearance < ds at the chosen axis) come as ranges per pass (pass,
-first, last pose, why): "no axis within the limits clears" (every state collides — the
-pose is a fact about the tool and holder), "the turn limit" (a
-clear state exists, or was not ruled out, but no sequence within the turn limit reaches it), "the machine's
-reach" (named with the turn limit when a machine is given), or "the motion from the pose
-before collides". "No axis" is claimed only for poses whose every state is known exactly.
+first, last pose, why): "no axis within the limits clears" (every state collides — the pose
+is a fact about the tool and holder), "the turn limit" (a clear state exists, or was not
+ruled out, but no sequence within the turn limit reaches it; "or the machine's reach" when a
+machine is given), or "the motion from the pose before collides". "No axis" is claimed only
+for poses whose every state is known exactly.
 
 Lengths mm, angles radians; numpy only (the distance machinery of :mod:`.scene`).
 """
