@@ -194,3 +194,22 @@ def test_channel_reference_is_the_mid_plane_radial():
     mid = th + np.array([1.0, -1.0, 1.0]) * math.pi / n_blades
     want = np.stack([np.cos(mid), np.sin(mid), np.zeros(3)], 1)
     assert np.allclose(ref, want, atol=1e-12)
+
+
+def test_cli_names_the_unresolved_ranges_and_the_hint(case, capsys):
+    """The CLI's collision lines read the ranges and the hint from the JSON summary."""
+    from types import SimpleNamespace
+
+    from blisk_cam.cli.paths import _collision_lines
+
+    _, _, _, out = case
+    new, rep, _ = out["plan"]
+    ranges = new.collision["unresolved_ranges"]
+    assert ranges and new.collision["tool_hint"]
+    got = _collision_lines(SimpleNamespace(collision=rep, path=new))
+    text = capsys.readouterr().out
+    r = ranges[0]
+    assert f"unresolved pass poses in {len(ranges)} range(s): pass {r['pass']} poses " \
+        f"{r['from']}–{r['to']} ({r['why']})" in text
+    assert f"hint: {new.collision['tool_hint']}" in text
+    assert got[0] == rep.n_unresolved
