@@ -79,12 +79,13 @@ __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
 MIN_STEP = 0.05
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
-#: coarse clearance grid per lean direction, measured at every station (odd)
-_GRID = 7
-#: the lean states of the shortest path per direction (odd; measured exactly where needed)
-_FINE = 13
-#: widest lean swing searched about the reference, rad
-_SWING = math.radians(30.0)
+#: the lean states' step, and the coarse grid's (measured at every station), rad
+_STEP = math.radians(5.0)
+_COARSE = 2
+#: widest lean swing searched about the reference (where the limits allow), rad
+_SWING = math.radians(60.0)
+#: the window's ramp: the arc a turn of this angle needs at the turn limit, rad
+_RAMP = math.radians(30.0)
 #: cost of a colliding state (the lean costs are ≤ a few rad²)
 _COLLIDE = 1e3
 #: largest lean step between stations, in state steps
@@ -221,14 +222,15 @@ def _arc(cc):
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
 
 
-def _interp_matrix(n_fine, n_coarse):
-    """(n_fine, n_coarse) linear interpolation weights between two uniform grids of [−1, 1]."""
-    x = np.linspace(0.0, n_coarse - 1.0, n_fine)
-    j = np.minimum(np.floor(x).astype(np.int64), n_coarse - 2)
-    t = x - j
-    M = np.zeros((n_fine, n_coarse))
-    M[np.arange(n_fine), j] = 1 - t
-    M[np.arange(n_fine), j + 1] += t
+def _interp_matrix_idx(n, idx):
+    """(n, len(idx)) linear interpolation weights from the values at the sorted indices
+    ``idx`` of 0..n−1 to every index."""
+    x = np.arange(n, dtype=np.float64)
+    j = np.clip(np.searchsorted(idx, x, side="right") - 1, 0, len(idx) - 2)
+    t = (x - idx[j]) / (idx[j + 1] - idx[j])
+    M = np.zeros((n, len(idx)))
+    M[np.arange(n), j] = 1 - t
+    M[np.arange(n), j + 1] += t
     return M
 
 
@@ -250,7 +252,7 @@ class _Planner:
     clearance known per station (interpolated from the coarse grid, or exact), the batched
     evaluations."""
 
-    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine):
+    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span):
         self.scene, self.P = scene, P
         self.f, self.k, self.lim_l, self.lim_t = lim
         self.ref_l, self.ref_t = ref_l, ref_t  # (n,) rad
@@ -258,13 +260,20 @@ class _Planner:
         self.cutter = scene.cutter
         self.ball = self.cutter.type == "ball"
         self.safety = scene.safety
-        self.off_c = np.linspace(-_SWING, _SWING, _GRID)
-        self.off_f = np.linspace(-_SWING, _SWING, _FINE)
-        self.step = self.off_f[1] - self.off_f[0]
-        self.M = _interp_matrix(_FINE, _GRID)
+        # the states: offsets from the reference per lean direction (lead, tilt), k·step
+        # over the span the window's limits need (at most ±_SWING), the reference a state
+        self.step = _STEP
+        self.off = [np.arange(int(round(lo / _STEP)), int(round(hi / _STEP)) + 1) * _STEP
+                    for lo, hi in span]
+        # the coarse grid: every _COARSE-th state, both ends included
+        self.cidx = [np.unique(np.r_[np.arange(0, len(o), _COARSE), len(o) - 1])
+                     for o in self.off]
+        self.M = [_interp_matrix_idx(len(o), ci) for o, ci in zip(self.off, self.cidx,
+                                                                   strict=True)]
+        self.shape = (len(self.off[0]), len(self.off[1]))
         self.n_eval = 0
-        self.known = {}  # global pose → (F, F) clearance (−inf: not a valid lean)
-        self.raw = {}  # global pose → (G, G) measured clearance of the coarse grid
+        self.known = {}  # global pose → (Fl, Ft) clearance (−inf: not a valid state)
+        self.raw = {}  # global pose → (Gl, Gt) measured clearance of the coarse grid
         # Lipschitz constant of the clearance in the axis angle (mm/rad): a ball turns about
         # its centre, so no point of the tool moves further than its distance from the centre
         a = scene.assembly
@@ -288,8 +297,12 @@ class _Planner:
         return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
 
     def valid(self, g, dl, dt, ax):
-        """(k,) bool: the cutter touches and (a machine given) the rotaries reach."""
-        ok = _touch_ok(self.cutter, self.P.nrm[g], ax)
+        """(k,) bool: a state of its own (beyond a lean limit only the first state, which the
+        clip puts on the limit), the cutter touches and (a machine given) the rotaries
+        reach."""
+        ok = (np.abs(self.ref_l[g] + dl) < self.lim_l[g] + self.step - 1e-9) & \
+            (np.abs(self.ref_t[g] + dt) < self.lim_t[g] + self.step - 1e-9)
+        ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
         if self.machine is not None and ok.any():
             ok[ok] = reachable_axes(self.machine, ax[ok])
         return ok
@@ -300,24 +313,37 @@ class _Planner:
             return np.zeros(0)
         return self.scene.detect(tips, axes).clearance
 
-    def grid(self, g, offsets):
-        """Measure the lean grid ``offsets`` × ``offsets`` at poses g (one batch): (s, m, m)
-        clearance, −inf where the lean is not valid."""
-        m = len(offsets)
-        gg = np.repeat(g, m * m)
-        dl = np.tile(np.repeat(offsets, m), len(g))
-        dt = np.tile(np.tile(offsets, m), len(g))
-        ax = self.axes(gg, dl, dt)
-        ok = self.valid(gg, dl, dt, ax)
+    def _states(self, g, il, it):
+        """(k,) poses, lead and tilt offsets of the states (il × it index grids) at poses g."""
+        a, b = len(il), len(it)
+        gg = np.repeat(g, a * b)
+        dl = np.tile(np.repeat(self.off[0][il], b), len(g))
+        dt = np.tile(np.tile(self.off[1][it], a), len(g))
+        return gg, dl, dt
+
+    def grid(self, g, il, it, need=None):
+        """Measure the states il × it at poses g (one batch; only where ``need`` (s, a·b)
+        when given): (s, a, b) clearance, −inf where the state is not valid."""
+        gg, dl, dt = self._states(g, il, it)
+        sel = np.ones(len(gg), bool) if need is None else need.ravel()
+        ax = self.axes(gg[sel], dl[sel], dt[sel])
+        ok = self.valid(gg[sel], dl[sel], dt[sel], ax)
         c = np.full(len(gg), -np.inf)
-        c[ok] = self.clearance(self.tips(gg[ok], ax[ok]), ax[ok])
-        return c.reshape(len(g), m, m)
+        cs = np.full(int(sel.sum()), -np.inf)
+        cs[ok] = self.clearance(self.tips(gg[sel][ok], ax[ok]), ax[ok])
+        c[sel] = cs
+        return c.reshape(len(g), len(il), len(it))
 
     def state_axes(self, gi):
-        """(F, F, 3) axes of every lean state at pose gi."""
-        F = _FINE
-        gg = np.full(F * F, gi)
-        return self.axes(gg, np.repeat(self.off_f, F), np.tile(self.off_f, F)).reshape(F, F, 3)
+        """(Fl, Ft, 3) axes of every lean state at pose gi."""
+        gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
+                                  np.arange(self.shape[1]))
+        return self.axes(gg, dl, dt).reshape(*self.shape, 3)
+
+    def state_valid(self, gi):
+        gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
+                                  np.arange(self.shape[1]))
+        return self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(self.shape)
 
     # --- stations --------------------------------------------------------------------------
     def stations(self, g, arc):
@@ -336,24 +362,13 @@ class _Planner:
 
     def measure_coarse(self, g):
         """Known clearance of poses g from the coarse grid, interpolated to the states."""
-        C = self.grid(g, self.off_c)
+        C = self.grid(g, *self.cidx)
         for gi, c in zip(g, C, strict=True):
             self.raw[int(gi)] = c
-        valid = np.isfinite(C)
-        Fc = np.einsum("fa,sab,gb->sfg", self.M, np.where(valid, C, -self.safety - 50.0),
-                       self.M)
-        for gi, fc in zip(g, Fc, strict=True):
-            self.known[int(gi)] = fc
-        # states that are not valid leans stay excluded
-        for gi in g:
-            self._exclude_invalid(int(gi))
-
-    def _exclude_invalid(self, gi):
-        F = _FINE
-        gg = np.full(F * F, gi)
-        dl, dt = np.repeat(self.off_f, F), np.tile(self.off_f, F)
-        ok = self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(F, F)
-        self.known[gi] = np.where(ok, self.known[gi], -np.inf)
+        Fc = np.einsum("fa,sab,gb->sfg", self.M[0],
+                       np.where(np.isfinite(C), C, -self.safety - 50.0), self.M[1])
+        for gi, fc in zip(g, Fc, strict=True):  # states that are not valid stay out
+            self.known[int(gi)] = np.where(self.state_valid(int(gi)), fc, -np.inf)
 
     def measure_exact(self, g):
         """Know every state of poses g exactly: measured, or (a ball) proved colliding by
@@ -367,43 +382,36 @@ class _Planner:
         new = np.asarray([x for x in g if int(x) not in self.raw], np.int64)
         if len(new):
             self.measure_coarse(new)
-        F, G = _FINE, _GRID
-        need = np.ones((len(g), F * F), bool)
-        bound = np.full((len(g), F * F), np.inf)
+        nst = self.shape[0] * self.shape[1]
+        need = np.ones((len(g), nst), bool)
+        bound = np.full((len(g), nst), np.inf)
         if self.lip is not None:
             for j, gi in enumerate(g):
                 Af = self.state_axes(int(gi)).reshape(-1, 3)
-                Ac = self.axes(np.full(G * G, gi), np.repeat(self.off_c, G),
-                               np.tile(self.off_c, G))
+                gg, dl, dt = self._states(np.asarray([gi]), *self.cidx)
+                Ac = self.axes(gg, dl, dt)
                 ang = np.arccos(np.clip(Af @ Ac.T, -1.0, 1.0))
                 c = self.raw[int(gi)].reshape(-1)
                 c = np.where(np.isfinite(c), c, np.inf)
                 bound[j] = np.min(c[None, :] + self.lip * ang, axis=1)
                 need[j] = bound[j] >= self.safety
-        gg = np.repeat(g, F * F)[need.ravel()]
-        dl = np.tile(np.repeat(self.off_f, F), len(g))[need.ravel()]
-        dt = np.tile(np.tile(self.off_f, F), len(g))[need.ravel()]
-        ax = self.axes(gg, dl, dt)
-        ok = self.valid(gg, dl, dt, ax)
-        c = np.full(len(gg), -np.inf)
-        c[ok] = self.clearance(self.tips(gg[ok], ax[ok]), ax[ok])
+        c = self.grid(g, np.arange(self.shape[0]), np.arange(self.shape[1]), need)
         out = np.where(np.isfinite(bound), np.minimum(bound, self.safety - 1e-6), -np.inf)
-        out[need] = c
-        prev = [self.known[int(gi)] for gi in g]
-        for gi, o, p in zip(g, out.reshape(len(g), F, F), prev, strict=True):
-            self.known[int(gi)] = np.where(np.isfinite(p), o, -np.inf)  # invalid stays out
+        out[need] = c.reshape(len(g), nst)[need]
+        for gi, o in zip(g, out.reshape(len(g), *self.shape), strict=True):
+            self.known[int(gi)] = np.where(np.isfinite(self.known[int(gi)]), o, -np.inf)
             self.exact.add(int(gi))
 
     # --- the shortest path -----------------------------------------------------------------
     def _moves(self, Ap, Ac, limit):
         """Offsets (o, 2) and (o, F, F) bool: the state x at the later station may follow
         the state x − offset at the earlier one (turn ≤ ``limit``, exact)."""
-        F, r = _FINE, _MAX_R
+        (Fl, Ft), r = self.shape, _MAX_R
         offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1) if a * a + b * b
                 <= r * r]
-        pad = np.full((F + 2 * r, F + 2 * r, 3), np.nan)
-        pad[r:r + F, r:r + F] = Ap
-        prev = np.stack([pad[r - a:r - a + F, r - b:r - b + F] for a, b in offs])
+        pad = np.full((Fl + 2 * r, Ft + 2 * r, 3), np.nan)
+        pad[r:r + Fl, r:r + Ft] = Ap
+        prev = np.stack([pad[r - a:r - a + Fl, r - b:r - b + Ft] for a, b in offs])
         cos = np.einsum("oijk,ijk->oij", prev, Ac)
         with np.errstate(invalid="ignore"):
             ok = cos >= math.cos(limit) - 1e-12
@@ -411,7 +419,7 @@ class _Planner:
 
     def node_costs(self, gi):
         c = self.known[int(gi)]
-        dev = self.off_f[:, None] ** 2 + self.off_f[None, :] ** 2
+        dev = self.off[0][:, None] ** 2 + self.off[1][None, :] ** 2
         node = np.where(c >= self.safety, dev, _COLLIDE + self.safety
                         - np.maximum(c, -self.safety - 50.0))
         return np.where(np.isfinite(c), node, np.inf)
@@ -419,7 +427,7 @@ class _Planner:
     def plan_run(self, r: _Run):
         """(s, 2) fine states of the stations of run r minimising the costs under the exact
         turn limit between stations (and from/to the fixed poses), or None."""
-        P, F = self.P, _FINE
+        P, (Fl, Ft) = self.P, self.shape
         gst = r.g[r.st]
         A = [self.state_axes(int(gi)) for gi in gst]
         cost = self.node_costs(gst[0])
@@ -434,9 +442,9 @@ class _Planner:
                 self.rate * max(gap, MIN_STEP)
             offs, ok = self._moves(A[j - 1], A[j], lim)
             rr = _MAX_R
-            pad = np.full((F + 2 * rr, F + 2 * rr), np.inf)
-            pad[rr:rr + F, rr:rr + F] = cost
-            stack = np.stack([pad[rr - a:rr - a + F, rr - b:rr - b + F] for a, b in offs])
+            pad = np.full((Fl + 2 * rr, Ft + 2 * rr), np.inf)
+            pad[rr:rr + Fl, rr:rr + Ft] = cost
+            stack = np.stack([pad[rr - a:rr - a + Fl, rr - b:rr - b + Ft] for a, b in offs])
             stack = np.where(ok, stack, np.inf)
             arg = np.argmin(stack, axis=0)
             best = np.take_along_axis(stack, arg[None], 0)[0]
@@ -483,7 +491,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     cc, nrm, tip0, ax0 = P.cc, P.nrm, P.tip0, P.ax0
     n = len(cc)
     f, k_side, lim_lead, lim_tilt = lim
-    win = _windows(offs, cc, colliding, _SWING / max(turn_per_mm, 1e-9) + 1e-9)
+    win = _windows(offs, cc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9)
     tip, axis = tip0.copy(), ax0.copy()
     clear = np.full(n, np.inf)
     if not win.any():
@@ -501,7 +509,15 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if edge_lead:
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
-    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine)
+    w = np.nonzero(win)[0]
+    span = [(max(-_SWING, float(np.min(-lm[w] - rf[w]))), min(_SWING, float(np.max(lm[w] - rf[w]))))
+            for lm, rf in ((lim_lead, ref_l), (lim_tilt, ref_t))]
+    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span)
+    # the states cover the lean limits unless they reach further than the swing
+    covered = bool(np.all(-lim_lead[w] - ref_l[w] >= span[0][0] - 1e-9)
+                   and np.all(lim_lead[w] - ref_l[w] <= span[0][1] + 1e-9)
+                   and np.all(-lim_tilt[w] - ref_t[w] >= span[1][0] - 1e-9)
+                   and np.all(lim_tilt[w] - ref_t[w] <= span[1][1] + 1e-9))
     pl.dlp, pl.dtp = l0 - ref_l, t0 - ref_t  # the planned lean as an offset
     runs = []
     for ci in range(len(offs) - 1):
@@ -548,7 +564,8 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     for gi in np.nonzero(unresolved)[0]:
         c = pl.known.get(int(gi))
         if int(gi) in pl.exact and c is not None and not np.any(c >= pl.safety):
-            why[gi] = REASON_NO_AXIS
+            why[gi] = REASON_NO_AXIS if covered else \
+                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
     why[(clear >= pl.safety) & (motion < pl.safety)] = REASON_MOTION
     if machine is not None:
         why[(why == REASON_TURN) & unresolved] = REASON_TURN + " or the machine's reach"
@@ -569,8 +586,8 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
         if seq is None:
             dl, dt = pl.dlp[r.g], pl.dtp[r.g]
         else:
-            dl = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 0]])
-            dt = np.interp(r.arc, r.arc[r.st], pl.off_f[seq[:, 1]])
+            dl = np.interp(r.arc, r.arc[r.st], pl.off[0][seq[:, 0]])
+            dt = np.interp(r.arc, r.arc[r.st], pl.off[1][seq[:, 1]])
         gs.append(r.g)
         dls.append(dl)
         dts.append(dt)
