@@ -2,7 +2,8 @@
 
 A contact no tool axis within the limits can reach is a fact about the tool and its holder:
 :func:`holder_hint` searches the holder diameter (the body's radii above the shank, down to
-the shank's) and the stick-out (the holder moved up the axis) that would clear the
+the shank's), the stick-out (the holder moved up the axis) and, when neither does, a neck
+(the shank's radius down to half) that would clear the
 unresolved poses at their planned or chosen axes, with the same obstacles
 (:meth:`.scene.CollisionScene.with_assembly`). mm, degrees in the texts.
 """
@@ -129,6 +130,17 @@ def holder_hint(scene, P, unresolved, plan=None) -> str:
         if dz is not None:
             found.append(f"the shank out to {z0 + dz:g} mm before the holder (now "
                          f"{z0:g} mm)")
+    if not found:  # a slimmer neck all the way up (a necked tool, the holder kept)
+        def neck(r):
+            p = prof.copy()
+            p[~wide, 1] = np.minimum(p[~wide, 1], r)
+            return p
+
+        necks = np.arange(0.5 * rs, rs - 0.25, 0.5)
+        r = _first(necks, lambda r: ok_with(neck(r)), largest=True)
+        if r is not None:
+            found.append(f"a neck of Ø{2 * r:g} mm or less up to the holder (now "
+                         f"Ø{2 * rs:g})")
     n = int(np.sum(unresolved))
     if found:
         return (f"{n} unresolved pose(s) would clear with " + " or with ".join(found)
@@ -136,6 +148,6 @@ def holder_hint(scene, P, unresolved, plan=None) -> str:
     if flute:
         return (f"{n} unresolved pose(s): the flute itself touches the neighbouring blade; "
                 f"no holder clears them — a smaller cutter or a larger lean limit")
-    return (f"{n} unresolved pose(s): no holder down to the shank's Ø{2 * rs:g} mm nor a "
-            f"stick-out up to {_STICK_OUT[-1]:g} mm more clears them — a slimmer shank or a "
-            f"larger lean limit")
+    return (f"{n} unresolved pose(s): no holder down to the shank's Ø{2 * rs:g} mm, no "
+            f"stick-out up to {_STICK_OUT[-1]:g} mm more and no neck down to Ø{rs:g} mm "
+            f"clears them — a smaller cutter or larger lean limits")
