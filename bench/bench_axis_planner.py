@@ -9,7 +9,8 @@ Set-up (issue 25): Ø12 ball, 15 mm flute, Ø12 shank to 40 mm, Ø32 holder to 1
 path: cusp 0.05, chord 0.05, local axis (lead 0, tilt 0); Rotor 37: the README's radial
 75° lean, lead 5°, ``--max-tilt 85``.
 
-Printed per case and method: colliding share before, unresolved poses (count and share of
+Printed per case: verify of the planned path (before any avoidance); per method: colliding
+share before, unresolved poses (count and share of
 the pass poses), the largest turn between consecutive pass poses (degrees, and per mm of
 path), verify's material left and gouge (mm; bound cusp + chord and chord), the avoidance
 wall time and its time per pose. Not a timed test: figures only.
@@ -86,6 +87,11 @@ def run(name, methods, verify):
     print(f"\n== {name}: {n} pass poses in {len(planned.curves)} passes, "
           f"planned in {time.perf_counter() - t:.1f} s; {blades} blades, Ø12 ball, flute 15, "
           f"holder {HOLDER}")
+    if verify:
+        t = time.perf_counter()
+        vr = verify_path(mesh, planned)
+        print(f"  planned (no avoidance) verify: material left {vr.max_material_left:.4f} mm, "
+              f"gouge {vr.max_gouge:.4f} mm [{time.perf_counter() - t:.0f} s]", flush=True)
     for method in methods:
         opts = CollisionOptions(mode="avoid", blade_count=blades, flute_length=15.0,
                                 holder=HOLDER, safety=1.0, **extra)
