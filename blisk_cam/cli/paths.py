@@ -150,6 +150,14 @@ def _collision_options(args):
     if given["mode"] != "off" and "blade_count" not in given:
         raise UsageError(f"--collisions {given['mode']} needs --blade-count N (the neighbours "
                          "are the blade turned by k·360°/N)")
+    if given["mode"] == "avoid" and getattr(args, "machine", None):
+        # avoidance keeps the axes inside the rotaries' reach of the machine posted for
+        from ..core.machine.description import load_machine
+
+        try:
+            given["machine"] = load_machine(args.machine)
+        except BliskCamError as exc:
+            raise UsageError(f"--machine {args.machine}: {exc}") from None
     try:
         options = CollisionOptions(**given)
         if options.mode != "off":
@@ -402,6 +410,13 @@ def _collision_lines(plan):
               f"{summary.get('links_rerouted', 0)} re-routed through the clearance surface "
               f"({summary.get('link_poses_rerouted', 0)} poses), "
               f"{summary.get('links_unresolved', 0)} unresolved")
+    ranges = summary.get("unresolved_ranges") or []
+    if ranges:
+        from ..core.collision.ranges import describe_ranges
+
+        print(f"unresolved pass poses in {len(ranges)} range(s): {describe_ranges(ranges)}")
+    if summary.get("tool_hint"):
+        print(f"hint: {summary['tool_hint']}")
     if not rep.n_unresolved:
         return None
     import numpy as np

@@ -9,7 +9,8 @@ meshes of the Obstacles collection. Interactively it runs modal (timer, status b
 ESC cancels and keeps the previous result); in background or with EXEC_DEFAULT
 synchronously. The rewritten output holds the checked path's JSON (so the colours and the
 summary survive save, reload and undo), the status colours, the tool assembly at the worst
-pose and the neighbour blades.
+pose and the neighbour blades. In mode avoid the corrected axes stay inside the reach of
+the machine chosen in the Machine & NC panel.
 """
 
 from __future__ import annotations
@@ -43,6 +44,13 @@ class CollisionJob:
         self.blade_name = blade.name
         self.path = stored_path(blade.name)
         self.options = collision_options(settings)
+        if self.options.mode == "avoid":  # avoidance stays inside the NC machine's reach
+            from dataclasses import replace
+
+            from ..core.machine.description import load_machine
+            from .export_nc import nc_machine
+
+            self.options = replace(self.options, machine=load_machine(nc_machine(settings)))
         depsgraph = context.evaluated_depsgraph_get()
         (self.V, self.F), rest, (self.n_sel, self.n_all) = blade_and_rest(blade, depsgraph)
         extra = []

@@ -48,5 +48,13 @@ class BLISKCAM_PT_collisions(_BliskCamPanel, Panel):
         text = summary.get("assembly_text")
         if text:
             col.label(text=text[:60])
+        ranges = summary.get("unresolved_ranges") or []
+        for r in ranges[:4]:  # the unresolved poses as ranges, with the reason
+            col.label(text=f"Pass {r['pass']} poses {r['from']}–{r['to']}: {r['why']}"[:80],
+                      icon="DOT")
+        if len(ranges) > 4:
+            col.label(text=f"… and {len(ranges) - 4} more range(s)")
+        if summary.get("tool_hint"):
+            col.label(text=summary["tool_hint"][:90], icon="INFO")
         if unresolved:
             layout.operator("blisk_cam.next_unresolved_pose", icon="CURSOR")

@@ -33,11 +33,19 @@ def test_unresolved_collisions_exit_4_with_outputs_written(blade, tmp_path, caps
     rc = cli.main(_args(blade, out, "--blade-count", "24", "--collisions", "avoid", "--holder",
                         "36 6 60 6 60 16 120 16", "--nc", str(nc), "--machine",
                         "ac-trunnion", "--post", "linuxcnc"))
-    err = capsys.readouterr().err.strip().splitlines()
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
     d = json.loads(out.read_text())
     status = np.concatenate([c["collision"]["status"] for c in d["curves"]])
     unresolved = d["collision"]["unresolved"]
     assert d["collision"]["mode"] == "avoid"
+    ranges = d["collision"].get("unresolved_ranges", [])
+    in_ranges = sum(r["to"] - r["from"] + 1 for r in ranges)
+    assert in_ranges == int(np.sum(status == 2))  # every unresolved pass pose in a range
+    if ranges:  # the CLI names them, with the reason, and says which holder would clear
+        assert f"unresolved pass poses in {len(ranges)} range(s): pass {ranges[0]['pass']} " \
+            f"poses {ranges[0]['from']}–{ranges[0]['to']} ({ranges[0]['why']})" in captured.out
+        assert "hint: " in captured.out
     assert len(d["program"]["collision_status"]) == len(d["program"]["tip"])
     if unresolved:
         assert rc == 4 and len(err) == 1 and f"{unresolved} pose(s)" in err[0]

@@ -240,7 +240,7 @@ def channel():
     req = PathRequest(axis=d.axis, cone1=h, cone2=mid, tool_type="ball", tool_radius=3.0,
                       cusp=0.3, chord=0.05, axis_mode="radial", radial_tilt=math.radians(20))
     path = plan_paths(mesh, req).path
-    opts = CollisionOptions(mode="avoid", blade_count=N_BLADES, neighbours=1,
+    opts = CollisionOptions(mode="avoid", method="rotate", blade_count=N_BLADES, neighbours=1,
                             flute_length=12.0, holder=HOLDER, safety=1.0)
     fractions = []
     out, rep = run_collisions(mesh, path, [], opts, progress=fractions.append)

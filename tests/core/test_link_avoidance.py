@@ -69,7 +69,7 @@ def scene():
                       cusp=0.6, chord=0.1, axis_mode="radial", radial_tilt=math.radians(20),
                       direct_link=0.0)
     path = plan_paths(mesh, req).path
-    opts = CollisionOptions(mode="avoid", blade_count=N_BLADES, neighbours=1,
+    opts = CollisionOptions(mode="avoid", method="rotate", blade_count=N_BLADES, neighbours=1,
                             flute_length=12.0, holder=HOLDER, safety=SAFETY)
     blade = (d.blade_vertices, d.blade_faces)  # the whole blade is the obstacle
     out, rep = run_collisions(blade, path, [], opts)

@@ -1,5 +1,11 @@
-"""Collision avoidance by the smallest rotation of the tool axis (paper 004 §3), and the one
-entry point the front ends call (:func:`run_collisions`).
+"""Collision avoidance, and the one entry point the front ends call (:func:`run_collisions`).
+
+Mode "avoid" has two methods (``CollisionOptions.method``): **"plan"** (default) chooses the
+axes of every pass together by shortest path (:mod:`.axis_plan`: clear, within the lean
+limits and a turn limit per mm, the motion between poses checked; unresolved poses as
+ranges with a reason, :mod:`.ranges`); **"rotate"** is paper 004 §3, the smallest rotation
+of each colliding pose, described below (kept for comparison: its axes may jump between
+neighbouring poses).
 
 For a cutting pose whose tool assembly comes closer than ds to an obstacle
 (:mod:`.collision`), let F be the closest obstacle point and P the pivot — the ball centre
@@ -75,9 +81,11 @@ from ..toolpath.types import (
     Program,
     ToolPath,
 )
+from .axis_plan import plan_axes, turn_limits
 from .obstacles import Obstacle, Obstacles
 from .options import CollisionOptions
 from .posed_tool import PART_FLUTE, _posed_sd
+from .ranges import holder_hint, unresolved_ranges
 from .report import CollisionReport
 from .reroute import reroute_links
 from .scene import CollisionScene, Detection
@@ -349,13 +357,14 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
     off0 = _contact_offsets(cutter, cc, nrm, tip0, ax0)
     P = _Poses(cc, nrm, tip0, ax0, off0, tip0.copy(), ax0.copy(), np.full(n, np.nan),
                np.full(n, np.nan), np.zeros(n))
-    det = det0
+    det, plan = det0, None
     if options.mode == "avoid" and det0.colliding.any():
-        det = yield from _avoid(scene, path, options, curves, offs, P, det0)
+        det, plan = yield from _avoid(scene, path, options, curves, offs, P, det0)
     tip, ax = P.tip, P.ax
     # per pose status
     changed = (angle_between(ax, ax0) > 1e-9) | (np.linalg.norm(tip - tip0, axis=1) > 1e-9)
-    status = np.where(det.colliding, STATUS_UNRESOLVED,
+    bad = det.colliding if plan is None else det.colliding | plan.unresolved
+    status = np.where(bad, STATUS_UNRESOLVED,
                       np.where(changed, STATUS_CORRECTED, STATUS_CLEAR)).astype(np.int8)
     rotation = angle_between(ax, ax0)
     same = np.all(ax == ax0, axis=1)
@@ -367,6 +376,17 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
                        "rotation": rotation[s:e].copy()}
     report = _curve_report(scene, options, offs, P, status, det, rotation)
     _count_turn_over(report, path, curves, options)
+    if options.mode == "avoid":
+        report.method = options.method
+    if plan is not None:
+        report.unresolved_ranges = unresolved_ranges(offs, status, det.clearance, plan)
+        report.planner = {"poses_planned": plan.n_window, "candidates": plan.n_candidates,
+                          "turn_per_mm_deg": math.degrees(options.turn_per_mm),
+                          "axis_reference": options.axis_reference}
+        if report.unresolved_ranges:
+            report.tool_hint = holder_hint(scene, P, status == STATUS_UNRESOLVED, plan)
+    elif options.mode != "off":
+        report.unresolved_ranges = unresolved_ranges(offs, status, det.clearance, None)
     program = None
     if path.program is not None:
         program, final, coll_before = yield from _checked_program(
@@ -387,9 +407,12 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
 
 
 def _avoid(scene, path, options, curves, offs, P: _Poses, det0):
-    """Generator: paper 004 §3 on the colliding poses — rotate, lift, smooth, check again —
-    changing ``P.tip`` and ``P.ax`` in place; returns the Detection of the final poses."""
+    """Generator: the axis planner (method "plan", :mod:`.axis_plan`) or paper 004 §3 on
+    the colliding poses — rotate, lift, smooth, check again — changing ``P.tip`` and
+    ``P.ax`` in place; returns (the Detection of the final poses, the AxisPlan or None)."""
     lim = _lean_limits(curves, options, P)
+    if options.method == "plan":
+        return (yield from _avoid_by_plan(scene, path, options, curves, offs, P, det0, lim))
     unresolved = yield from _rotate_colliding(scene, options, P, det0, lim)
     # unresolved poses keep their planned pose
     P.tip[unresolved], P.ax[unresolved] = P.tip0[unresolved], P.ax0[unresolved]
@@ -406,7 +429,28 @@ def _avoid(scene, path, options, curves, offs, P: _Poses, det0):
         P.tip[b], P.ax[b] = P.tip0[b], P.ax0[b]
         for key in ("clearance", "obstacle", "part", "point", "normal"):
             getattr(det, key)[b] = getattr(det0, key)[b]
-    return det
+    return det, None
+
+
+def _avoid_by_plan(scene, path, options, curves, offs, P: _Poses, det0, lim):
+    """Generator: the axes of every pass chosen together (:func:`.axis_plan.plan_axes`);
+    unresolved poses keep the planner's axis (the least colliding one the turn limit
+    allows), so the turn limit holds everywhere. Returns (Detection, AxisPlan)."""
+    box = {}
+
+    def prog(x):
+        box["x"] = x
+
+    plan = plan_axes(scene, curves, offs, P, lim, det0.colliding,
+                     turn_per_mm=float(options.turn_per_mm), max_turn=options.max_turn,
+                     machine=options.machine, reference=options.axis_reference,
+                     blisk_axis=path.axis, blade_count=options.blade_count,
+                     edge_lead=math.radians(5.0) if options.axis_reference == "channel" else 0.0,
+                     progress=prog)
+    yield 0.8
+    P.tip[:], P.ax[:] = plan.tip, plan.axis
+    det = yield from _scaled(_detect_chunks(scene, P.tip, P.ax), 0.8, 0.95)
+    return det, plan
 
 
 def _lean_limits(curves, options, P: _Poses):
@@ -572,7 +616,13 @@ def _count_turn_over(report, path, curves, options):
             continue
         t0 = consecutive_turn(c0.axis, c0.closed)
         t1 = consecutive_turn(c1.axis, c1.closed)
-        over = t1 > np.maximum(t0, delta) + 1e-9
+        limit = np.maximum(t0, delta)
+        if options.mode == "avoid" and options.method == "plan":  # the planner's limit
+            cc = np.vstack([c1.cc, c1.cc[:1]]) if c1.closed and len(c1) > 2 else c1.cc
+            ax = np.vstack([c0.axis, c0.axis[:1]]) if c1.closed and len(c1) > 2 else c0.axis
+            limit = turn_limits(cc, unit(np.asarray(ax, float)), float(options.turn_per_mm),
+                                options.max_turn)
+        over = t1 > limit + 1e-9
         report.n_turn_over += int(over.sum())
         if over.any():
             report.max_turn_deg = max(report.max_turn_deg, float(np.degrees(t1[over].max())))

@@ -39,7 +39,13 @@ class CollisionOptions(OptionGroup):
     safety : float, mm — ds (default 1 mm)
     max_lead, max_tilt : float, rad — axis limits of a corrected pose from the surface normal
         (default 30° each, either sign; a pose planned beyond them: its planned angles)
-    max_turn : float or None, rad — smoothing limit between consecutive poses (None: 2°)
+    max_turn : float or None, rad — smoothing limit between consecutive poses (None: 2° for
+        method "rotate", no per-pose cap beyond ``turn_per_mm`` for "plan")
+    method : "plan" | "rotate" — avoidance by the axis planner over the whole pass
+        (:mod:`.axis_plan`, default) or by paper 004's per-pose rotation (:mod:`.avoid`)
+    turn_per_mm : float, rad/mm — the planner's largest axis turn per mm of path (2°/mm)
+    axis_reference : "planned" | "channel" — what the planner keeps the axes close to
+    machine : Machine or None — the planner keeps the axes inside its rotaries' reach
     max_iterations : int — rotation steps per pose (Eqs. 16–17)
     gouge_tol : float or None, mm — ε of Eq. 14 (None: the path's chord tolerance / 4)
     """
@@ -77,6 +83,27 @@ class CollisionOptions(OptionGroup):
         "from the surface normal across the feed, degrees (either sign); an axis planned "
         "further may turn but not lean further than planned", unit="deg",
         lo=0.0, hi=math.radians(89.0))
+    method: str = option(
+        "plan", "Avoidance", "How avoid turns the axes: plan (the axes of a whole pass chosen "
+        "together, clear, within the turn limit per mm, closest to the requested lead/tilt) or "
+        "rotate (paper 004: each colliding pose by its smallest rotation, then smoothed)",
+        choices=(Choice("plan", "Plan", "Axis planner over the whole pass"),
+                 Choice("rotate", "Rotate", "Per-pose smallest rotation (paper 004)")),
+        flag="--avoid-method", prop="avoid_method")
+    turn_per_mm: float = option(
+        math.radians(2.0), "Max Turn per mm", "Avoidance (plan) turns the tool axis by at most "
+        "this many degrees per mm of path between consecutive poses (or the planned turn "
+        "where the plan turns faster)", unit="deg", lo=0.0, lo_open=True, hi=math.radians(90.0),
+        flag="--max-turn-per-mm")
+    axis_reference: str = option(
+        "planned", "Axis Reference", "What avoidance (plan) keeps the axes close to: the "
+        "planned (requested) lead/tilt, or the channel: the axis interpolated between the two "
+        "blade sides of the gap (radial in the channel's mid-plane), with extra lead at the "
+        "leading and trailing edges",
+        choices=(Choice("planned", "Planned", "Closest to the requested lead/tilt"),
+                 Choice("channel", "Channel", "Closest to the channel's mid-plane")),
+        flag="--axis-reference")
+    machine: object = None  # core.machine Machine: avoidance stays inside its reach
     max_turn: float | None = None
     max_iterations: int = 8
     gouge_tol: float | None = None
@@ -98,6 +125,15 @@ class CollisionOptions(OptionGroup):
         if self.max_turn is not None and not (0 < float(self.max_turn) < math.pi / 2):
             raise CollisionError(f"collision smoothing max_turn must lie in (0°, 90°), got "
                                  f"{self.max_turn!r} rad")
+        if self.method not in ("plan", "rotate"):
+            raise CollisionError(f"avoidance method must be plan or rotate, got {self.method!r}")
+        if self.axis_reference not in ("planned", "channel"):
+            raise CollisionError(f"axis reference must be planned or channel, got "
+                                 f"{self.axis_reference!r}")
+        if not (isinstance(self.turn_per_mm, (int, float)) and 0 < self.turn_per_mm
+                and math.isfinite(self.turn_per_mm)):
+            raise CollisionError(f"the turn limit per mm must be > 0°/mm, got "
+                                 f"{self.turn_per_mm!r} rad/mm")
         if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
             raise CollisionError("collision max_iterations must be an integer ≥ 1")
         if self.gouge_tol is not None and not float(self.gouge_tol) >= 0:

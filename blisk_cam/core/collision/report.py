@@ -52,6 +52,13 @@ class CollisionReport:
         unresolved one, which keeps its planned axis); max_turn_deg : the largest such turn
     links : dict — the link runs checked, colliding, re-routed and unresolved
         (:func:`.reroute.reroute_links`); empty without a program
+    method : str — "plan" or "rotate" in mode "avoid", else ""
+    unresolved_ranges : list of {"pass", "from", "to", "why", "min_clearance"} — the runs
+        of unresolved pass poses (:func:`.ranges.unresolved_ranges`)
+    planner : dict — the axis planner's figures (poses planned, candidates evaluated, turn
+        limit in °/mm, reference); empty for "rotate"
+    tool_hint : str — which holder diameter or stick-out would clear the unresolved poses
+        (:func:`.ranges.holder_hint`), "" when none are unresolved
     """
 
     mode: str
@@ -76,6 +83,10 @@ class CollisionReport:
     n_turn_over: int = 0
     max_turn_deg: float = 0.0
     links: dict = field(default_factory=dict)
+    method: str = ""
+    unresolved_ranges: list = field(default_factory=list)
+    planner: dict = field(default_factory=dict)
+    tool_hint: str = ""
 
     def summary(self) -> dict:
         """JSON-ready top-level ``"collision"`` object of the paths file."""
@@ -109,6 +120,11 @@ class CollisionReport:
             "assembly_text": self.assembly_text,
             "safety": float(self.safety),
             **self.links,
+            **({"method": self.method} if self.method else {}),
+            **({"unresolved_ranges": list(self.unresolved_ranges)}
+               if self.unresolved_ranges else {}),
+            **({"planner": dict(self.planner)} if self.planner else {}),
+            **({"tool_hint": self.tool_hint} if self.tool_hint else {}),
         }
 
 

@@ -253,6 +253,20 @@ class CollisionScene:
         self.body = [_Frustum(*f) for f in assembly.frustums()]
         self._groups = _obstacle_groups(obstacles)
 
+    def with_assembly(self, assembly: ToolAssembly) -> CollisionScene:
+        """The same obstacles (their triangle trees shared, not rebuilt) with another tool
+        assembly: cheap what-if checks (e.g. which holder would clear)."""
+        if not isinstance(assembly, ToolAssembly):
+            raise CollisionError("with_assembly needs a ToolAssembly")
+        out = object.__new__(CollisionScene)
+        out.__dict__.update(self.__dict__)
+        out.assembly = assembly
+        out.safety = float(assembly.safety)
+        out.cap = out.safety + CAP_MARGIN
+        out.flute = _Flute(self.cutter, assembly.flute_length)
+        out.body = [_Frustum(*f) for f in assembly.frustums()]
+        return out
+
     def parts(self, flute_on_target: bool = False):
         """[(part, groups)]: the flute against the non-target obstacles (against all with
         ``flute_on_target``), the body frustums against all; ``groups`` is a list of

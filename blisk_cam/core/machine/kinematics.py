@@ -45,7 +45,7 @@ from ..geometry.vectors import slerp, unit
 from ..toolpath.types import MOVE_NAMES, MOVE_RAPID
 from .description import Machine, forward, machine_axis, tip_to_machine
 
-__all__ = ["IKResult", "LinearizeReport", "linearize", "solve_poses"]
+__all__ = ["IKResult", "LinearizeReport", "linearize", "reachable_axes", "solve_poses"]
 
 TWO_PI = 2.0 * math.pi
 #: |component of the axis across ωb| below which a pose is singular (β free)
@@ -119,6 +119,32 @@ def _candidates(machine: Machine, axis):
     A, B, reach, sing = _two_rotations(wa, wb, a0, s)
     th = np.stack([B, A], axis=2) if swap else np.stack([A, B], axis=2)
     return th, reach, sing
+
+
+def reachable_axes(machine: Machine, axis) -> np.ndarray:
+    """(n,) bool: the rotaries can produce each unit tool axis (n, 3) (paths' frame) on at
+    least one solution branch with both joints inside their limits (a limited joint at
+    θ + 2πk for some k; a singular pose's free joint can take 0, which the limits hold
+    when 0 lies in them). Used by collision avoidance to stay inside the machine's reach."""
+    axis = np.atleast_2d(np.asarray(axis, dtype=np.float64))
+    th, reach, sing = _candidates(machine, axis)
+    ok = np.zeros(len(axis), bool)
+    free = 0 if machine.kinematics == "head-head" else 1
+    for b in range(2):
+        good = reach.copy()
+        for j in range(2):
+            lim = machine.rotaries[j].limits
+            if lim is None:
+                continue
+            lo, hi = lim
+            t = th[:, b, j]
+            k = np.ceil((lo - t) / TWO_PI - 1e-12)
+            inside = t + TWO_PI * k <= hi + 1e-12
+            if j == free:
+                inside = np.where(sing, lo - 1e-12 <= 0.0 <= hi + 1e-12, inside)
+            good &= inside
+        ok |= good
+    return ok
 
 
 def _turns(theta, prev, lim):

@@ -1,0 +1,141 @@
+"""Benchmark of collision avoidance: the per-pose rotation (paper 004 §3, ``method="rotate"``)
+against the axis planner over the whole pass (:mod:`blisk_cam.core.collision.axis_plan`,
+``method="plan"``), on the demo blisk (24 blades) and on NASA Rotor 37 patterned to 36
+blades.
+
+Set-up (issue 25): Ø12 ball, 15 mm flute, Ø12 shank to 40 mm, Ø32 holder to 100 mm, safety
+1 mm, ±2 neighbours — the command line's ``--tool ball --tool-diameter 12 --flute-length 15
+--holder "15 6 40 6 40 16 100 16" --safety 1 --blade-count N --collisions avoid``. The demo
+path: cusp 0.05, chord 0.05, local axis (lead 0, tilt 0); Rotor 37: the README's radial
+75° lean, lead 5°, ``--max-tilt 85``.
+
+Printed per case: verify of the planned path (before any avoidance); per method: colliding
+share before, unresolved poses (count and share of
+the pass poses), the largest turn between consecutive pass poses (degrees, and per mm of
+path), verify's material left and gouge (mm; bound cusp + chord and chord), the avoidance
+wall time and its time per pose. Not a timed test: figures only.
+
+Run: ``python bench/bench_axis_planner.py [--case demo|r37|both] [--no-verify]
+[--methods rotate,plan]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+from blisk_cam.core.collision.avoid import run_collisions  # noqa: E402
+from blisk_cam.core.collision.axis_plan import turn_limits  # noqa: E402
+from blisk_cam.core.collision.options import CollisionOptions  # noqa: E402
+from blisk_cam.core.geometry.axis import Axis  # noqa: E402
+from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.verify.measure import verify_path  # noqa: E402
+
+HOLDER = ((15.0, 6.0), (40.0, 6.0), (40.0, 16.0), (100.0, 16.0))
+
+
+def case(name):
+    """(mesh, PathRequest, blade count, extra collision options)."""
+    if name == "demo":
+        b = make_demo_blisk()
+        mesh = TriMesh.from_arrays(b.blade_vertices, b.blade_faces)
+        req = PathRequest(b.axis, b.hub_cone, b.tip_cone, tool_type="ball", tool_diameter=12.0,
+                          cusp=0.05, chord=0.05)
+        return mesh, req, b.blade_count, {}
+    from support.blades import nasa_blade
+
+    V, F, c1, c2 = nasa_blade("rotor37")
+    mesh = TriMesh.from_arrays(V, F)
+    req = PathRequest(Axis(), c1, c2, tool_type="ball", tool_diameter=12.0, cusp=0.05,
+                      chord=0.05, axis_mode="radial", radial_tilt=math.radians(75),
+                      lead=math.radians(5))
+    return mesh, req, 36, {"max_tilt": math.radians(85)}
+
+
+def turn_figures(planned, path, turn_per_mm):
+    """(largest turn between consecutive pass poses, deg; largest excess over the planner's
+    limit — the planned turn + turn_per_mm × the CC step —, deg; poses over that limit)."""
+    worst, excess, over = 0.0, 0.0, 0
+    for c0, c in zip(planned.curves, path.curves, strict=True):
+        a = np.asarray(c.axis, float)
+        if len(a) < 2:
+            continue
+        t = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
+        lim = turn_limits(c0.cc, c0.axis, turn_per_mm)
+        worst = max(worst, float(np.degrees(t.max())))
+        excess = max(excess, float(np.degrees((t - lim).max())))
+        over += int(np.sum(t > lim + 1e-9))
+    return worst, excess, over
+
+
+def run(name, methods, verify):
+    mesh, req, blades, extra = case(name)
+    t = time.perf_counter()
+    planned = plan_paths(mesh, req).path
+    n = sum(len(c) for c in planned.curves)
+    print(f"\n== {name}: {n} pass poses in {len(planned.curves)} passes, "
+          f"planned in {time.perf_counter() - t:.1f} s; {blades} blades, Ø12 ball, flute 15, "
+          f"holder {HOLDER}")
+    if verify:
+        t = time.perf_counter()
+        vr = verify_path(mesh, planned)
+        print(f"  planned (no avoidance) verify: material left {vr.max_material_left:.4f} mm, "
+              f"gouge {vr.max_gouge:.4f} mm [{time.perf_counter() - t:.0f} s]", flush=True)
+    for method in methods:
+        opts = CollisionOptions(mode="avoid", blade_count=blades, flute_length=15.0,
+                                holder=HOLDER, safety=1.0, **extra)
+        if "method" not in CollisionOptions.__dataclass_fields__:
+            print(f"  {method}: not in this tree")
+            continue
+        opts = CollisionOptions(**{**opts.__dict__, "method": method})
+        t = time.perf_counter()
+        path, rep = run_collisions(mesh, planned, options=opts)
+        dt = time.perf_counter() - t
+        status = np.concatenate([np.asarray(c.collision["status"]) for c in path.curves])
+        unres = int(np.sum(status == 2))
+        before = rep.n_colliding_before
+        worst, excess, over = turn_figures(planned, path, opts.turn_per_mm)
+        ranges = (path.collision or {}).get("unresolved_ranges") or []
+        print(f"  {method:6s}: colliding before {before} of {rep.n_checked} rows "
+              f"({100 * before / rep.n_checked:.1f} %); unresolved pass poses {unres} "
+              f"({100 * unres / n:.1f} %) in {len(ranges)} ranges, program rows "
+              f"{rep.n_unresolved}; max turn {worst:.2f}°, {over} turns over the limit "
+              f"(planned + 2°/mm), worst by {excess:.2f}°; avoidance {dt:.1f} s "
+              f"({1e3 * dt / n:.2f} ms per pass pose)", flush=True)
+        planner = (path.collision or {}).get("planner")
+        if planner:
+            print(f"          planner: {planner}")
+        if (path.collision or {}).get("tool_hint"):
+            print(f"          hint: {path.collision['tool_hint']}")
+        if verify:
+            t = time.perf_counter()
+            vr = verify_path(mesh, path)
+            print(f"          verify: material left {vr.max_material_left:.4f} mm (bound "
+                  f"{req.cusp + req.chord:.3f}), gouge {vr.max_gouge:.4f} mm (bound "
+                  f"{req.chord:.3f}) [{time.perf_counter() - t:.0f} s]", flush=True)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--case", default="both", choices=("demo", "r37", "both"))
+    ap.add_argument("--methods", default="rotate,plan")
+    ap.add_argument("--no-verify", action="store_true")
+    a = ap.parse_args()
+    names = ("demo", "r37") if a.case == "both" else (a.case,)
+    for name in names:
+        run(name, a.methods.split(","), not a.no_verify)
+
+
+if __name__ == "__main__":
+    main()

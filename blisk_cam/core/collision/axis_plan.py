@@ -1,0 +1,671 @@
+"""Tool axes through the channel: an axis planner over the whole pass (collision avoidance by
+shortest path, the ``"plan"`` method of ``--collisions avoid``).
+
+Paper 004 §3 turns each colliding pose by its own smallest rotation and smooths afterwards
+(:mod:`.avoid`, method ``"rotate"``); neighbouring poses may then turn by tens of degrees and
+the ball leaves the surface between them. Here the axis of every pose of a pass is chosen
+*together* (the axis-field idea of commercial 5-axis CAM: interpolate the axis through the
+channel under a maximum angle step):
+
+1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
+   the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
+   ramps in and out. Outside the window the planned axis is kept.
+2. **States.** Per window pose the lean states: a grid of (lead, tilt) offsets about the
+   pose's reference (the planned axis, or the channel reference below), ±30° in 5° steps,
+   clipped into the lean limits (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the
+   surface normal as in :mod:`..paths.gouge`; a plan that leans further keeps its own lean
+   as the limit). A state's tip keeps the contact (ball: the centre fixed; bull nose / flat
+   / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the CC point and normal, plus the
+   plan's few-µm lift λ along the normal). A state the cutter cannot touch the surface with,
+   or (a machine given) the rotaries cannot produce (:func:`..machine.kinematics.
+   reachable_axes`), is excluded.
+3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
+   of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
+   edges). At each station a coarse 10° grid is measured by
+   :meth:`.scene.CollisionScene.detect` — every station of every pass in one batched call —
+   and interpolated onto the states. Poses the plan leaves colliding become stations whose
+   states are all known exactly: measured, or, for a ball, proved colliding by the Lipschitz
+   bound of the clearance in the axis angle (no tool point moves further than its distance
+   from the ball's centre, about which the axis turns).
+4. **Shortest path (Viterbi).** Along each run of window poses the state sequence minimising
+
+       Σ_stations [ C·[clr < ds] (C ≫ any lean cost; then the least deep)
+                    + (lead − lead_ref)² + (tilt − tilt_ref)² ]
+
+   with the exact turn between the states of consecutive stations within the planned turn
+   plus ``turn_per_mm`` × their arc distance (and from/to the fixed planned poses around the
+   run). Between stations the lean is linear in arc length; a pose pair that still turns
+   faster than :func:`turn_limits` is clamped (the later axis turned toward the earlier).
+   Since a colliding state costs more than any lean, the path leaves as few stations
+   colliding as the limits allow.
+5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
+   linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
+   exactly; poses left colliding become exact stations and the runs are planned again
+   (:data:`_ROUNDS` rounds).
+
+**Channel reference.** With ``reference="channel"`` the lean cost is measured from the axis
+interpolated between the two blade sides of the gap: the radial direction of the channel's
+mid-plane at the pose (the meridional plane turned from the CC point's by half the pitch
+360°/N toward the side the surface normal faces), brought inside the lean limits, plus
+``edge_lead`` of extra lead where the pose lies within one tool diameter of the pass ends
+(leading and trailing edges of a blade pass).
+
+**Unresolved poses** (clearance < ds at the chosen axis) come as ranges per pass (pass,
+first, last pose, why): "no axis within the limits clears" (every state collides — the pose
+is a fact about the tool and holder), "the turn limit" (a clear state exists, or was not
+ruled out, but no sequence within the turn limit reaches it; "or the machine's reach" when a
+machine is given), or "the motion from the pose before collides". "No axis" is claimed only
+for poses whose every state is known exactly.
+
+Lengths mm, angles radians; numpy only (the distance machinery of :mod:`.scene`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..geometry.vectors import angle_between, unit
+from ..machine.kinematics import reachable_axes
+from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
+from ..tool.cutter import Cutter
+
+__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
+           "sample_motion", "turn_limits"]
+
+#: shortest step the turn limit counts, mm (see :func:`turn_limits`)
+MIN_STEP = 0.05
+#: default turn limit per mm of path, rad/mm
+DEFAULT_TURN_PER_MM = math.radians(2.0)
+#: the lean states' step, and the coarse grid's (measured at every station), rad
+_STEP = math.radians(5.0)
+_COARSE = 2
+#: widest lean swing searched about the reference (where the limits allow), rad
+_SWING = math.radians(60.0)
+#: the window's ramp: the arc a turn of this angle needs at the turn limit, rad
+_RAMP = math.radians(30.0)
+#: cost of a colliding state (the lean costs are ≤ a few rad²)
+_COLLIDE = 1e3
+#: largest lean step between stations, in state steps
+_MAX_R = 3
+#: samples inside each transition checked for the motion, and verification rounds
+_MOTION_SAMPLES = 3
+_ROUNDS = 4
+
+REASON_NO_AXIS = "no axis within the lean limits clears"
+REASON_TURN = "the turn limit keeps the clear axes out of reach"
+REASON_MOTION = "the motion from the pose before collides"
+
+
+@dataclass
+class UnresolvedRange:
+    """A run of unresolved poses of one pass: ``curve`` (pass index), ``first``/``last``
+    (pose indices, inclusive), ``why`` (one of the REASON_* texts), ``min_clearance`` mm."""
+
+    curve: int
+    first: int
+    last: int
+    why: str
+    min_clearance: float
+
+    def as_dict(self) -> dict:
+        return {"pass": int(self.curve), "from": int(self.first), "to": int(self.last),
+                "why": self.why, "min_clearance": float(self.min_clearance)}
+
+
+@dataclass
+class AxisPlan:
+    """What :func:`plan_axes` chose: ``tip``, ``axis`` (n, 3) per pose (the input order),
+    ``clearance`` (n,) mm at the chosen pose, ``unresolved`` (n,) bool, ``ranges`` (list of
+    :class:`UnresolvedRange`), ``motion_clearance`` (n,) mm — the smallest clearance sampled
+    on the motion from the pose before (inf for a pass's first pose), ``n_candidates`` (the
+    candidate poses evaluated), ``n_window`` (poses planned)."""
+
+    tip: np.ndarray
+    axis: np.ndarray
+    clearance: np.ndarray
+    unresolved: np.ndarray
+    ranges: list = field(default_factory=list)
+    motion_clearance: np.ndarray | None = None
+    n_candidates: int = 0
+    n_window: int = 0
+
+
+# ====================================================================== geometry helpers
+def sample_motion(tip0, ax0, tip1, ax1, t):
+    """Poses on the motion between two poses (k rows each) at fractions ``t`` (s,) in (0, 1):
+    the tip linear, the axis turned uniformly in the plane of the two (slerp). Returns
+    (tips (k·s, 3), axes (k·s, 3)), pose-major."""
+    t = np.asarray(t, dtype=np.float64)
+    om = angle_between(ax0, ax1)[:, None, None]
+    so = np.sin(om)
+    tt = t[None, :, None]
+    small = so < 1e-9
+    w0 = np.where(small, 1 - tt, np.sin((1 - tt) * om) / np.where(small, 1.0, so))
+    w1 = np.where(small, tt, np.sin(tt * om) / np.where(small, 1.0, so))
+    ax = unit((w0 * ax0[:, None, :] + w1 * ax1[:, None, :]).reshape(-1, 3), keep_zero=False)
+    tp = ((1 - tt) * tip0[:, None, :] + tt * tip1[:, None, :]).reshape(-1, 3)
+    return tp, ax
+
+
+def channel_reference(cc, normal, blisk_axis, blade_count: int):
+    """(k, 3) unit axes interpolated between the two blade sides of the gap at each CC point:
+    the radial direction of the channel's mid-plane — the meridional plane of ``cc`` turned
+    about the blisk axis by half the pitch (π/N) toward the side the normal ``normal`` faces
+    (the neighbour across the channel)."""
+    o = np.asarray(blisk_axis.o, dtype=np.float64)
+    d = unit(np.asarray(blisk_axis.d, dtype=np.float64))
+    rel = np.asarray(cc, dtype=np.float64) - o
+    radial = rel - (rel @ d)[:, None] * d
+    r = np.linalg.norm(radial, axis=1)
+    er = radial / np.maximum(r, 1e-300)[:, None]
+    et = np.cross(d, er)
+    side = np.sign(np.einsum("ij,ij->i", normal, et))
+    side = np.where(side == 0, 1.0, side)
+    half = side * math.pi / blade_count
+    return unit(np.cos(half)[:, None] * er + np.sin(half)[:, None] * et, keep_zero=False)
+
+
+def turn_limits(cc, planned_axes, turn_per_mm, max_turn=None):
+    """(k − 1,) largest axis turn (rad) allowed between consecutive poses of a pass: the
+    planned turn there (the surface's own, which avoidance does not judge) plus
+    ``turn_per_mm`` × the CC distance (at least :data:`MIN_STEP` mm), the added part capped
+    by ``max_turn`` per pose when given."""
+    ds = np.linalg.norm(np.diff(np.asarray(cc, dtype=np.float64), axis=0), axis=1)
+    added = turn_per_mm * np.maximum(ds, MIN_STEP)
+    if max_turn is not None:
+        added = np.minimum(added, max_turn)
+    a = np.asarray(planned_axes, dtype=np.float64)
+    return angle_between(a[:-1], a[1:]) + added
+
+
+def _touch_ok(cutter: Cutter, normal, axis):
+    """(k,) bool: the cutting part can touch the surface with this axis."""
+    return angle_between(normal, axis) <= cutter._g["th_hi"]
+
+
+def _cl(cutter: Cutter, cc, nrm, ax, off, ball_centre):
+    """(k, 3) tips keeping the contact: ball — the centre fixed; others — from the contact."""
+    if ball_centre is not None:
+        return ball_centre - cutter.radius * ax
+    tip = cc + off
+    ok = _touch_ok(cutter, nrm, ax)
+    if np.any(ok):
+        tip[ok] = cutter.cl_points(cc[ok], nrm[ok], ax[ok]) + off[ok]
+    return tip
+
+
+
+
+# ====================================================================== the planner
+def _windows(offs, cc, colliding, reach_mm):
+    """(n,) bool: poses within ``reach_mm`` of arc length of a colliding pose of their pass."""
+    out = np.zeros(len(cc), bool)
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        hit = np.nonzero(colliding[s:e])[0]
+        if len(hit) == 0:
+            continue
+        arc = _arc(cc[s:e])
+        lo = np.searchsorted(arc, arc[hit] - reach_mm, side="left")
+        hi = np.searchsorted(arc, arc[hit] + reach_mm, side="right")
+        mark = np.zeros(e - s + 1, np.int64)
+        np.add.at(mark, lo, 1)
+        np.add.at(mark, hi, -1)
+        out[s:e] = np.cumsum(mark)[:-1] > 0
+    return out
+
+
+def _arc(cc):
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
+
+
+def _interp_matrix_idx(n, idx):
+    """(n, len(idx)) linear interpolation weights from the values at the sorted indices
+    ``idx`` of 0..n−1 to every index."""
+    x = np.arange(n, dtype=np.float64)
+    j = np.clip(np.searchsorted(idx, x, side="right") - 1, 0, len(idx) - 2)
+    t = (x - idx[j]) / (idx[j + 1] - idx[j])
+    M = np.zeros((n, len(idx)))
+    M[np.arange(n), j] = 1 - t
+    M[np.arange(n), j + 1] += t
+    return M
+
+
+@dataclass
+class _Run:
+    """A run of consecutive window poses of one pass: global indices ``g`` (r,), arc
+    positions, the stations (sorted indices into ``g``), the fixed planned poses
+    before/after (global indices or None)."""
+
+    g: np.ndarray
+    arc: np.ndarray
+    st: np.ndarray
+    pre: int | None
+    post: int | None
+
+
+class _Planner:
+    """The state of one :func:`plan_axes` call (module docstring): the lean states, the
+    clearance known per station (interpolated from the coarse grid, or exact), the batched
+    evaluations."""
+
+    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span):
+        self.scene, self.P = scene, P
+        self.f, self.k, self.lim_l, self.lim_t = lim
+        self.ref_l, self.ref_t = ref_l, ref_t  # (n,) rad
+        self.rate, self.max_turn, self.machine = turn_per_mm, max_turn, machine
+        self.cutter = scene.cutter
+        self.ball = self.cutter.type == "ball"
+        self.safety = scene.safety
+        # the states: offsets from the reference per lean direction (lead, tilt), k·step
+        # over the span the window's limits need (at most ±_SWING), the reference a state
+        self.step = _STEP
+        self.off = [np.arange(int(round(lo / _STEP)), int(round(hi / _STEP)) + 1) * _STEP
+                    for lo, hi in span]
+        # the coarse grid: every _COARSE-th state, both ends included
+        self.cidx = [np.unique(np.r_[np.arange(0, len(o), _COARSE), len(o) - 1])
+                     for o in self.off]
+        self.M = [_interp_matrix_idx(len(o), ci) for o, ci in zip(self.off, self.cidx,
+                                                                   strict=True)]
+        self.shape = (len(self.off[0]), len(self.off[1]))
+        self.n_eval = 0
+        self.known = {}  # global pose → (Fl, Ft) clearance (−inf: not a valid state)
+        self.raw = {}  # global pose → (Gl, Gt) measured clearance of the coarse grid
+        # Lipschitz constant of the clearance in the axis angle (mm/rad): a ball turns about
+        # its centre, so no point of the tool moves further than its distance from the centre
+        a = scene.assembly
+        self.lip = (math.hypot(a.top - self.cutter.radius,
+                               max(a.max_radius, float(self.cutter.max_radius)))
+                    if self.ball else None)
+        self.exact = set()  # poses whose fine states were all measured
+        self.dlp = self.dtp = None
+
+    # --- poses -----------------------------------------------------------------------------
+    def axes(self, g, dl, dt):
+        """(k, 3) axes at poses g (k,) leaning ref + (dl, dt) (k,), clipped into the lean
+        limits (the states beyond a limit lie on it: the limit itself is searched)."""
+        return lead_tilt_axes(self.f[g], self.P.nrm[g], self.k[g],
+                              np.clip(self.ref_l[g] + dl, -self.lim_l[g], self.lim_l[g]),
+                              np.clip(self.ref_t[g] + dt, -self.lim_t[g], self.lim_t[g]))
+
+    def tips(self, g, ax):
+        P = self.P
+        centre = P.tip0[g] + self.cutter.radius * P.ax0[g] if self.ball else None
+        return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
+
+    def valid(self, g, dl, dt, ax):
+        """(k,) bool: a state of its own (beyond a lean limit only the first state, which the
+        clip puts on the limit), the cutter touches and (a machine given) the rotaries
+        reach."""
+        ok = (np.abs(self.ref_l[g] + dl) < self.lim_l[g] + self.step - 1e-9) & \
+            (np.abs(self.ref_t[g] + dt) < self.lim_t[g] + self.step - 1e-9)
+        ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
+        if self.machine is not None and ok.any():
+            ok[ok] = reachable_axes(self.machine, ax[ok])
+        return ok
+
+    def clearance(self, tips, axes):
+        self.n_eval += len(tips)
+        if len(tips) == 0:
+            return np.zeros(0)
+        return self.scene.detect(tips, axes).clearance
+
+    def _states(self, g, il, it):
+        """(k,) poses, lead and tilt offsets of the states (il × it index grids) at poses g."""
+        a, b = len(il), len(it)
+        gg = np.repeat(g, a * b)
+        dl = np.tile(np.repeat(self.off[0][il], b), len(g))
+        dt = np.tile(np.tile(self.off[1][it], a), len(g))
+        return gg, dl, dt
+
+    def grid(self, g, il, it, need=None):
+        """Measure the states il × it at poses g (one batch; only where ``need`` (s, a·b)
+        when given): (s, a, b) clearance, −inf where the state is not valid."""
+        gg, dl, dt = self._states(g, il, it)
+        sel = np.ones(len(gg), bool) if need is None else need.ravel()
+        ax = self.axes(gg[sel], dl[sel], dt[sel])
+        ok = self.valid(gg[sel], dl[sel], dt[sel], ax)
+        c = np.full(len(gg), -np.inf)
+        cs = np.full(int(sel.sum()), -np.inf)
+        cs[ok] = self.clearance(self.tips(gg[sel][ok], ax[ok]), ax[ok])
+        c[sel] = cs
+        return c.reshape(len(g), len(il), len(it))
+
+    def state_axes(self, gi):
+        """(Fl, Ft, 3) axes of every lean state at pose gi."""
+        gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
+                                  np.arange(self.shape[1]))
+        return self.axes(gg, dl, dt).reshape(*self.shape, 3)
+
+    def state_valid(self, gi):
+        gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
+                                  np.arange(self.shape[1]))
+        return self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(self.shape)
+
+    # --- stations --------------------------------------------------------------------------
+    def stations(self, g, arc):
+        """Indices of the stations of a run (global poses g): the first and last pose, and
+        the next pose once one lean step's worth of arc (step / rate) has passed or the
+        planned axis has turned by one lean step (at the edges, where the normal swings)."""
+        h = self.step / self.rate
+        ax = self.P.ax0[g]
+        out = [0]
+        for i in range(1, len(arc)):
+            if arc[i] - arc[out[-1]] >= h or float(ax[i] @ ax[out[-1]]) < math.cos(self.step):
+                out.append(i)
+        if out[-1] != len(arc) - 1:
+            out.append(len(arc) - 1)
+        return np.asarray(out, np.int64)
+
+    def measure_coarse(self, g):
+        """Known clearance of poses g from the coarse grid, interpolated to the states."""
+        C = self.grid(g, *self.cidx)
+        for gi, c in zip(g, C, strict=True):
+            self.raw[int(gi)] = c
+        Fc = np.einsum("fa,sab,gb->sfg", self.M[0],
+                       np.where(np.isfinite(C), C, -self.safety - 50.0), self.M[1])
+        for gi, fc in zip(g, Fc, strict=True):  # states that are not valid stay out
+            self.known[int(gi)] = np.where(self.state_valid(int(gi)), fc, -np.inf)
+
+    def measure_exact(self, g):
+        """Know every state of poses g exactly: measured, or (a ball) proved colliding by
+        the Lipschitz bound from the coarse grid — a state y collides when some measured
+        coarse state x has clearance(x) + L·∠(x, y) < ds (L: the farthest point of the tool
+        from the ball's centre, about which the axis turns; a reported penetration is never
+        shallower than the true one, so the bound holds). One batch."""
+        g = np.asarray([x for x in np.unique(g) if int(x) not in self.exact], np.int64)
+        if len(g) == 0:
+            return
+        new = np.asarray([x for x in g if int(x) not in self.raw], np.int64)
+        if len(new):
+            self.measure_coarse(new)
+        nst = self.shape[0] * self.shape[1]
+        need = np.ones((len(g), nst), bool)
+        bound = np.full((len(g), nst), np.inf)
+        if self.lip is not None:
+            for j, gi in enumerate(g):
+                Af = self.state_axes(int(gi)).reshape(-1, 3)
+                gg, dl, dt = self._states(np.asarray([gi]), *self.cidx)
+                Ac = self.axes(gg, dl, dt)
+                ang = np.arccos(np.clip(Af @ Ac.T, -1.0, 1.0))
+                c = self.raw[int(gi)].reshape(-1)
+                c = np.where(np.isfinite(c), c, np.inf)
+                bound[j] = np.min(c[None, :] + self.lip * ang, axis=1)
+                need[j] = bound[j] >= self.safety
+        c = self.grid(g, np.arange(self.shape[0]), np.arange(self.shape[1]), need)
+        out = np.where(np.isfinite(bound), np.minimum(bound, self.safety - 1e-6), -np.inf)
+        out[need] = c.reshape(len(g), nst)[need]
+        for gi, o in zip(g, out.reshape(len(g), *self.shape), strict=True):
+            self.known[int(gi)] = np.where(np.isfinite(self.known[int(gi)]), o, -np.inf)
+            self.exact.add(int(gi))
+
+    # --- the shortest path -----------------------------------------------------------------
+    def _moves(self, Ap, Ac, limit):
+        """Offsets (o, 2) and (o, F, F) bool: the state x at the later station may follow
+        the state x − offset at the earlier one (turn ≤ ``limit``, exact)."""
+        (Fl, Ft), r = self.shape, _MAX_R
+        offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1) if a * a + b * b
+                <= r * r]
+        pad = np.full((Fl + 2 * r, Ft + 2 * r, 3), np.nan)
+        pad[r:r + Fl, r:r + Ft] = Ap
+        prev = np.stack([pad[r - a:r - a + Fl, r - b:r - b + Ft] for a, b in offs])
+        cos = np.einsum("oijk,ijk->oij", prev, Ac)
+        with np.errstate(invalid="ignore"):
+            ok = cos >= math.cos(limit) - 1e-12
+        return np.asarray(offs), ok
+
+    def node_costs(self, gi):
+        c = self.known[int(gi)]
+        dev = self.off[0][:, None] ** 2 + self.off[1][None, :] ** 2
+        node = np.where(c >= self.safety, dev, _COLLIDE + self.safety
+                        - np.maximum(c, -self.safety - 50.0))
+        return np.where(np.isfinite(c), node, np.inf)
+
+    def plan_run(self, r: _Run):
+        """(s, 2) fine states of the stations of run r minimising the costs under the exact
+        turn limit between stations (and from/to the fixed poses), or None."""
+        P, (Fl, Ft) = self.P, self.shape
+        gst = r.g[r.st]
+        A = [self.state_axes(int(gi)) for gi in gst]
+        cost = self.node_costs(gst[0])
+        if r.pre is not None:
+            lim0 = float(angle_between(P.ax0[[r.pre]], P.ax0[[gst[0]]])[0]) + self.rate * \
+                max(float(np.linalg.norm(P.cc[gst[0]] - P.cc[r.pre])), MIN_STEP)
+            cost = cost + np.where(A[0] @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
+        backs = []
+        for j in range(1, len(gst)):
+            gap = r.arc[r.st[j]] - r.arc[r.st[j - 1]]
+            lim = float(angle_between(P.ax0[[gst[j - 1]]], P.ax0[[gst[j]]])[0]) + \
+                self.rate * max(gap, MIN_STEP)
+            offs, ok = self._moves(A[j - 1], A[j], lim)
+            rr = _MAX_R
+            pad = np.full((Fl + 2 * rr, Ft + 2 * rr), np.inf)
+            pad[rr:rr + Fl, rr:rr + Ft] = cost
+            stack = np.stack([pad[rr - a:rr - a + Fl, rr - b:rr - b + Ft] for a, b in offs])
+            stack = np.where(ok, stack, np.inf)
+            arg = np.argmin(stack, axis=0)
+            best = np.take_along_axis(stack, arg[None], 0)[0]
+            backs.append((offs, arg))
+            cost = best + self.node_costs(gst[j])
+        if r.post is not None:
+            gl = gst[-1]
+            lim1 = float(angle_between(P.ax0[[gl]], P.ax0[[r.post]])[0]) + self.rate * \
+                max(float(np.linalg.norm(P.cc[r.post] - P.cc[gl])), MIN_STEP)
+            cost = cost + np.where(A[-1] @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
+        if not np.isfinite(cost.min()):
+            return None
+        out = np.empty((len(gst), 2), np.int64)
+        out[-1] = np.unravel_index(int(np.argmin(cost)), cost.shape)
+        for j in range(len(gst) - 1, 0, -1):
+            offs, arg = backs[j - 1]
+            a, b = offs[arg[out[j, 0], out[j, 1]]]
+            out[j - 1] = out[j] - (a, b)
+        return out
+
+
+def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
+              max_turn=None, machine=None, reference="planned", blisk_axis=None,
+              blade_count=None, edge_lead=0.0, progress=None) -> AxisPlan:
+    """Plan the tool axes of the passes (module docstring).
+
+    Parameters
+    ----------
+    scene : CollisionScene
+    curves : list of PassCurve; offs : (p + 1,) pose offsets of the passes in the stacked rows
+    P : the stacked poses (``cc``, ``nrm``, ``tip0``, ``ax0``, ``off0`` (n, 3))
+    lim : (f, k_side (n, 3), lim_lead, lim_tilt (n,) rad) — frames and lean limits
+    colliding : (n,) bool — the planned poses that collide
+    turn_per_mm : float, rad/mm; max_turn : float or None, rad per pose
+    machine : Machine or None — axes outside its rotaries' reach are excluded
+    reference : "planned" | "channel"; blisk_axis, blade_count: for "channel"
+    edge_lead : float, rad — extra lead at the pass ends (channel reference only)
+    progress : callable(fraction) or None
+
+    Returns
+    -------
+    AxisPlan
+    """
+    cc, nrm, tip0, ax0 = P.cc, P.nrm, P.tip0, P.ax0
+    n = len(cc)
+    f, k_side, lim_lead, lim_tilt = lim
+    win = _windows(offs, cc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9)
+    tip, axis = tip0.copy(), ax0.copy()
+    clear = np.full(n, np.inf)
+    if not win.any():
+        return AxisPlan(tip, axis, clear, np.zeros(n, bool), [], np.full(n, np.inf), 0, 0)
+    l0, t0 = lead_tilt_of(ax0, f, nrm, k_side)
+    l0, t0 = np.nan_to_num(l0), np.nan_to_num(t0)
+    ref_l, ref_t = l0.copy(), t0.copy()
+    if reference == "channel" and blisk_axis is not None and blade_count:
+        w = np.nonzero(win)[0]
+        ch = channel_reference(cc[w], nrm[w], blisk_axis, blade_count)
+        cl, ct = lead_tilt_of(ch, f[w], nrm[w], k_side[w])
+        good = np.isfinite(cl) & np.isfinite(ct)
+        ref_l[w] = np.where(good, np.clip(cl, -lim_lead[w], lim_lead[w]), ref_l[w])
+        ref_t[w] = np.where(good, np.clip(ct, -lim_tilt[w], lim_tilt[w]), ref_t[w])
+        if edge_lead:
+            ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
+                               -lim_lead[w], lim_lead[w])
+    w = np.nonzero(win)[0]
+    span = [(max(-_SWING, float(np.min(-lm[w] - rf[w]))), min(_SWING, float(np.max(lm[w] - rf[w]))))
+            for lm, rf in ((lim_lead, ref_l), (lim_tilt, ref_t))]
+    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span)
+    # the states cover the lean limits unless they reach further than the swing
+    covered = bool(np.all(-lim_lead[w] - ref_l[w] >= span[0][0] - 1e-9)
+                   and np.all(lim_lead[w] - ref_l[w] <= span[0][1] + 1e-9)
+                   and np.all(-lim_tilt[w] - ref_t[w] >= span[1][0] - 1e-9)
+                   and np.all(lim_tilt[w] - ref_t[w] <= span[1][1] + 1e-9))
+    pl.dlp, pl.dtp = l0 - ref_l, t0 - ref_t  # the planned lean as an offset
+    runs = []
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        here = np.nonzero(win[s:e])[0]
+        if len(here) == 0:
+            continue
+        for run in np.split(here, np.nonzero(np.diff(here) > 1)[0] + 1):
+            g = s + run
+            arc = _arc(cc[g])
+            runs.append(_Run(g, arc, pl.stations(g, arc), s + run[0] - 1 if run[0] > 0 else None,
+                             s + run[-1] + 1 if run[-1] + 1 < e - s else None))
+    # the coarse grid at every station of every run: one batched measurement
+    pl.measure_coarse(np.concatenate([r.g[r.st] for r in runs]))
+    if progress is not None:
+        progress(0.5)
+    chosen = [None] * len(runs)
+    for rnd in range(_ROUNDS):
+        for ri, r in enumerate(runs):
+            chosen[ri] = pl.plan_run(r)
+        result = _evaluate(pl, runs, chosen)
+        if rnd == _ROUNDS - 1:
+            break
+        # poses the plan leaves colliding: made stations, all their states measured exactly,
+        # and the runs planned again
+        todo = []
+        for r in runs:
+            bad = np.nonzero(result["clr"][r.g] < pl.safety)[0]
+            bad = np.asarray([i for i in bad if int(r.g[i]) not in pl.exact], np.int64)
+            if len(bad):
+                r.st = np.union1d(r.st, bad)
+                todo.append(r.g[bad])
+        if not todo:
+            break
+        pl.measure_exact(np.concatenate(todo))
+        if progress is not None:
+            progress(0.5 + 0.1 * (rnd + 1))
+    idx = np.nonzero(win)[0]
+    tip[idx], axis[idx] = result["tip"][idx], result["axis"][idx]
+    clear[idx] = result["clr"][idx]
+    motion = result["motion"]
+    unresolved = (clear < pl.safety) | (motion < pl.safety)
+    why = np.full(n, REASON_TURN, dtype=object)
+    for gi in np.nonzero(unresolved)[0]:
+        c = pl.known.get(int(gi))
+        if int(gi) in pl.exact and c is not None and not np.any(c >= pl.safety):
+            why[gi] = REASON_NO_AXIS if covered else \
+                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
+    why[(clear >= pl.safety) & (motion < pl.safety)] = REASON_MOTION
+    if machine is not None:
+        why[(why == REASON_TURN) & unresolved] = REASON_TURN + " or the machine's reach"
+    ranges = _ranges(offs, unresolved, why, np.minimum(clear, motion))
+    return AxisPlan(tip, axis, clear, unresolved, ranges, motion, pl.n_eval, int(win.sum()))
+
+
+def _evaluate(pl: _Planner, runs, chosen) -> dict:
+    """Poses of every run from its stations' states (the lean linear in arc length between
+    stations; a run without a feasible plan keeps its planned poses), their exact clearance
+    and the motion's (into each run pose and into the fixed pose after it), in one batch.
+    Returns dict of (n,)-indexed arrays."""
+    P = pl.P
+    n = len(P.cc)
+    tip, axis = P.tip0.copy(), P.ax0.copy()
+    gs, dls, dts = [], [], []
+    for r, seq in zip(runs, chosen, strict=True):
+        if seq is None:
+            dl, dt = pl.dlp[r.g], pl.dtp[r.g]
+        else:
+            dl = np.interp(r.arc, r.arc[r.st], pl.off[0][seq[:, 0]])
+            dt = np.interp(r.arc, r.arc[r.st], pl.off[1][seq[:, 1]])
+        gs.append(r.g)
+        dls.append(dl)
+        dts.append(dt)
+    g = np.concatenate(gs)
+    dl, dt = np.concatenate(dls), np.concatenate(dts)
+    ax = pl.axes(g, dl, dt)
+    axis[g] = ax
+    tip[g] = pl.tips(g, ax)
+    same = (np.abs(dl - pl.dlp[g]) < 1e-12) & (np.abs(dt - pl.dtp[g]) < 1e-12)
+    axis[g[same]], tip[g[same]] = P.ax0[g[same]], P.tip0[g[same]]  # the planned pose, exactly
+    _limit_turns(pl, runs, tip, axis)
+    prev_, next_ = [], []
+    for r in runs:
+        chain = np.r_[[r.pre] if r.pre is not None else [], r.g,
+                      [r.post] if r.post is not None else []].astype(np.int64)
+        prev_.append(chain[:-1])
+        next_.append(chain[1:])
+    a_p, a_i = np.concatenate(prev_), np.concatenate(next_)
+    tq = np.arange(1, _MOTION_SAMPLES + 1) / (_MOTION_SAMPLES + 1)
+    mt, ma = sample_motion(tip[a_p], axis[a_p], tip[a_i], axis[a_i], tq)
+    clr_all = pl.clearance(np.vstack([tip[g], mt]), np.vstack([axis[g], ma]))
+    clr = np.full(n, np.inf)
+    clr[g] = clr_all[:len(g)]
+    motion = np.full(n, np.inf)
+    np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
+    return {"tip": tip, "axis": axis, "clr": clr, "motion": motion}
+
+
+def _limit_turns(pl: _Planner, runs, tip, axis):
+    """Where the lean interpolated between stations turns faster than the limit between two
+    poses, the later axis is turned back toward the earlier one (forward, then from the
+    fixed pose after the run backward), its tip recomputed for the contact; in place."""
+    P = pl.P
+    for r in runs:
+        chain = np.r_[[r.pre] if r.pre is not None else [], r.g,
+                      [r.post] if r.post is not None else []].astype(np.int64)
+        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn)
+        moved = []
+        order = [(i, i + 1) for i in range(len(chain) - 1)]
+        if r.post is not None:  # the last pose is fixed: its neighbours turn toward it
+            order = order[:-1] + [(len(chain) - 1, len(chain) - 2)]
+        for a, b in order:
+            ia, ib = chain[a], chain[b]
+            lim = limit[min(a, b)]
+            if float(axis[ia] @ axis[ib]) < math.cos(lim) - 1e-12:
+                axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim * (1 - 1e-9),
+                                      tuple(P.nrm[ib]))
+                moved.append(ib)
+        if moved:
+            m = np.asarray(moved, np.int64)
+            tip[m] = pl.tips(m, axis[m])
+
+
+def _edge_weight(offs, cc, idx, cutter):
+    """(w,) 1 at a pass's ends falling to 0 one tool diameter along the pass."""
+    out = np.zeros(len(idx))
+    D = 2.0 * float(cutter.max_radius)
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        sel = (idx >= s) & (idx < e)
+        if not sel.any():
+            continue
+        arc = _arc(cc[s:e])
+        a = arc[idx[sel] - s]
+        out[sel] = np.clip(1.0 - np.minimum(a, arc[-1] - a) / max(D, 1e-9), 0.0, 1.0)
+    return out
+
+
+def _ranges(offs, unresolved, why, clearance):
+    out = []
+    for ci in range(len(offs) - 1):
+        s, e = offs[ci], offs[ci + 1]
+        u = np.nonzero(unresolved[s:e])[0]
+        if len(u) == 0:
+            continue
+        w = np.asarray([str(why[s + i]) for i in u], dtype=object)
+        cut = np.nonzero((np.diff(u) > 1) | (w[1:] != w[:-1]))[0] + 1
+        for run, ws in zip(np.split(u, cut), np.split(w, cut), strict=True):
+            out.append(UnresolvedRange(ci, int(run[0]), int(run[-1]), str(ws[0]),
+                                       float(np.min(clearance[s + run]))))
+    return out
