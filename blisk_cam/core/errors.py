@@ -56,3 +56,14 @@ class PostError(BliskCamError):
 class CollisionError(BliskCamError):
     """Collision checking cannot run: bad blade count/neighbours, an obstacle that contains the
     blade, an impossible tool assembly or collision option."""
+
+
+class PartError(BliskCamError):
+    """The blisk part cannot be built: a mesh that is not rotationally periodic, a blade count
+    that does not match the mesh's symmetry, no hub (faces of revolution) found, an unusable
+    hub profile."""
+
+
+class StockError(BliskCamError):
+    """The stock cannot be built or used: an unusable blank profile or mesh, a resolution out
+    of range, a saved stock state that does not belong to this part."""
