@@ -363,8 +363,8 @@ def split_blisk_mesh(V, F, blade_count: int | None = None, axis: Axis | None = N
     comp_area = np.bincount(comp, weights=area, minlength=ncomp)
     frac = cand_area / np.maximum(comp_area, 1e-300)
     hubby = (frac >= 0.5) & (occupancy >= 0.5 * occupancy.max())
-    if not hubby.any():
-        hubby = occupancy == occupancy.max()  # one welded part: classify face by face
+    if not hubby.any() and ncomp == 1:
+        hubby[:] = True  # one welded part: classify face by face
     in_hub_part = hubby[comp]
     pick = candidate & in_hub_part
     if not pick.any():
@@ -393,6 +393,12 @@ def split_blisk_mesh(V, F, blade_count: int | None = None, axis: Axis | None = N
         raise PartError(f"the mesh has {n_found}-fold symmetry but the blade count given is "
                         f"{int(blade_count)}; give --blade-count {n_found} or check the mesh")
     pitch = TWO_PI / n_found
+    hub_occ = np.zeros(occ_bins, bool)
+    hub_occ[np.floor(np.mod(th[hub], TWO_PI) / TWO_PI * occ_bins).astype(int) % occ_bins] = True
+    if hub_occ.mean() < 0.9 / n_found:
+        raise PartError("no hub found: the faces of revolution cover "
+                        f"{360 * hub_occ.mean():.0f}° about the axis, less than one blade pitch "
+                        f"({360 / n_found:.1f}°); give the hub as a profile (--hub-profile)")
     # blades: connected parts of blade faces, each to its pitch sector
     bf = np.nonzero(blade)[0]
     nb, bcomp = _components(Fw[bf], int(weld.max()) + 1)
