@@ -41,6 +41,7 @@ from .blender import _cmd_demo
 from .flags import PROG, CliInternalError, UsageError, _fail, add_option_flags, finite
 from .nc import add_nc_arguments
 from .paths import _cmd_paths
+from .simulate import add_simulate_arguments
 
 __all__ = ["main", "build_parser"]
 
@@ -98,13 +99,14 @@ FITS = ("auto", "cone", "profile")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the CLI (subcommands ``demo``, ``paths`` and ``nc``)."""
+    """The argument parser of the CLI (subcommands ``demo``, ``paths``, ``nc`` and
+    ``simulate``)."""
     parser = _Parser(
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc}")
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,simulate}")
     sub.required = True
 
     commands = (
@@ -122,6 +124,12 @@ def build_parser() -> argparse.ArgumentParser:
          "within the limits, rotary linearization, every blade. Lengths mm, angles degrees. "
          "Needs only numpy and scipy.",
          add_nc_arguments, _cmd_nc),
+        ("simulate", "material removal on the blisk's stock → deviation map and verdict",
+         "Run programs (paths JSON) on a stock of one pitch sector (radial dexels), measure the "
+         "deviation on the part (+ material left, − gouge, mm) and judge it: exit 5 when a "
+         "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
+         "only numpy and scipy.",
+         add_simulate_arguments, _cmd_simulate),
     )
     for name, help_text, description, add_arguments, run in commands:
         command = sub.add_parser(name, help=help_text, description=description)
@@ -214,6 +222,12 @@ def _cmd_nc(args):
     from .nc import run_nc
 
     return run_nc(args)
+
+
+def _cmd_simulate(args):
+    from .simulate import run_simulate
+
+    return run_simulate(args)
 
 
 def main(argv=None) -> int:

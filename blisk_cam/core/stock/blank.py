@@ -213,7 +213,9 @@ def stock_from_mesh(V, F, axis: Axis, blade_count: int, theta0: float,
 
 def _closed_offset_blade(part: BliskPart, allowance: float):
     """Blade 0 grown by ``allowance`` along its vertex normals, its open ends closed by
-    tents: the foot's apex 3 mm + allowance below (inside the hub), the tip's above."""
+    tents: the foot's apex 3 mm + allowance below (inside the hub), the tip's above. Returns
+    the closed mesh (W, G) and the tip loop's meridional points (k, 2) sorted by z (None
+    for a closed blade)."""
     V = np.asarray(part.blade_vertices, float)
     F = np.asarray(part.blade_faces, np.int64)
     N2 = triangle_normals(V, F)
@@ -228,7 +230,7 @@ def _closed_offset_blade(part: BliskPart, allowance: float):
     _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     bnd = E[cnt[inv.reshape(-1)] == 1]
     if len(bnd) == 0:
-        return W, F
+        return W, F, None
     nxt = dict(zip(bnd[:, 0].tolist(), bnd[:, 1].tolist(), strict=True))
     seen, loops = set(), []
     for s in nxt:
@@ -246,6 +248,7 @@ def _closed_offset_blade(part: BliskPart, allowance: float):
     rr, tt, zz = theta_about(W, part.axis)
     mean_r = [rr[lp].mean() for lp in loops]
     foot = int(np.argmin(mean_r))
+    tip_loop = loops[int(np.argmax(mean_r))] if len(loops) > 1 else None
     for n, lp in enumerate(loops):
         th = math.atan2(np.sin(tt[lp]).mean(), np.cos(tt[lp]).mean())
         r_apex = (rr[lp].min() - 3.0 - allowance) if n == foot else (rr[lp].max() + 3.0)
@@ -253,7 +256,12 @@ def _closed_offset_blade(part: BliskPart, allowance: float):
         extra.append(apex)
         a = base + len(extra) - 1
         caps.append(np.stack([lp, np.roll(lp, -1), np.full(len(lp), a)], 1))
-    return np.vstack([W, np.asarray(extra)]), np.vstack([F] + caps)
+    tip_rz = None
+    if tip_loop is not None:
+        r0, _, z0 = theta_about(V[tip_loop], part.axis)
+        o = np.argsort(z0)
+        tip_rz = np.stack([r0[o], z0[o]], 1)
+    return np.vstack([W, np.asarray(extra)]), np.vstack([F] + caps), tip_rz
 
 
 def stock_from_allowance(part: BliskPart, allowance: float, resolution: float) -> RadialDexels:
@@ -289,10 +297,12 @@ def stock_from_allowance(part: BliskPart, allowance: float, resolution: float) -
     lo = [np.full(len(rays[0]), bore)]
     hi = [np.repeat(hub_top[rows], dex.n_theta)]
     # the blade, closed and grown, clipped at the envelope's top + allowance
-    W, G = _closed_offset_blade(part, a)
+    W, G, tip_rz = _closed_offset_blade(part, a)
     br, bc = mesh_crossings(dex, W, G, wrap=True)
     br, ba, bb = _parity_intervals(br, bc)
-    top = np.interp(zs, env[2:, 1], env[2:, 0]) + a if len(env) > 3 else np.full(dex.n_z, np.inf)
+    # the blade ends at its tip (the open tip loop's meridional line) plus the allowance
+    top = (np.interp(zs, tip_rz[:, 1], tip_rz[:, 0]) + a if tip_rz is not None
+           else np.full(dex.n_z, np.inf))
     cap = top[br // dex.n_theta]
     bb = np.minimum(bb, cap)
     rays.append(br)

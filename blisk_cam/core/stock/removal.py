@@ -115,16 +115,31 @@ def ray_solid_intervals(origin, u, tip, axis, planes):
     lo, hi : (k,) float, mm — the interval [lo, hi] along each ray (lo ≥ hi: no contact;
         lo ≥ 0, the ray starts at the axis)
     """
+    k = len(origin)
+    out_lo = np.zeros(k)
+    out_hi = np.full(k, -np.inf)
+    live = np.arange(k)
     dv = origin - tip
     z0 = np.einsum("ij,ij->i", dv, axis)
     zu = np.einsum("ij,ij->i", u, axis)
     A = np.maximum(1.0 - zu * zu, 0.0)
     B = 2.0 * (np.einsum("ij,ij->i", dv, u) - z0 * zu)
     C = np.maximum(np.einsum("ij,ij->i", dv, dv) - z0 * z0, 0.0)
-    lo = np.zeros(len(origin))
-    hi = np.full(len(origin), np.inf)
+    lo = np.zeros(k)
+    hi = np.full(k, np.inf)
     sA = np.sqrt(A)
-    for nr, nz, c in planes:
+    # the widest constraints first (top, side: they empty most pairs), then drop the pairs
+    # already empty every few constraints
+    planes = np.asarray(planes, float)
+    order = np.r_[len(planes) - 1, len(planes) - 2, np.arange(len(planes) - 2)] \
+        if len(planes) > 2 else np.arange(len(planes))
+    for step, (nr, nz, c) in enumerate(planes[order]):
+        if step % 3 == 2:
+            alive = hi > lo
+            if len(alive) and alive.mean() < 0.8:
+                live, lo, hi = live[alive], lo[alive], hi[alive]
+                z0, zu, A, B, C, sA = z0[alive], zu[alive], A[alive], B[alive], C[alive], \
+                    sA[alive]
         if abs(nr) < _EPS:  # nz z ≤ c: linear in r
             s = nz * zu
             rhs = c - nz * z0
@@ -169,7 +184,9 @@ def ray_solid_intervals(origin, u, tip, axis, planes):
         rhi = np.where(none, np.where(inside0, np.inf, -np.inf), rhi)
         lo = np.maximum(lo, rlo)
         hi = np.minimum(hi, rhi)
-    return lo, hi
+    out_lo[live] = lo
+    out_hi[live] = hi
+    return out_lo, out_hi
 
 
 # ------------------------------------------------------------------------------ results
@@ -239,9 +256,10 @@ def _sub_poses(tip, axis, rows, first: bool, step: float, reach: float):
     return tips, axes, rr
 
 
-def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius):
+def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
     """For each solid (its axis segment tip + [z_lo, z_hi] · axis, radius ``radius``): the
-    rays (unwrapped column, row) of the (θ, z) box that can meet it → (solid, col, row)."""
+    rays (unwrapped column, row) of the (θ, z) box that can meet it → (solid, col, row) and
+    the radii (r_lo, r_hi) per solid it can reach; none for a solid beyond ``r_cap``."""
     e1, e2, d = dex.axis.angular_frame()
     P0 = tips + z_lo * axes - dex.axis.o
     P1 = tips + z_hi * axes - dex.axis.o
@@ -274,24 +292,30 @@ def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius):
     w1 = np.minimum(np.floor((zh - dex.z0) / dex.dz - 0.5).astype(np.int64), dex.n_z - 1)
     nc = np.maximum(c1 - c0 + 1, 0)
     nw = np.maximum(w1 - w0 + 1, 0)
-    cnt = nc * nw
+    # the radii the solid can reach: the axis segment's nearest and farthest ± the radius
+    r_far = np.maximum(np.linalg.norm(p0p, axis=1), np.linalg.norm(p0p + segp, axis=1))
+    r_lo = np.maximum(rmin - radius, 0.0)
+    r_hi = r_far + radius
+    cnt = np.where(r_lo <= r_cap, nc * nw, 0)
     tot = int(cnt.sum())
     solid = np.repeat(np.arange(len(tips)), cnt)
     k = np.arange(tot) - np.repeat(np.cumsum(cnt) - cnt, cnt)
     ncs = np.maximum(nc[solid], 1)
-    return solid, c0[solid] + k % ncs, w0[solid] + k // ncs
+    return solid, c0[solid] + k % ncs, w0[solid] + k // ncs, r_lo, r_hi
 
 
 def _cut(dex: RadialDexels, tips, axes, planes, z_lo, z_hi, radius, chunk: int = 400_000):
     """Intervals (ray, a, b, solid) of the rays meeting each posed solid, in chunks."""
     e1, e2, d = dex.axis.angular_frame()
-    solid, col, row = _candidate_rays(dex, tips, axes, z_lo, z_hi, radius)
+    r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
+    solid, col, row, r_lo, r_hi = _candidate_rays(dex, tips, axes, z_lo, z_hi, radius, r_cap)
     out = []
     for s in range(0, len(solid), chunk):
         so, co, ro = solid[s:s + chunk], col[s:s + chunk], row[s:s + chunk]
         ray = ro * dex.n_theta + np.mod(co, dex.n_theta)
-        # skip rays without material (the common case in the air)
-        has = (dex.hi[ray] > dex.lo[ray]).any(axis=1)
+        # skip rays without material within the solid's reach (the common case: air)
+        L, H = dex.lo[ray], dex.hi[ray]
+        has = ((H > L) & (L < r_hi[so, None]) & (H > r_lo[so, None])).any(axis=1)
         so, co, ro, ray = so[has], co[has], ro[has], ray[has]
         ang = dex.ray_theta(co)
         u = np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2
