@@ -78,7 +78,9 @@ def cutter_halfplanes(cutter: Cutter, arc_tolerance: float = 1e-3) -> np.ndarray
         th = np.linspace(c.alpha, 0.5 * math.pi - c.beta, n)
         half = 0.5 * (th[1] - th[0])
         rp = r * (1.0 + math.cos(half)) / (2.0 * math.cos(half))
-        arc = np.stack([c.e + rp * np.sin(th), c.f - rp * np.cos(th)], 1)
+        rr = np.full(n, rp)
+        rr[[0, -1]] = r  # the tangent points stay: the bottom and side lines stay exact
+        arc = np.stack([c.e + rr * np.sin(th), c.f - rr * np.cos(th)], 1)
         prof = np.vstack([[[0.0, 0.0]], arc, prof[-1:]])
     poly = np.vstack([prof, [[0.0, c.h]]])
     return _polygon_halfplanes(poly)
@@ -152,12 +154,14 @@ def ray_solid_intervals(origin, u, tip, axis, planes):
             never = ~pos & ~neg & (rhs < 0)
             hi = np.where(never, -np.inf, hi)
             continue
-        # ρ ≤ L(r) = l0 + l1 r: the set where the convex g = ρ − L ≤ 0 is one interval
-        l0 = (c - nz * z0) / nr
-        l1 = -nz * zu / nr
-        a2 = A - l1 * l1
-        a1 = B - 2.0 * l0 * l1
-        a0 = C - l0 * l0
+        # nρ ρ ≤ M(r) = m0 + m1 r: the set where the convex g = nρ ρ − M ≤ 0 is one
+        # interval, its ends roots of q = nρ² ρ² − M² with M ≥ 0 (undivided: a small nρ,
+        # a nearly flat bottom, stays well conditioned)
+        m0 = c - nz * z0
+        m1 = -nz * zu
+        a2 = nr * nr * A - m1 * m1
+        a1 = nr * nr * B - 2.0 * m0 * m1
+        a0 = nr * nr * C - m0 * m0
         disc = a1 * a1 - 4.0 * a2 * a0
         sq = np.sqrt(np.maximum(disc, 0.0))
         lin = np.abs(a2) < 1e-12
@@ -166,20 +170,20 @@ def ray_solid_intervals(origin, u, tip, axis, planes):
             r1 = np.where(lin, -a0 / a1, qq / a2)
             r2 = np.where(lin, np.nan, a0 / qq)
         real = (disc >= 0) | lin
-        tol = 1e-9 * (1.0 + np.abs(l0))
-        v1 = real & np.isfinite(r1) & (l0 + l1 * r1 >= -tol)
-        v2 = real & np.isfinite(r2) & (l0 + l1 * r2 >= -tol)
+        tol = 1e-9 * (1.0 + np.abs(m0))
+        v1 = real & np.isfinite(r1) & (m0 + m1 * r1 >= -tol)
+        v2 = real & np.isfinite(r2) & (m0 + m1 * r2 >= -tol)
         rlo = np.where(v1 & v2, np.minimum(r1, r2), np.nan)
         rhi = np.where(v1 & v2, np.maximum(r1, r2), np.nan)
         one = v1 ^ v2
         v = np.where(v1, r1, r2)
-        plus = (sA - l1) < 0  # inside toward +∞
+        plus = (nr * sA - m1) < 0  # inside toward +∞
         rlo = np.where(one & plus, v, rlo)
         rhi = np.where(one & plus, np.inf, rhi)
         rlo = np.where(one & ~plus, -np.inf, rlo)
         rhi = np.where(one & ~plus, v, rhi)
         none = ~v1 & ~v2
-        inside0 = np.sqrt(C) - l0 <= 0
+        inside0 = nr * np.sqrt(C) - m0 <= 0
         rlo = np.where(none, np.where(inside0, -np.inf, np.inf), rlo)
         rhi = np.where(none, np.where(inside0, np.inf, -np.inf), rhi)
         lo = np.maximum(lo, rlo)
@@ -198,7 +202,7 @@ class Crash:
     kind: str  # "rapid" or "body"
     move: str  # the row's move type
     volume: float  # mm³ removed in the sector
-    depth: float  # mm, the longest removed stretch of one ray
+    depth: float  # mm, the longest stretch removed along one ray (radial)
     where: tuple  # (x, y, z) mm of the tool tip at the row
 
     def as_dict(self) -> dict:
@@ -356,7 +360,7 @@ def _apply(dex: RadialDexels, rays, a, b) -> float:
 def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAssembly | None
                    = None, *, sweep_tolerance: float | None = None,
                    arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
-                   batch: int = 2000):
+                   batch: int = 64):
     """Remove the material of every row of ``program`` from ``dex`` (in place); a generator
     yielding :class:`~..runtime.Progress` and returning a :class:`RemovalResult`.
 
@@ -371,6 +375,9 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         ball of radius ρ mm is then short by about 0.13 %/ρ)
     check_body : bool — report the body's removal as crashes (and remove it)
     row_offset : int — added to the rows reported (programs run one after another)
+    batch : int — rows per batch: within a batch the flute's removal is applied before the
+        body and rapids are checked, so a crash the flute would clear later in the same
+        batch could be missed; small batches keep the order of the machine
     """
     cutter = as_cutter(cutter)
     body = assembly or body_assembly(cutter)
@@ -410,14 +417,19 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 if len(rays) == 0:
                     continue
                 if kind == "body" or m == MOVE_RAPID:
-                    vol, ln = _overlap(dex, rays, a, b)
-                    vol *= dex.d_theta * dex.dz
+                    vol, _ = _overlap(dex, rays, a, b)
                     row = rr[so]
                     hit = vol > 0
                     if hit.any():
-                        per = np.bincount(row[hit] - s, weights=vol[hit], minlength=len(rows))
+                        # each hit row's own volume: the union of its sub-poses' intervals
+                        per = np.zeros(len(rows))
                         deep = np.zeros(len(rows))
-                        np.maximum.at(deep, row[hit] - s, ln[hit])
+                        for j in np.unique(row[hit] - s):
+                            sel = row == s + j
+                            mr, ma, mb, _ = merge_intervals(rays[sel], a[sel], b[sel])
+                            v, ln = _overlap(dex, mr, ma, mb)
+                            per[j] = float(v.sum()) * dex.d_theta * dex.dz
+                            deep[j] = float(ln.max()) if len(ln) else 0.0
                         for j in np.nonzero(per > CRASH_VOLUME)[0]:
                             key = (int(rows[j]), "body" if kind == "body" else "rapid")
                             c = crash_rows.get(key)
