@@ -171,8 +171,9 @@ def ray_solid_intervals(origin, u, tip, axis, planes):
             r2 = np.where(lin, np.nan, a0 / qq)
         real = (disc >= 0) | lin
         tol = 1e-9 * (1.0 + np.abs(m0))
-        v1 = real & np.isfinite(r1) & (m0 + m1 * r1 >= -tol)
-        v2 = real & np.isfinite(r2) & (m0 + m1 * r2 >= -tol)
+        with np.errstate(invalid="ignore"):
+            v1 = real & np.isfinite(r1) & (m0 + m1 * r1 >= -tol)
+            v2 = real & np.isfinite(r2) & (m0 + m1 * r2 >= -tol)
         rlo = np.where(v1 & v2, np.minimum(r1, r2), np.nan)
         rhi = np.where(v1 & v2, np.maximum(r1, r2), np.nan)
         one = v1 ^ v2
