@@ -132,30 +132,35 @@ def mesh_crossings(dex: RadialDexels, V, F, *, wrap: bool, chunk: int = 20000):
         c = (tf - dex.theta0) / dex.d_theta - 0.5  # ray columns at integers
         w = (z[f] - dex.z0) / dex.dz - 0.5
         ok = r[f].min(axis=1) > 1e-9
-        c0 = np.ceil(c.min(axis=1)).astype(np.int64)
-        c1 = np.floor(c.max(axis=1)).astype(np.int64)
         w0 = np.maximum(np.ceil(w.min(axis=1)).astype(np.int64), 0)
         w1 = np.minimum(np.floor(w.max(axis=1)).astype(np.int64), dex.n_z - 1)
-        nc = np.where(ok, np.maximum(c1 - c0 + 1, 0), 0)
         nw = np.where(ok, np.maximum(w1 - w0 + 1, 0), 0)
-        cnt = nc * nw
-        tot = int(cnt.sum())
+        tot = int(nw.sum())
         if tot == 0:
             continue
-        tri = np.repeat(np.arange(len(f)), cnt)
-        k = np.arange(tot) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        ci = c0[tri] + k % np.maximum(nc[tri], 1)
-        wi = w0[tri] + k // np.maximum(nc[tri], 1)
-        # inside the projected triangle (edge functions, one sign convention per triangle)
+        # scanlines: each row of the triangle's span, the columns between its edges there
+        tri = np.repeat(np.arange(len(f)), nw)
+        wi = w0[tri] + np.arange(tot) - np.repeat(np.cumsum(nw) - nw, nw)
         cc, ww = c[tri], w[tri]
-        e = []
-        for p, q in ((0, 1), (1, 2), (2, 0)):
-            e.append((cc[:, q] - cc[:, p]) * (wi - ww[:, p]) - (ww[:, q] - ww[:, p])
-                     * (ci - cc[:, p]))
-        e = np.stack(e, 1)
-        inside = (e >= 0).all(axis=1) | (e <= 0).all(axis=1)
-        inside &= ~(e == 0).all(axis=1)
-        tri, ci, wi = tri[inside], ci[inside], wi[inside]
+        ca = np.full(tot, np.inf)
+        cb = np.full(tot, -np.inf)
+        for p_, q_ in ((0, 1), (1, 2), (2, 0)):
+            wp, wq = ww[:, p_], ww[:, q_]
+            cross = (np.minimum(wp, wq) <= wi) & (wi < np.maximum(wp, wq))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x = cc[:, p_] + (wi - wp) * (cc[:, q_] - cc[:, p_]) / (wq - wp)
+            ca = np.where(cross, np.minimum(ca, x), ca)
+            cb = np.where(cross, np.maximum(cb, x), cb)
+        good = np.isfinite(ca) & np.isfinite(cb)
+        c_lo = np.where(good, np.ceil(np.where(good, ca, 0)), 0).astype(np.int64)
+        c_hi = np.where(good, np.floor(np.where(good, cb, -1)), -1).astype(np.int64)
+        nc = np.maximum(c_hi - c_lo + 1, 0)
+        cnt = int(nc.sum())
+        if cnt == 0:
+            continue
+        tri = np.repeat(tri, nc)
+        wi = np.repeat(wi, nc)
+        ci = np.repeat(c_lo, nc) + np.arange(cnt) - np.repeat(np.cumsum(nc) - nc, nc)
         if not wrap:
             keep = (ci >= 0) & (ci < dex.n_theta)
             tri, ci, wi = tri[keep], ci[keep], wi[keep]
