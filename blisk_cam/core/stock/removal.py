@@ -309,10 +309,27 @@ def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.
     return solid, c0[solid] + k % ncs, w0[solid] + k // ncs, r_lo, r_hi
 
 
-def _cut(dex: RadialDexels, tips, axes, planes, z_lo, z_hi, radius, chunk: int = 400_000):
-    """Intervals (ray, a, b, solid) of the rays meeting each posed solid, in chunks."""
-    e1, e2, d = dex.axis.angular_frame()
+def _cut(dex: RadialDexels, tips, axes, planes, z_lo, z_hi, radius, chunk: int = 400_000,
+         group: int = 4):
+    """Intervals (ray, a, b, solid) of the rays meeting each posed solid: the candidates of
+    ``group`` solids at a time (bounded memory), their pairs in chunks."""
+    out = []
+    n_pairs = 0
     r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
+    for g in range(0, len(tips), group):
+        res = _cut_group(dex, tips[g:g + group], axes[g:g + group], planes, z_lo, z_hi, radius,
+                         chunk, r_cap)
+        if res[-1]:
+            out.append((res[0], res[1], res[2], res[3] + g))
+            n_pairs += res[-1]
+    if not out:
+        z = np.zeros(0)
+        return np.zeros(0, np.int64), z, z, np.zeros(0, np.int64), n_pairs
+    return (*(np.concatenate([o[i] for o in out]) for i in range(4)), n_pairs)
+
+
+def _cut_group(dex: RadialDexels, tips, axes, planes, z_lo, z_hi, radius, chunk: int, r_cap):
+    e1, e2, d = dex.axis.angular_frame()
     solid, col, row, r_lo, r_hi = _candidate_rays(dex, tips, axes, z_lo, z_hi, radius, r_cap)
     out = []
     for s in range(0, len(solid), chunk):
