@@ -46,6 +46,7 @@ from .flags import PROG, CliInternalError, UsageError, _fail, add_option_flags, 
 from .nc import add_nc_arguments
 from .paths import _cmd_paths
 from .robot import add_robot_arguments
+from .simulate import add_simulate_arguments
 
 __all__ = ["main", "build_parser"]
 
@@ -103,14 +104,15 @@ FITS = ("auto", "cone", "profile")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the CLI (subcommands ``demo``, ``paths``, ``nc``, ``robot``)."""
+    """The argument parser of the CLI (subcommands ``demo``, ``paths``, ``nc``, ``robot``,
+    ``simulate``)."""
     parser = _Parser(
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
     )
     parser.add_argument("--version", action="version",
                         version=f"{PROG} {__version__} (kernels: {backend_name()})")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot}")
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot,simulate}")
     sub.required = True
 
     commands = (
@@ -134,6 +136,12 @@ def build_parser() -> argparse.ArgumentParser:
          "stroke, joint limits, speeds and singularities checked; the program split into the "
          "files the controller accepts. Lengths mm, angles degrees. Needs only numpy and scipy.",
          add_robot_arguments, _cmd_robot),
+        ("simulate", "material removal on the blisk's stock → deviation map and verdict",
+         "Run programs (paths JSON) on a stock of one pitch sector (radial dexels), measure the "
+         "deviation on the part (+ material left, − gouge, mm) and judge it: exit 5 when a "
+         "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
+         "only numpy and scipy.",
+         add_simulate_arguments, _cmd_simulate),
     )
     for name, help_text, description, add_arguments, run in commands:
         command = sub.add_parser(name, help=help_text, description=description)
@@ -238,6 +246,12 @@ def _cmd_robot(args):
     from .robot import run_robot
 
     return run_robot(args)
+
+
+def _cmd_simulate(args):
+    from .simulate import run_simulate
+
+    return run_simulate(args)
 
 
 def main(argv=None) -> int:

@@ -63,6 +63,17 @@ class CollisionError(BliskCamError):
     blade, an impossible tool assembly or collision option."""
 
 
+class PartError(BliskCamError):
+    """The blisk part cannot be built: a mesh that is not rotationally periodic, a blade count
+    that does not match the mesh's symmetry, no hub (faces of revolution) found, an unusable
+    hub profile."""
+
+
+class StockError(BliskCamError):
+    """The stock cannot be built or used: an unusable blank profile or mesh, a resolution out
+    of range, a saved stock state that does not belong to this part."""
+
+
 def check_known_keys(table, known, where: str, error=BliskCamError) -> None:
     """Raise ``error`` for the first key of the mapping ``table`` that is not in ``known``:
     the message names the key, the nearest known key (:func:`difflib.get_close_matches`, case

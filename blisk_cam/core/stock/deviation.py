@@ -1,0 +1,184 @@
+"""The verdict of a simulation: the deviation map on the part (Vericut's cut-vs-design
+comparison), its summary, and the files that show it.
+
+Deviation at a part vertex p with unit normal n (out of the metal): the position s of the
+stock's surface along the line p + s n nearest to p — s > 0 material left (mm), s < 0 a gouge
+(mm). The stock is read at samples a quarter of its resolution apart, and the material/air
+boundary between two samples is refined by bisection; the figure is good to the stock's
+resolution (a ray stands for its (θ, z) cell). Material beyond ``reach_out`` is reported as
+``reach_out`` (the deviation is "at least" that), a gouge deeper than ``reach_in`` as
+−``reach_in``.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import numpy as np
+
+from ..geometry.mesh import triangle_normals
+from ..part.model import BliskPart, theta_about
+from .dexels import RadialDexels
+from .removal import RemovalResult
+
+__all__ = ["deviation_map", "ply_bytes", "simulation_summary", "stock_skin", "stl_bytes",
+           "vertex_normals"]
+
+
+def vertex_normals(V, F, hub=None) -> np.ndarray:
+    """(n, 3) unit area-weighted vertex normals; faces flagged ``hub`` are turned to face away
+    from the axis (out of the hub material) first when an axis' radial sense is known."""
+    N2 = triangle_normals(V, F)
+    if hub is not None and hub[0] is not None:
+        mask, axis = hub
+        cen = V[F].mean(axis=1) - axis.o
+        radial = cen - (cen @ axis.d)[:, None] * axis.d
+        flip = mask & (np.einsum("ij,ij->i", N2, radial) < 0)
+        N2[flip] *= -1.0
+    vn = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(vn, F[:, k], N2)
+    return vn / np.maximum(np.linalg.norm(vn, axis=1), 1e-300)[:, None]
+
+
+def deviation_map(dex: RadialDexels, V, normals, *, reach_out: float = 2.0,
+                  reach_in: float = 0.5, chunk: int = 20000) -> np.ndarray:
+    """(n,) deviation (mm; + material left, − gouge) at points ``V`` (n, 3) along their unit
+    ``normals`` (out of the metal). See the module docstring."""
+    V = np.asarray(V, float)
+    Nn = np.asarray(normals, float)
+    h = 0.25 * dex.resolution
+    k_out = max(1, int(math.ceil(reach_out / h)))
+    k_in = max(1, int(math.ceil(reach_in / h)))
+    s = np.arange(-k_in, k_out + 1) * h  # index k_in is s = 0
+    out = np.empty(len(V))
+    for a in range(0, len(V), chunk):
+        p, n = V[a:a + chunk], Nn[a:a + chunk]
+        m = len(p)
+        pts = p[:, None, :] + s[None, :, None] * n[:, None, :]
+        occ = dex.occupied(pts.reshape(-1, 3)).reshape(m, len(s))
+        below = occ[:, k_in - 1]  # material just inside the surface?
+        # material inside: the first air sample at or beyond s = −h going outward
+        air_out = ~occ[:, k_in - 1:]
+        first_air = np.where(air_out.any(axis=1), air_out.argmax(axis=1), -1)
+        # air inside: the first material sample going inward from −h
+        mat_in = occ[:, :k_in][:, ::-1]
+        first_mat = np.where(mat_in.any(axis=1), mat_in.argmax(axis=1), -1)
+        # brackets [material side, air side] in s
+        lo_s = np.where(below, s[k_in - 1 + np.maximum(first_air, 1) - 1],
+                        -h * (np.maximum(first_mat, 0) + 1))
+        hi_s = np.where(below, s[k_in - 1 + np.maximum(first_air, 1)],
+                        -h * np.maximum(first_mat, 0))
+        for _ in range(6):
+            mid = 0.5 * (lo_s + hi_s)
+            o = dex.occupied(p + mid[:, None] * n)
+            lo_s = np.where(o, mid, lo_s)
+            hi_s = np.where(o, hi_s, mid)
+        d = 0.5 * (lo_s + hi_s)
+        d = np.where(below & (first_air < 0), reach_out, d)
+        d = np.where(~below & (first_mat < 0), -reach_in, d)
+        out[a:a + m] = d
+    return out
+
+
+def simulation_summary(part: BliskPart, dex: RadialDexels, removal: RemovalResult, V, dev,
+                       *, gouge_tolerance: float, initial_volume: float,
+                       reached=None) -> dict:
+    """The verdict as a JSON-ready dict: volumes (sector and whole blisk, mm³), deviation
+    figures (mm), the largest gouge and where, crashes, and ``passed`` (no crash, no gouge
+    deeper than ``gouge_tolerance``)."""
+    dev = np.asarray(dev, float)
+    left = dev[dev > 0]
+    sel = dev if reached is None else dev[np.asarray(reached, bool)]
+    worst = int(np.argmin(dev)) if len(dev) else -1
+    gouge = float(-dev[worst]) if worst >= 0 and dev[worst] < 0 else 0.0
+    n = part.blade_count
+    r, th, z = theta_about(V[worst:worst + 1], part.axis) if worst >= 0 else (0, 0, 0)
+    passed = not removal.crashes and gouge <= gouge_tolerance
+    summary = {
+        "passed": bool(passed),
+        "blade_count": n,
+        "resolution_mm": dex.resolution,
+        "rays": dex.n_rays,
+        "rows": removal.rows,
+        "sub_poses": removal.sub_poses,
+        "volume_initial_mm3": {"sector": initial_volume, "blisk": initial_volume * n},
+        "volume_removed_mm3": {"sector": removal.volume, "blisk": removal.volume * n,
+                               "by_move": {k: v for k, v in removal.removed.items()}},
+        "volume_remaining_mm3": {"sector": dex.volume(), "blisk": dex.volume() * n},
+        "deviation_mm": {
+            "vertices": int(len(dev)),
+            "max_left": float(left.max()) if len(left) else 0.0,
+            "p95_left": float(np.percentile(left, 95)) if len(left) else 0.0,
+            "max_left_reached": float(sel.max()) if len(sel) else 0.0,
+            "max_gouge": gouge,
+            "max_gouge_at_mm": [round(float(x), 4) for x in V[worst]] if worst >= 0 else None,
+            "max_gouge_at_r_theta_deg_z": ([round(float(r[0]), 4),
+                                            round(math.degrees(float(th[0])), 4),
+                                            round(float(z[0]), 4)] if worst >= 0 else None),
+            "gouge_tolerance": float(gouge_tolerance),
+            "gouged_vertices": int((dev < -gouge_tolerance).sum()),
+        },
+        "crashes": [c.as_dict() for c in removal.crashes],
+    }
+    return summary
+
+
+def ply_bytes(V, F, dev) -> bytes:
+    """Binary little-endian PLY of the mesh with a per-vertex float ``deviation`` (mm)."""
+    V = np.asarray(V, "<f4")
+    F = np.asarray(F, "<i4")
+    head = ("ply\nformat binary_little_endian 1.0\ncomment blisk_cam deviation map, mm "
+            "(+ material left, - gouge)\n"
+            f"element vertex {len(V)}\nproperty float x\nproperty float y\nproperty float z\n"
+            "property float deviation\n"
+            f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n")
+    vert = np.empty(len(V), dtype=[("p", "<f4", 3), ("d", "<f4")])
+    vert["p"] = V
+    vert["d"] = np.asarray(dev, "<f4")
+    face = np.empty(len(F), dtype=[("n", "u1"), ("i", "<i4", 3)])
+    face["n"] = 3
+    face["i"] = F
+    return head.encode("ascii") + vert.tobytes() + face.tobytes()
+
+
+def stock_skin(dex: RadialDexels, copies: int = 1):
+    """The remaining stock as a skin of triangles: every interval end of every ray is its
+    (θ, z) cell's patch at that radius (not welded — a picture of the dexels, not a solid),
+    over ``copies`` pitch sectors. Returns V (n, 3), F (m, 3)."""
+    e1, e2, d = dex.axis.angular_frame()
+    ray, slot = np.nonzero(dex.hi > dex.lo)
+    Vs, Fs = [], []
+    base = 0
+    for k in range(int(copies)):
+        for ends in (dex.lo[ray, slot], dex.hi[ray, slot]):
+            i = ray % dex.n_theta + k * dex.n_theta
+            j = ray // dex.n_theta
+            t0, t1 = dex.ray_theta(i - 0.5), dex.ray_theta(i + 0.5)
+            z0, z1 = dex.ray_z(j - 0.5), dex.ray_z(j + 0.5)
+            corners = []
+            for t, zz in ((t0, z0), (t1, z0), (t1, z1), (t0, z1)):
+                corners.append(dex.axis.o + zz[:, None] * d
+                               + ends[:, None] * (np.cos(t)[:, None] * e1
+                                                  + np.sin(t)[:, None] * e2))
+            Q = np.stack(corners, 1).reshape(-1, 3)
+            q = base + 4 * np.arange(len(ends))[:, None]
+            Fs.append(np.vstack([np.hstack([q, q + 1, q + 2]), np.hstack([q, q + 2, q + 3])]))
+            Vs.append(Q)
+            base += len(Q)
+    if not Vs:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    return np.vstack(Vs), np.vstack(Fs)
+
+
+def stl_bytes(V, F, name: str = "blisk_cam stock") -> bytes:
+    """Binary STL of (V, F)."""
+    V = np.asarray(V, float)
+    F = np.asarray(F, np.int64)
+    n = triangle_normals(V, F)
+    n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    rec = np.zeros(len(F), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["n"] = n
+    rec["v"] = V[F]
+    return name.encode("ascii")[:80].ljust(80, b" ") + struct.pack("<I", len(F)) + rec.tobytes()

@@ -1,0 +1,479 @@
+"""Material removal by a program's moves, on the radial dexels of one sector.
+
+Every row of a :class:`~..toolpath.types.Program` moves the tool from the previous pose to its
+own (cut, link, approach, retract, rapid): the tool tip goes **linearly** and the tool axis
+turns by **spherical linear interpolation** (slerp) between the two axes — a 5-axis machine
+running in TCP (tool-centre-point) mode. The move is sampled at sub-poses spaced so that the
+union of the sampled cutters differs from the true swept volume by less than
+``sweep_tolerance`` (the scallop between two samples of a surface of curvature radius ρ is
+δ²/(8ρ), so δ = √(8 ρ tol); the axis turn is bounded the same way at the flute's top); every
+sub-pose removes the cutter solid from the rays it meets, exactly in r.
+
+The solids are the **true cutter** (:class:`~..tool.cutter.Cutter`: ball, bull nose, flat,
+taper — the DIN 66215 profile, the same as the verifier's) and the **body** (shank and holder,
+:class:`~..tool.assembly.ToolAssembly`; by default the cutter's own shank and holder, the
+same as the collision check's default). A convex solid of revolution whose meridional profile
+is a convex polygon is an intersection of revolved half-planes nρ ρ + nz z ≤ c, and along a
+ray every such constraint is one interval whose ends are the roots of a quadratic
+(:func:`ray_solid_intervals`), so a ray meets the solid in one interval computed in closed
+form. The corner arcs are inscribed polygons (error ≤ ``arc_tolerance``, material left).
+
+A **crash** is material removed by a rapid move or by the body; it is reported with the row
+(and the material is removed, so one collision is reported once).
+
+Two functions carry the inner loop and can be swapped for compiled kernels one for one:
+:func:`ray_solid_intervals` (rays × posed solids → r intervals) and
+:func:`.dexels.subtract_intervals` (interval subtraction).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import StockError
+from ..runtime import Progress, check_cancel
+from ..tool.assembly import ToolAssembly
+from ..tool.cutter import Cutter, as_cutter
+from ..toolpath.types import MOVE_NAMES, MOVE_RAPID, Program
+from .dexels import RadialDexels, merge_intervals, subtract_intervals
+
+__all__ = ["Crash", "RemovalResult", "body_assembly", "cutter_halfplanes", "frustum_halfplanes",
+           "ray_solid_intervals", "remove_program", "simulate_moves"]
+
+_EPS = 1e-12
+#: minimum volume (mm³) a rapid or the body must remove at one row to be a crash
+CRASH_VOLUME = 1e-6
+
+
+# ------------------------------------------------------------------------------ solids
+def _polygon_halfplanes(poly) -> np.ndarray:
+    """(q, 3) rows (nρ, nz, c) of a convex (ρ, z) polygon counter-clockwise from the tip on
+    the axis to the top on the axis (the axis edge left out)."""
+    P = np.asarray(poly, float)
+    D = np.diff(P, axis=0)
+    L = np.hypot(D[:, 0], D[:, 1])
+    keep = L > 1e-12
+    D, A = D[keep] / L[keep, None], P[:-1][keep]
+    n = np.stack([D[:, 1], -D[:, 0]], 1)  # outward of a counter-clockwise polygon
+    H = np.column_stack([n, np.einsum("ij,ij->i", n, A)])
+    return H[H[:, 0] > -1e-12]  # an edge along the axis (ρ ≥ 0) constrains nothing
+
+
+def cutter_halfplanes(cutter: Cutter, arc_tolerance: float = 1e-3) -> np.ndarray:
+    """The cutting part (tip to flute length) as half-planes (q, 3); the corner arc inscribed
+    with chords whose sagitta ≤ ``arc_tolerance`` mm."""
+    c = as_cutter(cutter)
+    r = c.r
+    span = 0.5 * math.pi - c.beta - c.alpha
+    prof = c.profile(2)
+    if r > 0:
+        # chords of angle Δ with sagitta s = r (1 − cos Δ/2) ≤ 2 tol, their vertices pushed
+        # out by s/2 (a radius r (1 + cos Δ/2) / (2 cos Δ/2)): the polygon stays within ±tol
+        # of the arc instead of always inside it (no bias of the removed volume)
+        step = 2.0 * math.acos(max(-1.0, 1.0 - 2.0 * arc_tolerance / r))
+        n = max(2, int(math.ceil(span / max(step, 1e-6))) + 1)
+        th = np.linspace(c.alpha, 0.5 * math.pi - c.beta, n)
+        half = 0.5 * (th[1] - th[0])
+        rp = r * (1.0 + math.cos(half)) / (2.0 * math.cos(half))
+        rr = np.full(n, rp)
+        rr[[0, -1]] = r  # the tangent points stay: the bottom and side lines stay exact
+        arc = np.stack([c.e + rr * np.sin(th), c.f - rr * np.cos(th)], 1)
+        prof = np.vstack([[[0.0, 0.0]], arc, prof[-1:]])
+    poly = np.vstack([prof, [[0.0, c.h]]])
+    return _polygon_halfplanes(poly)
+
+
+def frustum_halfplanes(z0, r0, z1, r1) -> np.ndarray:
+    """A frustum of the body (ρ ≤ r(z), z0 ≤ z ≤ z1) as half-planes (3, 3)."""
+    return _polygon_halfplanes([[0.0, z0], [r0, z0], [r1, z1], [0.0, z1]])
+
+
+def body_assembly(cutter: Cutter) -> ToolAssembly:
+    """The cutter's own shank (Ø shank_diameter for 2 d + neck above the flute) and holder
+    (Ø holder_diameter for holder_length) — the collision check's default assembly."""
+    fl = cutter.h
+    rs, rh = 0.5 * cutter.shank_diameter, 0.5 * cutter.holder_diameter
+    z1 = fl + 2.0 * cutter.d + cutter.neck_length
+    return ToolAssembly(fl, ((fl, rs), (z1, rs), (z1, rh), (z1 + cutter.holder_length, rh)))
+
+
+def ray_solid_intervals(origin, u, tip, axis, planes):
+    """Where rays meet posed convex solids of revolution: one interval of the ray parameter
+    per pair.
+
+    Parameters
+    ----------
+    origin : (k, 3) float, mm — ray origins (on the blisk axis)
+    u : (k, 3) float — unit ray directions (radial)
+    tip : (k, 3) float, mm; axis : (k, 3) float, unit — the solid's pose for each ray
+    planes : (q, 3) float — the solid's meridional half-planes (nρ, nz, c): nρ ρ + nz z ≤ c
+        in the tool frame (ρ from the axis, z from the tip)
+
+    Returns
+    -------
+    lo, hi : (k,) float, mm — the interval [lo, hi] along each ray (lo ≥ hi: no contact;
+        lo ≥ 0, the ray starts at the axis)
+    """
+    k = len(origin)
+    out_lo = np.zeros(k)
+    out_hi = np.full(k, -np.inf)
+    live = np.arange(k)
+    dv = origin - tip
+    z0 = np.einsum("ij,ij->i", dv, axis)
+    zu = np.einsum("ij,ij->i", u, axis)
+    A = np.maximum(1.0 - zu * zu, 0.0)
+    B = 2.0 * (np.einsum("ij,ij->i", dv, u) - z0 * zu)
+    C = np.maximum(np.einsum("ij,ij->i", dv, dv) - z0 * z0, 0.0)
+    lo = np.zeros(k)
+    hi = np.full(k, np.inf)
+    sA = np.sqrt(A)
+    # the widest constraints first (top, side: they empty most pairs), then drop the pairs
+    # already empty every few constraints
+    planes = np.asarray(planes, float)
+    order = np.r_[len(planes) - 1, len(planes) - 2, np.arange(len(planes) - 2)] \
+        if len(planes) > 2 else np.arange(len(planes))
+    for step, (nr, nz, c) in enumerate(planes[order]):
+        if step % 3 == 2:
+            alive = hi > lo
+            if len(alive) and alive.mean() < 0.8:
+                live, lo, hi = live[alive], lo[alive], hi[alive]
+                z0, zu, A, B, C, sA = z0[alive], zu[alive], A[alive], B[alive], C[alive], \
+                    sA[alive]
+        if abs(nr) < _EPS:  # nz z ≤ c: linear in r
+            s = nz * zu
+            rhs = c - nz * z0
+            with np.errstate(divide="ignore", invalid="ignore"):
+                root = rhs / s
+            pos = s > _EPS
+            neg = s < -_EPS
+            hi = np.where(pos, np.minimum(hi, root), hi)
+            lo = np.where(neg, np.maximum(lo, root), lo)
+            never = ~pos & ~neg & (rhs < 0)
+            hi = np.where(never, -np.inf, hi)
+            continue
+        # nρ ρ ≤ M(r) = m0 + m1 r: the set where the convex g = nρ ρ − M ≤ 0 is one
+        # interval, its ends roots of q = nρ² ρ² − M² with M ≥ 0 (undivided: a small nρ,
+        # a nearly flat bottom, stays well conditioned)
+        m0 = c - nz * z0
+        m1 = -nz * zu
+        a2 = nr * nr * A - m1 * m1
+        a1 = nr * nr * B - 2.0 * m0 * m1
+        a0 = nr * nr * C - m0 * m0
+        disc = a1 * a1 - 4.0 * a2 * a0
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        lin = np.abs(a2) < 1e-12
+        with np.errstate(divide="ignore", invalid="ignore"):
+            qq = -0.5 * (a1 + np.where(a1 >= 0, sq, -sq))
+            r1 = np.where(lin, -a0 / a1, qq / a2)
+            r2 = np.where(lin, np.nan, a0 / qq)
+        real = (disc >= 0) | lin
+        tol = 1e-9 * (1.0 + np.abs(m0))
+        with np.errstate(invalid="ignore"):
+            v1 = real & np.isfinite(r1) & (m0 + m1 * r1 >= -tol)
+            v2 = real & np.isfinite(r2) & (m0 + m1 * r2 >= -tol)
+        rlo = np.where(v1 & v2, np.minimum(r1, r2), np.nan)
+        rhi = np.where(v1 & v2, np.maximum(r1, r2), np.nan)
+        one = v1 ^ v2
+        v = np.where(v1, r1, r2)
+        plus = (nr * sA - m1) < 0  # inside toward +∞
+        rlo = np.where(one & plus, v, rlo)
+        rhi = np.where(one & plus, np.inf, rhi)
+        rlo = np.where(one & ~plus, -np.inf, rlo)
+        rhi = np.where(one & ~plus, v, rhi)
+        none = ~v1 & ~v2
+        inside0 = nr * np.sqrt(C) - m0 <= 0
+        rlo = np.where(none, np.where(inside0, -np.inf, np.inf), rlo)
+        rhi = np.where(none, np.where(inside0, np.inf, -np.inf), rhi)
+        lo = np.maximum(lo, rlo)
+        hi = np.minimum(hi, rhi)
+    out_lo[live] = lo
+    out_hi[live] = hi
+    return out_lo, out_hi
+
+
+# ------------------------------------------------------------------------------ results
+@dataclass
+class Crash:
+    """Material removed where it must not be: by a rapid move or by the body (shank/holder)."""
+
+    row: int  # program row (the pose the move ends at)
+    kind: str  # "rapid" or "body"
+    move: str  # the row's move type
+    volume: float  # mm³ removed in the sector
+    depth: float  # mm, the longest stretch removed along one ray (radial)
+    where: tuple  # (x, y, z) mm of the tool tip at the row
+
+    def as_dict(self) -> dict:
+        return {"row": self.row, "kind": self.kind, "move": self.move,
+                "volume_mm3": round(self.volume, 6), "depth_mm": round(self.depth, 4),
+                "tip_mm": [round(float(x), 4) for x in self.where]}
+
+
+@dataclass
+class RemovalResult:
+    """What a program removed: volume per move type (mm³, in the sector), the crashes, the
+    sub-poses and ray–solid pairs computed, and the number of rows."""
+
+    removed: dict = field(default_factory=dict)
+    crashes: list = field(default_factory=list)
+    rows: int = 0
+    sub_poses: int = 0
+    pairs: int = 0
+
+    @property
+    def volume(self) -> float:
+        return float(sum(self.removed.values()))
+
+
+# ------------------------------------------------------------------------------ sweeping
+def _slerp_rows(a0, a1, t):
+    """Unit axes between a0 and a1 (k, 3) at fractions t (k,)."""
+    dot = np.clip(np.einsum("ij,ij->i", a0, a1), -1.0, 1.0)
+    om = np.arccos(dot)
+    so = np.sin(om)
+    small = so < 1e-9
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w0 = np.where(small, 1.0 - t, np.sin((1.0 - t) * om) / so)
+        w1 = np.where(small, t, np.sin(t * om) / so)
+    out = w0[:, None] * a0 + w1[:, None] * a1
+    return out / np.linalg.norm(out, axis=1)[:, None]
+
+
+def _sub_poses(tip, axis, rows, first: bool, step: float, reach: float):
+    """Sub-poses of the moves ending at ``rows`` (tip linear, axis slerp), t in (0, 1] (and
+    the first row's own pose when ``first``): (tips, axes, row of each)."""
+    prev = np.maximum(rows - 1, 0)
+    d = np.linalg.norm(tip[rows] - tip[prev], axis=1)
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", axis[rows], axis[prev]), -1.0, 1.0))
+    n = np.maximum(1, np.ceil(np.maximum(d, reach * ang) / step).astype(np.int64))
+    if first:
+        n = np.where(rows == 0, 1, n)
+    rr = np.repeat(rows, n)
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    t = (k + 1) / np.repeat(n, n)
+    t = np.where(rr == 0, 1.0, t)
+    p0 = np.maximum(rr - 1, 0)
+    tips = tip[p0] + t[:, None] * (tip[rr] - tip[p0])
+    axes = _slerp_rows(axis[p0], axis[rr], t)
+    return tips, axes, rr
+
+
+def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
+    """For each solid (its axis segment tip + [z_lo, z_hi] · axis, radius ``radius``): the
+    rays (unwrapped column, row) of the (θ, z) box that can meet it → (solid, col, row) and
+    the radii (r_lo, r_hi) per solid it can reach; none for a solid beyond ``r_cap``."""
+    e1, e2, d = dex.axis.angular_frame()
+    P0 = tips + z_lo * axes - dex.axis.o
+    P1 = tips + z_hi * axes - dex.axis.o
+    za, zb = P0 @ d, P1 @ d
+    ta = np.arctan2(P0 @ e2, P0 @ e1)
+    tb = ta + np.mod(np.arctan2(P1 @ e2, P1 @ e1) - ta + math.pi, 2 * math.pi) - math.pi
+    # the segment's nearest approach to the axis bounds the angular half-width
+    seg = P1 - P0
+    segp = seg - (seg @ d)[:, None] * d
+    p0p = P0 - (P0 @ d)[:, None] * d
+    den = np.einsum("ij,ij->i", segp, segp)
+    s = np.clip(-np.einsum("ij,ij->i", p0p, segp) / np.maximum(den, 1e-300), 0.0, 1.0)
+    rmin = np.linalg.norm(p0p + s[:, None] * segp, axis=1)
+    with np.errstate(invalid="ignore"):
+        w = np.where(rmin > radius, np.arcsin(np.minimum(radius / np.maximum(rmin, 1e-300), 1.0)),
+                     math.pi)
+    th_lo = np.minimum(ta, tb) - w
+    th_hi = np.maximum(ta, tb) + w
+    # rays in columns whose centre angle lies in [th_lo, th_hi] (unwrapped about θ0)
+    base = np.floor((ta - dex.theta0) / dex.pitch) * dex.pitch
+    c0 = np.ceil((th_lo - dex.theta0 - base) / dex.d_theta - 0.5).astype(np.int64)
+    c1 = np.floor((th_hi - dex.theta0 - base) / dex.d_theta - 0.5).astype(np.int64)
+    full = (th_hi - th_lo) >= 2 * math.pi
+    c1 = np.where(full, c0 + dex.n_theta - 1, np.minimum(c1, c0 + dex.n_theta - 1))
+    shift = np.round(base / dex.d_theta).astype(np.int64)
+    c0, c1 = c0 + shift, c1 + shift
+    zl = np.minimum(za, zb) - radius
+    zh = np.maximum(za, zb) + radius
+    w0 = np.maximum(np.ceil((zl - dex.z0) / dex.dz - 0.5).astype(np.int64), 0)
+    w1 = np.minimum(np.floor((zh - dex.z0) / dex.dz - 0.5).astype(np.int64), dex.n_z - 1)
+    nc = np.maximum(c1 - c0 + 1, 0)
+    nw = np.maximum(w1 - w0 + 1, 0)
+    # the radii the solid can reach: the axis segment's nearest and farthest ± the radius
+    r_far = np.maximum(np.linalg.norm(p0p, axis=1), np.linalg.norm(p0p + segp, axis=1))
+    r_lo = np.maximum(rmin - radius, 0.0)
+    r_hi = r_far + radius
+    cnt = np.where(r_lo <= r_cap, nc * nw, 0)
+    tot = int(cnt.sum())
+    solid = np.repeat(np.arange(len(tips)), cnt)
+    k = np.arange(tot) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    ncs = np.maximum(nc[solid], 1)
+    return solid, c0[solid] + k % ncs, w0[solid] + k // ncs, r_lo, r_hi
+
+
+def _cut(dex: RadialDexels, tips, axes, planes, z_lo, z_hi, radius, chunk: int = 400_000,
+         group: int = 4):
+    """Intervals (ray, a, b, solid) of the rays meeting each posed solid: the candidates of
+    ``group`` solids at a time (bounded memory), their pairs in chunks."""
+    out = []
+    n_pairs = 0
+    r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
+    for g in range(0, len(tips), group):
+        res = _cut_group(dex, tips[g:g + group], axes[g:g + group], planes, z_lo, z_hi, radius,
+                         chunk, r_cap)
+        if res[-1]:
+            out.append((res[0], res[1], res[2], res[3] + g))
+            n_pairs += res[-1]
+    if not out:
+        z = np.zeros(0)
+        return np.zeros(0, np.int64), z, z, np.zeros(0, np.int64), n_pairs
+    return (*(np.concatenate([o[i] for o in out]) for i in range(4)), n_pairs)
+
+
+def _cut_group(dex: RadialDexels, tips, axes, planes, z_lo, z_hi, radius, chunk: int, r_cap):
+    e1, e2, d = dex.axis.angular_frame()
+    solid, col, row, r_lo, r_hi = _candidate_rays(dex, tips, axes, z_lo, z_hi, radius, r_cap)
+    out = []
+    for s in range(0, len(solid), chunk):
+        so, co, ro = solid[s:s + chunk], col[s:s + chunk], row[s:s + chunk]
+        ray = ro * dex.n_theta + np.mod(co, dex.n_theta)
+        # skip rays without material within the solid's reach (the common case: air)
+        L, H = dex.lo[ray], dex.hi[ray]
+        has = ((H > L) & (L < r_hi[so, None]) & (H > r_lo[so, None])).any(axis=1)
+        so, co, ro, ray = so[has], co[has], ro[has], ray[has]
+        ang = dex.ray_theta(co)
+        u = np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2
+        O = dex.axis.o + dex.ray_z(ro)[:, None] * d
+        lo, hi = ray_solid_intervals(O, u, tips[so], axes[so], planes)
+        hit = hi > lo
+        out.append((ray[hit], lo[hit], hi[hit], so[hit]))
+    if not out:
+        z = np.zeros(0)
+        return np.zeros(0, np.int64), z, z, np.zeros(0, np.int64), 0
+    n_pairs = len(solid)
+    return (*(np.concatenate([o[i] for o in out]) for i in range(4)), n_pairs)
+
+
+def _overlap(dex: RadialDexels, rays, a, b):
+    """(k,) material volume term Σ (min(H, b)² − max(L, a)²)/2 (mm²) and length (mm) of
+    [a, b] on each ray, before removal."""
+    L, H = dex.lo[rays], dex.hi[rays]
+    x0 = np.maximum(L, a[:, None])
+    x1 = np.minimum(H, b[:, None])
+    ok = x1 > x0
+    vol = 0.5 * np.where(ok, x1 * x1 - x0 * x0, 0.0).sum(axis=1)
+    ln = np.where(ok, x1 - x0, 0.0).sum(axis=1)
+    return vol, ln
+
+
+def _apply(dex: RadialDexels, rays, a, b) -> float:
+    """Remove the union of (rays, a, b) from the stock; returns the volume removed (mm³)."""
+    rays, a, b, rank = merge_intervals(rays, a, b)
+    total = 0.0
+    for k in range(int(rank.max()) + 1 if len(rank) else 0):
+        sel = rank == k
+        dex.lo, dex.hi, removed = subtract_intervals(dex.lo, dex.hi, rays[sel], a[sel], b[sel])
+        total += float(removed.sum())
+    return total * dex.d_theta * dex.dz
+
+
+def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAssembly | None
+                   = None, *, sweep_tolerance: float | None = None,
+                   arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
+                   batch: int = 64):
+    """Remove the material of every row of ``program`` from ``dex`` (in place); a generator
+    yielding :class:`~..runtime.Progress` and returning a :class:`RemovalResult`.
+
+    Parameters
+    ----------
+    dex : RadialDexels — the stock (changed)
+    program : Program — tips (mm) and unit axes in the part's frame, move codes per row
+    cutter : Cutter (or a paths-JSON tool dict)
+    assembly : ToolAssembly or None — the body (default :func:`body_assembly`)
+    sweep_tolerance : float, mm — the sampled sweep's largest deviation from the true one
+        (default 2 % of the stock's resolution: 1 µm at 0.05 mm; the removed volume of a
+        ball of radius ρ mm is then short by about 0.13 %/ρ)
+    check_body : bool — report the body's removal as crashes (and remove it)
+    row_offset : int — added to the rows reported (programs run one after another)
+    batch : int — rows per batch: within a batch the flute's removal is applied before the
+        body and rapids are checked, so a crash the flute would clear later in the same
+        batch could be missed; small batches keep the order of the machine
+    """
+    cutter = as_cutter(cutter)
+    body = assembly or body_assembly(cutter)
+    tol = float(sweep_tolerance) if sweep_tolerance is not None else 0.02 * dex.resolution
+    if not tol > 0:
+        raise StockError(f"sweep tolerance must be > 0 mm, got {sweep_tolerance}")
+    # a sharp-edged flat end mill: also bound the steps a ramping bottom disc leaves
+    rho = cutter.r if cutter.r > 0 else 0.5 * cutter.d
+    step = math.sqrt(8.0 * rho * tol)
+    if cutter.r <= 0:
+        step = min(step, dex.resolution)
+    flute = cutter_halfplanes(cutter, arc_tolerance)
+    reach = math.hypot(cutter.h, cutter.max_radius)
+    bodies = [(frustum_halfplanes(*f), f[0], f[2], max(f[1], f[3])) for f in body.frustums()]
+    if check_body and bodies:
+        reach = max(reach, math.hypot(body.top, body.max_radius))
+    tip = np.asarray(program.tip, float)
+    axis = np.asarray(program.axis, float)
+    axis = axis / np.linalg.norm(axis, axis=1)[:, None]
+    move = np.asarray(program.move)
+    result = RemovalResult(removed={name: 0.0 for name in MOVE_NAMES}, rows=len(tip))
+    crash_rows: dict = {}
+    runs = [(m, a, z) for m, a, z in program.runs()]
+    done = 0
+    for m, start, stop in runs:
+        for s in range(start, stop, batch):
+            check_cancel()
+            rows = np.arange(s, min(stop, s + batch))
+            tips, axes, rr = _sub_poses(tip, axis, rows, True, step, reach)
+            result.sub_poses += len(tips)
+            jobs = [("flute", flute, 0.0, cutter.h, cutter.max_radius)]
+            if check_body:
+                jobs += [("body", p, z0, z1, rad) for p, z0, z1, rad in bodies]
+            for kind, planes, z0, z1, rad in jobs:
+                rays, a, b, so, n_pairs = _cut(dex, tips, axes, planes, z0, z1, rad)
+                result.pairs += n_pairs
+                if len(rays) == 0:
+                    continue
+                if kind == "body" or m == MOVE_RAPID:
+                    vol, _ = _overlap(dex, rays, a, b)
+                    row = rr[so]
+                    hit = vol > 0
+                    if hit.any():
+                        # each hit row's own volume: the union of its sub-poses' intervals
+                        per = np.zeros(len(rows))
+                        deep = np.zeros(len(rows))
+                        for j in np.unique(row[hit] - s):
+                            sel = row == s + j
+                            mr, ma, mb, _ = merge_intervals(rays[sel], a[sel], b[sel])
+                            v, ln = _overlap(dex, mr, ma, mb)
+                            per[j] = float(v.sum()) * dex.d_theta * dex.dz
+                            deep[j] = float(ln.max()) if len(ln) else 0.0
+                        for j in np.nonzero(per > CRASH_VOLUME)[0]:
+                            key = (int(rows[j]), "body" if kind == "body" else "rapid")
+                            c = crash_rows.get(key)
+                            if c is None:
+                                crash_rows[key] = Crash(int(rows[j]) + row_offset, key[1],
+                                                        MOVE_NAMES[int(move[rows[j]])],
+                                                        float(per[j]), float(deep[j]),
+                                                        tuple(tip[rows[j]]))
+                            else:
+                                c.volume += float(per[j])
+                                c.depth = max(c.depth, float(deep[j]))
+                removed = _apply(dex, rays, a, b)
+                if kind == "flute":
+                    result.removed[MOVE_NAMES[m]] += removed
+            done += len(rows)
+            yield Progress(done / max(len(tip), 1),
+                           f"simulating row {done} of {len(tip)}")
+    result.crashes = sorted(crash_rows.values(), key=lambda c: (c.row, c.kind))
+    return result
+
+
+def remove_program(dex: RadialDexels, program: Program, cutter, assembly=None, **kw):
+    """Run :func:`simulate_moves` to the end (no progress); returns the RemovalResult."""
+    gen = simulate_moves(dex, program, cutter, assembly, **kw)
+    while True:
+        try:
+            next(gen)
+        except StopIteration as stop:
+            return stop.value

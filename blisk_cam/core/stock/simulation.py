@@ -1,0 +1,108 @@
+"""One simulation: a part, a blank, programs run in order, the deviation map and its verdict.
+
+:func:`iter_simulate` is a generator (progress between yields, cancellable between batches,
+the Blender operator and the CLI drive the same one) returning a :class:`Simulation`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import StockError
+from ..part.model import BliskPart
+from ..runtime import Progress
+from ..toolpath.types import ToolPath
+from .blank import stock_from_allowance
+from .deviation import deviation_map, simulation_summary, vertex_normals
+from .dexels import RadialDexels
+from .removal import RemovalResult, simulate_moves
+
+__all__ = ["Simulation", "iter_simulate", "part_surface"]
+
+
+@dataclass
+class Simulation:
+    """The outcome: the stock after the programs, the removal figures, the part mesh with its
+    deviation per vertex (mm; NaN where the vertex is buried in the part: hub faces under a
+    blade), and the JSON-ready summary."""
+
+    stock: RadialDexels
+    removal: RemovalResult
+    V: np.ndarray
+    F: np.ndarray
+    deviation: np.ndarray
+    summary: dict
+
+
+def part_surface(part: BliskPart, resolution: float):
+    """The part mesh of the deviation map: V, F, unit vertex normals (out of the metal) and
+    the (n,) mask of vertices on the part's outer surface (hub vertices under the blade, in
+    the part's own material, are not)."""
+    V, F, hub = part.part_mesh()
+    N = vertex_normals(V, F, (hub, part.axis))
+    solid = stock_from_allowance(part, 0.0, resolution)
+    on_hub = np.zeros(len(V), bool)
+    on_hub[np.unique(F[hub])] = True
+    on_blade = np.zeros(len(V), bool)
+    on_blade[np.unique(F[~hub])] = True
+    buried = on_hub & ~on_blade & solid.occupied(V + 2.0 * resolution * N)
+    return V, F, N, ~buried
+
+
+def _check_frame(part: BliskPart, path: ToolPath, k: int):
+    a, b = np.asarray(part.axis.as_list()), np.asarray(path.axis.as_list())
+    if not (np.allclose(a[:3], b[:3], atol=1e-6) and np.allclose(a[3:], b[3:], atol=1e-9)):
+        raise StockError(f"program {k + 1} was planned about the axis {path.axis.as_list()} but "
+                         f"the part's axis is {part.axis.as_list()}; simulate in the frame the "
+                         "paths were planned in")
+    if path.program is None:
+        raise StockError(f"program {k + 1} has no linked program (only passes); plan it with "
+                         "linking so that every move is known")
+
+
+def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_tolerance=None,
+                  reach_out: float = 2.0, reach_in: float = 0.5, assembly=None,
+                  check_body: bool = True):
+    """Run ``paths`` (ToolPath with programs, in order) on ``stock`` (changed in place);
+    yields Progress, returns a :class:`Simulation`. ``gouge_tolerance`` (mm) defaults to the
+    largest chord tolerance of the paths plus the stock's resolution."""
+    paths = list(paths)
+    for k, p in enumerate(paths):
+        _check_frame(part, p, k)
+    if stock.blade_count != part.blade_count:
+        raise StockError(f"the stock is for {stock.blade_count} blades, the part has "
+                         f"{part.blade_count}; use a stock made for this part")
+    if gouge_tolerance is None:
+        gouge_tolerance = max([p.chord for p in paths] + [0.0]) + stock.resolution
+    initial = stock.volume()
+    total = RemovalResult(removed={}, rows=0)
+    n_rows = sum(len(p.program) for p in paths) or 1
+    offset = 0
+    for p in paths:
+        gen = simulate_moves(stock, p.program, p.tool, assembly, check_body=check_body,
+                             row_offset=offset)
+        while True:
+            try:
+                pr = next(gen)
+            except StopIteration as stop:
+                res = stop.value
+                break
+            yield Progress(0.9 * (offset + pr.fraction * len(p.program)) / n_rows, pr.message)
+        for k, v in res.removed.items():
+            total.removed[k] = total.removed.get(k, 0.0) + v
+        total.crashes += res.crashes
+        total.rows += res.rows
+        total.sub_poses += res.sub_poses
+        total.pairs += res.pairs
+        offset += len(p.program)
+    yield Progress(0.9, "measuring the deviation on the part")
+    V, F, N, surface = part_surface(part, stock.resolution)
+    dev = np.full(len(V), np.nan)
+    dev[surface] = deviation_map(stock, V[surface], N[surface], reach_out=reach_out,
+                                 reach_in=reach_in)
+    summary = simulation_summary(part, stock, total, V[surface], dev[surface],
+                                 gouge_tolerance=float(gouge_tolerance), initial_volume=initial)
+    yield Progress(1.0, "done")
+    return Simulation(stock, total, V, F, dev, summary)
