@@ -14,6 +14,7 @@
         [--radial-tilt DEG] [--axis-point X Y Z] [--max-axis-turn DEG]
         [--milling climb|conventional] [--approach MM] [--clearance-radius MM]
         [--clearance-margin MM] [--no-fix-gouge]
+    python -m blisk_cam batch JOBS.toml --out DIR [--scheduler ADDRESS] [--workers N] [--serial]
 
 Angles are degrees on the command line (radians in the scene settings and the core).
 
@@ -106,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,simulate}")
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,simulate,batch}")
     sub.required = True
 
     commands = (
@@ -130,6 +131,14 @@ def build_parser() -> argparse.ArgumentParser:
          "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
          "only numpy and scipy.",
          add_simulate_arguments, _cmd_simulate),
+        ("batch", "run the jobs of a TOML file on a Dask cluster → DIR",
+         "Run the jobs of JOBS.toml (single commands, per-blade paths of a whole-blisk scan, "
+         "sweeps over tool, lead, tilt and holder length) on a Dask cluster: a local cluster "
+         "of this machine's cores, or --scheduler ADDRESS. Each job's files land in DIR/<job>/; "
+         "DIR/summary.csv and summary.md list every job; a re-run skips the jobs whose inputs "
+         "and outputs did not change. Exit 6 when a job (or a blade) failed. Needs Dask: "
+         "pip install 'blisk-cam[batch]'.",
+         _add_batch_arguments, _cmd_batch),
     )
     for name, help_text, description, add_arguments, run in commands:
         command = sub.add_parser(name, help=help_text, description=description)
@@ -216,6 +225,39 @@ def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
     paths.add_argument("--nc", metavar="FILE", default=None,
                        help="also post the path as an NC program (needs --machine, --post)")
     add_nc_arguments(paths, with_paths=False)
+
+
+def _add_batch_arguments(batch: argparse.ArgumentParser) -> None:
+    """The arguments of ``batch``."""
+    batch.add_argument("jobs", metavar="JOBS.toml", help="the jobs file")
+    batch.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    batch.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="a running Dask scheduler (tcp://host:8786); default: a local "
+                       "cluster")
+    batch.add_argument("--workers", type=_blade_count, default=None, metavar="N",
+                       help="local cluster worker processes (default: the cores)")
+    batch.add_argument("--serial", action="store_true",
+                       help="no cluster: the jobs one after another in this process")
+
+
+def _cmd_batch(args):
+    import importlib.util
+
+    if args.scheduler and args.workers:
+        raise UsageError("--workers sizes the local cluster; with --scheduler the scheduler's "
+                         "workers run the jobs: drop one")
+    if not args.serial and importlib.util.find_spec("distributed") is None:
+        raise BliskCamError("batch runs need Dask, which is not installed: pip install "
+                            "'blisk-cam[batch]' (or run the jobs one by one with --serial)")
+    from ..batch.run import run_batch
+
+    report = run_batch(args.jobs, args.out, scheduler=args.scheduler, workers=args.workers,
+                       serial=args.serial)
+    for row in report.rows:
+        print(f"{row['job']}: {row['status']}" + (f" — {row['detail']}" if row.get("detail")
+                                                  else ""))
+    print(f"wrote {report.out / 'summary.md'} ({len(report.rows)} jobs, {report.wall:.1f} s)")
+    return 6 if report.failed else 0
 
 
 def _cmd_nc(args):

@@ -54,7 +54,7 @@ def read_profile_csv(path):
         raise BliskCamError(f"profile file {path}: {exc}") from None
 
 
-def _check_paths_args(args):
+def check_paths_args(args):
     """Checks that need more than one argument; raises UsageError (BliskCamError for an
     unreadable profile file). Fills args.axis_obj, args.cone1_obj, args.cone2_obj (core
     ``Cone`` or ``Profile`` given on the command line, or None) and args.stages (the option
@@ -112,6 +112,9 @@ def _check_paths_args(args):
         profile = getattr(args, f"{name}_profile")
         if profile is not None:
             setattr(args, f"{name}_obj", read_profile_csv(profile))
+
+
+_check_paths_args = check_paths_args  # the name the tests knew it by
 
 
 def parse_holder(text):
@@ -283,7 +286,7 @@ def process_age():
 def _cmd_paths(args):
     t_wall = time.perf_counter()
     startup = process_age()
-    _check_paths_args(args)
+    check_paths_args(args)
     from ..core.toolpath.paths_io import write_paths_json
 
     V, F, mesh, req, plan, report, times = plan_from_args(args)
