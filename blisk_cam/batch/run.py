@@ -7,9 +7,11 @@ every job's files in ``DIR/<job>/`` (atomically), ``DIR/manifest.json``, the sum
   one thread each (the tasks are numpy work that holds the GIL in places; processes scale).
   Input files are read by the workers where the jobs file names them (a shared file system
   for a remote cluster); outputs come back as bytes and the client writes them.
-* Failures: a task whose worker dies (killed, out of memory) or that raises is submitted
-  once more; a second failure is reported in the summary (its job "failed" or, for a blades
-  job, that blade) and never stops the other tasks. Bad input of a single command is its
+* Failures: a task whose worker dies (killed, out of memory) is run again by the scheduler
+  (once on the local cluster: ``allowed-failures`` 1; a remote scheduler's own setting,
+  Dask's default 3); a task that raises is submitted once more here; a second failure is
+  reported in the summary (its job "failed" or, for a blades job, that blade) and never
+  stops the other tasks. Bad input of a single command is its
   exit status, not retried. Results are taken as each task finishes and a job is written as
   soon as its last task is in, so a worker lost later loses nothing already finished.
 * Re-runs: the manifest keeps, per job, the hash of its command, arguments and input files
@@ -105,12 +107,14 @@ def write_job_files(out: Path, name: str, files: dict) -> None:
 
 def local_cluster(workers: int | None = None):
     """A LocalCluster of ``workers`` processes (default: the machine's cores), one thread
-    each, no dashboard; a worker that dies fails its task at once (the batch retries it)."""
+    each, no dashboard. When a worker dies the scheduler runs its tasks again elsewhere once
+    (``allowed-failures`` 1: the task that was running and those waiting on that worker); a
+    task whose worker dies a second time is reported."""
     import dask
     from distributed import LocalCluster
 
     n = int(workers or os.cpu_count() or 1)
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
         return LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                             dashboard_address=None, silence_logs=50)
 
@@ -206,7 +210,8 @@ def run_batch(jobs, out, *, scheduler: str | None = None, workers: int | None = 
 def _error_text(exc) -> str:
     name = type(exc).__name__
     if name == "KilledWorker":
-        return "its worker died twice while running it (killed or out of memory)"
+        return ("its worker died while running it, also on the second try (killed or out of "
+                "memory)")
     return f"{name}: {' '.join(str(exc).split())}"
 
 
@@ -266,7 +271,8 @@ def _run_dask(todo, run_task, progress, finish, scheduler, workers, client):
                 res = fut.result()
             else:
                 exc = fut.exception()
-                if attempt == 1:
+                # a dead worker was already retried by the scheduler (its allowed-failures)
+                if attempt == 1 and type(exc).__name__ != "KilledWorker":
                     print(f"batch: {task.key}: {_error_text(exc)}; trying once more",
                           file=progress.stream, flush=True)
                     ac.add(submit(task, 2))
