@@ -53,8 +53,11 @@ PLATFORMS = {
 #   3.13: Blender 5.1+. numpy 2.x; scipy 1.18 (numpy >= 2.0, < 2.8).
 SCIPY_FOR_PYTHON = {"3.11": "1.15.3", "3.13": "1.18.1"}
 
-# Never bundled, whatever pip pulls in.
-FORBIDDEN_WHEELS = ("numpy",)
+# Never bundled, whatever pip pulls in: numpy (Blender ships it); Dask (the batch runs,
+# blisk_cam/batch, are a command-line extra: pip install blisk-cam[batch]).
+FORBIDDEN_WHEELS = {"numpy": "Blender ships numpy",
+                    "dask": "Dask is the command line's optional extra (blisk-cam[batch])",
+                    "distributed": "Dask is the command line's optional extra (blisk-cam[batch])"}
 
 # Copied into the staging directory: everything else of the package is left out here (the
 # manifest's [build] paths_exclude_pattern filters again when Blender builds the zip).
@@ -182,8 +185,9 @@ def download_wheels(wheels_dir: Path, platforms: list[str], pythons: list[str]) 
                 )
             chosen.append(existing[0])
     for wheel in chosen:
-        if wheel.name.split("-")[0].lower() in FORBIDDEN_WHEELS:
-            raise BuildError(f"refusing to bundle {wheel.name}: Blender ships numpy")
+        why = FORBIDDEN_WHEELS.get(wheel.name.split("-")[0].lower())
+        if why:
+            raise BuildError(f"refusing to bundle {wheel.name}: {why}")
     return chosen
 
 

@@ -18,6 +18,7 @@ checks, so a bad value gets the message the command would give) plus ``neighbour
 
 from __future__ import annotations
 
+import argparse
 import tempfile
 from pathlib import Path
 
@@ -27,6 +28,13 @@ from .jobs import DEFAULT_OUT, OUTPUT_KEYS, Job, JobsError, Task, argv_of, sweep
 from .table import table_csv, table_markdown
 
 __all__ = ["assemble", "expand"]
+
+class _Parser(argparse.ArgumentParser):
+    """Raises UsageError instead of printing usage and exiting."""
+
+    def error(self, message):
+        raise UsageError(message)
+
 
 BLADE_KEYS = ("neighbours",)  # the scanned neighbours per side (not turned copies)
 SWEEP_KEYS = ("holder-length", "holder-diameter")
@@ -58,14 +66,14 @@ def _command_task(job: Job) -> Task:
 
 def _parse_paths(job: Job, args: dict):
     """The parsed and checked ``paths`` arguments of ``args`` (their --out a throw-away)."""
-    from ..cli.main import build_parser
-    from ..cli.paths import check_paths_args
+    from ..cli.paths import add_paths_arguments, check_paths_args
 
-    argv = argv_of("paths", args, drop=("out", *BLADE_KEYS, *SWEEP_KEYS, "nc"))
+    argv = argv_of("paths", args, drop=("out", *BLADE_KEYS, *SWEEP_KEYS, "nc"))[1:]
     argv += ["--out", str(Path(tempfile.gettempdir()) / "unused.json")]
     if args.get("machine") or args.get("post"):
         argv += ["--nc", str(Path(tempfile.gettempdir()) / "unused.nc")]
-    parser = build_parser()
+    parser = _Parser(prog="blisk_cam paths")
+    add_paths_arguments(parser)
     parsed, extra = parser.parse_known_args(argv)
     if extra:
         raise UsageError(f"unknown argument(s) {' '.join(extra)}")

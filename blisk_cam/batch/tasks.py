@@ -5,9 +5,10 @@ process and, for a run one job after another, in this process.
 
 Kinds of task:
 
-* ``command`` — a single command (``paths``, ``nc``, ``simulate``) run in-process through
-  :func:`..cli.main.main` with its outputs in a private temporary folder, as the user would
-  run it;
+* ``command`` — a single command (``paths``, ``nc``, ``simulate``) run as the user runs it,
+  ``python -m blisk_cam <command> ...`` in a child process of the worker (the interpreter
+  running the worker; this package's folder first on its path), its outputs in a private
+  temporary folder;
 * ``blade`` — one blade of a whole-blisk scan (:func:`..core.process.per_blade.plan_blade`);
 * ``sweep`` — one set-up of a sweep: plan with the collision check, and with a machine the
   inverse kinematics: does it reach every pose without collision?
@@ -15,8 +16,9 @@ Kinds of task:
 
 from __future__ import annotations
 
-import contextlib
-import io
+import os
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -55,22 +57,26 @@ def deterministic_paths_json(path) -> bytes:
 
 
 def _run_command(p: dict) -> dict:
-    from ..cli.main import main
-
+    root = str(Path(__file__).resolve().parents[2])  # the folder holding blisk_cam
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
+    package = __package__.split(".")[0]
     with tempfile.TemporaryDirectory(prefix="blisk_batch_") as tmp:
         argv = [a.replace("{OUT}", tmp) for a in p["argv"]]
-        so, se = io.StringIO(), io.StringIO()
-        with contextlib.redirect_stdout(so), contextlib.redirect_stderr(se):
-            status = main(argv)
+        proc = subprocess.run([sys.executable, "-m", package, *argv], cwd=tmp, env=env,
+                              stdin=subprocess.DEVNULL, capture_output=True, text=True)
         files = {}
         for f in sorted(Path(tmp).rglob("*")):
             if f.is_file():
                 files[str(f.relative_to(tmp))] = f.read_bytes()
-    err = " ".join(se.getvalue().split())
+    status = proc.returncode
+    if status < 0:  # killed by a signal: the worker's trouble, not the job's (retried)
+        raise ChildProcessError(f"{package} {argv[0]} was killed by signal {-status}")
+    err = " ".join(proc.stderr.split())
     ok = status == 0
     return {"files": files, "value": None,
             "record": {"status": "ok" if ok else f"failed (exit {status})",
-                       "detail": "" if ok else err, "stdout": so.getvalue()}}
+                       "detail": "" if ok else err, "stdout": proc.stdout}}
 
 
 def _run_blade(p: dict) -> dict:

@@ -11,7 +11,8 @@ import sys
 from ..core.errors import BliskCamError
 from ..core.options import check_value, fields, from_user, to_user
 
-__all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "finite", "option_args"]
+__all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "finite", "option_args",
+           "positive"]
 
 
 class UsageError(BliskCamError):
@@ -26,6 +27,14 @@ def finite(text):
         raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"expected a finite number, got '{text}'")
+    return value
+
+
+def positive(text):
+    """argparse type: a finite number > 0."""
+    value = finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'")
     return value
 
 

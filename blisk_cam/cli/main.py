@@ -34,14 +34,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..core.collision.options import CollisionOptions
 from ..core.errors import BliskCamError
-from ..core.options import PATH_OPTION_GROUPS
 from ..core.version import __version__
 from .blender import _cmd_demo
-from .flags import PROG, CliInternalError, UsageError, _fail, add_option_flags, finite
+from .flags import PROG, CliInternalError, UsageError, _fail, finite, positive
 from .nc import add_nc_arguments
-from .paths import _cmd_paths
+from .paths import ENGINES, _cmd_paths, add_paths_arguments
 from .simulate import add_simulate_arguments
 
 __all__ = ["main", "build_parser"]
@@ -59,11 +57,7 @@ class _Parser(argparse.ArgumentParser):
 _finite = finite
 
 
-def _positive(text):
-    value = _finite(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'")
-    return value
+_positive = positive
 
 
 def _non_negative(text):
@@ -95,8 +89,6 @@ def _blade_count(text):
     return value
 
 
-ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
-FITS = ("auto", "cone", "profile")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -119,7 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
          "Finishing tool paths between two cones on a blade mesh (mm). Without --cone1/--cone2 "
          "the cones are fitted to the blade's boundary loops. Lengths in mm, angles in degrees. "
          "Needs only numpy and scipy; --blend and --preview need Blender's Python module (bpy).",
-         _add_paths_arguments, _cmd_paths),
+         add_paths_arguments, _cmd_paths),
         ("nc", "paths JSON → NC program for a 5-axis machine",
          "Post a paths JSON for a machine (preset or TOML) and a controller: inverse kinematics "
          "within the limits, rotary linearization, every blade. Lengths mm, angles degrees. "
@@ -173,58 +165,6 @@ def _add_demo_arguments(demo: argparse.ArgumentParser) -> None:
                       help="scallop height of the demo paths (default 0.05)")
     demo.add_argument("--chord", type=_positive, default=0.05, metavar="MM",
                       help="chord error of the demo paths (default 0.05)")
-
-
-def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
-    """The arguments of ``paths``: the mesh, the cones, every path option, the outputs, the
-    collision options and those of ``nc`` for ``--nc``."""
-    paths.add_argument(
-        "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
-    )
-    paths.add_argument(
-        "--cone1", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
-        help="first (hub) cone generatrix, mm",
-    )
-    paths.add_argument(
-        "--cone2", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
-        help="last (tip) cone generatrix, mm",
-    )
-    paths.add_argument(
-        "--axis", type=_finite, nargs=6, metavar=("OX", "OY", "OZ", "DX", "DY", "DZ"),
-        default=None, help="blisk axis: origin (mm) and direction (default 0 0 0 0 0 1)",
-    )
-    paths.add_argument(
-        "--fit", type=str.lower, choices=FITS, default="auto",
-        help="what is fitted for a cone not given: per end a straight cone, or a polyline "
-        "profile when the cone misses the boundary loop by > 0.1 mm and the profile fits "
-        "better (auto, default); cones only (cone); profiles only (profile)",
-    )
-    paths.add_argument("--cone1-profile", metavar="FILE", default=None,
-                       help="hub generatrix as a polyline: 'r, z' per line in mm, # comments")
-    paths.add_argument("--cone2-profile", metavar="FILE", default=None,
-                       help="tip generatrix as a polyline (as --cone1-profile)")
-    add_option_flags(paths, PATH_OPTION_GROUPS)
-    paths.add_argument("--tool-radius", type=_positive, default=None, metavar="MM",
-                       help="the cutter radius instead of --tool-diameter (half of it)")
-    paths.add_argument("--out", required=True, metavar="FILE", help="paths JSON to write")
-    paths.add_argument("--blend", metavar="FILE", default=None, help="also save a .blend")
-    paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
-    paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
-                       help="render engine of --preview")
-    paths.add_argument("--verify", action="store_true",
-                       help="also measure the material left and gouges (printed and stored "
-                       "in the JSON's stats)")
-    add_option_flags(paths, (CollisionOptions,))
-    paths.add_argument("--holder", metavar='"Z R Z R ..."', default=None,
-                       help="tool body above the flute as a revolved profile: z (along the axis "
-                       "from the tip) and radius pairs, mm, z non-decreasing, starting at the "
-                       "flute length (default: the cutter's shank and holder)")
-    paths.add_argument("--obstacle", metavar="FILE", action="append", default=[],
-                       help="an extra obstacle mesh (hub, whole blisk, fixture; .stl .obj "
-                       ".ply, mm, the blade's frame); repeatable")
-    paths.add_argument("--nc", metavar="FILE", default=None,
-                       help="also post the path as an NC program (needs --machine, --post)")
-    add_nc_arguments(paths, with_paths=False)
 
 
 def _add_batch_arguments(batch: argparse.ArgumentParser) -> None:
