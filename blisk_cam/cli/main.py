@@ -197,7 +197,11 @@ def _cmd_batch(args):
         print(f"{row['job']}: {row['status']}" + (f" — {row['detail']}" if row.get("detail")
                                                   else ""))
     print(f"wrote {report.out / 'summary.md'} ({len(report.rows)} jobs, {report.wall:.1f} s)")
-    return 6 if report.failed else 0
+    if report.failed:
+        _fail(f"{len(report.failed)} job(s) failed or partly failed: "
+              f"{', '.join(report.failed)}; see {report.out / 'summary.md'}")
+        return 6
+    return 0
 
 
 def _cmd_nc(args):
