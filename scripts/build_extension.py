@@ -68,8 +68,11 @@ KERNEL_TARGETS = {
 }
 KERNELS_DIR = ROOT / "kernels"
 
-# Never bundled, whatever pip pulls in.
-FORBIDDEN_WHEELS = ("numpy",)
+# Never bundled, whatever pip pulls in: numpy (Blender ships it); Dask (the batch runs,
+# blisk_cam/batch, are a command-line extra: pip install blisk-cam[batch]).
+FORBIDDEN_WHEELS = {"numpy": "Blender ships numpy",
+                    "dask": "Dask is the command line's optional extra (blisk-cam[batch])",
+                    "distributed": "Dask is the command line's optional extra (blisk-cam[batch])"}
 
 # Copied into the staging directory: everything else of the package is left out here (the
 # manifest's [build] paths_exclude_pattern filters again when Blender builds the zip).
@@ -197,8 +200,9 @@ def download_wheels(wheels_dir: Path, platforms: list[str], pythons: list[str]) 
                 )
             chosen.append(existing[0])
     for wheel in chosen:
-        if wheel.name.split("-")[0].lower() in FORBIDDEN_WHEELS:
-            raise BuildError(f"refusing to bundle {wheel.name}: Blender ships numpy")
+        why = FORBIDDEN_WHEELS.get(wheel.name.split("-")[0].lower())
+        if why:
+            raise BuildError(f"refusing to bundle {wheel.name}: {why}")
     return chosen
 
 

@@ -13,7 +13,7 @@ from ..core.errors import BliskCamError
 from ..core.options import check_value, fields, from_user, to_user
 
 __all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "check_file_roles",
-           "finite", "option_args"]
+           "finite", "option_args", "positive"]
 
 
 class UsageError(BliskCamError):
@@ -58,6 +58,14 @@ def check_file_roles(inputs, outputs) -> None:
             if _same_file(name, oname):
                 raise UsageError(f"{flag} {name} is also {oflag}: one would replace the other; "
                                  "give each output its own name")
+
+
+def positive(text):
+    """argparse type: a finite number > 0."""
+    value = finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'")
+    return value
 
 
 def whole(text):

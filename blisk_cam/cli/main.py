@@ -17,6 +17,7 @@
     python -m blisk_cam nc --paths paths.json --machine PRESET|FILE.toml --post POST --out FILE
     python -m blisk_cam robot --paths paths.json --robot PRESET|FILE.toml \
         --post krl|rapid|pdl2|fanuc-ls --out DIR [--feed MM_MIN] [--force N]
+    python -m blisk_cam batch JOBS.toml --out DIR [--scheduler ADDRESS] [--workers N] [--serial]
 
 Angles are degrees on the command line (radians in the scene settings and the core).
 
@@ -36,15 +37,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..core.collision.options import CollisionOptions
 from ..core.errors import BliskCamError
 from ..core.kernels.backend import backend_name
-from ..core.options import PATH_OPTION_GROUPS
 from ..core.version import __version__
 from .blender import _cmd_demo
-from .flags import PROG, CliInternalError, UsageError, _fail, add_option_flags, finite
+from .flags import PROG, CliInternalError, UsageError, _fail, finite, positive
 from .nc import add_nc_arguments
-from .paths import _cmd_paths
+from .paths import ENGINES, _cmd_paths, add_paths_arguments
 from .robot import add_robot_arguments
 from .simulate import add_simulate_arguments
 
@@ -63,11 +62,7 @@ class _Parser(argparse.ArgumentParser):
 _finite = finite
 
 
-def _positive(text):
-    value = _finite(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'")
-    return value
+_positive = positive
 
 
 def _non_negative(text):
@@ -99,8 +94,6 @@ def _blade_count(text):
     return value
 
 
-ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
-FITS = ("auto", "cone", "profile")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -112,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version",
                         version=f"{PROG} {__version__} (kernels: {backend_name()})")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot,simulate}")
+    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot,simulate,batch}")
     sub.required = True
 
     commands = (
@@ -124,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
          "Finishing tool paths between two cones on a blade mesh (mm). Without --cone1/--cone2 "
          "the cones are fitted to the blade's boundary loops. Lengths in mm, angles in degrees. "
          "Needs only numpy and scipy; --blend and --preview need Blender's Python module (bpy).",
-         _add_paths_arguments, _cmd_paths),
+         add_paths_arguments, _cmd_paths),
         ("nc", "paths JSON → NC program for a 5-axis machine",
          "Post a paths JSON for a machine (preset or TOML) and a controller: inverse kinematics "
          "within the limits, rotary linearization, every blade. Lengths mm, angles degrees. "
@@ -142,6 +135,14 @@ def build_parser() -> argparse.ArgumentParser:
          "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
          "only numpy and scipy.",
          add_simulate_arguments, _cmd_simulate),
+        ("batch", "run the jobs of a TOML file on a Dask cluster → DIR",
+         "Run the jobs of JOBS.toml (single commands, per-blade paths of a whole-blisk scan, "
+         "sweeps over tool, lead, tilt and holder length) on a Dask cluster: a local cluster "
+         "of this machine's cores, or --scheduler ADDRESS. Each job's files land in DIR/<job>/; "
+         "DIR/summary.csv and summary.md list every job; a re-run skips the jobs whose inputs "
+         "and outputs did not change. Exit 6 when a job (or a blade) failed. Needs Dask: "
+         "pip install 'blisk-cam[batch]'.",
+         _add_batch_arguments, _cmd_batch),
     )
     for name, help_text, description, add_arguments, run in commands:
         command = sub.add_parser(name, help=help_text, description=description)
@@ -178,62 +179,41 @@ def _add_demo_arguments(demo: argparse.ArgumentParser) -> None:
                       help="chord error of the demo paths (default 0.05)")
 
 
-def _add_paths_arguments(paths: argparse.ArgumentParser) -> None:
-    """The arguments of ``paths``: the mesh, the cones, every path option, the outputs, the
-    collision options and those of ``nc`` for ``--nc``."""
-    paths.add_argument(
-        "--mesh", required=True, metavar="FILE", help="blade mesh .stl .obj .ply (mm)"
-    )
-    paths.add_argument(
-        "--units", type=str.lower, choices=("mm", "m", "in"), default="mm",
-        help="units of the mesh file (and of --obstacle files): mm (default), m or in; the "
-        "mesh is scaled to mm (a blade whose size says other units is refused, naming this)")
-    paths.add_argument(
-        "--cone1", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
-        help="first (hub) cone generatrix, mm",
-    )
-    paths.add_argument(
-        "--cone2", type=_finite, nargs=4, metavar=("R1", "Z1", "R2", "Z2"),
-        help="last (tip) cone generatrix, mm",
-    )
-    paths.add_argument(
-        "--axis", type=_finite, nargs=6, metavar=("OX", "OY", "OZ", "DX", "DY", "DZ"),
-        default=None, help="blisk axis: origin (mm) and direction (default 0 0 0 0 0 1)",
-    )
-    paths.add_argument(
-        "--fit", type=str.lower, choices=FITS, default="auto",
-        help="what is fitted for a cone not given: per end a straight cone, or a polyline "
-        "profile when the cone misses the boundary loop by > 0.1 mm and the profile fits "
-        "better (auto, default); cones only (cone); profiles only (profile)",
-    )
-    paths.add_argument("--cone1-profile", metavar="FILE", default=None,
-                       help="hub generatrix as a polyline: 'r, z' per line in mm, # comments")
-    paths.add_argument("--cone2-profile", metavar="FILE", default=None,
-                       help="tip generatrix as a polyline (as --cone1-profile)")
-    add_option_flags(paths, PATH_OPTION_GROUPS)
-    paths.add_argument("--tool-radius", type=_positive, default=None, metavar="MM",
-                       help="the cutter radius instead of --tool-diameter (half of it)")
-    paths.add_argument("--out", required=True, metavar="FILE", help="paths JSON to write")
-    paths.add_argument("--blend", metavar="FILE", default=None, help="also save a .blend")
-    paths.add_argument("--preview", metavar="FILE", default=None, help="also render a PNG")
-    paths.add_argument("--engine", type=str.upper, choices=ENGINES, default="AUTO",
-                       help="render engine of --preview")
-    paths.add_argument("--quiet", action="store_true",
-                       help="no progress lines on stderr (errors and warnings still print)")
-    paths.add_argument("--verify", action="store_true",
-                       help="also measure the material left and gouges (printed and stored "
-                       "in the JSON's stats)")
-    add_option_flags(paths, (CollisionOptions,))
-    paths.add_argument("--holder", metavar='"Z R Z R ..."', default=None,
-                       help="tool body above the flute as a revolved profile: z (along the axis "
-                       "from the tip) and radius pairs, mm, z non-decreasing, starting at the "
-                       "flute length (default: the cutter's shank and holder)")
-    paths.add_argument("--obstacle", metavar="FILE", action="append", default=[],
-                       help="an extra obstacle mesh (hub, whole blisk, fixture; .stl .obj "
-                       ".ply, mm, the blade's frame); repeatable")
-    paths.add_argument("--nc", metavar="FILE", default=None,
-                       help="also post the path as an NC program (needs --machine, --post)")
-    add_nc_arguments(paths, with_paths=False)
+def _add_batch_arguments(batch: argparse.ArgumentParser) -> None:
+    """The arguments of ``batch``."""
+    batch.add_argument("jobs", metavar="JOBS.toml", help="the jobs file")
+    batch.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    batch.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="a running Dask scheduler (tcp://host:8786); default: a local "
+                       "cluster")
+    batch.add_argument("--workers", type=_blade_count, default=None, metavar="N",
+                       help="local cluster worker processes (default: the cores)")
+    batch.add_argument("--serial", action="store_true",
+                       help="no cluster: the jobs one after another in this process")
+
+
+def _cmd_batch(args):
+    import importlib.util
+
+    if args.scheduler and args.workers:
+        raise UsageError("--workers sizes the local cluster; with --scheduler the scheduler's "
+                         "workers run the jobs: drop one")
+    if not args.serial and importlib.util.find_spec("distributed") is None:
+        raise BliskCamError("batch runs need Dask, which is not installed: pip install "
+                            "'blisk-cam[batch]' (or run the jobs one by one with --serial)")
+    from ..batch.run import run_batch
+
+    report = run_batch(args.jobs, args.out, scheduler=args.scheduler, workers=args.workers,
+                       serial=args.serial)
+    for row in report.rows:
+        print(f"{row['job']}: {row['status']}" + (f" — {row['detail']}" if row.get("detail")
+                                                  else ""))
+    print(f"wrote {report.out / 'summary.md'} ({len(report.rows)} jobs, {report.wall:.1f} s)")
+    if report.failed:
+        _fail(f"{len(report.failed)} job(s) failed or partly failed: "
+              f"{', '.join(report.failed)}; see {report.out / 'summary.md'}")
+        return 6
+    return 0
 
 
 def _cmd_nc(args):

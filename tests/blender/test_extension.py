@@ -185,6 +185,8 @@ def test_zip_contents(extension_zip):
     assert not [n for n in names if n.startswith(("tests/", "wheels/")) or n.endswith(".whl")]
     assert not [n for n in names if n.endswith("ruff.toml")]
     assert not [n for n in names if n.split("/")[-1].startswith("numpy")]
+    # Dask is the command line's extra (blisk-cam[batch]), never in the Blender zip
+    assert not [n for n in names if n.split("/")[-1].startswith(("dask", "distributed"))]
     assert "wheels" not in manifest
 
 
