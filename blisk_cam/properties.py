@@ -379,6 +379,15 @@ BliskCamSettings.__annotations__.update(
         name="Obstacles", type=bpy.types.Collection,
         description="Extra obstacle meshes (hub, whole blisk, fixture) for the collision "
         "check"),
+    # the per-blade run of a whole-blisk scan (issue 27)
+    per_blade_scan=PointerProperty(
+        name="Scan", type=bpy.types.Object, poll=poll_mesh,
+        description="Whole-blisk scan mesh (hub and every blade; read, never modified); "
+        "empty: the active object"),
+    per_blade_folder=StringProperty(
+        name="Results Folder", subtype="DIR_PATH", default="",
+        description="Job folder of a per-blade batch run (blades.csv, blade_<k>.json) for "
+        "Load Results"),
     export_anyway=BoolProperty(
         name="Export Anyway", default=False,
         description="Export NC even while poses are unresolved collisions (not recommended)"),

@@ -6,6 +6,7 @@ their sub-panels).
 
 from .collisions import BLISKCAM_PT_collisions
 from .paths import BLISKCAM_PT_display, BLISKCAM_PT_machine, BLISKCAM_PT_paths, BLISKCAM_PT_preview
+from .per_blade import BLISKCAM_PT_per_blade
 from .setup import BLISKCAM_PT_region, BLISKCAM_PT_setup, BLISKCAM_PT_tolerances, BLISKCAM_PT_tool
 
 CLASSES = [
@@ -16,6 +17,7 @@ CLASSES = [
     BLISKCAM_PT_paths,
     BLISKCAM_PT_display,
     BLISKCAM_PT_collisions,
+    BLISKCAM_PT_per_blade,
     BLISKCAM_PT_machine,
     BLISKCAM_PT_preview,
 ]
