@@ -63,6 +63,38 @@ def _scene(scan):
     return ob, s
 
 
+class _Layout:
+    """Stands in for ``UILayout``: checks the properties drawn exist, records the labels and
+    operators."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = self.use_property_decorate = False
+        self.scale_y = 1.0
+
+    def _child(self, *_a, **_kw):
+        return _Layout(self.log)
+
+    row = column = box = split = _child
+
+    def label(self, text="", **_kw):
+        self.log.append(text)
+
+    def prop(self, data, name, **_kw):
+        assert hasattr(data, name), name
+
+    def operator(self, idname, **_kw):
+        self.log.append(idname)
+
+
+def _panel_lines():
+    from blisk_cam.panels.per_blade import BLISKCAM_PT_per_blade
+
+    log = []
+    BLISKCAM_PT_per_blade.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
+    return log
+
+
 def _check_blades(dist):
     """The shown blades: each one's CC curve points on one built blade's own faces (distinct
     blades, none the notched one); returns {blade number: built blade}."""
@@ -89,6 +121,7 @@ def test_per_blade_modal_shows_each_blade_on_its_own_faces(addon, scan):
     ob, s = _scene(scan)
     before = np.array([v.co[:] for v in ob.data.vertices])
     # ESC while the first blade is planned: cancelled, nothing written, the worker stops
+    assert len(_panel_lines()) == 3  # the info line and the two operators: no result yet
     op = ModalRunner(mod.BLISKCAM_OT_per_blade_paths, mod.PerBladeJob(bpy.context))
     op.start(bpy.context)
     assert not bpy.ops.blisk_cam.per_blade_paths.poll()  # one run at a time
@@ -117,6 +150,10 @@ def test_per_blade_modal_shows_each_blade_on_its_own_faces(addon, scan):
     warnings = [t for kind, t in op.reports if kind == {"WARNING"}]
     assert any(t.startswith(f"blade {k_failed}:") for t in warnings)
     assert f"failed: blade(s) {k_failed}" in op.reports[-1][1]
+    # the panel: both operators, the count of blades with paths and the failed blade's reason
+    lines = _panel_lines()
+    assert {"blisk_cam.per_blade_paths", "blisk_cam.load_blade_results"} <= set(lines)
+    assert f"scan: {N - 1} of {N} blades with paths" in lines and reason[:90] in lines
     # the scan is read, never modified
     np.testing.assert_array_equal(np.array([v.co[:] for v in ob.data.vertices]), before)
 
