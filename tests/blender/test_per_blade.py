@@ -59,7 +59,8 @@ def _scene(scan):
     s.per_blade_scan = ob
     s.tool_type, s.tool_diameter, s.cusp, s.chord = "BALL", 10.0, 0.4, 0.2
     s.lead = math.radians(10.0)
-    s.mode, s.avoid_method, s.neighbours, s.blade_count = "AVOID", "ROTATE", 1, 0
+    # 2 neighbours per side (the default) on 3 blades: 1 is checked, and the report says so
+    s.mode, s.avoid_method, s.neighbours, s.blade_count = "AVOID", "ROTATE", 2, 0
     return ob, s
 
 
@@ -150,6 +151,7 @@ def test_per_blade_modal_shows_each_blade_on_its_own_faces(addon, scan):
     warnings = [t for kind, t in op.reports if kind == {"WARNING"}]
     assert any(t.startswith(f"blade {k_failed}:") for t in warnings)
     assert f"failed: blade(s) {k_failed}" in op.reports[-1][1]
+    assert "3 blades allow 1 neighbour(s) per side, not 2: checked 1" in warnings
     # the panel: both operators, the count of blades with paths and the failed blade's reason
     lines = _panel_lines()
     assert {"blisk_cam.per_blade_paths", "blisk_cam.load_blade_results"} <= set(lines)
@@ -182,3 +184,21 @@ def test_load_results_of_a_batch_run(addon, scan, tmp_path):
     assert len([c for c in bpy.data.collections if c.name.startswith("Blisk CAM – per")]) == 1
     with pytest.raises(RuntimeError, match="holds no blades.csv"):
         bpy.ops.blisk_cam.load_blade_results(directory=str(tmp_path))
+
+
+def test_bad_input_is_refused_clearly(addon, demo):
+    """No scan, not a mesh, a mesh that is not a whole blisk (one blade): refused with a
+    reason the user can act on; nothing written."""
+    run = bpy.ops.blisk_cam.per_blade_paths
+    assert not run.poll()  # nothing active, no scan chosen
+    empty = bpy.data.objects.new("empty", None)
+    bpy.context.scene.collection.objects.link(empty)
+    bpy.context.view_layer.objects.active = empty
+    assert not run.poll()
+    blade = blender_io.arrays_to_object("one blade", demo.blade_vertices, demo.blade_faces)
+    bpy.context.scene.blisk_cam.per_blade_scan = blade
+    assert run.poll()
+    with pytest.raises(RuntimeError, match="not rotationally periodic"):
+        run()
+    assert per_blade_summary() is None
+
