@@ -7,8 +7,8 @@ every blade k that passed, the same output collection the Generate operator writ
 the cones and the paths JSON (so Export Paths / Export NC work on it like on a generated
 blade). The failed blades get no objects; their numbers and reasons are kept on the parent
 collection (JSON in ``blisk_cam_per_blade``) for the panel. A new per-blade run (or Load
-Results) replaces the previous per-blade result as a whole; the scan object is never
-modified.
+Results) replaces the previous per-blade result as a whole (and the Generate output of an
+object that happens to be named "Blade k"); the scan object is never modified.
 
 Coordinates: the paths are in mm, objects in Blender units (``mm / mm_per_blender_unit``).
 """
