@@ -23,6 +23,7 @@ from blisk_cam.core.part.model import (
     theta_about,
 )
 from tests.support.blades import nasa_blade
+from tests.support.scan_blisk import worn_blisk
 
 
 def _stack(parts):
@@ -127,3 +128,20 @@ def test_part_from_blade_and_csv(tmp_path):
     bad.write_text("150, 0\nnot a number\n")
     with pytest.raises(PartError, match="line 2"):
         read_rz_csv(bad)
+
+
+def test_a_scan_whose_blades_differ_keeps_its_blade_count_and_numbering():
+    """A repaired blisk's blades are turned a few tenths of a degree each way and one is much
+    thinner: N is still found (harmonics far above N do not read the differences as a lower
+    symmetry), and blade 0 is the blade nearest θ = 0 however the others differ."""
+    turns = [0.2, -0.2, 0.2, -0.2]
+    V, F, d, blades = worn_blisk(4, 0.2, offsets=[0.04, -0.6, 0.08, 0.02], turns_deg=turns)
+    split = split_blisk_mesh(V, F)
+    assert split.blade_count == 4
+    # every built blade's faces land in one sector; sector of blade k is k (blade 0 at θ≈0)
+    offs = np.cumsum([0] + [len(Fk) for _, Fk in blades[:-1]]) + (len(F) - sum(
+        len(Fk) for _, Fk in blades))
+    for k, (_, Fk) in enumerate(blades):
+        assert set(split.sector[offs[k]:offs[k] + len(Fk)].tolist()) == {k}
+    with pytest.raises(PartError, match="3-fold|blade count"):
+        split_blisk_mesh(V, F, blade_count=3)

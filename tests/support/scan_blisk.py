@@ -29,11 +29,9 @@ def worn_blisk(blade_count=4, resolution=0.12, offsets=None, turns_deg=None, bro
     per blade k its own mesh ``blades[k] = (Vk, F)`` as built.
 
     offsets : (N,) mm along the blade's normals (default 0.04 + 0.04·k);
-    turns_deg : (N,) extra turn about the axis, degrees (default none: the part model's
-        symmetry test reads a few tenths of a degree as a different blade count);
+    turns_deg : (N,) extra turn about the axis, degrees (default none);
     broken : int or None — this blade gets a 1.5 mm deep, 2 mm wide notch across its
-        mid-span (a scan fault tighter than the ball: the plan refuses it; the
-        blade is the largest, so the part model numbers it 0)."""
+        mid-span (a scan fault tighter than the ball: the plan refuses it)."""
     d = make_demo_blisk(blade_count=blade_count, hub_pitches=blade_count, resolution=resolution)
     N = blade_count
     offsets = np.asarray(offsets if offsets is not None else 0.04 + 0.04 * np.arange(N), float)

@@ -384,7 +384,17 @@ def split_blisk_mesh(V, F, blade_count: int | None = None, axis: Axis | None = N
     blade = ~hub
     if not blade.any():
         raise PartError("the mesh has a hub but no blades (every face is a face of revolution)")
-    n_found, off = blade_count_from_symmetry(th[blade], area[blade])
+    # blades: connected parts of blade faces (a scan's blades differ a little, each turned,
+    # bent or repaired: only harmonics up to a few times the number of blade-sized parts
+    # are asked, so that small differences between blades do not read as a lower symmetry)
+    bf = np.nonzero(blade)[0]
+    nb, bcomp = _components(Fw[bf], int(weld.max()) + 1)
+    w = area[bf]
+    part_area = np.bincount(bcomp, weights=w, minlength=nb)
+    blade_parts = int(np.count_nonzero(part_area >= 0.5 * part_area.max()))
+    n_found, off = blade_count_from_symmetry(
+        th[blade], area[blade],
+        max_harmonic=4 * blade_parts if blade_parts >= 2 else 720)
     if n_found < 2 or off > 0.25:
         raise PartError("the blades are not rotationally periodic about the axis (no N-fold "
                         f"symmetry found; strongest off-period harmonic {off:.0%}); check the "
@@ -399,20 +409,19 @@ def split_blisk_mesh(V, F, blade_count: int | None = None, axis: Axis | None = N
         raise PartError("no hub found: the faces of revolution cover "
                         f"{360 * hub_occ.mean():.0f}° about the axis, less than one blade pitch "
                         f"({360 / n_found:.1f}°); give the hub as a profile (--hub-profile)")
-    # blades: connected parts of blade faces, each to its pitch sector
-    bf = np.nonzero(blade)[0]
-    nb, bcomp = _components(Fw[bf], int(weld.max()) + 1)
-    w = area[bf]
+    # each blade part to its pitch sector; blade 0 is the blade-sized part nearest θ = 0 (not
+    # the largest: a repaired or damaged blade must not renumber the others)
     cs = np.bincount(bcomp, weights=w * np.cos(th[bf]), minlength=nb)
     sn = np.bincount(bcomp, weights=w * np.sin(th[bf]), minlength=nb)
     th_c = np.arctan2(sn, cs)
-    big = int(np.argmax(np.bincount(bcomp, weights=w, minlength=nb)))
-    start = float(th_c[big] - 0.5 * pitch)
+    sized = np.nonzero(part_area >= 0.5 * part_area.max())[0]
+    first = int(sized[np.argmin(np.abs(th_c[sized]))])
+    start = float(th_c[first] - 0.5 * pitch)
     k = np.floor(np.mod(th_c - start, TWO_PI) / pitch).astype(int) % n_found
     sector = np.full(len(F), -1, np.int64)
     sector[bf] = k[bcomp]
     sec_area = np.bincount(sector[bf], weights=w, minlength=n_found)
-    if sec_area.min() < 0.9 * sec_area.max():
+    if sec_area.min() < 0.5 * sec_area.max():  # a missing blade; a repaired one may differ
         raise PartError("the blades are not rotationally periodic: the blade area per pitch "
                         f"sector ranges {sec_area.min():.1f}–{sec_area.max():.1f} mm² over "
                         f"the {n_found} sectors; check that every blade is in the mesh")
