@@ -6,6 +6,7 @@ their sub-panels).
 
 from .collisions import BLISKCAM_PT_collisions
 from .paths import BLISKCAM_PT_display, BLISKCAM_PT_machine, BLISKCAM_PT_paths, BLISKCAM_PT_preview
+from .robot import BLISKCAM_PT_robot
 from .setup import BLISKCAM_PT_region, BLISKCAM_PT_setup, BLISKCAM_PT_tolerances, BLISKCAM_PT_tool
 
 CLASSES = [
@@ -17,5 +18,6 @@ CLASSES = [
     BLISKCAM_PT_display,
     BLISKCAM_PT_collisions,
     BLISKCAM_PT_machine,
+    BLISKCAM_PT_robot,
     BLISKCAM_PT_preview,
 ]
