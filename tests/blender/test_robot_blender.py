@@ -138,3 +138,37 @@ def test_show_robot_puts_the_tool_on_the_planned_poses(addon, small_path):
     assert np.min(per_pose) > 0.0
     assert np.array_equal(mats, np.searchsorted(MARGIN_BINS_DEG, margin, side="right"))
 
+
+
+def test_export_robot_modal_shows_progress_and_esc_writes_nothing(addon, small_path, tmp_path):
+    """Interactively the plan runs on its own thread (the timer ticks read its progress);
+    ESC stops it and nothing is written; a run to the end writes the program."""
+    import time
+
+    from blisk_cam.operators import export_robot as mod
+    from blisk_cam.operators.modal_job import ModalRunner
+
+    _, s = _scene_with_paths(small_path)
+    out = tmp_path / "modal"
+    s.robot_post, s.robot_out = "pdl2", str(out)
+    ctx = bpy.context
+    op = ModalRunner(mod.BLISKCAM_OT_export_robot, mod.RobotPlanJob(ctx, export=True))
+    op.start(ctx)
+    assert ctx.scene.name in mod._RUNNING and not bpy.ops.blisk_cam.export_robot.poll()
+    assert op.step(ctx, "MOUSEMOVE") == {"PASS_THROUGH"}
+    assert op.step(ctx, "ESC") == {"CANCELLED"}
+    assert op._job.cancel.is_set() and not op._job.running and not mod._RUNNING
+    assert "nothing written" in op.reports[-1][1] and not out.exists()
+
+    op = ModalRunner(mod.BLISKCAM_OT_export_robot, mod.RobotPlanJob(ctx, export=True))
+    op.start(ctx)
+    fractions, result = [], {"RUNNING_MODAL"}
+    for _ in range(20000):
+        result = op.step(ctx)
+        fractions.append(op._job.fraction)
+        if result != {"RUNNING_MODAL"}:
+            break
+        time.sleep(0.002)
+    assert result == {"FINISHED"}, op.reports
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and not mod._RUNNING
+    assert (out / "blisk_main.pdl").exists() and "min wrist" in op.reports[-1][1]
