@@ -172,3 +172,26 @@ def test_export_robot_modal_shows_progress_and_esc_writes_nothing(addon, small_p
     assert result == {"FINISHED"}, op.reports
     assert fractions == sorted(fractions) and fractions[-1] == 1.0 and not mod._RUNNING
     assert (out / "blisk_main.pdl").exists() and "min wrist" in op.reports[-1][1]
+
+
+def test_show_robot_holding_the_blisk_keeps_the_tool_on_the_path(addon, small_path):
+    """Robot holds the part against a fixed spindle: seen from the standing part the arm
+    moves, and the (fixed) tool point is on the path's tip at every sampled frame."""
+    from blisk_cam.blender.objects import mm_per_blender_unit
+
+    blade, s = _scene_with_paths(small_path)
+    s.robot = "kr120-r2700-holds-blisk"
+    assert bpy.ops.blisk_cam.show_robot() == {"FINISHED"}
+    scene = bpy.context.scene
+    f = mm_per_blender_unit(scene)
+    tcp = bpy.data.objects[f"{blade.name} robot TCP"]
+    flange = bpy.data.objects[f"{blade.name} robot flange"]
+    robot = load_robot("kr120-r2700-holds-blisk")
+    tips = small_path.program.tip
+    for k in [0, N_POSES // 2, N_POSES - 1]:
+        scene.frame_set(k + 1)
+        np.testing.assert_allclose(np.array(tcp.matrix_world)[:3, 3] * f, tips[k], atol=1e-3)
+        # the part frame is the robot's part frame on the flange: flange · part = identity
+        Fl = np.array(flange.matrix_world)
+        Fl[:3, 3] *= f
+        np.testing.assert_allclose(Fl @ robot.part, np.eye(4), atol=1e-3)
