@@ -8,6 +8,8 @@ per pose animates the arm; the polishing head is a tube from the flange to the t
 parented to the flange with the tool centre point (an Empty) at the tool frame. With the robot
 holding the part the arm moves about the standing part (the world stays the part frame).
 
+A link with a mesh in the robot's ``[meshes]`` is drawn from that mesh instead.
+
 Pose colours: the margin of a pose is the smaller of its distance to the wrist singularity
 (|A5|) and its nearest joint limit, degrees; :data:`MARGIN_BINS_DEG` splits it into the colours
 of :data:`MARGIN_RGBA` (red: closest). Lengths mm in the arguments, Blender units in the scene.
@@ -20,6 +22,7 @@ import math
 import bpy
 import numpy as np
 
+from ..core.geometry.mesh_io import read_mesh
 from ..core.robot import kinematics as K
 from .objects import arrays_to_object, colored_material
 
@@ -98,15 +101,25 @@ def _tri(F):
 
 
 def link_shapes(robot, q0) -> list:
-    """[(V, F)] per link of :data:`LINK_NAMES`, in the link's own frame (mm), built from the
-    link frames at joints ``q0`` (6,) radians; the flange's shape includes the head's tube to
-    the tool point (robot holds the tool)."""
+    """[(V, F)] per link of :data:`LINK_NAMES`, in the link's own frame (mm): the robot's
+    ``[meshes]`` where given (read here), else a tube between the link frames at joints ``q0``
+    (6,) radians; the flange's shape includes the head's tube to the tool point (robot holds
+    the tool)."""
     p = robot.opw
     F0 = K.joint_frames(robot, q0)
     size = max(p["c2"], p["c3"], 1.0)
     r_arm, r_wrist = 0.07 * size, 0.045 * size
+    given = dict(robot.meshes)
     out = []
     for i in range(7):
+        if i in given:  # the user's mesh, in the link's frame
+            V, F = read_mesh(given[i])
+            V = V * robot.mesh_scale
+            if i == 6 and not robot.holds_part:  # the head's tube to the tool point
+                V2, F2 = tube([0, 0, 0], robot.tool[:3, 3], 0.5 * r_wrist)
+                V, F = np.vstack([V, V2]), np.vstack([F, _tri(F2) + len(V)])
+            out.append((V, F))
+            continue
         if i == 0:
             shape = tube([0, 0, 0], [0, 0, 0.45 * p["c1"]], 1.4 * r_arm)
         elif i == 6:

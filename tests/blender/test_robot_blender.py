@@ -195,3 +195,28 @@ def test_show_robot_holding_the_blisk_keeps_the_tool_on_the_path(addon, small_pa
         Fl = np.array(flange.matrix_world)
         Fl[:3, 3] *= f
         np.testing.assert_allclose(Fl @ robot.part, np.eye(4), atol=1e-3)
+
+
+def test_show_robot_draws_a_link_from_its_mesh_when_given(addon, small_path, tmp_path):
+    """A robot TOML with [meshes] link3 (in metres, scale 1000): the upper arm is that mesh
+    (its vertices, scaled, in the link's frame), the other links the simple shapes."""
+    from blisk_cam.blender.objects import mm_per_blender_unit
+    from blisk_cam.core.robot.description import ROBOTS_DIR
+    from tests.support.mesh_files import write_binary_stl
+
+    V = np.array([[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0], [0, 0, 1.2]], float)  # metres
+    F = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    write_binary_stl(tmp_path / "upper.stl", V, F)
+    toml = tmp_path / "arm.toml"
+    toml.write_text((ROBOTS_DIR / "kr120-r2700-angled.toml").read_text()
+                    + '\n[meshes]\nlink3 = "upper.stl"\nscale = 1000.0\n')
+    blade, s = _scene_with_paths(small_path)
+    s.robot, s.robot_file = "FILE", str(toml)
+    assert bpy.ops.blisk_cam.show_robot() == {"FINISHED"}
+    f = mm_per_blender_unit(bpy.context.scene)
+    upper = bpy.data.objects[f"{blade.name} robot upper arm"]
+    co = np.zeros(3 * len(upper.data.vertices), np.float32)
+    upper.data.vertices.foreach_get("co", co)
+    np.testing.assert_allclose(np.unique(co.reshape(-1, 3) * f, axis=0),
+                               np.unique(V * 1000.0, axis=0), atol=1e-3)
+    assert len(bpy.data.objects[f"{blade.name} robot lower arm"].data.vertices) > 4

@@ -250,3 +250,24 @@ def test_joint_frames_are_the_rigid_links_ending_at_the_flange(robot):
     home = K.joint_frames(robot, np.radians([0, -90, 90, 0, 0, 0]))
     assert home[2, :3, 3] == pytest.approx([p["a1"], 0, p["c1"]])
     assert home[3, :3, 3] == pytest.approx([p["a1"], 0, p["c1"] + p["c2"]])
+
+
+def test_link_meshes_are_found_beside_the_toml_or_named(tmp_path):
+    """[meshes]: files relative to the TOML (absolute in the Robot), a scale; a missing file,
+    a bad scale and an unknown link key are named."""
+    d = _good()
+    (tmp_path / "upper.stl").write_bytes(b"\0" * 84)
+    d["meshes"] = {"link3": "upper.stl", "scale": 1000.0}
+    r = robot_from_dict(d, source=str(tmp_path / "arm.toml"))
+    assert r.meshes == ((3, str((tmp_path / "upper.stl").resolve())),)
+    assert r.mesh_scale == 1000.0
+    assert load_robot("kr120-r2700").meshes == ()
+    d["meshes"] = {"link2": "lower.stl"}
+    with pytest.raises(RobotError, match="link2 mesh 'lower.stl' not found"):
+        robot_from_dict(d, source=str(tmp_path / "arm.toml"))
+    d["meshes"] = {"link3": "upper.stl", "scale": 0}
+    with pytest.raises(RobotError, match="scale must be > 0"):
+        robot_from_dict(d, source=str(tmp_path / "arm.toml"))
+    d["meshes"] = {"link7": "upper.stl"}
+    with pytest.raises(RobotError, match="unknown key \\[meshes\\] 'link7'"):
+        robot_from_dict(d, source=str(tmp_path / "arm.toml"))
