@@ -28,6 +28,8 @@ from .core.machine.description import known_presets
 from .core.options import PATH_OPTION_GROUPS, fields
 from .core.post.blocks import NcOptions
 from .core.post.export import POSTS
+from .core.robot.description import known_robots
+from .core.robot.programs import DIALECTS
 
 #: option stages of the NC export and the collision check (declared in core)
 NC_OPTION_GROUPS = (NcOptions,)
@@ -346,6 +348,11 @@ MACHINE_ITEMS = [(name, name, f"The shipped machine preset '{name}'")
                  for name in known_presets()] + [
     ("FILE", "TOML File", "A machine description file (see the README)")]
 POST_ITEMS = [(name, name, f"NC program for {name}") for name in POSTS]
+#: robot presets shipped in blisk_cam/robots, and a file of the user's; the robot languages
+ROBOT_ITEMS = [(name, name, f"The shipped robot preset '{name}'") for name in known_robots()] + [
+    ("FILE", "TOML File", "A robot description file (see the README)")]
+ROBOT_POST_ITEMS = [(d, label, f"{label} robot program") for d, label in zip(
+    DIALECTS, ("KUKA KRL", "ABB RAPID", "Comau PDL2", "Fanuc LS"), strict=True)]
 
 
 BliskCamSettings.__annotations__.update(option_properties(PATH_OPTION_GROUPS))
@@ -391,6 +398,37 @@ BliskCamSettings.__annotations__.update(
     export_anyway=BoolProperty(
         name="Export Anyway", default=False,
         description="Export NC even while poses are unresolved collisions (not recommended)"),
+)
+# the "Robot" panel: the polishing cell of issue 26 (core/robot), as `blisk_cam robot` takes it
+BliskCamSettings.__annotations__.update(
+    robot=EnumProperty(name="Robot", description="Robot preset, or a TOML file",
+                       items=ROBOT_ITEMS,
+                       default="kr120-r2700-angled" if "kr120-r2700-angled" in known_robots()
+                       else ROBOT_ITEMS[0][0]),
+    robot_file=StringProperty(name="Robot File", subtype="FILE_PATH", default="",
+                              description="Robot description (TOML) when Robot is TOML File"),
+    robot_post=EnumProperty(name="Language", description="Controller language of the program",
+                            items=ROBOT_POST_ITEMS, default=ROBOT_POST_ITEMS[0][0]),
+    robot_feed=FloatProperty(name="Feed", description="Polishing feed along the path, mm/min",
+                             default=600.0, min=0.001, precision=1),
+    robot_force=FloatProperty(name="Force", description="Contact force setpoint of the "
+                              "force-controlled head, N (written in the header; 0: not stated)",
+                              default=0.0, min=0.0, precision=1),
+    robot_out=StringProperty(name="Output Folder", subtype="DIR_PATH", default="//robot",
+                             description="Folder for the main program and its parts (created "
+                             "if missing; only files Blisk CAM wrote are replaced)"),
+    robot_samples=IntProperty(name="Free-Angle Samples", default=36, min=4, max=720,
+                              description="Samples of the free angle about the tool axis per "
+                              "turn (36: every 10°)"),
+    robot_max_step=FloatProperty(name="Max Joint Step", default=0.17453292519943295,
+                                 min=0.0001, max=3.14159, subtype="ANGLE", unit="ROTATION",
+                                 description="Largest joint step between two poses"),
+    robot_min_wrist=FloatProperty(name="Min Wrist Margin", default=0.08726646259971647,
+                                  min=0.0001, max=1.5, subtype="ANGLE", unit="ROTATION",
+                                  description="Closest approach to the wrist singularity "
+                                  "(A5 = 0)"),
+    robot_summary=StringProperty(name="Robot Result", default="",
+                                 description="Figures of the last robot export or display"),
 )
 # the radius, for scripts and old files' habits: half the diameter, not stored
 BliskCamSettings.__annotations__["tool_radius"] = FloatProperty(

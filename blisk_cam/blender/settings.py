@@ -34,6 +34,7 @@ __all__ = [
     "path_request",
     "collision_options",
     "nc_options",
+    "robot_options",
     "store_statistics",
     "summary",
 ]
@@ -228,6 +229,21 @@ def nc_options(settings, **extra):
 
     return NcOptions(**group_values(settings, NcOptions),
                      blades=max(int(settings.blade_count), 1), **extra)
+
+
+def robot_options(settings, *, notes=()):
+    """The core ``(FreeAngleOptions, ProgramOptions)`` of the Robot panel: feed mm/min, joint
+    step and wrist margin in radians (the panel shows degrees), force N (0: not stated)."""
+    from ..core.robot.free_angle import FreeAngleOptions
+    from ..core.robot.programs import ProgramOptions
+
+    feed = float(settings.robot_feed)
+    force = float(settings.robot_force)
+    plan = FreeAngleOptions(samples=int(settings.robot_samples), feed=feed,
+                            max_joint_step=float(settings.robot_max_step),
+                            min_wrist=float(settings.robot_min_wrist))
+    program = ProgramOptions(feed=feed, force=force if force > 0 else None, notes=tuple(notes))
+    return plan, program
 
 
 def store_statistics(settings, blade_name, path, verify, seconds, verdict=None):

@@ -25,7 +25,7 @@ import os
 import sys
 
 from ..core.errors import BliskCamError
-from ..core.post.common import write_atomic
+from ..core.post.common import write_atomic, write_program_folder
 from ..core.post.gate import collision_gate
 from ..core.robot.description import known_robots, load_robot, with_rotary_angle
 from ..core.robot.free_angle import FreeAngleOptions, plan_robot
@@ -35,9 +35,6 @@ from ..core.toolpath.paths_io import read_paths_json
 from .flags import PROG, UsageError, finite, whole
 
 __all__ = ["add_robot_arguments", "run_robot"]
-
-_MARK = "Blisk CAM"  # a file holding this was written by us and may be replaced
-
 
 def _positive(text):
     v = finite(text)
@@ -129,26 +126,6 @@ def _progress(p):
     print(f"{PROG}: {p.message} [{100 * p.fraction:3.0f}%]", file=sys.stderr, flush=True)
 
 
-def _targets(out: str, files: dict) -> list[str]:
-    """The files to write into ``out`` (created if missing); refuses to replace a file that
-    Blisk CAM did not write."""
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise UsageError(f"--out {out}: exists and is not a directory")
-    parent = os.path.dirname(os.path.abspath(out))
-    if not os.path.isdir(parent):
-        raise BliskCamError(f"--out {out}: the directory {parent} does not exist")
-    names = []
-    for name in files:
-        target = os.path.join(out, name)
-        if os.path.exists(target):
-            with open(target, encoding="utf-8", errors="replace") as fh:
-                if _MARK not in fh.read(4096):
-                    raise BliskCamError(f"{target} exists and was not written by Blisk CAM; "
-                                        "choose another --out directory")
-        names.append(target)
-    return names
-
-
 def run_robot(args) -> int:
     """Run the ``robot`` command on parsed ``args``: 0 written, 1 bad input or a path the
     robot cannot run (the ranges on stderr), 2 a bad option value."""
@@ -186,10 +163,9 @@ def run_robot(args) -> int:
                 f"({', '.join(reasons)}){tail}; no program written. For a wrist singularity "
                 "use an angled head; for speed lower --feed; for reach or limits move the part")
         prog = robot_program(plan, args.post, popt, path)
-        targets = _targets(args.out, prog.files)
-        os.makedirs(args.out, exist_ok=True)
-        for target, text in zip(targets, prog.files.values(), strict=True):
-            write_atomic(target, text)
+        if os.path.exists(args.out) and not os.path.isdir(args.out):
+            raise UsageError(f"--out {args.out}: exists and is not a directory")
+        write_program_folder(args.out, prog.files)  # refuses to replace a file not ours
         if args.removal is not None:
             write_atomic(args.removal, _removal_csv(process, path))
     except UsageError as err:

@@ -5,8 +5,9 @@ property groups, unregistered in reverse). bl_idnames (see ARCHITECTURE.md):
 ``blisk_cam.fit_cones``, ``blisk_cam.generate_paths``, ``blisk_cam.clear_paths``,
 ``blisk_cam.export_paths``, ``blisk_cam.render_preview``,
 ``blisk_cam.export_nc``, ``blisk_cam.check_collisions``,
-``blisk_cam.next_unresolved_pose``, ``blisk_cam.per_blade_paths``,
-``blisk_cam.load_blade_results``. Shared helpers (poll reasons,
+``blisk_cam.next_unresolved_pose``, ``blisk_cam.animate_program``,
+``blisk_cam.per_blade_paths``, ``blisk_cam.load_blade_results``, ``blisk_cam.export_robot``,
+``blisk_cam.show_robot``. Shared helpers (poll reasons,
 settings → core request, error reports) are in :mod:`.common`.
 """
 
@@ -15,12 +16,14 @@ from .check_collisions import BLISKCAM_OT_check_collisions
 from .clear_paths import BLISKCAM_OT_clear_paths
 from .export_nc import BLISKCAM_OT_export_nc
 from .export_paths import BLISKCAM_OT_export_paths
+from .export_robot import BLISKCAM_OT_export_robot
 from .fit_cones import BLISKCAM_OT_fit_cones
 from .generate_paths import BLISKCAM_OT_generate_paths
 from .next_unresolved_pose import BLISKCAM_OT_next_unresolved_pose
 from .per_blade_paths import BLISKCAM_OT_load_blade_results, BLISKCAM_OT_per_blade_paths
 from .render_preview import BLISKCAM_OT_render_preview
 from .set_scene_mm import BLISKCAM_OT_set_scene_mm
+from .show_robot import BLISKCAM_OT_show_robot
 
 CLASSES = [
     BLISKCAM_OT_fit_cones,
@@ -35,4 +38,6 @@ CLASSES = [
     BLISKCAM_OT_animate_program,
     BLISKCAM_OT_per_blade_paths,
     BLISKCAM_OT_load_blade_results,
+    BLISKCAM_OT_export_robot,
+    BLISKCAM_OT_show_robot,
 ]

@@ -7,6 +7,7 @@ their sub-panels).
 from .collisions import BLISKCAM_PT_collisions
 from .paths import BLISKCAM_PT_display, BLISKCAM_PT_machine, BLISKCAM_PT_paths, BLISKCAM_PT_preview
 from .per_blade import BLISKCAM_PT_per_blade
+from .robot import BLISKCAM_PT_robot
 from .setup import BLISKCAM_PT_region, BLISKCAM_PT_setup, BLISKCAM_PT_tolerances, BLISKCAM_PT_tool
 
 CLASSES = [
@@ -19,5 +20,6 @@ CLASSES = [
     BLISKCAM_PT_collisions,
     BLISKCAM_PT_per_blade,
     BLISKCAM_PT_machine,
+    BLISKCAM_PT_robot,
     BLISKCAM_PT_preview,
 ]

@@ -226,3 +226,48 @@ def test_preston_depth_is_the_integral_of_any_contact_pressure():
     assert proc.removal_depth == pytest.approx(4e-6 * 20 * v / (5 * 10))
     with pytest.raises(RobotError, match="contact width must be > 0"):
         PolishingProcess(20.0, 3000.0, 20.0, 0.0, 4e-6, 600.0)
+
+
+def test_joint_frames_are_the_rigid_links_ending_at_the_flange(robot):
+    """The drawing frames of the arm: the last one is the flange of forward kinematics; the
+    links between them keep their lengths (the OPW parameters) in every pose; at home (A2 =
+    −90°, A3 = 90°) the joint-2 axis is at (a1, 0, c1) and the elbow straight above it."""
+    p = robot.opw
+    q = _random_joints(robot, 40, 7)
+    F = K.joint_frames(robot, q)
+    assert F.shape == (40, 7, 4, 4)
+    np.testing.assert_allclose(F[:, 6], K.flange_pose(robot, q), atol=1e-9)
+    o = F[:, :, :3, 3]
+    d = np.linalg.norm(np.diff(o, axis=1), axis=2)
+    np.testing.assert_allclose(d[:, 1], math.hypot(p["a1"], p["c1"]), rtol=1e-12)
+    np.testing.assert_allclose(d[:, 2], p["c2"], rtol=1e-12)
+    np.testing.assert_allclose(d[:, 3], math.sqrt(p["a2"] ** 2 + p["b"] ** 2 + p["c3"] ** 2),
+                               rtol=1e-12)
+    np.testing.assert_allclose(d[:, 5], p["c4"], rtol=1e-12)
+    R = F[:, :, :3, :3]
+    np.testing.assert_allclose(np.swapaxes(R, -1, -2) @ R, np.broadcast_to(np.eye(3), R.shape),
+                               atol=1e-12)
+    home = K.joint_frames(robot, np.radians([0, -90, 90, 0, 0, 0]))
+    assert home[2, :3, 3] == pytest.approx([p["a1"], 0, p["c1"]])
+    assert home[3, :3, 3] == pytest.approx([p["a1"], 0, p["c1"] + p["c2"]])
+
+
+def test_link_meshes_are_found_beside_the_toml_or_named(tmp_path):
+    """[meshes]: files relative to the TOML (absolute in the Robot), a scale; a missing file,
+    a bad scale and an unknown link key are named."""
+    d = _good()
+    (tmp_path / "upper.stl").write_bytes(b"\0" * 84)
+    d["meshes"] = {"link3": "upper.stl", "scale": 1000.0}
+    r = robot_from_dict(d, source=str(tmp_path / "arm.toml"))
+    assert r.meshes == ((3, str((tmp_path / "upper.stl").resolve())),)
+    assert r.mesh_scale == 1000.0
+    assert load_robot("kr120-r2700").meshes == ()
+    d["meshes"] = {"link2": "lower.stl"}
+    with pytest.raises(RobotError, match="link2 mesh 'lower.stl' not found"):
+        robot_from_dict(d, source=str(tmp_path / "arm.toml"))
+    d["meshes"] = {"link3": "upper.stl", "scale": 0}
+    with pytest.raises(RobotError, match="scale must be > 0"):
+        robot_from_dict(d, source=str(tmp_path / "arm.toml"))
+    d["meshes"] = {"link7": "upper.stl"}
+    with pytest.raises(RobotError, match="unknown key \\[meshes\\] 'link7'"):
+        robot_from_dict(d, source=str(tmp_path / "arm.toml"))

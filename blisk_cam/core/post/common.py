@@ -18,7 +18,10 @@ from ..version import __version__
 from .blocks import SAFE, Blocks, NcOptions
 
 __all__ = ["PostContext", "ascii_text", "fmt", "fvec", "header_lines", "tool_text", "version",
-           "write_atomic"]
+           "write_atomic", "write_program_folder"]
+
+#: a file holding this text (in its first 4 kB) was written by Blisk CAM and may be replaced
+OWN_MARK = "Blisk CAM"
 
 #: what the program text writes for the characters the project's messages use (controllers
 #: read ASCII only: a Fanuc comment with Ø is rejected or garbled)
@@ -169,6 +172,32 @@ def write_atomic(filename, text: str) -> str:
             pass
         raise
     return filename
+
+
+def write_program_folder(folder, files: dict) -> list[str]:
+    """Write a program's ``files`` ({file name: text}) into ``folder`` (created if missing;
+    its parent must exist), each atomically (:func:`write_atomic`). A file already there is
+    replaced only when Blisk CAM wrote it (:data:`OWN_MARK` in its first 4 kB): otherwise
+    PostError naming it, before anything is written. Returns the paths written."""
+    folder = os.fspath(folder)
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise PostError(f"{folder} exists and is not a directory: choose an output folder")
+    parent = os.path.dirname(os.path.abspath(folder))
+    if not os.path.isdir(parent):
+        raise PostError(f"cannot write into {folder}: the directory {parent} does not exist")
+    targets = []
+    for name in files:
+        target = os.path.join(folder, name)
+        if os.path.exists(target):
+            with open(target, encoding="utf-8", errors="replace") as fh:
+                if OWN_MARK not in fh.read(4096):
+                    raise PostError(f"{target} exists and was not written by Blisk CAM; "
+                                    "choose another output folder")
+        targets.append(target)
+    os.makedirs(folder, exist_ok=True)
+    for target, text in zip(targets, files.values(), strict=True):
+        write_atomic(target, text)
+    return targets
 
 
 __all__ += ["SAFE", "block_minutes"]

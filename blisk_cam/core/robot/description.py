@@ -18,7 +18,11 @@ Frames (all 4×4 homogeneous, mm):
   does the free angle about the tool axis move joint 5 (paper 004 §2: a polishing head
   at an angle to the flange);
 * an optional external **rotary** axis holding the blisk (axis, point in the cell frame,
-  limits, speed); the part frame turns with it.
+  limits, speed); the part frame turns with it;
+* optional **meshes** for drawing the arm (``[meshes]``: ``base``, ``link1`` … ``link6``,
+  mesh files — STL, OBJ, PLY — relative to the TOML, each in its link's frame as
+  :func:`.kinematics.joint_frames` gives it; ``scale`` mm per file unit, default 1); a link
+  without one is drawn as a simple shape. Only drawing uses them.
 
 Two set-ups (``setup``): ``"robot-holds-tool"`` (default; the frames as above) and
 ``"robot-holds-part"``: the robot carries the blisk against a fixed spindle or belt; then
@@ -46,6 +50,7 @@ import numpy as np
 from ..errors import BliskCamError
 
 __all__ = [
+    "MESH_LINKS",
     "OPW_KEYS",
     "ROBOTS_DIR",
     "SETUPS",
@@ -66,7 +71,8 @@ _ORTHO_TOL = 1e-6
 
 # every key the TOML may hold, per table ("" = top level)
 _KNOWN = {
-    "": ("name", "setup", "opw", "joints", "tool", "base", "part", "rotary", "controller"),
+    "": ("name", "setup", "opw", "joints", "tool", "base", "part", "rotary", "controller",
+         "meshes"),
     "opw": OPW_KEYS,
     "joints": ("offsets", "signs", "limits", "speeds"),
     "tool": ("name", "origin", "x", "z", "mass"),
@@ -74,7 +80,10 @@ _KNOWN = {
     "part": ("origin", "x", "z"),
     "rotary": ("name", "axis", "point", "limits", "speed", "angle"),
     "controller": ("brand", "model"),
+    "meshes": ("base", "link1", "link2", "link3", "link4", "link5", "link6", "scale"),
 }
+#: the drawn links of ``[meshes]``, in the order of :func:`.kinematics.joint_frames`
+MESH_LINKS = ("base", "link1", "link2", "link3", "link4", "link5", "link6")
 
 
 class RobotError(BliskCamError):
@@ -129,6 +138,8 @@ class Robot:
     brand: str = ""
     source: str = ""
     setup: str = "robot-holds-tool"
+    meshes: tuple = ()
+    mesh_scale: float = 1.0
 
     @property
     def holds_part(self) -> bool:
@@ -364,6 +375,7 @@ def robot_from_dict(data: dict, source: str = "") -> Robot:
         raise RobotError(f"robot {where}: a [rotary] holds the part, but the setup is "
                          "robot-holds-part; remove one")
     ctl = _table(data, "controller", where, required=False) or {}
+    meshes, mesh_scale = _meshes(_table(data, "meshes", where, required=False), where, source)
     return Robot(
         name=str(data.get("name", where)),
         opw=opw,
@@ -379,4 +391,29 @@ def robot_from_dict(data: dict, source: str = "") -> Robot:
         brand=str(ctl.get("brand", "")),
         source=source,
         setup=setup,
+        meshes=meshes,
+        mesh_scale=mesh_scale,
     )
+
+
+def _meshes(t: dict | None, where: str, source: str) -> tuple[tuple, float]:
+    """((link index, absolute path), ...) and the scale of a ``[meshes]`` table; every file
+    must exist (named when it does not)."""
+    if not t:
+        return (), 1.0
+    w = f"{where} [meshes]"
+    scale = _number(t, "scale", w) if "scale" in t else 1.0
+    if scale <= 0:
+        raise RobotError(f"robot {w}: scale must be > 0 (mm per file unit), got {scale:g}")
+    folder = Path(source).resolve().parent if source else Path.cwd()
+    out = []
+    for i, key in enumerate(MESH_LINKS):
+        if key not in t:
+            continue
+        if not isinstance(t[key], str) or not t[key]:
+            raise RobotError(f"robot {w}: {key!r} must be a mesh file name, got {t[key]!r}")
+        path = (folder / Path(t[key]).expanduser()).resolve()
+        if not path.is_file():
+            raise RobotError(f"robot {w}: {key} mesh {t[key]!r} not found (looked for {path})")
+        out.append((i, str(path)))
+    return tuple(out), scale

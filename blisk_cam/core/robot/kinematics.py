@@ -33,6 +33,7 @@ __all__ = [
     "configuration",
     "flange_pose",
     "inverse",
+    "joint_frames",
     "joints_to_model",
     "limit_margin",
     "model_to_joints",
@@ -97,6 +98,45 @@ def flange_pose(robot: Robot, q) -> np.ndarray:
     T[..., :3, 3] = c + p["c4"] * R[..., :, 2]
     T[..., 3, 3] = 1.0
     return T
+
+
+def joint_frames(robot: Robot, q) -> np.ndarray:
+    """The frames of the arm's links for drawing it: controller joints q (..., 6) radians →
+    (..., 7, 4, 4) frames in the robot's base frame (mm), each rigid with one link:
+
+    0 the base (identity); 1 the carousel, turned by θ1 about the base z; 2 the lower arm, at
+    the joint-2 axis ``Rz(θ1) [a1, 0, c1]``, turned by θ2 about y; 3 the upper arm, at the
+    elbow (``c2`` along the lower arm's z), turned by θ2 + θ3; 4 and 5 the wrist, at the wrist
+    centre (``[a2, b, c3]`` in the upper arm's frame), turned by θ4 and then θ5; 6 the flange
+    (``c4`` along frame 5's z, turned by θ6) — equal to :func:`flange_pose` (module docstring,
+    OPW paper §2).
+    """
+    t = joints_to_model(robot, q)
+    p = robot.opw
+    t1, t2, t3, t4, t5, t6 = np.moveaxis(t, -1, 0)
+    shape = t.shape[:-1]
+
+    def frame(R, o):
+        T = np.zeros(shape + (4, 4))
+        T[..., :3, :3] = R
+        T[..., :3, 3] = o
+        T[..., 3, 3] = 1.0
+        return T
+
+    R1 = _rz(t1)
+    R2 = R1 @ _ry(t2)
+    R3 = R1 @ _ry(t2 + t3)
+    R4 = R3 @ _rz(t4)
+    R5 = R4 @ _ry(t5)
+    R6 = R5 @ _rz(t6)
+    zero = np.zeros(shape + (3,))
+    o2 = R1 @ np.array([p["a1"], 0.0, p["c1"]])
+    o3 = o2 + R2[..., :, 2] * p["c2"]
+    wc = o3 + R3 @ np.array([p["a2"], p["b"], p["c3"]])
+    fl = wc + R5[..., :, 2] * p["c4"]
+    eye = np.broadcast_to(np.eye(3), shape + (3, 3))
+    return np.stack([frame(eye, zero), frame(R1, zero), frame(R2, o2), frame(R3, o3),
+                     frame(R4, wc), frame(R5, wc), frame(R6, fl)], axis=-3)
 
 
 def inverse(robot: Robot, pose) -> tuple[np.ndarray, np.ndarray]:
