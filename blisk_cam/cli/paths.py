@@ -6,8 +6,6 @@ verified paths JSON (numpy/scipy only; Blender outputs through
 from __future__ import annotations
 
 import argparse
-import math
-import re
 import time
 from pathlib import Path
 
@@ -92,37 +90,17 @@ def add_paths_arguments(paths: argparse.ArgumentParser) -> None:
 def read_profile_csv(path):
     """A hub or tip generatrix polyline from a text file: one point ``r, z`` (mm) per line,
     separated by a comma, semicolon or white space; ``#`` starts a comment; blank lines are
-    skipped. Returns a ``core.part.profiles.Profile``; BliskCamError naming the file (and line) when
-    it is missing or not such a list."""
+    skipped (the reader is :func:`core.part.model.read_rz_csv`, which the stock's hub profile
+    uses too). Returns a ``core.part.profiles.Profile``; BliskCamError naming the file (and
+    line) when it is missing or not such a list."""
+    from ..core.part.model import read_rz_csv
     from ..core.part.profiles import Profile
 
-    path = Path(path).expanduser()
+    points = read_rz_csv(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise BliskCamError(f"profile file {path} not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BliskCamError(f"cannot read profile file {path}: {exc}") from None
-    points = []
-    for number, line in enumerate(text.splitlines(), 1):
-        fields = re.split(r"[,;\s]+", line.split("#", 1)[0].strip())
-        fields = [f for f in fields if f]
-        if not fields:
-            continue
-        try:
-            values = [float(f) for f in fields]
-        except ValueError:
-            values = []
-        if len(values) != 2 or not all(math.isfinite(v) for v in values):
-            raise BliskCamError(
-                f"profile file {path}, line {number}: expected two numbers 'r, z' in mm, "
-                f"got '{line.strip()}'"
-            )
-        points.append(values)
-    try:
-        return Profile(points)
+        return Profile(points.tolist())
     except BliskCamError as exc:
-        raise BliskCamError(f"profile file {path}: {exc}") from None
+        raise BliskCamError(f"profile file {Path(path).expanduser()}: {exc}") from None
 
 
 def check_paths_args(args):
