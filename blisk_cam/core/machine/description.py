@@ -31,8 +31,6 @@ or a path.
 from __future__ import annotations
 
 import math
-import os
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,6 +38,7 @@ import numpy as np
 
 from ..errors import MachineError, check_known_keys
 from ..geometry.vectors import rotate
+from ..presets import preset_names, read_preset_toml
 
 __all__ = [
     "KINEMATICS",
@@ -202,30 +201,14 @@ def machine_axis(machine: Machine, angles) -> np.ndarray:
 # --- reading ------------------------------------------------------------------------------
 def known_presets() -> list[str]:
     """Names of the machine presets shipped in ``blisk_cam/machines``."""
-    return sorted(p.stem for p in MACHINES_DIR.glob("*.toml"))
+    return preset_names(MACHINES_DIR)
 
 
 def load_machine(name_or_path) -> Machine:
     """A preset name (``"ac-trunnion"``) or a path to a machine TOML → :class:`Machine`.
 
     Raises MachineError naming the problem (unknown preset: lists the known ones)."""
-    text = os.fspath(name_or_path)
-    path = Path(text)
-    if not (text.endswith(".toml") or os.sep in text or path.exists()):
-        preset = MACHINES_DIR / f"{text}.toml"
-        if not preset.exists():
-            raise MachineError(
-                f"unknown machine preset {text!r}; known: {', '.join(known_presets())} "
-                "(or give a path to a machine .toml)"
-            )
-        path = preset
-    if not path.is_file():
-        raise MachineError(f"machine file {text} not found")
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as err:
-        raise MachineError(f"machine file {path.name} is not valid TOML: {err}") from err
+    data, path = read_preset_toml(name_or_path, MACHINES_DIR, "machine", MachineError)
     return machine_from_dict(data, source=str(path))
 
 

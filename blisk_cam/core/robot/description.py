@@ -40,14 +40,13 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
-import os
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import BliskCamError
+from ..presets import preset_names, read_preset_toml
 
 __all__ = [
     "MESH_LINKS",
@@ -207,30 +206,14 @@ def with_rotary_angle(robot: Robot, angle: float) -> Robot:
 # --- reading -----------------------------------------------------------------------------
 def known_robots() -> list[str]:
     """Names of the robot presets shipped in ``blisk_cam/robots``."""
-    return sorted(p.stem for p in ROBOTS_DIR.glob("*.toml"))
+    return preset_names(ROBOTS_DIR)
 
 
 def load_robot(name_or_path) -> Robot:
     """A preset name (``"kr120-r2700"``) or a path to a robot TOML → :class:`Robot`.
 
     Raises RobotError naming the problem (unknown preset: lists the known ones)."""
-    text = os.fspath(name_or_path)
-    path = Path(text)
-    if not (text.endswith(".toml") or os.sep in text or path.exists()):
-        preset = ROBOTS_DIR / f"{text}.toml"
-        if not preset.exists():
-            raise RobotError(
-                f"unknown robot preset {text!r}; known: {', '.join(known_robots())} "
-                "(or give a path to a robot .toml)"
-            )
-        path = preset
-    if not path.is_file():
-        raise RobotError(f"robot file {text} not found")
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as err:
-        raise RobotError(f"robot file {path.name} is not valid TOML: {err}") from err
+    data, path = read_preset_toml(name_or_path, ROBOTS_DIR, "robot", RobotError)
     return robot_from_dict(data, source=str(path))
 
 
