@@ -21,11 +21,11 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from ..core.errors import BliskCamError
+from ..core.files import write_atomic
 from .flags import PROG, UsageError
 
 __all__ = ["add_simulate_arguments", "run_simulate"]
@@ -62,29 +62,6 @@ def add_simulate_arguments(parser: argparse.ArgumentParser):
     parser.add_argument("--save-stock", metavar="STATE.npz", default=None,
                         help="save the stock after the programs (the next operation's --stock)")
     return parser
-
-
-def _write_bytes_atomic(filename, data: bytes) -> str:
-    """``data`` to ``filename`` through a temporary file and ``os.replace`` (as
-    ``core.post.common.write_atomic`` does for text)."""
-    filename = os.fspath(filename)
-    folder = os.path.dirname(os.path.abspath(filename))
-    if not os.path.isdir(folder):
-        raise BliskCamError(f"cannot write {filename}: the directory {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=".blisk_sim_", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, filename)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return filename
 
 
 def _check_args(args):
@@ -188,14 +165,14 @@ def run_simulate(args) -> int:
     summary = dict(sim.summary)
     summary["seconds"] = round(time.perf_counter() - t0, 3)
     summary["programs"] = [str(p) for p in args.program]
-    _write_bytes_atomic(Path(args.out).expanduser(),
+    write_atomic(Path(args.out).expanduser(),
                         (json.dumps(summary, indent=1) + "\n").encode("utf-8"))
     if args.deviation:
-        _write_bytes_atomic(Path(args.deviation).expanduser(),
+        write_atomic(Path(args.deviation).expanduser(),
                             ply_bytes(sim.V, sim.F, sim.deviation))
     if args.stock_mesh:
         Vs, Fs = stock_skin(sim.stock)
-        _write_bytes_atomic(Path(args.stock_mesh).expanduser(), stl_bytes(Vs, Fs))
+        write_atomic(Path(args.stock_mesh).expanduser(), stl_bytes(Vs, Fs))
     if args.save_stock:
         sim.stock.save(Path(args.save_stock).expanduser())
     dv = summary["deviation_mm"]

@@ -7,6 +7,7 @@ from bpy.props import StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from ..core.errors import BliskCamError
+from ..core.files import write_atomic
 from .common import output_filename, poll_generated_paths, report_exception, result_blade_name
 
 
@@ -14,17 +15,9 @@ def write_text_atomically(text: str, filename: str) -> str:
     """Write ``text`` to a temporary file beside ``filename`` and rename it into place (a
     failure never leaves a half-written file). Returns the absolute file name."""
     filename = os.path.abspath(filename)
-    directory = os.path.dirname(filename)
-    if not os.path.isdir(directory):
-        raise BliskCamError(f"cannot write {filename}: the directory {directory} does not exist")
-    tmp = filename + ".tmp"
     try:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, filename)
+        write_atomic(filename, text)
     except OSError as exc:
-        if os.path.exists(tmp):
-            os.remove(tmp)
         raise BliskCamError(f"cannot write {filename}: {exc.strerror or exc}") from None
     return filename
 

@@ -30,7 +30,7 @@ CORE = "blisk_cam.core"
 #: own, and itself
 FLOORS = {
     "errors": 1, "version": 1, "runtime": 1, "kernels": 1,
-    "options": 2, "presets": 2, "geometry": 2,
+    "options": 2, "presets": 2, "files": 2, "geometry": 2,
     "tool": 3, "part": 3,
     "toolpath": 4,
     "paths": 5, "verify": 5, "machine": 5, "stock": 5,

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 import unicodedata
 from dataclasses import dataclass
 
 import numpy as np
 
+from .. import files
 from ..errors import PostError
 from ..machine.description import Machine
 from ..toolpath.types import MOVE_RAPID, ToolPath
@@ -141,37 +141,11 @@ def block_minutes(blocks: Blocks, options: NcOptions) -> np.ndarray:
     return t
 
 
-def _umask() -> int:
-    """The process umask (read by setting it and putting it back)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
 def write_atomic(filename, text: str) -> str:
-    """Write ``text`` to ``filename`` through a temporary file in the same directory and
-    ``os.replace``: a failure never leaves a half-written file; the file gets the mode a plain
-    ``open`` would give (0666 less the umask). A missing directory → PostError."""
-    filename = os.fspath(filename)
-    folder = os.path.dirname(os.path.abspath(filename))
-    if not os.path.isdir(folder):
-        raise PostError(f"cannot write {filename}: the directory {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=".blisk_nc_", suffix=".tmp", dir=folder)
-    try:
-        # mkstemp makes the file 0600; a program is the user's file like any other
-        os.chmod(tmp, 0o666 & ~_umask())
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, filename)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return filename
+    """Write ``text`` to ``filename`` atomically (:func:`..files.write_atomic`: a failure never
+    leaves a half-written file; the mode a plain ``open`` would give). A missing directory →
+    PostError."""
+    return files.write_atomic(filename, text, error=PostError)
 
 
 def write_program_folder(folder, files: dict) -> list[str]:

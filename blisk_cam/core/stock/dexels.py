@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import StockError
+from ..files import atomic_output
 from ..geometry.axis import Axis
 
 __all__ = ["RadialDexels", "merge_intervals", "subtract_intervals"]
@@ -229,22 +229,12 @@ class RadialDexels:
     def save(self, path) -> str:
         """Write the stock state to ``path`` (.npz) atomically; returns the path."""
         path = os.fspath(path)
-        folder = os.path.dirname(os.path.abspath(path))
-        if not os.path.isdir(folder):
-            raise StockError(f"cannot write {path}: the directory {folder} does not exist")
-        fd, tmp = tempfile.mkstemp(prefix=".blisk_stock_", suffix=".npz", dir=folder)
-        os.close(fd)
-        try:
+        with atomic_output(path, suffix=".npz", error=StockError) as tmp:
             np.savez_compressed(
                 tmp, format=np.array("blisk_cam.radial_dexels.1"),
                 axis=np.array(self.axis.as_list()), blade_count=self.blade_count,
                 theta0=self.theta0, z0=self.z0, n_theta=self.n_theta, n_z=self.n_z,
                 resolution=self.resolution, r_max=self.r_max, lo=self.lo, hi=self.hi)
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
         return path
 
     @classmethod

@@ -43,6 +43,7 @@ import os
 import numpy as np
 
 from ..errors import BliskCamError
+from ..files import write_atomic
 from ..geometry.axis import Axis
 from ..part.cones import Cone
 from ..part.profiles import Profile
@@ -217,16 +218,8 @@ def write_paths_json(path: ToolPath, filename, *, overwrite: bool = True) -> str
     filename = os.fspath(filename)
     if not overwrite and os.path.exists(filename):
         raise BliskCamError(f"{filename} exists; choose another name or allow overwriting")
-    tmp = filename + ".tmp"
-    try:
-        text = json.dumps(path_to_dict(path), allow_nan=False)
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, filename)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    text = json.dumps(path_to_dict(path), allow_nan=False)
+    write_atomic(filename, text)
     return filename
 
 
