@@ -156,7 +156,7 @@ def test_simulate_stock_equals_core_colours_and_escape(addon, demo, tmp_path):
     assert np.array_equal(_attr(part, "deviation"), dev, equal_nan=True)
     # the blank as the envelope + 1 mm: the rapids and links go through metal, a crash is an
     # ERROR naming the row; the new run replaces the objects
-    s.stock_blank, s.stock_margin = "ENVELOPE", 1.0
+    s.stock_blank, s.stock_margin, s.stock_resolution = "ENVELOPE", 1.0, 1.0
     result, error = _simulate()
     summary = stock_summary(ctx.scene)
     assert summary["crashes"] and error is not None
@@ -187,3 +187,43 @@ def test_simulate_stock_bad_input(addon, demo, tmp_path):
     with pytest.raises(RuntimeError, match="No generated paths"):
         bpy.ops.blisk_cam.simulate_stock()
     assert "Blisk CAM – Stock" not in bpy.data.collections  # nothing written
+
+
+def test_simulate_stock_on_a_whole_blisk_mesh(addon, demo, tmp_path):
+    """Part = a whole-blisk mesh object (the demo blade × 24 on a hub ring), split by the
+    core: the deviation is measured on the split part's blade 0 and hub sector; the mesh
+    object is untouched; a wrong blade count is refused with the symmetry found."""
+    import math
+
+    from blisk_cam.blender.stock_objects import COLLECTION
+    from blisk_cam.core.geometry.axis import Axis, revolve
+    from blisk_cam.core.geometry.vectors import rotate_about
+    from blisk_cam.core.part.model import split_blisk_mesh
+
+    blade, s, _ = _setup(demo, tmp_path)
+    c = demo.hub_cone  # the demo blade patterned 24 times on a revolved hub ring
+    p1, p2 = np.array([c.r1, c.z1]), np.array([c.r2, c.z2])
+    HV, HQ = revolve(np.linspace(p1 - 0.3 * (p2 - p1), p2 + 0.3 * (p2 - p1), 12), Axis(),
+                     segments=360)
+    parts = [(HV, np.concatenate([HQ[:, [0, 1, 2]], HQ[:, [0, 2, 3]]]))] + [
+        (rotate_about(demo.blade_vertices, np.array([0.0, 0.0, 1.0]), k * 2 * math.pi / 24,
+                      form="coordinate"), demo.blade_faces) for k in range(24)]
+    offs = np.cumsum([0] + [len(V) for V, _ in parts[:-1]])
+    V = np.concatenate([V for V, _ in parts])
+    F = np.concatenate([F + o for (_, F), o in zip(parts, offs, strict=True)])
+    ob = blender_io.arrays_to_object("Whole blisk", V, F)
+    Vb = blender_io.object_to_arrays(ob)
+    s.stock_part_source, s.stock_part, s.stock_resolution = "MESH", ob, 1.0
+    s.blade_count = 20
+    with pytest.raises(RuntimeError, match="24-fold symmetry but the blade count given is 20"):
+        bpy.ops.blisk_cam.simulate_stock()
+    s.blade_count = 24
+    result, error = _simulate()
+    assert result == {"FINISHED"}
+    part = split_blisk_mesh(*Vb, 24).part
+    coll = bpy.data.collections[COLLECTION]
+    dev_ob = next(o for o in coll.objects if "part" in o.name)
+    assert len(dev_ob.data.vertices) == len(part.part_mesh()[0])
+    assert np.isfinite(_attr(dev_ob, "deviation")).sum() > 100
+    after = blender_io.object_to_arrays(ob)
+    assert np.array_equal(after[0], Vb[0]) and np.array_equal(after[1], Vb[1])
