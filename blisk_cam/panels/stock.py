@@ -49,6 +49,6 @@ class BLISKCAM_PT_stock(_BliskCamPanel, Panel):
             col.label(text=crashes[:90], icon="ERROR")
         legend = box.column(align=True)
         tol = summary["deviation_mm"]["gouge_tolerance"]
-        legend.label(text=f"Blue: gouge deeper than {tol:.3f} mm", icon="SEQUENCE_COLOR_05")
-        legend.label(text=f"Green: within ±{tol:.3f} mm", icon="SEQUENCE_COLOR_04")
-        legend.label(text=f"Red: material left over {tol:.3f} mm", icon="SEQUENCE_COLOR_01")
+        legend.label(text=f"Blue: gouge deeper than {tol:.3f} mm", icon="COLOR_BLUE")
+        legend.label(text=f"Green: within ±{tol:.3f} mm", icon="COLOR_GREEN")
+        legend.label(text=f"Red: material left over {tol:.3f} mm", icon="COLOR_RED")

@@ -32,11 +32,20 @@ class _Layout:
 
     row = column = box = split = _child
 
-    def label(self, text="", **_kw):
+    def label(self, text="", **kw):
+        _check_icon(kw)
         self.log.append("label: " + text)
 
-    def operator(self, idname, **_kw):
+    def operator(self, idname, **kw):
+        _check_icon(kw)
         self.log.append(idname)
+
+
+def _check_icon(kw):
+    """A UI icon the running Blender knows (a wrong name raises only in a real draw)."""
+    if "icon" in kw:
+        icons = bpy.types.UILayout.bl_rna.functions["label"].parameters["icon"].enum_items
+        assert kw["icon"] in {i.identifier for i in icons}, kw["icon"]
 
 
 def _drawn_panel():
