@@ -430,6 +430,47 @@ BliskCamSettings.__annotations__.update(
     robot_summary=StringProperty(name="Robot Result", default="",
                                  description="Figures of the last robot export or display"),
 )
+# the "Stock" panel: the material-removal simulation of issue 22 (core/stock), as
+# `blisk_cam simulate` takes it; the blade count is the scene's one Blade Count
+BliskCamSettings.__annotations__.update(
+    stock_part_source=EnumProperty(
+        name="Part", description="What the part is",
+        items=[("BLADE_HUB", "Blade + Hub Profile", "The Setup panel's blade and a hub "
+                "profile CSV ('r, z' per line, mm) revolved about the axis"),
+               ("MESH", "Whole-Blisk Mesh", "A mesh of the whole blisk, split into hub and "
+                "blades (the blade count checked against its symmetry)")],
+        default="BLADE_HUB"),
+    stock_part=PointerProperty(
+        name="Blisk Mesh", type=bpy.types.Object, poll=poll_mesh,
+        description="Whole-blisk mesh (read, never modified); empty: the active object"),
+    stock_hub_profile=StringProperty(
+        name="Hub Profile", subtype="FILE_PATH", default="",
+        description="Hub generatrix CSV, 'r, z' per line in mm"),
+    stock_blank=EnumProperty(
+        name="Blank", description="The stock the program starts from",
+        items=[("ALLOWANCE", "Part + Allowance", "The part plus a uniform allowance (check "
+                "a finishing or semi-finishing program on its own)"),
+               ("ENVELOPE", "Envelope + Margin", "The part's revolved envelope plus a margin"),
+               ("PROFILE", "Profile CSV", "A closed (r, z) profile revolved about the axis"),
+               ("MESH", "Blank Mesh", "A closed mesh object")],
+        default="ALLOWANCE"),
+    stock_allowance=FloatProperty(name="Allowance", default=0.1, min=0.0, soft_max=10.0,
+                                  precision=3, description="Uniform allowance on the part, mm"),
+    stock_margin=FloatProperty(name="Margin", default=2.0, min=0.0, soft_max=50.0, precision=2,
+                               description="Margin around the part's envelope, mm"),
+    stock_profile=StringProperty(name="Blank Profile", subtype="FILE_PATH", default="",
+                                 description="Closed blank profile CSV, 'r, z' per line, mm"),
+    stock_blank_object=PointerProperty(
+        name="Blank Mesh", type=bpy.types.Object, poll=poll_mesh,
+        description="Closed mesh of the blank (read, never modified)"),
+    stock_resolution=FloatProperty(name="Resolution", default=0.05, min=0.005, max=10.0,
+                                   precision=3, description="Stock resolution (dexel "
+                                   "spacing), mm"),
+    stock_gouge_tolerance=FloatProperty(
+        name="Gouge Tolerance", default=0.0, min=0.0, soft_max=1.0, precision=3,
+        description="Largest gouge that passes, mm (0: the paths' chord tolerance + the "
+        "resolution)"),
+)
 # the radius, for scripts and old files' habits: half the diameter, not stored
 BliskCamSettings.__annotations__["tool_radius"] = FloatProperty(
     name="Tool Radius", description="Cutter radius in mm (half the diameter)",

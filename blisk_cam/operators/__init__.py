@@ -7,7 +7,7 @@ property groups, unregistered in reverse). bl_idnames (see ARCHITECTURE.md):
 ``blisk_cam.export_nc``, ``blisk_cam.check_collisions``,
 ``blisk_cam.next_unresolved_pose``, ``blisk_cam.animate_program``,
 ``blisk_cam.per_blade_paths``, ``blisk_cam.load_blade_results``, ``blisk_cam.export_robot``,
-``blisk_cam.show_robot``. Shared helpers (poll reasons,
+``blisk_cam.show_robot``, ``blisk_cam.simulate_stock``. Shared helpers (poll reasons,
 settings → core request, error reports) are in :mod:`.common`.
 """
 
@@ -24,6 +24,7 @@ from .per_blade_paths import BLISKCAM_OT_load_blade_results, BLISKCAM_OT_per_bla
 from .render_preview import BLISKCAM_OT_render_preview
 from .set_scene_mm import BLISKCAM_OT_set_scene_mm
 from .show_robot import BLISKCAM_OT_show_robot
+from .simulate_stock import BLISKCAM_OT_simulate_stock
 
 CLASSES = [
     BLISKCAM_OT_fit_cones,
@@ -40,4 +41,5 @@ CLASSES = [
     BLISKCAM_OT_load_blade_results,
     BLISKCAM_OT_export_robot,
     BLISKCAM_OT_show_robot,
+    BLISKCAM_OT_simulate_stock,
 ]

@@ -9,6 +9,7 @@ from .paths import BLISKCAM_PT_display, BLISKCAM_PT_machine, BLISKCAM_PT_paths, 
 from .per_blade import BLISKCAM_PT_per_blade
 from .robot import BLISKCAM_PT_robot
 from .setup import BLISKCAM_PT_region, BLISKCAM_PT_setup, BLISKCAM_PT_tolerances, BLISKCAM_PT_tool
+from .stock import BLISKCAM_PT_stock
 
 CLASSES = [
     BLISKCAM_PT_setup,
@@ -18,6 +19,7 @@ CLASSES = [
     BLISKCAM_PT_paths,
     BLISKCAM_PT_display,
     BLISKCAM_PT_collisions,
+    BLISKCAM_PT_stock,
     BLISKCAM_PT_per_blade,
     BLISKCAM_PT_machine,
     BLISKCAM_PT_robot,

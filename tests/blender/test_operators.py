@@ -450,7 +450,7 @@ def test_bad_input_is_disabled_with_a_reason_or_reported(addon, demo, tmp_path):
                         ("fit_cones", "generate_paths", "clear_paths", "render_preview",
                          "set_scene_mm", "check_collisions", "next_unresolved_pose",
                          "animate_program", "per_blade_paths", "load_blade_results",
-                         "show_robot")}
+                         "show_robot", "simulate_stock")}
     for cls in CLASSES:
         if cls.bl_idname in changing:
             assert {"REGISTER", "UNDO"} <= set(cls.bl_options), cls.bl_idname
