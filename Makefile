@@ -27,7 +27,7 @@ REQ52 := requirements/bpy52.txt
 
 # Per-process time limits (a hang, e.g. bpy 4.5 at exit with classes still registered,
 # fails the run instead of blocking it).
-TIMEOUT_CORE ?= 15m
+TIMEOUT_CORE ?= 30m
 TIMEOUT_BLENDER ?= 15m
 TIMEOUT_BENCH ?= 20m
 TIMEOUT := timeout --kill-after=30s
