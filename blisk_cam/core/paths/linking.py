@@ -685,6 +685,7 @@ def build_program(
     tool_radius: float,
     projector: SurfaceProjector | None = None,
     cl_points=None,
+    link_check=None,
 ) -> Program:
     """Link the oriented passes into a :class:`~.toolpath.Program`.
 
@@ -696,6 +697,9 @@ def build_program(
     tool_radius : float, mm — for the default direct-link distance
     projector : SurfaceProjector — needed for on-surface links (else always via clearance)
     cl_points : callable (cc, normal, axis) → tip — the cutter's CC → CL (on-surface links)
+    link_check : :class:`.link_check.SweptLinkCheck` or None — an on-surface link whose swept
+        cutter cuts the part deeper than its tolerance goes through the clearance surface
+        instead (retract, rapids, approach) and is counted there (``None``: not checked)
 
     Raises
     ------
@@ -734,6 +738,14 @@ def build_program(
                     cl_points,
                     opts.link_step,
                 )
+            if link is not None and link_check is not None:
+                depth = link_check.depth(
+                    np.vstack([pc.tip[pj][None], link[0], t0[None]]),
+                    np.vstack([pc.axis[pj][None], link[1], a0[None]]),
+                )
+                if depth > link_check.tolerance:
+                    link_check.reroute(depth)
+                    link = None
             if link is not None:
                 lt, la = link
                 if len(lt):
