@@ -43,6 +43,8 @@ class SweptLinkCheck:
     ----------
     rerouted : int — links reported by :meth:`reroute`
     worst : float, mm — the deepest cut those links would have made
+    still, still_depth : int, float mm — of those, the links whose every route through the
+        air cuts too (the least deep is taken), and the deepest such cut
     """
 
     def __init__(self, mesh: TriMesh, cutter, tolerance: float, *, distance=None):
@@ -57,6 +59,8 @@ class SweptLinkCheck:
         )
         self.rerouted = 0
         self.worst = 0.0
+        self.still = 0
+        self.still_depth = 0.0
 
     def depth(self, tips, axes) -> float:
         """The deepest cut (mm, ≥ 0) of the cutter moving through the poses ``tips`` (k, 3),
@@ -81,10 +85,14 @@ class SweptLinkCheck:
             d = -self.cutter.signed_distance(q.point, T, A)
         return max(0.0, float(np.max(d)))
 
-    def reroute(self, depth: float) -> None:
-        """Record a link sent through the air because it would have cut ``depth`` mm."""
+    def reroute(self, depth: float, left: float = 0.0) -> None:
+        """Record a link sent through the air because it would have cut ``depth`` mm; its
+        route through the air still cuts ``left`` mm (0: within the tolerance)."""
         self.rerouted += 1
         self.worst = max(self.worst, float(depth))
+        if left > self.tolerance:
+            self.still += 1
+            self.still_depth = max(self.still_depth, float(left))
 
     def warning(self) -> str | None:
         """The message for the user, or None when no link was re-routed."""
@@ -95,4 +103,10 @@ class SweptLinkCheck:
             f"{k} link{'s' if k != 1 else ''} re-routed through the air: kept on the surface "
             f"{'they' if k != 1 else 'it'} would have cut the blade by up to {self.worst:.3f} mm "
             f"(chord tolerance {self.tolerance:g} mm)"
+            + (
+                f"; {self.still} of them still cut{'s' if self.still == 1 else ''} up to "
+                f"{self.still_depth:.3f} mm through the air: run collision avoidance"
+                if self.still
+                else ""
+            )
         )

@@ -639,6 +639,11 @@ class _Rows:
                          else np.asarray(pi, np.int64))
         self.flags.append(np.zeros(k, dtype=np.uint8) if fl is None else np.asarray(fl, np.uint8))
 
+    def extend(self, other: _Rows):
+        """Append the rows of ``other``."""
+        for name in ("tips", "axs", "moves", "cidx", "pidx", "flags"):
+            getattr(self, name).extend(getattr(other, name))
+
     def program(self) -> Program:
         """The rows as a Program."""
         return Program(
@@ -744,9 +749,14 @@ def build_program(
                     np.vstack([pc.axis[pj][None], link[1], a0[None]]),
                 )
                 if depth > link_check.tolerance:
-                    link_check.reroute(depth)
-                    link = None
-            if link is not None:
+                    air, left = _air_route(link_check, clear, axis, opts.rapid_step, d_app,
+                                           pc.tip[pj], pc.axis[pj], t0, a0)
+                    link_check.reroute(depth, left)
+                    rows.extend(air)
+                    link = False
+            if link is False:  # re-routed through the air: approach the pass
+                pass
+            elif link is not None:
                 lt, la = link
                 if len(lt):
                     rows.emit(lt, la, MOVE_LINK)
@@ -766,6 +776,46 @@ def build_program(
     _, th, z, fr = cylindrical((pt + d_app * pa)[None, :], axis)
     rows.emit(from_cylindrical(clear.r_at(z), th, z, axis, fr), pa, MOVE_RAPID)
     return rows.program()
+
+
+#: lifts tried (× the approach distance) for a link re-routed through the air, before the
+#: clearance surface
+AIR_LIFTS = (1.0, 2.0, 4.0, 8.0)
+
+
+def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
+    """(rows, depth) — the moves from pose (pt, pa) to above (t0, a0) for a link that may not
+    stay on the surface: retract up ``pa`` by h, rapids straight to ``t0 + h a0`` (the axis
+    slerped, a pose every ``rapid_step`` of turn), the pass then approached down ``a0``;
+    h = ``AIR_LIFTS`` × the approach distance in turn, then the route via the clearance
+    surface. The first route whose swept cutter (``link_check``, approach included) cuts no
+    deeper than the tolerance is taken, else the one cutting least (``depth`` its cut, mm)."""
+    best = None
+    ang = math.acos(max(-1.0, min(1.0, float(np.dot(pa, a0)))))
+    for k in (*AIR_LIFTS, None):
+        r = _Rows()
+        if k is None:
+            r.emit(pt + d_app * pa, pa, MOVE_RETRACT)
+            _via_clearance(r, clear, axis, rapid_step, pt + d_app * pa, pa, t0 + d_app * a0, a0)
+        else:
+            h = k * d_app
+            r.emit(pt + h * pa, pa, MOVE_RETRACT)
+            n = max(1, int(math.ceil(ang / rapid_step)))
+            u = np.arange(1, n + 1) / n
+            au = slerp(np.asarray(pa), np.asarray(a0), u) if n > 1 else np.atleast_2d(a0)
+            au[-1] = a0
+            tu = (pt + h * pa) * (1 - u)[:, None] + (t0 + h * a0) * u[:, None]
+            r.emit(tu, au, MOVE_RAPID)
+        T = np.vstack([pt[None], *r.tips, t0[None]])
+        A = np.vstack([pa[None], *[np.broadcast_to(a, t.shape) for a, t in zip(r.axs, r.tips,
+                                                                               strict=True)],
+                       a0[None]])
+        d = link_check.depth(T, A)
+        if best is None or d < best[1]:
+            best = (r, d)
+        if d <= link_check.tolerance:
+            break
+    return best
 
 
 def _surface_link(p0, n0, a0, p1, n1, a1, projector, cl_points, step):

@@ -539,6 +539,7 @@ def _stage_link(st: PlanState):
     )
     st.stats["links_rerouted"] = check.rerouted
     st.stats["links_rerouted_depth"] = check.worst
+    st.stats["links_rerouted_still_cutting"] = check.still
     if check.warning():
         st.warnings.append(check.warning())
     return
