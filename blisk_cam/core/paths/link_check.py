@@ -43,8 +43,10 @@ class SweptLinkCheck:
     ----------
     rerouted : int — links reported by :meth:`reroute`
     worst : float, mm — the deepest cut those links would have made
-    still, still_depth : int, float mm — of those, the links whose every route through the
-        air cuts too (the least deep is taken), and the deepest such cut
+    rapids, rapids_worst : int, float mm — planned routes via the clearance surface between
+        passes that cut the part (re-routed on a lift where one cuts less), their deepest cut
+    still, still_depth : int, float mm — of the links and routes above, those that every
+        route through the air cuts too (the least deep is taken), and the deepest such cut
     """
 
     def __init__(self, mesh: TriMesh, cutter, tolerance: float, *, distance=None):
@@ -61,6 +63,8 @@ class SweptLinkCheck:
         self.worst = 0.0
         self.still = 0
         self.still_depth = 0.0
+        self.rapids = 0
+        self.rapids_worst = 0.0
 
     def depth(self, tips, axes) -> float:
         """The deepest cut (mm, ≥ 0) of the cutter moving through the poses ``tips`` (k, 3),
@@ -93,6 +97,30 @@ class SweptLinkCheck:
         if left > self.tolerance:
             self.still += 1
             self.still_depth = max(self.still_depth, float(left))
+
+    def reroute_rapids(self, depth: float, left: float = 0.0) -> None:
+        """Record a route via the clearance surface between passes that would have cut
+        ``depth`` mm (replaced by a lifted one cutting ``left`` mm when that cuts less)."""
+        self.rapids += 1
+        self.rapids_worst = max(self.rapids_worst, float(depth))
+        if left > self.tolerance:
+            self.still += 1
+            self.still_depth = max(self.still_depth, float(left))
+
+    def warnings(self) -> list[str]:
+        """The messages for the user (empty when nothing was re-routed)."""
+        out = []
+        w = self.warning()
+        if w:
+            out.append(w)
+        if self.rapids:
+            k = self.rapids
+            out.append(
+                f"{k} move{'s' if k != 1 else ''} via the clearance surface between passes "
+                f"would have cut the blade by up to {self.rapids_worst:.3f} mm: lifted along "
+                "the tool axis instead where that clears"
+            )
+        return out
 
     def warning(self) -> str | None:
         """The message for the user, or None when no link was re-routed."""

@@ -749,8 +749,8 @@ def build_program(
                     np.vstack([pc.axis[pj][None], link[1], a0[None]]),
                 )
                 if depth > link_check.tolerance:
-                    air, left = _air_route(link_check, clear, axis, opts.rapid_step, d_app,
-                                           pc.tip[pj], pc.axis[pj], t0, a0)
+                    air, left, _ = _air_route(link_check, clear, axis, opts.rapid_step,
+                                              d_app, pc.tip[pj], pc.axis[pj], t0, a0)
                     link_check.reroute(depth, left)
                     rows.extend(air)
                     link = False
@@ -761,11 +761,18 @@ def build_program(
                 if len(lt):
                     rows.emit(lt, la, MOVE_LINK)
                 first_move = MOVE_LINK
-            else:
+            elif link_check is None:
                 pt, pa = pc.tip[pj], pc.axis[pj]
                 rows.emit(pt + d_app * pa, pa, MOVE_RETRACT)
                 _via_clearance(rows, clear, axis, opts.rapid_step, pt + d_app * pa, pa,
                                t0 + d_app * a0, a0)
+            else:  # the clearance route, unless it cuts the part and a lift does not
+                air, left, planned = _air_route(link_check, clear, axis, opts.rapid_step,
+                                                d_app, pc.tip[pj], pc.axis[pj], t0, a0,
+                                                clearance_first=True)
+                if planned > link_check.tolerance:
+                    link_check.reroute_rapids(planned, left)
+                rows.extend(air)
         mv = np.full(len(idx), MOVE_CUT, dtype=np.int8)
         mv[0] = first_move
         rows.emit(c.tip[idx], c.axis[idx], mv, ci, idx, c.flags[idx])
@@ -783,16 +790,19 @@ def build_program(
 AIR_LIFTS = (1.0, 2.0, 4.0, 8.0)
 
 
-def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
+def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
+               clearance_first=False):
     """(rows, depth) — the moves from pose (pt, pa) to above (t0, a0) for a link that may not
     stay on the surface: retract up ``pa`` by h, rapids straight to ``t0 + h a0`` (the axis
     slerped, a pose every ``rapid_step`` of turn), the pass then approached down ``a0``;
     h = ``AIR_LIFTS`` × the approach distance in turn, then the route via the clearance
     surface. The first route whose swept cutter (``link_check``, approach included) cuts no
-    deeper than the tolerance is taken, else the one cutting least (``depth`` its cut, mm)."""
-    best = None
+    deeper than the tolerance is taken, else the one cutting least (``depth`` its cut, mm).
+    ``clearance_first``: the clearance route is tried first (a planned route between passes
+    stays as it was where it clears); the third value is the first route's cut (mm)."""
+    best, first = None, None
     ang = math.acos(max(-1.0, min(1.0, float(np.dot(pa, a0)))))
-    for k in (*AIR_LIFTS, None):
+    for k in ((None, *AIR_LIFTS) if clearance_first else (*AIR_LIFTS, None)):
         r = _Rows()
         if k is None:
             r.emit(pt + d_app * pa, pa, MOVE_RETRACT)
@@ -811,11 +821,12 @@ def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
                                                                                strict=True)],
                        a0[None]])
         d = link_check.depth(T, A)
+        first = d if first is None else first
         if best is None or d < best[1]:
             best = (r, d)
         if d <= link_check.tolerance:
             break
-    return best
+    return best[0], best[1], first
 
 
 def _surface_link(p0, n0, a0, p1, n1, a1, projector, cl_points, step):

@@ -540,8 +540,9 @@ def _stage_link(st: PlanState):
     st.stats["links_rerouted"] = check.rerouted
     st.stats["links_rerouted_depth"] = check.worst
     st.stats["links_rerouted_still_cutting"] = check.still
-    if check.warning():
-        st.warnings.append(check.warning())
+    st.stats["rapids_rerouted"] = check.rapids
+    st.stats["rapids_rerouted_depth"] = check.rapids_worst
+    st.warnings.extend(check.warnings())
     return
     yield
 
