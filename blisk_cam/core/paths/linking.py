@@ -795,16 +795,21 @@ def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
     """(rows, depth) — the moves from pose (pt, pa) to above (t0, a0) for a link that may not
     stay on the surface: retract up ``pa`` by h, rapids straight to ``t0 + h a0`` (the axis
     slerped, a pose every ``rapid_step`` of turn), the pass then approached down ``a0``;
-    h = ``AIR_LIFTS`` × the approach distance in turn, then the route via the clearance
-    surface. The first route whose swept cutter (``link_check``, approach included) cuts no
-    deeper than the tolerance is taken, else the one cutting least (``depth`` its cut, mm).
+    h = ``AIR_LIFTS`` × the approach distance in turn, then up the tool axes to the clearance
+    surface (:func:`_via_axis_exits`), then the route via the clearance surface. The first
+    route whose swept cutter (``link_check``, approach included) cuts no deeper than the
+    tolerance is taken, else the one cutting least (``depth`` its cut, mm).
     ``clearance_first``: the clearance route is tried first (a planned route between passes
     stays as it was where it clears); the third value is the first route's cut (mm)."""
     best, first = None, None
     ang = math.acos(max(-1.0, min(1.0, float(np.dot(pa, a0)))))
-    for k in ((None, *AIR_LIFTS) if clearance_first else (*AIR_LIFTS, None)):
+    order = (None, *AIR_LIFTS, "exit") if clearance_first else (*AIR_LIFTS, "exit", None)
+    for k in order:
         r = _Rows()
-        if k is None:
+        if k == "exit":
+            if not _via_axis_exits(r, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
+                continue
+        elif k is None:
             r.emit(pt + d_app * pa, pa, MOVE_RETRACT)
             _via_clearance(r, clear, axis, rapid_step, pt + d_app * pa, pa, t0 + d_app * a0, a0)
         else:
@@ -827,6 +832,48 @@ def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
         if d <= link_check.tolerance:
             break
     return best[0], best[1], first
+
+
+def _axis_exit(p, a, clear: Clearance, axis: Axis, reach: float):
+    """Length t (mm) where ``p + t a`` first reaches the clearance surface, or None when it
+    does not within ``reach`` mm (the axis does not lead out of the blisk)."""
+    t = np.linspace(0.0, reach, max(2, int(math.ceil(reach)) + 1))
+    r, z = meridional(p[None, :] + t[:, None] * a[None, :], axis)
+    out = np.flatnonzero(r >= clear.r_at(z))
+    if not len(out) or out[0] == 0:
+        return None
+    lo, hi = float(t[out[0] - 1]), float(t[out[0]])
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        rm, zm = meridional((p + mid * a)[None, :], axis)
+        lo, hi = (lo, mid) if rm[0] >= clear.r_at(zm[0]) else (mid, hi)
+    return hi
+
+
+def _via_axis_exits(rows: _Rows, clear, axis, rapid_step, d_app, pt, pa, t0, a0) -> bool:
+    """Retract up ``pa`` to the clearance surface, rapids on it to where ``a0``'s line from
+    ``t0`` meets it (angle about the blisk axis and height linear, the tool axis slerped), a
+    rapid down ``a0`` to the approach point (as :mod:`..collision.reroute` builds its routes).
+    False (nothing emitted) when an axis does not lead out of the blisk."""
+    reach = 4.0 * float(clear.radius) + 4.0 * float(np.linalg.norm(pt - t0))
+    ta, tb = _axis_exit(pt, pa, clear, axis, reach), _axis_exit(t0, a0, clear, axis, reach)
+    if ta is None or tb is None or tb <= d_app:
+        return False
+    ea, eb = pt + ta * pa, t0 + tb * a0
+    _, th1, z1, fr = cylindrical(ea[None, :], axis)
+    _, th2, z2, _ = cylindrical(eb[None, :], axis)
+    dth = float((th2[0] - th1[0] + math.pi) % (2 * math.pi) - math.pi)
+    ang = math.acos(max(-1.0, min(1.0, float(np.dot(pa, a0)))))
+    n = max(1, int(math.ceil(max(abs(dth), ang) / rapid_step)))
+    u = np.arange(1, n + 1) / n
+    zz = z1[0] + u * (z2[0] - z1[0])
+    along = from_cylindrical(clear.r_at(zz), th1[0] + u * dth, zz, axis, fr)
+    along[-1] = eb
+    au = slerp(np.asarray(pa), np.asarray(a0), u) if n > 1 else np.atleast_2d(a0)
+    rows.emit(ea, pa, MOVE_RETRACT)
+    rows.emit(along, au, MOVE_RAPID)
+    rows.emit(t0 + d_app * a0, a0, MOVE_RAPID)
+    return True
 
 
 def _surface_link(p0, n0, a0, p1, n1, a1, projector, cl_points, step):
