@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from blisk_cam.core.collision.reroute import clearance_surface
 from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.core.geometry.distance import MeshDistance
 from blisk_cam.core.geometry.mesh import TriMesh
@@ -110,6 +111,8 @@ def test_a_gouging_link_is_rerouted_through_the_air(corner_program):
     truth = _swept_depth(md, unchecked, np.flatnonzero(unchecked.move == MOVE_LINK))
     assert abs(check.worst - truth) <= 0.25 * CHORD
     assert "1 link re-routed through the air" in check.warning()
+    # collision avoidance reads the same clearance surface back from the program
+    assert clearance_surface(prog, AX) == clearance_surface(unchecked, AX)
 
 
 def test_a_clear_link_is_kept(corner_program):
@@ -155,6 +158,7 @@ def test_a_clearance_route_through_the_part_is_lifted_instead():
     rows = np.arange(int(np.flatnonzero(prog.curve == 0)[-1]) + 1,
                      int(np.flatnonzero(prog.curve == 1)[0]) + 1)
     assert _swept_depth(md, prog, rows) <= CHORD
+    assert clearance_surface(prog, AX) == clearance_surface(plain, AX)
     prog, check, _ = progs["corner"]
     assert check.rapids == 0
     for f in ("tip", "axis", "move", "curve", "index", "flags"):

@@ -793,8 +793,8 @@ AIR_LIFTS = (1.0, 2.0, 4.0, 8.0)
 def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
                clearance_first=False):
     """(rows, depth) — the moves from pose (pt, pa) to above (t0, a0) for a link that may not
-    stay on the surface: retract up ``pa`` by h, rapids straight to ``t0 + h a0`` (the axis
-    slerped, a pose every ``rapid_step`` of turn), the pass then approached down ``a0``;
+    stay on the surface: retract up ``pa`` by h, one rapid straight to ``t0 + h a0`` (the
+    axis interpolated as the check samples it), the pass then approached down ``a0``;
     h = ``AIR_LIFTS`` × the approach distance in turn, then up the tool axes to the clearance
     surface (:func:`_via_axis_exits`), then the route via the clearance surface. The first
     route whose swept cutter (``link_check``, approach included) cuts no deeper than the
@@ -802,7 +802,6 @@ def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
     ``clearance_first``: the clearance route is tried first (a planned route between passes
     stays as it was where it clears); the third value is the first route's cut (mm)."""
     best, first = None, None
-    ang = math.acos(max(-1.0, min(1.0, float(np.dot(pa, a0)))))
     order = (None, *AIR_LIFTS, "exit") if clearance_first else (*AIR_LIFTS, "exit", None)
     for k in order:
         r = _Rows()
@@ -815,12 +814,9 @@ def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
         else:
             h = k * d_app
             r.emit(pt + h * pa, pa, MOVE_RETRACT)
-            n = max(1, int(math.ceil(ang / rapid_step)))
-            u = np.arange(1, n + 1) / n
-            au = slerp(np.asarray(pa), np.asarray(a0), u) if n > 1 else np.atleast_2d(a0)
-            au[-1] = a0
-            tu = (pt + h * pa) * (1 - u)[:, None] + (t0 + h * a0) * u[:, None]
-            r.emit(tu, au, MOVE_RAPID)
+            # one rapid row: consecutive rapid rows are read back as the clearance surface
+            # (:func:`..collision.reroute.clearance_surface`)
+            r.emit(t0 + h * a0, a0, MOVE_RAPID)
         T = np.vstack([pt[None], *r.tips, t0[None]])
         A = np.vstack([pa[None], *[np.broadcast_to(a, t.shape) for a, t in zip(r.axs, r.tips,
                                                                                strict=True)],
