@@ -125,11 +125,12 @@ def test_a_clear_link_is_kept(corner_program):
         assert np.array_equal(getattr(a, f), getattr(b, f))
 
 
-def test_a_clearance_route_through_the_part_is_lifted_instead():
+def test_a_clearance_route_through_the_part_is_reported():
     """With no surface links (direct link 0), the planned route via the clearance surface
     leaves pass A radially at the height of its approach point, over a ridge 1 mm higher
-    than the ball's bottom there (x ∈ [112, 116]): it is replaced by a lift that clears, and
-    the same route with the ridge out of the way is kept bit for bit."""
+    than the ball's bottom there (x ∈ [112, 116]): the route is kept (collision avoidance
+    re-routes rapids) and reported with its cut; without the ridge nothing is reported. The
+    program is the same, bit for bit, with the check or without."""
     mesh, w2, n1, n2 = _corner()
     cutter = Cutter.ball(RHO)
     ridge_V = np.array([[112.0, -10, 0], [112.0, 10, 0], [114.0, -10, 3.0], [114.0, 10, 3.0],
@@ -141,25 +142,21 @@ def test_a_clearance_route_through_the_part_is_lifted_instead():
     a = _pass(np.stack([np.full(6, X0 + 6.0), y, np.zeros(6)], 1), n1, cutter)
     b = _pass(np.array([X0, 0.0, 0.0]) + 6.0 * w2 + np.outer(-y[::-1], [0, 1.0, 0]), n2, cutter)
     opts = LinkOptions(chord=CHORD, tool_radius=RHO, direct_link=0.0)
-    # the clearance cylinder, as linking makes it, for both runs: the ridge does not move it
-    progs = {}
-    for name, m in (("ridge", both), ("corner", mesh)):
-        check = SweptLinkCheck(m, cutter, CHORD)
-        progs[name] = (build_program([a, b], opts, AX, tool_radius=RHO, link_check=check),
-                       check, MeshDistance(m))
     plain = build_program([a, b], opts, AX, tool_radius=RHO)
-    between = slice(int(np.flatnonzero(plain.curve == 0)[-1]) + 1,
-                    int(np.flatnonzero(plain.curve == 1)[0]) + 1)
-    rows = np.arange(len(plain.move))[between]
-    md = progs["ridge"][2]
-    assert _swept_depth(md, plain, rows) > 0.5  # the planned route cuts the ridge
-    prog, check, _ = progs["ridge"]
-    assert check.rapids == 1 and check.still == 0 and check.rapids_worst > 0.5
-    rows = np.arange(int(np.flatnonzero(prog.curve == 0)[-1]) + 1,
-                     int(np.flatnonzero(prog.curve == 1)[0]) + 1)
-    assert _swept_depth(md, prog, rows) <= CHORD
-    assert clearance_surface(prog, AX) == clearance_surface(plain, AX)
-    prog, check, _ = progs["corner"]
-    assert check.rapids == 0
-    for f in ("tip", "axis", "move", "curve", "index", "flags"):
-        assert np.array_equal(getattr(plain, f), getattr(prog, f))
+    rows = np.arange(int(np.flatnonzero(plain.curve == 0)[-1]) + 1,
+                     int(np.flatnonzero(plain.curve == 1)[0]) + 1)
+    truth = _swept_depth(MeshDistance(both), plain, rows)
+    assert truth > 0.5  # the planned route cuts the ridge
+    for m, count in ((both, 1), (mesh, 0)):
+        check = SweptLinkCheck(m, cutter, CHORD)
+        prog = build_program([a, b], opts, AX, tool_radius=RHO, link_check=check)
+        for f in ("tip", "axis", "move", "curve", "index", "flags"):
+            assert np.array_equal(getattr(plain, f), getattr(prog, f))
+        assert check.rapids == count and check.rerouted == 0
+        if count:
+            # at least the independent figure (more here: the mesh is open, and the check's
+            # signed distance reads a ball centre beyond a wall's free edge as inside)
+            assert check.rapids_worst >= truth - 0.25 * CHORD
+            assert "run collision avoidance" in check.warnings()[0]
+        else:
+            assert check.warnings() == []

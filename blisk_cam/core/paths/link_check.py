@@ -44,9 +44,9 @@ class SweptLinkCheck:
     rerouted : int — links reported by :meth:`reroute`
     worst : float, mm — the deepest cut those links would have made
     rapids, rapids_worst : int, float mm — planned routes via the clearance surface between
-        passes that cut the part (re-routed on a lift where one cuts less), their deepest cut
-    still, still_depth : int, float mm — of the links and routes above, those that every
-        route through the air cuts too (the least deep is taken), and the deepest such cut
+        passes that cut the part deeper than the tolerance (kept), their deepest cut
+    still, still_depth : int, float mm — of the re-routed links, those that every route
+        through the air cuts too (the least deep is taken), and the deepest such cut
     """
 
     def __init__(self, mesh: TriMesh, cutter, tolerance: float, *, distance=None):
@@ -98,14 +98,13 @@ class SweptLinkCheck:
             self.still += 1
             self.still_depth = max(self.still_depth, float(left))
 
-    def reroute_rapids(self, depth: float, left: float = 0.0) -> None:
-        """Record a route via the clearance surface between passes that would have cut
-        ``depth`` mm (replaced by a lifted one cutting ``left`` mm when that cuts less)."""
-        self.rapids += 1
-        self.rapids_worst = max(self.rapids_worst, float(depth))
-        if left > self.tolerance:
-            self.still += 1
-            self.still_depth = max(self.still_depth, float(left))
+    def rapids_cut(self, depth: float) -> None:
+        """Record a planned route via the clearance surface between passes that cuts
+        ``depth`` mm (kept: collision avoidance re-routes such routes; counted when deeper
+        than the tolerance)."""
+        if depth > self.tolerance:
+            self.rapids += 1
+            self.rapids_worst = max(self.rapids_worst, float(depth))
 
     def warnings(self) -> list[str]:
         """The messages for the user (empty when nothing was re-routed)."""
@@ -116,9 +115,10 @@ class SweptLinkCheck:
         if self.rapids:
             k = self.rapids
             out.append(
-                f"{k} move{'s' if k != 1 else ''} via the clearance surface between passes "
-                f"would have cut the blade by up to {self.rapids_worst:.3f} mm: lifted along "
-                "the tool axis instead where that clears"
+                f"{k} route{'s' if k != 1 else ''} via the clearance surface between passes "
+                f"cut{'s' if k == 1 else ''} the blade by up to {self.rapids_worst:.3f} mm "
+                "(the rapids run straight through it): run collision avoidance "
+                "(--collisions avoid) to re-route them"
             )
         return out
 

@@ -749,8 +749,8 @@ def build_program(
                     np.vstack([pc.axis[pj][None], link[1], a0[None]]),
                 )
                 if depth > link_check.tolerance:
-                    air, left, _ = _air_route(link_check, clear, axis, opts.rapid_step,
-                                              d_app, pc.tip[pj], pc.axis[pj], t0, a0)
+                    air, left = _air_route(link_check, clear, axis, opts.rapid_step,
+                                           d_app, pc.tip[pj], pc.axis[pj], t0, a0)
                     link_check.reroute(depth, left)
                     rows.extend(air)
                     link = False
@@ -761,18 +761,15 @@ def build_program(
                 if len(lt):
                     rows.emit(lt, la, MOVE_LINK)
                 first_move = MOVE_LINK
-            elif link_check is None:
+            else:
                 pt, pa = pc.tip[pj], pc.axis[pj]
-                rows.emit(pt + d_app * pa, pa, MOVE_RETRACT)
-                _via_clearance(rows, clear, axis, opts.rapid_step, pt + d_app * pa, pa,
+                route = _Rows()
+                route.emit(pt + d_app * pa, pa, MOVE_RETRACT)
+                _via_clearance(route, clear, axis, opts.rapid_step, pt + d_app * pa, pa,
                                t0 + d_app * a0, a0)
-            else:  # the clearance route, unless it cuts the part and a lift does not
-                air, left, planned = _air_route(link_check, clear, axis, opts.rapid_step,
-                                                d_app, pc.tip[pj], pc.axis[pj], t0, a0,
-                                                clearance_first=True)
-                if planned > link_check.tolerance:
-                    link_check.reroute_rapids(planned, left)
-                rows.extend(air)
+                rows.extend(route)
+                if link_check is not None:  # measured and reported (avoidance re-routes it)
+                    link_check.rapids_cut(_route_depth(link_check, route, pt, pa, t0, a0))
         mv = np.full(len(idx), MOVE_CUT, dtype=np.int8)
         mv[0] = first_move
         rows.emit(c.tip[idx], c.axis[idx], mv, ci, idx, c.flags[idx])
@@ -790,20 +787,26 @@ def build_program(
 AIR_LIFTS = (1.0, 2.0, 4.0, 8.0)
 
 
-def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
-               clearance_first=False):
+def _route_depth(link_check, r: _Rows, pt, pa, t0, a0) -> float:
+    """How deep (mm) the cutter cuts moving from (pt, pa) through the rows ``r`` onto
+    (t0, a0)."""
+    T = np.vstack([pt[None], *r.tips, t0[None]])
+    A = np.vstack([pa[None], *[np.broadcast_to(a, t.shape) for a, t in zip(r.axs, r.tips,
+                                                                           strict=True)],
+                   a0[None]])
+    return link_check.depth(T, A)
+
+
+def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
     """(rows, depth) — the moves from pose (pt, pa) to above (t0, a0) for a link that may not
     stay on the surface: retract up ``pa`` by h, one rapid straight to ``t0 + h a0`` (the
     axis interpolated as the check samples it), the pass then approached down ``a0``;
     h = ``AIR_LIFTS`` × the approach distance in turn, then up the tool axes to the clearance
     surface (:func:`_via_axis_exits`), then the route via the clearance surface. The first
     route whose swept cutter (``link_check``, approach included) cuts no deeper than the
-    tolerance is taken, else the one cutting least (``depth`` its cut, mm).
-    ``clearance_first``: the clearance route is tried first (a planned route between passes
-    stays as it was where it clears); the third value is the first route's cut (mm)."""
-    best, first = None, None
-    order = (None, *AIR_LIFTS, "exit") if clearance_first else (*AIR_LIFTS, "exit", None)
-    for k in order:
+    tolerance is taken, else the one cutting least (``depth`` its cut, mm)."""
+    best = None
+    for k in (*AIR_LIFTS, "exit", None):
         r = _Rows()
         if k == "exit":
             if not _via_axis_exits(r, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
@@ -817,17 +820,12 @@ def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0, *,
             # one rapid row: consecutive rapid rows are read back as the clearance surface
             # (:func:`..collision.reroute.clearance_surface`)
             r.emit(t0 + h * a0, a0, MOVE_RAPID)
-        T = np.vstack([pt[None], *r.tips, t0[None]])
-        A = np.vstack([pa[None], *[np.broadcast_to(a, t.shape) for a, t in zip(r.axs, r.tips,
-                                                                               strict=True)],
-                       a0[None]])
-        d = link_check.depth(T, A)
-        first = d if first is None else first
+        d = _route_depth(link_check, r, pt, pa, t0, a0)
         if best is None or d < best[1]:
             best = (r, d)
         if d <= link_check.tolerance:
             break
-    return best[0], best[1], first
+    return best
 
 
 def _axis_exit(p, a, clear: Clearance, axis: Axis, reach: float):
