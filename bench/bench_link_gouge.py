@@ -61,8 +61,8 @@ def main():
         print(f"{name}: chord {chord}: {st['links_rerouted']} links re-routed "
               f"(would cut {st['links_rerouted_depth']:.4f} mm, "
               f"{st['links_rerouted_still_cutting']} still cut through the air; "
-              f"{st['rapids_rerouted']} clearance routes cut "
-              f"{st['rapids_rerouted_depth']:.4f} mm); "
+              f"{st['clearance_routes_cutting']} clearance routes cut "
+              f"{st['clearance_routes_depth']:.4f} mm); "
               f"non-cut moves {n}, deepest "
               f"{depth:.4f} mm at row {row}; link stage {st['seconds_link']:.2f} s, plan "
               f"{time.perf_counter() - t0:.1f} s")

@@ -540,8 +540,8 @@ def _stage_link(st: PlanState):
     st.stats["links_rerouted"] = check.rerouted
     st.stats["links_rerouted_depth"] = check.worst
     st.stats["links_rerouted_still_cutting"] = check.still
-    st.stats["rapids_rerouted"] = check.rapids
-    st.stats["rapids_rerouted_depth"] = check.rapids_worst
+    st.stats["clearance_routes_cutting"] = check.rapids
+    st.stats["clearance_routes_depth"] = check.rapids_worst
     st.warnings.extend(check.warnings())
     return
     yield
