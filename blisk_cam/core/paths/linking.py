@@ -639,6 +639,11 @@ class _Rows:
                          else np.asarray(pi, np.int64))
         self.flags.append(np.zeros(k, dtype=np.uint8) if fl is None else np.asarray(fl, np.uint8))
 
+    def extend(self, other: _Rows):
+        """Append the rows of ``other``."""
+        for name in ("tips", "axs", "moves", "cidx", "pidx", "flags"):
+            getattr(self, name).extend(getattr(other, name))
+
     def program(self) -> Program:
         """The rows as a Program."""
         return Program(
@@ -685,6 +690,7 @@ def build_program(
     tool_radius: float,
     projector: SurfaceProjector | None = None,
     cl_points=None,
+    link_check=None,
 ) -> Program:
     """Link the oriented passes into a :class:`~.toolpath.Program`.
 
@@ -696,6 +702,9 @@ def build_program(
     tool_radius : float, mm — for the default direct-link distance
     projector : SurfaceProjector — needed for on-surface links (else always via clearance)
     cl_points : callable (cc, normal, axis) → tip — the cutter's CC → CL (on-surface links)
+    link_check : :class:`.link_check.SweptLinkCheck` or None — an on-surface link whose swept
+        cutter cuts the part deeper than its tolerance goes through the clearance surface
+        instead (retract, rapids, approach) and is counted there (``None``: not checked)
 
     Raises
     ------
@@ -734,16 +743,33 @@ def build_program(
                     cl_points,
                     opts.link_step,
                 )
-            if link is not None:
+            if link is not None and link_check is not None:
+                depth = link_check.depth(
+                    np.vstack([pc.tip[pj][None], link[0], t0[None]]),
+                    np.vstack([pc.axis[pj][None], link[1], a0[None]]),
+                )
+                if depth > link_check.tolerance:
+                    air, left = _air_route(link_check, clear, axis, opts.rapid_step,
+                                           d_app, pc.tip[pj], pc.axis[pj], t0, a0)
+                    link_check.reroute(depth, left)
+                    rows.extend(air)
+                    link = False
+            if link is False:  # re-routed through the air: approach the pass
+                pass
+            elif link is not None:
                 lt, la = link
                 if len(lt):
                     rows.emit(lt, la, MOVE_LINK)
                 first_move = MOVE_LINK
             else:
                 pt, pa = pc.tip[pj], pc.axis[pj]
-                rows.emit(pt + d_app * pa, pa, MOVE_RETRACT)
-                _via_clearance(rows, clear, axis, opts.rapid_step, pt + d_app * pa, pa,
+                route = _Rows()
+                route.emit(pt + d_app * pa, pa, MOVE_RETRACT)
+                _via_clearance(route, clear, axis, opts.rapid_step, pt + d_app * pa, pa,
                                t0 + d_app * a0, a0)
+                rows.extend(route)
+                if link_check is not None:  # measured and reported (avoidance re-routes it)
+                    link_check.rapids_cut(_route_depth(link_check, route, pt, pa, t0, a0))
         mv = np.full(len(idx), MOVE_CUT, dtype=np.int8)
         mv[0] = first_move
         rows.emit(c.tip[idx], c.axis[idx], mv, ci, idx, c.flags[idx])
@@ -754,6 +780,94 @@ def build_program(
     _, th, z, fr = cylindrical((pt + d_app * pa)[None, :], axis)
     rows.emit(from_cylindrical(clear.r_at(z), th, z, axis, fr), pa, MOVE_RAPID)
     return rows.program()
+
+
+#: lifts tried (× the approach distance) for a link re-routed through the air, before the
+#: clearance surface
+AIR_LIFTS = (1.0, 2.0, 4.0, 8.0)
+
+
+def _route_depth(link_check, r: _Rows, pt, pa, t0, a0) -> float:
+    """How deep (mm) the cutter cuts moving from (pt, pa) through the rows ``r`` onto
+    (t0, a0)."""
+    T = np.vstack([pt[None], *r.tips, t0[None]])
+    A = np.vstack([pa[None], *[np.broadcast_to(a, t.shape) for a, t in zip(r.axs, r.tips,
+                                                                           strict=True)],
+                   a0[None]])
+    return link_check.depth(T, A)
+
+
+def _air_route(link_check, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
+    """(rows, depth) — the moves from pose (pt, pa) to above (t0, a0) for a link that may not
+    stay on the surface: retract up ``pa`` by h, one rapid straight to ``t0 + h a0`` (the
+    axis interpolated as the check samples it), the pass then approached down ``a0``;
+    h = ``AIR_LIFTS`` × the approach distance in turn, then up the tool axes to the clearance
+    surface (:func:`_via_axis_exits`), then the route via the clearance surface. The first
+    route whose swept cutter (``link_check``, approach included) cuts no deeper than the
+    tolerance is taken, else the one cutting least (``depth`` its cut, mm)."""
+    best = None
+    for k in (*AIR_LIFTS, "exit", None):
+        r = _Rows()
+        if k == "exit":
+            if not _via_axis_exits(r, clear, axis, rapid_step, d_app, pt, pa, t0, a0):
+                continue
+        elif k is None:
+            r.emit(pt + d_app * pa, pa, MOVE_RETRACT)
+            _via_clearance(r, clear, axis, rapid_step, pt + d_app * pa, pa, t0 + d_app * a0, a0)
+        else:
+            h = k * d_app
+            r.emit(pt + h * pa, pa, MOVE_RETRACT)
+            # one rapid row: consecutive rapid rows are read back as the clearance surface
+            # (:func:`..collision.reroute.clearance_surface`)
+            r.emit(t0 + h * a0, a0, MOVE_RAPID)
+        d = _route_depth(link_check, r, pt, pa, t0, a0)
+        if best is None or d < best[1]:
+            best = (r, d)
+        if d <= link_check.tolerance:
+            break
+    return best
+
+
+def _axis_exit(p, a, clear: Clearance, axis: Axis, reach: float):
+    """Length t (mm) where ``p + t a`` first reaches the clearance surface, or None when it
+    does not within ``reach`` mm (the axis does not lead out of the blisk)."""
+    t = np.linspace(0.0, reach, max(2, int(math.ceil(reach)) + 1))
+    r, z = meridional(p[None, :] + t[:, None] * a[None, :], axis)
+    out = np.flatnonzero(r >= clear.r_at(z))
+    if not len(out) or out[0] == 0:
+        return None
+    lo, hi = float(t[out[0] - 1]), float(t[out[0]])
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        rm, zm = meridional((p + mid * a)[None, :], axis)
+        lo, hi = (lo, mid) if rm[0] >= clear.r_at(zm[0]) else (mid, hi)
+    return hi
+
+
+def _via_axis_exits(rows: _Rows, clear, axis, rapid_step, d_app, pt, pa, t0, a0) -> bool:
+    """Retract up ``pa`` to the clearance surface, rapids on it to where ``a0``'s line from
+    ``t0`` meets it (angle about the blisk axis and height linear, the tool axis slerped), a
+    rapid down ``a0`` to the approach point (as :mod:`..collision.reroute` builds its routes).
+    False (nothing emitted) when an axis does not lead out of the blisk."""
+    reach = 4.0 * float(clear.radius) + 4.0 * float(np.linalg.norm(pt - t0))
+    ta, tb = _axis_exit(pt, pa, clear, axis, reach), _axis_exit(t0, a0, clear, axis, reach)
+    if ta is None or tb is None or tb <= d_app:
+        return False
+    ea, eb = pt + ta * pa, t0 + tb * a0
+    _, th1, z1, fr = cylindrical(ea[None, :], axis)
+    _, th2, z2, _ = cylindrical(eb[None, :], axis)
+    dth = float((th2[0] - th1[0] + math.pi) % (2 * math.pi) - math.pi)
+    ang = math.acos(max(-1.0, min(1.0, float(np.dot(pa, a0)))))
+    n = max(1, int(math.ceil(max(abs(dth), ang) / rapid_step)))
+    u = np.arange(1, n + 1) / n
+    zz = z1[0] + u * (z2[0] - z1[0])
+    along = from_cylindrical(clear.r_at(zz), th1[0] + u * dth, zz, axis, fr)
+    along[-1] = eb
+    au = slerp(np.asarray(pa), np.asarray(a0), u) if n > 1 else np.atleast_2d(a0)
+    rows.emit(ea, pa, MOVE_RETRACT)
+    rows.emit(along, au, MOVE_RAPID)
+    rows.emit(t0 + d_app * a0, a0, MOVE_RAPID)
+    return True
 
 
 def _surface_link(p0, n0, a0, p1, n1, a1, projector, cl_points, step):

@@ -46,6 +46,7 @@ from ..paths.gouge import (
     fix_near_gouges,
     surface_normal_curvature,
 )
+from ..paths.link_check import SweptLinkCheck
 from ..paths.linking import Clearance, LinkOptions, SurfaceProjector, build_program, order_passes
 from ..paths.orientation import (
     AxisStrategy,
@@ -523,7 +524,10 @@ def _stage_orient(st: PlanState):
 
 def _stage_link(st: PlanState):
     """The linked program: approach, cut, links on the surface or via the clearance
-    surface (:func:`..paths.linking.build_program`)."""
+    surface (:func:`..paths.linking.build_program`). An on-surface link whose swept cutter
+    would cut the blade deeper than the chord tolerance goes through the air instead
+    (:class:`..paths.link_check.SweptLinkCheck`); the count is in the stats and the warnings."""
+    check = SweptLinkCheck(st.mesh, st.cutter, st.req.chord)
     st.program = build_program(
         st.curves,
         st.link_options,
@@ -531,7 +535,14 @@ def _stage_link(st: PlanState):
         tool_radius=st.cutter.radius,
         projector=st.projector,
         cl_points=st.cutter.cl_points,
+        link_check=check,
     )
+    st.stats["links_rerouted"] = check.rerouted
+    st.stats["links_rerouted_depth"] = check.worst
+    st.stats["links_rerouted_still_cutting"] = check.still
+    st.stats["clearance_routes_cutting"] = check.rapids
+    st.stats["clearance_routes_depth"] = check.rapids_worst
+    st.warnings.extend(check.warnings())
     return
     yield
 
