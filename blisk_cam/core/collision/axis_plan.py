@@ -282,6 +282,10 @@ class _Planner:
                     if self.ball else None)
         self.exact = set()  # poses whose fine states were all measured
         self.dlp = self.dtp = None
+        # consecutive pose pairs (global) whose motion was found colliding: the shortest
+        # path prices their motion per state pair (:meth:`motion_cost`), cached
+        self.mpairs = set()
+        self.mcost = {}
 
     # --- poses -----------------------------------------------------------------------------
     def axes(self, g, dl, dt):
@@ -417,6 +421,68 @@ class _Planner:
             ok = cos >= math.cos(limit) - 1e-12
         return np.asarray(offs), ok
 
+    def _clear_states(self, gi):
+        """(Fl, Ft) bool: the states of pose gi known clear."""
+        return self.known[int(gi)] >= self.safety
+
+    def _motion_penalty(self, tp, ap, tc, ac):
+        """(k,) cost of the motions between pose rows (tip, axis) → (tip, axis): 0 when
+        every sample inside clears, else C plus the depth (as a colliding state)."""
+        if len(tp) == 0:
+            return np.zeros(0)
+        tq = np.arange(1, _MOTION_SAMPLES + 1) / (_MOTION_SAMPLES + 1)
+        mt, ma = sample_motion(tp, ap, tc, ac, tq)
+        c = self.clearance(mt, ma).reshape(-1, _MOTION_SAMPLES).min(axis=1)
+        return np.where(c >= self.safety, 0.0, _COLLIDE + self.safety
+                        - np.maximum(c, -self.safety - 50.0))
+
+    def motion_cost(self, gp, gc, limit):
+        """(o, Fl, Ft) cost of the motion from the state x − offset at pose gp to the state x
+        at the next pose gc (the offsets and turn test of :meth:`_moves`): measured for the
+        pairs of clear states within the turn limit, 0 for the others (their poses collide
+        and are priced already). Cached per pair."""
+        key = (int(gp), int(gc))
+        if key in self.mcost:
+            return self.mcost[key]
+        (Fl, Ft), r = self.shape, _MAX_R
+        Ap, Ac = self.state_axes(gp), self.state_axes(gc)
+        offs, ok = self._moves(Ap, Ac, limit)
+        Tp = self.tips(np.full(Fl * Ft, gp), Ap.reshape(-1, 3)).reshape(Fl, Ft, 3)
+        Tc = self.tips(np.full(Fl * Ft, gc), Ac.reshape(-1, 3)).reshape(Fl, Ft, 3)
+        padA = np.full((Fl + 2 * r, Ft + 2 * r, 3), np.nan)
+        padT = padA.copy()
+        padK = np.zeros((Fl + 2 * r, Ft + 2 * r), bool)
+        padA[r:r + Fl, r:r + Ft], padT[r:r + Fl, r:r + Ft] = Ap, Tp
+        padK[r:r + Fl, r:r + Ft] = self._clear_states(gp)
+        sl = [(slice(r - a, r - a + Fl), slice(r - b, r - b + Ft)) for a, b in offs]
+        kp = np.stack([padK[i, j] for i, j in sl])
+        sel = ok & kp & self._clear_states(gc)[None]
+        pen = np.zeros(ok.shape)
+        if sel.any():
+            o, i, j = np.nonzero(sel)
+            pi, pj = i - offs[o, 0] + r, j - offs[o, 1] + r
+            pen[sel] = self._motion_penalty(padT[pi, pj], padA[pi, pj], Tc[i, j], Ac[i, j])
+        self.mcost[key] = pen
+        return pen
+
+    def motion_cost_fixed(self, g_fixed, gi, into: bool):
+        """(Fl, Ft) cost of the motion between the fixed planned pose ``g_fixed`` and each
+        clear state of pose gi (``into``: from the fixed pose to gi, else from gi to it)."""
+        key = (int(g_fixed), int(gi)) if into else (int(gi), int(g_fixed))
+        if key in self.mcost:
+            return self.mcost[key]
+        A = self.state_axes(gi).reshape(-1, 3)
+        T = self.tips(np.full(len(A), gi), A)
+        sel = self._clear_states(gi).ravel()
+        pen = np.zeros(len(A))
+        k = int(sel.sum())
+        tf = np.repeat(self.P.tip0[[g_fixed]], k, 0)
+        af = np.repeat(self.P.ax0[[g_fixed]], k, 0)
+        pen[sel] = (self._motion_penalty(tf, af, T[sel], A[sel]) if into
+                    else self._motion_penalty(T[sel], A[sel], tf, af))
+        self.mcost[key] = pen.reshape(self.shape)
+        return self.mcost[key]
+
     def node_costs(self, gi):
         c = self.known[int(gi)]
         dev = self.off[0][:, None] ** 2 + self.off[1][None, :] ** 2
@@ -435,6 +501,8 @@ class _Planner:
             lim0 = float(angle_between(P.ax0[[r.pre]], P.ax0[[gst[0]]])[0]) + self.rate * \
                 max(float(np.linalg.norm(P.cc[gst[0]] - P.cc[r.pre])), MIN_STEP)
             cost = cost + np.where(A[0] @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
+            if (int(r.pre), int(gst[0])) in self.mpairs:
+                cost = cost + self.motion_cost_fixed(r.pre, gst[0], True)
         backs = []
         for j in range(1, len(gst)):
             gap = r.arc[r.st[j]] - r.arc[r.st[j - 1]]
@@ -446,6 +514,8 @@ class _Planner:
             pad[rr:rr + Fl, rr:rr + Ft] = cost
             stack = np.stack([pad[rr - a:rr - a + Fl, rr - b:rr - b + Ft] for a, b in offs])
             stack = np.where(ok, stack, np.inf)
+            if (int(gst[j - 1]), int(gst[j])) in self.mpairs:
+                stack = stack + self.motion_cost(gst[j - 1], gst[j], lim)
             arg = np.argmin(stack, axis=0)
             best = np.take_along_axis(stack, arg[None], 0)[0]
             backs.append((offs, arg))
@@ -455,6 +525,8 @@ class _Planner:
             lim1 = float(angle_between(P.ax0[[gl]], P.ax0[[r.post]])[0]) + self.rate * \
                 max(float(np.linalg.norm(P.cc[r.post] - P.cc[gl])), MIN_STEP)
             cost = cost + np.where(A[-1] @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
+            if (int(gl), int(r.post)) in self.mpairs:
+                cost = cost + self.motion_cost_fixed(r.post, gl, False)
         if not np.isfinite(cost.min()):
             return None
         out = np.empty((len(gst), 2), np.int64)
@@ -543,16 +615,28 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             break
         # poses the plan leaves colliding: made stations, all their states measured exactly,
         # and the runs planned again
-        todo = []
+        # poses whose motion from the pose before collides: both ends made stations, known
+        # exactly, and the motion between them priced per state pair in the next plan
+        todo, new_pairs = [], 0
         for r in runs:
             bad = np.nonzero(result["clr"][r.g] < pl.safety)[0]
             bad = np.asarray([i for i in bad if int(r.g[i]) not in pl.exact], np.int64)
+            chain = _chain(r)
+            mb = np.nonzero(result["motion"][chain[1:]] < pl.safety)[0]
+            pairs = [(int(chain[i]), int(chain[i + 1])) for i in mb
+                     if (int(chain[i]), int(chain[i + 1])) not in pl.mpairs]
+            ends = np.asarray([x for p in pairs for x in p], np.int64)
+            ends = np.nonzero(np.isin(r.g, ends))[0]
+            pl.mpairs.update(pairs)
+            new_pairs += len(pairs)
+            bad = np.union1d(bad, ends).astype(np.int64)
             if len(bad):
                 r.st = np.union1d(r.st, bad)
                 todo.append(r.g[bad])
-        if not todo:
+        if not todo and not new_pairs:
             break
-        pl.measure_exact(np.concatenate(todo))
+        if todo:
+            pl.measure_exact(np.concatenate(todo))
         if progress is not None:
             progress(0.5 + 0.1 * (rnd + 1))
     idx = np.nonzero(win)[0]
@@ -614,6 +698,12 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     motion = np.full(n, np.inf)
     np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
     return {"tip": tip, "axis": axis, "clr": clr, "motion": motion}
+
+
+def _chain(r: _Run):
+    """(m,) global poses of run r with the fixed planned poses before/after it."""
+    return np.r_[[r.pre] if r.pre is not None else [], r.g,
+                 [r.post] if r.post is not None else []].astype(np.int64)
 
 
 def _limit_turns(pl: _Planner, runs, tip, axis):
