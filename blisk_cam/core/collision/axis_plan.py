@@ -505,9 +505,9 @@ class _Planner:
         """(s, 2) fine states of the stations of run r minimising the costs under the exact
         turn limit between stations (and from/to the fixed poses), or None. A whole closed
         pass (``r.cycle``) is planned open first, then again with its first station held at
-        the chosen state (or the reference's) and its last station required to turn into it
-        within the limit, the closing motion priced: the closing cut is bounded like any
-        other."""
+        the chosen state (or the reference's, or one of its four cheapest) and its last
+        station required to turn into it within the limit, the closing motion priced: the
+        closing cut is bounded like any other."""
         if not r.cycle:
             return self._viterbi(r)
         first = self._viterbi(r)
@@ -516,7 +516,11 @@ class _Planner:
             max(float(np.linalg.norm(P.cc[g0] - P.cc[gl])), MIN_STEP)
         ref = np.unravel_index(int(np.argmin(self.off[0][:, None] ** 2
                                              + self.off[1][None, :] ** 2)), self.shape)
-        starts = ([tuple(first[0])] if first is not None else []) + [tuple(ref)]
+        c0 = self.node_costs(g0).ravel()
+        cheap = [np.unravel_index(int(i), self.shape) for i in np.argsort(c0, kind="stable")[:4]
+                 if np.isfinite(c0[i])]
+        starts = ([tuple(first[0])] if first is not None else []) + [tuple(ref)] + \
+            [tuple(int(x) for x in st) for st in cheap]
         best, best_cost = None, np.inf
         for st0 in dict.fromkeys(starts):
             a0 = self.state_axes(g0)[st0]
