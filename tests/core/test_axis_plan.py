@@ -213,3 +213,64 @@ def test_cli_names_the_unresolved_ranges_and_the_hint(case, capsys):
         f"{r['from']}–{r['to']} ({r['why']})" in text
     assert f"hint: {new.collision['tool_hint']}" in text
     assert got[0] == rep.n_unresolved
+
+
+def test_closed_pass_closing_cut_and_motions(case):
+    """A closed pass ends with the closing cut back onto its first pose (the program repeats
+    pose 0): the turn into it is within the turn limit like any other, its motion is clear or
+    the pose reported; and no pose is reported for "the motion from the pose before" while
+    both it and the pose before clear and a clear motion between them exists (a witness
+    searched on a 5° grid of axes about the planned lean at both poses)."""
+    from blisk_cam.core.collision.axis_plan import REASON_MOTION, sample_motion
+
+    _, mesh, path, out = case
+    new, _, opts = out["plan"]
+    ob = Obstacles.build(mesh.V, mesh.F, path.axis, N_BLADES, 1, [])
+    scene = CollisionScene(ob, path.tool, opts.assembly(path.tool))
+    closed = [ci for ci, c in enumerate(new.curves) if c.closed and len(c) > 2]
+    assert closed
+    status = {ci: np.asarray(new.curves[ci].collision["status"]) for ci in closed}
+    changed_ends = 0
+    tq = np.array([0.25, 0.5, 0.75])
+    for ci in closed:
+        c0, c1 = path.curves[ci], new.curves[ci]
+        a, tip = np.asarray(c1.axis), np.asarray(c1.tip)
+        limit = turn_limits(np.vstack([c0.cc[-1:], c0.cc[:1]]),
+                            np.vstack([c0.axis[-1:], c0.axis[:1]]), opts.turn_per_mm)[0]
+        turn = math.acos(np.clip(a[-1] @ a[0], -1.0, 1.0))
+        assert turn <= limit + 1e-6, (ci, math.degrees(turn), math.degrees(limit))
+        mt, ma = sample_motion(tip[-1:], a[-1:], tip[:1], a[:1], tq)
+        if scene.detect(mt, ma).clearance.min() < opts.safety:
+            assert status[ci][0] == STATUS_UNRESOLVED
+        changed_ends += int(np.linalg.norm(a[[0, -1]] - np.asarray(c0.axis)[[0, -1]]) > 1e-9)
+    assert changed_ends  # the case turns axes at the closing cut: the check is not idle
+    rho = path.tool.radius
+    grid = np.radians(np.arange(-30.0, 30.01, 5.0))
+    L, T = (x.ravel() for x in np.meshgrid(grid, grid, indexing="ij"))
+    picked = []
+    for r in new.collision.get("unresolved_ranges", []):
+        if r["why"] == REASON_MOTION and r["from"] > 0:
+            picked += [(r["pass"], i) for i in range(r["from"], r["to"] + 1)
+                       if new.curves[r["pass"]].collision["status"][i - 1] != STATUS_UNRESOLVED]
+    for ci, i in picked[:4]:
+        c = path.curves[ci]
+        f, n, k = local_frames(c.cc, c.normal, c.closed)
+        states = []
+        for j in (i - 1, i):
+            l0, t0 = lead_tilt_of(c.axis[j:j + 1], f[j:j + 1], n[j:j + 1], k[j:j + 1])
+            lim_l, lim_t = max(opts.max_lead, abs(l0[0])), max(opts.max_tilt, abs(t0[0]))
+            m = len(L)
+            ax = lead_tilt_axes(np.repeat(f[j:j + 1], m, 0), np.repeat(n[j:j + 1], m, 0),
+                                np.repeat(k[j:j + 1], m, 0), np.clip(l0[0] + L, -lim_l, lim_l),
+                                np.clip(t0[0] + T, -lim_t, lim_t))
+            tp = c.tip[j] + rho * c.axis[j] - rho * ax  # the ball's centre stays
+            ok = scene.detect(tp, ax).clearance >= opts.safety
+            states.append((tp[ok], ax[ok]))
+        (tp0, ax0), (tp1, ax1) = states
+        lim = turn_limits(c.cc[i - 1:i + 1], c.axis[i - 1:i + 1], opts.turn_per_mm)[0]
+        p, q = np.nonzero(ax0 @ ax1.T >= math.cos(lim))
+        if len(p) == 0:
+            continue
+        mt, ma = sample_motion(tp0[p], ax0[p], tp1[q], ax1[q], tq)
+        motion = scene.detect(mt, ma).clearance.reshape(-1, len(tq)).min(axis=1)
+        assert motion.max() < opts.safety, (ci, i, "a clear motion exists")

@@ -200,8 +200,9 @@ def _cl(cutter: Cutter, cc, nrm, ax, off, ball_centre):
 
 
 # ====================================================================== the planner
-def _windows(offs, cc, colliding, reach_mm):
-    """(n,) bool: poses within ``reach_mm`` of arc length of a colliding pose of their pass."""
+def _windows(offs, cc, colliding, reach_mm, closed):
+    """(n,) bool: poses within ``reach_mm`` of arc length of a colliding pose of their pass
+    (around the closing cut of a closed pass, ``closed`` (p,) bool)."""
     out = np.zeros(len(cc), bool)
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -209,8 +210,12 @@ def _windows(offs, cc, colliding, reach_mm):
         if len(hit) == 0:
             continue
         arc = _arc(cc[s:e])
-        lo = np.searchsorted(arc, arc[hit] - reach_mm, side="left")
-        hi = np.searchsorted(arc, arc[hit] + reach_mm, side="right")
+        h = arc[hit]
+        if closed[ci]:
+            L = arc[-1] + float(np.linalg.norm(cc[s] - cc[e - 1]))
+            h = np.concatenate([h - L, h, h + L])
+        lo = np.searchsorted(arc, h - reach_mm, side="left")
+        hi = np.searchsorted(arc, h + reach_mm, side="right")
         mark = np.zeros(e - s + 1, np.int64)
         np.add.at(mark, lo, 1)
         np.add.at(mark, hi, -1)
@@ -238,13 +243,15 @@ def _interp_matrix_idx(n, idx):
 class _Run:
     """A run of consecutive window poses of one pass: global indices ``g`` (r,), arc
     positions, the stations (sorted indices into ``g``), the fixed planned poses
-    before/after (global indices or None)."""
+    before/after (global indices or None); ``cycle``: the run is a whole closed pass, its
+    first pose following its last (the closing cut)."""
 
     g: np.ndarray
     arc: np.ndarray
     st: np.ndarray
     pre: int | None
     post: int | None
+    cycle: bool = False
 
 
 class _Planner:
@@ -282,6 +289,10 @@ class _Planner:
                     if self.ball else None)
         self.exact = set()  # poses whose fine states were all measured
         self.dlp = self.dtp = None
+        # consecutive pose pairs (global) whose motion was found colliding: the shortest
+        # path prices their motion per state pair (:meth:`motion_cost`), cached
+        self.mpairs = set()
+        self.mcost = {}
 
     # --- poses -----------------------------------------------------------------------------
     def axes(self, g, dl, dt):
@@ -417,6 +428,72 @@ class _Planner:
             ok = cos >= math.cos(limit) - 1e-12
         return np.asarray(offs), ok
 
+    def _clear_states(self, gi):
+        """(Fl, Ft) bool: the states of pose gi known clear."""
+        return self.known[int(gi)] >= self.safety
+
+    def _motion_penalty(self, tp, ap, tc, ac):
+        """(k,) cost of the motions between pose rows (tip, axis) → (tip, axis): 0 when
+        every sample inside clears, else C plus the depth (as a colliding state)."""
+        if len(tp) == 0:
+            return np.zeros(0)
+        tq = np.arange(1, _MOTION_SAMPLES + 1) / (_MOTION_SAMPLES + 1)
+        mt, ma = sample_motion(tp, ap, tc, ac, tq)
+        c = self.clearance(mt, ma).reshape(-1, _MOTION_SAMPLES).min(axis=1)
+        return np.where(c >= self.safety, 0.0, _COLLIDE + self.safety
+                        - np.maximum(c, -self.safety - 50.0))
+
+    def motion_cost(self, gp, gc, limit):
+        """(o, Fl, Ft) cost of the motion from the state x − offset at pose gp to the state x
+        at the next pose gc (the offsets and turn test of :meth:`_moves`): measured for the
+        pairs of clear states within the turn limit, 0 for the others (their poses collide
+        and are priced already). Cached per pair."""
+        key = (int(gp), int(gc))
+        if key in self.mcost:
+            return self.mcost[key]
+        (Fl, Ft), r = self.shape, _MAX_R
+        Ap, Ac = self.state_axes(gp), self.state_axes(gc)
+        offs, ok = self._moves(Ap, Ac, limit)
+        Tp = self.tips(np.full(Fl * Ft, gp), Ap.reshape(-1, 3)).reshape(Fl, Ft, 3)
+        Tc = self.tips(np.full(Fl * Ft, gc), Ac.reshape(-1, 3)).reshape(Fl, Ft, 3)
+        padA = np.full((Fl + 2 * r, Ft + 2 * r, 3), np.nan)
+        padT = padA.copy()
+        padK = np.zeros((Fl + 2 * r, Ft + 2 * r), bool)
+        padA[r:r + Fl, r:r + Ft], padT[r:r + Fl, r:r + Ft] = Ap, Tp
+        padK[r:r + Fl, r:r + Ft] = self._clear_states(gp)
+        sl = [(slice(r - a, r - a + Fl), slice(r - b, r - b + Ft)) for a, b in offs]
+        kp = np.stack([padK[i, j] for i, j in sl])
+        sel = ok & kp & self._clear_states(gc)[None]
+        pen = np.zeros(ok.shape)
+        if sel.any():
+            o, i, j = np.nonzero(sel)
+            pi, pj = i - offs[o, 0] + r, j - offs[o, 1] + r
+            pen[sel] = self._motion_penalty(padT[pi, pj], padA[pi, pj], Tc[i, j], Ac[i, j])
+        self.mcost[key] = pen
+        return pen
+
+    def motion_cost_fixed(self, g_fixed, gi, into: bool):
+        """(Fl, Ft) cost of the motion between the fixed planned pose ``g_fixed`` and each
+        clear state of pose gi (``into``: from the fixed pose to gi, else from gi to it)."""
+        key = (int(g_fixed), int(gi)) if into else (int(gi), int(g_fixed))
+        if key not in self.mcost:
+            self.mcost[key] = self.motion_cost_pose(self.P.tip0[g_fixed], self.P.ax0[g_fixed],
+                                                    gi, into)
+        return self.mcost[key]
+
+    def motion_cost_pose(self, tf, af, gi, into: bool):
+        """(Fl, Ft) as :meth:`motion_cost_fixed`, the other pose given as tip ``tf`` and axis
+        ``af`` (3,)."""
+        A = self.state_axes(gi).reshape(-1, 3)
+        T = self.tips(np.full(len(A), gi), A)
+        sel = self._clear_states(gi).ravel()
+        pen = np.zeros(len(A))
+        k = int(sel.sum())
+        tf, af = np.repeat(np.asarray(tf)[None], k, 0), np.repeat(np.asarray(af)[None], k, 0)
+        pen[sel] = (self._motion_penalty(tf, af, T[sel], A[sel]) if into
+                    else self._motion_penalty(T[sel], A[sel], tf, af))
+        return pen.reshape(self.shape)
+
     def node_costs(self, gi):
         c = self.known[int(gi)]
         dev = self.off[0][:, None] ** 2 + self.off[1][None, :] ** 2
@@ -426,15 +503,54 @@ class _Planner:
 
     def plan_run(self, r: _Run):
         """(s, 2) fine states of the stations of run r minimising the costs under the exact
-        turn limit between stations (and from/to the fixed poses), or None."""
+        turn limit between stations (and from/to the fixed poses), or None. A whole closed
+        pass (``r.cycle``) is planned open first, then again with its first station held at
+        the chosen state (or the reference's, or one of its four cheapest) and its last
+        station required to turn into it within the limit, the closing motion priced: the
+        closing cut is bounded like any other."""
+        if not r.cycle:
+            return self._viterbi(r)
+        first = self._viterbi(r)
+        P, g0, gl = self.P, int(r.g[0]), int(r.g[-1])
+        lim = float(angle_between(P.ax0[[gl]], P.ax0[[g0]])[0]) + self.rate * \
+            max(float(np.linalg.norm(P.cc[g0] - P.cc[gl])), MIN_STEP)
+        ref = np.unravel_index(int(np.argmin(self.off[0][:, None] ** 2
+                                             + self.off[1][None, :] ** 2)), self.shape)
+        c0 = self.node_costs(g0).ravel()
+        cheap = [np.unravel_index(int(i), self.shape) for i in np.argsort(c0, kind="stable")[:4]
+                 if np.isfinite(c0[i])]
+        starts = ([tuple(first[0])] if first is not None else []) + [tuple(ref)] + \
+            [tuple(int(x) for x in st) for st in cheap]
+        best, best_cost = None, np.inf
+        for st0 in dict.fromkeys(starts):
+            a0 = self.state_axes(g0)[st0]
+            t0 = self.tips(np.asarray([g0]), a0[None])[0]
+            final = np.where(self.state_axes(gl) @ a0 >= math.cos(lim) - 1e-12, 0.0, np.inf)
+            if (gl, g0) in self.mpairs:
+                final = final + self.motion_cost_pose(t0, a0, gl, False)
+            got = self._viterbi(r, st0, final)
+            if got is not None and got[1] < best_cost:
+                best, best_cost = got[0], got[1]
+        return best if best is not None else first
+
+    def _viterbi(self, r: _Run, start=None, final=None):
+        """The shortest path over the stations of run r (:meth:`plan_run`): (s, 2) states, or
+        None; given ``start`` (the first station's state) and ``final`` ((Fl, Ft) cost added
+        at the last station), returns (states, cost) or None."""
         P, (Fl, Ft) = self.P, self.shape
         gst = r.g[r.st]
         A = [self.state_axes(int(gi)) for gi in gst]
         cost = self.node_costs(gst[0])
+        if start is not None:
+            keep = np.full(self.shape, np.inf)
+            keep[start] = 0.0
+            cost = cost + keep
         if r.pre is not None:
             lim0 = float(angle_between(P.ax0[[r.pre]], P.ax0[[gst[0]]])[0]) + self.rate * \
                 max(float(np.linalg.norm(P.cc[gst[0]] - P.cc[r.pre])), MIN_STEP)
             cost = cost + np.where(A[0] @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
+            if (int(r.pre), int(gst[0])) in self.mpairs:
+                cost = cost + self.motion_cost_fixed(r.pre, gst[0], True)
         backs = []
         for j in range(1, len(gst)):
             gap = r.arc[r.st[j]] - r.arc[r.st[j - 1]]
@@ -446,6 +562,8 @@ class _Planner:
             pad[rr:rr + Fl, rr:rr + Ft] = cost
             stack = np.stack([pad[rr - a:rr - a + Fl, rr - b:rr - b + Ft] for a, b in offs])
             stack = np.where(ok, stack, np.inf)
+            if (int(gst[j - 1]), int(gst[j])) in self.mpairs:
+                stack = stack + self.motion_cost(gst[j - 1], gst[j], lim)
             arg = np.argmin(stack, axis=0)
             best = np.take_along_axis(stack, arg[None], 0)[0]
             backs.append((offs, arg))
@@ -455,6 +573,10 @@ class _Planner:
             lim1 = float(angle_between(P.ax0[[gl]], P.ax0[[r.post]])[0]) + self.rate * \
                 max(float(np.linalg.norm(P.cc[r.post] - P.cc[gl])), MIN_STEP)
             cost = cost + np.where(A[-1] @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
+            if (int(gl), int(r.post)) in self.mpairs:
+                cost = cost + self.motion_cost_fixed(r.post, gl, False)
+        if final is not None:
+            cost = cost + final
         if not np.isfinite(cost.min()):
             return None
         out = np.empty((len(gst), 2), np.int64)
@@ -463,7 +585,7 @@ class _Planner:
             offs, arg = backs[j - 1]
             a, b = offs[arg[out[j, 0], out[j, 1]]]
             out[j - 1] = out[j] - (a, b)
-        return out
+        return out if start is None else (out, float(cost.min()))
 
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
@@ -491,7 +613,8 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     cc, nrm, tip0, ax0 = P.cc, P.nrm, P.tip0, P.ax0
     n = len(cc)
     f, k_side, lim_lead, lim_tilt = lim
-    win = _windows(offs, cc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9)
+    closed = [bool(c.closed) and offs[i + 1] - offs[i] > 2 for i, c in enumerate(curves)]
+    win = _windows(offs, cc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9, closed)
     tip, axis = tip0.copy(), ax0.copy()
     clear = np.full(n, np.inf)
     if not win.any():
@@ -525,11 +648,20 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         here = np.nonzero(win[s:e])[0]
         if len(here) == 0:
             continue
-        for run in np.split(here, np.nonzero(np.diff(here) > 1)[0] + 1):
+        k = e - s
+        parts = np.split(here, np.nonzero(np.diff(here) > 1)[0] + 1)
+        if closed[ci] and len(parts) > 1 and parts[0][0] == 0 and parts[-1][-1] == k - 1:
+            parts = [np.r_[parts[-1], parts[0]]] + parts[1:-1]  # across the closing cut
+        for run in parts:
             g = s + run
             arc = _arc(cc[g])
-            runs.append(_Run(g, arc, pl.stations(g, arc), s + run[0] - 1 if run[0] > 0 else None,
-                             s + run[-1] + 1 if run[-1] + 1 < e - s else None))
+            if closed[ci]:
+                cyc = len(run) == k
+                pre, post = (None, None) if cyc else (s + (run[0] - 1) % k, s + (run[-1] + 1) % k)
+            else:
+                cyc, pre = False, s + run[0] - 1 if run[0] > 0 else None
+                post = s + run[-1] + 1 if run[-1] + 1 < k else None
+            runs.append(_Run(g, arc, pl.stations(g, arc), pre, post, cyc))
     # the coarse grid at every station of every run: one batched measurement
     pl.measure_coarse(np.concatenate([r.g[r.st] for r in runs]))
     if progress is not None:
@@ -543,16 +675,28 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             break
         # poses the plan leaves colliding: made stations, all their states measured exactly,
         # and the runs planned again
-        todo = []
+        # poses whose motion from the pose before collides: both ends made stations, known
+        # exactly, and the motion between them priced per state pair in the next plan
+        todo, new_pairs = [], 0
         for r in runs:
             bad = np.nonzero(result["clr"][r.g] < pl.safety)[0]
             bad = np.asarray([i for i in bad if int(r.g[i]) not in pl.exact], np.int64)
+            chain = _chain(r)
+            mb = np.nonzero(result["motion"][chain[1:]] < pl.safety)[0]
+            pairs = [(int(chain[i]), int(chain[i + 1])) for i in mb
+                     if (int(chain[i]), int(chain[i + 1])) not in pl.mpairs]
+            ends = np.asarray([x for p in pairs for x in p], np.int64)
+            ends = np.nonzero(np.isin(r.g, ends))[0]
+            pl.mpairs.update(pairs)
+            new_pairs += len(pairs)
+            bad = np.union1d(bad, ends).astype(np.int64)
             if len(bad):
                 r.st = np.union1d(r.st, bad)
                 todo.append(r.g[bad])
-        if not todo:
+        if not todo and not new_pairs:
             break
-        pl.measure_exact(np.concatenate(todo))
+        if todo:
+            pl.measure_exact(np.concatenate(todo))
         if progress is not None:
             progress(0.5 + 0.1 * (rnd + 1))
     idx = np.nonzero(win)[0]
@@ -601,8 +745,7 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     _limit_turns(pl, runs, tip, axis)
     prev_, next_ = [], []
     for r in runs:
-        chain = np.r_[[r.pre] if r.pre is not None else [], r.g,
-                      [r.post] if r.post is not None else []].astype(np.int64)
+        chain = _chain(r)
         prev_.append(chain[:-1])
         next_.append(chain[1:])
     a_p, a_i = np.concatenate(prev_), np.concatenate(next_)
@@ -616,18 +759,24 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     return {"tip": tip, "axis": axis, "clr": clr, "motion": motion}
 
 
+def _chain(r: _Run):
+    """(m,) global poses of run r with the fixed planned poses before/after it (a whole
+    closed pass: its first pose again at the end, the closing cut)."""
+    post = [r.g[0]] if r.cycle else [r.post] if r.post is not None else []
+    return np.r_[[r.pre] if r.pre is not None else [], r.g, post].astype(np.int64)
+
+
 def _limit_turns(pl: _Planner, runs, tip, axis):
     """Where the lean interpolated between stations turns faster than the limit between two
     poses, the later axis is turned back toward the earlier one (forward, then from the
     fixed pose after the run backward), its tip recomputed for the contact; in place."""
     P = pl.P
     for r in runs:
-        chain = np.r_[[r.pre] if r.pre is not None else [], r.g,
-                      [r.post] if r.post is not None else []].astype(np.int64)
+        chain = _chain(r)
         limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn)
         moved = []
         order = [(i, i + 1) for i in range(len(chain) - 1)]
-        if r.post is not None:  # the last pose is fixed: its neighbours turn toward it
+        if r.post is not None or r.cycle:  # the last pose is fixed: turn toward it
             order = order[:-1] + [(len(chain) - 1, len(chain) - 2)]
         for a, b in order:
             ia, ib = chain[a], chain[b]
