@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from .description import Robot
+from .orientation import _ry, _rz
 
 __all__ = [
     "CONFIG_NAMES",
@@ -61,20 +62,6 @@ def model_to_joints(robot: Robot, theta) -> np.ndarray:
 def joints_to_model(robot: Robot, q) -> np.ndarray:
     """(..., 6) model angles θ of controller joints q (radians)."""
     return robot.signs * np.asarray(q) - robot.offsets
-
-
-def _rz(t):
-    c, s = np.cos(t), np.sin(t)
-    z, o = np.zeros_like(t), np.ones_like(t)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1),
-                     np.stack([z, z, o], -1)], -2)
-
-
-def _ry(t):
-    c, s = np.cos(t), np.sin(t)
-    z, o = np.zeros_like(t), np.ones_like(t)
-    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1),
-                     np.stack([-s, z, c], -1)], -2)
 
 
 def _psi3(p):
