@@ -10,7 +10,6 @@ written. Interactively the plan runs on a thread of its own while the operator i
 written); in background or with EXEC_DEFAULT synchronously.
 """
 
-import threading
 
 import bpy
 
@@ -24,7 +23,7 @@ from .common import (
     settings_of,
     stored_path,
 )
-from .modal_job import ModalJobOperator
+from .modal_job import ModalJobOperator, ThreadJob
 
 #: at most this many infeasible ranges are named in the error report (then "and k more")
 MAX_RANGES = 6
@@ -62,12 +61,14 @@ def plan_summary(plan, feed) -> str:
             f"{100 * st['max_speed_ratio']:.0f}% of its limit at {feed:g} mm/min")
 
 
-class RobotPlanJob:
+class RobotPlanJob(ThreadJob):
     """One free-angle plan of the generated paths for the Robot panel's robot: inputs read
     up front (the path, the robot, the options: no bpy object across steps), the plan run on
     a thread of its own (:meth:`start`; cancelled through :attr:`cancel`) or in the caller's
     (:meth:`run`). ``export``: the collision gate of every export is passed first (Export
     Anyway), and its notes go into the program header."""
+
+    thread_name = "blisk_cam-robot"
 
     def __init__(self, context, *, export: bool):
         from ..core.post.gate import collision_gate
@@ -86,55 +87,23 @@ class RobotPlanJob:
         self.plan_options, self.program_options = robot_options(
             settings, notes=self.gate.notes if self.gate is not None else ())
         self.feed = float(settings.robot_feed)
-        self.cancel = threading.Event()
+        super().__init__()
         self.fraction = 0.0
         self.plan = None
-        self._error = None
-        self._thread = None
 
     def _progress(self, p):
         self.fraction = float(p.fraction)
 
-    def _compute(self):
+    def work(self):
         from ..core.robot.free_angle import plan_robot
         from ..core.runtime import cancellable
 
-        try:
-            with cancellable(self.cancel, "the robot plan"):
-                self.plan = plan_robot(self.robot, self.path, self.plan_options,
-                                       progress=self._progress)
-        except BaseException as exc:  # handed to the caller by result()
-            self._error = exc
+        with cancellable(self.cancel, "the robot plan"):
+            self.plan = plan_robot(self.robot, self.path, self.plan_options,
+                                   progress=self._progress)
 
-    def start(self):
-        """Start the plan on its own thread (once)."""
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._compute, name="blisk_cam-robot",
-                                            daemon=True)
-            self._thread.start()
-
-    @property
-    def running(self) -> bool:
-        return self._thread is not None and self._thread.is_alive()
-
-    def stop(self):
-        """Cancel the plan and wait for its thread (it stops at the next stroke)."""
-        self.cancel.set()
-        if self._thread is not None:
-            self._thread.join()
-
-    def run(self):
-        """The plan in the caller's thread; :meth:`result`."""
-        self._compute()
-        return self.result()
-
-    def result(self):
-        """The feasible plan (after the thread ended); raises the plan's error, or
-        BliskCamError naming the stretches the robot cannot run."""
-        if self._thread is not None:
-            self._thread.join()
-        if self._error is not None:
-            raise self._error
+    def outcome(self):
+        """The feasible plan; BliskCamError naming the stretches the robot cannot run."""
         if not self.plan.feasible:
             raise BliskCamError(infeasible_message(self.plan))
         return self.plan

@@ -16,13 +16,70 @@ the very code the timer runs.
 
 from __future__ import annotations
 
+import threading
 import types
 
 import bpy
 
 from .common import report_exception
 
-__all__ = ["ModalJobOperator", "ModalRunner", "TimerEvent"]
+__all__ = ["ModalJobOperator", "ModalRunner", "ThreadJob", "TimerEvent"]
+
+
+class ThreadJob:
+    """A job whose core work runs on one thread of its own (:meth:`start`, cancelled through
+    :attr:`cancel`) or in the caller's (:meth:`run`). A subclass sets :attr:`thread_name`,
+    does the work in :meth:`work` (its error is handed to the caller by :meth:`result`, never
+    raised on the thread) and returns its outcome from :meth:`outcome`."""
+
+    thread_name = "blisk_cam job"
+
+    def __init__(self):
+        self.cancel = threading.Event()
+        self._error = None
+        self._thread = None
+
+    def work(self):
+        raise NotImplementedError
+
+    def outcome(self):
+        raise NotImplementedError
+
+    def _compute(self):
+        try:
+            self.work()
+        except BaseException as exc:  # handed to the caller by result()
+            self._error = exc
+
+    def start(self):
+        """Start the work on its own thread (once)."""
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._compute, name=self.thread_name,
+                                            daemon=True)
+            self._thread.start()
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def stop(self):
+        """Cancel the work and wait for its thread (it stops at its next cancel check)."""
+        self.cancel.set()
+        if self._thread is not None:
+            self._thread.join()
+
+    def run(self):
+        """The work in the caller's thread; :meth:`result`."""
+        self._compute()
+        return self.result()
+
+    def result(self):
+        """The outcome (after the thread ended); raises the work's error."""
+        if self._thread is not None:
+            self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self.outcome()
 
 
 class ModalJobOperator:

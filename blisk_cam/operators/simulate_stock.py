@@ -14,7 +14,6 @@ material) is reported as an ERROR naming the row.
 from __future__ import annotations
 
 import os
-import threading
 import time
 
 import bpy
@@ -27,7 +26,7 @@ from .common import (
     settings_of,
     stored_path,
 )
-from .modal_job import ModalJobOperator
+from .modal_job import ModalJobOperator, ThreadJob
 
 __all__ = ["BLISKCAM_OT_simulate_stock", "StockJob", "summary_line", "crash_line"]
 
@@ -79,7 +78,7 @@ def crash_line(s: dict) -> str | None:
             f"{tuple(first['tip_mm'])} mm)")
 
 
-class StockJob:
+class StockJob(ThreadJob):
     """One simulation: inputs read up front, the work on a thread (:meth:`start`, cancelled
     through :attr:`cancel`) or in the caller's (:meth:`run`)."""
 
@@ -125,13 +124,11 @@ class StockJob:
         else:
             self.blank_value = _mesh_arrays(context, settings.stock_blank_object,
                                             "blank mesh")
-        self.cancel = threading.Event()
+        super().__init__()
         self.fraction = 0.0
         self.message = "building the part"
         self.sim = None
         self.skin = None
-        self._error = None
-        self._thread = None
         self.t0 = time.perf_counter()
 
     # --- the work (no bpy) -------------------------------------------------------------
@@ -162,61 +159,35 @@ class StockJob:
         return stock_from_mesh(V, F, part.axis, part.blade_count, part.sector_start,
                                self.resolution)
 
-    def _compute(self):
+    thread_name = "blisk_cam-stock"
+
+    def work(self):
         from ..core.runtime import Cancelled, cancellable
         from ..core.stock.deviation import stock_skin
         from ..core.stock.simulation import iter_simulate
 
-        try:
-            with cancellable(self.cancel, "the stock simulation"):
-                part = self.part()
-                self.message = "building the stock"
-                stock = self.stock(part)
-                gen = iter_simulate(part, stock, [self.path],
-                                    gouge_tolerance=self.gouge_tolerance)
-                while True:
-                    if self.cancel.is_set():
-                        raise Cancelled("the stock simulation was cancelled")
-                    try:
-                        pr = next(gen)
-                    except StopIteration as stop:
-                        sim = stop.value
-                        break
-                    self.fraction, self.message = 0.95 * float(pr.fraction), pr.message
-                self.message = "the remaining stock's skin"
-                self.skin = stock_skin(sim.stock)
-                self.sim = sim
-                self.fraction = 1.0
-        except BaseException as exc:  # handed to the caller by result()
-            self._error = exc
+        with cancellable(self.cancel, "the stock simulation"):
+            part = self.part()
+            self.message = "building the stock"
+            stock = self.stock(part)
+            gen = iter_simulate(part, stock, [self.path],
+                                gouge_tolerance=self.gouge_tolerance)
+            while True:
+                if self.cancel.is_set():
+                    raise Cancelled("the stock simulation was cancelled")
+                try:
+                    pr = next(gen)
+                except StopIteration as stop:
+                    sim = stop.value
+                    break
+                self.fraction, self.message = 0.95 * float(pr.fraction), pr.message
+            self.message = "the remaining stock's skin"
+            self.skin = stock_skin(sim.stock)
+            self.sim = sim
+            self.fraction = 1.0
 
-    def start(self):
-        """Start the work on its own thread (once)."""
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._compute, name="blisk_cam-stock",
-                                            daemon=True)
-            self._thread.start()
-
-    @property
-    def running(self) -> bool:
-        return self._thread is not None and self._thread.is_alive()
-
-    def stop(self):
-        """Cancel and wait for the thread."""
-        self.cancel.set()
-        if self._thread is not None:
-            self._thread.join()
-
-    def run(self):
-        self._compute()
-        return self.result()
-
-    def result(self):
-        """The core Simulation (after the thread ended); raises the work's error."""
-        if self._thread is not None:
-            self._thread.join()
-        if self._error is not None:
-            raise self._error
+    def outcome(self):
+        """The core Simulation."""
         return self.sim
 
     # --- Blender's thread ----------------------------------------------------------------
