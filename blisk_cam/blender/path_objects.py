@@ -52,6 +52,8 @@ import numpy as np
 
 from ..core.collision.report import pose_collision_status
 from ..core.display import (
+    COLLISION_STATUS_NAMES,
+    COLLISION_STATUS_RGBA,
     COLOR_BINS,  # noqa: E402 - re-exported (number of colour bins)
     MAX_POSE_EMPTIES,
     pose_indices,
@@ -98,8 +100,8 @@ KEY_NAME = "blisk_cam_name"  # on objects: the intended name (restored after the
 KEY_COLLISION = "blisk_cam_collision"  # on the collection: the collision summary (JSON)
 KEY_STATUS = "blisk_cam_collision_status"  # on pose empties: their pose's collision status
 #: colours of the collision statuses 0 clear, 1 corrected, 2 unresolved
-STATUS_RGBA = ((0.10, 0.80, 0.20, 1.0), (1.00, 0.45, 0.02, 1.0), (0.95, 0.03, 0.03, 1.0))
-STATUS_NAMES = ("clear", "corrected", "unresolved")
+STATUS_RGBA = COLLISION_STATUS_RGBA
+STATUS_NAMES = COLLISION_STATUS_NAMES
 NEIGHBOUR_RGBA = (0.55, 0.55, 0.58, 1.0)
 ASSEMBLY_RGBA = (0.35, 0.45, 0.85, 0.6)
 #: per-spline values stored on the curve data (for re-colouring without the path)

@@ -32,7 +32,9 @@ import bpy
 import numpy as np
 
 from ..core.errors import BliskCamError
+from . import render_styles
 from .objects import quiet_output
+from .render_overlay import Legend, header_share, overlay_objects
 
 __all__ = [
     "RenderError",
@@ -69,21 +71,6 @@ class PreviewResult:
     coverage: float
 
 
-@dataclass(frozen=True)
-class Legend:
-    """What the path colours mean, drawn as a row of swatches under the title.
-
-    ``title`` e.g. "pass ratio s"; ``colors`` RGBA per swatch, left to right; ``low`` and
-    ``high`` the labels at the two ends ("0 hub", "1 tip")."""
-
-    title: str
-    colors: tuple
-    low: str = ""
-    high: str = ""
-
-
-#: share of the picture's height kept free at the top for the title and the legend
-HEADER_SHARE = 0.17
 #: how the cone objects (``blisk_cam_role`` cone1/cone2/cone_middle) show in a render:
 #: "outline" — only their borders as thin lines (the region stays readable, the blade is not
 #: hidden behind three dense wire grids), "hidden", or "full" (as in the viewport)
@@ -557,98 +544,6 @@ def _style_cones(scene, style, saved, temporary, extent):
         temporary.append(line)
 
 
-def _flat_material(name, rgba):
-    """A matte material for the overlay: no specular highlight (Workbench puts a grey sheen
-    on a camera-facing flat, which lifted a black band to 0.24 grey)."""
-    from .objects import colored_material
-
-    mat = colored_material(name, rgba)
-    mat.specular_intensity = 0.0
-    mat.roughness = 1.0
-    mat.metallic = 0.0
-    return mat
-
-
-def _text(name, body, size, rgba, cam, loc, align="LEFT"):
-
-    cu = bpy.data.curves.new(name, "FONT")
-    cu.body = body
-    cu.size = size
-    cu.align_x = align
-    cu.align_y = "BOTTOM"
-    cu.materials.append(_flat_material(f"Blisk CAM render text {rgba}", rgba))
-    ob = bpy.data.objects.new(name, cu)
-    ob.parent = cam
-    ob.location = loc
-    return ob
-
-
-def _rect(name, w, h, rgba, cam, loc):
-    me = bpy.data.meshes.new(name)
-    me.from_pydata([(0, 0, 0), (w, 0, 0), (w, h, 0), (0, h, 0)], [], [(0, 1, 2, 3)])
-    me.materials.append(_flat_material(f"Blisk CAM render swatch {tuple(rgba)}", rgba))
-    ob = bpy.data.objects.new(name, me)
-    ob.parent = cam
-    ob.location = loc
-    return ob
-
-
-def _overlay(scene, cam, resolution, *, title, legend, scale_mm, target_depth):
-    """Title, legend and scale bar as objects in front of the camera (children of it, in its
-    local frame: x right, y up, −z forward), nearer than anything framed. Returns them."""
-    data = cam.data
-    w, h = resolution
-    # just beyond the near clip: in front of everything the camera sees (also of objects
-    # that were not framed, e.g. cone outlines reaching toward the camera)
-    depth = 1.02 * data.clip_start
-    tan_big = 0.5 * data.sensor_width / data.lens
-    tan_x, tan_y = (tan_big, tan_big * h / w) if w >= h else (tan_big * w / h, tan_big)
-    hx, hy = depth * tan_x, depth * tan_y  # half the visible width/height at that depth
-    oy = 2.0 * data.shift_y * tan_big * depth  # the lens shift moves the visible window up
-    line = 0.045 * hy * 2.0  # one text line: 4.5 % of the picture's height
-    white = (1.0, 1.0, 1.0, 1.0)
-    left, top = -hx + 0.6 * line, oy + hy - 1.25 * line
-    out = []
-    if title or legend is not None:  # a black band behind the header (the studio light
-        # dims camera-facing text to ~0.6 grey: black keeps it readable)
-        rows = (1.3 if title else 0.0) + (2.2 if legend is not None else 0.0)
-        out.append(_rect("Blisk CAM render header", 2.0 * hx, (rows + 0.4) * line,
-                         (0.0, 0.0, 0.0, 1.0), cam,
-                         (-hx, oy + hy - (rows + 0.4) * line, -1.01 * depth)))
-    if title:
-        out.append(_text("Blisk CAM render title", title, 0.8 * line, white, cam,
-                         (left, top, -depth)))
-    if legend is not None and legend.colors:
-        y = top - 1.2 * line
-        out.append(_text("Blisk CAM render legend title", legend.title, 0.6 * line, white, cam,
-                         (left, y, -depth)))
-        y -= 0.9 * line
-        sw, sh = 0.9 * line, 0.55 * line
-        x = left
-        if legend.low:
-            out.append(_text("Blisk CAM render legend low", legend.low, 0.5 * line, white, cam,
-                             (x, y + 0.05 * line, -depth)))
-            x += 0.32 * line * (len(legend.low) + 1)
-        for k, rgba in enumerate(legend.colors):
-            out.append(_rect(f"Blisk CAM render swatch {k:02d}", sw, sh, tuple(rgba), cam,
-                             (x + k * sw, y, -depth)))
-        x += len(legend.colors) * sw + 0.3 * line
-        if legend.high:
-            out.append(_text("Blisk CAM render legend high", legend.high, 0.5 * line, white,
-                             cam, (x, y + 0.05 * line, -depth)))
-    if scale_mm is not None and target_depth > 0:
-        length_mm, mm_per_bu = scale_mm
-        bar = (length_mm / mm_per_bu) * depth / target_depth  # at the subject's depth
-        y = oy - hy + 0.9 * line
-        out.append(_rect("Blisk CAM render scale bar", bar, 0.18 * line, white, cam,
-                         (left, y, -depth)))
-        out.append(_text("Blisk CAM render scale label", f"{length_mm:g} mm", 0.55 * line,
-                         white, cam, (left + bar + 0.3 * line, y - 0.12 * line, -depth)))
-    for ob in out:
-        scene.collection.objects.link(ob)
-    return out
-
-
 def default_objects(scene):
     return [
         ob
@@ -659,18 +554,28 @@ def default_objects(scene):
     ]
 
 
-def _annotations(scene, cam, pts, extent, resolution, *, title, legend, scale_bar):
-    """The overlay objects (title, legend, scale bar) of a preview framed by ``cam`` on the
-    points ``pts`` (their largest extent ``extent``, Blender units)."""
-    from .objects import mm_per_blender_unit
-
+def _pixel_size(cam, pts, resolution):
+    """(Blender units per pixel at the depth of the centre of ``pts``, that depth)."""
     m = np.array(cam.matrix_world, dtype=np.float64)
     centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0)) if len(pts) else m[:3, 3]
-    target_depth = float((m[:3, 3] - centre) @ (m[:3, 2] / np.linalg.norm(m[:3, 2])))
-    f = mm_per_blender_unit(scene)
-    scale = (nice_length(0.25 * extent * f), f) if scale_bar and len(pts) else None
-    return _overlay(scene, cam, resolution, title=title, legend=legend, scale_mm=scale,
-                    target_depth=target_depth)
+    depth = float((m[:3, 3] - centre) @ (m[:3, 2] / np.linalg.norm(m[:3, 2])))
+    w, h = resolution
+    data = cam.data
+    tan_big = 0.5 * data.sensor_width / data.lens
+    tan_x = tan_big if w >= h else tan_big * w / h
+    return 2.0 * max(depth, 0.0) * tan_x / w, depth
+
+
+def _annotations(scene, cam, pts, px, resolution, *, title, legend, scale_bar):
+    """The overlay objects (title, legends, scale bar) of a preview framed by ``cam`` on the
+    points ``pts``; ``px`` Blender units per pixel at their depth."""
+    from .objects import mm_per_blender_unit
+
+    scale = None
+    if scale_bar and len(pts) and px > 0:
+        mm_per_px = px * mm_per_blender_unit(scene)
+        scale = (nice_length(0.2 * resolution[0] * mm_per_px), mm_per_px)
+    return overlay_objects(scene, cam, resolution, title=title, legend=legend, scale=scale)
 
 
 def _set_render_output(scene, saved, cam, eng, resolution, path):
@@ -758,6 +663,10 @@ def render_preview(
     title=None,
     legend=None,
     scale_bar=False,
+    neighbours="full",
+    assembly="full",
+    poses="full",
+    paths=(),
 ):
     """Render a still PNG of the scene, framed on ``objects``.
 
@@ -777,9 +686,19 @@ def render_preview(
     quality : "fast" (Workbench FXAA, Cycles 8 samples) or "high" (8× AA, 64 samples)
     cones : one of :data:`CONE_STYLES` — the cone objects in this render ("full": as they are)
     title : str, optional — a line of text at the top left (blade, tool, tolerances)
-    legend : :class:`Legend`, optional — what the path colours mean, under the title
-    scale_bar : bool — a bar of a round length in mm at the bottom left, true at the depth of
-        the framed objects' centre
+    legend : :class:`Legend` or a list of them, optional — what the colours mean (the path
+        ramp, the collision statuses, the verify map), one header row each under the title
+    scale_bar : bool — a bar of a round length in mm (about a fifth of the width) with its
+        label on a dark plate at the bottom left, true at the depth of the framed objects'
+        centre, its text at least 12 px high
+    neighbours : one of ``render_styles.NEIGHBOUR_STYLES`` — the neighbour blades: "cut"
+        away where they would hide the framed objects (the rest kept, the cut part outlined)
+    assembly : one of ``render_styles.ASSEMBLY_STYLES`` — the tool assembly at the worst
+        pose: "outline" draws its silhouette and shoulder rings as thin light lines
+    poses : one of ``render_styles.POSE_STYLES`` — "status": the checked pose points as
+        small markers, larger for corrected and unresolved poses
+    paths : curve objects (the path tubes) made thin against their pass spacing for this
+        render (15 % of it, 1.6–6 px); they count as framed for the neighbour cut
 
     Returns
     -------
@@ -796,6 +715,11 @@ def render_preview(
     w, h = (int(v) for v in resolution)
     if w < 1 or h < 1:
         raise RenderError(f"resolution must be positive, got {resolution}")
+    for what, value, allowed in (("neighbour", neighbours, render_styles.NEIGHBOUR_STYLES),
+                                 ("assembly", assembly, render_styles.ASSEMBLY_STYLES),
+                                 ("pose", poses, render_styles.POSE_STYLES)):
+        if value not in allowed:
+            raise RenderError(f"{what} style must be one of {', '.join(allowed)}, got {value!r}")
 
     saved = _Saved()
     temporary = []
@@ -805,13 +729,22 @@ def render_preview(
         annotated = bool(title or legend is not None or scale_bar)
         # room for the header and the scale bar when annotated
         cam = frame_camera(scene, objects, view=view, resolution=(w, h),
-                           margin=0.06,
-                           top_reserve=HEADER_SHARE if (title or legend is not None) else 0.0)
-        pts = _world_points(objects, bpy.context.evaluated_depsgraph_get(), 2000)
+                           margin=0.06, top_reserve=header_share((w, h), title, legend))
+        dg = bpy.context.evaluated_depsgraph_get()
+        pts = _world_points(objects, dg, 2000)
         extent = float(np.ptp(pts, axis=0).max()) if len(pts) else 1.0
+        px, _ = _pixel_size(cam, pts, (w, h))
         _style_cones(scene, cones, saved, temporary, extent)
+        paths = [ob for ob in paths if ob is not None]
+        render_styles.thin_path_tubes(paths, px, saved)
+        subject = [ob for ob in objects + paths
+                   if ob.get("blisk_cam_role") not in ("neighbour", "tool_assembly")]
+        render_styles.style_neighbours(scene, cam, _world_points(subject, dg, 50000), px,
+                                       neighbours, saved, temporary)
+        render_styles.style_assembly(scene, cam, px, assembly, saved, temporary)
+        render_styles.style_poses(scene, px, poses, saved, temporary)
         if annotated:
-            temporary.extend(_annotations(scene, cam, pts, extent, (w, h), title=title,
+            temporary.extend(_annotations(scene, cam, pts, px, (w, h), title=title,
                                           legend=legend, scale_bar=scale_bar))
         _set_render_output(scene, saved, cam, eng, (w, h), path)
         # a plain-colour world of our own for the render; the scene's world is left alone

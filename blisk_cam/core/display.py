@@ -23,6 +23,9 @@ __all__ = [
     "spline_bins",
     "spline_pieces",
     "verify_colors",
+    "verify_legend",
+    "COLLISION_STATUS_NAMES",
+    "COLLISION_STATUS_RGBA",
     "pressure_side_view",
     "side_concavity",
 ]
@@ -35,6 +38,15 @@ COLOR_BINS = 12
 MAX_POSE_EMPTIES = 10_000
 #: move type names, index = code, as in ``core.toolpath``
 MOVE_TYPES = tuple(MOVE_NAMES)
+
+#: the collision status of a pose (``collision_status`` 0, 1, 2) as named in the summary, the
+#: panel and a preview's legend, and its colour (RGBA) on the pose points
+COLLISION_STATUS_NAMES = ("clear", "corrected", "unresolved")
+COLLISION_STATUS_RGBA = (
+    (0.10, 0.80, 0.20, 1.0),
+    (1.00, 0.45, 0.02, 1.0),
+    (0.95, 0.03, 0.03, 1.0),
+)
 
 _RAMP = np.array(
     [  # blue → cyan → green → yellow → red
@@ -122,6 +134,16 @@ def verify_colors(values, cusp: float, chord: float) -> np.ndarray:
     rgb[gouge] = (1.0 - g) * np.array([1.0, 0.75, 0.7]) + g * np.array([0.9, 0.0, 0.0])
     rgb[nan] = 0.5
     return np.concatenate([rgb, np.ones((len(v), 1))], axis=1)
+
+
+def verify_legend(cusp: float, chord: float) -> list:
+    """What the colours of :func:`verify_colors` mean, as (label, RGBA) pairs for a legend:
+    the colour of each named value, computed by :func:`verify_colors` itself (mm)."""
+    values = [0.0, cusp, cusp + chord + max(cusp, chord, 1e-9), -chord, np.nan]
+    labels = ["0 left", f"{cusp:g} mm left", "over tolerance", f"gouge {chord:g} mm",
+              "not measured"]
+    rgba = verify_colors(np.array(values, dtype=np.float64), cusp, chord)
+    return [(lab, tuple(float(x) for x in c)) for lab, c in zip(labels, rgba, strict=True)]
 
 
 # --- helpers -----------------------------------------------------------------------------

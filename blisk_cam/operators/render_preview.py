@@ -20,11 +20,6 @@ from .common import (
     settings_of,
 )
 
-#: the path curves are rendered with a bevel (tube radius) of at least this fraction of the
-#: framed extent (a curve without bevel does not render; a 0.2 mm tube on a 200 mm blade is
-#: under a pixel), for the render only
-RENDER_BEVEL_FRACTION = 0.004
-
 
 def _framed_objects(context, frame):
     """(objects the camera frames, path curves to thicken for the render): the blade (its
@@ -64,10 +59,37 @@ def _pressure_side_view(context):
         return None
 
 
+def _result_legends(context, name, tol):
+    """Legends of what else the picture shows in colour: the collision status of the pose
+    markers (when the checked poses render) with the count of each, and the verify map's
+    colours (when it renders); names and colours from ``core.display``."""
+    from ..blender import path_objects as output
+    from ..blender import render
+    from ..blender.render_styles import pose_status_counts
+    from ..core.display import COLLISION_STATUS_NAMES, COLLISION_STATUS_RGBA, verify_legend
+
+    objs = output.output_objects(output.find_output_collection(name)) if name else {}
+    out = []
+    poses = objs.get("poses")
+    counts = None
+    if poses is not None and not poses.hide_render and poses.visible_get():
+        counts = pose_status_counts(poses)
+    if counts is not None:
+        out.append(render.Legend("pose collision status:", entries=tuple(
+            (f"{label} {int(n)}", rgba) for label, rgba, n in
+            zip(COLLISION_STATUS_NAMES, COLLISION_STATUS_RGBA, counts, strict=True))))
+    ver = objs.get("verify")
+    if ver is not None and not ver.hide_render and ver.visible_get():
+        out.append(render.Legend("material left:", entries=tuple(
+            verify_legend(float(tol["cusp"]), float(tol["chord"])))))
+    return out
+
+
 def _annotation(context):
-    """(title line, :class:`render.Legend`) of the current result: the blade, the tool
+    """(title line, [:class:`render.Legend`]) of the current result: the blade, the tool
     ("Ø12 ball"), the tolerances and the pass count from the stored paths JSON (else the
-    settings), and what the path colours mean in the current colour mode."""
+    settings), what the path colours mean in the current colour mode, and the legends of the
+    collision statuses and the verify map when they show."""
     import json
 
     import numpy as np
@@ -107,7 +129,7 @@ def _annotation(context):
                                f"{float(tol['cusp']):g} mm")
     else:
         legend = render.Legend("path colour: tool path (CC points)", (output.SOLID_RGBA,))
-    return title, legend
+    return title, [legend, *_result_legends(context, name, tol)]
 
 
 class BLISKCAM_OT_render_preview(bpy.types.Operator):
@@ -144,6 +166,21 @@ class BLISKCAM_OT_render_preview(bpy.types.Operator):
         "bar into the picture",
         default=True,
     )
+    neighbours: EnumProperty(
+        name="Neighbours",
+        items=(("CUT", "Cut Away", "Only the parts of the neighbour blades that do not hide "
+                "the blade; the cut part as a thin outline"),
+               ("HIDDEN", "Hidden", "No neighbour blades in the picture"),
+               ("FULL", "Full", "The neighbour blades as in the viewport")),
+        default="CUT",
+    )
+    holder: EnumProperty(
+        name="Tool Assembly",
+        items=(("OUTLINE", "Outline", "The tool assembly at the worst pose as thin lines"),
+               ("HIDDEN", "Hidden", "No tool assembly in the picture"),
+               ("FULL", "Full", "The tool assembly as in the viewport")),
+        default="OUTLINE",
+    )
     cones: EnumProperty(
         name="Cones",
         items=(("OUTLINE", "Outline", "Only the borders of cone 1 and cone 2, thin"),
@@ -163,7 +200,6 @@ class BLISKCAM_OT_render_preview(bpy.types.Operator):
         from ..blender import render
 
         settings = context.scene.blisk_cam
-        bevels = []
         try:
             raw = self.filepath or settings.preview_path
             if not raw:
@@ -177,13 +213,6 @@ class BLISKCAM_OT_render_preview(bpy.types.Operator):
             objects, curves = _framed_objects(context, self.frame)
             if not objects:
                 raise BliskCamError("Nothing to render: no visible blade or path object")
-            # thin curves do not show (no bevel: not rendered at all): thicken for this render
-            pts = render._world_points(objects, context.evaluated_depsgraph_get(), 2000)
-            extent = float((pts.max(axis=0) - pts.min(axis=0)).max()) if len(pts) else 1.0
-            for ob in curves:
-                if ob.data.bevel_depth < RENDER_BEVEL_FRACTION * extent:
-                    bevels.append((ob.data, ob.data.bevel_depth))
-                    ob.data.bevel_depth = RENDER_BEVEL_FRACTION * extent
             view = tuple(self.view)
             if not self.properties.is_property_set("view"):
                 view = _pressure_side_view(context) or view
@@ -194,12 +223,11 @@ class BLISKCAM_OT_render_preview(bpy.types.Operator):
                 path, engine=self.engine, resolution=tuple(self.resolution), objects=objects,
                 scene=context.scene, view=view, keep_camera=self.keep_camera,
                 cones=self.cones.lower(), title=title, legend=legend, scale_bar=self.annotate,
+                neighbours=self.neighbours.lower(), assembly=self.holder.lower(),
+                poses="status", paths=curves,
             )
         except Exception as exc:
             return report_exception(self, exc)
-        finally:
-            for data, depth in bevels:
-                data.bevel_depth = depth
         label = {"BLENDER_WORKBENCH": "Workbench", "CYCLES": "Cycles CPU"}.get(
             result.engine, result.engine)
         self.report({"INFO"}, f"Preview {result.path} ({label}, {result.seconds:.1f} s)")
