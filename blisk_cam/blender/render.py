@@ -383,13 +383,14 @@ class _Saved:
 WORKBENCH_AA = {"fast": "FXAA", "high": "8"}
 
 
-def _setup_workbench(scene, saved, quality="fast", overlay=False):
+def _setup_workbench(scene, saved, quality="fast", overlay=False, outline=True):
     shading = scene.display.shading
     saved.set(shading, "light", "STUDIO")
     saved.set(shading, "color_type", "MATERIAL")
     saved.set(shading, "show_cavity", True)
     saved.set(shading, "cavity_type", "WORLD")
-    saved.set(shading, "show_object_outline", True)
+    # the dark object outline doubles the apparent width of a thin path tube
+    saved.set(shading, "show_object_outline", outline)
     # no sheen with an overlay: it greys the camera-facing title band and text
     saved.set(shading, "show_specular_highlight", not overlay)
     saved.set(shading, "show_shadows", False)
@@ -698,7 +699,7 @@ def render_preview(
     poses : one of ``render_styles.POSE_STYLES`` — "status": the checked pose points as
         small markers, larger for corrected and unresolved poses
     paths : curve objects (the path tubes) made thin against their pass spacing for this
-        render (15 % of it, 1.6–6 px); they count as framed for the neighbour cut
+        render (12 % of it, 1.5–6 px); they count as framed for the neighbour cut
 
     Returns
     -------
@@ -755,7 +756,7 @@ def render_preview(
             with quiet_output():  # Cycles logs its GPU library probing (CUDA, HIP...)
                 _setup_cycles(scene, saved, temporary, quality)
         elif eng == "BLENDER_WORKBENCH":
-            _setup_workbench(scene, saved, quality, overlay=annotated)
+            _setup_workbench(scene, saved, quality, overlay=annotated, outline=not paths)
         _render_still(scene, eng, path)
     finally:
         saved.restore()

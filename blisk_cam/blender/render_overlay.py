@@ -19,11 +19,11 @@ import bpy
 __all__ = ["Legend", "header_share", "overlay_objects", "text_objects"]
 
 #: one text row of the header, in pixels: 4.5 % of the height, at least this
-MIN_LINE_PX = 18.0
-#: the smallest font size (em, pixels) of a legend label and of the scale label; the
-#: default font's digits are ≈ 0.73 em high, so 18 px gives 13 px digits
-MIN_FONT_PX = 13.0
-MIN_SCALE_FONT_PX = 18.0
+MIN_LINE_PX = 14.0
+#: the smallest font size (pixels) of a header text and of the scale label; the default
+#: font's digits are about half the size high (measured 9 px at 18), so 26 px gives 13 px
+MIN_FONT_PX = 11.0
+MIN_SCALE_FONT_PX = 26.0
 #: an estimate of the default font's mean advance per character, in em (for the layout)
 CHAR_EM = 0.52
 #: name prefix of every overlay object (tests and clean-up find them by it)
@@ -45,13 +45,51 @@ class Legend:
     high: str = ""
     entries: tuple = ()
 
-    def rows(self) -> float:
-        """Header rows it takes (a ramp: its title above the swatches)."""
-        return 1.2 if self.entries else 2.2
+    def rows(self, width_px=None) -> float:
+        """Header rows it takes: one, or two for a ramp too wide for one row of a picture
+        ``width_px`` wide (its title above the swatches)."""
+        if self.entries:
+            return 1.2 * (1 + max(r for r, _ in _entry_layout(self, width_px)))
+        if width_px is None:
+            return 2.2
+        usable = width_px - 2.0 * _line_px(width_px * 9.0 / 16.0)
+        return 2.2 if _ramp_row_px(self, width_px) > usable else 1.2
 
 
 def _line_px(height):
     return max(0.045 * float(height), MIN_LINE_PX)
+
+
+def _font_px(height):
+    return max(0.6 * _line_px(height), MIN_FONT_PX)
+
+
+def _entry_layout(lg, width_px):
+    """(row, x in pixels from the left margin) of a named-swatch legend's title and of each
+    swatch, wrapped onto further rows where a row would leave the picture."""
+    if width_px is None:
+        width_px = 1e9
+    h = width_px * 9.0 / 16.0
+    line, font = _line_px(h), _font_px(h)
+    usable = width_px - 1.2 * line
+    out, row = [(0, 0.0)], 0
+    x = CHAR_EM * font * (len(lg.title) + 1) if lg.title else 0.0
+    for label, _ in lg.entries:
+        size = 0.8 * line + 0.25 * line + CHAR_EM * font * len(label)
+        if x + size > usable and x > 0:
+            row, x = row + 1, 0.0
+        out.append((row, x))
+        x += size + 0.8 * line
+    return out
+
+
+def _ramp_row_px(lg, width_px):
+    """Width (pixels) of a ramp legend on one row (title, low label, swatches, high label)
+    in a picture ``width_px`` wide with the usual 16:9 height."""
+    h = width_px * 9.0 / 16.0
+    line, font = _line_px(h), _font_px(h)
+    chars = len(lg.title) + 1 + 0.85 * (len(lg.low) + len(lg.high) + 1)
+    return 0.6 * line + CHAR_EM * font * chars + 0.9 * line * len(lg.colors) + 0.6 * line
 
 
 def _legends(legend):
@@ -67,7 +105,7 @@ def header_share(resolution, title, legend) -> float:
     legends = _legends(legend)
     if not title and not legends:
         return 0.0
-    rows = (1.3 if title else 0.0) + sum(lg.rows() for lg in legends) + 0.4
+    rows = (1.3 if title else 0.0) + sum(lg.rows(resolution[0]) for lg in legends) + 0.4
     return min(rows * _line_px(resolution[1]) / float(resolution[1]), 0.6)
 
 
@@ -131,7 +169,7 @@ def overlay_objects(scene, cam, resolution, *, title, legend, scale, on_object=N
     px = 2.0 * hx / w  # one pixel at that depth
     oy = 2.0 * data.shift_y * tan_big * depth  # the lens shift moves the visible window up
     line = _line_px(h) * px
-    font = max(0.6 * line, MIN_FONT_PX * px)
+    font = _font_px(h) * px
     white = (1.0, 1.0, 1.0, 1.0)
     black = (0.0, 0.0, 0.0, 1.0)
     left, top = -hx + 0.6 * line, oy + hy - 1.25 * line
@@ -151,27 +189,30 @@ def overlay_objects(scene, cam, resolution, *, title, legend, scale, on_object=N
     for i, lg in enumerate(legends):
         tag = f"legend {i} "
         if lg.entries:
-            x = left
+            at = _entry_layout(lg, w)
             if lg.title:
                 out.append(_text(PREFIX + tag + "title", lg.title, font, white, cam,
-                                 (x, y, -depth)))
-                x += CHAR_EM * font * (len(lg.title) + 1)
+                                 (left, y, -depth)))
             sw, sh = 0.8 * line, 0.55 * line
-            for k, (label, rgba) in enumerate(lg.entries):
+            for k, ((label, rgba), (row, xp)) in enumerate(zip(lg.entries, at[1:],
+                                                                strict=True)):
+                x, yr = left + xp * px, y - 1.2 * line * row
                 out.append(_rect(f"{PREFIX}{tag}swatch {k:02d}", sw, sh, tuple(rgba), cam,
-                                 (x, y, -depth)))
-                x += sw + 0.25 * line
+                                 (x, yr, -depth)))
                 ob = _text(f"{PREFIX}{tag}label {k:02d}", label, font, white, cam,
-                           (x, y, -depth))
+                           (x + sw + 0.25 * line, yr, -depth))
                 ob["blisk_cam_swatch_rgba"] = [float(c) for c in rgba]
                 out.append(ob)
-                x += CHAR_EM * font * len(label) + 0.8 * line
-            y -= 1.2 * line
+            y -= 1.2 * line * (1 + at[-1][0])
             continue
         out.append(_text(PREFIX + tag + "title", lg.title, font, white, cam, (left, y, -depth)))
-        y -= 0.9 * line
+        one_row = lg.rows(w) < 2.0
+        if one_row:
+            x = left + CHAR_EM * font * (len(lg.title) + 1)
+        else:
+            y -= 0.9 * line
+            x = left
         sw, sh = 0.9 * line, 0.55 * line
-        x = left
         if lg.low:
             out.append(_text(PREFIX + tag + "low", lg.low, 0.85 * font, white, cam,
                              (x, y + 0.05 * line, -depth)))
@@ -183,7 +224,7 @@ def overlay_objects(scene, cam, resolution, *, title, legend, scale, on_object=N
         if lg.high:
             out.append(_text(PREFIX + tag + "high", lg.high, 0.85 * font, white, cam,
                              (x, y + 0.05 * line, -depth)))
-        y -= 1.3 * line
+        y -= 1.2 * line if one_row else 1.3 * line
     if scale is not None:
         out.extend(_scale_bar(cam, scale, h, px, left - 0.3 * line, oy - hy, depth))
     for ob in out:

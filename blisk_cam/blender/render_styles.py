@@ -8,10 +8,12 @@ scene is restored after it): what a report needs to show, and nothing that hides
   as a thin light outline of its border;
 * the **tool assembly** at the worst pose ("tool_assembly") is drawn as a light outline: its
   two silhouette lines along the axis and a ring at each shoulder of its profile;
-* the **pose points** ("poses" with a ``collision_status`` attribute) become small markers, the
-  clear poses 1 px, the corrected and unresolved ones 3.5 px, in the status colours;
-* the **path tubes** are made thin against the spacing of the passes in the picture (15 % of
-  it, 1.6 to 6 px wide), so the blade shows between them.
+* the **pose points** ("poses" with a ``collision_status`` attribute) become markers of
+  5 px radius in the status colours for the corrected and the unresolved poses; the clear
+  poses are not marked (they are the paths: a marker per pose covered a fifth of the blade
+  at 480 × 270);
+* the **path tubes** are made thin against the spacing of the passes in the picture (12 % of
+  it, 1.5 to 6 px wide), so the blade shows between them.
 
 Sizes are in pixels of the picture at the depth of the framed objects (``px``, Blender units
 per pixel there).
@@ -35,10 +37,10 @@ POSE_STYLES = ("status", "full")
 #: the cut-away outline, the assembly outline (RGBA)
 CUT_OUTLINE_RGBA = (0.62, 0.62, 0.66, 1.0)
 ASSEMBLY_OUTLINE_RGBA = (0.55, 0.68, 1.0, 1.0)
-#: marker radius (pixels) of the clear poses and of the others
-CLEAR_MARKER_PX, STATUS_MARKER_PX = 2.0, 5.0
+#: marker radius (pixels) of the corrected and unresolved poses
+STATUS_MARKER_PX = 5.0
 #: tube width of the paths: this share of the pass spacing, clamped to [lo, hi] pixels
-TUBE_SHARE, TUBE_MIN_PX, TUBE_MAX_PX = 0.15, 1.6, 6.0
+TUBE_SHARE, TUBE_MIN_PX, TUBE_MAX_PX = 0.12, 1.5, 6.0
 
 
 def _shown(ob, role):
@@ -244,8 +246,8 @@ _OCTA_F = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2
 
 
 def style_poses(scene, px, style, saved, temporary):
-    """Apply a :data:`POSE_STYLES` style to the checked pose points for one render: small
-    markers for the clear poses, larger ones for corrected and unresolved poses."""
+    """Apply a :data:`POSE_STYLES` style to the checked pose points for one render: markers
+    for the corrected and unresolved poses, none for the clear ones."""
     if style not in POSE_STYLES:
         raise ValueError(f"pose style must be one of {', '.join(POSE_STYLES)}, got {style!r}")
     if style == "full":
@@ -265,9 +267,9 @@ def style_poses(scene, px, style, saved, temporary):
         for k, (label, rgba) in enumerate(zip(COLLISION_STATUS_NAMES, COLLISION_STATUS_RGBA,
                                               strict=True)):
             p = tips[vals == k]
-            if len(p) == 0:
+            if len(p) == 0 or k == 0:
                 continue
-            r = (CLEAR_MARKER_PX if k == 0 else STATUS_MARKER_PX) * px
+            r = STATUS_MARKER_PX * px
             V = (p[:, None, :] + r * _OCTA_V[None]).reshape(-1, 3)
             F = (_OCTA_F[None] + 6 * np.arange(len(p))[:, None, None]).reshape(-1, 3)
             _mesh_object(scene, f"{ob.name} {label} markers", V, F, rgba, temporary,
@@ -305,8 +307,8 @@ def pass_spacing(curves, max_points=4000) -> float | None:
 
 
 def thin_path_tubes(curves, px, saved):
-    """Set the tube radius of the path ``curves`` for one render: 15 % of the pass spacing
-    wide, 1.6 to 6 pixels (a curve without bevel does not render). Returns the radius."""
+    """Set the tube radius of the path ``curves`` for one render: 12 % of the pass spacing
+    wide, 1.5 to 6 pixels (a curve without bevel does not render). Returns the radius."""
     curves = [ob for ob in curves if ob.type == "CURVE" and not ob.hide_render]
     if not curves:
         return None

@@ -76,8 +76,10 @@ def _result_legends(context, name, tol):
         counts = pose_status_counts(poses)
     if counts is not None:
         out.append(render.Legend("pose collision status:", entries=tuple(
-            (f"{label} {int(n)}", rgba) for label, rgba, n in
-            zip(COLLISION_STATUS_NAMES, COLLISION_STATUS_RGBA, counts, strict=True))))
+            (f"{label} {int(n)}" + (" (unmarked)" if k == 0 else ""), rgba)
+            for k, (label, rgba, n) in enumerate(zip(COLLISION_STATUS_NAMES,
+                                                     COLLISION_STATUS_RGBA, counts,
+                                                     strict=True)))))
     ver = objs.get("verify")
     if ver is not None and not ver.hide_render and ver.visible_get():
         out.append(render.Legend("material left:", entries=tuple(
