@@ -4,8 +4,9 @@ scene is restored after it): what a report needs to show, and nothing that hides
 * the **neighbour blades** (``blisk_cam_role`` "neighbour") are cut away where they would hide
   the subject: every face nearer to the camera than a section plane across the view through
   the subject's median depth, and every face in front of the subject where it covers it in
-  the picture; the rest (the far side of the channel) stays, and the cut-away part is drawn
-  as a thin light outline of its border;
+  the picture, and the scraps this leaves (pieces under a tenth of the blade's area); the
+  rest (the far side of the channel) stays, and the cut-away part is drawn as a thin light
+  outline of its border;
 * the **tool assembly** at the worst pose ("tool_assembly") is drawn as a light outline: its
   two silhouette lines along the axis and a ring at each shoulder of its profile;
 * the **pose points** ("poses" with a ``collision_status`` attribute) become markers of
@@ -157,6 +158,7 @@ def style_neighbours(scene, cam, subject_pts, px, style, saved, temporary):
         iy = np.clip(((y - box[2]) / max(box[3] - box[2], 1e-12) * gy).astype(int), 0, gy - 1)
         ahead = depth[ix, iy]
         cut |= inside & np.isfinite(ahead) & (d < ahead)
+        cut |= _scraps(V, F, ~cut)
         keep = F[~cut]
         kept_total += len(keep)
         if len(keep):
@@ -172,6 +174,29 @@ def style_neighbours(scene, cam, subject_pts, px, style, saved, temporary):
         _lines_object(scene, "neighbour cut outline", outline, 0.5 * px, CUT_OUTLINE_RGBA,
                       temporary)
     return kept_total
+
+
+def _scraps(V, F, kept, share=0.1):
+    """(m,) bool: the kept faces that form pieces (connected through their vertices) of
+    less than ``share`` of the whole mesh's area: strips left between the two cuts."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    out = np.zeros(len(F), dtype=bool)
+    idx = np.nonzero(kept)[0]
+    if len(idx) == 0:
+        return out
+    t = V[F]
+    area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+    k = F[idx]
+    rows = np.concatenate([k[:, 0], k[:, 1]])
+    cols = np.concatenate([k[:, 1], k[:, 2]])
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(V), len(V)))
+    _, label = connected_components(graph, directed=False)
+    piece = label[k[:, 0]]
+    piece_area = np.bincount(piece, weights=area[idx])
+    out[idx] = piece_area[piece] < share * area.sum()
+    return out
 
 
 def _assembly_profile(ob):
