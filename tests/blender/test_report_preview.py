@@ -162,7 +162,36 @@ def test_legend_names_the_statuses_and_the_scale_label_is_readable(checked, tmp_
                 and v[2][0] < pos[0]]
         nearest = max(left, key=lambda v: v[2][0])
         assert nearest[3] == pytest.approx(rgba, abs=1e-6)
-    # the scale label: 13 px glyphs on a black plate (before: 5 px, over the grey neighbour)
+    # the scale label: 17 px glyphs on a black plate (before: no light bar or label at all,
+    # a 5 px grey label over the grey neighbour)
     height, behind = _scale_label(rgb)
     assert height >= 12, height
     assert behind < 0.15, behind
+
+
+def test_verify_colours_get_a_legend_when_the_verify_map_shows(addon, demo, tmp_path):
+    from blisk_cam.operators.render_preview import _annotation
+
+    blade, _ = radial_demo_paths(demo, tmp_path)  # coarse paths, no collision check
+    _, legends = _annotation(bpy.context)
+    assert not any(lg.title.startswith("material left") for lg in legends)
+    # a verify map in the output collection (as Generate's verify writes it)
+    me = bpy.data.meshes.new("verify")
+    ver = bpy.data.objects.new(f"{blade.name} verify", me)
+    ver[output.KEY_ROLE] = "verify"
+    output.find_output_collection(blade.name).objects.link(ver)
+    _, legends = _annotation(bpy.context)
+    (lg,) = [lg for lg in legends if lg.title.startswith("material left")]
+    colour = {label: np.array(rgba[:3]) for label, rgba in lg.entries}
+    cusp, chord = bpy.context.scene.blisk_cam.cusp, bpy.context.scene.blisk_cam.chord
+    # what the verify map's colours mean (core.display.verify_colors): green at no material
+    # left, blue at the cusp, purple beyond tolerance, red for a gouge, grey not measured
+    assert list(colour) == ["0 left", f"{cusp:g} mm left", "over tolerance",
+                            f"gouge {chord:g} mm", "not measured"]
+    green, blue, purple, red, grey = colour.values()
+    assert green.argmax() == 1 and blue.argmax() == 2 and red.argmax() == 0
+    assert purple[0] > purple[1] and purple[2] > purple[1]
+    assert np.ptp(grey) < 1e-9
+    ver.hide_render = True  # not in the picture: no legend for it
+    _, legends = _annotation(bpy.context)
+    assert not any(lg.title.startswith("material left") for lg in legends)
