@@ -5,9 +5,10 @@ plate at the bottom left.
 They are objects in front of the preview camera (children of it, in its local frame: x right,
 y up, −z forward), just beyond its near clip, sized in *pixels of the picture* so that text
 stays readable at any resolution: a text line is 4.5 % of the picture's height but never less
-than :data:`MIN_LINE_PX`; the scale label's glyphs are at least 12 px high (its font
-:data:`MIN_SCALE_FONT_PX`), and the bar's length is a round number of mm that takes about a
-fifth of the width at the depth of the framed objects.
+than :data:`MIN_LINE_PX`; the scale label's glyphs are at least 12 px high from a height of
+260 px on (its font :data:`MIN_SCALE_FONT_PX`, at most a tenth of the height), and the bar's
+length is a round number of mm that takes about a fifth of the width at the depth of the
+framed objects.
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ __all__ = ["Legend", "header_share", "overlay_objects", "text_objects"]
 
 #: one text row of the header, in pixels: 4.5 % of the height, at least this
 MIN_LINE_PX = 14.0
-#: the smallest font size (pixels) of a header text and of the scale label; the default
-#: font's digits are about half the size high (measured 9 px at 18), so 26 px gives 13 px
+#: the smallest font size (pixels) of a header text and of the scale label (the scale label
+#: at most a tenth of the height); the scale label's digits measure 17 px at 26 px
 MIN_FONT_PX = 11.0
 MIN_SCALE_FONT_PX = 26.0
 #: an estimate of the default font's mean advance per character, in em (for the layout)
@@ -238,7 +239,8 @@ def _scale_bar(cam, scale, h, px, x0, bottom, depth):
     """Bar, label and the dark plate behind them, at the bottom left."""
     length, mm_per_px = scale
     bar = length / mm_per_px * px  # its length in the overlay's plane
-    font = max(0.034 * h, MIN_SCALE_FONT_PX) * px
+    # at least MIN_SCALE_FONT_PX, but never more than a tenth of a small picture's height
+    font = min(max(0.034 * h, MIN_SCALE_FONT_PX), 0.1 * h) * px
     label = f"{length:g} mm"
     pad = 0.45 * font
     thick = max(0.2 * font, 3.0 * px)
