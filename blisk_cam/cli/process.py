@@ -7,7 +7,8 @@
 DIR receives, per operation k (``01-<name>``…): ``NN-name.paths.json``, the stock after it
 (``NN-name.stock.npz``, the next operation's input, and ``simulate --stock`` reads it), its
 deviation map (``NN-name.deviation.ply``) and simulation summary (``NN-name.simulation.json``);
-one program per post (``job.linuxcnc.ngc``); ``setup_sheet.md``; ``summary.json``; a copy of
+one program per post (``job.linuxcnc.ngc``) and for LinuxCNC its tool table
+(``job.linuxcnc.tbl``, lengths to be measured); ``setup_sheet.md``; ``summary.json``; a copy of
 the job file. The folder is built in a temporary folder beside DIR and renamed into place at
 the end: a failure or Ctrl-C leaves nothing half-written. A non-empty DIR is refused unless
 ``--force`` (then replaced as a whole). Exit 0 when every operation's verdict passed, 5 when
@@ -128,6 +129,16 @@ def run_process(args) -> int:
             name = f"job.{post}{PROGRAM_SUFFIX.get(post, '.nc')}"
             (tmp / name).write_text(text, encoding="ascii", newline="\n")
             files["programs"][post] = name
+        if "linuxcnc" in run.programs:
+            from ..core.options import describe_tool
+            from ..core.post.linuxcnc import tool_table
+
+            name = "job.linuxcnc.tbl"
+            (tmp / name).write_text(tool_table(
+                (n, t.diameter, describe_tool(t.type, t.diameter, t.corner_radius,
+                                              t.taper_angle))
+                for n, t in job.tools.items()), encoding="ascii", newline="\n")
+            files["tool_table"] = name
         (tmp / "setup_sheet.md").write_text(setup_sheet(run, files), encoding="utf-8")
         shutil.copyfile(job.file, tmp / "job.toml")
         summary = _summary(run, files, time.perf_counter() - t0)

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import PostError
 from ..toolpath.types import MOVE_RAPID
 from .blocks import SAFE
-from .common import PostContext, block_minutes, fmt, header_lines
+from .common import PostContext, ascii_text, block_minutes, fmt, header_lines
 
 NAME = "linuxcnc"
 TCP = False
@@ -120,4 +120,13 @@ def write_job(sections, header: list[str]) -> str:
         lines += ["G94", f"G53 G0 Z{fmt(safe)} (safe retract, end of operation {k + 1})",
                   "M9", "M5"]
     lines += ["M2", "%"]
+    return "\n".join(lines) + "\n"
+
+
+def tool_table(tools) -> str:
+    """A LinuxCNC tool table (``.tbl``) for a job's tools: ``tools`` are (number, diameter mm,
+    description). Pocket = tool number; the length offset is 0: the machinist measures it
+    (the program calls ``G43 H<T>``)."""
+    lines = [f"T{n} P{n} D{fmt(d)} Z0.0000 ;{ascii_text(text)} - length to be measured"
+             for n, d, text in tools]
     return "\n".join(lines) + "\n"

@@ -201,9 +201,9 @@ def _tool(t: dict, k: int, where0: str) -> ToolEntry:
     where = f"{where0} tool {k + 1}"
     if not isinstance(t, dict):
         raise JobError(f"{where}: each [[tool]] must be a table")
-    check_known_keys(t, TOOL_KEYS, where, JobError)
     number = _number(t, "number", where, lo=0, integer=True, required=True)
-    where = f"{where0} tool T{number}"
+    where = f"{where0} tool {k + 1} (T{number})"
+    check_known_keys(t, TOOL_KEYS, where, JobError)
     kind = _string(t, "type", where, required=True, choices=TOOL_TYPES)
     d = _number(t, "diameter", where, lo=0.0, lo_open=True, required=True)
     cr = _number(t, "corner_radius", where, lo=0.0, default=0.0)
