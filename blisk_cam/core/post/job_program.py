@@ -24,7 +24,7 @@ from .gate import collision_gate
 __all__ = ["JOB_POSTS", "JobSection", "SolvedSection", "check_job_post", "job_program"]
 
 #: the posts that write a job program (several tools in one program)
-JOB_POSTS = ("linuxcnc",)
+JOB_POSTS = ("linuxcnc", "fanuc", "siemens", "heidenhain", "apt")
 
 
 @dataclass(frozen=True)
