@@ -283,3 +283,20 @@ def test_replace_folder(tmp_path):
     _replace_folder(new, out)
     assert sorted(p.name for p in out.iterdir()) == ["a.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_ctrl_c_mid_run_leaves_nothing(tmp_path, monkeypatch, capsys):
+    # Ctrl-C while operation 1 runs on the stock: exit 130, no output folder, no temporary
+    # folder (the first operation's files were already in the temporary folder)
+    import blisk_cam.core.process.job as job_module
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+        yield  # a generator, like the real one
+
+    monkeypatch.setattr(job_module, "iter_simulate", interrupted)
+    job = _job(tmp_path, JOB)
+    out = tmp_path / "out"
+    assert main(["process", str(job), "--out", str(out), "--quiet"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
