@@ -73,7 +73,6 @@ cusp = 1.0
 chord = 0.5
 axis_mode = "radial"
 radial_tilt = 75
-collisions = "off"
 depth = 0.4
 
 [[operation]]
@@ -86,7 +85,6 @@ chord = 0.5
 axis_mode = "radial"
 radial_tilt = 75
 lead = 5
-collisions = "off"
 vc = 90
 fz = 0.04
 """
@@ -170,6 +168,10 @@ def test_outputs_program_and_stock_chain(processed, tmp_path):
     assert saved.volume() == pytest.approx(ops[1]["stock_in"]["volume_mm3"])
     assert ops[1]["stock_in"]["volume_mm3"] < ops[0]["stock_in"]["volume_mm3"]
 
+    # the collision check ran (the default) with each tool's holder from its stick-out
+    assert "COLLISIONS NOT CHECKED" not in text
+    for p in paths:
+        assert p.collision is not None
     sheet = (out / "setup_sheet.md").read_text()
     assert "| T3 | Ø16 ball |" in sheet and "| T7 | Ø10 ball |" in sheet
     assert sheet.count("| blade_finish |") == 2
@@ -237,8 +239,10 @@ def _job(tmp_path, text: str):
      r"operation 2 \('finish'\) key 'tool': tool T9 is not in the tool table"),
     ('material = "Ti-6Al-4V"', 'material = "Ti-6Al-4W"',
      r"\[part\] key 'material': unknown material 'Ti-6Al-4W'; did you mean 'Ti-6Al-4V'"),
-    ('posts = ["linuxcnc"]', 'posts = ["fanuc"]',
-     r"\[machine\] key 'posts': post 'fanuc' cannot write a program of several operations"),
+    ('posts = ["linuxcnc"]', 'posts = ["haas"]',
+     r"\[machine\] key 'posts': unknown post 'haas'; known: linuxcnc"),
+    ('name = "ac-trunnion"', 'name = "bc-head-table"',
+     r"\[machine\] key 'posts': post linuxcnc writes joint programs for table-table machines"),
     ("[stock]", "[stok]", r"bad.toml: unknown key 'stok'; did you mean 'stock'"),
     ("flutes = 4", "flutes = 4\nflute = 30",
      r"bad.toml tool 2 \(T7\): unknown key 'flute'; did you mean 'flutes'"),

@@ -71,6 +71,7 @@ from ..part.blisk import make_demo_blisk
 from ..part.blisk_params import DemoParams
 from ..part.model import BliskPart, part_from_blade, part_from_demo, read_rz_csv, split_blisk_mesh
 from ..post.blocks import NcOptions
+from ..post.export import get_post
 from ..post.job_program import JobSection, check_job_post, job_program
 from ..runtime import Progress
 from ..stock.blank import (
@@ -332,6 +333,7 @@ def load_job(filename) -> Job:
     for p in posts:
         try:
             check_job_post(p)
+            get_post(p).check(machine)  # a post the machine cannot run: before any work
         except BliskCamError as exc:
             raise JobError(f"{where} [machine] key 'posts': {exc}") from None
     max_spindle = _number(mach, "max_spindle", f"{where} [machine]", lo=0.0, lo_open=True)
