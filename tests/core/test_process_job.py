@@ -264,6 +264,13 @@ def test_cli_bad_input_leaves_nothing(tmp_path, capsys):
     assert "operation 1 ('semi-finish') key 'cusp'" in err
     assert not out.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".blisk_")]
+    # a tool that does not fit the gap between the blades (measured on the part: > 31 mm
+    # between the demo's blades above the hub cone)
+    wide = _job(tmp_path, JOB.replace("diameter = 10", "diameter = 50", 1))
+    assert main(["process", str(wide), "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "operation 2 ('finish') key 'tool': tool T7 (Ø50) does not fit the gap" in err
+    assert not out.exists()
     # a stock that does not hold the part
     (tmp_path / "small.csv").write_text("100, -30\n120, -30\n120, 40\n100, 40\n")
     small = _job(tmp_path, JOB.replace('blank = "allowance:0.6"', 'blank = "small.csv"'))

@@ -25,9 +25,13 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+from scipy.spatial import cKDTree
+
 from ..collision.options import CollisionOptions
 from ..errors import BliskCamError, OptionError
 from ..geometry.mesh import TriMesh
+from ..geometry.vectors import rotate_about
 from ..options import AxisOptions, GougeOptions, LinkingOptions, ToleranceOptions, check_value
 from ..options import fields as option_fields
 from ..part.cones import Cone
@@ -35,8 +39,8 @@ from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
 from .operation import Operation, Stage
 
 __all__ = ["OPERATION_KINDS", "PLANNED", "OperationContext", "OperationKind",
-           "PreparedOperation", "ToolEntry", "operation_kind", "register_operation_kind",
-           "typed_options"]
+           "PreparedOperation", "ToolEntry", "narrowest_gap", "operation_kind",
+           "register_operation_kind", "typed_options"]
 
 
 @dataclass(frozen=True)
@@ -243,8 +247,35 @@ def prepare_blade_finish(ctx: OperationContext) -> PreparedOperation:
     tilt = None
     if req.axis_mode == "local" and req.lead_tip is None and req.tilt_tip is None:
         tilt = math.acos(max(-1.0, min(1.0, math.cos(req.lead) * math.cos(req.tilt))))
+    gap = narrowest_gap(ctx.part, cone1)
+    if ctx.cutter.d >= gap:
+        raise BliskCamError(
+            f"{where} key 'tool': tool T{ctx.tool.number} (Ø{ctx.cutter.d:g}) does not fit the "
+            f"gap between the blades: the narrowest gap above the hub cone is {gap:.1f} mm; "
+            "choose a smaller tool")
     mesh = TriMesh.from_arrays(ctx.part.blade_vertices, ctx.part.blade_faces)
     return PreparedOperation(BLADE_FINISH, mesh, req, extra, tilt)
+
+
+def narrowest_gap(part, cone1=None) -> float:
+    """The narrowest gap (mm) between blade 0 and its neighbour (blade 0 turned by the pitch):
+    the smallest distance from a vertex of one to a vertex of the other, over the vertices on
+    or above the hub cone ``cone1`` (all vertices when None); inf for one blade. Vertex to
+    vertex: at most the mesh's edge length above the surfaces' distance."""
+    if part.blade_count < 2:
+        return math.inf
+    V = np.asarray(part.blade_vertices, float)
+    if cone1 is not None and hasattr(cone1, "r1"):
+        o, d = np.asarray(part.axis.o, float), np.asarray(part.axis.d, float)
+        rel = V - o
+        z = rel @ d
+        r = np.linalg.norm(rel - z[:, None] * d, axis=1)
+        t = (z - cone1.z1) / (cone1.z2 - cone1.z1) if cone1.z2 != cone1.z1 else 0.0
+        keep = r >= cone1.r1 + t * (cone1.r2 - cone1.r1) - 1e-6
+        V = V[keep] if keep.any() else V
+    other = rotate_about(V, part.axis.d, part.pitch, part.axis.o)
+    dist, _ = cKDTree(other).query(V)
+    return float(dist.min())
 
 
 register_operation_kind(OperationKind(
