@@ -44,6 +44,7 @@ from .blender import _cmd_demo
 from .flags import PROG, CliInternalError, UsageError, _fail, finite, positive
 from .nc import add_nc_arguments
 from .paths import ENGINES, _cmd_paths, add_paths_arguments
+from .process import add_process_arguments
 from .robot import add_robot_arguments
 from .simulate import add_simulate_arguments
 
@@ -105,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version",
                         version=f"{PROG} {__version__} (kernels: {backend_name()})")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot,simulate,batch}")
+    sub = parser.add_subparsers(dest="command",
+                                metavar="{demo,paths,nc,robot,simulate,batch,process}")
     sub.required = True
 
     commands = (
@@ -143,6 +145,13 @@ def build_parser() -> argparse.ArgumentParser:
          "and outputs did not change. Exit 6 when a job (or a blade) failed. Needs Dask: "
          "pip install 'blisk-cam[batch]'.",
          _add_batch_arguments, _cmd_batch),
+        ("process", "a whole job (part, stock, tools, operations in order) → DIR",
+         "Run a job file: each operation in order on the stock the previous one left (paths "
+         "JSON, stock, deviation map per operation), one NC program per post with a tool "
+         "change per tool, cutting data at the effective diameter from the part's material, "
+         "and a setup sheet. DIR is written as a whole at the end. Exit 5 when an operation's "
+         "verdict failed. Needs only numpy and scipy.",
+         add_process_arguments, _cmd_process),
     )
     for name, help_text, description, add_arguments, run in commands:
         command = sub.add_parser(name, help=help_text, description=description)
@@ -226,6 +235,12 @@ def _cmd_robot(args):
     from .robot import run_robot
 
     return run_robot(args)
+
+
+def _cmd_process(args):
+    from .process import run_process
+
+    return run_process(args)
 
 
 def _cmd_simulate(args):

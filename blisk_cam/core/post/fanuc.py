@@ -94,3 +94,43 @@ def write(ctx: PostContext) -> str:
         lines.append("M99")
     lines.append("%")
     return "\n".join(lines) + "\n"
+
+
+def write_job(sections, header: list[str]) -> str:
+    """One program for a job's operations (:mod:`.job_program`): ``sections`` are (title,
+    PostContext). A tool change (``T… M06``) only where the tool differs from the one in the
+    spindle; each section sets its spindle and coolant, runs at TCP (G43.4 after each safe
+    retract) and ends retracted (G49, G28 Z) with coolant and spindle off; indexed sections
+    call their own subprogram ``O<program + 1 + k>``, written after ``M30``."""
+    o0 = sections[0][1].options
+    lines = ["%", f"O{o0.program_number:04d} (BLISK CAM JOB)"]
+    lines += [_comment(h) for h in header]
+    lines += ["G90 G94 G17 G21 G40 G49 G80", "G91 G28 Z0.", "G90"]
+    subs = []
+    loaded = None
+    for k, (title, ctx) in enumerate(sections):
+        o, b = ctx.options, ctx.blocks
+        lines.append(_comment(f"operation {k + 1}: {title}"))
+        lines += [_comment(note) for note in o.notes]
+        if o.tool_number != loaded:
+            lines.append(f"T{o.tool_number} M06")
+            loaded = o.tool_number
+        lines += ["G54", f"S{o.spindle:g} {'M03' if o.spindle_cw else 'M04'}",
+                  "M08" if o.coolant else "M09"]
+        if b.indexed:
+            sub = o0.program_number + 1 + k
+            for j, (turn, off) in enumerate(zip(np.degrees(b.z_turns), np.degrees(b.offsets),
+                                                strict=True)):
+                lines += [f"#1={fmt(turn)} (BLADE {j})", f"#2={fmt(off)}", f"M98 P{sub:04d}"]
+            subs.append((sub, ctx))
+        else:
+            lines += _moves(ctx, macro=False)
+        lines += ["G49", "G91 G28 Z0.", "G90", "M09", "M05"]
+    lines.append("M30")
+    for sub, ctx in subs:
+        lines += [f"O{sub:04d} (ONE BLADE: #1 TURN ABOUT Z, #2 {ctx.rotary_names[1]} OFFSET)",
+                  "#3=COS[#1]", "#4=SIN[#1]"]
+        lines += _moves(ctx, macro=True)
+        lines.append("M99")
+    lines.append("%")
+    return "\n".join(lines) + "\n"

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import PostError
 from ..toolpath.types import MOVE_RAPID
 from .blocks import SAFE
-from .common import PostContext, block_minutes, fmt, header_lines
+from .common import PostContext, ascii_text, block_minutes, fmt, header_lines
 
 NAME = "linuxcnc"
 TCP = False
@@ -36,6 +36,8 @@ def _comment(text: str) -> str:
 
 
 def _moves(ctx: PostContext, param: bool) -> list[str]:
+    """The motion lines of the block stream (``param``: blade 0 inside a subprogram, the
+    innermost rotary offset by #1)."""
     b = ctx.blocks
     n1, n2 = ctx.rotary_names
     minutes = block_minutes(b, ctx.options)
@@ -58,6 +60,26 @@ def _moves(ctx: PostContext, param: bool) -> list[str]:
     return out
 
 
+def _tool_on(o) -> list[str]:
+    """Spindle, coolant and feed mode of a section (after its tool change)."""
+    return [f"S{o.spindle:g} {'M3' if o.spindle_cw else 'M4'}",
+            "M8" if o.coolant else "M9",
+            "G93 (inverse time feed on feed moves)"]
+
+
+def _body(ctx: PostContext, sub: int) -> list[str]:
+    """The moves of one path: blade 0 as subprogram ``sub`` called per blade when indexed."""
+    b = ctx.blocks
+    if not b.indexed:
+        return _moves(ctx, param=False)
+    lines = [f"o{sub} sub (one blade; #1 = {ctx.rotary_names[1]} offset, degrees)"]
+    lines += _moves(ctx, param=True)
+    lines.append(f"o{sub} endsub")
+    for k, off in enumerate(np.degrees(b.offsets)):
+        lines.append(f"o{sub} call [{fmt(off)}] (blade {k})")
+    return lines
+
+
 def write(ctx: PostContext) -> str:
     o = ctx.options
     b = ctx.blocks
@@ -68,17 +90,43 @@ def write(ctx: PostContext) -> str:
         f"G53 G0 Z{fmt(b.safe_z)}",
         f"T{o.tool_number} M6",
         f"G43 H{o.tool_number}",
-        f"S{o.spindle:g} {'M3' if o.spindle_cw else 'M4'}",
-        "M8" if o.coolant else "M9",
-        "G93 (inverse time feed on feed moves)",
+        *_tool_on(o),
     ]
-    if b.indexed:
-        lines.append(f"o{SUB} sub (one blade; #1 = {ctx.rotary_names[1]} offset, degrees)")
-        lines += _moves(ctx, param=True)
-        lines.append(f"o{SUB} endsub")
-        for k, off in enumerate(np.degrees(b.offsets)):
-            lines.append(f"o{SUB} call [{fmt(off)}] (blade {k})")
-    else:
-        lines += _moves(ctx, param=False)
+    lines += _body(ctx, SUB)
     lines += ["G94", f"G53 G0 Z{fmt(b.safe_z)}", "M9", "M5", "M2", "%"]
+    return "\n".join(lines) + "\n"
+
+
+def write_job(sections, header: list[str]) -> str:
+    """One program for a job's operations in order (:mod:`.job_program`): ``sections`` are
+    (title, PostContext) with each operation's tool, spindle, feed and coolant in its
+    options. A tool change (``T… M6``, ``G43 H…``) only where the tool differs from the one
+    in the spindle; every section starts and ends at the safe machine Z with the spindle and
+    coolant off between operations; subprograms numbered per section."""
+    safe = max(ctx.blocks.safe_z for _, ctx in sections)
+    lines = ["%"] + [_comment(h) for h in header]
+    lines += ["G21 G90 G94 G17 G40 G49 G80 (mm, absolute, safe start)", "G54",
+              f"G53 G0 Z{fmt(safe)}"]
+    loaded = None
+    for k, (title, ctx) in enumerate(sections):
+        o = ctx.options
+        lines.append(_comment(f"operation {k + 1}: {title}"))
+        lines += [_comment(note) for note in o.notes]
+        if o.tool_number != loaded:
+            lines += [f"T{o.tool_number} M6", f"G43 H{o.tool_number}"]
+            loaded = o.tool_number
+        lines += _tool_on(o)
+        lines += _body(ctx, SUB + 1 + k)
+        lines += ["G94", f"G53 G0 Z{fmt(safe)} (safe retract, end of operation {k + 1})",
+                  "M9", "M5"]
+    lines += ["M2", "%"]
+    return "\n".join(lines) + "\n"
+
+
+def tool_table(tools) -> str:
+    """A LinuxCNC tool table (``.tbl``) for a job's tools: ``tools`` are (number, diameter mm,
+    description). Pocket = tool number; the length offset is 0: the machinist measures it
+    (the program calls ``G43 H<T>``)."""
+    lines = [f"T{n} P{n} D{fmt(d)} Z0.0000 ;{ascii_text(text)} - length to be measured"
+             for n, d, text in tools]
     return "\n".join(lines) + "\n"

@@ -77,3 +77,35 @@ def write(ctx: PostContext) -> str:
         lines += _moves(ctx)
     lines += ["TRAFOOF", f"SUPA G0 Z{fmt(b.safe_z)} D0", "M9", "M5", "M30"]
     return "\n".join(lines) + "\n"
+
+
+def write_job(sections, header: list[str]) -> str:
+    """One program for a job's operations (:mod:`.job_program`): ``sections`` are (title,
+    PostContext). A tool change (``T… D1`` ``M6``) only where the tool differs from the one in
+    the spindle; each section sets spindle and coolant, runs under TRAORI and ends with
+    TRAFOOF at the safe Z, coolant and spindle off; indexed sections loop over the blades
+    with their own label ``BLADE_LOOP<k>``."""
+    safe = max(ctx.blocks.safe_z for _, ctx in sections)
+    lines = ["DEF INT _BLADE"] + ["; " + h for h in header]
+    lines += ["G17 G90 G71 G94 G40", f"SUPA G0 Z{fmt(safe)} D0"]
+    loaded = None
+    for k, (title, ctx) in enumerate(sections):
+        o, b = ctx.options, ctx.blocks
+        lines.append(f"; operation {k + 1}: {title}")
+        lines += ["; " + note for note in o.notes]
+        if o.tool_number != loaded:
+            lines += [f"T{o.tool_number} D1", "M6"]
+            loaded = o.tool_number
+        lines += ["G54", f"S{o.spindle:g} {'M3' if o.spindle_cw else 'M4'}",
+                  "M8" if o.coolant else "M9", "TRAORI", "ORIWKS", "ORIVECT"]
+        if b.indexed:
+            pitch = math.copysign(360.0 / b.blades, b.blisk_axis[1][2])
+            label = f"BLADE_LOOP{k + 1}"
+            lines += ["_BLADE=0", f"{label}:", f"ROT Z=_BLADE*{fmt(pitch, 8)} ; blade turn"]
+            lines += _moves(ctx)
+            lines += ["_BLADE=_BLADE+1", f"IF _BLADE<{b.blades} GOTOB {label}", "ROT"]
+        else:
+            lines += _moves(ctx)
+        lines += ["TRAFOOF", f"SUPA G0 Z{fmt(safe)} D0", "M9", "M5"]
+    lines.append("M30")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,285 @@
+"""The operation kinds a job may name, and how each turns a job's operation into an
+:class:`~.operation.Operation` run (paper 003 §5: roughing, semi-finishing, blade finishing,
+hub and fillet finishing, each with its tool and options).
+
+An operation kind is an :class:`OperationKind`: its ``name`` (the job file's ``kind``), the
+``options`` it accepts (key → (default in the user's units, help); angles in degrees) and
+``prepare(ctx) -> PreparedOperation``. ``prepare`` gets an :class:`OperationContext` (the part,
+the cutter and tool entry, the operation's options as typed, the stock before it) and returns
+the :class:`~.operation.Operation`, its part input and request, extra stages (a collision
+check) and the tool's angle from the surface normal for the cutting data. It must do no long
+work: the job calls it for every operation before the first one runs, with ``ctx.stock`` None,
+to check the whole job before any path is planned, and again at run time with the stock.
+Errors: a :class:`~..errors.BliskCamError`; the job prefixes the file, the operation and the
+key.
+
+A kind is made available by :func:`register_operation_kind` (this module registers blade
+finishing). The kinds of the whole process that this build does not have (:data:`PLANNED`)
+are refused with "operation kind 'rough' is not available in this build", never skipped.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..collision.options import CollisionOptions
+from ..errors import BliskCamError, OptionError
+from ..geometry.mesh import TriMesh
+from ..geometry.vectors import rotate_about
+from ..options import AxisOptions, GougeOptions, LinkingOptions, ToleranceOptions, check_value
+from ..options import fields as option_fields
+from ..part.cones import Cone
+from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
+from .operation import Operation, Stage
+
+__all__ = ["OPERATION_KINDS", "PLANNED", "OperationContext", "OperationKind",
+           "PreparedOperation", "ToolEntry", "narrowest_gap", "operation_kind",
+           "register_operation_kind", "typed_options"]
+
+
+@dataclass(frozen=True)
+class ToolEntry:
+    """One tool of the job's tool table (DIN 66215 shapes as the CLI's tool flags).
+
+    number : int — T; type : "ball" | "bull" | "flat" | "taper"; diameter, corner_radius :
+    mm; taper_angle : rad or None; flutes : int (z); stick_out : mm or None (length out of
+    the holder); flute_length : mm or None; holder : ((z, r), ...) mm from the tip or None
+    (the cutter's own shank and holder); coolant : bool; max_spindle : rpm or None; name :
+    str (free text)."""
+
+    number: int
+    type: str
+    diameter: float
+    corner_radius: float = 0.0
+    taper_angle: float | None = None
+    flutes: int = 2
+    stick_out: float | None = None
+    flute_length: float | None = None
+    holder: tuple | None = None
+    coolant: bool = True
+    max_spindle: float | None = None
+    name: str = ""
+
+    def cutter_options(self) -> dict:
+        """PathRequest keywords of the cutter."""
+        kw = {"tool_type": self.type, "tool_diameter": self.diameter}
+        if self.type == "bull":
+            kw["corner_radius"] = self.corner_radius
+        if self.type == "taper" and self.taper_angle is not None:
+            kw["taper_angle"] = self.taper_angle
+        return kw
+
+
+@dataclass
+class OperationContext:
+    """What ``prepare`` gets: ``part`` (:class:`..part.model.BliskPart`), ``cutter``
+    (:class:`..tool.cutter.Cutter`), ``tool`` (:class:`ToolEntry`), ``options`` (the
+    operation's own keys as typed in the job file, user units), ``stock`` (the
+    :class:`..stock.dexels.RadialDexels` before the operation; None while the job is checked),
+    ``where`` (e.g. "job blisk.toml operation 2 ('finish')")."""
+
+    part: object
+    cutter: object
+    tool: ToolEntry
+    options: dict
+    stock: object = None
+    where: str = ""
+
+
+@dataclass
+class PreparedOperation:
+    """``operation`` run as ``iter_run_operation(operation, part_input, request, stock,
+    extra=extra)``; ``tilt`` (rad): the tool axis' angle from the surface normal for the
+    effective cutting diameter, None: measured on the planned path (median over the cut
+    poses); ``reads_stock``: the stock is passed to the operation."""
+
+    operation: Operation
+    part_input: object
+    request: object
+    extra: tuple[Stage, ...] = ()
+    tilt: float | None = None
+    reads_stock: bool = False
+
+
+@dataclass(frozen=True)
+class OperationKind:
+    """An operation kind of the job file (module docstring). ``options``: key → (default in
+    user units or None, help); ``default_depth``: mm, the depth of cut ap the cutting data
+    assume unless the operation gives ``depth``."""
+
+    name: str
+    title: str
+    prepare: Callable[[OperationContext], PreparedOperation]
+    options: dict = field(default_factory=dict)
+    default_depth: float = 0.2
+
+
+#: name → OperationKind, the kinds this build runs
+OPERATION_KINDS: dict[str, OperationKind] = {}
+
+#: kinds of the process (paper 003 §5) a job may name that this build may not have
+PLANNED = ("rough", "semi_finish", "blade_finish", "hub_finish", "fillet_finish")
+
+
+def register_operation_kind(kind: OperationKind) -> OperationKind:
+    """Make ``kind`` available to jobs (a second kind of one name replaces the first)."""
+    OPERATION_KINDS[kind.name] = kind
+    return kind
+
+
+def operation_kind(name, where: str = "job") -> OperationKind:
+    """The registered kind ``name``; BliskCamError: a planned kind not in this build, or an
+    unknown kind (with the nearest known name)."""
+    if name in OPERATION_KINDS:
+        return OPERATION_KINDS[name]
+    if name in PLANNED:
+        raise BliskCamError(f"{where}: operation kind {name!r} is not available in this build "
+                            f"(available: {', '.join(OPERATION_KINDS)})")
+    known = sorted(set(OPERATION_KINDS) | set(PLANNED))
+    close = difflib.get_close_matches(str(name), known, n=1, cutoff=0.5)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    raise BliskCamError(f"{where}: unknown operation kind {name!r}; {hint}(kinds: "
+                        f"{', '.join(known)})")
+
+
+def typed_options(values: dict, groups, where: str) -> dict:
+    """Values typed by a user for options of the option ``groups`` (user units: degrees,
+    choices by their command-line word) → {name: core value}, each checked against its spec.
+    BliskCamError naming ``where`` and the key."""
+    specs = {name: spec for g in groups for name, spec, _ in option_fields(g)}
+    out = {}
+    for key, value in values.items():
+        spec = specs[key]
+        try:
+            if spec.choices is not None:
+                words = {c.cli_word: c.value for c in spec.choices}
+                words.update({str(c.value): c.value for c in spec.choices})
+                if isinstance(value, str) and value in words:
+                    value = words[value]
+                elif not any(value == c.value and type(value) is type(c.value)
+                             for c in spec.choices):
+                    raise OptionError(f"unknown value {value!r}; use one of "
+                                      f"{', '.join(c.cli_word for c in spec.choices)}")
+            elif isinstance(value, bool) or isinstance(value, str):
+                raise OptionError(f"expected a number{' (' + spec.unit + ')' if spec.unit else ''}"
+                                  f", got {value!r}")
+            elif isinstance(value, list):
+                value = tuple(float(v) for v in value)
+                if spec.unit == "deg":
+                    value = tuple(math.radians(v) for v in value)
+            elif spec.unit == "deg":
+                value = math.radians(float(value))
+            out[key] = check_value(key, spec, value)
+        except (OptionError, TypeError, ValueError) as exc:
+            raise BliskCamError(f"{where} key {key!r}: {exc}") from None
+    return out
+
+
+# --------------------------------------------------------------------- blade finishing
+_PATH_GROUPS = (ToleranceOptions, AxisOptions, GougeOptions, LinkingOptions)
+_COLLISION_KEYS = {name for name, _, _ in option_fields(CollisionOptions)} - {
+    "mode", "blade_count", "flute_length"}
+
+
+def _blade_finish_options() -> dict:
+    out = {"cone1": (None, "hub cone r1 z1 r2 z2 (mm); not given: fitted to the blade"),
+           "cone2": (None, "tip cone r1 z1 r2 z2 (mm); not given: fitted to the blade"),
+           "collisions": ("check", "off, check or avoid (holder and shank against the blade "
+                                   "and its neighbours)")}
+    for g in _PATH_GROUPS:
+        for name, spec, default in option_fields(g):
+            out[name] = (default, spec.help)
+    for name, spec, default in option_fields(CollisionOptions):
+        if name in _COLLISION_KEYS:
+            out[name] = (default, spec.help)
+    return out
+
+
+def _cone(value, key: str, where: str):
+    if value is None:
+        return None
+    try:
+        return Cone.from_list([float(v) for v in value])
+    except (BliskCamError, TypeError, ValueError) as exc:
+        raise BliskCamError(f"{where} key {key!r}: expected [r1, z1, r2, z2] in mm ({exc})") \
+            from None
+
+
+def prepare_blade_finish(ctx: OperationContext) -> PreparedOperation:
+    """Blade finishing (paper 001, :mod:`.blade_finish`) of blade 0 of the part with the
+    operation's tolerances, tool axis, gouge fix and linking options; the collision check of
+    the tool's holder against the blade and its neighbours (``collisions``, default check)."""
+    opts = dict(ctx.options)
+    where = ctx.where
+    cone1 = _cone(opts.pop("cone1", None), "cone1", where)
+    cone2 = _cone(opts.pop("cone2", None), "cone2", where)
+    mode = opts.pop("collisions", "check")
+    coll = {k: opts.pop(k) for k in list(opts) if k in _COLLISION_KEYS}
+    path_kw = typed_options(opts, _PATH_GROUPS, where)
+    coll_kw = typed_options(coll, (CollisionOptions,), where)
+    try:
+        req = PathRequest(ctx.part.axis, cone1, cone2, **ctx.tool.cutter_options(), **path_kw)
+    except BliskCamError as exc:
+        raise BliskCamError(f"{where}: {exc}") from None
+    extra = ()
+    if mode not in ("off", "check", "avoid"):
+        raise BliskCamError(f"{where} key 'collisions': unknown value {mode!r}; use off, check "
+                            "or avoid")
+    if mode != "off":
+        if ctx.part.blade_count < 2:
+            raise BliskCamError(f"{where} key 'collisions': the part has one blade, there are no "
+                                "neighbours to check against; set collisions = \"off\"")
+        try:
+            co = CollisionOptions(mode=mode, blade_count=ctx.part.blade_count,
+                                  flute_length=ctx.tool.flute_length,
+                                  **({"holder": ctx.tool.holder} if ctx.tool.holder else {}),
+                                  **coll_kw)
+            co.assembly(ctx.cutter)
+        except BliskCamError as exc:
+            raise BliskCamError(f"{where} (tool T{ctx.tool.number}): {exc}") from None
+        extra = (collision_stage(co),)
+    tilt = None
+    if req.axis_mode == "local" and req.lead_tip is None and req.tilt_tip is None:
+        tilt = math.acos(max(-1.0, min(1.0, math.cos(req.lead) * math.cos(req.tilt))))
+    gap = narrowest_gap(ctx.part, cone1)
+    if ctx.cutter.d >= gap:
+        raise BliskCamError(
+            f"{where} key 'tool': tool T{ctx.tool.number} (Ø{ctx.cutter.d:g}) does not fit the "
+            f"gap between the blades: the narrowest gap above the hub cone is {gap:.1f} mm; "
+            "choose a smaller tool")
+    mesh = TriMesh.from_arrays(ctx.part.blade_vertices, ctx.part.blade_faces)
+    return PreparedOperation(BLADE_FINISH, mesh, req, extra, tilt)
+
+
+def narrowest_gap(part, cone1=None) -> float:
+    """The narrowest gap (mm) between blade 0 and its neighbour (blade 0 turned by the pitch):
+    the smallest distance from a vertex of one to a vertex of the other, over the vertices on
+    or above the hub cone ``cone1`` (all vertices when None); inf for one blade. Vertex to
+    vertex: at most the mesh's edge length above the surfaces' distance."""
+    if part.blade_count < 2:
+        return math.inf
+    V = np.asarray(part.blade_vertices, float)
+    if cone1 is not None and hasattr(cone1, "r1"):
+        o, d = np.asarray(part.axis.o, float), np.asarray(part.axis.d, float)
+        rel = V - o
+        z = rel @ d
+        r = np.linalg.norm(rel - z[:, None] * d, axis=1)
+        t = (z - cone1.z1) / (cone1.z2 - cone1.z1) if cone1.z2 != cone1.z1 else 0.0
+        keep = r >= cone1.r1 + t * (cone1.r2 - cone1.r1) - 1e-6
+        V = V[keep] if keep.any() else V
+    other = rotate_about(V, part.axis.d, part.pitch, part.axis.o)
+    dist, _ = cKDTree(other).query(V)
+    return float(dist.min())
+
+
+register_operation_kind(OperationKind(
+    "blade_finish", "blade finishing (LMC, paper 001)", prepare_blade_finish,
+    _blade_finish_options(), default_depth=0.2))
+
+__all__ += ["prepare_blade_finish"]
