@@ -20,7 +20,6 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from blisk_cam.core.geometry.axis import Axis
@@ -31,17 +30,18 @@ from blisk_cam.core.process.blade_finish import PLAN_STAGES, PathRequest, plan_p
 from blisk_cam.core.toolpath.paths_io import write_paths_json
 from tests.support.blades import nasa_blade
 
-#: sha256 of the paths JSON without "stats", floats rounded to 1e-7 (see :func:`digest`)
+#: sha256 of the paths JSON without "stats", floats rounded to 1e-7 (see :func:`digest`).
+#: The demo digest was re-recorded when the planned rapids began to leave and reach the
+#: clearance surface along the tool axis (within 60° of radial) instead of radially: the
+#: radial descent swept the tool body sideways through the stock (a 14 mm rapid crash in the
+#: stock simulation). Recorded on the AMD EPYC host without AVX-512 that CI runs on, where
+#: numpy 1.26 and 2.x give one and the same demo path; on a host with AVX-512 the few
+#: zero-speed poses above may flip their FLAG_LOCAL_GOUGE bit (as recorded before) and the
+#: demo digest then differs: re-record it there. Rotor 37 is the same everywhere.
 DIGESTS = {
-    "demo": "0fdf968fafa6ca303877c5366f130c71c1dacf175dcf126e3957d2a9a2beb524",
+    "demo": "02195d9344f65ca95c6be2ba05af88d7e680bca26ddf1ab13a20619dda464027",
     "rotor37": "de899b694a041295af839e9afecf2e164d98f2760c2caac2949eb37952b8116f",
 }
-if int(np.__version__.split(".")[0]) >= 2:  # see the module docstring
-    DIGESTS["demo"] = "dd0ecb9f381c442073d31bf7f0e1199255abc176626d377036a0c220678f1c73"
-#: the demo digest of the same code (6d37b1f) on an AMD EPYC host without AVX-512 (CI's
-#: machine from session 7 on), where numpy 1.26 and 2.x give one and the same demo path and
-#: it matches neither digest above: also accepted (Rotor 37 is the same everywhere)
-ALSO = {"demo": "84a7ca7bb90ab3a0d9ea8ae6e6c6189ecc2ad44176a1a734745bd6487dddd564"}
 
 STAGE_KEYS = tuple(f"seconds_{s.name}" for s in PLAN_STAGES) + ("seconds_plan",)
 
@@ -110,7 +110,7 @@ def test_paths_json_digest_is_unchanged(name, kernels, tmp_path):
         path = plan_paths(mesh, req).path
         assert path.stats["kernels"] == backend.backend_name()
     found = digest(path, tmp_path)
-    assert found in (DIGESTS[name], ALSO.get(name)), found
+    assert found == DIGESTS[name], found
     # the per-stage times are finite, non-negative, and add up to the plan's time
     st = path.stats
     for key in STAGE_KEYS + ("seconds",):

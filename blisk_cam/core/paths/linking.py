@@ -656,13 +656,44 @@ class _Rows:
         )
 
 
+#: the least radial growth (mm per mm along the tool axis, the cosine of the axis's angle
+#: from the radial direction) for a planned rapid to leave along the tool axis: within 60° of
+#: radial the way out is at most twice the radial rise; an axis leaning further (down the
+#: blisk axis at the leading and trailing edges) would run far below or above the blisk, where
+#: the fixture and the table are, so the rapid goes radially as before (collision avoidance
+#: re-routes it along the axis, :mod:`..collision.reroute`, when that one collides)
+AXIS_EXIT_MIN_RADIAL = 0.5
+
+
+def _clearance_point(p, a, clear: Clearance, axis: Axis):
+    """Where a rapid from (or down to) the point ``p`` with tool axis ``a`` meets the
+    clearance surface: along the tool axis when it leads out of the blisk (the tool body then
+    stays on its own line, as the collision check saw it), else radially at p's angle and
+    height (an axis leaning more than ~84° from the radial direction)."""
+    _, th, z, fr = cylindrical(p[None, :], axis)
+    radial = from_cylindrical(clear.r_at(z), th, z, axis, fr)[0]
+    q = p - axis.o
+    qz, az = float(q @ axis.d), float(a @ axis.d)
+    qp, ap = q - qz * axis.d, a - az * axis.d
+    rq = float(np.linalg.norm(qp))
+    if rq <= 0 or float(qp @ ap) / rq < AXIS_EXIT_MIN_RADIAL:
+        return radial
+    reach = 4.0 * float(clear.r_at(z[0])) + 4.0 * rq
+    t = _axis_exit(p, a, clear, axis, reach)
+    return radial if t is None else p + t * a
+
+
 def _via_clearance(rows: _Rows, clear: Clearance, axis: Axis, rapid_step, p_from, a_from, p_to,
                    a_to, first=False):
-    """Rapids: out from p_from to the clearance, along it, in to p_to (axes slerped)."""
-    _, th1, z1, fr = cylindrical(p_from[None, :], axis)
-    _, th2, z2, _ = cylindrical(p_to[None, :], axis)
-    up = from_cylindrical(clear.r_at(z1), th1, z1, axis, fr)[0]
-    down = from_cylindrical(clear.r_at(z2), th2, z2, axis, fr)[0]
+    """Rapids: out from p_from to the clearance surface, along it, in to p_to; out and in
+    along the tool axes where they lead out of the blisk (:func:`_clearance_point`), else
+    radially; along the surface the angle about the blisk axis and the height are linear and
+    the tool axis is slerped. ``first``: the program's first approach (nothing before
+    p_from; the tool arrives on the clearance surface with ``a_to``)."""
+    up = _clearance_point(p_from, a_to if first else a_from, clear, axis)
+    down = _clearance_point(p_to, a_to, clear, axis)
+    _, th1, z1, fr = cylindrical(up[None, :], axis)
+    _, th2, z2, _ = cylindrical(down[None, :], axis)
     dth = float((th2[0] - th1[0] + math.pi) % (2 * math.pi) - math.pi)
     n = max(1, int(math.ceil(abs(dth) / rapid_step)))
     t = np.arange(1, n + 1) / n
@@ -677,7 +708,7 @@ def _via_clearance(rows: _Rows, clear: Clearance, axis: Axis, rapid_step, p_from
     )
     rows.emit(along[:-1], a_along[:-1], MOVE_RAPID) if n > 1 else None
     # the first pass starts straight below its clearance point: ``down`` is ``up`` again
-    if n > 1 or not (np.array_equal(down, up) and np.array_equal(a_to, a_up)):
+    if n > 1 or not (np.allclose(down, up, rtol=0, atol=1e-9) and np.array_equal(a_to, a_up)):
         rows.emit(down, a_to, MOVE_RAPID)
     rows.emit(p_to, a_to, MOVE_RAPID)
 
@@ -777,8 +808,7 @@ def build_program(
     pc, pj = prev
     pt, pa = pc.tip[pj], pc.axis[pj]
     rows.emit(pt + d_app * pa, pa, MOVE_RETRACT)
-    _, th, z, fr = cylindrical((pt + d_app * pa)[None, :], axis)
-    rows.emit(from_cylindrical(clear.r_at(z), th, z, axis, fr), pa, MOVE_RAPID)
+    rows.emit(_clearance_point(pt + d_app * pa, pa, clear, axis), pa, MOVE_RAPID)
     return rows.program()
 
 
