@@ -139,6 +139,12 @@ def test_outputs_program_and_stock_chain(processed, tmp_path):
     assert rc == (0 if all(o["passed"] for o in ops) else 5)
     assert [o["tool"] for o in ops] == [3, 7]
     names = sorted(p.name for p in out.iterdir())
+    # no row of either program moves the body or a rapid through the stock (the radial
+    # rapid down to the first pass once crashed 14 mm into the semi-finishing stock)
+    for stem in ("01-semi-finish", "02-finish"):
+        sim = json.loads((out / f"{stem}.simulation.json").read_text())
+        assert sim["crashes"] == [], (stem, sim["crashes"])
+        assert sim["volume_removed_mm3"]["by_move"]["rapid"] == 0.0, stem
     for stem in ("01-semi-finish", "02-finish"):
         for ext in ("paths.json", "stock.npz", "deviation.ply", "simulation.json"):
             assert f"{stem}.{ext}" in names
