@@ -17,6 +17,28 @@ ball that fits the fillet); otherwise the request is refused before any path wor
 figures and the way out (:func:`_fit_concave`). ``PlanResult.path.stats`` records
 ``expansion_radius``, ``edge_radius``, ``concave_radius``.
 
+Semi-finishing (``allowance`` a > 0, paper 003 §5: the blade left 0.1 mm oversize for the
+finishing cut). The paths machine the blade offset outward by a, with the same boundary
+conformity (first pass on cone 1, last on cone 2), scallop and chord rules and local gouge
+check. They are planned on the true blade with the cutter grown by a
+(:meth:`..tool.cutter.Cutter.grown`: ball ρ → ρ + a, bull nose R, r → R + a, r + a, flat →
+corner a): the offset surface machined by the cutter is exactly the true surface machined by
+the grown cutter (the offset of the swept solid is the sweep of the offset solid), so every
+stage — spacing, passes, local gouge fix, the swept link check — runs unchanged on the mesh
+as given, with no offset mesh to build (an offset of a triangle mesh self-intersects at
+concave places and loses the mesh's exact boundary on the cones). The last stage
+(:func:`_stage_allowance`) then reports the path of the real cutter: every CC point moves
+out along its normal by a (onto the offset surface, where the real cutter touches) and every
+tip, links and rapids included, up its own axis by a (the grown cutter's corner circles are
+the real cutter's, so the real cutter sits a higher on the same axis). The scallop left on
+the offset surface is the grown cutter's scallop on the blade, so the material left on the
+blade lies between a − chord and a + cusp + chord. Refused (ToleranceError) when a is at least
+the smallest concave radius between the cones: the offset surface folds there (a fillet of
+radius ρ offset by a ≥ ρ has no surface left to touch). ``path.allowance`` records a (the
+paths JSON's ``tolerances.allowance``, read by verify, nc and simulate); ``stats`` adds
+``allowance`` and ``planning_tool_radius``, the grown cutter's radius (``expansion_radius`` is
+the grown cutter's spacing radius).
+
 Angles are radians, lengths mm, as everywhere in core. ``iter_plan_paths`` yields
 :class:`~..runtime.Progress` and returns a :class:`PlanResult` (``StopIteration.value``) so a
 modal operator can drive it and cancel between yields; ``plan_paths`` exhausts it.
@@ -35,7 +57,14 @@ from ..collision.avoid import iter_run_collisions
 from ..errors import BliskCamError, OrientationError, ToleranceError, ToolError
 from ..geometry.axis import Axis
 from ..geometry.mesh import TriMesh
-from ..options import AxisOptions, CutterOptions, GougeOptions, LinkingOptions, ToleranceOptions
+from ..options import (
+    AxisOptions,
+    CutterOptions,
+    GougeOptions,
+    LinkingOptions,
+    ToleranceOptions,
+    describe_tool,
+)
 from ..part.cones import Cone
 from ..part.fitting import ConeFit, fit_cones_to_mesh
 from ..part.profiles import morph_between
@@ -450,6 +479,10 @@ class PlanState:
     stats: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
     collision: object = None  # CollisionReport of the "collision" stage (when added)
+    #: semi-finishing: mm of stock left; ``cutter`` is then the real cutter grown by it
+    #: until "allowance" puts the real one (``tool``) back
+    allowance: float = 0.0
+    tool: Cutter | None = None
 
     def result(self) -> PlanResult:
         path = ToolPath(
@@ -464,6 +497,7 @@ class PlanState:
             program=self.program,
             warnings=self.warnings,
             collision=None if self.collision is None else self.collision.summary(),
+            allowance=self.allowance,
         )
         return PlanResult(path=path, fit=self.fit, gouge=self.gouge, collision=self.collision)
 
@@ -477,12 +511,30 @@ def _stage_fit(st: PlanState):
         st.fit = fit_cones_to_mesh(st.mesh, req.axis)
         st.cone1 = st.cone1 or st.fit.cone1
         st.cone2 = st.cone2 or st.fit.cone2
-    if st.cutter.type != "ball":
+    if st.cutter.type != "ball" or st.allowance > 0:
         st.edge, st.concave = surface_radii(st.mesh, req.axis, morph_between(st.cone1, st.cone2))
+    if st.allowance > 0 and st.allowance >= st.concave:
+        raise ToleranceError(
+            f"an allowance of {st.allowance:g} mm is more than the surface between the cones "
+            f"allows: its tightest concave radius (e.g. the hub fillet) is {st.concave:.2f} mm, "
+            "and the blade offset by the allowance folds over itself there; leave less than "
+            f"{st.concave:.2f} mm of stock, or move the hub cone off the fillet")
+    if st.cutter.type == "ball":
+        st.edge = math.inf  # a ball is spaced without the edge radius (as at allowance 0)
+        st.concave = math.inf
     st.rho = expansion_radius(st.cutter, st.strategy, req.cusp, st.edge)
     if math.isfinite(st.concave):
-        st.rho = _fit_concave(st.cutter, st.strategy, st.limits, req, st.edge, st.concave,
-                              st.rho)
+        try:
+            st.rho = _fit_concave(st.cutter, st.strategy, st.limits, req, st.edge,
+                                  st.concave, st.rho)
+        except ToleranceError as err:
+            if st.allowance <= 0:
+                raise
+            raise ToleranceError(
+                f"{err} (the allowance of {st.allowance:g} mm counts: the cutter touching "
+                "the blade offset by it is planned as the cutter grown by it on the blade, "
+                f"a {describe_tool(st.cutter.type, 2 * st.cutter.radius, st.cutter.r)}; "
+                "leave less stock or use a smaller cutter)") from None
     return
     yield  # a generator: nothing to report in between
 
@@ -574,6 +626,27 @@ def _stage_checks(st: PlanState):
     yield
 
 
+def _stage_allowance(st: PlanState):
+    """Semi-finishing: the path planned with the grown cutter on the blade becomes the real
+    cutter's path on the blade offset by the allowance a (see the module docstring): CC
+    points out along their normals by a, every tip (cuts, links, approaches, rapids) up its
+    own axis by a, the real cutter in place of the grown one."""
+    a = st.allowance
+    for c in st.curves:
+        c.cc = c.cc + a * c.normal
+        c.tip = c.tip + a * c.axis
+    if st.program is not None:
+        st.program.tip = st.program.tip + a * st.program.axis
+    st.stats["allowance"] = float(a)
+    st.stats["planning_tool_radius"] = float(st.cutter.radius)
+    st.cutter = st.tool
+    return
+    yield
+
+
+ALLOWANCE_STAGE = Stage("allowance", _stage_allowance)
+
+
 def collision_stage(options, obstacles=()) -> Stage:
     """The "collision" stage (:mod:`..collision.avoid`, paper 004) for ``iter_plan_paths(...,
     extra=(collision_stage(options, obstacles),))``: the planned passes and program are
@@ -614,10 +687,17 @@ class BladeFinish(Operation):
 
     def start(self, part: TriMesh, request: PathRequest, stock=None) -> PlanState:
         cutter, strategy, _, limits = _check(request)
+        allowance = float(request.allowance)
+        if allowance > 0:  # semi-finishing: plan with the grown cutter (module docstring)
+            return PlanState(mesh=part, req=request, cutter=cutter.grown(allowance),
+                             strategy=strategy, limits=limits, allowance=allowance,
+                             tool=cutter)
         return PlanState(mesh=part, req=request, cutter=cutter, strategy=strategy,
                          limits=limits)
 
     def stages(self, state: PlanState) -> tuple[Stage, ...]:
+        if state.allowance > 0:
+            return (*PLAN_STAGES, ALLOWANCE_STAGE)
         return PLAN_STAGES
 
     def finish(self, state: PlanState, seconds: dict) -> PlanResult:
