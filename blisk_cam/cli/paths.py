@@ -287,6 +287,11 @@ def plan_from_args(args, log=print, progress=None):
             f"{fit.residual1:.4f} mm), cone2 {_shown_generatrix(fit.cone2)} (residual "
             f"{fit.residual2:.4f} mm)")
     req = PathRequest(args.axis_obj, c1, c2, **args.stages)
+    if req.allowance > 0 and args.collision.blade_count:  # before any path work
+        from ..core.process.blade_finish import check_allowance_in_channel
+
+        check_allowance_in_channel(mesh, args.axis_obj, args.collision.blade_count,
+                                   req.allowance)
     extra = ()
     if args.collision.mode != "off":
         from ..core.process.blade_finish import collision_stage

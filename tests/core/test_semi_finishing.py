@@ -14,8 +14,8 @@ Measured truths, each by a means the planner does not use:
   a + cusp + chord + resolution on the blade where those passes cover it, its median within
   a − chord … a + cusp + chord (a path that ignored the allowance would leave about 0);
 * the verifier passes the path with material left between a − chord and a + cusp + chord;
-* bad input (a negative allowance, one the blade's concave radius cannot take) is refused
-  with a message naming it.
+* bad input (a negative allowance, one the blade's concave radius cannot take, one wider
+  than half the gap to the neighbour blade) is refused with a message naming it.
 
 Cheap on purpose: the demo blade at mesh resolution 0.5, the region between the morphs at
 0.4 and 0.6 of the demo's cones, a 0.15 mm stock and 4 passes × 20 poses of each program.
@@ -34,10 +34,15 @@ from blisk_cam.cli import main as cli
 from blisk_cam.core.errors import ToleranceError, ToolError
 from blisk_cam.core.geometry.distance import MeshDistance
 from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.geometry.vectors import rotation_matrix
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.model import part_from_demo
 from blisk_cam.core.part.profiles import morph_between
-from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+from blisk_cam.core.process.blade_finish import (
+    PathRequest,
+    check_allowance_in_channel,
+    plan_paths,
+)
 from blisk_cam.core.stock.blank import stock_from_allowance
 from blisk_cam.core.stock.deviation import deviation_map
 from blisk_cam.core.stock.removal import remove_program
@@ -260,4 +265,23 @@ def test_bad_allowances_are_refused(demo, tmp_path, capsys):
                    "--out", str(tmp_path / "p.json")])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc != 0 and len(err) == 1 and "--allowance" in err[0] and "≥ 0 mm" in err[0]
+    assert not (tmp_path / "p.json").exists()
+
+
+def test_an_allowance_wider_than_half_the_channel_is_refused(demo, tmp_path, capsys):
+    d, mesh, _, _ = demo
+    neighbour = TriMesh.from_arrays(
+        (mesh.V - d.axis.o) @ rotation_matrix(d.axis.d, 2 * math.pi / d.blade_count).T
+        + d.axis.o, mesh.F)
+    brute = MeshDistance(neighbour).query(mesh.V).distance.min()  # every vertex, exactly
+    gap = check_allowance_in_channel(mesh, d.axis, d.blade_count, A)
+    assert gap == pytest.approx(brute, abs=1e-9)
+    with pytest.raises(ToleranceError, match=r"narrowest gap .* is 12\.\d+ mm"):
+        check_allowance_in_channel(mesh, d.axis, d.blade_count, 0.5 * gap + 0.01)
+    stl = write_binary_stl(tmp_path / "blade.stl", d.blade_vertices, d.blade_faces)
+    rc = cli.main(["paths", "--mesh", str(stl), *["--cone1", *map(str, d.hub_cone.as_list())],
+                   *["--cone2", *map(str, d.tip_cone.as_list())], "--allowance", "6.5",
+                   "--blade-count", str(d.blade_count), "--out", str(tmp_path / "p.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1 and len(err) == 1 and "channel" in err[0], err
     assert not (tmp_path / "p.json").exists()

@@ -34,7 +34,9 @@ the real cutter's, so the real cutter sits a higher on the same axis). The scall
 the offset surface is the grown cutter's scallop on the blade, so the material left on the
 blade lies between a − chord and a + cusp + chord. Refused (ToleranceError) when a is at least
 the smallest concave radius between the cones: the offset surface folds there (a fillet of
-radius ρ offset by a ≥ ρ has no surface left to touch). ``path.allowance`` records a (the
+radius ρ offset by a ≥ ρ has no surface left to touch), and — where the blade count is known
+(the command line checks it before planning, :func:`check_allowance_in_channel`) — when a is
+at least half the narrowest gap to the neighbour blade. ``path.allowance`` records a (the
 paths JSON's ``tolerances.allowance``, read by verify, nc and simulate); ``stats`` adds
 ``allowance`` and ``planning_tool_radius``, the grown cutter's radius (``expansion_radius`` is
 the grown cutter's spacing radius).
@@ -55,8 +57,10 @@ from scipy.spatial import cKDTree
 
 from ..collision.avoid import iter_run_collisions
 from ..errors import BliskCamError, OrientationError, ToleranceError, ToolError
-from ..geometry.axis import Axis
+from ..geometry.axis import Axis, cylindrical
+from ..geometry.distance import MeshDistance
 from ..geometry.mesh import TriMesh
+from ..geometry.vectors import rotation_matrix
 from ..options import (
     AxisOptions,
     CutterOptions,
@@ -110,6 +114,7 @@ __all__ = [
     "PlanResult",
     "PlanState",
     "Stage",
+    "check_allowance_in_channel",
     "collision_stage",
     "NotSupportedError",
     "ZERO_SPEED_WARN_SHARE",
@@ -645,6 +650,52 @@ def _stage_allowance(st: PlanState):
 
 
 ALLOWANCE_STAGE = Stage("allowance", _stage_allowance)
+
+
+def check_allowance_in_channel(mesh: TriMesh, axis: Axis, blade_count: int,
+                               allowance: float, *, candidates: int = 256) -> float:
+    """The narrowest gap (mm) between the blade and its neighbour (the blade turned by
+    360°/N about ``axis``), or a ToleranceError when the allowance is at least half of it:
+    the blade and its neighbour, each offset by the allowance, would overlap, leaving no
+    channel to cut (issue 23: "an allowance larger than half the channel"). The blade
+    vertices nearest a neighbour vertex (k-d trees, ``candidates`` of them) are measured
+    exactly against the neighbour's triangles: the gap is that of the nearest vertex (on a
+    mesh finer than the blade's curvature, the true gap to second order in the edge)."""
+    a = float(allowance)
+    n = int(blade_count)
+    if a <= 0 or n < 2:
+        return math.inf
+    R = rotation_matrix(axis.d, 2.0 * math.pi / n)
+    W = (mesh.V - axis.o) @ R.T + axis.o
+    tree = cKDTree(W)
+    # every 8th vertex first (the k-d tree's far queries are the cost), then every vertex
+    # within 5 mm of the nearest of those, then the triangles near them exactly
+    coarse = mesh.V[::8]
+    near, _ = tree.query(coarse)
+    seeds = coarse[np.argsort(near)[:candidates // 8]]
+    around = cKDTree(mesh.V).query_ball_point(seeds, 5.0)
+    P = mesh.V[np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in around]))]
+    near, _ = tree.query(P)
+    P = P[np.argsort(near)[:candidates]]
+    # the neighbour's triangles with a corner within reach of those vertices (the longest
+    # edge further than the nearest corner): their exact closest points are the gap's
+    edge = float(np.linalg.norm(W[mesh.F] - W[np.roll(mesh.F, 1, axis=1)], axis=2).max())
+    hits = tree.query_ball_point(P, float(near.min()) + 2.0 * edge)
+    corner = np.zeros(len(W), bool)
+    corner[np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]))] = True
+    faces = mesh.F[corner[mesh.F].any(axis=1)]
+    used, local = np.unique(faces, return_inverse=True)
+    d = MeshDistance(TriMesh.from_arrays(W[used], local.reshape(-1, 3))).query(P).distance
+    k = int(np.argmin(d))
+    gap = float(d[k])
+    if a >= 0.5 * gap:
+        r, _, z, _ = cylindrical(P[k:k + 1], axis)
+        raise ToleranceError(
+            f"an allowance of {a:g} mm is more than the channel allows: the narrowest gap "
+            f"between the blade and its neighbour ({n} blades) is {gap:.3f} mm (at r = "
+            f"{float(r[0]):.1f} mm, z = {float(z[0]):.1f} mm), and both blades offset by the "
+            f"allowance would overlap there; leave less than {0.5 * gap:.3f} mm of stock")
+    return gap
 
 
 def collision_stage(options, obstacles=()) -> Stage:
