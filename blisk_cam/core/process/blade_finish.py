@@ -70,7 +70,7 @@ from ..options import (
     describe_tool,
 )
 from ..part.cones import Cone
-from ..part.fitting import ConeFit, fit_cones_to_mesh
+from ..part.fitting import ConeFit, fit_cones_to_mesh, region_holes
 from ..part.profiles import morph_between
 from ..paths.gouge import (
     GougeLimits,
@@ -516,6 +516,17 @@ def _stage_fit(st: PlanState):
         st.fit = fit_cones_to_mesh(st.mesh, req.axis)
         st.cone1 = st.cone1 or st.fit.cone1
         st.cone2 = st.cone2 or st.fit.cone2
+    holes = region_holes(st.mesh, req.axis, st.cone1, st.cone2)
+    if holes:  # the passes break at each; nothing is machined or measured there (issue 28)
+        shown = "; ".join(h.describe() for h in holes[:3])
+        more = f"; and {len(holes) - 3} more" if len(holes) > 3 else ""
+        st.stats["holes"] = len(holes)
+        st.stats["holes_area"] = float(sum(h.area for h in holes))
+        st.warnings.append(
+            f"the blade mesh has {len(holes)} hole(s) inside the region between the cones "
+            f"({shown}{more}): the passes break at each hole into open pieces and nothing "
+            "there is machined or can be verified; fill the holes in the mesh (e.g. a "
+            "scan's gaps) or move the cones off them")
     if st.cutter.type != "ball" or st.allowance > 0:
         st.edge, st.concave = surface_radii(st.mesh, req.axis, morph_between(st.cone1, st.cone2))
     if st.allowance > 0 and st.allowance >= st.concave:

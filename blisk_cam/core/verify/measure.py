@@ -43,6 +43,7 @@ from ..geometry.closest import ClosestPoints, barycentric, closest_on_segments, 
 from ..geometry.distance import MeshDistance, closest_points
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import dot, slerp, unit
+from ..part.fitting import region_holes
 from ..part.profiles import morph_between
 from ..runtime import Cancelled, Progress, alongside, cancellable, check_cancel, map_tasks, parallel
 from ..tool.cutter import as_cutter
@@ -128,6 +129,12 @@ class VerifyReport:
         program row the move ends at; link_rows : the non-cut moves measured (0 without a
         program)
 
+    Holes (issue 28)
+    -----
+    uncovered_holes, uncovered_area (mm²), uncovered_at (3,) : holes of the mesh inside the
+        region (:func:`..part.fitting.region_holes`): surface the samples cannot reach, so no
+        figure above covers it; ``uncovered_at`` is the largest hole's centre
+
     Allowance (semi-finishing: ``path.allowance`` a > 0)
     ---------
     allowance : a. Every figure above is then measured against the blade offset by a
@@ -181,6 +188,9 @@ class VerifyReport:
     link_gouge_row: int | None = None
     link_rows: int = 0
     allowance: float = 0.0  # mm of stock the path leaves (see below)
+    uncovered_holes: int = 0
+    uncovered_area: float = 0.0
+    uncovered_at: np.ndarray | None = None
 
     def summary(self) -> dict:
         """Plain-Python figures for JSON or printing (no large arrays)."""
@@ -216,6 +226,8 @@ class VerifyReport:
             "link_gouge": f(self.link_gouge),
             "link_rows": int(self.link_rows),
             **({"allowance": float(self.allowance)} if self.allowance else {}),
+            **({"uncovered_holes": int(self.uncovered_holes),
+                "uncovered_area": float(self.uncovered_area)} if self.uncovered_holes else {}),
         }
 
 
@@ -404,6 +416,11 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
         progress(Progress(1.0, "done"))
     rep = _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
     rep.link_gouge, rep.link_gouge_at, rep.link_gouge_row, rep.link_rows = links
+    holes = region_holes(mesh, axis, path.cone1, path.cone2)
+    if holes:
+        rep.uncovered_holes = len(holes)
+        rep.uncovered_area = float(sum(h.area for h in holes))
+        rep.uncovered_at = np.asarray(holes[0].centre)
     return rep
 
 

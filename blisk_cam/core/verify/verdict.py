@@ -11,6 +11,8 @@ good enough; this module compares them with the bounds that the two tolerances i
   for an equivalent ball; see :data:`NON_BALL_NOTE`.)
 * **gouge ≤ chord** — at every pose the cutter touches the surface; only the straight moves
   between poses may cut into it, by at most the chord tolerance.
+* **nothing uncovered** — holes of the mesh inside the region (``report.uncovered_area``,
+  mm²) have no surface to measure: the check "uncovered" fails whenever there are any.
 
 A semi-finishing path leaves the allowance a (``report.allowance``, :mod:`.allowance`): the
 bounds move with it — **material left on the blade ≤ a + cusp + chord** and **cut into the
@@ -198,6 +200,12 @@ def judge(report, cusp: float, chord: float, cutter=None, path=None,
         checks.append(BoundCheck("link_gouge", v, float(e), bool(math.isfinite(v) and v <= e),
                                  at=_point(getattr(report, "link_gouge_at", None)),
                                  row=None if row is None else int(row)))
+    holes = int(getattr(report, "uncovered_holes", 0) or 0)
+    if holes:
+        # holes of the mesh inside the region: no sample there, so no figure covers them;
+        # never a PASS over surface that was not measured (issue 28)
+        checks.append(BoundCheck("uncovered", float(report.uncovered_area), 0.0, False,
+                                 at=_point(getattr(report, "uncovered_at", None))))
     note = None
     kind = str(tool.get("type", "ball")).lower()
     if kind in _KIND:
@@ -288,7 +296,10 @@ def verdict_lines(verdict: Verdict) -> list[str]:
     labels, rules = (_LABEL_ALLOWANCE, _RULE_ALLOWANCE) if a else (_LABEL, _RULE)
     for c in verdict.checks:
         label, rule = labels.get(c.name, c.name), rules.get(c.name, "")
-        if not math.isfinite(c.value):
+        if c.name == "uncovered":
+            text = (f"  FAIL {c.value:.1f} mm² of the region not measured: the mesh has holes "
+                    "there (fill them, or move the cones off them)")
+        elif not math.isfinite(c.value):
             text = f"  FAIL {label} not measured (no surface samples), bound {c.bound:.4f} mm"
         else:
             rel = "≤" if c.passed else ">"
