@@ -44,8 +44,8 @@ from blisk_cam.core.process.blade_finish import (
     plan_paths,
 )
 from blisk_cam.core.stock.blank import stock_from_allowance
-from blisk_cam.core.stock.deviation import deviation_map
-from blisk_cam.core.stock.removal import remove_program
+from blisk_cam.core.stock.deviation import deviation_map, simulation_summary
+from blisk_cam.core.stock.removal import RemovalResult, remove_program
 from blisk_cam.core.stock.simulation import part_surface
 from blisk_cam.core.tool.cutter import Cutter
 from blisk_cam.core.toolpath.paths_io import read_paths_json, write_paths_json
@@ -196,17 +196,24 @@ def _simulate_patch(demo, path, passes=4, poses=20):
     inner = slice(len(core[0]), -len(core[-1]))
     P = np.vstack([V[covered], np.vstack(core)[inner]])
     Nn = np.vstack([N[covered], np.vstack(core_n)[inner]])
-    return deviation_map(stock, P, Nn, reach_out=1.0, reach_in=0.5)
+    return deviation_map(stock, P, Nn, reach_out=1.0, reach_in=0.5), part, stock, P
 
 
 @pytest.mark.parametrize("tool", ["ball", "bull"])
 def test_stock_left_on_the_blade_is_the_allowance(demo, ball_path, bull_path, tool):
     path = {"ball": ball_path, "bull": bull_path}[tool]
-    dev = _simulate_patch(demo, path)
+    dev, part, stock, P = _simulate_patch(demo, path)
     lo, hi = A - CHORD, A + CUSP + CHORD
     assert dev.min() >= lo - RES, dev.min()
     assert dev.max() <= hi + RES, dev.max()
     assert lo <= np.median(dev) <= hi, np.median(dev)
+    # the simulation's verdict judges gouges against the allowance the programs leave
+    tol = CHORD + RES
+    judged = simulation_summary(part, stock, RemovalResult(), P, dev, gouge_tolerance=tol,
+                                initial_volume=1.0, allowance=A)["deviation_mm"]
+    assert judged["allowance"] == A
+    assert judged["max_gouge"] == pytest.approx(max(0.0, A - dev.min()))
+    assert judged["gouged_vertices"] == int((dev < A - tol).sum()) == 0
 
 
 # ------------------------------------------------------------------ verify, JSON, errors
