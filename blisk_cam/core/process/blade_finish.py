@@ -655,6 +655,13 @@ def _stage_allowance(st: PlanState):
         st.program.tip = st.program.tip + a * st.program.axis
     st.stats["allowance"] = float(a)
     st.stats["planning_tool_radius"] = float(st.cutter.radius)
+    if st.stats.get("warnings"):  # the generator's own warnings name the cutter it planned with
+        planned = describe_tool(st.cutter.type, 2 * st.cutter.radius, st.cutter.r)
+        real = describe_tool(st.tool.type, 2 * st.tool.radius, st.tool.r)
+        st.warnings.append(
+            f"the warnings that name a {planned} mean the {real} grown by the allowance of "
+            f"{a:g} mm: the semi-finishing passes are planned with it on the blade (what the "
+            f"{real} leaves on the blade offset by {a:g} mm)")
     st.cutter = st.tool
     return
     yield
