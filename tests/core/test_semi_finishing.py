@@ -292,3 +292,20 @@ def test_an_allowance_wider_than_half_the_channel_is_refused(demo, tmp_path, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 1 and len(err) == 1 and "channel" in err[0], err
     assert not (tmp_path / "p.json").exists()
+
+
+def test_cli_semi_finishing_writes_and_verifies_the_allowance(demo, tmp_path, capsys):
+    d, _, c1, c2 = demo
+    stl = write_binary_stl(tmp_path / "blade.stl", d.blade_vertices, d.blade_faces)
+    out = tmp_path / "semi.json"
+    rc = cli.main(["paths", "--mesh", str(stl), "--cone1", *map(str, c1.as_list()),
+                   "--cone2", *map(str, c2.as_list()), "--cusp", "0.2", "--chord", "0.1",
+                   "--lead", "5", "--allowance", "0.1", "--verify", "--quiet", "--out", str(out)])
+    printed = capsys.readouterr().out
+    assert rc == 0, printed
+    data = json.loads(out.read_text(encoding="utf-8"))
+    assert data["tolerances"]["allowance"] == 0.1 and data["verify"]["allowance"] == 0.1
+    left = data["stats"]["verify_max_material_left"]  # on the blade
+    assert 0.1 - 0.1 <= left <= 0.1 + 0.2 + 0.1
+    assert data["verify"]["checks"]["material_left"]["bound"] == pytest.approx(0.4)
+    assert "allowance 0.1 mm" in printed and "material left on the blade" in printed
