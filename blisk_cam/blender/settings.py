@@ -269,7 +269,10 @@ def store_statistics(settings, blade_name, path, verify, seconds, verdict=None):
     settings.stat_cusp = max(cusps) if cusps else 0.0
     settings.stat_verified = verify is not None
     if verify is not None:
-        left, gouge = float(verify.max_material_left), float(verify.max_gouge)
+        # with an allowance (semi-finishing) the material left on the blade, and the gouge
+        # as the depth cut into the allowance (core.verify.allowance)
+        left = float(verify.max_material_left) + float(getattr(verify, "allowance", 0.0))
+        gouge = float(verify.max_gouge)
         settings.stat_material_left = left if np.isfinite(left) else 0.0
         settings.stat_gouge = gouge if np.isfinite(gouge) else 0.0
     else:

@@ -287,6 +287,11 @@ def plan_from_args(args, log=print, progress=None):
             f"{fit.residual1:.4f} mm), cone2 {_shown_generatrix(fit.cone2)} (residual "
             f"{fit.residual2:.4f} mm)")
     req = PathRequest(args.axis_obj, c1, c2, **args.stages)
+    if req.allowance > 0 and args.collision.blade_count:  # before any path work
+        from ..core.process.blade_finish import check_allowance_in_channel
+
+        check_allowance_in_channel(mesh, args.axis_obj, args.collision.blade_count,
+                                   req.allowance)
     extra = ()
     if args.collision.mode != "off":
         from ..core.process.blade_finish import collision_stage
@@ -335,10 +340,14 @@ def _verify_figures(report) -> dict:
     import numpy as np
 
     out = {}
+    a = float(getattr(report, "allowance", 0.0) or 0.0)
     for key in ("max_material_left", "max_gouge"):
-        value = float(getattr(report, key))
+        # with an allowance: the material left on the blade, the depth cut into the allowance
+        value = float(getattr(report, key)) + (a if key == "max_material_left" else 0.0)
         if np.isfinite(value):
             out[f"verify_{key}"] = value
+    if a:
+        out["verify_allowance"] = a
     return out
 
 
@@ -348,7 +357,12 @@ def _summary_line(path, times, report) -> str:
             f"curves, {path.n_poses} poses, {path.length():.1f} mm of path")
     if program is not None:
         text += f", {len(program)} program poses"
-    if report is not None:
+    a = float(getattr(report, "allowance", 0.0) or 0.0)
+    if report is not None and a:
+        text += (f"; measured max material left on the blade "
+                 f"{a + float(report.max_material_left):.4f} mm (allowance {a:g} mm), max cut "
+                 f"into the allowance {float(report.max_gouge):.4f} mm")
+    elif report is not None:
         text += (f"; measured max material left {float(report.max_material_left):.4f} mm, "
                  f"max gouge {float(report.max_gouge):.4f} mm")
     return text
@@ -399,8 +413,10 @@ def _cmd_paths(args):
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
     print(f"wrote {out}: {_summary_line(path, times, report)}")
-    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm; "
-          f"kernels: {path.stats.get('kernels', 'numpy')}")
+    stock = (f", allowance {req.allowance:g} mm (semi-finishing: the blade offset by it)"
+             if req.allowance else "")
+    print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm"
+          f"{stock}; kernels: {path.stats.get('kernels', 'numpy')}")
     for w in plan.warnings:
         print(f"warning: {w}")
     if verdict is not None:

@@ -178,7 +178,9 @@ def run_simulate(args) -> int:
     dv = summary["deviation_mm"]
     print(f"wrote {args.out}: removed {summary['volume_removed_mm3']['sector']:.1f} mm³ per "
           f"sector, left max {dv['max_left']:.3f} mm (p95 {dv['p95_left']:.3f}), gouge max "
-          f"{dv['max_gouge']:.3f} mm (tolerance {dv['gouge_tolerance']:.3f}), "
+          f"{dv['max_gouge']:.3f} mm"
+          + (f" into the allowance {dv['allowance']:g} mm" if dv.get("allowance") else "")
+          + f" (tolerance {dv['gouge_tolerance']:.3f}), "
           f"{len(summary['crashes'])} crash(es), {summary['seconds']:.1f} s")
     if not summary["passed"]:
         why = []

@@ -319,7 +319,7 @@ def describe_tool(tool_type: str, diameter: float, corner_radius: float = 0.0,
 
 @dataclass(frozen=True)
 class ToleranceOptions(OptionGroup):
-    """Scallop (cusp) and chord tolerances, mm."""
+    """Scallop (cusp) and chord tolerances and the stock to leave (allowance), mm."""
 
     title = "Tolerances (mm)"
     error = ToleranceError
@@ -330,6 +330,10 @@ class ToleranceOptions(OptionGroup):
     chord: float = option(
         0.05, "Chord", "Largest chord error along a pass (surface and tool path), mm",
         unit="mm", lo=1e-4, soft_max=1.0, precision=4)
+    allowance: float = option(
+        0.0, "Allowance", "Stock to leave on the blade, mm (semi-finishing: the passes "
+        "machine the blade offset outward by this much; 0: finish to size)",
+        unit="mm", lo=0.0, soft_max=2.0, precision=3)
 
 
 @dataclass(frozen=True)

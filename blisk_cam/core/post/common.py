@@ -100,7 +100,9 @@ def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
         f"blade: {o.blade_name}  blades: {ctx.blocks.blades}",
         f"tool T{o.tool_number}: {tool_text(p.tool)}",
         f"tolerances: cusp {p.cusp:g} mm, chord {p.chord:g} mm, "
-        f"linearization chord {(o.chord or p.chord):g} mm",
+        f"linearization chord {(o.chord or p.chord):g} mm"
+        + (f", allowance {p.allowance:g} mm left on the blade (semi-finishing)"
+           if getattr(p, "allowance", 0.0) else ""),
         f"machine: {m.name} ({m.kinematics}, {'/'.join(m.axis_names)})",
         f"post: {ctx.post}  units: mm, degrees",
         *getattr(o, "notes", ()),

@@ -17,6 +17,30 @@ ball that fits the fillet); otherwise the request is refused before any path wor
 figures and the way out (:func:`_fit_concave`). ``PlanResult.path.stats`` records
 ``expansion_radius``, ``edge_radius``, ``concave_radius``.
 
+Semi-finishing (``allowance`` a > 0, paper 003 §5: the blade left 0.1 mm oversize for the
+finishing cut). The paths machine the blade offset outward by a, with the same boundary
+conformity (first pass on cone 1, last on cone 2), scallop and chord rules and local gouge
+check. They are planned on the true blade with the cutter grown by a
+(:meth:`..tool.cutter.Cutter.grown`: ball ρ → ρ + a, bull nose R, r → R + a, r + a, flat →
+corner a): the offset surface machined by the cutter is exactly the true surface machined by
+the grown cutter (the offset of the swept solid is the sweep of the offset solid), so every
+stage — spacing, passes, local gouge fix, the swept link check — runs unchanged on the mesh
+as given, with no offset mesh to build (an offset of a triangle mesh self-intersects at
+concave places and loses the mesh's exact boundary on the cones). The last stage
+(:func:`_stage_allowance`) then reports the path of the real cutter: every CC point moves
+out along its normal by a (onto the offset surface, where the real cutter touches) and every
+tip, links and rapids included, up its own axis by a (the grown cutter's corner circles are
+the real cutter's, so the real cutter sits a higher on the same axis). The scallop left on
+the offset surface is the grown cutter's scallop on the blade, so the material left on the
+blade lies between a − chord and a + cusp + chord. Refused (ToleranceError) when a is at least
+the smallest concave radius between the cones: the offset surface folds there (a fillet of
+radius ρ offset by a ≥ ρ has no surface left to touch), and — where the blade count is known
+(the command line checks it before planning, :func:`check_allowance_in_channel`) — when a is
+at least half the narrowest gap to the neighbour blade. ``path.allowance`` records a (the
+paths JSON's ``tolerances.allowance``, read by verify, nc and simulate); ``stats`` adds
+``allowance`` and ``planning_tool_radius``, the grown cutter's radius (``expansion_radius`` is
+the grown cutter's spacing radius).
+
 Angles are radians, lengths mm, as everywhere in core. ``iter_plan_paths`` yields
 :class:`~..runtime.Progress` and returns a :class:`PlanResult` (``StopIteration.value``) so a
 modal operator can drive it and cancel between yields; ``plan_paths`` exhausts it.
@@ -33,11 +57,20 @@ from scipy.spatial import cKDTree
 
 from ..collision.avoid import iter_run_collisions
 from ..errors import BliskCamError, OrientationError, ToleranceError, ToolError
-from ..geometry.axis import Axis
+from ..geometry.axis import Axis, cylindrical
+from ..geometry.distance import MeshDistance
 from ..geometry.mesh import TriMesh
-from ..options import AxisOptions, CutterOptions, GougeOptions, LinkingOptions, ToleranceOptions
+from ..geometry.vectors import rotation_matrix
+from ..options import (
+    AxisOptions,
+    CutterOptions,
+    GougeOptions,
+    LinkingOptions,
+    ToleranceOptions,
+    describe_tool,
+)
 from ..part.cones import Cone
-from ..part.fitting import ConeFit, fit_cones_to_mesh
+from ..part.fitting import ConeFit, fit_cones_to_mesh, region_holes
 from ..part.profiles import morph_between
 from ..paths.gouge import (
     GougeLimits,
@@ -81,6 +114,7 @@ __all__ = [
     "PlanResult",
     "PlanState",
     "Stage",
+    "check_allowance_in_channel",
     "collision_stage",
     "NotSupportedError",
     "ZERO_SPEED_WARN_SHARE",
@@ -450,6 +484,10 @@ class PlanState:
     stats: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
     collision: object = None  # CollisionReport of the "collision" stage (when added)
+    #: semi-finishing: mm of stock left; ``cutter`` is then the real cutter grown by it
+    #: until "allowance" puts the real one (``tool``) back
+    allowance: float = 0.0
+    tool: Cutter | None = None
 
     def result(self) -> PlanResult:
         path = ToolPath(
@@ -464,6 +502,7 @@ class PlanState:
             program=self.program,
             warnings=self.warnings,
             collision=None if self.collision is None else self.collision.summary(),
+            allowance=self.allowance,
         )
         return PlanResult(path=path, fit=self.fit, gouge=self.gouge, collision=self.collision)
 
@@ -477,12 +516,41 @@ def _stage_fit(st: PlanState):
         st.fit = fit_cones_to_mesh(st.mesh, req.axis)
         st.cone1 = st.cone1 or st.fit.cone1
         st.cone2 = st.cone2 or st.fit.cone2
-    if st.cutter.type != "ball":
+    holes = region_holes(st.mesh, req.axis, st.cone1, st.cone2)
+    if holes:  # the passes break at each; nothing is machined or measured there (issue 28)
+        shown = "; ".join(h.describe() for h in holes[:3])
+        more = f"; and {len(holes) - 3} more" if len(holes) > 3 else ""
+        st.stats["holes"] = len(holes)
+        st.stats["holes_area"] = float(sum(h.area for h in holes))
+        st.warnings.append(
+            f"the blade mesh has {len(holes)} hole(s) inside the region between the cones "
+            f"({shown}{more}): the passes break at each hole into open pieces and nothing "
+            "there is machined or can be verified; fill the holes in the mesh (e.g. a "
+            "scan's gaps) or move the cones off them")
+    if st.cutter.type != "ball" or st.allowance > 0:
         st.edge, st.concave = surface_radii(st.mesh, req.axis, morph_between(st.cone1, st.cone2))
+    if st.allowance > 0 and st.allowance >= st.concave:
+        raise ToleranceError(
+            f"an allowance of {st.allowance:g} mm is more than the surface between the cones "
+            f"allows: its tightest concave radius (e.g. the hub fillet) is {st.concave:.2f} mm, "
+            "and the blade offset by the allowance folds over itself there; leave less than "
+            f"{st.concave:.2f} mm of stock, or move the hub cone off the fillet")
+    if st.cutter.type == "ball":
+        st.edge = math.inf  # a ball is spaced without the edge radius (as at allowance 0)
+        st.concave = math.inf
     st.rho = expansion_radius(st.cutter, st.strategy, req.cusp, st.edge)
     if math.isfinite(st.concave):
-        st.rho = _fit_concave(st.cutter, st.strategy, st.limits, req, st.edge, st.concave,
-                              st.rho)
+        try:
+            st.rho = _fit_concave(st.cutter, st.strategy, st.limits, req, st.edge,
+                                  st.concave, st.rho)
+        except ToleranceError as err:
+            if st.allowance <= 0:
+                raise
+            raise ToleranceError(
+                f"{err} (the allowance of {st.allowance:g} mm counts: the cutter touching "
+                "the blade offset by it is planned as the cutter grown by it on the blade, "
+                f"a {describe_tool(st.cutter.type, 2 * st.cutter.radius, st.cutter.r)}; "
+                "leave less stock or use a smaller cutter)") from None
     return
     yield  # a generator: nothing to report in between
 
@@ -574,6 +642,80 @@ def _stage_checks(st: PlanState):
     yield
 
 
+def _stage_allowance(st: PlanState):
+    """Semi-finishing: the path planned with the grown cutter on the blade becomes the real
+    cutter's path on the blade offset by the allowance a (see the module docstring): CC
+    points out along their normals by a, every tip (cuts, links, approaches, rapids) up its
+    own axis by a, the real cutter in place of the grown one."""
+    a = st.allowance
+    for c in st.curves:
+        c.cc = c.cc + a * c.normal
+        c.tip = c.tip + a * c.axis
+    if st.program is not None:
+        st.program.tip = st.program.tip + a * st.program.axis
+    st.stats["allowance"] = float(a)
+    st.stats["planning_tool_radius"] = float(st.cutter.radius)
+    if st.stats.get("warnings"):  # the generator's own warnings name the cutter it planned with
+        planned = describe_tool(st.cutter.type, 2 * st.cutter.radius, st.cutter.r)
+        real = describe_tool(st.tool.type, 2 * st.tool.radius, st.tool.r)
+        st.warnings.append(
+            f"the warnings that name a {planned} mean the {real} grown by the allowance of "
+            f"{a:g} mm: the semi-finishing passes are planned with it on the blade (what the "
+            f"{real} leaves on the blade offset by {a:g} mm)")
+    st.cutter = st.tool
+    return
+    yield
+
+
+ALLOWANCE_STAGE = Stage("allowance", _stage_allowance)
+
+
+def check_allowance_in_channel(mesh: TriMesh, axis: Axis, blade_count: int,
+                               allowance: float, *, candidates: int = 256) -> float:
+    """The narrowest gap (mm) between the blade and its neighbour (the blade turned by
+    360°/N about ``axis``), or a ToleranceError when the allowance is at least half of it:
+    the blade and its neighbour, each offset by the allowance, would overlap, leaving no
+    channel to cut (issue 23: "an allowance larger than half the channel"). The blade
+    vertices nearest a neighbour vertex (k-d trees, ``candidates`` of them) are measured
+    exactly against the neighbour's triangles: the gap is that of the nearest vertex (on a
+    mesh finer than the blade's curvature, the true gap to second order in the edge)."""
+    a = float(allowance)
+    n = int(blade_count)
+    if a <= 0 or n < 2:
+        return math.inf
+    R = rotation_matrix(axis.d, 2.0 * math.pi / n)
+    W = (mesh.V - axis.o) @ R.T + axis.o
+    tree = cKDTree(W)
+    # every 8th vertex first (the k-d tree's far queries are the cost), then every vertex
+    # within 5 mm of the nearest of those, then the triangles near them exactly
+    coarse = mesh.V[::8]
+    near, _ = tree.query(coarse)
+    seeds = coarse[np.argsort(near)[:candidates // 8]]
+    around = cKDTree(mesh.V).query_ball_point(seeds, 5.0)
+    P = mesh.V[np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in around]))]
+    near, _ = tree.query(P)
+    P = P[np.argsort(near)[:candidates]]
+    # the neighbour's triangles with a corner within reach of those vertices (the longest
+    # edge further than the nearest corner): their exact closest points are the gap's
+    edge = float(np.linalg.norm(W[mesh.F] - W[np.roll(mesh.F, 1, axis=1)], axis=2).max())
+    hits = tree.query_ball_point(P, float(near.min()) + 2.0 * edge)
+    corner = np.zeros(len(W), bool)
+    corner[np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]))] = True
+    faces = mesh.F[corner[mesh.F].any(axis=1)]
+    used, local = np.unique(faces, return_inverse=True)
+    d = MeshDistance(TriMesh.from_arrays(W[used], local.reshape(-1, 3))).query(P).distance
+    k = int(np.argmin(d))
+    gap = float(d[k])
+    if a >= 0.5 * gap:
+        r, _, z, _ = cylindrical(P[k:k + 1], axis)
+        raise ToleranceError(
+            f"an allowance of {a:g} mm is more than the channel allows: the narrowest gap "
+            f"between the blade and its neighbour ({n} blades) is {gap:.3f} mm (at r = "
+            f"{float(r[0]):.1f} mm, z = {float(z[0]):.1f} mm), and both blades offset by the "
+            f"allowance would overlap there; leave less than {0.5 * gap:.3f} mm of stock")
+    return gap
+
+
 def collision_stage(options, obstacles=()) -> Stage:
     """The "collision" stage (:mod:`..collision.avoid`, paper 004) for ``iter_plan_paths(...,
     extra=(collision_stage(options, obstacles),))``: the planned passes and program are
@@ -614,10 +756,17 @@ class BladeFinish(Operation):
 
     def start(self, part: TriMesh, request: PathRequest, stock=None) -> PlanState:
         cutter, strategy, _, limits = _check(request)
+        allowance = float(request.allowance)
+        if allowance > 0:  # semi-finishing: plan with the grown cutter (module docstring)
+            return PlanState(mesh=part, req=request, cutter=cutter.grown(allowance),
+                             strategy=strategy, limits=limits, allowance=allowance,
+                             tool=cutter)
         return PlanState(mesh=part, req=request, cutter=cutter, strategy=strategy,
                          limits=limits)
 
     def stages(self, state: PlanState) -> tuple[Stage, ...]:
+        if state.allowance > 0:
+            return (*PLAN_STAGES, ALLOWANCE_STAGE)
         return PLAN_STAGES
 
     def finish(self, state: PlanState, seconds: dict) -> PlanResult:

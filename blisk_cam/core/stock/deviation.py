@@ -84,15 +84,18 @@ def deviation_map(dex: RadialDexels, V, normals, *, reach_out: float = 2.0,
 
 def simulation_summary(part: BliskPart, dex: RadialDexels, removal: RemovalResult, V, dev,
                        *, gouge_tolerance: float, initial_volume: float,
-                       reached=None) -> dict:
+                       reached=None, allowance: float = 0.0) -> dict:
     """The verdict as a JSON-ready dict: volumes (sector and whole blisk, mm³), deviation
     figures (mm), the largest gouge and where, crashes, and ``passed`` (no crash, no gouge
-    deeper than ``gouge_tolerance``)."""
+    deeper than ``gouge_tolerance``). With an ``allowance`` a > 0 (the programs leave stock:
+    semi-finishing) a gouge is a cut into the allowance: the depth below a (deviation < a),
+    and ``deviation_mm.allowance`` says a."""
     dev = np.asarray(dev, float)
     left = dev[dev > 0]
     sel = dev if reached is None else dev[np.asarray(reached, bool)]
     worst = int(np.argmin(dev)) if len(dev) else -1
-    gouge = float(-dev[worst]) if worst >= 0 and dev[worst] < 0 else 0.0
+    a = float(allowance)
+    gouge = float(a - dev[worst]) if worst >= 0 and dev[worst] < a else 0.0
     n = part.blade_count
     r, th, z = theta_about(V[worst:worst + 1], part.axis) if worst >= 0 else (0, 0, 0)
     passed = not removal.crashes and gouge <= gouge_tolerance
@@ -118,7 +121,8 @@ def simulation_summary(part: BliskPart, dex: RadialDexels, removal: RemovalResul
                                             round(math.degrees(float(th[0])), 4),
                                             round(float(z[0]), 4)] if worst >= 0 else None),
             "gouge_tolerance": float(gouge_tolerance),
-            "gouged_vertices": int((dev < -gouge_tolerance).sum()),
+            "gouged_vertices": int((dev < a - gouge_tolerance).sum()),
+            **({"allowance": a} if a else {}),
         },
         "crashes": [c.as_dict() for c in removal.crashes],
     }

@@ -67,7 +67,9 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
                   check_body: bool = True):
     """Run ``paths`` (ToolPath with programs, in order) on ``stock`` (changed in place);
     yields Progress, returns a :class:`Simulation`. ``gouge_tolerance`` (mm) defaults to the
-    largest chord tolerance of the paths plus the stock's resolution."""
+    largest chord tolerance of the paths plus the stock's resolution. When every program
+    leaves stock (``ToolPath.allowance``, semi-finishing) the smallest allowance is the
+    surface the verdict judges gouges against."""
     paths = list(paths)
     for k, p in enumerate(paths):
         _check_frame(part, p, k)
@@ -102,7 +104,9 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
     dev = np.full(len(V), np.nan)
     dev[surface] = deviation_map(stock, V[surface], N[surface], reach_out=reach_out,
                                  reach_in=reach_in)
+    allowance = min((float(getattr(p, "allowance", 0.0) or 0.0) for p in paths), default=0.0)
     summary = simulation_summary(part, stock, total, V[surface], dev[surface],
-                                 gouge_tolerance=float(gouge_tolerance), initial_volume=initial)
+                                 gouge_tolerance=float(gouge_tolerance), initial_volume=initial,
+                                 allowance=allowance)
     yield Progress(1.0, "done")
     return Simulation(stock, total, V, F, dev, summary)

@@ -275,6 +275,38 @@ class Cutter:
             return cls.taper(R, angle, **kw)
         raise ToolError(f"tool type must be one of {', '.join(TOOL_TYPES)}; got {type!r}")
 
+    def grown(self, allowance: float) -> Cutter:
+        """This cutter grown by ``allowance`` mm: its Minkowski sum with a ball of that radius.
+
+        Ball ρ → ball ρ + a; bull nose (radius R, corner r) → bull nose (R + a, r + a), the
+        same flat core e; flat end (R) → bull nose (R + a, corner a); tapered ball → the
+        tapered ball of tip radius ρ + a and the same side angle. The corner circles keep
+        their centres, so with the grown cutter's tip at ``t`` the cutter itself sits at
+        ``t + a · axis`` (same axis); flute, shank and holder grow by a around the same top.
+
+        Why: the surface offset outward by a, machined by this cutter, is exactly the true
+        surface machined by the grown cutter (the offset of a swept solid is the sweep of
+        the offset solid), so a semi-finishing path is planned on the true surface with the
+        grown cutter — contact, spacing, local gouge check — and moved up its axis by a.
+        ToolError for a ≤ 0 or a conical bottom (α > 0: its apex would grow into a sphere,
+        which DIN 66215 does not describe)."""
+        a = float(allowance)
+        if not (math.isfinite(a) and a > 0):
+            raise ToolError(f"a cutter grows by an allowance > 0 mm, got {allowance!r}")
+        if self.alpha != 0.0:
+            raise ToolError(f"a {self.type} cutter with a conical bottom (α = "
+                            f"{math.degrees(self.alpha):g}°) cannot leave an allowance: its "
+                            "grown shape is no DIN 66215 cutter; use a ball, bull-nose or flat")
+        kw = dict(h=self.h + a, shank_diameter=self.shank_diameter + 2 * a,
+                  neck_length=self.neck_length, holder_diameter=self.holder_diameter + 2 * a,
+                  holder_length=self.holder_length)
+        R = self.radius + a
+        if self.type == "ball":
+            return Cutter.ball(R, **kw)
+        if self.type == "taper":
+            return Cutter.taper(R, self.beta, **kw)
+        return Cutter.bull(R, self.r + a, **kw)
+
     def as_dict(self) -> dict:
         """The paths-JSON "tool" object: {"type", "radius", "corner_radius", DIN fields...}."""
         out = {"type": self.type, "radius": self.radius, "corner_radius": self.r}

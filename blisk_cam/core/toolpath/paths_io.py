@@ -1,10 +1,11 @@
 """The paths JSON (ARCHITECTURE.md, "paths JSON — contract (version 1)").
 
 ``{"format": "blisk_cam.paths", "version": 1, "units": "mm", "axis": [...6], "cone1": [...4],
-"cone2": [...4], "tool": {...}, "tolerances": {"cusp", "chord"}, "curves": [{"s", "closed",
-"cc", "normal", "tip", "axis"}, ...]}``. Curves in machining order; closed curves do not repeat
-their first point; full float precision (``repr`` round-trip of float64). Readers ignore keys
-they do not know, so later versions can add fields without breaking version-1 readers.
+"cone2": [...4], "tool": {...}, "tolerances": {"cusp", "chord"[, "allowance"]}, "curves":
+[{"s", "closed", "cc", "normal", "tip", "axis"}, ...]}``. Curves in machining order; closed
+curves do not repeat their first point; full float precision (``repr`` round-trip of
+float64). Readers ignore keys they do not know, so later versions can add fields without
+breaking version-1 readers.
 
 Fields added (still version 1; none of the above changed):
 
@@ -32,6 +33,9 @@ Fields added (still version 1; none of the above changed):
   clearance, obstacles, assembly, safety, mode), and ``"tool" → "assembly"``
   (``{"flute_length", "profile": [[z, r], ...], "safety"}``). Absent when not checked, so
   unchecked paths write exactly what they did before.
+* ``"tolerances" → "allowance"`` — mm of stock the path leaves (semi-finishing,
+  ``ToolPath.allowance``): the CC points lie on the blade offset outward by it and the tips
+  are the real cutter's touching that offset surface. Absent for a finishing path (0).
 """
 
 from __future__ import annotations
@@ -72,7 +76,9 @@ def path_to_dict(path: ToolPath) -> dict:
         "axis": path.axis.as_list(),
         **_generatrix_entries(path.cone1, path.cone2),
         "tool": _tool_dict(path),
-        "tolerances": {"cusp": float(path.cusp), "chord": float(path.chord)},
+        "tolerances": {"cusp": float(path.cusp), "chord": float(path.chord),
+                       # written only when stock is left, so finishing files stay as before
+                       **({"allowance": float(path.allowance)} if path.allowance else {})},
         "curves": [
             {
                 "s": float(c.s),
@@ -135,6 +141,7 @@ def path_from_dict(d: dict) -> ToolPath:
             tool=Cutter.from_dict(tool),
             cusp=_number(tol["cusp"], "tolerances.cusp", positive=True),
             chord=_number(tol["chord"], "tolerances.chord", positive=True),
+            allowance=_allowance(tol),
             curves=curves,
             stats=dict(d.get("stats", {})),
             program=_program_from_dict(d["program"]) if "program" in d else None,
@@ -149,6 +156,16 @@ def path_from_dict(d: dict) -> ToolPath:
 
 
 # --- validation at the door (issue 28): finite numbers, shapes, the field and row named ---
+def _allowance(tol: dict) -> float:
+    """``tolerances.allowance`` (mm ≥ 0; absent: 0, a finishing path)."""
+    if "allowance" not in tol:
+        return 0.0
+    a = _number(tol["allowance"], "tolerances.allowance")
+    if a < 0:
+        raise BliskCamError(f"tolerances.allowance must be ≥ 0 mm, got {a:g}")
+    return a
+
+
 def _list(value, name: str) -> list:
     if not isinstance(value, list):
         raise BliskCamError(f"paths file: {name} must be a list, got {type(value).__name__}")

@@ -259,6 +259,9 @@ class ToolPath:
     warnings: list[str] = field(default_factory=list)
     collision: dict | None = None
     verify: dict | None = None  # the verdict of an independent check (.verdict.verdict_dict)
+    #: mm of stock left on the surface (semi-finishing): the CC points lie on the surface
+    #: offset outward by it and the cutter touches that offset surface; 0 = finished to size
+    allowance: float = 0.0
 
     @property
     def n_poses(self) -> int:

@@ -43,10 +43,12 @@ from ..geometry.closest import ClosestPoints, barycentric, closest_on_segments, 
 from ..geometry.distance import MeshDistance, closest_points
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import dot, slerp, unit
+from ..part.fitting import region_holes
 from ..part.profiles import morph_between
 from ..runtime import Cancelled, Progress, alongside, cancellable, check_cancel, map_tasks, parallel
 from ..tool.cutter import as_cutter
 from ..toolpath.types import PassCurve, ToolPath
+from .allowance import as_measured_on_blade
 from .forest import SweptForest
 from .links import cut_runs, link_checks
 from .samples import SurfaceSamples, default_spacing, surface_samples
@@ -126,6 +128,19 @@ class VerifyReport:
         its axis one radius above the tip); ``link_gouge_at`` where, ``link_gouge_row`` the
         program row the move ends at; link_rows : the non-cut moves measured (0 without a
         program)
+
+    Holes (issue 28)
+    -----
+    uncovered_holes, uncovered_area (mm²), uncovered_at (3,) : holes of the mesh inside the
+        region (:func:`..part.fitting.region_holes`): surface the samples cannot reach, so no
+        figure above covers it; ``uncovered_at`` is the largest hole's centre
+
+    Allowance (semi-finishing: ``path.allowance`` a > 0)
+    ---------
+    allowance : a. Every figure above is then measured against the blade offset by a
+        (:mod:`.allowance`: the cutter grown by a on the blade; ``tool`` and ``tool_radius``
+        are the grown cutter's): the material left on the blade is a + ``max_material_left``,
+        ``max_gouge`` and ``link_gouge`` are depths into the allowance.
     """
 
     tool_radius: float
@@ -172,6 +187,10 @@ class VerifyReport:
     link_gouge_at: np.ndarray | None = None
     link_gouge_row: int | None = None
     link_rows: int = 0
+    allowance: float = 0.0  # mm of stock the path leaves (see below)
+    uncovered_holes: int = 0
+    uncovered_area: float = 0.0
+    uncovered_at: np.ndarray | None = None
 
     def summary(self) -> dict:
         """Plain-Python figures for JSON or printing (no large arrays)."""
@@ -206,6 +225,9 @@ class VerifyReport:
             "timings": {k: round(float(v), 4) for k, v in self.timings.items()},
             "link_gouge": f(self.link_gouge),
             "link_rows": int(self.link_rows),
+            **({"allowance": float(self.allowance)} if self.allowance else {}),
+            **({"uncovered_holes": int(self.uncovered_holes),
+                "uncovered_area": float(self.uncovered_area)} if self.uncovered_holes else {}),
         }
 
 
@@ -300,7 +322,8 @@ def verify_path(
     Parameters
     ----------
     mesh : TriMesh — the machined surface (normals out of the material)
-    path : ToolPath — passes with cc, normal, tip, axis per pose
+    path : ToolPath — passes with cc, normal, tip, axis per pose; a path leaving stock
+        (``allowance`` > 0) is measured against the blade offset by it (:mod:`.allowance`)
     spacing : float, mm — surface sample spacing; default :func:`default_spacing` of the
         tool radius and the path's cusp tolerance (a third of the nominal pass spacing)
     subsamples : int — points per segment for the chord checks (CC and centre polylines)
@@ -322,7 +345,10 @@ def verify_path(
     VerifyReport
     """
     with parallel(workers), cancellable(cancel, "verify"):
-        return _verify_path(mesh, path, spacing, subsamples, refine, method, progress)
+        report = _verify_path(mesh, as_measured_on_blade(path), spacing, subsamples, refine,
+                              method, progress)
+    report.allowance = float(path.allowance or 0.0)
+    return report
 
 
 #: the steps of verify and the fraction of a typical run done when each starts
@@ -390,6 +416,11 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
         progress(Progress(1.0, "done"))
     rep = _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
     rep.link_gouge, rep.link_gouge_at, rep.link_gouge_row, rep.link_rows = links
+    holes = region_holes(mesh, axis, path.cone1, path.cone2)
+    if holes:
+        rep.uncovered_holes = len(holes)
+        rep.uncovered_area = float(sum(h.area for h in holes))
+        rep.uncovered_at = np.asarray(holes[0].centre)
     return rep
 
 

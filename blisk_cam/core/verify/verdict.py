@@ -11,6 +11,13 @@ good enough; this module compares them with the bounds that the two tolerances i
   for an equivalent ball; see :data:`NON_BALL_NOTE`.)
 * **gouge ≤ chord** — at every pose the cutter touches the surface; only the straight moves
   between poses may cut into it, by at most the chord tolerance.
+* **nothing uncovered** — holes of the mesh inside the region (``report.uncovered_area``,
+  mm²) have no surface to measure: the check "uncovered" fails whenever there are any.
+
+A semi-finishing path leaves the allowance a (``report.allowance``, :mod:`.allowance`): the
+bounds move with it — **material left on the blade ≤ a + cusp + chord** and **cut into the
+allowance ≤ chord** (material left ≥ a − chord); the links likewise may cut into the
+allowance by the chord at most.
 
 ``judge`` returns a :class:`Verdict`; :func:`verdict_dict` is its JSON form (the paths JSON's
 top-level ``"verify"`` key), :func:`verdict_lines` the console lines. The worst point of each
@@ -92,6 +99,7 @@ class Verdict:
     chord: float
     tool: dict = field(default_factory=dict)
     note: str | None = None
+    allowance: float = 0.0  # mm of stock the path leaves (the bounds move with it)
 
     @property
     def status(self) -> str:
@@ -142,7 +150,8 @@ def _locate(path, at):
     return best[1:]
 
 
-def judge(report, cusp: float, chord: float, cutter=None, path=None) -> Verdict:
+def judge(report, cusp: float, chord: float, cutter=None, path=None,
+          allowance: float | None = None) -> Verdict:
     """The verdict on a verify report.
 
     Parameters
@@ -151,15 +160,22 @@ def judge(report, cusp: float, chord: float, cutter=None, path=None) -> Verdict:
     cusp, chord : float, mm > 0 — the path's tolerances
     cutter : Cutter, its dict, or None (the report's ``tool``)
     path : ToolPath or None — to name the pass and pose nearest each worst point
+    allowance : float, mm ≥ 0, or None (the report's ``allowance``, else 0) — the stock the
+        path leaves: the material left is then judged on the blade against a + cusp + chord
+        and the gouges as cuts into the allowance (the report measures them so)
 
     A figure that could not be measured (NaN: no surface samples) fails its bound.
     """
     h = _finite_tolerance("cusp", cusp)
     e = _finite_tolerance("chord", chord)
     tool = _tool_dict(cutter, report)
+    a = float(getattr(report, "allowance", 0.0) or 0.0) if allowance is None else allowance
+    if not (math.isfinite(a) and a >= 0):
+        raise ToleranceError(f"verdict: the allowance must be a length ≥ 0 mm, got {a!r}")
     checks = []
     for name, value, at, bound in (
-        ("material_left", report.max_material_left, report.max_material_left_at, h + e),
+        ("material_left", a + report.max_material_left, report.max_material_left_at,
+         a + h + e),
         ("gouge", report.max_gouge, report.max_gouge_at, e),
     ):
         v = float(value)
@@ -172,7 +188,7 @@ def judge(report, cusp: float, chord: float, cutter=None, path=None) -> Verdict:
             ps = np.asarray(getattr(report, "pair_s", []), dtype=np.float64).reshape(-1, 2)
             if len(pc) and np.any(np.isfinite(pc)) and len(ps) == len(pc):
                 j = int(np.nanargmax(pc))
-                if math.isfinite(v) and abs(pc[j] - v) <= 1e-9 * max(1.0, abs(v)):
+                if math.isfinite(v) and abs(a + pc[j] - v) <= 1e-9 * max(1.0, abs(v)):
                     chk.between = (float(ps[j, 0]), float(ps[j, 1]))
         checks.append(chk)
     link = getattr(report, "link_gouge", None)
@@ -184,6 +200,12 @@ def judge(report, cusp: float, chord: float, cutter=None, path=None) -> Verdict:
         checks.append(BoundCheck("link_gouge", v, float(e), bool(math.isfinite(v) and v <= e),
                                  at=_point(getattr(report, "link_gouge_at", None)),
                                  row=None if row is None else int(row)))
+    holes = int(getattr(report, "uncovered_holes", 0) or 0)
+    if holes:
+        # holes of the mesh inside the region: no sample there, so no figure covers them;
+        # never a PASS over surface that was not measured (issue 28)
+        checks.append(BoundCheck("uncovered", float(report.uncovered_area), 0.0, False,
+                                 at=_point(getattr(report, "uncovered_at", None))))
     note = None
     kind = str(tool.get("type", "ball")).lower()
     if kind in _KIND:
@@ -195,7 +217,7 @@ def judge(report, cusp: float, chord: float, cutter=None, path=None) -> Verdict:
             kind=_KIND[kind], radius=float(tool.get("radius", float("nan"))), rho=rho,
             bound=h + e, example=h + e - 1e-4 if h + e > 1e-4 else h + e, cusp=h, chord=e,
         )
-    return Verdict(all(c.passed for c in checks), checks, h, e, tool, note)
+    return Verdict(all(c.passed for c in checks), checks, h, e, tool, note, a)
 
 
 def _f(x):
@@ -224,6 +246,7 @@ def verdict_dict(verdict: Verdict) -> dict:
             d["row"] = int(c.row)
         checks[c.name] = d
     out = {"status": verdict.status, "cusp": verdict.cusp, "chord": verdict.chord,
+           **({"allowance": verdict.allowance} if verdict.allowance else {}),
            "checks": checks}
     if verdict.note:
         out["note"] = verdict.note
@@ -244,7 +267,7 @@ def verdict_from_dict(d: dict) -> Verdict:
                 row=c.get("row"),
             ))
         return Verdict(d["status"] == "PASS", checks, float(d["cusp"]), float(d["chord"]),
-                       note=d.get("note"))
+                       note=d.get("note"), allowance=float(d.get("allowance", 0.0)))
     except (KeyError, TypeError, ValueError, AttributeError) as err:
         raise ToleranceError(f"verify verdict is incomplete or malformed: {err}") from err
 
@@ -254,12 +277,29 @@ _LABEL = {"material_left": "material left", "gouge": "gouge",
 _RULE = {"material_left": "cusp + chord", "gouge": "chord", "link_gouge": "chord"}
 
 
+#: the labels and rules of a path that leaves an allowance (semi-finishing)
+_LABEL_ALLOWANCE = {"material_left": "material left on the blade",
+                    "gouge": "cut into the allowance",
+                    "link_gouge": "cut into the allowance by the links, approaches, retracts "
+                                  "and rapids"}
+_RULE_ALLOWANCE = {"material_left": "allowance + cusp + chord",
+                   "gouge": "chord: left ≥ allowance − chord",
+                   "link_gouge": "chord"}
+
+
 def verdict_lines(verdict: Verdict) -> list[str]:
     """Console lines: the overall status, one line per bound with where, then the note."""
-    lines = [f"verify: {verdict.status} (cusp {verdict.cusp:g} mm, chord {verdict.chord:g} mm)"]
+    a = verdict.allowance
+    head = f"allowance {a:g} mm, " if a else ""
+    lines = [f"verify: {verdict.status} ({head}cusp {verdict.cusp:g} mm, chord "
+             f"{verdict.chord:g} mm)"]
+    labels, rules = (_LABEL_ALLOWANCE, _RULE_ALLOWANCE) if a else (_LABEL, _RULE)
     for c in verdict.checks:
-        label, rule = _LABEL.get(c.name, c.name), _RULE.get(c.name, "")
-        if not math.isfinite(c.value):
+        label, rule = labels.get(c.name, c.name), rules.get(c.name, "")
+        if c.name == "uncovered":
+            text = (f"  FAIL {c.value:.1f} mm² of the region not measured: the mesh has holes "
+                    "there (fill them, or move the cones off them)")
+        elif not math.isfinite(c.value):
             text = f"  FAIL {label} not measured (no surface samples), bound {c.bound:.4f} mm"
         else:
             rel = "≤" if c.passed else ">"
