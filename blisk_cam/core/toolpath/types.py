@@ -259,6 +259,9 @@ class ToolPath:
     warnings: list[str] = field(default_factory=list)
     collision: dict | None = None
     verify: dict | None = None  # the verdict of an independent check (.verdict.verdict_dict)
+    #: the operation that made the path ("hub-finish", "fillet-finish"; None: blade finishing,
+    #: written as before)
+    operation: str | None = None
 
     @property
     def n_poses(self) -> int:
