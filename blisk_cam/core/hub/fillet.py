@@ -7,7 +7,7 @@ A ball of radius ρ inside a fillet of radius R_f > ρ touching it at the angle 
 has its centre at the height h(φ) = R_f − (R_f − ρ) cos φ above the hub: h = ρ at φ = 0 (the
 ball on the hub, touching the fillet's lower edge), h = R_f at φ = 90° (touching the wall
 above the fillet). Layer j (of ``layers``) is the loop of ball centres at height h(φ_j),
-φ_j = 90° j / (layers − 1) (one layer: the lower edge alone), each centre placed along the
+φ_j = 75° j / (layers − 1) (one layer: the lower edge alone), each centre placed along the
 hub's developed outward normal of the root loop where its signed distance to the blade mesh
 is ρ + allowance (bisection): the ball then touches the fillet (or the hub, at the edge) and
 keeps the allowance from the blade. The contact point (CC) is the centre minus ρ along the
@@ -45,12 +45,18 @@ class FilletLayer:
         self.height, self.angle = float(height), float(angle)
 
 
+#: the top layer touches the fillet this far up (φ, rad): short of the wall, where the
+#: contact would come to the ball's equator (the wall above is blade finishing's)
+TOP_ANGLE = math.radians(75.0)
+
+
 def layer_heights(rho: float, fillet_radius: float, layers: int) -> np.ndarray:
-    """(layers, 2) (height of the ball centre above the hub mm, φ rad) per layer."""
+    """(layers, 2) (height of the ball centre above the hub mm, φ rad) per layer, φ from 0
+    (the lower edge) to :data:`TOP_ANGLE`."""
     if layers <= 1:
         phi = np.zeros(1)
     else:
-        phi = 0.5 * math.pi * np.arange(layers) / (layers - 1)
+        phi = TOP_ANGLE * np.arange(layers) / (layers - 1)
     return np.stack([fillet_radius - (fillet_radius - rho) * np.cos(phi), phi], 1)
 
 
