@@ -43,12 +43,13 @@ from ..geometry.mesh import TriMesh
 from ..runtime import Progress
 from .surface import HubSurface, stepover_for_scallop
 
-__all__ = ["Channel", "Region", "channel_boundaries", "chord_indices", "pass_ratios",
-           "root_loop", "sample_pass"]
+__all__ = ["Channel", "Region", "TipChannel", "channel_boundaries", "chord_indices",
+           "pass_ratios", "root_loop", "sample_pass", "side_distance"]
 
-#: θ samples across one pitch when searching the clearance boundaries
-_THETA_SAMPLES = 96
-_BISECT = 30
+#: θ samples across one pitch when searching the clearance boundaries: every half ball
+#: radius of arc at the hub, within these bounds
+_THETA_SAMPLES = (32, 400)
+_BISECT = 24
 #: extra clearance of the boundaries, mm (the passes interpolate θ between stations)
 _MARGIN = 0.005
 
@@ -146,6 +147,15 @@ def _chains(m, th):
     return out[0], out[1]
 
 
+def side_distance(q) -> np.ndarray:
+    """(k,) the distance of :class:`~..geometry.closest.ClosestPoints` ``q``, negative where
+    the point lies inside the material by a face's own normal (the nearest point inside a
+    face); a nearest point on an edge or corner (the open root loop) gives no reliable side
+    and reads as outside."""
+    inside = (q.feature == 0) & (q.sign < 0)
+    return np.where(inside, -q.distance, q.distance)
+
+
 class _Clearance:
     """Signed distance of ball centres above hub points to blade 0 and to blade 1."""
 
@@ -158,12 +168,9 @@ class _Clearance:
         return self.hub.point(m, th) + np.asarray(h)[..., None] * self.hub.normal(m, th)
 
     def signed(self, m, th, blade: int, height=None) -> np.ndarray:
-        """Signed distance of the centres to the blade; a centre whose nearest blade point is
-        far (beyond 4 ρ) counts as clear whatever the side (the open root loop's edges give
-        no reliable side)."""
+        """Distance of the centres to the blade, negative inside it (:func:`side_distance`)."""
         c = self.centres(m, np.asarray(th) - blade * self.pitch, height)
-        q = self.dist.query(c)
-        return np.where(q.distance > 4.0 * self.rho, q.distance, q.signed_distance)
+        return side_distance(self.dist.query(c))
 
 
 def _boundary(clear: _Clearance, m, th_grid, blade: int, target: float, last: bool):
@@ -236,7 +243,8 @@ def channel_boundaries(blade: TriMesh, hub: HubSurface, pitch: float, rho: float
     m = np.linspace(lo_m, hi_m, n)
     (mu, tu), (ml, tl) = _chains(m_l, th_l)
     mid = 0.5 * (np.interp(m, mu, tu) + np.interp(m, ml, tl))
-    J = _THETA_SAMPLES
+    r_hub = float(np.max(hub.rz(m)[:, 0]))
+    J = int(np.clip(math.ceil(pitch * r_hub / (0.5 * rho)), *_THETA_SAMPLES))
     grid = mid[:, None] + pitch * (np.arange(J + 1) / J)[None, :]
     clear = _Clearance(blade, hub, pitch, rho)
     yield Progress(0.1, "hub: the ball's clearance from blade 0")
@@ -419,8 +427,10 @@ class TipChannel:
         self._rz = (np.sort(z), r[np.argsort(z)])
 
     def point(self, z, t, margin: float) -> np.ndarray:
-        """(k, 3) points at the tip radius, axial position ``z`` (k,) clamped to the tip's
-        extent, ratio ``t`` (k,) across the gap, kept ``margin`` mm from each side."""
+        """(k, 3) points at the tip radius, axial position ``z`` (k,), ratio ``t`` (k,) across
+        the gap, kept ``margin`` mm from each side; beyond the tip's axial extent the point
+        at its end, moved axially by the overshoot (the aim keeps its direction past the
+        edges)."""
         z = np.asarray(z, dtype=np.float64)
         zc = np.clip(z, max(self.zu[0], self.zl[0]), min(self.zu[-1], self.zl[-1]))
         a = np.interp(zc, self.zu, self.tu)
@@ -431,5 +441,5 @@ class TipChannel:
         tt = f + np.asarray(t) * (1.0 - 2.0 * f)
         th = a + tt * (b - a)
         h = self.hub
-        return (h.axis.o + zc[:, None] * h.d
+        return (h.axis.o + z[:, None] * h.d
                 + r[:, None] * (np.cos(th)[:, None] * h.e1 + np.sin(th)[:, None] * h.e2))

@@ -8,8 +8,9 @@ has its centre at the height h(φ) = R_f − (R_f − ρ) cos φ above the hub: 
 ball on the hub, touching the fillet's lower edge), h = R_f at φ = 90° (touching the wall
 above the fillet). Layer j (of ``layers``) is the loop of ball centres at height h(φ_j),
 φ_j = 75° j / (layers − 1) (one layer: the lower edge alone), each centre placed along the
-hub's developed outward normal of the root loop where its signed distance to the blade mesh
-is ρ + allowance (bisection): the ball then touches the fillet (or the hub, at the edge) and
+hub's developed normal of the root loop (over the fillet toward the wall for φ > 0) where its
+distance to the blade mesh becomes ρ + allowance coming from the wall (a scan, then
+bisection): the ball then touches the fillet (or the hub, at the edge) and
 keeps the allowance from the blade. The contact point (CC) is the centre minus ρ along the
 direction to the nearest surface point (blade or hub).
 
@@ -25,10 +26,10 @@ import numpy as np
 from ..errors import ToolError
 from ..geometry.distance import MeshDistance
 from ..geometry.mesh import TriMesh
-from .channel import chord_indices, root_loop
+from .channel import chord_indices, root_loop, side_distance
 from .surface import HubSurface
 
-__all__ = ["FilletLayer", "fillet_layers", "layer_heights"]
+__all__ = ["FilletLayer", "check_fillet_ball", "fillet_layers", "layer_heights"]
 
 _BISECT = 30
 
@@ -68,6 +69,16 @@ def _resample_closed(P, step):
     return np.stack([np.interp(u, s, Q[:, i]) for i in range(Q.shape[1])], 1)
 
 
+def check_fillet_ball(rho: float, fillet_radius: float, tool_name: str = "ball"):
+    """ToolError naming both radii unless the ball (radius ``rho`` mm) is smaller than the
+    fillet (``fillet_radius`` mm)."""
+    if not rho < fillet_radius:
+        raise ToolError(f"fillet finishing needs a ball smaller than the fillet: the {tool_name} "
+                        f"has radius {rho:g} mm, the fillet radius is {fillet_radius:g} mm; use "
+                        f"a ball of radius < {fillet_radius:g} mm (diameter < "
+                        f"{2 * fillet_radius:g} mm)")
+
+
 def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: float, *,
                   layers: int = 1, allowance: float = 0.0, chord: float = 0.05,
                   step: float = 0.5, max_step: float = 2.0, tool_name: str = "ball"):
@@ -77,11 +88,7 @@ def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: fl
     ------
     ToolError — the ball is not smaller than the fillet (naming both radii)
     """
-    if not rho < fillet_radius:
-        raise ToolError(f"fillet finishing needs a ball smaller than the fillet: the {tool_name} "
-                        f"has radius {rho:g} mm, the fillet radius is {fillet_radius:g} mm; use "
-                        f"a ball of radius < {fillet_radius:g} mm (diameter < "
-                        f"{2 * fillet_radius:g} mm)")
+    check_fillet_ball(rho, fillet_radius, tool_name)
     loop = root_loop(blade, hub)
     m, th, _ = hub.coordinates(loop)
     th0 = math.atan2(float(np.sin(th).mean()), float(np.cos(th).mean()))
@@ -104,18 +111,24 @@ def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: fl
 
     out = []
     for h, phi in layer_heights(rho, fillet_radius, layers):
-        lo = np.zeros(len(D))
-        hi = np.full(len(D), fillet_radius + target + 1.0)
-        for _ in range(8):  # grow hi until every centre is clear
-            c, _, _ = centre(hi, h)
-            bad = dist.query(c).signed_distance < target
-            if not bad.any():
-                break
-            hi = np.where(bad, 2.0 * hi, hi)
+        # the centre lies over the fillet (toward the wall, d < 0) for φ > 0: scan d from the
+        # wall side out; the last sample too close to the blade, then bisection to the next
+        span = fillet_radius + target + 1.0
+        grid = np.arange(-span, span + 1e-9, min(0.5, 0.5 * rho))
+        k = len(D)
+        Dk = np.repeat(D, len(grid), axis=0) + np.tile(grid, k)[:, None] * np.repeat(nrm, len(
+            grid), axis=0)
+        mm_, tt_ = Dk[:, 0], Dk[:, 1] / r_ref
+        cg = hub.point(mm_, tt_) + h * hub.normal(mm_, tt_)
+        close = (side_distance(dist.query(cg)) < target).reshape(k, len(grid))
+        last = len(grid) - 1 - np.argmax(close[:, ::-1], axis=1)
+        last = np.where(close.any(axis=1), last, 0)
+        lo = grid[last]
+        hi = grid[np.minimum(last + 1, len(grid) - 1)]
         for _ in range(_BISECT):
             mid = 0.5 * (lo + hi)
             c, _, _ = centre(mid, h)
-            close = dist.query(c).signed_distance < target
+            close = side_distance(dist.query(c)) < target
             lo, hi = np.where(close, mid, lo), np.where(close, hi, mid)
         C, mm, tt = centre(hi, h)
         cp = dist.query(C)

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import BliskCamError
 from ..geometry.distance import MeshDistance
-from ..hub.fillet import fillet_layers
+from ..hub.fillet import check_fillet_ball, fillet_layers
 from ..part.model import BliskPart
 from ..paths.orientation import feed_directions, lead_tilt_axes
 from ..runtime import Progress
@@ -122,6 +122,7 @@ class FilletFinish(Operation):
         if not (isinstance(request.layers, int) and 1 <= request.layers <= 50):
             raise BliskCamError(f"fillet layers must be a whole number in 1 … 50, got "
                                 f"{request.layers!r}")
+        check_fillet_ball(request.radius, float(request.fillet_radius), request.tool_name)
         st = start_state(part, request, spacing=False)
         st.operation = "fillet-finish"
         return st

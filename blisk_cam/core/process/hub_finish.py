@@ -49,7 +49,14 @@ from ..paths.orientation import feed_directions, lead_tilt_axes
 from ..runtime import Progress
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter
-from ..toolpath.types import FLAG_ZERO_SPEED, PassCurve, Program, ToolPath
+from ..toolpath.types import (
+    FLAG_ZERO_SPEED,
+    STATUS_CLEAR,
+    STATUS_UNRESOLVED,
+    PassCurve,
+    Program,
+    ToolPath,
+)
 from .operation import Operation, OperationResult, Stage
 
 __all__ = ["HUB_FINISH", "HubFinish", "HubRequest", "HubState", "pattern_gaps"]
@@ -189,7 +196,7 @@ class HubState:
     program: Program | None = None
     stats: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
-    collision: object = None
+    collision: dict | None = None  # the collision summary (paths JSON "collision")
     operation: str = "hub-finish"
 
     def path(self) -> ToolPath:
@@ -198,7 +205,7 @@ class HubState:
                         cusp=float(self.req.scallop or self.req.chord), chord=self.req.chord,
                         curves=self.curves, stats=self.stats, program=self.program,
                         warnings=self.warnings,
-                        collision=None if self.collision is None else self.collision.summary(),
+                        collision=self.collision,
                         operation=self.operation)
 
 
@@ -214,7 +221,7 @@ def start_state(part: BliskPart, req: HubRequest, *, spacing: bool = True) -> Hu
     cutter = Cutter.ball(req.radius)
     hub = HubSurface(part.hub_profile, part.axis)
     return HubState(part=part, req=req, cutter=cutter, hub=hub,
-                    blade=TriMesh(part.blade_vertices, part.blade_faces))
+                    blade=TriMesh.from_arrays(part.blade_vertices, part.blade_faces))
 
 
 def _stage_channel(st: HubState):
@@ -259,12 +266,29 @@ def _orient_hub(st: HubState):
             f0 = f - np.einsum("ij,ij->i", f, a0)[:, None] * a0
             f0 /= np.maximum(np.linalg.norm(f0, axis=1), 1e-300)[:, None]
             k0 = np.cross(f0, a0)
-            c.axis = lead_tilt_axes(f0, a0, k0, req.lead, tilt)
+            c.axis = _at_least_lead(lead_tilt_axes(f0, a0, k0, req.lead, tilt), c.normal, f,
+                                    abs(req.lead))
         c.tip = st.cutter.cl_points(c.cc, c.normal, c.axis)
         c.flags = np.where(st.cutter.zero_speed(c.normal, c.axis, 1e-3), FLAG_ZERO_SPEED,
                            0).astype(np.uint8)
     return
     yield
+
+
+def _at_least_lead(a, n, f, lead: float):
+    """Axes ``a`` turned away from the normals ``n`` (in their common plane; along the feed
+    ``f`` where they coincide) where they lie closer than ``lead`` rad: the ball's contact
+    then stays off its tip (zero cutting speed)."""
+    cos = np.einsum("ij,ij->i", a, n)
+    close = cos > math.cos(lead)
+    if lead <= 0.0 or not close.any():
+        return a
+    u = a - cos[:, None] * n
+    ln = np.linalg.norm(u, axis=1)
+    u = np.where((ln > 1e-9)[:, None], u / np.maximum(ln, 1e-300)[:, None], f)
+    out = a.copy()
+    out[close] = math.cos(lead) * n[close] + math.sin(lead) * u[close]
+    return out
 
 
 def _body_radius(st: HubState) -> float:
@@ -347,6 +371,28 @@ def _stage_collision(st: HubState):
     flute = flute_clearance(st.part, MeshDistance(st.blade), st.req.radius,
                             float(asm.flute_length), prog.tip[cut], prog.axis[cut])
     hit = body < asm.safety
+    status = np.where(hit, STATUS_UNRESOLVED, STATUS_CLEAR).astype(np.int8)
+    clearance = np.minimum(body, float(asm.safety) + 5.0)
+    prog.collision_status, prog.clearance = status, clearance
+    prog.rotation_deg = np.zeros(len(prog))
+    for ci, c in enumerate(st.curves):
+        rows = np.flatnonzero(prog.curve == ci)
+        k = len(c.cc)
+        cs, cl = np.zeros(k, np.int8), np.full(k, float(asm.safety) + 5.0)
+        cs[prog.index[rows]] = status[rows]
+        cl[prog.index[rows]] = clearance[rows]
+        c.collision = {"status": cs, "clearance": cl, "rotation": np.zeros(k),
+                       "rotation_deg": np.zeros(k)}
+    st.collision = {
+        "mode": "check", "checked_poses": int(len(prog)), "colliding_before": int(hit.sum()),
+        "corrected": 0, "unresolved": int(hit.sum()), "min_clearance": float(body.min()),
+        "obstacles": {"names": ["blade", "blade +1", "blade -1"],
+                      "blade_count": st.part.blade_count, "neighbours": 1},
+        "assembly": asm.as_dict(), "assembly_text": asm.describe(),
+        "safety": float(asm.safety),
+        "checks": "tool body (shank, holder) against the blades; the flute's clearance is "
+                  "in the stats (flute_clearance_min_mm)",
+    }
     st.stats.update({
         "assembly": asm.describe(),
         "body_clearance_min_mm": float(body.min()),
