@@ -50,7 +50,7 @@ __all__ = ["Channel", "Region", "TipChannel", "channel_boundaries", "chord_indic
 #: radius of arc at the hub, within these bounds
 _THETA_SAMPLES = (32, 400)
 _BISECT = 24
-#: extra clearance of the boundaries, mm (the passes interpolate θ between stations)
+#: extra clearance of the boundaries, mm (beside the interpolation's sagitta)
 _MARGIN = 0.005
 
 
@@ -227,8 +227,9 @@ def channel_boundaries(blade: TriMesh, hub: HubSurface, pitch: float, rho: float
     th_l = th0 + _wrap(th_l - th0)
     m_le, m_te = float(m_l.min()), float(m_l.max())
     chord = m_te - m_le
-    # 5 µm more, so that the passes between the stations (interpolated in θ) never come closer
-    target = rho + allowance + _MARGIN
+    # a little more, so that the passes between the stations (θ interpolated linearly) never
+    # come closer: 5 µm plus the sagitta of a step-long chord of a ball-radius offset curve
+    target = rho + allowance + _MARGIN + step * step / (8.0 * rho)
     notes = []
     lo_m, hi_m = m_le - extend, m_te + extend
     clipped = False
