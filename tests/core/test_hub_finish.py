@@ -268,3 +268,29 @@ def test_hub_command_writes_the_paths_json_and_refuses_a_big_ball(part, tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "fillet radius is 8 mm" in err[0]
     assert not (tmp_path / "f.json").exists()
+
+
+def test_all_gaps_are_gap_zero_turned_by_the_pitch(part, hub_result):
+    from blisk_cam.core.process.hub_finish import pattern_gaps
+
+    _, res = hub_result
+    path = res.path
+    curves, prog = pattern_gaps(path.curves, path.program, part)
+    n, k = part.blade_count, len(path.curves)
+    assert len(curves) == n * k
+    for g in (1, n - 1):
+        turned = rotate_about(path.curves[0].tip, part.axis.d, g * part.pitch, part.axis.o)
+        assert np.abs(curves[g * k].tip - turned).max() < 1e-9
+    # every pass pose is in the program once per gap, the curve indices point at its copy
+    cut = prog.curve >= 0
+    assert np.allclose(prog.tip[cut], np.vstack([curves[c].tip[i] for c, i in
+                                                 zip(prog.curve[cut], prog.index[cut],
+                                                     strict=True)]))
+    # rapids between two points outside the blade tips stay outside all along (the arcs
+    # between gaps are sampled so their chords do not dip into the blades)
+    r_top = float(part.envelope[:, 0].max())
+    r, _, _ = theta_about(prog.tip, part.axis)
+    both = (prog.move[1:] == 4) & (r[1:] > r_top) & (r[:-1] > r_top)
+    mid = 0.5 * (prog.tip[1:] + prog.tip[:-1])[both]
+    rm, _, _ = theta_about(mid, part.axis)
+    assert both.sum() >= n - 1 and rm.min() > r_top

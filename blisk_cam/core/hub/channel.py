@@ -46,7 +46,7 @@ from .surface import HubSurface, stepover_for_scallop
 __all__ = ["Channel", "Region", "TipChannel", "channel_boundaries", "chord_indices",
            "pass_ratios", "root_loop", "sample_pass", "side_distance"]
 
-#: θ samples across one pitch when searching the clearance boundaries: every half ball
+#: θ samples across one pitch when searching the clearance boundaries: every quarter ball
 #: radius of arc at the hub, within these bounds
 _THETA_SAMPLES = (32, 400)
 _BISECT = 24
@@ -196,6 +196,26 @@ def _boundary(clear: _Clearance, m, th_grid, blade: int, target: float, last: bo
     return np.where(has, hi, np.nan)
 
 
+def _repaired(clear: _Clearance, m, th_a, th_b, target: float):
+    """The boundaries moved toward the channel's middle where their ball still comes closer
+    than ``target`` to its blade (a nose the θ samples stepped over, a tangent continuation
+    passing an edge): bisection between the boundary and the middle, per station."""
+    mid = 0.5 * (th_a + th_b)
+    out = []
+    for th, blade in ((th_a, 0), (th_b, 1)):
+        bad = clear.signed(m, th, blade) < target
+        if bad.any():
+            lo, hi = th[bad].copy(), mid[bad].copy()  # lo close, hi (the middle) clear or not
+            for _ in range(_BISECT):
+                c = 0.5 * (lo + hi)
+                close = clear.signed(m[bad], c, blade) < target
+                lo, hi = np.where(close, c, lo), np.where(close, hi, c)
+            th = th.copy()
+            th[bad] = hi
+        out.append(th)
+    return out[0], out[1]
+
+
 def _tangent_line(m, th, r, lo, hi):
     """Slope and intercept of θ(m) fitted in the developed plane (r θ) over stations
     [lo, hi] (r held at the mean radius there); None when fewer than two stations."""
@@ -210,11 +230,12 @@ def _tangent_line(m, th, r, lo, hi):
 
 def channel_boundaries(blade: TriMesh, hub: HubSurface, pitch: float, rho: float, *,
                        allowance: float = 0.0, extend: float = 5.0, step: float = 0.5,
-                       nose: float | None = None, tool_name: str = "ball"):
+                       fine: float = 0.1, nose: float | None = None, tool_name: str = "ball"):
     """Generator: the :class:`Channel` between blade 0 and blade 1 (blade 0 turned by
     ``pitch`` rad) for a ball of radius ``rho`` mm keeping ``allowance`` mm from the blades,
-    the passes extended ``extend`` mm past the leading and trailing edges; stations ``step`` mm
-    apart. Yields Progress, returns the Channel.
+    the passes extended ``extend`` mm past the leading and trailing edges; the boundaries
+    searched at stations ``step`` mm apart, then interpolated onto stations ``fine`` mm apart
+    and checked (and moved clear) there. Yields Progress, returns the Channel.
 
     Raises
     ------
@@ -227,9 +248,8 @@ def channel_boundaries(blade: TriMesh, hub: HubSurface, pitch: float, rho: float
     th_l = th0 + _wrap(th_l - th0)
     m_le, m_te = float(m_l.min()), float(m_l.max())
     chord = m_te - m_le
-    # a little more, so that the passes between the stations (θ interpolated linearly) never
-    # come closer: 5 µm plus the sagitta of a step-long chord of a ball-radius offset curve
-    target = rho + allowance + _MARGIN + step * step / (8.0 * rho)
+    # 5 µm more, so that the passes between the fine stations (θ interpolated) keep it too
+    target = rho + allowance + _MARGIN
     notes = []
     lo_m, hi_m = m_le - extend, m_te + extend
     clipped = False
@@ -245,7 +265,7 @@ def channel_boundaries(blade: TriMesh, hub: HubSurface, pitch: float, rho: float
     (mu, tu), (ml, tl) = _chains(m_l, th_l)
     mid = 0.5 * (np.interp(m, mu, tu) + np.interp(m, ml, tl))
     r_hub = float(np.max(hub.rz(m)[:, 0]))
-    J = int(np.clip(math.ceil(pitch * r_hub / (0.5 * rho)), *_THETA_SAMPLES))
+    J = int(np.clip(math.ceil(pitch * r_hub / (0.25 * rho)), *_THETA_SAMPLES))
     grid = mid[:, None] + pitch * (np.arange(J + 1) / J)[None, :]
     clear = _Clearance(blade, hub, pitch, rho)
     yield Progress(0.1, "hub: the ball's clearance from blade 0")
@@ -294,6 +314,13 @@ def channel_boundaries(blade: TriMesh, hub: HubSurface, pitch: float, rho: float
         raise ToolError(f"the channel between the blades at the hub could not be traced for the "
                         f"{tool_name} (radius {rho:g} mm): check the blade count and the hub "
                         "profile")
+    # the passes' own stations (``fine`` mm apart): the boundaries interpolated onto them and
+    # repaired there, so every CC point of the first and last pass keeps the clearance
+    nf = max(len(m), int(math.ceil((m[-1] - m[0]) / fine)) + 1)
+    mf = np.linspace(m[0], m[-1], nf)
+    th_a, th_b = np.interp(mf, m, th_a), np.interp(mf, m, th_b)
+    m, r = mf, hub.rz(mf)[:, 0]
+    th_a, th_b = _repaired(clear, m, th_a, th_b, target)
     width = r * (th_b - th_a)
     if np.any(width <= 0):
         i = int(np.argmin(width))
@@ -391,8 +418,11 @@ def sample_pass(ch: Channel, t: float, chord: float, max_step: float = 2.0,
     ``chord`` mm and no step exceeds ``max_step`` mm. The points lie on the hub surface."""
     m = ch.m
     n = max(len(m), int(math.ceil((m[-1] - m[0]) / dense)) + 1)
-    md = np.linspace(m[0], m[-1], n)
-    th = np.interp(md, m, ch.theta(t))
+    if n == len(m):  # the channel's own stations (where its boundaries were checked)
+        md, th = m, ch.theta(t)
+    else:
+        md = np.linspace(m[0], m[-1], n)
+        th = np.interp(md, m, ch.theta(t))
     P = ch.hub.point(md, th)
     idx = chord_indices(P, chord, max_step)
     return P[idx], ch.hub.normal(md[idx], th[idx]), md[idx], th[idx]
