@@ -133,6 +133,7 @@ def test_hub_passes_lie_on_the_hub_and_keep_the_ball_clear_of_both_blades(
     assert z.min() < zb[root].min() - 0.5 * req.extend
     assert z.max() > zb[root].max() + 0.5 * req.extend
     assert m_te - m_le > 0
+    assert path.stats["scallop_estimate_mm"] <= req.scallop + 1e-9
 
 
 def test_hub_tool_body_is_clear_of_the_blades_and_the_program_is_linked(part, hub_result):

@@ -426,10 +426,19 @@ def _stage_checks(st: HubState):
     d0 = dist.query(C).signed_distance
     C1 = rotate_about(C, st.part.axis.d, -st.part.pitch, st.part.axis.o)
     d1 = dist.query(C1).signed_distance
-    width = ch.width()
-    sep = np.diff(st.ratios)[:, None] * width[None, :]
-    scallop = scallop_for_stepover(req.radius, sep.max(axis=1),
-                                   hub.kappa_theta(ch.m[np.argmax(sep, axis=1)]))
+    # the distance between neighbouring passes (⊥ to them) and the scallop it leaves on the
+    # hub's normal curvature across them, at every station
+    r = hub.rz(ch.m)[:, 0]
+    dth = ch.theta_b - ch.theta_a
+    dm = np.gradient(ch.m)
+    sep_max, scallop_max = 0.0, 0.0
+    for t0, t1 in zip(st.ratios[:-1], st.ratios[1:], strict=True):
+        th = ch.theta_a + 0.5 * (t0 + t1) * dth
+        beta = np.arctan2(r * np.gradient(th), dm)
+        sep = (t1 - t0) * r * np.abs(dth) * np.abs(np.cos(beta))
+        kappa = hub.normal_curvature(ch.m, beta + 0.5 * math.pi)
+        sep_max = max(sep_max, float(sep.max()))
+        scallop_max = max(scallop_max, float(scallop_for_stepover(req.radius, sep, kappa).max()))
     zero = int(sum(int(np.count_nonzero(c.flags & FLAG_ZERO_SPEED)) for c in st.curves))
     st.stats.update({
         "operation": st.operation,
@@ -442,8 +451,8 @@ def _stage_checks(st: HubState):
         "leading_edge_m_mm": float(ch.m_le),
         "trailing_edge_m_mm": float(ch.m_te),
         "extension_clipped": bool(ch.clipped),
-        "stepover_max_mm": float(sep.max()),
-        "scallop_estimate_mm": float(scallop.max()),
+        "stepover_max_mm": sep_max,
+        "scallop_estimate_mm": scallop_max,
         "clearance_blade0_min_mm": float(d0.min() - req.radius),
         "clearance_blade1_min_mm": float(d1.min() - req.radius),
         "lead_deg": math.degrees(req.lead),
