@@ -71,7 +71,7 @@ def add_hub_arguments(parser: argparse.ArgumentParser):
                         "never cuts at its tip)")
     parser.add_argument("--tilt", type=finite, default=None, metavar="DEG",
                         help="tool axis tilted across the feed, degrees: toward the channel's "
-                        "middle (hub, default 0) or away from the wall (fillet, default 10)")
+                        "middle (hub, default 0) or away from the wall (fillet, default 20)")
     parser.add_argument("--axis", choices=("channel", "normal"), default="channel",
                         help="hub: aim the tool axis through the channel at the blade tips "
                         "(default) or lean it from the hub normal")
@@ -112,7 +112,7 @@ def _request(args):
     if fillet and args.fillet_radius is None:
         raise UsageError("--operation fillet needs --fillet-radius MM (the ball must be "
                          "smaller than the fillet)")
-    tilt = args.tilt if args.tilt is not None else (10.0 if fillet else 0.0)
+    tilt = args.tilt if args.tilt is not None else (20.0 if fillet else 0.0)
     return HubRequest(
         tool_diameter=args.tool_diameter, stepover=args.stepover, scallop=args.scallop,
         ring_width=args.ring_width, ring_stepover=args.ring_stepover,

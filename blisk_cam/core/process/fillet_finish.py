@@ -12,7 +12,9 @@ neighbours, the flute's clearance) → pattern (every blade, on request) → che
 
 The request is a :class:`~.hub_finish.HubRequest` with ``fillet_radius`` (required: the
 ball must be smaller, a ToolError names both radii) and ``layers``; its spacing fields are
-not used. Lengths mm, angles radians.
+not used. Give it a tilt off the wall (the command line's default is 20°: on the demo blisk,
+5 layers and a slim shank, 10° left 82 program rows with the shank against the leaning wall,
+20° left 8). Lengths mm, angles radians.
 """
 
 from __future__ import annotations
