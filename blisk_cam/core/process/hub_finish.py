@@ -59,7 +59,8 @@ from ..toolpath.types import (
 )
 from .operation import Operation, OperationResult, Stage
 
-__all__ = ["HUB_FINISH", "HubFinish", "HubRequest", "HubState", "pattern_gaps"]
+__all__ = ["HUB_FINISH", "HubFinish", "HubRequest", "HubState", "body_clearance",
+           "flute_clearance", "pattern_gaps", "plan_channel", "start_state", "tool_assembly"]
 
 GAPS = ("one", "all")
 AXIS_MODES = ("channel", "normal")
@@ -229,6 +230,15 @@ def _stage_channel(st: HubState):
         st.blade, st.hub, st.part.pitch, st.req.radius, allowance=st.req.allowance,
         extend=st.req.extend, tool_name=st.req.tool_name)
     st.warnings.extend(st.channel.notes)
+
+
+def plan_channel(part: BliskPart, req: HubRequest) -> Channel:
+    """The channel of ``part`` for ``req`` alone (the "channel" stage): its boundaries, e.g.
+    to read the stock between them after a simulation."""
+    st = start_state(part, req)
+    for _ in _stage_channel(st):
+        pass
+    return st.channel
 
 
 def _stage_passes(st: HubState):
