@@ -17,6 +17,8 @@
     python -m blisk_cam nc --paths paths.json --machine PRESET|FILE.toml --post POST --out FILE
     python -m blisk_cam robot --paths paths.json --robot PRESET|FILE.toml \
         --post krl|rapid|pdl2|fanuc-ls --out DIR [--feed MM_MIN] [--force N]
+    python -m blisk_cam hub --part MESH --blade-count N --tool-diameter MM --scallop MM \
+        [--operation hub|fillet] --out hub.json   (see cli/hub.py)
     python -m blisk_cam batch JOBS.toml --out DIR [--scheduler ADDRESS] [--workers N] [--serial]
 
 Angles are degrees on the command line (radians in the scene settings and the core).
@@ -42,6 +44,7 @@ from ..core.kernels.backend import backend_name
 from ..core.version import __version__
 from .blender import _cmd_demo
 from .flags import PROG, CliInternalError, UsageError, _fail, finite, positive
+from .hub import add_hub_arguments
 from .nc import add_nc_arguments
 from .paths import ENGINES, _cmd_paths, add_paths_arguments
 from .process import add_process_arguments
@@ -107,7 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version",
                         version=f"{PROG} {__version__} (kernels: {backend_name()})")
     sub = parser.add_subparsers(dest="command",
-                                metavar="{demo,paths,nc,robot,simulate,batch,process}")
+                                metavar="{demo,paths,nc,robot,simulate,hub,batch,process}")
     sub.required = True
 
     commands = (
@@ -137,6 +140,12 @@ def build_parser() -> argparse.ArgumentParser:
          "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
          "only numpy and scipy.",
          add_simulate_arguments, _cmd_simulate),
+        ("hub", "hub or fillet finishing of a blisk → paths JSON",
+         "Finish the hub between two blades (boundary-conformed passes from the leading to "
+         "the trailing edge, spaced by stepover or scallop on the hub's curvature, two regions, "
+         "extended past the edges) or the fillet around the blade root with a ball smaller "
+         "than the fillet. Lengths in mm, angles in degrees. Needs only numpy and scipy.",
+         add_hub_arguments, _cmd_hub),
         ("batch", "run the jobs of a TOML file on a Dask cluster → DIR",
          "Run the jobs of JOBS.toml (single commands, per-blade paths of a whole-blisk scan, "
          "sweeps over tool, lead, tilt and holder length) on a Dask cluster: a local cluster "
@@ -241,6 +250,12 @@ def _cmd_process(args):
     from .process import run_process
 
     return run_process(args)
+
+
+def _cmd_hub(args):
+    from .hub import run_hub
+
+    return run_hub(args)
 
 
 def _cmd_simulate(args):

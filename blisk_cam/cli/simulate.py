@@ -85,12 +85,15 @@ def _check_args(args):
 
 
 def _part(args, log):
+    from ..core.geometry.mesh import TriMesh
     from ..core.geometry.mesh_io import read_mesh
     from ..core.part.model import part_from_blade, read_rz_csv, split_blisk_mesh
 
     V, F = read_mesh(args.part)
     if args.hub_profile:
-        return part_from_blade(V, F, read_rz_csv(args.hub_profile), args.blade_count)
+        # welded: an STL's triangle soup has no boundary loops to close the blade on
+        mesh = TriMesh.from_arrays(V, F)
+        return part_from_blade(mesh.V, mesh.F, read_rz_csv(args.hub_profile), args.blade_count)
     split = split_blisk_mesh(V, F, args.blade_count)
     log(f"part: {len(split.hub_faces)} hub faces, {len(split.blade_faces)} blade faces, "
         f"{split.blade_count} blades")

@@ -33,7 +33,7 @@ FLOORS = {
     "options": 2, "presets": 2, "files": 2, "geometry": 2,
     "tool": 3, "part": 3,
     "toolpath": 4,
-    "paths": 5, "verify": 5, "machine": 5, "stock": 5,
+    "paths": 5, "verify": 5, "machine": 5, "stock": 5, "hub": 5,
     "collision": 6, "post": 6, "robot": 6,
     "process": 7, "display": 7,
 }

@@ -22,6 +22,8 @@ Fields added (still version 1; none of the above changed):
   "curve": [index into "curves" or −1], "index": [pose index in that curve or −1],
   "flags": [int]}``.
 * ``"profile1"``/``"profile2"`` — curved (LMRS) generatrices, see ``_generatrix_entries``.
+* ``"operation"`` — the operation that made the path (``"hub-finish"``, ``"fillet-finish"``);
+  absent for blade finishing, so those paths are written as before.
 * ``"warnings"`` — ``ToolPath.warnings``, a list of strings for the user (e.g. zero cutting
   speed); absent when there are none, so a path without warnings is written as before.
 * collision (only when the path was checked, :mod:`..collision.avoid`): per curve ``"collision":
@@ -72,6 +74,7 @@ def path_to_dict(path: ToolPath) -> dict:
     return {
         "format": FORMAT,
         "version": VERSION,
+        **({} if path.operation is None else {"operation": str(path.operation)}),
         "units": "mm",
         "axis": path.axis.as_list(),
         **_generatrix_entries(path.cone1, path.cone2),
@@ -148,6 +151,7 @@ def path_from_dict(d: dict) -> ToolPath:
             warnings=_read_warnings(d),
             collision=dict(d["collision"]) if isinstance(d.get("collision"), dict) else None,
             verify=dict(d["verify"]) if isinstance(d.get("verify"), dict) else None,
+            operation=str(d["operation"]) if isinstance(d.get("operation"), str) else None,
         )
     except (KeyError, TypeError, ValueError, IndexError) as err:
         if isinstance(err, BliskCamError):

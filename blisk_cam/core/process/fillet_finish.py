@@ -1,0 +1,142 @@
+"""Fillet finishing (paper 003 §5; issue 24 item 2): closed passes around the blade root
+with a ball smaller than the fillet radius — the pass along the lower fillet edge, where the
+fillet meets the hub, and optionally layers across the fillet up to the wall
+(:mod:`..hub.fillet`), so that no ridge is left between blade finishing and hub finishing.
+
+Stages over one :class:`~.hub_finish.HubState` (operation ``"fillet-finish"``): loops (the
+layers' ball centres at their heights above the hub, ρ + allowance from the blade, the
+contact points) → orient (the hub normal leaned by the lead angle along the feed and tilted
+away from the blade by the tilt angle: the ball never cuts at its tip, the shank leans off
+the wall) → link → collision (as hub finishing: holder and shank against blade 0 and its
+neighbours, the flute's clearance) → pattern (every blade, on request) → checks.
+
+The request is a :class:`~.hub_finish.HubRequest` with ``fillet_radius`` (required: the
+ball must be smaller, a ToolError names both radii) and ``layers``; its spacing fields are
+not used. Give it a tilt off the wall (the command line's default is 20°: on the demo blisk,
+5 layers and a slim shank, 10° left 82 program rows with the shank against the leaning wall,
+20° left 8). Lengths mm, angles radians.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import BliskCamError
+from ..geometry.distance import MeshDistance
+from ..hub.fillet import check_fillet_ball, fillet_layers
+from ..part.model import BliskPart
+from ..paths.orientation import feed_directions, lead_tilt_axes
+from ..runtime import Progress
+from ..toolpath.types import FLAG_ZERO_SPEED, PassCurve
+from .hub_finish import (
+    HubRequest,
+    HubState,
+    _stage_collision,
+    _stage_link,
+    _stage_pattern,
+    start_state,
+)
+from .operation import Operation, OperationResult, Stage
+
+__all__ = ["FILLET_FINISH", "FilletFinish"]
+
+
+def _stage_loops(st: HubState):
+    req = st.req
+    yield Progress(0.0, "fillet: tracing the fillet loops")
+    layers = fillet_layers(st.blade, st.hub, req.radius, float(req.fillet_radius),
+                           layers=req.layers, allowance=req.allowance, chord=req.chord,
+                           max_step=req.max_step, tool_name=req.tool_name)
+    st.curves = []
+    for k, lay in enumerate(layers):
+        c = PassCurve(s=float(lay.angle / (0.5 * math.pi)), closed=True, cc=lay.cc,
+                      normal=lay.normal, tip=lay.cc.copy(), axis=lay.normal.copy())
+        # for orient (not written)
+        c.hub_normal, c.outward, c.centre = lay.hub_normal, lay.outward, lay.centre
+        st.curves.append(c)
+        yield Progress((k + 1) / len(layers), "fillet: loops")
+    st.stats["layer_heights_mm"] = [float(lay.height) for lay in layers]
+    st.stats["layer_angles_deg"] = [math.degrees(lay.angle) for lay in layers]
+
+
+def _stage_orient(st: HubState):
+    req = st.req
+    for c in st.curves:
+        n = c.hub_normal
+        f = feed_directions(c.cc, n, True)
+        k = np.cross(f, n)
+        side = np.sign(np.einsum("ij,ij->i", k, c.outward))  # tilt away from the blade
+        c.axis = lead_tilt_axes(f, n, k, req.lead, req.tilt * side)
+        c.tip = c.centre - req.radius * c.axis  # the ball: tip below the centre
+        # the contact's distance from the axis, ρ sin∠(n, a): zero speed when ≈ 0
+        cos = np.clip(np.einsum("ij,ij->i", c.normal, c.axis), -1.0, 1.0)
+        c.flags = np.where((cos > 0) & (req.radius * np.sqrt(1.0 - cos * cos) <= 1e-3),
+                           FLAG_ZERO_SPEED, 0).astype(np.uint8)
+        del c.hub_normal, c.outward, c.centre
+    return
+    yield
+
+
+def _stage_checks(st: HubState):
+    req = st.req
+    dist = MeshDistance(st.blade)
+    first = st.curves[:req.layers]
+    C = np.vstack([c.tip + req.radius * c.axis for c in first])
+    d = dist.query(C).distance
+    over = sum(int(np.count_nonzero(np.einsum("ij,ij->i", c.normal, c.axis) < 0.0))
+               for c in first)
+    _, _, h = st.hub.coordinates(C)
+    zero = int(sum(int(np.count_nonzero(c.flags & FLAG_ZERO_SPEED)) for c in st.curves))
+    st.stats.update({
+        "operation": st.operation,
+        "tool": req.tool_name,
+        "fillet_radius_mm": float(req.fillet_radius),
+        "layers": int(req.layers),
+        "gaps": st.part.blade_count if req.gaps == "all" else 1,
+        "curves": len(st.curves),
+        "poses": int(sum(len(c.cc) for c in st.curves)),
+        "clearance_blade0_min_mm": float(d.min() - req.radius),
+        "centre_above_hub_min_mm": float(h.min()),
+        "lead_deg": math.degrees(req.lead),
+        "tilt_deg": math.degrees(req.tilt),
+        "zero_speed_poses": zero,
+        "contacts_above_equator": over,
+    })
+    if over:
+        st.warnings.append(f"{over} poses touch the fillet above the ball's equator (the "
+                           "contact normal more than 90° from the tool axis): the flute's "
+                           "side would cut there; use fewer layers or more tilt")
+    return
+    yield
+
+
+class FilletFinish(Operation):
+    """Fillet finishing as an operation (see the module docstring)."""
+
+    name = "fillet_finish"
+
+    def start(self, part: BliskPart, request: HubRequest, stock=None) -> HubState:
+        if request.fillet_radius is None:
+            raise BliskCamError("fillet finishing needs the fillet radius (mm): the ball must "
+                                "be smaller than it")
+        if not (isinstance(request.layers, int) and 1 <= request.layers <= 50):
+            raise BliskCamError(f"fillet layers must be a whole number in 1 … 50, got "
+                                f"{request.layers!r}")
+        check_fillet_ball(request.radius, float(request.fillet_radius), request.tool_name)
+        st = start_state(part, request, spacing=False)
+        st.operation = "fillet-finish"
+        return st
+
+    def stages(self, state: HubState) -> tuple[Stage, ...]:
+        return (Stage("loops", _stage_loops), Stage("orient", _stage_orient),
+                Stage("link", _stage_link), Stage("collision", _stage_collision),
+                Stage("pattern", _stage_pattern), Stage("checks", _stage_checks))
+
+    def finish(self, state: HubState, seconds: dict) -> OperationResult:
+        return OperationResult(path=state.path())
+
+
+#: the fillet finishing operation
+FILLET_FINISH = FilletFinish()
