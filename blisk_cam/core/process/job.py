@@ -33,7 +33,7 @@ The job file (TOML; lengths mm, angles degrees, speeds m/min and rpm, feeds mm a
 
     [[operation]]
     name = "blade finish"
-    kind = "blade_finish"           # this build: blade_finish (see .operation_kinds)
+    kind = "blade_finish"           # blade_finish, semi_finish, hub_finish, fillet_finish
     tool = 1
     cusp = 0.05                     # the kind's own options (for blade_finish the paths CLI's)
     # depth = 0.2  vc = 60  fz = 0.05  spindle = 8000  feed = 900   # cutting data overrides
@@ -87,7 +87,13 @@ from ..tool.cutter import Cutter
 from ..toolpath.types import MOVE_CUT
 from .cutting_data import CuttingData, cutting_data, material_key
 from .operation import iter_run_operation
-from .operation_kinds import OperationContext, OperationKind, ToolEntry, operation_kind
+from .operation_kinds import (
+    OperationContext,
+    OperationKind,
+    ToolEntry,
+    operation_kind,
+    tool_assembly,
+)
 
 __all__ = ["Job", "JobError", "JobOperation", "JobRun", "OperationRun", "build_part",
            "build_stock", "iter_run_job", "load_job", "stock_digest"]
@@ -569,6 +575,10 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
         cutter = make_cutter(op.tool)
         ctx = OperationContext(part, cutter, op.tool, dict(op.options), None, op.where)
         prepared.append(op.kind.prepare(ctx))
+        try:  # the body the stock simulation sweeps, checked before anything runs
+            tool_assembly(op.tool, cutter)
+        except BliskCamError as exc:
+            raise JobError(f"{op.where} (tool T{op.tool.number}): {exc}") from None
     yield Progress(0.01, "building the stock")
     stock = build_stock(job, part)
     run = JobRun(job, part, {"volume_mm3": stock.volume(), "digest": stock_digest(stock)})
@@ -589,7 +599,8 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             if path.program is None or len(path.program) == 0:
                 raise BliskCamError("the operation planned no moves")
             sim = yield from _scaled(
-                iter_simulate(part, stock, [path], gouge_tolerance=job.gouge_tolerance),
+                iter_simulate(part, stock, [path], gouge_tolerance=job.gouge_tolerance,
+                              assembly=tool_assembly(op.tool, cutter)),
                 lo + 0.5 * (hi - lo), hi, f"{label} on the stock")
             tilt = prep.tilt if prep.tilt is not None else _measured_tilt(path)
             depth = op.depth if op.depth is not None else op.kind.default_depth

@@ -14,6 +14,7 @@ Errors: a :class:`~..errors.BliskCamError`; the job prefixes the file, the opera
 key.
 
 A kind is made available by :func:`register_operation_kind` (this module registers blade
+finishing, semi-finishing — blade finishing leaving an allowance — and hub and fillet
 finishing). The kinds of the whole process that this build does not have (:data:`PLANNED`)
 are refused with "operation kind 'rough' is not available in this build", never skipped.
 """
@@ -36,6 +37,8 @@ from ..options import AxisOptions, GougeOptions, LinkingOptions, ToleranceOption
 from ..options import fields as option_fields
 from ..part.cones import Cone
 from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
+from .fillet_finish import FILLET_FINISH
+from .hub_finish import HUB_FINISH, HubRequest
 from .operation import Operation, Stage
 
 __all__ = ["OPERATION_KINDS", "PLANNED", "OperationContext", "OperationKind",
@@ -283,3 +286,134 @@ register_operation_kind(OperationKind(
     _blade_finish_options(), default_depth=0.2))
 
 __all__ += ["prepare_blade_finish"]
+
+
+def tool_assembly(tool: ToolEntry, cutter):
+    """The tool as the job's collision check and stock simulation see it: ``cutter``, the
+    tool's flute length and holder profile (the cutter's own shank and holder when the tool
+    table gives none)."""
+    co = CollisionOptions(mode="check", blade_count=2, flute_length=tool.flute_length,
+                          **({"holder": tool.holder} if tool.holder else {}))
+    return co.assembly(cutter)
+
+
+__all__ += ["tool_assembly"]
+
+
+# ------------------------------------------------------------------------ semi-finishing
+def prepare_semi_finish(ctx: OperationContext) -> PreparedOperation:
+    """Semi-finishing (paper 003 §5: leaving 0.1 mm): blade finishing with a stock-to-leave
+    ``allowance`` (default 0.1 mm, :mod:`.blade_finish`)."""
+    opts = dict(ctx.options)
+    opts.setdefault("allowance", 0.1)
+    return prepare_blade_finish(OperationContext(ctx.part, ctx.cutter, ctx.tool, opts, ctx.stock,
+                                                 ctx.where))
+
+
+def _semi_finish_options() -> dict:
+    out = _blade_finish_options()
+    out["allowance"] = (0.1, "stock left on the blade, mm (paper 003: 0.1)")
+    return out
+
+
+register_operation_kind(OperationKind(
+    "semi_finish", "semi-finishing (blade finishing leaving an allowance)", prepare_semi_finish,
+    _semi_finish_options(), default_depth=0.4))
+__all__ += ["prepare_semi_finish"]
+
+
+# ------------------------------------------------------------------- hub and fillet finishing
+#: job key → (default in user units, help, kind of value); lead and tilt in degrees
+_HUB_KEYS = {
+    "stepover": (None, "stepover between hub passes, mm (or scallop)", "mm"),
+    "scallop": (None, "scallop height between hub passes, mm (or stepover)", "mm"),
+    "ring_width": (0.0, "width of the ring beside each blade root with its own spacing, mm",
+                   "mm"),
+    "ring_stepover": (None, "the ring's stepover, mm (default: the main one)", "mm"),
+    "ring_scallop": (None, "the ring's scallop height, mm", "mm"),
+    "extend": (5.0, "passes extended past the leading and trailing edges, mm", "mm"),
+    "lead": (10.0, "tool axis leaned from the hub normal along the feed, degrees", "deg"),
+    "tilt": (0.0, "tool axis tilted across the feed, degrees", "deg"),
+    "axis_mode": ("channel", "channel (aimed through the gap at the tips) or normal", "word"),
+    "aim_spread": (0.3, "channel mode: spread of the aim across the tips' gap, 0 … 1", "num"),
+    "allowance": (0.0, "distance kept from the blades (and stock left), mm", "mm"),
+    "chord": (0.05, "chord tolerance, mm", "mm"),
+    "approach": (2.0, "approach/retract along the tool axis, mm", "mm"),
+    "clearance_margin": (10.0, "clearance cylinder outside the blade tips, mm", "mm"),
+    "collisions": ("check", "check or off (shank and holder against both blades)", "word"),
+    "safety": (1.0, "least clearance of shank and holder, mm", "mm"),
+}
+_FILLET_KEYS = {
+    "fillet_radius": (None, "the fillet's radius, mm (the ball must be smaller)", "mm"),
+    "layers": (1, "loops across the fillet (1: the lower edge only)", "int"),
+    # the shank leans away from the blade wall (the hub command's default for the fillet)
+    "tilt": (20.0, "tool axis tilted away from the blade, degrees", "deg"),
+}
+
+
+def _hub_request(ctx: OperationContext, keys: dict, **fixed):
+    """The :class:`.hub_finish.HubRequest` of the job's operation (ball tools only)."""
+    where = ctx.where
+    if ctx.tool.type != "ball":
+        raise BliskCamError(f"{where} key 'tool': hub and fillet finishing need a ball; tool "
+                            f"T{ctx.tool.number} is a {ctx.tool.type}")
+    kw = {}
+    for key, value in ctx.options.items():
+        _, _, kind = keys[key]
+        try:
+            if kind == "word":
+                if not isinstance(value, str):
+                    raise ValueError(f"expected a word, got {value!r}")
+                kw[key] = value
+            elif kind == "int":
+                if isinstance(value, bool) or not isinstance(value, int):
+                    raise ValueError(f"expected a whole number, got {value!r}")
+                kw[key] = value
+            else:
+                if isinstance(value, (bool, str)):
+                    raise ValueError(f"expected a number, got {value!r}")
+                v = float(value)
+                kw[key] = math.radians(v) if kind == "deg" else v
+        except (TypeError, ValueError) as exc:
+            raise BliskCamError(f"{where} key {key!r}: {exc}") from None
+    try:
+        req = HubRequest(tool_diameter=ctx.tool.diameter, flute_length=ctx.tool.flute_length,
+                         holder=ctx.tool.holder, gaps="one", **kw, **fixed)
+        req.check(spacing="fillet_radius" not in keys)
+    except BliskCamError as exc:
+        raise BliskCamError(f"{where}: {exc}") from None
+    return req
+
+
+def prepare_hub_finish(ctx: OperationContext) -> PreparedOperation:
+    """Hub finishing (paper 003 §5, Fig. 10, :mod:`.hub_finish`) of the gap between blade 0
+    and blade 1; the job's post repeats it for every gap."""
+    req = _hub_request(ctx, _HUB_KEYS)
+    return PreparedOperation(HUB_FINISH, ctx.part, req, (), None)
+
+
+def prepare_fillet_finish(ctx: OperationContext) -> PreparedOperation:
+    """Fillet finishing (paper 003 §5, :mod:`.fillet_finish`): the pass along the lower fillet
+    edge (and layers across it) with a ball smaller than the fillet."""
+    keys = {**_HUB_KEYS, **_FILLET_KEYS}
+    tilt = {} if "tilt" in ctx.options else {"tilt": math.radians(keys["tilt"][0])}
+    req = _hub_request(ctx, keys, **tilt)
+    if req.fillet_radius is None:
+        raise BliskCamError(f"{ctx.where}: key 'fillet_radius' is missing: fillet finishing "
+                            "needs the fillet's radius (mm); the ball must be smaller")
+    return PreparedOperation(FILLET_FINISH, ctx.part, req, (), None)
+
+
+def _options_of(keys: dict, drop=()) -> dict:
+    return {k: (d, h) for k, (d, h, _) in keys.items() if k not in drop}
+
+
+register_operation_kind(OperationKind(
+    "hub_finish", "hub finishing (paper 003, two regions)", prepare_hub_finish,
+    _options_of(_HUB_KEYS), default_depth=0.2))
+register_operation_kind(OperationKind(
+    "fillet_finish", "fillet finishing (the lower fillet edge)", prepare_fillet_finish,
+    _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "scallop", "ring_width",
+                                                     "ring_stepover", "ring_scallop")),
+    default_depth=0.2))
+__all__ += ["prepare_fillet_finish", "prepare_hub_finish"]

@@ -1,0 +1,148 @@
+"""The operation kinds of a job beyond blade finishing (issue 24): semi-finishing (blade
+finishing leaving an allowance, paper 003 §5: 0.1 mm) and hub finishing, run as one job on the
+demo blisk — checked from the outputs: the semi-finishing path leaves its allowance (recorded
+in its paths JSON and measured: the ball centres lie radius + allowance from the blade), the hub
+path is a hub-finishing path whose contacts lie on the hub, the stock simulation of the hub
+operation (with the tool's own slim holder) finds no crash, one tool change per tool; then the
+kinds' bad inputs, each naming the operation and the key."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from blisk_cam.cli.main import main
+from blisk_cam.core.errors import BliskCamError
+from blisk_cam.core.geometry.distance import MeshDistance
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.part.blisk import make_demo_blisk
+from blisk_cam.core.part.model import part_from_demo
+from blisk_cam.core.process.job import iter_run_job, load_job
+from blisk_cam.core.toolpath.paths_io import read_paths_json
+from blisk_cam.core.toolpath.types import MOVE_CUT
+
+JOB = """
+[part]
+source = "demo"
+material = "Ti-6Al-4V"
+[part.demo]
+resolution = 0.3
+
+[stock]
+blank = "allowance:0.6"
+resolution = 1.0
+
+[machine]
+name = "ac-trunnion"
+posts = ["linuxcnc"]
+
+[[tool]]
+number = 3
+type = "ball"
+diameter = 16
+flutes = 2
+stick_out = 70
+
+[[tool]]
+number = 5
+type = "ball"
+diameter = 6
+flutes = 2
+flute_length = 12
+holder = "12 2.5 100 2.5 100 8 160 8"
+
+[[operation]]
+name = "semi-finish"
+kind = "semi_finish"
+tool = 3
+cone1 = [170.0, -25.0, 185.0, 35.0]
+cone2 = [215.0, -25.0, 225.0, 35.0]
+cusp = 1.0
+chord = 0.5
+axis_mode = "radial"
+radial_tilt = 75
+
+[[operation]]
+name = "hub"
+kind = "hub_finish"
+tool = 5
+scallop = 0.3
+allowance = 0.3
+"""
+
+
+@pytest.fixture(scope="module")
+def processed(tmp_path_factory):
+    root = tmp_path_factory.mktemp("kinds")
+    job = root / "kinds.toml"
+    job.write_text(JOB)
+    out = root / "out"
+    rc = main(["process", str(job), "--out", str(out), "--quiet"])
+    return rc, out
+
+
+def test_semi_finishing_and_hub_finishing_in_one_job(processed):
+    rc, out = processed
+    assert (out / "summary.json").exists(), rc
+    demo = make_demo_blisk(resolution=0.3)
+    blade = MeshDistance(TriMesh.from_arrays(demo.blade_vertices, demo.blade_faces))
+
+    semi = read_paths_json(out / "01-semi-finish.paths.json")
+    assert semi.allowance == pytest.approx(0.1)
+    cut = semi.program.move == MOVE_CUT
+    centres = semi.program.tip[cut] + 8.0 * semi.program.axis[cut]
+    d = blade.query(centres).distance
+    assert np.median(d) == pytest.approx(8.1, abs=0.05)  # ball radius + the allowance
+    assert d.min() >= 8.1 - 0.5 - 1e-6  # never closer than the chord into the allowance
+
+    hub = read_paths_json(out / "02-hub.paths.json")
+    assert hub.operation == "hub-finish"
+    part = part_from_demo(demo)
+    cc = np.vstack([c.cc for c in hub.curves])
+    rel = cc - part.axis.o
+    z = rel @ part.axis.d
+    r = np.linalg.norm(rel - np.outer(z, part.axis.d), axis=1)
+    assert np.abs(r - part.hub_r(z)).max() < 0.1  # on the revolved hub profile
+
+    sim = json.loads((out / "02-hub.simulation.json").read_text())
+    assert sim["crashes"] == [] and sim["passed"], sim["crashes"][:3]
+    text = (out / "job.linuxcnc.ngc").read_text()
+    assert [ln.split()[0] for ln in text.splitlines() if "M6" in ln.split()] == ["T3", "T5"] \
+        or text.count("M6") == 2
+
+
+def _bad(tmp_path, old, new):
+    assert old in JOB
+    f = tmp_path / "bad.toml"
+    f.write_text(JOB.replace(old, new, 1))
+    return f
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("scallop = 0.3", "scalop = 0.3",
+     r"operation 2 \('hub'\): unknown key 'scalop'; did you mean 'scallop'"),
+    ('kind = "hub_finish"', 'kind = "fillet_finish"',
+     r"operation 2 \('hub'\).*(unknown key 'scallop'|'fillet_radius')"),
+    ("scallop = 0.3", "scallop = 0.3\nlead = \"ten\"",
+     r"operation 2 \('hub'\) key 'lead': expected a number"),
+])
+def test_bad_kind_options_name_the_operation_and_key(tmp_path, old, new, words):
+    with pytest.raises(BliskCamError, match=words):
+        job = load_job(_bad(tmp_path, old, new))
+        next(iter(iter_run_job(job)))  # the up-front check runs before any long work
+        gen = iter_run_job(job)
+        for _ in range(3):
+            next(gen)
+
+
+def test_hub_finishing_needs_a_ball(tmp_path):
+    text = JOB.replace('type = "ball"\ndiameter = 6', 'type = "flat"\ndiameter = 6', 1)
+    f = tmp_path / "flat.toml"
+    f.write_text(text)
+    gen = iter_run_job(load_job(f))
+    with pytest.raises(BliskCamError, match=r"operation 2 \('hub'\) key 'tool': hub and fillet "
+                                            r"finishing need a ball; tool T5 is a flat"):
+        for _ in range(3):
+            next(gen)
