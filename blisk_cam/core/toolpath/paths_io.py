@@ -21,6 +21,9 @@ Fields added (still version 1; none of the above changed):
   "curve": [index into "curves" or −1], "index": [pose index in that curve or −1],
   "flags": [int]}``.
 * ``"profile1"``/``"profile2"`` — curved (LMRS) generatrices, see ``_generatrix_entries``.
+* ``"operation"`` — ``"rough"`` for channel roughing (:mod:`..process.roughing`): its curves
+  are the passes (``cc`` = ``tip``, ``normal`` = ``axis``: no contact point), ``s`` the
+  level index; absent for blade finishing, so those files are written as before.
 * ``"warnings"`` — ``ToolPath.warnings``, a list of strings for the user (e.g. zero cutting
   speed); absent when there are none, so a path without warnings is written as before.
 * collision (only when the path was checked, :mod:`..collision.avoid`): per curve ``"collision":
@@ -69,6 +72,7 @@ def path_to_dict(path: ToolPath) -> dict:
         "format": FORMAT,
         "version": VERSION,
         "units": "mm",
+        **({} if path.operation is None else {"operation": str(path.operation)}),
         "axis": path.axis.as_list(),
         **_generatrix_entries(path.cone1, path.cone2),
         "tool": _tool_dict(path),
@@ -141,6 +145,7 @@ def path_from_dict(d: dict) -> ToolPath:
             warnings=_read_warnings(d),
             collision=dict(d["collision"]) if isinstance(d.get("collision"), dict) else None,
             verify=dict(d["verify"]) if isinstance(d.get("verify"), dict) else None,
+            operation=str(d["operation"]) if isinstance(d.get("operation"), str) else None,
         )
     except (KeyError, TypeError, ValueError, IndexError) as err:
         if isinstance(err, BliskCamError):

@@ -259,6 +259,7 @@ class ToolPath:
     warnings: list[str] = field(default_factory=list)
     collision: dict | None = None
     verify: dict | None = None  # the verdict of an independent check (.verdict.verdict_dict)
+    operation: str | None = None  # "rough" for channel roughing; None: blade finishing
 
     @property
     def n_poses(self) -> int:
