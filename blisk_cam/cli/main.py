@@ -45,6 +45,7 @@ from .flags import PROG, CliInternalError, UsageError, _fail, finite, positive
 from .nc import add_nc_arguments
 from .paths import ENGINES, _cmd_paths, add_paths_arguments
 from .robot import add_robot_arguments
+from .rough import add_rough_arguments
 from .simulate import add_simulate_arguments
 
 __all__ = ["main", "build_parser"]
@@ -105,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version",
                         version=f"{PROG} {__version__} (kernels: {backend_name()})")
-    sub = parser.add_subparsers(dest="command", metavar="{demo,paths,nc,robot,simulate,batch}")
+    sub = parser.add_subparsers(dest="command",
+                                metavar="{demo,paths,nc,robot,simulate,rough,batch}")
     sub.required = True
 
     commands = (
@@ -135,6 +137,13 @@ def build_parser() -> argparse.ArgumentParser:
          "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
          "only numpy and scipy.",
          add_simulate_arguments, _cmd_simulate),
+        ("rough", "channel roughing from the blank → paths JSON (\"operation\": \"rough\")",
+         "Rough the channels between the blades from the blank down to an allowance (default "
+         "0.5 mm) in levels (from the hub, from the shroud or morphed), zig-zag or plunge; "
+         "the tool, its shank and holder kept clear of the allowance. One gap is planned; "
+         "nc and simulate repeat it for the N gaps. Lengths mm, angles degrees. Needs only "
+         "numpy and scipy.",
+         add_rough_arguments, _cmd_rough),
         ("batch", "run the jobs of a TOML file on a Dask cluster → DIR",
          "Run the jobs of JOBS.toml (single commands, per-blade paths of a whole-blisk scan, "
          "sweeps over tool, lead, tilt and holder length) on a Dask cluster: a local cluster "
@@ -232,6 +241,12 @@ def _cmd_simulate(args):
     from .simulate import run_simulate
 
     return run_simulate(args)
+
+
+def _cmd_rough(args):
+    from .rough import run_rough
+
+    return run_rough(args)
 
 
 def main(argv=None) -> int:

@@ -36,20 +36,23 @@ import numpy as np
 from ..errors import BliskCamError
 from ..tool.cutter import Cutter
 
-__all__ = ["LEVEL_MODES", "Level", "cutter_underside", "floor_radius", "level_radii",
-           "offset_profile", "stock_top"]
+__all__ = ["LEVEL_MODES", "Level", "channel_volume", "cutter_underside", "floor_radius",
+           "level_radii", "offset_profile", "stock_top"]
 
 LEVEL_MODES = ("from-hub", "from-shroud", "morph")
 
 
 @dataclass
 class Level:
-    """One level: ``index`` 0 at the shroud, ``r`` (n,) tip radius at the stations (mm),
-    ``label`` what the user reads in a warning (mode and offset)."""
+    """One level: ``index`` 0 at the shroud, ``r`` (n,) tip radius at the stations ``z``
+    (mm), ``label`` what the user reads in a warning (mode and offset); ``z`` and
+    ``outside`` (stations beyond the blank) are set when the region refines the stations."""
 
     index: int
     r: np.ndarray
     label: str
+    z: np.ndarray | None = None
+    outside: np.ndarray | None = None
 
 
 def offset_profile(profile, allowance: float, spacing: float = 0.1) -> np.ndarray:
@@ -136,3 +139,17 @@ def level_radii(z, floor, top, mode: str, depth: float) -> list[Level]:
             r, label = f + s * (t - f), f"morph s = {s:.3f}"
         out.append(Level(k, r, f"level {k + 1} of {K} ({label})"))
     return out
+
+
+def channel_volume(stock, hub_profile) -> float:
+    """Material (mm³, one sector) of ``stock`` above the hub: on the rays whose z lies within
+    the hub profile's axial extent, the part of each interval beyond the hub radius there —
+    the channels and the blades, not the disk's faces beyond the hub nor the bore."""
+    P = np.asarray(hub_profile, float)
+    z = stock.ray_z(np.arange(stock.n_z))
+    inside = (z >= P[0, 1]) & (z <= P[-1, 1])
+    hub = np.repeat(np.where(inside, np.interp(z, P[:, 1], P[:, 0]), np.inf), stock.n_theta)
+    lo = np.maximum(stock.lo, hub[:, None])
+    hi = stock.hi
+    ok = hi > lo
+    return float(0.5 * np.where(ok, hi * hi - lo * lo, 0.0).sum() * stock.d_theta * stock.dz)

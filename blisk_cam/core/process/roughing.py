@@ -289,18 +289,20 @@ class RoughingOperation(Operation):
         hold = st.cutter.max_radius + 1.0
         for k, lv in enumerate(st.levels):
             check_cancel()
-            lo, hi = channel_bounds(st.sections, part.pitch, st.z, lv.r, table, lead=req.lead,
-                                    side=req.side_tilt)
-            lo, hi = fill_free(st.z, lo, hi, part.pitch, overlap, hold, 5.0, 0.5 * part.pitch)
+            z, r, outside, lo, hi = _refined_bounds(
+                st.sections, part.pitch, st.z, lv.r, st.outside, table, req)
+            lo, hi = fill_free(z, lo, hi, part.pitch, np.interp(z, st.z, overlap), hold, 5.0,
+                               0.5 * part.pitch)
+            lv.z, lv.r, lv.outside = z, r, outside
             reach = hi >= lo
-            inner = ~st.outside
+            inner = ~outside
             miss = inner & ~reach
             if miss.all() or not reach[inner].any():
                 st.warnings.append(f"{lv.label} cannot be reached without the tool or its "
                                    "body touching the allowance: left out")
                 st.unreachable.append(lv.label)
             elif miss.any():
-                zs = st.z[miss]
+                zs = z[miss]
                 st.warnings.append(
                     f"{lv.label}: the tool does not fit between the blades at z "
                     f"{zs.min():.1f} … {zs.max():.1f} mm ({miss.sum() / inner.sum():.0%} of "
@@ -321,12 +323,14 @@ class RoughingOperation(Operation):
             if not reach.any():
                 continue
             if req.pattern == "zigzag":
-                pcs, fwd, low = zigzag_passes(k, st.z, lv.r, lo, hi, reach, st.outside,
+                pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
                                               req.stepover, frame, fwd, low)
             else:
-                above = st.levels[k - 1].r if k > 0 else np.full(len(st.z), r_safe)
+                prev = st.levels[k - 1] if k > 0 else None
+                above = (np.interp(lv.z, prev.z, prev.r) if prev is not None
+                         else np.full(len(lv.z), r_safe))
                 above = np.minimum(above + 1.0, r_safe)
-                pcs = plunge_points(k, st.z, lv.r, above, lo, hi, reach, req.stepover, frame)
+                pcs = plunge_points(k, lv.z, lv.r, above, lo, hi, reach, req.stepover, frame)
             st.pieces.extend(pcs)
             yield Progress((k + 1) / len(st.levels), f"passes of {lv.label}")
 
@@ -394,6 +398,38 @@ class RoughingOperation(Operation):
 
     def finish(self, state, seconds):
         return OperationResult(state.path, None, dict(seconds))
+
+
+def _refined_bounds(sections, pitch, z, r, outside, table, req, chord: float = 0.5,
+                    rounds: int = 8):
+    """Stations and bounds of one level, refined where a bound moves more than ``chord`` mm
+    between two stations: a straight move of length L between two points of the envelope
+    of circles of radius o (≥ the tool's radius) leaves it by at most L²/(8 o), so chords of
+    ≤ 0.5 mm stay within the margin — also where the envelope turns round a leading or
+    trailing edge and its slope in z is unbounded (there halving the z step is what shortens
+    the chord). Returns (z, r, outside, lo, hi)."""
+    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=req.lead, side=req.side_tilt)
+    for _ in range(rounds):
+        both = np.isfinite(lo[:-1]) & np.isfinite(lo[1:]) & np.isfinite(hi[:-1]) & \
+            np.isfinite(hi[1:])
+        rm = 0.5 * (r[:-1] + r[1:])
+        with np.errstate(invalid="ignore"):
+            jump = np.maximum(np.abs(np.diff(lo)), np.abs(np.diff(hi))) * rm
+        bad = np.nonzero(both & (jump > chord))[0]
+        if len(bad) == 0:
+            break
+        zm = 0.5 * (z[bad] + z[bad + 1])
+        r_m = 0.5 * (r[bad] + r[bad + 1])
+        out_m = outside[bad] & outside[bad + 1]
+        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=req.lead,
+                                    side=req.side_tilt)
+        order = np.argsort(np.concatenate([z, zm]), kind="stable")
+        z = np.concatenate([z, zm])[order]
+        r = np.concatenate([r, r_m])[order]
+        outside = np.concatenate([outside, out_m])[order]
+        lo = np.concatenate([lo, lo_m])[order]
+        hi = np.concatenate([hi, hi_m])[order]
+    return z, r, outside, lo, hi
 
 
 def _max_turn(axis) -> float:
