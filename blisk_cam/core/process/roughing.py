@@ -143,22 +143,27 @@ def _blade_theta(part: BliskPart) -> float:
     return float(math.atan2(np.sin(th).mean(), np.cos(th).mean()))
 
 
-def _widest_circle(part, sections, theta_ref, z, r_floor, band) -> tuple[float, float]:
-    """(widest, narrowest) inscribed circle diameters (mm) between blade 0 and blade 1 on
-    the band of cylinders ``band`` mm above the floor, over the stations where the blades
-    are: the widest disc that fits somewhere, and the throat."""
+def _widest_circle(part, sections, z, r_floor, band) -> tuple[float, float]:
+    """(widest, narrowest) at the hub (mm): the diameter of the widest circle between blade 0
+    and blade 1 on the band of cylinders ``band`` mm above the floor that lies axially within
+    the blade row (a circle beyond the leading or trailing edge is not in the channel), and
+    the narrowest circumferential gap between the blades there."""
     hs = np.array([band[0] - 1e-6, band[0], band[1], band[1] + 1e-6])
+    zs = np.concatenate([s.z for s in sections if len(s.z)])
+    if len(zs) == 0:
+        return math.inf, math.inf
+    z_lo, z_hi = float(zs.min()), float(zs.max())
 
     def fits(o):
         lo, hi = channel_bounds(sections, part.pitch, z, r_floor,
                                 (hs, np.array([-np.inf, o, o, -np.inf])))
-        d = np.isfinite(lo) & np.isfinite(hi)
+        d = np.isfinite(lo) & np.isfinite(hi) & (z >= z_lo + o) & (z <= z_hi - o)
         return d, (hi - lo)
 
-    d0, w0 = fits(1e-6)
+    d0, w0 = fits(0.5)  # (a disc, not a point: the section points lie 0.3 mm apart)
     if not d0.any():
         return math.inf, math.inf
-    lo_o, hi_o = 0.0, 0.5 * part.pitch * float(r_floor.max())
+    lo_o, hi_o = 0.5, 0.5 * (z_hi - z_lo)
     for _ in range(30):
         mid = 0.5 * (lo_o + hi_o)
         d, w = fits(mid)
@@ -166,7 +171,7 @@ def _widest_circle(part, sections, theta_ref, z, r_floor, band) -> tuple[float, 
             lo_o = mid
         else:
             hi_o = mid
-    throat = float((w0[d0] * r_floor[d0]).min())
+    throat = float((w0[d0] * r_floor[d0]).min()) + 1.0
     return 2.0 * lo_o, throat
 
 
@@ -232,12 +237,12 @@ class RoughingOperation(Operation):
         st = _State(part, stock, req, cutter, assembly, _blade_theta(part), ha)
         self._stations(st)
         # the channel at the hub: allowance and tool against its widest inscribed circle
-        r_floor = floor_radius(part.hub_profile, Cutter.ball(1e-3), ha, st.z)
-        band = (ha, ha + 2.0)
+        r_floor = floor_radius(part.hub_profile, Cutter.ball(1e-3), 0.0, st.z)
+        band = (0.0, 2.0)  # the channel just above the hub
         radii = np.arange(float(r_floor.min()) + band[0] - 0.5,
                           float(r_floor.max()) + band[1] + 0.5, 0.25)
         secs = cylinder_sections(V, part.blade_faces, part.axis, radii, st.theta_ref, 0.3)
-        widest, throat = _widest_circle(part, secs, st.theta_ref, st.z, r_floor, band)
+        widest, throat = _widest_circle(part, secs, st.z, r_floor, band)
         if math.isfinite(widest):
             if a >= 0.5 * widest:
                 raise BliskCamError(f"allowance {a:g} mm is larger than half the channel: the "
@@ -249,7 +254,8 @@ class RoughingOperation(Operation):
                                 f"channel at the hub: with {a:g} mm allowance on each blade it "
                                 f"needs Ø{2 * (cutter.max_radius + a):.2f} mm, the widest "
                                 f"circle between the blades there is Ø{widest:.2f} mm "
-                                f"(throat {max(throat, 0.0):.2f} mm); take a smaller tool")
+                                f"(narrowest gap {max(throat, 0.0):.2f} mm); take a smaller "
+                                "tool")
         return st
 
     def _stations(self, st: _State):
@@ -282,7 +288,12 @@ class RoughingOperation(Operation):
         rv, _, _ = theta_about(part.blade_vertices, part.axis)
         r_lo = max(float(rv.min()), float(st.floor.min()) - req.allowance - 0.5)
         r_hi = float(rv.max())
-        radii = np.arange(r_lo, r_hi + 0.25, 0.25)
+        # near the hub the blade runs into its fillet nearly parallel to the cylinders: there
+        # consecutive sections lie far apart and the corner of the tool could pass between
+        # them, so the cylinders are 0.05 mm apart up to a tool radius + 2 mm above the floor
+        fine = min(float(st.floor.max()) + st.cutter.max_radius + 2.0, r_hi)
+        radii = np.unique(np.concatenate([np.arange(r_lo, fine, 0.05),
+                                          np.arange(fine, r_hi + 0.25, 0.25)]))
         st.sections = cylinder_sections(part.blade_vertices, part.blade_faces, part.axis,
                                         radii, st.theta_ref, 0.3)
         overlap = (st.cutter.max_radius + 1.0) / np.maximum(st.floor, 1.0)
