@@ -88,6 +88,25 @@ def test_stock_simulation_keeps_the_allowance_removes_the_channel_no_crash(rough
 
 def test_cutter_never_enters_the_allowance_exact_distance(rough):
     part, _, path = rough
+    _assert_clear(part, path)
+
+
+def test_plunge_in_morphed_levels_never_enters_the_allowance():
+    part = part_from_demo(_demo())
+    stock = stock_from_envelope(part, 2.0, 1.0)
+    req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, levels="morph",
+                       pattern="plunge")
+    path = plan_roughing(part, req, stock)
+    # plunges: every cut feeds along the tool axis
+    P = path.program
+    cut = np.nonzero(P.move == MOVE_CUT)[0]
+    step = P.tip[cut] - P.tip[cut - 1]
+    cross = np.linalg.norm(np.cross(step, P.axis[cut]), axis=1)
+    assert cross.max() < 1e-9 and len(cut) > 100
+    _assert_clear(part, path)
+
+
+def _assert_clear(part, path):
     P = path.program
     cut = np.nonzero(P.move == 0)[0][::4]
     tip, ax = P.tip[cut], P.axis[cut]

@@ -15,7 +15,10 @@ back (low radial force: the usual choice for narrow titanium channels).
 Where a station cannot be reached (the bounds cross: the tool or its body does not fit) the
 pass is split; :func:`link_program` joins the pieces: a feed link in the air beyond the
 blank's faces when two pieces end and start there, otherwise a retract along the axis to the
-safe radius, a rapid there and an approach down the axis. Units mm, radians.
+safe radius, a rapid there and an approach down the axis; between two plunges across the
+channel at one station the tool moves over the level above (already cut) at feed. A plunge
+is safe all the way down when its bottom pose is: the tool higher up its own axis occupies
+less than the flute and body above the lower tip already cover. Units mm, radians.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ class Piece:
     level: int
     outside: tuple
     plunge: bool = False
+    station: int = -1
 
 
 def pose_frame(axis: Axis, theta, z, r, theta_ref: float, lead: float, side: float):
@@ -141,7 +145,7 @@ def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, fra
         for w in ws:
             th = np.full(2, lo[i] + w * (hi[i] - lo[i]))
             tips, axes = frame(th, np.full(2, z[i]), np.array([r_above[i], r[i]]))
-            pieces.append(Piece(tips, axes, level, (False, False), plunge=True))
+            pieces.append(Piece(tips, axes, level, (False, False), plunge=True, station=int(i)))
     return pieces
 
 
@@ -178,6 +182,10 @@ def link_program(pieces, axis: Axis, r_safe: float):
             add(safe(p0, a0), a0, MOVE_RAPID)
             add(p0, a0, MOVE_APPROACH)
         elif prev.outside[1] and pc.outside[0] and not pc.plunge and not prev.plunge:
+            add(p0, a0, MOVE_LINK)
+        elif pc.plunge and prev.plunge and (pc.level, pc.station) == (prev.level, prev.station):
+            # across the channel at one station, over the level above (already cut): the
+            # tool's room there is one interval of θ, so the straight move stays inside it
             add(p0, a0, MOVE_LINK)
         else:
             add(safe(prev.tip[-1], prev.axis[-1]), prev.axis[-1], MOVE_RETRACT)
