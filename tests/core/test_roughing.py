@@ -106,6 +106,27 @@ def test_plunge_in_morphed_levels_never_enters_the_allowance():
     _assert_clear(part, path)
 
 
+def test_tilted_axis_from_the_shroud_never_enters_the_allowance():
+    part = part_from_demo(_demo())
+    stock = stock_from_envelope(part, 2.0, 1.0)
+    req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, levels="from-shroud",
+                       lead=math.radians(3.0), side_tilt=math.radians(4.0))
+    path = plan_roughing(part, req, stock)
+    # every cutting axis is the radial direction tilted 3° toward +z and 4° toward +θ
+    P = path.program
+    cut = P.move == MOVE_CUT
+    tip, axis = P.tip[cut], P.axis[cut]
+    r, th, _ = theta_about(tip, part.axis)
+    radial = np.stack([np.cos(th), np.sin(th), np.zeros_like(th)], 1)
+    tang = np.stack([-np.sin(th), np.cos(th), np.zeros_like(th)], 1)
+    np.testing.assert_allclose(np.degrees(np.arctan2(axis[:, 2], np.einsum(
+        "ij,ij->i", axis, radial))), 3.0, atol=1e-6)
+    np.testing.assert_allclose(np.degrees(np.arctan2(np.einsum("ij,ij->i", axis, tang),
+                                                     np.einsum("ij,ij->i", axis, radial))),
+                               4.0, atol=1e-6)
+    _assert_clear(part, path)
+
+
 def _assert_clear(part, path):
     P = path.program
     cut = np.nonzero(P.move == 0)[0][::4]

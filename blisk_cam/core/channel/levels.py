@@ -88,20 +88,42 @@ def cutter_underside(cutter: Cutter, zeta) -> np.ndarray:
     return np.where(z <= rho[-1] + 1e-12, out, np.inf)
 
 
-def floor_radius(hub_profile, cutter: Cutter, allowance: float, z, step: float = 0.05):
-    """(n,) the lowest tip radius (mm) over stations ``z`` of a radial-axis cutter that keeps
-    ``allowance`` from the hub (module docstring)."""
+def floor_radius(hub_profile, cutter: Cutter, allowance: float, z, step: float = 0.05,
+                 lead: float = 0.0, side: float = 0.0):
+    """(n,) the lowest tip radius (mm) over stations ``z`` of a cutter on the radial axis
+    tilted by ``lead`` (toward +z) and ``side`` (toward +θ, rad) that keeps ``allowance``
+    from the hub (module docstring). The underside is sampled in polar points (ρ every
+    ``step`` mm, 64 angles); a tilted tool's low rim is what touches first; the hub's fall in
+    θ away from the tool is not counted (conservative)."""
     off = offset_profile(hub_profile, allowance)
     R = cutter.max_radius
-    n = max(3, int(math.ceil(2 * R / step)) | 1)
-    zeta = np.linspace(-R, R, n)
-    u = cutter_underside(cutter, zeta)
     z = np.asarray(z, float)
+    if lead == 0.0 and side == 0.0:
+        n = max(3, int(math.ceil(2 * R / step)) | 1)
+        zeta = np.linspace(-R, R, n)
+        dz, dr = zeta, cutter_underside(cutter, zeta)
+    else:
+        rho = np.linspace(0.0, R, max(2, int(math.ceil(R / step)) + 1))
+        psi = np.linspace(0.0, 2 * math.pi, 64, endpoint=False)
+        rr, pp = np.meshgrid(rho, psi)
+        u = cutter_underside(cutter, rr).ravel()
+        ez, et = (rr * np.cos(pp)).ravel(), (rr * np.sin(pp)).ravel()
+        # the tool frame: axis a = (radial + tan φ θ̂ + tan λ ẑ)/|·|; the bottom's directions
+        # ⊥ a: toward z (e_z') and toward θ (e_t'), to first order in the tilts exact enough
+        # for tilts below 45° through the exact rotation of the frame below
+        a = np.array([1.0, math.tan(side), math.tan(lead)])
+        a /= np.linalg.norm(a)
+        ez_w = np.array([0.0, 0.0, 1.0]) - a[2] * a
+        ez_w /= np.linalg.norm(ez_w)
+        et_w = np.cross(a, ez_w)
+        # world offsets (radial, θ, z) of each underside point from the tip
+        P = u[:, None] * a[None] + ez[:, None] * ez_w[None] + et[:, None] * et_w[None]
+        dr, dz = P[:, 0], P[:, 2]
     out = np.full(len(z), -np.inf)
-    for s in range(0, len(z), 2048):
-        zz = z[s:s + 2048, None] + zeta[None]
-        need = np.interp(zz, off[:, 1], off[:, 0]) - u[None]
-        out[s:s + 2048] = need.max(axis=1)
+    for s in range(0, len(z), 1024):
+        zz = z[s:s + 1024, None] + dz[None]
+        need = np.interp(zz, off[:, 1], off[:, 0]) - dr[None]
+        out[s:s + 1024] = need.max(axis=1)
     return out
 
 

@@ -96,15 +96,18 @@ def cylinder_sections(V, F, axis: Axis, radii, theta_ref: float, spacing: float 
 
 
 def offset_table(cutter: Cutter, assembly: ToolAssembly, allowance: float, safety: float,
-                 margin: float, step: float = 0.02):
+                 margin: float, step: float = 0.02, tilt: float = 0.0):
     """(h, o): heights h (mm, from −allowance below the tip up to the body's top) and the
     distance o(h) (mm) a section point at that height must keep from the tool's axis: the
     cutter's radius (flute) or the body's radius + ``safety`` (shank, holder), grown by a
     ball of radius ``allowance`` (the Minkowski sum of the solid of revolution), plus
-    ``margin``."""
+    ``margin``. A tool tilted by ``tilt`` (rad) from radial reaches up to ρ sin(tilt) higher
+    and lower in radius than its axial height: the table then takes the largest distance
+    within that band (conservative)."""
     a = float(allowance)
     top = float(max(assembly.top, cutter.h))
-    h = np.arange(-a - step, top + a + step, step)
+    w = float(max(cutter.max_radius, assembly.max_radius + safety)) * math.sin(abs(tilt))
+    h = np.arange(-a - w - step, top + a + w + step, step)
     prof = cutter.profile(128)
     # the flute: the radius of the outline at each height (the largest at a height)
     zp, rp = prof[:, 1], prof[:, 0]
@@ -122,6 +125,12 @@ def offset_table(cutter: Cutter, assembly: ToolAssembly, allowance: float, safet
         for dlt in np.linspace(-a, a, n):
             shifted = np.interp(h + dlt, h, rho, left=-np.inf, right=-np.inf)
             best = np.maximum(best, shifted + math.sqrt(max(a * a - dlt * dlt, 0.0)))
+        rho = best
+    if w > 0:
+        n = max(3, int(math.ceil(2 * w / step)) | 1)
+        best = np.full(len(h), -np.inf)
+        for dlt in np.linspace(-w, w, n):
+            best = np.maximum(best, np.interp(h + dlt, h, rho, left=-np.inf, right=-np.inf))
         rho = best
     return h, np.where(np.isfinite(rho), rho + margin, rho)
 

@@ -278,13 +278,16 @@ class RoughingOperation(Operation):
         if len(zr) == 0:
             raise StockError("the blank is empty")
         st.top = np.interp(st.z, zr, top)
-        st.floor = floor_radius(st.part.hub_profile, st.cutter, st.hub_a, st.z)
+        st.floor = floor_radius(st.part.hub_profile, st.cutter, st.hub_a, st.z,
+                                lead=st.req.lead, side=st.req.side_tilt)
         st.levels = level_radii(st.z, st.floor, st.top, st.req.levels, st.req.depth_per_cut)
         yield Progress(1.0, f"{len(st.levels)} levels")
 
     def _region(self, st: _State):
         part, req = st.part, st.req
-        table = offset_table(st.cutter, st.assembly, req.allowance, req.safety, req.margin)
+        tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(req.side_tilt)))
+        table = offset_table(st.cutter, st.assembly, req.allowance, req.safety, req.margin,
+                             tilt=tilt)
         rv, _, _ = theta_about(part.blade_vertices, part.axis)
         r_lo = max(float(rv.min()), float(st.floor.min()) - req.allowance - 0.5)
         r_hi = float(rv.max())
