@@ -51,12 +51,34 @@ class Section:
         self.theta = np.ascontiguousarray(theta[o])
 
 
+def _to_cylinder(q, m, axis: Axis, c: float):
+    """The point q + t m (rows) on the cylinder of radius ``c`` about ``axis`` with the
+    smallest |t| (the root of a quadratic in t); q where there is none."""
+    d = axis.d
+    qp = (q - axis.o) - ((q - axis.o) @ d)[:, None] * d
+    mp = m - (m @ d)[:, None] * d
+    A = np.einsum("ij,ij->i", mp, mp)
+    B = 2.0 * np.einsum("ij,ij->i", qp, mp)
+    C = np.einsum("ij,ij->i", qp, qp) - c * c
+    disc = np.sqrt(np.maximum(B * B - 4 * A * C, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = (-B + disc) / (2 * A)
+        t2 = (-B - disc) / (2 * A)
+        lin = -C / B
+    t = np.where(np.abs(t1) <= np.abs(t2), t1, t2)
+    t = np.where(A > 1e-14 * np.maximum(np.einsum("ij,ij->i", m, m), 1e-300), t, lin)
+    t = np.where(np.isfinite(t), t, 0.0)
+    return q + t[:, None] * m
+
+
 def cylinder_sections(V, F, axis: Axis, radii, theta_ref: float, spacing: float = 0.15):
     """[Section] of the mesh (V, F) with the cylinders r = ``radii`` (mm) about ``axis``:
-    every triangle crossing a cylinder gives a segment between its two edge crossings (z and
-    θ linear along the edge), sampled every ``spacing`` mm in (z, r θ)."""
-    r, th, z = theta_about(V, axis)
-    th = np.mod(th - theta_ref + math.pi, 2 * math.pi) - math.pi
+    every triangle crossing a cylinder gives the arc between its two edge crossings (the
+    exact crossings of the straight edges), sampled every ``spacing`` mm in (z, r θ), each
+    sample the point of the triangle's plane on the cylinder (moved within the plane,
+    across the chord, onto it: exact however large the triangle)."""
+    V = np.asarray(V, float)
+    r, _, _ = theta_about(V, axis)
     F = np.asarray(F, np.int64)
     rf = r[F]
     rmin, rmax = rf.min(axis=1), rf.max(axis=1)
@@ -64,35 +86,66 @@ def cylinder_sections(V, F, axis: Axis, radii, theta_ref: float, spacing: float 
     for c in np.asarray(radii, float):
         sel = np.nonzero((rmin < c) & (rmax > c))[0]
         if len(sel) == 0:
-            out.append(Section(c, np.zeros(0), np.zeros(0)))
+            out.append([c, [np.zeros(0)], [np.zeros(0)]])
             continue
         f = F[sel]
         d = r[f] - c
         d = np.where(d == 0.0, 1e-12, d)
-        pts = []
-        for i, j in ((0, 1), (1, 2), (2, 0)):
-            a, b = d[:, i], d[:, j]
-            t = a / (a - b)
-            cross = (a > 0) != (b > 0)
-            pz = z[f[:, i]] + t * (z[f[:, j]] - z[f[:, i]])
-            pt = th[f[:, i]] + t * (th[f[:, j]] - th[f[:, i]])
-            pts.append((cross, pz, pt))
-        # the two crossing edges of each triangle: first and second in edge order
-        cr = np.stack([p[0] for p in pts], 1)
-        PZ = np.stack([p[1] for p in pts], 1)
-        PT = np.stack([p[2] for p in pts], 1)
-        first = np.argmax(cr, axis=1)
-        second = 2 - np.argmax(cr[:, ::-1], axis=1)
-        ok = cr.sum(axis=1) == 2
-        k = np.arange(len(f))[ok]
-        z0, t0 = PZ[k, first[ok]], PT[k, first[ok]]
-        z1, t1 = PZ[k, second[ok]], PT[k, second[ok]]
-        n = np.maximum(1, np.ceil(np.hypot(z1 - z0, c * (t1 - t0)) / spacing).astype(int))
-        seg = np.repeat(np.arange(len(z0)), n + 1)
+        cross = np.stack([(d[:, i] > 0) != (d[:, j] > 0) for i, j in ((0, 1), (1, 2), (2, 0))],
+                         1)
+        ok = cross.sum(axis=1) == 2
+        f, cross = f[ok], cross[ok]
+        first = np.argmax(cross, axis=1)
+        second = 2 - np.argmax(cross[:, ::-1], axis=1)
+        ends = []
+        for e in (first, second):
+            A = V[f[np.arange(len(f)), e]]
+            B = V[f[np.arange(len(f)), (e + 1) % 3]]
+            ends.append(_to_cylinder(A, B - A, axis, c))
+        P0, P1 = ends
+        nrm = np.cross(V[f[:, 1]] - V[f[:, 0]], V[f[:, 2]] - V[f[:, 0]])
+        chord = P1 - P0
+        m = np.cross(nrm, chord)
+        m /= np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
+        L = np.linalg.norm(chord, axis=1)
+        n = np.maximum(1, np.ceil(L / spacing).astype(int))
+        seg = np.repeat(np.arange(len(f)), n + 1)
         s = (np.arange(int((n + 1).sum())) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)) \
             / np.repeat(n, n + 1)
-        out.append(Section(c, z0[seg] + s * (z1 - z0)[seg], t0[seg] + s * (t1 - t0)[seg]))
-    return out
+        q = P0[seg] + s[:, None] * chord[seg]
+        inner = (s > 0) & (s < 1)
+        q[inner] = _to_cylinder(q[inner], m[seg][inner], axis, c)
+        _, th, z = theta_about(q, axis)
+        th = np.mod(th - theta_ref + math.pi, 2 * math.pi) - math.pi
+        out.append([c, [z], [th]])
+    # the mesh's edges, sampled, each sample on the next cylinder above it: a blade's open
+    # end or its tip face between two cylinders would otherwise be seen only by the lower
+    # one, up to a cylinder spacing too low (the assignment upward only overstates the
+    # height, and the distance kept grows with the height)
+    radii = np.asarray(radii, float)
+    E = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1),
+                  axis=0)
+    A, B = V[E[:, 0]], V[E[:, 1]]
+    n = np.maximum(1, np.ceil(np.linalg.norm(B - A, axis=1) / spacing).astype(int))
+    seg = np.repeat(np.arange(len(E)), n + 1)
+    t = (np.arange(int((n + 1).sum())) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)) \
+        / np.repeat(n, n + 1)
+    P = A[seg] + t[:, None] * (B - A)[seg]
+    pr, pth, pz = theta_about(P, axis)
+    pth = np.mod(pth - theta_ref + math.pi, 2 * math.pi) - math.pi
+    k = np.searchsorted(radii, pr, "left")
+    gap = np.diff(radii).max() if len(radii) > 1 else 0.0
+    use = (k < len(radii)) & (k > 0)
+    use[use] &= radii[k[use]] - pr[use] <= gap + 1e-12
+    order = np.argsort(k[use], kind="stable")
+    kk, zz, tt = k[use][order], pz[use][order], pth[use][order]
+    bounds = np.searchsorted(kk, np.arange(len(radii) + 1))
+    sections = []
+    for i, (c, zs, ts) in enumerate(out):
+        a, b = bounds[i], bounds[i + 1]
+        sections.append(Section(c, np.concatenate(zs + [zz[a:b]]),
+                                np.concatenate(ts + [tt[a:b]])))
+    return sections
 
 
 def offset_table(cutter: Cutter, assembly: ToolAssembly, allowance: float, safety: float,
