@@ -175,8 +175,8 @@ def _assert_clear(part, path, every=4, signed=True):
     near, _ = cKDTree(Vs).query(pts, distance_upper_bound=ALLOWANCE + edge, workers=-1)
     cand = pts[np.isfinite(near)]
     cp = closest_points(TriMesh.from_arrays(Vs, Fs), cand)
-    if signed:
-        assert np.all(cp.sign >= 0), "a cutter point inside a blade"
+    if signed:  # behind a face (not beyond an open end of the blade: edge, vertex nearest)
+        assert not np.any((cp.sign < 0) & (cp.feature == 0)), "a cutter point inside a blade"
     assert cp.distance.min() >= ALLOWANCE - 0.02, f"cutter {cp.distance.min():.4f} mm from a blade"
     r, _, z = theta_about(pts, part.axis)
     H = part.hub_profile
