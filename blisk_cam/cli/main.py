@@ -49,6 +49,7 @@ from .nc import add_nc_arguments
 from .paths import ENGINES, _cmd_paths, add_paths_arguments
 from .process import add_process_arguments
 from .robot import add_robot_arguments
+from .rough import add_rough_arguments
 from .simulate import add_simulate_arguments
 
 __all__ = ["main", "build_parser"]
@@ -110,7 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version",
                         version=f"{PROG} {__version__} (kernels: {backend_name()})")
     sub = parser.add_subparsers(dest="command",
-                                metavar="{demo,paths,nc,robot,simulate,hub,batch,process}")
+                                metavar="{demo,paths,nc,robot,simulate,rough,hub,batch,process}")
     sub.required = True
 
     commands = (
@@ -140,6 +141,13 @@ def build_parser() -> argparse.ArgumentParser:
          "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
          "only numpy and scipy.",
          add_simulate_arguments, _cmd_simulate),
+        ("rough", "channel roughing from the blank → paths JSON (\"operation\": \"rough\")",
+         "Rough the channels between the blades from the blank down to an allowance (default "
+         "0.5 mm) in levels (from the hub, from the shroud or morphed), zig-zag or plunge; "
+         "the tool, its shank and holder kept clear of the allowance. One gap is planned; "
+         "nc and simulate repeat it for the N gaps. Lengths mm, angles degrees. Needs only "
+         "numpy and scipy.",
+         add_rough_arguments, _cmd_rough),
         ("hub", "hub or fillet finishing of a blisk → paths JSON",
          "Finish the hub between two blades (boundary-conformed passes from the leading to "
          "the trailing edge, spaced by stepover or scallop on the hub's curvature, two regions, "
@@ -262,6 +270,12 @@ def _cmd_simulate(args):
     from .simulate import run_simulate
 
     return run_simulate(args)
+
+
+def _cmd_rough(args):
+    from .rough import run_rough
+
+    return run_rough(args)
 
 
 def main(argv=None) -> int:

@@ -34,7 +34,7 @@ FLOORS = {
     "tool": 3, "part": 3,
     "toolpath": 4,
     "paths": 5, "verify": 5, "machine": 5, "stock": 5, "hub": 5,
-    "collision": 6, "post": 6, "robot": 6,
+    "collision": 6, "post": 6, "robot": 6, "channel": 6,
     "process": 7, "display": 7,
 }
 #: imports allowed across floors that are not strictly downward: (importer, imported) packages

@@ -22,7 +22,9 @@ Fields added (still version 1; none of the above changed):
   "curve": [index into "curves" or −1], "index": [pose index in that curve or −1],
   "flags": [int]}``.
 * ``"profile1"``/``"profile2"`` — curved (LMRS) generatrices, see ``_generatrix_entries``.
-* ``"operation"`` — the operation that made the path (``"hub-finish"``, ``"fillet-finish"``);
+* ``"operation"`` — the operation that made the path: ``"rough"`` for channel roughing
+  (:mod:`..process.roughing`: its curves are the passes, ``cc`` = ``tip``, ``normal`` =
+  ``axis``: no contact point, ``s`` the level index), ``"hub-finish"``, ``"fillet-finish"``;
   absent for blade finishing, so those paths are written as before.
 * ``"warnings"`` — ``ToolPath.warnings``, a list of strings for the user (e.g. zero cutting
   speed); absent when there are none, so a path without warnings is written as before.

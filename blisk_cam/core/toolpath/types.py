@@ -262,8 +262,8 @@ class ToolPath:
     #: mm of stock left on the surface (semi-finishing): the CC points lie on the surface
     #: offset outward by it and the cutter touches that offset surface; 0 = finished to size
     allowance: float = 0.0
-    #: the operation that made the path ("hub-finish", "fillet-finish"; None: blade finishing,
-    #: written as before)
+    #: the operation that made the path ("rough", "hub-finish", "fillet-finish"; None: blade
+    #: finishing, written as before)
     operation: str | None = None
 
     @property

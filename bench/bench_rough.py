@@ -1,0 +1,123 @@
+"""Benchmark channel roughing (#23) on the demo blisk; prints figures (no assertions).
+
+    python bench/bench_rough.py [--resolution 0.5] [--mesh-resolution 0.3] [--levels from-hub]
+        [--pattern zigzag] [--depth 6] [--stepover 6] [--diameter 10] [--corner 1]
+        [--small] [--no-simulate]
+
+The demo blisk (default parameters, 24 blades; ``--small``: the 25 mm tall test blisk of
+tests/core/test_roughing.py) from its default blank (the envelope + 2 mm), a bull nose on a
+long neck. Prints: the planning time of one gap (the program of every gap is the same one
+turned by k · 2π/N, so all N gaps cost one plan), the estimated machining time of one gap and
+of all gaps, then — simulating the program level by level on the periodic stock of one
+sector, which is the simulation of all N gaps at once — the simulation time, the share of
+the channel volume outside the allowance shell removed after each level (cumulative) and by
+each level, crashes, and the least material left on the part (mm; good to the stock's
+resolution / √2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+from blisk_cam.core.channel.levels import channel_volume  # noqa: E402
+from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.part.model import part_from_demo  # noqa: E402
+from blisk_cam.core.process.operation import run_operation  # noqa: E402
+from blisk_cam.core.process.roughing import RoughingOperation, RoughRequest  # noqa: E402
+from blisk_cam.core.stock.blank import stock_from_allowance, stock_from_envelope  # noqa: E402
+from blisk_cam.core.stock.deviation import deviation_map  # noqa: E402
+from blisk_cam.core.stock.removal import remove_program  # noqa: E402
+from blisk_cam.core.stock.simulation import part_surface  # noqa: E402
+from blisk_cam.core.tool.cutter import Cutter  # noqa: E402
+from blisk_cam.core.toolpath.types import Program  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--resolution", type=float, default=0.5)
+    ap.add_argument("--mesh-resolution", type=float, default=0.3)
+    ap.add_argument("--levels", default="from-hub")
+    ap.add_argument("--pattern", default="zigzag")
+    ap.add_argument("--depth", type=float, default=6.0)
+    ap.add_argument("--stepover", type=float, default=6.0)
+    ap.add_argument("--diameter", type=float, default=10.0)
+    ap.add_argument("--corner", type=float, default=1.0)
+    ap.add_argument("--small", action="store_true")
+    ap.add_argument("--no-simulate", action="store_true")
+    a = ap.parse_args()
+
+    if a.small:
+        demo = make_demo_blisk(resolution=0.2, hub_cone=(150.0, -12.0, 154.0, 12.0),
+                               tip_cone=(178.0, -12.0, 181.0, 12.0), chord_hub=22.0,
+                               chord_tip=22.0, fillet_radius=4.0, hub_extension=4.0,
+                               max_thickness_hub=2.5, max_thickness_tip=1.5)
+    else:
+        demo = make_demo_blisk(resolution=a.mesh_resolution)
+    part = part_from_demo(demo)
+    blank = stock_from_envelope(part, 2.0, a.resolution)
+    R = 0.5 * a.diameter
+    tool = Cutter.bull(R, a.corner, h=3 * a.diameter, neck_length=7 * a.diameter)
+    req = RoughRequest(tool=tool, stepover=a.stepover, depth_per_cut=a.depth, levels=a.levels,
+                       pattern=a.pattern)
+    t = time.perf_counter()
+    res = run_operation(RoughingOperation(), part, req, blank.copy())
+    plan = time.perf_counter() - t
+    p = res.path
+    s = p.stats
+    print(f"demo: {part.blade_count} blades, {len(part.blade_faces)} blade triangles; blank "
+          f"{blank.n_theta} × {blank.n_z} rays at {a.resolution:g} mm; tool Ø{a.diameter:g} "
+          f"R{a.corner:g}; {a.levels}, {a.pattern}, depth {a.depth:g}, stepover "
+          f"{a.stepover:g} mm")
+    print(f"plan one gap: {plan:.2f} s (stages " + ", ".join(
+        f"{k} {v:.2f}" for k, v in res.seconds.items()) + f"); all {part.blade_count} gaps: "
+        f"the same program turned, {plan:.2f} s")
+    print(f"program: {s['levels']} levels, {s['passes']} passes, {s['rows']} rows; estimated "
+          f"machining {s['machining_time_min_gap']:.1f} min per gap, "
+          f"{s['machining_time_min_all_gaps']:.1f} min for all {s['gaps']} gaps "
+          f"(feed {s['feed_mm_min']:g} mm/min)")
+    for w in p.warnings:
+        print(f"warning: {w}")
+    if a.no_simulate:
+        return
+    stock = blank.copy()
+    v0 = channel_volume(stock, part.hub_profile)
+    shell = channel_volume(stock_from_allowance(part, 0.5, a.resolution), part.hub_profile)
+    removable = v0 - shell
+    P = p.program
+    t = time.perf_counter()
+    crashes = 0
+    prev = v0
+    print("level  rows      removed by it   removed so far")
+    for k, (lo, hi) in enumerate(s["level_rows"]):
+        if hi <= lo:
+            print(f"{k + 1:5d}  (left out)")
+            continue
+        lo = max(lo - 1, 0)  # the move that reaches the level's first row
+        sub = Program(P.tip[lo:hi], P.axis[lo:hi], P.move[lo:hi], P.curve[lo:hi],
+                      P.index[lo:hi], P.flags[lo:hi])
+        rr = remove_program(stock, sub, p.tool, sweep_tolerance=0.05, row_offset=lo)
+        crashes += len(rr.crashes)
+        v = channel_volume(stock, part.hub_profile)
+        print(f"{k + 1:5d}  {hi - lo:6d}  {(prev - v) / removable:14.1%}  "
+              f"{(v0 - v) / removable:14.1%}")
+        prev = v
+    sim = time.perf_counter() - t
+    V, F, N, surf = part_surface(part, a.resolution)
+    dev = deviation_map(stock, V[surf], N[surf])
+    print(f"simulation (one sector = all gaps): {sim:.1f} s; crashes {crashes}; share of the "
+          f"channel outside the allowance removed {(v0 - prev) / removable:.1%}; material left "
+          f"min {dev.min():.3f} mm (resolution effect ±{a.resolution / math.sqrt(2):.3f}), "
+          f"median {np.median(dev):.3f} mm")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,459 @@
+"""Channel roughing: the operation that slots the gaps between the blades from the blank down
+to the allowance (paper 003 §5, stage 1: "roughing as slotting — removing most spare
+material and remaining 0.5 mm stock", in levels).
+
+One gap — between blade 0 and blade 1 (blade 0 turned by the pitch 2π/N) — is planned; the
+program is the same for every gap turned by k · 2π/N (``nc --blade-count N`` repeats it;
+the stock of one pitch sector, :mod:`..stock`, is periodic, so simulating the one gap's
+program on it simulates all N).
+
+Stages (:mod:`.operation`):
+
+1. ``levels`` — stations along the axis over the blank (and a tool radius beyond its faces),
+   the shroud (the blank's top), the floor (the lowest tip that keeps the hub allowance,
+   :func:`..channel.levels.floor_radius`) and the levels from the shroud down in the
+   requested mode (:func:`..channel.levels.level_radii`);
+2. ``region`` — the blade's sections on cylinders from the hub to the tip, and per level the
+   θ bounds the tool — flute, shank and holder — may take between the blades keeping the
+   allowance (:mod:`..channel.region`; the body keeps the allowance plus the safety, since
+   the allowance shell is still stock); stations where the bounds cross are left out, with a
+   warning naming the level;
+3. ``pattern`` — zig-zag passes along the channel stepped across it, or plunges
+   (:mod:`..channel.patterns`);
+4. ``link`` — the program: feed links in the air beyond the blank's faces, retract / rapid
+   at the safe radius / approach elsewhere; the estimated machining time.
+
+The tool axis is radial (the span direction of a blade stacked on radial lines), tilted by
+the requested lead (toward +z) and side tilt (toward +θ); the bounds account for the tilt at
+every height of the tool. Units mm, radians (degrees only in messages).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..channel.levels import LEVEL_MODES, floor_radius, level_radii, stock_top
+from ..channel.patterns import (
+    link_program,
+    machining_time,
+    plunge_points,
+    pose_frame,
+    zigzag_passes,
+)
+from ..channel.region import channel_bounds, cylinder_sections, fill_free, offset_table
+from ..errors import BliskCamError, StockError, ToolError
+from ..part.cones import Cone
+from ..part.model import BliskPart, theta_about
+from ..runtime import Progress, check_cancel
+from ..stock.dexels import RadialDexels
+from ..stock.removal import body_assembly
+from ..tool.assembly import ToolAssembly
+from ..tool.cutter import Cutter, as_cutter
+from ..toolpath.types import PassCurve, Program, ToolPath
+from .operation import Operation, OperationResult, Stage, run_operation
+
+__all__ = ["PATTERNS", "RoughRequest", "RoughingOperation", "plan_roughing"]
+
+PATTERNS = ("zigzag", "plunge")
+
+
+@dataclass
+class RoughRequest:
+    """What to rough and how.
+
+    Attributes
+    ----------
+    tool : Cutter — flat, bull nose or ball (DIN 66215)
+    stepover : float, mm — the largest step across the channel (≤ the tool diameter)
+    depth_per_cut : float, mm — the largest step between levels
+    levels : str — ``from-hub`` | ``from-shroud`` | ``morph``
+    pattern : str — ``zigzag`` | ``plunge``
+    allowance : float, mm — material left on the blades (default 0.5, paper 003 §5)
+    hub_allowance : float or None, mm — material left on the hub (None: ``allowance``)
+    lead, side_tilt : float, rad — the tool axis tilted from radial toward +z / +θ
+    assembly : ToolAssembly or None — the body (None: the cutter's shank and holder, the
+        same default as the stock simulation's)
+    safety : float, mm — the body's distance from the allowance shell
+    station_step : float, mm — pose spacing along the channel
+    clearance : float, mm — the safe radius above the blank's top for rapids
+    feed, plunge_feed, rapid_feed : float, mm/min — for the time estimate (plunge_feed None:
+        half the feed)
+    spindle : float or None, rpm — recorded in the stats
+    margin : float, mm — extra distance kept from the allowance shell (covers the chord
+        between stations)
+    """
+
+    tool: Cutter
+    stepover: float
+    depth_per_cut: float
+    levels: str = "from-hub"
+    pattern: str = "zigzag"
+    allowance: float = 0.5
+    hub_allowance: float | None = None
+    lead: float = 0.0
+    side_tilt: float = 0.0
+    assembly: ToolAssembly | None = None
+    safety: float = 0.5
+    station_step: float = 0.5
+    clearance: float = 5.0
+    feed: float = 1000.0
+    plunge_feed: float | None = None
+    rapid_feed: float = 10000.0
+    spindle: float | None = None
+    margin: float = 0.02
+
+
+@dataclass
+class _State:
+    part: BliskPart
+    stock: RadialDexels
+    req: RoughRequest
+    cutter: Cutter
+    assembly: ToolAssembly
+    theta_ref: float
+    hub_a: float
+    z: np.ndarray = None
+    outside: np.ndarray = None
+    top: np.ndarray = None
+    floor: np.ndarray = None
+    levels: list = field(default_factory=list)
+    sections: list = field(default_factory=list)
+    bounds: list = field(default_factory=list)
+    pieces: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)
+    unreachable: list = field(default_factory=list)
+    path: ToolPath = None
+
+
+def _num(name, value, *, positive=True, error=BliskCamError) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise error(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or (v <= 0 if positive else v < 0):
+        raise error(f"{name} must be {'> 0' if positive else '≥ 0'} mm, got {v:g}")
+    return v
+
+
+def _blade_theta(part: BliskPart) -> float:
+    _, th, _ = theta_about(part.blade_vertices, part.axis)
+    return float(math.atan2(np.sin(th).mean(), np.cos(th).mean()))
+
+
+def _widest_circle(part, sections, z, r_floor, band) -> tuple[float, float]:
+    """(widest, narrowest) at the hub (mm): the diameter of the widest circle between blade 0
+    and blade 1 on the band of cylinders ``band`` mm above the floor that lies axially within
+    the blade row (a circle beyond the leading or trailing edge is not in the channel), and
+    the narrowest circumferential gap between the blades there."""
+    hs = np.array([band[0] - 1e-6, band[0], band[1], band[1] + 1e-6])
+    zs = np.concatenate([s.z for s in sections if len(s.z)])
+    if len(zs) == 0:
+        return math.inf, math.inf
+    z_lo, z_hi = float(zs.min()), float(zs.max())
+
+    def fits(o):
+        lo, hi = channel_bounds(sections, part.pitch, z, r_floor,
+                                (hs, np.array([-np.inf, o, o, -np.inf])))
+        d = np.isfinite(lo) & np.isfinite(hi) & (z >= z_lo + o) & (z <= z_hi - o)
+        return d, (hi - lo)
+
+    d0, w0 = fits(0.5)  # (a disc, not a point: the section points lie 0.3 mm apart)
+    if not d0.any():
+        return math.inf, math.inf
+    lo_o, hi_o = 0.5, 0.5 * (z_hi - z_lo)
+    for _ in range(30):
+        mid = 0.5 * (lo_o + hi_o)
+        d, w = fits(mid)
+        if (d & (w >= 0)).any():
+            lo_o = mid
+        else:
+            hi_o = mid
+    throat = float((w0[d0] * r_floor[d0]).min()) + 1.0
+    return 2.0 * lo_o, throat
+
+
+class RoughingOperation(Operation):
+    """Channel roughing (module docstring). ``part`` a :class:`~..part.model.BliskPart`,
+    ``request`` a :class:`RoughRequest`, ``stock`` the blank (radial dexels of one sector,
+    e.g. :func:`..stock.blank.stock_from_envelope`)."""
+
+    name = "rough"
+
+    def start(self, part, request, stock=None):
+        if not isinstance(part, BliskPart):
+            raise BliskCamError("roughing needs the blisk part (axis, blade count, blade and "
+                                "hub): build it with part_from_demo/part_from_blade/"
+                                "split_blisk_mesh")
+        if stock is None:
+            raise StockError("roughing needs the blank (the stock it starts from): give "
+                             "--stock (a profile, a mesh, envelope:MM or a saved state)")
+        if stock.blade_count != part.blade_count:
+            raise StockError(f"the blank is for {stock.blade_count} blades, the part has "
+                             f"{part.blade_count}; make the blank for this part")
+        req = request
+        cutter = as_cutter(req.tool)
+        if cutter.type == "taper":
+            raise ToolError("roughing takes a flat, bull-nose or ball cutter, not a tapered "
+                            "ball")
+        depth = _num("depth per cut", req.depth_per_cut)
+        step = _num("stepover", req.stepover)
+        if step > cutter.d * (1 + 1e-9):
+            raise ToolError(f"stepover {step:g} mm is larger than the tool diameter "
+                            f"{cutter.d:g} mm: material would stay between the passes; give "
+                            f"at most {cutter.d:g} mm")
+        a = _num("allowance", req.allowance, positive=False)
+        ha = a if req.hub_allowance is None else _num("hub allowance", req.hub_allowance,
+                                                        positive=False)
+        if req.levels not in LEVEL_MODES:
+            raise BliskCamError(f"levels must be one of {', '.join(LEVEL_MODES)}, got "
+                                f"{req.levels!r}")
+        if req.pattern not in PATTERNS:
+            raise BliskCamError(f"pattern must be one of {', '.join(PATTERNS)}, got "
+                                f"{req.pattern!r}")
+        for name, ang in (("lead", req.lead), ("side tilt", req.side_tilt)):
+            if not (math.isfinite(ang) and abs(ang) < math.radians(45)):
+                raise BliskCamError(f"{name} must be within ±45°, got "
+                                    f"{math.degrees(ang):g}°")
+        _num("station step", req.station_step)
+        _num("safety distance", req.safety, positive=False)
+        for name, f in (("feed", req.feed), ("rapid feed", req.rapid_feed)):
+            _num(name, f)
+        if depth > cutter.h:
+            raise ToolError(f"depth per cut {depth:g} mm is more than the flute length "
+                            f"{cutter.h:g} mm of the {cutter.type} cutter Ø{cutter.d:g}")
+        # the blank must hold the part
+        V = part.blade_vertices
+        inside = stock.occupied(V)
+        if inside.mean() < 0.995:
+            bad = V[~inside][0]
+            r, _, z = theta_about(bad[None], part.axis)
+            raise StockError(f"the blank does not contain the part: {int((~inside).sum())} of "
+                             f"{len(V)} blade points lie outside it (e.g. at r {r[0]:.2f} mm, "
+                             f"z {z[0]:.2f} mm); give a larger blank")
+        assembly = req.assembly or body_assembly(cutter)
+        st = _State(part, stock, req, cutter, assembly, _blade_theta(part), ha)
+        self._stations(st)
+        # the channel at the hub: allowance and tool against its widest inscribed circle
+        r_floor = floor_radius(part.hub_profile, Cutter.ball(1e-3), 0.0, st.z)
+        band = (0.0, 2.0)  # the channel just above the hub
+        radii = np.arange(float(r_floor.min()) + band[0] - 0.5,
+                          float(r_floor.max()) + band[1] + 0.5, 0.25)
+        secs = cylinder_sections(V, part.blade_faces, part.axis, radii, st.theta_ref, 0.3)
+        widest, throat = _widest_circle(part, secs, st.z, r_floor, band)
+        if math.isfinite(widest):
+            if a >= 0.5 * widest:
+                raise BliskCamError(f"allowance {a:g} mm is larger than half the channel: the "
+                                    f"widest circle between the blades at the hub is "
+                                    f"Ø{widest:.2f} mm; give an allowance below "
+                                    f"{0.5 * widest:.2f} mm")
+            if 2.0 * (cutter.max_radius + a) > widest:
+                raise ToolError(f"the {cutter.type} cutter Ø{cutter.d:g} does not fit the "
+                                f"channel at the hub: with {a:g} mm allowance on each blade it "
+                                f"needs Ø{2 * (cutter.max_radius + a):.2f} mm, the widest "
+                                f"circle between the blades there is Ø{widest:.2f} mm "
+                                f"(narrowest gap {max(throat, 0.0):.2f} mm); take a smaller "
+                                "tool")
+        return st
+
+    def _stations(self, st: _State):
+        stock, req, cutter = st.stock, st.req, st.cutter
+        z0 = stock.z0
+        z1 = stock.z0 + stock.n_z * stock.dz
+        reach = cutter.max_radius + 0.5 + abs(math.tan(req.lead)) * st.assembly.top
+        lo, hi = z0 - reach - req.station_step, z1 + reach + req.station_step
+        n = int(math.ceil((hi - lo) / req.station_step)) + 1
+        st.z = lo + np.arange(n) * ((hi - lo) / (n - 1))
+        st.outside = (st.z < z0 - reach + 1e-9) | (st.z > z1 + reach - 1e-9)
+
+    def stages(self, state):
+        return (Stage("levels", self._levels), Stage("region", self._region),
+                Stage("pattern", self._pattern), Stage("link", self._link))
+
+    # ------------------------------------------------------------------ stages
+    def _levels(self, st: _State):
+        zr, top = stock_top(st.stock)
+        if len(zr) == 0:
+            raise StockError("the blank is empty")
+        st.top = np.interp(st.z, zr, top)
+        st.floor = floor_radius(st.part.hub_profile, st.cutter, st.hub_a, st.z,
+                                lead=st.req.lead, side=st.req.side_tilt)
+        st.levels = level_radii(st.z, st.floor, st.top, st.req.levels, st.req.depth_per_cut)
+        yield Progress(1.0, f"{len(st.levels)} levels")
+
+    def _region(self, st: _State):
+        part, req = st.part, st.req
+        tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(req.side_tilt)))
+        table = offset_table(st.cutter, st.assembly, req.allowance, req.safety, req.margin,
+                             tilt=tilt)
+        rv, _, _ = theta_about(part.blade_vertices, part.axis)
+        r_lo = max(float(rv.min()), float(st.floor.min()) - req.allowance - 0.5)
+        r_hi = float(rv.max())
+        # near the hub the blade runs into its fillet nearly parallel to the cylinders: there
+        # consecutive sections lie far apart and the corner of the tool could pass between
+        # them, so the cylinders are 0.05 mm apart up to a tool radius + 2 mm above the floor
+        fine = min(float(st.floor.max()) + st.cutter.max_radius + 2.0, r_hi)
+        radii = np.unique(np.concatenate([np.arange(r_lo, fine, 0.05),
+                                          np.arange(fine, r_hi + 0.25, 0.25)]))
+        st.sections = cylinder_sections(part.blade_vertices, part.blade_faces, part.axis,
+                                        radii, st.theta_ref, 0.3)
+        overlap = (st.cutter.max_radius + 1.0) / np.maximum(st.floor, 1.0)
+        hold = st.cutter.max_radius + 1.0
+        for k, lv in enumerate(st.levels):
+            check_cancel()
+            z, r, outside, lo, hi = _refined_bounds(
+                st.sections, part.pitch, st.z, lv.r, st.outside, table, req)
+            lo, hi = fill_free(z, lo, hi, part.pitch, np.interp(z, st.z, overlap), hold, 5.0,
+                               0.5 * part.pitch)
+            lv.z, lv.r, lv.outside = z, r, outside
+            reach = hi >= lo
+            inner = ~outside
+            miss = inner & ~reach
+            if miss.all() or not reach[inner].any():
+                st.warnings.append(f"{lv.label} cannot be reached without the tool or its "
+                                   "body touching the allowance: left out")
+                st.unreachable.append(lv.label)
+            elif miss.any():
+                zs = z[miss]
+                st.warnings.append(
+                    f"{lv.label}: the tool does not fit between the blades at z "
+                    f"{zs.min():.1f} … {zs.max():.1f} mm ({miss.sum() / inner.sum():.0%} of "
+                    "its stations): that part is left out")
+                st.unreachable.append(lv.label)
+            st.bounds.append((lo, hi, reach))
+            yield Progress((k + 1) / len(st.levels), f"region of {lv.label}")
+
+    def _pattern(self, st: _State):
+        req, part = st.req, st.part
+
+        def frame(theta, z, r):
+            return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead, req.side_tilt)
+
+        fwd, low = True, True
+        r_safe = self._r_safe(st)
+        for k, (lv, (lo, hi, reach)) in enumerate(zip(st.levels, st.bounds, strict=True)):
+            if not reach.any():
+                continue
+            if req.pattern == "zigzag":
+                pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
+                                              req.stepover, frame, fwd, low)
+            else:
+                prev = st.levels[k - 1] if k > 0 else None
+                above = (np.interp(lv.z, prev.z, prev.r) if prev is not None
+                         else np.full(len(lv.z), r_safe))
+                above = np.minimum(above + 1.0, r_safe)
+                pcs = plunge_points(k, lv.z, lv.r, above, lo, hi, reach, req.stepover, frame)
+            st.pieces.extend(pcs)
+            yield Progress((k + 1) / len(st.levels), f"passes of {lv.label}")
+
+    def _r_safe(self, st: _State) -> float:
+        return float((st.top.max() + st.req.clearance) / math.cos(min(st.part.pitch, 1.0)))
+
+    def _link(self, st: _State):
+        req, part = st.req, st.part
+        if not st.pieces:
+            raise BliskCamError("no level of the channel can be reached with this tool: "
+                                + "; ".join(st.warnings[:3]))
+        tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
+                                                           self._r_safe(st))
+        program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
+        curves = [PassCurve(s=float(p.level), closed=False, cc=p.tip, normal=p.axis,
+                            tip=p.tip, axis=p.axis) for p in st.pieces]
+        plunge = req.plunge_feed or 0.5 * req.feed
+        est = machining_time(tip, move, req.feed, plunge, req.rapid_feed)
+        P = part.hub_profile
+        zt = st.z[~st.outside]
+        cone1 = Cone(float(P[0, 0]), float(P[0, 1]), float(P[-1, 0]), float(P[-1, 1]))
+        top_in = st.top[~st.outside]
+        cone2 = Cone(float(top_in[0]), float(zt[0]), float(top_in[-1]), float(zt[-1]))
+        c = st.cutter
+        scallop = (c.r - math.sqrt(max(c.r * c.r - 0.25 * max(req.stepover - 2 * c.e, 0) ** 2,
+                                       0.0))) if c.r > 0 else 0.0
+        stats = {
+            "operation": "rough",
+            "pattern": req.pattern,
+            "level_mode": req.levels,
+            "levels": len(st.levels),
+            "depth_per_cut_mm": float(req.depth_per_cut),
+            "stepover_mm": float(req.stepover),
+            "allowance_mm": float(req.allowance),
+            "hub_allowance_mm": float(st.hub_a),
+            "lead_deg": math.degrees(req.lead),
+            "side_tilt_deg": math.degrees(req.side_tilt),
+            "passes": len(st.pieces),
+            "rows": len(tip),
+            "gaps": part.blade_count,
+            "level_rows": [[int(rows[k][0]), int(rows[k][1])] if k in rows else [0, 0]
+                           for k in range(len(st.levels))],
+            "level_labels": [lv.label for lv in st.levels],
+            "unreachable_levels": list(st.unreachable),
+            "feed_mm_min": float(req.feed),
+            "plunge_feed_mm_min": float(plunge),
+            "rapid_feed_mm_min": float(req.rapid_feed),
+            "machining_time_min_gap": est["minutes"],
+            "machining_time_min_all_gaps": est["minutes"] * part.blade_count,
+            "length_cut_mm": est["lengths_mm"]["cut"],
+            "length_link_mm": est["lengths_mm"]["link"],
+            "length_approach_retract_mm": est["lengths_mm"]["approach_retract"],
+            "length_rapid_mm": est["lengths_mm"]["rapid"],
+            "safe_radius_mm": self._r_safe(st),
+            "floor_scallop_mm": scallop,
+            "max_axis_turn_deg": _max_turn(axis),
+        }
+        if req.spindle:
+            stats["spindle_rpm"] = float(req.spindle)
+        st.path = ToolPath(axis=part.axis, cone1=cone1, cone2=cone2, tool=st.cutter,
+                           cusp=max(scallop, 1e-3), chord=max(req.margin, 1e-3),
+                           curves=curves, stats=stats, program=program,
+                           warnings=list(st.warnings), operation="rough")
+        yield Progress(1.0, f"linked {len(tip)} rows")
+
+    def finish(self, state, seconds):
+        return OperationResult(state.path, None, dict(seconds))
+
+
+def _refined_bounds(sections, pitch, z, r, outside, table, req, chord: float = 0.5,
+                    rounds: int = 8):
+    """Stations and bounds of one level, refined where a bound moves more than ``chord`` mm
+    between two stations: a straight move of length L between two points of the envelope
+    of circles of radius o (≥ the tool's radius) leaves it by at most L²/(8 o), so chords of
+    ≤ 0.5 mm stay within the margin — also where the envelope turns round a leading or
+    trailing edge and its slope in z is unbounded (there halving the z step is what shortens
+    the chord). Returns (z, r, outside, lo, hi)."""
+    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=req.lead, side=req.side_tilt)
+    for _ in range(rounds):
+        both = np.isfinite(lo[:-1]) & np.isfinite(lo[1:]) & np.isfinite(hi[:-1]) & \
+            np.isfinite(hi[1:])
+        rm = 0.5 * (r[:-1] + r[1:])
+        with np.errstate(invalid="ignore"):
+            jump = np.maximum(np.abs(np.diff(lo)), np.abs(np.diff(hi))) * rm
+        bad = np.nonzero(both & (jump > chord))[0]
+        if len(bad) == 0:
+            break
+        zm = 0.5 * (z[bad] + z[bad + 1])
+        r_m = 0.5 * (r[bad] + r[bad + 1])
+        out_m = outside[bad] & outside[bad + 1]
+        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=req.lead,
+                                    side=req.side_tilt)
+        order = np.argsort(np.concatenate([z, zm]), kind="stable")
+        z = np.concatenate([z, zm])[order]
+        r = np.concatenate([r, r_m])[order]
+        outside = np.concatenate([outside, out_m])[order]
+        lo = np.concatenate([lo, lo_m])[order]
+        hi = np.concatenate([hi, hi_m])[order]
+    return z, r, outside, lo, hi
+
+
+def _max_turn(axis) -> float:
+    """Largest angle (degrees) between consecutive tool axes."""
+    if len(axis) < 2:
+        return 0.0
+    c = np.clip(np.einsum("ij,ij->i", axis[1:], axis[:-1]), -1.0, 1.0)
+    return float(np.degrees(np.arccos(c)).max())
+
+
+def plan_roughing(part: BliskPart, request: RoughRequest, stock: RadialDexels) -> ToolPath:
+    """Run :class:`RoughingOperation` to the end; returns the tool path."""
+    return run_operation(RoughingOperation(), part, request, stock).path
