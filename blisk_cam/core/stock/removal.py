@@ -34,14 +34,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import StockError
-from ..runtime import Progress, check_cancel
+from ..kernels import stock as compiled_stock
+from ..runtime import Progress, check_cancel, workers
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
 from ..toolpath.types import MOVE_NAMES, MOVE_RAPID, Program
 from .dexels import RadialDexels, merge_intervals, subtract_intervals
 
 __all__ = ["Crash", "RemovalResult", "body_assembly", "cutter_halfplanes", "frustum_halfplanes",
-           "ray_solid_intervals", "remove_program", "simulate_moves"]
+           "halfplane_bounds", "ray_solid_intervals", "remove_program", "simulate_moves"]
 
 _EPS = 1e-12
 #: minimum volume (mm³) a rapid or the body must remove at one row to be a crash
@@ -89,6 +90,26 @@ def cutter_halfplanes(cutter: Cutter, arc_tolerance: float = 1e-3) -> np.ndarray
 def frustum_halfplanes(z0, r0, z1, r1) -> np.ndarray:
     """A frustum of the body (ρ ≤ r(z), z0 ≤ z ≤ z1) as half-planes (3, 3)."""
     return _polygon_halfplanes([[0.0, z0], [r0, z0], [r1, z1], [0.0, z1]])
+
+
+def halfplane_bounds(planes) -> tuple:
+    """(z_lo, z_hi, ρ_max) mm of the convex solid ``planes`` (q, 3) with ρ ≥ 0: its polygon's
+    vertices (every two edge lines and the axis, where all constraints hold), widened by
+    1 µm — a cylinder about the tool axis that holds the solid (the compiled kernel skips
+    the rays whose stretch inside it meets no material)."""
+    H = np.vstack([np.asarray(planes, float).reshape(-1, 3), [[-1.0, 0.0, 0.0]]])  # ρ ≥ 0
+    i, j = np.triu_indices(len(H), 1)
+    det = H[i, 0] * H[j, 1] - H[i, 1] * H[j, 0]
+    ok = np.abs(det) > 1e-12
+    i, j, det = i[ok], j[ok], det[ok]
+    rho = (H[i, 2] * H[j, 1] - H[i, 1] * H[j, 2]) / det
+    z = (H[i, 0] * H[j, 2] - H[i, 2] * H[j, 0]) / det
+    feas = (H[:, 0] * rho[:, None] + H[:, 1] * z[:, None]
+            <= H[:, 2] + 1e-9 * (1.0 + np.abs(H[:, 2]))).all(axis=1)
+    if not feas.any():
+        raise StockError("a tool solid has no extent (its profile is empty)")
+    rho, z = rho[feas], z[feas]
+    return float(z.min()) - 1e-3, float(z.max()) + 1e-3, float(rho.max()) + 1e-3
 
 
 def body_assembly(cutter: Cutter) -> ToolAssembly:
@@ -261,10 +282,10 @@ def _sub_poses(tip, axis, rows, first: bool, step: float, reach: float):
     return tips, axes, rr
 
 
-def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
+def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
     """For each solid (its axis segment tip + [z_lo, z_hi] · axis, radius ``radius``): the
-    rays (unwrapped column, row) of the (θ, z) box that can meet it → (solid, col, row) and
-    the radii (r_lo, r_hi) per solid it can reach; none for a solid beyond ``r_cap``."""
+    (θ, z) box of rays that can meet it — unwrapped columns c0..c1, rows w0..w1 — the radii
+    (r_lo, r_hi) it can reach and its number of candidate rays (0 beyond ``r_cap``)."""
     e1, e2, d = dex.axis.angular_frame()
     P0 = tips + z_lo * axes - dex.axis.o
     P1 = tips + z_hi * axes - dex.axis.o
@@ -302,6 +323,14 @@ def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.
     r_lo = np.maximum(rmin - radius, 0.0)
     r_hi = r_far + radius
     cnt = np.where(r_lo <= r_cap, nc * nw, 0)
+    return c0, c1, w0, w1, r_lo, r_hi, nc, cnt
+
+
+def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
+    """The candidate rays of :func:`_candidate_boxes`, one by one: (solid, col, row) and the
+    radii (r_lo, r_hi) per solid."""
+    c0, c1, w0, w1, r_lo, r_hi, nc, cnt = _candidate_boxes(dex, tips, axes, z_lo, z_hi, radius,
+                                                           r_cap)
     tot = int(cnt.sum())
     solid = np.repeat(np.arange(len(tips)), cnt)
     k = np.arange(tot) - np.repeat(np.cumsum(cnt) - cnt, cnt)
@@ -375,6 +404,46 @@ def _apply(dex: RadialDexels, rays, a, b) -> float:
     return total * dex.d_theta * dex.dz
 
 
+def _job_numpy(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, z_hi, radius,
+               measure):
+    """One solid's removal by the batch's sub-poses, numpy (the reference): (removed mm³,
+    per group — the batch's rows — the material its own union met (mm³, only when
+    ``measure``) and the longest stretch met along a ray (mm), the candidate pairs)."""
+    per = np.zeros(n_groups)
+    deep = np.zeros(n_groups)
+    rays, a, b, so, n_pairs = _cut(dex, tips, axes, planes, z_lo, z_hi, radius)
+    if len(rays) == 0:
+        return 0.0, per, deep, n_pairs
+    if measure:
+        vol, _ = _overlap(dex, rays, a, b)
+        row = group[so]
+        hit = vol > 0
+        # each hit row's own volume: the union of its sub-poses' intervals
+        for j in np.unique(row[hit]):
+            sel = row == j
+            mr, ma, mb, _ = merge_intervals(rays[sel], a[sel], b[sel])
+            v, ln = _overlap(dex, mr, ma, mb)
+            per[j] = float(v.sum()) * dex.d_theta * dex.dz
+            deep[j] = float(ln.max()) if len(ln) else 0.0
+    return _apply(dex, rays, a, b), per, deep, n_pairs
+
+
+def _job_compiled(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, z_hi, radius,
+                  measure, bounds, r_cap):
+    """:func:`_job_numpy` by the compiled kernel (same candidate boxes, same figures)."""
+    c0, c1, w0, w1, _, _, _, cnt = _candidate_boxes(dex, tips, axes, z_lo, z_hi, radius, r_cap)
+    none = cnt == 0
+    boxes = np.stack([c0, np.where(none, c0 - 1, c1), w0, w1], 1)
+    e1, e2, d = dex.axis.angular_frame()
+    frame = np.array([dex.axis.o, e1, e2, d], float)
+    out = compiled_stock.remove_solids(
+        dex.lo, dex.hi, dex.n_theta, (dex.theta0, dex.d_theta, dex.z0, dex.dz), frame, tips,
+        axes, group, n_groups, boxes, planes, bounds, measure, workers())
+    dex.lo, dex.hi, removed, vol, depth, _ = out
+    cell = dex.d_theta * dex.dz
+    return removed * cell, vol * cell, depth, int(cnt.sum())
+
+
 def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAssembly | None
                    = None, *, sweep_tolerance: float | None = None,
                    arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
@@ -409,7 +478,8 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         step = min(step, dex.resolution)
     flute = cutter_halfplanes(cutter, arc_tolerance)
     reach = math.hypot(cutter.h, cutter.max_radius)
-    bodies = [(frustum_halfplanes(*f), f[0], f[2], max(f[1], f[3])) for f in body.frustums()]
+    bodies = [(fp, halfplane_bounds(fp), f[0], f[2], max(f[1], f[3]))
+              for f in body.frustums() for fp in [frustum_halfplanes(*f)]]
     if check_body and bodies:
         reach = max(reach, math.hypot(body.top, body.max_radius))
     tip = np.asarray(program.tip, float)
@@ -418,6 +488,10 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     move = np.asarray(program.move)
     result = RemovalResult(removed={name: 0.0 for name in MOVE_NAMES}, rows=len(tip))
     crash_rows: dict = {}
+    compiled = compiled_stock.available()
+    flute_bounds = halfplane_bounds(flute)
+    # removal only lowers the largest radius of material: one bound serves the whole run
+    r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
     runs = [(m, a, z) for m, a, z in program.runs()]
     done = 0
     for m, start, stop in runs:
@@ -426,40 +500,26 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
             rows = np.arange(s, min(stop, s + batch))
             tips, axes, rr = _sub_poses(tip, axis, rows, True, step, reach)
             result.sub_poses += len(tips)
-            jobs = [("flute", flute, 0.0, cutter.h, cutter.max_radius)]
+            jobs = [("flute", flute, flute_bounds, 0.0, cutter.h, cutter.max_radius)]
             if check_body:
-                jobs += [("body", p, z0, z1, rad) for p, z0, z1, rad in bodies]
-            for kind, planes, z0, z1, rad in jobs:
-                rays, a, b, so, n_pairs = _cut(dex, tips, axes, planes, z0, z1, rad)
+                jobs += [("body", p, pb, z0, z1, rad) for p, pb, z0, z1, rad in bodies]
+            for kind, planes, bounds, z0, z1, rad in jobs:
+                measure = kind == "body" or m == MOVE_RAPID
+                args = (dex, tips, axes, rr - s, len(rows), planes, z0, z1, rad, measure)
+                out = _job_compiled(*args, bounds, r_cap) if compiled else _job_numpy(*args)
+                removed, per, deep, n_pairs = out
                 result.pairs += n_pairs
-                if len(rays) == 0:
-                    continue
-                if kind == "body" or m == MOVE_RAPID:
-                    vol, _ = _overlap(dex, rays, a, b)
-                    row = rr[so]
-                    hit = vol > 0
-                    if hit.any():
-                        # each hit row's own volume: the union of its sub-poses' intervals
-                        per = np.zeros(len(rows))
-                        deep = np.zeros(len(rows))
-                        for j in np.unique(row[hit] - s):
-                            sel = row == s + j
-                            mr, ma, mb, _ = merge_intervals(rays[sel], a[sel], b[sel])
-                            v, ln = _overlap(dex, mr, ma, mb)
-                            per[j] = float(v.sum()) * dex.d_theta * dex.dz
-                            deep[j] = float(ln.max()) if len(ln) else 0.0
-                        for j in np.nonzero(per > CRASH_VOLUME)[0]:
-                            key = (int(rows[j]), "body" if kind == "body" else "rapid")
-                            c = crash_rows.get(key)
-                            if c is None:
-                                crash_rows[key] = Crash(int(rows[j]) + row_offset, key[1],
-                                                        MOVE_NAMES[int(move[rows[j]])],
-                                                        float(per[j]), float(deep[j]),
-                                                        tuple(tip[rows[j]]))
-                            else:
-                                c.volume += float(per[j])
-                                c.depth = max(c.depth, float(deep[j]))
-                removed = _apply(dex, rays, a, b)
+                for j in np.nonzero(per > CRASH_VOLUME)[0]:
+                    key = (int(rows[j]), "body" if kind == "body" else "rapid")
+                    c = crash_rows.get(key)
+                    if c is None:
+                        crash_rows[key] = Crash(int(rows[j]) + row_offset, key[1],
+                                                MOVE_NAMES[int(move[rows[j]])],
+                                                float(per[j]), float(deep[j]),
+                                                tuple(tip[rows[j]]))
+                    else:
+                        c.volume += float(per[j])
+                        c.depth = max(c.depth, float(deep[j]))
                 if kind == "flute":
                     result.removed[MOVE_NAMES[m]] += removed
             done += len(rows)
