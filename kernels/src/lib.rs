@@ -213,7 +213,13 @@ fn first_equal_point<'py>(
 /// lo²)/2 mm², per group the material its union met (n_groups,) mm² and the longest stretch
 /// (n_groups,) mm — zeros unless `measure` —, the candidate pairs, and the rays that needed
 /// more than K intervals: (ray ids (p,), counts (p,), lo and hi flat) for the caller to write).
+/// `planes_in` (p, 3): the solid shrunk by the crash tolerance; with `measure`, per group also
+/// the material its union met (returned after the first per-group array), for the crash
+/// decision. `rho` (q, 2): the ρ range of each plane's edge, for a profile whose boundary below the
+/// top rises with ρ (only the edges a ray's ρ range meets are evaluated); None: every plane.
 #[pyfunction]
+#[pyo3(signature = (lo, hi, n_theta, grid, frame, tips, axes, group, n_groups, boxes, planes,
+                    bounds, measure, threads, rho=None, planes_in=None))]
 #[allow(clippy::too_many_arguments)]
 fn stock_remove<'py>(
     py: Python<'py>,
@@ -231,8 +237,11 @@ fn stock_remove<'py>(
     bounds: (f64, f64, f64),
     measure: bool,
     threads: usize,
+    rho: Option<PyReadonlyArray2<'py, f64>>,
+    planes_in: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<(
     f64,
+    Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
     u64,
@@ -259,6 +268,17 @@ fn stock_remove<'py>(
     let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
     let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
     let pl = points(&planes, "planes")?;
+    let rr = match &rho {
+        Some(r) => {
+            if r.shape() != [pl.len(), 2] {
+                return Err(PyValueError::new_err("rho must be (q, 2), one range per plane"));
+            }
+            let rs = r.as_slice().map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
+            // SAFETY: as in `points`
+            Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
+        }
+        None => None,
+    };
     let g = stock::Grid {
         theta0: grid.0,
         d_theta: grid.1,
@@ -281,6 +301,11 @@ fn stock_remove<'py>(
         z_lo: bounds.0,
         z_hi: bounds.1,
         radius: bounds.2,
+        rho: rr,
+        planes_in: match &planes_in {
+            Some(p) => Some(points(p, "planes_in")?),
+            None => None,
+        },
     };
     let ls = lo.as_slice_mut().map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
     let hs = hi.as_slice_mut().map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
@@ -292,6 +317,7 @@ fn stock_remove<'py>(
     Ok((
         out.removed,
         PyArray1::from_vec(py, out.group_vol),
+        PyArray1::from_vec(py, out.group_vol_in),
         PyArray1::from_vec(py, out.group_depth),
         pairs,
         (

@@ -44,6 +44,77 @@ pub struct Solids<'a> {
     pub z_lo: f64,
     pub z_hi: f64,
     pub radius: f64,
+    /// per plane the ρ range of its edge (see `Profile`), or None
+    pub rho: Option<&'a [[f64; 2]]>,
+    /// the solid shrunk by the crash tolerance (measured with `measure`), or None
+    pub planes_in: Option<&'a [[f64; 3]]>,
+}
+
+/// Where a solid can meet the rays of the grid row at height `zr` (mm, from the axis'
+/// origin): the columns (unwrapped, within the solid's box) and the radii. The solid lies
+/// within `r_b` of its axis segment, so its points in the row's plane lie within `r_b` of
+/// the plane projection of the part of the segment within `r_b` in height. None: no ray.
+#[inline]
+fn row_reach(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], s: &Solids, si: usize, zr: f64, r_b: f64)
+             -> Option<(i64, i64, f64, f64)> {
+    let [o, e1, e2, d] = g.frame;
+    let p0 = [tip[0] + s.z_lo * ax[0] - o[0], tip[1] + s.z_lo * ax[1] - o[1],
+              tip[2] + s.z_lo * ax[2] - o[2]];
+    let p1 = [tip[0] + s.z_hi * ax[0] - o[0], tip[1] + s.z_hi * ax[1] - o[1],
+              tip[2] + s.z_hi * ax[2] - o[2]];
+    let (h0, h1) = (dot(&p0, &d), dot(&p1, &d));
+    let dh = h1 - h0;
+    let pad = 1e-6 * (1.0 + h0.abs().max(h1.abs()));
+    let (mut ta, mut tb) = if dh.abs() > 1e-12 {
+        let a = (zr - r_b - pad - h0) / dh;
+        let b = (zr + r_b + pad - h0) / dh;
+        (a.min(b), a.max(b))
+    } else if (zr - h0).abs() <= r_b + pad {
+        (0.0, 1.0)
+    } else {
+        return None;
+    };
+    ta = ta.max(0.0);
+    tb = tb.min(1.0);
+    if ta > tb {
+        return None;
+    }
+    let (x0, y0, x1, y1) = (dot(&p0, &e1), dot(&p0, &e2), dot(&p1, &e1), dot(&p1, &e2));
+    let a = [x0 + ta * (x1 - x0), y0 + ta * (y1 - y0)];
+    let b = [x0 + tb * (x1 - x0), y0 + tb * (y1 - y0)];
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let l2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let t = if l2 > 0.0 { (-(a[0] * ab[0] + a[1] * ab[1]) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    let dmin = (a[0] + t * ab[0]).hypot(a[1] + t * ab[1]);
+    let dmax = a[0].hypot(a[1]).max(b[0].hypot(b[1]));
+    let scale = 1.0 + dmax;
+    let rlo = dmin - r_b - 1e-6 * scale;
+    let rhi = dmax + r_b + 1e-6 * scale;
+    let (c0, c1) = (s.c0[si], s.c1[si]);
+    if dmin <= r_b + 1e-6 * scale {
+        return Some((c0, c1, rlo, rhi));
+    }
+    let tha = a[1].atan2(a[0]);
+    let mut thb = b[1].atan2(b[0]);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    thb = tha + (thb - tha + std::f64::consts::PI).rem_euclid(two_pi) - std::f64::consts::PI;
+    let w = (r_b / dmin).min(1.0).asin() + 1e-9;
+    let (mut lo_t, mut hi_t) = (tha.min(thb) - w, tha.max(thb) + w);
+    if (c1 - c0 + 3) as f64 * g.d_theta + (hi_t - lo_t) >= two_pi {
+        return Some((c0, c1, rlo, rhi)); // the box could meet the range twice a turn apart
+    }
+    // to the 2π turn of the box's columns (a turn is N · n_theta columns: whole columns)
+    let mid_box = g.theta0 + (0.5 * (c0 + c1) as f64 + 0.5) * g.d_theta;
+    let turns = ((mid_box - 0.5 * (lo_t + hi_t)) / two_pi).round();
+    lo_t += turns * two_pi;
+    hi_t += turns * two_pi;
+    let ca = ((lo_t - g.theta0) / g.d_theta - 0.5).ceil() as i64 - 1;
+    let cb = ((hi_t - g.theta0) / g.d_theta - 0.5).floor() as i64 + 1;
+    let (ca, cb) = (ca.max(c0), cb.min(c1));
+    if ca > cb {
+        return None;
+    }
+    Some((ca, cb, rlo, rhi))
 }
 
 /// What a call did: Σ (hi² − lo²)/2 removed (mm²), per group the material its own union
@@ -52,6 +123,8 @@ pub struct Solids<'a> {
 pub struct Outcome {
     pub removed: f64,
     pub group_vol: Vec<f64>,
+    /// per group the material the union of the inner solid's intervals met (mm²)
+    pub group_vol_in: Vec<f64>,
     pub group_depth: Vec<f64>,
     pub overflow_rays: Vec<i64>,
     pub overflow: Vec<Vec<(f64, f64)>>,
@@ -128,56 +201,118 @@ fn bounding_interval(f: &RayFrame, z_lo: f64, z_hi: f64, radius: f64) -> Option<
     Some((lo - m, hi + m))
 }
 
-/// `ray_solid_intervals` for one pair (lo < hi: contact).
+/// One half-plane's interval along the ray (the reference's arithmetic), applied to (lo, hi).
 #[inline]
-fn solid_interval(f: &RayFrame, planes: &[[f64; 3]], order: &[usize]) -> (f64, f64) {
+fn apply_plane(f: &RayFrame, plane: &[f64; 3], lo: &mut f64, hi: &mut f64) {
+    let [nr, nz, c] = *plane;
+    if nr.abs() < EPS {
+        let s = nz * f.zu;
+        let rhs = c - nz * f.z0;
+        let root = rhs / s;
+        if s > EPS {
+            *hi = hi.min(root);
+        } else if s < -EPS {
+            *lo = lo.max(root);
+        } else if rhs < 0.0 {
+            *hi = f64::NEG_INFINITY;
+        }
+        return;
+    }
+    let m0 = c - nz * f.z0;
+    let m1 = -nz * f.zu;
+    let a2 = nr * nr * f.a - m1 * m1;
+    let a1 = nr * nr * f.b - 2.0 * m0 * m1;
+    let a0 = nr * nr * f.c - m0 * m0;
+    let disc = a1 * a1 - 4.0 * a2 * a0;
+    let sq = disc.max(0.0).sqrt();
+    let lin = a2.abs() < 1e-12;
+    let qq = -0.5 * (a1 + if a1 >= 0.0 { sq } else { -sq });
+    let (r1, r2) = if lin { (-a0 / a1, f64::NAN) } else { (qq / a2, a0 / qq) };
+    let real = disc >= 0.0 || lin;
+    let tol = 1e-9 * (1.0 + m0.abs());
+    let v1 = real && r1.is_finite() && m0 + m1 * r1 >= -tol;
+    let v2 = real && r2.is_finite() && m0 + m1 * r2 >= -tol;
+    let (rlo, rhi) = if v1 && v2 {
+        (r1.min(r2), r1.max(r2))
+    } else if v1 || v2 {
+        let v = if v1 { r1 } else { r2 };
+        if nr * f.sa - m1 < 0.0 {
+            (v, f64::INFINITY)
+        } else {
+            (f64::NEG_INFINITY, v)
+        }
+    } else if nr * f.c.sqrt() - m0 <= 0.0 {
+        (f64::NEG_INFINITY, f64::INFINITY)
+    } else {
+        (f64::INFINITY, f64::NEG_INFINITY)
+    };
+    *lo = lo.max(rlo);
+    *hi = hi.min(rhi);
+}
+
+/// The solid's half-planes and how to pick the ones that can bind on a ray.
+pub struct Profile<'a> {
+    pub planes: &'a [[f64; 3]],
+    /// the reference's order (top, side, then the rest)
+    pub order: Vec<usize>,
+    /// per plane: evaluated on every ray (the top and the first two of `order`)
+    pub always: Vec<bool>,
+    /// per plane: the ρ range (mm) of its edge of the meridional polygon; None: no selection
+    /// (every plane on every ray)
+    pub rho: Option<&'a [[f64; 2]]>,
+}
+
+/// `ray_solid_intervals` for one pair (lo < hi: contact). With `rho` ranges (a profile whose
+/// boundary below the top rises with ρ: z ≥ Z(ρ), Z increasing), a point of the ray outside
+/// the solid but inside the top and side planes lies below the edge whose ρ range holds its
+/// ρ, so only the edges whose ρ range meets the ray's ρ range inside (top ∩ side) can bind:
+/// the others are skipped (the same values decide, the others hold the interval with room).
+#[inline]
+fn solid_interval(f: &RayFrame, p: &Profile) -> (f64, f64) {
     let mut lo = 0.0f64;
     let mut hi = f64::INFINITY;
-    for &p in order {
-        let [nr, nz, c] = planes[p];
-        if nr.abs() < EPS {
-            let s = nz * f.zu;
-            let rhs = c - nz * f.z0;
-            let root = rhs / s;
-            if s > EPS {
-                hi = hi.min(root);
-            } else if s < -EPS {
-                lo = lo.max(root);
-            } else if rhs < 0.0 {
-                hi = f64::NEG_INFINITY;
+    let Some(rho) = p.rho else {
+        for &i in &p.order {
+            apply_plane(f, &p.planes[i], &mut lo, &mut hi);
+            if !(hi > lo) {
+                return (lo, hi);
             }
-        } else {
-            let m0 = c - nz * f.z0;
-            let m1 = -nz * f.zu;
-            let a2 = nr * nr * f.a - m1 * m1;
-            let a1 = nr * nr * f.b - 2.0 * m0 * m1;
-            let a0 = nr * nr * f.c - m0 * m0;
-            let disc = a1 * a1 - 4.0 * a2 * a0;
-            let sq = disc.max(0.0).sqrt();
-            let lin = a2.abs() < 1e-12;
-            let qq = -0.5 * (a1 + if a1 >= 0.0 { sq } else { -sq });
-            let (r1, r2) = if lin { (-a0 / a1, f64::NAN) } else { (qq / a2, a0 / qq) };
-            let real = disc >= 0.0 || lin;
-            let tol = 1e-9 * (1.0 + m0.abs());
-            let v1 = real && r1.is_finite() && m0 + m1 * r1 >= -tol;
-            let v2 = real && r2.is_finite() && m0 + m1 * r2 >= -tol;
-            let (rlo, rhi) = if v1 && v2 {
-                (r1.min(r2), r1.max(r2))
-            } else if v1 || v2 {
-                let v = if v1 { r1 } else { r2 };
-                if nr * f.sa - m1 < 0.0 {
-                    (v, f64::INFINITY)
-                } else {
-                    (f64::NEG_INFINITY, v)
-                }
-            } else if nr * f.c.sqrt() - m0 <= 0.0 {
-                (f64::NEG_INFINITY, f64::INFINITY)
-            } else {
-                (f64::INFINITY, f64::NEG_INFINITY)
-            };
-            lo = lo.max(rlo);
-            hi = hi.min(rhi);
         }
+        return (lo, hi);
+    };
+    for &i in &p.order {
+        if p.always[i] {
+            apply_plane(f, &p.planes[i], &mut lo, &mut hi);
+            if !(hi > lo) {
+                return (lo, hi);
+            }
+        }
+    }
+    // ρ² = A r² + B r + C over [lo, hi]
+    let (rmin, rmax) = if hi.is_finite() {
+        let q = |r: f64| f.a * r * r + f.b * r + f.c;
+        let (ql, qh) = (q(lo), q(hi));
+        let mut qmin = ql.min(qh);
+        let qmax = ql.max(qh);
+        if f.a > 0.0 {
+            let rs = -f.b / (2.0 * f.a);
+            if rs > lo && rs < hi {
+                qmin = qmin.min(q(rs));
+            }
+        }
+        let pad = 1e-9 * (1.0 + f.c + f.b.abs() * hi.abs() + f.a * hi * hi);
+        ((qmin - pad).max(0.0).sqrt(), (qmax + pad).max(0.0).sqrt() * (1.0 + 1e-9) + 1e-9)
+    } else if f.a == 0.0 {
+        let r = f.c.sqrt();
+        (r * (1.0 - 1e-9) - 1e-9, r * (1.0 + 1e-9) + 1e-9)
+    } else {
+        (0.0, f64::INFINITY)
+    };
+    for &i in &p.order {
+        if p.always[i] || rho[i][1] < rmin || rho[i][0] > rmax {
+            continue;
+        }
+        apply_plane(f, &p.planes[i], &mut lo, &mut hi);
         if !(hi > lo) {
             return (lo, hi);
         }
@@ -227,7 +362,7 @@ fn overlap(mat: &[(f64, f64)], a: f64, b: f64) -> (f64, f64) {
 
 struct RowOut {
     removed: f64,
-    groups: Vec<(usize, f64, f64)>,
+    groups: Vec<(usize, f64, f64, f64)>,
     overflow: Vec<(i64, Vec<(f64, f64)>)>,
 }
 
@@ -240,6 +375,7 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
     let mut out = Outcome {
         removed: 0.0,
         group_vol: vec![0.0; n_groups],
+        group_vol_in: vec![0.0; n_groups],
         group_depth: vec![0.0; n_groups],
         overflow_rays: Vec::new(),
         overflow: Vec::new(),
@@ -290,6 +426,19 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
     } else {
         (0..q).collect()
     };
+    let mut always: Vec<bool> =
+        s.planes.iter().map(|p| p[0].abs() < EPS && p[1] > 0.0).collect();
+    for &i in order.iter().take(2) {
+        always[i] = true;
+    }
+    let profile = Profile { planes: s.planes, order, always, rho: s.rho };
+    let inner = s.planes_in.map(|pl| {
+        let q = pl.len();
+        let order: Vec<usize> =
+            if q > 2 { [q - 1, q - 2].into_iter().chain(0..q - 2).collect() } else { (0..q).collect() };
+        Profile { planes: pl, always: vec![true; q], order, rho: None }
+    });
+    let r_b = s.radius;
     let pairs: u64 = live
         .iter()
         .map(|&i| {
@@ -308,13 +457,16 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
             let w = wmin + jr;
             let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
             let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
-            let mut hits: Vec<(usize, f64, f64, usize)> = Vec::new();
+            let mut hits: Vec<(usize, f64, f64, usize, f64, f64)> = Vec::new();
             for &si in &by_row[start[jr]..start[jr + 1]] {
                 let (tip, ax) = (&s.tips[si], &s.axes[si]);
-                for c in s.c0[si]..=s.c1[si] {
+                let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, zr, r_b) else {
+                    continue;
+                };
+                for c in ca..=cb {
                     let i = c.rem_euclid(nt as i64) as usize;
                     let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
-                    if !lr.iter().zip(hr).any(|(l, h)| h > l) {
+                    if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w) {
                         continue;
                     }
                     let u = &dirs[(c - cmin) as usize];
@@ -325,9 +477,13 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
                     if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l.max(ba) < h.min(bb)) {
                         continue;
                     }
-                    let (a, b) = solid_interval(&f, s.planes, &order);
+                    let (a, b) = solid_interval(&f, &profile);
                     if b > a {
-                        hits.push((i, a, b, s.group[si] as usize));
+                        let (ai, bi) = match (&inner, measure) {
+                            (Some(pin), true) => solid_interval(&f, pin),
+                            _ => (0.0, f64::NEG_INFINITY),
+                        };
+                        hits.push((i, a, b, s.group[si] as usize, ai, bi));
                     }
                 }
             }
@@ -367,8 +523,13 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
                             v += vv;
                             dmax = dmax.max(ll);
                         }
+                        iv.clear();
+                        iv.extend(hits[g0..g1].iter().filter(|h| h.5 > h.4).map(|h| (h.4, h.5)));
+                        iv.sort_by(|x, y| x.0.total_cmp(&y.0));
+                        merge_sorted(&iv, &mut merged);
+                        let v_in: f64 = merged.iter().map(|&(a, b)| overlap(&mat, a, b).0).sum();
                         if v != 0.0 || dmax > 0.0 {
-                            ro.groups.push((g, v, dmax));
+                            ro.groups.push((g, v, dmax, v_in));
                         }
                         g0 = g1;
                     }
@@ -423,8 +584,9 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
         .collect();
     for r in rows {
         out.removed += r.removed;
-        for (g, v, dm) in r.groups {
+        for (g, v, dm, vi) in r.groups {
             out.group_vol[g] += v;
+            out.group_vol_in[g] += vi;
             out.group_depth[g] = out.group_depth[g].max(dm);
         }
         for (ray, pc) in r.overflow {

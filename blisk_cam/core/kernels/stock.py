@@ -23,7 +23,7 @@ def available() -> bool:
 
 
 def remove_solids(lo, hi, n_theta: int, grid, frame, tips, axes, group, n_groups: int, boxes,
-                  planes, bounds, measure: bool, threads: int):
+                  planes, bounds, measure: bool, threads: int, rho=None, planes_in=None):
     """Remove posed solids from the stock's intervals; None when the numpy kernels run.
 
     Parameters
@@ -41,13 +41,19 @@ def remove_solids(lo, hi, n_theta: int, grid, frame, tips, axes, group, n_groups
     bounds : (z_lo, z_hi, radius) mm — a cylinder about the tool axis holding the solid
     measure : bool — also measure, per group, the material its union of intervals meets
         before the removal
+    rho : (q, 2) float or None — the ρ range of each plane's edge, for a profile whose
+        boundary below the top rises with ρ: on each ray only the edges its ρ range meets
+        are evaluated (the others cannot bind); None: every plane on every ray
+    planes_in : (p, 3) float or None — the solid shrunk by the crash tolerance: with
+        ``measure``, per group also the material the union of its intervals meets
 
     Returns
     -------
     lo, hi : the interval arrays (the same objects unless grown or copied)
     removed : float, mm² — Σ (hi² − lo²)/2 removed (× Δθ Δz = volume)
-    volume, depth : (n_groups,) float — per group the met material (mm², × Δθ Δz) and the
-        longest stretch met along one ray (mm); zeros unless ``measure``
+    volume, volume_in, depth : (n_groups,) float — per group the material met by the solid
+        and by the shrunk solid (mm², × Δθ Δz) and the longest stretch met along one ray
+        (mm); zeros unless ``measure`` (``volume_in`` also without ``planes_in``)
     pairs : int — the candidate ray–solid pairs of the boxes
     """
     if not available():
@@ -56,12 +62,14 @@ def remove_solids(lo, hi, n_theta: int, grid, frame, tips, axes, group, n_groups
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
-    removed, vol, depth, pairs, (rays, counts, olo, ohi) = ext.stock_remove(
+    removed, vol, vol_in, depth, pairs, (rays, counts, olo, ohi) = ext.stock_remove(
         lo, hi, int(n_theta), tuple(float(x) for x in grid), f64(frame).reshape(4, 3),
         f64(tips).reshape(-1, 3), f64(axes).reshape(-1, 3),
         np.ascontiguousarray(group, dtype=np.int64), int(n_groups),
         np.ascontiguousarray(boxes, dtype=np.int64).reshape(-1, 4), f64(planes).reshape(-1, 3),
-        tuple(float(x) for x in bounds), bool(measure), max(1, int(threads)))
+        tuple(float(x) for x in bounds), bool(measure), max(1, int(threads)),
+        None if rho is None else f64(rho).reshape(-1, 2),
+        None if planes_in is None else f64(planes_in).reshape(-1, 3))
     if len(rays):
         need = int(counts.max())
         grow = need - lo.shape[1]
@@ -73,4 +81,4 @@ def remove_solids(lo, hi, n_theta: int, grid, frame, tips, axes, group, n_groups
             hi[ray] = 0.0
             lo[ray, :n] = olo[s:s + n]
             hi[ray, :n] = ohi[s:s + n]
-    return lo, hi, float(removed), vol, depth, int(pairs)
+    return lo, hi, float(removed), vol, vol_in, depth, int(pairs)

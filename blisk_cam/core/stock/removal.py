@@ -42,7 +42,8 @@ from ..toolpath.types import MOVE_NAMES, MOVE_RAPID, Program
 from .dexels import RadialDexels, merge_intervals, subtract_intervals
 
 __all__ = ["Crash", "RemovalResult", "body_assembly", "cutter_halfplanes", "frustum_halfplanes",
-           "halfplane_bounds", "ray_solid_intervals", "remove_program", "simulate_moves"]
+           "halfplane_bounds", "halfplane_edges", "ray_solid_intervals", "remove_program",
+           "simulate_moves"]
 
 _EPS = 1e-12
 #: minimum volume (mm³) a rapid or the body must remove at one row to be a crash
@@ -92,11 +93,9 @@ def frustum_halfplanes(z0, r0, z1, r1) -> np.ndarray:
     return _polygon_halfplanes([[0.0, z0], [r0, z0], [r1, z1], [0.0, z1]])
 
 
-def halfplane_bounds(planes) -> tuple:
-    """(z_lo, z_hi, ρ_max) mm of the convex solid ``planes`` (q, 3) with ρ ≥ 0: its polygon's
-    vertices (every two edge lines and the axis, where all constraints hold), widened by
-    1 µm — a cylinder about the tool axis that holds the solid (the compiled kernel skips
-    the rays whose stretch inside it meets no material)."""
+def _polygon_vertices(planes):
+    """(ρ, z) vertices of the convex polygon of ``planes`` (q, 3) and ρ ≥ 0: every two edge
+    lines' crossing where all constraints hold; and the (q + 1, 3) rows used."""
     H = np.vstack([np.asarray(planes, float).reshape(-1, 3), [[-1.0, 0.0, 0.0]]])  # ρ ≥ 0
     i, j = np.triu_indices(len(H), 1)
     det = H[i, 0] * H[j, 1] - H[i, 1] * H[j, 0]
@@ -108,8 +107,34 @@ def halfplane_bounds(planes) -> tuple:
             <= H[:, 2] + 1e-9 * (1.0 + np.abs(H[:, 2]))).all(axis=1)
     if not feas.any():
         raise StockError("a tool solid has no extent (its profile is empty)")
-    rho, z = rho[feas], z[feas]
+    return rho[feas], z[feas], H
+
+
+def halfplane_bounds(planes) -> tuple:
+    """(z_lo, z_hi, ρ_max) mm of the convex solid ``planes`` (q, 3) with ρ ≥ 0, from its
+    polygon's vertices, widened by 1 µm — a cylinder about the tool axis that holds the
+    solid (the compiled kernel skips the rays whose stretch inside it meets no material)."""
+    rho, z, _ = _polygon_vertices(planes)
     return float(z.min()) - 1e-3, float(z.max()) + 1e-3, float(rho.max()) + 1e-3
+
+
+def halfplane_edges(planes):
+    """(q, 2) the ρ range (mm) of each plane's edge of the solid's polygon, when the boundary
+    below the top rises with ρ (every plane but a top ``nz z ≤ c`` faces down or sideways:
+    the cutters' profiles); None otherwise (a body frustum narrowing upward). The compiled
+    kernel then evaluates on a ray only the edges its ρ range meets."""
+    P = np.asarray(planes, float).reshape(-1, 3)
+    top = (np.abs(P[:, 0]) < 1e-12) & (P[:, 1] > 0)
+    if len(P) <= 3 or np.any(~top & (P[:, 1] > 1e-12)):
+        return None
+    rho, z, _ = _polygon_vertices(P)
+    on = np.abs(P[:, 0, None] * rho + P[:, 1, None] * z - P[:, 2, None]) \
+        <= 1e-9 * (1.0 + np.abs(P[:, 2, None]))
+    if not on.any(axis=1).all():
+        return None
+    big = np.where(on, rho, -np.inf).max(axis=1)
+    small = np.where(on, rho, np.inf).min(axis=1)
+    return np.stack([small - 1e-9, big + 1e-9], 1)
 
 
 def body_assembly(cutter: Cutter) -> ToolAssembly:
@@ -404,16 +429,27 @@ def _apply(dex: RadialDexels, rays, a, b) -> float:
     return total * dex.d_theta * dex.dz
 
 
+def _shrink(planes, delta: float):
+    """The half-planes ``planes`` (unit normals) moved inward by ``delta`` mm: the solid
+    shrunk by ``delta`` everywhere (a convex polygon offset)."""
+    P = np.array(planes, float)
+    P[:, 2] -= delta
+    return P
+
+
 def _job_numpy(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, z_hi, radius,
-               measure):
+               measure, planes_in=None):
     """One solid's removal by the batch's sub-poses, numpy (the reference): (removed mm³,
-    per group — the batch's rows — the material its own union met (mm³, only when
-    ``measure``) and the longest stretch met along a ray (mm), the candidate pairs)."""
+    per group — the batch's rows — the material its own union met (mm³) and the material
+    the union of the shrunk solid ``planes_in`` met (mm³; the crash decision), the longest
+    stretch met along a ray (mm) — those three only when ``measure`` —, the candidate
+    pairs)."""
     per = np.zeros(n_groups)
+    per_in = np.zeros(n_groups)
     deep = np.zeros(n_groups)
     rays, a, b, so, n_pairs = _cut(dex, tips, axes, planes, z_lo, z_hi, radius)
     if len(rays) == 0:
-        return 0.0, per, deep, n_pairs
+        return 0.0, per, per_in, deep, n_pairs
     if measure:
         vol, _ = _overlap(dex, rays, a, b)
         row = group[so]
@@ -425,12 +461,20 @@ def _job_numpy(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, z_h
             v, ln = _overlap(dex, mr, ma, mb)
             per[j] = float(v.sum()) * dex.d_theta * dex.dz
             deep[j] = float(ln.max()) if len(ln) else 0.0
-    return _apply(dex, rays, a, b), per, deep, n_pairs
+        if planes_in is not None and hit.any():
+            sel = np.isin(group, np.unique(row[hit]))
+            ri, ai, bi, si, _ = _cut(dex, tips[sel], axes[sel], planes_in, z_lo, z_hi, radius)
+            gi = group[sel][si]
+            for j in np.unique(gi):
+                mr, ma, mb, _ = merge_intervals(ri[gi == j], ai[gi == j], bi[gi == j])
+                per_in[j] = float(_overlap(dex, mr, ma, mb)[0].sum()) * dex.d_theta * dex.dz
+    return _apply(dex, rays, a, b), per, per_in, deep, n_pairs
 
 
 def _job_compiled(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, z_hi, radius,
-                  measure, bounds, r_cap):
-    """:func:`_job_numpy` by the compiled kernel (same candidate boxes, same figures)."""
+                  measure, planes_in, bounds, r_cap):
+    """:func:`_job_numpy` by the compiled kernel (same candidate boxes, same figures);
+    ``bounds``: the solid's (:func:`halfplane_bounds`, :func:`halfplane_edges`)."""
     c0, c1, w0, w1, _, _, _, cnt = _candidate_boxes(dex, tips, axes, z_lo, z_hi, radius, r_cap)
     none = cnt == 0
     boxes = np.stack([c0, np.where(none, c0 - 1, c1), w0, w1], 1)
@@ -438,16 +482,17 @@ def _job_compiled(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, 
     frame = np.array([dex.axis.o, e1, e2, d], float)
     out = compiled_stock.remove_solids(
         dex.lo, dex.hi, dex.n_theta, (dex.theta0, dex.d_theta, dex.z0, dex.dz), frame, tips,
-        axes, group, n_groups, boxes, planes, bounds, measure, workers())
-    dex.lo, dex.hi, removed, vol, depth, _ = out
+        axes, group, n_groups, boxes, planes, bounds[0], measure, workers(), rho=bounds[1],
+        planes_in=planes_in if measure else None)
+    dex.lo, dex.hi, removed, vol, vol_in, depth, _ = out
     cell = dex.d_theta * dex.dz
-    return removed * cell, vol * cell, depth, int(cnt.sum())
+    return removed * cell, vol * cell, vol_in * cell, depth, int(cnt.sum())
 
 
 def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAssembly | None
                    = None, *, sweep_tolerance: float | None = None,
                    arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
-                   batch: int = 64):
+                   batch: int = 64, crash_tolerance: float | None = None):
     """Remove the material of every row of ``program`` from ``dex`` (in place); a generator
     yielding :class:`~..runtime.Progress` and returning a :class:`RemovalResult`.
 
@@ -465,6 +510,12 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     batch : int — rows per batch: within a batch the flute's removal is applied before the
         body and rapids are checked, so a crash the flute would clear later in the same
         batch could be missed; small batches keep the order of the machine
+    crash_tolerance : float, mm — a rapid or the body is a crash when the solid shrunk by
+        this much still meets material (default half the stock's resolution: the stock
+        knows its surface between rays to about that, and a tool grazing it closer is not
+        told from one passing by). The crash's volume and depth are the whole solid's. The
+        body is swept at half this tolerance (its own sub-poses: it only decides crashes),
+        the flute at ``sweep_tolerance``.
     """
     cutter = as_cutter(cutter)
     body = assembly or body_assembly(cutter)
@@ -478,10 +529,16 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         step = min(step, dex.resolution)
     flute = cutter_halfplanes(cutter, arc_tolerance)
     reach = math.hypot(cutter.h, cutter.max_radius)
-    bodies = [(fp, halfplane_bounds(fp), f[0], f[2], max(f[1], f[3]))
+    ctol = 0.5 * dex.resolution if crash_tolerance is None else float(crash_tolerance)
+    if not ctol >= 0:
+        raise StockError(f"crash tolerance must be ≥ 0 mm, got {crash_tolerance}")
+    flute_in = _shrink(flute, ctol)
+    bodies = [(fp, (halfplane_bounds(fp), halfplane_edges(fp)), f[0], f[2], max(f[1], f[3]),
+               _shrink(fp, ctol))
               for f in body.frustums() for fp in [frustum_halfplanes(*f)]]
-    if check_body and bodies:
-        reach = max(reach, math.hypot(body.top, body.max_radius))
+    body_reach = math.hypot(body.top, body.max_radius)
+    radii = [r for f in body.frustums() for r in (f[1], f[3]) if r > 0]
+    body_step = max(step, math.sqrt(8.0 * min(radii, default=rho) * max(0.5 * ctol, tol)))
     tip = np.asarray(program.tip, float)
     axis = np.asarray(program.axis, float)
     axis = axis / np.linalg.norm(axis, axis=1)[:, None]
@@ -489,7 +546,7 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     result = RemovalResult(removed={name: 0.0 for name in MOVE_NAMES}, rows=len(tip))
     crash_rows: dict = {}
     compiled = compiled_stock.available()
-    flute_bounds = halfplane_bounds(flute)
+    flute_bounds = (halfplane_bounds(flute), halfplane_edges(flute))
     # removal only lowers the largest radius of material: one bound serves the whole run
     r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
     runs = [(m, a, z) for m, a, z in program.runs()]
@@ -498,18 +555,22 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         for s in range(start, stop, batch):
             check_cancel()
             rows = np.arange(s, min(stop, s + batch))
-            tips, axes, rr = _sub_poses(tip, axis, rows, True, step, reach)
-            result.sub_poses += len(tips)
-            jobs = [("flute", flute, flute_bounds, 0.0, cutter.h, cutter.max_radius)]
-            if check_body:
-                jobs += [("body", p, pb, z0, z1, rad) for p, pb, z0, z1, rad in bodies]
-            for kind, planes, bounds, z0, z1, rad in jobs:
+            poses = _sub_poses(tip, axis, rows, True, step, reach)
+            result.sub_poses += len(poses[0])
+            jobs = [("flute", poses, flute, flute_bounds, 0.0, cutter.h, cutter.max_radius,
+                     flute_in)]
+            if check_body and bodies:
+                bposes = _sub_poses(tip, axis, rows, True, body_step, body_reach)
+                result.sub_poses += len(bposes[0])
+                jobs += [("body", bposes, p, pb, z0, z1, rad, pin)
+                         for p, pb, z0, z1, rad, pin in bodies]
+            for kind, (tips, axes, rr), planes, bounds, z0, z1, rad, p_in in jobs:
                 measure = kind == "body" or m == MOVE_RAPID
-                args = (dex, tips, axes, rr - s, len(rows), planes, z0, z1, rad, measure)
+                args = (dex, tips, axes, rr - s, len(rows), planes, z0, z1, rad, measure, p_in)
                 out = _job_compiled(*args, bounds, r_cap) if compiled else _job_numpy(*args)
-                removed, per, deep, n_pairs = out
+                removed, per, per_in, deep, n_pairs = out
                 result.pairs += n_pairs
-                for j in np.nonzero(per > CRASH_VOLUME)[0]:
+                for j in np.nonzero((per_in > CRASH_VOLUME) & (per > CRASH_VOLUME))[0]:
                     key = (int(rows[j]), "body" if kind == "body" else "rapid")
                     c = crash_rows.get(key)
                     if c is None:
