@@ -1,8 +1,8 @@
 """Benchmark the in-process stock on the demo's finishing program; prints figures (no
 assertions).
 
-    python bench/bench_stock.py [--resolution 0.05] [--rows N] [--allowance 0.1]
-        [--mesh-resolution 1.0] [--no-body]
+    python bench/bench_stock.py [--resolution 0.05 [0.1 ...]] [--threads 1 [2 ...]]
+        [--rows N] [--allowance 0.1] [--mesh-resolution 1.0] [--no-body]
 
 The demo blisk (default parameters), its blade-finishing program with the default request
 (hub cone to tip cone, cusp and chord 0.05 mm — what ``blisk_cam demo`` plans), a stock of
@@ -10,8 +10,9 @@ the part plus ``--allowance`` at ``--resolution``; the first ``--rows`` rows of 
 (default all) are simulated. Prints: rays and stock memory, blank time, rows (moves) per
 second, sub-poses and ray–solid pairs per second, the deviation-map time, the whole time (and,
 for a part of the program, the whole program's time extrapolated at the measured rate) and
-the peak resident memory. Goal (issue #22): a full five-stage program of one sector at
-0.05 mm in ≤ 10 s once the compiled kernels exist; today the inner loop is numpy.
+the peak resident memory — for every resolution and thread count given, with the backend
+that ran (``kernels: compiled …`` or ``numpy``; ``BLISK_CAM_KERNELS=numpy`` forces the
+reference). Goal (issue #22): a full five-stage program of one sector at 0.05 mm in ≤ 10 s.
 """
 
 from __future__ import annotations
@@ -26,9 +27,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
+from blisk_cam.core.kernels import stock as compiled_stock  # noqa: E402
+from blisk_cam.core.kernels.backend import backend_name  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.part.model import part_from_demo  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.runtime import parallel  # noqa: E402
 from blisk_cam.core.stock.blank import stock_from_allowance  # noqa: E402
 from blisk_cam.core.stock.deviation import deviation_map  # noqa: E402
 from blisk_cam.core.stock.removal import remove_program  # noqa: E402
@@ -36,9 +40,44 @@ from blisk_cam.core.stock.simulation import part_surface  # noqa: E402
 from blisk_cam.core.toolpath.types import Program  # noqa: E402
 
 
+def run(part, sub, tool, n_all, resolution, threads, a):
+    n = len(sub)
+    t0 = time.perf_counter()
+    t = time.perf_counter()
+    stock = stock_from_allowance(part, a.allowance, resolution)
+    t_blank = time.perf_counter() - t
+    mem = (stock.lo.nbytes + stock.hi.nbytes) / 1e6
+    print(f"--- {resolution:g} mm, {threads} thread(s)")
+    print(f"stock: part + {a.allowance:g} mm at {resolution:g} mm: {stock.n_theta} × "
+          f"{stock.n_z} = {stock.n_rays} rays, K = {stock.lo.shape[1]}, {mem:.0f} MB, "
+          f"{stock.volume():.0f} mm³; built in {t_blank:.2f} s")
+    t = time.perf_counter()
+    cpu = time.process_time()
+    with parallel(threads):
+        res = remove_program(stock, sub, tool, check_body=not a.no_body)
+    t_sim = time.perf_counter() - t
+    cpu = time.process_time() - cpu
+    print(f"removal: {n} rows in {t_sim:.2f} s (cpu {cpu:.2f} s) = {n / t_sim:.1f} moves/s; "
+          f"{res.sub_poses} sub-poses ({res.sub_poses / t_sim:.0f}/s), {res.pairs} candidate "
+          f"ray–solid pairs ({res.pairs / t_sim / 1e6:.2f} M/s); removed {res.volume:.1f} mm³; "
+          f"{len(res.crashes)} crash row(s)")
+    t = time.perf_counter()
+    V, F, N, surface = part_surface(part, resolution)
+    dev = deviation_map(stock, V[surface], N[surface])
+    t_dev = time.perf_counter() - t
+    print(f"deviation: {int(surface.sum())} vertices in {t_dev:.2f} s "
+          f"(min {dev.min():.3f}, max {dev.max():.3f} mm)")
+    whole = time.perf_counter() - t0
+    print(f"whole (blank + removal + deviation, the user's wall time): {whole:.2f} s")
+    if n < n_all:
+        est = t_blank + t_sim * n_all / n + t_dev
+        print(f"whole program ({n_all} rows) at this rate: ~{est:.0f} s (extrapolated)")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--resolution", type=float, default=0.05)
+    ap.add_argument("--resolution", type=float, nargs="+", default=[0.05])
+    ap.add_argument("--threads", type=int, nargs="+", default=[1])
     ap.add_argument("--rows", type=int, default=0, help="simulate the first N rows (0: all)")
     ap.add_argument("--allowance", type=float, default=0.1)
     ap.add_argument("--mesh-resolution", type=float, default=1.0)
@@ -59,32 +98,13 @@ def main():
     n = len(P) if a.rows <= 0 else min(a.rows, len(P))
     sub = Program(P.tip[:n], P.axis[:n], P.move[:n], P.curve[:n], P.index[:n], P.flags[:n])
 
-    t = time.perf_counter()
-    stock = stock_from_allowance(part, a.allowance, a.resolution)
-    t_blank = time.perf_counter() - t
-    mem = (stock.lo.nbytes + stock.hi.nbytes) / 1e6
-    print(f"stock: part + {a.allowance:g} mm at {a.resolution:g} mm: {stock.n_theta} × "
-          f"{stock.n_z} = {stock.n_rays} rays, K = {stock.lo.shape[1]}, {mem:.0f} MB, "
-          f"{stock.volume():.0f} mm³; built in {t_blank:.2f} s")
-
-    t = time.perf_counter()
-    res = remove_program(stock, sub, path.tool, check_body=not a.no_body)
-    t_sim = time.perf_counter() - t
-    print(f"removal: {n} rows in {t_sim:.2f} s = {n / t_sim:.1f} moves/s; "
-          f"{res.sub_poses} sub-poses ({res.sub_poses / t_sim:.0f}/s), {res.pairs} ray–solid "
-          f"pairs ({res.pairs / t_sim / 1e6:.2f} M/s); removed {res.volume:.1f} mm³; "
-          f"{len(res.crashes)} crash row(s)")
-    t = time.perf_counter()
-    V, F, N, surface = part_surface(part, a.resolution)
-    dev = deviation_map(stock, V[surface], N[surface])
-    t_dev = time.perf_counter() - t
-    print(f"deviation: {int(surface.sum())} vertices in {t_dev:.2f} s "
-          f"(min {dev.min():.3f}, max {dev.max():.3f} mm)")
-    whole = t_blank + t_sim + t_dev
-    print(f"whole: {whole:.2f} s")
-    if n < len(P):
-        est = t_blank + t_sim * len(P) / n + t_dev
-        print(f"whole program ({len(P)} rows) at this rate: ~{est:.0f} s (extrapolated)")
+    kern = backend_name()
+    if kern != "numpy" and not compiled_stock.available():
+        kern += " (without the stock kernel: numpy removal)"
+    print(f"kernels: {kern}")
+    for res in a.resolution:
+        for threads in a.threads:
+            run(part, sub, path.tool, len(P), res, threads, a)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak resident memory: {peak:.0f} MB")
 

@@ -140,6 +140,7 @@ def _stock(args, part):
 
 def run_simulate(args) -> int:
     """Run the ``simulate`` command; returns the exit status (0 passed, 5 verdict failed)."""
+    from ..core.runtime import parallel
     from ..core.stock.deviation import ply_bytes, stl_bytes, stock_skin
     from ..core.stock.simulation import iter_simulate
     from ..core.toolpath.paths_io import read_paths_json
@@ -158,7 +159,8 @@ def run_simulate(args) -> int:
     last = -1.0
     while True:
         try:
-            pr = next(gen)
+            with parallel(None):  # the compiled removal kernel on every core
+                pr = next(gen)
         except StopIteration as stop:
             sim = stop.value
             break

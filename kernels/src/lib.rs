@@ -4,13 +4,14 @@
 //! the reference and the fallback. Every kernel releases the GIL; the parallel ones run on
 //! a rayon pool of the caller's thread count (the user's `--threads`).
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 mod closest;
 mod knn;
 mod step;
+mod stock;
 mod weld;
 
 use std::collections::HashMap;
@@ -204,6 +205,130 @@ fn first_equal_point<'py>(
     Ok(PyArray1::from_vec(py, first))
 }
 
+/// Remove posed solids from the stock (see `stock::remove` and `removal.simulate_moves`):
+/// `lo`, `hi` (n_rays, K) float64 changed in place; `grid` = (θ0, Δθ, z0, Δz), `frame`
+/// (4, 3) = origin, e1, e2, d; per solid its tip and axis (m, 3), group (m,) int64 in
+/// 0..n_groups and box `boxes` (m, 4) int64 = (c0, c1, w0, w1) (unwrapped columns); the
+/// solid's half-planes (q, 3), its bounding z range and radius. Returns (removed Σ (hi² −
+/// lo²)/2 mm², per group the material its union met (n_groups,) mm² and the longest stretch
+/// (n_groups,) mm — zeros unless `measure` —, the candidate pairs, and the rays that needed
+/// more than K intervals: (ray ids (p,), counts (p,), lo and hi flat) for the caller to write).
+/// `planes_in` (p, 3): the solid shrunk by the crash tolerance; with `measure`, per group also
+/// the material its union met (returned after the first per-group array), for the crash
+/// decision. `rho` (q, 2): the ρ range of each plane's edge, for a profile whose boundary below the
+/// top rises with ρ (only the edges a ray's ρ range meets are evaluated); None: every plane.
+#[pyfunction]
+#[pyo3(signature = (lo, hi, n_theta, grid, frame, tips, axes, group, n_groups, boxes, planes,
+                    bounds, measure, threads, rho=None, planes_in=None))]
+#[allow(clippy::too_many_arguments)]
+fn stock_remove<'py>(
+    py: Python<'py>,
+    mut lo: PyReadwriteArray2<'py, f64>,
+    mut hi: PyReadwriteArray2<'py, f64>,
+    n_theta: usize,
+    grid: (f64, f64, f64, f64),
+    frame: PyReadonlyArray2<'py, f64>,
+    tips: PyReadonlyArray2<'py, f64>,
+    axes: PyReadonlyArray2<'py, f64>,
+    group: PyReadonlyArray1<'py, i64>,
+    n_groups: usize,
+    boxes: PyReadonlyArray2<'py, i64>,
+    planes: PyReadonlyArray2<'py, f64>,
+    bounds: (f64, f64, f64),
+    measure: bool,
+    threads: usize,
+    rho: Option<PyReadonlyArray2<'py, f64>>,
+    planes_in: Option<PyReadonlyArray2<'py, f64>>,
+) -> PyResult<(
+    f64,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    u64,
+    (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>),
+)> {
+    let shape = lo.shape().to_vec();
+    if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
+        return Err(PyValueError::new_err("lo and hi must be (n_z · n_theta, K) alike"));
+    }
+    let fr = points(&frame, "frame")?;
+    if fr.len() != 4 {
+        return Err(PyValueError::new_err("frame must be (4, 3)"));
+    }
+    let (tt, aa) = (points(&tips, "tips")?, points(&axes, "axes")?);
+    let gg = slice1(&group, "group")?;
+    let m = tt.len();
+    if aa.len() != m || gg.len() != m || boxes.shape() != [m, 4] {
+        return Err(PyValueError::new_err("tips, axes, group and boxes must describe the same solids"));
+    }
+    if gg.iter().any(|&g| g < 0 || g as usize >= n_groups) {
+        return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
+    }
+    let bx = boxes.as_slice().map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
+    let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
+    let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
+    let pl = points(&planes, "planes")?;
+    let rr = match &rho {
+        Some(r) => {
+            if r.shape() != [pl.len(), 2] {
+                return Err(PyValueError::new_err("rho must be (q, 2), one range per plane"));
+            }
+            let rs = r.as_slice().map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
+            // SAFETY: as in `points`
+            Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
+        }
+        None => None,
+    };
+    let g = stock::Grid {
+        theta0: grid.0,
+        d_theta: grid.1,
+        z0: grid.2,
+        dz: grid.3,
+        n_theta,
+        n_z: shape[0] / n_theta,
+        k: shape[1],
+        frame: [fr[0], fr[1], fr[2], fr[3]],
+    };
+    let sol = stock::Solids {
+        tips: tt,
+        axes: aa,
+        group: gg,
+        c0: &c0,
+        c1: &c1,
+        w0: &w0,
+        w1: &w1,
+        planes: pl,
+        z_lo: bounds.0,
+        z_hi: bounds.1,
+        radius: bounds.2,
+        rho: rr,
+        planes_in: match &planes_in {
+            Some(p) => Some(points(p, "planes_in")?),
+            None => None,
+        },
+    };
+    let ls = lo.as_slice_mut().map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
+    let hs = hi.as_slice_mut().map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
+    let pool_ = pool(threads)?;
+    let (out, pairs) = py.detach(|| pool_.install(|| stock::remove(&g, &sol, n_groups, measure, ls, hs)));
+    let counts: Vec<i64> = out.overflow.iter().map(|p| p.len() as i64).collect();
+    let olo: Vec<f64> = out.overflow.iter().flatten().map(|p| p.0).collect();
+    let ohi: Vec<f64> = out.overflow.iter().flatten().map(|p| p.1).collect();
+    Ok((
+        out.removed,
+        PyArray1::from_vec(py, out.group_vol),
+        PyArray1::from_vec(py, out.group_vol_in),
+        PyArray1::from_vec(py, out.group_depth),
+        pairs,
+        (
+            PyArray1::from_vec(py, out.overflow_rays),
+            PyArray1::from_vec(py, counts),
+            PyArray1::from_vec(py, olo),
+            PyArray1::from_vec(py, ohi),
+        ),
+    ))
+}
+
 #[pymodule]
 fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -212,6 +337,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(forward_step, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
     m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
+    m.add_function(wrap_pyfunction!(stock_remove, m)?)?;
     m.add_class::<FaceTree>()?;
     m.add_class::<PointTree>()?;
     Ok(())

@@ -230,3 +230,77 @@ def test_nearest_k_gives_scipys_sets():
     assert asked and asked[0] > 0  # the duplicates made ties
     np.testing.assert_array_equal(np.sort(got, axis=1), np.sort(scipy_rows(Q), axis=1))
     assert 0 < np.mean(got >= 0) < 1  # some rows have fewer than 8 within the bound
+
+
+compiled_stock = pytest.mark.skipif(
+    backend.extension() is None or not hasattr(backend.extension(), "stock_remove"),
+    reason="the compiled kernels are not installed, or were built before the stock kernel",
+)
+
+
+def _stock_program():
+    """Moves on an annulus blank r 10..30, z 0..10 (4 blades): a rapid diving 2 mm into the
+    top face (a rapid crash), a 5-axis ball cut with the axis tilting toward the blisk axis,
+    plunges at three radii on one angle (rays split into more intervals than the blank's),
+    and a plunge burying the Ø4 shank (a body crash)."""
+    from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID, Program
+
+    z = [0.0, 0.0, 1.0]
+    th = np.radians(20.0)
+    e = np.array([np.cos(th), np.sin(th), 0.0])
+    rows = [([20, 5, 15], z, MOVE_RAPID), ([20, 5, 8], z, MOVE_RAPID),
+            ([20, 5, 15], z, MOVE_RAPID)]
+    t = np.linspace(0.3, 1.1, 9)
+    for k, a in enumerate(t):
+        ax = np.array([-np.sin(a) * 0.5, 0.0, 1.0])
+        rows.append(([18.0 * np.cos(a), 18.0 * np.sin(a), 8.5 - 0.2 * k], ax / np.linalg.norm(ax),
+                     MOVE_CUT))
+    for r in (14.0, 20.0, 26.0):
+        rows += [(list(r * e + [0, 0, 12]), z, MOVE_RAPID),
+                 (list(r * e + [0, 0, 7.5]), z, MOVE_CUT), (list(r * e + [0, 0, 12]), z, MOVE_CUT)]
+    rows += [([22, 14, 12], z, MOVE_RAPID), ([22, 14, 4], z, MOVE_CUT)]
+    tips = np.array([r[0] for r in rows], float)
+    axes = np.array([r[1] for r in rows], float)
+    moves = np.array([r[2] for r in rows], np.int8)
+    m = len(rows)
+    return Program(tips, axes, moves, np.full(m, -1), np.full(m, -1), np.zeros(m, np.uint8))
+
+
+@compiled_stock
+def test_stock_removal_compiled_equals_numpy():
+    """The compiled stock kernel against the numpy reference: the same intervals on every
+    ray (1e-9 mm), the same volumes per move type and the same crashes (rows, kinds,
+    volumes), on 1 and 2 threads."""
+    from blisk_cam.core.geometry.axis import Axis
+    from blisk_cam.core.runtime import parallel
+    from blisk_cam.core.stock.blank import stock_from_profile
+    from blisk_cam.core.stock.removal import remove_program
+    from blisk_cam.core.tool.cutter import Cutter
+
+    prog = _stock_program()
+    ball = Cutter.ball(1.5, h=3.0, shank_diameter=4.0)
+    bull = Cutter.bull(2.0, 0.5, h=4.0, shank_diameter=5.0)
+
+    def run(cutter):
+        s = stock_from_profile([[10, 0], [30, 0], [30, 10], [10, 10]], Axis(), 4, 0.0, 0.2)
+        return s, remove_program(s, prog, cutter, batch=5)
+
+    for cutter in (ball, bull):
+        with backend.numpy_only():
+            ref_s, ref = run(cutter)
+        assert ref_s.lo.shape[1] > 2  # the plunges split rays beyond the blank's K
+        assert {c.kind for c in ref.crashes} == {"rapid", "body"}
+        for threads in (1, 2):
+            with parallel(threads):
+                s, got = run(cutter)
+            assert s.lo.shape == ref_s.lo.shape
+            np.testing.assert_allclose(s.lo, ref_s.lo, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(s.hi, ref_s.hi, rtol=0, atol=1e-9)
+            for k, v in ref.removed.items():
+                assert got.removed[k] == pytest.approx(v, rel=1e-9, abs=1e-9)
+            assert [(c.row, c.kind, c.move) for c in got.crashes] == \
+                [(c.row, c.kind, c.move) for c in ref.crashes]
+            for c, r in zip(got.crashes, ref.crashes, strict=True):
+                assert c.volume == pytest.approx(r.volume, rel=1e-9)
+                assert c.depth == pytest.approx(r.depth, abs=1e-9)
+            assert (got.sub_poses, got.pairs) == (ref.sub_poses, ref.pairs)

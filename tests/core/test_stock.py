@@ -210,3 +210,20 @@ def test_state_round_trip_and_errors(tmp_path):
         RadialDexels.load(tmp_path / "junk.npz")
     with pytest.raises(StockError, match="resolution"):
         stock_from_profile(BLANK, Axis(), 4, 0.0, 0.0)
+
+
+def test_crash_tolerance_is_half_the_resolution():
+    """A rapid grazing the stock by less than half the resolution removes what it meets but
+    is no crash (the stock knows its surface between rays to about that); one reaching
+    deeper is, with all it removed as the crash's volume."""
+    for dip, crash in ((0.15, False), (1.0, True)):
+        s = blank(0.2)  # crash tolerance 0.1 mm; the top rays at z = 9.9
+        tips = [[20, 5, 15], [20, 5, 10 - dip], [20, 5, 15]]
+        r = remove_program(s, program(tips, [0, 0, 1], [MOVE_RAPID, MOVE_RAPID, MOVE_CUT]),
+                           Cutter.ball(2.0), check_body=False)
+        assert r.removed["rapid"] > 0
+        assert [c.row for c in r.crashes] == ([1] if crash else [])
+        if crash:
+            cap = math.pi * dip * dip * (2.0 - dip / 3.0)  # the spherical cap below the face
+            assert r.crashes[0].volume == pytest.approx(r.removed["rapid"])
+            assert r.crashes[0].volume == pytest.approx(cap, rel=0.15)

@@ -34,14 +34,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import StockError
-from ..runtime import Progress, check_cancel
+from ..kernels import stock as compiled_stock
+from ..runtime import Progress, check_cancel, workers
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
 from ..toolpath.types import MOVE_NAMES, MOVE_RAPID, Program
 from .dexels import RadialDexels, merge_intervals, subtract_intervals
 
 __all__ = ["Crash", "RemovalResult", "body_assembly", "cutter_halfplanes", "frustum_halfplanes",
-           "ray_solid_intervals", "remove_program", "simulate_moves"]
+           "halfplane_bounds", "halfplane_edges", "ray_solid_intervals", "remove_program",
+           "simulate_moves"]
 
 _EPS = 1e-12
 #: minimum volume (mm³) a rapid or the body must remove at one row to be a crash
@@ -89,6 +91,50 @@ def cutter_halfplanes(cutter: Cutter, arc_tolerance: float = 1e-3) -> np.ndarray
 def frustum_halfplanes(z0, r0, z1, r1) -> np.ndarray:
     """A frustum of the body (ρ ≤ r(z), z0 ≤ z ≤ z1) as half-planes (3, 3)."""
     return _polygon_halfplanes([[0.0, z0], [r0, z0], [r1, z1], [0.0, z1]])
+
+
+def _polygon_vertices(planes):
+    """(ρ, z) vertices of the convex polygon of ``planes`` (q, 3) and ρ ≥ 0: every two edge
+    lines' crossing where all constraints hold; and the (q + 1, 3) rows used."""
+    H = np.vstack([np.asarray(planes, float).reshape(-1, 3), [[-1.0, 0.0, 0.0]]])  # ρ ≥ 0
+    i, j = np.triu_indices(len(H), 1)
+    det = H[i, 0] * H[j, 1] - H[i, 1] * H[j, 0]
+    ok = np.abs(det) > 1e-12
+    i, j, det = i[ok], j[ok], det[ok]
+    rho = (H[i, 2] * H[j, 1] - H[i, 1] * H[j, 2]) / det
+    z = (H[i, 0] * H[j, 2] - H[i, 2] * H[j, 0]) / det
+    feas = (H[:, 0] * rho[:, None] + H[:, 1] * z[:, None]
+            <= H[:, 2] + 1e-9 * (1.0 + np.abs(H[:, 2]))).all(axis=1)
+    if not feas.any():
+        raise StockError("a tool solid has no extent (its profile is empty)")
+    return rho[feas], z[feas], H
+
+
+def halfplane_bounds(planes) -> tuple:
+    """(z_lo, z_hi, ρ_max) mm of the convex solid ``planes`` (q, 3) with ρ ≥ 0, from its
+    polygon's vertices, widened by 1 µm — a cylinder about the tool axis that holds the
+    solid (the compiled kernel skips the rays whose stretch inside it meets no material)."""
+    rho, z, _ = _polygon_vertices(planes)
+    return float(z.min()) - 1e-3, float(z.max()) + 1e-3, float(rho.max()) + 1e-3
+
+
+def halfplane_edges(planes):
+    """(q, 2) the ρ range (mm) of each plane's edge of the solid's polygon, when the boundary
+    below the top rises with ρ (every plane but a top ``nz z ≤ c`` faces down or sideways:
+    the cutters' profiles); None otherwise (a body frustum narrowing upward). The compiled
+    kernel then evaluates on a ray only the edges its ρ range meets."""
+    P = np.asarray(planes, float).reshape(-1, 3)
+    top = (np.abs(P[:, 0]) < 1e-12) & (P[:, 1] > 0)
+    if len(P) <= 3 or np.any(~top & (P[:, 1] > 1e-12)):
+        return None
+    rho, z, _ = _polygon_vertices(P)
+    on = np.abs(P[:, 0, None] * rho + P[:, 1, None] * z - P[:, 2, None]) \
+        <= 1e-9 * (1.0 + np.abs(P[:, 2, None]))
+    if not on.any(axis=1).all():
+        return None
+    big = np.where(on, rho, -np.inf).max(axis=1)
+    small = np.where(on, rho, np.inf).min(axis=1)
+    return np.stack([small - 1e-9, big + 1e-9], 1)
 
 
 def body_assembly(cutter: Cutter) -> ToolAssembly:
@@ -261,10 +307,10 @@ def _sub_poses(tip, axis, rows, first: bool, step: float, reach: float):
     return tips, axes, rr
 
 
-def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
+def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
     """For each solid (its axis segment tip + [z_lo, z_hi] · axis, radius ``radius``): the
-    rays (unwrapped column, row) of the (θ, z) box that can meet it → (solid, col, row) and
-    the radii (r_lo, r_hi) per solid it can reach; none for a solid beyond ``r_cap``."""
+    (θ, z) box of rays that can meet it — unwrapped columns c0..c1, rows w0..w1 — the radii
+    (r_lo, r_hi) it can reach and its number of candidate rays (0 beyond ``r_cap``)."""
     e1, e2, d = dex.axis.angular_frame()
     P0 = tips + z_lo * axes - dex.axis.o
     P1 = tips + z_hi * axes - dex.axis.o
@@ -302,6 +348,14 @@ def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.
     r_lo = np.maximum(rmin - radius, 0.0)
     r_hi = r_far + radius
     cnt = np.where(r_lo <= r_cap, nc * nw, 0)
+    return c0, c1, w0, w1, r_lo, r_hi, nc, cnt
+
+
+def _candidate_rays(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
+    """The candidate rays of :func:`_candidate_boxes`, one by one: (solid, col, row) and the
+    radii (r_lo, r_hi) per solid."""
+    c0, c1, w0, w1, r_lo, r_hi, nc, cnt = _candidate_boxes(dex, tips, axes, z_lo, z_hi, radius,
+                                                           r_cap)
     tot = int(cnt.sum())
     solid = np.repeat(np.arange(len(tips)), cnt)
     k = np.arange(tot) - np.repeat(np.cumsum(cnt) - cnt, cnt)
@@ -375,10 +429,70 @@ def _apply(dex: RadialDexels, rays, a, b) -> float:
     return total * dex.d_theta * dex.dz
 
 
+def _shrink(planes, delta: float):
+    """The half-planes ``planes`` (unit normals) moved inward by ``delta`` mm: the solid
+    shrunk by ``delta`` everywhere (a convex polygon offset)."""
+    P = np.array(planes, float)
+    P[:, 2] -= delta
+    return P
+
+
+def _job_numpy(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, z_hi, radius,
+               measure, planes_in=None):
+    """One solid's removal by the batch's sub-poses, numpy (the reference): (removed mm³,
+    per group — the batch's rows — the material its own union met (mm³) and the material
+    the union of the shrunk solid ``planes_in`` met (mm³; the crash decision), the longest
+    stretch met along a ray (mm) — those three only when ``measure`` —, the candidate
+    pairs)."""
+    per = np.zeros(n_groups)
+    per_in = np.zeros(n_groups)
+    deep = np.zeros(n_groups)
+    rays, a, b, so, n_pairs = _cut(dex, tips, axes, planes, z_lo, z_hi, radius)
+    if len(rays) == 0:
+        return 0.0, per, per_in, deep, n_pairs
+    if measure:
+        vol, _ = _overlap(dex, rays, a, b)
+        row = group[so]
+        hit = vol > 0
+        # each hit row's own volume: the union of its sub-poses' intervals
+        for j in np.unique(row[hit]):
+            sel = row == j
+            mr, ma, mb, _ = merge_intervals(rays[sel], a[sel], b[sel])
+            v, ln = _overlap(dex, mr, ma, mb)
+            per[j] = float(v.sum()) * dex.d_theta * dex.dz
+            deep[j] = float(ln.max()) if len(ln) else 0.0
+        if planes_in is not None and hit.any():
+            sel = np.isin(group, np.unique(row[hit]))
+            ri, ai, bi, si, _ = _cut(dex, tips[sel], axes[sel], planes_in, z_lo, z_hi, radius)
+            gi = group[sel][si]
+            for j in np.unique(gi):
+                mr, ma, mb, _ = merge_intervals(ri[gi == j], ai[gi == j], bi[gi == j])
+                per_in[j] = float(_overlap(dex, mr, ma, mb)[0].sum()) * dex.d_theta * dex.dz
+    return _apply(dex, rays, a, b), per, per_in, deep, n_pairs
+
+
+def _job_compiled(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, z_hi, radius,
+                  measure, planes_in, bounds, r_cap):
+    """:func:`_job_numpy` by the compiled kernel (same candidate boxes, same figures);
+    ``bounds``: the solid's (:func:`halfplane_bounds`, :func:`halfplane_edges`)."""
+    c0, c1, w0, w1, _, _, _, cnt = _candidate_boxes(dex, tips, axes, z_lo, z_hi, radius, r_cap)
+    none = cnt == 0
+    boxes = np.stack([c0, np.where(none, c0 - 1, c1), w0, w1], 1)
+    e1, e2, d = dex.axis.angular_frame()
+    frame = np.array([dex.axis.o, e1, e2, d], float)
+    out = compiled_stock.remove_solids(
+        dex.lo, dex.hi, dex.n_theta, (dex.theta0, dex.d_theta, dex.z0, dex.dz), frame, tips,
+        axes, group, n_groups, boxes, planes, bounds[0], measure, workers(), rho=bounds[1],
+        planes_in=planes_in if measure else None)
+    dex.lo, dex.hi, removed, vol, vol_in, depth, _ = out
+    cell = dex.d_theta * dex.dz
+    return removed * cell, vol * cell, vol_in * cell, depth, int(cnt.sum())
+
+
 def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAssembly | None
                    = None, *, sweep_tolerance: float | None = None,
                    arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
-                   batch: int = 64):
+                   batch: int = 64, crash_tolerance: float | None = None):
     """Remove the material of every row of ``program`` from ``dex`` (in place); a generator
     yielding :class:`~..runtime.Progress` and returning a :class:`RemovalResult`.
 
@@ -396,6 +510,12 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     batch : int — rows per batch: within a batch the flute's removal is applied before the
         body and rapids are checked, so a crash the flute would clear later in the same
         batch could be missed; small batches keep the order of the machine
+    crash_tolerance : float, mm — a rapid or the body is a crash when the solid shrunk by
+        this much still meets material (default half the stock's resolution: the stock
+        knows its surface between rays to about that, and a tool grazing it closer is not
+        told from one passing by). The crash's volume and depth are the whole solid's. The
+        body is swept at half this tolerance (its own sub-poses: it only decides crashes),
+        the flute at ``sweep_tolerance``.
     """
     cutter = as_cutter(cutter)
     body = assembly or body_assembly(cutter)
@@ -409,57 +529,58 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         step = min(step, dex.resolution)
     flute = cutter_halfplanes(cutter, arc_tolerance)
     reach = math.hypot(cutter.h, cutter.max_radius)
-    bodies = [(frustum_halfplanes(*f), f[0], f[2], max(f[1], f[3])) for f in body.frustums()]
-    if check_body and bodies:
-        reach = max(reach, math.hypot(body.top, body.max_radius))
+    ctol = 0.5 * dex.resolution if crash_tolerance is None else float(crash_tolerance)
+    if not ctol >= 0:
+        raise StockError(f"crash tolerance must be ≥ 0 mm, got {crash_tolerance}")
+    flute_in = _shrink(flute, ctol)
+    bodies = [(fp, (halfplane_bounds(fp), halfplane_edges(fp)), f[0], f[2], max(f[1], f[3]),
+               _shrink(fp, ctol))
+              for f in body.frustums() for fp in [frustum_halfplanes(*f)]]
+    body_reach = math.hypot(body.top, body.max_radius)
+    radii = [r for f in body.frustums() for r in (f[1], f[3]) if r > 0]
+    body_step = max(step, math.sqrt(8.0 * min(radii, default=rho) * max(0.5 * ctol, tol)))
     tip = np.asarray(program.tip, float)
     axis = np.asarray(program.axis, float)
     axis = axis / np.linalg.norm(axis, axis=1)[:, None]
     move = np.asarray(program.move)
     result = RemovalResult(removed={name: 0.0 for name in MOVE_NAMES}, rows=len(tip))
     crash_rows: dict = {}
+    compiled = compiled_stock.available()
+    flute_bounds = (halfplane_bounds(flute), halfplane_edges(flute))
+    # removal only lowers the largest radius of material: one bound serves the whole run
+    r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
     runs = [(m, a, z) for m, a, z in program.runs()]
     done = 0
     for m, start, stop in runs:
         for s in range(start, stop, batch):
             check_cancel()
             rows = np.arange(s, min(stop, s + batch))
-            tips, axes, rr = _sub_poses(tip, axis, rows, True, step, reach)
-            result.sub_poses += len(tips)
-            jobs = [("flute", flute, 0.0, cutter.h, cutter.max_radius)]
-            if check_body:
-                jobs += [("body", p, z0, z1, rad) for p, z0, z1, rad in bodies]
-            for kind, planes, z0, z1, rad in jobs:
-                rays, a, b, so, n_pairs = _cut(dex, tips, axes, planes, z0, z1, rad)
+            poses = _sub_poses(tip, axis, rows, True, step, reach)
+            result.sub_poses += len(poses[0])
+            jobs = [("flute", poses, flute, flute_bounds, 0.0, cutter.h, cutter.max_radius,
+                     flute_in)]
+            if check_body and bodies:
+                bposes = _sub_poses(tip, axis, rows, True, body_step, body_reach)
+                result.sub_poses += len(bposes[0])
+                jobs += [("body", bposes, p, pb, z0, z1, rad, pin)
+                         for p, pb, z0, z1, rad, pin in bodies]
+            for kind, (tips, axes, rr), planes, bounds, z0, z1, rad, p_in in jobs:
+                measure = kind == "body" or m == MOVE_RAPID
+                args = (dex, tips, axes, rr - s, len(rows), planes, z0, z1, rad, measure, p_in)
+                out = _job_compiled(*args, bounds, r_cap) if compiled else _job_numpy(*args)
+                removed, per, per_in, deep, n_pairs = out
                 result.pairs += n_pairs
-                if len(rays) == 0:
-                    continue
-                if kind == "body" or m == MOVE_RAPID:
-                    vol, _ = _overlap(dex, rays, a, b)
-                    row = rr[so]
-                    hit = vol > 0
-                    if hit.any():
-                        # each hit row's own volume: the union of its sub-poses' intervals
-                        per = np.zeros(len(rows))
-                        deep = np.zeros(len(rows))
-                        for j in np.unique(row[hit] - s):
-                            sel = row == s + j
-                            mr, ma, mb, _ = merge_intervals(rays[sel], a[sel], b[sel])
-                            v, ln = _overlap(dex, mr, ma, mb)
-                            per[j] = float(v.sum()) * dex.d_theta * dex.dz
-                            deep[j] = float(ln.max()) if len(ln) else 0.0
-                        for j in np.nonzero(per > CRASH_VOLUME)[0]:
-                            key = (int(rows[j]), "body" if kind == "body" else "rapid")
-                            c = crash_rows.get(key)
-                            if c is None:
-                                crash_rows[key] = Crash(int(rows[j]) + row_offset, key[1],
-                                                        MOVE_NAMES[int(move[rows[j]])],
-                                                        float(per[j]), float(deep[j]),
-                                                        tuple(tip[rows[j]]))
-                            else:
-                                c.volume += float(per[j])
-                                c.depth = max(c.depth, float(deep[j]))
-                removed = _apply(dex, rays, a, b)
+                for j in np.nonzero((per_in > CRASH_VOLUME) & (per > CRASH_VOLUME))[0]:
+                    key = (int(rows[j]), "body" if kind == "body" else "rapid")
+                    c = crash_rows.get(key)
+                    if c is None:
+                        crash_rows[key] = Crash(int(rows[j]) + row_offset, key[1],
+                                                MOVE_NAMES[int(move[rows[j]])],
+                                                float(per[j]), float(deep[j]),
+                                                tuple(tip[rows[j]]))
+                    else:
+                        c.volume += float(per[j])
+                        c.depth = max(c.depth, float(deep[j]))
                 if kind == "flute":
                     result.removed[MOVE_NAMES[m]] += removed
             done += len(rows)
