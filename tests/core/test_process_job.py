@@ -225,6 +225,16 @@ def test_effective_diameter_and_cutting_data():
         cutting_data(ball, 2, "unobtainium", 0.2, beta)
 
 
+def test_a_planned_kind_missing_from_the_build_is_refused_not_skipped(tmp_path, monkeypatch):
+    from blisk_cam.core.process import operation_kinds
+
+    monkeypatch.delitem(operation_kinds.OPERATION_KINDS, "rough")
+    text = JOB.replace('kind = "blade_finish"\ntool = 7', 'kind = "rough"\ntool = 7', 1)
+    with pytest.raises(BliskCamError, match=r"operation 2 \('finish'\): operation kind 'rough' "
+                                            r"is not available in this build"):
+        load_job(_job(tmp_path, text))
+
+
 def _job(tmp_path, text: str):
     f = tmp_path / "bad.toml"
     f.write_text(text)
@@ -238,8 +248,6 @@ def _job(tmp_path, text: str):
     ('kind = "blade_finish"\ntool = 7', 'kind = "blade_finsh"\ntool = 7',
      r"operation 2 \('finish'\): unknown operation kind 'blade_finsh'; did you mean "
      r"'blade_finish'"),
-    ('kind = "blade_finish"\ntool = 7', 'kind = "rough"\ntool = 7',
-     r"operation 2 \('finish'\): operation kind 'rough' is not available in this build"),
     ("number = 7", "number = 3", r"bad.toml tool 2 key 'number': tool number T3 is used twice"),
     ('kind = "blade_finish"\ntool = 7', 'kind = "blade_finish"\ntool = 9',
      r"operation 2 \('finish'\) key 'tool': tool T9 is not in the tool table"),

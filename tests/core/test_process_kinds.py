@@ -106,6 +106,7 @@ def test_semi_finishing_and_hub_finishing_in_one_job(processed):
     r = np.linalg.norm(rel - np.outer(z, part.axis.d), axis=1)
     assert np.abs(r - part.hub_r(z)).max() < 0.1  # on the revolved hub profile
 
+    assert rc == 0  # every verdict passed (the semi-finishing's too)
     sim = json.loads((out / "02-hub.simulation.json").read_text())
     assert sim["crashes"] == [] and sim["passed"], sim["crashes"][:3]
     text = (out / "job.linuxcnc.ngc").read_text()
@@ -144,5 +145,66 @@ def test_hub_finishing_needs_a_ball(tmp_path):
     gen = iter_run_job(load_job(f))
     with pytest.raises(BliskCamError, match=r"operation 2 \('hub'\) key 'tool': hub and fillet "
                                             r"finishing need a ball; tool T5 is a flat"):
+        for _ in range(3):
+            next(gen)
+
+
+ROUGH_JOB = """
+[part]
+source = "demo"
+material = "Ti-6Al-4V"
+[part.demo]
+resolution = 0.5
+
+[stock]
+blank = "envelope:2"
+resolution = 1.0
+
+[machine]
+name = "ac-trunnion"
+posts = ["linuxcnc"]
+
+[[tool]]
+number = 1
+type = "bull"
+diameter = 10
+corner_radius = 1
+flutes = 4
+flute_length = 30
+holder = "30 5 120 5 120 16 180 16"
+
+[[operation]]
+name = "roughing"
+kind = "rough"
+tool = 1
+stepover = 6
+depth_per_cut = 8
+"""
+
+
+def test_roughing_is_a_job_operation_from_the_blank(tmp_path):
+    """The rough kind runs from the job's blank and leaves its stock to the next operation:
+    a paths JSON that says "rough", no crash and no gouge on the simulated stock (with the
+    tool's own holder), most of the sector's material removed between blank and part."""
+    job = tmp_path / "rough.toml"
+    job.write_text(ROUGH_JOB)
+    out = tmp_path / "out"
+    assert main(["process", str(job), "--out", str(out), "--quiet"]) == 0
+    path = read_paths_json(out / "01-roughing.paths.json")
+    assert path.operation == "rough"
+    sim = json.loads((out / "01-roughing.simulation.json").read_text())
+    assert sim["crashes"] == [] and sim["passed"]
+    assert sim["deviation_mm"]["gouged_vertices"] == 0
+    removed = sim["volume_removed_mm3"]["sector"]
+    assert removed > 0.3 * sim["volume_initial_mm3"]["sector"]  # the channel is most of it
+    assert "M6" in (out / "job.linuxcnc.ngc").read_text()
+
+
+def test_roughing_options_are_checked_up_front(tmp_path):
+    job = tmp_path / "bad.toml"
+    job.write_text(ROUGH_JOB.replace("stepover = 6\n", ""))
+    gen = iter_run_job(load_job(job))
+    with pytest.raises(BliskCamError, match=r"operation 1 \('roughing'\): key 'stepover' is "
+                                            r"missing"):
         for _ in range(3):
             next(gen)

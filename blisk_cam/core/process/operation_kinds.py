@@ -14,9 +14,10 @@ Errors: a :class:`~..errors.BliskCamError`; the job prefixes the file, the opera
 key.
 
 A kind is made available by :func:`register_operation_kind` (this module registers blade
-finishing, semi-finishing — blade finishing leaving an allowance — and hub and fillet
-finishing). The kinds of the whole process that this build does not have (:data:`PLANNED`)
-are refused with "operation kind 'rough' is not available in this build", never skipped.
+finishing, semi-finishing — blade finishing leaving an allowance — channel roughing, and hub
+and fillet finishing). The kinds of the whole process that this build does not have
+(:data:`PLANNED`) are refused with "operation kind '…' is not available in this build", never
+skipped.
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
 from .fillet_finish import FILLET_FINISH
 from .hub_finish import HUB_FINISH, HubRequest
 from .operation import Operation, Stage
+from .roughing import RoughingOperation, RoughRequest
 
 __all__ = ["OPERATION_KINDS", "PLANNED", "OperationContext", "OperationKind",
            "PreparedOperation", "ToolEntry", "narrowest_gap", "operation_kind",
@@ -417,3 +419,52 @@ register_operation_kind(OperationKind(
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
 __all__ += ["prepare_fillet_finish", "prepare_hub_finish"]
+
+
+# ------------------------------------------------------------------------ channel roughing
+#: job key → (default in user units, help, kind of value); lead and side tilt in degrees
+_ROUGH_KEYS = {
+    "stepover": (None, "largest step across the channel, mm (≤ the tool diameter)", "mm"),
+    "depth_per_cut": (None, "largest step between levels, mm", "mm"),
+    "levels": ("from-hub", "from-hub, from-shroud or morph", "word"),
+    "pattern": ("zigzag", "zigzag or plunge", "word"),
+    "allowance": (0.5, "material left on the blades, mm (paper 003: 0.5)", "mm"),
+    "hub_allowance": (None, "material left on the hub, mm (default: allowance)", "mm"),
+    "lead": (0.0, "tool axis tilted from radial toward +z, degrees", "deg"),
+    "side_tilt": (0.0, "tool axis tilted from radial toward +θ, degrees", "deg"),
+    "safety": (0.5, "the body's distance from the allowance shell, mm", "mm"),
+    "station_step": (0.5, "pose spacing along the channel, mm", "mm"),
+    "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),
+}
+
+
+def prepare_rough(ctx: OperationContext) -> PreparedOperation:
+    """Channel roughing (paper 003 §5, stage 1: slotting leaving 0.5 mm, :mod:`.roughing`)
+    of the gap between blade 0 and blade 1 from the stock before it; the job's post repeats it
+    for every gap. The tool's own body (tool table) is kept clear of the allowance."""
+    where = ctx.where
+    kw = {}
+    for key, value in ctx.options.items():
+        _, _, kind = _ROUGH_KEYS[key]
+        if kind == "word":
+            if not isinstance(value, str):
+                raise BliskCamError(f"{where} key {key!r}: expected a word, got {value!r}")
+            kw[key] = value
+            continue
+        if isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
+            raise BliskCamError(f"{where} key {key!r}: expected a number, got {value!r}")
+        kw[key] = math.radians(float(value)) if kind == "deg" else float(value)
+    for key in ("stepover", "depth_per_cut"):
+        if key not in kw:
+            raise BliskCamError(f"{where}: key {key!r} is missing (mm)")
+    try:
+        req = RoughRequest(tool=ctx.cutter, assembly=tool_assembly(ctx.tool, ctx.cutter), **kw)
+    except (BliskCamError, TypeError, ValueError) as exc:
+        raise BliskCamError(f"{where}: {exc}") from None
+    return PreparedOperation(RoughingOperation(), ctx.part, req, (), 0.0, reads_stock=True)
+
+
+register_operation_kind(OperationKind(
+    "rough", "channel roughing (paper 003, stage 1)", prepare_rough,
+    _options_of(_ROUGH_KEYS), default_depth=1.0))
+__all__ += ["prepare_rough"]
