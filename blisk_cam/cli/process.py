@@ -12,7 +12,9 @@ one program per post (``job.linuxcnc.ngc``) and for LinuxCNC its tool table
 the job file. The folder is built in a temporary folder beside DIR and renamed into place at
 the end: a failure or Ctrl-C leaves nothing half-written. A non-empty DIR is refused unless
 ``--force`` (then replaced as a whole). Exit 0 when every operation's verdict passed, 5 when
-one failed (the folder is written), 1 on bad input, 2 on a usage error.
+one failed (the folder is written), 4 when the collision gate refused a post (an operation has
+unresolved collisions: the folder is written without that program, the setup sheet and the
+summary say why), 1 on bad input, 2 on a usage error.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ from .progress import StageProgress
 __all__ = ["add_process_arguments", "run_process"]
 
 EXIT_VERDICT_FAILED = 5
+#: a post refused by the collision gate (as `paths` with unresolved collisions)
+EXIT_UNRESOLVED_COLLISIONS = 4
 PROGRAM_SUFFIX = {"linuxcnc": ".ngc", "fanuc": ".nc", "siemens": ".mpf", "heidenhain": ".h",
                   "apt": ".apt"}
 
@@ -159,6 +163,13 @@ def run_process(args) -> int:
     print(f"wrote {out}: {len(summary['operations'])} operation(s), "
           f"{', '.join(files['programs'].values()) or 'no program'}, setup_sheet.md "
           f"({summary['seconds']:.1f} s)")
+    for reason in run.refused.values():
+        print(f"{PROG}: {reason}", file=sys.stderr)
+    if run.refused:
+        print(f"{PROG}: the outputs were written, the program(s) for "
+              f"{', '.join(run.refused)} were not (see {out / 'setup_sheet.md'})",
+              file=sys.stderr)
+        return EXIT_UNRESOLVED_COLLISIONS
     if failed:
         print(f"{PROG}: verdict: FAILED in operation(s) "
               f"{', '.join(str(o['index']) for o in failed)}; see {out / 'setup_sheet.md'}",
@@ -194,6 +205,7 @@ def _summary(run, files, seconds) -> dict:
     return {"job": str(run.job.file), "blades": run.part.blade_count,
             "material": run.job.material, "stock_initial": run.stock_initial,
             "operations": ops, "programs": files["programs"],
+            "programs_refused": dict(run.refused),
             "forward_kinematics": {p: {str(k): v for k, v in prog[2].items()}
                                    for p, prog in run.programs.items()},
             "seconds": round(seconds, 3)}

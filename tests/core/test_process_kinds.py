@@ -208,3 +208,22 @@ def test_roughing_options_are_checked_up_front(tmp_path):
                                             r"missing"):
         for _ in range(3):
             next(gen)
+
+
+def test_a_post_the_collision_gate_refuses_keeps_the_other_outputs(tmp_path):
+    """A hub tool whose Ø32 holder starts 30 mm up collides with the blades: the program is
+    not written (exit 4, as `paths`), but the operations' paths, stocks and reports are, and
+    the setup sheet and the summary say which program was refused and why."""
+    text = JOB.replace('holder = "12 2.5 100 2.5 100 8 160 8"',
+                       'holder = "12 2.5 30 2.5 30 16 160 16"')
+    text = text[:text.index("[[operation]]")] + text[text.index('name = "hub"') - 14:]
+    job = tmp_path / "fat.toml"
+    job.write_text(text)
+    out = tmp_path / "out"
+    assert main(["process", str(job), "--out", str(out), "--quiet"]) == 4
+    names = {p.name for p in out.iterdir()}
+    assert {"01-hub.paths.json", "01-hub.simulation.json", "setup_sheet.md"} <= names
+    assert not [n for n in names if n.startswith("job.linuxcnc")]
+    summary = json.loads((out / "summary.json").read_text())
+    assert "unresolved collisions" in summary["programs_refused"]["linuxcnc"]
+    assert "Program linuxcnc NOT written" in (out / "setup_sheet.md").read_text()

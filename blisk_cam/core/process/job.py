@@ -72,6 +72,7 @@ from ..part.blisk_params import DemoParams
 from ..part.model import BliskPart, part_from_blade, part_from_demo, read_rz_csv, split_blisk_mesh
 from ..post.blocks import NcOptions
 from ..post.export import get_post
+from ..post.gate import CollisionGateError
 from ..post.job_program import JobSection, check_job_post, job_program
 from ..runtime import Progress
 from ..stock.blank import (
@@ -509,6 +510,9 @@ class JobRun:
     stock_initial: dict
     operations: list = field(default_factory=list)
     programs: dict = field(default_factory=dict)
+    #: post → why its program was not written (the collision gate refused it); the rest of
+    #: the job's outputs stand, so the user sees the poses to correct
+    refused: dict = field(default_factory=dict)
 
 
 def _measured_tilt(path) -> float:
@@ -629,6 +633,9 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
     for post in job.posts:
         try:
             text, solved = job_program(sections, job.machine, post, header=header)
+        except CollisionGateError as exc:
+            run.refused[post] = str(_prefixed(exc, f"job {job.file.name} post {post}"))
+            continue
         except BliskCamError as exc:
             raise _prefixed(exc, f"job {job.file.name} post {post}") from None
         run.programs[post] = (text, solved, fk_check(job.machine, solved))

@@ -62,6 +62,8 @@ def setup_sheet(run: JobRun, files: dict) -> str:
          f"- Machine: {job.machine.name} ({job.machine.kinematics}, "
          f"{'/'.join(job.machine.axis_names)}); programs: "
          + (", ".join(f"`{f}` ({p})" for p, f in posts.items()) or "none"), "",
+         *[f"- **Program {p} NOT written**: {why}" for p, why in run.refused.items()],
+         *([""] if run.refused else []),
          "## Tools", "",
          "| T | tool | flutes | stick-out | body (holder) | coolant | operations |",
          "|---|---|---|---|---|---|---|"]
