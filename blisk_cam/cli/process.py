@@ -3,6 +3,7 @@
 ::
 
     python -m blisk_cam process JOB.toml --out DIR [--force] [--quiet]
+    python -m blisk_cam process --template tung-tso --out DIR
 
 DIR receives, per operation k (``01-<name>``…): ``NN-name.paths.json``, the stock after it
 (``NN-name.stock.npz``, the next operation's input, and ``simulate --stock`` reads it), its
@@ -46,8 +47,12 @@ PROGRAM_SUFFIX = {"linuxcnc": ".ngc", "fanuc": ".nc", "siemens": ".mpf", "heiden
 
 def add_process_arguments(parser: argparse.ArgumentParser):
     """Add the ``process`` arguments to ``parser``."""
-    parser.add_argument("job", metavar="JOB.toml", help="the job file (part, stock, machine, "
-                        "tools, operations in order)")
+    parser.add_argument("job", metavar="JOB.toml", nargs="?", help="the job file (part, "
+                        "stock, machine, tools, operations in order)")
+    parser.add_argument("--template", metavar="NAME", help="run a job shipped with Blisk CAM "
+                        "instead of JOB.toml: tung-tso (paper 003's process on the demo blisk: "
+                        "disk blank, roughing leaving 0.5 mm, semi-finishing leaving 0.1 mm, "
+                        "blade, hub and fillet finishing)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder (built "
                         "beside it and renamed into place at the end)")
     parser.add_argument("--force", action="store_true",
@@ -97,6 +102,12 @@ def run_process(args) -> int:
     from ..core.toolpath.paths_io import write_paths_json
 
     t0 = time.perf_counter()
+    if (args.job is None) == (args.template is None):
+        raise UsageError("give the job file JOB.toml or --template NAME (one of them)")
+    if args.template is not None:
+        from ..core.process.job import job_template
+
+        args.job = str(job_template(args.template))
     out = Path(args.out).expanduser().resolve()
     if out == Path(args.job).expanduser().resolve().parent or out in Path(
             args.job).expanduser().resolve().parents:

@@ -227,3 +227,18 @@ def test_a_post_the_collision_gate_refuses_keeps_the_other_outputs(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert "unresolved collisions" in summary["programs_refused"]["linuxcnc"]
     assert "Program linuxcnc NOT written" in (out / "setup_sheet.md").read_text()
+
+
+def test_the_shipped_template_is_a_valid_job_of_the_whole_process(capsys):
+    """`process --template tung-tso` names a job file that reads without error and holds
+    paper 003's stages in order; an unknown template lists the known ones."""
+    from blisk_cam.core.process.job import job_template
+
+    job = load_job(job_template("tung-tso"))
+    assert [o.kind.name for o in job.operations] == [
+        "rough", "semi_finish", "blade_finish", "hub_finish", "fillet_finish"]
+    assert job.operations[0].options["allowance"] == 0.5
+    assert job.operations[1].options["allowance"] == 0.1
+    assert job.operations[3].options["ring_width"] > 0  # two hub regions
+    assert main(["process", "--template", "tung-soo", "--out", "x"]) == 1
+    assert "unknown job template 'tung-soo'; known: tung-tso" in capsys.readouterr().err

@@ -74,6 +74,7 @@ from ..post.blocks import NcOptions
 from ..post.export import get_post
 from ..post.gate import CollisionGateError
 from ..post.job_program import JobSection, check_job_post, job_program
+from ..presets import preset_names
 from ..runtime import Progress
 from ..stock.blank import (
     stock_from_allowance,
@@ -97,7 +98,8 @@ from .operation_kinds import (
 )
 
 __all__ = ["Job", "JobError", "JobOperation", "JobRun", "OperationRun", "build_part",
-           "build_stock", "iter_run_job", "load_job", "stock_digest"]
+           "build_stock", "iter_run_job", "job_template", "load_job", "stock_digest",
+           "TEMPLATES_DIR"]
 
 
 class JobError(BliskCamError):
@@ -265,6 +267,18 @@ def make_cutter(tool: ToolEntry) -> Cutter:
     kw = {"taper_angle": tool.taper_angle} if tool.taper_angle else {}
     return Cutter.from_spec(tool.type, tool.diameter / 2,
                             tool.corner_radius if tool.type == "bull" else 0.0, **kw)
+
+
+#: the job templates shipped with the package (``process --template NAME``)
+TEMPLATES_DIR = Path(__file__).resolve().parents[2] / "jobs"
+
+
+def job_template(name: str) -> Path:
+    """The file of the shipped job template ``name``; JobError listing the known ones."""
+    names = preset_names(TEMPLATES_DIR)
+    if name not in names:
+        raise JobError(f"unknown job template {name!r}; known: {', '.join(names)}")
+    return TEMPLATES_DIR / f"{name}.toml"
 
 
 def load_job(filename) -> Job:
