@@ -598,11 +598,28 @@ def _faces(c: PassCurve):
     return c.face if len(c.face) == len(c.cc) else np.full(len(c.cc), -1, dtype=np.int64)
 
 
+#: the approach point lies the approach distance off the surface: along a tool axis at angle
+#: φ from the surface normal that is d / cos φ, up to this many times d (φ ≤ 76°)
+APPROACH_STRETCH_MAX = 4.0
+
+
+def approach_length(c: PassCurve, j: int, d_app: float) -> float:
+    """Length (mm) along the tool axis from pose ``j`` of ``c`` to its approach/retract point:
+    ``d_app`` off the surface (the normal), d_app / cos φ with φ the axis' angle from the
+    normal, at most :data:`APPROACH_STRETCH_MAX` × d_app. With the axis 75° from the normal a
+    point d_app along the axis is only 0.26 d_app off the surface: the rapid down to it swept
+    the cutter through the stock a roughing pass leaves (1.7 mm deep in the job simulation)."""
+    cos = float(np.dot(c.axis[j], c.normal[j]))
+    return float(d_app) / max(cos, 1.0 / APPROACH_STRETCH_MAX)
+
+
 def _clearance_of(curves, opts: LinkOptions, axis: Axis, d_app: float) -> Clearance:
     """The clearance surface of ``opts`` (default: the cylinder just outside every tip and
     approach point); raises LinkError when it is not outside the approach points."""
     ends = np.vstack(
-        [np.vstack([c.tip[[0, -1]], c.tip[[0, -1]] + d_app * c.axis[[0, -1]]]) for c in curves]
+        [np.vstack([c.tip[[0, -1]], c.tip[[0, -1]] + np.array(
+            [[approach_length(c, 0, d_app)], [approach_length(c, len(c) - 1, d_app)]])
+            * c.axis[[0, -1]]]) for c in curves]
     )
     all_tips = np.vstack([c.tip for c in curves])
     if opts.clearance is None:
@@ -664,8 +681,8 @@ def build_program(
         t0, a0 = c.tip[0], c.axis[0]
         first_move = MOVE_APPROACH
         if prev is None:
-            via_clearance(rows, clear, axis, opts.rapid_step, t0 + d_app * a0, a0,
-                           t0 + d_app * a0, a0, first=True)
+            e0 = t0 + approach_length(c, 0, d_app) * a0
+            via_clearance(rows, clear, axis, opts.rapid_step, e0, a0, e0, a0, first=True)
         else:
             pc, pj = prev
             link = None
@@ -702,9 +719,10 @@ def build_program(
             else:
                 pt, pa = pc.tip[pj], pc.axis[pj]
                 route = ProgramRows()
-                route.emit(pt + d_app * pa, pa, MOVE_RETRACT)
-                via_clearance(route, clear, axis, opts.rapid_step, pt + d_app * pa, pa,
-                               t0 + d_app * a0, a0)
+                up = pt + approach_length(pc, pj, d_app) * pa
+                route.emit(up, pa, MOVE_RETRACT)
+                via_clearance(route, clear, axis, opts.rapid_step, up, pa,
+                              t0 + approach_length(c, 0, d_app) * a0, a0)
                 rows.extend(route)
                 if link_check is not None:  # measured and reported (avoidance re-routes it)
                     link_check.rapids_cut(_route_depth(link_check, route, pt, pa, t0, a0))
@@ -714,8 +732,9 @@ def build_program(
         prev = (c, int(idx[-1]))
     pc, pj = prev
     pt, pa = pc.tip[pj], pc.axis[pj]
-    rows.emit(pt + d_app * pa, pa, MOVE_RETRACT)
-    rows.emit(clearance_point(pt + d_app * pa, pa, clear, axis), pa, MOVE_RAPID)
+    up = pt + approach_length(pc, pj, d_app) * pa
+    rows.emit(up, pa, MOVE_RETRACT)
+    rows.emit(clearance_point(up, pa, clear, axis), pa, MOVE_RAPID)
     return rows.program()
 
 
