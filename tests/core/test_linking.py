@@ -161,13 +161,20 @@ def test_program_with_clearance_links(tube_passes):
         idx = prog.index[prog.curve == i]
         assert np.array_equal(idx, np.append(np.arange(len(c.cc)), 0))
         assert np.allclose(prog.tip[prog.curve == i], c.tip[idx])
-    # approaches and retracts run along the tool axis by the approach distance
+    # approaches and retracts run along the tool axis, to a point the approach distance off
+    # the surface (along the 8° lead axis: 3 / cos 8° mm)
+    def normal_at(row):
+        return out[prog.curve[row]].normal[prog.index[row]]
+
     for j in np.nonzero(prog.move == MOVE_APPROACH)[0]:
         d = prog.tip[j - 1] - prog.tip[j]
-        assert np.isclose(np.linalg.norm(d), 3.0) and np.allclose(d / 3.0, prog.axis[j])
+        L = np.linalg.norm(d)
+        assert np.allclose(d / L, prog.axis[j]) and np.isclose(d @ normal_at(j), 3.0)
+        assert np.isclose(L, 3.0 / math.cos(math.radians(8)), rtol=1e-3)
     for j in np.nonzero(prog.move == MOVE_RETRACT)[0]:
         d = prog.tip[j] - prog.tip[j - 1]
-        assert np.isclose(np.linalg.norm(d), 3.0) and np.allclose(d / 3.0, prog.axis[j - 1])
+        L = np.linalg.norm(d)
+        assert np.allclose(d / L, prog.axis[j - 1]) and np.isclose(d @ normal_at(j - 1), 3.0)
     # rapids between retract and approach travel on the clearance cone r = 170 + 0.1 z
     r, z = meridional(prog.tip, AX)
     on = (prog.move == MOVE_RAPID) & np.roll(prog.move == MOVE_RAPID, -1)
