@@ -136,8 +136,68 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
     assert output_objects(colls[s.operations[1].uid])["cc"] is not None
 
 
+class _Layout:
+    """Stands in for ``UILayout``: records the properties, lists and operators drawn."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = self.use_property_decorate = False
+        self.active = True
+        self.scale_y = 1.0
+
+    def prop(self, data, name, **_kw):
+        assert hasattr(data, name), name
+        self.log.append(name)
+
+    def _child(self, *_a, **_kw):
+        return _Layout(self.log)
+
+    row = column = box = split = _child
+
+    def separator(self, **_kw):
+        pass
+
+    def label(self, text="", **kw):
+        _check_icon(kw)
+        self.log.append("label: " + text)
+
+    def template_list(self, list_id, _name, data, prop, active_data, active_prop, **_kw):
+        assert list_id in dir(bpy.types) and hasattr(data, prop)
+        assert hasattr(active_data, active_prop)
+        self.log.append(list_id)
+
+    def operator(self, idname, **kw):
+        _check_icon(kw)
+        assert hasattr(getattr(bpy.ops, idname.split(".")[0]), idname.split(".")[1]), idname
+        self.log.append(idname)
+        return type("Props", (), {})()
+
+    def operator_menu_enum(self, idname, prop, **kw):
+        self.operator(idname, **kw)
+
+
+def _check_icon(kw):
+    if "icon" in kw:
+        icons = bpy.types.UILayout.bl_rna.functions["label"].parameters["icon"].enum_items
+        assert kw["icon"] in {i.identifier for i in icons}, kw["icon"]
+
+
+def _drawn(panel_class):
+    log = []
+    panel_class.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
+    return log
+
+
 def test_operations_bad_input(addon):
+    from blisk_cam.panels.operations import BLISKCAM_PT_operations, BLISKCAM_PT_tool_table
+
     s = _scene()
+    drawn = _drawn(BLISKCAM_PT_operations)  # the selected operation's kind, tool, options
+    assert {"BLISKCAM_UL_operations", "kind", "tool", "value", "blisk_cam.generate_all",
+            "blisk_cam.export_job", "blisk_cam.operation_move"} <= set(drawn)
+    assert drawn.count("value") == len(s.operations[s.operation_index].options)
+    assert {"BLISKCAM_UL_job_tools", "diameter", "flutes", "flute_length",
+            "holder"} <= set(_drawn(BLISKCAM_PT_tool_table))
     s.operations[1].tool = 9
     with pytest.raises(RuntimeError, match=r"operation 2 \('hub'\) key 'tool': tool T9 is not "
                                            "in the tool table"):
