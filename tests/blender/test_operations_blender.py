@@ -91,9 +91,12 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
     ctx = bpy.context
     op = ModalRunner(mod.BLISKCAM_OT_generate_all, mod.OperationsJob(ctx))
     op.start(ctx)
-    assert not bpy.ops.blisk_cam.generate_all.poll()
-    while (r := op.step(ctx)) is None or r == {"RUNNING_MODAL"}:
-        op._job._thread.join(0.2)
+    try:
+        assert not bpy.ops.blisk_cam.generate_all.poll()
+        while (r := op.step(ctx)) == {"RUNNING_MODAL"}:
+            op._job._thread.join(0.2)
+    finally:
+        op._job.stop()
     assert r == {"FINISHED"}, op.reports
     run = op._job.run_result
     colls = operation_collections()
@@ -111,25 +114,41 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
     skin = next(o for o in sk.objects if "stock" in o.name)
     v1 = _skin_volume(skin)
     assert len(skin.data.vertices) == len(stocks[s.operations[0].uid]["skin_V"])
-    assert stock_summary(ctx.scene)["operation"] == "semi"
+    shown = stock_summary(ctx.scene)
+    assert shown["operation"] == "semi"
+    assert shown["volume_remaining_mm3"] == run.operations[0].simulation.summary[
+        "volume_remaining_mm3"]
     s.operation_index = 1  # selecting shows the stock after it
     skin = next(o for o in sk.objects if "stock" in o.name)
-    assert stock_summary(ctx.scene)["operation"] == "hub"
+    shown = stock_summary(ctx.scene)
+    assert shown["operation"] == "hub"
+    assert shown["volume_remaining_mm3"] == run.operations[1].simulation.summary[
+        "volume_remaining_mm3"]
+    assert shown["volume_remaining_mm3"] != run.operations[0].simulation.summary[
+        "volume_remaining_mm3"]
     assert len(skin.data.vertices) == len(stocks[s.operations[1].uid]["skin_V"])
     v2 = _skin_volume(skin)
-    removed = (run.operations[1].stock_in["volume_mm3"]
-               - run.operations[1].stock_out["volume_mm3"]) / 24  # per sector
-    assert removed > 0 and v2 < v1
+    assert run.operations[1].stock_out["volume_mm3"] < run.operations[1].stock_in["volume_mm3"]
+    assert v2 < v1  # the hub finishing removed material: a smaller remaining stock
     # disable the semi-finishing: the next run skips it (no collection)
     s.operations[0].enabled = False
     op2 = ModalRunner(mod.BLISKCAM_OT_generate_all, mod.OperationsJob(ctx))
     op2.start(ctx)
-    # ESC at once: nothing of the new run, the previous collections and stock kept
+    # ESC while the hub operation runs: nothing of the new run, the previous results kept
     names = sorted(c.name for c in operation_collections().values())
-    assert op2.step(ctx, "ESC") == {"CANCELLED"}
+    stock_before = stock_summary(ctx.scene)
+    try:
+        assert op2.step(ctx) == {"RUNNING_MODAL"}  # the thread started
+        while "operation 2" not in op2._job.message and op2._job.running:
+            op2._job._thread.join(0.05)
+        assert op2._job.running, op2._job.message
+        assert op2.step(ctx, "ESC") == {"CANCELLED"}
+    finally:  # a thread left running hangs the process at exit
+        op2._job.stop()
     assert op2._job.cancel.is_set() and not op2._job.running and not mod._RUNNING
     assert "previous results are kept" in op2.reports[-1][1]
     assert sorted(c.name for c in operation_collections().values()) == names
+    assert stock_summary(ctx.scene) == stock_before
     assert bpy.ops.blisk_cam.generate_all() == {"FINISHED"}
     colls = operation_collections()
     assert set(colls) == {s.operations[1].uid}
