@@ -541,6 +541,8 @@ class BliskCamOperation(PropertyGroup):
                           description="Run this operation in Generate All")
     uid: IntProperty(name="Id", default=0, description="Identity of the operation's results")
     options: bpy.props.CollectionProperty(type=BliskCamOperationOption)
+    result: StringProperty(name="Result", default="",
+                           description="The last Generate All's figures for this operation")
 
 
 TOOL_TYPE_ITEMS = [("ball", "Ball", "Ball end mill"), ("bull", "Bull Nose",

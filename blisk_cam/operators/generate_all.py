@@ -95,13 +95,21 @@ class OperationsJob(ThreadJob):
             r["label"] = operation_label(r["index"], self.uids[r["index"]][1])
         write_operation_results(context.scene, self.results)
         show_operation_stock(context.scene)
+        ops = {o.uid: o for o in context.scene.blisk_cam.operations}
+        for o in ops.values():
+            o.result = "" if o.enabled else "disabled: not run"
         lines = []
         for orun in run.operations:
             s = orun.simulation.summary
-            lines.append(f"{orun.op.index} {orun.op.name}: {len(orun.path.program)} rows, "
-                         f"left max {s['deviation_mm']['max_left']:.3f} mm, gouge max "
-                         f"{s['deviation_mm']['max_gouge']:.3f} mm, {len(s['crashes'])} "
-                         f"crash(es), {'passed' if s['passed'] else 'FAILED'}")
+            text = (f"{len(orun.path.program)} rows, {orun.cutting.spindle:.0f} rpm, "
+                    f"{orun.cutting.feed:.0f} mm/min; left max "
+                    f"{s['deviation_mm']['max_left']:.3f} mm, gouge max "
+                    f"{s['deviation_mm']['max_gouge']:.3f} mm, {len(s['crashes'])} crash(es), "
+                    f"{'passed' if s['passed'] else 'FAILED'}")
+            op = ops.get(self.uids[orun.op.index][0])
+            if op is not None:
+                op.result = text
+            lines.append(f"{orun.op.index} {orun.op.name}: {text}")
         return lines
 
 

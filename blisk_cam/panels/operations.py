@@ -87,6 +87,9 @@ class BLISKCAM_PT_operations(_BliskCamPanel, Panel):
             if op.tool not in {t.number for t in s.job_tools}:
                 box.label(text=f"T{op.tool} is not in the tool table", icon="ERROR")
             _draw_options(box, op)
+            if op.result:
+                for part in op.result.split("; "):
+                    box.label(text=part, icon="INFO")
         col = layout.column(align=True)
         col.scale_y = 1.3
         col.operator("blisk_cam.generate_all", icon="PLAY")

@@ -66,6 +66,7 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
     from blisk_cam.core.process.job import load_job
     from blisk_cam.operators import generate_all as mod
     from blisk_cam.operators.modal_job import ModalRunner
+    from blisk_cam.panels.operations import BLISKCAM_PT_operations
 
     s = _scene()
     # every option row is one the kind declares
@@ -107,6 +108,11 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
         cc = _curve_points(objs["cc"])
         core_cc = np.vstack([c.cc for c in orun.path.curves])
         assert len(cc) == len(core_cc) and np.abs(cc - core_cc).max() < 1e-3
+    for o, orun in zip(s.operations, run.operations, strict=True):  # figures per operation
+        assert o.result.startswith(f"{len(orun.path.program)} rows, ")
+        assert ("passed" if orun.simulation.summary["passed"] else "FAILED") in o.result
+    assert any(x == f"label: {s.operations[0].result.split('; ')[0]}"
+               for x in _drawn(BLISKCAM_PT_operations))
     # the stock after the selected operation, then after the other one
     stocks = stored_stocks(ctx.scene)
     assert s.operation_index == 0
@@ -152,6 +158,7 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
     assert bpy.ops.blisk_cam.generate_all() == {"FINISHED"}
     colls = operation_collections()
     assert set(colls) == {s.operations[1].uid}
+    assert s.operations[0].result == "disabled: not run"
     assert output_objects(colls[s.operations[1].uid])["cc"] is not None
 
 
