@@ -233,3 +233,25 @@ def test_operations_bad_input(addon):
     with pytest.raises(RuntimeError, match=r"operation 2 \('hub'\) key 'scallop'"):
         bpy.ops.blisk_cam.generate_all()
     assert "Blisk CAM – Operations" not in bpy.data.collections  # nothing written
+
+
+def test_a_kind_registered_later_appears_with_its_options(addon):
+    """A kind registered after the add-on (as roughing will be) is offered and its declared
+    options become the operation's rows, without a change to the panel."""
+    from blisk_cam.core.process import operation_kinds as ok
+    from blisk_cam.properties import kind_items
+
+    kind = ok.OperationKind("zz_probe", "a probe kind", ok.prepare_hub_finish,
+                            {"levels": (2, "levels"), "depth_step": (0.5, "mm")})
+    ok.register_operation_kind(kind)
+    try:
+        assert "zz_probe" in [i[0] for i in kind_items(None, bpy.context)]
+        assert bpy.ops.blisk_cam.operation_add(kind="zz_probe") == {"FINISHED"}
+        op = bpy.context.scene.blisk_cam.operations[0]
+        assert op.kind == "zz_probe" and [r.key for r in op.options] == ["levels", "depth_step"]
+        op.options[0].value = "3"
+        op.kind = "hub_finish"  # another kind: its own rows; the probe's values dropped
+        assert [r.key for r in op.options] == list(ok.OPERATION_KINDS["hub_finish"].options)
+    finally:
+        del ok.OPERATION_KINDS["zz_probe"]
+    assert "zz_probe" not in [i[0] for i in kind_items(None, bpy.context)]
