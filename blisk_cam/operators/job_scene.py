@@ -49,15 +49,21 @@ def job_path() -> Path:
     return Path(folder) / JOB_NAME
 
 
+def _mm(x) -> float:
+    """A float property's value as typed: Blender keeps single precision (0.3 is stored as
+    0.30000001192…), seven significant digits give the number back."""
+    return float(f"{float(x):.7g}")
+
+
 def _tool(t) -> dict:
-    out = {"number": int(t.number), "type": t.type, "diameter": float(t.diameter),
+    out = {"number": int(t.number), "type": t.type, "diameter": _mm(t.diameter),
            "flutes": int(t.flutes)}
     if t.type == "bull":
-        out["corner_radius"] = float(t.corner_radius)
+        out["corner_radius"] = _mm(t.corner_radius)
     if t.flute_length > 0:
-        out["flute_length"] = float(t.flute_length)
+        out["flute_length"] = _mm(t.flute_length)
     if t.stick_out > 0:
-        out["stick_out"] = float(t.stick_out)
+        out["stick_out"] = _mm(t.stick_out)
     if t.holder.strip():
         out["holder"] = t.holder.strip()
     return out
@@ -71,7 +77,7 @@ def job_data(scene) -> dict:
     part = {}
     if s.job_part_source == "DEMO":
         part["source"] = "demo"
-        part["demo"] = {"resolution": float(s.job_demo_resolution)}
+        part["demo"] = {"resolution": _mm(s.job_demo_resolution)}
     else:
         if not s.job_part_file:
             raise BliskCamError("No part file: choose the part's mesh file in the Operations "
@@ -85,16 +91,16 @@ def job_data(scene) -> dict:
         part["blade_count"] = int(s.blade_count)
     if s.job_material != "NONE":
         part["material"] = s.job_material
-    blank = {"ALLOWANCE": lambda: f"allowance:{s.stock_allowance:g}",
-             "ENVELOPE": lambda: f"envelope:{s.stock_margin:g}",
+    blank = {"ALLOWANCE": lambda: f"allowance:{_mm(s.stock_allowance):g}",
+             "ENVELOPE": lambda: f"envelope:{_mm(s.stock_margin):g}",
              "PROFILE": lambda: bpy.path.abspath(s.stock_profile)}.get(s.stock_blank)
     if blank is None:
         raise BliskCamError("Blank Mesh is not a job's blank: the job reads a blank from a file; "
                             "choose Part + Allowance, Envelope + Margin or Profile CSV in the "
                             "Stock panel")
-    stock = {"blank": blank(), "resolution": float(s.stock_resolution)}
+    stock = {"blank": blank(), "resolution": _mm(s.stock_resolution)}
     if s.stock_gouge_tolerance > 0:
-        stock["gouge_tolerance"] = float(s.stock_gouge_tolerance)
+        stock["gouge_tolerance"] = _mm(s.stock_gouge_tolerance)
     machine = {"name": bpy.path.abspath(s.machine_file) if s.machine == "FILE" else s.machine,
                "posts": [s.post]}
     ops = []

@@ -85,6 +85,7 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
     assert job.operations[1].options == {"scallop": 0.3, "allowance": 0.3}
     assert job.tools[5].holder == ((12.0, 2.5), (100.0, 2.5), (100.0, 8.0), (160.0, 8.0))
     text = out.read_text()
+    assert "resolution = 0.3\n" in text  # the number typed, not its single-precision value
     with pytest.raises(RuntimeError, match="exists: tick Replace Existing"):
         bpy.ops.blisk_cam.export_job(filepath=str(out))
     assert out.read_text() == text  # never replaced without the user's word
