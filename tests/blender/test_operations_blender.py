@@ -225,6 +225,16 @@ def test_operations_bad_input(addon):
     assert drawn.count("value") == len(s.operations[s.operation_index].options)
     assert {"BLISKCAM_UL_job_tools", "diameter", "flutes", "flute_length",
             "holder"} <= set(_drawn(BLISKCAM_PT_tool_table))
+    from blisk_cam.panels.operations import BLISKCAM_UL_job_tools, BLISKCAM_UL_operations
+
+    log = []  # the list rows: enable toggle, position, name, kind and tool
+    BLISKCAM_UL_operations.draw_item(None, bpy.context, _Layout(log), s, s.operations[1], 0, s,
+                                     "operation_index", 1, 0)
+    assert log == ["enabled", "label: 2.", "name", "label: hub_finish T5"]
+    log.clear()
+    BLISKCAM_UL_job_tools.draw_item(None, bpy.context, _Layout(log), s, s.job_tools[1], 0, s,
+                                    "job_tool_index", 1, 0)
+    assert log == ["label: T5  Ø6 ball, 2 flutes"]
     s.operations[1].tool = 9
     with pytest.raises(RuntimeError, match=r"operation 2 \('hub'\) key 'tool': tool T9 is not "
                                            "in the tool table"):
