@@ -139,8 +139,8 @@ class BLISKCAM_OT_generate_all(ModalJobOperator, bpy.types.Operator):
 
     def done(self, context, job) -> set:
         lines = job.finish(context)
-        for line in lines:
-            self.report({"INFO"}, line)
+        for line in lines:  # a failed verdict (gouge, crash) stands out; the run is kept
+            self.report({"WARNING"} if line.endswith("FAILED") else {"INFO"}, line)
         self.report({"INFO"}, f"Generate All: {len(lines)} operation(s) in "
                               f"{time.perf_counter() - job.t0:.1f} s")
         return {"FINISHED"}
