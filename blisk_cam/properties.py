@@ -28,6 +28,7 @@ from .core.machine.description import known_presets
 from .core.options import PATH_OPTION_GROUPS, fields
 from .core.post.blocks import NcOptions
 from .core.post.export import POSTS
+from .core.process.cutting_data import MATERIALS
 from .core.robot.description import known_robots
 from .core.robot.programs import DIALECTS
 
@@ -471,12 +472,138 @@ BliskCamSettings.__annotations__.update(
         description="Largest gouge that passes, mm (0: the paths' chord tolerance + the "
         "resolution)"),
 )
+
+
+# --- the "Operations" panel: the whole blisk as one job (issue 24, core/process/job) --------
+def _kind_number(name: str) -> int:
+    """A stable enum number for a kind's name (a kind registered later never shifts the
+    kinds saved in a .blend)."""
+    import zlib
+
+    return zlib.crc32(name.encode()) & 0x3FFFFFFF
+
+
+_KIND_ITEMS: list = []  # Blender needs the dynamic items' strings kept alive
+
+
+def kind_items(_self, _context):
+    """Every registered operation kind (``core.process.operation_kinds.OPERATION_KINDS``)."""
+    from .core.process.operation_kinds import OPERATION_KINDS
+
+    items = [(k.name, k.name, k.title, _kind_number(k.name)) for k in OPERATION_KINDS.values()]
+    if items != _KIND_ITEMS:
+        _KIND_ITEMS[:] = items
+    return _KIND_ITEMS
+
+
+def _kind_edited(self, _context):
+    sync_operation_options(self)
+
+
+def sync_operation_options(op) -> None:
+    """One option row per key the operation's kind declares (values typed for keys the kind
+    still has are kept; the others dropped)."""
+    from .core.process.operation_kinds import OPERATION_KINDS
+
+    kind = OPERATION_KINDS.get(op.kind)
+    keys = list(kind.options) if kind is not None else []
+    values = {o.key: o.value for o in op.options}
+    op.options.clear()
+    for key in keys:
+        item = op.options.add()
+        item.key, item.value = key, values.get(key, "")
+
+
+def _operation_selected(self, context):
+    from .blender.operation_objects import show_operation_stock
+
+    show_operation_stock(context.scene)
+
+
+class BliskCamOperationOption(PropertyGroup):
+    """One option of an operation: its key and its value as written in a job file (a TOML
+    value: ``0.3``, ``"radial"`` or a bare word, ``[170, -25, 185, 35]``); empty: the kind's
+    default."""
+
+    key: StringProperty(name="Key")
+    value: StringProperty(name="Value", description="The option's value as in a job file "
+                          "(number, word, or list [a, b, ...]); empty: the kind's default")
+
+
+class BliskCamOperation(PropertyGroup):
+    """One operation of the job: name, kind, tool number, enabled, its options."""
+
+    name: StringProperty(name="Name", default="operation")
+    kind: EnumProperty(name="Kind", items=kind_items, update=_kind_edited,
+                       description="Operation kind (the job file's kind)")
+    tool: IntProperty(name="Tool", default=1, min=0, description="T number of the tool table")
+    enabled: BoolProperty(name="Enabled", default=True,
+                          description="Run this operation in Generate All")
+    uid: IntProperty(name="Id", default=0, description="Identity of the operation's results")
+    options: bpy.props.CollectionProperty(type=BliskCamOperationOption)
+    result: StringProperty(name="Result", default="",
+                           description="The last Generate All's figures for this operation")
+
+
+TOOL_TYPE_ITEMS = [("ball", "Ball", "Ball end mill"), ("bull", "Bull Nose",
+                                                         "Torus end mill (corner radius)"),
+                   ("flat", "Flat", "Flat end mill"), ("taper", "Taper", "Tapered ball")]
+
+
+class BliskCamJobTool(PropertyGroup):
+    """One tool of the job's tool table (the job file's [[tool]])."""
+
+    number: IntProperty(name="T", default=1, min=0, description="Tool number")
+    type: EnumProperty(name="Type", items=TOOL_TYPE_ITEMS, default="ball")
+    diameter: FloatProperty(name="Diameter", default=12.0, min=0.001, precision=3,
+                            description="Cutter diameter, mm")
+    corner_radius: FloatProperty(name="Corner Radius", default=0.0, min=0.0, precision=3,
+                                 description="Corner radius of a bull nose, mm")
+    flutes: IntProperty(name="Flutes", default=2, min=1, max=32)
+    flute_length: FloatProperty(name="Flute Length", default=0.0, min=0.0, precision=2,
+                                description="Flute length, mm (0: from the stick-out or the "
+                                "cutter's default)")
+    stick_out: FloatProperty(name="Stick-Out", default=0.0, min=0.0, precision=2,
+                             description="Length out of the holder, mm (0: not given)")
+    holder: StringProperty(name="Holder", default="",
+                           description="Tool body above the flute as 'z r z r ...' mm from "
+                           "the tip (empty: a shank to the stick-out, or the cutter's own)")
+
+
+MATERIAL_ITEMS = [("NONE", "Not Given", "Give vc and fz (or spindle and feed) per operation")]
+MATERIAL_ITEMS += [(m, m, f"Cutting data for {m} (the table's sources: README)")
+                   for m in MATERIALS]
+
+BliskCamSettings.__annotations__.update(
+    operations=bpy.props.CollectionProperty(type=BliskCamOperation),
+    operation_index=IntProperty(name="Operation", default=0, min=0,
+                                update=_operation_selected,
+                                description="The selected operation (the stock shown is the "
+                                "one after it)"),
+    job_tools=bpy.props.CollectionProperty(type=BliskCamJobTool),
+    job_tool_index=IntProperty(name="Tool", default=0, min=0),
+    job_part_source=EnumProperty(
+        name="Part", description="The job's part",
+        items=[("DEMO", "Demo Blisk", "The built-in demo blisk"),
+               ("FILE", "Mesh File", "A whole-blisk mesh file, or a blade mesh with a hub "
+                "profile CSV")], default="DEMO"),
+    job_part_file=StringProperty(name="Part File", subtype="FILE_PATH", default="",
+                                 description="Whole-blisk (or blade) mesh file"),
+    job_hub_profile=StringProperty(name="Hub Profile", subtype="FILE_PATH", default="",
+                                   description="With a blade mesh: hub profile CSV ('r, z' "
+                                   "per line, mm); empty: the file is the whole blisk"),
+    job_demo_resolution=FloatProperty(name="Demo Resolution", default=0.3, min=0.05, max=5.0,
+                                      precision=2, description="Demo blisk mesh resolution, mm"),
+    job_material=EnumProperty(name="Material", items=MATERIAL_ITEMS, default="NONE",
+                              description="The part's material (cutting data)"),
+    job_next_uid=IntProperty(default=1),
+)
 # the radius, for scripts and old files' habits: half the diameter, not stored
 BliskCamSettings.__annotations__["tool_radius"] = FloatProperty(
     name="Tool Radius", description="Cutter radius in mm (half the diameter)",
     get=_tool_radius_get, set=_tool_radius_set, min=0.0005, precision=3)
 
-CLASSES = [BliskCamSettings]
+CLASSES = [BliskCamOperationOption, BliskCamOperation, BliskCamJobTool, BliskCamSettings]
 
 
 def register():

@@ -690,7 +690,10 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
     idx = pose_indices(path.n_poses, min(int(settings.pose_count), MAX_POSE_EMPTIES))
     objs["pose_empties"] = _pose_empties(poses_coll, bname, path, idx, f, 2.0 * radius)
     cc_all = np.concatenate([np.asarray(c.cc, dtype=np.float64) for c in path.curves])
-    objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
+    try:
+        objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
+    except BliskCamError:  # no morph between two generatrices (hub finishing: the hub's own)
+        objs.update(dict.fromkeys(CONE_ROLES))
     if blade_arrays is not None and vertex_values is not None:
         V, F = blade_arrays
         objs["verify"] = _verify_object(bname, V, F, vertex_values, float(path.cusp),

@@ -5,6 +5,12 @@ their sub-panels).
 """
 
 from .collisions import BLISKCAM_PT_collisions
+from .operations import (
+    BLISKCAM_PT_operations,
+    BLISKCAM_PT_tool_table,
+    BLISKCAM_UL_job_tools,
+    BLISKCAM_UL_operations,
+)
 from .paths import BLISKCAM_PT_display, BLISKCAM_PT_machine, BLISKCAM_PT_paths, BLISKCAM_PT_preview
 from .per_blade import BLISKCAM_PT_per_blade
 from .robot import BLISKCAM_PT_robot
@@ -12,6 +18,8 @@ from .setup import BLISKCAM_PT_region, BLISKCAM_PT_setup, BLISKCAM_PT_tolerances
 from .stock import BLISKCAM_PT_stock
 
 CLASSES = [
+    BLISKCAM_UL_operations,
+    BLISKCAM_UL_job_tools,
     BLISKCAM_PT_setup,
     BLISKCAM_PT_region,
     BLISKCAM_PT_tool,
@@ -20,6 +28,8 @@ CLASSES = [
     BLISKCAM_PT_display,
     BLISKCAM_PT_collisions,
     BLISKCAM_PT_stock,
+    BLISKCAM_PT_operations,
+    BLISKCAM_PT_tool_table,
     BLISKCAM_PT_per_blade,
     BLISKCAM_PT_machine,
     BLISKCAM_PT_robot,

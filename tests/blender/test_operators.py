@@ -445,12 +445,15 @@ def test_bad_input_is_disabled_with_a_reason_or_reported(addon, demo, tmp_path):
 
     changing = {c.bl_idname for c in CLASSES} - {"blisk_cam.export_paths",
                                                   "blisk_cam.export_nc",
-                                                  "blisk_cam.export_robot"}  # files only
+                                                  "blisk_cam.export_robot",
+                                                  "blisk_cam.export_job"}  # files only
     assert changing == {f"blisk_cam.{n}" for n in
                         ("fit_cones", "generate_paths", "clear_paths", "render_preview",
                          "set_scene_mm", "check_collisions", "next_unresolved_pose",
                          "animate_program", "per_blade_paths", "load_blade_results",
-                         "show_robot", "simulate_stock")}
+                         "show_robot", "simulate_stock", "operation_add",
+                         "operation_remove", "operation_move", "tool_add", "tool_remove",
+                         "generate_all")}
     for cls in CLASSES:
         if cls.bl_idname in changing:
             assert {"REGISTER", "UNDO"} <= set(cls.bl_options), cls.bl_idname

@@ -98,8 +98,8 @@ from .operation_kinds import (
 )
 
 __all__ = ["Job", "JobError", "JobOperation", "JobRun", "OperationRun", "build_part",
-           "build_stock", "iter_run_job", "job_template", "load_job", "stock_digest",
-           "TEMPLATES_DIR"]
+           "build_stock", "iter_run_job", "job_from_data", "job_template", "load_job",
+           "stock_digest", "TEMPLATES_DIR"]
 
 
 class JobError(BliskCamError):
@@ -286,14 +286,26 @@ def load_job(filename) -> Job:
     and the key. The machine is loaded and the posts checked; the part is not built yet
     (:func:`build_part`)."""
     path = Path(os.fspath(filename)).expanduser()
-    name = path.name
     if not path.is_file():
         raise JobError(f"job file {filename} not found")
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
-        raise JobError(f"job {name} is not valid TOML: {exc}") from None
+        raise JobError(f"job {path.name} is not valid TOML: {exc}") from None
+    return job_from_data(data, path)
+
+
+def job_from_data(data: dict, path) -> Job:
+    """Check a job given as the tables of a job file (``data``: what ``tomllib`` reads from
+    one, module docstring) as if read from ``path`` (relative file names are taken from its
+    folder; messages name it; the file need not exist): the job of :func:`load_job` without a
+    file, e.g. from the Blender Operations panel. JobError naming the operation and the
+    key."""
+    path = Path(os.fspath(path)).expanduser()
+    name = path.name
+    if not isinstance(data, dict):
+        raise JobError(f"job {name}: expected the tables of a job file")
     base = path.parent
     where = f"job {name}"
     check_known_keys(data, TOP_KEYS, where, JobError)
