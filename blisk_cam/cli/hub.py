@@ -112,7 +112,10 @@ def _request(args):
     if fillet and args.fillet_radius is None:
         raise UsageError("--operation fillet needs --fillet-radius MM (the ball must be "
                          "smaller than the fillet)")
-    tilt = args.tilt if args.tilt is not None else (20.0 if fillet else 0.0)
+    # the fillet's axis leans off the wall by itself when aimed through the channel; with the
+    # hub normal as reference it needs a tilt away from the blade
+    tilt = args.tilt if args.tilt is not None else (
+        20.0 if fillet and args.axis == "normal" else 0.0)
     return HubRequest(
         tool_diameter=args.tool_diameter, stepover=args.stepover, scallop=args.scallop,
         ring_width=args.ring_width, ring_stepover=args.ring_stepover,

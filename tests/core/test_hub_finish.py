@@ -295,3 +295,31 @@ def test_all_gaps_are_gap_zero_turned_by_the_pitch(part, hub_result):
     mid = 0.5 * (prog.tip[1:] + prog.tip[:-1])[both]
     rm, _, _ = theta_about(mid, part.axis)
     assert both.sum() >= n - 1 and rm.min() > r_top
+
+
+def test_fillet_axis_aimed_through_the_channel_keeps_the_shank_off_the_leaning_wall(
+        part, blade_distance):
+    """A Ø6 ball on a Ø5 shank to 100 mm, then a Ø16 holder, along the demo's lower fillet
+    edge: with the hub normal tilted 20° off the wall the shank runs into the leaning wall
+    (measured here: points on the shank axis closer to a blade than the shank radius); aimed
+    through the blade tips' gap on each side (axis mode "channel", no tilt) it stays a shank
+    radius + the safety off blade 0 and both neighbours at every pose."""
+    holder = ((12.0, 2.5), (100.0, 2.5), (100.0, 8.0), (160.0, 8.0))
+
+    def shank_gap(path):
+        gaps = []
+        for c in path.curves:
+            z = np.linspace(12.0, 100.0, 45)
+            P = (c.tip[:, None, :] + z[None, :, None] * c.axis[:, None, :]).reshape(-1, 3)
+            d = np.min([_blade_distance(P, part, blade_distance, k) for k in (-1, 0, 1)],
+                       axis=0)
+            gaps.append(d.reshape(len(c.tip), -1).min(axis=1) - 2.5)
+        return np.concatenate(gaps)
+
+    kw = dict(tool_diameter=6.0, fillet_radius=8.0, flute_length=12.0, holder=holder,
+              collisions="off")
+    normal = run_operation(FILLET_FINISH, part, HubRequest(axis_mode="normal",
+                                                           tilt=math.radians(20.0), **kw))
+    aimed = run_operation(FILLET_FINISH, part, HubRequest(**kw))
+    assert shank_gap(normal.path).min() < 0.0  # in the wall
+    assert shank_gap(aimed.path).min() >= 1.0 - 0.05  # the safety, to the sampling

@@ -348,8 +348,6 @@ _HUB_KEYS = {
 _FILLET_KEYS = {
     "fillet_radius": (None, "the fillet's radius, mm (the ball must be smaller)", "mm"),
     "layers": (1, "loops across the fillet (1: the lower edge only)", "int"),
-    # the shank leans away from the blade wall (the hub command's default for the fillet)
-    "tilt": (20.0, "tool axis tilted away from the blade, degrees", "deg"),
 }
 
 
@@ -397,9 +395,7 @@ def prepare_hub_finish(ctx: OperationContext) -> PreparedOperation:
 def prepare_fillet_finish(ctx: OperationContext) -> PreparedOperation:
     """Fillet finishing (paper 003 §5, :mod:`.fillet_finish`): the pass along the lower fillet
     edge (and layers across it) with a ball smaller than the fillet."""
-    keys = {**_HUB_KEYS, **_FILLET_KEYS}
-    tilt = {} if "tilt" in ctx.options else {"tilt": math.radians(keys["tilt"][0])}
-    req = _hub_request(ctx, keys, **tilt)
+    req = _hub_request(ctx, {**_HUB_KEYS, **_FILLET_KEYS})
     if req.fillet_radius is None:
         raise BliskCamError(f"{ctx.where}: key 'fillet_radius' is missing: fillet finishing "
                             "needs the fillet's radius (mm); the ball must be smaller")
