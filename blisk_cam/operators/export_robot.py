@@ -18,12 +18,11 @@ from ..core.errors import BliskCamError
 from .common import (
     output_filename,
     poll_generated_paths,
-    report_exception,
     result_blade_name,
     settings_of,
     stored_path,
 )
-from .modal_job import ModalJobOperator, ThreadJob
+from .modal_job import ThreadJob, ThreadJobOperator
 
 #: at most this many infeasible ranges are named in the error report (then "and k more")
 MAX_RANGES = 6
@@ -109,7 +108,7 @@ class RobotPlanJob(ThreadJob):
         return self.plan
 
 
-class RobotModal(ModalJobOperator):
+class RobotModal(ThreadJobOperator):
     """The modal run shared by Export Robot Program and Show Robot: the plan on its thread,
     its progress on the cursor and status bar, ESC cancels it (nothing written or drawn);
     then :meth:`done` in Blender's thread."""
@@ -129,37 +128,8 @@ class RobotModal(ModalJobOperator):
     def done(self, context, job) -> set:
         raise NotImplementedError
 
-    def execute(self, context):
-        try:
-            job = RobotPlanJob(context, export=self.export)
-            job.run()
-            return self.done(context, job)
-        except Exception as exc:
-            return report_exception(self, exc)
-
-    def new_job(self, context):
+    def make_job(self, context):
         return RobotPlanJob(context, export=self.export)
-
-    def tick(self, context):
-        job = self._job
-        job.start()
-        if job.running:
-            context.window_manager.progress_update(int(95 * job.fraction))
-            self._status(context, f"{int(100 * job.fraction)} %")
-            return None
-        try:
-            job.result()
-            return self.done(context, job)
-        except Exception as exc:
-            return report_exception(self, exc)
-
-    def escape(self, context):
-        self._job.stop()
-        self.report({"WARNING"}, self.cancel_text)
-        return {"CANCELLED"}
-
-    def end_job(self, context):
-        self._job.cancel.set()  # a run ended by Blender or an error stops its thread too
 
 
 #: names of scenes with a robot export running

@@ -17,8 +17,7 @@ import time
 import bpy
 
 from ..core.errors import BliskCamError
-from .common import report_exception
-from .modal_job import ModalJobOperator, ThreadJob
+from .modal_job import ThreadJob, ThreadJobOperator
 
 __all__ = ["BLISKCAM_OT_generate_all", "OperationsJob"]
 
@@ -113,7 +112,7 @@ class OperationsJob(ThreadJob):
         return lines
 
 
-class BLISKCAM_OT_generate_all(ModalJobOperator, bpy.types.Operator):
+class BLISKCAM_OT_generate_all(ThreadJobOperator, bpy.types.Operator):
     """Run every enabled operation in order on the stock (the job's core), one collection per
     operation, the stock after the selected one (ESC cancels and keeps the previous results)"""
 
@@ -145,34 +144,7 @@ class BLISKCAM_OT_generate_all(ModalJobOperator, bpy.types.Operator):
                               f"{time.perf_counter() - job.t0:.1f} s")
         return {"FINISHED"}
 
-    def execute(self, context):
-        try:
-            job = OperationsJob(context)
-            job.run()
-            return self.done(context, job)
-        except Exception as exc:
-            return report_exception(self, exc)
+    progress_share = 100
 
-    # --- modal (ModalJobOperator) ----------------------------------------------------------
-    def new_job(self, context):
+    def make_job(self, context):
         return OperationsJob(context)
-
-    def tick(self, context):
-        job = self._job
-        job.start()
-        if job.running:
-            context.window_manager.progress_update(int(100 * job.fraction))
-            self._status(context, f"{int(100 * job.fraction)} % {job.message}")
-            return None
-        try:
-            return self.done(context, job)
-        except Exception as exc:
-            return report_exception(self, exc)
-
-    def escape(self, context):
-        self._job.stop()
-        self.report({"WARNING"}, self.cancel_text)
-        return {"CANCELLED"}
-
-    def end_job(self, context):
-        self._job.cancel.set()

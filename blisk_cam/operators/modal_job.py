@@ -23,7 +23,7 @@ import bpy
 
 from .common import report_exception
 
-__all__ = ["ModalJobOperator", "ModalRunner", "ThreadJob", "TimerEvent"]
+__all__ = ["ModalJobOperator", "ModalRunner", "ThreadJob", "ThreadJobOperator", "TimerEvent"]
 
 
 class ThreadJob:
@@ -174,6 +174,58 @@ class ModalJobOperator:
 
     def cancel(self, context):
         self._end(context)
+
+
+class ThreadJobOperator(ModalJobOperator):
+    """A :class:`ModalJobOperator` whose job is a :class:`ThreadJob`: the work runs on the
+    job's thread (or in the caller's, for ``execute``), each tick shows its ``fraction``
+    (and ``message``, when the job has one), ESC stops the thread, and :meth:`done` makes the
+    outcome Blender's in Blender's thread. The operator provides :meth:`make_job` and
+    :meth:`done`; ``progress_share`` is the part of the cursor's progress the thread's work
+    fills (the rest is :meth:`done`'s)."""
+
+    progress_share = 95
+
+    def make_job(self, context) -> ThreadJob:
+        """The job for the scene (raises ``BliskCamError`` on bad input)."""
+        raise NotImplementedError
+
+    def done(self, context, job) -> set:
+        """The finished job's outcome put into Blender; the operator's return set."""
+        raise NotImplementedError
+
+    def execute(self, context):
+        try:
+            job = self.make_job(context)
+            job.run()
+            return self.done(context, job)
+        except Exception as exc:
+            return report_exception(self, exc)
+
+    def new_job(self, context):
+        return self.make_job(context)
+
+    def tick(self, context):
+        job = self._job
+        job.start()
+        if job.running:
+            context.window_manager.progress_update(int(self.progress_share * job.fraction))
+            self._status(context, f"{int(100 * job.fraction)} % "
+                                  f"{getattr(job, 'message', '')}".rstrip())
+            return None
+        try:
+            job.result()  # the thread's error, raised here as execute's run() raises it
+            return self.done(context, job)
+        except Exception as exc:
+            return report_exception(self, exc)
+
+    def escape(self, context):
+        self._job.stop()
+        self.report({"WARNING"}, self.cancel_text)
+        return {"CANCELLED"}
+
+    def end_job(self, context):
+        self._job.cancel.set()  # a run ended by Blender or an error stops its thread too
 
 
 class TimerEvent:

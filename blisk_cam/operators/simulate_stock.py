@@ -21,12 +21,11 @@ import bpy
 from ..core.errors import BliskCamError
 from .common import (
     poll_generated_paths,
-    report_exception,
     result_blade_name,
     settings_of,
     stored_path,
 )
-from .modal_job import ModalJobOperator, ThreadJob
+from .modal_job import ThreadJob, ThreadJobOperator
 
 __all__ = ["BLISKCAM_OT_simulate_stock", "StockJob", "summary_line", "crash_line"]
 
@@ -204,7 +203,7 @@ class StockJob(ThreadJob):
         return summary
 
 
-class BLISKCAM_OT_simulate_stock(ModalJobOperator, bpy.types.Operator):
+class BLISKCAM_OT_simulate_stock(ThreadJobOperator, bpy.types.Operator):
     """Run the generated program on the stock of the Stock panel: material removal, the part
     coloured by deviation (blue gouge, green within tolerance, red left), the remaining stock
     and the crashes (ESC cancels)"""
@@ -235,34 +234,5 @@ class BLISKCAM_OT_simulate_stock(ModalJobOperator, bpy.types.Operator):
         self.report({"INFO"}, f"Stock: {summary_line(summary)} in {summary['seconds']:.1f} s")
         return {"FINISHED"}
 
-    def execute(self, context):
-        try:
-            job = StockJob(context)
-            job.run()
-            return self.done(context, job)
-        except Exception as exc:
-            return report_exception(self, exc)
-
-    # --- modal (ModalJobOperator) ----------------------------------------------------------
-    def new_job(self, context):
+    def make_job(self, context):
         return StockJob(context)
-
-    def tick(self, context):
-        job = self._job
-        job.start()
-        if job.running:
-            context.window_manager.progress_update(int(95 * job.fraction))
-            self._status(context, f"{int(100 * job.fraction)} % {job.message}")
-            return None
-        try:
-            return self.done(context, job)
-        except Exception as exc:
-            return report_exception(self, exc)
-
-    def escape(self, context):
-        self._job.stop()
-        self.report({"WARNING"}, self.cancel_text)
-        return {"CANCELLED"}
-
-    def end_job(self, context):
-        self._job.cancel.set()
