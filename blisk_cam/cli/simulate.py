@@ -101,41 +101,16 @@ def _part(args, log):
 
 
 def _stock(args, part):
-    from ..core.geometry.mesh_io import MESH_SUFFIXES, read_mesh
-    from ..core.part.model import read_rz_csv
-    from ..core.stock.blank import (
-        stock_from_allowance,
-        stock_from_envelope,
-        stock_from_mesh,
-        stock_from_profile,
-    )
-    from ..core.stock.dexels import RadialDexels
+    from ..core.stock.blank import is_part_based, stock_from_spec
 
     spec = args.stock
-    kind, _, value = spec.partition(":")
-    if kind in ("allowance", "envelope") and value and not os.path.exists(spec):
+    if is_part_based(spec):
+        kind, _, value = spec.partition(":")
         try:
-            mm = float(value)
+            float(value)
         except ValueError:
             raise UsageError(f"--stock {spec}: expected a number of mm after '{kind}:'") from None
-        if kind == "allowance":
-            return stock_from_allowance(part, mm, args.resolution)
-        return stock_from_envelope(part, mm, args.resolution)
-    if not os.path.isfile(spec):
-        raise BliskCamError(f"stock file {spec} not found (or give allowance:MM / envelope:MM)")
-    suffix = Path(spec).suffix.lower()
-    if suffix == ".npz":
-        dex = RadialDexels.load(spec)
-        if dex.blade_count != part.blade_count:
-            raise BliskCamError(f"stock state {spec} is for {dex.blade_count} blades, the part "
-                                f"has {part.blade_count}")
-        return dex
-    if suffix in MESH_SUFFIXES:
-        V, F = read_mesh(spec)
-        return stock_from_mesh(V, F, part.axis, part.blade_count, part.sector_start,
-                               args.resolution)
-    return stock_from_profile(read_rz_csv(spec), part.axis, part.blade_count,
-                              part.sector_start, args.resolution)
+    return stock_from_spec(spec, part, args.resolution)
 
 
 def run_simulate(args) -> int:

@@ -76,12 +76,7 @@ from ..post.gate import CollisionGateError
 from ..post.job_program import JobSection, check_job_post, job_program
 from ..presets import preset_names
 from ..runtime import Progress
-from ..stock.blank import (
-    stock_from_allowance,
-    stock_from_envelope,
-    stock_from_mesh,
-    stock_from_profile,
-)
+from ..stock.blank import is_part_based, stock_from_spec
 from ..stock.dexels import RadialDexels
 from ..stock.simulation import iter_simulate
 from ..tool.assembly import AssemblyError, holder_profile
@@ -461,29 +456,13 @@ def build_part(job: Job) -> BliskPart:
 def build_stock(job: Job, part: BliskPart) -> RadialDexels:
     """The blank (``[stock] blank``, as ``simulate --stock``) at the job's resolution;
     StockError naming the job when it does not hold the part."""
-    spec = job.blank
-    kind, _, value = spec.partition(":")
     where = f"job {job.file.name} [stock] key 'blank'"
-    res = job.resolution
     try:
-        if kind == "allowance" and value and not os.path.exists(spec):
-            return stock_from_allowance(part, float(value), res)
-        if kind == "envelope" and value and not os.path.exists(spec):
-            return stock_from_envelope(part, float(value), res)
-        suffix = Path(spec).suffix.lower()
-        if suffix == ".npz":
-            dex = RadialDexels.load(spec)
-            if dex.blade_count != part.blade_count:
-                raise StockError(f"the stock state is for {dex.blade_count} blades, the part "
-                                 f"has {part.blade_count}")
-        elif suffix in MESH_SUFFIXES:
-            V, F = read_mesh(spec)
-            dex = stock_from_mesh(V, F, part.axis, part.blade_count, part.sector_start, res)
-        else:
-            dex = stock_from_profile(read_rz_csv(spec), part.axis, part.blade_count,
-                                     part.sector_start, res)
+        dex = stock_from_spec(job.blank, part, job.resolution)
     except BliskCamError as exc:
         raise StockError(f"{where}: {exc}") from None
+    if is_part_based(job.blank):
+        return dex
     V, F, _ = part.part_mesh()
     N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)

@@ -17,17 +17,19 @@ Units: mm, radians.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
 from ..errors import StockError
 from ..geometry.axis import Axis
 from ..geometry.mesh import triangle_normals
-from ..part.model import BliskPart, theta_about
+from ..geometry.mesh_io import MESH_SUFFIXES, read_mesh
+from ..part.model import BliskPart, read_rz_csv, theta_about
 from .dexels import RadialDexels, merge_intervals
 
 __all__ = ["mesh_crossings", "stock_from_allowance", "stock_from_envelope", "stock_from_mesh",
-           "stock_from_profile"]
+           "stock_from_profile", "stock_from_spec", "is_part_based"]
 
 
 def _fill(dex: RadialDexels, rays, a, b) -> RadialDexels:
@@ -314,3 +316,41 @@ def stock_from_allowance(part: BliskPart, allowance: float, resolution: float) -
     lo.append(ba)
     hi.append(bb)
     return _fill(dex, np.concatenate(rays), np.concatenate(lo), np.concatenate(hi))
+
+
+def is_part_based(spec: str) -> bool:
+    """Whether the stock ``spec`` is made from the part (``allowance:MM``, ``envelope:MM``,
+    not a file of that name): such a stock holds the part by construction."""
+    kind, _, value = spec.partition(":")
+    return kind in ("allowance", "envelope") and bool(value) and not os.path.exists(spec)
+
+
+def stock_from_spec(spec: str, part: BliskPart, resolution: float) -> RadialDexels:
+    """The stock a user names (``simulate --stock``, a job's ``[stock] blank``):
+    ``allowance:MM`` (the part plus MM), ``envelope:MM`` (the part's envelope plus MM), a
+    stock state ``.npz``, a closed mesh, or a closed (r, z) profile CSV; mm. StockError naming
+    the spec when it is none of them."""
+    if is_part_based(spec):
+        kind, _, value = spec.partition(":")
+        try:
+            mm = float(value)
+        except ValueError:
+            raise StockError(f"stock {spec}: expected a number of mm after '{kind}:'") from None
+        if kind == "allowance":
+            return stock_from_allowance(part, mm, resolution)
+        return stock_from_envelope(part, mm, resolution)
+    if not os.path.isfile(spec):
+        raise StockError(f"stock file {spec} not found (or give allowance:MM / envelope:MM)")
+    suffix = os.path.splitext(spec)[1].lower()
+    if suffix == ".npz":
+        dex = RadialDexels.load(spec)
+        if dex.blade_count != part.blade_count:
+            raise StockError(f"stock state {spec} is for {dex.blade_count} blades, the part "
+                             f"has {part.blade_count}")
+        return dex
+    if suffix in MESH_SUFFIXES:
+        V, F = read_mesh(spec)
+        return stock_from_mesh(V, F, part.axis, part.blade_count, part.sector_start,
+                               resolution)
+    return stock_from_profile(read_rz_csv(spec), part.axis, part.blade_count,
+                              part.sector_start, resolution)
