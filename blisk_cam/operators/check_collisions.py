@@ -137,15 +137,11 @@ class BLISKCAM_OT_check_collisions(ModalJobOperator, bpy.types.Operator):
     status_label = "Blisk CAM collisions"
     cancel_text = "Collision check cancelled; the previous result is kept"
 
+    busy_text = "Collisions are being checked (ESC cancels)"
+
     @classmethod
-    def poll(cls, context):
-        problem = blade_problem(context)
-        if not problem and context.scene.name in _RUNNING:
-            problem = "Collisions are being checked (ESC cancels)"
-        if problem:
-            cls.poll_message_set(problem)
-            return False
-        return True
+    def problem(cls, context):
+        return blade_problem(context)
 
     def execute(self, context):
         try:

@@ -27,6 +27,7 @@ __all__ = [
     "read_blade",
     "result_blade_name",
     "report_exception",
+    "generated_paths_problem",
     "poll_generated_paths",
     "output_filename",
     "obstacle_arrays",
@@ -124,14 +125,22 @@ def result_blade_name(context, *, paths_only: bool = True) -> str | None:
     return None
 
 
+def generated_paths_problem(context) -> str | None:
+    """Why an operator acting on the generated paths cannot run (the add-on or the paths are
+    missing), or None."""
+    if settings_of(context) is None:
+        return "Blisk CAM settings are missing: enable the add-on"
+    if result_blade_name(context) is None:
+        return "No generated paths: press Generate Paths first"
+    return None
+
+
 def poll_generated_paths(cls, context) -> bool:
     """The poll of the operators that act on the generated paths (export, NC, animation):
     False with the reason set when the add-on or the paths are missing."""
-    if settings_of(context) is None:
-        cls.poll_message_set("Blisk CAM settings are missing: enable the add-on")
-        return False
-    if result_blade_name(context) is None:
-        cls.poll_message_set("No generated paths: press Generate Paths first")
+    problem = generated_paths_problem(context)
+    if problem:
+        cls.poll_message_set(problem)
         return False
     return True
 

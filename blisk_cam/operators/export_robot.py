@@ -16,8 +16,8 @@ import bpy
 from ..blender.settings import robot_options
 from ..core.errors import BliskCamError
 from .common import (
+    generated_paths_problem,
     output_filename,
-    poll_generated_paths,
     result_blade_name,
     settings_of,
     stored_path,
@@ -116,14 +116,11 @@ class RobotModal(ThreadJobOperator):
     start_text = "resolving the free angle"
     export = True
 
+    busy_text = "The robot plan is running (ESC cancels)"
+
     @classmethod
-    def poll(cls, context):
-        if not poll_generated_paths(cls, context):
-            return False
-        if context.scene.name in cls.running:
-            cls.poll_message_set("The robot plan is running (ESC cancels)")
-            return False
-        return True
+    def problem(cls, context):
+        return generated_paths_problem(context)
 
     def done(self, context, job) -> set:
         raise NotImplementedError

@@ -125,16 +125,12 @@ class BLISKCAM_OT_generate_all(ThreadJobOperator, bpy.types.Operator):
     cancel_text = "Generate All cancelled; the previous results are kept"
     start_text = "building the part and the stock"
 
+    busy_text = "Generate All is running (ESC cancels)"
+
     @classmethod
-    def poll(cls, context):
+    def problem(cls, context):
         s = getattr(context.scene, "blisk_cam", None)
-        if s is None or not len(s.operations):
-            cls.poll_message_set("Add an operation first")
-            return False
-        if context.scene.name in _RUNNING:
-            cls.poll_message_set("Generate All is running (ESC cancels)")
-            return False
-        return True
+        return "Add an operation first" if s is None or not len(s.operations) else None
 
     def done(self, context, job) -> set:
         lines = job.finish(context)

@@ -373,16 +373,13 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
     cancel_text = "Path generation cancelled; the previous paths are kept"
     start_text = "reading the mesh"
 
+    busy_text = "Paths are being generated (ESC cancels)"
+
     @classmethod
-    def poll(cls, context):
+    def problem(cls, context):
         settings = getattr(context.scene, "blisk_cam", None)
-        problem = blade_problem(context) or (settings is not None and cones_problem(settings))
-        if not problem and context.scene.name in _RUNNING:
-            problem = "Paths are being generated (ESC cancels)"
-        if problem:
-            cls.poll_message_set(problem)
-            return False
-        return True
+        return blade_problem(context) or (settings is not None and cones_problem(settings)) \
+            or None
 
     def execute(self, context):
         cancel_pending_verify(context.scene.name)

@@ -90,17 +90,35 @@ class ModalJobOperator:
     * ``running`` — a module-level ``set`` of scene names (class attribute);
     * ``status_label`` — the status bar's prefix, e.g. ``"Blisk CAM collisions"``;
     * ``cancel_text`` — the warning reported when ESC cancels;
-    * :meth:`new_job` and :meth:`tick`; optionally :meth:`escape` and :meth:`end_job`.
+    * ``busy_text`` — the poll's message while the scene's run goes on;
+    * :meth:`new_job` and :meth:`tick`; optionally :meth:`problem`, :meth:`escape` and
+      :meth:`end_job`.
     """
 
     running: set = set()  # overridden by every operator class with its own set
     status_label = "Blisk CAM"
     cancel_text = "Cancelled; the previous result is kept"
     start_text = "starting"
+    busy_text = "Running (ESC cancels)"
     #: seconds between two timer ticks
     timer_interval = 0.05
 
     # --- to provide --------------------------------------------------------------------
+    @classmethod
+    def problem(cls, context) -> str | None:
+        """Why the operator cannot run on this scene besides a run going on, or None."""
+        return None
+
+    @classmethod
+    def poll(cls, context):
+        problem = cls.problem(context)
+        if not problem and context.scene.name in cls.running:
+            problem = cls.busy_text
+        if problem:
+            cls.poll_message_set(problem)
+            return False
+        return True
+
     def new_job(self, context):
         """The job for the scene (raises ``BliskCamError`` on bad input)."""
         raise NotImplementedError

@@ -12,6 +12,26 @@ __all__ = ["BLISKCAM_OT_operation_add", "BLISKCAM_OT_operation_move",
            "BLISKCAM_OT_operation_remove", "BLISKCAM_OT_tool_add", "BLISKCAM_OT_tool_remove"]
 
 
+class _SelectedRow:
+    """Mixin of the operators acting on the selected row of one of the settings' lists:
+    ``rows`` names the collection, ``selected`` its index property."""
+
+    rows = "operations"
+    selected = "operation_index"
+
+    @classmethod
+    def poll(cls, context):
+        s = getattr(context.scene, "blisk_cam", None)
+        return s is not None and 0 <= getattr(s, cls.selected) < len(getattr(s, cls.rows))
+
+    def remove_selected(self, context):
+        s = context.scene.blisk_cam
+        rows = getattr(s, self.rows)
+        rows.remove(getattr(s, self.selected))
+        setattr(s, self.selected, max(0, min(getattr(s, self.selected), len(rows) - 1)))
+        return {"FINISHED"}
+
+
 def _kinds(_self, _context):
     from ..properties import kind_items
 
@@ -47,26 +67,18 @@ class BLISKCAM_OT_operation_add(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class BLISKCAM_OT_operation_remove(bpy.types.Operator):
+class BLISKCAM_OT_operation_remove(_SelectedRow, bpy.types.Operator):
     """Remove the selected operation"""
 
     bl_idname = "blisk_cam.operation_remove"
     bl_label = "Remove Operation"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        s = getattr(context.scene, "blisk_cam", None)
-        return s is not None and 0 <= s.operation_index < len(s.operations)
-
     def execute(self, context):
-        s = context.scene.blisk_cam
-        s.operations.remove(s.operation_index)
-        s.operation_index = max(0, min(s.operation_index, len(s.operations) - 1))
-        return {"FINISHED"}
+        return self.remove_selected(context)
 
 
-class BLISKCAM_OT_operation_move(bpy.types.Operator):
+class BLISKCAM_OT_operation_move(_SelectedRow, bpy.types.Operator):
     """Move the selected operation up or down (the order the job runs them in)"""
 
     bl_idname = "blisk_cam.operation_move"
@@ -75,11 +87,6 @@ class BLISKCAM_OT_operation_move(bpy.types.Operator):
 
     direction: EnumProperty(items=[("UP", "Up", "Earlier in the job"),
                                    ("DOWN", "Down", "Later in the job")])
-
-    @classmethod
-    def poll(cls, context):
-        s = getattr(context.scene, "blisk_cam", None)
-        return s is not None and 0 <= s.operation_index < len(s.operations)
 
     def execute(self, context):
         s = context.scene.blisk_cam
@@ -108,20 +115,15 @@ class BLISKCAM_OT_tool_add(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class BLISKCAM_OT_tool_remove(bpy.types.Operator):
+class BLISKCAM_OT_tool_remove(_SelectedRow, bpy.types.Operator):
     """Remove the selected tool from the tool table"""
 
     bl_idname = "blisk_cam.tool_remove"
     bl_label = "Remove Tool"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        s = getattr(context.scene, "blisk_cam", None)
-        return s is not None and 0 <= s.job_tool_index < len(s.job_tools)
+    rows = "job_tools"
+    selected = "job_tool_index"
 
     def execute(self, context):
-        s = context.scene.blisk_cam
-        s.job_tools.remove(s.job_tool_index)
-        s.job_tool_index = max(0, min(s.job_tool_index, len(s.job_tools) - 1))
-        return {"FINISHED"}
+        return self.remove_selected(context)

@@ -214,15 +214,11 @@ class BLISKCAM_OT_per_blade_paths(ModalJobOperator, bpy.types.Operator):
     cancel_text = "Per-blade run cancelled; the previous result is kept"
     start_text = "splitting the scan"
 
+    busy_text = "The blades are being planned (ESC cancels)"
+
     @classmethod
-    def poll(cls, context):
-        problem = scan_problem(context)
-        if not problem and context.scene.name in _RUNNING:
-            problem = "The blades are being planned (ESC cancels)"
-        if problem:
-            cls.poll_message_set(problem)
-            return False
-        return True
+    def problem(cls, context):
+        return scan_problem(context)
 
     def execute(self, context):
         try:

@@ -20,7 +20,7 @@ import bpy
 
 from ..core.errors import BliskCamError
 from .common import (
-    poll_generated_paths,
+    generated_paths_problem,
     result_blade_name,
     settings_of,
     stored_path,
@@ -217,14 +217,11 @@ class BLISKCAM_OT_simulate_stock(ThreadJobOperator, bpy.types.Operator):
     cancel_text = "Stock simulation cancelled; the previous result is kept"
     start_text = "building the part and the stock"
 
+    busy_text = "The stock simulation is running (ESC cancels)"
+
     @classmethod
-    def poll(cls, context):
-        if not poll_generated_paths(cls, context):
-            return False
-        if context.scene.name in _RUNNING:
-            cls.poll_message_set("The stock simulation is running (ESC cancels)")
-            return False
-        return True
+    def problem(cls, context):
+        return generated_paths_problem(context)
 
     def done(self, context, job) -> set:
         summary = job.finish(context)

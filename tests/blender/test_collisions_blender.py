@@ -9,6 +9,7 @@ import json
 import bpy
 import numpy as np
 import pytest
+from _layout import drawn
 from _scenes import radial_demo_paths
 
 from blisk_cam.blender import objects as blender_io
@@ -24,37 +25,10 @@ def _setup(demo, tmp_path, *, generate=True):
     return blade, s
 
 
-class _Layout:
-    """Stands in for ``UILayout``: records the properties, operators and labels drawn."""
-
-    def __init__(self, log):
-        self.log = log
-        self.use_property_split = self.use_property_decorate = False
-        self.active = True
-        self.scale_y = 1.0
-
-    def prop(self, data, name, **_kw):
-        assert hasattr(data, name), name
-        self.log.append(name)
-
-    def _child(self, *_a, **_kw):
-        return _Layout(self.log)
-
-    row = column = box = split = _child
-
-    def label(self, text="", **_kw):
-        self.log.append("label: " + text)
-
-    def operator(self, idname, **_kw):
-        self.log.append(idname)
-
-
 def _drawn_panel():
     from blisk_cam.panels.collisions import BLISKCAM_PT_collisions
 
-    log = []
-    BLISKCAM_PT_collisions.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
-    return log
+    return drawn(BLISKCAM_PT_collisions)
 
 
 def _stored(blade):

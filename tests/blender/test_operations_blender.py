@@ -9,6 +9,7 @@ an operation naming a missing tool is refused naming the operation and the key."
 import bpy
 import numpy as np
 import pytest
+from _layout import Layout, drawn
 
 HOLDER = "12 2.5 100 2.5 100 8 160 8"
 
@@ -113,7 +114,7 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
         assert o.result.startswith(f"{len(orun.path.program)} rows, ")
         assert ("passed" if orun.simulation.summary["passed"] else "FAILED") in o.result
     assert any(x == f"label: {s.operations[0].result.split('; ')[0]}"
-               for x in _drawn(BLISKCAM_PT_operations))
+               for x in drawn(BLISKCAM_PT_operations))
     # the stock after the selected operation, then after the other one
     stocks = stored_stocks(ctx.scene)
     assert s.operation_index == 0
@@ -163,76 +164,24 @@ def test_operations_panel_generate_all_export_and_escape(addon, tmp_path):
     assert output_objects(colls[s.operations[1].uid])["cc"] is not None
 
 
-class _Layout:
-    """Stands in for ``UILayout``: records the properties, lists and operators drawn."""
-
-    def __init__(self, log):
-        self.log = log
-        self.use_property_split = self.use_property_decorate = False
-        self.active = True
-        self.scale_y = 1.0
-
-    def prop(self, data, name, **_kw):
-        assert hasattr(data, name), name
-        self.log.append(name)
-
-    def _child(self, *_a, **_kw):
-        return _Layout(self.log)
-
-    row = column = box = split = _child
-
-    def separator(self, **_kw):
-        pass
-
-    def label(self, text="", **kw):
-        _check_icon(kw)
-        self.log.append("label: " + text)
-
-    def template_list(self, list_id, _name, data, prop, active_data, active_prop, **_kw):
-        assert list_id in dir(bpy.types) and hasattr(data, prop)
-        assert hasattr(active_data, active_prop)
-        self.log.append(list_id)
-
-    def operator(self, idname, **kw):
-        _check_icon(kw)
-        assert hasattr(getattr(bpy.ops, idname.split(".")[0]), idname.split(".")[1]), idname
-        self.log.append(idname)
-        return type("Props", (), {})()
-
-    def operator_menu_enum(self, idname, prop, **kw):
-        self.operator(idname, **kw)
-
-
-def _check_icon(kw):
-    if "icon" in kw:
-        icons = bpy.types.UILayout.bl_rna.functions["label"].parameters["icon"].enum_items
-        assert kw["icon"] in {i.identifier for i in icons}, kw["icon"]
-
-
-def _drawn(panel_class):
-    log = []
-    panel_class.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
-    return log
-
-
 def test_operations_bad_input(addon):
     from blisk_cam.panels.operations import BLISKCAM_PT_operations, BLISKCAM_PT_tool_table
 
     s = _scene()
-    drawn = _drawn(BLISKCAM_PT_operations)  # the selected operation's kind, tool, options
+    rows = drawn(BLISKCAM_PT_operations)  # the selected operation's kind, tool, options
     assert {"BLISKCAM_UL_operations", "kind", "tool", "value", "blisk_cam.generate_all",
-            "blisk_cam.export_job", "blisk_cam.operation_move"} <= set(drawn)
-    assert drawn.count("value") == len(s.operations[s.operation_index].options)
+            "blisk_cam.export_job", "blisk_cam.operation_move"} <= set(rows)
+    assert rows.count("value") == len(s.operations[s.operation_index].options)
     assert {"BLISKCAM_UL_job_tools", "diameter", "flutes", "flute_length",
-            "holder"} <= set(_drawn(BLISKCAM_PT_tool_table))
+            "holder"} <= set(drawn(BLISKCAM_PT_tool_table))
     from blisk_cam.panels.operations import BLISKCAM_UL_job_tools, BLISKCAM_UL_operations
 
     log = []  # the list rows: enable toggle, position, name, kind and tool
-    BLISKCAM_UL_operations.draw_item(None, bpy.context, _Layout(log), s, s.operations[1], 0, s,
+    BLISKCAM_UL_operations.draw_item(None, bpy.context, Layout(log), s, s.operations[1], 0, s,
                                      "operation_index", 1, 0)
     assert log == ["enabled", "label: 2.", "name", "label: hub_finish T5"]
     log.clear()
-    BLISKCAM_UL_job_tools.draw_item(None, bpy.context, _Layout(log), s, s.job_tools[1], 0, s,
+    BLISKCAM_UL_job_tools.draw_item(None, bpy.context, Layout(log), s, s.job_tools[1], 0, s,
                                     "job_tool_index", 1, 0)
     assert log == ["label: T5  Ø6 ball, 2 flutes"]
     s.operations[1].tool = 9

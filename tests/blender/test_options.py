@@ -16,6 +16,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 import pytest
+from _layout import drawn
 
 from blisk_cam.blender import objects as blender_io
 from blisk_cam.blender import path_objects as output
@@ -84,42 +85,9 @@ def _one_error_line(proc, *words):
 
 
 # --- properties and panels -----------------------------------------------------------------
-class _Layout:
-    """Stands in for ``UILayout``: records the properties drawn, in order."""
-
-    def __init__(self, log):
-        self.log = log
-        self.use_property_split = self.use_property_decorate = False
-        self.active = True
-        self.scale_y = 1.0
-
-    def prop(self, data, name, **_kw):
-        assert hasattr(data, name), name
-        self.log.append(name)
-
-    def _child(self, *_a, **_kw):
-        return _Layout(self.log)
-
-    row = column = box = split = _child
-
-    def label(self, **_kw):
-        pass
-
-    def __getattr__(self, name):  # other layout calls (lists, menus) draw no option row
-        if name.startswith("__"):
-            raise AttributeError(name)
-        return lambda *_a, **_kw: _Layout(self.log)
-
-    def operator(self, idname, **_kw):
-        self.log.append(idname)
-        return type("Op", (), {})()
-
-
 def _drawn(panel_cls, context):
-    log = []
-    panel = type("P", (), {"layout": _Layout(log)})()
-    panel_cls.draw(panel, context)
-    return log
+    """The properties and operators a panel draws, in order (its labels left out)."""
+    return [x for x in drawn(panel_cls, context) if not x.startswith("label: ")]
 
 
 def test_live_preview_and_the_new_options_have_panel_rows(addon):

@@ -7,6 +7,7 @@ the previous result; bad input is refused with a clear message."""
 import bpy
 import numpy as np
 import pytest
+from _layout import drawn
 from _scenes import radial_demo_paths
 
 from blisk_cam.blender import objects as blender_io
@@ -14,46 +15,10 @@ from blisk_cam.blender import objects as blender_io
 RES = 0.6  # mm: coarse, cheap
 
 
-class _Layout:
-    """Stands in for ``UILayout``: records the properties, operators and labels drawn."""
-
-    def __init__(self, log):
-        self.log = log
-        self.use_property_split = self.use_property_decorate = False
-        self.active = True
-        self.scale_y = 1.0
-
-    def prop(self, data, name, **_kw):
-        assert hasattr(data, name), name
-        self.log.append(name)
-
-    def _child(self, *_a, **_kw):
-        return _Layout(self.log)
-
-    row = column = box = split = _child
-
-    def label(self, text="", **kw):
-        _check_icon(kw)
-        self.log.append("label: " + text)
-
-    def operator(self, idname, **kw):
-        _check_icon(kw)
-        self.log.append(idname)
-
-
-def _check_icon(kw):
-    """A UI icon the running Blender knows (a wrong name raises only in a real draw)."""
-    if "icon" in kw:
-        icons = bpy.types.UILayout.bl_rna.functions["label"].parameters["icon"].enum_items
-        assert kw["icon"] in {i.identifier for i in icons}, kw["icon"]
-
-
 def _drawn_panel():
     from blisk_cam.panels.stock import BLISKCAM_PT_stock
 
-    log = []
-    BLISKCAM_PT_stock.draw(type("P", (), {"layout": _Layout(log)})(), bpy.context)
-    return log
+    return drawn(BLISKCAM_PT_stock)
 
 
 def _setup(demo, tmp_path):
