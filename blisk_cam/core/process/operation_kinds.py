@@ -25,7 +25,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -34,6 +34,8 @@ from ..collision.options import CollisionOptions
 from ..errors import BliskCamError, OptionError
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import rotate_about
+from ..hub.fillet import measure_fillet
+from ..hub.surface import HubSurface
 from ..options import AxisOptions, GougeOptions, LinkingOptions, ToleranceOptions, check_value
 from ..options import fields as option_fields
 from ..part.cones import Cone
@@ -346,7 +348,8 @@ _HUB_KEYS = {
     "safety": (1.0, "least clearance of shank and holder, mm", "mm"),
 }
 _FILLET_KEYS = {
-    "fillet_radius": (None, "the fillet's radius, mm (the ball must be smaller)", "mm"),
+    "fillet_radius": (None, "the fillet's radius, mm (default: measured on the part; the ball "
+                            "must be smaller than the measured one)", "mm"),
     "layers": (1, "loops across the fillet (1: the lower edge only)", "int"),
 }
 
@@ -396,10 +399,35 @@ def prepare_fillet_finish(ctx: OperationContext) -> PreparedOperation:
     """Fillet finishing (paper 003 §5, :mod:`.fillet_finish`): the pass along the lower fillet
     edge (and layers across it) with a ball smaller than the fillet."""
     req = _hub_request(ctx, {**_HUB_KEYS, **_FILLET_KEYS})
+    measured = part_fillet(ctx.part)
+    tool = f"tool T{ctx.tool.number} (Ø{ctx.tool.diameter:g} ball, radius {req.radius:g} mm)"
+    if measured is not None and not req.radius < measured.radius:
+        raise BliskCamError(
+            f"{ctx.where} key 'tool': {tool} is not smaller than the fillet measured on the "
+            f"part: radius {measured.radius:.2f} mm (tightest {measured.tightest:.2f} mm, "
+            f"{measured.height:g} mm high); use a ball of radius < {measured.radius:.2f} mm")
     if req.fillet_radius is None:
-        raise BliskCamError(f"{ctx.where}: key 'fillet_radius' is missing: fillet finishing "
-                            "needs the fillet's radius (mm); the ball must be smaller")
+        if measured is None:
+            raise BliskCamError(f"{ctx.where}: key 'fillet_radius' is missing and the part shows "
+                                "no fillet at the blade root to measure: give the fillet's "
+                                "radius (mm); the ball must be smaller")
+        req = replace(req, fillet_radius=measured.radius)
     return PreparedOperation(FILLET_FINISH, ctx.part, req, (), None)
+
+
+_FILLET_MEASURED: dict = {}
+
+
+def part_fillet(part):
+    """The hub fillet measured on ``part``'s blade mesh (:func:`..hub.fillet.measure_fillet`;
+    None: no fillet), kept for the last part asked (the job prepares each operation twice)."""
+    key = id(part)
+    if key not in _FILLET_MEASURED or _FILLET_MEASURED[key][0] is not part:
+        _FILLET_MEASURED.clear()
+        mesh = TriMesh.from_arrays(part.blade_vertices, part.blade_faces)
+        _FILLET_MEASURED[key] = (part, measure_fillet(mesh, HubSurface(part.hub_profile,
+                                                                       part.axis)))
+    return _FILLET_MEASURED[key][1]
 
 
 def _options_of(keys: dict, drop=()) -> dict:
@@ -414,7 +442,7 @@ register_operation_kind(OperationKind(
     _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "scallop", "ring_width",
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
-__all__ += ["prepare_fillet_finish", "prepare_hub_finish"]
+__all__ += ["part_fillet", "prepare_fillet_finish", "prepare_hub_finish"]
 
 
 # ------------------------------------------------------------------------ channel roughing
