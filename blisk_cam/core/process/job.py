@@ -66,7 +66,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import BliskCamError, StockError, check_known_keys
+from ..errors import BliskCamError, StockError, ToolError, check_known_keys
 from ..geometry.mesh_io import MESH_SUFFIXES, read_mesh
 from ..machine.description import Machine, forward, load_machine
 from ..part.blisk import make_demo_blisk
@@ -610,6 +610,16 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             raise JobError(f"{op.where} (tool T{op.tool.number}): {exc}") from None
     yield Progress(0.01, "building the stock")
     stock = build_stock(job, part)
+    for op, prep in zip(job.operations, prepared, strict=True):
+        if prep.precheck is None:
+            continue
+        yield Progress(0.015, f"checking operation {op.index} ({op.name})")
+        try:  # does the tool fit the gap? (the part's geometry, the blank)
+            prep.precheck(stock)
+        except ToolError as exc:
+            raise JobError(f"{op.where} key 'tool': tool T{op.tool.number}: {exc}") from None
+        except BliskCamError as exc:
+            raise _prefixed(exc, op.where) from None
     run = JobRun(job, part, {"volume_mm3": stock.volume(), "digest": stock_digest(stock)})
     n = len(job.operations)
     for k, op in enumerate(job.operations):

@@ -9,8 +9,9 @@ centroid along its normal out of the metal (:func:`..stock.deviation.deviation_m
 − gouge). The stock is radial dexels of resolution ``res``; a face is judged only where the
 grid resolves the part itself: the part's own solid at that resolution (the "ideal" stock)
 measured the same way must show less than the gouge tolerance either way, and the part must
-be at least two cells thick below the face (thin edges below the grid's cell are reported as
-*unresolved*, with their area, not judged). Hub faces buried under
+hold a disc of one cell's radius across the rays (along θ and z) 1.5 cells below the face
+(thin edges below the grid's cell are reported as *unresolved*, with their area, not judged:
+a cut near a thin edge takes the whole ray there). Hub faces buried under
 the blade are not part of the surface.
 
 Bounds (mm): a face lies in the *contact region* of a finishing operation (kinds
@@ -146,6 +147,7 @@ class JobVerdict:
     area_surface_mm2: float
     area_unresolved_mm2: float
     max_gouge_mm: float
+    unresolved_by_surface: dict = field(default_factory=dict)
     left: np.ndarray = field(repr=False, default=None)
     bound: np.ndarray = field(repr=False, default=None)
     covered: np.ndarray = field(repr=False, default=None)
@@ -234,6 +236,19 @@ def _near(C, contacts: OperationContacts, part: BliskPart, w: float):
     return clear, coll, d_all
 
 
+def _thick(part: BliskPart, solid, C, N, res: float) -> np.ndarray:
+    """(n,) bool: the part holds, 1.5 cells below each point, a disc of one cell's radius
+    across the rays (along θ and z): there the radial dexels resolve the surface. A thin edge
+    (a trailing edge thinner than the cells) is not: a cut near it takes a whole ray."""
+    P = C - 1.5 * res * N
+    _, th, _ = theta_about(P, part.axis)
+    hs = HubSurface(part.hub_profile, part.axis)
+    ok = solid.occupied(P) & solid.occupied(C - 0.5 * res * N)
+    for e in (hs.tangential(th), np.broadcast_to(part.axis.d, P.shape)):
+        ok &= solid.occupied(P + res * e) & solid.occupied(P - res * e)
+    return ok
+
+
 def _under_blades(part: BliskPart, C) -> np.ndarray:
     """(n,) bool: the hub points ``C`` lie under blade 0 or a neighbour, its fillet included:
     inside the blade's root loop (where blade or fillet meets the hub) in the hub's (m, θ) plane,
@@ -294,10 +309,7 @@ def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = 
                                  reach_in=reach)
     ideal[surface] = deviation_map(solid, C[surface], N[surface], reach_out=reach,
                                    reach_in=reach)
-    # the grid resolves a face when it shows the part itself there within the tolerance and
-    # the part is at least two cells thick below it (a thinner edge's rays are not resolved)
-    thick = solid.occupied(C - res * N) & solid.occupied(C - 2.0 * res * N)
-    resolved = surface & (np.abs(ideal) <= tol) & thick
+    resolved = surface & (np.abs(ideal) <= tol) & _thick(part, solid, C, N, res)
     unresolved = surface & ~resolved
     bound = np.full(len(F), b_default)
     covered = np.full(len(F), -1)
@@ -338,6 +350,9 @@ def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = 
         bounds={c.name: c.cusp + c.chord + res for c in contacts} | {"elsewhere": b_default},
         resolution=res, area_surface_mm2=float(area[surface].sum()),
         area_unresolved_mm2=float(area[unresolved].sum()), max_gouge_mm=worst_gouge,
+        unresolved_by_surface={names[ci]: round(float(area[unresolved & (cls == ci)].sum()), 3)
+                               for ci in range(len(names))
+                               if (unresolved & (cls == ci)).any()},
         left=left, bound=bound, covered=covered)
 
 
@@ -391,6 +406,7 @@ def job_verdict_dict(v: JobVerdict, max_zones: int = 50) -> dict:
             "max_gouge_mm": v.max_gouge_mm,
             "area_surface_mm2": round(v.area_surface_mm2, 3),
             "area_unresolved_mm2": round(v.area_unresolved_mm2, 3),
+            "area_unresolved_by_surface_mm2": v.unresolved_by_surface,
             "area_unreachable_mm2": round(sum(zn.area_mm2 for zn in unr), 3),
             "area_failed_mm2": round(sum(zn.area_mm2 for zn in failed), 3),
             "zones": [zd(zn) for zn in v.zones[:max_zones]],

@@ -41,7 +41,7 @@ from ..options import fields as option_fields
 from ..part.cones import Cone
 from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
 from .fillet_finish import FILLET_FINISH
-from .hub_finish import HUB_FINISH, HubRequest
+from .hub_finish import HUB_FINISH, HubRequest, _stage_channel, start_state
 from .operation import Operation, Stage
 from .roughing import RoughingOperation, RoughRequest
 
@@ -104,7 +104,8 @@ class PreparedOperation:
     """``operation`` run as ``iter_run_operation(operation, part_input, request, stock,
     extra=extra)``; ``tilt`` (rad): the tool axis' angle from the surface normal for the
     effective cutting diameter, None: measured on the planned path (median over the cut
-    poses); ``reads_stock``: the stock is passed to the operation."""
+    poses); ``reads_stock``: the stock is passed to the operation; ``precheck(stock)``: see
+    the field."""
 
     operation: Operation
     part_input: object
@@ -112,6 +113,10 @@ class PreparedOperation:
     extra: tuple[Stage, ...] = ()
     tilt: float | None = None
     reads_stock: bool = False
+    #: called once by the job with the initial stock, after every operation was prepared and
+    #: before the first one runs: the checks that need the part's geometry or the stock (does
+    #: the tool fit the gap?); raises a BliskCamError (a ToolError when the tool does not fit)
+    precheck: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -392,7 +397,17 @@ def prepare_hub_finish(ctx: OperationContext) -> PreparedOperation:
     """Hub finishing (paper 003 §5, Fig. 10, :mod:`.hub_finish`) of the gap between blade 0
     and blade 1; the job's post repeats it for every gap."""
     req = _hub_request(ctx, _HUB_KEYS)
-    return PreparedOperation(HUB_FINISH, ctx.part, req, (), None)
+    return PreparedOperation(HUB_FINISH, ctx.part, req, (), None,
+                             precheck=lambda stock: ball_fits_channel(ctx.part, req))
+
+
+def ball_fits_channel(part, req: HubRequest) -> None:
+    """ToolError unless the ball of ``req`` touching the hub keeps its allowance from both
+    blades of the gap all along it (the hub channel's boundaries,
+    :func:`..hub.channel.channel_boundaries`, traced alone)."""
+    st = start_state(part, req, spacing=False)
+    for _ in _stage_channel(st):
+        pass
 
 
 def prepare_fillet_finish(ctx: OperationContext) -> PreparedOperation:
@@ -412,7 +427,8 @@ def prepare_fillet_finish(ctx: OperationContext) -> PreparedOperation:
                                 "no fillet at the blade root to measure: give the fillet's "
                                 "radius (mm); the ball must be smaller")
         req = replace(req, fillet_radius=measured.radius)
-    return PreparedOperation(FILLET_FINISH, ctx.part, req, (), None)
+    return PreparedOperation(FILLET_FINISH, ctx.part, req, (), None,
+                             precheck=lambda stock: ball_fits_channel(ctx.part, req))
 
 
 _FILLET_MEASURED: dict = {}
@@ -442,7 +458,8 @@ register_operation_kind(OperationKind(
     _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "scallop", "ring_width",
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
-__all__ += ["part_fillet", "prepare_fillet_finish", "prepare_hub_finish"]
+__all__ += ["ball_fits_channel", "part_fillet", "prepare_fillet_finish",
+            "prepare_hub_finish"]
 
 
 # ------------------------------------------------------------------------ channel roughing
@@ -485,7 +502,9 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
         req = RoughRequest(tool=ctx.cutter, assembly=tool_assembly(ctx.tool, ctx.cutter), **kw)
     except (BliskCamError, TypeError, ValueError) as exc:
         raise BliskCamError(f"{where}: {exc}") from None
-    return PreparedOperation(RoughingOperation(), ctx.part, req, (), 0.0, reads_stock=True)
+    return PreparedOperation(RoughingOperation(), ctx.part, req, (), 0.0, reads_stock=True,
+                             precheck=lambda stock: RoughingOperation().start(ctx.part, req,
+                                                                              stock))
 
 
 register_operation_kind(OperationKind(
