@@ -141,3 +141,23 @@ def test_contacts_on_a_stock_they_never_cut_fail_the_verdict(finished):
     assert {z.surface for z in failed} >= {"hub"}
     assert all("operation 1 (hub) plans contacts" in z.reason for z in failed)
     assert max(z.worst_mm for z in failed) == pytest.approx(BLANK, abs=0.5 * RES)
+
+
+def test_contacts_that_collide_name_their_zone_unreachable(finished):
+    """Where every contact planned collides (the tool body within the safety: those poses are
+    the tool's unreachable ones), the material they would have cut is named unreachable for
+    that reason, not failed."""
+    from dataclasses import replace
+
+    part, _, _, contacts, _ = finished
+    blank = stock_from_allowance(part, BLANK, RES)
+    hit = replace(contacts, colliding=np.ones(len(contacts.cc), bool))
+    v = job_verdict(part, blank, [hit], fillet_radius=8.0)
+    assert v.passed
+    hub_zones = [z for z in v.zones if z.surface == "hub" and "collides" in z.reason]
+    assert hub_zones and all(z.status == "unreachable" for z in hub_zones)
+    # the same faces that failed under clear contacts
+    failed = np.concatenate([z.faces for z in job_verdict(part, blank, [contacts],
+                                                          fillet_radius=8.0).zones
+                             if z.status == "failed"])
+    assert set(failed) <= set(np.concatenate([z.faces for z in hub_zones]))
