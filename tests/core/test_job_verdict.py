@@ -161,3 +161,17 @@ def test_contacts_that_collide_name_their_zone_unreachable(finished):
                                                           fillet_radius=8.0).zones
                              if z.status == "failed"])
     assert set(failed) <= set(np.concatenate([z.faces for z in hub_zones]))
+
+
+def test_the_suction_side_follows_the_camber():
+    """The demo's camber turns its sections one way or the other: the side named suction (the
+    convex one) changes with the camber's sign."""
+    from blisk_cam.core.process.job_verdict import _classes
+
+    named = []
+    for camber in ({}, {"camber_hub": -0.6, "camber_tip": -0.4}):
+        part = part_from_demo(make_demo_blisk(resolution=0.3, **camber))
+        _, _, hub, C, N, _ = face_frame(part)
+        _, _, names = _classes(part, C, N, hub, 8.0)
+        named.append(names[2])  # the +θ side
+    assert {n.split("(")[1] for n in named} == {"suction)", "pressure)"}

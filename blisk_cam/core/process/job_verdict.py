@@ -26,9 +26,10 @@ largest finishing chord + res (or the job's ``gouge_tolerance``).
 
 Zones: connected sets (faces sharing a vertex, of one surface class) of faces whose left exceeds
 their bound, or whose gouge exceeds the tolerance. Each is named by its surface (hub; blade 0's
-fillet, +θ / −θ side — pressure or suction, from the section's camber — leading or trailing
-edge; the flow runs toward +z of the axis, so the leading edge is the blade's lower-z end), its
-radius, axial and height-above-hub ranges, its area (mm², the sum of its faces' areas) and why:
+fillet; its +θ / −θ side, the convex one — of larger median mean curvature — the suction side;
+its leading or trailing edge, the flow running toward +z of the axis so the leading edge is the
+blade's lower-z end), its radius, axial and height-above-hub ranges, its area (mm², the sum
+of its faces' areas) and why:
 
 * ``unreachable`` — no finishing operation plans contacts there (the nearest contacts of each
   finishing operation are given), or every contact planned there collides (the tool body
@@ -52,6 +53,7 @@ from scipy.spatial import cKDTree
 from ..geometry.mesh import TriMesh, triangle_normals
 from ..geometry.vectors import rotate_about
 from ..hub.channel import root_loop
+from ..hub.fillet import face_principal_curvatures
 from ..hub.surface import HubSurface
 from ..part.model import BliskPart, theta_about
 from ..stock.blank import stock_from_allowance
@@ -196,10 +198,16 @@ def _classes(part: BliskPart, C, N, hub, fillet_radius):
         e = max(1.5, 0.04 * span)
         edge[sel & (s < lo + e)] = 1
         edge[sel & (s > hi - e)] = 2
-    # the convex (suction) side: the section's area centroid lies off the chord line toward it
-    cross = np.array([-chord[1], chord[0]])  # + toward +θ
-    off = float(((X[blade] - mu) @ cross).mean())
-    plus_is_suction = off > 0
+    # the suction side is the convex one: the larger median mean curvature (outward normals)
+    # over the side's faces away from hub and edges
+    nb = len(part.blade_faces)
+    w = face_principal_curvatures(TriMesh.from_arrays(part.blade_vertices, part.blade_faces))
+    mean_k = w[:, 0] + w[:, 2]
+    mid = (edge[:nb] == 0) & (h[:nb] > 0.25 * float(h[:nb].max()))
+    sp = mid & side_plus[:nb]
+    sm = mid & ~side_plus[:nb]
+    plus_is_suction = bool(sp.any() and sm.any()
+                           and np.median(mean_k[sp]) > np.median(mean_k[sm]))
     fillet = blade & (h < (fillet_radius if fillet_radius else 0.0))
     cls[blade] = np.where(side_plus[blade], 2, 3)
     cls[blade & (edge == 1)] = 4
