@@ -128,3 +128,17 @@ def test_a_tool_that_does_not_fit_the_gap_is_refused_before_any_work(
     assert words in err
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fit.toml"]
+
+
+def test_the_fillet_operation_itself_refuses_a_ball_not_smaller_than_the_measured_fillet():
+    """The `hub --operation fillet` command's core too: a given fillet radius larger than the
+    ball does not let a ball pass that the part's own fillet is too tight for."""
+    from blisk_cam.core.process.fillet_finish import FILLET_FINISH
+    from blisk_cam.core.process.hub_finish import HubRequest
+    from blisk_cam.core.process.operation import run_operation
+
+    part = part_from_demo(make_demo_blisk(resolution=0.3))
+    measured = _measure()
+    with pytest.raises(BliskCamError, match=rf"radius 9 mm, the fillet measured on the part "
+                                            rf"{measured.radius:.2f} mm"):
+        run_operation(FILLET_FINISH, part, HubRequest(tool_diameter=18.0, fillet_radius=20.0))

@@ -85,6 +85,7 @@ from ..tool.assembly import AssemblyError, holder_profile
 from ..tool.cutter import Cutter
 from ..toolpath.types import MOVE_CUT
 from .cutting_data import CuttingData, cutting_data, material_key
+from .fillet_finish import part_fillet
 from .job_verdict import FINISHING_KINDS, OperationContacts, job_verdict
 from .operation import iter_run_operation
 from .operation_kinds import (
@@ -92,7 +93,6 @@ from .operation_kinds import (
     OperationKind,
     ToolEntry,
     operation_kind,
-    part_fillet,
     tool_assembly,
 )
 

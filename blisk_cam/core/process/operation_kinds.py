@@ -34,13 +34,11 @@ from ..collision.options import CollisionOptions
 from ..errors import BliskCamError, OptionError
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import rotate_about
-from ..hub.fillet import measure_fillet
-from ..hub.surface import HubSurface
 from ..options import AxisOptions, GougeOptions, LinkingOptions, ToleranceOptions, check_value
 from ..options import fields as option_fields
 from ..part.cones import Cone
 from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
-from .fillet_finish import FILLET_FINISH
+from .fillet_finish import FILLET_FINISH, part_fillet
 from .hub_finish import HUB_FINISH, HubRequest, _stage_channel, start_state
 from .operation import Operation, Stage
 from .roughing import RoughingOperation, RoughRequest
@@ -431,20 +429,6 @@ def prepare_fillet_finish(ctx: OperationContext) -> PreparedOperation:
                              precheck=lambda stock: ball_fits_channel(ctx.part, req))
 
 
-_FILLET_MEASURED: dict = {}
-
-
-def part_fillet(part):
-    """The hub fillet measured on ``part``'s blade mesh (:func:`..hub.fillet.measure_fillet`;
-    None: no fillet), kept for the last part asked (the job prepares each operation twice)."""
-    key = id(part)
-    if key not in _FILLET_MEASURED or _FILLET_MEASURED[key][0] is not part:
-        _FILLET_MEASURED.clear()
-        mesh = TriMesh.from_arrays(part.blade_vertices, part.blade_faces)
-        _FILLET_MEASURED[key] = (part, measure_fillet(mesh, HubSurface(part.hub_profile,
-                                                                       part.axis)))
-    return _FILLET_MEASURED[key][1]
-
 
 def _options_of(keys: dict, drop=()) -> dict:
     return {k: (d, h) for k, (d, h, _) in keys.items() if k not in drop}
@@ -458,8 +442,7 @@ register_operation_kind(OperationKind(
     _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "scallop", "ring_width",
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
-__all__ += ["ball_fits_channel", "part_fillet", "prepare_fillet_finish",
-            "prepare_hub_finish"]
+__all__ += ["ball_fits_channel", "prepare_fillet_finish", "prepare_hub_finish"]
 
 
 # ------------------------------------------------------------------------ channel roughing
