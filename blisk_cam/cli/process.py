@@ -12,8 +12,10 @@ one program per post (``job.linuxcnc.ngc``) and for LinuxCNC its tool table
 (``job.linuxcnc.tbl``, lengths to be measured); ``setup_sheet.md``; ``summary.json``; a copy of
 the job file. The folder is built in a temporary folder beside DIR and renamed into place at
 the end: a failure or Ctrl-C leaves nothing half-written. A non-empty DIR is refused unless
-``--force`` (then replaced as a whole). Exit 0 when every operation's verdict passed, 5 when
-one failed (the folder is written), 4 when the collision gate refused a post (an operation has
+``--force`` (then replaced as a whole). Exit 0 when every operation's verdict and the final verdict
+(:mod:`..core.process.job_verdict`: left ≤ cusp + chord and no gouge beyond the chord except
+the zones named unreachable, with their areas) passed, 5 when one failed (the folder is
+written), 4 when the collision gate refused a post (an operation has
 unresolved collisions: the folder is written without that program, the setup sheet and the
 summary say why), 1 on bad input, 2 on a usage error.
 """
@@ -174,6 +176,10 @@ def run_process(args) -> int:
     print(f"wrote {out}: {len(summary['operations'])} operation(s), "
           f"{', '.join(files['programs'].values()) or 'no program'}, setup_sheet.md "
           f"({summary['seconds']:.1f} s)")
+    from ..core.process.job_verdict import job_verdict_lines
+
+    for line in job_verdict_lines(run.verdict):
+        print(line)
     for reason in run.refused.values():
         print(f"{PROG}: {reason}", file=sys.stderr)
     if run.refused:
@@ -186,11 +192,17 @@ def run_process(args) -> int:
               f"{', '.join(str(o['index']) for o in failed)}; see {out / 'setup_sheet.md'}",
               file=sys.stderr)
         return EXIT_VERDICT_FAILED
+    if not run.verdict.passed:
+        print(f"{PROG}: final verdict: FAILED (material left beyond the bound where a finishing "
+              f"operation plans contacts, or a gouge); see {out / 'setup_sheet.md'}",
+              file=sys.stderr)
+        return EXIT_VERDICT_FAILED
     return 0
 
 
 def _summary(run, files, seconds) -> dict:
     from ..core.options import describe_tool
+    from ..core.process.job_verdict import job_verdict_dict
 
     ops = []
     for k, r in enumerate(run.operations):
@@ -217,6 +229,7 @@ def _summary(run, files, seconds) -> dict:
             "material": run.job.material, "stock_initial": run.stock_initial,
             "operations": ops, "programs": files["programs"],
             "programs_refused": dict(run.refused),
+            "final_verdict": job_verdict_dict(run.verdict),
             "forward_kinematics": {p: {str(k): v for k, v in prog[2].items()}
                                    for p, prog in run.programs.items()},
             "seconds": round(seconds, 3)}

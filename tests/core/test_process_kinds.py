@@ -114,6 +114,25 @@ def test_semi_finishing_and_hub_finishing_in_one_job(processed):
         or text.count("M6") == 2
 
 
+def test_the_final_verdict_is_in_the_summary_and_the_setup_sheet(processed):
+    """The job's final verdict (:mod:`blisk_cam.core.process.job_verdict`) on the last stock:
+    in summary.json (passed, bounds, areas, zones) and the setup sheet; the bound where the hub
+    finishing's contacts reach is its scallop + chord + the stock's resolution."""
+    rc, out = processed
+    summary = json.loads((out / "summary.json").read_text())
+    fv = summary["final_verdict"]
+    assert fv["passed"] and rc == 0
+    assert fv["resolution_mm"] == 1.0
+    hub = read_paths_json(out / "02-hub.paths.json")
+    assert fv["bounds_mm"]["hub"] == pytest.approx(
+        hub.stats["scallop_estimate_mm"] + hub.chord + 1.0)
+    assert 0 < fv["area_unresolved_mm2"] < fv["area_surface_mm2"]
+    assert fv["area_unreachable_mm2"] == pytest.approx(
+        sum(z["area_mm2"] for z in fv["zones"] if z["status"] == "unreachable"), abs=0.05)
+    sheet = (out / "setup_sheet.md").read_text()
+    assert "## Final verdict" in sheet and "Final verdict: passed" in sheet
+
+
 def _bad(tmp_path, old, new):
     assert old in JOB
     f = tmp_path / "bad.toml"

@@ -29,7 +29,8 @@ from ..geometry.mesh import TriMesh
 from .channel import chord_indices, root_loop, side_distance
 from .surface import HubSurface
 
-__all__ = ["FilletLayer", "check_fillet_ball", "fillet_layers", "layer_heights"]
+__all__ = ["FilletLayer", "FilletMeasure", "check_fillet_ball", "fillet_layers",
+           "face_principal_curvatures", "layer_heights", "measure_fillet"]
 
 _BISECT = 30
 
@@ -145,3 +146,72 @@ def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: fl
         idx = chord_indices(np.vstack([cc, cc[:1]]), chord, max_step)[:-1]
         out.append(FilletLayer(cc[idx], n[idx], C[idx], hn[idx], o3[idx], h, phi))
     return out
+
+
+# ------------------------------------------------------------------------ measured fillet
+class FilletMeasure:
+    """The hub fillet measured on the blade mesh (:func:`measure_fillet`): ``radius`` mm (the
+    median concave principal radius over the fillet band), ``tightest`` mm (its 5th
+    percentile: a sheared fillet is tighter in places), ``height`` mm (the band's top above
+    the hub), ``faces`` (the band's face count)."""
+
+    def __init__(self, radius, tightest, height, faces):
+        self.radius, self.tightest = float(radius), float(tightest)
+        self.height, self.faces = float(height), int(faces)
+
+
+def face_principal_curvatures(mesh: TriMesh) -> np.ndarray:
+    """(m, 3) per face the eigenvalues (ascending, 1/mm) of the shape operator — the symmetric
+    part of the Jacobian of the linearly interpolated vertex normals restricted to the face's
+    plane; one is ≈ 0 (the normal's), the others the principal curvatures, > 0 convex for
+    outward normals (as :func:`..paths.spacing.surface_radii`)."""
+    V, F = mesh.V, mesh.F
+    fn = mesh.face_normals
+    a2 = mesh.face_areas * 2.0
+    inv = np.where(a2 > 0, 1.0 / np.where(a2 > 0, a2, 1.0), 0.0)
+    vn = mesh.vertex_normals
+    J = np.zeros((len(F), 3, 3))
+    for i in range(3):
+        e = V[F[:, (i + 2) % 3]] - V[F[:, (i + 1) % 3]]
+        g = np.cross(fn, e) * inv[:, None]  # gradient of corner i's hat function
+        J += vn[F[:, i]][:, :, None] * g[:, None, :]
+    P = np.eye(3)[None] - fn[:, :, None] * fn[:, None, :]
+    return np.linalg.eigvalsh(P @ (0.5 * (J + J.transpose(0, 2, 1))) @ P)
+
+
+#: height bins (mm) of the fillet band search, and the least faces a bin needs
+_BIN, _MIN_FACES = 1.0, 12
+
+
+def measure_fillet(blade: TriMesh, hub: HubSurface) -> FilletMeasure | None:
+    """The hub fillet of the blade mesh, measured: per face its tightest concave principal
+    radius (:func:`face_principal_curvatures`) and its height above the hub; in 1 mm height
+    bins from the hub up (the first bin, where the fillet meets the hub tangentially and the
+    mesh's own rim bends the normals, skipped), the fillet band is the run of bins whose median
+    concave radius stays below 3 × the smallest bin median and below a tenth of the wall's
+    (above a third of the blade's height). None when the blade has no such band (no fillet)."""
+    w = face_principal_curvatures(blade)
+    kmin = w[:, 0]
+    rc = np.where(kmin < 0, -1.0 / np.minimum(kmin, -1e-12), np.inf)
+    _, _, h = hub.coordinates(blade.V[blade.F].mean(axis=1))
+    top = float(h.max())
+    wall = rc[h > top / 3.0]
+    wall_med = float(np.median(wall)) if len(wall) else np.inf
+    edges = np.arange(_BIN, top / 3.0, _BIN)
+    meds = []
+    for lo in edges:
+        sel = (h >= lo) & (h < lo + _BIN)
+        meds.append(float(np.median(rc[sel])) if sel.sum() >= _MIN_FACES else np.inf)
+    meds = np.asarray(meds)
+    if not len(meds) or not np.isfinite(meds).any():
+        return None
+    limit = min(3.0 * float(meds.min()), 0.1 * wall_med)
+    if not meds[0] < limit:
+        return None
+    n = int(np.argmax(~(meds < limit))) if (~(meds < limit)).any() else len(meds)
+    height = float(edges[n - 1] + _BIN)
+    band = (h >= _BIN) & (h < height) & np.isfinite(rc)
+    if band.sum() < _MIN_FACES:
+        return None
+    return FilletMeasure(np.median(rc[band]), np.percentile(rc[band], 5), height,
+                         int(band.sum()))

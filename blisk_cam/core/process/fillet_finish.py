@@ -14,7 +14,8 @@ holder and shank against blade 0 and its neighbours, the flute's clearance) → 
 blade, on request) → checks.
 
 The request is a :class:`~.hub_finish.HubRequest` with ``fillet_radius`` (required: the
-ball must be smaller, a ToolError names both radii) and ``layers``; its spacing fields are
+ball must be smaller than it and than the fillet measured on the part, :func:`part_fillet`; a
+ToolError names both radii) and ``layers``; its spacing fields are
 not used. On the demo blisk with a Ø6 ball and a Ø5 shank to 100 mm, the hub normal tilted
 20° off the wall left 6 poses with the shank in the leaning wall (tilt 5°–35°: 16–36); aimed
 through the channel, with 0° or 10° of tilt, none. Lengths mm, angles radians.
@@ -26,11 +27,13 @@ import math
 
 import numpy as np
 
-from ..errors import BliskCamError
+from ..errors import BliskCamError, ToolError
 from ..geometry.distance import MeshDistance
+from ..geometry.mesh import TriMesh
 from ..geometry.vectors import rotate_about, unit
 from ..hub.channel import TipChannel
-from ..hub.fillet import check_fillet_ball, fillet_layers
+from ..hub.fillet import check_fillet_ball, fillet_layers, measure_fillet
+from ..hub.surface import HubSurface
 from ..part.model import BliskPart
 from ..paths.orientation import feed_directions, lead_tilt_axes
 from ..runtime import Progress
@@ -47,7 +50,7 @@ from .hub_finish import (
 )
 from .operation import Operation, OperationResult, Stage
 
-__all__ = ["FILLET_FINISH", "FilletFinish"]
+__all__ = ["FILLET_FINISH", "FilletFinish", "part_fillet"]
 
 
 def _stage_loops(st: HubState):
@@ -152,6 +155,21 @@ def _stage_checks(st: HubState):
     yield
 
 
+_FILLET_MEASURED: dict = {}
+
+
+def part_fillet(part: BliskPart):
+    """The hub fillet measured on ``part``'s blade mesh (:func:`..hub.fillet.measure_fillet`;
+    None: no fillet), kept for the last part asked (a job prepares and runs each operation)."""
+    key = id(part)
+    if key not in _FILLET_MEASURED or _FILLET_MEASURED[key][0] is not part:
+        _FILLET_MEASURED.clear()
+        mesh = TriMesh.from_arrays(part.blade_vertices, part.blade_faces)
+        _FILLET_MEASURED[key] = (part, measure_fillet(mesh, HubSurface(part.hub_profile,
+                                                                       part.axis)))
+    return _FILLET_MEASURED[key][1]
+
+
 class FilletFinish(Operation):
     """Fillet finishing as an operation (see the module docstring)."""
 
@@ -165,6 +183,13 @@ class FilletFinish(Operation):
             raise BliskCamError(f"fillet layers must be a whole number in 1 … 50, got "
                                 f"{request.layers!r}")
         check_fillet_ball(request.radius, float(request.fillet_radius), request.tool_name)
+        measured = part_fillet(part) if isinstance(part, BliskPart) else None
+        if measured is not None and not request.radius < measured.radius:
+            raise ToolError(f"fillet finishing needs a ball smaller than the fillet: the "
+                            f"{request.tool_name} has radius {request.radius:g} mm, the fillet "
+                            f"measured on the part {measured.radius:.2f} mm (tightest "
+                            f"{measured.tightest:.2f} mm); use a ball of radius < "
+                            f"{measured.radius:.2f} mm")
         st = start_state(part, request, spacing=False)
         st.operation = "fillet-finish"
         return st

@@ -90,7 +90,10 @@ class HubRequest:
         pass at the middle; the blade sides bulge between root and tip)
     allowance : float — distance kept from the blades (stock left on them)
     chord : float — chord tolerance of the CC polylines; max_step the longest step
-    gaps : "one" | "all" — gap 0 only (the NC post repeats it per blade) or all N gaps
+    gaps : "one" | "all" — gap 0 only (the NC post repeats it per blade) or all N gaps; the
+        collision check runs on gap 0 before the pattern and the other gaps take its status
+        (the part is one blade and its copies turned by the pitch, so every gap is gap 0
+        turned; a scanned blisk whose blades differ is not checked gap by gap)
     approach : float — approach/retract length along the tool axis
     clearance_margin : float — the clearance cylinder lies this far outside the blade tips
     collisions : "check" | "off"; flute_length, holder, safety — the tool assembly

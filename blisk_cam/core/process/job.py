@@ -47,7 +47,9 @@ once to check the whole job before long work, then each operation in order is pl
 (:func:`.operation.iter_run_operation`), run on the stock (:func:`..stock.simulation.
 iter_simulate`: the deviation map and the verdict after it; the stock, changed in place, is the
 next operation's input), and given its cutting data at the effective diameter
-(:mod:`.cutting_data`). At the end one program per post with a section per operation
+(:mod:`.cutting_data`). Then the final verdict on the last stock (:mod:`.job_verdict`:
+material left and gouges on blades, hub and fillets, the zones no finishing operation reaches
+named with their area). At the end one program per post with a section per operation
 (:func:`..post.job_program.job_program`), checked back through forward kinematics block by
 block against every operation's poses.
 """
@@ -64,7 +66,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import BliskCamError, StockError, check_known_keys
+from ..errors import BliskCamError, StockError, ToolError, check_known_keys
 from ..geometry.mesh_io import MESH_SUFFIXES, read_mesh
 from ..machine.description import Machine, forward, load_machine
 from ..part.blisk import make_demo_blisk
@@ -83,6 +85,8 @@ from ..tool.assembly import AssemblyError, holder_profile
 from ..tool.cutter import Cutter
 from ..toolpath.types import MOVE_CUT
 from .cutting_data import CuttingData, cutting_data, material_key
+from .fillet_finish import part_fillet
+from .job_verdict import FINISHING_KINDS, OperationContacts, job_verdict
 from .operation import iter_run_operation
 from .operation_kinds import (
     OperationContext,
@@ -93,8 +97,8 @@ from .operation_kinds import (
 )
 
 __all__ = ["Job", "JobError", "JobOperation", "JobRun", "OperationRun", "build_part",
-           "build_stock", "iter_run_job", "job_from_data", "job_template", "load_job",
-           "stock_digest", "TEMPLATES_DIR"]
+           "build_stock", "final_verdict", "iter_run_job", "job_from_data", "job_template",
+           "load_job", "stock_digest", "TEMPLATES_DIR"]
 
 
 class JobError(BliskCamError):
@@ -515,6 +519,8 @@ class JobRun:
     stock_initial: dict
     operations: list = field(default_factory=list)
     programs: dict = field(default_factory=dict)
+    #: the final verdict on the stock after the last operation (:mod:`.job_verdict`)
+    verdict: object = None
     #: post → why its program was not written (the collision gate refused it); the rest of
     #: the job's outputs stand, so the user sees the poses to correct
     refused: dict = field(default_factory=dict)
@@ -572,6 +578,20 @@ def fk_check(machine: Machine, solved) -> dict:
     return out
 
 
+def final_verdict(job: Job, part: BliskPart, stock, runs):
+    """The job's final verdict (:func:`.job_verdict.job_verdict`) on ``stock`` (after the
+    last operation) from the finishing operations among ``runs``; the fillet named on the
+    part up to its measured radius (else a fillet operation's ``fillet_radius``)."""
+    contacts = [OperationContacts.from_path(r.op.index, r.op.name, r.path) for r in runs
+                if r.op.kind.name in FINISHING_KINDS]
+    measured = part_fillet(part)
+    fr = measured.radius if measured is not None else next(
+        (float(r.op.options["fillet_radius"]) for r in runs
+         if "fillet_radius" in r.op.options), None)
+    return job_verdict(part, stock, contacts, resolution=job.resolution,
+                       gouge_tolerance=job.gouge_tolerance, fillet_radius=fr)
+
+
 def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | None = None):
     """Generator: the job's run (module docstring); yields Progress, returns a
     :class:`JobRun`. ``on_operation(run)`` is called after each operation while its stock is
@@ -590,6 +610,16 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             raise JobError(f"{op.where} (tool T{op.tool.number}): {exc}") from None
     yield Progress(0.01, "building the stock")
     stock = build_stock(job, part)
+    for op, prep in zip(job.operations, prepared, strict=True):
+        if prep.precheck is None:
+            continue
+        yield Progress(0.015, f"checking operation {op.index} ({op.name})")
+        try:  # does the tool fit the gap? (the part's geometry, the blank)
+            prep.precheck(stock)
+        except ToolError as exc:
+            raise JobError(f"{op.where} key 'tool': tool T{op.tool.number}: {exc}") from None
+        except BliskCamError as exc:
+            raise _prefixed(exc, op.where) from None
     run = JobRun(job, part, {"volume_mm3": stock.volume(), "digest": stock_digest(stock)})
     n = len(job.operations)
     for k, op in enumerate(job.operations):
@@ -626,6 +656,11 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             on_operation(orun)
         orun.stock = None
         run.operations.append(orun)
+    yield Progress(0.92, "the final verdict on the stock")
+    try:
+        run.verdict = final_verdict(job, part, stock, run.operations)
+    except BliskCamError as exc:
+        raise _prefixed(exc, f"job {job.file.name} final verdict") from None
     yield Progress(0.93, "writing the programs")
     sections = [JobSection(f"{r.op.name} [{r.op.kind.name}] T{r.op.tool.number}", r.path,
                            NcOptions(feed=r.cutting.feed, spindle=r.cutting.spindle,

@@ -25,7 +25,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -38,8 +38,8 @@ from ..options import AxisOptions, GougeOptions, LinkingOptions, ToleranceOption
 from ..options import fields as option_fields
 from ..part.cones import Cone
 from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
-from .fillet_finish import FILLET_FINISH
-from .hub_finish import HUB_FINISH, HubRequest
+from .fillet_finish import FILLET_FINISH, part_fillet
+from .hub_finish import HUB_FINISH, HubRequest, _stage_channel, start_state
 from .operation import Operation, Stage
 from .roughing import RoughingOperation, RoughRequest
 
@@ -102,7 +102,8 @@ class PreparedOperation:
     """``operation`` run as ``iter_run_operation(operation, part_input, request, stock,
     extra=extra)``; ``tilt`` (rad): the tool axis' angle from the surface normal for the
     effective cutting diameter, None: measured on the planned path (median over the cut
-    poses); ``reads_stock``: the stock is passed to the operation."""
+    poses); ``reads_stock``: the stock is passed to the operation; ``precheck(stock)``: see
+    the field."""
 
     operation: Operation
     part_input: object
@@ -110,6 +111,10 @@ class PreparedOperation:
     extra: tuple[Stage, ...] = ()
     tilt: float | None = None
     reads_stock: bool = False
+    #: called once by the job with the initial stock, after every operation was prepared and
+    #: before the first one runs: the checks that need the part's geometry or the stock (does
+    #: the tool fit the gap?); raises a BliskCamError (a ToolError when the tool does not fit)
+    precheck: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -346,7 +351,8 @@ _HUB_KEYS = {
     "safety": (1.0, "least clearance of shank and holder, mm", "mm"),
 }
 _FILLET_KEYS = {
-    "fillet_radius": (None, "the fillet's radius, mm (the ball must be smaller)", "mm"),
+    "fillet_radius": (None, "the fillet's radius, mm (default: measured on the part; the ball "
+                            "must be smaller than the measured one)", "mm"),
     "layers": (1, "loops across the fillet (1: the lower edge only)", "int"),
 }
 
@@ -389,17 +395,39 @@ def prepare_hub_finish(ctx: OperationContext) -> PreparedOperation:
     """Hub finishing (paper 003 §5, Fig. 10, :mod:`.hub_finish`) of the gap between blade 0
     and blade 1; the job's post repeats it for every gap."""
     req = _hub_request(ctx, _HUB_KEYS)
-    return PreparedOperation(HUB_FINISH, ctx.part, req, (), None)
+    return PreparedOperation(HUB_FINISH, ctx.part, req, (), None,
+                             precheck=lambda stock: ball_fits_channel(ctx.part, req))
+
+
+def ball_fits_channel(part, req: HubRequest) -> None:
+    """ToolError unless the ball of ``req`` touching the hub keeps its allowance from both
+    blades of the gap all along it (the hub channel's boundaries,
+    :func:`..hub.channel.channel_boundaries`, traced alone)."""
+    st = start_state(part, req, spacing=False)
+    for _ in _stage_channel(st):
+        pass
 
 
 def prepare_fillet_finish(ctx: OperationContext) -> PreparedOperation:
     """Fillet finishing (paper 003 §5, :mod:`.fillet_finish`): the pass along the lower fillet
     edge (and layers across it) with a ball smaller than the fillet."""
     req = _hub_request(ctx, {**_HUB_KEYS, **_FILLET_KEYS})
+    measured = part_fillet(ctx.part)
+    tool = f"tool T{ctx.tool.number} (Ø{ctx.tool.diameter:g} ball, radius {req.radius:g} mm)"
+    if measured is not None and not req.radius < measured.radius:
+        raise BliskCamError(
+            f"{ctx.where} key 'tool': {tool} is not smaller than the fillet measured on the "
+            f"part: radius {measured.radius:.2f} mm (tightest {measured.tightest:.2f} mm, "
+            f"{measured.height:g} mm high); use a ball of radius < {measured.radius:.2f} mm")
     if req.fillet_radius is None:
-        raise BliskCamError(f"{ctx.where}: key 'fillet_radius' is missing: fillet finishing "
-                            "needs the fillet's radius (mm); the ball must be smaller")
-    return PreparedOperation(FILLET_FINISH, ctx.part, req, (), None)
+        if measured is None:
+            raise BliskCamError(f"{ctx.where}: key 'fillet_radius' is missing and the part shows "
+                                "no fillet at the blade root to measure: give the fillet's "
+                                "radius (mm); the ball must be smaller")
+        req = replace(req, fillet_radius=measured.radius)
+    return PreparedOperation(FILLET_FINISH, ctx.part, req, (), None,
+                             precheck=lambda stock: ball_fits_channel(ctx.part, req))
+
 
 
 def _options_of(keys: dict, drop=()) -> dict:
@@ -414,7 +442,7 @@ register_operation_kind(OperationKind(
     _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "scallop", "ring_width",
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
-__all__ += ["prepare_fillet_finish", "prepare_hub_finish"]
+__all__ += ["ball_fits_channel", "prepare_fillet_finish", "prepare_hub_finish"]
 
 
 # ------------------------------------------------------------------------ channel roughing
@@ -457,7 +485,9 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
         req = RoughRequest(tool=ctx.cutter, assembly=tool_assembly(ctx.tool, ctx.cutter), **kw)
     except (BliskCamError, TypeError, ValueError) as exc:
         raise BliskCamError(f"{where}: {exc}") from None
-    return PreparedOperation(RoughingOperation(), ctx.part, req, (), 0.0, reads_stock=True)
+    return PreparedOperation(RoughingOperation(), ctx.part, req, (), 0.0, reads_stock=True,
+                             precheck=lambda stock: RoughingOperation().start(ctx.part, req,
+                                                                              stock))
 
 
 register_operation_kind(OperationKind(

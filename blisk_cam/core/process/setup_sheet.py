@@ -4,7 +4,8 @@ Part and material, stock (blank, resolution, volume before and after every opera
 and programs, the tool table ("Ø12 R2 bull nose", flutes, stick-out, holder, coolant), the
 operations in order with their cutting data (effective diameter, depth, vc, fz, spindle, feed,
 where the data came from), estimated times (the program's blocks at their feeds and the
-machine's rapid rates, every blade) and the verdict of each operation's deviation map.
+machine's rapid rates, every blade), the verdict of each operation's deviation map and the
+final verdict with its zones (:mod:`.job_verdict`).
 No pictures: the core has no renderer (the deviation maps are PLY files beside the sheet).
 """
 
@@ -15,6 +16,7 @@ import math
 from ..options import describe_tool
 from ..version import __version__
 from .job import JobRun
+from .job_verdict import job_verdict_lines
 
 __all__ = ["setup_sheet"]
 
@@ -115,6 +117,22 @@ def setup_sheet(run: JobRun, files: dict) -> str:
         if f:
             line += f"; files: `{f['paths']}`, `{f['deviation']}`, `{f['stock']}`"
         L.append(line)
+    if run.verdict is not None:
+        L += ["", "## Final verdict (the stock after the last operation)", ""]
+        lines = job_verdict_lines(run.verdict, max_zones=30)
+        L.append(lines[0][0].upper() + lines[0][1:] + ".")
+        if run.verdict.zones:
+            L += ["", "| zone | surface | area | r | z | above the hub | worst | why |",
+                  "|---|---|---|---|---|---|---|---|"]
+            for zn in run.verdict.zones[:30]:
+                L.append(f"| {zn.status} ({zn.what}) | {zn.surface} | {zn.area_mm2:.1f} mm² | "
+                         f"{zn.r_mm[0]:.1f}–{zn.r_mm[1]:.1f} | {zn.z_mm[0]:.1f}–{zn.z_mm[1]:.1f}"
+                         f" | {zn.height_mm[0]:.1f}–{zn.height_mm[1]:.1f} | {zn.worst_mm:.3f} mm"
+                         f" | {zn.reason} |")
+            if len(run.verdict.zones) > 30:
+                L.append(f"\n… and {len(run.verdict.zones) - 30} smaller zone(s) "
+                         "(summary.json).")
+        L += ["", "## Programs", ""]
     for post, (_, _, fk) in run.programs.items():
         worst = max(v["max_tip_error_mm"] for v in fk.values())
         ok = all(v["rows_per_blade_ok"] for v in fk.values())
