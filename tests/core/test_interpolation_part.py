@@ -97,3 +97,44 @@ def test_constant_error_holds_against_a_scan_like_part(tmp_path):
     assert len(err) > 100
     last = np.append(~cut[ends[:-1] + 1], True)
     _judge(err, last)
+
+
+def test_nc_part_mesh_flag(tmp_path, capsys):
+    """``nc --part-mesh`` budgets against the blade mesh (the report says so); without it a
+    path planned with a chord tolerance as large as the max error is refused (before: the
+    search crept on in 0.001-dense-step blocks for minutes); a missing mesh is one line, exit
+    1, before any work; the mesh is never an output."""
+    import json
+
+    from blisk_cam.cli.main import main as cli_main
+    from blisk_cam.core.toolpath.paths_io import write_paths_json
+    from tests.support.mesh_files import write_binary_stl
+
+    d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
+    stl = write_binary_stl(tmp_path / "blade.stl", d.blade_vertices, d.blade_faces)
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    req = PathRequest(axis=d.axis, cone1=Cone(190.0, -25.0, 205.0, 35.0), cone2=d.tip_cone,
+                      tool_radius=6.0, cusp=3.0, chord=0.01, axis_mode="radial",
+                      radial_tilt=D(75.0))
+    js = tmp_path / "p.json"
+    write_paths_json(plan_paths(mesh, req).path, js)
+    base = ["nc", "--paths", str(js), "--machine", "ac-trunnion", "--post", "linuxcnc",
+            "--quiet", "--interpolation", "constant-error", "--max-error", "0.01"]
+    rep = tmp_path / "r.json"
+    out = tmp_path / "p.ngc"
+    assert cli_main([*base, "--out", str(out), "--part-mesh", str(stl), "--report",
+                     str(rep)]) == 0
+    assert json.loads(rep.read_text())["interpolation"]["own_deviation_budget"] == "part mesh"
+    assert "part's mesh is counted" in out.read_text()
+    capsys.readouterr()
+    # without the mesh the path's chord (0.01 mm) is budgeted whole: nothing left for blocks
+    assert cli_main([*base, "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "chord tolerance 0.01 mm" in err[0] and "--part-mesh" in err[0]
+    assert cli_main([*base, "--out", str(out), "--part-mesh", str(tmp_path / "no.stl")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no.stl" in err[0]
+    size = stl.stat().st_size
+    assert cli_main([*base, "--out", str(stl), "--part-mesh", str(stl)]) != 0
+    capsys.readouterr()
+    assert stl.stat().st_size == size

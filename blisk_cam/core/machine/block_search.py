@@ -400,10 +400,12 @@ def _as_list(dense):
 
 
 def search_constant_error(dense, max_error: float, *, bound: str = "pointwise",
-                          max_rotary_step=None, pose_model: str = "exact"):
+                          max_rotary_step=None, pose_model: str = "exact",
+                          min_step: float = 1e-3):
     """Block ends: the longest blocks whose error bound (:func:`block_bounds_rows`) stays
     ≤ ``max_error`` mm = [d_M] (paper 002 §3.2, Fig. 11). ``dense``: a DensePass (→ (B + 1,)
-    dense positions) or a list of them (→ list; searched together)."""
+    dense positions) or a list of them (→ list; searched together). ``min_step``: the
+    shortest block, dense steps (where even it exceeds the bound)."""
     _check_positive("max_error", max_error)
     if bound not in BOUNDS:
         raise InterpolationError(f"unknown bound {bound!r}; use one of {', '.join(BOUNDS)}")
@@ -415,7 +417,8 @@ def search_constant_error(dense, max_error: float, *, bound: str = "pointwise",
                                               pose_model="jacobian")
     out = _search(dp, offs, lambda s, e: block_bounds_rows(dp, s, e, bound=bound,
                                                           pose_model=pose_model),
-                  float(max_error), fast=fast, max_rotary_step=max_rotary_step)
+                  float(max_error), fast=fast, max_rotary_step=max_rotary_step,
+                  min_step=min_step)
     return out[0] if single else out
 
 

@@ -465,6 +465,12 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
         part_mesh = part if isinstance(part, MeshDistance) else MeshDistance(part)
     if budget and part_mesh is None and not (part is True or part == "chord"):
         raise InterpolationError(f"part must be a mesh, True or 'chord', got {part!r}")
+    if budget and part_mesh is None and float(path.chord) >= float(max_error):
+        raise InterpolationError(
+            f"constant-error --max-error {max_error:g} mm: the path's chord tolerance "
+            f"{path.chord:g} mm (its own deviation from the part, budgeted whole without the "
+            "part's mesh) leaves nothing for the blocks; plan with a chord well below the max "
+            "error (e.g. 0.002 mm) or give the blade mesh (nc --part-mesh)")
     dense = _dense_passes(path, machine, runs, qall, max_spacing, max_turn, budget=budget,
                           mesh=part_mesh)
     if budget:
@@ -473,8 +479,11 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
     if not dense:
         all_ends = []
     elif method == "constant-error":
+        # budgeted against the part, a block never shorter than one dense step: where the
+        # planned path's own deviation alone exceeds [dM] no block length keeps the bound
         all_ends = search_constant_error(dense, max_error, bound=bound,
-                                         max_rotary_step=max_rotary_step)
+                                         max_rotary_step=max_rotary_step,
+                                         min_step=1.0 if budget else 1e-3)
     else:
         all_ends = search_chord(dense, chord_height, max_rotary_step=max_rotary_step)
     t2 = time.perf_counter()
