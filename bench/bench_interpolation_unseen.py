@@ -55,10 +55,17 @@ CASES = {
     "B 75deg bc": (BLADE_B, 75.0, "bc-trunnion"),
     "B scan 70deg ac": ({**BLADE_B, **SCAN, "seed": 7}, 70.0, "ac-trunnion"),
     "B 88deg head-table": (BLADE_B, 88.0, "bc-head-table"),
+    # the two blades the project was tuned on (bench/bench_interpolation.py), for comparison
+    "demo 75deg ac": ("demo", 75.0, "ac-trunnion"),
+    "Rotor 37 75deg ac": ("rotor37", 75.0, "ac-trunnion"),
 }
 
 
 def blade(params, tilt, resolution=0.7, cusp=3.0, chord=0.002):
+    if params in ("demo", "rotor37"):
+        from bench.bench_interpolation import demo_case, rotor37_case
+
+        return demo_case() if params == "demo" else rotor37_case(cusp=3.0)
     d = make_demo_blisk(resolution=resolution, fillet=True, fillet_radius=10.0, **params)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
     req = PathRequest(axis=d.axis, cone1=Cone(170.0, -25.0, 185.0, 35.0), cone2=d.tip_cone,

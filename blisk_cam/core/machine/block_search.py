@@ -79,7 +79,10 @@ class DensePass:
     clearance of the cutter on the dense planned path from the part, minus the allowance the
     path leaves (> 0 material left, < 0 gouge; None: not budgeted, the error is taken from the
     planned path as before); ``margin`` mm — what is not known of it (without the part's
-    mesh: the planned path's chord tolerance), added to every bound; ``target`` mm — the
+    mesh: the planned path's chord tolerance), added to every bound; ``own_step`` (m,) mm —
+    how much ``own`` changes to the next or previous dense pose (the deviated pose is compared
+    with the nearest pose, which may be one off where a coarse mesh's facet edge makes ``own``
+    jump), added per pose; ``target`` mm — the
     clearance the path aims at (its allowance), for measuring against the part.
     """
 
@@ -98,6 +101,7 @@ class DensePass:
     allowance: float = ALLOWANCE
     floor: float = FLOOR
     own: np.ndarray | None = None
+    own_step: np.ndarray | None = None
     margin: float = 0.0
     target: float = 0.0
 
@@ -133,9 +137,12 @@ def concat_passes(passes) -> tuple[DensePass, np.ndarray]:
     owns = [p.own for p in passes]
     own = None if all(o is None for o in owns) else np.concatenate(
         [np.zeros(len(p)) if o is None else o for p, o in zip(passes, owns, strict=True)])
+    steps = [p.own_step for p in passes]
+    own_step = None if all(o is None for o in steps) else np.concatenate(
+        [np.zeros(len(p)) if o is None else o for p, o in zip(passes, steps, strict=True)])
     return DensePass(**cat, rho=min(p.rho for p in passes), machine=passes[0].machine,
                      allowance=max(p.allowance for p in passes),
-                     floor=max(p.floor for p in passes), own=own,
+                     floor=max(p.floor for p in passes), own=own, own_step=own_step,
                      margin=max(p.margin for p in passes),
                      target=passes[0].target), offs
 
@@ -219,10 +226,11 @@ def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
     lat2 = np.maximum(np.einsum("rja,rja->rj", dC, dC) - dM * dM, 0.0)
     rem = np.where(mask, lat2 / (2.0 * dp.rho), 0.0).max(axis=1)
     own = None if dp.own is None else dp.own[J]
+    slack = 0.0 if dp.own_step is None else dp.own_step[J]
     if bound == "pointwise":
-        b = np.where(mask, np.abs(dM if own is None else dM + own), 0.0).max(axis=1)
+        b = np.where(mask, np.abs(dM if own is None else dM + own) + slack, 0.0).max(axis=1)
     else:
-        aP = np.where(mask, np.abs(lP if own is None else lP + own), 0.0)
+        aP = np.where(mask, np.abs(lP if own is None else lP + own) + slack, 0.0)
         aT = np.where(mask, np.abs(lT), 0.0)
         sg = np.sign(dM)
         brk = np.zeros(mask.shape, bool)

@@ -334,7 +334,16 @@ def budget_own_deviation(dp: DensePass, machine, cutter, *, mesh=None, allowance
     and :func:`.block_search.measure_blocks` measures against the part."""
     if mesh is not None:
         own = cutter_clearance(machine, cutter, mesh, dp.q, dp.normal) - float(allowance)
-        return replace(dp, own=own, margin=0.0, target=float(allowance))
+        # and half-way between the dense poses (a coarse mesh's facets show there): each
+        # pose's value is the one of largest size among it and its two half-way points
+        u = np.arange(len(dp) - 1) + 0.5
+        half = cutter_clearance(machine, cutter, mesh, dp.joints_at(u),
+                                dp.interp(dp.normal, u)) - float(allowance)
+        cand = np.stack([own, np.append(half, own[-1]), np.insert(half, 0, own[0])])
+        own = cand[np.argmax(np.abs(cand), axis=0), np.arange(len(dp))]
+        jump = np.abs(np.diff(own))
+        step = np.maximum(np.append(jump, 0.0), np.insert(jump, 0, 0.0))
+        return replace(dp, own=own, own_step=step, margin=0.0, target=float(allowance))
     return replace(dp, own=np.zeros(len(dp)), margin=float(chord), target=float(allowance))
 
 
