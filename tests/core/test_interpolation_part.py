@@ -113,7 +113,7 @@ def test_nc_part_mesh_flag(tmp_path, capsys):
     d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
     stl = write_binary_stl(tmp_path / "blade.stl", d.blade_vertices, d.blade_faces)
     mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
-    req = PathRequest(axis=d.axis, cone1=Cone(190.0, -25.0, 205.0, 35.0), cone2=d.tip_cone,
+    req = PathRequest(axis=d.axis, cone1=Cone(203.0, -25.0, 214.0, 35.0), cone2=d.tip_cone,
                       tool_radius=6.0, cusp=3.0, chord=0.01, axis_mode="radial",
                       radial_tilt=D(75.0))
     js = tmp_path / "p.json"
