@@ -33,6 +33,14 @@ block's joint motion, runs forward kinematics and takes the signed distance from
 (the centre of its corner circle, minus the corner radius) to the mesh, minus the same quantity
 on the planned dense path: the per-block maximum over/undercut.
 
+Against the part (issue 28): the bound above is the machine's deviation from the planned
+dense path, but the planned path itself strays from the part (tip linear and axis on the
+great circle between its poses, poses on a faceted or noisy mesh). ``part`` budgets that own
+deviation in every block (:func:`budget_own_deviation`): from the part's mesh, the cutter's
+signed clearance at every dense pose and half-way between them enters each pose's error
+(``|d_M + own|``); without the mesh the path's chord tolerance is subtracted from [d_M]
+whole. The NC hook (:func:`..post.export.interpolate_for_nc`) always budgets.
+
 Units: mm and radians; joint vectors are (X, Y, Z, θ1, θ2).
 """
 

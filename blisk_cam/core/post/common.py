@@ -141,13 +141,14 @@ def frame_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
             "description's origin, part frame from its [part] table",
             f"part origin {po} mm from the machine description's origin (rotaries at 0)")]
     where, mode = WORK_OFFSET.get(ctx.post, ("set the work offset (G54 / preset)", "TCP"))
+    controller = ctx.post in WORK_OFFSET  # APT: CL data for a downstream post
     lines = [
         "work offset at the part (paths) origin, axes along the paths x y z; X Y Z = tool tip",
         f"work offset: {where} to the part origin {po} mm (machine coordinates, rotaries at 0)",
     ]
     lines += [f"{mode} needs the control's kinematic data to hold: {r.name} axis "
               f"({', '.join(fvec(r.axis))}) through {_xyz(r.point)} (machine coordinates, "
-              "rotaries at 0)" for r in m.rotaries]
+              "rotaries at 0)" for r in m.rotaries if controller]
     inner = [r for r, on_table in zip(m.rotaries, m.tables, strict=True) if on_table]
     if inner:
         r = inner[-1]
