@@ -68,6 +68,12 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
                         help="post a path whose collision check left unresolved poses (the "
                         "program header then says how many and where); without it such a "
                         "path is refused")
+    if with_paths:  # 'paths' has the mesh already
+        parser.add_argument("--part-mesh", default=None, metavar="FILE",
+                            help="the blade mesh the paths were planned on (.stl .obj .ply, "
+                            "mm): --interpolation constant-error then budgets the planned "
+                            "path's own deviation from it in every block (without it the "
+                            "path's chord tolerance is budgeted whole)")
     parser.add_argument("--report", default=None, metavar="FILE.json",
                         help="also write the export report (with the interpolation's) as JSON")
     return parser
@@ -91,6 +97,19 @@ def machine_of(args):
     if getattr(args, "part_origin", None) is not None:
         machine = replace(machine, part_origin=np.array(args.part_origin, dtype=float))
     return machine
+
+
+def _part_mesh(args):
+    """The TriMesh of ``--part-mesh`` (None when not given); BliskCamError for a file that
+    cannot be read."""
+    f = getattr(args, "part_mesh", None)
+    if not f:
+        return None
+    from ..core.geometry.mesh import TriMesh
+    from ..core.geometry.mesh_io import read_mesh
+
+    V, F = read_mesh(f)
+    return TriMesh.from_arrays(V, F)
 
 
 def _whole_at_least_1(text):
@@ -132,14 +151,16 @@ def nc_options(args, **extra):
                      allow_collisions=bool(getattr(args, "allow_collisions", False)), **extra)
 
 
-def export_from_args(path, args, out, blade_name):
-    """Post ``path`` for ``args.machine``/``args.post`` into ``out``; prints the summary."""
+def export_from_args(path, args, out, blade_name, part=None):
+    """Post ``path`` for ``args.machine``/``args.post`` into ``out``; prints the summary.
+    ``part``: the part's mesh (constant-error budgets the planned path's own deviation from
+    it; without it the path's chord tolerance)."""
     try:
         options = nc_options(args, blade_name=blade_name)
     except BliskCamError as exc:  # options that only make sense together
 
         raise UsageError(str(exc)) from None
-    report = export_nc(path, machine_of(args), args.post, options, out)
+    report = export_nc(path, machine_of(args), args.post, options, out, part=part)
     print(report.summary())
     if report.gate.warning:
         print(f"{PROG}: warning: {report.gate.warning}", file=sys.stderr)
@@ -168,7 +189,8 @@ def run_nc(args) -> int:
         resolve_blade_count(args)
         check_file_roles(
             [("--paths", args.paths),
-             ("--machine", args.machine if str(args.machine).endswith(".toml") else None)],
+             ("--machine", args.machine if str(args.machine).endswith(".toml") else None),
+             ("--part-mesh", getattr(args, "part_mesh", None))],
             [("--out", args.out), ("--report", getattr(args, "report", None))])
         machine = machine_of(args)  # cheap: a bad machine file before the paths
         if not os.path.isfile(args.paths):
@@ -177,6 +199,7 @@ def run_nc(args) -> int:
         args.machine = machine
         get_post(args.post).check(machine)  # cheap refusals before the progress line
         collision_gate(path, bool(args.allow_collisions))
+        part = _part_mesh(args)
         folder = os.path.dirname(os.path.abspath(os.fspath(args.out)))
         if not os.path.isdir(folder):
             raise BliskCamError(f"cannot write {args.out}: the directory {folder} does not "
@@ -185,7 +208,8 @@ def run_nc(args) -> int:
         t = time.perf_counter()
         progress.report("nc", 0.0, "posting the NC program")
         export_from_args(path, args, args.out,
-                         os.path.splitext(os.path.basename(args.paths))[0])
+                         os.path.splitext(os.path.basename(args.paths))[0],
+                         part=part)
         progress.done("nc", time.perf_counter() - t)
     except UsageError as err:
         print(f"{PROG}: error: {' '.join(str(err).split())}", file=sys.stderr)

@@ -434,7 +434,7 @@ def _cmd_paths(args):
         progress.report("nc", 0.0, "posting the NC program")
         try:
             export_from_args(path, args, Path(args.nc).expanduser().resolve(),
-                             Path(args.mesh).stem)
+                             Path(args.mesh).stem, part=mesh)
             nc_written = True
         except CollisionGateError as exc:
             print(f"NC not written: {exc}")

@@ -12,6 +12,7 @@ from ..core.post.export import POSTS
 from .common import (
     output_filename,
     poll_generated_paths,
+    read_blade,
     report_exception,
     result_blade_name,
     settings_of,
@@ -43,6 +44,21 @@ def loaded_machine(settings, name=None):
         machine = replace(machine, part_origin=np.array([float(x) for x in
                                                          settings.part_origin]))
     return machine
+
+
+def _part_mesh(context, name, options):
+    """The blade's mesh for constant-error interpolation (it budgets the planned path's own
+    deviation from the part, issue 28); None otherwise or when the blade is gone (the path's
+    chord tolerance is budgeted then)."""
+    if options.interpolation != "constant-error":
+        return None
+    blade = bpy.data.objects.get(name) if name else None
+    if blade is None or blade.type != "MESH":
+        return None
+    from ..core.geometry.mesh import TriMesh
+
+    V, F = read_blade(context, blade)
+    return TriMesh.from_arrays(V, F)
 
 
 class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
@@ -79,7 +95,8 @@ class BLISKCAM_OT_export_nc(bpy.types.Operator, ExportHelper):
             # collisions unless Export Anyway is ticked, and then marks them in the header
             options = nc_options(settings, blade_name=name,
                                  allow_collisions=bool(settings.export_anyway))
-            report = export_nc(path, machine, post, options, filename)
+            report = export_nc(path, machine, post, options, filename,
+                               part=_part_mesh(context, name, options))
             if report.interpolation is not None:  # the blocks, coloured by measured error
                 from ..blender.collision_objects import write_block_error_object
                 from ..core.machine.interpolation import block_segments

@@ -28,6 +28,7 @@ __all__ = [
     "FLOOR_TORUS",
     "block_bounds",
     "block_bounds_rows",
+    "cutter_clearance",
     "chord_heights",
     "chord_heights_rows",
     "concat_passes",
@@ -72,6 +73,17 @@ class DensePass:
     gP, gT : (m, 5) error gradients (:func:`.block_error.error_gradients`);
     Jc : (m, 3, 5) corner-centre Jacobian; source : (m,) float — position in the input pass
     (fractional between its poses); rho : mm, curvature radius for the lateral remainder term.
+
+    The budget of the planned path's own deviation from the part (issue 28: the promise is
+    kept against the part, not against the planned path): ``own`` (m,) mm — the signed
+    clearance of the cutter on the dense planned path from the part, minus the allowance the
+    path leaves (> 0 material left, < 0 gouge; None: not budgeted, the error is taken from the
+    planned path as before); ``margin`` mm — what is not known of it (without the part's
+    mesh: the planned path's chord tolerance), added to every bound; ``own_step`` (m,) mm —
+    how much ``own`` changes to the next or previous dense pose (the deviated pose is compared
+    with the nearest pose, which may be one off where a coarse mesh's facet edge makes ``own``
+    jump), added per pose; ``target`` mm — the
+    clearance the path aims at (its allowance), for measuring against the part.
     """
 
     q: np.ndarray
@@ -88,6 +100,10 @@ class DensePass:
     machine: Machine | None = None
     allowance: float = ALLOWANCE
     floor: float = FLOOR
+    own: np.ndarray | None = None
+    own_step: np.ndarray | None = None
+    margin: float = 0.0
+    target: float = 0.0
 
     def __len__(self) -> int:
         return len(self.q)
@@ -118,9 +134,17 @@ def concat_passes(passes) -> tuple[DensePass, np.ndarray]:
         return passes[0], offs
     cat = {k: np.concatenate([getattr(p, k) for p in passes])
            for k in ("q", "tip", "axis", "normal", "lever", "centre", "gP", "gT", "Jc", "source")}
+    owns = [p.own for p in passes]
+    own = None if all(o is None for o in owns) else np.concatenate(
+        [np.zeros(len(p)) if o is None else o for p, o in zip(passes, owns, strict=True)])
+    steps = [p.own_step for p in passes]
+    own_step = None if all(o is None for o in steps) else np.concatenate(
+        [np.zeros(len(p)) if o is None else o for p, o in zip(passes, steps, strict=True)])
     return DensePass(**cat, rho=min(p.rho for p in passes), machine=passes[0].machine,
                      allowance=max(p.allowance for p in passes),
-                     floor=max(p.floor for p in passes)), offs
+                     floor=max(p.floor for p in passes), own=own, own_step=own_step,
+                     margin=max(p.margin for p in passes),
+                     target=passes[0].target), offs
 
 
 _CHUNK_ELEMS = 200_000  # rows × dense poses per vectorised evaluation (memory)
@@ -151,7 +175,10 @@ def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
     plus max_j of the lateral remainder ``|ΔC_⊥n|² / (2 ρ)`` (the cutter leaving the contact
     sideways, offset curvature radius ≥ ρ; paper 002 neglects it, §3.1), times
     (1 + ``allowance``) (None: :data:`ALLOWANCE`, :data:`ALLOWANCE_TORUS` for a cutter with a
-    corner circle off the axis), plus :data:`FLOOR` (:data:`FLOOR_TORUS`).
+    corner circle off the axis), plus :data:`FLOOR` (:data:`FLOOR_TORUS`). With the planned
+    path's own deviation budgeted (``dp.own``, :class:`DensePass`) each d_M (l_P for
+    ``paper``) is taken with it, ``|d_M + own_j|`` — the error against the part — and at the
+    block's two ends ``|own|``; ``dp.margin`` is added.
 
     Returns (R,) bounds; with ``detail`` a tuple (bound, max |l_P|, max |l_θ|, largest linear
     (mm) and rotary (rad) trajectory deviation), each (R,)."""
@@ -198,10 +225,12 @@ def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
         dC = dCf.reshape(R, Jn, 3)
     lat2 = np.maximum(np.einsum("rja,rja->rj", dC, dC) - dM * dM, 0.0)
     rem = np.where(mask, lat2 / (2.0 * dp.rho), 0.0).max(axis=1)
+    own = None if dp.own is None else dp.own[J]
+    slack = 0.0 if dp.own_step is None else dp.own_step[J]
     if bound == "pointwise":
-        b = np.where(mask, np.abs(dM), 0.0).max(axis=1)
+        b = np.where(mask, np.abs(dM if own is None else dM + own) + slack, 0.0).max(axis=1)
     else:
-        aP = np.where(mask, np.abs(lP), 0.0)
+        aP = np.where(mask, np.abs(lP if own is None else lP + own) + slack, 0.0)
         aT = np.where(mask, np.abs(lT), 0.0)
         sg = np.sign(dM)
         brk = np.zeros(mask.shape, bool)
@@ -213,7 +242,9 @@ def block_bounds_rows(dp: DensePass, s, e, *, bound: str = "pointwise",
         row = starts // Jn
         b = np.zeros(R)
         np.maximum.at(b, row, mP + mT)
-    out = (b + rem) * (1.0 + allowance) + dp.floor
+    if own is not None:  # the block's ends lie on the planned path: its own deviation there
+        b = np.maximum(b, np.maximum(np.abs(dp.interp(dp.own, s)), np.abs(dp.interp(dp.own, e))))
+    out = (b + rem) * (1.0 + allowance) + dp.floor + dp.margin
     if not detail:
         return out
     dev_lin = np.where(mask, np.linalg.norm(dqj[..., :3], axis=2), 0).max(axis=1)
@@ -377,10 +408,12 @@ def _as_list(dense):
 
 
 def search_constant_error(dense, max_error: float, *, bound: str = "pointwise",
-                          max_rotary_step=None, pose_model: str = "exact"):
+                          max_rotary_step=None, pose_model: str = "exact",
+                          min_step: float = 1e-3):
     """Block ends: the longest blocks whose error bound (:func:`block_bounds_rows`) stays
     ≤ ``max_error`` mm = [d_M] (paper 002 §3.2, Fig. 11). ``dense``: a DensePass (→ (B + 1,)
-    dense positions) or a list of them (→ list; searched together)."""
+    dense positions) or a list of them (→ list; searched together). ``min_step``: the
+    shortest block, dense steps (where even it exceeds the bound)."""
     _check_positive("max_error", max_error)
     if bound not in BOUNDS:
         raise InterpolationError(f"unknown bound {bound!r}; use one of {', '.join(BOUNDS)}")
@@ -392,7 +425,8 @@ def search_constant_error(dense, max_error: float, *, bound: str = "pointwise",
                                               pose_model="jacobian")
     out = _search(dp, offs, lambda s, e: block_bounds_rows(dp, s, e, bound=bound,
                                                           pose_model=pose_model),
-                  float(max_error), fast=fast, max_rotary_step=max_rotary_step)
+                  float(max_error), fast=fast, max_rotary_step=max_rotary_step,
+                  min_step=min_step)
     return out[0] if single else out
 
 
@@ -456,6 +490,13 @@ def _clearance(machine, cutter, md, q, normal=None):
     return d - r, c
 
 
+def cutter_clearance(machine, cutter, mesh, q, normal):
+    """(k,) mm signed clearance of the cutter at joints q (k, 5) from the mesh (TriMesh or
+    MeshDistance): > 0 off the surface, < 0 in it (:func:`_clearance`)."""
+    md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)
+    return _clearance(machine, cutter, md, np.asarray(q, dtype=np.float64), normal)[0]
+
+
 def _foot(dp: DensePass, c) -> np.ndarray:
     """(k,) dense positions of the foot points of corner centres c (k, 3) on the dense
     centre polyline (the nearest dense pose's two segments, perpendicular projection)."""
@@ -490,7 +531,9 @@ def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
     (:func:`_clearance`) minus that of the planned dense path (nearest dense pose) — > 0
     undercut, < 0 overcut. Without a mesh: the corner centre's offset from the nearest dense
     pose's centre along that pose's surface normal (no linearisation of the machine; the
-    surface taken as its tangent plane).
+    surface taken as its tangent plane). With the planned path's own deviation budgeted
+    (``dp.own``): against the part — with ``mesh`` the cutter's clearance minus ``dp.target``
+    (the path's allowance), without it the offset above plus ``dp.own`` at the foot point.
 
     Returns (B,) max |error|, (B,) most negative (overcut, ≤ 0), (B,) most positive (≥ 0), mm.
     """
@@ -513,13 +556,15 @@ def measure_blocks(machine: Machine, cutter, dp: DensePass, ends, *, mesh=None,
     c = _spine_point(cutter, tip, ax, nf)
     if mesh is not None:
         md = mesh if isinstance(mesh, MeshDistance) else MeshDistance(mesh)
-        if ref is None:
+        if ref is None and dp.own is None:
             ref, _ = _clearance(machine, cutter, md, dp.q, dp.normal)
         val, _ = _clearance(machine, cutter, md, Q, nf)
-        err = val - dp.interp(ref, foot)
+        err = (val - dp.target) if dp.own is not None else (val - dp.interp(ref, foot))
     else:
         cf = dp.interp(dp.centre, foot)
         err = np.einsum("ij,ij->i", c - cf, nf)
+        if dp.own is not None:
+            err = err + dp.interp(dp.own, foot)
     mx = np.zeros(B)
     lo = np.zeros(B)
     hi = np.zeros(B)

@@ -33,6 +33,14 @@ block's joint motion, runs forward kinematics and takes the signed distance from
 (the centre of its corner circle, minus the corner radius) to the mesh, minus the same quantity
 on the planned dense path: the per-block maximum over/undercut.
 
+Against the part (issue 28): the bound above is the machine's deviation from the planned
+dense path, but the planned path itself strays from the part (tip linear and axis on the
+great circle between its poses, poses on a faceted or noisy mesh). ``part`` budgets that own
+deviation in every block (:func:`budget_own_deviation`): from the part's mesh, the cutter's
+signed clearance at every dense pose and half-way between them enters each pose's error
+(``|d_M + own|``); without the mesh the path's chord tolerance is subtracted from [d_M]
+whole. The NC hook (:func:`..post.export.interpolate_for_nc`) always budgets.
+
 Units: mm and radians; joint vectors are (X, Y, Z, θ1, θ2).
 """
 
@@ -58,6 +66,7 @@ from .block_search import (
     InterpolationError,
     _check_positive,
     block_bounds_rows,
+    cutter_clearance,
     measure_blocks,
     search_chord,
     search_constant_error,
@@ -67,6 +76,7 @@ from .kinematics import solve_poses
 
 __all__ = [
     "block_segments",
+    "budget_own_deviation",
     "METHODS",
     "BlockSet",
     "InterpolationReport",
@@ -207,6 +217,9 @@ class InterpolationReport:
     measured_max: float = 0.0
     measured_kind: str = "path"
     corner: tuple = (0.0, 0.0)
+    #: what of the planned path's own deviation from the part the blocks budget (issue 28):
+    #: "" (none: the error from the planned path), "part mesh", "chord tolerance"
+    budget: str = ""
     sets: list = field(default_factory=list, repr=False)
 
     @property
@@ -232,6 +245,7 @@ class InterpolationReport:
             "bound_band_pct": [round(100 * x, 1) for x in self.bound_band],
             "corner_tolerance": {"linear_mm": self.corner[0],
                                  "rotary_deg": math.degrees(self.corner[1])},
+            "own_deviation_budget": self.budget or None,
         }
 
     def summary(self) -> str:
@@ -244,6 +258,18 @@ class InterpolationReport:
                 f"{100 * self.measured_band[0]:.1f}–{100 * self.measured_band[1]:.1f} % of {ref}; "
                 f"corner tolerance {1000 * self.corner[0]:.1f} µm / "
                 f"{math.degrees(self.corner[1]):.4f}°")
+
+    def budget_line(self) -> str:
+        """One line on what of the planned path's own deviation from the part the blocks
+        budget ("" when none)."""
+        if self.budget == "part mesh":
+            return ("constant-error against the part: the planned path's own deviation from "
+                    f"the part's mesh is counted in every block's [dM] {self.max_error:g} mm")
+        if self.budget == "chord tolerance":
+            return ("constant-error against the part: the planned path's chord tolerance is "
+                    f"budgeted in every block's [dM] {self.max_error:g} mm (no mesh at hand; "
+                    "a scan-like mesh can exceed it: give the part's mesh)")
+        return ""
 
 
 def _corner_thresholds(dp: DensePass, ends, bounds, dev_lin, dev_rot, max_error):
@@ -304,16 +330,49 @@ def _check_request(method, max_error, chord_height, bound, max_spacing):
     _check_positive("max_spacing", max_spacing)
 
 
-def _dense_passes(path: ToolPath, machine, runs, qall, max_spacing, max_turn):
-    """The DensePass of every cut run (``qall`` (m, 6): the joints of every program row)."""
+def budget_own_deviation(dp: DensePass, machine, cutter, *, mesh=None, allowance=0.0,
+                         chord=0.0) -> DensePass:
+    """``dp`` with the planned path's own deviation from the part budgeted (issue 28: the
+    error promise holds against the part). With ``mesh`` (TriMesh or MeshDistance): the
+    cutter's signed clearance at every dense pose minus ``allowance`` (the planned path
+    between its poses, tip linear and axis on the great circle, strays from the surface by
+    up to its chord tolerance, and the planned poses sit on a faceted mesh); without it the
+    deviation is not known and the path's ``chord`` tolerance is budgeted whole
+    (``margin``). Every block's bound then counts it (:func:`.block_search.block_bounds_rows`)
+    and :func:`.block_search.measure_blocks` measures against the part."""
+    if mesh is not None:
+        own = cutter_clearance(machine, cutter, mesh, dp.q, dp.normal) - float(allowance)
+        # and half-way between the dense poses (a coarse mesh's facets show there): each
+        # pose's value is the one of largest size among it and its two half-way points
+        u = np.arange(len(dp) - 1) + 0.5
+        half = cutter_clearance(machine, cutter, mesh, dp.joints_at(u),
+                                dp.interp(dp.normal, u)) - float(allowance)
+        cand = np.stack([own, np.append(half, own[-1]), np.insert(half, 0, own[0])])
+        own = cand[np.argmax(np.abs(cand), axis=0), np.arange(len(dp))]
+        jump = np.abs(np.diff(own))
+        step = np.maximum(np.append(jump, 0.0), np.insert(jump, 0, 0.0))
+        return replace(dp, own=own, own_step=step, margin=0.0, target=float(allowance))
+    return replace(dp, own=np.zeros(len(dp)), margin=float(chord), target=float(allowance))
+
+
+def _dense_passes(path: ToolPath, machine, runs, qall, max_spacing, max_turn, *,
+                  budget=False, mesh=None):
+    """The DensePass of every cut run (``qall`` (m, 6): the joints of every program row);
+    with ``budget`` the planned path's own deviation budgeted (:func:`budget_own_deviation`,
+    against ``mesh`` when given)."""
     prog = path.program
     dense = []
     for a, b in runs:
         c = path.curves[int(prog.curve[a])]
         normal = c.normal[np.asarray(prog.index[a:b + 1])]
-        dense.append(prepare_pass(machine, path.tool, prog.tip[a:b + 1], prog.axis[a:b + 1],
-                                  normal, max_spacing=max_spacing, max_turn=max_turn,
-                                  q=qall[a:b + 1]))
+        dp = prepare_pass(machine, path.tool, prog.tip[a:b + 1], prog.axis[a:b + 1],
+                          normal, max_spacing=max_spacing, max_turn=max_turn,
+                          q=qall[a:b + 1])
+        if budget:
+            dp = budget_own_deviation(dp, machine, path.tool, mesh=mesh,
+                                      allowance=float(getattr(path, "allowance", 0.0) or 0.0),
+                                      chord=float(path.chord))
+        dense.append(dp)
     return dense
 
 
@@ -374,7 +433,7 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
                         max_error: float | None = None, chord_height: float | None = None,
                         mesh=None, bound: str = "pointwise", max_spacing: float = 0.1,
                         max_turn: float = math.radians(0.1), max_rotary_step=None,
-                        measure: bool = True):
+                        measure: bool = True, part=None):
     """Thin the cut poses of ``path.program`` into NC blocks for ``machine``.
 
     Each maximal run of cut moves of one pass (with the pose before it, when on the same
@@ -387,8 +446,15 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
     chord for that).
 
     ``mesh`` (TriMesh or MeshDistance): the measured error is taken against it; otherwise
-    against the planned path (:func:`measure_blocks`). Returns (ToolPath with the thinned
-    program, :class:`InterpolationReport`). Raises InterpolationError for bad input,
+    against the planned path (:func:`measure_blocks`).
+
+    ``part``: constant-error keeps its bound against the part, not only against the planned
+    path (issue 28): ``part`` is the part's mesh (TriMesh or MeshDistance; True: ``mesh``)
+    — every dense pose's own clearance from it is counted in the blocks' bounds
+    (:func:`budget_own_deviation`) — or ``"chord"`` when the mesh is not at hand: the path's
+    chord tolerance is budgeted whole. None (default): as before, the error from the planned
+    path. With ``part`` the measured error is against the part too. Returns (ToolPath with
+    the thinned program, :class:`InterpolationReport`). Raises InterpolationError for bad input,
     ReachError for an unreachable pose."""
     _check_request(method, max_error, chord_height, bound, max_spacing)
     if not isinstance(machine, Machine):
@@ -408,13 +474,33 @@ def interpolate_program(path: ToolPath, machine, method: str = "constant-error",
     ik = solve_poses(machine, prog.tip, prog.axis, moves=prog.move)
     qall = np.hstack([ik.xyz, ik.angles])
     t0 = time.perf_counter()
-    dense = _dense_passes(path, machine, runs, qall, max_spacing, max_turn)
+    budget = part is not None and method == "constant-error"
+    part_mesh = None
+    if budget and part is True:
+        part_mesh = md if md is not None else mesh
+    elif budget and not isinstance(part, str):
+        part_mesh = part if isinstance(part, MeshDistance) else MeshDistance(part)
+    if budget and part_mesh is None and not (part is True or part == "chord"):
+        raise InterpolationError(f"part must be a mesh, True or 'chord', got {part!r}")
+    if budget and part_mesh is None and float(path.chord) >= float(max_error):
+        raise InterpolationError(
+            f"constant-error --max-error {max_error:g} mm: the path's chord tolerance "
+            f"{path.chord:g} mm (its own deviation from the part, budgeted whole without the "
+            "part's mesh) leaves nothing for the blocks; plan with a chord well below the max "
+            "error (e.g. 0.002 mm) or give the blade mesh (nc --part-mesh)")
+    dense = _dense_passes(path, machine, runs, qall, max_spacing, max_turn, budget=budget,
+                          mesh=part_mesh)
+    if budget:
+        rep.budget = "part mesh" if part_mesh is not None else "chord tolerance"
     t1 = time.perf_counter()
     if not dense:
         all_ends = []
     elif method == "constant-error":
+        # budgeted against the part, a block never shorter than one dense step: where the
+        # planned path's own deviation alone exceeds [dM] no block length keeps the bound
         all_ends = search_constant_error(dense, max_error, bound=bound,
-                                         max_rotary_step=max_rotary_step)
+                                         max_rotary_step=max_rotary_step,
+                                         min_step=1.0 if budget else 1e-3)
     else:
         all_ends = search_chord(dense, chord_height, max_rotary_step=max_rotary_step)
     t2 = time.perf_counter()

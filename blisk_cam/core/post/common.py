@@ -17,8 +17,8 @@ from ..toolpath.types import MOVE_RAPID, ToolPath
 from ..version import __version__
 from .blocks import SAFE, Blocks, NcOptions
 
-__all__ = ["PostContext", "ascii_text", "fmt", "fvec", "header_lines", "tool_text", "version",
-           "write_atomic", "write_program_folder"]
+__all__ = ["PostContext", "ascii_text", "fmt", "frame_lines", "fvec", "header_lines",
+           "tool_text", "version", "write_atomic", "write_program_folder"]
 
 #: a file holding this text (in its first 4 kB) was written by Blisk CAM and may be replaced
 OWN_MARK = "Blisk CAM"
@@ -107,18 +107,53 @@ def header_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
         f"post: {ctx.post}  units: mm, degrees",
         *getattr(o, "notes", ()),
     ]
-    po = " ".join(f"{a}{fmt(v)}" for a, v in zip("XYZ", m.part_origin, strict=True))
-    if tcp:
-        lines.append(
-            "work offset at the part (paths) origin, axes along the paths x y z; X Y Z = tool tip"
-        )
-        lines.append(f"set the work offset (G54 / preset) to the part origin {po} mm, in the "
-                     "machine description's frame with the rotaries at 0")
-    else:
-        lines.append("joint program, no TCP: X Y Z = machine tip position; G54 at the machine "
-                     "description's origin, part frame from its [part] table")
-        lines.append(f"part origin {po} mm from the machine description's origin (rotaries "
-                     "at 0)")
+    lines += frame_lines(ctx, tcp=tcp)
+    return [ascii_text(line) for line in lines]
+
+
+def _xyz(v) -> str:
+    return " ".join(f"{a}{fmt(c)}" for a, c in zip("XYZ", v, strict=True))
+
+
+#: per TCP post: (where the work offset is set, what the control's TCP mode is called)
+WORK_OFFSET = {
+    "fanuc": ("set work offset G54", "TCP (G43.4)"),
+    "siemens": ("set the settable frame G54", "TRAORI"),
+    "heidenhain": ("set the active preset (preset table row; datum)", "M128"),
+}
+
+
+def frame_lines(ctx: PostContext, *, tcp: bool) -> list[str]:
+    """The header lines that say which frame the program is in (ASCII).
+
+    TCP posts: X Y Z are the tool tip in the part (paths) frame, whose origin the work offset
+    holds — stated in the controller's terms (:data:`WORK_OFFSET`: G54 for Fanuc and
+    Siemens, the preset table for Heidenhain) as the part origin in machine coordinates with
+    the rotaries at 0 — and the rotary axis lines the control's kinematic data must hold for
+    its TCP mode to place the tool there (direction and a point, machine coordinates,
+    rotaries at 0; the part origin from the innermost table rotary's point). Joint programs:
+    the machine description's frame and the part origin in it."""
+    m = ctx.machine
+    po = _xyz(m.part_origin)
+    if not tcp:
+        return [ascii_text(line) for line in (
+            "joint program, no TCP: X Y Z = machine tip position; G54 at the machine "
+            "description's origin, part frame from its [part] table",
+            f"part origin {po} mm from the machine description's origin (rotaries at 0)")]
+    where, mode = WORK_OFFSET.get(ctx.post, ("set the work offset (G54 / preset)", "TCP"))
+    controller = ctx.post in WORK_OFFSET  # APT: CL data for a downstream post
+    lines = [
+        "work offset at the part (paths) origin, axes along the paths x y z; X Y Z = tool tip",
+        f"work offset: {where} to the part origin {po} mm (machine coordinates, rotaries at 0)",
+    ]
+    lines += [f"{mode} needs the control's kinematic data to hold: {r.name} axis "
+              f"({', '.join(fvec(r.axis))}) through {_xyz(r.point)} (machine coordinates, "
+              "rotaries at 0)" for r in m.rotaries if controller]
+    inner = [r for r, on_table in zip(m.rotaries, m.tables, strict=True) if on_table]
+    if inner:
+        r = inner[-1]
+        lines.append(f"part origin from the {r.name} axis point: {_xyz(m.part_origin - r.point)} "
+                     "mm")
     return [ascii_text(line) for line in lines]
 
 

@@ -77,22 +77,30 @@ class NcReport:
             + (f"; WARNING: {self.unresolved} segments beyond the chord tolerance"
                if self.unresolved else "")
             + (f"\n{self.interpolation.summary()}" if self.interpolation is not None else "")
+            + (f"\n{self.interpolation.budget_line()}"
+               if self.interpolation is not None and self.interpolation.budget_line() else "")
         )
 
 
-def interpolate_for_nc(path: ToolPath, machine: Machine, options: NcOptions):
+def interpolate_for_nc(path: ToolPath, machine: Machine, options: NcOptions, part=None):
     """``options.interpolation`` set: the path with its cut blocks chosen by
     :func:`..machine.interpolation.interpolate_program` (rotary steps ≤
     ``options.max_rotary_step``),
-    the options with the header note, and the InterpolationReport; else (path, options, None)."""
+    the options with the header note, and the InterpolationReport; else (path, options, None).
+    Constant-error keeps ``--max-error`` against the part (issue 28): the planned path's own
+    deviation from ``part`` (the part's mesh, TriMesh or MeshDistance) is budgeted in every
+    block; without the mesh its chord tolerance is budgeted whole."""
     if not options.interpolation:
         return path, options, None
 
     new, rep = interpolate_program(path, machine, options.interpolation,
                                    max_error=options.max_error,
                                    chord_height=options.chord_height,
-                                   max_rotary_step=options.max_rotary_step)
-    return new, replace(options, notes=(*options.notes, rep.summary())), rep
+                                   max_rotary_step=options.max_rotary_step,
+                                   mesh=part,
+                                   part=("chord" if part is None else True))
+    notes = (rep.summary(), rep.budget_line()) if rep.budget_line() else (rep.summary(),)
+    return new, replace(options, notes=(*options.notes, *notes)), rep
 
 
 def check_finite(path: ToolPath) -> None:
@@ -112,12 +120,13 @@ def check_finite(path: ToolPath) -> None:
 
 def nc_program(path: ToolPath, machine: Machine | str, post: str,
                options: NcOptions | None = None, *, reports: list | None = None,
-               gates: list | None = None) -> tuple[str, Blocks]:
+               gates: list | None = None, part=None) -> tuple[str, Blocks]:
     """The NC text and the block stream (no file). The collision gate first
     (:func:`.gate.collision_gate`: CollisionGateError for unresolved collisions unless
     ``options.allow_collisions``; its notes head the program, its result is appended to
     ``gates`` when given). With ``options.interpolation`` the cut blocks are chosen first
-    (:func:`interpolate_for_nc`); its report is appended to ``reports`` when given."""
+    (:func:`interpolate_for_nc`, against the mesh ``part`` when given); its report is appended
+    to ``reports`` when given."""
     options = options or NcOptions()
     check_finite(path)
     gate = collision_gate(path, options.allow_collisions)
@@ -129,7 +138,7 @@ def nc_program(path: ToolPath, machine: Machine | str, post: str,
         machine = load_machine(machine)
     mod = get_post(post)
     mod.check(machine)
-    path, options, irep = interpolate_for_nc(path, machine, options)
+    path, options, irep = interpolate_for_nc(path, machine, options, part)
     if reports is not None and irep is not None:
         reports.append(irep)
     blocks = build_blocks(path, machine, options, indexable=mod.INDEXABLE,
@@ -142,8 +151,9 @@ def nc_program(path: ToolPath, machine: Machine | str, post: str,
 
 
 def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOptions | None,
-              filename) -> NcReport:
-    """Write the NC program of ``path`` for ``machine`` with ``post`` to ``filename``.
+              filename, *, part=None) -> NcReport:
+    """Write the NC program of ``path`` for ``machine`` with ``post`` to ``filename``
+    (``part``: the part's mesh, for constant-error interpolation, :func:`interpolate_for_nc`).
 
     Raises MachineError, ReachError (pose/axis/value), PostError (unknown post, unsupported
     machine, missing output directory, unresolved collisions not allowed:
@@ -157,7 +167,8 @@ def export_nc(path: ToolPath, machine: Machine | str, post: str, options: NcOpti
         machine = load_machine(machine)
     ireps: list = []
     gates: list = []
-    text, blocks = nc_program(path, machine, post, options, reports=ireps, gates=gates)
+    text, blocks = nc_program(path, machine, post, options, reports=ireps, gates=gates,
+                              part=part)
     write_atomic(filename, text)
     mod = get_post(post)
     full = blocks.expanded()

@@ -17,7 +17,7 @@ from ..errors import BliskCamError, PostError
 from ..machine.description import Machine, load_machine
 from ..toolpath.types import ToolPath
 from .blocks import Blocks, NcOptions, build_blocks
-from .common import PostContext, ascii_text, block_minutes, header_lines, tool_text, version
+from .common import PostContext, ascii_text, block_minutes, frame_lines, tool_text, version
 from .export import check_finite, get_post, interpolate_for_nc
 from .gate import collision_gate
 
@@ -100,7 +100,7 @@ def job_program(sections, machine: Machine | str, post: str, *,
             f"post: {mod.NAME}  units: mm, degrees",
             *(f"T{s.options.tool_number}: {tool_text(s.path.tool)} - {s.title}"
               for s in solved),
-            *header_lines(contexts[0][1], tcp=mod.TCP)[-2:],  # the frame the program is in
+            *frame_lines(contexts[0][1], tcp=mod.TCP),  # the frame the program is in
             *header]
     text = mod.write_job(contexts, [ascii_text(h) for h in head])
     return ascii_text(text), solved
