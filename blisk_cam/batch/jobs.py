@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..core.errors import BliskCamError
+from ..core.files import file_sha256
 from ..core.version import __version__
 
 __all__ = ["COMMANDS", "Job", "JobsError", "Task", "load_jobs", "argv_of"]
@@ -95,16 +96,8 @@ class Job:
     hash: str = ""
 
 
-def _file_hash(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 def _job_hash(command: str, args: dict, inputs) -> str:
-    files = {str(p): _file_hash(p) for p in inputs if p.is_file()}
+    files = {str(p): file_sha256(p) for p in inputs if p.is_file()}
     text = json.dumps({"version": __version__, "command": command, "args": args,
                        "files": files}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()

@@ -25,6 +25,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..core.errors import BliskCamError
+from ..core.files import file_sha256
 from ..core.machine.description import Machine, known_presets, load_machine
 from ..core.post.blocks import NcOptions
 from ..core.post.common import write_atomic
@@ -72,8 +73,9 @@ def add_nc_arguments(parser: argparse.ArgumentParser, *, with_paths: bool = True
         parser.add_argument("--part-mesh", default=None, metavar="FILE",
                             help="the blade mesh the paths were planned on (.stl .obj .ply, "
                             "mm): --interpolation constant-error then budgets the planned "
-                            "path's own deviation from it in every block (without it the "
-                            "path's chord tolerance is budgeted whole)")
+                            "path's own deviation from it in every block (default: the mesh "
+                            "the paths JSON records, if unchanged; without a mesh the path's "
+                            "chord tolerance is budgeted whole)")
     parser.add_argument("--report", default=None, metavar="FILE.json",
                         help="also write the export report (with the interpolation's) as JSON")
     return parser
@@ -110,6 +112,35 @@ def _part_mesh(args):
 
     V, F = read_mesh(f)
     return TriMesh.from_arrays(V, F)
+
+
+def planned_mesh_stats(mesh_file, units: str = "mm") -> dict:
+    """What ``paths`` records in the JSON's ``stats`` of the mesh it planned on (absolute name,
+    units, SHA-256), so that ``nc`` can budget constant-error interpolation against it."""
+    return {"mesh_file": os.path.abspath(mesh_file), "mesh_units": units,
+            "mesh_sha256": file_sha256(mesh_file)}
+
+
+def recorded_mesh(path):
+    """The mesh the paths were planned on, as recorded by :func:`planned_mesh_stats`, when the
+    file is still there with the same bytes; else None, with a warning on stderr saying why
+    (nothing recorded: None, silently — the program header says what was budgeted)."""
+    from ..core.geometry.mesh import TriMesh
+    from ..core.geometry.mesh_io import read_mesh, to_mm
+
+    f, sha = path.stats.get("mesh_file"), path.stats.get("mesh_sha256")
+    if not f or not sha:
+        return None
+    why = ("is not there any more" if not os.path.isfile(f)
+           else "has changed since the paths were planned" if file_sha256(f) != sha else None)
+    if why:
+        print(f"{PROG}: warning: the blade mesh {f} {why}: constant-error budgets the path's "
+              "chord tolerance whole; give the blade mesh with --part-mesh", file=sys.stderr)
+        return None
+    V, F = read_mesh(f)
+    print(f"{PROG}: constant-error measured against {f}, the mesh the paths were planned on "
+          "(--part-mesh gives another)", file=sys.stderr)
+    return TriMesh.from_arrays(to_mm(V, path.stats.get("mesh_units", "mm")), F)
 
 
 def _whole_at_least_1(text):
@@ -160,6 +191,8 @@ def export_from_args(path, args, out, blade_name, part=None):
     except BliskCamError as exc:  # options that only make sense together
 
         raise UsageError(str(exc)) from None
+    if options.interpolation and part is None:
+        part = recorded_mesh(path)
     report = export_nc(path, machine_of(args), args.post, options, out, part=part)
     print(report.summary())
     if report.gate.warning:

@@ -23,7 +23,7 @@ from .flags import (
     option_args,
     positive,
 )
-from .nc import add_nc_arguments
+from .nc import add_nc_arguments, planned_mesh_stats
 
 ENGINES = ("AUTO", "WORKBENCH", "EEVEE", "CYCLES")
 FITS = ("auto", "cone", "profile")
@@ -410,6 +410,7 @@ def _cmd_paths(args):
     if plan.collision is not None:
         path.stats["seconds_collision"] = times["collision"]
     path.stats["seconds_wall"] = time.perf_counter() - t_wall + (startup or 0.0)
+    path.stats.update(planned_mesh_stats(args.mesh, args.units))
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
     print(f"wrote {out}: {_summary_line(path, times, report)}")

@@ -8,6 +8,7 @@ never leaves a half-written file where a good one was, and no temporary file is 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import tempfile
 
@@ -44,6 +45,15 @@ def atomic_output(filename, *, suffix: str = ".tmp", error: type[BliskCamError] 
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def file_sha256(filename) -> str:
+    """SHA-256 (hex) of a file's bytes, read in 1 MiB chunks."""
+    h = hashlib.sha256()
+    with open(filename, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
 
 
 def write_atomic(filename, data: str | bytes, *,

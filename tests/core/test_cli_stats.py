@@ -2,7 +2,9 @@
 time it reports (which counts from the process start, as the user waits), and every stage
 the CLI runs has its figure."""
 
+import hashlib
 import json
+import os
 
 import pytest
 
@@ -42,5 +44,8 @@ def test_stage_times_add_up_to_the_wall_time(blade, tmp_path, capsys):
     # verdict, which must stay small against the wall time
     assert total <= st["seconds_wall"] + 1e-6
     assert total >= 0.95 * st["seconds_wall"] - 0.05
+    # the mesh planned on, for nc's constant-error budget (tests/core/test_interpolation_part)
+    assert st["mesh_file"] == os.path.abspath(stl) and st["mesh_units"] == "mm"
+    assert st["mesh_sha256"] == hashlib.sha256(open(stl, "rb").read()).hexdigest()
     line = next(x for x in printed.splitlines() if x.startswith("time: "))
     assert "startup" in line and "write" in line and "wall" in line

@@ -138,3 +138,40 @@ def test_nc_part_mesh_flag(tmp_path, capsys):
     assert cli_main([*base, "--out", str(stl), "--part-mesh", str(stl)]) != 0
     capsys.readouterr()
     assert stl.stat().st_size == size
+
+
+def test_nc_budgets_against_the_mesh_the_paths_recorded(tmp_path, capsys):
+    """Without ``--part-mesh``, ``nc`` measures constant-error against the mesh the paths JSON
+    records (``paths`` writes its name and SHA-256 in ``stats``) while the file is unchanged;
+    once its bytes change it warns, names the file and budgets the chord whole (here: refused,
+    the chord equals the max error)."""
+    import json
+
+    from blisk_cam.cli.main import main as cli_main
+    from blisk_cam.cli.nc import planned_mesh_stats
+    from blisk_cam.core.toolpath.paths_io import write_paths_json
+    from tests.support.mesh_files import write_binary_stl
+
+    d = make_demo_blisk(resolution=0.5, fillet=True, fillet_radius=10.0)
+    stl = write_binary_stl(tmp_path / "blade.stl", d.blade_vertices, d.blade_faces)
+    mesh = TriMesh.from_arrays(d.blade_vertices, d.blade_faces)
+    req = PathRequest(axis=d.axis, cone1=Cone(203.0, -25.0, 214.0, 35.0), cone2=d.tip_cone,
+                      tool_radius=6.0, cusp=3.0, chord=0.01, axis_mode="radial",
+                      radial_tilt=D(75.0))
+    path = plan_paths(mesh, req).path
+    path.stats.update(planned_mesh_stats(stl))
+    js = tmp_path / "p.json"
+    write_paths_json(path, js)
+    rep, out = tmp_path / "r.json", tmp_path / "p.ngc"
+    base = ["nc", "--paths", str(js), "--machine", "ac-trunnion", "--post", "linuxcnc",
+            "--quiet", "--interpolation", "constant-error", "--max-error", "0.01",
+            "--out", str(out)]
+    capsys.readouterr()
+    assert cli_main([*base, "--report", str(rep)]) == 0
+    assert json.loads(rep.read_text())["interpolation"]["own_deviation_budget"] == "part mesh"
+    assert str(stl) in capsys.readouterr().err
+    write_binary_stl(stl, d.blade_vertices + 1e-3, d.blade_faces)  # the user's file changed
+    assert cli_main(base) == 1
+    err = capsys.readouterr().err
+    assert "has changed since the paths were planned" in err and str(stl) in err
+    assert "chord tolerance 0.01 mm" in err
