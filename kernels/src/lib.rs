@@ -12,6 +12,7 @@ mod closest;
 mod knn;
 mod step;
 mod stock;
+mod swept_ball;
 mod weld;
 
 use std::collections::HashMap;
@@ -340,5 +341,6 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(stock_remove, m)?)?;
     m.add_class::<FaceTree>()?;
     m.add_class::<PointTree>()?;
+    m.add_class::<swept_ball::SweptBallTree>()?;
     Ok(())
 }
