@@ -13,6 +13,7 @@ mod knn;
 mod step;
 mod stock;
 mod swept_ball;
+mod swept_cutter;
 mod weld;
 
 use std::collections::HashMap;
@@ -342,5 +343,6 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<FaceTree>()?;
     m.add_class::<PointTree>()?;
     m.add_class::<swept_ball::SweptBallTree>()?;
+    m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
     Ok(())
 }
