@@ -9,6 +9,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 mod closest;
+mod collision_refine;
 mod knn;
 mod step;
 mod stock;
@@ -344,5 +345,6 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PointTree>()?;
     m.add_class::<swept_ball::SweptBallTree>()?;
     m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     Ok(())
 }

@@ -30,7 +30,7 @@ pub struct Profile {
 
 /// `closest.segment_distance2_2d` for one point.
 #[inline(always)]
-fn seg2(px: f64, py: f64, ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
+pub fn seg2(px: f64, py: f64, ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
     let (dx, dy) = (bx - ax, by - ay);
     let dd = dx * dx + dy * dy;
     let (qx, qy) = (px - ax, py - ay);
@@ -43,7 +43,7 @@ fn seg2(px: f64, py: f64, ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
 
 /// np.minimum: NaN if either is NaN.
 #[inline(always)]
-fn nanmin(a: f64, b: f64) -> f64 {
+pub fn nanmin(a: f64, b: f64) -> f64 {
     if a.is_nan() || b.is_nan() {
         f64::NAN
     } else if a <= b {
@@ -54,6 +54,15 @@ fn nanmin(a: f64, b: f64) -> f64 {
 }
 
 impl Profile {
+    /// From the 17 floats of `sweep._profile` (e, f, r, h, B, S, T, sin/cos of the arc's
+    /// sector bounds, tan α, cos β, sin β).
+    pub fn from_slice(p: &[f64]) -> Profile {
+        Profile {
+            e: p[0], f: p[1], r: p[2], h: p[3], b: [p[4], p[5]], s: [p[6], p[7]], t: [p[8], p[9]],
+            sa: p[10], ca: p[11], sb: p[12], cb: p[13], tan_a: p[14], cos_b: p[15], sin_b: p[16],
+        }
+    }
+
     /// `Cutter.signed_distance_rz` of one meridional point.
     #[inline]
     pub fn sd_rz(&self, rho: f64, z: f64) -> f64 {
@@ -198,12 +207,7 @@ pub fn golden_pairs<'py>(
     if profile.len() != 17 {
         return Err(PyValueError::new_err("profile must hold 17 numbers"));
     }
-    let p = &profile;
-    let prof = Profile {
-        e: p[0], f: p[1], r: p[2], h: p[3], b: [p[4], p[5]], s: [p[6], p[7]], t: [p[8], p[9]],
-        sa: p[10], ca: p[11], sb: p[12], cb: p[13], tan_a: p[14], cos_b: p[15],
-        sin_b: p[16],
-    };
+    let prof = Profile::from_slice(&profile);
     let qq = crate::slice1(&q, "q")?;
     let uu = crate::slice1(&u, "u")?;
     let (ll, hh) = (crate::slice1(&lo, "lo")?, crate::slice1(&hi, "hi")?);

@@ -8,11 +8,13 @@ search's tolerance (far below 1e-9 mm at a smooth minimum)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "golden_pairs"]
+__all__ = ["available", "cutter_profile", "golden_pairs"]
 
 
 def available() -> bool:
@@ -33,3 +35,13 @@ def golden_pairs(profile, q, u, scal, lo, hi, xtol: float, threads: int):
         [float(x) for x in profile], c(q, dtype=np.int64), c(u, dtype=np.float64),
         [c(x, dtype=np.float64) for x in scal], c(lo, dtype=np.float64),
         c(hi, dtype=np.float64), float(xtol), max(1, int(threads)))
+
+
+def cutter_profile(cutter):
+    """The 17 constants of ``cutter.signed_distance_rz`` (a ``tool.cutter.Cutter``) for the
+    compiled kernels, the very floats it computes them from."""
+    g = cutter._g
+    B, S, T = g["B"], g["S"], g["T"]
+    return (cutter.e, cutter.f, cutter.r, cutter.h, *B, *S, *T, math.sin(g["th_lo"]),
+            math.cos(g["th_lo"]), math.sin(g["th_hi"]), math.cos(g["th_hi"]),
+            math.tan(cutter.alpha), math.cos(cutter.beta), math.sin(cutter.beta))

@@ -14,8 +14,6 @@ Units are mm; numpy/scipy only (no bpy).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -602,8 +600,8 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
                                D[order], lo[order], hi[order], xtol)
         return u, np.where(arg >= 0, order[np.maximum(arg, 0)], -1)
     if compiled_cutter.available():
-        return compiled_cutter.golden_pairs(_profile(cutter), q, u, (*scal, D), lo, hi, xtol,
-                                            workers())
+        return compiled_cutter.golden_pairs(compiled_cutter.cutter_profile(cutter), q, u,
+                                            (*scal, D), lo, hi, xtol, workers())
     C = np.stack([*scal, D])  # (9, m): za, zb, Ta, Tb, n0, m2, L2, φ, D
     za, zb, Ta, Tb, n0, m2, L2, phi, D = C
     idx = np.arange(m)
@@ -647,16 +645,6 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
                 np.take(x, keep) for x in (lo, hi, x1, x2, f1, f2, q, idx))
         lo, hi, x1, x2, f1, f2 = _golden_step(f, lo, hi, x1, x2, f1, f2)
     return u, arg
-
-
-def _profile(cutter):
-    """The 17 constants of ``cutter.signed_distance_rz`` for the compiled search (the same
-    floats it computes them from)."""
-    g = cutter._g
-    B, S, T = g["B"], g["S"], g["T"]
-    return (cutter.e, cutter.f, cutter.r, cutter.h, *B, *S, *T, math.sin(g["th_lo"]),
-            math.cos(g["th_lo"]), math.sin(g["th_hi"]), math.cos(g["th_hi"]),
-            math.tan(cutter.alpha), math.cos(cutter.beta), math.sin(cutter.beta))
 
 
 def swept_cutter(tool, curves, owners=None, method: str = "fast"):
