@@ -4,7 +4,7 @@
 //! same pruning by the point's best after every step, the same pairs dropped), the points
 //! in parallel. The cutter's distance is `Cutter.signed_distance_rz` operation for operation.
 
-use numpy::{PyArray1, PyReadonlyArray1};
+use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
@@ -255,4 +255,289 @@ pub fn golden_pairs<'py>(
         arg[k] = i;
     }
     Ok((PyArray1::from_vec(py, best), PyArray1::from_vec(py, arg)))
+}
+
+#[inline(always)]
+fn dot3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
+}
+
+/// np.maximum: NaN if either is NaN.
+#[inline(always)]
+fn nanmax(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else if a >= b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The tables of `_fast_search` (a SweptCutter's or a SweptForest's).
+pub struct Tables<'a> {
+    lt: &'a [[f64; 3]],
+    la: &'a [[f64; 3]],
+    ls: &'a [i64],
+    lphi: &'a [f64],
+    ldt: &'a [f64],
+    nb: usize,
+    ta: &'a [[f64; 3]],
+    tb: &'a [[f64; 3]],
+    kk: &'a [[f64; 3]],
+    bb: &'a [[f64; 3]],
+    chord_ok: &'a [bool],
+}
+
+/// `_sd_in_frame` of one point.
+#[inline]
+fn sd_in_frame(prof: &Profile, x: &[f64; 3], axis: &[f64; 3]) -> f64 {
+    let z = dot3(x, axis);
+    let rr = dot3(x, x) - z * z;
+    prof.sd_rz((if rr > 0.0 || rr.is_nan() { rr } else { 0.0 }).sqrt(), z)
+}
+
+/// Steps 1–4 of `_fast_search` for one point and its candidate leaves: (u, arg).
+#[allow(clippy::too_many_arguments)]
+fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f64, arg0: i64,
+              slack: f64, xtol: f64, delta: f64) -> (f64, i64) {
+    struct Cand {
+        sg: usize,
+        d0: [f64; 3],
+        d1: [f64; 3],
+        a0: [f64; 3],
+        z0: f64,
+        n0: f64,
+        phi: f64,
+        reach: f64,
+        eps: f64,
+        lb: f64,
+        dtip: f64,
+        v0: f64,
+        v1: f64,
+    }
+    let nb = tab.nb;
+    let h = prof.h;
+    let vpose = |zn: f64, nn: f64| {
+        let rr = nn - zn * zn;
+        prof.sd_rz((if rr > 0.0 || rr.is_nan() { rr } else { 0.0 }).sqrt(), zn)
+    };
+    // 1. heights above the tips, the chord bound
+    let mut cands: Vec<Cand> = Vec::new();
+    let mut x = vec![[0.0f64; 3]; nb + 1];
+    let mut zz = vec![0.0f64; nb + 1];
+    let mut nn = vec![0.0f64; nb + 1];
+    for &leaf in leaves {
+        let l = leaf as usize;
+        for j in 0..=nb {
+            let t = &tab.lt[l * (nb + 1) + j];
+            x[j] = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
+            zz[j] = dot3(&x[j], &tab.la[l * (nb + 1) + j]);
+            nn[j] = dot3(&x[j], &x[j]);
+        }
+        for j in 0..nb {
+            let sg = tab.ls[l * nb + j];
+            if sg < 0 {
+                continue;
+            }
+            let (z0, z1, n0, n1) = (zz[j], zz[j + 1], nn[j], nn[j + 1]);
+            let phi = tab.lphi[l * nb + j];
+            let dtip = tab.ldt[l * nb + j];
+            let reach = nanmax(n0, n1).sqrt();
+            let eps = (phi * phi * reach + 2.0 * phi * dtip) * (0.125 * (1.0 + 1e-9)) + slack;
+            let lb = nanmax(-nanmax(z0, z1), nanmin(z0, z1) - h) - eps;
+            if !(lb < u0) {
+                continue;
+            }
+            cands.push(Cand {
+                sg: sg as usize, d0: x[j], d1: x[j + 1], a0: tab.la[l * (nb + 1) + j], z0, n0, phi,
+                reach, eps, lb, dtip, v0: vpose(z0, n0), v1: vpose(z1, n1),
+            });
+        }
+    }
+    // 2. the values at the poses: the point's best so far (the last of equal ones), then the
+    // motion bound
+    let mut u = u0;
+    for c in &cands {
+        u = nanmin(u, nanmin(c.v0, c.v1));
+    }
+    let mut arg = if u0 <= u { arg0 } else { -1 };
+    for c in &cands {
+        if nanmin(c.v0, c.v1) <= u {
+            arg = c.sg as i64;
+        }
+    }
+    // 3. convexity along the chord: a bracket per move; then 4. the golden-section search
+    let mut pairs: Vec<Pair> = Vec::new();
+    let mut lo: Vec<f64> = Vec::new();
+    let mut hi: Vec<f64> = Vec::new();
+    let mut segs: Vec<usize> = Vec::new();
+    for c in &cands {
+        let dd = (c.dtip + c.phi * c.reach) * (1.0 + 1e-9) + slack;
+        let lb = nanmax(c.lb, 0.5 * (c.v0 + c.v1 - dd));
+        if !(lb < u) {
+            continue;
+        }
+        let k = &tab.kk[c.sg];
+        let v = &c.d1;
+        let (co, si) = ((-c.phi).cos(), (-c.phi).sin());
+        let kv = dot3(k, v);
+        let kx = [k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2], k[0] * v[1] - k[1] * v[0]];
+        let w = kv * (1.0 - co);
+        let p1 = [
+            v[0] * co + kx[0] * si + k[0] * w,
+            v[1] * co + kx[1] * si + k[1] * w,
+            v[2] * co + kx[2] * si + k[2] * w,
+        ];
+        let ch = [p1[0] - c.d0[0], p1[1] - c.d0[1], p1[2] - c.d0[2]];
+        let g0 = sd_in_frame(prof, &[c.d0[0] + delta * ch[0], c.d0[1] + delta * ch[1], c.d0[2] + delta * ch[2]], &c.a0);
+        let g1 = sd_in_frame(prof, &[p1[0] - delta * ch[0], p1[1] - delta * ch[1], p1[2] - delta * ch[2]], &c.a0);
+        let s0 = (g0 - c.v0) / delta;
+        let s1 = (g1 - c.v1) / delta;
+        let uu = u + c.eps + 2.0 * delta * dot3(&ch, &ch).sqrt() + slack;
+        // _bracket_below
+        let (mut tlo, mut thi) = (0.0f64, 1.0f64);
+        let ra = (uu - c.v0) / s0;
+        let rb = 1.0 - (uu - c.v1) / s1;
+        if s0 > 0.0 {
+            thi = nanmin(thi, ra);
+        }
+        if s0 < 0.0 {
+            tlo = nanmax(tlo, ra);
+        }
+        if s1 > 0.0 {
+            tlo = nanmax(tlo, rb);
+        }
+        if s1 < 0.0 {
+            thi = nanmin(thi, rb);
+        }
+        let dead = (s0 == 0.0 && c.v0 > uu) || (s1 == 0.0 && c.v1 > uu) || !uu.is_finite()
+            || tlo.is_nan() || thi.is_nan();
+        if dead {
+            tlo = 1.0;
+            thi = 0.0;
+        }
+        if !tab.chord_ok[c.sg] {
+            tlo = 0.0;
+            thi = 1.0;
+        }
+        if !(tlo <= thi) {
+            continue;
+        }
+        let (ta, tb, b) = (&tab.ta[c.sg], &tab.tb[c.sg], &tab.bb[c.sg]);
+        let dl = [tb[0] - ta[0], tb[1] - ta[1], tb[2] - ta[2]];
+        pairs.push(Pair {
+            za: c.z0, zb: dot3(&c.d0, b), ta: dot3(&dl, &c.a0), tb: dot3(&dl, b), n0: c.n0,
+            m2: 2.0 * dot3(&c.d0, &dl), l2: dot3(&dl, &dl), phi: c.phi, d: dd,
+        });
+        lo.push(tlo);
+        hi.push(thi);
+        segs.push(c.sg);
+    }
+    if pairs.is_empty() {
+        return (u, arg);
+    }
+    let (best, i) = search_point(prof, &pairs, &lo, &hi, 0, pairs.len(), u, xtol);
+    if best < u {
+        (best, segs[i.max(0) as usize] as i64)
+    } else {
+        (u, arg)
+    }
+}
+
+fn rows3<'a>(a: &'a numpy::PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 3]]> {
+    crate::points(a, what)
+}
+
+/// `_fast_search` (steps 1–4 of the fast method) on a chunk: points (k, 3), their first
+/// bounds and segments (k,), the candidate (point, leaf) pairs sorted by point, the points'
+/// rounding slack (k,), the tables; (u (k,), arg (k,)).
+#[pyfunction]
+#[pyo3(signature = (profile, pc, u, arg, q, leaf, slack, lt, la, ls, lphi, ldt, ta, tb, kk, bb,
+                    chord_ok, xtol, delta, threads))]
+#[allow(clippy::too_many_arguments)]
+pub fn fast_search<'py>(
+    py: Python<'py>,
+    profile: Vec<f64>,
+    pc: numpy::PyReadonlyArray2<'py, f64>,
+    u: PyReadonlyArray1<'py, f64>,
+    arg: PyReadonlyArray1<'py, i64>,
+    q: PyReadonlyArray1<'py, i64>,
+    leaf: PyReadonlyArray1<'py, i64>,
+    slack: PyReadonlyArray1<'py, f64>,
+    lt: numpy::PyReadonlyArray2<'py, f64>,
+    la: numpy::PyReadonlyArray2<'py, f64>,
+    ls: numpy::PyReadonlyArray2<'py, i64>,
+    lphi: numpy::PyReadonlyArray2<'py, f64>,
+    ldt: numpy::PyReadonlyArray2<'py, f64>,
+    ta: numpy::PyReadonlyArray2<'py, f64>,
+    tb: numpy::PyReadonlyArray2<'py, f64>,
+    kk: numpy::PyReadonlyArray2<'py, f64>,
+    bb: numpy::PyReadonlyArray2<'py, f64>,
+    chord_ok: PyReadonlyArray1<'py, bool>,
+    xtol: f64,
+    delta: f64,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let prof = Profile::from_slice(&profile);
+    let pp = rows3(&pc, "points")?;
+    let (uu, aa) = (crate::slice1(&u, "u")?, crate::slice1(&arg, "arg")?);
+    let (qq, ll, sl) = (crate::slice1(&q, "q")?, crate::slice1(&leaf, "leaf")?, crate::slice1(&slack, "slack")?);
+    let k = pp.len();
+    let nc = ls.shape()[0];
+    let nb = ls.shape()[1];
+    let err = |m: &str| Err(PyValueError::new_err(m.to_string()));
+    if uu.len() != k || aa.len() != k || sl.len() != k || qq.len() != ll.len() {
+        return err("u, arg and slack need one value per point; q and leaf one per pair");
+    }
+    let (lt3, la3) = (rows3(&lt, "lt")?, rows3(&la, "la")?);
+    let lsl = ls.as_slice().map_err(|_| PyValueError::new_err("ls must be C-contiguous"))?;
+    let lph = lphi.as_slice().map_err(|_| PyValueError::new_err("lphi must be C-contiguous"))?;
+    let ldts = ldt.as_slice().map_err(|_| PyValueError::new_err("ldt must be C-contiguous"))?;
+    let (ta3, tb3, kk3, bb3) = (rows3(&ta, "ta")?, rows3(&tb, "tb")?, rows3(&kk, "k")?, rows3(&bb, "b")?);
+    let cok = crate::slice1(&chord_ok, "chord_ok")?;
+    let ns = ta3.len();
+    if lt3.len() != nc * (nb + 1) || la3.len() != nc * (nb + 1) || lph.len() != nc * nb || ldts.len() != nc * nb
+        || tb3.len() != ns || kk3.len() != ns || bb3.len() != ns || cok.len() != ns
+        || lsl.iter().any(|&s| s >= ns as i64)
+        || ll.iter().any(|&l| l < 0 || l as usize >= nc)
+        || qq.iter().any(|&x| x < 0 || x as usize >= k) || qq.windows(2).any(|w| w[1] < w[0])
+    {
+        return err("inconsistent tables, leaves or points (q sorted, ids in range)");
+    }
+    let tab = Tables { lt: lt3, la: la3, ls: lsl, lphi: lph, ldt: ldts, nb, ta: ta3, tb: tb3, kk: kk3, bb: bb3, chord_ok: cok };
+    // the runs of pairs of one point
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut s = 0;
+    for i in 1..=qq.len() {
+        if i == qq.len() || qq[i] != qq[s] {
+            if i > s {
+                runs.push((s, i));
+            }
+            s = i;
+        }
+    }
+    let pl = crate::pool(threads)?;
+    let res: Vec<(f64, i64)> = py.detach(|| {
+        pl.install(|| {
+            runs.par_iter()
+                .with_min_len(4)
+                .map(|&(a, b)| {
+                    let p = qq[a] as usize;
+                    fast_point(&prof, &tab, &pp[p], &ll[a..b], uu[p], aa[p], sl[p], xtol, delta)
+                })
+                .collect()
+        })
+    });
+    let mut uo = uu.to_vec();
+    let mut ao = aa.to_vec();
+    for (&(a, _), &(v, i)) in runs.iter().zip(res.iter()) {
+        let p = qq[a] as usize;
+        uo[p] = v;
+        ao[p] = i;
+    }
+    Ok((PyArray1::from_vec(py, uo), PyArray1::from_vec(py, ao)))
 }

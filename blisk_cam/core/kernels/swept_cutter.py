@@ -14,7 +14,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "cutter_profile", "golden_pairs"]
+__all__ = ["available", "cutter_profile", "fast_search", "golden_pairs", "search_available"]
 
 
 def available() -> bool:
@@ -22,6 +22,33 @@ def available() -> bool:
     switched off)."""
     ext = extension()
     return ext is not None and hasattr(ext, "golden_pairs")
+
+
+def search_available() -> bool:
+    """Whether the compiled steps 1–4 run (see :func:`fast_search`)."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "fast_search")
+
+
+def fast_search(cutter, tab, Pc, u, arg, q, leaf, slack, xtol: float, delta: float,
+                threads: int):
+    """Steps 1–4 of the swept cutter's fast method (``verify.sweep._fast_search``), compiled:
+    per point its candidate leaves' chord and motion bounds, the exact pose values, the
+    convexity brackets and the golden-section search, the points in parallel (the GIL
+    released); the arithmetic of the numpy steps operation for operation. ``tab`` holds the
+    segment and leaf tables (a SweptCutter or a SweptForest); ``q`` (n,) sorted. Returns
+    (u (k,) mm, arg (k,) int64)."""
+    c = np.ascontiguousarray
+    f8 = np.float64
+    B = tab._ls.shape[1]
+    return extension().fast_search(
+        [float(x) for x in cutter_profile(cutter)], c(Pc, dtype=f8), c(u, dtype=f8),
+        c(arg, dtype=np.int64), c(q, dtype=np.int64), c(leaf, dtype=np.int64),
+        c(slack, dtype=f8), c(tab._lt, dtype=f8).reshape(-1, 3),
+        c(tab._la, dtype=f8).reshape(-1, 3), c(tab._ls, dtype=np.int64).reshape(-1, B),
+        c(tab._lphi, dtype=f8).reshape(-1, B), c(tab._ldt, dtype=f8).reshape(-1, B),
+        c(tab.ta, dtype=f8), c(tab.tb, dtype=f8), c(tab._k, dtype=f8), c(tab._b, dtype=f8),
+        c(tab._chord_ok, dtype=np.bool_), float(xtol), float(delta), max(1, int(threads)))
 
 
 def golden_pairs(profile, q, u, scal, lo, hi, xtol: float, threads: int):

@@ -428,6 +428,9 @@ def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
     candidates): the same bits whichever points share the chunk."""
     cut = tab.cutter
     kc = len(Pc)
+    if compiled_cutter.search_available() and not np.any(q[1:] < q[:-1]):
+        return compiled_cutter.fast_search(cut, tab, Pc, u, arg, q, leaf, slack, xtol, delta,
+                                           workers())
     # 1. heights above the tips of a leaf's poses (a run of B segments: B + 1 poses),
     # motion bounds: no distance evaluation yet
     # (gathers by np.take on flat indices: the same values as fancy indexing, 2–4x faster)
