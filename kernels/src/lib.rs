@@ -346,6 +346,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<swept_ball::SweptBallTree>()?;
     m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;
+    m.add_class::<swept_cutter::LeafBoxes>()?;
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     Ok(())
 }

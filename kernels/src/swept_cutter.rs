@@ -541,3 +541,140 @@ pub fn fast_search<'py>(
     }
     Ok((PyArray1::from_vec(py, uo), PyArray1::from_vec(py, ao)))
 }
+
+/// Boxes bounding the volume a cutter sweeps along each leaf (a run of moves) of a swept
+/// cutter or forest, in parry3d-f64's bounding-volume tree: the candidate leaves of a point
+/// are those whose box comes within its upper bound (a superset of the leaves that can hold
+/// its minimum: the others' moves are all farther than the bound, so they change nothing).
+#[pyclass(frozen)]
+pub struct LeafBoxes {
+    bvh: parry3d_f64::partitioning::Bvh,
+    n: usize,
+}
+
+#[pymethods]
+impl LeafBoxes {
+    /// lo, hi (NC, 3) float64 mm: each leaf's box (already padded by the cutter's reach).
+    #[new]
+    fn new(py: Python<'_>, lo: numpy::PyReadonlyArray2<'_, f64>, hi: numpy::PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+        use parry3d_f64::bounding_volume::Aabb;
+        use parry3d_f64::math::Vector;
+        let (l3, h3) = (rows3(&lo, "lo")?, rows3(&hi, "hi")?);
+        if l3.len() != h3.len() {
+            return Err(PyValueError::new_err("lo and hi must have the same rows"));
+        }
+        let boxes: Vec<Aabb> = l3
+            .iter()
+            .zip(h3.iter())
+            .map(|(a, b)| Aabb::new(Vector::new(a[0], a[1], a[2]), Vector::new(b[0], b[1], b[2])))
+            .collect();
+        let n = boxes.len();
+        let bvh = py.detach(|| parry3d_f64::partitioning::Bvh::from_leaves(parry3d_f64::partitioning::BvhBuildStrategy::Binned, &boxes));
+        Ok(LeafBoxes { bvh, n })
+    }
+}
+
+impl LeafBoxes {
+    /// The leaves in `lo..hi` whose box comes within `r` of the point, ascending.
+    fn near(&self, p: &[f64; 3], r: f64, lo: i64, hi: i64) -> Vec<i64> {
+        use parry3d_f64::math::Vector;
+        use parry3d_f64::query::PointQuery;
+        let pv = Vector::new(p[0], p[1], p[2]);
+        let mut out: Vec<i64> = Vec::new();
+        if self.n == 0 {
+            return out;
+        }
+        // a point inside the swept volume (u < 0): the leaves whose box holds it
+        let r = if r > 0.0 { r } else { 0.0 };
+        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+            let l = leaf as i64;
+            if l >= lo && l < hi {
+                out.push(l);
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+}
+
+/// `_fast_search` with the candidate leaves found here (see [`LeafBoxes`]): each point's
+/// leaves within its bound u of the boxes of leaves `cl_lo..cl_hi` (its member's); then steps
+/// 1–4 as [`fast_search`]. Returns (u (k,), arg (k,)).
+#[pyfunction]
+#[pyo3(signature = (profile, pc, u, arg, slack, boxes, cl_lo, cl_hi, lt, la, ls, lphi, ldt, ta,
+                    tb, kk, bb, chord_ok, xtol, delta, threads))]
+#[allow(clippy::too_many_arguments)]
+pub fn fast_search_boxes<'py>(
+    py: Python<'py>,
+    profile: Vec<f64>,
+    pc: numpy::PyReadonlyArray2<'py, f64>,
+    u: PyReadonlyArray1<'py, f64>,
+    arg: PyReadonlyArray1<'py, i64>,
+    slack: PyReadonlyArray1<'py, f64>,
+    boxes: PyRef<'py, LeafBoxes>,
+    cl_lo: PyReadonlyArray1<'py, i64>,
+    cl_hi: PyReadonlyArray1<'py, i64>,
+    lt: numpy::PyReadonlyArray2<'py, f64>,
+    la: numpy::PyReadonlyArray2<'py, f64>,
+    ls: numpy::PyReadonlyArray2<'py, i64>,
+    lphi: numpy::PyReadonlyArray2<'py, f64>,
+    ldt: numpy::PyReadonlyArray2<'py, f64>,
+    ta: numpy::PyReadonlyArray2<'py, f64>,
+    tb: numpy::PyReadonlyArray2<'py, f64>,
+    kk: numpy::PyReadonlyArray2<'py, f64>,
+    bb: numpy::PyReadonlyArray2<'py, f64>,
+    chord_ok: PyReadonlyArray1<'py, bool>,
+    xtol: f64,
+    delta: f64,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let prof = Profile::from_slice(&profile);
+    let pp = rows3(&pc, "points")?;
+    let (uu, aa, sl) = (crate::slice1(&u, "u")?, crate::slice1(&arg, "arg")?, crate::slice1(&slack, "slack")?);
+    let (clo, chi) = (crate::slice1(&cl_lo, "cl_lo")?, crate::slice1(&cl_hi, "cl_hi")?);
+    let k = pp.len();
+    let nc = ls.shape()[0];
+    let nb = ls.shape()[1];
+    let err = |m: &str| Err(PyValueError::new_err(m.to_string()));
+    if uu.len() != k || aa.len() != k || sl.len() != k || clo.len() != k || chi.len() != k {
+        return err("u, arg, slack, cl_lo and cl_hi need one value per point");
+    }
+    let (lt3, la3) = (rows3(&lt, "lt")?, rows3(&la, "la")?);
+    let lsl = ls.as_slice().map_err(|_| PyValueError::new_err("ls must be C-contiguous"))?;
+    let lph = lphi.as_slice().map_err(|_| PyValueError::new_err("lphi must be C-contiguous"))?;
+    let ldts = ldt.as_slice().map_err(|_| PyValueError::new_err("ldt must be C-contiguous"))?;
+    let (ta3, tb3, kk3, bb3) = (rows3(&ta, "ta")?, rows3(&tb, "tb")?, rows3(&kk, "k")?, rows3(&bb, "b")?);
+    let cok = crate::slice1(&chord_ok, "chord_ok")?;
+    let ns = ta3.len();
+    if lt3.len() != nc * (nb + 1) || la3.len() != nc * (nb + 1) || lph.len() != nc * nb || ldts.len() != nc * nb
+        || tb3.len() != ns || kk3.len() != ns || bb3.len() != ns || cok.len() != ns
+        || lsl.iter().any(|&s| s >= ns as i64) || boxes.n != nc
+        || clo.iter().zip(chi.iter()).any(|(&a, &b)| a < 0 || b < a || b as usize > nc)
+    {
+        return err("inconsistent tables, boxes or leaf ranges");
+    }
+    let tab = Tables { lt: lt3, la: la3, ls: lsl, lphi: lph, ldt: ldts, nb, ta: ta3, tb: tb3, kk: kk3, bb: bb3, chord_ok: cok };
+    let bx: &LeafBoxes = &boxes;
+    let pl = crate::pool(threads)?;
+    let res: Vec<(f64, i64)> = py.detach(|| {
+        pl.install(|| {
+            (0..k)
+                .into_par_iter()
+                .with_min_len(4)
+                .map(|i| {
+                    let r = uu[i] * (1.0 + 1e-9) + 1e-9 + sl[i];
+                    let leaves = bx.near(&pp[i], r, clo[i], chi[i]);
+                    if leaves.is_empty() {
+                        return (uu[i], aa[i]);
+                    }
+                    fast_point(&prof, &tab, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta)
+                })
+                .collect()
+        })
+    });
+    let (uo, ao): (Vec<f64>, Vec<i64>) = res.into_iter().unzip();
+    Ok((PyArray1::from_vec(py, uo), PyArray1::from_vec(py, ao)))
+}

@@ -14,7 +14,8 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "cutter_profile", "fast_search", "golden_pairs", "search_available"]
+__all__ = ["available", "boxes_available", "cutter_profile", "fast_search", "fast_search_boxes",
+           "golden_pairs", "leaf_boxes", "search_available"]
 
 
 def available() -> bool:
@@ -49,6 +50,39 @@ def fast_search(cutter, tab, Pc, u, arg, q, leaf, slack, xtol: float, delta: flo
         c(tab._lphi, dtype=f8).reshape(-1, B), c(tab._ldt, dtype=f8).reshape(-1, B),
         c(tab.ta, dtype=f8), c(tab.tb, dtype=f8), c(tab._k, dtype=f8), c(tab._b, dtype=f8),
         c(tab._chord_ok, dtype=np.bool_), float(xtol), float(delta), max(1, int(threads)))
+
+
+def boxes_available() -> bool:
+    """Whether the compiled candidate search runs (see :func:`fast_search_boxes`)."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "fast_search_boxes")
+
+
+def leaf_boxes(lo, hi):
+    """The compiled tree of the leaves' boxes ``lo``, ``hi`` (NC, 3) mm (each bounding the
+    volume the cutter sweeps along the leaf's moves)."""
+    c = np.ascontiguousarray
+    return extension().LeafBoxes(c(lo, dtype=np.float64), c(hi, dtype=np.float64))
+
+
+def fast_search_boxes(cutter, tab, boxes, Pc, u, arg, slack, cl_lo, cl_hi, xtol: float,
+                      delta: float, threads: int):
+    """:func:`fast_search` with each point's candidate leaves found by the compiled tree
+    ``boxes`` (:func:`leaf_boxes`) among the leaves ``cl_lo .. cl_hi`` (k,) of its member:
+    every leaf whose box comes within the point's bound ``u``. A superset of the leaves the
+    numpy trees list; a leaf beyond the bound holds no move within it, so the result is the
+    same. Returns (u (k,) mm, arg (k,) int64)."""
+    c = np.ascontiguousarray
+    f8, i8 = np.float64, np.int64
+    B = tab._ls.shape[1]
+    return extension().fast_search_boxes(
+        [float(x) for x in cutter_profile(cutter)], c(Pc, dtype=f8), c(u, dtype=f8),
+        c(arg, dtype=i8), c(slack, dtype=f8), boxes, c(cl_lo, dtype=i8), c(cl_hi, dtype=i8),
+        c(tab._lt, dtype=f8).reshape(-1, 3), c(tab._la, dtype=f8).reshape(-1, 3),
+        c(tab._ls, dtype=i8).reshape(-1, B), c(tab._lphi, dtype=f8).reshape(-1, B),
+        c(tab._ldt, dtype=f8).reshape(-1, B), c(tab.ta, dtype=f8), c(tab.tb, dtype=f8),
+        c(tab._k, dtype=f8), c(tab._b, dtype=f8), c(tab._chord_ok, dtype=np.bool_),
+        float(xtol), float(delta), max(1, int(threads)))
 
 
 def golden_pairs(profile, q, u, scal, lo, hi, xtol: float, threads: int):

@@ -377,10 +377,32 @@ class SweptCutter:
                                                                 v1[ref]))
         return group_argmin(kc, q, vmin, sg)
 
+    def _leaf_box_arrays(self):
+        """(lo, hi) (NC, 3) mm: per leaf the box of its poses' axis segments (tip to h),
+        widened by the cutter's largest radius, the slerp's bulge and a rounding pad: it holds
+        the volume the cutter sweeps along the leaf's moves (for the compiled candidates)."""
+        h = self.cutter.h
+        pts = np.concatenate([self._lt, self._lt + h * self._la], axis=1)
+        pad = (self.cutter.max_radius * (1.0 + 1e-9) + 1e-9 + self.bulge + 2.0 * self._slack
+               + 1e-9 * max(1.0, float(np.abs(pts).max(initial=0.0))))
+        return pts.min(axis=1) - pad, pts.max(axis=1) + pad
+
+    def _compiled_boxes(self):
+        """The compiled tree of :meth:`_leaf_box_arrays` (built once)."""
+        if getattr(self, "_cboxes", None) is None:
+            self._cboxes = compiled_cutter.leaf_boxes(*self._leaf_box_arrays())
+        return self._cboxes
+
     def _fast_chunk(self, Pc, delta: float = 1e-6):
         """The "fast" method on a chunk of points: (distance (k,), segment (k,)).
         Steps 0–4 of the class docstring."""
         u, arg = self._upper_bound(Pc)
+        if compiled_cutter.boxes_available():  # the candidates and steps 1–4 compiled
+            k = len(Pc)
+            return compiled_cutter.fast_search_boxes(
+                self.cutter, self, self._compiled_boxes(), Pc, u, arg, np.full(k, self._slack),
+                np.zeros(k, np.int64), np.full(k, len(self._ls), np.int64), self.xtol, delta,
+                workers())
         q, leaf = self._candidate_clusters(Pc, u)
         return _fast_search(self, Pc, u, arg, q, leaf, np.full(len(Pc), self._slack),
                             self.xtol, delta)
