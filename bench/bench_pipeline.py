@@ -17,7 +17,8 @@ For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` tria
   (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it, ``--verify-only``
   runs only it; ``--verify-triangles 20000`` is Rotor 37 as stored, ~20k triangles);
 * collision detection of 20k poses against ~2M obstacle triangles (bench_collision's case:
-  the demo blade and ±2 neighbours) with 1 and 2 threads (``--no-collision`` skips it).
+  the demo blade and ±2 neighbours) with 1 and 2 threads (``--no-collision`` skips it; it
+  runs with ``--verify-only`` too).
 
 Every figure is taken on each backend of ``--backends`` (default ``compiled,numpy``: the
 compiled kernels, then ``BLISK_CAM_KERNELS=numpy``) in the same run, with the 1-minute load
@@ -321,7 +322,7 @@ def main():
                 same = rep == reports[(name, tool, backends[1])]
                 print(f"[{name}] verify {tool}: report figures "
                       f"{'identical' if same else 'DIFFER'} on {' and '.join(backends)}")
-    if not args.no_collision and not args.verify_only:
+    if not args.no_collision:
         status = []
         for bk in backends:
             with on_backend(bk):
