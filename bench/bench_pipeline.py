@@ -319,9 +319,12 @@ def main():
     if len(backends) > 1:
         for (name, tool, bk), rep in reports.items():
             if bk == backends[0] and (name, tool, backends[1]) in reports:
-                same = rep == reports[(name, tool, backends[1])]
-                print(f"[{name}] verify {tool}: report figures "
-                      f"{'identical' if same else 'DIFFER'} on {' and '.join(backends)}")
+                other = reports[(name, tool, backends[1])]
+                diff = [k for k in rep if json.dumps(rep[k], default=str)
+                        != json.dumps(other.get(k), default=str)]
+                print(f"[{name}] verify {tool}: report figures on {' and '.join(backends)} "
+                      + ("identical" if not diff else "differ in " + ", ".join(
+                          f"{k} ({rep[k]} / {other.get(k)})" for k in diff)), flush=True)
     if not args.no_collision:
         status = []
         for bk in backends:
