@@ -15,13 +15,22 @@ For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` tria
 * ``verify.verify_path`` with 1 and 2 threads vs the plan's own time (goal: verify ≤ plan),
   for a ball and a bull-nose (R6, corner 2) path on the blade at ``--verify-triangles``
   (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it, ``--verify-only``
-  runs only it; ``--verify-triangles 20000`` is Rotor 37 as stored, ~20k triangles).
+  runs only it; ``--verify-triangles 20000`` is Rotor 37 as stored, ~20k triangles);
+* collision detection of 20k poses against ~2M obstacle triangles (bench_collision's case:
+  the demo blade and ±2 neighbours) with 1 and 2 threads (``--no-collision`` skips it; it
+  runs with ``--verify-only`` too).
+
+Every figure is taken on each backend of ``--backends`` (default ``compiled,numpy``: the
+compiled kernels, then ``BLISK_CAM_KERNELS=numpy``) in the same run, with the 1-minute load
+average beside it (the machine may be shared: compare ratios within one run).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -37,6 +46,7 @@ from blisk_cam.core.errors import BliskCamError  # noqa: E402
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.geometry.mesh_io import read_mesh  # noqa: E402
+from blisk_cam.core.kernels import backend  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
 from blisk_cam.core.toolpath.paths_io import write_paths_json  # noqa: E402
@@ -44,6 +54,22 @@ from tests.support.blades import subdivided_blade  # noqa: E402
 from tests.support.mesh_files import write_binary_stl  # noqa: E402
 
 STAGES = ("seconds_fit", "seconds_passes", "seconds_orient", "seconds_link")
+#: the backend the figures are taken on (set by :func:`on_backend`)
+_BACKEND = {"name": "compiled"}
+
+
+@contextlib.contextmanager
+def on_backend(name):
+    """Within the block the kernels of ``name`` ("compiled" or "numpy") run, in this
+    process and in the CLI processes started from it."""
+    _BACKEND["name"] = name
+    with backend.numpy_only() if name == "numpy" else contextlib.nullcontext():
+        yield
+
+
+def load():
+    """The 1-minute load average, for the figures' lines."""
+    return f"load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
 
 
 def demo_blade(target):
@@ -101,8 +127,11 @@ def cli_run(stl, axis, c1, c2, chord, out):
            "--axis", *(str(x) for x in (*axis.origin, *axis.direction)),
            "--cone1", *cone[:4], "--cone2", *cone[4:], "--tool", "ball", "--tool-diameter",
            "12", "--cusp", "0.05", "--chord", str(chord), "--out", str(out)]
+    env = dict(os.environ)
+    if _BACKEND["name"] == "numpy":
+        env[backend.ENV] = "numpy"
     t0 = time.perf_counter()
-    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     if done.returncode != 0:
         raise SystemExit(f"CLI failed ({done.returncode}): {done.stderr[-2000:]}")
@@ -117,6 +146,7 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball",
 
     from blisk_cam.core.verify.measure import verify_path
 
+    result = {}
     mesh = TriMesh.from_arrays(V, F)
     ball = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
                        cusp=0.05, chord=chord)
@@ -129,37 +159,60 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball",
             print(f"[{name}] verify {req.tool_type}: not planned ({exc})", flush=True)
             continue
         plan = path.stats["seconds_plan"]
+        bk = _BACKEND["name"]
         runs = []
         for n in threads:
             t0, c0 = time.perf_counter(), time.process_time()
             rep = verify_path(mesh, path, workers=n)
             runs.append((n, time.perf_counter() - t0, rep))
-            print(f"[{name}] verify {req.tool_type}, {n} thread(s): {runs[-1][1]:.2f} s wall, "
-                  f"{time.process_time() - c0:.2f} s CPU", flush=True)
+            print(f"[{name}, {bk}] verify {req.tool_type}, {n} thread(s): {runs[-1][1]:.2f} s "
+                  f"wall, {time.process_time() - c0:.2f} s CPU ({load()})", flush=True)
         same = all(r.summary() | {"timings": 0} == runs[0][2].summary() | {"timings": 0}
                    for _, _, r in runs)
         txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _ in runs)
         txt += "" if same else " (FIGURES DIFFER between thread counts)"
         steps = ", ".join(f"{k} {v:.2f}" for k, v in runs[-1][2].timings.items() if k != "total")
-        print(f"[{name}] verify {req.tool_type}, {len(F):,} triangles, {path.n_poses:,} poses: "
-              f"{txt}; speed-up x{runs[0][1] / runs[-1][1]:.2f}; plan {plan:.2f} s; "
-              f"verify/plan {runs[-1][1] / plan:.2f} (goal <= 1); steps ({runs[-1][0]} threads) "
-              f"{steps}", flush=True)
+        print(f"[{name}, {bk}] verify {req.tool_type}, {len(F):,} triangles, "
+              f"{path.n_poses:,} poses: {txt}; speed-up 1 -> {runs[-1][0]} threads "
+              f"x{runs[0][1] / runs[-1][1]:.2f}; plan {plan:.2f} s; verify/plan "
+              f"{runs[-1][1] / plan:.2f} (goal: ball <= 0.5, bull <= 1); steps "
+              f"({runs[-1][0]} threads) {steps} ({load()})", flush=True)
+        result[(name, req.tool_type, bk)] = rep_of = runs[-1][2].summary()
+        rep_of.pop("timings")
+    return result
 
 
-def bench_blade(name, V, F, axis, c1, c2, chord):
+def bench_blade(name, V, F, axis, c1, c2, chord, backends=("compiled",)):
+    """The whole run on each backend, then trimesh's 50 planes and the ratios."""
     with tempfile.TemporaryDirectory() as tmp:
         stl = Path(tmp) / f"{name}.stl"
         write_binary_stl(stl, V, F)
         t_tm = trimesh_multiplane(V, F)
-        t, mesh, path = whole_run(stl, axis, c1, c2, chord, Path(tmp) / "paths.json")
-        cli_wall, cli = cli_run(stl, axis, c1, c2, chord, Path(tmp) / "cli.json")
+        runs = {}
+        for bk in backends:
+            with on_backend(bk):
+                t, mesh, path = whole_run(stl, axis, c1, c2, chord, Path(tmp) / "paths.json")
+                cli_wall, cli = cli_run(stl, axis, c1, c2, chord, Path(tmp) / "cli.json")
+                runs[bk] = (t, cli_wall)
+                _blade_lines(f"{name}, {bk}", F, chord, t, path, cli_wall, cli, t_tm)
+    if t_tm is not None:
+        print(f"[{name}] trimesh mesh_multiplane, 50 planes: {t_tm:.2f} s; " + "; ".join(
+            f"{bk}: whole run / trimesh {t['total'] / t_tm:.2f}, CLI / trimesh {w / t_tm:.2f}"
+            for bk, (t, w) in runs.items()) + " (goal <= 1)", flush=True)
+    if len(runs) > 1:
+        (b0, (t0, w0)), (b1, (t1, w1)) = list(runs.items())[:2]
+        print(f"[{name}] whole run {b1} / {b0}: x{t1['total'] / t0['total']:.2f} "
+              f"(CLI x{w1 / w0:.2f})", flush=True)
+    return mesh
+
+
+def _blade_lines(name, F, chord, t, path, cli_wall, cli, t_tm):
     st = path.stats
     stages = ", ".join(f"{k[8:]} {st.get(k, float('nan')):.2f}" for k in STAGES)
     print(f"[{name}] {len(F):,} triangles, 6 mm ball, cusp 0.05, chord {chord}: whole run "
           f"{t['total']:.2f} s = load {t['load']:.2f} + weld {t['weld']:.2f} + plan "
           f"{t['plan']:.2f} ({stages}) + write {t['write']:.2f} s; "
-          f"{path.n_poses:,} poses", flush=True)
+          f"{path.n_poses:,} poses ({load()})", flush=True)
     top = ("startup", "load", "weld", "plan", "verify")  # plan: the sum of its stages
     parts = [f"{k} {cli['seconds_' + k]:.2f}" for k in top if "seconds_" + k in cli]
     rest = cli_wall - sum(cli.get("seconds_" + k, 0.0) for k in top)
@@ -168,11 +221,47 @@ def bench_blade(name, V, F, axis, c1, c2, chord):
           f"(stats seconds_wall {cli.get('seconds_wall', float('nan')):.2f})", flush=True)
     if t_tm is None:
         print(f"[{name}] trimesh not installed: no mesh_multiplane comparison")
-    else:
-        print(f"[{name}] trimesh mesh_multiplane, 50 planes: {t_tm:.2f} s; whole run / trimesh "
-              f"= {t['total'] / t_tm:.2f}, CLI at the prompt / trimesh = {cli_wall / t_tm:.2f} "
-              "(goal ≤ 2)", flush=True)
-    return mesh
+
+
+def bench_collision(n_poses=20000, threads=(1, 2)):
+    """Detection of ``n_poses`` poses against ~2M triangles (bench_collision's case) with
+    each thread count: wall seconds and the speed-up; the colliding poses must agree."""
+    from bench.bench_collision import HOLDER, vertex_normals
+    from blisk_cam.core.collision.obstacles import Obstacles
+    from blisk_cam.core.collision.scene import CollisionScene
+    from blisk_cam.core.tool.assembly import ToolAssembly
+    from blisk_cam.core.tool.cutter import Cutter
+
+    d = make_demo_blisk(resolution=2.0, fillet=False, blade_count=24)
+    V, F = d.blade_vertices, d.blade_faces
+    rng = np.random.default_rng(0)
+    vn = vertex_normals(V, F)
+    pick = rng.choice(len(V), size=n_poses, replace=len(V) < n_poses)
+    cc, n = V[pick], vn[pick]
+    radial = cc - np.outer(cc @ d.axis.d, d.axis.d)
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+    radial -= np.einsum("ij,ij->i", radial, n)[:, None] * n
+    a = n + np.tan(np.radians(20.0)) * radial / np.maximum(
+        np.linalg.norm(radial, axis=1), 1e-12)[:, None]
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    cutter = Cutter.ball(3.0)
+    tips = cutter.cl_points(cc, n, a)
+    ob = Obstacles.build(V, F, d.axis, 24, 2, check_extra=False)
+    sc = CollisionScene(ob, cutter, ToolAssembly(12.0, HOLDER, 1.0))
+    bk = _BACKEND["name"]
+    out = []
+    for nt in threads:
+        t0, c0 = time.perf_counter(), time.process_time()
+        det = sc.detect(tips, a, workers=nt)
+        out.append((nt, time.perf_counter() - t0, det.colliding.copy()))
+        print(f"[collision, {bk}] {n_poses:,} poses x {ob.n_triangles:,} triangles, {nt} "
+              f"thread(s): detect {out[-1][1]:.2f} s wall, {time.process_time() - c0:.2f} s "
+              f"CPU, {int(det.colliding.sum()):,} colliding ({load()})", flush=True)
+    same = all(np.array_equal(c, out[0][2]) for _, _, c in out)
+    print(f"[collision, {bk}] speed-up 1 -> {out[-1][0]} threads x{out[0][1] / out[-1][1]:.2f}"
+          f"{'' if same else ' (COLLISION STATUS DIFFERS between thread counts)'}; goal "
+          f"<= 0.3 s", flush=True)
+    return out[-1][2]
 
 
 def main():
@@ -191,25 +280,60 @@ def main():
     ap.add_argument("--bull-lead-tilt", default="0,0",
                     help="lead,tilt of the bull-nose path in degrees (Rotor 37 as stored: 10,5; "
                          "subdivided to 200k its hub region is too tight for a lead)")
+    ap.add_argument("--backends", default="compiled,numpy",
+                    help="kernels to measure, in order: compiled, numpy or both")
+    ap.add_argument("--no-collision", action="store_true")
+    ap.add_argument("--collision-poses", type=int, default=20000)
     args = ap.parse_args()
+    backends = tuple(args.backends.split(","))
+    if not backends or not set(backends) <= {"compiled", "numpy"}:
+        ap.error(f"--backends takes compiled, numpy or compiled,numpy, got {args.backends!r}")
+    if "compiled" in backends and backend.extension() is None:
+        print("compiled kernels not installed (make kernels): the numpy backend only")
+        backends = ("numpy",)
+    print(f"backends: {', '.join(backends)}; {load()}", flush=True)
     threads = tuple(int(x) for x in args.threads.split(","))
     tools = tuple(args.tools.split(","))
     if not tools or not set(tools) <= {"ball", "bull"}:
         ap.error(f"--tools takes ball, bull or ball,bull, got {args.tools!r}")
     blt = tuple(args.bull_lead_tilt.split(","))
+    reports = {}
+
+    def verify_on_backends(name, blade):
+        for bk in backends:
+            with on_backend(bk):
+                reports.update(bench_verify(name, *blade, args.chord, threads, tools, blt))
+
     if args.only != "rotor37":
         if not args.verify_only:
             V, F, axis, c1, c2 = demo_blade(args.triangles)
-            bench_blade("demo", V, F, axis, c1, c2, args.chord)
+            bench_blade("demo", V, F, axis, c1, c2, args.chord, backends)
         if not args.no_verify:
-            V, F, axis, c1, c2 = demo_blade(args.verify_triangles)
-            bench_verify("demo", V, F, axis, c1, c2, args.chord, threads, tools, blt)
+            verify_on_backends("demo", demo_blade(args.verify_triangles))
     if args.only != "demo":
         if not args.verify_only:
-            bench_blade("rotor37 subdivided", *rotor37_blade(args.triangles), args.chord)
+            bench_blade("rotor37 subdivided", *rotor37_blade(args.triangles), args.chord,
+                        backends)
         if not args.no_verify:
-            bench_verify("rotor37", *rotor37_blade(args.verify_triangles), args.chord,
-                         threads, tools, blt)
+            verify_on_backends("rotor37", rotor37_blade(args.verify_triangles))
+    if len(backends) > 1:
+        for (name, tool, bk), rep in reports.items():
+            if bk == backends[0] and (name, tool, backends[1]) in reports:
+                other = reports[(name, tool, backends[1])]
+                diff = [k for k in rep if json.dumps(rep[k], default=str)
+                        != json.dumps(other.get(k), default=str)]
+                print(f"[{name}] verify {tool}: report figures on {' and '.join(backends)} "
+                      + ("identical" if not diff else "differ in " + ", ".join(
+                          f"{k} ({rep[k]} / {other.get(k)})" for k in diff)), flush=True)
+    if not args.no_collision:
+        status = []
+        for bk in backends:
+            with on_backend(bk):
+                status.append(bench_collision(args.collision_poses, threads))
+        if len(status) > 1:
+            print(f"[collision] collision status per pose "
+                  f"{'the same' if np.array_equal(*status[:2]) else 'DIFFERS'} on both "
+                  "backends", flush=True)
 
 
 if __name__ == "__main__":

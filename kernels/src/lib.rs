@@ -9,9 +9,12 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 mod closest;
+mod collision_refine;
 mod knn;
 mod step;
 mod stock;
+mod swept_ball;
+mod swept_cutter;
 mod weld;
 
 use std::collections::HashMap;
@@ -340,5 +343,11 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(stock_remove, m)?)?;
     m.add_class::<FaceTree>()?;
     m.add_class::<PointTree>()?;
+    m.add_class::<swept_ball::SweptBallTree>()?;
+    m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_cutter::fast_search, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;
+    m.add_class::<swept_cutter::LeafBoxes>()?;
+    m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     Ok(())
 }

@@ -9,7 +9,10 @@ import math
 
 import numpy as np
 
-from .posed_tool import _box_bound, _posed_sd, _posed_sd_grad, _posed_support
+from ..kernels import collision as compiled_refine
+from ..kernels.swept_cutter import cutter_profile
+from ..runtime import workers
+from .posed_tool import _box_bound, _Flute, _Frustum, _posed_sd, _posed_sd_grad, _posed_support
 
 _LEAF = 8
 #: children per node of the triangle tree
@@ -269,6 +272,17 @@ def _edge_minima(part, E0, D, t, a, f0, f1, P, ub, tol=_EDGE_TOL):
 _GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 
 
+def _part_spec(part):
+    """The floats describing ``part`` to the compiled refine (a flute: its cutter's profile,
+    support constants and length; a frustum: z0, r0, z1, r1), None for another part."""
+    if isinstance(part, _Frustum):
+        return (1.0, part.z0, part.r0, part.z1, part.r1)
+    if isinstance(part, _Flute):
+        cu, g = part.cutter, part._g
+        return (0.0, *cutter_profile(cu), cu.e, cu.r, cu.f, g["th_lo"], g["th_hi"], *g["T"], cu.h)
+    return None
+
+
 # long on purpose: the bounded-error distance refinement of candidate pairs in one vectorised loop
 def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
     """Exact minimum (k,) of the posed part's signed distance over triangles (A, B, C), and
@@ -284,6 +298,11 @@ def _refine(part, A, B, C, nrm, ok, tip, axis, P=None, ub=None):
     if P is None:
         P = np.arange(k)
         ub = np.full(k, np.inf)
+    spec = _part_spec(part) if compiled_refine.available() else None
+    if spec is not None and k:
+        best, where, ub[:] = compiled_refine.refine_pairs(spec, A, B, C, nrm, ok, tip, axis, P,
+                                                          ub, workers())
+        return best, where
     best = np.full(k, np.inf)
     where = np.zeros((k, 3))
 

@@ -31,12 +31,20 @@ class MeshDistance:
     ----------
     mesh : TriMesh
     leaf_size : int — triangles per tree leaf
+    compiled : bool — with the compiled kernels running, the nearest faces come from their
+        tree (:class:`NearestFaces`' kernel): the same distances and points, but of faces at
+        exactly the same distance (a point on a shared edge or vertex) the lowest id instead
+        of the last in this tree's leaf order. Verify opts in; the planners keep their ties.
     """
 
-    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8):
+    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8, compiled: bool = False):
         self.mesh = mesh
         V, F = mesh.V, mesh.F
         self._A, self._B, self._C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+        self._faces = NearestFaces(mesh) if compiled and extension() is not None else None
+        self._frames = None
+        if self._faces is not None:  # the numpy tree is not needed
+            return
         T = V[F]
         self._cen = T.mean(axis=1)
         self._rad = np.linalg.norm(T - self._cen[:, None, :], axis=2).max(axis=1)
@@ -45,7 +53,6 @@ class MeshDistance:
         # 6 mm) come in groups whose common sphere reaches many more leaves than each member
         # (Rotor 37's centre polylines: 1.6 -> 1.1 s; surface points unchanged)
         self.tree = ClusterTree(T, flat=True, leaf_size=leaf_size, group_tail=2, leaf_obb=True)
-        self._frames = None
         # the capsule of each face around its longest edge (see :meth:`_lb_keep`)
         self._cap = _edge_capsules(self._A, self._B, self._C,
                                    float(np.abs(T).max()) if len(T) else 1.0)
@@ -148,8 +155,11 @@ class MeshDistance:
             if near.shape != P.shape:
                 raise ValueError(f"MeshDistance.query: near must give one guess per point, "
                                  f"got {len(near)} for {k} points")
-        _, face = nearest(self.tree, P, self._d2, fastfn=self._fast_d2, near=near,
-                           keepfn=self._lb_keep)
+        if self._faces is not None:
+            face = self._faces.query(P)[1]
+        else:
+            _, face = nearest(self.tree, P, self._d2, fastfn=self._fast_d2, near=near,
+                               keepfn=self._lb_keep)
         q, d2, feat, bary = closest_on_triangles(P, self._A[face], self._B[face], self._C[face])
         mesh = self.mesh
         fn = mesh.face_normals

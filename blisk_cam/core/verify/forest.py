@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..runtime import map_chunks, map_tasks
+from ..kernels import swept_cutter as compiled_cutter
+from ..runtime import map_chunks, map_tasks, workers
 from .sweep import SweptCutter, _fast_search, _sphere_trace
 
 __all__ = ["SweptForest"]
@@ -62,6 +63,8 @@ class SweptForest:
         nseg = np.array([len(m.ta) for m in ms], dtype=np.int64)
         ncl = np.array([len(m._ls) if m.tree is not None else 0 for m in ms], dtype=np.int64)
         self._has = has
+        self._ncl = ncl
+        self._cboxes = None
         self._so = np.cumsum(nseg) - nseg  # first segment of each member in the tables
         self._co = np.cumsum(ncl) - ncl  # first cluster of each member
         self._slk = np.array([m._slack if m.tree is not None else 0.0 for m in ms])
@@ -159,15 +162,26 @@ class SweptForest:
         u = np.empty(kc)
         arg = np.empty(kc, dtype=np.int64)
         qs, ls = [], []
+        boxes = compiled_cutter.boxes_available()
         for s, e in zip(starts, ends, strict=True):
             j = int(wc[s])
             m = self.members[j]
             uj, aj = m._upper_bound(Pc[s:e])
-            qj, lj = m._candidate_clusters(Pc[s:e], uj)
             u[s:e] = uj
             arg[s:e] = np.where(aj >= 0, aj + self._so[j], -1)
-            qs.append(qj + s)
-            ls.append(lj + self._co[j])
+            if not boxes:
+                qj, lj = m._candidate_clusters(Pc[s:e], uj)
+                qs.append(qj + s)
+                ls.append(lj + self._co[j])
+        if boxes:  # the candidates and steps 1–4 compiled
+            if self._cboxes is None:
+                lo, hi = zip(*(m._leaf_box_arrays() for m in self.members
+                               if m.tree is not None), strict=True)
+                self._cboxes = compiled_cutter.leaf_boxes(np.concatenate(lo),
+                                                          np.concatenate(hi))
+            return compiled_cutter.fast_search_boxes(
+                self.cutter, self, self._cboxes, Pc, u, arg, self._slk[wc], self._co[wc],
+                self._co[wc] + self._ncl[wc], self.xtol, delta, workers())
         return _fast_search(self, Pc, u, arg, np.concatenate(qs), np.concatenate(ls),
                             self._slk[wc], self.xtol, delta)
 

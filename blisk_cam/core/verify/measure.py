@@ -376,7 +376,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
     mesh.face_normals, mesh.vertex_normals, mesh.edge_faces  # noqa: B018  (filled once:
     # both threads read these caches)
     samples = alongside(lambda: surface_samples(mesh, cones, axis, spacing))
-    md = MeshDistance(mesh)
+    md = MeshDistance(mesh, compiled=True)  # ties: the lowest face id (same distances)
     tim["mesh_tree"] = time.perf_counter() - t0
 
     step("poses")

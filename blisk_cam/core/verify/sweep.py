@@ -20,7 +20,8 @@ from scipy.spatial import cKDTree
 from ..errors import BliskCamError, ToleranceError
 from ..geometry.bvh import CHUNK, GROUP_MIN, ClusterTree, group_argmin, query_groups, run_clusters
 from ..geometry.vectors import dot, rotate, slerp
-from ..runtime import map_chunks
+from ..kernels import swept_cutter as compiled_cutter
+from ..runtime import map_chunks, workers
 from ..tool.cutter import as_cutter
 from .sweep_ball import SweptBall, _curve_polyline
 
@@ -376,10 +377,32 @@ class SweptCutter:
                                                                 v1[ref]))
         return group_argmin(kc, q, vmin, sg)
 
+    def _leaf_box_arrays(self):
+        """(lo, hi) (NC, 3) mm: per leaf the box of its poses' axis segments (tip to h),
+        widened by the cutter's largest radius, the slerp's bulge and a rounding pad: it holds
+        the volume the cutter sweeps along the leaf's moves (for the compiled candidates)."""
+        h = self.cutter.h
+        pts = np.concatenate([self._lt, self._lt + h * self._la], axis=1)
+        pad = (self.cutter.max_radius * (1.0 + 1e-9) + 1e-9 + self.bulge + 2.0 * self._slack
+               + 1e-9 * max(1.0, float(np.abs(pts).max(initial=0.0))))
+        return pts.min(axis=1) - pad, pts.max(axis=1) + pad
+
+    def _compiled_boxes(self):
+        """The compiled tree of :meth:`_leaf_box_arrays` (built once)."""
+        if getattr(self, "_cboxes", None) is None:
+            self._cboxes = compiled_cutter.leaf_boxes(*self._leaf_box_arrays())
+        return self._cboxes
+
     def _fast_chunk(self, Pc, delta: float = 1e-6):
         """The "fast" method on a chunk of points: (distance (k,), segment (k,)).
         Steps 0–4 of the class docstring."""
         u, arg = self._upper_bound(Pc)
+        if compiled_cutter.boxes_available():  # the candidates and steps 1–4 compiled
+            k = len(Pc)
+            return compiled_cutter.fast_search_boxes(
+                self.cutter, self, self._compiled_boxes(), Pc, u, arg, np.full(k, self._slack),
+                np.zeros(k, np.int64), np.full(k, len(self._ls), np.int64), self.xtol, delta,
+                workers())
         q, leaf = self._candidate_clusters(Pc, u)
         return _fast_search(self, Pc, u, arg, q, leaf, np.full(len(Pc), self._slack),
                             self.xtol, delta)
@@ -427,6 +450,9 @@ def _fast_search(tab, Pc, u, arg, q, leaf, slack, xtol, delta):
     candidates): the same bits whichever points share the chunk."""
     cut = tab.cutter
     kc = len(Pc)
+    if compiled_cutter.search_available() and not np.any(q[1:] < q[:-1]):
+        return compiled_cutter.fast_search(cut, tab, Pc, u, arg, q, leaf, slack, xtol, delta,
+                                           workers())
     # 1. heights above the tips of a leaf's poses (a run of B segments: B + 1 poses),
     # motion bounds: no distance evaluation yet
     # (gathers by np.take on flat indices: the same values as fancy indexing, 2–4x faster)
@@ -598,6 +624,9 @@ def _golden_pairs(cutter, q, kc, u, scal, D, lo, hi, xtol):
         u, arg = _golden_pairs(cutter, q[order], kc, u, tuple(x[order] for x in scal),
                                D[order], lo[order], hi[order], xtol)
         return u, np.where(arg >= 0, order[np.maximum(arg, 0)], -1)
+    if compiled_cutter.available():
+        return compiled_cutter.golden_pairs(compiled_cutter.cutter_profile(cutter), q, u,
+                                            (*scal, D), lo, hi, xtol, workers())
     C = np.stack([*scal, D])  # (9, m): za, zb, Ta, Tb, n0, m2, L2, φ, D
     za, zb, Ta, Tb, n0, m2, L2, phi, D = C
     idx = np.arange(m)

@@ -10,6 +10,8 @@ import numpy as np
 from ..geometry.bvh import ClusterTree, group_argmin, nearest, run_clusters, within
 from ..geometry.closest import ray_capsules_first_hit, segment_offsets
 from ..geometry.vectors import dot
+from ..kernels import swept_ball as compiled_ball
+from ..runtime import workers
 from ..toolpath.types import PassCurve
 
 __all__ = ["SweptBall"]
@@ -54,22 +56,38 @@ class SweptBall:
         S = len(self.a)
         self.owner = (np.zeros(S, np.int64) if owner is None
                       else np.asarray(owner, dtype=np.int64))
-        self.tree = None
+        self._tree = None
+        self._leaf_size = leaf_size
         self._d = self.b - self.a
         dd = dot(self._d, self._d)
         self._dd = np.where(dd > 0, dd, 1.0)
-        if S:
-            # leaves = runs of consecutive segments of one polyline (thin bounding cylinders);
-            # segments are given polyline by polyline, a new owner starts a new run
-            breaks = np.nonzero(np.diff(self.owner) != 0)[0] + 1
-            jump = np.nonzero(np.any(self.a[1:] != self.b[:-1], axis=1))[0] + 1
-            if leaf_size is None:
-                seg = float(np.median(np.sqrt(dd)))
-                leaf_size = 8 if not seg > 0 else int(np.clip(round(self.radius / (3.0 * seg)),
-                                                              2, 8))
-            clusters = run_clusters(np.union1d(breaks, jump), S, int(leaf_size))
-            self.tree = ClusterTree(np.stack([self.a, self.b], axis=1), flat=False,
-                                    clusters=clusters)
+        # the compiled kernels' tree when they run (the numpy tree is then built only if asked)
+        self._ctree = compiled_ball.segment_tree(self.a, self.b, self._d, self._dd) if S else None
+        if S and self._ctree is None:
+            self._build_tree()
+
+    def _build_tree(self):
+        S = len(self.a)
+        # leaves = runs of consecutive segments of one polyline (thin bounding cylinders);
+        # segments are given polyline by polyline, a new owner starts a new run
+        breaks = np.nonzero(np.diff(self.owner) != 0)[0] + 1
+        jump = np.nonzero(np.any(self.a[1:] != self.b[:-1], axis=1))[0] + 1
+        leaf_size = self._leaf_size
+        if leaf_size is None:
+            seg = float(np.median(np.sqrt(dot(self._d, self._d))))
+            leaf_size = 8 if not seg > 0 else int(np.clip(round(self.radius / (3.0 * seg)),
+                                                          2, 8))
+        clusters = run_clusters(np.union1d(breaks, jump), S, int(leaf_size))
+        self._tree = ClusterTree(np.stack([self.a, self.b], axis=1), flat=False,
+                                 clusters=clusters)
+
+    @property
+    def tree(self):
+        """The numpy bounding-volume tree of the segments (None without segments; built on
+        first use when the compiled kernels run)."""
+        if self._tree is None and len(self.a):
+            self._build_tree()
+        return self._tree
 
     @classmethod
     def from_curves(cls, curves, radius: float, owners=None):
@@ -101,8 +119,11 @@ class SweptBall:
         (e.g. a surface point + radius · its normal); they only make the search faster, the
         result is the same bit for bit (see :func:`..geometry.bvh.nearest`)."""
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
-        if self.tree is None:
+        if len(self.a) == 0:
             return np.full(len(P), np.inf), np.full(len(P), -1, dtype=np.int64)
+        if self._ctree is not None:
+            d2, seg = compiled_ball.nearest_segments(self._ctree, P, workers())
+            return np.sqrt(d2) - self.radius, seg
         if near is not None:
             near = np.ascontiguousarray(np.asarray(near, dtype=np.float64).reshape(-1, 3))
         d2, seg = nearest(self.tree, P, self._d2, near=near)
@@ -126,11 +147,16 @@ class SweptBall:
         P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         N = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
         out = np.full(len(P), np.inf)
-        if self.tree is None or len(P) == 0:
+        if len(self.a) == 0 or len(P) == 0:
             return out
         hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),))
-        # a hit at height t lies on a capsule whose segment is within ρ + t of the point
-        qi, sg = within(self.tree, P, self.radius + hmax)
+        # a hit at height t lies on a capsule whose segment is within ρ + t of the point (the
+        # first hit is the least over every listed segment: a longer list gives the same)
+        if self._ctree is not None:
+            qi, sg = compiled_ball.segments_within(self._ctree, P, self.radius + hmax,
+                                                   workers())
+        else:
+            qi, sg = within(self.tree, P, self.radius + hmax)
         if len(qi):
             t = ray_capsules_first_hit(P[qi], N[qi], self.a[sg], self.b[sg], self.radius)
             np.minimum.at(out, qi, t)
@@ -161,8 +187,10 @@ class _NearSegments:
         self.R = np.zeros(k)
         self.guess = None if guess is None else np.ascontiguousarray(
             np.asarray(guess, dtype=np.float64).reshape(-1, 3))
+        if ball._ctree is not None or k == 0:  # compiled: every query is a full one
+            return
         tree = ball.tree
-        if tree is None or k == 0:
+        if tree is None:
             return
         _, j = tree.kd.query(self.base if self.guess is None else self.guess, k=tree.kd_k)
         pr = np.asarray(j, dtype=np.int64).reshape(-1)
@@ -177,8 +205,10 @@ class _NearSegments:
         Y = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         ball = self.ball
         k = len(Y)
-        if ball.tree is None or k == 0:
+        if len(ball.a) == 0 or k == 0:
             return np.full(k, np.inf)
+        if ball._ctree is not None:
+            return ball.distance(Y)
         d2 = np.full(k, np.inf)
         if len(self.qi):
             np.minimum.at(d2, self.qi, ball._d2(Y, self.qi, self.sg))

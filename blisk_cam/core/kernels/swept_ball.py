@@ -1,0 +1,39 @@
+"""The nearest centre segment of a swept ball, compiled (parry3d-f64's bounding-volume tree
+over runs of consecutive segments prunes; the squared distances that decide are those of
+:meth:`blisk_cam.core.verify.sweep_ball.SweptBall._d2`, operation for operation, so each
+point's least squared distance is the numpy reference's float). Of segments at exactly the
+same distance the highest id wins (numpy: the last in its tree's order; the distance is the
+same)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .backend import extension
+
+__all__ = ["segment_tree", "nearest_segments", "segments_within"]
+
+
+def segment_tree(a, b, d, dd):
+    """The compiled tree of the segments a + t d, t ∈ [0, 1] (a, b = their ends, d (S, 3)
+    mm; dd (S,) mm² |d|² with 0 replaced by 1); None when the numpy kernels run."""
+    ext = extension()
+    if ext is None or not hasattr(ext, "SweptBallTree"):
+        return None
+    c = np.ascontiguousarray
+    return ext.SweptBallTree(c(a, dtype=np.float64), c(b, dtype=np.float64),
+                             c(d, dtype=np.float64), c(dd, dtype=np.float64))
+
+
+def nearest_segments(tree, points, threads: int):
+    """(d2 (k,) mm², seg (k,) int64): each point's (k, 3) least squared distance to the
+    segments and the segment, on ``threads`` threads (the GIL released)."""
+    return tree.nearest(np.ascontiguousarray(points, dtype=np.float64), max(1, int(threads)))
+
+
+def segments_within(tree, points, radius, threads: int):
+    """(query (p,), segment (p,)) int64: every segment within ``radius`` (k,) mm of each point
+    (k, 3), and some a little farther (the tree's boxes decide), grouped by point."""
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    r = np.ascontiguousarray(np.broadcast_to(np.asarray(radius, np.float64), (len(P),)))
+    return tree.within(P, r, max(1, int(threads)))

@@ -1,0 +1,108 @@
+"""Step 4 of the swept cutter's "fast" method, compiled: the golden-section search of each
+(point, move) pair's bracket (:func:`blisk_cam.core.verify.sweep._golden_pairs`), every
+point's pairs stepped together with numpy's pruning after each step, the points in parallel
+(rayon, the GIL released). The cutter's distance is ``Cutter.signed_distance_rz`` operation
+for operation; sin and cos are the platform's (libm), so a value may differ from numpy's in
+the last bits and a bracket then close on the other side: the minima agree within the
+search's tolerance (far below 1e-9 mm at a smooth minimum)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .backend import extension
+
+__all__ = ["available", "boxes_available", "cutter_profile", "fast_search", "fast_search_boxes",
+           "golden_pairs", "leaf_boxes", "search_available"]
+
+
+def available() -> bool:
+    """Whether the compiled search runs (the extension is installed, built with it, and not
+    switched off)."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "golden_pairs")
+
+
+def search_available() -> bool:
+    """Whether the compiled steps 1–4 run (see :func:`fast_search`)."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "fast_search")
+
+
+def fast_search(cutter, tab, Pc, u, arg, q, leaf, slack, xtol: float, delta: float,
+                threads: int):
+    """Steps 1–4 of the swept cutter's fast method (``verify.sweep._fast_search``), compiled:
+    per point its candidate leaves' chord and motion bounds, the exact pose values, the
+    convexity brackets and the golden-section search, the points in parallel (the GIL
+    released); the arithmetic of the numpy steps operation for operation. ``tab`` holds the
+    segment and leaf tables (a SweptCutter or a SweptForest); ``q`` (n,) sorted. Returns
+    (u (k,) mm, arg (k,) int64)."""
+    c = np.ascontiguousarray
+    f8 = np.float64
+    B = tab._ls.shape[1]
+    return extension().fast_search(
+        [float(x) for x in cutter_profile(cutter)], c(Pc, dtype=f8), c(u, dtype=f8),
+        c(arg, dtype=np.int64), c(q, dtype=np.int64), c(leaf, dtype=np.int64),
+        c(slack, dtype=f8), c(tab._lt, dtype=f8).reshape(-1, 3),
+        c(tab._la, dtype=f8).reshape(-1, 3), c(tab._ls, dtype=np.int64).reshape(-1, B),
+        c(tab._lphi, dtype=f8).reshape(-1, B), c(tab._ldt, dtype=f8).reshape(-1, B),
+        c(tab.ta, dtype=f8), c(tab.tb, dtype=f8), c(tab._k, dtype=f8), c(tab._b, dtype=f8),
+        c(tab._chord_ok, dtype=np.bool_), float(xtol), float(delta), max(1, int(threads)))
+
+
+def boxes_available() -> bool:
+    """Whether the compiled candidate search runs (see :func:`fast_search_boxes`)."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "fast_search_boxes")
+
+
+def leaf_boxes(lo, hi):
+    """The compiled tree of the leaves' boxes ``lo``, ``hi`` (NC, 3) mm (each bounding the
+    volume the cutter sweeps along the leaf's moves)."""
+    c = np.ascontiguousarray
+    return extension().LeafBoxes(c(lo, dtype=np.float64), c(hi, dtype=np.float64))
+
+
+def fast_search_boxes(cutter, tab, boxes, Pc, u, arg, slack, cl_lo, cl_hi, xtol: float,
+                      delta: float, threads: int):
+    """:func:`fast_search` with each point's candidate leaves found by the compiled tree
+    ``boxes`` (:func:`leaf_boxes`) among the leaves ``cl_lo .. cl_hi`` (k,) of its member:
+    every leaf whose box comes within the point's bound ``u``. A superset of the leaves the
+    numpy trees list; a leaf beyond the bound holds no move within it, so the result is the
+    same. Returns (u (k,) mm, arg (k,) int64)."""
+    c = np.ascontiguousarray
+    f8, i8 = np.float64, np.int64
+    B = tab._ls.shape[1]
+    return extension().fast_search_boxes(
+        [float(x) for x in cutter_profile(cutter)], c(Pc, dtype=f8), c(u, dtype=f8),
+        c(arg, dtype=i8), c(slack, dtype=f8), boxes, c(cl_lo, dtype=i8), c(cl_hi, dtype=i8),
+        c(tab._lt, dtype=f8).reshape(-1, 3), c(tab._la, dtype=f8).reshape(-1, 3),
+        c(tab._ls, dtype=i8).reshape(-1, B), c(tab._lphi, dtype=f8).reshape(-1, B),
+        c(tab._ldt, dtype=f8).reshape(-1, B), c(tab.ta, dtype=f8), c(tab.tb, dtype=f8),
+        c(tab._k, dtype=f8), c(tab._b, dtype=f8), c(tab._chord_ok, dtype=np.bool_),
+        float(xtol), float(delta), max(1, int(threads)))
+
+
+def golden_pairs(profile, q, u, scal, lo, hi, xtol: float, threads: int):
+    """(best (kc,) mm, pair index achieving it (kc,) int64 or −1): ``profile`` the 17 floats
+    (e, f, r, h, B, S, T, sin/cos of the arc's sector bounds, tan α, cos β, sin β); ``q``
+    (m,) the point of each pair, sorted; ``u`` (kc,) the points' bests so far; ``scal`` the
+    nine (m,) columns (za, zb, Ta, Tb, n0, m2, L2, φ, D); ``lo``, ``hi`` (m,) the brackets;
+    ``xtol`` mm."""
+    c = np.ascontiguousarray
+    return extension().golden_pairs(
+        [float(x) for x in profile], c(q, dtype=np.int64), c(u, dtype=np.float64),
+        [c(x, dtype=np.float64) for x in scal], c(lo, dtype=np.float64),
+        c(hi, dtype=np.float64), float(xtol), max(1, int(threads)))
+
+
+def cutter_profile(cutter):
+    """The 17 constants of ``cutter.signed_distance_rz`` (a ``tool.cutter.Cutter``) for the
+    compiled kernels, the very floats it computes them from."""
+    g = cutter._g
+    B, S, T = g["B"], g["S"], g["T"]
+    return (cutter.e, cutter.f, cutter.r, cutter.h, *B, *S, *T, math.sin(g["th_lo"]),
+            math.cos(g["th_lo"]), math.sin(g["th_hi"]), math.cos(g["th_hi"]),
+            math.tan(cutter.alpha), math.cos(cutter.beta), math.sin(cutter.beta))

@@ -1,0 +1,196 @@
+//! The volume swept by a ball along centre polylines (`blisk_cam/core/verify/sweep_ball.py`):
+//! for each point the least squared distance to the centre segments and the segment giving it.
+//! parry3d-f64's bounding-volume tree (one leaf per run of consecutive segments) prunes; the
+//! squared distances that decide are those of `SweptBall._d2` (`closest.segment_offsets`
+//! with b − a and |b − a|² given per segment, then einsum's three-term dot product
+//! `(x0 y0 + x2 y2) + x1 y1`), operation for operation, so the minimum is the numpy
+//! reference's float.
+
+use parry3d_f64::bounding_volume::Aabb;
+use parry3d_f64::math::Vector;
+use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
+use parry3d_f64::query::PointQuery;
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use rayon::prelude::*;
+
+pub type P3 = [f64; 3];
+
+#[inline(always)]
+fn dot(a: &P3, b: &P3) -> f64 {
+    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
+}
+
+/// Consecutive segments per leaf (a pass polyline's moves are short next to the ball).
+const RUN: usize = 4;
+
+pub struct SegTree {
+    a: Vec<P3>,
+    d: Vec<P3>,
+    dd: Vec<f64>,
+    bvh: Bvh,
+}
+
+impl SegTree {
+    /// Segments a + t d (t ∈ [0, 1]) with |d|² `dd` (0 replaced by 1), and their ends `b`
+    /// (for the boxes only).
+    pub fn new(a: Vec<P3>, b: &[P3], d: Vec<P3>, dd: Vec<f64>) -> Self {
+        let boxes: Vec<Aabb> = (0..a.len())
+            .step_by(RUN)
+            .map(|s| {
+                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for i in s..(s + RUN).min(a.len()) {
+                    for p in [&a[i], &b[i]] {
+                        for j in 0..3 {
+                            lo[j] = lo[j].min(p[j]);
+                            hi[j] = hi[j].max(p[j]);
+                        }
+                    }
+                }
+                // a + t d rounds a few ulps off the box of a and b
+                for j in 0..3 {
+                    let pad = 1e-9 * (1.0 + lo[j].abs().max(hi[j].abs()));
+                    lo[j] -= pad;
+                    hi[j] += pad;
+                }
+                Aabb::new(Vector::new(lo[0], lo[1], lo[2]), Vector::new(hi[0], hi[1], hi[2]))
+            })
+            .collect();
+        let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
+        SegTree { a, d, dd, bvh }
+    }
+
+    /// `SweptBall._d2` of one point and one segment.
+    #[inline(always)]
+    fn d2(&self, p: &P3, s: usize) -> f64 {
+        let (a, d) = (&self.a[s], &self.d[s]);
+        let w = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+        let t = dot(&w, d) / self.dd[s];
+        // np.clip(t, 0, 1): NaN stays NaN
+        let t = if t < 0.0 { 0.0 } else { t };
+        let t = if t > 1.0 { 1.0 } else { t };
+        let e = [p[0] - (a[0] + t * d[0]), p[1] - (a[1] + t * d[1]), p[2] - (a[2] + t * d[2])];
+        dot(&e, &e)
+    }
+
+    fn run(&self, leaf: u32) -> std::ops::Range<usize> {
+        let s = leaf as usize * RUN;
+        s..(s + RUN).min(self.a.len())
+    }
+
+    /// (least squared distance, segment: the highest id among equal ones; inf and −1 for a
+    /// non-finite point or no segments).
+    pub fn nearest(&self, p: &P3) -> (f64, i64) {
+        if self.a.is_empty() {
+            return (f64::INFINITY, -1);
+        }
+        if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
+            return (f64::NAN, -1); // numpy's minimum of NaN distances
+        }
+        let pv = Vector::new(p[0], p[1], p[2]);
+        let first = self.bvh.find_best(
+            f64::MAX,
+            |node, _| {
+                let d = node.aabb().distance_to_local_point(pv, true);
+                d * d
+            },
+            |leaf, _| {
+                let d2 = self.run(leaf).map(|s| self.d2(p, s)).fold(f64::NAN, f64::min);
+                if d2.is_nan() { None } else { Some(d2) }
+            },
+        );
+        let Some((_, best1)) = first else { return (f64::INFINITY, -1) };
+        let r = best1.sqrt() * (1.0 + 1e-9) + 1e-9;
+        let (mut best, mut id) = (f64::INFINITY, -1i64);
+        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+            for s in self.run(leaf) {
+                let d2 = self.d2(p, s);
+                if d2 < best || (d2 == best && s as i64 > id) {
+                    best = d2;
+                    id = s as i64;
+                }
+            }
+        }
+        (best, id)
+    }
+
+    pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
+        pts.par_iter().with_min_len(64).map(|p| self.nearest(p)).unzip()
+    }
+
+    /// The segments of the leaves whose box comes within `radius` of the point (a superset
+    /// of the segments within it; none for a NaN radius or point).
+    pub fn within(&self, p: &P3, radius: f64) -> Vec<i64> {
+        let pv = Vector::new(p[0], p[1], p[2]);
+        let r = radius * (1.0 + 1e-12) + 1e-12;
+        let mut out = Vec::new();
+        if !(r >= 0.0) {
+            return out;
+        }
+        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+            out.extend(self.run(leaf).map(|s| s as i64));
+        }
+        out
+    }
+
+    /// (query ids, segment ids): `within` of every point, in point order.
+    pub fn within_many(&self, pts: &[P3], radius: &[f64]) -> (Vec<i64>, Vec<i64>) {
+        let lists: Vec<Vec<i64>> =
+            pts.par_iter().zip(radius.par_iter()).with_min_len(64).map(|(p, &r)| self.within(p, r)).collect();
+        let n: usize = lists.iter().map(|l| l.len()).sum();
+        let (mut q, mut s) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for (i, l) in lists.into_iter().enumerate() {
+            q.extend(std::iter::repeat(i as i64).take(l.len()));
+            s.extend(l);
+        }
+        (q, s)
+    }
+}
+
+/// The centre segments of a swept ball in a tree (see `sweep_ball.SweptBall`).
+#[pyclass(frozen)]
+pub struct SweptBallTree {
+    tree: SegTree,
+}
+
+#[pymethods]
+impl SweptBallTree {
+    /// a, b, d = b − a (S, 3) float64 mm; dd (S,) |d|² with 0 replaced by 1.
+    #[new]
+    fn new(py: Python<'_>, a: PyReadonlyArray2<'_, f64>, b: PyReadonlyArray2<'_, f64>,
+           d: PyReadonlyArray2<'_, f64>, dd: PyReadonlyArray1<'_, f64>) -> PyResult<Self> {
+        let (aa, bb, d3) = (crate::points(&a, "a")?, crate::points(&b, "b")?, crate::points(&d, "d")?);
+        let dd = crate::slice1(&dd, "dd")?;
+        if bb.len() != aa.len() || d3.len() != aa.len() || dd.len() != aa.len() {
+            return Err(PyValueError::new_err("a, b, d and dd must describe the same segments"));
+        }
+        let (aa, d3, dd) = (aa.to_vec(), d3.to_vec(), dd.to_vec());
+        let tree = py.detach(|| SegTree::new(aa, bb, d3, dd));
+        Ok(SweptBallTree { tree })
+    }
+
+    /// (d2 (k,) the least squared distance of each point (k, 3) to the segments, seg (k,)
+    /// int64 the segment: the highest id of equal ones), on `threads` threads.
+    fn nearest<'py>(&self, py: Python<'py>, p: PyReadonlyArray2<'py, f64>, threads: usize)
+        -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+        let pp = crate::points(&p, "points")?;
+        let pl = crate::pool(threads)?;
+        let (d2, seg) = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
+        Ok((PyArray1::from_vec(py, d2), PyArray1::from_vec(py, seg)))
+    }
+
+    /// (query (p,), segment (p,)) int64: a superset of the segments within `radius` (k,) mm
+    /// of each point (k, 3) (every segment truly within is listed), by point.
+    fn within<'py>(&self, py: Python<'py>, p: PyReadonlyArray2<'py, f64>, radius: PyReadonlyArray1<'py, f64>,
+                   threads: usize) -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>)> {
+        let pp = crate::points(&p, "points")?;
+        let rr = crate::slice1(&radius, "radius")?;
+        if rr.len() != pp.len() {
+            return Err(PyValueError::new_err("radius must give one value per point"));
+        }
+        let pl = crate::pool(threads)?;
+        let (q, s) = py.detach(|| pl.install(|| self.tree.within_many(pp, rr)));
+        Ok((PyArray1::from_vec(py, q), PyArray1::from_vec(py, s)))
+    }
+}

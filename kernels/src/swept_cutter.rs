@@ -1,0 +1,680 @@
+//! Step 4 of the swept cutter's "fast" method (`blisk_cam/core/verify/sweep.py`,
+//! `_golden_pairs`): the golden-section search of the cutter's signed distance along each
+//! (point, move) pair's bracket, each point's pairs stepped together as numpy steps them (the
+//! same pruning by the point's best after every step, the same pairs dropped), the points
+//! in parallel. The cutter's distance is `Cutter.signed_distance_rz` operation for operation.
+
+use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use rayon::prelude::*;
+
+/// A cutter's meridional profile (`Cutter.signed_distance_rz`'s constants).
+#[derive(Clone, Copy)]
+pub struct Profile {
+    e: f64,
+    f: f64,
+    r: f64,
+    h: f64,
+    b: [f64; 2],
+    s: [f64; 2],
+    t: [f64; 2],
+    sa: f64,
+    ca: f64,
+    sb: f64,
+    cb: f64,
+    tan_a: f64,
+    cos_b: f64,
+    sin_b: f64,
+}
+
+/// `closest.segment_distance2_2d` for one point.
+#[inline(always)]
+pub fn seg2(px: f64, py: f64, ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
+    let (dx, dy) = (bx - ax, by - ay);
+    let dd = dx * dx + dy * dy;
+    let (qx, qy) = (px - ax, py - ay);
+    let t = (qx * dx + qy * dy) / (if dd > 0.0 { dd } else { 1.0 });
+    let t = if t < 0.0 { 0.0 } else { t };
+    let t = if t > 1.0 { 1.0 } else { t };
+    let (ex, ey) = (qx - t * dx, qy - t * dy);
+    ex * ex + ey * ey
+}
+
+/// np.minimum: NaN if either is NaN.
+#[inline(always)]
+pub fn nanmin(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else if a <= b {
+        a
+    } else {
+        b
+    }
+}
+
+impl Profile {
+    /// From the 17 floats of `sweep._profile` (e, f, r, h, B, S, T, sin/cos of the arc's
+    /// sector bounds, tan α, cos β, sin β).
+    pub fn from_slice(p: &[f64]) -> Profile {
+        Profile {
+            e: p[0], f: p[1], r: p[2], h: p[3], b: [p[4], p[5]], s: [p[6], p[7]], t: [p[8], p[9]],
+            sa: p[10], ca: p[11], sb: p[12], cb: p[13], tan_a: p[14], cos_b: p[15], sin_b: p[16],
+        }
+    }
+
+    /// `Cutter.signed_distance_rz` of one meridional point.
+    #[inline]
+    pub fn sd_rz(&self, rho: f64, z: f64) -> f64 {
+        let rho = rho.abs();
+        let mut d2 = seg2(rho, z, 0.0, 0.0, self.b[0], self.b[1]);
+        d2 = nanmin(d2, seg2(rho, z, self.s[0], self.s[1], self.t[0], self.t[1]));
+        d2 = nanmin(d2, seg2(rho, z, self.t[0], self.t[1], 0.0, self.h));
+        let (vr, vz) = (rho - self.e, z - self.f);
+        let vl = vr.hypot(vz);
+        let in_sector = (vr * self.ca - vz * self.sa >= 0.0) && (vr * self.cb + vz * self.sb <= 0.0);
+        let arc_d = (vl - self.r).abs();
+        let mut dist = d2.sqrt();
+        if in_sector {
+            dist = nanmin(dist, arc_d);
+        }
+        let inside = (z >= rho * self.tan_a)
+            && (z <= self.h)
+            && ((rho - self.s[0]) * self.cos_b - (z - self.s[1]) * self.sin_b <= 0.0)
+            && !(in_sector && vl > self.r);
+        if inside { -dist } else { dist }
+    }
+}
+
+/// The constants of one pair: z(t) = cos tφ (za − t Ta) + sin tφ (zb − t Tb),
+/// |d(t)|² = n0 − t m2 + t² L2.
+#[derive(Clone, Copy)]
+struct Pair {
+    za: f64,
+    zb: f64,
+    ta: f64,
+    tb: f64,
+    n0: f64,
+    m2: f64,
+    l2: f64,
+    phi: f64,
+    d: f64,
+}
+
+impl Pair {
+    #[inline(always)]
+    fn f(&self, prof: &Profile, t: f64) -> f64 {
+        let tp = t * self.phi;
+        let (c, s) = (tp.cos(), tp.sin());
+        let z = c * (self.za - t * self.ta) + s * (self.zb - t * self.tb);
+        let n = self.n0 - t * self.m2 + t * t * self.l2;
+        let rr = n - z * z;
+        prof.sd_rz((if rr > 0.0 || rr.is_nan() { rr } else { 0.0 }).sqrt(), z)
+    }
+}
+
+#[derive(Clone, Copy)]
+struct State {
+    i: usize, // the pair's index in the caller's arrays
+    lo: f64,
+    hi: f64,
+    x1: f64,
+    x2: f64,
+    f1: f64,
+    f2: f64,
+}
+
+/// One point's pairs `i0..i1`, stepped together: (best, pair achieving it or −1).
+fn search_point(prof: &Profile, pairs: &[Pair], lo0: &[f64], hi0: &[f64], i0: usize, i1: usize,
+                u0: f64, xtol: f64) -> (f64, i64) {
+    let gold = 0.5 * (5.0f64.sqrt() - 1.0);
+    let mut live: Vec<State> = (i0..i1)
+        .map(|i| {
+            let (lo, hi) = (lo0[i], hi0[i]);
+            let x1 = hi - gold * (hi - lo);
+            let x2 = lo + gold * (hi - lo);
+            State { i, lo, hi, x1, x2, f1: pairs[i].f(prof, x1), f2: pairs[i].f(prof, x2) }
+        })
+        .collect();
+    let (mut u, mut arg) = (u0, -1i64);
+    for _ in 0..200 {
+        // the best among the pairs that may beat the point's best (NaN: no update, as
+        // numpy's minimum over the group is then NaN)
+        let (mut gmin, mut gi, mut any, mut nan) = (f64::INFINITY, -1i64, false, false);
+        for st in &live {
+            let fb = nanmin(st.f1, st.f2);
+            if !(fb >= u) {
+                any = true;
+                if fb.is_nan() {
+                    nan = true;
+                } else if fb <= gmin {
+                    gmin = fb;
+                    gi = st.i as i64;
+                }
+            }
+        }
+        if any && !nan && gmin < u {
+            u = gmin;
+            arg = gi;
+        }
+        live.retain(|st| {
+            let wd = (st.hi - st.lo) * pairs[st.i].d;
+            (wd > xtol) && (nanmin(st.f1, st.f2) - wd <= u)
+        });
+        if live.is_empty() {
+            break;
+        }
+        for st in live.iter_mut() {
+            let left = st.f1 < st.f2;
+            if left {
+                st.hi = st.x2;
+            } else {
+                st.lo = st.x1;
+            }
+            let nx = if left { st.hi - gold * (st.hi - st.lo) } else { st.lo + gold * (st.hi - st.lo) };
+            let fnx = pairs[st.i].f(prof, nx);
+            if left {
+                st.x2 = st.x1;
+                st.f2 = st.f1;
+                st.x1 = nx;
+                st.f1 = fnx;
+            } else {
+                st.x1 = st.x2;
+                st.f1 = st.f2;
+                st.x2 = nx;
+                st.f2 = fnx;
+            }
+        }
+    }
+    (u, arg)
+}
+
+/// `_golden_pairs` on pairs sorted by point `q`; (best per point (kc,), pair index or −1).
+#[pyfunction]
+#[pyo3(signature = (profile, q, u, scal, lo, hi, xtol, threads))]
+#[allow(clippy::too_many_arguments)]
+pub fn golden_pairs<'py>(
+    py: Python<'py>,
+    profile: Vec<f64>,
+    q: PyReadonlyArray1<'py, i64>,
+    u: PyReadonlyArray1<'py, f64>,
+    scal: Vec<PyReadonlyArray1<'py, f64>>,
+    lo: PyReadonlyArray1<'py, f64>,
+    hi: PyReadonlyArray1<'py, f64>,
+    xtol: f64,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let prof = Profile::from_slice(&profile);
+    let qq = crate::slice1(&q, "q")?;
+    let uu = crate::slice1(&u, "u")?;
+    let (ll, hh) = (crate::slice1(&lo, "lo")?, crate::slice1(&hi, "hi")?);
+    if scal.len() != 9 {
+        return Err(PyValueError::new_err("scal must be (za, zb, Ta, Tb, n0, m2, L2, phi, D)"));
+    }
+    let cols: Vec<&[f64]> = scal.iter().map(|c| crate::slice1(c, "scal")).collect::<PyResult<_>>()?;
+    let m = qq.len();
+    if cols.iter().any(|c| c.len() != m) || ll.len() != m || hh.len() != m {
+        return Err(PyValueError::new_err("q, scal, lo and hi must describe the same pairs"));
+    }
+    let kc = uu.len();
+    if qq.iter().any(|&x| x < 0 || x as usize >= kc) || qq.windows(2).any(|w| w[1] < w[0]) {
+        return Err(PyValueError::new_err("q must be sorted point ids in 0..len(u)"));
+    }
+    let pairs: Vec<Pair> = (0..m)
+        .map(|i| Pair {
+            za: cols[0][i], zb: cols[1][i], ta: cols[2][i], tb: cols[3][i], n0: cols[4][i],
+            m2: cols[5][i], l2: cols[6][i], phi: cols[7][i], d: cols[8][i],
+        })
+        .collect();
+    // the runs of pairs of one point
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut s = 0;
+    for i in 1..=m {
+        if i == m || qq[i] != qq[s] {
+            runs.push((s, i));
+            s = i;
+        }
+    }
+    let pl = crate::pool(threads)?;
+    let res: Vec<(f64, i64)> = py.detach(|| {
+        pl.install(|| {
+            runs.par_iter()
+                .with_min_len(8)
+                .map(|&(a, b)| search_point(&prof, &pairs, ll, hh, a, b, uu[qq[a] as usize], xtol))
+                .collect()
+        })
+    });
+    let mut best = uu.to_vec();
+    let mut arg = vec![-1i64; kc];
+    for (&(a, _), &(v, i)) in runs.iter().zip(res.iter()) {
+        let k = qq[a] as usize;
+        best[k] = v;
+        arg[k] = i;
+    }
+    Ok((PyArray1::from_vec(py, best), PyArray1::from_vec(py, arg)))
+}
+
+#[inline(always)]
+fn dot3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
+}
+
+/// np.maximum: NaN if either is NaN.
+#[inline(always)]
+fn nanmax(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else if a >= b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The tables of `_fast_search` (a SweptCutter's or a SweptForest's).
+pub struct Tables<'a> {
+    lt: &'a [[f64; 3]],
+    la: &'a [[f64; 3]],
+    ls: &'a [i64],
+    lphi: &'a [f64],
+    ldt: &'a [f64],
+    nb: usize,
+    ta: &'a [[f64; 3]],
+    tb: &'a [[f64; 3]],
+    kk: &'a [[f64; 3]],
+    bb: &'a [[f64; 3]],
+    chord_ok: &'a [bool],
+}
+
+/// `_sd_in_frame` of one point.
+#[inline]
+fn sd_in_frame(prof: &Profile, x: &[f64; 3], axis: &[f64; 3]) -> f64 {
+    let z = dot3(x, axis);
+    let rr = dot3(x, x) - z * z;
+    prof.sd_rz((if rr > 0.0 || rr.is_nan() { rr } else { 0.0 }).sqrt(), z)
+}
+
+/// Steps 1–4 of `_fast_search` for one point and its candidate leaves: (u, arg).
+#[allow(clippy::too_many_arguments)]
+fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f64, arg0: i64,
+              slack: f64, xtol: f64, delta: f64) -> (f64, i64) {
+    struct Cand {
+        sg: usize,
+        d0: [f64; 3],
+        d1: [f64; 3],
+        a0: [f64; 3],
+        z0: f64,
+        n0: f64,
+        phi: f64,
+        reach: f64,
+        eps: f64,
+        lb: f64,
+        dtip: f64,
+        v0: f64,
+        v1: f64,
+    }
+    let nb = tab.nb;
+    let h = prof.h;
+    let vpose = |zn: f64, nn: f64| {
+        let rr = nn - zn * zn;
+        prof.sd_rz((if rr > 0.0 || rr.is_nan() { rr } else { 0.0 }).sqrt(), zn)
+    };
+    // 1. heights above the tips, the chord bound
+    let mut cands: Vec<Cand> = Vec::new();
+    let mut x = vec![[0.0f64; 3]; nb + 1];
+    let mut zz = vec![0.0f64; nb + 1];
+    let mut nn = vec![0.0f64; nb + 1];
+    for &leaf in leaves {
+        let l = leaf as usize;
+        for j in 0..=nb {
+            let t = &tab.lt[l * (nb + 1) + j];
+            x[j] = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
+            zz[j] = dot3(&x[j], &tab.la[l * (nb + 1) + j]);
+            nn[j] = dot3(&x[j], &x[j]);
+        }
+        for j in 0..nb {
+            let sg = tab.ls[l * nb + j];
+            if sg < 0 {
+                continue;
+            }
+            let (z0, z1, n0, n1) = (zz[j], zz[j + 1], nn[j], nn[j + 1]);
+            let phi = tab.lphi[l * nb + j];
+            let dtip = tab.ldt[l * nb + j];
+            let reach = nanmax(n0, n1).sqrt();
+            let eps = (phi * phi * reach + 2.0 * phi * dtip) * (0.125 * (1.0 + 1e-9)) + slack;
+            let lb = nanmax(-nanmax(z0, z1), nanmin(z0, z1) - h) - eps;
+            if !(lb < u0) {
+                continue;
+            }
+            cands.push(Cand {
+                sg: sg as usize, d0: x[j], d1: x[j + 1], a0: tab.la[l * (nb + 1) + j], z0, n0, phi,
+                reach, eps, lb, dtip, v0: vpose(z0, n0), v1: vpose(z1, n1),
+            });
+        }
+    }
+    // 2. the values at the poses: the point's best so far (the last of equal ones), then the
+    // motion bound
+    let mut u = u0;
+    for c in &cands {
+        u = nanmin(u, nanmin(c.v0, c.v1));
+    }
+    let mut arg = if u0 <= u { arg0 } else { -1 };
+    for c in &cands {
+        if nanmin(c.v0, c.v1) <= u {
+            arg = c.sg as i64;
+        }
+    }
+    // 3. convexity along the chord: a bracket per move; then 4. the golden-section search
+    let mut pairs: Vec<Pair> = Vec::new();
+    let mut lo: Vec<f64> = Vec::new();
+    let mut hi: Vec<f64> = Vec::new();
+    let mut segs: Vec<usize> = Vec::new();
+    for c in &cands {
+        let dd = (c.dtip + c.phi * c.reach) * (1.0 + 1e-9) + slack;
+        let lb = nanmax(c.lb, 0.5 * (c.v0 + c.v1 - dd));
+        if !(lb < u) {
+            continue;
+        }
+        let k = &tab.kk[c.sg];
+        let v = &c.d1;
+        let (co, si) = ((-c.phi).cos(), (-c.phi).sin());
+        let kv = dot3(k, v);
+        let kx = [k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2], k[0] * v[1] - k[1] * v[0]];
+        let w = kv * (1.0 - co);
+        let p1 = [
+            v[0] * co + kx[0] * si + k[0] * w,
+            v[1] * co + kx[1] * si + k[1] * w,
+            v[2] * co + kx[2] * si + k[2] * w,
+        ];
+        let ch = [p1[0] - c.d0[0], p1[1] - c.d0[1], p1[2] - c.d0[2]];
+        let g0 = sd_in_frame(prof, &[c.d0[0] + delta * ch[0], c.d0[1] + delta * ch[1], c.d0[2] + delta * ch[2]], &c.a0);
+        let g1 = sd_in_frame(prof, &[p1[0] - delta * ch[0], p1[1] - delta * ch[1], p1[2] - delta * ch[2]], &c.a0);
+        let s0 = (g0 - c.v0) / delta;
+        let s1 = (g1 - c.v1) / delta;
+        let uu = u + c.eps + 2.0 * delta * dot3(&ch, &ch).sqrt() + slack;
+        // _bracket_below
+        let (mut tlo, mut thi) = (0.0f64, 1.0f64);
+        let ra = (uu - c.v0) / s0;
+        let rb = 1.0 - (uu - c.v1) / s1;
+        if s0 > 0.0 {
+            thi = nanmin(thi, ra);
+        }
+        if s0 < 0.0 {
+            tlo = nanmax(tlo, ra);
+        }
+        if s1 > 0.0 {
+            tlo = nanmax(tlo, rb);
+        }
+        if s1 < 0.0 {
+            thi = nanmin(thi, rb);
+        }
+        let dead = (s0 == 0.0 && c.v0 > uu) || (s1 == 0.0 && c.v1 > uu) || !uu.is_finite()
+            || tlo.is_nan() || thi.is_nan();
+        if dead {
+            tlo = 1.0;
+            thi = 0.0;
+        }
+        if !tab.chord_ok[c.sg] {
+            tlo = 0.0;
+            thi = 1.0;
+        }
+        if !(tlo <= thi) {
+            continue;
+        }
+        let (ta, tb, b) = (&tab.ta[c.sg], &tab.tb[c.sg], &tab.bb[c.sg]);
+        let dl = [tb[0] - ta[0], tb[1] - ta[1], tb[2] - ta[2]];
+        pairs.push(Pair {
+            za: c.z0, zb: dot3(&c.d0, b), ta: dot3(&dl, &c.a0), tb: dot3(&dl, b), n0: c.n0,
+            m2: 2.0 * dot3(&c.d0, &dl), l2: dot3(&dl, &dl), phi: c.phi, d: dd,
+        });
+        lo.push(tlo);
+        hi.push(thi);
+        segs.push(c.sg);
+    }
+    if pairs.is_empty() {
+        return (u, arg);
+    }
+    let (best, i) = search_point(prof, &pairs, &lo, &hi, 0, pairs.len(), u, xtol);
+    if best < u {
+        (best, segs[i.max(0) as usize] as i64)
+    } else {
+        (u, arg)
+    }
+}
+
+fn rows3<'a>(a: &'a numpy::PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 3]]> {
+    crate::points(a, what)
+}
+
+/// `_fast_search` (steps 1–4 of the fast method) on a chunk: points (k, 3), their first
+/// bounds and segments (k,), the candidate (point, leaf) pairs sorted by point, the points'
+/// rounding slack (k,), the tables; (u (k,), arg (k,)).
+#[pyfunction]
+#[pyo3(signature = (profile, pc, u, arg, q, leaf, slack, lt, la, ls, lphi, ldt, ta, tb, kk, bb,
+                    chord_ok, xtol, delta, threads))]
+#[allow(clippy::too_many_arguments)]
+pub fn fast_search<'py>(
+    py: Python<'py>,
+    profile: Vec<f64>,
+    pc: numpy::PyReadonlyArray2<'py, f64>,
+    u: PyReadonlyArray1<'py, f64>,
+    arg: PyReadonlyArray1<'py, i64>,
+    q: PyReadonlyArray1<'py, i64>,
+    leaf: PyReadonlyArray1<'py, i64>,
+    slack: PyReadonlyArray1<'py, f64>,
+    lt: numpy::PyReadonlyArray2<'py, f64>,
+    la: numpy::PyReadonlyArray2<'py, f64>,
+    ls: numpy::PyReadonlyArray2<'py, i64>,
+    lphi: numpy::PyReadonlyArray2<'py, f64>,
+    ldt: numpy::PyReadonlyArray2<'py, f64>,
+    ta: numpy::PyReadonlyArray2<'py, f64>,
+    tb: numpy::PyReadonlyArray2<'py, f64>,
+    kk: numpy::PyReadonlyArray2<'py, f64>,
+    bb: numpy::PyReadonlyArray2<'py, f64>,
+    chord_ok: PyReadonlyArray1<'py, bool>,
+    xtol: f64,
+    delta: f64,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let prof = Profile::from_slice(&profile);
+    let pp = rows3(&pc, "points")?;
+    let (uu, aa) = (crate::slice1(&u, "u")?, crate::slice1(&arg, "arg")?);
+    let (qq, ll, sl) = (crate::slice1(&q, "q")?, crate::slice1(&leaf, "leaf")?, crate::slice1(&slack, "slack")?);
+    let k = pp.len();
+    let nc = ls.shape()[0];
+    let nb = ls.shape()[1];
+    let err = |m: &str| Err(PyValueError::new_err(m.to_string()));
+    if uu.len() != k || aa.len() != k || sl.len() != k || qq.len() != ll.len() {
+        return err("u, arg and slack need one value per point; q and leaf one per pair");
+    }
+    let (lt3, la3) = (rows3(&lt, "lt")?, rows3(&la, "la")?);
+    let lsl = ls.as_slice().map_err(|_| PyValueError::new_err("ls must be C-contiguous"))?;
+    let lph = lphi.as_slice().map_err(|_| PyValueError::new_err("lphi must be C-contiguous"))?;
+    let ldts = ldt.as_slice().map_err(|_| PyValueError::new_err("ldt must be C-contiguous"))?;
+    let (ta3, tb3, kk3, bb3) = (rows3(&ta, "ta")?, rows3(&tb, "tb")?, rows3(&kk, "k")?, rows3(&bb, "b")?);
+    let cok = crate::slice1(&chord_ok, "chord_ok")?;
+    let ns = ta3.len();
+    if lt3.len() != nc * (nb + 1) || la3.len() != nc * (nb + 1) || lph.len() != nc * nb || ldts.len() != nc * nb
+        || tb3.len() != ns || kk3.len() != ns || bb3.len() != ns || cok.len() != ns
+        || lsl.iter().any(|&s| s >= ns as i64)
+        || ll.iter().any(|&l| l < 0 || l as usize >= nc)
+        || qq.iter().any(|&x| x < 0 || x as usize >= k) || qq.windows(2).any(|w| w[1] < w[0])
+    {
+        return err("inconsistent tables, leaves or points (q sorted, ids in range)");
+    }
+    let tab = Tables { lt: lt3, la: la3, ls: lsl, lphi: lph, ldt: ldts, nb, ta: ta3, tb: tb3, kk: kk3, bb: bb3, chord_ok: cok };
+    // the runs of pairs of one point
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut s = 0;
+    for i in 1..=qq.len() {
+        if i == qq.len() || qq[i] != qq[s] {
+            if i > s {
+                runs.push((s, i));
+            }
+            s = i;
+        }
+    }
+    let pl = crate::pool(threads)?;
+    let res: Vec<(f64, i64)> = py.detach(|| {
+        pl.install(|| {
+            runs.par_iter()
+                .with_min_len(4)
+                .map(|&(a, b)| {
+                    let p = qq[a] as usize;
+                    fast_point(&prof, &tab, &pp[p], &ll[a..b], uu[p], aa[p], sl[p], xtol, delta)
+                })
+                .collect()
+        })
+    });
+    let mut uo = uu.to_vec();
+    let mut ao = aa.to_vec();
+    for (&(a, _), &(v, i)) in runs.iter().zip(res.iter()) {
+        let p = qq[a] as usize;
+        uo[p] = v;
+        ao[p] = i;
+    }
+    Ok((PyArray1::from_vec(py, uo), PyArray1::from_vec(py, ao)))
+}
+
+/// Boxes bounding the volume a cutter sweeps along each leaf (a run of moves) of a swept
+/// cutter or forest, in parry3d-f64's bounding-volume tree: the candidate leaves of a point
+/// are those whose box comes within its upper bound (a superset of the leaves that can hold
+/// its minimum: the others' moves are all farther than the bound, so they change nothing).
+#[pyclass(frozen)]
+pub struct LeafBoxes {
+    bvh: parry3d_f64::partitioning::Bvh,
+    n: usize,
+}
+
+#[pymethods]
+impl LeafBoxes {
+    /// lo, hi (NC, 3) float64 mm: each leaf's box (already padded by the cutter's reach).
+    #[new]
+    fn new(py: Python<'_>, lo: numpy::PyReadonlyArray2<'_, f64>, hi: numpy::PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+        use parry3d_f64::bounding_volume::Aabb;
+        use parry3d_f64::math::Vector;
+        let (l3, h3) = (rows3(&lo, "lo")?, rows3(&hi, "hi")?);
+        if l3.len() != h3.len() {
+            return Err(PyValueError::new_err("lo and hi must have the same rows"));
+        }
+        let boxes: Vec<Aabb> = l3
+            .iter()
+            .zip(h3.iter())
+            .map(|(a, b)| Aabb::new(Vector::new(a[0], a[1], a[2]), Vector::new(b[0], b[1], b[2])))
+            .collect();
+        let n = boxes.len();
+        let bvh = py.detach(|| parry3d_f64::partitioning::Bvh::from_leaves(parry3d_f64::partitioning::BvhBuildStrategy::Binned, &boxes));
+        Ok(LeafBoxes { bvh, n })
+    }
+}
+
+impl LeafBoxes {
+    /// The leaves in `lo..hi` whose box comes within `r` of the point, ascending.
+    fn near(&self, p: &[f64; 3], r: f64, lo: i64, hi: i64) -> Vec<i64> {
+        use parry3d_f64::math::Vector;
+        use parry3d_f64::query::PointQuery;
+        let pv = Vector::new(p[0], p[1], p[2]);
+        let mut out: Vec<i64> = Vec::new();
+        if self.n == 0 {
+            return out;
+        }
+        // a point inside the swept volume (u < 0): the leaves whose box holds it
+        let r = if r > 0.0 { r } else { 0.0 };
+        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+            let l = leaf as i64;
+            if l >= lo && l < hi {
+                out.push(l);
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+}
+
+/// `_fast_search` with the candidate leaves found here (see [`LeafBoxes`]): each point's
+/// leaves within its bound u of the boxes of leaves `cl_lo..cl_hi` (its member's); then steps
+/// 1–4 as [`fast_search`]. Returns (u (k,), arg (k,)).
+#[pyfunction]
+#[pyo3(signature = (profile, pc, u, arg, slack, boxes, cl_lo, cl_hi, lt, la, ls, lphi, ldt, ta,
+                    tb, kk, bb, chord_ok, xtol, delta, threads))]
+#[allow(clippy::too_many_arguments)]
+pub fn fast_search_boxes<'py>(
+    py: Python<'py>,
+    profile: Vec<f64>,
+    pc: numpy::PyReadonlyArray2<'py, f64>,
+    u: PyReadonlyArray1<'py, f64>,
+    arg: PyReadonlyArray1<'py, i64>,
+    slack: PyReadonlyArray1<'py, f64>,
+    boxes: PyRef<'py, LeafBoxes>,
+    cl_lo: PyReadonlyArray1<'py, i64>,
+    cl_hi: PyReadonlyArray1<'py, i64>,
+    lt: numpy::PyReadonlyArray2<'py, f64>,
+    la: numpy::PyReadonlyArray2<'py, f64>,
+    ls: numpy::PyReadonlyArray2<'py, i64>,
+    lphi: numpy::PyReadonlyArray2<'py, f64>,
+    ldt: numpy::PyReadonlyArray2<'py, f64>,
+    ta: numpy::PyReadonlyArray2<'py, f64>,
+    tb: numpy::PyReadonlyArray2<'py, f64>,
+    kk: numpy::PyReadonlyArray2<'py, f64>,
+    bb: numpy::PyReadonlyArray2<'py, f64>,
+    chord_ok: PyReadonlyArray1<'py, bool>,
+    xtol: f64,
+    delta: f64,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let prof = Profile::from_slice(&profile);
+    let pp = rows3(&pc, "points")?;
+    let (uu, aa, sl) = (crate::slice1(&u, "u")?, crate::slice1(&arg, "arg")?, crate::slice1(&slack, "slack")?);
+    let (clo, chi) = (crate::slice1(&cl_lo, "cl_lo")?, crate::slice1(&cl_hi, "cl_hi")?);
+    let k = pp.len();
+    let nc = ls.shape()[0];
+    let nb = ls.shape()[1];
+    let err = |m: &str| Err(PyValueError::new_err(m.to_string()));
+    if uu.len() != k || aa.len() != k || sl.len() != k || clo.len() != k || chi.len() != k {
+        return err("u, arg, slack, cl_lo and cl_hi need one value per point");
+    }
+    let (lt3, la3) = (rows3(&lt, "lt")?, rows3(&la, "la")?);
+    let lsl = ls.as_slice().map_err(|_| PyValueError::new_err("ls must be C-contiguous"))?;
+    let lph = lphi.as_slice().map_err(|_| PyValueError::new_err("lphi must be C-contiguous"))?;
+    let ldts = ldt.as_slice().map_err(|_| PyValueError::new_err("ldt must be C-contiguous"))?;
+    let (ta3, tb3, kk3, bb3) = (rows3(&ta, "ta")?, rows3(&tb, "tb")?, rows3(&kk, "k")?, rows3(&bb, "b")?);
+    let cok = crate::slice1(&chord_ok, "chord_ok")?;
+    let ns = ta3.len();
+    if lt3.len() != nc * (nb + 1) || la3.len() != nc * (nb + 1) || lph.len() != nc * nb || ldts.len() != nc * nb
+        || tb3.len() != ns || kk3.len() != ns || bb3.len() != ns || cok.len() != ns
+        || lsl.iter().any(|&s| s >= ns as i64) || boxes.n != nc
+        || clo.iter().zip(chi.iter()).any(|(&a, &b)| a < 0 || b < a || b as usize > nc)
+    {
+        return err("inconsistent tables, boxes or leaf ranges");
+    }
+    let tab = Tables { lt: lt3, la: la3, ls: lsl, lphi: lph, ldt: ldts, nb, ta: ta3, tb: tb3, kk: kk3, bb: bb3, chord_ok: cok };
+    let bx: &LeafBoxes = &boxes;
+    let pl = crate::pool(threads)?;
+    let res: Vec<(f64, i64)> = py.detach(|| {
+        pl.install(|| {
+            (0..k)
+                .into_par_iter()
+                .with_min_len(4)
+                .map(|i| {
+                    let r = uu[i] * (1.0 + 1e-9) + 1e-9 + sl[i];
+                    let leaves = bx.near(&pp[i], r, clo[i], chi[i]);
+                    if leaves.is_empty() {
+                        return (uu[i], aa[i]);
+                    }
+                    fast_point(&prof, &tab, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta)
+                })
+                .collect()
+        })
+    });
+    let (uo, ao): (Vec<f64>, Vec<i64>) = res.into_iter().unzip();
+    Ok((PyArray1::from_vec(py, uo), PyArray1::from_vec(py, ao)))
+}

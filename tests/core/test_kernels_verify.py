@@ -1,0 +1,161 @@
+"""Verify's compiled kernels (the swept ball's nearest centre segments, the swept cutter's
+golden-section search) against the numpy reference on the same inputs: the swept ball's
+distances bit for bit, the swept cutter's within 1e-9 mm, and whole verify reports with the
+same figures and verdict on both backends."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.geometry.mesh import TriMesh
+from blisk_cam.core.kernels import backend
+from blisk_cam.core.part.cones import Cone
+from blisk_cam.core.runtime import parallel
+from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.toolpath.types import PassCurve, ToolPath
+from blisk_cam.core.verify.measure import verify_path
+from blisk_cam.core.verify.sweep import SweptCutter
+from blisk_cam.core.verify.sweep_ball import SweptBall
+
+compiled = pytest.mark.skipif(
+    backend.extension() is None or not hasattr(backend.extension(), "golden_pairs"),
+    reason="the compiled kernels are not installed (make kernels), were built before the "
+           "verify kernels, or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
+)
+
+
+def _helices(n_pass=12, n=300, seed=0):
+    """Centre polylines: wavy helical turns 2 mm apart (mm), and points around them."""
+    rng = np.random.default_rng(seed)
+    a, b, own = [], [], []
+    for i in range(n_pass):
+        t = np.linspace(0.0, 5.0, n)
+        c = np.stack([30 * np.cos(t), 30 * np.sin(t), 2.0 * i + 0.2 * np.sin(7 * t)], 1)
+        a.append(c[:-1])
+        b.append(c[1:])
+        own.append(np.full(n - 1, i))
+    a, b, own = np.vstack(a), np.vstack(b), np.concatenate(own)
+    P = np.vstack([a[rng.integers(0, len(a), 3000)] + rng.normal(scale=3.0, size=(3000, 3)),
+                   a[::7], b[::11]])  # on the polylines: ties between neighbouring segments
+    return a, b, own, P
+
+
+@compiled
+def test_swept_ball_distances_identical_on_both_backends():
+    a, b, own, P = _helices()
+    up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+    with backend.numpy_only():
+        ball = SweptBall(a, b, 3.0, own)
+        d_ref, s_ref = ball.nearest(P)
+        h_ref = ball.height_along(P, up, 4.0)
+        n_ref = ball.near(P, 0.5).distance(P + 0.2)
+    for threads in (1, 2):
+        with parallel(threads):
+            ball = SweptBall(a, b, 3.0, own)
+            d, s = ball.nearest(P)
+            np.testing.assert_array_equal(d, d_ref)
+            # a point equally near two segments may name either; both are that near
+            np.testing.assert_array_equal(own[s], own[s_ref])
+            e = P - (a[s] + np.clip(np.einsum("ij,ij->i", P - a[s], b[s] - a[s])
+                                    / np.einsum("ij,ij->i", b[s] - a[s], b[s] - a[s]),
+                                    0, 1)[:, None] * (b[s] - a[s]))
+            np.testing.assert_allclose(np.linalg.norm(e, axis=1) - 3.0, d, atol=1e-12)
+            np.testing.assert_array_equal(ball.height_along(P, up, 4.0), h_ref)
+            np.testing.assert_array_equal(ball.near(P, 0.5).distance(P + 0.2), n_ref)
+    assert np.isfinite(h_ref).any() and np.isinf(h_ref).any()
+
+
+def _turning_moves(seed=1):
+    """Bull-nose poses along helical passes whose axis leans and turns along the pass."""
+    rng = np.random.default_rng(seed)
+    tips, axes = [], []
+    for i in range(6):
+        t = np.linspace(0.0, 2.0, 120)
+        tips.append(np.stack([40 * np.cos(t), 40 * np.sin(t), 3.0 * i + 0.3 * np.sin(3 * t)],
+                             1))
+        ax = np.stack([np.cos(t), np.sin(t), 0.3 + 0.2 * np.sin(2 * t + i)], 1)
+        axes.append(ax / np.linalg.norm(ax, axis=1)[:, None])
+    ta = np.vstack([x[:-1] for x in tips])
+    tb = np.vstack([x[1:] for x in tips])
+    aa = np.vstack([x[:-1] for x in axes])
+    ab = np.vstack([x[1:] for x in axes])
+    own = np.repeat(np.arange(6), 119)
+    k = rng.integers(0, len(ta), 2500)
+    P = ta[k] + rng.normal(scale=4.0, size=(2500, 3)) - 2.0 * aa[k]
+    return ta, aa, tb, ab, own, P
+
+
+@compiled
+def test_swept_bull_nose_distances_within_1e9_on_both_backends():
+    ta, aa, tb, ab, own, P = _turning_moves()
+    cut = Cutter.bull(6.0, 2.0)
+    with backend.numpy_only():
+        d_ref, s_ref = SweptCutter(cut, ta, aa, tb, ab, own).nearest(P)
+    for threads in (1, 2):
+        with parallel(threads):
+            d, s = SweptCutter(cut, ta, aa, tb, ab, own).nearest(P)
+        np.testing.assert_allclose(d, d_ref, rtol=0, atol=1e-9)
+        assert np.mean(s == s_ref) > 0.99
+        assert np.array_equal(np.sign(d), np.sign(d_ref))
+    assert (d_ref < 0).any() and (d_ref > 0).any()  # points inside and outside the volume
+
+
+def _plane_case(cutter, lead_deg, tilt_deg, xs=(104.0, 110.0, 116.0, 122.0), push=0.0):
+    """The half-plane y = 0 (normal +y) between the cylinders r = 100 and r = 130 about z,
+    and straight passes x = xs along +z of ``cutter``, leaning ``lead`` toward the feed and
+    ``tilt`` to the side (degrees); ``push`` mm into the surface."""
+    nx, nz = 41, 31
+    x, z = np.linspace(95.0, 135.0, nx), np.linspace(0.0, 30.0, nz)
+    X, Z = np.meshgrid(x, z, indexing="ij")
+    V = np.stack([X.ravel(), np.zeros(X.size), Z.ravel()], 1)
+    i = np.arange(nx * nz).reshape(nx, nz)
+    a, b, c, d = i[:-1, :-1], i[1:, :-1], i[1:, 1:], i[:-1, 1:]
+    F = np.vstack([np.stack([a, d, b], -1).reshape(-1, 3), np.stack([b, d, c], -1).reshape(-1, 3)])
+    mesh = TriMesh.from_arrays(V, F)
+    assert mesh.face_normals[:, 1].min() > 0.99  # normals +y, out of the material
+    lead, tilt = np.radians(lead_deg), np.radians(tilt_deg)
+    ax = np.array([-np.sin(tilt) * np.cos(lead), np.cos(lead) * np.cos(tilt), np.sin(lead)])
+    ax /= np.linalg.norm(ax)
+    curves = []
+    for xi in xs:
+        zz = np.linspace(-12.0, 42.0, 28)
+        cc = np.stack([np.full_like(zz, xi), np.zeros_like(zz), zz], 1)
+        nrm = np.tile([0.0, 1.0, 0.0], (len(zz), 1))
+        axs = np.tile(ax, (len(zz), 1))
+        tip = cutter.cl_points(cc, nrm, axs) - push * nrm
+        curves.append(PassCurve((xi - 100.0) / 30.0, False, cc, nrm, tip, axs,
+                                np.full(len(zz), -1)))
+    return mesh, ToolPath(Axis(), Cone(100.0, 0, 100.0, 30), Cone(130.0, 0, 130.0, 30), cutter,
+                          0.05, 0.05, curves)
+
+
+def _figures(rep):
+    s = rep.summary()
+    s.pop("timings")
+    return s
+
+
+@compiled
+@pytest.mark.parametrize("tool", ["ball", "bull"])
+def test_verify_reports_agree_on_both_backends(tool):
+    cutter = Cutter.ball(6.0) if tool == "ball" else Cutter.bull(6.0, 2.0)
+    mesh, path = _plane_case(cutter, 0.0 if tool == "ball" else 10.0,
+                             0.0 if tool == "ball" else 5.0, push=0.02)
+    with backend.numpy_only():
+        ref = verify_path(mesh, path, workers=1)
+    got = verify_path(mesh, path, workers=2)
+    assert ref.max_gouge > 0.01  # the push is measured: the check can fail
+    a, b = _figures(ref), _figures(got)
+    assert a.keys() == b.keys()
+    for k in a:
+        x, y = a[k], b[k]
+        if isinstance(x, float) and isinstance(y, float):
+            assert x == pytest.approx(y, abs=1e-9, nan_ok=True), k
+        elif isinstance(x, (list, tuple)) and x and isinstance(x[0], float):
+            np.testing.assert_allclose(x, y, rtol=0, atol=1e-9, err_msg=k)
+        else:
+            assert x == y, k
+    if tool == "ball":  # the same arithmetic: the very floats
+        assert a == b
