@@ -111,7 +111,8 @@ def test_tilted_axis_from_the_shroud_never_enters_the_allowance():
     part = part_from_demo(_demo())
     stock = stock_from_envelope(part, 2.0, 1.0)
     req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, levels="from-shroud",
-                       lead=math.radians(3.0), side_tilt=math.radians(4.0))
+                       lead=math.radians(3.0), side_tilt=math.radians(4.0),
+                       follow_blades=False)
     path = plan_roughing(part, req, stock)
     # every cutting axis is the radial direction tilted 3° toward +z and 4° toward +θ
     P = path.program

@@ -51,13 +51,15 @@ class Piece:
 
 def pose_frame(axis: Axis, theta, z, r, theta_ref: float, lead: float, side: float):
     """Tips (n, 3) and unit axes (n, 3) of tool poses at (θ + theta_ref, z, r): the radial
-    direction tilted by ``lead`` toward +z and ``side`` toward +θ (rad)."""
+    direction tilted by ``lead`` toward +z and ``side`` toward +θ (rad; scalars or (n,))."""
     e1, e2, d = axis.angular_frame()
     th = np.asarray(theta, float) + theta_ref
     u = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
     t = -np.sin(th)[:, None] * e1 + np.cos(th)[:, None] * e2
     tip = axis.o + np.asarray(z, float)[:, None] * d + np.asarray(r, float)[:, None] * u
-    a = u + math.tan(side) * t + math.tan(lead) * d
+    ts = np.reshape(np.tan(np.asarray(side, float)), (-1, 1))
+    tl = np.reshape(np.tan(np.asarray(lead, float)), (-1, 1))
+    a = u + ts * t + tl * d
     return tip, a / np.linalg.norm(a, axis=1)[:, None]
 
 
@@ -145,6 +147,9 @@ def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, fra
         for w in ws:
             th = np.full(2, lo[i] + w * (hi[i] - lo[i]))
             tips, axes = frame(th, np.full(2, z[i]), np.array([r_above[i], r[i]]))
+            # down the bottom pose's own axis (a tilted axis is not radial)
+            tips[0] = tips[1] + float((tips[0] - tips[1]) @ axes[1]) * axes[1]
+            axes[0] = axes[1]
             pieces.append(Piece(tips, axes, level, (False, False), plunge=True, station=int(i)))
     return pieces
 

@@ -193,14 +193,16 @@ def channel_bounds(sections, pitch: float, z, r_tip, table, *, lead: float = 0.0
     """Lower and upper θ bounds (rad, relative to the blade's mean angle) of the tip at the
     stations ``z`` (n,) with tip radii ``r_tip`` (n,): the tool clear of blade 0 (below) and
     blade 1 (above) at every height of ``table`` (:func:`offset_table`). ``lead`` and
-    ``side`` are the axis tilts (rad). ±inf where no section is within reach."""
+    ``side`` are the axis tilts (rad; ``side`` a scalar or (n,) per station). ±inf where no
+    section is within reach."""
     z = np.asarray(z, float)
     r_tip = np.asarray(r_tip, float)
     hs, os_ = table
     h_lo, h_hi = float(hs[np.isfinite(os_)].min()), float(hs[np.isfinite(os_)].max())
     lo = np.full(len(z), -np.inf)
     hi = np.full(len(z), np.inf)
-    tl, ts = math.tan(lead), math.tan(side)
+    tl = math.tan(lead)
+    ts = np.broadcast_to(np.tan(np.asarray(side, float)), z.shape)
     for sec in sections:
         if len(sec.z) == 0:
             continue
@@ -226,7 +228,7 @@ def channel_bounds(sections, pitch: float, z, r_tip, table, *, lead: float = 0.0
         grp = np.repeat(np.arange(len(st)), cnt)
         dz = sec.z[idx] - zq[grp]
         s = np.sqrt(np.maximum(o[grp] ** 2 - dz * dz, 0.0)) / rc
-        shift = (h[st] * ts / rc)[grp]
+        shift = (h[st] * ts[st] / rc)[grp]
         starts = np.cumsum(cnt) - cnt
         up = np.maximum.reduceat(sec.theta[idx] + s - shift, starts)
         dn = np.minimum.reduceat(sec.theta[idx] - s - shift, starts) + pitch

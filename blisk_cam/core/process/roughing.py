@@ -23,9 +23,14 @@ Stages (:mod:`.operation`):
 4. ``link`` — the program: feed links in the air beyond the blank's faces, retract / rapid
    at the safe radius / approach elsewhere; the estimated machining time.
 
-The tool axis is radial (the span direction of a blade stacked on radial lines), tilted by
-the requested lead (toward +z) and side tilt (toward +θ); the bounds account for the tilt at
-every height of the tool. Units mm, radians (degrees only in messages).
+The tool axis leans with the blades (``follow_blades``, the default): per level and station
+the radial direction tilted toward +θ by the blades' mean camber lean over the band of
+radii the level's cut adds (:mod:`..channel.axis`), changing by at most ``max_turn`` per
+station step, plus the requested lead (toward +z) and side tilt (toward +θ); without
+``follow_blades`` it is radial with the requested tilts. The floor of each level is
+computed for its own tilts (a tilted tool's low rim keeps the hub allowance) and the
+bounds account for the tilt at every height of the tool. Units mm, radians (degrees only
+in messages).
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..channel.levels import LEVEL_MODES, floor_radius, level_radii, stock_top
+from ..channel.axis import limit_turn, mean_camber_lean
+from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
     link_program,
     machining_time,
@@ -52,7 +58,7 @@ from ..stock.dexels import RadialDexels
 from ..stock.removal import body_assembly
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
-from ..toolpath.types import PassCurve, Program, ToolPath
+from ..toolpath.types import MOVE_CUT, PassCurve, Program, ToolPath
 from .operation import Operation, OperationResult, Stage, run_operation
 
 __all__ = ["PATTERNS", "RoughRequest", "RoughingOperation", "plan_roughing"]
@@ -84,6 +90,9 @@ class RoughRequest:
     spindle : float or None, rpm — recorded in the stats
     margin : float, mm — extra distance kept from the allowance shell (covers the chord
         between stations)
+    follow_blades : bool — the axis leans with the blades' mean camber surface (module
+        docstring); False: radial
+    max_turn : float, rad — the largest change of the side tilt per station step
     """
 
     tool: Cutter
@@ -104,6 +113,8 @@ class RoughRequest:
     rapid_feed: float = 10000.0
     spindle: float | None = None
     margin: float = 0.02
+    follow_blades: bool = True
+    max_turn: float = math.radians(2.0)
 
 
 @dataclass
@@ -218,6 +229,9 @@ class RoughingOperation(Operation):
                 raise BliskCamError(f"{name} must be within ±45°, got "
                                     f"{math.degrees(ang):g}°")
         _num("station step", req.station_step)
+        if not (math.isfinite(req.max_turn) and req.max_turn > 0):
+            raise BliskCamError(f"the largest axis turn per step must be > 0°, got "
+                                f"{math.degrees(req.max_turn):g}°")
         _num("safety distance", req.safety, positive=False)
         for name, f in (("feed", req.feed), ("rapid feed", req.rapid_feed)):
             _num(name, f)
@@ -277,37 +291,63 @@ class RoughingOperation(Operation):
         zr, top = stock_top(st.stock)
         if len(zr) == 0:
             raise StockError("the blank is empty")
+        req, part = st.req, st.part
         st.top = np.interp(st.z, zr, top)
-        st.floor = floor_radius(st.part.hub_profile, st.cutter, st.hub_a, st.z,
-                                lead=st.req.lead, side=st.req.side_tilt)
-        st.levels = level_radii(st.z, st.floor, st.top, st.req.levels, st.req.depth_per_cut)
-        yield Progress(1.0, f"{len(st.levels)} levels")
-
-    def _region(self, st: _State):
-        part, req = st.part, st.req
-        tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(req.side_tilt)))
-        table = offset_table(st.cutter, st.assembly, req.allowance, req.safety, req.margin,
-                             tilt=tilt)
+        st.floor = floor_radius(part.hub_profile, st.cutter, st.hub_a, st.z,
+                                lead=req.lead, side=req.side_tilt)
+        st.levels = level_radii(st.z, st.floor, st.top, req.levels, req.depth_per_cut)
+        yield Progress(0.3, f"{len(st.levels)} levels")
         rv, _, _ = theta_about(part.blade_vertices, part.axis)
         r_lo = max(float(rv.min()), float(st.floor.min()) - req.allowance - 0.5)
         r_hi = float(rv.max())
         # near the hub the blade runs into its fillet nearly parallel to the cylinders: there
         # consecutive sections lie far apart and the corner of the tool could pass between
         # them, so the cylinders are 0.05 mm apart up to a tool radius + 2 mm above the floor
-        fine = min(float(st.floor.max()) + st.cutter.max_radius + 2.0, r_hi)
+        # (+ the rim's drop of a tool tilted up to 45°)
+        fine = min(float(st.floor.max()) + 1.8 * st.cutter.max_radius + 2.0, r_hi)
         radii = np.unique(np.concatenate([np.arange(r_lo, fine, 0.05),
                                           np.arange(fine, r_hi + 0.25, 0.25)]))
         st.sections = cylinder_sections(part.blade_vertices, part.blade_faces, part.axis,
                                         radii, st.theta_ref, 0.3)
+        yield Progress(0.7, "blade sections")
+        floor_level = st.levels[-1]
+        for lv in st.levels:
+            # the floor level keeps the radial axis: a tilted flat bottom would leave a
+            # sawtooth on the hub, and its low rim would lift the floor
+            lv.side = np.full(len(st.z), float(req.side_tilt))
+            if req.follow_blades and lv is not floor_level:
+                self._lean(st, lv)
+        yield Progress(1.0, "tool axes")
+
+    def _lean(self, st: _State, lv: Level):
+        """The level's side tilt following the blades (:mod:`..channel.axis`) and its tip
+        radius raised to the floor of that tilt."""
+        req = st.req
+        lean = mean_camber_lean(st.sections, st.z, lv.r, lv.r + max(req.depth_per_cut, 2.0))
+        lv.side = limit_turn(lean + req.side_tilt, req.max_turn)
+        fl = floor_radius(st.part.hub_profile, st.cutter, st.hub_a, st.z, lead=req.lead,
+                          side=lv.side)
+        lv.r = np.maximum(lv.r, fl)
+
+    def _region(self, st: _State):
+        part, req = st.part, st.req
+        tables = {}
         overlap = (st.cutter.max_radius + 1.0) / np.maximum(st.floor, 1.0)
         hold = st.cutter.max_radius + 1.0
         for k, lv in enumerate(st.levels):
             check_cancel()
-            z, r, outside, lo, hi = _refined_bounds(
-                st.sections, part.pitch, st.z, lv.r, st.outside, table, req)
+            # the table of the level's largest tilt (to 0.1°: levels share tables)
+            side = math.radians(math.ceil(math.degrees(float(np.abs(lv.side).max())) * 10) / 10)
+            tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(side)))
+            if tilt not in tables:
+                tables[tilt] = offset_table(st.cutter, st.assembly, req.allowance,
+                                            req.safety, req.margin, tilt=tilt)
+            table = tables[tilt]
+            z, r, outside, lo, hi, side = _refined_bounds(
+                st.sections, part.pitch, st.z, lv.r, st.outside, table, req, lv.side)
             lo, hi = fill_free(z, lo, hi, part.pitch, np.interp(z, st.z, overlap), hold, 5.0,
                                0.5 * part.pitch)
-            lv.z, lv.r, lv.outside = z, r, outside
+            lv.z, lv.r, lv.outside, lv.side = z, r, outside, side
             reach = hi >= lo
             inner = ~outside
             miss = inner & ~reach
@@ -328,14 +368,16 @@ class RoughingOperation(Operation):
     def _pattern(self, st: _State):
         req, part = st.req, st.part
 
-        def frame(theta, z, r):
-            return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead, req.side_tilt)
-
         fwd, low = True, True
         r_safe = self._r_safe(st)
         for k, (lv, (lo, hi, reach)) in enumerate(zip(st.levels, st.bounds, strict=True)):
             if not reach.any():
                 continue
+
+            def frame(theta, z, r, lv=lv):
+                return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead,
+                                  np.interp(z, lv.z, lv.side))
+
             if req.pattern == "zigzag":
                 pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
                                               req.stepover, frame, fwd, low)
@@ -400,7 +442,11 @@ class RoughingOperation(Operation):
             "length_rapid_mm": est["lengths_mm"]["rapid"],
             "safe_radius_mm": self._r_safe(st),
             "floor_scallop_mm": scallop,
-            "max_axis_turn_deg": _max_turn(axis),
+            "max_axis_turn_deg": _max_turn(axis, move),
+            "axis": "follows the blades" if req.follow_blades else "radial",
+            "max_turn_per_step_deg": math.degrees(req.max_turn),
+            "side_tilt_range_deg": [math.degrees(min(float(lv.side.min()) for lv in st.levels)),
+                                    math.degrees(max(float(lv.side.max()) for lv in st.levels))],
         }
         if req.spindle:
             stats["spindle_rpm"] = float(req.spindle)
@@ -414,15 +460,16 @@ class RoughingOperation(Operation):
         return OperationResult(state.path, None, dict(seconds))
 
 
-def _refined_bounds(sections, pitch, z, r, outside, table, req, chord: float = 0.5,
+def _refined_bounds(sections, pitch, z, r, outside, table, req, side, chord: float = 0.5,
                     rounds: int = 8):
     """Stations and bounds of one level, refined where a bound moves more than ``chord`` mm
     between two stations: a straight move of length L between two points of the envelope
     of circles of radius o (≥ the tool's radius) leaves it by at most L²/(8 o), so chords of
     ≤ 0.5 mm stay within the margin — also where the envelope turns round a leading or
     trailing edge and its slope in z is unbounded (there halving the z step is what shortens
-    the chord). Returns (z, r, outside, lo, hi)."""
-    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=req.lead, side=req.side_tilt)
+    the chord). ``side`` (n,) the side tilt per station (rad), interpolated linearly at the
+    inserted stations. Returns (z, r, outside, lo, hi, side)."""
+    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=req.lead, side=side)
     for _ in range(rounds):
         both = np.isfinite(lo[:-1]) & np.isfinite(lo[1:]) & np.isfinite(hi[:-1]) & \
             np.isfinite(hi[1:])
@@ -435,22 +482,24 @@ def _refined_bounds(sections, pitch, z, r, outside, table, req, chord: float = 0
         zm = 0.5 * (z[bad] + z[bad + 1])
         r_m = 0.5 * (r[bad] + r[bad + 1])
         out_m = outside[bad] & outside[bad + 1]
-        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=req.lead,
-                                    side=req.side_tilt)
+        s_m = 0.5 * (side[bad] + side[bad + 1])
+        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=req.lead, side=s_m)
         order = np.argsort(np.concatenate([z, zm]), kind="stable")
         z = np.concatenate([z, zm])[order]
         r = np.concatenate([r, r_m])[order]
         outside = np.concatenate([outside, out_m])[order]
+        side = np.concatenate([side, s_m])[order]
         lo = np.concatenate([lo, lo_m])[order]
         hi = np.concatenate([hi, hi_m])[order]
-    return z, r, outside, lo, hi
+    return z, r, outside, lo, hi, side
 
 
-def _max_turn(axis) -> float:
-    """Largest angle (degrees) between consecutive tool axes."""
-    if len(axis) < 2:
+def _max_turn(axis, move) -> float:
+    """Largest angle (degrees) between the tool axes of consecutive cutting poses."""
+    cut = np.nonzero((np.asarray(move)[1:] == MOVE_CUT) & (np.asarray(move)[:-1] == MOVE_CUT))[0]
+    if len(cut) == 0:
         return 0.0
-    c = np.clip(np.einsum("ij,ij->i", axis[1:], axis[:-1]), -1.0, 1.0)
+    c = np.clip(np.einsum("ij,ij->i", axis[cut + 1], axis[cut]), -1.0, 1.0)
     return float(np.degrees(np.arccos(c)).max())
 
 
