@@ -47,7 +47,8 @@ class Level:
     """One level: ``index`` 0 at the shroud, ``r`` (n,) tip radius at the stations ``z``
     (mm), ``label`` what the user reads in a warning (mode and offset); ``z`` and
     ``outside`` (stations beyond the blank) are set when the region refines the stations;
-    ``side`` (n,) the side tilt of the tool axis per station (rad), set by the roughing."""
+    ``side`` (n,) the side tilt of the tool axis per station (rad), set by the roughing;
+    ``walls_only`` a level of contour passes along the walls only."""
 
     index: int
     r: np.ndarray
@@ -55,6 +56,7 @@ class Level:
     z: np.ndarray | None = None
     outside: np.ndarray | None = None
     side: np.ndarray | None = None
+    walls_only: bool = False
 
 
 def offset_profile(profile, allowance: float, spacing: float = 0.1) -> np.ndarray:

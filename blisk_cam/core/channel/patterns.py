@@ -32,6 +32,7 @@ from ..geometry.axis import Axis
 from ..toolpath.types import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT
 
 __all__ = ["Piece", "drop_straight", "link_program", "machining_time", "pass_count",
+           "pass_pieces",
            "plunge_points", "pose_frame", "zigzag_passes"]
 
 
@@ -114,34 +115,59 @@ def zigzag_passes(level: int, z, r, lo, hi, reach, outside, stepover: float, fra
     for w in ws:
         theta = lo + w * (hi - lo)
         tips, axes = frame(theta, z, r)
-        runs = _runs(reach)
-        if not fwd:
-            runs = [(b, a) for a, b in runs[::-1]]
-        for a, b in runs:
-            sl = slice(a, b) if fwd else slice(a - 1, b - 1 if b > 0 else None, -1)
-            idx = np.arange(len(z))[sl]
-            if len(idx) < 2:
-                continue
-            idx = idx[drop_straight(tips[idx], axes[idx])]
-            pieces.append(Piece(tips[idx], axes[idx], level,
-                                (bool(outside[idx[0]]), bool(outside[idx[-1]]))))
+        pieces.extend(pass_pieces(level, tips, axes, reach, outside, fwd))
         fwd = not fwd
     return pieces, fwd, not start_low
 
 
-def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, frame):
-    """[Piece] of plunges on one level: stations every ``stepover`` along z, fractions
-    across as the zig-zag's; each piece goes from the level above (``r_above``) down to the
-    level and back up."""
+def pass_pieces(level: int, tips, axes, reach, outside, forward: bool) -> list:
+    """[Piece] of one pass along the channel: poses (n, 3) ``tips`` and ``axes`` over the
+    stations, split where ``reach`` (n,) is False, run toward +z when ``forward``."""
+    runs = _runs(reach)
+    if not forward:
+        runs = [(b, a) for a, b in runs[::-1]]
+    pieces = []
+    for a, b in runs:
+        sl = slice(a, b) if forward else slice(a - 1, b - 1 if b > 0 else None, -1)
+        idx = np.arange(len(tips))[sl]
+        if len(idx) < 2:
+            continue
+        idx = idx[drop_straight(tips[idx], axes[idx])]
+        pieces.append(Piece(tips[idx], axes[idx], level,
+                            (bool(outside[idx[0]]), bool(outside[idx[-1]]))))
+    return pieces
+
+
+def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, frame,
+                  radius: float | None = None, fractions=None):
+    """[Piece] of plunges on one level: fractions across as the zig-zag's (or
+    ``fractions``), stations along z at most s_z apart; each piece goes from the level above
+    (``r_above``) down to the level and back up. The plunges of a rectangular grid with steps
+    s_x across and s_z along leave no island between four holes of the tool's ``radius`` R
+    when (s_x/2)² + (s_z/2)² ≤ R²: s_z = min(stepover, 2 √(R² − (s_x/2)²)) (at least a
+    quarter of the stepover; ``radius`` None: s_z = stepover)."""
     width = (hi - lo) * r
     n = pass_count(np.where(reach, width, np.nan), stepover)
-    dz = float(np.median(np.diff(z))) if len(z) > 1 else 1.0
-    every = max(1, int(round(stepover / dz)))
-    pick = np.nonzero(reach)[0]
-    pick = pick[(pick - (pick[0] if len(pick) else 0)) % every == 0]
+    ws_all = np.linspace(0.0, 1.0, n) if fractions is None else np.asarray(fractions, float)
+    w = width[reach & np.isfinite(width)]
+    s_x = float(w.max()) / (n - 1) if len(w) and fractions is None else 0.0
+    s_z = stepover
+    if radius is not None:
+        s_z = min(stepover, max(0.25 * stepover,
+                                2.0 * math.sqrt(max(radius * radius - 0.25 * s_x * s_x, 0.0))))
+    # the stations: greedy, each the last within s_z of the one before, a new start at
+    # every run of reachable stations
+    pick = []
+    for a, b in _runs(reach):
+        i = a
+        pick.append(i)
+        while i < b - 1:
+            j = int(np.searchsorted(z[i:b], z[i] + s_z + 1e-9, "right")) + i - 1
+            i = max(j, i + 1)
+            pick.append(i)
     pieces = []
     for j, i in enumerate(pick):
-        ws = np.linspace(0.0, 1.0, n)
+        ws = ws_all
         if j % 2:
             ws = ws[::-1]
         for w in ws:

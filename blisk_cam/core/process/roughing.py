@@ -27,7 +27,18 @@ The tool axis leans with the blades (``follow_blades``, the default): per level 
 the radial direction tilted toward +θ by the blades' mean camber lean over the band of
 radii the level's cut adds (:mod:`..channel.axis`), changing by at most ``max_turn`` per
 station step, plus the requested lead (toward +z) and side tilt (toward +θ); without
-``follow_blades`` it is radial with the requested tilts. The floor of each level is
+``follow_blades`` it is radial with the requested tilts.
+
+With ``follow_blades`` two more kinds of pass finish the walls at the allowance: on the floor
+level and on **wall levels** every ≤ 2 mm between the floor and the level above (on the
+floor the cutter's corner rides on the hub fillet and keeps its side off the wall above it),
+a **contour pass** along each wall whose side tilt per station is the one (of the level's
+own ± 5° and 10°) that brings the tool nearest the wall half a depth per cut above its tip,
+limited to ``max_turn`` per step. The material a level staircase leaves on a wall of unit
+normal n is at most s |n · a| beyond the allowance (the **level step cusp**: s the step
+between the levels bracketing the point, the depth per cut — or the wall-level step in the
+floor band —, a the tool axis; the corners of a step of a sharp-cornered tool lie that far off
+the plane through the points it touches, a corner radius leaves less). The floor of each level is
 computed for its own tilts (a tilted tool's low rim keeps the hub allowance) and the
 bounds account for the tilt at every height of the tool. Units mm, radians (degrees only
 in messages).
@@ -45,6 +56,7 @@ from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stoc
 from ..channel.patterns import (
     link_program,
     machining_time,
+    pass_pieces,
     plunge_points,
     pose_frame,
     zigzag_passes,
@@ -136,6 +148,9 @@ class _State:
     pieces: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
     unreachable: list = field(default_factory=list)
+    contours: list = field(default_factory=list)
+    wall_step: float = 0.0
+    tables: dict = field(default_factory=dict)
     path: ToolPath = None
 
 
@@ -303,8 +318,7 @@ class RoughingOperation(Operation):
         # near the hub the blade runs into its fillet nearly parallel to the cylinders: there
         # consecutive sections lie far apart and the corner of the tool could pass between
         # them, so the cylinders are 0.05 mm apart up to a tool radius + 2 mm above the floor
-        # (+ the rim's drop of a tool tilted up to 45°)
-        fine = min(float(st.floor.max()) + 1.8 * st.cutter.max_radius + 2.0, r_hi)
+        fine = min(float(st.floor.max()) + st.cutter.max_radius + 2.0, r_hi)
         radii = np.unique(np.concatenate([np.arange(r_lo, fine, 0.05),
                                           np.arange(fine, r_hi + 0.25, 0.25)]))
         st.sections = cylinder_sections(part.blade_vertices, part.blade_faces, part.axis,
@@ -317,6 +331,26 @@ class RoughingOperation(Operation):
             lv.side = np.full(len(st.z), float(req.side_tilt))
             if req.follow_blades and lv is not floor_level:
                 self._lean(st, lv)
+        if req.follow_blades and len(st.levels) > 0:
+            # wall levels between the floor and the level above (contour passes only): on the
+            # floor the tool's corner rides on the hub fillet and keeps its side off the wall
+            # above it; a contour pass every ≤ 2 mm up lets the side reach the wall there
+            above = st.levels[-2].r if len(st.levels) > 1 else st.top
+            span = float(np.max(above - floor_level.r))
+            n = int(math.ceil(span / min(2.0, req.depth_per_cut) - 1e-9))
+            K = len(st.levels)
+            st.wall_step = span / n if n > 1 else 0.0
+            walls = []
+            for j in range(n - 1, 0, -1):  # from the top down, cut before the floor
+                off = j * span / n
+                wl = Level(0, np.minimum(floor_level.r + off, above),
+                           f"wall level {n - j} of {n - 1} above level {K} (+{off:.2f} mm)")
+                wl.walls_only = True
+                self._lean(st, wl)
+                walls.append(wl)
+            st.levels[-1:-1] = walls
+            for k, lv in enumerate(st.levels):
+                lv.index = k
         yield Progress(1.0, "tool axes")
 
     def _lean(self, st: _State, lv: Level):
@@ -331,18 +365,11 @@ class RoughingOperation(Operation):
 
     def _region(self, st: _State):
         part, req = st.part, st.req
-        tables = {}
         overlap = (st.cutter.max_radius + 1.0) / np.maximum(st.floor, 1.0)
         hold = st.cutter.max_radius + 1.0
         for k, lv in enumerate(st.levels):
             check_cancel()
-            # the table of the level's largest tilt (to 0.1°: levels share tables)
-            side = math.radians(math.ceil(math.degrees(float(np.abs(lv.side).max())) * 10) / 10)
-            tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(side)))
-            if tilt not in tables:
-                tables[tilt] = offset_table(st.cutter, st.assembly, req.allowance,
-                                            req.safety, req.margin, tilt=tilt)
-            table = tables[tilt]
+            table = self._table(st, float(np.abs(lv.side).max()))
             z, r, outside, lo, hi, side = _refined_bounds(
                 st.sections, part.pitch, st.z, lv.r, st.outside, table, req, lv.side)
             lo, hi = fill_free(z, lo, hi, part.pitch, np.interp(z, st.z, overlap), hold, 5.0,
@@ -363,7 +390,72 @@ class RoughingOperation(Operation):
                     "its stations): that part is left out")
                 st.unreachable.append(lv.label)
             st.bounds.append((lo, hi, reach))
+            # contour passes on the floor band (the floor level and the wall levels above
+            # it): above, the leaning zig-zag's first and last passes follow the walls
+            band = lv.walls_only or lv is st.levels[self._floor_index(st)]
+            st.contours.append(self._contours(st, lv) if req.follow_blades and band else [])
             yield Progress((k + 1) / len(st.levels), f"region of {lv.label}")
+
+    def _floor_index(self, st: _State) -> int:
+        """Index of the floor level (the last one that is not a wall level)."""
+        return max(k for k, lv in enumerate(st.levels) if not lv.walls_only)
+
+    def _table(self, st: _State, side: float):
+        """The offset table of a tilt up to |side| (rad; rounded up to 0.1°, shared)."""
+        req = st.req
+        side = math.radians(math.ceil(math.degrees(abs(side)) * 10) / 10)
+        tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(side)))
+        if tilt not in st.tables:
+            st.tables[tilt] = offset_table(st.cutter, st.assembly, req.allowance, req.safety,
+                                           req.margin, tilt=tilt)
+        return st.tables[tilt]
+
+    def _floor_of(self, st: _State, lv: Level, side) -> np.ndarray:
+        """The level's tip radii raised to the floor of the side tilt ``side`` (rad, scalar or
+        per station); only stations within a tool radius of the radial floor can need it (a
+        tilt drops the rim by at most the radius)."""
+        req = st.req
+        side = np.broadcast_to(np.asarray(side, float), lv.z.shape)
+        near = lv.r < np.interp(lv.z, st.z, st.floor) + st.cutter.max_radius + 1e-9
+        r = lv.r.copy()
+        if near.any():
+            r[near] = np.maximum(r[near], floor_radius(st.part.hub_profile, st.cutter,
+                                                       st.hub_a, lv.z[near], lead=req.lead,
+                                                       side=side[near]))
+        return r
+
+    def _contours(self, st: _State, lv: Level):
+        """The contour passes of a level along blade 0's wall and blade 1's: per station the
+        side tilt (the level's own ± 5° and 10°) that brings the tool nearest the wall half a
+        depth per cut above its tip, limited to the largest turn per step, the tip on the
+        floor of that tilt and at the bound of that tilt. Returns [(theta, r, side, reach)]
+        over the level's stations, blade 0's wall first."""
+        req, part = st.req, st.part
+        y = 0.5 * req.depth_per_cut
+        found = [[np.full(len(lv.z), np.inf), lv.side.copy()] for _ in range(2)]
+        for d in np.radians([0.0, -5.0, 5.0, -10.0, 10.0]):
+            c = lv.side + d
+            r = self._floor_of(st, lv, c)
+            lo, hi = channel_bounds(st.sections, part.pitch, lv.z, r,
+                                    self._table(st, float(np.abs(c).max())), lead=req.lead,
+                                    side=c)
+            ok = np.isfinite(lo) & np.isfinite(hi) & (hi >= lo)
+            for low, (best, pick) in zip((True, False), found, strict=True):
+                pos = (lo if low else -hi) + (1 if low else -1) * y * np.tan(c) / r
+                take = ok & (pos < best)
+                best[take], pick[take] = pos[take], c[take]
+        out = []
+        for low, (_, pick) in zip((True, False), found, strict=True):
+            side = limit_turn(pick, req.max_turn)
+            r = self._floor_of(st, lv, side)
+            lo, hi = channel_bounds(st.sections, part.pitch, lv.z, r,
+                                    self._table(st, float(np.abs(side).max())),
+                                    lead=req.lead, side=side)
+            overlap = (st.cutter.max_radius + 1.0) / np.maximum(r, 1.0)
+            lo, hi = fill_free(lv.z, lo, hi, part.pitch, overlap, st.cutter.max_radius + 1.0,
+                               5.0, 0.5 * part.pitch)
+            out.append(((lo if low else hi), r, side, hi >= lo))
+        return out
 
     def _pattern(self, st: _State):
         req, part = st.req, st.part
@@ -378,16 +470,36 @@ class RoughingOperation(Operation):
                 return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead,
                                   np.interp(z, lv.z, lv.side))
 
-            if req.pattern == "zigzag":
+            # the level above: the last one before this that is not a wall level
+            prev = next((st.levels[j] for j in range(k - 1, -1, -1)
+                         if not st.levels[j].walls_only), None)
+            above = (np.interp(lv.z, prev.z, prev.r) if prev is not None
+                     else np.full(len(lv.z), r_safe))
+            above = np.minimum(above + 1.0, r_safe)
+            if lv.walls_only:
+                pcs = []
+            elif req.pattern == "zigzag":
                 pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
                                               req.stepover, frame, fwd, low)
             else:
-                prev = st.levels[k - 1] if k > 0 else None
-                above = (np.interp(lv.z, prev.z, prev.r) if prev is not None
-                         else np.full(len(lv.z), r_safe))
-                above = np.minimum(above + 1.0, r_safe)
-                pcs = plunge_points(k, lv.z, lv.r, above, lo, hi, reach, req.stepover, frame)
+                pcs = plunge_points(k, lv.z, lv.r, above, lo, hi, reach, req.stepover, frame,
+                                    radius=st.cutter.max_radius)
             st.pieces.extend(pcs)
+            for theta, r, side, ok in st.contours[k]:  # the contour pass along each wall
+                if req.pattern == "zigzag":
+                    tips, axes = pose_frame(part.axis, theta, lv.z, r, st.theta_ref, req.lead,
+                                            side)
+                    st.pieces.extend(pass_pieces(k, tips, axes, ok, lv.outside, fwd))
+                    fwd = not fwd
+                else:  # plunges along the wall, as close as the holes overlap
+                    def wall_frame(theta, z, r, lv=lv, side=side):
+                        return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead,
+                                          np.interp(z, lv.z, side))
+
+                    st.pieces.extend(plunge_points(
+                        k, lv.z, r, np.maximum(above, r + 1.0), theta, theta,
+                        ok & ~lv.outside, min(req.stepover, st.cutter.max_radius), wall_frame,
+                        fractions=[0.0]))
             yield Progress((k + 1) / len(st.levels), f"passes of {lv.label}")
 
     def _r_safe(self, st: _State) -> float:
@@ -442,6 +554,8 @@ class RoughingOperation(Operation):
             "length_rapid_mm": est["lengths_mm"]["rapid"],
             "safe_radius_mm": self._r_safe(st),
             "floor_scallop_mm": scallop,
+            "wall_levels": sum(lv.walls_only for lv in st.levels),
+            "wall_level_step_mm": float(st.wall_step),
             "max_axis_turn_deg": _max_turn(axis, move),
             "axis": "follows the blades" if req.follow_blades else "radial",
             "max_turn_per_step_deg": math.degrees(req.max_turn),
