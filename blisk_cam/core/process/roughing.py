@@ -329,7 +329,9 @@ class RoughingOperation(Operation):
             # the floor level keeps the radial axis: a tilted flat bottom would leave a
             # sawtooth on the hub, and its low rim would lift the floor
             lv.side = np.full(len(st.z), float(req.side_tilt))
-            if req.follow_blades and lv is not floor_level:
+            # (plunges keep one axis on every main level: a plunge's link across the channel
+            # runs over the level above, cleared with that level's axis)
+            if req.follow_blades and lv is not floor_level and req.pattern != "plunge":
                 self._lean(st, lv)
         if req.follow_blades and len(st.levels) > 0:
             # wall levels between the floor and the level above (contour passes only): on the
@@ -482,8 +484,10 @@ class RoughingOperation(Operation):
                 pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
                                               req.stepover, frame, fwd, low)
             else:
+                # the holes' radius half-way up the corner: the grid leaves no island above
+                # half the corner radius (the next level takes the rest)
                 pcs = plunge_points(k, lv.z, lv.r, above, lo, hi, reach, req.stepover, frame,
-                                    radius=st.cutter.max_radius)
+                                    radius=st.cutter.max_radius - 0.5 * st.cutter.r)
             st.pieces.extend(pcs)
             for theta, r, side, ok in st.contours[k]:  # the contour pass along each wall
                 if req.pattern == "zigzag":
