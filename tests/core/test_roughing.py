@@ -351,6 +351,8 @@ def test_bad_inputs_are_named():
         op.start(part, req(), small)
     with pytest.raises(ToolError, match="stepover"):
         op.start(part, req(stepover=9.0), stock)
+    with pytest.raises(BliskCamError, match="largest axis turn per step"):
+        op.start(part, req(max_turn=0.0), stock)
 
 
 def test_cli_rough_writes_the_program_and_rejects_bad_input(tmp_path, capsys):

@@ -361,9 +361,9 @@ class RoughingOperation(Operation):
         req = st.req
         lean = mean_camber_lean(st.sections, st.z, lv.r, lv.r + max(req.depth_per_cut, 2.0))
         lv.side = limit_turn(lean + req.side_tilt, req.max_turn)
-        fl = floor_radius(st.part.hub_profile, st.cutter, st.hub_a, st.z, lead=req.lead,
-                          side=lv.side)
-        lv.r = np.maximum(lv.r, fl)
+        lv.z = st.z
+        lv.r = self._floor_of(st, lv, lv.side)
+        lv.z = None
 
     def _region(self, st: _State):
         part, req = st.part, st.req
