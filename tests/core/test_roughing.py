@@ -212,7 +212,7 @@ def test_tilted_axis_from_the_shroud_never_enters_the_allowance():
     stock = stock_from_envelope(part, 2.0, 1.0)
     req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, levels="from-shroud",
                        lead=math.radians(3.0), side_tilt=math.radians(4.0),
-                       follow_blades=False)
+                       follow_blades=False, check_stock=False)
     path = plan_roughing(part, req, stock)
     # every cutting axis is the radial direction tilted 3° toward +z and 4° toward +θ
     P = path.program
@@ -240,7 +240,7 @@ def test_rotor37_narrow_floor_is_reported_not_gouged():
     # the radial axis keeps this test cheap (≈ 15 s); the leaning axis on Rotor 37 is
     # measured by bench/bench_rough.py --rotor37
     req = RoughRequest(tool=Cutter.bull(8.0, 1.0, h=40.0, neck_length=60.0), stepover=8.0,
-                       depth_per_cut=8.0, follow_blades=False)
+                       depth_per_cut=8.0, follow_blades=False, check_stock=False)
     path = plan_roughing(part, req, stock)
     last = path.stats["level_labels"][-1]
     assert path.stats["unreachable_levels"] == [last]

@@ -31,7 +31,7 @@ import numpy as np
 from ..geometry.axis import Axis
 from ..toolpath.types import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT
 
-__all__ = ["Piece", "drop_straight", "link_program", "machining_time", "pass_count",
+__all__ = ["Piece", "drop_straight", "link_program", "machining_time", "pass_count", "runs_of",
            "pass_pieces",
            "plunge_points", "pose_frame", "zigzag_passes"]
 
@@ -40,7 +40,8 @@ __all__ = ["Piece", "drop_straight", "link_program", "machining_time", "pass_cou
 class Piece:
     """A run of cutting poses: tips (k, 3) mm, axes (k, 3) unit, the level's index,
     ``outside`` (2,) bool: its first / last pose lies beyond the blank's faces (air),
-    ``plunge`` True for a plunge (approach, cut down, retract in one)."""
+    ``plunge`` True for a plunge (approach, cut down, retract in one), ``contour`` True for a
+    pass along a wall with its own axis."""
 
     tip: np.ndarray
     axis: np.ndarray
@@ -48,6 +49,7 @@ class Piece:
     outside: tuple
     plunge: bool = False
     station: int = -1
+    contour: bool = False
 
 
 def pose_frame(axis: Axis, theta, z, r, theta_ref: float, lead: float, side: float):
@@ -64,7 +66,7 @@ def pose_frame(axis: Axis, theta, z, r, theta_ref: float, lead: float, side: flo
     return tip, a / np.linalg.norm(a, axis=1)[:, None]
 
 
-def _runs(mask):
+def runs_of(mask):
     """[(start, stop)] of the True runs of a bool array."""
     m = np.concatenate([[False], np.asarray(mask, bool), [False]])
     d = np.diff(m.astype(np.int8))
@@ -123,7 +125,7 @@ def zigzag_passes(level: int, z, r, lo, hi, reach, outside, stepover: float, fra
 def pass_pieces(level: int, tips, axes, reach, outside, forward: bool) -> list:
     """[Piece] of one pass along the channel: poses (n, 3) ``tips`` and ``axes`` over the
     stations, split where ``reach`` (n,) is False, run toward +z when ``forward``."""
-    runs = _runs(reach)
+    runs = runs_of(reach)
     if not forward:
         runs = [(b, a) for a, b in runs[::-1]]
     pieces = []
@@ -158,7 +160,7 @@ def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, fra
     # the stations: greedy, each the last within s_z of the one before, a new start at
     # every run of reachable stations
     pick = []
-    for a, b in _runs(reach):
+    for a, b in runs_of(reach):
         i = a
         pick.append(i)
         while i < b - 1:

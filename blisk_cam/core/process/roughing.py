@@ -54,11 +54,13 @@ import numpy as np
 from ..channel.axis import limit_turn, mean_camber_lean
 from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
+    Piece,
     link_program,
     machining_time,
     pass_pieces,
     plunge_points,
     pose_frame,
+    runs_of,
     zigzag_passes,
 )
 from ..channel.region import channel_bounds, cylinder_sections, fill_free, offset_table
@@ -67,7 +69,7 @@ from ..part.cones import Cone
 from ..part.model import BliskPart, theta_about
 from ..runtime import Progress, check_cancel
 from ..stock.dexels import RadialDexels
-from ..stock.removal import body_assembly
+from ..stock.removal import body_assembly, remove_program
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
 from ..toolpath.types import MOVE_CUT, PassCurve, Program, ToolPath
@@ -105,6 +107,9 @@ class RoughRequest:
     follow_blades : bool — the axis leans with the blades' mean camber surface (module
         docstring); False: radial
     max_turn : float, rad — the largest change of the side tilt per station step
+    check_stock : bool — run the program on the blank and leave out what brings the tool
+        body against the stock (the ``link`` stage; False: only the simulation afterwards
+        reports it)
     """
 
     tool: Cutter
@@ -127,6 +132,7 @@ class RoughRequest:
     margin: float = 0.02
     follow_blades: bool = True
     max_turn: float = math.radians(2.0)
+    check_stock: bool = True
 
 
 @dataclass
@@ -492,6 +498,7 @@ class RoughingOperation(Operation):
                                     radius=st.cutter.max_radius - 0.5 * st.cutter.r)
             st.pieces.extend(pcs)
             for theta, r, side, ok in st.contours[k]:  # the contour pass along each wall
+                n0 = len(st.pieces)
                 if req.pattern == "zigzag":
                     tips, axes = pose_frame(part.axis, theta, lv.z, r, st.theta_ref, req.lead,
                                             side)
@@ -506,6 +513,8 @@ class RoughingOperation(Operation):
                         k, lv.z, r, np.maximum(above, r + 1.0), theta, theta,
                         ok & ~lv.outside, min(req.stepover, st.cutter.max_radius), wall_frame,
                         fractions=[0.0]))
+                for pc in st.pieces[n0:]:
+                    pc.contour = True
             yield Progress((k + 1) / len(st.levels), f"passes of {lv.label}")
 
     def _r_safe(self, st: _State) -> float:
@@ -519,6 +528,60 @@ class RoughingOperation(Operation):
         tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
                                                            self._r_safe(st))
         program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
+        # the body against the in-process stock: the program run on the blank; a contour
+        # pass (its axis differs from the one that cleared the levels above) whose body or
+        # approach meets material is left out, any other pass loses the stretch of a tool
+        # radius + 2 mm round each such pose, and the rest is linked again
+        for _ in range(4 if req.check_stock else 0):
+            check_cancel()
+            res = remove_program(st.stock.copy(), program, st.cutter, st.assembly,
+                                 sweep_tolerance=0.05)
+            hits: dict = {}
+            for c in res.crashes:
+                k = int(curve[c.row]) if c.row < len(curve) else -1
+                j = int(index[c.row]) if k >= 0 else 0
+                if k < 0:  # a link, rapid or approach: the start of the piece it leads to
+                    nxt = np.nonzero(curve[c.row:] >= 0)[0]
+                    k = int(curve[c.row + nxt[0]]) if len(nxt) else -1
+                if k >= 0:
+                    hits.setdefault(k, []).append(j)
+            if not hits:
+                break
+            pieces = []
+            for k, pc in enumerate(st.pieces):
+                if k not in hits:
+                    pieces.append(pc)
+                    continue
+                label = st.levels[pc.level].label
+                _, _, zc = theta_about(pc.tip[np.asarray(hits[k])], part.axis)
+                st.warnings.append(
+                    f"{label}: the tool body would meet the stock the levels above left at z "
+                    f"{zc.min():.1f} … {zc.max():.1f} mm: "
+                    + ("that contour pass is left out" if pc.contour or pc.plunge
+                       else "that stretch of the pass is left out"))
+                if pc.contour or pc.plunge:
+                    continue
+                s_ = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pc.tip, axis=0),
+                                                                     axis=1))])
+                keep = np.ones(len(s_), bool)
+                for j in hits[k]:
+                    keep &= np.abs(s_ - s_[j]) > st.cutter.max_radius + 2.0
+                for a0, b0 in runs_of(keep):
+                    if b0 - a0 >= 2:
+                        pieces.append(Piece(pc.tip[a0:b0], pc.axis[a0:b0], pc.level,
+                                            (pc.outside[0] and a0 == 0,
+                                             pc.outside[1] and b0 == len(s_))))
+            st.pieces = pieces
+            if not st.pieces:
+                raise BliskCamError("every pass of the channel would bring the tool body "
+                                    "against the stock: take a tool with a slimmer body")
+            tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
+                                                               self._r_safe(st))
+            program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
+        else:
+            if req.check_stock:
+                st.warnings.append("the tool body still meets the stock after four rounds "
+                                   "of leaving passes out: check the simulation's crashes")
         curves = [PassCurve(s=float(p.level), closed=False, cc=p.tip, normal=p.axis,
                             tip=p.tip, axis=p.axis) for p in st.pieces]
         plunge = req.plunge_feed or 0.5 * req.feed
