@@ -146,7 +146,7 @@ def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, fra
     ``fractions``), stations along z at most s_z apart; each piece goes from the level above
     (``r_above``) down to the level and back up. The plunges of a rectangular grid with steps
     s_x across and s_z along leave no island between four holes of the tool's ``radius`` R
-    when (s_x/2)² + (s_z/2)² ≤ R²: s_z = min(stepover, 2 √(R² − (s_x/2)²)) (at least a
+    when (s_x/2)² + (s_z/2)² ≤ R²: s_z = min(stepover, R, 2 √(R² − (s_x/2)²)) (at least a
     quarter of the stepover; ``radius`` None: s_z = stepover)."""
     width = (hi - lo) * r
     n = pass_count(np.where(reach, width, np.nan), stepover)
@@ -155,8 +155,10 @@ def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, fra
     s_x = float(w.max()) / (n - 1) if len(w) and fractions is None else 0.0
     s_z = stepover
     if radius is not None:
-        s_z = min(stepover, max(0.25 * stepover,
-                                2.0 * math.sqrt(max(radius * radius - 0.25 * s_x * s_x, 0.0))))
+        # and at most the radius: the walls between two plunges keep a scallop of at most
+        # R − √(R² − R²/4) = 0.13 R
+        s_z = min(stepover, radius, max(0.25 * stepover, 2.0 * math.sqrt(
+            max(radius * radius - 0.25 * s_x * s_x, 0.0))))
     # the stations: greedy, each the last within s_z of the one before, a new start at
     # every run of reachable stations
     pick = []
