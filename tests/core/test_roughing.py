@@ -377,3 +377,29 @@ def test_cli_rough_writes_the_program_and_rejects_bad_input(tmp_path, capsys):
     err = [x for x in capsys.readouterr().err.strip().splitlines() if "error" in x]
     assert len(err) == 1 and "half the channel" in err[0]  # one line, no traceback
     assert not (tmp_path / "bad.json").exists()
+
+
+def test_mean_camber_lean_of_a_leaning_blade_and_the_turn_limiter():
+    """A blade whose mean camber line leans s rad per mm of radius (θ_m = s (r − 160) + 0.1
+    sin z / 10, both sides ± 0.01 rad round it): the axis's side tilt is atan(s r), r the
+    middle of the band; beyond the blade's z the nearest station's tilt is held. The
+    limiter keeps every step within the bound and moves no value that needs no limiting."""
+    from blisk_cam.core.channel.axis import limit_turn, mean_camber_lean
+    from blisk_cam.core.channel.region import Section
+
+    s = 0.002
+    zs = np.linspace(-10.0, 10.0, 401)
+    secs = []
+    for rc in np.arange(150.0, 170.1, 1.0):
+        mid = s * (rc - 160.0) + 0.1 * np.sin(zs / 10.0)
+        secs.append(Section(rc, np.concatenate([zs, zs]),
+                            np.concatenate([mid - 0.01, mid + 0.01])))
+    z = np.linspace(-14.0, 14.0, 57)
+    phi = mean_camber_lean(secs, z, np.full(len(z), 152.0), np.full(len(z), 160.0))
+    inside = np.abs(z) <= 10.0
+    np.testing.assert_allclose(phi[inside], math.atan(s * 156.0), atol=1e-9)
+    np.testing.assert_allclose(phi[~inside], math.atan(s * 156.0), atol=1e-9)
+    x = np.array([0.0, 0.01, 0.2, 0.2, -0.3, -0.29, 0.0])
+    y = limit_turn(x, 0.05)
+    assert np.abs(np.diff(y)).max() <= 0.05 + 1e-12
+    np.testing.assert_array_equal(limit_turn([0.0, 0.01, 0.02], 0.05), [0.0, 0.01, 0.02])
