@@ -2,17 +2,21 @@
 
     python bench/bench_rough.py [--resolution 0.5] [--mesh-resolution 0.3] [--levels from-hub]
         [--pattern zigzag] [--depth 6] [--stepover 6] [--diameter 10] [--corner 1]
-        [--small] [--no-simulate]
+        [--axis blades|radial] [--max-turn 2] [--small | --rotor37] [--no-simulate]
 
 The demo blisk (default parameters, 24 blades; ``--small``: the 25 mm tall test blisk of
-tests/core/test_roughing.py) from its default blank (the envelope + 2 mm), a bull nose on a
+tests/core/test_roughing.py; ``--rotor37``: NASA Rotor 37 patterned to 36 blades, its hub
+cone extended 15 mm each way, with --diameter 16 --depth 8 --stepover 8 a Ø16 R1 that does
+not fit the throat at the hub) from its default blank (the envelope + 2 mm), a bull nose on a
 long neck. Prints: the planning time of one gap (the program of every gap is the same one
 turned by k · 2π/N, so all N gaps cost one plan), the estimated machining time of one gap and
 of all gaps, then — simulating the program level by level on the periodic stock of one
 sector, which is the simulation of all N gaps at once — the simulation time, the share of
 the channel volume outside the allowance shell removed after each level (cumulative) and by
 each level, crashes, and the least material left on the part (mm; good to the stock's
-resolution / √2).
+resolution / √2), the largest above the floor band (the allowance + one depth per cut
+above the hub) and in it, and the largest level step cusp excess there (the bound of
+tests/core/test_roughing.py: 0.5 + s |n · a| + res/√2).
 """
 
 from __future__ import annotations
@@ -25,12 +29,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
 
 import numpy as np  # noqa: E402
 
 from blisk_cam.core.channel.levels import channel_volume  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
-from blisk_cam.core.part.model import part_from_demo  # noqa: E402
+from blisk_cam.core.part.model import part_from_blade, part_from_demo, theta_about  # noqa: E402
 from blisk_cam.core.process.operation import run_operation  # noqa: E402
 from blisk_cam.core.process.roughing import RoughingOperation, RoughRequest  # noqa: E402
 from blisk_cam.core.stock.blank import stock_from_allowance, stock_from_envelope  # noqa: E402
@@ -51,7 +56,10 @@ def main():
     ap.add_argument("--stepover", type=float, default=6.0)
     ap.add_argument("--diameter", type=float, default=10.0)
     ap.add_argument("--corner", type=float, default=1.0)
+    ap.add_argument("--axis", default="blades", choices=("blades", "radial"))
+    ap.add_argument("--max-turn", type=float, default=2.0)
     ap.add_argument("--small", action="store_true")
+    ap.add_argument("--rotor37", action="store_true")
     ap.add_argument("--no-simulate", action="store_true")
     a = ap.parse_args()
 
@@ -60,30 +68,51 @@ def main():
                                tip_cone=(178.0, -12.0, 181.0, 12.0), chord_hub=22.0,
                                chord_tip=22.0, fillet_radius=4.0, hub_extension=4.0,
                                max_thickness_hub=2.5, max_thickness_tip=1.5)
-    else:
+    elif not a.rotor37:
         demo = make_demo_blisk(resolution=a.mesh_resolution)
-    part = part_from_demo(demo)
+    if a.rotor37:
+        from support.blades import blade_meta, blade_stl
+
+        from blisk_cam.core.geometry.mesh import TriMesh
+        from blisk_cam.core.geometry.mesh_io import read_mesh
+
+        hub = blade_meta("rotor37")["cones"]["hub"]
+        p1 = np.array([hub["P1_xyz_mm"][0], hub["P1_xyz_mm"][2]])
+        p2 = np.array([hub["P2_xyz_mm"][0], hub["P2_xyz_mm"][2]])
+        u = (p2 - p1) / np.linalg.norm(p2 - p1)
+        mesh = TriMesh.from_arrays(*read_mesh(blade_stl("rotor37")))
+        part = part_from_blade(mesh.V, mesh.F, np.array([p1 - 15 * u, p2 + 15 * u]), 36)
+    else:
+        part = part_from_demo(demo)
     blank = stock_from_envelope(part, 2.0, a.resolution)
     R = 0.5 * a.diameter
     tool = Cutter.bull(R, a.corner, h=3 * a.diameter, neck_length=7 * a.diameter)
     req = RoughRequest(tool=tool, stepover=a.stepover, depth_per_cut=a.depth, levels=a.levels,
-                       pattern=a.pattern)
+                       pattern=a.pattern, follow_blades=a.axis == "blades",
+                       max_turn=math.radians(a.max_turn))
     t = time.perf_counter()
     res = run_operation(RoughingOperation(), part, req, blank.copy())
     plan = time.perf_counter() - t
     p = res.path
     s = p.stats
-    print(f"demo: {part.blade_count} blades, {len(part.blade_faces)} blade triangles; blank "
+    name = "rotor 37" if a.rotor37 else "demo"
+    print(f"{name}: {part.blade_count} blades, {len(part.blade_faces)} blade triangles; blank "
           f"{blank.n_theta} × {blank.n_z} rays at {a.resolution:g} mm; tool Ø{a.diameter:g} "
           f"R{a.corner:g}; {a.levels}, {a.pattern}, depth {a.depth:g}, stepover "
           f"{a.stepover:g} mm")
-    print(f"plan one gap: {plan:.2f} s (stages " + ", ".join(
+    print(f"roughing time (planning) of one gap: {plan:.2f} s (stages " + ", ".join(
         f"{k} {v:.2f}" for k, v in res.seconds.items()) + f"); all {part.blade_count} gaps: "
-        f"the same program turned, {plan:.2f} s")
+        f"{plan:.2f} s (the same program turned by k · 360°/{part.blade_count})")
     print(f"program: {s['levels']} levels, {s['passes']} passes, {s['rows']} rows; estimated "
           f"machining {s['machining_time_min_gap']:.1f} min per gap, "
           f"{s['machining_time_min_all_gaps']:.1f} min for all {s['gaps']} gaps "
           f"(feed {s['feed_mm_min']:g} mm/min)")
+    print(f"axis {s['axis']}: side tilt {s['side_tilt_range_deg'][0]:.1f}° … "
+          f"{s['side_tilt_range_deg'][1]:.1f}°, largest turn between cutting poses "
+          f"{s['max_axis_turn_deg']:.2f}° (bound {a.max_turn:g}° of side tilt per step + the "
+          f"radial direction's turn); {s.get('wall_levels', 0)} wall levels every "
+          f"{s.get('wall_level_step_mm', 0.0):.2f} mm; unreachable: "
+          f"{', '.join(s['unreachable_levels']) or 'none'}")
     for w in p.warnings:
         print(f"warning: {w}")
     if a.no_simulate:
@@ -112,7 +141,24 @@ def main():
         prev = v
     sim = time.perf_counter() - t
     V, F, N, surf = part_surface(part, a.resolution)
-    dev = deviation_map(stock, V[surf], N[surf])
+    dev = deviation_map(stock, V[surf], N[surf], reach_out=12.0)
+    P, Nn = V[surf], N[surf]
+    r, th, z = theta_about(P, part.axis)
+    H = part.hub_profile
+    band = r < np.interp(z, H[:, 1], H[:, 0]) + 0.5 + a.depth
+    radial = np.stack([np.cos(th), np.sin(th), np.zeros_like(th)], 1)
+    tang = np.stack([-np.sin(th), np.cos(th), np.zeros_like(th)], 1)
+    nu, nt = np.einsum("ij,ij->i", Nn, radial), np.einsum("ij,ij->i", Nn, tang)
+    t0, t1 = np.radians(s["side_tilt_range_deg"])
+    na = np.max([np.abs(nu * math.cos(q) + nt * math.sin(q))
+                 for q in np.linspace(min(t0, 0.0), max(t1, 0.0), 13)], axis=0)
+    step = np.where(band, s.get("wall_level_step_mm") or a.depth, a.depth)
+    excess = dev - (0.5 + step * na + a.resolution / math.sqrt(2))
+    for name, m in (("above the floor band", ~band), ("in the floor band", band)):
+        if m.any():
+            print(f"{name}: {m.sum()} points, left {dev[m].min():.3f} … {dev[m].max():.3f} mm "
+                  f"(median {np.median(dev[m]):.3f}); {int((excess[m] > 0).sum())} beyond the "
+                  f"level step cusp bound, by up to {max(excess[m].max(), 0.0):.3f} mm")
     print(f"simulation (one sector = all gaps): {sim:.1f} s; crashes {crashes}; share of the "
           f"channel outside the allowance removed {(v0 - prev) / removable:.1%}; material left "
           f"min {dev.min():.3f} mm (resolution effect ±{a.resolution / math.sqrt(2):.3f}), "

@@ -100,6 +100,13 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
                    help="tool axis tilt from radial toward +z, degrees (default 0)")
     g.add_argument("--side-tilt", type=_number, default=0.0, metavar="DEG",
                    help="tool axis tilt from radial toward +θ, degrees (default 0)")
+    g.add_argument("--axis", type=str.lower, choices=("blades", "radial"), default="blades",
+                   help="tool axis through the channel: leaning with the blades' mean camber "
+                   "surface (default; the floor level radial) or radial; --lead and "
+                   "--side-tilt are added to either")
+    g.add_argument("--max-turn", type=positive, default=2.0, metavar="DEG",
+                   help="largest change of the leaning axis per station step, degrees "
+                   "(default 2)")
     g.add_argument("--safety", type=_non_negative, default=0.5, metavar="MM",
                    help="distance of the shank and holder from the allowance, mm (default 0.5)")
     g.add_argument("--rapid-feed", type=positive, default=10000.0, metavar="MM_MIN",
@@ -163,7 +170,8 @@ def run_rough(args) -> int:
         hub_allowance=args.hub_allowance, lead=math.radians(args.lead),
         side_tilt=math.radians(args.side_tilt), safety=args.safety,
         feed=args.feed or 1000.0, plunge_feed=args.approach_feed or None,
-        rapid_feed=args.rapid_feed, spindle=args.spindle)
+        rapid_feed=args.rapid_feed, spindle=args.spindle,
+        follow_blades=args.axis == "blades", max_turn=math.radians(args.max_turn))
     gen = iter_run_operation(RoughingOperation(), part, req, stock)
     while True:
         try:
@@ -179,7 +187,8 @@ def run_rough(args) -> int:
         print(f"warning: {w}")
     print(f"wrote {args.out}: {s['levels']} levels, {s['passes']} passes, {s['rows']} rows; "
           f"estimated {s['machining_time_min_gap']:.1f} min per gap, "
-          f"{s['machining_time_min_all_gaps']:.1f} min for the {s['gaps']} gaps; "
+          f"{s['machining_time_min_all_gaps']:.1f} min for the {s['gaps']} gaps; axis "
+          f"{s['axis']}, largest turn between cutting poses {s['max_axis_turn_deg']:.2f}°; "
           f"{time.perf_counter() - t0:.1f} s")
     if args.nc:
         from .nc import export_from_args

@@ -229,6 +229,15 @@ def test_roughing_options_are_checked_up_front(tmp_path):
             next(gen)
 
 
+def test_roughing_axis_option_is_checked_up_front(tmp_path):
+    job = tmp_path / "bad.toml"
+    job.write_text(ROUGH_JOB.replace("stepover = 6\n", 'stepover = 6\naxis = "sideways"\n'))
+    gen = iter_run_job(load_job(job))
+    with pytest.raises(BliskCamError, match=r"key 'axis': blades or radial, got 'sideways'"):
+        for _ in range(3):
+            next(gen)
+
+
 def test_a_post_the_collision_gate_refuses_keeps_the_other_outputs(tmp_path):
     """A hub tool whose Ø32 holder starts 30 mm up collides with the blades: the program is
     not written (exit 4, as `paths`), but the operations' paths, stocks and reports are, and

@@ -67,24 +67,110 @@ def rough():
     return part, stock, path
 
 
-def test_stock_simulation_keeps_the_allowance_removes_the_channel_no_crash(rough):
-    part, blank, path = rough
+def _simulated(part, blank, path):
+    """(share of the channel outside the allowance removed, crashes, part points (k, 3),
+    their normals (k, 3), hub-only mask (k,), deviation (k,) mm) after ``path``."""
     stock = blank.copy()
     before = channel_volume(stock, part.hub_profile)
     shell = channel_volume(stock_from_allowance(part, ALLOWANCE, RES), part.hub_profile)
     # sweep tolerance 0.05 mm: the sampled sweep lies inside the true one, so it can only
     # leave material (never hide a gouge) and under-state the share removed
     res = remove_program(stock, path.program, path.tool, sweep_tolerance=0.05)
-    assert res.crashes == []  # no rapid and no shank/holder removes material
     after = channel_volume(stock, part.hub_profile)
-    share = (before - after) / (before - shell)
-    assert share >= 0.95, f"only {share:.1%} of the channel outside the allowance removed"
     V, F, N, surf = part_surface(part, RES)
-    dev = deviation_map(stock, V[surf], N[surf])
+    hub_faces = part.part_mesh()[2]
+    on_blade = np.zeros(len(V), bool)
+    on_blade[np.unique(F[~hub_faces])] = True
+    dev = deviation_map(stock, V[surf], N[surf], reach_out=12.0)
+    return ((before - after) / (before - shell), res.crashes, V[surf], N[surf],
+            ~on_blade[surf], dev)
+
+
+@pytest.fixture(scope="module")
+def roughed(rough):
+    return _simulated(*rough)
+
+
+def test_stock_simulation_keeps_the_allowance_removes_the_channel_no_crash(rough, roughed):
+    part, _, path = rough
+    share, crashes, _, _, _, dev = roughed
+    assert crashes == []  # no rapid and no shank/holder removes material
+    assert share >= 0.95, f"only {share:.1%} of the channel outside the allowance removed"
     assert dev.min() >= ALLOWANCE - 0.02 - RES / math.sqrt(2), dev.min()
     # the cut reached the walls: most of the part's surface carries less than 1 mm
     assert np.median(dev) < 1.0
     assert path.stats["unreachable_levels"] == []
+
+
+def _level_step_cusp(part, path, P, N, step):
+    """(k,) the level step cusp (mm) at part points P (k, 3) with normals N: a staircase of
+    steps ``step`` (k,) mm along the tool axis a on a wall of unit normal n leaves at most
+    s |n · a| normal to the wall (the two corners of a step lie s |n · a| off the plane
+    through the touching points; a corner radius leaves less). a: the radial direction tilted
+    toward +θ by each side tilt the program used (the largest |n · a| over them)."""
+    _, th, _ = theta_about(P, part.axis)
+    radial = np.stack([np.cos(th), np.sin(th), np.zeros_like(th)], 1)
+    tang = np.stack([-np.sin(th), np.cos(th), np.zeros_like(th)], 1)
+    nu, nt = np.einsum("ij,ij->i", N, radial), np.einsum("ij,ij->i", N, tang)
+    lo, hi = np.radians(path.stats["side_tilt_range_deg"])
+    na = np.max([np.abs(nu * math.cos(p) + nt * math.sin(p))
+                 for p in np.linspace(min(lo, 0.0), max(hi, 0.0), 13)], axis=0)
+    return step * na
+
+
+def _floor_band(part, P, depth):
+    """(k,) True where P lies less than the allowance + one depth per cut above the hub:
+    the band the floor level and the wall levels above it cut."""
+    r, _, z = theta_about(P, part.axis)
+    H = part.hub_profile
+    return r < np.interp(z, H[:, 1], H[:, 0]) + ALLOWANCE + depth
+
+
+def test_material_left_above_the_floor_band_is_within_the_level_step_cusp(rough, roughed):
+    """Acceptance #23: between 0.5 − 0.02 and 0.5 + (level step cusp) on the stock, above
+    the floor band (every level there has the axis leaning with the blades and ends its
+    passes on the walls; the stock judge's ± res/√2, module docstring)."""
+    part, _, path = rough
+    _, _, P, N, _, dev = roughed
+    depth = path.stats["depth_per_cut_mm"]
+    above = ~_floor_band(part, P, depth)
+    assert above.sum() > 500
+    bound = ALLOWANCE + _level_step_cusp(part, path, P, N, depth) + RES / math.sqrt(2)
+    over = above & (dev > bound)
+    assert not over.any(), (f"{over.sum()} points above the bound, by up to "
+                            f"{(dev - bound)[over].max():.3f} mm")
+    assert dev[above].min() >= ALLOWANCE - 0.02 - RES / math.sqrt(2)
+
+
+@pytest.mark.xfail(strict=True, reason="#23 open: in the band between the floor and the level "
+                   "above, the bull nose's corner rides on the hub fillet and the leftover on "
+                   "the wall just above the fillet exceeds the 2 mm wall-level cusp by up to "
+                   "≈ 0.6 mm (stock at 0.5 mm)")
+def test_material_left_in_the_floor_band_is_within_the_wall_level_cusp(rough, roughed):
+    part, _, path = rough
+    _, _, P, N, _, dev = roughed
+    band = _floor_band(part, P, path.stats["depth_per_cut_mm"])
+    step = path.stats["wall_level_step_mm"]
+    bound = ALLOWANCE + _level_step_cusp(part, path, P, N, step) + RES / math.sqrt(2)
+    assert not (band & (dev > bound)).any()
+
+
+def test_axis_turn_per_step_is_bounded(rough):
+    """Between consecutive cutting poses the axis turns by at most the side tilt's bound
+    (2° per station) plus the turn of the radial direction as the tip moves round the axis
+    (triangle inequality on the sphere); the program's stats report the largest turn."""
+    part, _, path = rough
+    P = path.program
+    i = np.nonzero((P.move[1:] == MOVE_CUT) & (P.move[:-1] == MOVE_CUT))[0]
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", P.axis[i], P.axis[i + 1]), -1, 1))
+    _, t0, _ = theta_about(P.tip[i], part.axis)
+    _, t1, _ = theta_about(P.tip[i + 1], part.axis)
+    dth = np.abs(np.angle(np.exp(1j * (t1 - t0))))
+    assert np.all(turn <= math.radians(2.0) + dth + 1e-9)
+    assert path.stats["max_axis_turn_deg"] == pytest.approx(math.degrees(turn.max()))
+    # the axis does lean: the twisted blades' mean camber surface is not radial
+    lo, hi = path.stats["side_tilt_range_deg"]
+    assert hi - lo > 5.0
 
 
 def test_cutter_never_enters_the_allowance_exact_distance(rough):
@@ -92,13 +178,18 @@ def test_cutter_never_enters_the_allowance_exact_distance(rough):
     _assert_clear(part, path)
 
 
-def test_plunge_in_morphed_levels_never_enters_the_allowance():
+@pytest.fixture(scope="module")
+def plunged():
     part = part_from_demo(_demo())
-    stock = stock_from_envelope(part, 2.0, 1.0)
+    stock = stock_from_envelope(part, 2.0, RES)
     req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, levels="morph",
                        pattern="plunge")
-    path = plan_roughing(part, req, stock)
-    # plunges: every cut feeds along the tool axis
+    return part, stock, plan_roughing(part, req, stock)
+
+
+def test_plunge_in_morphed_levels_never_enters_the_allowance(plunged):
+    part, _, path = plunged
+    # plunges: every cut feeds along the tool axis (leaning with the blades)
     P = path.program
     cut = np.nonzero(P.move == MOVE_CUT)[0]
     step = P.tip[cut] - P.tip[cut - 1]
@@ -107,11 +198,21 @@ def test_plunge_in_morphed_levels_never_enters_the_allowance():
     _assert_clear(part, path)
 
 
+def test_plunge_removes_95_percent_of_the_channel(plunged):
+    """Acceptance #23: ≥ 95 % of the channel outside the allowance shell removed, judged by
+    the stock (the sampled sweep under-states the share), never below the allowance."""
+    share, crashes, _, _, _, dev = _simulated(*plunged)
+    assert crashes == []
+    assert share >= 0.95, f"only {share:.1%} removed"
+    assert dev.min() >= ALLOWANCE - 0.02 - RES / math.sqrt(2)
+
+
 def test_tilted_axis_from_the_shroud_never_enters_the_allowance():
     part = part_from_demo(_demo())
     stock = stock_from_envelope(part, 2.0, 1.0)
     req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, levels="from-shroud",
-                       lead=math.radians(3.0), side_tilt=math.radians(4.0))
+                       lead=math.radians(3.0), side_tilt=math.radians(4.0),
+                       follow_blades=False, check_stock=False)
     path = plan_roughing(part, req, stock)
     # every cutting axis is the radial direction tilted 3° toward +z and 4° toward +θ
     P = path.program
@@ -136,8 +237,10 @@ def test_rotor37_narrow_floor_is_reported_not_gouged():
     V, F, hub, _ = nasa_blade("rotor37")
     part = part_from_blade(V, F, np.array([[hub.r1, hub.z1], [hub.r2, hub.z2]]), 36)
     stock = stock_from_envelope(part, 2.0, 1.0)
+    # the radial axis keeps this test cheap (≈ 15 s); the leaning axis on Rotor 37 is
+    # measured by bench/bench_rough.py --rotor37
     req = RoughRequest(tool=Cutter.bull(8.0, 1.0, h=40.0, neck_length=60.0), stepover=8.0,
-                       depth_per_cut=8.0)
+                       depth_per_cut=8.0, follow_blades=False, check_stock=False)
     path = plan_roughing(part, req, stock)
     last = path.stats["level_labels"][-1]
     assert path.stats["unreachable_levels"] == [last]
@@ -248,6 +351,8 @@ def test_bad_inputs_are_named():
         op.start(part, req(), small)
     with pytest.raises(ToolError, match="stepover"):
         op.start(part, req(stepover=9.0), stock)
+    with pytest.raises(BliskCamError, match="largest axis turn per step"):
+        op.start(part, req(max_turn=0.0), stock)
 
 
 def test_cli_rough_writes_the_program_and_rejects_bad_input(tmp_path, capsys):
@@ -260,10 +365,11 @@ def test_cli_rough_writes_the_program_and_rejects_bad_input(tmp_path, capsys):
     base = ["rough", "--part", str(blade), "--hub-profile", str(hub), "--blade-count", "24",
             "--stock", "envelope:2", "--resolution", "1", "--tool", "bull", "--tool-diameter",
             "8", "--corner-radius", "1", "--flute-length", "24", "--neck-length", "30",
-            "--levels", "morph", "--depth-per-cut", "8", "--stepover", "6"]
+            "--levels", "morph", "--depth-per-cut", "8", "--stepover", "6", "--axis", "radial"]
     assert main(base + ["--out", str(out)]) == 0
     d = json.loads(out.read_text())
     assert d["operation"] == "rough" and d["stats"]["level_mode"] == "morph"
+    assert d["stats"]["axis"] == "radial" and d["stats"]["side_tilt_range_deg"] == [0.0, 0.0]
     assert "min for the 24 gaps" in capsys.readouterr().out
     bad = base[:-2] + ["--stepover", "6", "--allowance", "15", "--out",
                        str(tmp_path / "bad.json")]
@@ -271,3 +377,29 @@ def test_cli_rough_writes_the_program_and_rejects_bad_input(tmp_path, capsys):
     err = [x for x in capsys.readouterr().err.strip().splitlines() if "error" in x]
     assert len(err) == 1 and "half the channel" in err[0]  # one line, no traceback
     assert not (tmp_path / "bad.json").exists()
+
+
+def test_mean_camber_lean_of_a_leaning_blade_and_the_turn_limiter():
+    """A blade whose mean camber line leans s rad per mm of radius (θ_m = s (r − 160) + 0.1
+    sin z / 10, both sides ± 0.01 rad round it): the axis's side tilt is atan(s r), r the
+    middle of the band; beyond the blade's z the nearest station's tilt is held. The
+    limiter keeps every step within the bound and moves no value that needs no limiting."""
+    from blisk_cam.core.channel.axis import limit_turn, mean_camber_lean
+    from blisk_cam.core.channel.region import Section
+
+    s = 0.002
+    zs = np.linspace(-10.0, 10.0, 401)
+    secs = []
+    for rc in np.arange(150.0, 170.1, 1.0):
+        mid = s * (rc - 160.0) + 0.1 * np.sin(zs / 10.0)
+        secs.append(Section(rc, np.concatenate([zs, zs]),
+                            np.concatenate([mid - 0.01, mid + 0.01])))
+    z = np.linspace(-14.0, 14.0, 57)
+    phi = mean_camber_lean(secs, z, np.full(len(z), 152.0), np.full(len(z), 160.0))
+    inside = np.abs(z) <= 10.0
+    np.testing.assert_allclose(phi[inside], math.atan(s * 156.0), atol=1e-9)
+    np.testing.assert_allclose(phi[~inside], math.atan(s * 156.0), atol=1e-9)
+    x = np.array([0.0, 0.01, 0.2, 0.2, -0.3, -0.29, 0.0])
+    y = limit_turn(x, 0.05)
+    assert np.abs(np.diff(y)).max() <= 0.05 + 1e-12
+    np.testing.assert_array_equal(limit_turn([0.0, 0.01, 0.02], 0.05), [0.0, 0.01, 0.02])

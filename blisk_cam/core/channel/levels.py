@@ -46,13 +46,17 @@ LEVEL_MODES = ("from-hub", "from-shroud", "morph")
 class Level:
     """One level: ``index`` 0 at the shroud, ``r`` (n,) tip radius at the stations ``z``
     (mm), ``label`` what the user reads in a warning (mode and offset); ``z`` and
-    ``outside`` (stations beyond the blank) are set when the region refines the stations."""
+    ``outside`` (stations beyond the blank) are set when the region refines the stations;
+    ``side`` (n,) the side tilt of the tool axis per station (rad), set by the roughing;
+    ``walls_only`` a level of contour passes along the walls only."""
 
     index: int
     r: np.ndarray
     label: str
     z: np.ndarray | None = None
     outside: np.ndarray | None = None
+    side: np.ndarray | None = None
+    walls_only: bool = False
 
 
 def offset_profile(profile, allowance: float, spacing: float = 0.1) -> np.ndarray:
@@ -94,7 +98,16 @@ def floor_radius(hub_profile, cutter: Cutter, allowance: float, z, step: float =
     tilted by ``lead`` (toward +z) and ``side`` (toward +θ, rad) that keeps ``allowance``
     from the hub (module docstring). The underside is sampled in polar points (ρ every
     ``step`` mm, 64 angles); a tilted tool's low rim is what touches first; the hub's fall in
-    θ away from the tool is not counted (conservative)."""
+    θ away from the tool is not counted (conservative). ``side`` may be an (n,) array: a side
+    tilt per station."""
+    if np.ndim(side) > 0:
+        side = np.broadcast_to(np.asarray(side, float), np.shape(z))
+        z = np.asarray(z, float)
+        out = np.empty(len(z))
+        for s in np.unique(side):
+            m = side == s
+            out[m] = floor_radius(hub_profile, cutter, allowance, z[m], step, lead, float(s))
+        return out
     off = offset_profile(hub_profile, allowance)
     R = cutter.max_radius
     z = np.asarray(z, float)

@@ -31,7 +31,8 @@ import numpy as np
 from ..geometry.axis import Axis
 from ..toolpath.types import MOVE_APPROACH, MOVE_CUT, MOVE_LINK, MOVE_RAPID, MOVE_RETRACT
 
-__all__ = ["Piece", "drop_straight", "link_program", "machining_time", "pass_count",
+__all__ = ["Piece", "drop_straight", "link_program", "machining_time", "pass_count", "runs_of",
+           "pass_pieces",
            "plunge_points", "pose_frame", "zigzag_passes"]
 
 
@@ -39,7 +40,8 @@ __all__ = ["Piece", "drop_straight", "link_program", "machining_time", "pass_cou
 class Piece:
     """A run of cutting poses: tips (k, 3) mm, axes (k, 3) unit, the level's index,
     ``outside`` (2,) bool: its first / last pose lies beyond the blank's faces (air),
-    ``plunge`` True for a plunge (approach, cut down, retract in one)."""
+    ``plunge`` True for a plunge (approach, cut down, retract in one), ``contour`` True for a
+    pass along a wall with its own axis."""
 
     tip: np.ndarray
     axis: np.ndarray
@@ -47,21 +49,24 @@ class Piece:
     outside: tuple
     plunge: bool = False
     station: int = -1
+    contour: bool = False
 
 
 def pose_frame(axis: Axis, theta, z, r, theta_ref: float, lead: float, side: float):
     """Tips (n, 3) and unit axes (n, 3) of tool poses at (θ + theta_ref, z, r): the radial
-    direction tilted by ``lead`` toward +z and ``side`` toward +θ (rad)."""
+    direction tilted by ``lead`` toward +z and ``side`` toward +θ (rad; scalars or (n,))."""
     e1, e2, d = axis.angular_frame()
     th = np.asarray(theta, float) + theta_ref
     u = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
     t = -np.sin(th)[:, None] * e1 + np.cos(th)[:, None] * e2
     tip = axis.o + np.asarray(z, float)[:, None] * d + np.asarray(r, float)[:, None] * u
-    a = u + math.tan(side) * t + math.tan(lead) * d
+    ts = np.reshape(np.tan(np.asarray(side, float)), (-1, 1))
+    tl = np.reshape(np.tan(np.asarray(lead, float)), (-1, 1))
+    a = u + ts * t + tl * d
     return tip, a / np.linalg.norm(a, axis=1)[:, None]
 
 
-def _runs(mask):
+def runs_of(mask):
     """[(start, stop)] of the True runs of a bool array."""
     m = np.concatenate([[False], np.asarray(mask, bool), [False]])
     d = np.diff(m.astype(np.int8))
@@ -112,39 +117,69 @@ def zigzag_passes(level: int, z, r, lo, hi, reach, outside, stepover: float, fra
     for w in ws:
         theta = lo + w * (hi - lo)
         tips, axes = frame(theta, z, r)
-        runs = _runs(reach)
-        if not fwd:
-            runs = [(b, a) for a, b in runs[::-1]]
-        for a, b in runs:
-            sl = slice(a, b) if fwd else slice(a - 1, b - 1 if b > 0 else None, -1)
-            idx = np.arange(len(z))[sl]
-            if len(idx) < 2:
-                continue
-            idx = idx[drop_straight(tips[idx], axes[idx])]
-            pieces.append(Piece(tips[idx], axes[idx], level,
-                                (bool(outside[idx[0]]), bool(outside[idx[-1]]))))
+        pieces.extend(pass_pieces(level, tips, axes, reach, outside, fwd))
         fwd = not fwd
     return pieces, fwd, not start_low
 
 
-def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, frame):
-    """[Piece] of plunges on one level: stations every ``stepover`` along z, fractions
-    across as the zig-zag's; each piece goes from the level above (``r_above``) down to the
-    level and back up."""
+def pass_pieces(level: int, tips, axes, reach, outside, forward: bool) -> list:
+    """[Piece] of one pass along the channel: poses (n, 3) ``tips`` and ``axes`` over the
+    stations, split where ``reach`` (n,) is False, run toward +z when ``forward``."""
+    runs = runs_of(reach)
+    if not forward:
+        runs = [(b, a) for a, b in runs[::-1]]
+    pieces = []
+    for a, b in runs:
+        sl = slice(a, b) if forward else slice(a - 1, b - 1 if b > 0 else None, -1)
+        idx = np.arange(len(tips))[sl]
+        if len(idx) < 2:
+            continue
+        idx = idx[drop_straight(tips[idx], axes[idx])]
+        pieces.append(Piece(tips[idx], axes[idx], level,
+                            (bool(outside[idx[0]]), bool(outside[idx[-1]]))))
+    return pieces
+
+
+def plunge_points(level: int, z, r, r_above, lo, hi, reach, stepover: float, frame,
+                  radius: float | None = None, fractions=None):
+    """[Piece] of plunges on one level: fractions across as the zig-zag's (or
+    ``fractions``), stations along z at most s_z apart; each piece goes from the level above
+    (``r_above``) down to the level and back up. The plunges of a rectangular grid with steps
+    s_x across and s_z along leave no island between four holes of the tool's ``radius`` R
+    when (s_x/2)² + (s_z/2)² ≤ R²: s_z = min(stepover, R, 2 √(R² − (s_x/2)²)) (at least a
+    quarter of the stepover; ``radius`` None: s_z = stepover)."""
     width = (hi - lo) * r
     n = pass_count(np.where(reach, width, np.nan), stepover)
-    dz = float(np.median(np.diff(z))) if len(z) > 1 else 1.0
-    every = max(1, int(round(stepover / dz)))
-    pick = np.nonzero(reach)[0]
-    pick = pick[(pick - (pick[0] if len(pick) else 0)) % every == 0]
+    ws_all = np.linspace(0.0, 1.0, n) if fractions is None else np.asarray(fractions, float)
+    w = width[reach & np.isfinite(width)]
+    s_x = float(w.max()) / (n - 1) if len(w) and fractions is None else 0.0
+    s_z = stepover
+    if radius is not None:
+        # and at most the radius: the walls between two plunges keep a scallop of at most
+        # R − √(R² − R²/4) = 0.13 R
+        s_z = min(stepover, radius, max(0.25 * stepover, 2.0 * math.sqrt(
+            max(radius * radius - 0.25 * s_x * s_x, 0.0))))
+    # the stations: greedy, each the last within s_z of the one before, a new start at
+    # every run of reachable stations
+    pick = []
+    for a, b in runs_of(reach):
+        i = a
+        pick.append(i)
+        while i < b - 1:
+            j = int(np.searchsorted(z[i:b], z[i] + s_z + 1e-9, "right")) + i - 1
+            i = max(j, i + 1)
+            pick.append(i)
     pieces = []
     for j, i in enumerate(pick):
-        ws = np.linspace(0.0, 1.0, n)
+        ws = ws_all
         if j % 2:
             ws = ws[::-1]
         for w in ws:
             th = np.full(2, lo[i] + w * (hi[i] - lo[i]))
             tips, axes = frame(th, np.full(2, z[i]), np.array([r_above[i], r[i]]))
+            # down the bottom pose's own axis (a tilted axis is not radial)
+            tips[0] = tips[1] + float((tips[0] - tips[1]) @ axes[1]) * axes[1]
+            axes[0] = axes[1]
             pieces.append(Piece(tips, axes, level, (False, False), plunge=True, station=int(i)))
     return pieces
 

@@ -154,12 +154,14 @@ def offset_table(cutter: Cutter, assembly: ToolAssembly, allowance: float, safet
     distance o(h) (mm) a section point at that height must keep from the tool's axis: the
     cutter's radius (flute) or the body's radius + ``safety`` (shank, holder), grown by a
     ball of radius ``allowance`` (the Minkowski sum of the solid of revolution), plus
-    ``margin``. A tool tilted by ``tilt`` (rad) from radial reaches up to ρ sin(tilt) higher
-    and lower in radius than its axial height: the table then takes the largest distance
-    within that band (conservative)."""
+    ``margin``. A tool tilted by ``tilt`` (rad) from radial: its disc of radius ρ at axial
+    height h reaches the radial heights h cos(tilt) ± ρ sin(tilt), and a cylinder cuts the
+    tilted solid of revolution in a curve within ρ / cos(tilt) of the axis; the table at
+    height y then takes, over the heights h whose band holds y, the largest ρ(h) / cos(tilt)
+    (per height: a wide holder far up the axis does not widen the band at the flute)."""
     a = float(allowance)
     top = float(max(assembly.top, cutter.h))
-    w = float(max(cutter.max_radius, assembly.max_radius + safety)) * math.sin(abs(tilt))
+    w = float(max(cutter.max_radius, assembly.max_radius + safety) + a) * math.sin(abs(tilt))
     h = np.arange(-a - w - step, top + a + w + step, step)
     prof = cutter.profile(128)
     # the flute: the radius of the outline at each height (the largest at a height)
@@ -179,11 +181,18 @@ def offset_table(cutter: Cutter, assembly: ToolAssembly, allowance: float, safet
             shifted = np.interp(h + dlt, h, rho, left=-np.inf, right=-np.inf)
             best = np.maximum(best, shifted + math.sqrt(max(a * a - dlt * dlt, 0.0)))
         rho = best
-    if w > 0:
-        n = max(3, int(math.ceil(2 * w / step)) | 1)
+    if tilt != 0.0:
+        c, s_ = math.cos(abs(tilt)), math.sin(abs(tilt))
+        fin = np.nonzero(np.isfinite(rho))[0]
         best = np.full(len(h), -np.inf)
-        for dlt in np.linspace(-w, w, n):
-            best = np.maximum(best, np.interp(h + dlt, h, rho, left=-np.inf, right=-np.inf))
+        # each height's band on the grid of h (rounded outward by a step)
+        centre = np.round((h[fin] * c - h[0]) / step).astype(np.int64)
+        half = np.ceil(rho[fin] * s_ / step).astype(np.int64) + 1
+        for k in range(-int(half.max()), int(half.max()) + 1):
+            m = np.abs(k) <= half
+            j = centre[m] + k
+            ok = (j >= 0) & (j < len(h))
+            np.maximum.at(best, j[ok], rho[fin][m][ok] / c)
         rho = best
     return h, np.where(np.isfinite(rho), rho + margin, rho)
 
@@ -193,14 +202,16 @@ def channel_bounds(sections, pitch: float, z, r_tip, table, *, lead: float = 0.0
     """Lower and upper θ bounds (rad, relative to the blade's mean angle) of the tip at the
     stations ``z`` (n,) with tip radii ``r_tip`` (n,): the tool clear of blade 0 (below) and
     blade 1 (above) at every height of ``table`` (:func:`offset_table`). ``lead`` and
-    ``side`` are the axis tilts (rad). ±inf where no section is within reach."""
+    ``side`` are the axis tilts (rad; ``side`` a scalar or (n,) per station). ±inf where no
+    section is within reach."""
     z = np.asarray(z, float)
     r_tip = np.asarray(r_tip, float)
     hs, os_ = table
     h_lo, h_hi = float(hs[np.isfinite(os_)].min()), float(hs[np.isfinite(os_)].max())
     lo = np.full(len(z), -np.inf)
     hi = np.full(len(z), np.inf)
-    tl, ts = math.tan(lead), math.tan(side)
+    tl = math.tan(lead)
+    ts = np.broadcast_to(np.tan(np.asarray(side, float)), z.shape)
     for sec in sections:
         if len(sec.z) == 0:
             continue
@@ -226,7 +237,7 @@ def channel_bounds(sections, pitch: float, z, r_tip, table, *, lead: float = 0.0
         grp = np.repeat(np.arange(len(st)), cnt)
         dz = sec.z[idx] - zq[grp]
         s = np.sqrt(np.maximum(o[grp] ** 2 - dz * dz, 0.0)) / rc
-        shift = (h[st] * ts / rc)[grp]
+        shift = (h[st] * ts[st] / rc)[grp]
         starts = np.cumsum(cnt) - cnt
         up = np.maximum.reduceat(sec.theta[idx] + s - shift, starts)
         dn = np.minimum.reduceat(sec.theta[idx] - s - shift, starts) + pitch

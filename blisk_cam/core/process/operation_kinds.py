@@ -456,6 +456,9 @@ _ROUGH_KEYS = {
     "hub_allowance": (None, "material left on the hub, mm (default: allowance)", "mm"),
     "lead": (0.0, "tool axis tilted from radial toward +z, degrees", "deg"),
     "side_tilt": (0.0, "tool axis tilted from radial toward +θ, degrees", "deg"),
+    "axis": ("blades", "blades (leaning with the blades' mean camber surface) or radial",
+             "word"),
+    "max_turn": (2.0, "largest change of the leaning axis per station step, degrees", "deg"),
     "safety": (0.5, "the body's distance from the allowance shell, mm", "mm"),
     "station_step": (0.5, "pose spacing along the channel, mm", "mm"),
     "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),
@@ -481,6 +484,11 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
     for key in ("stepover", "depth_per_cut"):
         if key not in kw:
             raise BliskCamError(f"{where}: key {key!r} is missing (mm)")
+    if "axis" in kw:
+        axis = kw.pop("axis")
+        if axis not in ("blades", "radial"):
+            raise BliskCamError(f"{where} key 'axis': blades or radial, got {axis!r}")
+        kw["follow_blades"] = axis == "blades"
     try:
         req = RoughRequest(tool=ctx.cutter, assembly=tool_assembly(ctx.tool, ctx.cutter), **kw)
     except (BliskCamError, TypeError, ValueError) as exc:

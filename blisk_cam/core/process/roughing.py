@@ -23,9 +23,25 @@ Stages (:mod:`.operation`):
 4. ``link`` — the program: feed links in the air beyond the blank's faces, retract / rapid
    at the safe radius / approach elsewhere; the estimated machining time.
 
-The tool axis is radial (the span direction of a blade stacked on radial lines), tilted by
-the requested lead (toward +z) and side tilt (toward +θ); the bounds account for the tilt at
-every height of the tool. Units mm, radians (degrees only in messages).
+The tool axis leans with the blades (``follow_blades``, the default): per level and station
+the radial direction tilted toward +θ by the blades' mean camber lean over the band of
+radii the level's cut adds (:mod:`..channel.axis`), changing by at most ``max_turn`` per
+station step, plus the requested lead (toward +z) and side tilt (toward +θ); without
+``follow_blades`` it is radial with the requested tilts.
+
+With ``follow_blades`` two more kinds of pass finish the walls at the allowance: on the floor
+level and on **wall levels** every ≤ 2 mm between the floor and the level above (on the
+floor the cutter's corner rides on the hub fillet and keeps its side off the wall above it),
+a **contour pass** along each wall whose side tilt per station is the one (of the level's
+own ± 5° and 10°) that brings the tool nearest the wall half a depth per cut above its tip,
+limited to ``max_turn`` per step. The material a level staircase leaves on a wall of unit
+normal n is at most s |n · a| beyond the allowance (the **level step cusp**: s the step
+between the levels bracketing the point, the depth per cut — or the wall-level step in the
+floor band —, a the tool axis; the corners of a step of a sharp-cornered tool lie that far off
+the plane through the points it touches, a corner radius leaves less). The floor of each level is
+computed for its own tilts (a tilted tool's low rim keeps the hub allowance) and the
+bounds account for the tilt at every height of the tool. Units mm, radians (degrees only
+in messages).
 """
 
 from __future__ import annotations
@@ -35,12 +51,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..channel.levels import LEVEL_MODES, floor_radius, level_radii, stock_top
+from ..channel.axis import limit_turn, mean_camber_lean
+from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
+    Piece,
     link_program,
     machining_time,
+    pass_pieces,
     plunge_points,
     pose_frame,
+    runs_of,
     zigzag_passes,
 )
 from ..channel.region import channel_bounds, cylinder_sections, fill_free, offset_table
@@ -49,10 +69,10 @@ from ..part.cones import Cone
 from ..part.model import BliskPart, theta_about
 from ..runtime import Progress, check_cancel
 from ..stock.dexels import RadialDexels
-from ..stock.removal import body_assembly
+from ..stock.removal import body_assembly, remove_program
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
-from ..toolpath.types import PassCurve, Program, ToolPath
+from ..toolpath.types import MOVE_CUT, PassCurve, Program, ToolPath
 from .operation import Operation, OperationResult, Stage, run_operation
 
 __all__ = ["PATTERNS", "RoughRequest", "RoughingOperation", "plan_roughing"]
@@ -84,6 +104,12 @@ class RoughRequest:
     spindle : float or None, rpm — recorded in the stats
     margin : float, mm — extra distance kept from the allowance shell (covers the chord
         between stations)
+    follow_blades : bool — the axis leans with the blades' mean camber surface (module
+        docstring); False: radial
+    max_turn : float, rad — the largest change of the side tilt per station step
+    check_stock : bool — run the program on the blank and leave out what brings the tool
+        body against the stock (the ``link`` stage; False: only the simulation afterwards
+        reports it)
     """
 
     tool: Cutter
@@ -104,6 +130,9 @@ class RoughRequest:
     rapid_feed: float = 10000.0
     spindle: float | None = None
     margin: float = 0.02
+    follow_blades: bool = True
+    max_turn: float = math.radians(2.0)
+    check_stock: bool = True
 
 
 @dataclass
@@ -125,6 +154,9 @@ class _State:
     pieces: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
     unreachable: list = field(default_factory=list)
+    contours: list = field(default_factory=list)
+    wall_step: float = 0.0
+    tables: dict = field(default_factory=dict)
     path: ToolPath = None
 
 
@@ -218,6 +250,9 @@ class RoughingOperation(Operation):
                 raise BliskCamError(f"{name} must be within ±45°, got "
                                     f"{math.degrees(ang):g}°")
         _num("station step", req.station_step)
+        if not (math.isfinite(req.max_turn) and req.max_turn > 0):
+            raise BliskCamError(f"the largest axis turn per step must be > 0°, got "
+                                f"{math.degrees(req.max_turn):g}°")
         _num("safety distance", req.safety, positive=False)
         for name, f in (("feed", req.feed), ("rapid feed", req.rapid_feed)):
             _num(name, f)
@@ -277,17 +312,12 @@ class RoughingOperation(Operation):
         zr, top = stock_top(st.stock)
         if len(zr) == 0:
             raise StockError("the blank is empty")
+        req, part = st.req, st.part
         st.top = np.interp(st.z, zr, top)
-        st.floor = floor_radius(st.part.hub_profile, st.cutter, st.hub_a, st.z,
-                                lead=st.req.lead, side=st.req.side_tilt)
-        st.levels = level_radii(st.z, st.floor, st.top, st.req.levels, st.req.depth_per_cut)
-        yield Progress(1.0, f"{len(st.levels)} levels")
-
-    def _region(self, st: _State):
-        part, req = st.part, st.req
-        tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(req.side_tilt)))
-        table = offset_table(st.cutter, st.assembly, req.allowance, req.safety, req.margin,
-                             tilt=tilt)
+        st.floor = floor_radius(part.hub_profile, st.cutter, st.hub_a, st.z,
+                                lead=req.lead, side=req.side_tilt)
+        st.levels = level_radii(st.z, st.floor, st.top, req.levels, req.depth_per_cut)
+        yield Progress(0.3, f"{len(st.levels)} levels")
         rv, _, _ = theta_about(part.blade_vertices, part.axis)
         r_lo = max(float(rv.min()), float(st.floor.min()) - req.allowance - 0.5)
         r_hi = float(rv.max())
@@ -299,15 +329,60 @@ class RoughingOperation(Operation):
                                           np.arange(fine, r_hi + 0.25, 0.25)]))
         st.sections = cylinder_sections(part.blade_vertices, part.blade_faces, part.axis,
                                         radii, st.theta_ref, 0.3)
+        yield Progress(0.7, "blade sections")
+        floor_level = st.levels[-1]
+        for lv in st.levels:
+            # the floor level keeps the radial axis: a tilted flat bottom would leave a
+            # sawtooth on the hub, and its low rim would lift the floor
+            lv.side = np.full(len(st.z), float(req.side_tilt))
+            # (plunges keep one axis on every main level: a plunge's link across the channel
+            # runs over the level above, cleared with that level's axis)
+            if req.follow_blades and lv is not floor_level and req.pattern != "plunge":
+                self._lean(st, lv)
+        if req.follow_blades and len(st.levels) > 0:
+            # wall levels between the floor and the level above (contour passes only): on the
+            # floor the tool's corner rides on the hub fillet and keeps its side off the wall
+            # above it; a contour pass every ≤ 2 mm up lets the side reach the wall there
+            above = st.levels[-2].r if len(st.levels) > 1 else st.top
+            span = float(np.max(above - floor_level.r))
+            n = int(math.ceil(span / min(2.0, req.depth_per_cut) - 1e-9))
+            K = len(st.levels)
+            st.wall_step = span / n if n > 1 else 0.0
+            walls = []
+            for j in range(n - 1, 0, -1):  # from the top down, cut before the floor
+                off = j * span / n
+                wl = Level(0, np.minimum(floor_level.r + off, above),
+                           f"wall level {n - j} of {n - 1} above level {K} (+{off:.2f} mm)")
+                wl.walls_only = True
+                self._lean(st, wl)
+                walls.append(wl)
+            st.levels[-1:-1] = walls
+            for k, lv in enumerate(st.levels):
+                lv.index = k
+        yield Progress(1.0, "tool axes")
+
+    def _lean(self, st: _State, lv: Level):
+        """The level's side tilt following the blades (:mod:`..channel.axis`) and its tip
+        radius raised to the floor of that tilt."""
+        req = st.req
+        lean = mean_camber_lean(st.sections, st.z, lv.r, lv.r + max(req.depth_per_cut, 2.0))
+        lv.side = limit_turn(lean + req.side_tilt, req.max_turn)
+        lv.z = st.z
+        lv.r = self._floor_of(st, lv, lv.side)
+        lv.z = None
+
+    def _region(self, st: _State):
+        part, req = st.part, st.req
         overlap = (st.cutter.max_radius + 1.0) / np.maximum(st.floor, 1.0)
         hold = st.cutter.max_radius + 1.0
         for k, lv in enumerate(st.levels):
             check_cancel()
-            z, r, outside, lo, hi = _refined_bounds(
-                st.sections, part.pitch, st.z, lv.r, st.outside, table, req)
+            table = self._table(st, float(np.abs(lv.side).max()))
+            z, r, outside, lo, hi, side = _refined_bounds(
+                st.sections, part.pitch, st.z, lv.r, st.outside, table, req, lv.side)
             lo, hi = fill_free(z, lo, hi, part.pitch, np.interp(z, st.z, overlap), hold, 5.0,
                                0.5 * part.pitch)
-            lv.z, lv.r, lv.outside = z, r, outside
+            lv.z, lv.r, lv.outside, lv.side = z, r, outside, side
             reach = hi >= lo
             inner = ~outside
             miss = inner & ~reach
@@ -323,29 +398,123 @@ class RoughingOperation(Operation):
                     "its stations): that part is left out")
                 st.unreachable.append(lv.label)
             st.bounds.append((lo, hi, reach))
+            # contour passes on the floor band (the floor level and the wall levels above
+            # it): above, the leaning zig-zag's first and last passes follow the walls
+            band = lv.walls_only or lv is st.levels[self._floor_index(st)]
+            st.contours.append(self._contours(st, lv) if req.follow_blades and band else [])
             yield Progress((k + 1) / len(st.levels), f"region of {lv.label}")
+
+    def _floor_index(self, st: _State) -> int:
+        """Index of the floor level (the last one that is not a wall level)."""
+        return max(k for k, lv in enumerate(st.levels) if not lv.walls_only)
+
+    def _table(self, st: _State, side: float):
+        """The offset table of a tilt up to |side| (rad; rounded up to 0.1°, shared)."""
+        req = st.req
+        side = math.radians(math.ceil(math.degrees(abs(side)) * 10) / 10)
+        tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(side)))
+        if tilt not in st.tables:
+            st.tables[tilt] = offset_table(st.cutter, st.assembly, req.allowance, req.safety,
+                                           req.margin, tilt=tilt)
+        return st.tables[tilt]
+
+    def _floor_of(self, st: _State, lv: Level, side) -> np.ndarray:
+        """The level's tip radii raised to the floor of the side tilt ``side`` (rad, scalar or
+        per station); only stations within a tool radius of the radial floor can need it (a
+        tilt drops the rim by at most the radius)."""
+        req = st.req
+        side = np.broadcast_to(np.asarray(side, float), lv.z.shape)
+        near = lv.r < np.interp(lv.z, st.z, st.floor) + st.cutter.max_radius + 1e-9
+        r = lv.r.copy()
+        if near.any():
+            r[near] = np.maximum(r[near], floor_radius(st.part.hub_profile, st.cutter,
+                                                       st.hub_a, lv.z[near], lead=req.lead,
+                                                       side=side[near]))
+        return r
+
+    def _contours(self, st: _State, lv: Level):
+        """The contour passes of a level along blade 0's wall and blade 1's: per station the
+        side tilt (the level's own ± 5° and 10°) that brings the tool nearest the wall half a
+        depth per cut above its tip, limited to the largest turn per step, the tip on the
+        floor of that tilt and at the bound of that tilt. Returns [(theta, r, side, reach)]
+        over the level's stations, blade 0's wall first."""
+        req, part = st.req, st.part
+        y = 0.5 * req.depth_per_cut
+        found = [[np.full(len(lv.z), np.inf), lv.side.copy()] for _ in range(2)]
+        # the choice on every third section (the bounds of the chosen tilt, below, on all)
+        few = st.sections[::3]
+        for d in np.radians([0.0, -5.0, 5.0, -10.0, 10.0]):
+            c = lv.side + d
+            r = self._floor_of(st, lv, c)
+            lo, hi = channel_bounds(few, part.pitch, lv.z, r,
+                                    self._table(st, float(np.abs(c).max())), lead=req.lead,
+                                    side=c)
+            ok = np.isfinite(lo) & np.isfinite(hi) & (hi >= lo)
+            for low, (best, pick) in zip((True, False), found, strict=True):
+                pos = (lo if low else -hi) + (1 if low else -1) * y * np.tan(c) / r
+                take = ok & (pos < best)
+                best[take], pick[take] = pos[take], c[take]
+        out = []
+        for low, (_, pick) in zip((True, False), found, strict=True):
+            side = limit_turn(pick, req.max_turn)
+            r = self._floor_of(st, lv, side)
+            lo, hi = channel_bounds(st.sections, part.pitch, lv.z, r,
+                                    self._table(st, float(np.abs(side).max())),
+                                    lead=req.lead, side=side)
+            overlap = (st.cutter.max_radius + 1.0) / np.maximum(r, 1.0)
+            lo, hi = fill_free(lv.z, lo, hi, part.pitch, overlap, st.cutter.max_radius + 1.0,
+                               5.0, 0.5 * part.pitch)
+            out.append(((lo if low else hi), r, side, hi >= lo))
+        return out
 
     def _pattern(self, st: _State):
         req, part = st.req, st.part
-
-        def frame(theta, z, r):
-            return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead, req.side_tilt)
 
         fwd, low = True, True
         r_safe = self._r_safe(st)
         for k, (lv, (lo, hi, reach)) in enumerate(zip(st.levels, st.bounds, strict=True)):
             if not reach.any():
                 continue
-            if req.pattern == "zigzag":
+
+            def frame(theta, z, r, lv=lv):
+                return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead,
+                                  np.interp(z, lv.z, lv.side))
+
+            # the level above: the last one before this that is not a wall level
+            prev = next((st.levels[j] for j in range(k - 1, -1, -1)
+                         if not st.levels[j].walls_only), None)
+            above = (np.interp(lv.z, prev.z, prev.r) if prev is not None
+                     else np.full(len(lv.z), r_safe))
+            above = np.minimum(above + 1.0, r_safe)
+            if lv.walls_only:
+                pcs = []
+            elif req.pattern == "zigzag":
                 pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
                                               req.stepover, frame, fwd, low)
             else:
-                prev = st.levels[k - 1] if k > 0 else None
-                above = (np.interp(lv.z, prev.z, prev.r) if prev is not None
-                         else np.full(len(lv.z), r_safe))
-                above = np.minimum(above + 1.0, r_safe)
-                pcs = plunge_points(k, lv.z, lv.r, above, lo, hi, reach, req.stepover, frame)
+                # the holes' radius half-way up the corner: the grid leaves no island above
+                # half the corner radius (the next level takes the rest)
+                pcs = plunge_points(k, lv.z, lv.r, above, lo, hi, reach, req.stepover, frame,
+                                    radius=st.cutter.max_radius - 0.5 * st.cutter.r)
             st.pieces.extend(pcs)
+            for theta, r, side, ok in st.contours[k]:  # the contour pass along each wall
+                n0 = len(st.pieces)
+                if req.pattern == "zigzag":
+                    tips, axes = pose_frame(part.axis, theta, lv.z, r, st.theta_ref, req.lead,
+                                            side)
+                    st.pieces.extend(pass_pieces(k, tips, axes, ok, lv.outside, fwd))
+                    fwd = not fwd
+                else:  # plunges along the wall, as close as the holes overlap
+                    def wall_frame(theta, z, r, lv=lv, side=side):
+                        return pose_frame(part.axis, theta, z, r, st.theta_ref, req.lead,
+                                          np.interp(z, lv.z, side))
+
+                    st.pieces.extend(plunge_points(
+                        k, lv.z, r, np.maximum(above, r + 1.0), theta, theta,
+                        ok & ~lv.outside, min(req.stepover, st.cutter.max_radius), wall_frame,
+                        fractions=[0.0]))
+                for pc in st.pieces[n0:]:
+                    pc.contour = True
             yield Progress((k + 1) / len(st.levels), f"passes of {lv.label}")
 
     def _r_safe(self, st: _State) -> float:
@@ -359,6 +528,60 @@ class RoughingOperation(Operation):
         tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
                                                            self._r_safe(st))
         program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
+        # the body against the in-process stock: the program run on the blank; a contour
+        # pass (its axis differs from the one that cleared the levels above) whose body or
+        # approach meets material is left out, any other pass loses the stretch of a tool
+        # radius + 2 mm round each such pose, and the rest is linked again
+        for _ in range(4 if req.check_stock else 0):
+            check_cancel()
+            res = remove_program(st.stock.copy(), program, st.cutter, st.assembly,
+                                 sweep_tolerance=0.05)
+            hits: dict = {}
+            for c in res.crashes:
+                k = int(curve[c.row]) if c.row < len(curve) else -1
+                j = int(index[c.row]) if k >= 0 else 0
+                if k < 0:  # a link, rapid or approach: the start of the piece it leads to
+                    nxt = np.nonzero(curve[c.row:] >= 0)[0]
+                    k = int(curve[c.row + nxt[0]]) if len(nxt) else -1
+                if k >= 0:
+                    hits.setdefault(k, []).append(j)
+            if not hits:
+                break
+            pieces = []
+            for k, pc in enumerate(st.pieces):
+                if k not in hits:
+                    pieces.append(pc)
+                    continue
+                label = st.levels[pc.level].label
+                _, _, zc = theta_about(pc.tip[np.asarray(hits[k])], part.axis)
+                st.warnings.append(
+                    f"{label}: the tool body would meet the stock the levels above left at z "
+                    f"{zc.min():.1f} … {zc.max():.1f} mm: "
+                    + ("that contour pass is left out" if pc.contour or pc.plunge
+                       else "that stretch of the pass is left out"))
+                if pc.contour or pc.plunge:
+                    continue
+                s_ = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pc.tip, axis=0),
+                                                                     axis=1))])
+                keep = np.ones(len(s_), bool)
+                for j in hits[k]:
+                    keep &= np.abs(s_ - s_[j]) > st.cutter.max_radius + 2.0
+                for a0, b0 in runs_of(keep):
+                    if b0 - a0 >= 2:
+                        pieces.append(Piece(pc.tip[a0:b0], pc.axis[a0:b0], pc.level,
+                                            (pc.outside[0] and a0 == 0,
+                                             pc.outside[1] and b0 == len(s_))))
+            st.pieces = pieces
+            if not st.pieces:
+                raise BliskCamError("every pass of the channel would bring the tool body "
+                                    "against the stock: take a tool with a slimmer body")
+            tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
+                                                               self._r_safe(st))
+            program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
+        else:
+            if req.check_stock:
+                st.warnings.append("the tool body still meets the stock after four rounds "
+                                   "of leaving passes out: check the simulation's crashes")
         curves = [PassCurve(s=float(p.level), closed=False, cc=p.tip, normal=p.axis,
                             tip=p.tip, axis=p.axis) for p in st.pieces]
         plunge = req.plunge_feed or 0.5 * req.feed
@@ -400,7 +623,13 @@ class RoughingOperation(Operation):
             "length_rapid_mm": est["lengths_mm"]["rapid"],
             "safe_radius_mm": self._r_safe(st),
             "floor_scallop_mm": scallop,
-            "max_axis_turn_deg": _max_turn(axis),
+            "wall_levels": sum(lv.walls_only for lv in st.levels),
+            "wall_level_step_mm": float(st.wall_step),
+            "max_axis_turn_deg": _max_turn(axis, move),
+            "axis": "follows the blades" if req.follow_blades else "radial",
+            "max_turn_per_step_deg": math.degrees(req.max_turn),
+            "side_tilt_range_deg": [math.degrees(min(float(lv.side.min()) for lv in st.levels)),
+                                    math.degrees(max(float(lv.side.max()) for lv in st.levels))],
         }
         if req.spindle:
             stats["spindle_rpm"] = float(req.spindle)
@@ -414,15 +643,16 @@ class RoughingOperation(Operation):
         return OperationResult(state.path, None, dict(seconds))
 
 
-def _refined_bounds(sections, pitch, z, r, outside, table, req, chord: float = 0.5,
+def _refined_bounds(sections, pitch, z, r, outside, table, req, side, chord: float = 0.5,
                     rounds: int = 8):
     """Stations and bounds of one level, refined where a bound moves more than ``chord`` mm
     between two stations: a straight move of length L between two points of the envelope
     of circles of radius o (≥ the tool's radius) leaves it by at most L²/(8 o), so chords of
     ≤ 0.5 mm stay within the margin — also where the envelope turns round a leading or
     trailing edge and its slope in z is unbounded (there halving the z step is what shortens
-    the chord). Returns (z, r, outside, lo, hi)."""
-    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=req.lead, side=req.side_tilt)
+    the chord). ``side`` (n,) the side tilt per station (rad), interpolated linearly at the
+    inserted stations. Returns (z, r, outside, lo, hi, side)."""
+    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=req.lead, side=side)
     for _ in range(rounds):
         both = np.isfinite(lo[:-1]) & np.isfinite(lo[1:]) & np.isfinite(hi[:-1]) & \
             np.isfinite(hi[1:])
@@ -435,22 +665,24 @@ def _refined_bounds(sections, pitch, z, r, outside, table, req, chord: float = 0
         zm = 0.5 * (z[bad] + z[bad + 1])
         r_m = 0.5 * (r[bad] + r[bad + 1])
         out_m = outside[bad] & outside[bad + 1]
-        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=req.lead,
-                                    side=req.side_tilt)
+        s_m = 0.5 * (side[bad] + side[bad + 1])
+        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=req.lead, side=s_m)
         order = np.argsort(np.concatenate([z, zm]), kind="stable")
         z = np.concatenate([z, zm])[order]
         r = np.concatenate([r, r_m])[order]
         outside = np.concatenate([outside, out_m])[order]
+        side = np.concatenate([side, s_m])[order]
         lo = np.concatenate([lo, lo_m])[order]
         hi = np.concatenate([hi, hi_m])[order]
-    return z, r, outside, lo, hi
+    return z, r, outside, lo, hi, side
 
 
-def _max_turn(axis) -> float:
-    """Largest angle (degrees) between consecutive tool axes."""
-    if len(axis) < 2:
+def _max_turn(axis, move) -> float:
+    """Largest angle (degrees) between the tool axes of consecutive cutting poses."""
+    cut = np.nonzero((np.asarray(move)[1:] == MOVE_CUT) & (np.asarray(move)[:-1] == MOVE_CUT))[0]
+    if len(cut) == 0:
         return 0.0
-    c = np.clip(np.einsum("ij,ij->i", axis[1:], axis[:-1]), -1.0, 1.0)
+    c = np.clip(np.einsum("ij,ij->i", axis[cut + 1], axis[cut]), -1.0, 1.0)
     return float(np.degrees(np.arccos(c)).max())
 
 
