@@ -152,7 +152,12 @@ def test_a_clearance_route_through_the_part_is_reported():
         prog = build_program([a, b], opts, AX, tool_radius=RHO, link_check=check)
         for f in ("tip", "axis", "move", "curve", "index", "flags"):
             assert np.array_equal(getattr(plain, f), getattr(prog, f))
-        assert check.rapids == count and check.rerouted == 0
+        # every planned route via the clearance surface is measured: the program's entry, the
+        # route between the passes and its exit (over the ridge each cuts, independently)
+        c0, c1 = np.flatnonzero(prog.curve == 0), np.flatnonzero(prog.curve == 1)
+        routes = (np.arange(1, c0[0] + 1), rows, np.arange(c1[-1] + 1, len(prog.tip)))
+        cut = sum(_swept_depth(MeshDistance(m), prog, r) > CHORD for r in routes)
+        assert check.rapids == cut and (cut >= 1) == bool(count) and check.rerouted == 0
         if count:
             # at least the independent figure (more here: the mesh is open, and the check's
             # signed distance reads a ball centre beyond a wall's free edge as inside)

@@ -99,7 +99,8 @@ class SweptLinkCheck:
             self.still_depth = max(self.still_depth, float(left))
 
     def rapids_cut(self, depth: float) -> None:
-        """Record a planned route via the clearance surface between passes that cuts
+        """Record a planned route via the clearance surface (between passes, into the first or
+        out of the last) that cuts
         ``depth`` mm (kept: collision avoidance re-routes such routes; counted when deeper
         than the tolerance)."""
         if depth > self.tolerance:
@@ -115,7 +116,7 @@ class SweptLinkCheck:
         if self.rapids:
             k = self.rapids
             out.append(
-                f"{k} route{'s' if k != 1 else ''} via the clearance surface between passes "
+                f"{k} route{'s' if k != 1 else ''} via the clearance surface "
                 f"cut{'s' if k == 1 else ''} the blade by up to {self.rapids_worst:.3f} mm "
                 "(the rapids run straight through it): run collision avoidance "
                 "(--collisions avoid) to re-route them"

@@ -682,7 +682,11 @@ def build_program(
         first_move = MOVE_APPROACH
         if prev is None:
             e0 = t0 + approach_length(c, 0, d_app) * a0
-            via_clearance(rows, clear, axis, opts.rapid_step, e0, a0, e0, a0, first=True)
+            rows.extend(_checked_route(
+                link_check, None, None, t0, a0,
+                lambda r, along, e0=e0, a0=a0: via_clearance(
+                    r, clear, axis, opts.rapid_step, e0, a0, e0, a0, first=True,
+                    along_axis=along)))
         else:
             pc, pj = prev
             link = None
@@ -718,14 +722,15 @@ def build_program(
                 first_move = MOVE_LINK
             else:
                 pt, pa = pc.tip[pj], pc.axis[pj]
-                route = ProgramRows()
                 up = pt + approach_length(pc, pj, d_app) * pa
-                route.emit(up, pa, MOVE_RETRACT)
-                via_clearance(route, clear, axis, opts.rapid_step, up, pa,
-                              t0 + approach_length(c, 0, d_app) * a0, a0)
-                rows.extend(route)
-                if link_check is not None:  # measured and reported (avoidance re-routes it)
-                    link_check.rapids_cut(_route_depth(link_check, route, pt, pa, t0, a0))
+                down = t0 + approach_length(c, 0, d_app) * a0
+
+                def route(r, along, up=up, pa=pa, down=down, a0=a0):
+                    r.emit(up, pa, MOVE_RETRACT)
+                    via_clearance(r, clear, axis, opts.rapid_step, up, pa, down, a0,
+                                  along_axis=along)
+
+                rows.extend(_checked_route(link_check, pt, pa, t0, a0, route))
         mv = np.full(len(idx), MOVE_CUT, dtype=np.int8)
         mv[0] = first_move
         rows.emit(c.tip[idx], c.axis[idx], mv, ci, idx, c.flags[idx])
@@ -733,9 +738,38 @@ def build_program(
     pc, pj = prev
     pt, pa = pc.tip[pj], pc.axis[pj]
     up = pt + approach_length(pc, pj, d_app) * pa
-    rows.emit(up, pa, MOVE_RETRACT)
-    rows.emit(clearance_point(up, pa, clear, axis), pa, MOVE_RAPID)
+
+    def leave(r, along):
+        r.emit(up, pa, MOVE_RETRACT)
+        r.emit(clearance_point(up, pa, clear, axis, along), pa, MOVE_RAPID)
+
+    rows.extend(_checked_route(link_check, pt, pa, None, None, leave))
     return rows.program()
+
+
+def _checked_route(link_check, pt, pa, t0, a0, build) -> ProgramRows:
+    """The rows of a planned route via the clearance surface from pose (pt, pa) (None: the
+    program's first entry, from the route's own start) to pose (t0, a0) (None: the program's
+    last exit),
+    ``build(rows, along_axis)`` writing them: out and in along the tool axes
+    (:func:`.rapids.clearance_point`); when that route's swept cutter cuts the blade deeper
+    than the link tolerance (a leaning blade over the tool's line), the radial one if it
+    cuts no deeper than the tolerance. When both cut, the first is kept (the check's depth of a
+    deep cut on an open mesh is no measure to compare two routes by: a ball centre beyond a
+    free edge reads as inside), counted and reported (:meth:`LinkCheck.rapids_cut`; collision
+    avoidance re-routes it)."""
+    first = None
+    for along in (True, False):
+        r = ProgramRows()
+        build(r, along)
+        if link_check is None:
+            return r
+        d = _route_depth(link_check, r, pt, pa, t0, a0)
+        if d <= link_check.tolerance:
+            return r
+        first = first or (r, d)
+    link_check.rapids_cut(first[1])
+    return first[0]
 
 
 #: lifts tried (× the approach distance) for a link re-routed through the air, before the
@@ -745,11 +779,13 @@ AIR_LIFTS = (1.0, 2.0, 4.0, 8.0)
 
 def _route_depth(link_check, r: ProgramRows, pt, pa, t0, a0) -> float:
     """How deep (mm) the cutter cuts moving from (pt, pa) through the rows ``r`` onto
-    (t0, a0)."""
-    T = np.vstack([pt[None], *r.tips, t0[None]])
-    A = np.vstack([pa[None], *[np.broadcast_to(a, t.shape) for a, t in zip(r.axs, r.tips,
-                                                                           strict=True)],
-                   a0[None]])
+    (t0, a0); pt / t0 None: from the rows' first / to their last row."""
+    head_t, head_a = ([], []) if pt is None else ([pt[None]], [pa[None]])
+    tail_t, tail_a = ([], []) if t0 is None else ([t0[None]], [a0[None]])
+    T = np.vstack([*head_t, *r.tips, *tail_t])
+    A = np.vstack([*head_a, *[np.broadcast_to(a, t.shape) for a, t in zip(r.axs, r.tips,
+                                                                          strict=True)],
+                   *tail_a])
     return link_check.depth(T, A)
 
 

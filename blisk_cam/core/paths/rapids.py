@@ -69,13 +69,16 @@ class ProgramRows:
 AXIS_EXIT_MIN_RADIAL = 0.5
 
 
-def clearance_point(p, a, clear, axis: Axis):
+def clearance_point(p, a, clear, axis: Axis, along_axis: bool = True):
     """Where a rapid from (or down to) the point ``p`` with tool axis ``a`` meets the
     clearance surface: along the tool axis when it leads out of the blisk (the tool body then
     stays on its own line, as the collision check saw it), else radially at p's angle and
-    height (an axis leaning more than ~84° from the radial direction)."""
+    height (an axis leaning more than 60° from the radial direction, or ``along_axis``
+    False)."""
     _, th, z, fr = cylindrical(p[None, :], axis)
     radial = from_cylindrical(clear.r_at(z), th, z, axis, fr)[0]
+    if not along_axis:
+        return radial
     q = p - axis.o
     qz, az = float(q @ axis.d), float(a @ axis.d)
     qp, ap = q - qz * axis.d, a - az * axis.d
@@ -88,14 +91,15 @@ def clearance_point(p, a, clear, axis: Axis):
 
 
 def via_clearance(rows: ProgramRows, clear, axis: Axis, rapid_step, p_from, a_from, p_to,
-                   a_to, first=False):
+                   a_to, first=False, along_axis=True):
     """Rapids: out from p_from to the clearance surface, along it, in to p_to; out and in
     along the tool axes where they lead out of the blisk (:func:`clearance_point`), else
     radially; along the surface the angle about the blisk axis and the height are linear and
     the tool axis is slerped. ``first``: the program's first approach (nothing before
-    p_from; the tool arrives on the clearance surface with ``a_to``)."""
-    up = clearance_point(p_from, a_to if first else a_from, clear, axis)
-    down = clearance_point(p_to, a_to, clear, axis)
+    p_from; the tool arrives on the clearance surface with ``a_to``). ``along_axis`` False:
+    out and in radially."""
+    up = clearance_point(p_from, a_to if first else a_from, clear, axis, along_axis)
+    down = clearance_point(p_to, a_to, clear, axis, along_axis)
     _, th1, z1, fr = cylindrical(up[None, :], axis)
     _, th2, z2, _ = cylindrical(down[None, :], axis)
     dth = float((th2[0] - th1[0] + math.pi) % (2 * math.pi) - math.pi)
