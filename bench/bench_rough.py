@@ -109,8 +109,9 @@ def main():
           f"(feed {s['feed_mm_min']:g} mm/min)")
     print(f"axis {s['axis']}: side tilt {s['side_tilt_range_deg'][0]:.1f}° … "
           f"{s['side_tilt_range_deg'][1]:.1f}°, largest turn between cutting poses "
-          f"{s['max_axis_turn_deg']:.2f}° (bound {a.max_turn:g}° of side tilt per step + the "
-          f"radial direction's turn); {s.get('wall_levels', 0)} wall levels every "
+          f"{s['max_axis_turn_deg']:.3f}° (bound {a.max_turn:g}° on the tool axis; "
+          f"{s.get('poses_inserted_for_turn', 0)} poses inserted where the radial direction's "
+          f"own turn added to the side tilt's); {s.get('wall_levels', 0)} wall levels every "
           f"{s.get('wall_level_step_mm', 0.0):.2f} mm; unreachable: "
           f"{', '.join(s['unreachable_levels']) or 'none'}")
     for w in p.warnings:
