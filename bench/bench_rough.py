@@ -109,8 +109,9 @@ def main():
           f"(feed {s['feed_mm_min']:g} mm/min)")
     print(f"axis {s['axis']}: side tilt {s['side_tilt_range_deg'][0]:.1f}° … "
           f"{s['side_tilt_range_deg'][1]:.1f}°, largest turn between cutting poses "
-          f"{s['max_axis_turn_deg']:.2f}° (bound {a.max_turn:g}° of side tilt per step + the "
-          f"radial direction's turn); {s.get('wall_levels', 0)} wall levels every "
+          f"{s['max_axis_turn_deg']:.3f}° (bound {a.max_turn:g}° on the tool axis; "
+          f"{s.get('poses_inserted_for_turn', 0)} poses inserted where the radial direction's "
+          f"own turn added to the side tilt's); {s.get('wall_levels', 0)} wall levels every "
           f"{s.get('wall_level_step_mm', 0.0):.2f} mm; unreachable: "
           f"{', '.join(s['unreachable_levels']) or 'none'}")
     for w in p.warnings:
@@ -159,10 +160,57 @@ def main():
             print(f"{name}: {m.sum()} points, left {dev[m].min():.3f} … {dev[m].max():.3f} mm "
                   f"(median {np.median(dev[m]):.3f}); {int((excess[m] > 0).sum())} beyond the "
                   f"level step cusp bound, by up to {max(excess[m].max(), 0.0):.3f} mm")
+    over = band & (excess > 0)
+    if over.any():
+        k = _touchable(part, p.tool, V, N, P, Nn, over)
+        print(f"of the {int(over.sum())} floor-band points beyond the bound, {k} can be touched "
+              f"at their allowance point by the cutter with an axis radial ± 20° sideways, "
+              f"± 10° lead, without entering the allowance elsewhere (sampled at "
+              f"{a.resolution:g} mm, 0.05 mm tolerance): "
+              + ("reachable, a planning gap" if k else "out of the cutter's reach"))
     print(f"simulation (one sector = all gaps): {sim:.1f} s; crashes {crashes}; share of the "
           f"channel outside the allowance removed {(v0 - prev) / removable:.1%}; material left "
           f"min {dev.min():.3f} mm (resolution effect ±{a.resolution / math.sqrt(2):.3f}), "
           f"median {np.median(dev):.3f} mm")
+
+
+def _touchable(part, tool, V, N, P, Nn, mask, allowance=0.5) -> int:
+    """How many of the points ``P[mask]`` (normals ``Nn``) the cutter can touch at their
+    allowance point (P + allowance · n, the cutter's contact normal n) with an axis radial
+    tilted −20 … 20° sideways and −10, 0, 10° lead, no sample of the allowance surface
+    (V + allowance · N, the sector and its two neighbours) more than 0.05 mm inside it."""
+    e1, e2, d = part.axis.angular_frame()
+    S = V + allowance * N
+
+    def turned(p, ang):
+        q = p - part.axis.o
+        zc, x, y = q @ d, q @ e1, q @ e2
+        c, s = math.cos(ang), math.sin(ang)
+        return part.axis.o + np.outer(zc, d) + np.outer(c * x - s * y, e1) + \
+            np.outer(s * x + c * y, e2)
+
+    S = np.concatenate([turned(S, k * part.pitch) for k in (-1, 0, 1)])
+    count = 0
+    for i in np.nonzero(mask)[0]:
+        q = P[i] + allowance * Nn[i]
+        _, th, _ = theta_about(q[None], part.axis)
+        u = math.cos(th[0]) * e1 + math.sin(th[0]) * e2
+        t = -math.sin(th[0]) * e1 + math.cos(th[0]) * e2
+        near = S[np.linalg.norm(S - q, axis=1) < tool.h + tool.d]
+        for lead in np.radians([0.0, -10.0, 10.0]):
+            for side in np.radians(np.arange(-20.0, 20.1, 2.5)):
+                ax = u + math.tan(side) * t + math.tan(lead) * d
+                ax /= np.linalg.norm(ax)
+                if Nn[i] @ ax < 1e-6:
+                    continue
+                tip = tool.cl_points(q[None], Nn[i][None], ax[None])[0]
+                if tool.signed_distance(near, tip, ax).min() >= -0.05:
+                    count += 1
+                    break
+            else:
+                continue
+            break
+    return count
 
 
 if __name__ == "__main__":

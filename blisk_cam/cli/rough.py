@@ -105,8 +105,8 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
                    "surface (default; the floor level radial) or radial; --lead and "
                    "--side-tilt are added to either")
     g.add_argument("--max-turn", type=positive, default=2.0, metavar="DEG",
-                   help="largest change of the leaning axis per station step, degrees "
-                   "(default 2)")
+                   help="largest turn of the tool axis between consecutive cutting poses, "
+                   "degrees (default 2)")
     g.add_argument("--safety", type=_non_negative, default=0.5, metavar="MM",
                    help="distance of the shank and holder from the allowance, mm (default 0.5)")
     g.add_argument("--rapid-feed", type=positive, default=10000.0, metavar="MM_MIN",

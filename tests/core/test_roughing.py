@@ -145,7 +145,10 @@ def test_material_left_above_the_floor_band_is_within_the_level_step_cusp(rough,
 @pytest.mark.xfail(strict=True, reason="#23 open: in the band between the floor and the level "
                    "above, the bull nose's corner rides on the hub fillet and the leftover on "
                    "the wall just above the fillet exceeds the 2 mm wall-level cusp by up to "
-                   "≈ 0.6 mm (stock at 0.5 mm)")
+                   "≈ 0.6 mm (stock at 0.5 mm); every such point can be touched at its "
+                   "allowance point by the cutter with an axis radial ± 20° sideways "
+                   "(bench/bench_rough.py counts them): a planning gap, not the geometric "
+                   "limit of a corner in the fillet")
 def test_material_left_in_the_floor_band_is_within_the_wall_level_cusp(rough, roughed):
     part, _, path = rough
     _, _, P, N, _, dev = roughed
@@ -156,18 +159,19 @@ def test_material_left_in_the_floor_band_is_within_the_wall_level_cusp(rough, ro
 
 
 def test_axis_turn_per_step_is_bounded(rough):
-    """Between consecutive cutting poses the axis turns by at most the side tilt's bound
-    (2° per station) plus the turn of the radial direction as the tip moves round the axis
-    (triangle inequality on the sphere); the program's stats report the largest turn."""
+    """Between consecutive cutting poses the tool axis turns by at most ``max_turn`` (2°),
+    measured on the program's axes (the side tilt's own bound is not enough: the radial
+    direction turns as the tip moves round the blisk axis); the stats report the largest
+    turn."""
     part, _, path = rough
     P = path.program
     i = np.nonzero((P.move[1:] == MOVE_CUT) & (P.move[:-1] == MOVE_CUT))[0]
-    turn = np.arccos(np.clip(np.einsum("ij,ij->i", P.axis[i], P.axis[i + 1]), -1, 1))
-    _, t0, _ = theta_about(P.tip[i], part.axis)
-    _, t1, _ = theta_about(P.tip[i + 1], part.axis)
-    dth = np.abs(np.angle(np.exp(1j * (t1 - t0))))
-    assert np.all(turn <= math.radians(2.0) + dth + 1e-9)
+    a, b = P.axis[i], P.axis[i + 1]
+    turn = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+    assert turn.max() <= math.radians(2.0) + 1e-9
     assert path.stats["max_axis_turn_deg"] == pytest.approx(math.degrees(turn.max()))
+    # the side tilt's bound alone would not have kept it: poses were inserted
+    assert path.stats["poses_inserted_for_turn"] > 0
     # the axis does lean: the twisted blades' mean camber surface is not radial
     lo, hi = path.stats["side_tilt_range_deg"]
     assert hi - lo > 5.0
@@ -403,3 +407,33 @@ def test_mean_camber_lean_of_a_leaning_blade_and_the_turn_limiter():
     y = limit_turn(x, 0.05)
     assert np.abs(np.diff(y)).max() <= 0.05 + 1e-12
     np.testing.assert_array_equal(limit_turn([0.0, 0.01, 0.02], 0.05), [0.0, 0.01, 0.02])
+
+
+def test_bound_turn_inserts_poses_on_the_move_at_equal_angles():
+    """Two poses 7° apart with a 2° bound: ⌈7/2⌉ = 4 steps of 1.75° each, the new axes on the
+    great circle between the two (coplanar with them), the new tips on the straight move at
+    the same fractions; a step already within the bound and the original poses are kept
+    bit for bit; nothing to insert returns the input."""
+    from blisk_cam.core.channel.axis import bound_turn, turn_angles
+
+    w = math.radians(7.0)
+    axes = np.array([[1.0, 0.0, 0.0], [math.cos(w), math.sin(w), 0.0],
+                     [math.cos(w), math.sin(w), 0.0]])
+    rot = np.linalg.qr(np.array([[1.0, 2.0, 0.5], [0.3, -1.0, 2.0], [1.5, 0.2, 1.0]]))[0]
+    axes = axes @ rot.T
+    tips = np.array([[0.0, 0.0, 0.0], [4.0, 1.0, -2.0], [5.0, 1.5, -2.5]])
+    t2, a2, n = bound_turn(tips, axes, math.radians(2.0))
+    assert n == 3 and len(t2) == 6
+    steps = turn_angles(a2)
+    np.testing.assert_allclose(steps[:4], w / 4, atol=1e-12)
+    assert steps.max() <= math.radians(2.0)
+    np.testing.assert_allclose(np.linalg.norm(a2, axis=1), 1.0, atol=1e-12)
+    normal = np.cross(axes[0], axes[1])
+    np.testing.assert_allclose(a2[:5] @ normal, 0.0, atol=1e-12)
+    frac = np.arange(5) / 4.0
+    np.testing.assert_allclose(t2[:5], tips[0] + frac[:, None] * (tips[1] - tips[0]),
+                               atol=1e-12)
+    np.testing.assert_array_equal(t2[[0, 4, 5]], tips)
+    np.testing.assert_array_equal(a2[[0, 4, 5]], axes)
+    same = bound_turn(tips, axes, math.radians(8.0))
+    assert same[0] is tips and same[1] is axes and same[2] == 0

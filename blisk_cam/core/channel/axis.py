@@ -18,8 +18,15 @@ limited to change by at most ``max_turn`` per station step (a slope limiter: the
 clipped forward and backward, the mean of the two — a convex combination of two sequences
 whose steps are within the bound keeps its steps within it). Stations inserted between two
 base stations interpolate φ linearly, so their steps are smaller. The axis also turns with
-the radial direction as the tip moves across θ (a 0.5 mm move at 150 mm radius: 0.2°); the
-roughing's stats report the largest turn measured between consecutive cutting poses.
+the radial direction as the tip moves across θ (a 0.5 mm move at 150 mm radius: 0.2°; where
+a pass follows a twisted wall, up to ~1° per station), and that turn adds to the side tilt's:
+bounding φ alone does not bound the tool axis. :func:`bound_turn` therefore takes the
+finished poses of a pass and, where two consecutive axes are more than ``max_turn`` apart
+(angle ω), inserts k − 1 poses between them, k = ⌈ω / max_turn⌉: the tip on the straight
+move between the two (where the machine takes it anyway), the axis on the great circle
+between the two axes at equal angles (spherical linear interpolation), so every step turns
+by ω / k ≤ ``max_turn`` — measured on the actual axes, not on φ. The motion is the one the
+machine makes between the two poses; only its resolution changes.
 
 Where no blade is near (before the leading and after the trailing edge), the nearest
 station's tilt is held. Units mm, radians.
@@ -31,7 +38,7 @@ import math
 
 import numpy as np
 
-__all__ = ["limit_turn", "mean_camber_lean"]
+__all__ = ["bound_turn", "limit_turn", "mean_camber_lean", "turn_angles"]
 
 
 def _section_mid(sec, z, half: float) -> np.ndarray:
@@ -108,3 +115,45 @@ def limit_turn(phi, max_step: float) -> np.ndarray:
     for i in range(len(b) - 2, -1, -1):
         b[i] = min(max(b[i], b[i + 1] - max_step), b[i + 1] + max_step)
     return 0.5 * (f + b)
+
+
+def turn_angles(axes) -> np.ndarray:
+    """(n − 1,) angles (rad) between consecutive unit axes (n, 3): atan2(|a × b|, a · b),
+    accurate also for small angles (arccos of the dot product loses half the digits)."""
+    a = np.asarray(axes, float)
+    if len(a) < 2:
+        return np.zeros(0)
+    return np.arctan2(np.linalg.norm(np.cross(a[:-1], a[1:]), axis=1),
+                      np.einsum("ij,ij->i", a[:-1], a[1:]))
+
+
+def bound_turn(tips, axes, max_step: float):
+    """Poses (tips (n, 3) mm, unit axes (n, 3)) with poses inserted where consecutive axes
+    turn by more than ``max_step`` (rad): k − 1 poses between two that are ω apart,
+    k = ⌈ω / max_step⌉, tips on the straight move between them and axes on the great circle
+    at equal angles (module docstring). Returns (tips, axes, inserted); the input arrays
+    themselves when nothing is inserted."""
+    tips = np.asarray(tips, float)
+    axes = np.asarray(axes, float)
+    if len(tips) < 2 or not math.isfinite(max_step):
+        return tips, axes, 0
+    w = turn_angles(axes)
+    # a hair under the bound, so that ω / k never rounds above it
+    k = np.maximum(1, np.ceil(w / (max_step * (1.0 - 1e-9)))).astype(np.int64)
+    if (k == 1).all():
+        return tips, axes, 0
+    seg = np.repeat(np.arange(len(w)), k)
+    j = np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k)
+    t = (j / k[seg])[:, None]
+    p = tips[seg] + t * (tips[seg + 1] - tips[seg])
+    om = w[seg][:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = np.sin(om)
+        c0 = np.where(j[:, None] > 0, np.sin((1.0 - t) * om) / s, 1.0)
+        c1 = np.where(j[:, None] > 0, np.sin(t * om) / s, 0.0)
+    a = c0 * axes[seg] + c1 * axes[seg + 1]
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    # the original poses unchanged (bit for bit)
+    a[j == 0] = axes[seg[j == 0]]
+    return (np.concatenate([p, tips[-1:]]), np.concatenate([a, axes[-1:]]),
+            int(k.sum() - len(w)))

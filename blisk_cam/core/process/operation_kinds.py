@@ -458,7 +458,8 @@ _ROUGH_KEYS = {
     "side_tilt": (0.0, "tool axis tilted from radial toward +θ, degrees", "deg"),
     "axis": ("blades", "blades (leaning with the blades' mean camber surface) or radial",
              "word"),
-    "max_turn": (2.0, "largest change of the leaning axis per station step, degrees", "deg"),
+    "max_turn": (2.0, "largest turn of the tool axis between consecutive cutting poses, "
+                 "degrees", "deg"),
     "safety": (0.5, "the body's distance from the allowance shell, mm", "mm"),
     "station_step": (0.5, "pose spacing along the channel, mm", "mm"),
     "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),

@@ -27,7 +27,10 @@ The tool axis leans with the blades (``follow_blades``, the default): per level 
 the radial direction tilted toward +θ by the blades' mean camber lean over the band of
 radii the level's cut adds (:mod:`..channel.axis`), changing by at most ``max_turn`` per
 station step, plus the requested lead (toward +z) and side tilt (toward +θ); without
-``follow_blades`` it is radial with the requested tilts.
+``follow_blades`` it is radial with the requested tilts. The bound holds on the actual tool
+axis: where the radial direction's own turn (the tip moving round the blisk axis) makes two
+consecutive cutting poses more than ``max_turn`` apart, poses are inserted on the move between
+them (:func:`..channel.axis.bound_turn`).
 
 With ``follow_blades`` two more kinds of pass finish the walls at the allowance: on the floor
 level and on **wall levels** every ≤ 2 mm between the floor and the level above (on the
@@ -51,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..channel.axis import limit_turn, mean_camber_lean
+from ..channel.axis import bound_turn, limit_turn, mean_camber_lean
 from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
     Piece,
@@ -106,7 +109,10 @@ class RoughRequest:
         between stations)
     follow_blades : bool — the axis leans with the blades' mean camber surface (module
         docstring); False: radial
-    max_turn : float, rad — the largest change of the side tilt per station step
+    max_turn : float, rad — the largest turn of the tool axis between consecutive cutting
+        poses (the side tilt changes by at most this per station step; where the radial
+        direction's own turn makes the axis turn more, poses are inserted on the move,
+        :func:`..channel.axis.bound_turn`)
     check_stock : bool — run the program on the blank and leave out what brings the tool
         body against the stock (the ``link`` stage; False: only the simulation afterwards
         reports it)
@@ -525,6 +531,12 @@ class RoughingOperation(Operation):
         if not st.pieces:
             raise BliskCamError("no level of the channel can be reached with this tool: "
                                 + "; ".join(st.warnings[:3]))
+        # the turn bound on the actual tool axis (the side tilt's bound leaves out the
+        # radial direction's own turn as the tip moves round the blisk axis)
+        inserted = 0
+        for pc in st.pieces:
+            pc.tip, pc.axis, n_in = bound_turn(pc.tip, pc.axis, req.max_turn)
+            inserted += n_in
         tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
                                                            self._r_safe(st))
         program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
@@ -628,6 +640,7 @@ class RoughingOperation(Operation):
             "max_axis_turn_deg": _max_turn(axis, move),
             "axis": "follows the blades" if req.follow_blades else "radial",
             "max_turn_per_step_deg": math.degrees(req.max_turn),
+            "poses_inserted_for_turn": int(inserted),
             "side_tilt_range_deg": [math.degrees(min(float(lv.side.min()) for lv in st.levels)),
                                     math.degrees(max(float(lv.side.max()) for lv in st.levels))],
         }
@@ -682,8 +695,10 @@ def _max_turn(axis, move) -> float:
     cut = np.nonzero((np.asarray(move)[1:] == MOVE_CUT) & (np.asarray(move)[:-1] == MOVE_CUT))[0]
     if len(cut) == 0:
         return 0.0
-    c = np.clip(np.einsum("ij,ij->i", axis[cut + 1], axis[cut]), -1.0, 1.0)
-    return float(np.degrees(np.arccos(c)).max())
+    a = np.asarray(axis, float)
+    w = np.arctan2(np.linalg.norm(np.cross(a[cut], a[cut + 1]), axis=1),
+                   np.einsum("ij,ij->i", a[cut], a[cut + 1]))
+    return float(np.degrees(w).max())
 
 
 def plan_roughing(part: BliskPart, request: RoughRequest, stock: RadialDexels) -> ToolPath:
