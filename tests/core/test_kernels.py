@@ -283,7 +283,7 @@ def test_stock_removal_compiled_equals_numpy():
 
     def run(cutter):
         s = stock_from_profile([[10, 0], [30, 0], [30, 10], [10, 10]], Axis(), 4, 0.0, 0.2)
-        return s, remove_program(s, prog, cutter, batch=5)
+        return s, remove_program(s, prog, cutter, batch=5, swept=False)
 
     for cutter in (ball, bull):
         with backend.numpy_only():
