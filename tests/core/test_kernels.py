@@ -317,7 +317,7 @@ def test_stock_swept_moves_against_sampled_numpy():
     """The compiled swept flute against the numpy reference's sub-poses on the same program:
     the sweep holds every sub-pose (it removes at least what the sub-poses remove, less the
     chords' sagitta ≤ the 4 µm sweep tolerance over the ≲ 200 mm² of cut faces: 1 mm³), the
-    ball's sweep agrees with sub-poses 40× finer (a scallop of 0.1 µm) within 0.1 % (its
+    ball's sweep agrees with sub-poses 8× finer (a scallop of 0.5 µm) within 0.1 % (its
     centre chords' sagitta), and the crashes (rows and kinds) are the same."""
     from blisk_cam.core.geometry.axis import Axis
     from blisk_cam.core.stock.blank import stock_from_profile
@@ -335,7 +335,7 @@ def test_stock_swept_moves_against_sampled_numpy():
                    Cutter.flat(2.0, h=4.0, shank_diameter=5.0)):
         with backend.numpy_only():
             ref = run(cutter)
-            fine = run(cutter, sweep_tolerance=1e-4) if cutter.type == "ball" else None
+            fine = run(cutter, sweep_tolerance=5e-4) if cutter.type == "ball" else None
         got = run(cutter, swept=True)
         assert got.volume >= ref.volume - 1.0
         assert got.volume <= ref.volume + 0.01 * ref.volume
