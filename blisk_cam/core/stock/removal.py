@@ -24,6 +24,15 @@ A **crash** is material removed by a rapid move or by the body; it is reported w
 Two functions carry the inner loop and can be swapped for compiled kernels one for one:
 :func:`ray_solid_intervals` (rays × posed solids → r intervals) and
 :func:`.dexels.subtract_intervals` (interval subtraction).
+
+With the compiled kernels the flute is instead **swept per move** (``swept``, the default
+there): every ray of the move's box gets the interval of the swept solid in closed form — a
+ball nose's ball as the capsules along its centre path's chords (sagitta ≤ the sweep
+tolerance), a frustum (the side of a ball nose or flat end mill) translated between knots
+with the knot's mid axis (off the true poses by at most the tolerance) or at the sub-poses
+when the axis turns too much for that, a bull nose's corner at the sub-poses
+(:func:`cutter_primitives`). The sweep holds every sub-pose and exceeds the sub-poses' union
+by the scallop between them; the numpy reference stays pose-sampled.
 """
 
 from __future__ import annotations
