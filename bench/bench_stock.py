@@ -128,7 +128,8 @@ def acceptance(a):
         print(f"deviation min {dev.min():.4f} (bound {-(chord + res):.4f}); max where verify "
               f"measures {dev[reached].max():.4f} (bound {cusp + chord + res:.4f}); "
               f"|deviation − verify| max {gap.max():.4f}, p99 {np.percentile(gap, 99):.4f} "
-              f"(bound {res + 0.002:.4f}) mm")
+              f"(bound {res + 0.002:.4f}) mm, {int((gap > res + 0.002).sum())} of "
+              f"{int(reached.sum())} vertices beyond it")
         ok = (dev.min() >= -(chord + res) and dev[reached].max() <= cusp + chord + res
               and gap.max() <= res + 0.002 and not out.crashes)
         print(f"acceptance: {'met' if ok else 'NOT met'}")

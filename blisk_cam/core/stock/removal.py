@@ -695,8 +695,9 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         told from one passing by). The crash's volume and depth are the whole solid's. The
         body is swept at half this tolerance (its own sub-poses: it only decides crashes),
         the flute at ``sweep_tolerance``.
-    swept : bool or None — the compiled kernel's swept volumes per move (None: when the
-        compiled kernel has them) of the flute, per ray in closed form: a ball (the ball
+    swept : bool or None — the compiled kernel's swept volumes per move (None: for a ball
+        nose when the compiled kernel has them; a bull nose's or a flat end mill's sweep is
+        no faster than its sub-poses) of the flute, per ray in closed form: a ball (the ball
         nose) as the capsules along its centre path's chords (sagitta ≤
         ``sweep_tolerance``); a frustum (a flat end mill's side, a ball nose's side above the
         ball) translated between knots with the knot's mid axis (off the true poses by at most
@@ -741,8 +742,9 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     # removal only lowers the largest radius of material: one bound serves the whole run
     r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
     runs = [(m, a, z) for m, a, z in program.runs()]
-    if swept is None:
-        swept = compiled and compiled_stock.sweep_available()
+    if swept is None:  # where it pays: a ball nose (a bull nose's corner stays sampled)
+        swept = (compiled and compiled_stock.sweep_available() and cutter.type == "ball"
+                 and cutter_primitives(cutter, arc_tolerance)[1] is None)
     if swept and not compiled_stock.sweep_available():
         raise StockError("the swept-volume removal needs the compiled kernels (make kernels)")
     flute_swept = _flute_solid(cutter, arc_tolerance, ctol, step, tol) if swept else None
