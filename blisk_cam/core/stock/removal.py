@@ -26,8 +26,8 @@ Two functions carry the inner loop and can be swapped for compiled kernels one f
 :func:`.dexels.subtract_intervals` (interval subtraction).
 
 With the compiled kernels the flute is instead **swept per move** (``swept``, the default
-there for a ball nose): every ray of the move's box gets the interval of the swept solid in closed form — a
-ball nose's ball as the capsules along its centre path's chords (sagitta ≤ the sweep
+there for a ball nose): every ray of the move's box gets the interval of the swept solid in
+closed form — a ball nose's ball as the capsules along its centre path's chords (sagitta ≤ the sweep
 tolerance), a frustum (the side of a ball nose or flat end mill) translated between knots
 with the knot's mid axis (off the true poses by at most the tolerance) or at the sub-poses
 when the axis turns too much for that, a bull nose's corner at the sub-poses
