@@ -3,6 +3,7 @@ assertions).
 
     python bench/bench_stock.py [--resolution 0.05 [0.1 ...]] [--threads 1 [2 ...]]
         [--rows N] [--allowance 0.1] [--mesh-resolution 1.0] [--no-body]
+        [--kernel sampled swept] [--acceptance S0 S1]
 
 The demo blisk (default parameters), its blade-finishing program with the default request
 (hub cone to tip cone, cusp and chord 0.05 mm — what ``blisk_cam demo`` plans), a stock of
@@ -12,7 +13,17 @@ second, sub-poses and ray–solid pairs per second, the deviation-map time, the 
 for a part of the program, the whole program's time extrapolated at the measured rate) and
 the peak resident memory — for every resolution and thread count given, with the backend
 that ran (``kernels: compiled …`` or ``numpy``; ``BLISK_CAM_KERNELS=numpy`` forces the
-reference). Goal (issue #22): a full five-stage program of one sector at 0.05 mm in ≤ 10 s.
+reference). ``--kernel``: the compiled kernel's flute removal by sub-poses (``sampled``, the
+numpy reference's arithmetic: the figures before the swept kernel) and/or by swept volumes per
+move (``swept``), each printed for the same rows — before/after in one run.
+
+``--acceptance S0 S1``: instead, issue #22's acceptance on the demo at full scale between the
+LMCs S0 and S1: the finishing program with the axis radial, tilted 75° (its body clears the
+neighbouring blade; the crashes are printed), stock = part + 0.1 mm, and the deviation on the
+blade mesh against verify's material left at its vertices: prints the deviation's minimum
+(bound −(chord + resolution)), its maximum where verify measures (bound cusp + chord +
+resolution) and the largest |deviation − verify| there (bound resolution + 2 µm).
+Goal (issue #22): a full five-stage program of one sector at 0.05 mm in ≤ 10 s.
 """
 
 from __future__ import annotations
@@ -34,27 +45,28 @@ from blisk_cam.core.part.model import part_from_demo  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
 from blisk_cam.core.runtime import parallel  # noqa: E402
 from blisk_cam.core.stock.blank import stock_from_allowance  # noqa: E402
-from blisk_cam.core.stock.deviation import deviation_map  # noqa: E402
+from blisk_cam.core.stock.deviation import deviation_map, vertex_normals  # noqa: E402
 from blisk_cam.core.stock.removal import remove_program  # noqa: E402
 from blisk_cam.core.stock.simulation import part_surface  # noqa: E402
 from blisk_cam.core.toolpath.types import Program  # noqa: E402
 
 
-def run(part, sub, tool, n_all, resolution, threads, a):
+def run(part, sub, tool, n_all, resolution, threads, a, kernel="swept"):
     n = len(sub)
     t0 = time.perf_counter()
     t = time.perf_counter()
     stock = stock_from_allowance(part, a.allowance, resolution)
     t_blank = time.perf_counter() - t
     mem = (stock.lo.nbytes + stock.hi.nbytes) / 1e6
-    print(f"--- {resolution:g} mm, {threads} thread(s)")
+    print(f"--- {resolution:g} mm, {threads} thread(s), flute {kernel}")
     print(f"stock: part + {a.allowance:g} mm at {resolution:g} mm: {stock.n_theta} × "
           f"{stock.n_z} = {stock.n_rays} rays, K = {stock.lo.shape[1]}, {mem:.0f} MB, "
           f"{stock.volume():.0f} mm³; built in {t_blank:.2f} s")
     t = time.perf_counter()
     cpu = time.process_time()
     with parallel(threads):
-        res = remove_program(stock, sub, tool, check_body=not a.no_body)
+        res = remove_program(stock, sub, tool, check_body=not a.no_body,
+                             swept=(kernel == "swept"))
     t_sim = time.perf_counter() - t
     cpu = time.process_time() - cpu
     print(f"removal: {n} rows in {t_sim:.2f} s (cpu {cpu:.2f} s) = {n / t_sim:.1f} moves/s; "
@@ -74,6 +86,55 @@ def run(part, sub, tool, n_all, resolution, threads, a):
         print(f"whole program ({n_all} rows) at this rate: ~{est:.0f} s (extrapolated)")
 
 
+def acceptance(a):
+    """Issue #22's acceptance on the demo between two LMCs (module docstring)."""
+    import math
+
+    import numpy as np
+
+    from blisk_cam.core.verify.measure import verify_path
+
+    cusp = chord = 0.05
+    demo = make_demo_blisk(resolution=a.mesh_resolution)
+    part = part_from_demo(demo)
+    mesh = TriMesh.from_arrays(demo.blade_vertices, demo.blade_faces)
+    mc = demo.morphing_cones
+    t = time.perf_counter()
+    req = PathRequest(axis=demo.axis, cone1=mc.cone_at(a.acceptance[0]),
+                      cone2=mc.cone_at(a.acceptance[1]), cusp=cusp, chord=chord,
+                      axis_mode="radial", radial_tilt=math.radians(75.0))
+    path = plan_paths(mesh, req).path
+    print(f"demo: {len(mesh.F)} blade triangles; LMC {a.acceptance[0]:g}..{a.acceptance[1]:g}: "
+          f"{len(path.program)} rows, planned in {time.perf_counter() - t:.1f} s")
+    t = time.perf_counter()
+    report = verify_path(mesh, path)
+    vv = report.vertex_values
+    reached = np.isfinite(vv)
+    print(f"verify: {time.perf_counter() - t:.1f} s, {int(reached.sum())} of {len(vv)} vertices "
+          f"measured, max material left {report.max_material_left:.4f} mm, max gouge "
+          f"{report.max_gouge:.4f} mm")
+    print(f"kernels: {backend_name()}"
+          f"{' (swept flute)' if compiled_stock.sweep_available() else ''}")
+    for res in a.resolution:
+        t = time.perf_counter()
+        cpu = time.process_time()
+        stock = stock_from_allowance(part, 0.1, res)
+        with parallel(a.threads[0]):
+            out = remove_program(stock, path.program, path.tool)
+        dev = deviation_map(stock, mesh.V, vertex_normals(mesh.V, mesh.F))
+        wall, cpu = time.perf_counter() - t, time.process_time() - cpu
+        gap = np.abs(dev[reached] - vv[reached])
+        print(f"--- {res:g} mm: {wall:.1f} s (cpu {cpu:.1f} s), {len(out.crashes)} crash row(s)")
+        print(f"deviation min {dev.min():.4f} (bound {-(chord + res):.4f}); max where verify "
+              f"measures {dev[reached].max():.4f} (bound {cusp + chord + res:.4f}); "
+              f"|deviation − verify| max {gap.max():.4f}, p99 {np.percentile(gap, 99):.4f} "
+              f"(bound {res + 0.002:.4f}) mm, {int((gap > res + 0.002).sum())} of "
+              f"{int(reached.sum())} vertices beyond it")
+        ok = (dev.min() >= -(chord + res) and dev[reached].max() <= cusp + chord + res
+              and gap.max() <= res + 0.002 and not out.crashes)
+        print(f"acceptance: {'met' if ok else 'NOT met'}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--resolution", type=float, nargs="+", default=[0.05])
@@ -82,7 +143,14 @@ def main():
     ap.add_argument("--allowance", type=float, default=0.1)
     ap.add_argument("--mesh-resolution", type=float, default=1.0)
     ap.add_argument("--no-body", action="store_true", help="skip the shank/holder crash check")
+    ap.add_argument("--kernel", nargs="+", default=["sampled", "swept"],
+                    choices=["sampled", "swept"], help="the compiled flute removal(s) to time")
+    ap.add_argument("--acceptance", type=float, nargs=2, metavar=("S0", "S1"),
+                    help="issue #22's acceptance between the LMCs S0 and S1 instead")
     a = ap.parse_args()
+    if a.acceptance:
+        acceptance(a)
+        return
 
     demo = make_demo_blisk(resolution=a.mesh_resolution)
     part = part_from_demo(demo)
@@ -102,9 +170,11 @@ def main():
     if kern != "numpy" and not compiled_stock.available():
         kern += " (without the stock kernel: numpy removal)"
     print(f"kernels: {kern}")
+    kernels = a.kernel if compiled_stock.sweep_available() else ["sampled"]
     for res in a.resolution:
         for threads in a.threads:
-            run(part, sub, path.tool, len(P), res, threads, a)
+            for kernel in kernels:
+                run(part, sub, path.tool, len(P), res, threads, a, kernel)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak resident memory: {peak:.0f} MB")
 

@@ -10,6 +10,9 @@
 //! bounding cylinder, between its end planes) meets no material are skipped: subtracting
 //! an interval from air changes nothing.
 
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
 use rayon::prelude::*;
 
 const EPS: f64 = 1e-12;
@@ -57,11 +60,20 @@ pub struct Solids<'a> {
 #[inline]
 fn row_reach(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], s: &Solids, si: usize, zr: f64, r_b: f64)
              -> Option<(i64, i64, f64, f64)> {
+    reach_in_row(g, tip, ax, s.z_lo, s.z_hi, s.c0[si], s.c1[si], zr, r_b)
+}
+
+/// `row_reach` of a cylinder about the axis segment tip + [z_lo, z_hi] · ax of radius `r_b`
+/// whose box has the columns c0..c1.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn reach_in_row(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], z_lo: f64, z_hi: f64, c0: i64, c1: i64,
+                zr: f64, r_b: f64) -> Option<(i64, i64, f64, f64)> {
     let [o, e1, e2, d] = g.frame;
-    let p0 = [tip[0] + s.z_lo * ax[0] - o[0], tip[1] + s.z_lo * ax[1] - o[1],
-              tip[2] + s.z_lo * ax[2] - o[2]];
-    let p1 = [tip[0] + s.z_hi * ax[0] - o[0], tip[1] + s.z_hi * ax[1] - o[1],
-              tip[2] + s.z_hi * ax[2] - o[2]];
+    let p0 = [tip[0] + z_lo * ax[0] - o[0], tip[1] + z_lo * ax[1] - o[1],
+              tip[2] + z_lo * ax[2] - o[2]];
+    let p1 = [tip[0] + z_hi * ax[0] - o[0], tip[1] + z_hi * ax[1] - o[1],
+              tip[2] + z_hi * ax[2] - o[2]];
     let (h0, h1) = (dot(&p0, &d), dot(&p1, &d));
     let dh = h1 - h0;
     let pad = 1e-6 * (1.0 + h0.abs().max(h1.abs()));
@@ -90,7 +102,6 @@ fn row_reach(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], s: &Solids, si: usize, zr:
     let scale = 1.0 + dmax;
     let rlo = dmin - r_b - 1e-6 * scale;
     let rhi = dmax + r_b + 1e-6 * scale;
-    let (c0, c1) = (s.c0[si], s.c1[si]);
     if dmin <= r_b + 1e-6 * scale {
         return Some((c0, c1, rlo, rhi));
     }
@@ -366,6 +377,109 @@ struct RowOut {
     overflow: Vec<(i64, Vec<(f64, f64)>)>,
 }
 
+/// A hit of a grid row: (column, a, b, group, inner a, inner b).
+type Hit = (usize, f64, f64, usize, f64, f64);
+
+/// Subtract the union of a grid row's hits from its rays' material (and, with `measure`,
+/// measure per group the material its union and its inner union met first).
+#[allow(clippy::too_many_arguments)]
+fn apply_hits(lrow: &mut [f64], hrow: &mut [f64], hits: &mut [Hit], k: usize, measure: bool,
+              w: usize, nt: usize) -> RowOut {
+    let mut ro = RowOut { removed: 0.0, groups: Vec::new(), overflow: Vec::new() };
+    if hits.is_empty() {
+        return ro;
+    }
+    hits.sort_unstable_by(|x, y| (x.0, x.3).cmp(&(y.0, y.3)).then(x.1.total_cmp(&y.1)));
+    let mut mat: Vec<(f64, f64)> = Vec::with_capacity(k);
+    let mut iv: Vec<(f64, f64)> = Vec::new();
+    let mut merged: Vec<(f64, f64)> = Vec::new();
+    let mut pieces: Vec<(f64, f64)> = Vec::new();
+    let mut p = 0;
+    while p < hits.len() {
+        let i = hits[p].0;
+        let mut e = p;
+        while e < hits.len() && hits[e].0 == i {
+            e += 1;
+        }
+        let (lr, hr) = (&mut lrow[i * k..(i + 1) * k], &mut hrow[i * k..(i + 1) * k]);
+        mat.clear();
+        mat.extend(lr.iter().zip(hr.iter()).filter(|(l, h)| h > l).map(|(&l, &h)| (l, h)));
+        if measure {
+            let mut g0 = p;
+            while g0 < e {
+                let g = hits[g0].3;
+                let mut g1 = g0;
+                while g1 < e && hits[g1].3 == g {
+                    g1 += 1;
+                }
+                iv.clear();
+                iv.extend(hits[g0..g1].iter().map(|h| (h.1, h.2)));
+                merge_sorted(&iv, &mut merged);
+                let (mut v, mut dmax) = (0.0, 0.0f64);
+                for &(a, b) in &merged {
+                    let (vv, ll) = overlap(&mat, a, b);
+                    v += vv;
+                    dmax = dmax.max(ll);
+                }
+                iv.clear();
+                iv.extend(hits[g0..g1].iter().filter(|h| h.5 > h.4).map(|h| (h.4, h.5)));
+                iv.sort_by(|x, y| x.0.total_cmp(&y.0));
+                merge_sorted(&iv, &mut merged);
+                let v_in: f64 = merged.iter().map(|&(a, b)| overlap(&mat, a, b).0).sum();
+                if v != 0.0 || dmax > 0.0 {
+                    ro.groups.push((g, v, dmax, v_in));
+                }
+                g0 = g1;
+            }
+        }
+        iv.clear();
+        iv.extend(hits[p..e].iter().map(|h| (h.1, h.2)));
+        iv.sort_by(|x, y| x.0.total_cmp(&y.0));
+        merge_sorted(&iv, &mut merged);
+        // material minus the union, piece by piece (each material interval keeps its
+        // parts outside every merged interval)
+        pieces.clear();
+        let mut before = 0.0;
+        for &(l, h) in &mat {
+            before += h * h - l * l;
+            let mut cur = l;
+            for &(a, b) in &merged {
+                if b <= cur {
+                    continue;
+                }
+                if a >= h {
+                    break;
+                }
+                let end = h.min(a);
+                if end > cur {
+                    pieces.push((cur, end));
+                }
+                cur = cur.max(b);
+                if cur >= h {
+                    break;
+                }
+            }
+            if h > cur {
+                pieces.push((cur, h));
+            }
+        }
+        let after: f64 = pieces.iter().map(|&(l, h)| h * h - l * l).sum();
+        ro.removed += 0.5 * (before - after);
+        pieces.sort_by(|x, y| x.0.total_cmp(&y.0));
+        if pieces.len() > k {
+            ro.overflow.push(((w * nt + i) as i64, pieces.clone()));
+        } else {
+            for t in 0..k {
+                let (l, h) = pieces.get(t).copied().unwrap_or((0.0, 0.0));
+                lr[t] = l;
+                hr[t] = h;
+            }
+        }
+        p = e;
+    }
+    ro
+}
+
 /// Remove the solids from the stock `lo`, `hi` ((n_rays, K) row-major, changed in place);
 /// `measure`: also the material each group's union met (crash checks).
 pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut [f64],
@@ -457,7 +571,7 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
             let w = wmin + jr;
             let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
             let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
-            let mut hits: Vec<(usize, f64, f64, usize, f64, f64)> = Vec::new();
+            let mut hits: Vec<Hit> = Vec::new();
             for &si in &by_row[start[jr]..start[jr + 1]] {
                 let (tip, ax) = (&s.tips[si], &s.axes[si]);
                 let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, zr, r_b) else {
@@ -487,99 +601,7 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
                     }
                 }
             }
-            let mut ro = RowOut { removed: 0.0, groups: Vec::new(), overflow: Vec::new() };
-            if hits.is_empty() {
-                return ro;
-            }
-            hits.sort_unstable_by(|x, y| (x.0, x.3).cmp(&(y.0, y.3)).then(x.1.total_cmp(&y.1)));
-            let mut mat: Vec<(f64, f64)> = Vec::with_capacity(k);
-            let mut iv: Vec<(f64, f64)> = Vec::new();
-            let mut merged: Vec<(f64, f64)> = Vec::new();
-            let mut pieces: Vec<(f64, f64)> = Vec::new();
-            let mut p = 0;
-            while p < hits.len() {
-                let i = hits[p].0;
-                let mut e = p;
-                while e < hits.len() && hits[e].0 == i {
-                    e += 1;
-                }
-                let (lr, hr) = (&mut lrow[i * k..(i + 1) * k], &mut hrow[i * k..(i + 1) * k]);
-                mat.clear();
-                mat.extend(lr.iter().zip(hr.iter()).filter(|(l, h)| h > l).map(|(&l, &h)| (l, h)));
-                if measure {
-                    let mut g0 = p;
-                    while g0 < e {
-                        let g = hits[g0].3;
-                        let mut g1 = g0;
-                        while g1 < e && hits[g1].3 == g {
-                            g1 += 1;
-                        }
-                        iv.clear();
-                        iv.extend(hits[g0..g1].iter().map(|h| (h.1, h.2)));
-                        merge_sorted(&iv, &mut merged);
-                        let (mut v, mut dmax) = (0.0, 0.0f64);
-                        for &(a, b) in &merged {
-                            let (vv, ll) = overlap(&mat, a, b);
-                            v += vv;
-                            dmax = dmax.max(ll);
-                        }
-                        iv.clear();
-                        iv.extend(hits[g0..g1].iter().filter(|h| h.5 > h.4).map(|h| (h.4, h.5)));
-                        iv.sort_by(|x, y| x.0.total_cmp(&y.0));
-                        merge_sorted(&iv, &mut merged);
-                        let v_in: f64 = merged.iter().map(|&(a, b)| overlap(&mat, a, b).0).sum();
-                        if v != 0.0 || dmax > 0.0 {
-                            ro.groups.push((g, v, dmax, v_in));
-                        }
-                        g0 = g1;
-                    }
-                }
-                iv.clear();
-                iv.extend(hits[p..e].iter().map(|h| (h.1, h.2)));
-                iv.sort_by(|x, y| x.0.total_cmp(&y.0));
-                merge_sorted(&iv, &mut merged);
-                // material minus the union, piece by piece (each material interval keeps its
-                // parts outside every merged interval)
-                pieces.clear();
-                let mut before = 0.0;
-                for &(l, h) in &mat {
-                    before += h * h - l * l;
-                    let mut cur = l;
-                    for &(a, b) in &merged {
-                        if b <= cur {
-                            continue;
-                        }
-                        if a >= h {
-                            break;
-                        }
-                        let end = h.min(a);
-                        if end > cur {
-                            pieces.push((cur, end));
-                        }
-                        cur = cur.max(b);
-                        if cur >= h {
-                            break;
-                        }
-                    }
-                    if h > cur {
-                        pieces.push((cur, h));
-                    }
-                }
-                let after: f64 = pieces.iter().map(|&(l, h)| h * h - l * l).sum();
-                ro.removed += 0.5 * (before - after);
-                pieces.sort_by(|x, y| x.0.total_cmp(&y.0));
-                if pieces.len() > k {
-                    ro.overflow.push(((w * nt + i) as i64, pieces.clone()));
-                } else {
-                    for t in 0..k {
-                        let (l, h) = pieces.get(t).copied().unwrap_or((0.0, 0.0));
-                        lr[t] = l;
-                        hr[t] = h;
-                    }
-                }
-                p = e;
-            }
-            ro
+            apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
         })
         .collect();
     for r in rows {
@@ -595,4 +617,674 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
         }
     }
     (out, pairs)
+}
+
+// ------------------------------------------------------------------------------------------
+// Swept volumes per move (`removal.simulate_moves` with the compiled kernel)
+
+/// A primitive of a tool solid in the tool frame (z up the axis from the tip, ρ from it): a
+/// ball (centre height `zc`, radius) or a frustum ρ ≤ r1 + (r2 − r1)(z − z1)/(z2 − z1),
+/// z1 ≤ z ≤ z2 (a cylinder, a cone, a disc-ended slab).
+#[derive(Clone, Copy, Debug)]
+pub enum Prim {
+    Ball { zc: f64, rad: f64 },
+    Frustum { z1: f64, r1: f64, z2: f64, r2: f64 },
+}
+
+/// The moves of one batch: per move its start and end pose, group (row of the batch), the
+/// (θ, z) box of the rays its whole sweep can meet, the knots of its balls' centre paths,
+/// the knots of its frustums' translational sweeps (0: by the samples) and the samples.
+pub struct Moves<'a> {
+    pub t0: &'a [[f64; 3]],
+    pub a0: &'a [[f64; 3]],
+    pub t1: &'a [[f64; 3]],
+    pub a1: &'a [[f64; 3]],
+    pub group: &'a [i64],
+    pub c0: &'a [i64],
+    pub c1: &'a [i64],
+    pub w0: &'a [i64],
+    pub w1: &'a [i64],
+    pub knots: &'a [i64],
+    pub fknots: &'a [i64],
+    pub samples: &'a [i64],
+}
+
+/// The solid swept: the union of `prims` (exact sweeps) and, when given, the polygon
+/// `poly` (sampled poses); the inner versions for the crash measure; the bounding cylinder
+/// (z_lo..z_hi, radius) of the whole solid about the tool axis.
+pub struct Tool<'a> {
+    pub prims: Vec<Prim>,
+    pub prims_in: Vec<Prim>,
+    pub poly: Option<Profile<'a>>,
+    pub poly_in: Option<Profile<'a>>,
+    pub z_lo: f64,
+    pub z_hi: f64,
+    pub radius: f64,
+}
+
+#[inline]
+fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline]
+fn axpy(p: &[f64; 3], s: f64, v: &[f64; 3]) -> [f64; 3] {
+    [p[0] + s * v[0], p[1] + s * v[1], p[2] + s * v[2]]
+}
+
+/// Unit axis between a0 and a1 at fraction t (spherical linear interpolation, as the
+/// reference's `_slerp_rows`).
+fn slerp(a0: &[f64; 3], a1: &[f64; 3], t: f64) -> [f64; 3] {
+    let c = dot(a0, a1).clamp(-1.0, 1.0);
+    let om = c.acos();
+    let so = om.sin();
+    let (w0, w1) = if so < 1e-9 { (1.0 - t, t) } else { (((1.0 - t) * om).sin() / so, (t * om).sin() / so) };
+    let v = [w0 * a0[0] + w1 * a1[0], w0 * a0[1] + w1 * a1[1], w0 * a0[2] + w1 * a1[2]];
+    let n = dot(&v, &v).sqrt();
+    [v[0] / n, v[1] / n, v[2] / n]
+}
+
+/// Real roots of α s² + β s + γ (stable form), or None; (s1 ≤ s2).
+#[inline]
+fn roots(al: f64, be: f64, ga: f64) -> Option<(f64, f64)> {
+    let disc = be * be - 4.0 * al * ga;
+    if disc < 0.0 {
+        return None;
+    }
+    let sq = disc.sqrt();
+    let q = -0.5 * (be + if be >= 0.0 { sq } else { -sq });
+    if q == 0.0 {
+        return Some((0.0, 0.0));
+    }
+    let (r1, r2) = (q / al, ga / q);
+    Some((r1.min(r2), r1.max(r2)))
+}
+
+/// The ray o + r u within the ball of radius `rad` swept by its centre from c0 to c1 (a
+/// capsule): (lo, hi), lo > hi when missed.
+#[inline]
+fn capsule_interval(o: &[f64; 3], u: &[f64; 3], c0: &[f64; 3], c1: &[f64; 3], rad: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let r2 = rad * rad;
+    for c in [c0, c1] {
+        let w = sub(o, c);
+        let b = dot(&w, u);
+        let disc = b * b - (dot(&w, &w) - r2);
+        if disc >= 0.0 {
+            let s = disc.sqrt();
+            lo = lo.min(-b - s);
+            hi = hi.max(-b + s);
+        }
+    }
+    let dv = sub(c1, c0);
+    let l2 = dot(&dv, &dv);
+    if l2 > 1e-24 {
+        let l = l2.sqrt();
+        let dh = [dv[0] / l, dv[1] / l, dv[2] / l];
+        let w = sub(o, c0);
+        let wd = dot(&w, &dh);
+        let ud = dot(u, &dh);
+        let a = 1.0 - ud * ud;
+        if a > 1e-14 {
+            let b = 2.0 * (dot(&w, u) - wd * ud);
+            let c = dot(&w, &w) - wd * wd - r2;
+            if let Some((r1, r2)) = roots(a, b, c) {
+                let (mut x, mut y) = (r1, r2);
+                if ud.abs() > 1e-14 {
+                    let (s1, s2) = (-wd / ud, (l - wd) / ud);
+                    x = x.max(s1.min(s2));
+                    y = y.min(s1.max(s2));
+                } else if wd < 0.0 || wd > l {
+                    x = f64::INFINITY;
+                }
+                if y >= x {
+                    lo = lo.min(x);
+                    hi = hi.max(y);
+                }
+            }
+        }
+    }
+    (lo, hi)
+}
+
+/// The ray o + r u within the frustum (tool frame: tip `tip`, unit axis `ax`) swept by the
+/// translation `dl` of its tip (t ∈ [0, 1]): the extremes of r over the convex set F of
+/// (r, t) with ρ(r, t) ≤ m(r, t), z1 ≤ z(r, t) ≤ z2, 0 ≤ t ≤ 1 — ρ the norm of an affine
+/// map, z and m affine — found among F's points on its four edge lines and on the line where
+/// the cone's boundary is tangent to r = const (every extreme of a linear function over F
+/// lies on one of them). (lo, hi), lo > hi when missed.
+#[allow(clippy::too_many_arguments)]
+fn frustum_sweep_interval(o: &[f64; 3], u: &[f64; 3], tip: &[f64; 3], ax: &[f64; 3], dl: &[f64; 3],
+                          z1: f64, r1: f64, z2: f64, r2: f64) -> (f64, f64) {
+    let k = if z2 > z1 { (r2 - r1) / (z2 - z1) } else { 0.0 };
+    let w0 = sub(o, tip);
+    let z0 = dot(&w0, ax);
+    let zu = dot(u, ax);
+    let zd = dot(dl, ax);
+    let p0 = axpy(&w0, -z0, ax);
+    let pu = axpy(u, -zu, ax);
+    let pd = axpy(dl, -zd, ax);
+    // m = r1 + k (z − z1) = m0 + mr r + mt t
+    let m0 = r1 + k * (z0 - z1);
+    let (mr, mt) = (k * zu, -k * zd);
+    // g = ρ² − m² = grr r² + 2 grt r t + gtt t² + 2 gr r + 2 gt t + g0
+    let grr = dot(&pu, &pu) - mr * mr;
+    let grt = -dot(&pu, &pd) - mr * mt;
+    let gtt = dot(&pd, &pd) - mt * mt;
+    let gr = dot(&p0, &pu) - m0 * mr;
+    let gt = -dot(&p0, &pd) - m0 * mt;
+    let g0 = dot(&p0, &p0) - m0 * m0;
+    // linear constraints cr r + ct t + c0 ≥ 0
+    let lin = [(0.0, 1.0, 0.0), (0.0, -1.0, 1.0), (zu, -zd, z0 - z1), (-zu, zd, z2 - z0)];
+    let scale = 1.0 + w0[0].abs() + w0[1].abs() + w0[2].abs() + r2.abs().max(r1.abs()) + z2.abs();
+    let ltol = 1e-12 * scale;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut on_line = |pr: f64, pt: f64, vr: f64, vt: f64| {
+        // s range within the linear constraints
+        let (mut sa, mut sb) = (f64::NEG_INFINITY, f64::INFINITY);
+        for &(cr, ct, c0) in &lin {
+            let c = cr * pr + ct * pt + c0;
+            let v = cr * vr + ct * vt;
+            if v.abs() <= 1e-14 {
+                if c < -ltol {
+                    return;
+                }
+            } else if v > 0.0 {
+                sa = sa.max((-c - ltol) / v);
+            } else {
+                sb = sb.min((-c - ltol) / v);
+            }
+        }
+        if !(sb >= sa) {
+            return;
+        }
+        // g along the line: al s² + be s + ga ≤ 0
+        let al = grr * vr * vr + 2.0 * grt * vr * vt + gtt * vt * vt;
+        let be = 2.0 * (grr * pr * vr + grt * (pr * vt + pt * vr) + gtt * pt * vt + gr * vr + gt * vt);
+        let ga = grr * pr * pr + 2.0 * grt * pr * pt + gtt * pt * pt + 2.0 * gr * pr + 2.0 * gt * pt + g0;
+        let gs = 1e-12 * (1.0 + ga.abs() + be.abs() + al.abs());
+        let (x, y) = if al.abs() <= 1e-13 * (1.0 + grr.abs() + gtt.abs()) {
+            if be.abs() <= gs {
+                if ga > gs {
+                    return;
+                }
+                (sa, sb)
+            } else if be > 0.0 {
+                (sa, sb.min(-ga / be))
+            } else {
+                (sa.max(-ga / be), sb)
+            }
+        } else if al > 0.0 {
+            match roots(al, be, ga) {
+                Some((s1, s2)) => (sa.max(s1), sb.min(s2)),
+                None => return,
+            }
+        } else {
+            match roots(al, be, ga) {
+                None => (sa, sb),
+                Some((s1, s2)) => {
+                    let left = (sa, sb.min(s1));
+                    let right = (sa.max(s2), sb);
+                    match (left.1 >= left.0, right.1 >= right.0) {
+                        (true, true) => (left.0, right.1),
+                        (true, false) => left,
+                        (false, true) => right,
+                        _ => return,
+                    }
+                }
+            }
+        };
+        if !(y >= x) || !x.is_finite() || !y.is_finite() {
+            return;
+        }
+        for s in [x, y] {
+            let r = pr + s * vr;
+            lo = lo.min(r);
+            hi = hi.max(r);
+        }
+    };
+    // the edges t = 0, t = 1
+    on_line(0.0, 0.0, 1.0, 0.0);
+    on_line(0.0, 1.0, 1.0, 0.0);
+    // the edges z = z1, z = z2
+    for zc in [z1, z2] {
+        if zu.abs() > 1e-12 {
+            on_line((zc - z0) / zu, 0.0, zd / zu, 1.0);
+        } else if zd.abs() > 1e-12 {
+            on_line(0.0, (z0 - zc) / zd, 1.0, 0.0);
+        }
+    }
+    // ∂g/∂t = 0: grt r + gtt t + gt = 0
+    if gtt.abs() > 1e-13 * (1.0 + grr.abs()) {
+        on_line(0.0, -gt / gtt, 1.0, -grt / gtt);
+    }
+    (lo, hi)
+}
+
+/// One move's poses: the knots (tip, axis) of its balls' centre paths, the knots (tip, mid
+/// axis, translation) of its frustums' translational sweeps (empty: the frustums are swept by
+/// the samples) and the samples (tip, axis).
+struct MovePoses {
+    knots: Vec<([f64; 3], [f64; 3])>,
+    fknots: Vec<([f64; 3], [f64; 3], [f64; 3])>,
+    samples: Vec<([f64; 3], [f64; 3])>,
+    /// the growth of the pose-0 bounding cylinder that holds the whole sweep, mm
+    grow: f64,
+    /// the tip's travel (mm) and the axis turn (rad)
+    dist: f64,
+    ang: f64,
+}
+
+fn move_poses(mv: &Moves, i: usize, tool: &Tool) -> MovePoses {
+    let (t0, a0, t1, a1) = (&mv.t0[i], &mv.a0[i], &mv.t1[i], &mv.a1[i]);
+    let dl = sub(t1, t0);
+    let pose = |t: f64| (axpy(t0, t, &dl), slerp(a0, a1, t));
+    let nk = mv.knots[i].max(1) as usize;
+    let knots = (0..=nk).map(|j| pose(j as f64 / nk as f64)).collect();
+    let nf = mv.fknots[i].max(0) as usize;
+    let fknots = (0..nf)
+        .map(|j| {
+            let (ta, tb) = (j as f64 / nf as f64, (j + 1) as f64 / nf as f64);
+            let p = axpy(t0, ta, &dl);
+            let q = axpy(t0, tb, &dl);
+            (p, slerp(a0, a1, 0.5 * (ta + tb)), sub(&q, &p))
+        })
+        .collect();
+    let need = tool.poly.is_some() || (nf == 0 && tool.prims.iter().any(|p| matches!(p, Prim::Frustum { .. })));
+    let ns = mv.samples[i].max(1) as usize;
+    let samples = if need { (0..=ns).map(|j| pose(j as f64 / ns as f64)).collect() } else { Vec::new() };
+    let ang = dot(a0, a1).clamp(-1.0, 1.0).acos();
+    let reach = tool.z_lo.abs().max(tool.z_hi.abs()).hypot(tool.radius);
+    let dist = dot(&dl, &dl).sqrt();
+    MovePoses { knots, fknots, samples, grow: dist + reach * ang + 1e-6, dist, ang }
+}
+
+/// The pieces (a, b) of the ray o + r u inside the move's swept solid (`prims`, `poly`: the
+/// solid's or its inner solid's), appended to `out` (unclipped at r = 0): a ball by the
+/// capsules between its centres at the knots (its centre path's chords), a frustum by its
+/// translational sweeps between knots (the mid axis) or by the samples, the polygon by the
+/// samples.
+fn sweep_pieces(o: &[f64; 3], u: &[f64; 3], mp: &MovePoses, prims: &[Prim], poly: Option<&Profile>,
+                mat: &[(f64, f64)], out: &mut Vec<(f64, f64)>) {
+    let mut push = |(a, b): (f64, f64)| {
+        if b > a {
+            out.push((a, b));
+        }
+    };
+    // does the ray's material meet the cylinder about the start pose's axis z1..z2 of
+    // radius rad, grown by the move's reach (for the frustum `prim` at reach `fr`)
+    let t0 = &mp.knots[0];
+    let meets = |z1: f64, z2: f64, rad: f64, fr: f64| -> bool {
+        let g = mp.dist + fr * mp.ang + 1e-6;
+        let f = ray_frame(o, u, &t0.0, &t0.1);
+        match bounding_interval(&f, z1 - g, z2 + g, rad + g) {
+            Some((ba, bb)) => mat.iter().any(|&(l, h)| l.max(ba) < h.min(bb)),
+            None => false,
+        }
+    };
+    for p in prims {
+        match *p {
+            Prim::Ball { zc, rad } => {
+                for j in 0..mp.knots.len() - 1 {
+                    let ((ta, aa), (tb, ab)) = (&mp.knots[j], &mp.knots[j + 1]);
+                    push(capsule_interval(o, u, &axpy(ta, zc, aa), &axpy(tb, zc, ab), rad));
+                }
+            }
+            Prim::Frustum { z1, r1, z2, r2 } => {
+                let rad = r1.max(r2);
+                if !meets(z1, z2, rad, z1.abs().max(z2.abs()).hypot(rad)) {
+                    continue;
+                }
+                if mp.fknots.is_empty() {
+                    let planes = frustum_planes(z1, r1, z2, r2);
+                    for (tp, ax) in &mp.samples {
+                        let f = ray_frame(o, u, tp, ax);
+                        let (mut lo, mut hi) = (0.0f64, f64::INFINITY);
+                        for pl in &planes {
+                            apply_plane(&f, pl, &mut lo, &mut hi);
+                            if !(hi > lo) {
+                                break;
+                            }
+                        }
+                        push((lo, hi));
+                    }
+                } else {
+                    for (tp, ax, dl) in &mp.fknots {
+                        push(frustum_sweep_interval(o, u, tp, ax, dl, z1, r1, z2, r2));
+                    }
+                }
+            }
+        }
+    }
+    if let Some(pf) = poly {
+        for (tp, ax) in &mp.samples {
+            let f = ray_frame(o, u, tp, ax);
+            push(solid_interval(&f, pf));
+        }
+    }
+}
+
+/// The frustum's half-planes (nρ, nz, c): the top, the side, the bottom (the reference's
+/// `frustum_halfplanes` order: widest first).
+fn frustum_planes(z1: f64, r1: f64, z2: f64, r2: f64) -> [[f64; 3]; 3] {
+    let (dr, dz) = (r2 - r1, z2 - z1);
+    let l = dr.hypot(dz);
+    let (nr, nz) = if l > 0.0 { (dz / l, -dr / l) } else { (1.0, 0.0) };
+    [[0.0, 1.0, z2], [nr, nz, nr * r1 + nz * z1], [0.0, -1.0, -z1]]
+}
+
+/// Merge the (unsorted) pieces in place into disjoint sorted intervals clipped at r ≥ 0.
+fn merge_pieces(v: &mut Vec<(f64, f64)>) {
+    for p in v.iter_mut() {
+        p.0 = p.0.max(0.0);
+    }
+    v.retain(|p| p.1 > p.0);
+    v.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut n = 0;
+    for i in 0..v.len() {
+        if n > 0 && v[i].0 <= v[n - 1].1 {
+            v[n - 1].1 = v[n - 1].1.max(v[i].1);
+        } else {
+            v[n] = v[i];
+            n += 1;
+        }
+    }
+    v.truncate(n);
+}
+
+/// Remove the moves' swept solids from the stock `lo`, `hi` ((n_rays, K) row-major, changed
+/// in place); `measure`: per group the material its own sweep met (and its inner sweep's).
+/// Returns what `remove` returns; the count is the candidate ray–move pairs.
+pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: bool, lo: &mut [f64],
+             hi: &mut [f64]) -> (Outcome, u64) {
+    let m = mv.t0.len();
+    let (nt, k) = (grid.n_theta, grid.k);
+    let mut out = Outcome {
+        removed: 0.0,
+        group_vol: vec![0.0; n_groups],
+        group_vol_in: vec![0.0; n_groups],
+        group_depth: vec![0.0; n_groups],
+        overflow_rays: Vec::new(),
+        overflow: Vec::new(),
+    };
+    let live: Vec<usize> = (0..m)
+        .filter(|&i| mv.c1[i] >= mv.c0[i] && mv.w1[i] >= mv.w0[i] && mv.w0[i] < grid.n_z as i64 && mv.w1[i] >= 0)
+        .collect();
+    if live.is_empty() {
+        return (out, 0);
+    }
+    let poses: Vec<MovePoses> = (0..m).map(|i| move_poses(mv, i, tool)).collect();
+    let wmin = live.iter().map(|&i| mv.w0[i].max(0)).min().unwrap() as usize;
+    let wmax = live.iter().map(|&i| mv.w1[i].min(grid.n_z as i64 - 1)).max().unwrap() as usize;
+    let nrow = wmax - wmin + 1;
+    let mut start = vec![0usize; nrow + 1];
+    for &i in &live {
+        for w in mv.w0[i].max(wmin as i64)..=mv.w1[i].min(wmax as i64) {
+            start[w as usize - wmin + 1] += 1;
+        }
+    }
+    for j in 0..nrow {
+        start[j + 1] += start[j];
+    }
+    let mut fill = start.clone();
+    let mut by_row = vec![0usize; start[nrow]];
+    for &i in &live {
+        for w in mv.w0[i].max(wmin as i64)..=mv.w1[i].min(wmax as i64) {
+            let j = w as usize - wmin;
+            by_row[fill[j]] = i;
+            fill[j] += 1;
+        }
+    }
+    let cmin = live.iter().map(|&i| mv.c0[i]).min().unwrap();
+    let cmax = live.iter().map(|&i| mv.c1[i]).max().unwrap();
+    let [o, e1, e2, d] = grid.frame;
+    let dirs: Vec<[f64; 3]> = (cmin..=cmax)
+        .map(|c| {
+            let ang = grid.theta0 + (c as f64 + 0.5) * grid.d_theta;
+            let (sn, cs) = (ang.sin(), ang.cos());
+            [cs * e1[0] + sn * e2[0], cs * e1[1] + sn * e2[1], cs * e1[2] + sn * e2[2]]
+        })
+        .collect();
+    let pairs: u64 = live
+        .iter()
+        .map(|&i| {
+            let nw = (mv.w1[i].min(grid.n_z as i64 - 1) - mv.w0[i].max(0) + 1).max(0) as u64;
+            nw * (mv.c1[i] - mv.c0[i] + 1) as u64
+        })
+        .sum();
+    let has_inner = measure && (!tool.prims_in.is_empty() || tool.poly_in.is_some());
+    let block = nt * k;
+    let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
+    let hi_rows = &mut hi[wmin * block..(wmax + 1) * block];
+    let rows: Vec<RowOut> = lo_rows
+        .par_chunks_mut(block)
+        .zip(hi_rows.par_chunks_mut(block))
+        .enumerate()
+        .map(|(jr, (lrow, hrow))| {
+            let w = wmin + jr;
+            let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
+            let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
+            let mut hits: Vec<Hit> = Vec::new();
+            let mut pcs: Vec<(f64, f64)> = Vec::new();
+            let mut pin: Vec<(f64, f64)> = Vec::new();
+            let mut mat: Vec<(f64, f64)> = Vec::with_capacity(k);
+            for &mi in &by_row[start[jr]..start[jr + 1]] {
+                let mp = &poses[mi];
+                let (tip, ax) = (&mv.t0[mi], &mv.a0[mi]);
+                let (zl, zh, rb) = (tool.z_lo - mp.grow, tool.z_hi + mp.grow, tool.radius + mp.grow);
+                let Some((ca, cb, rlo_w, rhi_w)) = reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], zr, rb) else {
+                    continue;
+                };
+                let g = mv.group[mi] as usize;
+                for c in ca..=cb {
+                    let i = c.rem_euclid(nt as i64) as usize;
+                    let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
+                    if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w) {
+                        continue;
+                    }
+                    let u = &dirs[(c - cmin) as usize];
+                    let f = ray_frame(&origin, u, tip, ax);
+                    let Some((ba, bb)) = bounding_interval(&f, zl, zh, rb) else {
+                        continue;
+                    };
+                    if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l.max(ba) < h.min(bb)) {
+                        continue;
+                    }
+                    mat.clear();
+                    mat.extend(lr.iter().zip(hr).filter(|(l, h)| h > l).map(|(&l, &h)| (l, h)));
+                    pcs.clear();
+                    sweep_pieces(&origin, u, mp, &tool.prims, tool.poly.as_ref(), &mat, &mut pcs);
+                    merge_pieces(&mut pcs);
+                    for &(a, b) in &pcs {
+                        hits.push((i, a, b, g, 0.0, f64::NEG_INFINITY));
+                    }
+                    if has_inner && !pcs.is_empty() {
+                        pin.clear();
+                        sweep_pieces(&origin, u, mp, &tool.prims_in, tool.poly_in.as_ref(), &mat, &mut pin);
+                        merge_pieces(&mut pin);
+                        for &(a, b) in &pin {
+                            hits.push((i, 0.0, f64::NEG_INFINITY, g, a, b));
+                        }
+                    }
+                }
+            }
+            apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
+        })
+        .collect();
+    for r in rows {
+        out.removed += r.removed;
+        for (g, v, dm, vi) in r.groups {
+            out.group_vol[g] += v;
+            out.group_vol_in[g] += vi;
+            out.group_depth[g] = out.group_depth[g].max(dm);
+        }
+        for (ray, pc) in r.overflow {
+            out.overflow_rays.push(ray);
+            out.overflow.push(pc);
+        }
+    }
+    (out, pairs)
+}
+
+/// A polygon solid's profile as `remove` orders it (top, side, then the rest; `rho`: the ρ
+/// range of each edge, or None).
+pub fn polygon_profile<'a>(planes: &'a [[f64; 3]], rho: Option<&'a [[f64; 2]]>) -> Profile<'a> {
+    let q = planes.len();
+    let order: Vec<usize> = if q > 2 { [q - 1, q - 2].into_iter().chain(0..q - 2).collect() } else { (0..q).collect() };
+    let mut always: Vec<bool> = planes.iter().map(|p| p[0].abs() < EPS && p[1] > 0.0).collect();
+    for &i in order.iter().take(2) {
+        always[i] = true;
+    }
+    if rho.is_none() {
+        always = vec![true; q];
+    }
+    Profile { planes, order, always, rho }
+}
+
+fn prims_of(a: &[[f64; 5]]) -> PyResult<Vec<Prim>> {
+    a.iter()
+        .map(|p| match p[0] as i64 {
+            0 => Ok(Prim::Ball { zc: p[1], rad: p[2] }),
+            1 => Ok(Prim::Frustum { z1: p[1], r1: p[2], z2: p[3], r2: p[4] }),
+            _ => Err(PyValueError::new_err("a primitive's kind must be 0 (ball) or 1 (frustum)")),
+        })
+        .collect()
+}
+
+fn rows5<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 5]]> {
+    if a.shape()[1] != 5 {
+        return Err(PyValueError::new_err(format!("{what} must be (p, 5), got {:?}", a.shape())));
+    }
+    let s = a.as_slice().map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))?;
+    // SAFETY: [f64; 5] has the size and alignment of five f64 in a row
+    Ok(unsafe { std::slice::from_raw_parts(s.as_ptr() as *const [f64; 5], s.len() / 5) })
+}
+
+type Overflow<'py> = (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+
+/// Remove the swept solids of moves from the stock (see `stock::sweep` and
+/// `removal.simulate_moves`): `lo`, `hi` (n_rays, K) float64 changed in place; `grid`,
+/// `frame` as `stock_remove`; per move its start and end tips and unit axes (m, 3), group
+/// (m,), box (m, 4) = (c0, c1, w0, w1) of its whole sweep, axis knots (m,) and polygon samples
+/// (m,) (the balls' centre chords), frustum knots (m,) (translational sweeps between them
+/// with the mid axis; 0: the frustums by the samples) and samples; the solid's primitives `prims` (p, 5) rows (kind, …): (0, zc, radius, 0, 0) a ball,
+/// (1, z1, r1, z2, r2) a frustum, and `prims_in` the inner solid's (crash measure); `bounds`
+/// (z_lo, z_hi, radius) a cylinder about the tool axis holding the solid; `planes` (q, 3) and
+/// `rho` a polygon part swept by its samples (None: none), `planes_in` its inner polygon.
+/// Returns what `stock_remove` returns (the count: candidate ray–move pairs).
+#[pyfunction]
+#[pyo3(signature = (lo, hi, n_theta, grid, frame, t0, a0, t1, a1, group, n_groups, boxes, knots,
+                    fknots, samples, prims, prims_in, bounds, measure, threads, planes=None, rho=None,
+                    planes_in=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn stock_sweep<'py>(
+    py: Python<'py>,
+    mut lo: PyReadwriteArray2<'py, f64>,
+    mut hi: PyReadwriteArray2<'py, f64>,
+    n_theta: usize,
+    grid: (f64, f64, f64, f64),
+    frame: PyReadonlyArray2<'py, f64>,
+    t0: PyReadonlyArray2<'py, f64>,
+    a0: PyReadonlyArray2<'py, f64>,
+    t1: PyReadonlyArray2<'py, f64>,
+    a1: PyReadonlyArray2<'py, f64>,
+    group: PyReadonlyArray1<'py, i64>,
+    n_groups: usize,
+    boxes: PyReadonlyArray2<'py, i64>,
+    knots: PyReadonlyArray1<'py, i64>,
+    fknots: PyReadonlyArray1<'py, i64>,
+    samples: PyReadonlyArray1<'py, i64>,
+    prims: PyReadonlyArray2<'py, f64>,
+    prims_in: PyReadonlyArray2<'py, f64>,
+    bounds: (f64, f64, f64),
+    measure: bool,
+    threads: usize,
+    planes: Option<PyReadonlyArray2<'py, f64>>,
+    rho: Option<PyReadonlyArray2<'py, f64>>,
+    planes_in: Option<PyReadonlyArray2<'py, f64>>,
+) -> PyResult<(f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, u64, Overflow<'py>)> {
+    let shape = lo.shape().to_vec();
+    if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
+        return Err(PyValueError::new_err("lo and hi must be (n_z · n_theta, K) alike"));
+    }
+    let fr = crate::points(&frame, "frame")?;
+    if fr.len() != 4 {
+        return Err(PyValueError::new_err("frame must be (4, 3)"));
+    }
+    let (pt0, pa0, pt1, pa1) = (crate::points(&t0, "t0")?, crate::points(&a0, "a0")?,
+                                crate::points(&t1, "t1")?, crate::points(&a1, "a1")?);
+    let gg = crate::slice1(&group, "group")?;
+    let (kn, sm) = (crate::slice1(&knots, "knots")?, crate::slice1(&samples, "samples")?);
+    let fk = crate::slice1(&fknots, "fknots")?;
+    let m = pt0.len();
+    if pa0.len() != m || pt1.len() != m || pa1.len() != m || gg.len() != m || kn.len() != m
+        || sm.len() != m || fk.len() != m || boxes.shape() != [m, 4] {
+        return Err(PyValueError::new_err("t0, a0, t1, a1, group, boxes, knots and samples must describe the same moves"));
+    }
+    if gg.iter().any(|&g| g < 0 || g as usize >= n_groups) {
+        return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
+    }
+    let bx = boxes.as_slice().map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
+    let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
+    let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
+    let pl = match &planes {
+        Some(p) => Some(crate::points(p, "planes")?),
+        None => None,
+    };
+    let rr = match (&rho, pl) {
+        (Some(r), Some(pl)) => {
+            if r.shape() != [pl.len(), 2] {
+                return Err(PyValueError::new_err("rho must be (q, 2), one range per plane"));
+            }
+            let rs = r.as_slice().map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
+            // SAFETY: as in `points`
+            Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
+        }
+        _ => None,
+    };
+    let pin = match &planes_in {
+        Some(p) => Some(crate::points(p, "planes_in")?),
+        None => None,
+    };
+    let tool = Tool {
+        prims: prims_of(rows5(&prims, "prims")?)?,
+        prims_in: prims_of(rows5(&prims_in, "prims_in")?)?,
+        poly: pl.map(|p| polygon_profile(p, rr)),
+        poly_in: pin.map(|p| polygon_profile(p, None)),
+        z_lo: bounds.0,
+        z_hi: bounds.1,
+        radius: bounds.2,
+    };
+    let g = Grid {
+        theta0: grid.0,
+        d_theta: grid.1,
+        z0: grid.2,
+        dz: grid.3,
+        n_theta,
+        n_z: shape[0] / n_theta,
+        k: shape[1],
+        frame: [fr[0], fr[1], fr[2], fr[3]],
+    };
+    let mv = Moves { t0: pt0, a0: pa0, t1: pt1, a1: pa1, group: gg, c0: &c0, c1: &c1, w0: &w0, w1: &w1,
+                     knots: kn, fknots: fk, samples: sm };
+    let ls = lo.as_slice_mut().map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
+    let hs = hi.as_slice_mut().map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
+    let pool_ = crate::pool(threads)?;
+    let (out, pairs) = py.detach(|| pool_.install(|| sweep(&g, &mv, &tool, n_groups, measure, ls, hs)));
+    let counts: Vec<i64> = out.overflow.iter().map(|p| p.len() as i64).collect();
+    let olo: Vec<f64> = out.overflow.iter().flatten().map(|p| p.0).collect();
+    let ohi: Vec<f64> = out.overflow.iter().flatten().map(|p| p.1).collect();
+    Ok((
+        out.removed,
+        PyArray1::from_vec(py, out.group_vol),
+        PyArray1::from_vec(py, out.group_vol_in),
+        PyArray1::from_vec(py, out.group_depth),
+        pairs,
+        (
+            PyArray1::from_vec(py, out.overflow_rays),
+            PyArray1::from_vec(py, counts),
+            PyArray1::from_vec(py, olo),
+            PyArray1::from_vec(py, ohi),
+        ),
+    ))
 }

@@ -12,7 +12,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "remove_solids"]
+__all__ = ["available", "remove_solids", "sweep_available", "sweep_moves"]
 
 
 def available() -> bool:
@@ -20,6 +20,67 @@ def available() -> bool:
     built before the kernel existed leaves the numpy reference running)."""
     ext = extension()
     return ext is not None and hasattr(ext, "stock_remove")
+
+
+def sweep_available() -> bool:
+    """The compiled swept-volume kernel runs (an extension built before it existed: no)."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "stock_sweep")
+
+
+def _grown(lo, hi, rays, counts, olo, ohi):
+    """Write the rays that needed more than K intervals (grows the arrays)."""
+    if len(rays):
+        need = int(counts.max())
+        grow = need - lo.shape[1]
+        lo = np.hstack([lo, np.zeros((len(lo), grow))])
+        hi = np.hstack([hi, np.zeros((len(hi), grow))])
+        starts = np.cumsum(counts) - counts
+        for ray, s, n in zip(rays, starts, counts, strict=True):
+            lo[ray] = 0.0
+            hi[ray] = 0.0
+            lo[ray, :n] = olo[s:s + n]
+            hi[ray, :n] = ohi[s:s + n]
+    return lo, hi
+
+
+def sweep_moves(lo, hi, n_theta: int, grid, frame, t0, a0, t1, a1, group, n_groups: int, boxes,
+                knots, fknots, samples, prims, prims_in, bounds, measure: bool, threads: int,
+                planes=None, rho=None, planes_in=None):
+    """Remove the solids swept by moves from the stock's intervals; None when the kernel is
+    not there.
+
+    Every move takes the tool from (t0, a0) to (t1, a1) — tip linear, axis by spherical
+    linear interpolation. The primitives ``prims`` (p, 5) — rows (0, zc, radius, 0, 0): a
+    ball of that radius centred zc mm up the axis; (1, z1, r1, z2, r2): a frustum of radius
+    r1 at z1 to r2 at z2 — are swept in closed form per ray: a ball by the capsules between
+    its centres at ``knots`` (m,) + 1 poses (its centre path's chords: the error is their
+    sagitta); a frustum by its translational sweeps between ``fknots`` (m,) + 1 tips with the
+    mid axis (the extremes of r over the convex set of (r, t) in the moving frustum: the
+    error is the axis turn within a knot times the frustum's reach) or, when ``fknots`` is
+    0, by ``samples`` (m,) + 1 poses. A polygon solid ``planes`` (q, 3) (the corner of a
+    bull nose) is swept by the samples. ``prims_in``/``planes_in``: the solid shrunk by the
+    crash tolerance (measured with ``measure``). ``boxes`` (m, 4) = (c0, c1, w0, w1): the
+    rays the whole sweep can meet (unwrapped columns, up to a whole turn). Other parameters
+    and the returns as :func:`remove_solids` (pairs: candidate ray–move pairs)."""
+    if not sweep_available():
+        return None
+    ext = extension()
+    lo = np.ascontiguousarray(lo, dtype=np.float64)
+    hi = np.ascontiguousarray(hi, dtype=np.float64)
+    f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)  # noqa: E731
+    opt = lambda a, w: None if a is None else f64(a).reshape(-1, w)  # noqa: E731
+    removed, vol, vol_in, depth, pairs, (rays, counts, olo, ohi) = ext.stock_sweep(
+        lo, hi, int(n_theta), tuple(float(x) for x in grid), f64(frame).reshape(4, 3),
+        f64(t0).reshape(-1, 3), f64(a0).reshape(-1, 3), f64(t1).reshape(-1, 3),
+        f64(a1).reshape(-1, 3), i64(group), int(n_groups), i64(boxes).reshape(-1, 4),
+        i64(knots), i64(fknots), i64(samples), f64(prims).reshape(-1, 5),
+        f64(prims_in).reshape(-1, 5),
+        tuple(float(x) for x in bounds), bool(measure), max(1, int(threads)),
+        opt(planes, 3), opt(rho, 2), opt(planes_in, 3))
+    lo, hi = _grown(lo, hi, rays, counts, olo, ohi)
+    return lo, hi, float(removed), vol, vol_in, depth, int(pairs)
 
 
 def remove_solids(lo, hi, n_theta: int, grid, frame, tips, axes, group, n_groups: int, boxes,
@@ -70,15 +131,5 @@ def remove_solids(lo, hi, n_theta: int, grid, frame, tips, axes, group, n_groups
         tuple(float(x) for x in bounds), bool(measure), max(1, int(threads)),
         None if rho is None else f64(rho).reshape(-1, 2),
         None if planes_in is None else f64(planes_in).reshape(-1, 3))
-    if len(rays):
-        need = int(counts.max())
-        grow = need - lo.shape[1]
-        lo = np.hstack([lo, np.zeros((len(lo), grow))])
-        hi = np.hstack([hi, np.zeros((len(hi), grow))])
-        starts = np.cumsum(counts) - counts
-        for ray, s, n in zip(rays, starts, counts, strict=True):
-            lo[ray] = 0.0
-            hi[ray] = 0.0
-            lo[ray, :n] = olo[s:s + n]
-            hi[ray, :n] = ohi[s:s + n]
+    lo, hi = _grown(lo, hi, rays, counts, olo, ohi)
     return lo, hi, float(removed), vol, vol_in, depth, int(pairs)

@@ -24,6 +24,15 @@ A **crash** is material removed by a rapid move or by the body; it is reported w
 Two functions carry the inner loop and can be swapped for compiled kernels one for one:
 :func:`ray_solid_intervals` (rays × posed solids → r intervals) and
 :func:`.dexels.subtract_intervals` (interval subtraction).
+
+With the compiled kernels the flute is instead **swept per move** (``swept``, the default
+there for a ball nose): every ray of the move's box gets the interval of the swept solid in
+closed form — a ball nose's ball as the capsules along its centre path's chords (sagitta ≤ the sweep
+tolerance), a frustum (the side of a ball nose or flat end mill) translated between knots
+with the knot's mid axis (off the true poses by at most the tolerance) or at the sub-poses
+when the axis turns too much for that, a bull nose's corner at the sub-poses
+(:func:`cutter_primitives`). The sweep holds every sub-pose and exceeds the sub-poses' union
+by the scallop between them; the numpy reference stays pose-sampled.
 """
 
 from __future__ import annotations
@@ -41,9 +50,9 @@ from ..tool.cutter import Cutter, as_cutter
 from ..toolpath.types import MOVE_NAMES, MOVE_RAPID, Program
 from .dexels import RadialDexels, merge_intervals, subtract_intervals
 
-__all__ = ["Crash", "RemovalResult", "body_assembly", "cutter_halfplanes", "frustum_halfplanes",
-           "halfplane_bounds", "halfplane_edges", "ray_solid_intervals", "remove_program",
-           "simulate_moves"]
+__all__ = ["Crash", "RemovalResult", "body_assembly", "cutter_halfplanes", "cutter_primitives",
+           "frustum_halfplanes", "halfplane_bounds", "halfplane_edges", "ray_solid_intervals",
+           "remove_program", "shrink_primitives", "simulate_moves"]
 
 _EPS = 1e-12
 #: minimum volume (mm³) a rapid or the body must remove at one row to be a crash
@@ -135,6 +144,51 @@ def halfplane_edges(planes):
     big = np.where(on, rho, -np.inf).max(axis=1)
     small = np.where(on, rho, np.inf).min(axis=1)
     return np.stack([small - 1e-9, big + 1e-9], 1)
+
+
+def cutter_primitives(cutter: Cutter, arc_tolerance: float = 1e-3):
+    """The flute as the compiled sweep takes it: (prims, planes) — ``prims`` (p, 5) rows swept
+    exactly, (0, zc, radius, 0, 0) a ball centred zc mm up the axis and (1, z1, r1, z2, r2) a
+    frustum; ``planes`` (q, 3) half-planes of the part swept by sampled poses, or None.
+
+    A ball nose (no corner offset) is its ball and the frustum from the side's tangent circle
+    to the flute top (the ball's cap above the tangent circle lies inside that frustum); a
+    flat end mill is its side frustum (and its bottom cone when α > 0); a bull nose or a
+    taper with a corner offset has the side frustum exact and the corner (tip to the side's
+    tangent height: :func:`cutter_halfplanes` cut there) as the polygon."""
+    c = as_cutter(cutter)
+    e, f, r, al, be, h = c.e, c.f, c.r, c.alpha, c.beta, c.h
+    s_rho, s_z = e + r * math.cos(be), f - r * math.sin(be)
+    side = [1.0, s_z, s_rho, h, c.max_radius]
+    tol = 1e-9 * max(c.d, 1.0)
+    if r > 0 and e <= tol and al == 0.0 and f + r <= h:
+        return np.array([[0.0, f, r, 0.0, 0.0], side]), None
+    if r == 0:
+        if f > tol:
+            return np.array([[1.0, 0.0, 0.0, f, e], side]), None
+        return np.array([[1.0, 0.0, e, h, c.max_radius]]), None
+    planes = cutter_halfplanes(c, arc_tolerance).copy()
+    top = (np.abs(planes[:, 0]) < _EPS) & (planes[:, 1] > 0)
+    planes[top, 2] = s_z * planes[top, 1]
+    return np.array([side]), planes
+
+
+def shrink_primitives(prims, delta: float) -> np.ndarray:
+    """The primitives (p, 5) each shrunk by ``delta`` mm (the crash measure's inner solid):
+    a ball's radius, a frustum's ends and its side (normal offset); emptied ones dropped."""
+    out = []
+    for kind, a, b, c, d in np.asarray(prims, float).reshape(-1, 5):
+        if kind == 0:
+            if b - delta > 0:
+                out.append([0.0, a, b - delta, 0.0, 0.0])
+            continue
+        k = (d - b) / (c - a) if c > a else 0.0
+        n = math.hypot(1.0, k)
+        z1, z2 = a + delta, c - delta
+        r1, r2 = b + k * delta - delta * n, d - k * delta - delta * n
+        if z2 > z1 and max(r1, r2) > 0:
+            out.append([1.0, z1, max(r1, 0.0), z2, max(r2, 0.0)])
+    return np.array(out, float).reshape(-1, 5)
 
 
 def body_assembly(cutter: Cutter) -> ToolAssembly:
@@ -307,10 +361,13 @@ def _sub_poses(tip, axis, rows, first: bool, step: float, reach: float):
     return tips, axes, rr
 
 
-def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
+def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf,
+                     turn: bool = False):
     """For each solid (its axis segment tip + [z_lo, z_hi] · axis, radius ``radius``): the
     (θ, z) box of rays that can meet it — unwrapped columns c0..c1, rows w0..w1 — the radii
-    (r_lo, r_hi) it can reach and its number of candidate rays (0 beyond ``r_cap``)."""
+    (r_lo, r_hi) it can reach and its number of candidate rays (0 beyond ``r_cap``). At most
+    one sector of columns, or (``turn``) a whole turn: a solid wider than the sector meets
+    several copies of a ray."""
     e1, e2, d = dex.axis.angular_frame()
     P0 = tips + z_lo * axes - dex.axis.o
     P1 = tips + z_hi * axes - dex.axis.o
@@ -334,7 +391,8 @@ def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np
     c0 = np.ceil((th_lo - dex.theta0 - base) / dex.d_theta - 0.5).astype(np.int64)
     c1 = np.floor((th_hi - dex.theta0 - base) / dex.d_theta - 0.5).astype(np.int64)
     full = (th_hi - th_lo) >= 2 * math.pi
-    c1 = np.where(full, c0 + dex.n_theta - 1, np.minimum(c1, c0 + dex.n_theta - 1))
+    span = dex.n_theta * (dex.blade_count if turn else 1)
+    c1 = np.where(full, c0 + span - 1, np.minimum(c1, c0 + span - 1))
     shift = np.round(base / dex.d_theta).astype(np.int64)
     c0, c1 = c0 + shift, c1 + shift
     zl = np.minimum(za, zb) - radius
@@ -489,10 +547,131 @@ def _job_compiled(dex: RadialDexels, tips, axes, group, n_groups, planes, z_lo, 
     return removed * cell, vol * cell, vol_in * cell, depth, int(cnt.sum())
 
 
+@dataclass
+class _SweptSolid:
+    """A solid as the compiled sweep takes it (see :func:`cutter_primitives`)."""
+
+    prims: np.ndarray
+    prims_in: np.ndarray
+    planes: np.ndarray | None
+    rho: np.ndarray | None
+    planes_in: np.ndarray | None
+    bounds: tuple  # (z_lo, z_hi, radius) mm: a cylinder about the axis holding the solid
+    step: float  # mm, the samples' spacing (at the solid's reach)
+    tol: float  # mm, the sweep tolerance the knots keep
+
+    @property
+    def reach(self) -> float:
+        z_lo, z_hi, rad = self.bounds
+        return math.hypot(max(abs(z_lo), abs(z_hi)), rad)
+
+
+def _split_frustums(prims) -> np.ndarray:
+    """The frustums of ``prims`` (p, 5) cut into slices at most one diameter tall (the same
+    solid; each slice's own reach and bounding cylinder cull the rays tighter)."""
+    out = []
+    for row in np.asarray(prims, float).reshape(-1, 5):
+        kind, z1, r1, z2, r2 = row
+        n = int(math.ceil((z2 - z1) / max(2.0 * max(r1, r2), 1.0))) if kind == 1 else 1
+        if n <= 1:
+            out.append(row)
+            continue
+        z = np.linspace(z1, z2, n + 1)
+        r = np.linspace(r1, r2, n + 1)
+        out += [[1.0, z[i], r[i], z[i + 1], r[i + 1]] for i in range(n)]
+    return np.array(out, float).reshape(-1, 5)
+
+
+def _flute_solid(cutter, arc_tolerance, ctol, step, tol) -> _SweptSolid:
+    prims, planes = cutter_primitives(cutter, arc_tolerance)
+    prims = _split_frustums(prims)
+    bounds = halfplane_bounds(cutter_halfplanes(cutter, arc_tolerance))
+    return _SweptSolid(prims, shrink_primitives(prims, ctol), planes,
+                       None if planes is None else halfplane_edges(planes),
+                       None if planes is None else _shrink(planes, ctol), bounds, step, tol)
+
+
+def _job_swept(dex: RadialDexels, tip, axis, rows, first: bool, solid: _SweptSolid, measure,
+               r_cap):
+    """The moves ending at ``rows`` (from the previous row's pose; the first row of the
+    program from its own) swept by the compiled kernel: (removed mm³, per row the material
+    met by its sweep and by its inner sweep (mm³) and the longest stretch (mm), ray–move
+    pairs, poses per move)."""
+    prev = np.maximum(rows - 1, 0)
+    if first:
+        prev = np.where(rows == 0, rows, prev)
+    t0, a0, t1, a1 = tip[prev], axis[prev], tip[rows], axis[rows]
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", a0, a1), -1.0, 1.0))
+    dist = np.linalg.norm(t1 - t0, axis=1)
+    reach = solid.reach
+    # a long move in pieces (each its own box: a rapid across the sector does not make every
+    # ray a candidate); the pieces of a slerp are slerps of its sub-arcs
+    n = np.maximum(1, np.ceil(np.maximum(dist, reach * ang) / max(solid.bounds[2], 1.0))
+                   ).astype(np.int64)
+    group = np.repeat(np.arange(len(rows)), n)
+    if (n > 1).any():
+        k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        nn = np.repeat(n, n)
+        ta, tb = k / nn, (k + 1) / nn
+        a0r, a1r = np.repeat(a0, n, axis=0), np.repeat(a1, n, axis=0)
+        dl = np.repeat(t1 - t0, n, axis=0)
+        base = np.repeat(t0, n, axis=0)
+        t0, t1 = base + ta[:, None] * dl, base + tb[:, None] * dl
+        a0, a1 = _slerp_rows(a0r, a1r, ta), _slerp_rows(a0r, a1r, tb)
+        ang = np.arccos(np.clip(np.einsum("ij,ij->i", a0, a1), -1.0, 1.0))
+        dist = np.linalg.norm(t1 - t0, axis=1)
+    P = solid.prims
+    ball, fr = P[P[:, 0] == 0], P[P[:, 0] == 1]
+    # a ball's centre path: chords of sagitta zc (Δφ)² / 8 ≤ tol
+    zc = float(ball[:, 1].max()) if len(ball) else 0.0
+    knots = np.maximum(1, np.ceil(ang * math.sqrt(zc / (8.0 * solid.tol)))).astype(np.int64)
+    samples = np.maximum(1, np.ceil(np.maximum(dist, reach * ang) / solid.step)).astype(np.int64)
+    # a frustum translated with the mid axis of a knot is off the true poses by its reach
+    # times half the knot's turn; where that needs more knots than samples: the samples
+    f_reach = float(np.hypot(fr[:, 3], fr[:, [2, 4]].max(axis=1)).max()) if len(fr) else 0.0
+    fknots = np.maximum(1, np.ceil(f_reach * ang / (2.0 * solid.tol))).astype(np.int64)
+    fknots = np.where(fknots > samples, 0, fknots)
+    # every pose of the move lies within the grow of the start pose's bounding cylinder
+    grow = dist + reach * ang + 1e-6
+    z_lo, z_hi, rad = solid.bounds
+    c0, c1, w0, w1, _, _, _, cnt = _candidate_boxes(dex, t0, a0, (z_lo - grow)[:, None],
+                                                    (z_hi + grow)[:, None], rad + grow, r_cap,
+                                                    turn=True)
+    none = cnt == 0
+    boxes = np.stack([c0, np.where(none, c0 - 1, c1), w0, w1], 1)
+    e1, e2, d = dex.axis.angular_frame()
+    frame = np.array([dex.axis.o, e1, e2, d], float)
+    out = compiled_stock.sweep_moves(
+        dex.lo, dex.hi, dex.n_theta, (dex.theta0, dex.d_theta, dex.z0, dex.dz), frame, t0, a0,
+        t1, a1, group, len(rows), boxes, knots, fknots, samples, solid.prims,
+        solid.prims_in, solid.bounds, measure, workers(), planes=solid.planes, rho=solid.rho,
+        planes_in=solid.planes_in if measure else None)
+    dex.lo, dex.hi, removed, vol, vol_in, depth, pairs = out
+    cell = dex.d_theta * dex.dz
+    sampled = solid.planes is not None or bool((fknots == 0).any())
+    poses = int((knots + 1).sum() + fknots.sum() + (samples + 1).sum() * sampled)
+    return removed * cell, vol * cell, vol_in * cell, depth, pairs, poses
+
+
+def _note_crashes(crash_rows: dict, rows, per, per_in, deep, kind, move, tip, row_offset):
+    """Record the rows whose solid (and its inner solid) met material as crashes."""
+    for j in np.nonzero((per_in > CRASH_VOLUME) & (per > CRASH_VOLUME))[0]:
+        key = (int(rows[j]), "body" if kind == "body" else "rapid")
+        c = crash_rows.get(key)
+        if c is None:
+            crash_rows[key] = Crash(int(rows[j]) + row_offset, key[1],
+                                    MOVE_NAMES[int(move[rows[j]])], float(per[j]),
+                                    float(deep[j]), tuple(tip[rows[j]]))
+        else:
+            c.volume += float(per[j])
+            c.depth = max(c.depth, float(deep[j]))
+
+
 def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAssembly | None
                    = None, *, sweep_tolerance: float | None = None,
                    arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
-                   batch: int = 64, crash_tolerance: float | None = None):
+                   batch: int = 64, crash_tolerance: float | None = None,
+                   swept: bool | None = None):
     """Remove the material of every row of ``program`` from ``dex`` (in place); a generator
     yielding :class:`~..runtime.Progress` and returning a :class:`RemovalResult`.
 
@@ -516,6 +695,19 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         told from one passing by). The crash's volume and depth are the whole solid's. The
         body is swept at half this tolerance (its own sub-poses: it only decides crashes),
         the flute at ``sweep_tolerance``.
+    swept : bool or None — the compiled kernel's swept volumes per move (None: for a ball
+        nose when the compiled kernel has them; a bull nose's or a flat end mill's sweep is
+        no faster than its sub-poses) of the flute, per ray in closed form: a ball (the ball
+        nose) as the capsules along its centre path's chords (sagitta ≤
+        ``sweep_tolerance``); a frustum (a flat end mill's side, a ball nose's side above the
+        ball) translated between knots with the knot's mid axis (off the true poses by at most
+        the tolerance) or, when the axis turns so much that more knots than sub-poses would
+        be needed, at the sub-poses; a bull nose's corner at the sub-poses. The swept
+        removal holds every sub-pose's and exceeds it by at most the sampling scallop
+        (``sweep_tolerance``) — more on a ray grazing a sweep's flank, which a sub-pose
+        misses. False: the sub-poses (the numpy reference's arithmetic, which the numpy
+        kernels always run). The body (crash check only) is always swept by sub-poses: per
+        pose its boxes stay tight where a move turns the long holder through a wide fan.
     """
     cutter = as_cutter(cutter)
     body = assembly or body_assembly(cutter)
@@ -550,15 +742,31 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     # removal only lowers the largest radius of material: one bound serves the whole run
     r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
     runs = [(m, a, z) for m, a, z in program.runs()]
+    if swept is None:  # where it pays: a ball nose (a bull nose's corner stays sampled)
+        swept = (compiled and compiled_stock.sweep_available() and cutter.type == "ball"
+                 and cutter_primitives(cutter, arc_tolerance)[1] is None)
+    if swept and not compiled_stock.sweep_available():
+        raise StockError("the swept-volume removal needs the compiled kernels (make kernels)")
+    flute_swept = _flute_solid(cutter, arc_tolerance, ctol, step, tol) if swept else None
     done = 0
     for m, start, stop in runs:
         for s in range(start, stop, batch):
             check_cancel()
             rows = np.arange(s, min(stop, s + batch))
-            poses = _sub_poses(tip, axis, rows, True, step, reach)
-            result.sub_poses += len(poses[0])
-            jobs = [("flute", poses, flute, flute_bounds, 0.0, cutter.h, cutter.max_radius,
-                     flute_in)]
+            jobs = []
+            if swept:
+                removed, per, per_in, deep, n_pairs, n_poses = _job_swept(
+                    dex, tip, axis, rows, True, flute_swept, m == MOVE_RAPID, r_cap)
+                result.pairs += n_pairs
+                result.sub_poses += n_poses
+                _note_crashes(crash_rows, rows, per, per_in, deep, "flute", move, tip,
+                              row_offset)
+                result.removed[MOVE_NAMES[m]] += removed
+            else:
+                poses = _sub_poses(tip, axis, rows, True, step, reach)
+                result.sub_poses += len(poses[0])
+                jobs = [("flute", poses, flute, flute_bounds, 0.0, cutter.h, cutter.max_radius,
+                         flute_in)]
             if check_body and bodies:
                 bposes = _sub_poses(tip, axis, rows, True, body_step, body_reach)
                 result.sub_poses += len(bposes[0])
@@ -570,17 +778,7 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 out = _job_compiled(*args, bounds, r_cap) if compiled else _job_numpy(*args)
                 removed, per, per_in, deep, n_pairs = out
                 result.pairs += n_pairs
-                for j in np.nonzero((per_in > CRASH_VOLUME) & (per > CRASH_VOLUME))[0]:
-                    key = (int(rows[j]), "body" if kind == "body" else "rapid")
-                    c = crash_rows.get(key)
-                    if c is None:
-                        crash_rows[key] = Crash(int(rows[j]) + row_offset, key[1],
-                                                MOVE_NAMES[int(move[rows[j]])],
-                                                float(per[j]), float(deep[j]),
-                                                tuple(tip[rows[j]]))
-                    else:
-                        c.volume += float(per[j])
-                        c.depth = max(c.depth, float(deep[j]))
+                _note_crashes(crash_rows, rows, per, per_in, deep, kind, move, tip, row_offset)
                 if kind == "flute":
                     result.removed[MOVE_NAMES[m]] += removed
             done += len(rows)
