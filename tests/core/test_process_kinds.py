@@ -106,7 +106,8 @@ def test_semi_finishing_and_hub_finishing_in_one_job(processed):
     r = np.linalg.norm(rel - np.outer(z, part.axis.d), axis=1)
     assert np.abs(r - part.hub_r(z)).max() < 0.1  # on the revolved hub profile
 
-    assert rc == 0  # every verdict passed (the semi-finishing's too)
+    # every verdict passed (the semi-finishing's too); the blades are not finished: exit 6
+    assert rc == 6
     sim = json.loads((out / "02-hub.simulation.json").read_text())
     assert sim["crashes"] == [] and sim["passed"], sim["crashes"][:3]
     text = (out / "job.linuxcnc.ngc").read_text()
@@ -121,7 +122,12 @@ def test_the_final_verdict_is_in_the_summary_and_the_setup_sheet(processed):
     rc, out = processed
     summary = json.loads((out / "summary.json").read_text())
     fv = summary["final_verdict"]
-    assert fv["passed"] and rc == 0
+    # the blades and fillets are no finishing operation's: named not machined (incomplete)
+    assert fv["status"] == "incomplete" and not fv["passed"] and rc == 6
+    nm = [z for z in fv["zones"] if z["status"] == "not machined"]
+    assert nm and all(z["would_be_covered_by"] for z in nm)
+    assert fv["area_not_machined_mm2"] == pytest.approx(sum(z["area_mm2"] for z in nm),
+                                                        abs=0.05 * len(nm) + 0.05)
     assert fv["resolution_mm"] == 1.0
     hub = read_paths_json(out / "02-hub.paths.json")
     assert fv["bounds_mm"]["hub"] == pytest.approx(
@@ -130,7 +136,7 @@ def test_the_final_verdict_is_in_the_summary_and_the_setup_sheet(processed):
     assert fv["area_unreachable_mm2"] == pytest.approx(
         sum(z["area_mm2"] for z in fv["zones"] if z["status"] == "unreachable"), abs=0.05)
     sheet = (out / "setup_sheet.md").read_text()
-    assert "## Final verdict" in sheet and "Final verdict: passed" in sheet
+    assert "## Final verdict" in sheet and "Final verdict: INCOMPLETE" in sheet
 
 
 def _bad(tmp_path, old, new):
@@ -208,7 +214,8 @@ def test_roughing_is_a_job_operation_from_the_blank(tmp_path):
     job = tmp_path / "rough.toml"
     job.write_text(ROUGH_JOB)
     out = tmp_path / "out"
-    assert main(["process", str(job), "--out", str(out), "--quiet"]) == 0
+    # no finishing operation: the final verdict is incomplete (exit 6), nothing failed
+    assert main(["process", str(job), "--out", str(out), "--quiet"]) == 6
     path = read_paths_json(out / "01-roughing.paths.json")
     assert path.operation == "rough"
     sim = json.loads((out / "01-roughing.simulation.json").read_text())
