@@ -6,14 +6,14 @@ A cheap equivalent of the template's end state: the demo blisk (coarse mesh) fro
 part + 2 mm at a 1 mm stock, one hub finishing operation (Ø6 ball, coarse stepover) simulated on
 it. The blade, its fillet and the hub outside the channel keep their 2 mm and no finishing
 operation plans contacts there: named "not machined" (the verdict incomplete), each with the
-operation that would cover it; where contacts are planned but all collide: unreachable.
-Checked against independent measurements: each zone's area is the sum of its triangles' areas from the mesh; the stock holds material beyond
-the bound above the zones' faces (read straight from the dexels) and the faces with material
-beyond the bound outside every contact region add up to the zones' area; every face of an
-unreachable zone lies farther from every contact polyline (exact point-to-segment distance)
-than the contact region's width. The same contacts on the untouched blank: the hub they cover
-keeps 2 mm, and those zones fail. Blade finishing contacts from some height up: the blade sides
-below them are not machined, to be covered by its hub cone lowered."""
+operation that would cover it; where contacts are planned but all collide: unreachable. Checked
+against independent measurements: each zone's area is the sum of its triangles' areas from the
+mesh; the stock holds material beyond the bound above the zones' faces (read straight from the
+dexels) and the faces with material beyond the bound outside every contact region add up to the
+zones' area; every face of an unreachable zone lies farther from every contact polyline (exact
+point-to-segment distance) than the contact region's width. The same contacts on the untouched
+blank: the hub they cover keeps 2 mm, and those zones fail. Blade finishing contacts from some
+height up: the blade sides below them are not machined, to be covered by its hub cone lowered."""
 
 from __future__ import annotations
 
