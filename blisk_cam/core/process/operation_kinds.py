@@ -354,6 +354,11 @@ _FILLET_KEYS = {
     "fillet_radius": (None, "the fillet's radius, mm (default: measured on the part; the ball "
                             "must be smaller than the measured one)", "mm"),
     "layers": (1, "loops across the fillet (1: the lower edge only)", "int"),
+    "scallop": (None, "layers across the fillet spaced for this scallop height between "
+                      "neighbours, mm (instead of 'layers')", "mm"),
+    "layers_top": (None, "with 'scallop': the highest layer's contact, mm above the hub "
+                         "(default: the fillet's top; up the wall to where blade finishing "
+                         "starts)", "mm"),
 }
 
 
@@ -439,7 +444,7 @@ register_operation_kind(OperationKind(
     _options_of(_HUB_KEYS), default_depth=0.2))
 register_operation_kind(OperationKind(
     "fillet_finish", "fillet finishing (the lower fillet edge)", prepare_fillet_finish,
-    _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "scallop", "ring_width",
+    _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "ring_width",
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
 __all__ += ["ball_fits_channel", "prepare_fillet_finish", "prepare_hub_finish"]
