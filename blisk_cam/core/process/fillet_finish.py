@@ -20,8 +20,8 @@ height between neighbours by the exact two-ball formula,
 :func:`..hub.fillet.layer_heights_for_scallop`) up to ``layers_top`` mm above the hub (up the
 wall to where blade finishing starts, so no band is left between them); its other spacing
 fields are not used. On the demo blisk with a Ø6 ball and a Ø5 shank to 100 mm, the hub
-normal tilted 20° off the wall left 6 poses with the shank in the leaning wall (tilt 5°–35°: 16–36); aimed
-through the channel, with 0° or 10° of tilt, none. Lengths mm, angles radians.
+normal tilted 20° off the wall left 6 poses with the shank in the leaning wall (tilt 5°–35°:
+16–36); aimed through the channel, with 0° or 10° of tilt, none. Lengths mm, angles radians.
 """
 
 from __future__ import annotations
