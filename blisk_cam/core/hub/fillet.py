@@ -152,10 +152,13 @@ def check_fillet_ball(rho: float, fillet_radius: float, tool_name: str = "ball")
 def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: float, *,
                   layers: int = 1, allowance: float = 0.0, chord: float = 0.05,
                   step: float = 0.5, max_step: float = 2.0, tool_name: str = "ball",
-                  heights=None):
+                  heights=None, hub_rings: int = 0, ring_step: float = 1.0):
     """[FilletLayer] around blade 0's root, lower edge first; ``heights`` (n, 2) (centre
     height mm, angle rad) the layers' own (:func:`layer_heights_for_scallop`), else
-    ``layers`` of :func:`layer_heights`.
+    ``layers`` of :func:`layer_heights`. With ``heights``, ``hub_rings`` loops of the ball on
+    the hub before them, ``ring_step`` mm apart outward of the lower edge's (outermost first;
+    angle −j·ring_step / R_f): the hub round the root, behind the edges where the hub passes
+    end.
 
     Raises
     ------
@@ -206,6 +209,16 @@ def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: fl
             c, _, _ = centre(mid, h)
             close = side_distance(dist.query(c)) < target
             lo, hi = np.where(close, mid, lo), np.where(close, hi, mid)
+        if own and hub_rings and phi == 0.0:
+            for j in range(int(hub_rings), 0, -1):
+                Cr, mr, tr = centre(hi + j * ring_step, h)
+                hr = hub.normal(mr, tr)
+                o3 = nrm[:, 0:1] * hub.meridian(mr, tr) + nrm[:, 1:2] * hub.tangential(tr)
+                o3 -= np.einsum("ij,ij->i", o3, hr)[:, None] * hr
+                o3 /= np.maximum(np.linalg.norm(o3, axis=1), 1e-300)[:, None]
+                idx = chord_indices(np.vstack([Cr, Cr[:1]]), chord, max_step)[:-1]
+                out.append(FilletLayer(Cr[idx] - rho * hr[idx], hr[idx], Cr[idx], hr[idx],
+                                       o3[idx], h, -j * ring_step / fillet_radius))
         C, mm, tt = centre(hi, h)
         nrm_k = nrm
         if own and h > rho + chord:

@@ -41,7 +41,7 @@ from ..hub.fillet import (
     layer_heights_for_scallop,
     measure_fillet,
 )
-from ..hub.surface import HubSurface
+from ..hub.surface import HubSurface, stepover_for_scallop
 from ..part.model import BliskPart
 from ..paths.orientation import feed_directions, lead_tilt_axes
 from ..runtime import Progress
@@ -64,14 +64,17 @@ __all__ = ["FILLET_FINISH", "FilletFinish", "part_fillet"]
 def _stage_loops(st: HubState):
     req = st.req
     yield Progress(0.0, "fillet: tracing the fillet loops")
-    heights = None
+    heights, ring_step = None, 1.0
     if req.scallop is not None:
         heights, scallops = layer_heights_for_scallop(req.radius, float(req.fillet_radius),
                                                       req.scallop, req.layers_top)
         st.stats["scallop_estimate_mm"] = float(scallops.max()) if len(scallops) else 0.0
+        # the rings on the hub: the flat two-ball stepover for the scallop
+        ring_step = float(stepover_for_scallop(req.radius, req.scallop, np.zeros(1))[0])
     layers = fillet_layers(st.blade, st.hub, req.radius, float(req.fillet_radius),
                            layers=req.layers, allowance=req.allowance, chord=req.chord,
-                           max_step=req.max_step, tool_name=req.tool_name, heights=heights)
+                           max_step=req.max_step, tool_name=req.tool_name, heights=heights,
+                           hub_rings=req.hub_rings, ring_step=ring_step)
     st.curves = []
     for k, lay in enumerate(layers):
         c = PassCurve(s=float(lay.angle / (0.5 * math.pi)), closed=True, cc=lay.cc,
@@ -199,6 +202,12 @@ class FilletFinish(Operation):
         if request.scallop is not None and request.layers != 1:
             raise BliskCamError("fillet layers: give 'layers' or 'scallop' (the layers spaced "
                                 "for it), not both")
+        if not (isinstance(request.hub_rings, int) and 0 <= request.hub_rings <= 20):
+            raise BliskCamError(f"fillet hub rings must be a whole number in 0 … 20, got "
+                                f"{request.hub_rings!r}")
+        if request.hub_rings and request.scallop is None:
+            raise BliskCamError("fillet layers: 'hub_rings' needs 'scallop' (the rings spaced "
+                                "for it)")
         if request.layers_top is not None and request.scallop is None:
             raise BliskCamError("fillet layers: 'layers_top' needs 'scallop' (the layers "
                                 "spaced for it up to that height)")

@@ -102,7 +102,8 @@ class HubRequest:
         smaller); layers : int — loops across the fillet (1: the lower edge only); or
         ``scallop`` (mm): the layers spaced for it, from the lower edge up to the contact at
         ``layers_top`` mm above the hub (default: the fillet's top; above it up the wall, to
-        where blade finishing starts)
+        where blade finishing starts); ``hub_rings`` (with ``scallop``): loops of the ball
+        on the hub round the root, outward of the lower edge, spaced for the scallop
     """
 
     tool_diameter: float
@@ -129,6 +130,7 @@ class HubRequest:
     fillet_radius: float | None = None
     layers: int = 1
     layers_top: float | None = None
+    hub_rings: int = 0
 
     @property
     def radius(self) -> float:

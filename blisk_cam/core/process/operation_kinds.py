@@ -359,6 +359,9 @@ _FILLET_KEYS = {
     "layers_top": (None, "with 'scallop': the highest layer's contact, mm above the hub "
                          "(default: the fillet's top; up the wall to where blade finishing "
                          "starts)", "mm"),
+    "hub_rings": (0, "with 'scallop': loops of the ball on the hub round the blade root, "
+                     "outward of the lower edge (behind the edges, where the hub passes end)",
+                  "int"),
 }
 
 
