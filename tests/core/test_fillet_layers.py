@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 from blisk_cam.core.geometry.distance import MeshDistance
 from blisk_cam.core.geometry.mesh import TriMesh
@@ -36,7 +37,7 @@ from blisk_cam.core.stock.deviation import deviation_map
 from blisk_cam.core.stock.simulation import iter_simulate
 from blisk_cam.core.toolpath.types import MOVE_CUT
 
-RHO, R_F, SCALLOP, TOP, RES = 3.0, 8.0, 0.4, 12.0, 0.25
+RHO, R_F, SCALLOP, TOP, RES, RINGS = 3.0, 8.0, 0.4, 12.0, 0.25, 2
 
 
 def _run(gen):
@@ -51,7 +52,7 @@ def _run(gen):
 def layered():
     part = part_from_demo(make_demo_blisk(resolution=0.3))
     req = HubRequest(tool_diameter=2 * RHO, fillet_radius=R_F, scallop=SCALLOP,
-                     layers_top=TOP, collisions="off", chord=0.05)
+                     layers_top=TOP, hub_rings=RINGS, collisions="off", chord=0.05)
     return part, run_operation(FILLET_FINISH, part, req).path
 
 
@@ -84,9 +85,23 @@ def test_layers_contacts_lie_on_the_fillet_and_up_the_wall(layered):
     md = MeshDistance(blade)
     hs = HubSurface(part.hub_profile, part.axis)
     n = path.stats["layers"]
-    assert n == len(layer_heights_for_scallop(RHO, R_F, SCALLOP, TOP)[0]) and n > 4
+    assert n == len(layer_heights_for_scallop(RHO, R_F, SCALLOP, TOP)[0]) + RINGS and n > 4
+    # the rings: the ball on the hub (contacts on it), outermost first, the flat two-ball
+    # stepover for the scallop apart, outward of the lower edge
+    step = 2.0 * math.sqrt(2.0 * RHO * SCALLOP - SCALLOP ** 2)
+    centres = [c.tip + RHO * c.axis for c in path.curves[:RINGS + 1]]
+    for c in path.curves[:RINGS]:
+        _, _, hc = hs.coordinates(c.cc)
+        assert np.abs(hc).max() < 0.02
+    for a, b in zip(centres[:-1], centres[1:], strict=True):  # ring j → the next one inward
+        P = np.vstack([b, b[:1]])
+        t = np.linspace(0.0, 1.0, 20)[:, None, None]
+        dense = (P[:-1][None] + t * (P[1:] - P[:-1])[None]).reshape(-1, 3)
+        d, _ = cKDTree(dense).query(a)
+        assert np.median(d) == pytest.approx(step, rel=0.05)
+        assert np.median(md.query(a).distance) > np.median(md.query(b).distance)
     heights = []
-    for j, c in enumerate(path.curves[:n]):
+    for j, c in enumerate(path.curves[RINGS:n]):
         d = md.query(c.tip + RHO * c.axis).distance
         if j == 0:  # the lower edge: the ball on the hub, touching the fillet's foot
             assert d.min() >= RHO - 1e-3 and np.median(d) < RHO + 0.05
@@ -97,7 +112,7 @@ def test_layers_contacts_lie_on_the_fillet_and_up_the_wall(layered):
     assert heights[0] < 0.3 and heights[-1] == pytest.approx(TOP, abs=0.3)
     assert (np.diff(heights) > 0).all()
     # the contacts below the fillet's top lie on faces of the fillet's concave radius
-    q = md.query(np.vstack([c.cc for c in path.curves[1:n]]))
+    q = md.query(np.vstack([c.cc for c in path.curves[RINGS + 1:n]]))
     _, _, hq = hs.coordinates(q.point)
     w = face_principal_curvatures(blade)[:, 0]
     sel = (hq > 1.0) & (hq < 0.8 * R_F)
