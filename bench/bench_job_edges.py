@@ -10,9 +10,10 @@ the grid? Measured on a `process` output folder:
   each segment sampled every 0.01 mm, closest points on the blade mesh): the deepest it goes
   into the blade, and how far those faces' centroids lie from it.
 
-On the template (0.5 mm stock): 107 faces (0.9 mm²) read ≤ −1 mm (down to −8), none judged;
-the part alone reads so on 301; the swept ball goes at most 0.017 mm into the blade (chord
-0.02) and touches those centroids within 0.01 mm — the grid, not a cut.
+On the template (0.5 mm stock): 119 faces (0.8 mm²) read ≤ −1 mm (down to −8), none judged;
+the part alone reads so on 301; the swept ball goes at most 0.012 mm into the blade (chord
+0.02; 0.017 mm with the hub cone at 20 mm) and touches those centroids within 0.011 mm — the
+grid, not a cut.
 
 Run: ``python bench/bench_job_edges.py DIR [NN-operation]`` (default 03-blade-finishing)
 """
