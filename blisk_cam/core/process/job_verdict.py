@@ -402,10 +402,10 @@ def _would_cover(ci: int, h, low: float | None) -> str:
         return "hub finishing (passes across the gap, extended past the edges)"
     if ci == 1:
         return ("fillet finishing's layers across the fillet (a fillet_finish operation's "
-                "'layers' or 'scallop' with 'top')")
+                "'scallop' with 'layers_top', or 'layers')")
     if ci in (2, 3) and low is not None and float(np.min(h)) < low:
         return (f"blade finishing's hub cone lower (cone1: its lowest contacts are {low:.1f} mm "
-                "above the hub), or fillet finishing's layers up to it ('top')")
+                "above the hub), or fillet finishing's layers up to it ('layers_top')")
     return "blade finishing"
 
 

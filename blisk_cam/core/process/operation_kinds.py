@@ -446,7 +446,8 @@ register_operation_kind(OperationKind(
     "hub_finish", "hub finishing (paper 003, two regions)", prepare_hub_finish,
     _options_of(_HUB_KEYS), default_depth=0.2))
 register_operation_kind(OperationKind(
-    "fillet_finish", "fillet finishing (the lower fillet edge)", prepare_fillet_finish,
+    "fillet_finish", "fillet finishing (the lower fillet edge; layers across it by a scallop)",
+    prepare_fillet_finish,
     _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "ring_width",
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
