@@ -167,7 +167,9 @@ def build_parser() -> argparse.ArgumentParser:
          "JSON, stock, deviation map per operation), one NC program per post with a tool "
          "change per tool, cutting data at the effective diameter from the part's material, "
          "and a setup sheet. DIR is written as a whole at the end. Exit 5 when an operation's "
-         "verdict failed. Needs only numpy and scipy.",
+         "verdict or the final verdict failed, 6 when the final verdict is incomplete (zones "
+         "no finishing operation plans to cut, named 'not machined'), 4 when the collision "
+         "gate refused a post. Needs only numpy and scipy.",
          add_process_arguments, _cmd_process),
     )
     for name, help_text, description, add_arguments, run in commands:

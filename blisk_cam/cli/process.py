@@ -15,9 +15,12 @@ the end: a failure or Ctrl-C leaves nothing half-written. A non-empty DIR is ref
 ``--force`` (then replaced as a whole). Exit 0 when every operation's verdict and the final verdict
 (:mod:`..core.process.job_verdict`: left ≤ cusp + chord and no gouge beyond the chord except
 the zones named unreachable, with their areas) passed, 5 when one failed (the folder is
-written), 4 when the collision gate refused a post (an operation has
+written), 6 when nothing failed but the final verdict is *incomplete*: zones no finishing
+operation plans to cut are named "not machined", each with its area and the operation that
+would cover it (a deliberately partial job — roughing alone, the blades without the fillet —
+ends so; the folder is written), 4 when the collision gate refused a post (an operation has
 unresolved collisions: the folder is written without that program, the setup sheet and the
-summary say why), 1 on bad input, 2 on a usage error.
+summary say why), 1 on bad input, 2 on a usage error. When several apply: 4, then 5, then 6.
 """
 
 from __future__ import annotations
@@ -41,6 +44,8 @@ from .progress import StageProgress
 __all__ = ["add_process_arguments", "run_process"]
 
 EXIT_VERDICT_FAILED = 5
+#: every verdict passed, but zones of the part are not machined (the final verdict incomplete)
+EXIT_INCOMPLETE = 6
 #: a post refused by the collision gate (as `paths` with unresolved collisions)
 EXIT_UNRESOLVED_COLLISIONS = 4
 PROGRAM_SUFFIX = {"linuxcnc": ".ngc", "fanuc": ".nc", "siemens": ".mpf", "heidenhain": ".h",
@@ -192,11 +197,16 @@ def run_process(args) -> int:
               f"{', '.join(str(o['index']) for o in failed)}; see {out / 'setup_sheet.md'}",
               file=sys.stderr)
         return EXIT_VERDICT_FAILED
-    if not run.verdict.passed:
+    if run.verdict.status == "failed":
         print(f"{PROG}: final verdict: FAILED (material left beyond the bound where a finishing "
               f"operation plans contacts, or a gouge); see {out / 'setup_sheet.md'}",
               file=sys.stderr)
         return EXIT_VERDICT_FAILED
+    if run.verdict.status == "incomplete":
+        print(f"{PROG}: final verdict: INCOMPLETE (zones no finishing operation plans to cut, "
+              f"named 'not machined' with the operation that would cover them); see "
+              f"{out / 'setup_sheet.md'}", file=sys.stderr)
+        return EXIT_INCOMPLETE
     return 0
 
 

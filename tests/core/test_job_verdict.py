@@ -5,13 +5,15 @@ the tolerance, except the zones named unreachable with their areas.
 A cheap equivalent of the template's end state: the demo blisk (coarse mesh) from a blank of the
 part + 2 mm at a 1 mm stock, one hub finishing operation (Ø6 ball, coarse stepover) simulated on
 it. The blade, its fillet and the hub outside the channel keep their 2 mm and no finishing
-operation touches them: named unreachable. Checked against independent measurements: each
-zone's area is the sum of its triangles' areas from the mesh; the stock holds material beyond
-the bound above the zones' faces (read straight from the dexels) and the faces with material
-beyond the bound outside every contact region add up to the zones' area; every face of an
-unreachable zone lies farther from every contact polyline (exact point-to-segment distance)
-than the contact region's width. The same contacts on the untouched blank: the hub they cover
-keeps 2 mm, and those zones fail."""
+operation plans contacts there: named "not machined" (the verdict incomplete), each with the
+operation that would cover it; where contacts are planned but all collide: unreachable. Checked
+against independent measurements: each zone's area is the sum of its triangles' areas from the
+mesh; the stock holds material beyond the bound above the zones' faces (read straight from the
+dexels) and the faces with material beyond the bound outside every contact region add up to the
+zones' area; every face of an unreachable zone lies farther from every contact polyline (exact
+point-to-segment distance) than the contact region's width. The same contacts on the untouched
+blank: the hub they cover keeps 2 mm, and those zones fail. Blade finishing contacts from some
+height up: the blade sides below them are not machined, to be covered by its hub cone lowered."""
 
 from __future__ import annotations
 
@@ -96,15 +98,20 @@ def test_unreached_zones_are_named_with_their_measured_areas(finished):
     V, F, hub, C, N, _ = face_frame(part)
     area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]),
                                 axis=1)
-    assert v.passed, [z.reason for z in v.zones if z.status == "failed"][:3]
-    unr = [z for z in v.zones if z.status == "unreachable"]
+    assert v.status == "incomplete" and not v.passed, [
+        z.reason for z in v.zones if z.status == "failed"][:3]
+    assert not [z for z in v.zones if z.status == "unreachable"]  # no contact collides
+    unr = [z for z in v.zones if z.status == "not machined"]
     surfaces = {z.surface.split(" (")[0] for z in unr}
     # the blade's sides and fillet keep the blank's 2 mm: no finishing contact there
     assert {"blade 0 fillet", "blade 0 +θ side", "blade 0 −θ side"} <= surfaces
+    cover = {"hub": "hub finishing", "blade 0 fillet": "fillet finishing's layers"}
     for z in unr:
         assert z.area_mm2 == pytest.approx(area[z.faces].sum(), rel=1e-9)
         assert z.area_mm2 > 0
         assert "no finishing operation plans contacts here" in z.reason
+        assert z.cover.startswith(cover.get(z.surface.split(" (")[0], "blade finishing"))
+        assert z.cover in z.reason
         r = np.hypot(*(C[z.faces] - part.axis.o)[:, :2].T)
         assert z.r_mm[0] - 0.01 <= r.min() and r.max() <= z.r_mm[1] + 0.01
         assert (hub[z.faces] if z.surface == "hub" else ~hub[z.faces]).all()
@@ -124,7 +131,8 @@ def test_unreached_zones_are_named_with_their_measured_areas(finished):
     in_zones[faces] = True
     assert area[held & in_zones].sum() >= 0.95 * area[held].sum()
     d = job_verdict_dict(v)
-    assert d["area_unreachable_mm2"] == pytest.approx(sum(z.area_mm2 for z in unr), abs=1e-2)
+    assert d["area_not_machined_mm2"] == pytest.approx(sum(z.area_mm2 for z in unr), abs=1e-2)
+    assert d["status"] == "incomplete" and d["area_unreachable_mm2"] == 0
     # the hub the passes finish is within the bound: no zone covers the channel's middle
     mid = judged & hub & (_segments_distance(C, path, part) < 0.5)
     assert mid.sum() > 50
@@ -153,7 +161,7 @@ def test_contacts_that_collide_name_their_zone_unreachable(finished):
     blank = stock_from_allowance(part, BLANK, RES)
     hit = replace(contacts, colliding=np.ones(len(contacts.cc), bool))
     v = job_verdict(part, blank, [hit], fillet_radius=8.0)
-    assert v.passed
+    assert v.status == "incomplete"  # nothing failed; the blades are not machined
     hub_zones = [z for z in v.zones if z.surface == "hub" and "collides" in z.reason]
     assert hub_zones and all(z.status == "unreachable" for z in hub_zones)
     # the same faces that failed under clear contacts
@@ -175,3 +183,34 @@ def test_the_suction_side_follows_the_camber():
         _, _, names = _classes(part, C, N, hub, 8.0)
         named.append(names[2])  # the +θ side
     assert {n.split("(")[1] for n in named} == {"suction)", "pressure)"}
+
+
+def test_blade_sides_below_blade_finishing_are_not_machined(finished):
+    """Blade finishing contacts only from 12 mm above the hub up (on blade 0's mesh vertices):
+    the side faces below them (left at the blank's 2 mm) are "not machined", to be covered by
+    blade finishing's hub cone lowered (the lowest contact's height named), never unreachable;
+    the faces among its contacts, on the uncut blank, fail."""
+    from blisk_cam.core.hub.surface import HubSurface
+
+    part, _, stock, contacts, _ = finished
+    hs = HubSurface(part.hub_profile, part.axis)
+    Vb = np.asarray(part.blade_vertices, float)
+    _, _, hv = hs.coordinates(Vb)
+    cc = Vb[hv > 12.0]
+    blade = OperationContacts(2, "blade", cc, np.zeros(len(cc), bool), 5.0, 0.05, 0.02,
+                              "blade_finish")
+    v = job_verdict(part, stock, [contacts, blade], fillet_radius=8.0)
+    assert v.status == "failed"
+    sides = [z for z in v.zones if z.status == "not machined" and "side" in z.surface]
+    low = float(hv[hv > 12.0].min())
+    below = [z for z in sides if z.height_mm[0] < low]
+    assert below and sum(z.area_mm2 for z in below) > 100.0
+    for z in sides:  # (between sparse contacts higher up: blade finishing's own)
+        if z.height_mm[0] < low:
+            assert "hub cone lower" in z.cover and f"{low:.1f} mm" in z.cover
+        else:
+            assert z.cover == "blade finishing"
+    assert not [z for z in v.zones if z.status == "unreachable"]
+    failed = [z for z in v.zones if z.status == "failed"]
+    assert failed and all("operation 2 (blade) plans contacts" in z.reason for z in failed
+                          if "side" in z.surface)

@@ -121,7 +121,9 @@ def test_the_final_verdict_is_in_the_summary_and_the_setup_sheet(processed):
     rc, out = processed
     summary = json.loads((out / "summary.json").read_text())
     fv = summary["final_verdict"]
-    assert fv["passed"] and rc == 0
+    # semi-finishing's 0.1 mm is within the 1 mm stock's bound: nothing is left unmachined
+    assert fv["passed"] and fv["status"] == "passed" and rc == 0
+    assert fv["area_not_machined_mm2"] == 0.0
     assert fv["resolution_mm"] == 1.0
     hub = read_paths_json(out / "02-hub.paths.json")
     assert fv["bounds_mm"]["hub"] == pytest.approx(
@@ -143,8 +145,9 @@ def _bad(tmp_path, old, new):
 @pytest.mark.parametrize("old, new, words", [
     ("scallop = 0.3", "scalop = 0.3",
      r"operation 2 \('hub'\): unknown key 'scalop'; did you mean 'scallop'"),
-    ('kind = "hub_finish"', 'kind = "fillet_finish"',
-     r"operation 2 \('hub'\).*(unknown key 'scallop'|'fillet_radius')"),
+    # (the fillet takes 'scallop' too: its layers' spacing; the hub's ring is no fillet key)
+    ('kind = "hub_finish"', 'kind = "fillet_finish"\nring_width = 2',
+     r"operation 2 \('hub'\).*unknown key 'ring_width'"),
     ("scallop = 0.3", "scallop = 0.3\nlead = \"ten\"",
      r"operation 2 \('hub'\) key 'lead': expected a number"),
 ])
@@ -208,7 +211,8 @@ def test_roughing_is_a_job_operation_from_the_blank(tmp_path):
     job = tmp_path / "rough.toml"
     job.write_text(ROUGH_JOB)
     out = tmp_path / "out"
-    assert main(["process", str(job), "--out", str(out), "--quiet"]) == 0
+    # no finishing operation: the final verdict is incomplete (exit 6), nothing failed
+    assert main(["process", str(job), "--out", str(out), "--quiet"]) == 6
     path = read_paths_json(out / "01-roughing.paths.json")
     assert path.operation == "rough"
     sim = json.loads((out / "01-roughing.simulation.json").read_text())

@@ -14,6 +14,14 @@ bisection): the ball then touches the fillet (or the hub, at the edge) and
 keeps the allowance from the blade. The contact point (CC) is the centre minus ρ along the
 direction to the nearest surface point (blade or hub).
 
+Layers spaced by a scallop height s instead (:func:`layer_heights_for_scallop`): in the
+fillet's normal section the contact runs along the arc of radius R_f (u = R_f φ) and then up
+the wall (u = R_f π/2 + the height above the fillet's top); neighbouring layers lie the
+exact two-ball stepover apart (:func:`.surface.stepover_for_scallop`, the one the hub uses:
+concave κ = −1/R_f on the fillet, flat on the wall), the steps even within each part, one
+layer at the fillet's top, the last at the requested top. A wall layer's centre is at its
+contact's height (the ball beside the wall).
+
 Units mm and radians.
 """
 
@@ -27,10 +35,11 @@ from ..errors import ToolError
 from ..geometry.distance import MeshDistance
 from ..geometry.mesh import TriMesh
 from .channel import chord_indices, root_loop, side_distance
-from .surface import HubSurface
+from .surface import HubSurface, scallop_for_stepover, stepover_for_scallop
 
 __all__ = ["FilletLayer", "FilletMeasure", "check_fillet_ball", "fillet_layers",
-           "face_principal_curvatures", "layer_heights", "measure_fillet"]
+           "face_principal_curvatures", "layer_heights", "layer_heights_for_scallop",
+           "measure_fillet"]
 
 _BISECT = 30
 
@@ -62,6 +71,66 @@ def layer_heights(rho: float, fillet_radius: float, layers: int) -> np.ndarray:
     return np.stack([fillet_radius - (fillet_radius - rho) * np.cos(phi), phi], 1)
 
 
+def layer_heights_for_scallop(rho: float, fillet_radius: float, scallop: float,
+                              top: float | None = None):
+    """Layers spaced for the ``scallop`` height (mm) between neighbours (module docstring),
+    from the lower edge up to the contact at ``top`` mm above the hub (default: the fillet's
+    top, R_f). Returns ((n, 2) (height of the ball centre above the hub mm, angle rad: φ on
+    the fillet, π/2 + the height up the wall over R_f above it), (n − 1,) the scallop (mm)
+    the exact two-ball formula gives between neighbours)."""
+    R = float(fillet_radius)
+    top = R if top is None else float(top)
+    if not (scallop > 0.0 and scallop < rho):
+        raise ToolError(f"fillet layers: the scallop must be in (0, {rho:g}) mm (the ball's "
+                        f"radius), got {scallop:g}")
+    if not top > 0.0:
+        raise ToolError(f"fillet layers: the top must be above the hub, got {top:g} mm")
+    u_fillet = R * 0.5 * math.pi
+    u_top = R * math.acos(1.0 - top / R) if top < R else u_fillet + (top - R)
+    d_f = float(stepover_for_scallop(rho, scallop, np.array([-1.0 / R]))[0])
+    d_w = float(stepover_for_scallop(rho, scallop, np.array([0.0]))[0])
+    a = min(u_top, u_fillet)
+    u = np.linspace(0.0, a, max(1, math.ceil(a / d_f - 1e-9)) + 1)
+    kappa = np.full(len(u) - 1, -1.0 / R)
+    if u_top > u_fillet:
+        w = np.linspace(u_fillet, u_top, max(1, math.ceil((u_top - u_fillet) / d_w - 1e-9))
+                        + 1)
+        u = np.concatenate([u, w[1:]])
+        kappa = np.concatenate([kappa, np.zeros(len(w) - 1)])
+    phi = np.minimum(u / R, 0.5 * math.pi)
+    h = np.where(u <= u_fillet, R - (R - rho) * np.cos(phi), R + (u - u_fillet))
+    ang = np.where(u <= u_fillet, phi, 0.5 * math.pi + (u - u_fillet) / R)
+    return np.stack([h, ang], 1), scallop_for_stepover(rho, np.diff(u), kappa)
+
+
+def _touching_loop(C, nrm, dist: MeshDistance, target: float, tol: float, passes: int = 4):
+    """The closed loop of ball centres ``C`` (k, 3) kept ``target`` from the blade: centres the
+    scan left off it (up the wall, where the blade's edges lean off the root loop's normal) moved
+    along the nearest point's normal to the distance; then, up to ``passes`` times, the midpoint
+    of every segment closer than target − ``tol`` inserted, moved so too (the sweep between two
+    centres would cut the blade there). ``nrm`` (k, 2), the developed normals, follow."""
+    cp = dist.query(C)
+    off = np.abs(cp.distance - target) > 1e-3 * max(1.0, target)
+    if off.any():
+        nb = C[off] - cp.point[off]
+        nb /= np.maximum(np.linalg.norm(nb, axis=1), 1e-300)[:, None]
+        C = C.copy()
+        C[off] = cp.point[off] + target * nb
+    for _ in range(passes):
+        M = 0.5 * (C + np.roll(C, -1, axis=0))
+        q = dist.query(M)
+        bad = np.flatnonzero(q.distance < target - tol)
+        if not len(bad):
+            break
+        nb = M[bad] - q.point[bad]
+        nb /= np.maximum(np.linalg.norm(nb, axis=1), 1e-300)[:, None]
+        nm = nrm[bad] + np.roll(nrm, -1, axis=0)[bad]
+        nm /= np.maximum(np.linalg.norm(nm, axis=1), 1e-300)[:, None]
+        C = np.insert(C, bad + 1, q.point[bad] + target * nb, axis=0)
+        nrm = np.insert(nrm, bad + 1, nm, axis=0)
+    return C, nrm
+
+
 def _resample_closed(P, step):
     Q = np.vstack([P, P[:1]])
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(Q, axis=0), axis=1))])
@@ -82,8 +151,14 @@ def check_fillet_ball(rho: float, fillet_radius: float, tool_name: str = "ball")
 
 def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: float, *,
                   layers: int = 1, allowance: float = 0.0, chord: float = 0.05,
-                  step: float = 0.5, max_step: float = 2.0, tool_name: str = "ball"):
-    """[FilletLayer] around blade 0's root, lower edge first.
+                  step: float = 0.5, max_step: float = 2.0, tool_name: str = "ball",
+                  heights=None, hub_rings: int = 0, ring_step: float = 1.0):
+    """[FilletLayer] around blade 0's root, lower edge first; ``heights`` (n, 2) (centre
+    height mm, angle rad) the layers' own (:func:`layer_heights_for_scallop`), else
+    ``layers`` of :func:`layer_heights`. With ``heights``, ``hub_rings`` loops of the ball on
+    the hub before them, ``ring_step`` mm apart outward of the lower edge's (outermost first;
+    angle −j·ring_step / R_f): the hub round the root, behind the edges where the hub passes
+    end.
 
     Raises
     ------
@@ -111,7 +186,10 @@ def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: fl
         return hub.point(mm, tt) + h * hub.normal(mm, tt), mm, tt
 
     out = []
-    for h, phi in layer_heights(rho, fillet_radius, layers):
+    own = heights is not None
+    if heights is None:
+        heights = layer_heights(rho, fillet_radius, layers)
+    for h, phi in heights:
         # the centre lies over the fillet (toward the wall, d < 0) for φ > 0: scan d from the
         # wall side out; the last sample too close to the blade, then bisection to the next
         span = fillet_radius + target + 1.0
@@ -131,7 +209,21 @@ def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: fl
             c, _, _ = centre(mid, h)
             close = side_distance(dist.query(c)) < target
             lo, hi = np.where(close, mid, lo), np.where(close, hi, mid)
+        if own and hub_rings and phi == 0.0:
+            for j in range(int(hub_rings), 0, -1):
+                Cr, mr, tr = centre(hi + j * ring_step, h)
+                hr = hub.normal(mr, tr)
+                o3 = nrm[:, 0:1] * hub.meridian(mr, tr) + nrm[:, 1:2] * hub.tangential(tr)
+                o3 -= np.einsum("ij,ij->i", o3, hr)[:, None] * hr
+                o3 /= np.maximum(np.linalg.norm(o3, axis=1), 1e-300)[:, None]
+                idx = chord_indices(np.vstack([Cr, Cr[:1]]), chord, max_step)[:-1]
+                out.append(FilletLayer(Cr[idx] - rho * hr[idx], hr[idx], Cr[idx], hr[idx],
+                                       o3[idx], h, -j * ring_step / fillet_radius))
         C, mm, tt = centre(hi, h)
+        nrm_k = nrm
+        if own and h > rho + chord:
+            C, nrm_k = _touching_loop(C, nrm, dist, target, chord)
+            mm, tt, _ = hub.coordinates(C)
         cp = dist.query(C)
         hub_foot = hub.point(mm, tt)
         hn = hub.normal(mm, tt)
@@ -140,10 +232,14 @@ def fillet_layers(blade: TriMesh, hub: HubSurface, rho: float, fillet_radius: fl
         n = C - nearest
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
         cc = C - rho * n
-        o3 = nrm[:, 0:1] * hub.meridian(mm, tt) + nrm[:, 1:2] * hub.tangential(tt)
+        o3 = nrm_k[:, 0:1] * hub.meridian(mm, tt) + nrm_k[:, 1:2] * hub.tangential(tt)
         o3 -= np.einsum("ij,ij->i", o3, hn)[:, None] * hn
         o3 /= np.maximum(np.linalg.norm(o3, axis=1), 1e-300)[:, None]
-        idx = chord_indices(np.vstack([cc, cc[:1]]), chord, max_step)[:-1]
+        # the ball's sweep is its centre's polyline: its chord error is the gouge (around the
+        # blade's edges the centres turn on a wider radius than the contacts); the layers of
+        # ``heights`` keep it, the lower-edge pass of ``layers`` its contacts' (as before)
+        idx = chord_indices(np.vstack([C, C[:1]]) if own else np.vstack([cc, cc[:1]]), chord,
+                            max_step)[:-1]
         out.append(FilletLayer(cc[idx], n[idx], C[idx], hn[idx], o3[idx], h, phi))
     return out
 

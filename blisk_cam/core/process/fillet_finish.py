@@ -15,10 +15,13 @@ blade, on request) → checks.
 
 The request is a :class:`~.hub_finish.HubRequest` with ``fillet_radius`` (required: the
 ball must be smaller than it and than the fillet measured on the part, :func:`part_fillet`; a
-ToolError names both radii) and ``layers``; its spacing fields are
-not used. On the demo blisk with a Ø6 ball and a Ø5 shank to 100 mm, the hub normal tilted
-20° off the wall left 6 poses with the shank in the leaning wall (tilt 5°–35°: 16–36); aimed
-through the channel, with 0° or 10° of tilt, none. Lengths mm, angles radians.
+ToolError names both radii) and ``layers``, or ``scallop`` (the layers spaced for that scallop
+height between neighbours by the exact two-ball formula,
+:func:`..hub.fillet.layer_heights_for_scallop`) up to ``layers_top`` mm above the hub (up the
+wall to where blade finishing starts, so no band is left between them); its other spacing
+fields are not used. On the demo blisk with a Ø6 ball and a Ø5 shank to 100 mm, the hub
+normal tilted 20° off the wall left 6 poses with the shank in the leaning wall (tilt 5°–35°:
+16–36); aimed through the channel, with 0° or 10° of tilt, none. Lengths mm, angles radians.
 """
 
 from __future__ import annotations
@@ -32,8 +35,13 @@ from ..geometry.distance import MeshDistance
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import rotate_about, unit
 from ..hub.channel import TipChannel
-from ..hub.fillet import check_fillet_ball, fillet_layers, measure_fillet
-from ..hub.surface import HubSurface
+from ..hub.fillet import (
+    check_fillet_ball,
+    fillet_layers,
+    layer_heights_for_scallop,
+    measure_fillet,
+)
+from ..hub.surface import HubSurface, stepover_for_scallop
 from ..part.model import BliskPart
 from ..paths.orientation import feed_directions, lead_tilt_axes
 from ..runtime import Progress
@@ -56,9 +64,17 @@ __all__ = ["FILLET_FINISH", "FilletFinish", "part_fillet"]
 def _stage_loops(st: HubState):
     req = st.req
     yield Progress(0.0, "fillet: tracing the fillet loops")
+    heights, ring_step = None, 1.0
+    if req.scallop is not None:
+        heights, scallops = layer_heights_for_scallop(req.radius, float(req.fillet_radius),
+                                                      req.scallop, req.layers_top)
+        st.stats["scallop_estimate_mm"] = float(scallops.max()) if len(scallops) else 0.0
+        # the rings on the hub: the flat two-ball stepover for the scallop
+        ring_step = float(stepover_for_scallop(req.radius, req.scallop, np.zeros(1))[0])
     layers = fillet_layers(st.blade, st.hub, req.radius, float(req.fillet_radius),
                            layers=req.layers, allowance=req.allowance, chord=req.chord,
-                           max_step=req.max_step, tool_name=req.tool_name)
+                           max_step=req.max_step, tool_name=req.tool_name, heights=heights,
+                           hub_rings=req.hub_rings, ring_step=ring_step)
     st.curves = []
     for k, lay in enumerate(layers):
         c = PassCurve(s=float(lay.angle / (0.5 * math.pi)), closed=True, cc=lay.cc,
@@ -125,7 +141,8 @@ def _stage_orient(st: HubState):
 def _stage_checks(st: HubState):
     req = st.req
     dist = MeshDistance(st.blade)
-    first = st.curves[:req.layers]
+    n_layers = len(st.stats["layer_heights_mm"])
+    first = st.curves[:n_layers]
     C = np.vstack([c.tip + req.radius * c.axis for c in first])
     d = dist.query(C).distance
     over = sum(int(np.count_nonzero(np.einsum("ij,ij->i", c.normal, c.axis) < 0.0))
@@ -136,7 +153,7 @@ def _stage_checks(st: HubState):
         "operation": st.operation,
         "tool": req.tool_name,
         "fillet_radius_mm": float(req.fillet_radius),
-        "layers": int(req.layers),
+        "layers": n_layers,
         "gaps": st.part.blade_count if req.gaps == "all" else 1,
         "curves": len(st.curves),
         "poses": int(sum(len(c.cc) for c in st.curves)),
@@ -182,6 +199,18 @@ class FilletFinish(Operation):
         if not (isinstance(request.layers, int) and 1 <= request.layers <= 50):
             raise BliskCamError(f"fillet layers must be a whole number in 1 … 50, got "
                                 f"{request.layers!r}")
+        if request.scallop is not None and request.layers != 1:
+            raise BliskCamError("fillet layers: give 'layers' or 'scallop' (the layers spaced "
+                                "for it), not both")
+        if not (isinstance(request.hub_rings, int) and 0 <= request.hub_rings <= 20):
+            raise BliskCamError(f"fillet hub rings must be a whole number in 0 … 20, got "
+                                f"{request.hub_rings!r}")
+        if request.hub_rings and request.scallop is None:
+            raise BliskCamError("fillet layers: 'hub_rings' needs 'scallop' (the rings spaced "
+                                "for it)")
+        if request.layers_top is not None and request.scallop is None:
+            raise BliskCamError("fillet layers: 'layers_top' needs 'scallop' (the layers "
+                                "spaced for it up to that height)")
         check_fillet_ball(request.radius, float(request.fillet_radius), request.tool_name)
         measured = part_fillet(part) if isinstance(part, BliskPart) else None
         if measured is not None and not request.radius < measured.radius:

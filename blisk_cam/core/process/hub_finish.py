@@ -99,7 +99,11 @@ class HubRequest:
     collisions : "check" | "off"; flute_length, holder, safety — the tool assembly
         (:class:`~..collision.options.CollisionOptions`)
     fillet_radius : float or None — fillet finishing: the fillet's radius (the ball must be
-        smaller); layers : int — loops across the fillet (1: the lower edge only)
+        smaller); layers : int — loops across the fillet (1: the lower edge only); or
+        ``scallop`` (mm): the layers spaced for it, from the lower edge up to the contact at
+        ``layers_top`` mm above the hub (default: the fillet's top; above it up the wall, to
+        where blade finishing starts); ``hub_rings`` (with ``scallop``): loops of the ball
+        on the hub round the root, outward of the lower edge, spaced for the scallop
     """
 
     tool_diameter: float
@@ -125,6 +129,8 @@ class HubRequest:
     safety: float = 1.0
     fillet_radius: float | None = None
     layers: int = 1
+    layers_top: float | None = None
+    hub_rings: int = 0
 
     @property
     def radius(self) -> float:

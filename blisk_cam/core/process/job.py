@@ -582,7 +582,8 @@ def final_verdict(job: Job, part: BliskPart, stock, runs):
     """The job's final verdict (:func:`.job_verdict.job_verdict`) on ``stock`` (after the
     last operation) from the finishing operations among ``runs``; the fillet named on the
     part up to its measured radius (else a fillet operation's ``fillet_radius``)."""
-    contacts = [OperationContacts.from_path(r.op.index, r.op.name, r.path) for r in runs
+    contacts = [OperationContacts.from_path(r.op.index, r.op.name, r.path, r.op.kind.name)
+                for r in runs
                 if r.op.kind.name in FINISHING_KINDS]
     measured = part_fillet(part)
     fr = measured.radius if measured is not None else next(

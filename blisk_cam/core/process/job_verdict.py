@@ -31,13 +31,20 @@ its leading or trailing edge, the flow running toward +z of the axis so the lead
 blade's lower-z end), its radius, axial and height-above-hub ranges, its area (mm², the sum
 of its faces' areas) and why:
 
-* ``unreachable`` — no finishing operation plans contacts there (the nearest contacts of each
-  finishing operation are given), or every contact planned there collides (the tool body
-  within the safety: the tool cannot reach);
+* ``not machined`` — no finishing operation plans contacts there (the nearest contacts of
+  each finishing operation are given, and the operation that would cover it: fillet
+  finishing's layers for the fillet, blade finishing's hub cone lowered for the blade sides
+  below its lowest contacts, hub finishing for the hub, blade finishing elsewhere);
+* ``unreachable`` — contacts are planned there but every one of them collides (the tool body
+  within the safety, left unresolved by the collision check): the tool cannot reach;
 * ``failed`` — a finishing operation plans clear contacts there and the stock still keeps more
   than the bound; or any gouge beyond the tolerance.
 
-The verdict passes when no zone failed. Lengths mm, areas mm².
+The verdict's ``status``: "failed" when a zone failed; else "incomplete" when a zone is not
+machined (a deliberately partial job — roughing alone, the blades without the fillet — reads
+so: nothing wrong with what was cut, but not the whole part); else "passed" (``passed``: the
+status is "passed"; the unreachable zones are allowed, named with their areas). Lengths mm,
+areas mm².
 """
 
 from __future__ import annotations
@@ -83,11 +90,13 @@ class OperationContacts:
     radius: float
     cusp: float
     chord: float
+    kind: str = ""
 
     @classmethod
-    def from_path(cls, index: int, name: str, path) -> OperationContacts:
+    def from_path(cls, index: int, name: str, path, kind: str = "") -> OperationContacts:
         """The contacts of a planned :class:`..toolpath.types.ToolPath` (its curves' CC
-        points, densified; the collision status per pose where the path was checked)."""
+        points, densified; the collision status per pose where the path was checked);
+        ``kind`` the operation's kind (:data:`FINISHING_KINDS`)."""
         pts, hit = [], []
         for c in path.curves:
             cc = np.asarray(c.cc, float)
@@ -112,15 +121,17 @@ class OperationContacts:
         cusp = float(path.stats.get("scallop_estimate_mm", path.cusp)) if path.stats else float(
             path.cusp)
         return cls(index, name, cc, np.concatenate(hit) if hit else np.zeros(0, bool),
-                   radius, cusp, float(path.chord))
+                   radius, cusp, float(path.chord), kind)
 
 
 @dataclass
 class Zone:
     """A connected set of faces beyond the bound (module docstring). ``faces``: indices into
-    the part mesh; ``status``: "unreachable" or "failed"; ``what``: "left" or "gouge";
+    the part mesh; ``status``: "not machined", "unreachable" or "failed"; ``what``: "left" or
+    "gouge";
     ``surface``; ``area_mm2``; ranges (min, max) ``r_mm``, ``z_mm``, ``height_mm`` (above the
-    hub); ``worst_mm`` (largest left or gouge); ``reason``."""
+    hub); ``worst_mm`` (largest left or gouge); ``reason``; ``cover`` (not machined: the
+    operation that would cover it, else "")."""
 
     faces: np.ndarray
     status: str
@@ -132,11 +143,14 @@ class Zone:
     height_mm: tuple
     worst_mm: float
     reason: str
+    cover: str = ""
 
 
 @dataclass
 class JobVerdict:
-    """The final verdict: ``passed``; ``zones`` (largest first); the bounds; the areas (mm²)
+    """The final verdict: ``passed`` (``status`` "passed"), ``status`` ("passed", "incomplete":
+    zones not machined, none failed, "failed"); ``zones`` (failed, not machined, unreachable,
+    each largest first); the bounds; the areas (mm²)
     judged, unresolved and of the whole surface; per-face figures for tests and maps:
     ``left`` (n_faces,) mm (NaN: not judged), ``bound`` (n_faces,) mm, ``covered`` (n_faces,)
     index of the operation whose clear contacts cover the face (−1: none)."""
@@ -150,6 +164,7 @@ class JobVerdict:
     area_unresolved_mm2: float
     max_gouge_mm: float
     unresolved_by_surface: dict = field(default_factory=dict)
+    status: str = "passed"
     left: np.ndarray = field(repr=False, default=None)
     bound: np.ndarray = field(repr=False, default=None)
     covered: np.ndarray = field(repr=False, default=None)
@@ -333,6 +348,7 @@ def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = 
         colliding |= coll
         nearest.append(dist)
     colliding &= covered < 0
+    low = _lowest_blade_contact(part, contacts)
     left = np.where(resolved, dev, np.nan)
     over = resolved & (dev > bound)
     gouge = resolved & (dev < -tol)
@@ -349,11 +365,14 @@ def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = 
             for L in np.unique(lab):
                 fz = faces[lab == L]
                 zones.append(_zone(fz, what, names[ci], area, r, z, h, dev, covered, colliding,
-                                   nearest, contacts, tol, bound))
-    zones.sort(key=lambda zn: (zn.status != "failed", -zn.area_mm2))
+                                   nearest, contacts, tol, bound, _would_cover(ci, h[fz], low)))
+    order = {"failed": 0, "not machined": 1, "unreachable": 2}
+    zones.sort(key=lambda zn: (order[zn.status], -zn.area_mm2))
+    status = ("failed" if any(zn.status == "failed" for zn in zones) else
+              "incomplete" if any(zn.status == "not machined" for zn in zones) else "passed")
     worst_gouge = float(max(0.0, -np.nanmin(left))) if np.isfinite(left).any() else 0.0
     return JobVerdict(
-        passed=not any(zn.status == "failed" for zn in zones), zones=zones,
+        passed=status == "passed", status=status, zones=zones,
         gouge_tolerance=tol,
         bounds={c.name: c.cusp + c.chord + res for c in contacts} | {"elsewhere": b_default},
         resolution=res, area_surface_mm2=float(area[surface].sum()),
@@ -364,8 +383,34 @@ def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = 
         left=left, bound=bound, covered=covered)
 
 
+def _lowest_blade_contact(part: BliskPart, contacts) -> float | None:
+    """The lowest height (mm above the hub) of blade finishing's clear contacts on blade 0
+    (None: no blade finishing)."""
+    cc = [c.cc[~c.colliding] for c in contacts if c.kind == "blade_finish"]
+    cc = [x for x in cc if len(x)]
+    if not cc:
+        return None
+    _, _, h = HubSurface(part.hub_profile, part.axis).coordinates(np.vstack(cc))
+    return float(h.min())
+
+
+def _would_cover(ci: int, h, low: float | None) -> str:
+    """The operation that would cover a zone not machined of surface class ``ci``
+    (:data:`_CLASS_NAMES`) at heights ``h`` above the hub; ``low`` the lowest blade
+    finishing contact's height."""
+    if ci == 0:
+        return "hub finishing (passes across the gap, extended past the edges)"
+    if ci == 1:
+        return ("fillet finishing's layers across the fillet (a fillet_finish operation's "
+                "'scallop' with 'layers_top', or 'layers')")
+    if ci in (2, 3) and low is not None and float(np.min(h)) < low:
+        return (f"blade finishing's hub cone lower (cone1: its lowest contacts are {low:.1f} mm "
+                "above the hub), or fillet finishing's layers up to it ('layers_top')")
+    return "blade finishing"
+
+
 def _zone(fz, what, surface, area, r, z, h, dev, covered, colliding, nearest, contacts, tol,
-          bound) -> Zone:
+          bound, cover="") -> Zone:
     a = float(area[fz].sum())
 
     def rng(x):
@@ -389,13 +434,15 @@ def _zone(fz, what, surface, area, r, z, h, dev, covered, colliding, nearest, co
             reason = ("every contact planned here collides (the tool body within the "
                       "safety): the tool cannot reach")
         else:
-            status = "unreachable"
+            status = "not machined"
             near = ", ".join(f"operation {c.index} ({c.name}) {float(d[fz].min()):.1f} mm"
                              for c, d in zip(contacts, nearest, strict=True))
             reason = ("no finishing operation plans contacts here"
-                      + (f"; nearest contacts: {near}" if near else ""))
+                      + (f"; nearest contacts: {near}" if near else "")
+                      + f"; would be covered by {cover}")
     return Zone(faces=fz, status=status, what=what, surface=surface, area_mm2=a, r_mm=rng(r),
-                z_mm=rng(z), height_mm=rng(h), worst_mm=worst, reason=reason)
+                z_mm=rng(z), height_mm=rng(h), worst_mm=worst, reason=reason,
+                cover=cover if status == "not machined" else "")
 
 
 def job_verdict_dict(v: JobVerdict, max_zones: int = 50) -> dict:
@@ -406,16 +453,18 @@ def job_verdict_dict(v: JobVerdict, max_zones: int = 50) -> dict:
                 "area_mm2": round(zn.area_mm2, 3), "faces": int(len(zn.faces)),
                 "r_mm": list(zn.r_mm), "z_mm": list(zn.z_mm),
                 "height_above_hub_mm": list(zn.height_mm), "worst_mm": round(zn.worst_mm, 4),
-                "reason": zn.reason}
+                "reason": zn.reason} | ({"would_be_covered_by": zn.cover} if zn.cover else {})
     unr = [zn for zn in v.zones if zn.status == "unreachable"]
     failed = [zn for zn in v.zones if zn.status == "failed"]
-    return {"passed": bool(v.passed), "bounds_mm": v.bounds,
+    nm = [zn for zn in v.zones if zn.status == "not machined"]
+    return {"passed": bool(v.passed), "status": v.status, "bounds_mm": v.bounds,
             "gouge_tolerance_mm": v.gouge_tolerance, "resolution_mm": v.resolution,
             "max_gouge_mm": v.max_gouge_mm,
             "area_surface_mm2": round(v.area_surface_mm2, 3),
             "area_unresolved_mm2": round(v.area_unresolved_mm2, 3),
             "area_unresolved_by_surface_mm2": v.unresolved_by_surface,
             "area_unreachable_mm2": round(sum(zn.area_mm2 for zn in unr), 3),
+            "area_not_machined_mm2": round(sum(zn.area_mm2 for zn in nm), 3),
             "area_failed_mm2": round(sum(zn.area_mm2 for zn in failed), 3),
             "zones": [zd(zn) for zn in v.zones[:max_zones]],
             "zones_not_listed": max(0, len(v.zones) - max_zones)}
@@ -424,10 +473,13 @@ def job_verdict_dict(v: JobVerdict, max_zones: int = 50) -> dict:
 def job_verdict_lines(v: JobVerdict, max_zones: int = 12) -> list[str]:
     """Lines for people: the verdict, then the zones (largest first)."""
     d = job_verdict_dict(v, max_zones)
-    out = [f"final verdict: {'passed' if v.passed else 'FAILED'} — material left ≤ the bound "
+    word = {"passed": "passed", "incomplete": "INCOMPLETE", "failed": "FAILED"}[v.status]
+    out = [f"final verdict: {word} — material left ≤ the bound "
            f"({', '.join(f'{k} {b:.3f}' for k, b in v.bounds.items())} mm) and gouge ≤ "
            f"{v.gouge_tolerance:.3f} mm except {sum(zn.status == 'unreachable' for zn in v.zones)}"
            f" zone(s) named unreachable ({d['area_unreachable_mm2']:.1f} mm²); "
+           f"{sum(zn.status == 'not machined' for zn in v.zones)} zone(s) not machined "
+           f"({d['area_not_machined_mm2']:.1f} mm²); "
            f"{sum(zn.status == 'failed' for zn in v.zones)} failed zone(s) "
            f"({d['area_failed_mm2']:.1f} mm²); {d['area_unresolved_mm2']:.1f} mm² below the "
            "stock's resolution not judged"]

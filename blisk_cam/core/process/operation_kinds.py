@@ -354,6 +354,14 @@ _FILLET_KEYS = {
     "fillet_radius": (None, "the fillet's radius, mm (default: measured on the part; the ball "
                             "must be smaller than the measured one)", "mm"),
     "layers": (1, "loops across the fillet (1: the lower edge only)", "int"),
+    "scallop": (None, "layers across the fillet spaced for this scallop height between "
+                      "neighbours, mm (instead of 'layers')", "mm"),
+    "layers_top": (None, "with 'scallop': the highest layer's contact, mm above the hub "
+                         "(default: the fillet's top; up the wall to where blade finishing "
+                         "starts)", "mm"),
+    "hub_rings": (0, "with 'scallop': loops of the ball on the hub round the blade root, "
+                     "outward of the lower edge (behind the edges, where the hub passes end)",
+                  "int"),
 }
 
 
@@ -438,8 +446,9 @@ register_operation_kind(OperationKind(
     "hub_finish", "hub finishing (paper 003, two regions)", prepare_hub_finish,
     _options_of(_HUB_KEYS), default_depth=0.2))
 register_operation_kind(OperationKind(
-    "fillet_finish", "fillet finishing (the lower fillet edge)", prepare_fillet_finish,
-    _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "scallop", "ring_width",
+    "fillet_finish", "fillet finishing (the lower fillet edge; layers across it by a scallop)",
+    prepare_fillet_finish,
+    _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "ring_width",
                                                      "ring_stepover", "ring_scallop")),
     default_depth=0.2))
 __all__ += ["ball_fits_channel", "prepare_fillet_finish", "prepare_hub_finish"]
