@@ -67,16 +67,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..geometry.vectors import angle_between, unit
+from ..geometry.vectors import angle_between
 from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from ..tool.cutter import Cutter
+from .axis_field import (
+    MIN_STEP,
+    channel_reference,
+    deviation_axes,
+    deviation_of,
+    sample_motion,
+    transported_frames,
+    turn_limits,
+)
 
 __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
            "sample_motion", "turn_limits"]
 
-#: shortest step the turn limit counts, mm (see :func:`turn_limits`)
-MIN_STEP = 0.05
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
 #: the lean states' step, and the coarse grid's (measured at every station), rad
@@ -131,54 +138,6 @@ class AxisPlan:
     motion_clearance: np.ndarray | None = None
     n_candidates: int = 0
     n_window: int = 0
-
-
-# ====================================================================== geometry helpers
-def sample_motion(tip0, ax0, tip1, ax1, t):
-    """Poses on the motion between two poses (k rows each) at fractions ``t`` (s,) in (0, 1):
-    the tip linear, the axis turned uniformly in the plane of the two (slerp). Returns
-    (tips (k·s, 3), axes (k·s, 3)), pose-major."""
-    t = np.asarray(t, dtype=np.float64)
-    om = angle_between(ax0, ax1)[:, None, None]
-    so = np.sin(om)
-    tt = t[None, :, None]
-    small = so < 1e-9
-    w0 = np.where(small, 1 - tt, np.sin((1 - tt) * om) / np.where(small, 1.0, so))
-    w1 = np.where(small, tt, np.sin(tt * om) / np.where(small, 1.0, so))
-    ax = unit((w0 * ax0[:, None, :] + w1 * ax1[:, None, :]).reshape(-1, 3), keep_zero=False)
-    tp = ((1 - tt) * tip0[:, None, :] + tt * tip1[:, None, :]).reshape(-1, 3)
-    return tp, ax
-
-
-def channel_reference(cc, normal, blisk_axis, blade_count: int):
-    """(k, 3) unit axes interpolated between the two blade sides of the gap at each CC point:
-    the radial direction of the channel's mid-plane — the meridional plane of ``cc`` turned
-    about the blisk axis by half the pitch (π/N) toward the side the normal ``normal`` faces
-    (the neighbour across the channel)."""
-    o = np.asarray(blisk_axis.o, dtype=np.float64)
-    d = unit(np.asarray(blisk_axis.d, dtype=np.float64))
-    rel = np.asarray(cc, dtype=np.float64) - o
-    radial = rel - (rel @ d)[:, None] * d
-    r = np.linalg.norm(radial, axis=1)
-    er = radial / np.maximum(r, 1e-300)[:, None]
-    et = np.cross(d, er)
-    side = np.sign(np.einsum("ij,ij->i", normal, et))
-    side = np.where(side == 0, 1.0, side)
-    half = side * math.pi / blade_count
-    return unit(np.cos(half)[:, None] * er + np.sin(half)[:, None] * et, keep_zero=False)
-
-
-def turn_limits(cc, planned_axes, turn_per_mm, max_turn=None):
-    """(k − 1,) largest axis turn (rad) allowed between consecutive poses of a pass: the
-    planned turn there (the surface's own, which avoidance does not judge) plus
-    ``turn_per_mm`` × the CC distance (at least :data:`MIN_STEP` mm), the added part capped
-    by ``max_turn`` per pose when given."""
-    ds = np.linalg.norm(np.diff(np.asarray(cc, dtype=np.float64), axis=0), axis=1)
-    added = turn_per_mm * np.maximum(ds, MIN_STEP)
-    if max_turn is not None:
-        added = np.minimum(added, max_turn)
-    a = np.asarray(planned_axes, dtype=np.float64)
-    return angle_between(a[:-1], a[1:]) + added
 
 
 def _touch_ok(cutter: Cutter, normal, axis):
@@ -270,8 +229,8 @@ class _Planner:
         # the states: offsets from the reference per lean direction (lead, tilt), k·step
         # over the span the window's limits need (at most ±_SWING), the reference a state
         self.step = _STEP
-        self.off = [np.arange(int(round(lo / _STEP)), int(round(hi / _STEP)) + 1) * _STEP
-                    for lo, hi in span]
+        m = int(round(span / _STEP))
+        self.off = [np.arange(-m, m + 1) * _STEP for _ in range(2)]
         # the coarse grid: every _COARSE-th state, both ends included
         self.cidx = [np.unique(np.r_[np.arange(0, len(o), _COARSE), len(o) - 1])
                      for o in self.off]
@@ -288,19 +247,45 @@ class _Planner:
                                max(a.max_radius, float(self.cutter.max_radius)))
                     if self.ball else None)
         self.exact = set()  # poses whose fine states were all measured
-        self.dlp = self.dtp = None
+        self.r = self.e1 = self.e2 = self.u0 = self.v0 = None
         # consecutive pose pairs (global) whose motion was found colliding: the shortest
         # path prices their motion per state pair (:meth:`motion_cost`), cached
         self.mpairs = set()
         self.mcost = {}
 
     # --- poses -----------------------------------------------------------------------------
-    def axes(self, g, dl, dt):
-        """(k, 3) axes at poses g (k,) leaning ref + (dl, dt) (k,), clipped into the lean
-        limits (the states beyond a limit lie on it: the limit itself is searched)."""
-        return lead_tilt_axes(self.f[g], self.P.nrm[g], self.k[g],
-                              np.clip(self.ref_l[g] + dl, -self.lim_l[g], self.lim_l[g]),
-                              np.clip(self.ref_t[g] + dt, -self.lim_t[g], self.lim_t[g]))
+    def set_frames(self, runs, ref_axes):
+        """The states' frame at every run pose: the reference axis ``ref_axes[g]`` and two unit
+        vectors across it, carried along the run by parallel transport (each pose's pair is the
+        one before turned by the smallest rotation taking the reference axis before to this
+        one). A state (u, v) is the reference turned by hypot(u, v) toward u·e1 + v·e2, so a
+        state held along the run turns between two poses by at most the reference's own turn
+        there, and a state step of δ adds at most δ: the turn limit is a bound on the state
+        steps, whatever the surface frame does (at the edges the normal swings by 180° within
+        a millimetre, where leads and tilts held constant turn the axis far faster than the
+        plan)."""
+        n = len(self.P.cc)
+        self.r = np.asarray(ref_axes, dtype=np.float64).copy()
+        self.e1 = np.zeros((n, 3))
+        self.e2 = np.zeros((n, 3))
+        for run in runs:
+            g = run.g
+            start = self.f[g[0]]
+            if np.linalg.norm(np.cross(start, self.r[g[0]])) < 1e-6:
+                start = self.k[g[0]]
+            arc = None
+            if run.cycle:
+                arc = np.r_[run.arc, run.arc[-1] + float(np.linalg.norm(
+                    self.P.cc[g[0]] - self.P.cc[g[-1]]))]
+            self.e1[g], self.e2[g] = transported_frames(self.r[g], start, arc)
+        # the planned axis in these coordinates
+        self.u0, self.v0 = deviation_of(self.P.ax0, self.r, self.e1, self.e2)
+
+    # --- poses -----------------------------------------------------------------------------
+    def axes(self, g, du, dv):
+        """(k, 3) axes at poses g (k,): the reference turned by the state (du, dv) (k,) in the
+        transported frame (:meth:`set_frames`); the exponential map."""
+        return deviation_axes(self.r[g], self.e1[g], self.e2[g], du, dv)
 
     def tips(self, g, ax):
         P = self.P
@@ -308,11 +293,11 @@ class _Planner:
         return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
 
     def valid(self, g, dl, dt, ax):
-        """(k,) bool: a state of its own (beyond a lean limit only the first state, which the
-        clip puts on the limit), the cutter touches and (a machine given) the rotaries
-        reach."""
-        ok = (np.abs(self.ref_l[g] + dl) < self.lim_l[g] + self.step - 1e-9) & \
-            (np.abs(self.ref_t[g] + dt) < self.lim_t[g] + self.step - 1e-9)
+        """(k,) bool: the axis lies within the lean limits (|lead|, |tilt| from the surface
+        normal), the cutter touches and (a machine given) the rotaries reach."""
+        lead, tilt = lead_tilt_of(ax, self.f[g], self.P.nrm[g], self.k[g])
+        with np.errstate(invalid="ignore"):
+            ok = (np.abs(lead) <= self.lim_l[g] + 1e-9) & (np.abs(tilt) <= self.lim_t[g] + 1e-9)
         ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
         if self.machine is not None and ok.any():
             ok[ok] = reachable_axes(self.machine, ax[ok])
@@ -376,8 +361,12 @@ class _Planner:
         C = self.grid(g, *self.cidx)
         for gi, c in zip(g, C, strict=True):
             self.raw[int(gi)] = c
-        Fc = np.einsum("fa,sab,gb->sfg", self.M[0],
-                       np.where(np.isfinite(C), C, -self.safety - 50.0), self.M[1])
+        ok = np.isfinite(C)
+        num = np.einsum("fa,sab,gb->sfg", self.M[0], np.where(ok, C, 0.0), self.M[1])
+        den = np.einsum("fa,sab,gb->sfg", self.M[0], ok.astype(np.float64), self.M[1])
+        # interpolated from the valid coarse neighbours only (a state next to the lean
+        # limit is not made to collide by the invalid one beyond it)
+        Fc = np.where(den > 1e-9, num / np.maximum(den, 1e-300), -self.safety - 50.0)
         for gi, fc in zip(g, Fc, strict=True):  # states that are not valid stay out
             self.known[int(gi)] = np.where(self.state_valid(int(gi)), fc, -np.inf)
 
@@ -552,10 +541,12 @@ class _Planner:
             if (int(r.pre), int(gst[0])) in self.mpairs:
                 cost = cost + self.motion_cost_fixed(r.pre, gst[0], True)
         backs = []
+        # the turn allowed between two stations: the sum of the poses' limits between them
+        # (a state held along the run turns by at most the sum of the reference's turns)
+        cum = np.r_[0.0, np.cumsum(turn_limits(P.cc[r.g], P.ax0[r.g], self.rate,
+                                               self.max_turn))]
         for j in range(1, len(gst)):
-            gap = r.arc[r.st[j]] - r.arc[r.st[j - 1]]
-            lim = float(angle_between(P.ax0[[gst[j - 1]]], P.ax0[[gst[j]]])[0]) + \
-                self.rate * max(gap, MIN_STEP)
+            lim = float(cum[r.st[j]] - cum[r.st[j - 1]])
             offs, ok = self._moves(A[j - 1], A[j], lim)
             rr = _MAX_R
             pad = np.full((Fl + 2 * rr, Ft + 2 * rr), np.inf)
@@ -632,16 +623,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if edge_lead:
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
-    w = np.nonzero(win)[0]
-    span = [(max(-_SWING, float(np.min(-lm[w] - rf[w]))), min(_SWING, float(np.max(lm[w] - rf[w]))))
-            for lm, rf in ((lim_lead, ref_l), (lim_tilt, ref_t))]
-    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span)
-    # the states cover the lean limits unless they reach further than the swing
-    covered = bool(np.all(-lim_lead[w] - ref_l[w] >= span[0][0] - 1e-9)
-                   and np.all(lim_lead[w] - ref_l[w] <= span[0][1] + 1e-9)
-                   and np.all(-lim_tilt[w] - ref_t[w] >= span[1][0] - 1e-9)
-                   and np.all(lim_tilt[w] - ref_t[w] <= span[1][1] + 1e-9))
-    pl.dlp, pl.dtp = l0 - ref_l, t0 - ref_t  # the planned lean as an offset
+    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING)
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -662,6 +644,11 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
                 cyc, pre = False, s + run[0] - 1 if run[0] > 0 else None
                 post = s + run[-1] + 1 if run[-1] + 1 < k else None
             runs.append(_Run(g, arc, pl.stations(g, arc), pre, post, cyc))
+    ref_axes = ax0.copy()
+    if reference == "channel" and blisk_axis is not None and blade_count:
+        w = np.nonzero(win)[0]
+        ref_axes[w] = lead_tilt_axes(f[w], nrm[w], k_side[w], ref_l[w], ref_t[w])
+    pl.set_frames(runs, ref_axes)
     # the coarse grid at every station of every run: one batched measurement
     pl.measure_coarse(np.concatenate([r.g[r.st] for r in runs]))
     if progress is not None:
@@ -708,7 +695,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     for gi in np.nonzero(unresolved)[0]:
         c = pl.known.get(int(gi))
         if int(gi) in pl.exact and c is not None and not np.any(c >= pl.safety):
-            why[gi] = REASON_NO_AXIS if covered else \
+            why[gi] = REASON_NO_AXIS if _covered(pl, int(gi)) else \
                 f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
     why[(clear >= pl.safety) & (motion < pl.safety)] = REASON_MOTION
     if machine is not None:
@@ -728,7 +715,7 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     gs, dls, dts = [], [], []
     for r, seq in zip(runs, chosen, strict=True):
         if seq is None:
-            dl, dt = pl.dlp[r.g], pl.dtp[r.g]
+            dl, dt = pl.u0[r.g], pl.v0[r.g]
         else:
             dl = np.interp(r.arc, r.arc[r.st], pl.off[0][seq[:, 0]])
             dt = np.interp(r.arc, r.arc[r.st], pl.off[1][seq[:, 1]])
@@ -740,7 +727,7 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     ax = pl.axes(g, dl, dt)
     axis[g] = ax
     tip[g] = pl.tips(g, ax)
-    same = (np.abs(dl - pl.dlp[g]) < 1e-12) & (np.abs(dt - pl.dtp[g]) < 1e-12)
+    same = (np.abs(dl - pl.u0[g]) < 1e-12) & (np.abs(dt - pl.v0[g]) < 1e-12)
     axis[g[same]], tip[g[same]] = P.ax0[g[same]], P.tip0[g[same]]  # the planned pose, exactly
     _limit_turns(pl, runs, tip, axis)
     prev_, next_ = [], []
@@ -788,6 +775,23 @@ def _limit_turns(pl: _Planner, runs, tip, axis):
         if moved:
             m = np.asarray(moved, np.int64)
             tip[m] = pl.tips(m, axis[m])
+
+
+def _covered(pl: _Planner, gi: int) -> bool:
+    """Whether the states of pose gi reach every axis within its lean limits (a 2.5° grid of
+    the limits' leads and tilts that the cutter can touch with lies inside the states'
+    square): only then is "no axis within the limits" claimed."""
+    lo = np.radians(2.5)
+    L = np.arange(-pl.lim_l[gi], pl.lim_l[gi] + 1e-9, lo)
+    T = np.arange(-pl.lim_t[gi], pl.lim_t[gi] + 1e-9, lo)
+    lead, tilt = (x.ravel() for x in np.meshgrid(np.r_[L, pl.lim_l[gi]], np.r_[T, pl.lim_t[gi]]))
+    m = len(lead)
+    ax = lead_tilt_axes(np.repeat(pl.f[[gi]], m, 0), np.repeat(pl.P.nrm[[gi]], m, 0),
+                        np.repeat(pl.k[[gi]], m, 0), lead, tilt)
+    ax = ax[_touch_ok(pl.cutter, np.repeat(pl.P.nrm[[gi]], m, 0), ax)]
+    u, v = deviation_of(ax, pl.r[gi], pl.e1[gi], pl.e2[gi])
+    edge = pl.off[0][-1] + 1e-9
+    return bool(np.all((np.abs(u) <= edge) & (np.abs(v) <= edge)))
 
 
 def _edge_weight(offs, cc, idx, cutter):
