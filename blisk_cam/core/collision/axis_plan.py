@@ -10,15 +10,22 @@ channel under a maximum angle step):
 1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
    the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
    ramps in and out. Outside the window the planned axis is kept.
-2. **States.** Per window pose the lean states: a grid of (lead, tilt) offsets about the
-   pose's reference (the planned axis, or the channel reference below), ±30° in 5° steps,
-   clipped into the lean limits (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the
-   surface normal as in :mod:`..paths.gouge`; a plan that leans further keeps its own lean
-   as the limit). A state's tip keeps the contact (ball: the centre fixed; bull nose / flat
-   / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the CC point and normal, plus the
-   plan's few-µm lift λ along the normal). A state the cutter cannot touch the surface with,
-   or (a machine given) the rotaries cannot produce (:func:`..machine.kinematics.
-   reachable_axes`), is excluded.
+2. **States.** Per window pose the states: deviations (u, v) of the pose's reference axis
+   (the planned axis, or the channel reference below), a square grid of ±60° in 5° steps,
+   the axis the reference turned by hypot(u, v) toward u·e1 + v·e2 (:func:`.axis_field.
+   deviation_axes`), where (e1, e2) is carried along the run by parallel transport
+   (:func:`.axis_field.transported_frames`). A state held along the pass then turns between
+   two poses by at most the reference's own turn, and a state step δ adds at most δ: the turn
+   limit bounds the state steps whatever the surface frame does. (Leads and tilts offsets in
+   the surface frame, the first design, cannot hold a deviation through a blade edge, where
+   the normal swings 180° within a millimetre: on Rotor 37 × 36 half the unresolved poses were
+   edge poses "out of reach of the turn limit".) A state is valid when its axis lies within
+   the lean limits (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the surface normal as in
+   :mod:`..paths.gouge`; a plan that leans further keeps its own lean as the limit), the
+   cutter can touch the surface with it and (a machine given) the rotaries can produce it
+   (:func:`..machine.kinematics.reachable_axes`). A state's tip keeps the contact (ball: the
+   centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
+   CC point and normal, plus the plan's few-µm lift λ along the normal).
 3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
    of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
    edges). At each station a coarse 10° grid is measured by
@@ -29,13 +36,13 @@ channel under a maximum angle step):
    from the ball's centre, about which the axis turns).
 4. **Shortest path (Viterbi).** Along each run of window poses the state sequence minimising
 
-       Σ_stations [ C·[clr < ds] (C ≫ any lean cost; then the least deep)
-                    + (lead − lead_ref)² + (tilt − tilt_ref)² ]
+       Σ_stations [ C·[clr < ds] (C ≫ any lean cost; then the least deep) + u² + v² ]
 
-   with the exact turn between the states of consecutive stations within the planned turn
-   plus ``turn_per_mm`` × their arc distance (and from/to the fixed planned poses around the
-   run). Between stations the lean is linear in arc length; a pose pair that still turns
-   faster than :func:`turn_limits` is clamped (the later axis turned toward the earlier).
+   with the exact turn between the states of consecutive stations within the sum of the
+   poses' limits between them (:func:`turn_limits`: the planned turn plus ``turn_per_mm`` ×
+   the arc step; and from/to the fixed planned poses around the run). Between stations the
+   state is linear in arc length; a pose pair that still turns faster than its limit is
+   clamped (sweeps forward and backward).
    Since a colliding state costs more than any lean, the path leaves as few stations
    colliding as the limits allow.
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
@@ -51,11 +58,13 @@ mid-plane at the pose (the meridional plane turned from the CC point's by half t
 (leading and trailing edges of a blade pass).
 
 **Unresolved poses** (clearance < ds at the chosen axis) come as ranges per pass (pass,
-first, last pose, why): "no axis within the limits clears" (every state collides — the pose
-is a fact about the tool and holder), "the turn limit" (a clear state exists, or was not
-ruled out, but no sequence within the turn limit reaches it; "or the machine's reach" when a
-machine is given), or "the motion from the pose before collides". "No axis" is claimed only
-for poses whose every state is known exactly.
+first, last pose, why): "no axis within the limits clears" (the pose is a fact about the tool
+and holder), "the turn limit" (a clear axis exists, or was not ruled out, but no sequence
+within the turn limit reaches it; "or the machine's reach" when a machine is given), or "the
+motion from the pose before collides". "No axis" is claimed only for poses whose every state
+is known exactly to collide and where a 2.5° grid of leads and tilts over the whole lean box
+holds no clear axis either (:func:`_no_axis`; "within ±60° of the reference" when the box
+reaches beyond the states).
 
 Lengths mm, angles radians; numpy only (the distance machinery of :mod:`.scene`).
 """
@@ -100,6 +109,8 @@ _MAX_R = 3
 #: samples inside each transition checked for the motion, and verification rounds
 _MOTION_SAMPLES = 3
 _ROUNDS = 4
+#: sweeps of the per-pose turn clamp (forward, backward, …)
+_SWEEPS = 6
 
 REASON_NO_AXIS = "no axis within the lean limits clears"
 REASON_TURN = "the turn limit keeps the clear axes out of reach"
@@ -226,8 +237,8 @@ class _Planner:
         self.cutter = scene.cutter
         self.ball = self.cutter.type == "ball"
         self.safety = scene.safety
-        # the states: offsets from the reference per lean direction (lead, tilt), k·step
-        # over the span the window's limits need (at most ±_SWING), the reference a state
+        # the states: deviations (u, v) from the reference, k·step up to ±span (the frame:
+        # :meth:`set_frames`), the reference itself a state
         self.step = _STEP
         m = int(round(span / _STEP))
         self.off = [np.arange(-m, m + 1) * _STEP for _ in range(2)]
@@ -692,11 +703,11 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     motion = result["motion"]
     unresolved = (clear < pl.safety) | (motion < pl.safety)
     why = np.full(n, REASON_TURN, dtype=object)
-    for gi in np.nonzero(unresolved)[0]:
-        c = pl.known.get(int(gi))
-        if int(gi) in pl.exact and c is not None and not np.any(c >= pl.safety):
-            why[gi] = REASON_NO_AXIS if _covered(pl, int(gi)) else \
-                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
+    cand = [int(gi) for gi in np.nonzero(unresolved)[0] if int(gi) in pl.exact
+            and not np.any(pl.known[int(gi)] >= pl.safety)]
+    for gi, w in _no_axis(pl, cand).items():
+        if w is not None:
+            why[gi] = w
     why[(clear >= pl.safety) & (motion < pl.safety)] = REASON_MOTION
     if machine is not None:
         why[(why == REASON_TURN) & unresolved] = REASON_TURN + " or the machine's reach"
@@ -755,43 +766,84 @@ def _chain(r: _Run):
 
 def _limit_turns(pl: _Planner, runs, tip, axis):
     """Where the lean interpolated between stations turns faster than the limit between two
-    poses, the later axis is turned back toward the earlier one (forward, then from the
-    fixed pose after the run backward), its tip recomputed for the contact; in place."""
+    poses, the later axis is turned toward the earlier one (a sweep forward from the fixed
+    pose before the run), then the earlier toward the later (backward from the fixed pose
+    after it, or from the closing cut), the sweeps alternating until every pair holds (at
+    most :data:`_SWEEPS`); tips recomputed for the contact; in place."""
     P = pl.P
     for r in runs:
         chain = _chain(r)
-        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn)
-        moved = []
-        order = [(i, i + 1) for i in range(len(chain) - 1)]
-        if r.post is not None or r.cycle:  # the last pose is fixed: turn toward it
-            order = order[:-1] + [(len(chain) - 1, len(chain) - 2)]
-        for a, b in order:
-            ia, ib = chain[a], chain[b]
-            lim = limit[min(a, b)]
-            if float(axis[ia] @ axis[ib]) < math.cos(lim) - 1e-12:
-                axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim * (1 - 1e-9),
-                                      tuple(P.nrm[ib]))
-                moved.append(ib)
+        m = len(chain)
+        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn) * (1 - 1e-9)
+        fixed = np.zeros(m, bool)
+        fixed[0] = r.pre is not None or r.cycle
+        fixed[-1] = r.post is not None or r.cycle
+        moved = set()
+        for sweep in range(_SWEEPS):
+            changed = False
+            pairs = [(i, i + 1) for i in range(m - 1)] if sweep % 2 == 0 else \
+                [(i, i - 1) for i in range(m - 1, 0, -1)]
+            for a, b in pairs:  # b turned toward a
+                if fixed[b]:
+                    continue
+                ia, ib = chain[a], chain[b]
+                lim = limit[min(a, b)]
+                if float(axis[ia] @ axis[ib]) < math.cos(lim):
+                    axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim,
+                                          tuple(P.nrm[ib]))
+                    moved.add(int(ib))
+                    changed = True
+            if not changed:
+                break
         if moved:
-            m = np.asarray(moved, np.int64)
-            tip[m] = pl.tips(m, axis[m])
+            mv = np.asarray(sorted(moved), np.int64)
+            tip[mv] = pl.tips(mv, axis[mv])
 
 
-def _covered(pl: _Planner, gi: int) -> bool:
-    """Whether the states of pose gi reach every axis within its lean limits (a 2.5° grid of
-    the limits' leads and tilts that the cutter can touch with lies inside the states'
-    square): only then is "no axis within the limits" claimed."""
-    lo = np.radians(2.5)
-    L = np.arange(-pl.lim_l[gi], pl.lim_l[gi] + 1e-9, lo)
-    T = np.arange(-pl.lim_t[gi], pl.lim_t[gi] + 1e-9, lo)
-    lead, tilt = (x.ravel() for x in np.meshgrid(np.r_[L, pl.lim_l[gi]], np.r_[T, pl.lim_t[gi]]))
-    m = len(lead)
-    ax = lead_tilt_axes(np.repeat(pl.f[[gi]], m, 0), np.repeat(pl.P.nrm[[gi]], m, 0),
-                        np.repeat(pl.k[[gi]], m, 0), lead, tilt)
-    ax = ax[_touch_ok(pl.cutter, np.repeat(pl.P.nrm[[gi]], m, 0), ax)]
-    u, v = deviation_of(ax, pl.r[gi], pl.e1[gi], pl.e2[gi])
-    edge = pl.off[0][-1] + 1e-9
-    return bool(np.all((np.abs(u) <= edge) & (np.abs(v) <= edge)))
+def _no_axis(pl: _Planner, gis):
+    """{pose: why or None} for poses gis whose every state is known colliding: the claim
+    checked on a 2.5° grid of leads and tilts over the pose's whole lean box (the limits
+    included; axes the cutter cannot touch with, or the machine cannot reach, left out), the
+    contact kept. Grid axes inside the states' square (|u|, |v| ≤ the swing) are measured
+    unless the Lipschitz bound from the known states proves them colliding (a ball); none
+    clear → REASON_NO_AXIS when the whole box lies inside the square, else "no axis within
+    ±swing"; a clear one → None (a clear axis exists: the turn limit keeps it out of reach)."""
+    step, edge = math.radians(2.5), pl.off[0][-1] + 1e-9
+    rows, owners, covered = [], [], {}
+    for gi in gis:
+        ll, lt = float(pl.lim_l[gi]), float(pl.lim_t[gi])
+        L, T = np.meshgrid(np.r_[np.arange(-ll, ll, step), ll], np.r_[np.arange(-lt, lt, step), lt],
+                           indexing="ij")
+        m = L.size
+        g = np.full(m, gi)
+        ax = lead_tilt_axes(pl.f[g], pl.P.nrm[g], pl.k[g], L.ravel(), T.ravel())
+        ok = _touch_ok(pl.cutter, pl.P.nrm[g], ax)
+        if pl.machine is not None and ok.any():
+            ok[ok] = reachable_axes(pl.machine, ax[ok])
+        ax = ax[ok]
+        u, v = deviation_of(ax, pl.r[gi], pl.e1[gi], pl.e2[gi])
+        inside = (np.abs(u) <= edge) & (np.abs(v) <= edge)
+        covered[gi] = bool(inside.all())
+        ax = ax[inside]
+        if pl.lip is not None and len(ax):
+            k = pl.known[gi].ravel()
+            fin = np.isfinite(k)
+            A = pl.state_axes(gi).reshape(-1, 3)[fin]
+            ang = np.arccos(np.clip(ax @ A.T, -1.0, 1.0))
+            ax = ax[np.min(k[fin][None, :] + pl.lip * ang, axis=1) >= pl.safety]
+        rows.append(ax)
+        owners.append(np.full(len(ax), gi))
+    ax = np.vstack(rows) if rows else np.zeros((0, 3))
+    own = np.concatenate(owners) if owners else np.zeros(0, np.int64)
+    clr = pl.clearance(pl.tips(own, ax), ax) if len(ax) else np.zeros(0)
+    out = {}
+    for gi in gis:
+        if np.any(clr[own == gi] >= pl.safety):
+            out[gi] = None
+        else:
+            out[gi] = REASON_NO_AXIS if covered[gi] else \
+                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
+    return out
 
 
 def _edge_weight(offs, cc, idx, cutter):
