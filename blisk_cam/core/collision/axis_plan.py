@@ -296,7 +296,25 @@ class _Planner:
     def axes(self, g, du, dv):
         """(k, 3) axes at poses g (k,): the reference turned by the state (du, dv) (k,) in the
         transported frame (:meth:`set_frames`); the exponential map."""
-        return deviation_axes(self.r[g], self.e1[g], self.e2[g], du, dv)
+        return self.inside(g, deviation_axes(self.r[g], self.e1[g], self.e2[g], du, dv))
+
+    def inside(self, g, ax):
+        """(k, 3) the axes brought into the lean limits of poses g (lead and tilt clipped;
+        unchanged where inside): the state between two valid stations may lean past a limit
+        that varies along the pass."""
+        lead, tilt = lead_tilt_of(ax, self.f[g], self.P.nrm[g], self.k[g])
+        with np.errstate(invalid="ignore"):
+            out = ~((np.abs(lead) <= self.lim_l[g] + 1e-12)
+                    & (np.abs(tilt) <= self.lim_t[g] + 1e-12))
+        out &= np.isfinite(lead) & np.isfinite(tilt)
+        if not out.any():
+            return ax
+        ax = ax.copy()
+        o = np.asarray(g)[out]
+        ax[out] = lead_tilt_axes(self.f[o], self.P.nrm[o], self.k[o],
+                                 np.clip(lead[out], -self.lim_l[o], self.lim_l[o]),
+                                 np.clip(tilt[out], -self.lim_t[o], self.lim_t[o]))
+        return ax
 
     def tips(self, g, ax):
         P = self.P
@@ -304,11 +322,12 @@ class _Planner:
         return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
 
     def valid(self, g, dl, dt, ax):
-        """(k,) bool: the axis lies within the lean limits (|lead|, |tilt| from the surface
-        normal), the cutter touches and (a machine given) the rotaries reach."""
-        lead, tilt = lead_tilt_of(ax, self.f[g], self.P.nrm[g], self.k[g])
-        with np.errstate(invalid="ignore"):
-            ok = (np.abs(lead) <= self.lim_l[g] + 1e-9) & (np.abs(tilt) <= self.lim_t[g] + 1e-9)
+        """(k,) bool: the state's axis ``ax`` (brought into the lean limits by :meth:`axes`)
+        lies less than one state step from the state's own (so the states within a step
+        beyond a limit search the limit itself), the cutter touches and (a machine given)
+        the rotaries reach."""
+        own = deviation_axes(self.r[g], self.e1[g], self.e2[g], dl, dt)
+        ok = np.einsum("ij,ij->i", own, ax) > math.cos(self.step) + 1e-12
         ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
         if self.machine is not None and ok.any():
             ok[ok] = reachable_axes(self.machine, ax[ok])
@@ -791,6 +810,7 @@ def _limit_turns(pl: _Planner, runs, tip, axis):
                 if float(axis[ia] @ axis[ib]) < math.cos(lim):
                     axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim,
                                           tuple(P.nrm[ib]))
+                    axis[ib] = pl.inside(np.asarray([ib]), axis[ib][None])[0]
                     moved.add(int(ib))
                     changed = True
             if not changed:
