@@ -10,15 +10,22 @@ channel under a maximum angle step):
 1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
    the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
    ramps in and out. Outside the window the planned axis is kept.
-2. **States.** Per window pose the lean states: a grid of (lead, tilt) offsets about the
-   pose's reference (the planned axis, or the channel reference below), ±30° in 5° steps,
-   clipped into the lean limits (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the
-   surface normal as in :mod:`..paths.gouge`; a plan that leans further keeps its own lean
-   as the limit). A state's tip keeps the contact (ball: the centre fixed; bull nose / flat
-   / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the CC point and normal, plus the
-   plan's few-µm lift λ along the normal). A state the cutter cannot touch the surface with,
-   or (a machine given) the rotaries cannot produce (:func:`..machine.kinematics.
-   reachable_axes`), is excluded.
+2. **States.** Per window pose the states: deviations (u, v) of the pose's reference axis
+   (the planned axis, or the channel reference below), a square grid of ±60° in 5° steps,
+   the axis the reference turned by hypot(u, v) toward u·e1 + v·e2 (:func:`.axis_field.
+   deviation_axes`), where (e1, e2) is carried along the run by parallel transport
+   (:func:`.axis_field.transported_frames`). A state held along the pass then turns between
+   two poses by at most the reference's own turn, and a state step δ adds at most δ: the turn
+   limit bounds the state steps whatever the surface frame does. (Leads and tilts offsets in
+   the surface frame, the first design, cannot hold a deviation through a blade edge, where
+   the normal swings 180° within a millimetre: on Rotor 37 × 36 half the unresolved poses were
+   edge poses "out of reach of the turn limit".) A state is valid when its axis lies within
+   the lean limits (``|lead| ≤ max_lead``, ``|tilt| ≤ max_tilt`` from the surface normal as in
+   :mod:`..paths.gouge`; a plan that leans further keeps its own lean as the limit), the
+   cutter can touch the surface with it and (a machine given) the rotaries can produce it
+   (:func:`..machine.kinematics.reachable_axes`). A state's tip keeps the contact (ball: the
+   centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
+   CC point and normal, plus the plan's few-µm lift λ along the normal).
 3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
    of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
    edges). At each station a coarse 10° grid is measured by
@@ -29,13 +36,13 @@ channel under a maximum angle step):
    from the ball's centre, about which the axis turns).
 4. **Shortest path (Viterbi).** Along each run of window poses the state sequence minimising
 
-       Σ_stations [ C·[clr < ds] (C ≫ any lean cost; then the least deep)
-                    + (lead − lead_ref)² + (tilt − tilt_ref)² ]
+       Σ_stations [ C·[clr < ds] (C ≫ any lean cost; then the least deep) + u² + v² ]
 
-   with the exact turn between the states of consecutive stations within the planned turn
-   plus ``turn_per_mm`` × their arc distance (and from/to the fixed planned poses around the
-   run). Between stations the lean is linear in arc length; a pose pair that still turns
-   faster than :func:`turn_limits` is clamped (the later axis turned toward the earlier).
+   with the exact turn between the states of consecutive stations within the sum of the
+   poses' limits between them (:func:`turn_limits`: the planned turn plus ``turn_per_mm`` ×
+   the arc step; and from/to the fixed planned poses around the run). Between stations the
+   state is linear in arc length; a pose pair that still turns faster than its limit is
+   clamped (sweeps forward and backward).
    Since a colliding state costs more than any lean, the path leaves as few stations
    colliding as the limits allow.
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
@@ -51,11 +58,13 @@ mid-plane at the pose (the meridional plane turned from the CC point's by half t
 (leading and trailing edges of a blade pass).
 
 **Unresolved poses** (clearance < ds at the chosen axis) come as ranges per pass (pass,
-first, last pose, why): "no axis within the limits clears" (every state collides — the pose
-is a fact about the tool and holder), "the turn limit" (a clear state exists, or was not
-ruled out, but no sequence within the turn limit reaches it; "or the machine's reach" when a
-machine is given), or "the motion from the pose before collides". "No axis" is claimed only
-for poses whose every state is known exactly.
+first, last pose, why): "no axis within the limits clears" (the pose is a fact about the tool
+and holder), "the turn limit" (a clear axis exists, or was not ruled out, but no sequence
+within the turn limit reaches it; "or the machine's reach" when a machine is given), or "the
+motion from the pose before collides". "No axis" is claimed only for poses whose every state
+is known exactly to collide and where a 2.5° grid of leads and tilts over the whole lean box
+holds no clear axis either (:func:`_no_axis`; "within ±60° of the reference" when the box
+reaches beyond the states).
 
 Lengths mm, angles radians; numpy only (the distance machinery of :mod:`.scene`).
 """
@@ -67,16 +76,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..geometry.vectors import angle_between, unit
+from ..geometry.vectors import angle_between
 from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from ..tool.cutter import Cutter
+from .axis_field import (
+    MIN_STEP,
+    channel_reference,
+    deviation_axes,
+    deviation_of,
+    sample_motion,
+    transported_frames,
+    turn_limits,
+)
 
 __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
            "sample_motion", "turn_limits"]
 
-#: shortest step the turn limit counts, mm (see :func:`turn_limits`)
-MIN_STEP = 0.05
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
 #: the lean states' step, and the coarse grid's (measured at every station), rad
@@ -93,6 +109,8 @@ _MAX_R = 3
 #: samples inside each transition checked for the motion, and verification rounds
 _MOTION_SAMPLES = 3
 _ROUNDS = 4
+#: sweeps of the per-pose turn clamp (forward, backward, …)
+_SWEEPS = 6
 
 REASON_NO_AXIS = "no axis within the lean limits clears"
 REASON_TURN = "the turn limit keeps the clear axes out of reach"
@@ -131,54 +149,6 @@ class AxisPlan:
     motion_clearance: np.ndarray | None = None
     n_candidates: int = 0
     n_window: int = 0
-
-
-# ====================================================================== geometry helpers
-def sample_motion(tip0, ax0, tip1, ax1, t):
-    """Poses on the motion between two poses (k rows each) at fractions ``t`` (s,) in (0, 1):
-    the tip linear, the axis turned uniformly in the plane of the two (slerp). Returns
-    (tips (k·s, 3), axes (k·s, 3)), pose-major."""
-    t = np.asarray(t, dtype=np.float64)
-    om = angle_between(ax0, ax1)[:, None, None]
-    so = np.sin(om)
-    tt = t[None, :, None]
-    small = so < 1e-9
-    w0 = np.where(small, 1 - tt, np.sin((1 - tt) * om) / np.where(small, 1.0, so))
-    w1 = np.where(small, tt, np.sin(tt * om) / np.where(small, 1.0, so))
-    ax = unit((w0 * ax0[:, None, :] + w1 * ax1[:, None, :]).reshape(-1, 3), keep_zero=False)
-    tp = ((1 - tt) * tip0[:, None, :] + tt * tip1[:, None, :]).reshape(-1, 3)
-    return tp, ax
-
-
-def channel_reference(cc, normal, blisk_axis, blade_count: int):
-    """(k, 3) unit axes interpolated between the two blade sides of the gap at each CC point:
-    the radial direction of the channel's mid-plane — the meridional plane of ``cc`` turned
-    about the blisk axis by half the pitch (π/N) toward the side the normal ``normal`` faces
-    (the neighbour across the channel)."""
-    o = np.asarray(blisk_axis.o, dtype=np.float64)
-    d = unit(np.asarray(blisk_axis.d, dtype=np.float64))
-    rel = np.asarray(cc, dtype=np.float64) - o
-    radial = rel - (rel @ d)[:, None] * d
-    r = np.linalg.norm(radial, axis=1)
-    er = radial / np.maximum(r, 1e-300)[:, None]
-    et = np.cross(d, er)
-    side = np.sign(np.einsum("ij,ij->i", normal, et))
-    side = np.where(side == 0, 1.0, side)
-    half = side * math.pi / blade_count
-    return unit(np.cos(half)[:, None] * er + np.sin(half)[:, None] * et, keep_zero=False)
-
-
-def turn_limits(cc, planned_axes, turn_per_mm, max_turn=None):
-    """(k − 1,) largest axis turn (rad) allowed between consecutive poses of a pass: the
-    planned turn there (the surface's own, which avoidance does not judge) plus
-    ``turn_per_mm`` × the CC distance (at least :data:`MIN_STEP` mm), the added part capped
-    by ``max_turn`` per pose when given."""
-    ds = np.linalg.norm(np.diff(np.asarray(cc, dtype=np.float64), axis=0), axis=1)
-    added = turn_per_mm * np.maximum(ds, MIN_STEP)
-    if max_turn is not None:
-        added = np.minimum(added, max_turn)
-    a = np.asarray(planned_axes, dtype=np.float64)
-    return angle_between(a[:-1], a[1:]) + added
 
 
 def _touch_ok(cutter: Cutter, normal, axis):
@@ -267,11 +237,11 @@ class _Planner:
         self.cutter = scene.cutter
         self.ball = self.cutter.type == "ball"
         self.safety = scene.safety
-        # the states: offsets from the reference per lean direction (lead, tilt), k·step
-        # over the span the window's limits need (at most ±_SWING), the reference a state
+        # the states: deviations (u, v) from the reference, k·step up to ±span (the frame:
+        # :meth:`set_frames`), the reference itself a state
         self.step = _STEP
-        self.off = [np.arange(int(round(lo / _STEP)), int(round(hi / _STEP)) + 1) * _STEP
-                    for lo, hi in span]
+        m = int(round(span / _STEP))
+        self.off = [np.arange(-m, m + 1) * _STEP for _ in range(2)]
         # the coarse grid: every _COARSE-th state, both ends included
         self.cidx = [np.unique(np.r_[np.arange(0, len(o), _COARSE), len(o) - 1])
                      for o in self.off]
@@ -288,19 +258,63 @@ class _Planner:
                                max(a.max_radius, float(self.cutter.max_radius)))
                     if self.ball else None)
         self.exact = set()  # poses whose fine states were all measured
-        self.dlp = self.dtp = None
+        self.r = self.e1 = self.e2 = self.u0 = self.v0 = None
         # consecutive pose pairs (global) whose motion was found colliding: the shortest
         # path prices their motion per state pair (:meth:`motion_cost`), cached
         self.mpairs = set()
         self.mcost = {}
 
     # --- poses -----------------------------------------------------------------------------
-    def axes(self, g, dl, dt):
-        """(k, 3) axes at poses g (k,) leaning ref + (dl, dt) (k,), clipped into the lean
-        limits (the states beyond a limit lie on it: the limit itself is searched)."""
-        return lead_tilt_axes(self.f[g], self.P.nrm[g], self.k[g],
-                              np.clip(self.ref_l[g] + dl, -self.lim_l[g], self.lim_l[g]),
-                              np.clip(self.ref_t[g] + dt, -self.lim_t[g], self.lim_t[g]))
+    def set_frames(self, runs, ref_axes):
+        """The states' frame at every run pose: the reference axis ``ref_axes[g]`` and two unit
+        vectors across it, carried along the run by parallel transport (each pose's pair is the
+        one before turned by the smallest rotation taking the reference axis before to this
+        one). A state (u, v) is the reference turned by hypot(u, v) toward u·e1 + v·e2, so a
+        state held along the run turns between two poses by at most the reference's own turn
+        there, and a state step of δ adds at most δ: the turn limit is a bound on the state
+        steps, whatever the surface frame does (at the edges the normal swings by 180° within
+        a millimetre, where leads and tilts held constant turn the axis far faster than the
+        plan)."""
+        n = len(self.P.cc)
+        self.r = np.asarray(ref_axes, dtype=np.float64).copy()
+        self.e1 = np.zeros((n, 3))
+        self.e2 = np.zeros((n, 3))
+        for run in runs:
+            g = run.g
+            start = self.f[g[0]]
+            if np.linalg.norm(np.cross(start, self.r[g[0]])) < 1e-6:
+                start = self.k[g[0]]
+            arc = None
+            if run.cycle:
+                arc = np.r_[run.arc, run.arc[-1] + float(np.linalg.norm(
+                    self.P.cc[g[0]] - self.P.cc[g[-1]]))]
+            self.e1[g], self.e2[g] = transported_frames(self.r[g], start, arc)
+        # the planned axis in these coordinates
+        self.u0, self.v0 = deviation_of(self.P.ax0, self.r, self.e1, self.e2)
+
+    # --- poses -----------------------------------------------------------------------------
+    def axes(self, g, du, dv):
+        """(k, 3) axes at poses g (k,): the reference turned by the state (du, dv) (k,) in the
+        transported frame (:meth:`set_frames`); the exponential map."""
+        return self.inside(g, deviation_axes(self.r[g], self.e1[g], self.e2[g], du, dv))
+
+    def inside(self, g, ax):
+        """(k, 3) the axes brought into the lean limits of poses g (lead and tilt clipped;
+        unchanged where inside): the state between two valid stations may lean past a limit
+        that varies along the pass."""
+        lead, tilt = lead_tilt_of(ax, self.f[g], self.P.nrm[g], self.k[g])
+        with np.errstate(invalid="ignore"):
+            out = ~((np.abs(lead) <= self.lim_l[g] + 1e-12)
+                    & (np.abs(tilt) <= self.lim_t[g] + 1e-12))
+        out &= np.isfinite(lead) & np.isfinite(tilt)
+        if not out.any():
+            return ax
+        ax = ax.copy()
+        o = np.asarray(g)[out]
+        ax[out] = lead_tilt_axes(self.f[o], self.P.nrm[o], self.k[o],
+                                 np.clip(lead[out], -self.lim_l[o], self.lim_l[o]),
+                                 np.clip(tilt[out], -self.lim_t[o], self.lim_t[o]))
+        return ax
 
     def tips(self, g, ax):
         P = self.P
@@ -308,11 +322,12 @@ class _Planner:
         return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
 
     def valid(self, g, dl, dt, ax):
-        """(k,) bool: a state of its own (beyond a lean limit only the first state, which the
-        clip puts on the limit), the cutter touches and (a machine given) the rotaries
-        reach."""
-        ok = (np.abs(self.ref_l[g] + dl) < self.lim_l[g] + self.step - 1e-9) & \
-            (np.abs(self.ref_t[g] + dt) < self.lim_t[g] + self.step - 1e-9)
+        """(k,) bool: the state's axis ``ax`` (brought into the lean limits by :meth:`axes`)
+        lies less than one state step from the state's own (so the states within a step
+        beyond a limit search the limit itself), the cutter touches and (a machine given)
+        the rotaries reach."""
+        own = deviation_axes(self.r[g], self.e1[g], self.e2[g], dl, dt)
+        ok = np.einsum("ij,ij->i", own, ax) > math.cos(self.step) + 1e-12
         ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
         if self.machine is not None and ok.any():
             ok[ok] = reachable_axes(self.machine, ax[ok])
@@ -376,8 +391,12 @@ class _Planner:
         C = self.grid(g, *self.cidx)
         for gi, c in zip(g, C, strict=True):
             self.raw[int(gi)] = c
-        Fc = np.einsum("fa,sab,gb->sfg", self.M[0],
-                       np.where(np.isfinite(C), C, -self.safety - 50.0), self.M[1])
+        ok = np.isfinite(C)
+        num = np.einsum("fa,sab,gb->sfg", self.M[0], np.where(ok, C, 0.0), self.M[1])
+        den = np.einsum("fa,sab,gb->sfg", self.M[0], ok.astype(np.float64), self.M[1])
+        # interpolated from the valid coarse neighbours only (a state next to the lean
+        # limit is not made to collide by the invalid one beyond it)
+        Fc = np.where(den > 1e-9, num / np.maximum(den, 1e-300), -self.safety - 50.0)
         for gi, fc in zip(g, Fc, strict=True):  # states that are not valid stay out
             self.known[int(gi)] = np.where(self.state_valid(int(gi)), fc, -np.inf)
 
@@ -552,10 +571,12 @@ class _Planner:
             if (int(r.pre), int(gst[0])) in self.mpairs:
                 cost = cost + self.motion_cost_fixed(r.pre, gst[0], True)
         backs = []
+        # the turn allowed between two stations: the sum of the poses' limits between them
+        # (a state held along the run turns by at most the sum of the reference's turns)
+        cum = np.r_[0.0, np.cumsum(turn_limits(P.cc[r.g], P.ax0[r.g], self.rate,
+                                               self.max_turn))]
         for j in range(1, len(gst)):
-            gap = r.arc[r.st[j]] - r.arc[r.st[j - 1]]
-            lim = float(angle_between(P.ax0[[gst[j - 1]]], P.ax0[[gst[j]]])[0]) + \
-                self.rate * max(gap, MIN_STEP)
+            lim = float(cum[r.st[j]] - cum[r.st[j - 1]])
             offs, ok = self._moves(A[j - 1], A[j], lim)
             rr = _MAX_R
             pad = np.full((Fl + 2 * rr, Ft + 2 * rr), np.inf)
@@ -632,16 +653,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if edge_lead:
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
-    w = np.nonzero(win)[0]
-    span = [(max(-_SWING, float(np.min(-lm[w] - rf[w]))), min(_SWING, float(np.max(lm[w] - rf[w]))))
-            for lm, rf in ((lim_lead, ref_l), (lim_tilt, ref_t))]
-    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span)
-    # the states cover the lean limits unless they reach further than the swing
-    covered = bool(np.all(-lim_lead[w] - ref_l[w] >= span[0][0] - 1e-9)
-                   and np.all(lim_lead[w] - ref_l[w] <= span[0][1] + 1e-9)
-                   and np.all(-lim_tilt[w] - ref_t[w] >= span[1][0] - 1e-9)
-                   and np.all(lim_tilt[w] - ref_t[w] <= span[1][1] + 1e-9))
-    pl.dlp, pl.dtp = l0 - ref_l, t0 - ref_t  # the planned lean as an offset
+    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING)
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -662,6 +674,11 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
                 cyc, pre = False, s + run[0] - 1 if run[0] > 0 else None
                 post = s + run[-1] + 1 if run[-1] + 1 < k else None
             runs.append(_Run(g, arc, pl.stations(g, arc), pre, post, cyc))
+    ref_axes = ax0.copy()
+    if reference == "channel" and blisk_axis is not None and blade_count:
+        w = np.nonzero(win)[0]
+        ref_axes[w] = lead_tilt_axes(f[w], nrm[w], k_side[w], ref_l[w], ref_t[w])
+    pl.set_frames(runs, ref_axes)
     # the coarse grid at every station of every run: one batched measurement
     pl.measure_coarse(np.concatenate([r.g[r.st] for r in runs]))
     if progress is not None:
@@ -705,11 +722,11 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     motion = result["motion"]
     unresolved = (clear < pl.safety) | (motion < pl.safety)
     why = np.full(n, REASON_TURN, dtype=object)
-    for gi in np.nonzero(unresolved)[0]:
-        c = pl.known.get(int(gi))
-        if int(gi) in pl.exact and c is not None and not np.any(c >= pl.safety):
-            why[gi] = REASON_NO_AXIS if covered else \
-                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
+    cand = [int(gi) for gi in np.nonzero(unresolved)[0] if int(gi) in pl.exact
+            and not np.any(pl.known[int(gi)] >= pl.safety)]
+    for gi, w in _no_axis(pl, cand).items():
+        if w is not None:
+            why[gi] = w
     why[(clear >= pl.safety) & (motion < pl.safety)] = REASON_MOTION
     if machine is not None:
         why[(why == REASON_TURN) & unresolved] = REASON_TURN + " or the machine's reach"
@@ -728,7 +745,7 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     gs, dls, dts = [], [], []
     for r, seq in zip(runs, chosen, strict=True):
         if seq is None:
-            dl, dt = pl.dlp[r.g], pl.dtp[r.g]
+            dl, dt = pl.u0[r.g], pl.v0[r.g]
         else:
             dl = np.interp(r.arc, r.arc[r.st], pl.off[0][seq[:, 0]])
             dt = np.interp(r.arc, r.arc[r.st], pl.off[1][seq[:, 1]])
@@ -740,7 +757,7 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     ax = pl.axes(g, dl, dt)
     axis[g] = ax
     tip[g] = pl.tips(g, ax)
-    same = (np.abs(dl - pl.dlp[g]) < 1e-12) & (np.abs(dt - pl.dtp[g]) < 1e-12)
+    same = (np.abs(dl - pl.u0[g]) < 1e-12) & (np.abs(dt - pl.v0[g]) < 1e-12)
     axis[g[same]], tip[g[same]] = P.ax0[g[same]], P.tip0[g[same]]  # the planned pose, exactly
     _limit_turns(pl, runs, tip, axis)
     prev_, next_ = [], []
@@ -768,26 +785,85 @@ def _chain(r: _Run):
 
 def _limit_turns(pl: _Planner, runs, tip, axis):
     """Where the lean interpolated between stations turns faster than the limit between two
-    poses, the later axis is turned back toward the earlier one (forward, then from the
-    fixed pose after the run backward), its tip recomputed for the contact; in place."""
+    poses, the later axis is turned toward the earlier one (a sweep forward from the fixed
+    pose before the run), then the earlier toward the later (backward from the fixed pose
+    after it, or from the closing cut), the sweeps alternating until every pair holds (at
+    most :data:`_SWEEPS`); tips recomputed for the contact; in place."""
     P = pl.P
     for r in runs:
         chain = _chain(r)
-        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn)
-        moved = []
-        order = [(i, i + 1) for i in range(len(chain) - 1)]
-        if r.post is not None or r.cycle:  # the last pose is fixed: turn toward it
-            order = order[:-1] + [(len(chain) - 1, len(chain) - 2)]
-        for a, b in order:
-            ia, ib = chain[a], chain[b]
-            lim = limit[min(a, b)]
-            if float(axis[ia] @ axis[ib]) < math.cos(lim) - 1e-12:
-                axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim * (1 - 1e-9),
-                                      tuple(P.nrm[ib]))
-                moved.append(ib)
+        m = len(chain)
+        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn) * (1 - 1e-9)
+        fixed = np.zeros(m, bool)
+        fixed[0] = r.pre is not None or r.cycle
+        fixed[-1] = r.post is not None or r.cycle
+        moved = set()
+        for sweep in range(_SWEEPS):
+            changed = False
+            pairs = [(i, i + 1) for i in range(m - 1)] if sweep % 2 == 0 else \
+                [(i, i - 1) for i in range(m - 1, 0, -1)]
+            for a, b in pairs:  # b turned toward a
+                if fixed[b]:
+                    continue
+                ia, ib = chain[a], chain[b]
+                lim = limit[min(a, b)]
+                if float(axis[ia] @ axis[ib]) < math.cos(lim):
+                    axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim,
+                                          tuple(P.nrm[ib]))
+                    axis[ib] = pl.inside(np.asarray([ib]), axis[ib][None])[0]
+                    moved.add(int(ib))
+                    changed = True
+            if not changed:
+                break
         if moved:
-            m = np.asarray(moved, np.int64)
-            tip[m] = pl.tips(m, axis[m])
+            mv = np.asarray(sorted(moved), np.int64)
+            tip[mv] = pl.tips(mv, axis[mv])
+
+
+def _no_axis(pl: _Planner, gis):
+    """{pose: why or None} for poses gis whose every state is known colliding: the claim
+    checked on a 2.5° grid of leads and tilts over the pose's whole lean box (the limits
+    included; axes the cutter cannot touch with, or the machine cannot reach, left out), the
+    contact kept. Grid axes inside the states' square (|u|, |v| ≤ the swing) are measured
+    unless the Lipschitz bound from the known states proves them colliding (a ball); none
+    clear → REASON_NO_AXIS when the whole box lies inside the square, else "no axis within
+    ±swing"; a clear one → None (a clear axis exists: the turn limit keeps it out of reach)."""
+    step, edge = math.radians(2.5), pl.off[0][-1] + 1e-9
+    rows, owners, covered = [], [], {}
+    for gi in gis:
+        ll, lt = float(pl.lim_l[gi]), float(pl.lim_t[gi])
+        L, T = np.meshgrid(np.r_[np.arange(-ll, ll, step), ll], np.r_[np.arange(-lt, lt, step), lt],
+                           indexing="ij")
+        m = L.size
+        g = np.full(m, gi)
+        ax = lead_tilt_axes(pl.f[g], pl.P.nrm[g], pl.k[g], L.ravel(), T.ravel())
+        ok = _touch_ok(pl.cutter, pl.P.nrm[g], ax)
+        if pl.machine is not None and ok.any():
+            ok[ok] = reachable_axes(pl.machine, ax[ok])
+        ax = ax[ok]
+        u, v = deviation_of(ax, pl.r[gi], pl.e1[gi], pl.e2[gi])
+        inside = (np.abs(u) <= edge) & (np.abs(v) <= edge)
+        covered[gi] = bool(inside.all())
+        ax = ax[inside]
+        if pl.lip is not None and len(ax):
+            k = pl.known[gi].ravel()
+            fin = np.isfinite(k)
+            A = pl.state_axes(gi).reshape(-1, 3)[fin]
+            ang = np.arccos(np.clip(ax @ A.T, -1.0, 1.0))
+            ax = ax[np.min(k[fin][None, :] + pl.lip * ang, axis=1) >= pl.safety]
+        rows.append(ax)
+        owners.append(np.full(len(ax), gi))
+    ax = np.vstack(rows) if rows else np.zeros((0, 3))
+    own = np.concatenate(owners) if owners else np.zeros(0, np.int64)
+    clr = pl.clearance(pl.tips(own, ax), ax) if len(ax) else np.zeros(0)
+    out = {}
+    for gi in gis:
+        if np.any(clr[own == gi] >= pl.safety):
+            out[gi] = None
+        else:
+            out[gi] = REASON_NO_AXIS if covered[gi] else \
+                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
+    return out
 
 
 def _edge_weight(offs, cc, idx, cutter):
