@@ -8,9 +8,11 @@ normals: for the vertices between the hub and tip cones, the point half a resolu
 the surface is material and the point allowance + 1.5 resolutions outside is air. A ray
 stands for its cell (the nearest ray answers for a point), so a point is off its ray by up to
 half a cell in θ and in z: half a resolution inward + the allowance covers that except at the
-thinnest edges, hence ≥ 99 % and not all. Outward points that fall in the hub's own stock
-(within allowance + resolution of the hub cone, at the blade foot) are not blade air and are
-left out."""
+thinnest edges, hence ≥ 99 % and not all (measured at 0.4 mm: 13 of Rotor 37's 8663 vertices
+between the cones are not, all at the blade's edges near the tip, 0.26–0.33 mm thick there,
+where half a resolution inward is past the middle of the edge). Outward points that fall in
+the hub's own stock (within allowance + resolution of the hub cone, at the blade foot) are not
+blade air and are left out."""
 
 from __future__ import annotations
 
