@@ -218,13 +218,23 @@ def stock_from_mesh(V, F, axis: Axis, blade_count: int, theta0: float,
     return _fill(dex, rays, a, b)
 
 
+def _welded_faces(V, F) -> np.ndarray:
+    """``F`` with every corner renumbered to the first vertex at the same position (exact
+    coordinates): a triangle soup (an STL read as is, three corners per triangle) becomes a
+    connected surface whose only boundary edges are its open ends, and whose vertex normals
+    average the faces around each corner. The identity on a mesh without coincident
+    vertices (its faces are returned unchanged)."""
+    _, first, inv = np.unique(V, axis=0, return_index=True, return_inverse=True)
+    return first[inv.reshape(-1)][F]
+
+
 def _closed_offset_blade(part: BliskPart, allowance: float):
     """Blade 0 grown by ``allowance`` along its vertex normals, its open ends closed by
     tents: the foot's apex 3 mm + allowance below (inside the hub), the tip's above. Returns
     the closed mesh (W, G) and the tip loop's meridional points (k, 2) sorted by z (None
     for a closed blade)."""
     V = np.asarray(part.blade_vertices, float)
-    F = np.asarray(part.blade_faces, np.int64)
+    F = _welded_faces(V, np.asarray(part.blade_faces, np.int64))
     N2 = triangle_normals(V, F)
     vn = np.zeros_like(V)
     for k in range(3):
