@@ -480,33 +480,34 @@ fn apply_hits(lrow: &mut [f64], hrow: &mut [f64], hits: &mut [Hit], k: usize, me
     ro
 }
 
-/// Remove the solids from the stock `lo`, `hi` ((n_rays, K) row-major, changed in place);
-/// `measure`: also the material each group's union met (crash checks).
-pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut [f64],
-              hi: &mut [f64]) -> (Outcome, u64) {
-    let m = s.tips.len();
-    let (nt, k) = (grid.n_theta, grid.k);
-    let mut out = Outcome {
-        removed: 0.0,
-        group_vol: vec![0.0; n_groups],
-        group_vol_in: vec![0.0; n_groups],
-        group_depth: vec![0.0; n_groups],
-        overflow_rays: Vec::new(),
-        overflow: Vec::new(),
-    };
-    // solids per grid row (CSR)
-    let live: Vec<usize> = (0..m)
-        .filter(|&i| s.c1[i] >= s.c0[i] && s.w1[i] >= s.w0[i] && s.w0[i] < grid.n_z as i64 && s.w1[i] >= 0)
+/// The items (solids or moves) whose column range `c0..=c1` and row range `w0..=w1` meet the
+/// grid, bucketed by grid row (CSR: `by_row[start[j]..start[j + 1]]` for row `wmin + j`), and
+/// the unit ray directions `dirs` of the unwrapped columns from `cmin` on that they span; None when
+/// no item meets the grid.
+struct RowBuckets {
+    live: Vec<usize>,
+    wmin: usize,
+    nrow: usize,
+    start: Vec<usize>,
+    by_row: Vec<usize>,
+    cmin: i64,
+    dirs: Vec<[f64; 3]>,
+}
+
+fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> Option<RowBuckets> {
+    let nz = grid.n_z as i64;
+    let live: Vec<usize> = (0..c0.len())
+        .filter(|&i| c1[i] >= c0[i] && w1[i] >= w0[i] && w0[i] < nz && w1[i] >= 0)
         .collect();
     if live.is_empty() {
-        return (out, 0);
+        return None;
     }
-    let wmin = live.iter().map(|&i| s.w0[i].max(0)).min().unwrap() as usize;
-    let wmax = live.iter().map(|&i| s.w1[i].min(grid.n_z as i64 - 1)).max().unwrap() as usize;
+    let wmin = live.iter().map(|&i| w0[i].max(0)).min().unwrap() as usize;
+    let wmax = live.iter().map(|&i| w1[i].min(nz - 1)).max().unwrap() as usize;
     let nrow = wmax - wmin + 1;
     let mut start = vec![0usize; nrow + 1];
     for &i in &live {
-        for w in s.w0[i].max(wmin as i64)..=s.w1[i].min(wmax as i64) {
+        for w in w0[i].max(wmin as i64)..=w1[i].min(wmax as i64) {
             start[w as usize - wmin + 1] += 1;
         }
     }
@@ -516,16 +517,15 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
     let mut fill = start.clone();
     let mut by_row = vec![0usize; start[nrow]];
     for &i in &live {
-        for w in s.w0[i].max(wmin as i64)..=s.w1[i].min(wmax as i64) {
+        for w in w0[i].max(wmin as i64)..=w1[i].min(wmax as i64) {
             let j = w as usize - wmin;
             by_row[fill[j]] = i;
             fill[j] += 1;
         }
     }
-    // unit ray directions of the unwrapped columns
-    let cmin = live.iter().map(|&i| s.c0[i]).min().unwrap();
-    let cmax = live.iter().map(|&i| s.c1[i]).max().unwrap();
-    let [o, e1, e2, d] = grid.frame;
+    let cmin = live.iter().map(|&i| c0[i]).min().unwrap();
+    let cmax = live.iter().map(|&i| c1[i]).max().unwrap();
+    let [_, e1, e2, _] = grid.frame;
     let dirs: Vec<[f64; 3]> = (cmin..=cmax)
         .map(|c| {
             let ang = grid.theta0 + (c as f64 + 0.5) * grid.d_theta;
@@ -533,6 +533,29 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
             [cs * e1[0] + sn * e2[0], cs * e1[1] + sn * e2[1], cs * e1[2] + sn * e2[2]]
         })
         .collect();
+    Some(RowBuckets { live, wmin, nrow, start, by_row, cmin, dirs })
+}
+
+/// Remove the solids from the stock `lo`, `hi` ((n_rays, K) row-major, changed in place);
+/// `measure`: also the material each group's union met (crash checks).
+pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut [f64],
+              hi: &mut [f64]) -> (Outcome, u64) {
+    let (nt, k) = (grid.n_theta, grid.k);
+    let mut out = Outcome {
+        removed: 0.0,
+        group_vol: vec![0.0; n_groups],
+        group_vol_in: vec![0.0; n_groups],
+        group_depth: vec![0.0; n_groups],
+        overflow_rays: Vec::new(),
+        overflow: Vec::new(),
+    };
+    let Some(RowBuckets { live, wmin, nrow, start, by_row, cmin, dirs }) =
+        row_buckets(grid, s.c0, s.c1, s.w0, s.w1)
+    else {
+        return (out, 0);
+    };
+    let wmax = wmin + nrow - 1;
+    let [o, _, _, d] = grid.frame;
     // the reference's plane order: the widest first (top, side), then the rest
     let q = s.planes.len();
     let order: Vec<usize> = if q > 2 {
@@ -1007,44 +1030,14 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
         overflow_rays: Vec::new(),
         overflow: Vec::new(),
     };
-    let live: Vec<usize> = (0..m)
-        .filter(|&i| mv.c1[i] >= mv.c0[i] && mv.w1[i] >= mv.w0[i] && mv.w0[i] < grid.n_z as i64 && mv.w1[i] >= 0)
-        .collect();
-    if live.is_empty() {
+    let Some(RowBuckets { live, wmin, nrow, start, by_row, cmin, dirs }) =
+        row_buckets(grid, mv.c0, mv.c1, mv.w0, mv.w1)
+    else {
         return (out, 0);
-    }
+    };
+    let wmax = wmin + nrow - 1;
+    let [o, _, _, d] = grid.frame;
     let poses: Vec<MovePoses> = (0..m).map(|i| move_poses(mv, i, tool)).collect();
-    let wmin = live.iter().map(|&i| mv.w0[i].max(0)).min().unwrap() as usize;
-    let wmax = live.iter().map(|&i| mv.w1[i].min(grid.n_z as i64 - 1)).max().unwrap() as usize;
-    let nrow = wmax - wmin + 1;
-    let mut start = vec![0usize; nrow + 1];
-    for &i in &live {
-        for w in mv.w0[i].max(wmin as i64)..=mv.w1[i].min(wmax as i64) {
-            start[w as usize - wmin + 1] += 1;
-        }
-    }
-    for j in 0..nrow {
-        start[j + 1] += start[j];
-    }
-    let mut fill = start.clone();
-    let mut by_row = vec![0usize; start[nrow]];
-    for &i in &live {
-        for w in mv.w0[i].max(wmin as i64)..=mv.w1[i].min(wmax as i64) {
-            let j = w as usize - wmin;
-            by_row[fill[j]] = i;
-            fill[j] += 1;
-        }
-    }
-    let cmin = live.iter().map(|&i| mv.c0[i]).min().unwrap();
-    let cmax = live.iter().map(|&i| mv.c1[i]).max().unwrap();
-    let [o, e1, e2, d] = grid.frame;
-    let dirs: Vec<[f64; 3]> = (cmin..=cmax)
-        .map(|c| {
-            let ang = grid.theta0 + (c as f64 + 0.5) * grid.d_theta;
-            let (sn, cs) = (ang.sin(), ang.cos());
-            [cs * e1[0] + sn * e2[0], cs * e1[1] + sn * e2[1], cs * e1[2] + sn * e2[2]]
-        })
-        .collect();
     let pairs: u64 = live
         .iter()
         .map(|&i| {
