@@ -30,9 +30,10 @@ def _args(blade, out, *extra):
 def test_unresolved_collisions_exit_4_with_outputs_written(blade, tmp_path, capsys):
     out = tmp_path / "p.json"
     nc = tmp_path / "p.ngc"
+    # a Ø60 holder from 45 mm: the neighbours leave poses no axis within the limits clears
     rc = cli.main(_args(blade, out, "--blade-count", "24", "--collisions", "avoid", "--holder",
-                        "36 6 60 6 60 16 120 16", "--nc", str(nc), "--machine",
-                        "ac-trunnion", "--post", "linuxcnc"))
+                        "36 6 45 6 45 30 120 30", "--nc", str(nc), "--machine",
+                        "ac-trunnion", "--post", "linuxcnc", "--quiet"))
     captured = capsys.readouterr()
     err = captured.err.strip().splitlines()
     d = json.loads(out.read_text())
@@ -42,16 +43,14 @@ def test_unresolved_collisions_exit_4_with_outputs_written(blade, tmp_path, caps
     ranges = d["collision"].get("unresolved_ranges", [])
     in_ranges = sum(r["to"] - r["from"] + 1 for r in ranges)
     assert in_ranges == int(np.sum(status == 2))  # every unresolved pass pose in a range
-    if ranges:  # the CLI names them, with the reason, and says which holder would clear
-        assert f"unresolved pass poses in {len(ranges)} range(s): pass {ranges[0]['pass']} " \
-            f"poses {ranges[0]['from']}–{ranges[0]['to']} ({ranges[0]['why']})" in captured.out
-        assert "hint: " in captured.out
+    assert unresolved > 0 and ranges
+    # the CLI names them, with the reason, and says which holder would clear
+    assert f"unresolved pass poses in {len(ranges)} range(s): pass {ranges[0]['pass']} " \
+        f"poses {ranges[0]['from']}–{ranges[0]['to']} ({ranges[0]['why']})" in captured.out
+    assert "hint: " in captured.out
     assert len(d["program"]["collision_status"]) == len(d["program"]["tip"])
-    if unresolved:
-        assert rc == 4 and len(err) == 1 and f"{unresolved} pose(s)" in err[0]
-        assert "first: program row" in err[0] and not nc.exists()
-    else:  # every pose cleared: a normal run
-        assert rc == 0 and nc.exists()
+    assert rc == 4 and len(err) == 1 and f"{unresolved} pose(s)" in err[0]  # --quiet: 1 line
+    assert "first: program row" in err[0] and not nc.exists()
     assert set(np.unique(status)) <= {0, 1, 2}
     # the clearance reported per program row is below ds exactly where the status says so
     clr = np.asarray(d["program"]["clearance"], dtype=float)
