@@ -18,6 +18,7 @@ from blisk_cam.core.hub.surface import HubSurface
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.model import part_from_demo
 from blisk_cam.core.process.job import iter_run_job, load_job
+from tests.support.jobs import demo_job_head
 
 
 def _measure(**kw):
@@ -39,21 +40,7 @@ def test_the_fillet_radius_is_measured_on_the_demo_blade(radius):
     assert _measure(fillet=False) is None
 
 
-JOB = """
-[part]
-source = "demo"
-material = "Ti-6Al-4V"
-[part.demo]
-resolution = 0.3
-
-[stock]
-blank = "allowance:0.6"
-resolution = 1.0
-
-[machine]
-name = "ac-trunnion"
-posts = ["linuxcnc"]
-
+JOB = f"""{demo_job_head(resolution=1.0)}
 [[tool]]
 number = 5
 type = "ball"

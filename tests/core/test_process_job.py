@@ -26,6 +26,7 @@ from blisk_cam.core.stock.dexels import RadialDexels
 from blisk_cam.core.tool.cutter import Cutter
 from blisk_cam.core.toolpath.paths_io import read_paths_json
 from blisk_cam.core.toolpath.types import MOVE_CUT
+from tests.support.jobs import demo_job_head
 from tests.support.nc import RS274, parse_canon
 
 TIP_TOL = 1e-3 + 1e-4  # mm: 4 printed decimals
@@ -34,21 +35,7 @@ AXIS_TOL = 1e-4  # rad
 CONES = """cone1 = [170.0, -25.0, 185.0, 35.0]
 cone2 = [215.0, -25.0, 225.0, 35.0]"""
 
-JOB = f"""
-[part]
-source = "demo"
-material = "Ti-6Al-4V"
-[part.demo]
-resolution = 0.3
-
-[stock]
-blank = "allowance:0.6"
-resolution = 2.0
-
-[machine]
-name = "ac-trunnion"
-posts = ["linuxcnc"]
-
+JOB = f"""{demo_job_head(resolution=2.0)}
 [[tool]]
 number = 3
 type = "ball"

@@ -22,22 +22,9 @@ from blisk_cam.core.part.model import part_from_demo
 from blisk_cam.core.process.job import iter_run_job, load_job
 from blisk_cam.core.toolpath.paths_io import read_paths_json
 from blisk_cam.core.toolpath.types import MOVE_CUT
+from tests.support.jobs import demo_job_head
 
-JOB = """
-[part]
-source = "demo"
-material = "Ti-6Al-4V"
-[part.demo]
-resolution = 0.3
-
-[stock]
-blank = "allowance:0.6"
-resolution = 1.0
-
-[machine]
-name = "ac-trunnion"
-posts = ["linuxcnc"]
-
+JOB = f"""{demo_job_head(resolution=1.0)}
 [[tool]]
 number = 3
 type = "ball"
