@@ -141,6 +141,35 @@ pub struct Outcome {
     pub overflow: Vec<Vec<(f64, f64)>>,
 }
 
+impl Outcome {
+    fn new(n_groups: usize) -> Self {
+        Outcome {
+            removed: 0.0,
+            group_vol: vec![0.0; n_groups],
+            group_vol_in: vec![0.0; n_groups],
+            group_depth: vec![0.0; n_groups],
+            overflow_rays: Vec::new(),
+            overflow: Vec::new(),
+        }
+    }
+
+    /// Add the grid rows' outcomes (in row order).
+    fn absorb(&mut self, rows: Vec<RowOut>) {
+        for r in rows {
+            self.removed += r.removed;
+            for (g, v, dm, vi) in r.groups {
+                self.group_vol[g] += v;
+                self.group_vol_in[g] += vi;
+                self.group_depth[g] = self.group_depth[g].max(dm);
+            }
+            for (ray, pc) in r.overflow {
+                self.overflow_rays.push(ray);
+                self.overflow.push(pc);
+            }
+        }
+    }
+}
+
 #[inline]
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
@@ -485,13 +514,14 @@ fn apply_hits(lrow: &mut [f64], hrow: &mut [f64], hits: &mut [Hit], k: usize, me
 /// the unit ray directions `dirs` of the unwrapped columns from `cmin` on that they span; None when
 /// no item meets the grid.
 struct RowBuckets {
-    live: Vec<usize>,
     wmin: usize,
     nrow: usize,
     start: Vec<usize>,
     by_row: Vec<usize>,
     cmin: i64,
     dirs: Vec<[f64; 3]>,
+    /// candidate ray–item pairs (each live item's rows × columns in the grid)
+    pairs: u64,
 }
 
 fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> Option<RowBuckets> {
@@ -533,7 +563,14 @@ fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> O
             [cs * e1[0] + sn * e2[0], cs * e1[1] + sn * e2[1], cs * e1[2] + sn * e2[2]]
         })
         .collect();
-    Some(RowBuckets { live, wmin, nrow, start, by_row, cmin, dirs })
+    let pairs: u64 = live
+        .iter()
+        .map(|&i| {
+            let nw = (w1[i].min(nz - 1) - w0[i].max(0) + 1).max(0) as u64;
+            nw * (c1[i] - c0[i] + 1) as u64
+        })
+        .sum();
+    Some(RowBuckets { wmin, nrow, start, by_row, cmin, dirs, pairs })
 }
 
 /// Remove the solids from the stock `lo`, `hi` ((n_rays, K) row-major, changed in place);
@@ -541,15 +578,8 @@ fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> O
 pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut [f64],
               hi: &mut [f64]) -> (Outcome, u64) {
     let (nt, k) = (grid.n_theta, grid.k);
-    let mut out = Outcome {
-        removed: 0.0,
-        group_vol: vec![0.0; n_groups],
-        group_vol_in: vec![0.0; n_groups],
-        group_depth: vec![0.0; n_groups],
-        overflow_rays: Vec::new(),
-        overflow: Vec::new(),
-    };
-    let Some(RowBuckets { live, wmin, nrow, start, by_row, cmin, dirs }) =
+    let mut out = Outcome::new(n_groups);
+    let Some(RowBuckets { wmin, nrow, start, by_row, cmin, dirs, pairs }) =
         row_buckets(grid, s.c0, s.c1, s.w0, s.w1)
     else {
         return (out, 0);
@@ -557,32 +587,9 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
     let wmax = wmin + nrow - 1;
     let [o, _, _, d] = grid.frame;
     // the reference's plane order: the widest first (top, side), then the rest
-    let q = s.planes.len();
-    let order: Vec<usize> = if q > 2 {
-        [q - 1, q - 2].into_iter().chain(0..q - 2).collect()
-    } else {
-        (0..q).collect()
-    };
-    let mut always: Vec<bool> =
-        s.planes.iter().map(|p| p[0].abs() < EPS && p[1] > 0.0).collect();
-    for &i in order.iter().take(2) {
-        always[i] = true;
-    }
-    let profile = Profile { planes: s.planes, order, always, rho: s.rho };
-    let inner = s.planes_in.map(|pl| {
-        let q = pl.len();
-        let order: Vec<usize> =
-            if q > 2 { [q - 1, q - 2].into_iter().chain(0..q - 2).collect() } else { (0..q).collect() };
-        Profile { planes: pl, always: vec![true; q], order, rho: None }
-    });
+    let profile = polygon_profile(s.planes, s.rho);
+    let inner = s.planes_in.map(|pl| polygon_profile(pl, None));
     let r_b = s.radius;
-    let pairs: u64 = live
-        .iter()
-        .map(|&i| {
-            let nw = (s.w1[i].min(grid.n_z as i64 - 1) - s.w0[i].max(0) + 1).max(0) as u64;
-            nw * (s.c1[i] - s.c0[i] + 1) as u64
-        })
-        .sum();
     let block = nt * k;
     let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
     let hi_rows = &mut hi[wmin * block..(wmax + 1) * block];
@@ -627,18 +634,7 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
             apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
         })
         .collect();
-    for r in rows {
-        out.removed += r.removed;
-        for (g, v, dm, vi) in r.groups {
-            out.group_vol[g] += v;
-            out.group_vol_in[g] += vi;
-            out.group_depth[g] = out.group_depth[g].max(dm);
-        }
-        for (ray, pc) in r.overflow {
-            out.overflow_rays.push(ray);
-            out.overflow.push(pc);
-        }
-    }
+    out.absorb(rows);
     (out, pairs)
 }
 
@@ -1022,15 +1018,8 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
              hi: &mut [f64]) -> (Outcome, u64) {
     let m = mv.t0.len();
     let (nt, k) = (grid.n_theta, grid.k);
-    let mut out = Outcome {
-        removed: 0.0,
-        group_vol: vec![0.0; n_groups],
-        group_vol_in: vec![0.0; n_groups],
-        group_depth: vec![0.0; n_groups],
-        overflow_rays: Vec::new(),
-        overflow: Vec::new(),
-    };
-    let Some(RowBuckets { live, wmin, nrow, start, by_row, cmin, dirs }) =
+    let mut out = Outcome::new(n_groups);
+    let Some(RowBuckets { wmin, nrow, start, by_row, cmin, dirs, pairs }) =
         row_buckets(grid, mv.c0, mv.c1, mv.w0, mv.w1)
     else {
         return (out, 0);
@@ -1038,13 +1027,6 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
     let wmax = wmin + nrow - 1;
     let [o, _, _, d] = grid.frame;
     let poses: Vec<MovePoses> = (0..m).map(|i| move_poses(mv, i, tool)).collect();
-    let pairs: u64 = live
-        .iter()
-        .map(|&i| {
-            let nw = (mv.w1[i].min(grid.n_z as i64 - 1) - mv.w0[i].max(0) + 1).max(0) as u64;
-            nw * (mv.c1[i] - mv.c0[i] + 1) as u64
-        })
-        .sum();
     let has_inner = measure && (!tool.prims_in.is_empty() || tool.poly_in.is_some());
     let block = nt * k;
     let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
@@ -1104,18 +1086,7 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
             apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
         })
         .collect();
-    for r in rows {
-        out.removed += r.removed;
-        for (g, v, dm, vi) in r.groups {
-            out.group_vol[g] += v;
-            out.group_vol_in[g] += vi;
-            out.group_depth[g] = out.group_depth[g].max(dm);
-        }
-        for (ray, pc) in r.overflow {
-            out.overflow_rays.push(ray);
-            out.overflow.push(pc);
-        }
-    }
+    out.absorb(rows);
     (out, pairs)
 }
 
