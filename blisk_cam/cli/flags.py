@@ -43,6 +43,18 @@ def _same_file(a: str, b: str) -> bool:
         return False
 
 
+def add_part_arguments(parser) -> None:
+    """The part's flags of the commands that read a blisk (``simulate``, ``rough``, ``hub``):
+    ``--part`` (the whole blisk, or one blade with ``--hub-profile``) and ``--blade-count``."""
+    parser.add_argument("--part", required=True, metavar="MESH",
+                        help="the whole blisk (.stl/.obj/.ply, mm), or one blade with "
+                        "--hub-profile")
+    parser.add_argument("--hub-profile", metavar="CSV", default=None,
+                        help="hub generatrix 'r, z' per line (mm): --part is then one blade")
+    parser.add_argument("--blade-count", required=True, type=int, metavar="N",
+                        help="number of blades (checked against the mesh's symmetry)")
+
+
 def check_file_roles(inputs, outputs) -> None:
     """UsageError, before any work, when an output file is an input file or another output:
     ``inputs`` and ``outputs`` are ``[(flag, file name or None)]``. Nothing the user owns is

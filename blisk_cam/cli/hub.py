@@ -27,7 +27,7 @@ import time
 from copy import copy
 
 from ..core.errors import BliskCamError
-from .flags import PROG, UsageError, check_file_roles, finite, positive
+from .flags import PROG, UsageError, add_part_arguments, check_file_roles, finite, positive
 
 __all__ = ["add_hub_arguments", "run_hub"]
 
@@ -43,13 +43,7 @@ def add_hub_arguments(parser: argparse.ArgumentParser):
     """Add the ``hub`` options to ``parser``."""
     from .nc import add_nc_arguments
 
-    parser.add_argument("--part", required=True, metavar="MESH",
-                        help="the whole blisk (.stl/.obj/.ply, mm), or one blade with "
-                        "--hub-profile")
-    parser.add_argument("--hub-profile", metavar="CSV", default=None,
-                        help="hub generatrix 'r, z' per line (mm): --part is then one blade")
-    parser.add_argument("--blade-count", required=True, type=int, metavar="N",
-                        help="number of blades (checked against the mesh's symmetry)")
+    add_part_arguments(parser)
     parser.add_argument("--operation", choices=("hub", "fillet"), default="hub",
                         help="hub: the hub between two blades; fillet: loops along the "
                         "fillet around the blade root (default hub)")

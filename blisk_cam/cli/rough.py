@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 from ..core.errors import BliskCamError
-from .flags import PROG, UsageError, check_file_roles, positive
+from .flags import PROG, UsageError, add_part_arguments, check_file_roles, positive
 from .nc import add_nc_arguments
 from .simulate import _part, _stock
 
@@ -57,13 +57,7 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
     from ..core.channel.levels import LEVEL_MODES
     from ..core.process.roughing import PATTERNS
 
-    parser.add_argument("--part", required=True, metavar="MESH",
-                        help="the whole blisk (.stl/.obj/.ply, mm), or one blade with "
-                        "--hub-profile")
-    parser.add_argument("--hub-profile", metavar="CSV", default=None,
-                        help="hub generatrix 'r, z' per line (mm): --part is then one blade")
-    parser.add_argument("--blade-count", required=True, type=int, metavar="N",
-                        help="number of blades (checked against the mesh's symmetry)")
+    add_part_arguments(parser)
     parser.add_argument("--stock", required=True, metavar="BLANK",
                         help="the blank: a closed (r, z) profile CSV, a closed mesh, "
                         "'envelope:MM' (the part's envelope plus MM) or a stock state .npz")

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from ..core.errors import BliskCamError
 from ..core.files import write_atomic
-from .flags import PROG, UsageError
+from .flags import PROG, UsageError, add_part_arguments
 
 __all__ = ["add_simulate_arguments", "run_simulate"]
 
@@ -35,13 +35,7 @@ EXIT_VERDICT_FAILED = 5
 
 def add_simulate_arguments(parser: argparse.ArgumentParser):
     """Add the ``simulate`` options to ``parser``."""
-    parser.add_argument("--part", required=True, metavar="MESH",
-                        help="the whole blisk (.stl/.obj/.ply, mm), or one blade with "
-                        "--hub-profile")
-    parser.add_argument("--hub-profile", metavar="CSV", default=None,
-                        help="hub generatrix 'r, z' per line (mm): --part is then one blade")
-    parser.add_argument("--blade-count", required=True, type=int, metavar="N",
-                        help="number of blades (checked against the mesh's symmetry)")
+    add_part_arguments(parser)
     parser.add_argument("--stock", required=True, metavar="BLANK",
                         help="the blank: a closed (r, z) profile CSV, a closed mesh, "
                         "'allowance:MM' (the part plus MM), 'envelope:MM' (the part's envelope "
