@@ -24,6 +24,12 @@ VENV45 := .venv/bpy45
 VENV52 := .venv/bpy52
 REQ45 := requirements/bpy45.txt
 REQ52 := requirements/bpy52.txt
+# make package's own venv: zig (ziglang) for the cross-built kernels wheels, kept out of the
+# test venvs so that a test's Linux wheel reuses make kernels' build.
+VENVPKG := .venv/package
+REQPKG := requirements/package.txt
+# The Rust targets of the macOS arm64 and Windows x64 kernels wheels.
+PACKAGE_RUST_TARGETS := aarch64-apple-darwin x86_64-pc-windows-gnu
 
 # Per-process time limits (a hang, e.g. bpy 4.5 at exit with classes still registered,
 # fails the run instead of blocking it).
@@ -80,7 +86,7 @@ define ensure_kernels
 endef
 
 .PHONY: help venv45 venv52 venvs kernels kernels45 kernels52 demo test test-core test-blender45 test-blender52 bench \
-        package package-all lint clean
+        package package-all package-tools lint clean
 
 help:
 	@sed -n 's/^#   make /  make /p' $(firstword $(MAKEFILE_LIST))
@@ -143,11 +149,22 @@ bench: kernels45
 	  PYTHONPATH="$(CURDIR)" $(TIMEOUT) $(TIMEOUT_BENCH) $(VENV45)/bin/python "$$f"; \
 	done
 
-package: venv45
-	$(VENV45)/bin/python scripts/build_extension.py --output-dir dist
+# zig on PATH as python3 -m ziglang (the package venv first), the Rust targets added when
+# rustup is here (without them the script says which zip runs the numpy kernels).
+package-tools:
+	$(call ensure_venv,$(VENVPKG),$(PY311),$(REQPKG))
+	@export PATH="$$PATH:$(CARGO_HOME_BIN)"; \
+	if command -v rustup >/dev/null 2>&1; then \
+	  rustup target add $(PACKAGE_RUST_TARGETS) >/dev/null || \
+	    echo "rustup could not add $(PACKAGE_RUST_TARGETS): those zips run the numpy kernels"; fi
 
-package-all: venv45
-	$(VENV45)/bin/python scripts/build_extension.py --output-dir dist --one-zip
+package: venv45 package-tools
+	PATH="$(CURDIR)/$(VENVPKG)/bin:$$PATH:$(CARGO_HOME_BIN)" \
+	  $(VENV45)/bin/python scripts/build_extension.py --output-dir dist
+
+package-all: venv45 package-tools
+	PATH="$(CURDIR)/$(VENVPKG)/bin:$$PATH:$(CARGO_HOME_BIN)" \
+	  $(VENV45)/bin/python scripts/build_extension.py --output-dir dist --one-zip
 
 lint: venv45
 	$(VENV45)/bin/ruff check .

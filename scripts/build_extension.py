@@ -23,7 +23,13 @@ without wheels) is one zip either way.
 The compiled kernels (``kernels/``, Rust): with the wheels, one abi3 wheel per platform
 (Python 3.11 and 3.13 alike) is built with maturin (``--zig`` when zig or ``ziglang`` is
 installed: Linux as manylinux_2_28; without it the Linux wheel has this machine's glibc tag)
-and bundled beside scipy. A platform whose Rust target is not installed (``rustup target add
+and bundled beside scipy. macOS arm64 and Windows x64 are cross-built with zig, which
+``make package`` installs (``requirements/package.txt``) along with their Rust targets. Windows
+is built for ``x86_64-pc-windows-gnu``: zig links it against the Universal CRT and
+``python3.dll`` (the runtime Blender's own Python uses), while the ``-msvc`` target would need
+Microsoft's SDK, which cannot be fetched from a package registry. Every built wheel's binary is
+checked (machine type and, on Windows, that it imports ``python3.dll`` — the stable ABI)
+before it is bundled. A platform whose Rust target is not installed (``rustup target add
 …``), or a machine without cargo or maturin, gets none: that zip runs the numpy kernels (the
 same paths, slower), and the script says so. ``--no-kernels`` skips them.
 
@@ -38,9 +44,11 @@ import importlib.util
 import os
 import re
 import shutil
+import struct
 import subprocess
 import sys
 import tomllib
+import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -64,7 +72,7 @@ SCIPY_FOR_PYTHON = {"3.11": "1.15.3", "3.13": "1.18.1"}
 KERNEL_TARGETS = {
     "linux-x64": "x86_64-unknown-linux-gnu",
     "macos-arm64": "aarch64-apple-darwin",
-    "windows-x64": "x86_64-pc-windows-msvc",
+    "windows-x64": "x86_64-pc-windows-gnu",  # zig-linked, UCRT (module docstring)
 }
 KERNELS_DIR = ROOT / "kernels"
 
@@ -286,8 +294,43 @@ def build_kernel_wheels(out_dir: Path, platforms: list[str]) -> list[Path]:
         if done.returncode != 0 or len(found) != 1:
             raise BuildError(f"maturin could not build the kernels for {platform} "
                              f"(exit {done.returncode}); --no-kernels leaves them out")
+        check_kernel_binary(found[0], platform)
         wheels.append(found[0])
     return wheels
+
+
+def check_kernel_binary(wheel: Path, platform: str) -> None:
+    """Refuse a kernels wheel whose extension is not a binary for ``platform``: an x86-64 ELF
+    (Linux), an arm64 Mach-O (macOS) or an x86-64 PE DLL importing ``python3.dll`` (Windows,
+    the stable ABI that lets one wheel serve Python 3.11 and 3.13), exporting the module's
+    ``PyInit_blisk_cam_kernels``."""
+    suffix = {"linux-x64": ".so", "macos-arm64": ".so", "windows-x64": ".pyd"}[platform]
+    with zipfile.ZipFile(wheel) as zf:
+        names = [n for n in zf.namelist() if n.startswith("blisk_cam_kernels/")
+                 and n.endswith(suffix)]
+        if len(names) != 1:
+            raise BuildError(f"{wheel.name}: expected one blisk_cam_kernels/*{suffix}, found "
+                             f"{names or 'none'}")
+        data = zf.read(names[0])
+    if platform == "linux-x64":
+        ok = (data[:4] == b"\x7fELF" and data[4] == 2
+              and struct.unpack_from("<H", data, 18)[0] == 0x3E)  # EM_X86_64
+        what = "an x86-64 ELF shared object"
+    elif platform == "macos-arm64":
+        ok = (data[:4] == b"\xcf\xfa\xed\xfe"
+              and struct.unpack_from("<I", data, 4)[0] == 0x0100000C)  # CPU_TYPE_ARM64
+        what = "an arm64 Mach-O"
+    else:
+        pe = struct.unpack_from("<I", data, 0x3C)[0] if data[:2] == b"MZ" else 0
+        ok = (pe and data[pe:pe + 4] == b"PE\0\0"
+              and struct.unpack_from("<H", data, pe + 4)[0] == 0x8664
+              and b"python3.dll" in data)
+        what = "an x86-64 Windows DLL importing python3.dll"
+    if ok and b"PyInit_blisk_cam_kernels" not in data:
+        ok, what = False, "a Python module (no PyInit_blisk_cam_kernels symbol)"
+    if not ok:
+        raise BuildError(f"{wheel.name}: {names[0]} is not {what}; the {platform} zip would not "
+                         "load it (check the Rust target and the zig install)")
 
 
 def manifest_with_wheels(text: str, wheels: list[str], platforms: list[str]) -> str:

@@ -79,3 +79,60 @@ def test_bad_combinations_are_refused_with_one_line():
                               stdin=subprocess.DEVNULL)
         assert proc.returncode != 0 and msg in proc.stderr, proc.stderr
         assert "Traceback" not in proc.stderr
+
+
+def _fake_wheel(path, member, data):
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr(member, data)
+    return path
+
+
+def _elf(machine):
+    head = bytearray(64)
+    head[:5] = b"\x7fELF\x02"
+    head[18:20] = machine.to_bytes(2, "little")
+    return bytes(head)
+
+
+def _macho(cputype):
+    return b"\xcf\xfa\xed\xfe" + cputype.to_bytes(4, "little") + bytes(56)
+
+
+def _pe(machine, imports=b"python3.dll"):
+    head = bytearray(0x100)
+    head[:2] = b"MZ"
+    head[0x3C:0x40] = (0x80).to_bytes(4, "little")
+    head[0x80:0x84] = b"PE\0\0"
+    head[0x84:0x86] = machine.to_bytes(2, "little")
+    return bytes(head) + imports
+
+
+SYMBOL = b"PyInit_blisk_cam_kernels"
+
+
+@pytest.mark.parametrize("platform, member, data, ok", [
+    ("linux-x64", "blisk_cam_kernels/blisk_cam_kernels.abi3.so", _elf(0x3E) + SYMBOL, True),
+    ("linux-x64", "blisk_cam_kernels/blisk_cam_kernels.abi3.so", _elf(0xB7) + SYMBOL, False),
+    ("linux-x64", "blisk_cam_kernels/blisk_cam_kernels.abi3.so", _elf(0x3E), False),
+    ("macos-arm64", "blisk_cam_kernels/blisk_cam_kernels.abi3.so", _macho(0x0100000C) + SYMBOL,
+     True),
+    ("macos-arm64", "blisk_cam_kernels/blisk_cam_kernels.abi3.so", _macho(0x01000007) + SYMBOL,
+     False),
+    ("windows-x64", "blisk_cam_kernels/blisk_cam_kernels.pyd", _pe(0x8664) + SYMBOL, True),
+    ("windows-x64", "blisk_cam_kernels/blisk_cam_kernels.pyd", _pe(0x8664, b"python311.dll")
+     + SYMBOL, False),
+    ("windows-x64", "blisk_cam_kernels/blisk_cam_kernels.pyd", _pe(0xAA64) + SYMBOL, False),
+    ("windows-x64", "blisk_cam_kernels/blisk_cam_kernels.so", _pe(0x8664) + SYMBOL, False),
+])
+def test_kernel_wheel_binary_is_checked(be, tmp_path, platform, member, data, ok):
+    """A cross-built kernels wheel is bundled only if its extension is a module for the zip's
+    platform: x86-64 ELF, arm64 Mach-O, x86-64 DLL on the stable ABI (python3.dll, not a
+    version's DLL); anything else is refused with a line naming the wheel and the platform."""
+    wheel = _fake_wheel(tmp_path / "k.whl", member, data)
+    if ok:
+        be.check_kernel_binary(wheel, platform)
+    else:
+        with pytest.raises(be.BuildError, match=f"k.whl.*{platform}|k.whl: expected one"):
+            be.check_kernel_binary(wheel, platform)
