@@ -254,6 +254,13 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
     chord = float(options.chord or path.chord)
     feeds = options.feeds()
     n_bl = int(options.blades)
+    held = int((path.stats or {}).get("gaps_in_program", 1) or 1)
+    if held > 1:  # a program that already holds every gap (roughing by level): not repeated
+        if n_bl not in (1, held):
+            raise PostError(f"the program already holds all {held} gaps of the blisk (roughing "
+                            f"ordered by level); it cannot be repeated for {n_bl} blades: give "
+                            f"the blade count {held} or 1")
+        n_bl = 1
     o, d = path.axis.o, path.axis.d
     sigma = _indexable(machine, o, d) if (indexable and solve and options.use_subprogram) else 0.0
     if indexable == "z" and (np.linalg.norm(np.cross(d, [0.0, 0, 1])) > 1e-9

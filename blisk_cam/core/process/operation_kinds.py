@@ -472,6 +472,8 @@ _ROUGH_KEYS = {
     "safety": (0.5, "the body's distance from the allowance shell, mm", "mm"),
     "station_step": (0.5, "pose spacing along the channel, mm", "mm"),
     "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),
+    "order": ("gap", "gap (every level of a gap, then the next gap) or level (a level in every "
+              "gap, then the next level; the program holds all gaps)", "word"),
 }
 
 

@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..channel.axis import bound_turn, limit_turn, mean_camber_lean
+from ..channel.gaps import GAP_ORDERS, pattern_gaps
 from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
     Piece,
@@ -68,6 +69,7 @@ from ..channel.patterns import (
 )
 from ..channel.region import channel_bounds, cylinder_sections, fill_free, offset_table
 from ..errors import BliskCamError, StockError, ToolError
+from ..geometry.vectors import rotate_about
 from ..part.cones import Cone
 from ..part.model import BliskPart, theta_about
 from ..runtime import Progress, check_cancel
@@ -116,6 +118,12 @@ class RoughRequest:
     check_stock : bool — run the program on the blank and leave out what brings the tool
         body against the stock (the ``link`` stage; False: only the simulation afterwards
         reports it)
+    order : str — ``gap``: every level of a gap before the next gap; ``level``: a level in
+        every gap before the next level (:mod:`..channel.gaps`); with ``level`` the program
+        holds all N gaps (the post must not repeat it)
+    gaps : int or None — the gaps the program holds, gap 0 … gaps − 1, in ``order`` (None:
+        one with ``gap`` — the post repeats it gap by gap, the same order —, all N with
+        ``level``); a program of 1 < gaps < N can only be posted alone (blade count 1)
     """
 
     tool: Cutter
@@ -139,6 +147,8 @@ class RoughRequest:
     follow_blades: bool = True
     max_turn: float = math.radians(2.0)
     check_stock: bool = True
+    order: str = "gap"
+    gaps: int | None = None
 
 
 @dataclass
@@ -248,6 +258,14 @@ class RoughingOperation(Operation):
         if req.levels not in LEVEL_MODES:
             raise BliskCamError(f"levels must be one of {', '.join(LEVEL_MODES)}, got "
                                 f"{req.levels!r}")
+        if req.order not in GAP_ORDERS:
+            raise BliskCamError(f"order must be one of {', '.join(GAP_ORDERS)} (by gap: all "
+                                f"levels of a gap, then the next gap; by level: a level in "
+                                f"every gap, then the next level), got {req.order!r}")
+        if req.gaps is not None and not (isinstance(req.gaps, (int, np.integer))
+                                         and 1 <= req.gaps <= part.blade_count):
+            raise BliskCamError(f"the gaps the program holds must be a whole number from 1 to "
+                                f"the blade count {part.blade_count}, got {req.gaps!r}")
         if req.pattern not in PATTERNS:
             raise BliskCamError(f"pattern must be one of {', '.join(PATTERNS)}, got "
                                 f"{req.pattern!r}")
@@ -596,8 +614,15 @@ class RoughingOperation(Operation):
                                    "of leaving passes out: check the simulation's crashes")
         curves = [PassCurve(s=float(p.level), closed=False, cc=p.tip, normal=p.axis,
                             tip=p.tip, axis=p.axis) for p in st.pieces]
+        n_pat = int(req.gaps) if req.gaps is not None else (
+            part.blade_count if req.order == "level" else 1)
+        if n_pat > 1:
+            tip, axis, move, curve, index, rows, curves = self._patterned(
+                st, (tip, axis, move, curve, index), curves, n_pat)
+            program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         plunge = req.plunge_feed or 0.5 * req.feed
         est = machining_time(tip, move, req.feed, plunge, req.rapid_feed)
+        est["minutes"] /= n_pat  # the program holds n_pat gaps
         P = part.hub_profile
         zt = st.z[~st.outside]
         cone1 = Cone(float(P[0, 0]), float(P[0, 1]), float(P[-1, 0]), float(P[-1, 1]))
@@ -620,6 +645,8 @@ class RoughingOperation(Operation):
             "passes": len(st.pieces),
             "rows": len(tip),
             "gaps": part.blade_count,
+            "order": req.order,
+            "gaps_in_program": int(n_pat),
             "level_rows": [[int(rows[k][0]), int(rows[k][1])] if k in rows else [0, 0]
                            for k in range(len(st.levels))],
             "level_labels": [lv.label for lv in st.levels],
@@ -651,6 +678,42 @@ class RoughingOperation(Operation):
                            curves=curves, stats=stats, program=program,
                            warnings=list(st.warnings), operation="rough")
         yield Progress(1.0, f"linked {len(tip)} rows")
+
+    def _patterned(self, st: _State, gap0, curves, n_gaps: int):
+        """The program of ``n_gaps`` gaps in the request's order (:mod:`..channel.gaps`):
+        by gap, gap 0's whole program ``gap0`` (tip, axis, move, curve, index) per gap; by
+        level, each level's pieces linked alone per gap. Returns (tip, axis, move, curve,
+        index, rows, curves): rows[level] the [first, last + 1) rows of the level's passes
+        over all gaps, curves gap 0's passes then each gap's turned copies."""
+        part = st.part
+        if st.req.order == "gap":
+            blocks = [gap0]
+        else:
+            blocks = []
+            for lv in sorted({pc.level for pc in st.pieces}):
+                ids = [k for k, pc in enumerate(st.pieces) if pc.level == lv]
+                t, a, m, c, i, _ = link_program([st.pieces[k] for k in ids], part.axis,
+                                                self._r_safe(st))
+                c = np.where(c >= 0, np.asarray(ids, np.int64)[np.maximum(c, 0)], -1)
+                blocks.append((t, a, m, c, i))
+        n = len(curves)
+        tip, axis, move, curve, index, _, _ = pattern_gaps(blocks, part.axis, part.pitch,
+                                                           n_gaps, st.req.order, n)
+        d = part.axis.d
+        out = list(curves)
+        for g in range(1, n_gaps):
+            turn = g * part.pitch
+            for pc in curves:
+                t = rotate_about(pc.tip, d, turn, part.axis.o)
+                a = rotate_about(pc.axis, d, turn)
+                out.append(PassCurve(s=pc.s, closed=False, cc=t, normal=a, tip=t, axis=a))
+        level = np.array([int(pc.s) for pc in out])
+        rows = {}
+        cut = np.nonzero(curve >= 0)[0]
+        for lv in np.unique(level[curve[cut]]):
+            r = cut[level[curve[cut]] == lv]
+            rows[int(lv)] = (int(r.min()), int(r.max()) + 1)
+        return tip, axis, move, curve, index, rows, out
 
     def finish(self, state, seconds):
         return OperationResult(state.path, None, dict(seconds))

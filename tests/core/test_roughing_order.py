@@ -1,0 +1,172 @@
+"""Channel roughing ordered by gap or by level (#23: "order by level or by gap; links,
+approaches and retracts that stay clear of stock and part (the stock simulation says so)").
+
+Measured truths, each by a means the planner does not use:
+
+* the order is read back from the program's rows: the gap of a cutting row from its tip's
+  angle about the blisk axis (gap 0's mean angle plus k pitches), its level from its pass;
+  by gap the (gap, level) keys of the cutting rows never go back, by level the (level, gap)
+  keys never do, and every gap gets every level with the same number of cutting rows;
+* between two gaps the tool leaves the channel: only retract, rapid and approach rows lie
+  between the last cutting row of one gap and the first of the next, and every straight
+  rapid segment keeps its closest point to the axis (closed form) at least the clearance
+  above the blank's largest radius;
+* the stock simulation of the patterned program (three gaps of the periodic blank at 1 mm,
+  both orders) reports no crash — no rapid, link or body meets material;
+* the post does not repeat a program that already holds every gap.
+
+Cheap on purpose: the 25 mm test blisk of test_roughing.py, the radial axis (no wall levels),
+8 mm levels, 1 mm stations.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from blisk_cam.core.errors import BliskCamError, PostError
+from blisk_cam.core.machine.description import load_machine
+from blisk_cam.core.part.model import part_from_demo, theta_about
+from blisk_cam.core.post.blocks import NcOptions, build_blocks
+from blisk_cam.core.process.roughing import RoughRequest, plan_roughing
+from blisk_cam.core.stock.blank import stock_from_envelope
+from blisk_cam.core.stock.removal import remove_program
+from blisk_cam.core.toolpath.types import (
+    MOVE_APPROACH,
+    MOVE_CUT,
+    MOVE_RAPID,
+    MOVE_RETRACT,
+)
+from tests.core.test_roughing import _demo, _tool
+
+CLEARANCE = 5.0
+
+
+@pytest.fixture(scope="module")
+def setup():
+    part = part_from_demo(_demo())
+    return part, stock_from_envelope(part, 2.0, 1.0)
+
+
+def _plan(setup, order, gaps=None):
+    part, stock = setup
+    req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, follow_blades=False,
+                       station_step=1.0, clearance=CLEARANCE, order=order, gaps=gaps)
+    return plan_roughing(part, req, stock)
+
+
+@pytest.fixture(scope="module")
+def by_level_all(setup):
+    return _plan(setup, "level")
+
+
+@pytest.fixture(scope="module")
+def three(setup):
+    return {order: _plan(setup, order, gaps=3) for order in ("gap", "level")}
+
+
+def _gap_level(part, path):
+    """(rows, gap, level) of the program's cutting rows: the gap from the angle about the axis
+    between the row's tip and the same pose of gap 0 (a whole number of pitches, asserted)."""
+    P = path.program
+    cut = np.nonzero(P.move == MOVE_CUT)[0]
+    n = len(path.curves) // path.stats["gaps_in_program"]
+    base = np.array([path.curves[c % n].tip[i] for c, i in zip(P.curve[cut], P.index[cut],
+                                                                strict=True)])
+    r, th, z = theta_about(P.tip[cut], part.axis)
+    r0, th0, z0 = theta_about(base, part.axis)
+    np.testing.assert_allclose(np.stack([r, z], 1), np.stack([r0, z0], 1), atol=1e-9)
+    turns = ((th - th0) % (2 * math.pi)) / part.pitch
+    k = np.round(turns).astype(int)
+    assert np.abs(turns - k).max() < 1e-9  # each row is gap 0's pose turned by k pitches
+    lv = np.array([int(path.curves[c].s) for c in P.curve[cut]])
+    return cut, k % part.blade_count, lv
+
+
+def _never_back(keys):
+    keys = np.asarray(keys)
+    d = np.diff(keys, axis=0)
+    first = np.where(d[:, 0] != 0, d[:, 0], d[:, 1])
+    return bool((first >= 0).all())
+
+
+def _assert_order(part, path, order, n_gaps):
+    cut, gap, lv = _gap_level(part, path)
+    assert path.stats["order"] == order and path.stats["gaps_in_program"] == n_gaps
+    assert sorted(set(gap.tolist())) == list(range(n_gaps))
+    keys = np.stack([gap, lv], 1) if order == "gap" else np.stack([lv, gap], 1)
+    assert _never_back(keys), f"the rows are not ordered by {order}"
+    counts = {(g, v): int(((gap == g) & (lv == v)).sum()) for g in range(n_gaps)
+              for v in np.unique(lv)}
+    for v in np.unique(lv):  # every gap gets every level, the same passes
+        assert len({counts[(g, v)] for g in range(n_gaps)}) == 1
+        assert counts[(0, v)] > 0
+    return cut, gap
+
+
+def _assert_clear_between_gaps(part, stock, path):
+    P = path.program
+    cut, gap = _gap_level(part, path)[:2]
+    top = float(stock.hi.max())
+    r, _, _ = theta_about(P.tip, part.axis)
+    changes = np.nonzero(np.diff(gap) != 0)[0]
+    assert len(changes) >= path.stats["gaps_in_program"] - 1
+    for i in changes:
+        a, b = cut[i], cut[i + 1]
+        between = P.move[a + 1:b]
+        assert np.isin(between, (MOVE_RETRACT, MOVE_RAPID, MOVE_APPROACH)).all()
+        assert r[a + 1:b].max() >= top + CLEARANCE - 1e-6  # out at the safe radius
+    # every rapid's straight segment: its nearest point to the axis, closed form
+    j = np.nonzero(P.move == MOVE_RAPID)[0]
+    j = j[j > 0]
+    o, d = part.axis.o, part.axis.d
+    p0, p1 = P.tip[j - 1] - o, P.tip[j] - o
+    p0 -= np.outer(p0 @ d, d)
+    p1 -= np.outer(p1 @ d, d)
+    e = p1 - p0
+    t = np.clip(-np.einsum("ij,ij->i", p0, e) / np.maximum(np.einsum("ij,ij->i", e, e), 1e-12),
+                0.0, 1.0)
+    nearest = np.linalg.norm(p0 + t[:, None] * e, axis=1)
+    assert nearest.min() >= top + CLEARANCE - 1e-6, nearest.min()
+
+
+def test_by_level_holds_every_gap_level_by_level(setup, by_level_all):
+    part, stock = setup
+    _assert_order(part, by_level_all, "level", part.blade_count)
+    _assert_clear_between_gaps(part, stock, by_level_all)
+    # the time of one gap is the whole program's over the gaps
+    s = by_level_all.stats
+    assert s["machining_time_min_all_gaps"] == pytest.approx(
+        s["machining_time_min_gap"] * part.blade_count)
+
+
+@pytest.mark.parametrize("order", ["gap", "level"])
+def test_three_gaps_in_order_and_the_stock_simulation_finds_no_crash(setup, three, order):
+    part, stock = setup
+    path = three[order]
+    _assert_order(part, path, order, 3)
+    _assert_clear_between_gaps(part, stock, path)
+    res = remove_program(stock.copy(), path.program, path.tool, sweep_tolerance=0.05)
+    assert res.crashes == []
+    assert res.volume > 0
+
+
+def test_the_post_does_not_repeat_a_program_of_every_gap(setup, by_level_all, three):
+    part, _ = setup
+    machine = load_machine("ac-trunnion")
+    n = part.blade_count
+    blocks = build_blocks(by_level_all, machine, NcOptions(blades=n), solve=False)
+    assert blocks.blades == 1
+    assert (blocks.source >= 0).sum() == len(by_level_all.program)
+    with pytest.raises(PostError, match="already holds all 3 gaps"):
+        build_blocks(three["gap"], machine, NcOptions(blades=n), solve=False)
+
+
+def test_bad_order_and_gap_count_are_refused(setup):
+    for kw, msg in (({"order": "spiral"}, "order must be one of gap, level"),
+                    ({"gaps": 0}, "whole number from 1 to the blade count 24"),
+                    ({"gaps": 25}, "whole number from 1 to the blade count 24")):
+        with pytest.raises(BliskCamError, match=msg):
+            _plan(setup, **{"order": "gap", **kw})
