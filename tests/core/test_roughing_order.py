@@ -170,3 +170,16 @@ def test_bad_order_and_gap_count_are_refused(setup):
                     ({"gaps": 25}, "whole number from 1 to the blade count 24")):
         with pytest.raises(BliskCamError, match=msg):
             _plan(setup, **{"order": "gap", **kw})
+
+
+def test_a_job_takes_the_order_and_checks_it_up_front(tmp_path):
+    from blisk_cam.core.process.job import iter_run_job, load_job
+    from tests.core.test_process_kinds import ROUGH_JOB
+
+    job = tmp_path / "bad.toml"
+    job.write_text(ROUGH_JOB.replace("stepover = 6\n", 'stepover = 6\norder = "spiral"\n'))
+    gen = iter_run_job(load_job(job))
+    with pytest.raises(BliskCamError, match=r"operation 1 \('roughing'\).*order must be one "
+                                            r"of gap, level"):
+        for _ in range(3):
+            next(gen)

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..channel.gaps import GAP_ORDERS
 from ..collision.options import CollisionOptions
 from ..errors import BliskCamError, OptionError
 from ..geometry.mesh import TriMesh
@@ -42,6 +43,7 @@ from .fillet_finish import FILLET_FINISH, part_fillet
 from .hub_finish import HUB_FINISH, HubRequest, _stage_channel, start_state
 from .operation import Operation, Stage
 from .roughing import RoughingOperation, RoughRequest
+from .semi_layers import layer_allowances
 
 __all__ = ["OPERATION_KINDS", "PLANNED", "OperationContext", "OperationKind",
            "PreparedOperation", "ToolEntry", "narrowest_gap", "operation_kind",
@@ -235,6 +237,7 @@ def prepare_blade_finish(ctx: OperationContext) -> PreparedOperation:
     coll_kw = typed_options(coll, (CollisionOptions,), where)
     try:
         req = PathRequest(ctx.part.axis, cone1, cone2, **ctx.tool.cutter_options(), **path_kw)
+        layer_allowances(req.allowance, req.layers_from, req.layers)  # layers: up front
     except BliskCamError as exc:
         raise BliskCamError(f"{where}: {exc}") from None
     extra = ()
@@ -496,6 +499,9 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
     for key in ("stepover", "depth_per_cut"):
         if key not in kw:
             raise BliskCamError(f"{where}: key {key!r} is missing (mm)")
+    if kw.get("order", "gap") not in GAP_ORDERS:
+        raise BliskCamError(f"{where} key 'order': order must be one of {', '.join(GAP_ORDERS)}"
+                            f", got {kw['order']!r}")
     if "axis" in kw:
         axis = kw.pop("axis")
         if axis not in ("blades", "radial"):
