@@ -419,8 +419,9 @@ def _cmd_paths(args):
     stock = (f", allowance {req.allowance:g} mm (semi-finishing: the blade offset by it)"
              if req.allowance else "")
     if req.layers > 1:
-        stock += ("," if not req.allowance else "") + (f" in {req.layers} layers from {req.layers_from:g} mm ("
-                  + ", ".join(f"{a:g}" for a in path.stats["layer_allowances"]) + " mm)")
+        stock += ("," if not req.allowance else "") + (
+            f" in {req.layers} layers from {req.layers_from:g} mm ("
+            + ", ".join(f"{a:g}" for a in path.stats["layer_allowances"]) + " mm)")
     print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm"
           f"{stock}; kernels: {path.stats.get('kernels', 'numpy')}")
     for w in plan.warnings:

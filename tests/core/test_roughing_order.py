@@ -183,3 +183,16 @@ def test_a_job_takes_the_order_and_checks_it_up_front(tmp_path):
                                             r"of gap, level"):
         for _ in range(3):
             next(gen)
+
+
+def test_the_rough_command_takes_the_order(capsys):
+    from blisk_cam.cli.main import build_parser, main
+
+    base = ["rough", "--part", "b.stl", "--blade-count", "24", "--stock", "envelope:2",
+            "--tool", "flat", "--tool-diameter", "8", "--depth-per-cut", "4", "--stepover", "4",
+            "--out", "r.json"]
+    parser = build_parser()
+    assert parser.parse_args(base).order == "gap"
+    assert parser.parse_args(base + ["--order", "LEVEL"]).order == "level"
+    assert main(base + ["--order", "spiral"]) == 2
+    assert "--order" in capsys.readouterr().err
