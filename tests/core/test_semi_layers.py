@@ -1,6 +1,7 @@
-"""Semi-finishing in layers (#23: "Semi-finishing: … and a layer count"; paper 003 §5
-semi-finishes in 25 layers leaving 0.1 mm): ``layers`` K offset pass sets from the stock
-before (``layers_from``) down to the allowance.
+"""Semi-finishing in offset layers (#23: "Semi-finishing: … and a layer count", as the lead's
+brief reads it — paper 003 §5's "25 layers" are its cutting layers, the passes): K
+(``offset_layers``) whole pass sets offset from the stock before (``offset_from``) down to the
+allowance.
 
 Measured truths, each by a means the planner does not use:
 
@@ -14,7 +15,7 @@ Measured truths, each by a means the planner does not use:
 * between two layers the tool goes round the blade outside it: only rapids, and every
   straight rapid segment keeps its nearest point to the axis (closed form) outside every
   cutting pose of the program;
-* bad input (layers from not above the allowance, a fractional count) is refused by name.
+* bad input (offset from not above the allowance, a fractional count) is refused by name.
 
 Cheap: the demo blade at mesh resolution 0.5 between the morphs at 0.4 and 0.6, stock 0.15 mm.
 """
@@ -58,7 +59,7 @@ def demo():
 def layered(demo):
     d, mesh, c1, c2 = demo
     req = PathRequest(axis=d.axis, cone1=c1, cone2=c2, cusp=CUSP, chord=CHORD, allowance=A,
-                      layers=K, layers_from=A0)
+                      offset_layers=K, offset_from=A0)
     return plan_paths(mesh, req).path
 
 
@@ -75,7 +76,7 @@ def test_each_layer_lies_its_allowance_from_the_blade(demo, layered):
     md = MeshDistance(mesh)
     R = layered.tool.radius
     assert layered.tool.type == "ball" and R == 6.0 and layered.allowance == A
-    assert layered.stats["layers"] == K
+    assert layered.stats["offset_layers"] == K
     assert layered.stats["layer_allowances"] == pytest.approx(LAYERS)
     assert sum(layered.stats["layer_curves"]) == len(layered.curves)
     for a, curves in _layers(layered):
@@ -164,24 +165,26 @@ def test_the_stock_after_each_layer_is_that_layers_allowance(demo, layered):
 
 def test_bad_layers_are_refused(demo):
     d, mesh, c1, c2 = demo
-    for kw, msg in (({"layers": 3, "layers_from": 0.1}, "give layers from more than"),
-                    ({"layers": 2, "layers_from": 0.05}, "give layers from more than"),
-                    ({"layers": 0}, "layers"), ({"layers": 2.5}, "whole number")):
+    for kw, msg in (({"offset_layers": 3, "offset_from": 0.1}, "give an offset from more"),
+                    ({"offset_layers": 2, "offset_from": 0.05}, "give an offset from more"),
+                    ({"offset_layers": 0}, "[Oo]ffset [Ll]ayers"),
+                    ({"offset_layers": 2.5}, "whole number")):
         with pytest.raises((ToleranceError,), match=msg):
             plan_paths(mesh, PathRequest(axis=d.axis, cone1=c1, cone2=c2, allowance=A, **kw))
 
 
 def test_a_job_checks_the_layers_up_front(tmp_path):
-    """The job's semi_finish operation takes 'layers' and 'layers_from' (the same options);
+    """The job's semi_finish operation takes 'offset_layers' and 'offset_from' (the same
+    options);
     a bad pair is refused naming the operation before anything runs."""
     from tests.core.test_process_kinds import JOB
 
     job = tmp_path / "layers.toml"
     job.write_text(JOB.replace('radial_tilt = 75\n',
-                               'radial_tilt = 75\nallowance = 0.1\nlayers = 3\n'
-                               'layers_from = 0.05\n', 1))
+                               'radial_tilt = 75\nallowance = 0.1\noffset_layers = 3\n'
+                               'offset_from = 0.05\n', 1))
     gen = iter_run_job(load_job(job))
-    with pytest.raises(BliskCamError, match=r"operation 1 \('semi-finish'\).*give layers from "
+    with pytest.raises(BliskCamError, match=r"operation 1 \('semi-finish'\).*give an offset from "
                                             r"more than the allowance"):
         for _ in range(3):
             next(gen)

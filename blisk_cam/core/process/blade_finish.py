@@ -680,7 +680,7 @@ def _stage_layers(st: PlanState):
     cones = (req.cone1, req.cone2)
     paths = []
     for i, a in enumerate(st.layers):
-        tol = dataclasses.replace(req.tolerances, allowance=float(a), layers=1)
+        tol = dataclasses.replace(req.tolerances, allowance=float(a), offset_layers=1)
         sub = PathRequest(req.axis, *cones, cutter=req.cutter, tolerances=tol,
                           orientation=req.orientation, gouge=req.gouge, linking=req.linking,
                           extra=req.extra)
@@ -799,8 +799,9 @@ class BladeFinish(Operation):
     def start(self, part: TriMesh, request: PathRequest, stock=None) -> PlanState:
         cutter, strategy, _, limits = _check(request)
         allowance = float(request.allowance)
-        if request.layers > 1:  # one pass set per layer (:func:`_stage_layers`)
-            layers = tuple(layer_allowances(allowance, request.layers_from, request.layers))
+        if request.offset_layers > 1:  # one pass set per layer (:func:`_stage_layers`)
+            layers = tuple(layer_allowances(allowance, request.offset_from,
+                                            request.offset_layers))
             return PlanState(mesh=part, req=request, cutter=cutter, strategy=strategy,
                              limits=limits, allowance=allowance, tool=cutter, layers=layers)
         if allowance > 0:  # semi-finishing: plan with the grown cutter (module docstring)

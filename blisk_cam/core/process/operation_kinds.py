@@ -237,7 +237,7 @@ def prepare_blade_finish(ctx: OperationContext) -> PreparedOperation:
     coll_kw = typed_options(coll, (CollisionOptions,), where)
     try:
         req = PathRequest(ctx.part.axis, cone1, cone2, **ctx.tool.cutter_options(), **path_kw)
-        layer_allowances(req.allowance, req.layers_from, req.layers)  # layers: up front
+        layer_allowances(req.allowance, req.offset_from, req.offset_layers)  # up front
     except BliskCamError as exc:
         raise BliskCamError(f"{where}: {exc}") from None
     extra = ()

@@ -1,13 +1,14 @@
-"""Semi-finishing in layers: the blade taken from the roughing's stock down to the
-semi-finishing allowance in K offset layers (paper 003 §5: semi-finishing "in 25 layers",
-leaving 0.1 mm for finishing).
+"""Semi-finishing in offset layers: the blade taken from the roughing's stock down to the
+semi-finishing allowance in K depth steps, each a whole pass set (paper 003 §5 leaves 0.1 mm
+for finishing after roughing left 0.5 mm; its "25 layers" of semi-finishing are its cutting
+layers — the passes round the blade —, which the cusp spaces here).
 
 Layer i (1 … K) is a whole LMC finishing pass set of the blade offset by its allowance
 
     a_i = a + (a_0 − a) (K − i) / K,
 
 a the allowance left at the end (the last layer's), a_0 the stock on the blade before
-(``layers_from``: the roughing's allowance, 0.5 mm by default): each layer removes
+(``offset_from``: the roughing's allowance, 0.5 mm by default): each layer removes
 (a_0 − a)/K more. :func:`layer_allowances` gives them; the blade finishing operation
 (:mod:`.blade_finish`) plans each layer as its own semi-finishing path and
 :func:`join_programs` runs them one after another: between two layers the tool leaves the
@@ -41,15 +42,15 @@ def layer_allowances(allowance: float, start: float, layers: int) -> list[float]
     ToleranceError when ``layers`` is not a whole number ≥ 1 or, with more than one layer,
     ``start`` (the stock before) is not more than ``allowance``."""
     if isinstance(layers, bool) or int(layers) != layers or layers < 1:
-        raise ToleranceError(f"layers must be a whole number ≥ 1, got {layers!r}")
+        raise ToleranceError(f"offset layers must be a whole number ≥ 1, got {layers!r}")
     k, a, a0 = int(layers), float(allowance), float(start)
     if k == 1:
         return [a]
     if not (math.isfinite(a0) and a0 > a):
         raise ToleranceError(
-            f"{k} layers go from the stock before semi-finishing (layers from, {a0:g} mm) down "
-            f"to the allowance {a:g} mm: give layers from more than the allowance (the "
-            "roughing's allowance, e.g. 0.5 mm), or one layer")
+            f"{k} offset layers go from the stock before semi-finishing (offset from, {a0:g} "
+            f"mm) down to the allowance {a:g} mm: give an offset from more than the allowance "
+            "(the roughing's allowance, e.g. 0.5 mm), or one layer")
     return [round(a + (a0 - a) * (k - i) / k, 9) for i in range(1, k + 1)]
 
 
@@ -100,14 +101,14 @@ def join_programs(programs, curve_counts, axis: Axis, rapid_step: float) -> Prog
 
 def merge_layer_stats(stats, allowances, curve_counts) -> dict:
     """The stats of a layered path: the last layer's, the counts of :data:`_SUMMED` summed,
-    ``layers`` K, ``layer_allowances`` (mm) and ``layer_curves`` (the passes of each layer,
+    ``offset_layers`` K, ``layer_allowances`` (mm) and ``layer_curves`` (the passes of each layer,
     in the path's order)."""
     out = dict(stats[-1])
     for key in _SUMMED:
         vals = [s[key] for s in stats if isinstance(s.get(key), (int, float))]
         if vals:
             out[key] = type(vals[0])(sum(vals))
-    out["layers"] = len(allowances)
+    out["offset_layers"] = len(allowances)
     out["layer_allowances"] = [float(a) for a in allowances]
     out["layer_curves"] = [int(n) for n in curve_counts]
     return out
