@@ -196,3 +196,30 @@ def test_the_rough_command_takes_the_order(capsys):
     assert parser.parse_args(base + ["--order", "LEVEL"]).order == "level"
     assert main(base + ["--order", "spiral"]) == 2
     assert "--order" in capsys.readouterr().err
+
+
+def test_round_the_axis_goes_the_shorter_way_in_bounded_steps():
+    """From θ = 10° to θ = 190° + 20° (the shorter way: −160°) at radius 100 → 110, steps of
+    at most 0.5 rad: every straight step keeps at least r cos(step/2) from the axis."""
+    from blisk_cam.core.channel.gaps import round_the_axis
+    from blisk_cam.core.geometry.axis import Axis
+
+    ax = Axis(np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    t0, t1 = math.radians(10.0), math.radians(210.0)
+    p0 = np.array([100 * math.cos(t0), 100 * math.sin(t0), -5.0])
+    p1 = np.array([110 * math.cos(t1), 110 * math.sin(t1), 5.0])
+    pts, axes = round_the_axis(p0, np.array([math.cos(t0), math.sin(t0), 0.0]), p1, ax, 0.5)
+    path = np.vstack([p0, pts, p1])
+    th = np.unwrap(np.arctan2(path[:, 1], path[:, 0]))
+    assert th[-1] - th[0] == pytest.approx(math.radians(-160.0))
+    assert np.all(np.diff(th) < 0) and np.abs(np.diff(th)).max() <= 0.5 + 1e-12
+    r = np.hypot(path[:, 0], path[:, 1])
+    assert np.all(np.diff(r) > 0) and np.all(np.diff(path[:, 2]) > 0)
+    np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0)
+    # each tool axis turned with its position: radial here
+    np.testing.assert_allclose(axes[:, :2], pts[:, :2] / r[1:-1, None], atol=1e-12)
+    a, b = path[:-1, :2], path[1:, :2]
+    e = b - a
+    t = np.clip(-np.einsum("ij,ij->i", a, e) / np.einsum("ij,ij->i", e, e), 0, 1)
+    near = np.linalg.norm(a + t[:, None] * e, axis=1)
+    assert near.min() >= 100 * math.cos(0.25)
