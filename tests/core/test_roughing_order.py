@@ -3,17 +3,20 @@ approaches and retracts that stay clear of stock and part (the stock simulation 
 
 Measured truths, each by a means the planner does not use:
 
-* the order is read back from the program's rows: the gap of a cutting row from its tip's
-  angle about the blisk axis (gap 0's mean angle plus k pitches), its level from its pass;
-  by gap the (gap, level) keys of the cutting rows never go back, by level the (level, gap)
-  keys never do, and every gap gets every level with the same number of cutting rows;
+* the order is read back from the rows: the gap of a row from its tip's angle about the
+  blisk axis against the same pose of gap 0 (a whole number of pitches, asserted), its level
+  from its pass. Posted by level (the program of one gap, its levels linked alone, the post
+  running level 1 in every gap, then level 2 …) the (level, gap) keys of the cutting blocks
+  never go back; a program that holds three gaps itself (``gaps=3``, both orders) has its
+  (gap, level) or (level, gap) keys never going back, every gap every level with the same
+  rows;
 * between two gaps the tool leaves the channel: only retract, rapid and approach rows lie
-  between the last cutting row of one gap and the first of the next, and every straight
-  rapid segment keeps its closest point to the axis (closed form) at least the clearance
-  above the blank's largest radius;
-* the stock simulation of the patterned program (three gaps of the periodic blank at 1 mm,
-  both orders) reports no crash — no rapid, link or body meets material;
-* the post does not repeat a program that already holds every gap.
+  between the last cutting row of one gap and the first of the next (a safe retract and a
+  rapid from the safe radius in the posted program), and every straight rapid segment keeps
+  its closest point to the axis (closed form) at least the clearance above the blank;
+* the stock simulation of the three-gap programs (the periodic blank at 1 mm, both orders)
+  reports no crash — no rapid, link or body meets material;
+* the post does not repeat a program that already holds several gaps.
 
 Cheap on purpose: the 25 mm test blisk of test_roughing.py, the radial axis (no wall levels),
 8 mm levels, 1 mm stations.
@@ -29,7 +32,7 @@ import pytest
 from blisk_cam.core.errors import BliskCamError, PostError
 from blisk_cam.core.machine.description import load_machine
 from blisk_cam.core.part.model import part_from_demo, theta_about
-from blisk_cam.core.post.blocks import NcOptions, build_blocks
+from blisk_cam.core.post.blocks import SAFE, NcOptions, build_blocks
 from blisk_cam.core.process.roughing import RoughRequest, plan_roughing
 from blisk_cam.core.stock.blank import stock_from_envelope
 from blisk_cam.core.stock.removal import remove_program
@@ -58,7 +61,7 @@ def _plan(setup, order, gaps=None):
 
 
 @pytest.fixture(scope="module")
-def by_level_all(setup):
+def by_level(setup):
     return _plan(setup, "level")
 
 
@@ -132,14 +135,40 @@ def _assert_clear_between_gaps(part, stock, path):
     assert nearest.min() >= top + CLEARANCE - 1e-6, nearest.min()
 
 
-def test_by_level_holds_every_gap_level_by_level(setup, by_level_all):
+def test_posted_by_level_a_level_runs_in_every_gap_before_the_next(setup, by_level):
+    """The post of a one-gap program ordered by level, read back from its blocks: each pose
+    block is its program row turned by the blade's k pitches (measured), the (level, gap)
+    keys never go back, every gap gets every level's rows in program order, and before each
+    level of each gap a safe retract then a rapid at the safe radius."""
     part, stock = setup
-    _assert_order(part, by_level_all, "level", part.blade_count)
-    _assert_clear_between_gaps(part, stock, by_level_all)
-    # the time of one gap is the whole program's over the gaps
-    s = by_level_all.stats
-    assert s["machining_time_min_all_gaps"] == pytest.approx(
-        s["machining_time_min_gap"] * part.blade_count)
+    path = by_level
+    s = path.stats
+    assert s["order"] == "level" and s["gaps_in_program"] == 1
+    P = path.program
+    n = part.blade_count
+    blocks = build_blocks(path, load_machine("ac-trunnion"), NcOptions(blades=n), solve=False)
+    assert blocks.blades == n and not blocks.indexed
+    pose = blocks.kind != SAFE
+    src, gap = blocks.source[pose], blocks.blade[pose]
+    r0, th0, z0 = theta_about(P.tip[src], part.axis)
+    r1, th1, z1 = theta_about(blocks.tip[pose], part.axis)
+    np.testing.assert_allclose(np.stack([r1, z1], 1), np.stack([r0, z0], 1), atol=1e-9)
+    turns = ((th1 - th0) % (2 * math.pi)) / part.pitch
+    k = np.round(turns).astype(int) % n
+    assert np.abs(turns - np.round(turns)).max() < 1e-9 and np.array_equal(k, gap)
+    cut = P.move[src] == MOVE_CUT
+    lv = np.array([int(path.curves[c].s) for c in P.curve[src[cut]]])
+    assert _never_back(np.stack([lv, gap[cut]], 1)), "the posted rows are not ordered by level"
+    for g in range(n):  # each gap: the whole program, in order
+        assert np.array_equal(src[gap == g], np.arange(len(P)))
+    # a safe retract before each level of each gap, then a rapid from the safe radius
+    safe = np.nonzero(blocks.kind == SAFE)[0]
+    assert len(safe) == n * len(s["level_blocks"])
+    assert (blocks.kind[safe + 1] == MOVE_RAPID).all()
+    r_first, _, _ = theta_about(blocks.tip[safe + 1], part.axis)
+    assert r_first.min() >= float(stock.hi.max()) + CLEARANCE - 1e-6
+    # the time of one gap is the program's, all gaps N times it
+    assert s["machining_time_min_all_gaps"] == pytest.approx(s["machining_time_min_gap"] * n)
 
 
 @pytest.mark.parametrize("order", ["gap", "level"])
@@ -153,15 +182,15 @@ def test_three_gaps_in_order_and_the_stock_simulation_finds_no_crash(setup, thre
     assert res.volume > 0
 
 
-def test_the_post_does_not_repeat_a_program_of_every_gap(setup, by_level_all, three):
+def test_the_post_does_not_repeat_a_program_of_several_gaps(setup, three):
     part, _ = setup
     machine = load_machine("ac-trunnion")
-    n = part.blade_count
-    blocks = build_blocks(by_level_all, machine, NcOptions(blades=n), solve=False)
-    assert blocks.blades == 1
-    assert (blocks.source >= 0).sum() == len(by_level_all.program)
-    with pytest.raises(PostError, match="already holds all 3 gaps"):
-        build_blocks(three["gap"], machine, NcOptions(blades=n), solve=False)
+    blocks = build_blocks(three["level"], machine, NcOptions(blades=3), solve=False)
+    assert blocks.blades == 1 and (blocks.kind == SAFE).sum() == 1
+    assert np.array_equal(blocks.source[blocks.kind != SAFE], np.arange(len(three["level"]
+                                                                              .program)))
+    with pytest.raises(PostError, match="already holds 3 gaps"):
+        build_blocks(three["gap"], machine, NcOptions(blades=part.blade_count), solve=False)
 
 
 def test_bad_order_and_gap_count_are_refused(setup):

@@ -119,11 +119,13 @@ class RoughRequest:
         body against the stock (the ``link`` stage; False: only the simulation afterwards
         reports it)
     order : str — ``gap``: every level of a gap before the next gap; ``level``: a level in
-        every gap before the next level (:mod:`..channel.gaps`); with ``level`` the program
-        holds all N gaps (the post must not repeat it)
-    gaps : int or None — the gaps the program holds, gap 0 … gaps − 1, in ``order`` (None:
-        one with ``gap`` — the post repeats it gap by gap, the same order —, all N with
-        ``level``); a program of 1 < gaps < N can only be posted alone (blade count 1)
+        every gap before the next level (:mod:`..channel.gaps`). The program of one gap is
+        posted for the N gaps in that order: by gap the post repeats it per gap; by level
+        each level is linked alone (from and back to the safe radius, ``stats
+        ["level_blocks"]`` its rows) and the post runs level 1 in every gap, then level 2 …
+    gaps : int or None — the program itself holds gaps 0 … gaps − 1 in ``order``, linked
+        round the axis at the safe radius (None: one gap); a program of several gaps is
+        posted as it is (with the blade count 1 or gaps)
     """
 
     tool: Cutter
@@ -614,11 +616,21 @@ class RoughingOperation(Operation):
                                    "of leaving passes out: check the simulation's crashes")
         curves = [PassCurve(s=float(p.level), closed=False, cc=p.tip, normal=p.axis,
                             tip=p.tip, axis=p.axis) for p in st.pieces]
-        n_pat = int(req.gaps) if req.gaps is not None else (
-            part.blade_count if req.order == "level" else 1)
+        blocks = [(tip, axis, move, curve, index)]
+        if req.order == "level":  # each level linked alone: the post interleaves the gaps
+            blocks = self._level_blocks(st)
+            tip, axis, move, curve, index = (np.concatenate(x)
+                                             for x in zip(*blocks, strict=True))
+            tip, axis = tip.reshape(-1, 3), axis.reshape(-1, 3)
+            program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
+        starts = np.cumsum([0] + [len(b[0]) for b in blocks])
+        if req.order == "level":  # each level's rows: its block
+            rows = {lv: (int(a), int(b)) for lv, a, b in zip(
+                sorted({pc.level for pc in st.pieces}), starts[:-1], starts[1:], strict=True)}
+        n_pat = int(req.gaps) if req.gaps is not None else 1
         if n_pat > 1:
             tip, axis, move, curve, index, rows, curves = self._patterned(
-                st, (tip, axis, move, curve, index), curves, n_pat)
+                st, blocks, curves, n_pat)
             program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         plunge = req.plunge_feed or 0.5 * req.feed
         est = machining_time(tip, move, req.feed, plunge, req.rapid_feed)
@@ -647,6 +659,9 @@ class RoughingOperation(Operation):
             "gaps": part.blade_count,
             "order": req.order,
             "gaps_in_program": int(n_pat),
+            "level_blocks": ([[int(a), int(b)] for a, b in zip(starts[:-1], starts[1:],
+                                                              strict=True)]
+                             if req.order == "level" and n_pat == 1 else []),
             "level_rows": [[int(rows[k][0]), int(rows[k][1])] if k in rows else [0, 0]
                            for k in range(len(st.levels))],
             "level_labels": [lv.label for lv in st.levels],
@@ -679,23 +694,34 @@ class RoughingOperation(Operation):
                            warnings=list(st.warnings), operation="rough")
         yield Progress(1.0, f"linked {len(tip)} rows")
 
-    def _patterned(self, st: _State, gap0, curves, n_gaps: int):
-        """The program of ``n_gaps`` gaps in the request's order (:mod:`..channel.gaps`):
-        by gap, gap 0's whole program ``gap0`` (tip, axis, move, curve, index) per gap; by
-        level, each level's pieces linked alone per gap. Returns (tip, axis, move, curve,
+    def _level_blocks(self, st: _State):
+        """Gap 0's program as one block per level: each level's pieces linked alone, from and
+        back to the safe radius (tip, axis, move, curve, index; curve indexes ``st.pieces``)."""
+        blocks = []
+        for lv in sorted({pc.level for pc in st.pieces}):
+            ids = np.array([k for k, pc in enumerate(st.pieces) if pc.level == lv], np.int64)
+            t, a, m, c, i, _ = link_program([st.pieces[k] for k in ids], st.part.axis,
+                                            self._r_safe(st))
+            blocks.append((t, a, m, np.where(c >= 0, ids[np.maximum(c, 0)], -1), i))
+        return blocks
+
+    @staticmethod
+    def _rows_of(st: _State, curves, curve) -> dict:
+        """{level: [first, last + 1) rows of its passes} of a program's ``curve`` column."""
+        level = np.array([int(pc.s) for pc in curves])
+        cut = np.nonzero(curve >= 0)[0]
+        rows = {}
+        for lv in np.unique(level[curve[cut]]):
+            r = cut[level[curve[cut]] == lv]
+            rows[int(lv)] = (int(r.min()), int(r.max()) + 1)
+        return rows
+
+    def _patterned(self, st: _State, blocks, curves, n_gaps: int):
+        """The program of ``n_gaps`` gaps in the request's order (:mod:`..channel.gaps`) from
+        gap 0's ``blocks`` (the whole gap, or one per level). Returns (tip, axis, move, curve,
         index, rows, curves): rows[level] the [first, last + 1) rows of the level's passes
         over all gaps, curves gap 0's passes then each gap's turned copies."""
         part = st.part
-        if st.req.order == "gap":
-            blocks = [gap0]
-        else:
-            blocks = []
-            for lv in sorted({pc.level for pc in st.pieces}):
-                ids = [k for k, pc in enumerate(st.pieces) if pc.level == lv]
-                t, a, m, c, i, _ = link_program([st.pieces[k] for k in ids], part.axis,
-                                                self._r_safe(st))
-                c = np.where(c >= 0, np.asarray(ids, np.int64)[np.maximum(c, 0)], -1)
-                blocks.append((t, a, m, c, i))
         n = len(curves)
         tip, axis, move, curve, index, _, _ = pattern_gaps(blocks, part.axis, part.pitch,
                                                            n_gaps, st.req.order, n)
@@ -707,13 +733,7 @@ class RoughingOperation(Operation):
                 t = rotate_about(pc.tip, d, turn, part.axis.o)
                 a = rotate_about(pc.axis, d, turn)
                 out.append(PassCurve(s=pc.s, closed=False, cc=t, normal=a, tip=t, axis=a))
-        level = np.array([int(pc.s) for pc in out])
-        rows = {}
-        cut = np.nonzero(curve >= 0)[0]
-        for lv in np.unique(level[curve[cut]]):
-            r = cut[level[curve[cut]] == lv]
-            rows[int(lv)] = (int(r.min()), int(r.max()) + 1)
-        return tip, axis, move, curve, index, rows, out
+        return tip, axis, move, curve, index, self._rows_of(st, out, curve), out
 
     def finish(self, state, seconds):
         return OperationResult(state.path, None, dict(seconds))
