@@ -13,8 +13,8 @@
 ``--part``, ``--hub-profile``, ``--blade-count`` and ``--stock`` mean what they mean for
 ``simulate`` (the same readers). The paths JSON holds the program of one gap (between blade
 0 and blade 1) with ``"operation": "rough"``; ``nc`` and ``--nc`` repeat it for the N gaps,
-``simulate`` runs it on the blank. With ``--order level`` it holds all N gaps, a level in
-every gap before the next level (``stats.gaps_in_program`` N; the posts do not repeat it).
+``simulate`` runs it on the blank. With ``--order level`` each level is linked alone and the
+posts run level 1 in every gap, then level 2 … (``stats.level_blocks``).
 Exit 0 on success, 1 on bad input (one line on stderr), 2 on a usage error. Progress on
 stderr.
 """
@@ -91,10 +91,9 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
                    help="zigzag: passes along the channel stepped across it; plunge: feeds "
                    "along the tool axis (default zigzag)")
     g.add_argument("--order", type=str.lower, choices=GAP_ORDERS, default="gap",
-                   help="gap: every level of a gap, then the next gap (the program of one gap, "
-                   "repeated per gap by the post); level: a level in every gap, then the next "
-                   "level (the program holds all N gaps, linked round the axis at the safe "
-                   "radius) (default gap)")
+                   help="gap: every level of a gap, then the next gap; level: a level in "
+                   "every gap, then the next level (each level linked alone; the post "
+                   "interleaves the gaps) (default gap)")
     g.add_argument("--allowance", type=_non_negative, default=0.5, metavar="MM",
                    help="material left on the blades, mm (default 0.5)")
     g.add_argument("--hub-allowance", type=_non_negative, default=None, metavar="MM",

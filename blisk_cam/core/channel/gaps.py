@@ -1,4 +1,4 @@
-"""The program of every gap of a blisk in the order asked: by gap or by level.
+"""The program of several gaps of a blisk in the order asked: by gap or by level.
 
 Channel roughing plans one gap (between blade 0 and blade 1); gap k is that gap turned by
 k · 2π/N about the blisk axis (the part is periodic). The gap's program comes as **blocks**
@@ -8,9 +8,13 @@ level. :func:`pattern_gaps` lays the blocks of every gap in order:
 
 * ``"gap"`` — every block of gap 0, then every block of gap 1, … (all levels of a gap
   before the next gap: the tool stays in one channel, the fewest moves round the axis);
-* ``"level"`` — block 1 (the top level) in every gap, then block 2 in every gap, … (the
-  blisk stays balanced and every channel reaches a level before any goes deeper: thinner
-  walls between the channels are never left standing on one side only).
+* ``"level"`` — block 1 (the top level) in every gap, then block 2 in every gap, … (every
+  channel reaches a level before any goes deeper: each blade is roughed from both sides
+  level by level, the blisk stays balanced).
+
+The post does the same with a one-gap program of per-level blocks (``stats["level_blocks"]``,
+:func:`..post.blocks.build_blocks`), a safe retract of the machine between blocks; this
+module makes the program itself hold the gaps (the roughing's ``gaps``), e.g. to simulate it.
 
 Between two blocks the tool is at the safe radius (the previous block's retract) and goes
 **round the axis** there as rapids: the shorter way round, in steps of at most

@@ -476,7 +476,7 @@ _ROUGH_KEYS = {
     "station_step": (0.5, "pose spacing along the channel, mm", "mm"),
     "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),
     "order": ("gap", "gap (every level of a gap, then the next gap) or level (a level in every "
-              "gap, then the next level; the program holds all gaps)", "word"),
+              "gap, then the next level: the post interleaves the gaps)", "word"),
 }
 
 
