@@ -301,6 +301,8 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
     segments = ([(k, a, b) for a, b in by_level for k in range(n_bl)] if by_level
                 else [(k, 0, len(prog)) for k in range(1 if indexed else n_bl)])
     for k, lo, hi in segments:
+        if by_level and k == 0 and machine.rotaries[1].limits is not None:
+            prev = None  # a limited rotary: each level starts afresh, not wound on by N gaps
         tip, ax, move = prog.tip[lo:hi], prog.axis[lo:hi], prog.move[lo:hi]
         if k:
             turn = 2 * math.pi * k / n_bl
