@@ -21,7 +21,11 @@ Stages (:mod:`.operation`):
 3. ``pattern`` — zig-zag passes along the channel stepped across it, or plunges
    (:mod:`..channel.patterns`);
 4. ``link`` — the program: feed links in the air beyond the blank's faces, retract / rapid
-   at the safe radius / approach elsewhere; the estimated machining time.
+   at the safe radius / approach elsewhere; the estimated machining time. Ordered by gap
+   (``order``, the default) the gap is linked as one and the post repeats it per gap; by
+   level each level is linked alone, from and back to the safe radius, and the post runs
+   level 1 in every gap, then level 2 … (``stats["level_blocks"]``); ``gaps`` makes the
+   program itself hold several gaps (:mod:`..channel.gaps`).
 
 The tool axis leans with the blades (``follow_blades``, the default): per level and station
 the radial direction tilted toward +θ by the blades' mean camber lean over the band of
@@ -557,8 +561,7 @@ class RoughingOperation(Operation):
         for pc in st.pieces:
             pc.tip, pc.axis, n_in = bound_turn(pc.tip, pc.axis, req.max_turn)
             inserted += n_in
-        tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
-                                                           self._r_safe(st))
+        tip, axis, move, curve, index, rows, blocks = self._linked(st)
         program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         # the body against the in-process stock: the program run on the blank; a contour
         # pass (its axis differs from the one that cleared the levels above) whose body or
@@ -607,8 +610,7 @@ class RoughingOperation(Operation):
             if not st.pieces:
                 raise BliskCamError("every pass of the channel would bring the tool body "
                                     "against the stock: take a tool with a slimmer body")
-            tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
-                                                               self._r_safe(st))
+            tip, axis, move, curve, index, rows, blocks = self._linked(st)
             program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         else:
             if req.check_stock:
@@ -616,17 +618,7 @@ class RoughingOperation(Operation):
                                    "of leaving passes out: check the simulation's crashes")
         curves = [PassCurve(s=float(p.level), closed=False, cc=p.tip, normal=p.axis,
                             tip=p.tip, axis=p.axis) for p in st.pieces]
-        blocks = [(tip, axis, move, curve, index)]
-        if req.order == "level":  # each level linked alone: the post interleaves the gaps
-            blocks = self._level_blocks(st)
-            tip, axis, move, curve, index = (np.concatenate(x)
-                                             for x in zip(*blocks, strict=True))
-            tip, axis = tip.reshape(-1, 3), axis.reshape(-1, 3)
-            program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         starts = np.cumsum([0] + [len(b[0]) for b in blocks])
-        if req.order == "level":  # each level's rows: its block
-            rows = {lv: (int(a), int(b)) for lv, a, b in zip(
-                sorted({pc.level for pc in st.pieces}), starts[:-1], starts[1:], strict=True)}
         n_pat = int(req.gaps) if req.gaps is not None else 1
         if n_pat > 1:
             tip, axis, move, curve, index, rows, curves = self._patterned(
@@ -693,6 +685,23 @@ class RoughingOperation(Operation):
                            curves=curves, stats=stats, program=program,
                            warnings=list(st.warnings), operation="rough")
         yield Progress(1.0, f"linked {len(tip)} rows")
+
+    def _linked(self, st: _State):
+        """The program of gap 0's pieces in the request's order: (tip, axis, move, curve,
+        index, rows, blocks) — by gap linked as one (:func:`..channel.patterns.link_program`),
+        by level each level linked alone from and back to the safe radius (the post
+        interleaves the gaps level by level); rows[level] the level's [first, last) rows,
+        blocks the linked blocks (one, or one per level)."""
+        if st.req.order != "level":
+            tip, axis, move, curve, index, rows = link_program(st.pieces, st.part.axis,
+                                                               self._r_safe(st))
+            return tip, axis, move, curve, index, rows, [(tip, axis, move, curve, index)]
+        blocks = self._level_blocks(st)
+        tip, axis, move, curve, index = (np.concatenate(x) for x in zip(*blocks, strict=True))
+        starts = np.cumsum([0] + [len(b[0]) for b in blocks])
+        rows = {lv: (int(a), int(b)) for lv, a, b in zip(
+            sorted({pc.level for pc in st.pieces}), starts[:-1], starts[1:], strict=True)}
+        return tip.reshape(-1, 3), axis.reshape(-1, 3), move, curve, index, rows, blocks
 
     def _level_blocks(self, st: _State):
         """Gap 0's program as one block per level: each level's pieces linked alone, from and
