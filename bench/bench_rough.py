@@ -2,7 +2,8 @@
 
     python bench/bench_rough.py [--resolution 0.5] [--mesh-resolution 0.3] [--levels from-hub]
         [--pattern zigzag] [--depth 6] [--stepover 6] [--diameter 10] [--corner 1]
-        [--axis blades|radial] [--max-turn 2] [--small | --rotor37] [--no-simulate]
+        [--axis blades|radial] [--max-turn 2] [--small | --rotor37] [--order gap|level]
+        [--no-simulate]
 
 The demo blisk (default parameters, 24 blades; ``--small``: the 25 mm tall test blisk of
 tests/core/test_roughing.py; ``--rotor37``: NASA Rotor 37 patterned to 36 blades, its hub
@@ -60,6 +61,9 @@ def main():
     ap.add_argument("--max-turn", type=float, default=2.0)
     ap.add_argument("--small", action="store_true")
     ap.add_argument("--rotor37", action="store_true")
+    ap.add_argument("--order", default="gap", choices=("gap", "level"),
+                    help="level: the program of every gap, a level in all gaps before the next "
+                    "(simulated whole: N times the work of one gap)")
     ap.add_argument("--no-simulate", action="store_true")
     a = ap.parse_args()
 
@@ -89,7 +93,7 @@ def main():
     tool = Cutter.bull(R, a.corner, h=3 * a.diameter, neck_length=7 * a.diameter)
     req = RoughRequest(tool=tool, stepover=a.stepover, depth_per_cut=a.depth, levels=a.levels,
                        pattern=a.pattern, follow_blades=a.axis == "blades",
-                       max_turn=math.radians(a.max_turn))
+                       max_turn=math.radians(a.max_turn), order=a.order)
     t = time.perf_counter()
     res = run_operation(RoughingOperation(), part, req, blank.copy())
     plan = time.perf_counter() - t
@@ -106,7 +110,8 @@ def main():
     print(f"program: {s['levels']} levels, {s['passes']} passes, {s['rows']} rows; estimated "
           f"machining {s['machining_time_min_gap']:.1f} min per gap, "
           f"{s['machining_time_min_all_gaps']:.1f} min for all {s['gaps']} gaps "
-          f"(feed {s['feed_mm_min']:g} mm/min)")
+          f"(feed {s['feed_mm_min']:g} mm/min); order by {s['order']}, the program holds "
+          f"{s['gaps_in_program']} gap(s)")
     print(f"axis {s['axis']}: side tilt {s['side_tilt_range_deg'][0]:.1f}° … "
           f"{s['side_tilt_range_deg'][1]:.1f}°, largest turn between cutting poses "
           f"{s['max_axis_turn_deg']:.3f}° (bound {a.max_turn:g}° on the tool axis; "

@@ -287,11 +287,13 @@ def plan_from_args(args, log=print, progress=None):
             f"{fit.residual1:.4f} mm), cone2 {_shown_generatrix(fit.cone2)} (residual "
             f"{fit.residual2:.4f} mm)")
     req = PathRequest(args.axis_obj, c1, c2, **args.stages)
-    if req.allowance > 0 and args.collision.blade_count:  # before any path work
-        from ..core.process.blade_finish import check_allowance_in_channel
+    if (req.allowance > 0 or req.offset_layers > 1) and args.collision.blade_count:  # before any
+        from ..core.process.blade_finish import check_allowance_in_channel  # path work
+        from ..core.process.semi_layers import layer_allowances
 
         check_allowance_in_channel(mesh, args.axis_obj, args.collision.blade_count,
-                                   req.allowance)
+                                   max(layer_allowances(req.allowance, req.offset_from,
+                                                        req.offset_layers)))
     extra = ()
     if args.collision.mode != "off":
         from ..core.process.blade_finish import collision_stage
@@ -416,6 +418,10 @@ def _cmd_paths(args):
     print(f"wrote {out}: {_summary_line(path, times, report)}")
     stock = (f", allowance {req.allowance:g} mm (semi-finishing: the blade offset by it)"
              if req.allowance else "")
+    if req.offset_layers > 1:
+        stock += ("," if not req.allowance else "") + (
+            f" in {req.offset_layers} offset layers from {req.offset_from:g} mm ("
+            + ", ".join(f"{a:g}" for a in path.stats["layer_allowances"]) + " mm)")
     print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm"
           f"{stock}; kernels: {path.stats.get('kernels', 'numpy')}")
     for w in plan.warnings:

@@ -6,14 +6,17 @@
         --stock (PROFILE.csv | MESH | envelope:MM | STATE.npz) \\
         --tool flat|bull|ball --tool-diameter MM [--corner-radius MM] \\
         --levels from-hub|from-shroud|morph --depth-per-cut MM --stepover MM \\
-        --pattern zigzag|plunge --allowance 0.5 [--hub-allowance MM] --out rough.json \\
+        --pattern zigzag|plunge [--order gap|level] --allowance 0.5 [--hub-allowance MM] \\
+        --out rough.json \\
         [--nc FILE --machine PRESET --post POST] [--lead DEG] [--side-tilt DEG] ...
 
 ``--part``, ``--hub-profile``, ``--blade-count`` and ``--stock`` mean what they mean for
 ``simulate`` (the same readers). The paths JSON holds the program of one gap (between blade
 0 and blade 1) with ``"operation": "rough"``; ``nc`` and ``--nc`` repeat it for the N gaps,
-``simulate`` runs it on the blank. Exit 0 on success, 1 on bad input (one line on stderr),
-2 on a usage error. Progress on stderr.
+``simulate`` runs it on the blank. With ``--order level`` each level is linked alone and the
+posts run level 1 in every gap, then level 2 … (``stats.level_blocks``).
+Exit 0 on success, 1 on bad input (one line on stderr), 2 on a usage error. Progress on
+stderr.
 """
 
 from __future__ import annotations
@@ -54,6 +57,7 @@ def _number(text):
 
 def add_rough_arguments(parser: argparse.ArgumentParser):
     """Add the ``rough`` options to ``parser``."""
+    from ..core.channel.gaps import GAP_ORDERS
     from ..core.channel.levels import LEVEL_MODES
     from ..core.process.roughing import PATTERNS
 
@@ -86,6 +90,10 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
     g.add_argument("--pattern", type=str.lower, choices=PATTERNS, default="zigzag",
                    help="zigzag: passes along the channel stepped across it; plunge: feeds "
                    "along the tool axis (default zigzag)")
+    g.add_argument("--order", type=str.lower, choices=GAP_ORDERS, default="gap",
+                   help="gap: every level of a gap, then the next gap; level: a level in "
+                   "every gap, then the next level (each level linked alone; the post "
+                   "interleaves the gaps) (default gap)")
     g.add_argument("--allowance", type=_non_negative, default=0.5, metavar="MM",
                    help="material left on the blades, mm (default 0.5)")
     g.add_argument("--hub-allowance", type=_non_negative, default=None, metavar="MM",
@@ -165,7 +173,8 @@ def run_rough(args) -> int:
         side_tilt=math.radians(args.side_tilt), safety=args.safety,
         feed=args.feed or 1000.0, plunge_feed=args.approach_feed or None,
         rapid_feed=args.rapid_feed, spindle=args.spindle,
-        follow_blades=args.axis == "blades", max_turn=math.radians(args.max_turn))
+        follow_blades=args.axis == "blades", max_turn=math.radians(args.max_turn),
+        order=args.order)
     gen = iter_run_operation(RoughingOperation(), part, req, stock)
     while True:
         try:
@@ -181,7 +190,8 @@ def run_rough(args) -> int:
         print(f"warning: {w}")
     print(f"wrote {args.out}: {s['levels']} levels, {s['passes']} passes, {s['rows']} rows; "
           f"estimated {s['machining_time_min_gap']:.1f} min per gap, "
-          f"{s['machining_time_min_all_gaps']:.1f} min for the {s['gaps']} gaps; axis "
+          f"{s['machining_time_min_all_gaps']:.1f} min for the {s['gaps']} gaps "
+          f"(by {s['order']}); axis "
           f"{s['axis']}, largest turn between cutting poses {s['max_axis_turn_deg']:.2f}°; "
           f"{time.perf_counter() - t0:.1f} s")
     if args.nc:

@@ -334,6 +334,14 @@ class ToleranceOptions(OptionGroup):
         0.0, "Allowance", "Stock to leave on the blade, mm (semi-finishing: the passes "
         "machine the blade offset outward by this much; 0: finish to size)",
         unit="mm", lo=0.0, soft_max=2.0, precision=3)
+    offset_layers: int = option(
+        1, "Offset Layers", "Semi-finishing in depth: the blade offset from 'offset from' down "
+        "to the allowance in this many equal steps, each a whole pass set (1: one layer at "
+        "the allowance)", lo=1, soft_max=50)
+    offset_from: float = option(
+        0.5, "Offset From", "Stock on the blade before the offset layers (the roughing's "
+        "allowance), mm; read with more than one layer", unit="mm", lo=0.0, soft_max=2.0,
+        precision=3)
 
 
 @dataclass(frozen=True)

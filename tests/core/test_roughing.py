@@ -250,6 +250,20 @@ def test_rotor37_narrow_floor_is_reported_not_gouged():
     assert path.stats["unreachable_levels"] == [last]
     assert any(w.startswith(last) and "left out" in w for w in path.warnings)
     _assert_clear(part, path, every=12, signed=False)
+    # the stock judges it too (#23 acceptance): no crash of a rapid, link or the body, and
+    # never below 0.5 − 0.02 (± the stock's res/√2) where the blank held more than the
+    # allowance (the default blank's envelope, binned per 1 mm of z, misses Rotor 37's tip
+    # in places: the blank never held the blade there)
+    sim = stock.copy()
+    res = remove_program(sim, path.program, path.tool, sweep_tolerance=0.05)
+    assert res.crashes == []
+    V, _, N, surf = part_surface(part, stock.resolution)
+    P, Nn = V[surf][::3], N[surf][::3]
+    held = deviation_map(stock, P, Nn, reach_out=2.0) > ALLOWANCE + stock.resolution
+    assert held.sum() > 5000
+    dev = deviation_map(sim, P[held], Nn[held], reach_out=2.0)
+    assert dev.min() >= ALLOWANCE - 0.02 - stock.resolution / math.sqrt(2), dev.min()
+    assert np.median(dev) < 2.0  # the channel was cut
 
 
 def _assert_clear(part, path, every=4, signed=True):

@@ -6,7 +6,10 @@ type, and the N blades (paper 003 §V.A: one blade's program rotated to all blad
 the blade-0 program turned by +k·360°/N right-handed about the paths' blisk axis. Where that
 axis is the innermost table rotary's line and the post can call a subprogram with a parameter
 (``indexed``), the blade-0 blocks are written once and called N times with the rotary offset;
-otherwise the CL data are rotated and solved again per blade.
+otherwise the CL data are rotated and solved again per blade. A roughing program ordered by
+level (``stats["order"]``) runs each level's block (``stats["level_blocks"]``, from and back
+to the safe radius) in every gap before the next level, a safe retract before each; one that
+already holds several gaps (``stats["gaps_in_program"]``) is posted once.
 
 Arrays, one row per block (n blocks):
 
@@ -254,10 +257,27 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
     chord = float(options.chord or path.chord)
     feeds = options.feeds()
     n_bl = int(options.blades)
+    stats = path.stats or {}
+    held = int(stats.get("gaps_in_program", 1) or 1)
+    if held > 1:  # a roughing program that holds several gaps itself: not repeated
+        if n_bl not in (1, held):
+            raise PostError(f"the program already holds {held} gaps of the blisk (a roughing "
+                            f"program of several gaps); it cannot be repeated for {n_bl} "
+                            f"blades: give the blade count {held} or 1")
+        n_bl = 1
+    # roughing ordered by level: each level's block (from and back to the safe radius) in
+    # every gap before the next level
+    by_level = ([(int(a), int(b)) for a, b in stats.get("level_blocks") or []]
+                if n_bl > 1 and stats.get("order") == "level" else [])
+    if n_bl > 1 and stats.get("order") == "level" and not by_level:
+        raise PostError("the roughing program is ordered by level but records no level "
+                        "blocks (an older paths file): plan the roughing again")
     o, d = path.axis.o, path.axis.d
     sigma = _indexable(machine, o, d) if (indexable and solve and options.use_subprogram) else 0.0
     if indexable == "z" and (np.linalg.norm(np.cross(d, [0.0, 0, 1])) > 1e-9
                              or np.hypot(o[0], o[1]) > 1e-6):
+        sigma = 0.0
+    if by_level:  # the gaps interleave level by level: every block solved where it runs
         sigma = 0.0
     lim_z = machine.linear.get("Z")
     safe_z = options.safe_z if options.safe_z is not None else (lim_z[1] if lim_z else 100.0)
@@ -278,18 +298,22 @@ def build_blocks(path: ToolPath, machine: Machine, options: NcOptions, *,
     parts = []
     prev = None
     reps = []
-    for k in range(1 if indexed else n_bl):
-        tip, ax = prog.tip, prog.axis
+    segments = ([(k, a, b) for a, b in by_level for k in range(n_bl)] if by_level
+                else [(k, 0, len(prog)) for k in range(1 if indexed else n_bl)])
+    for k, lo, hi in segments:
+        if by_level and k == 0 and machine.rotaries[1].limits is not None:
+            prev = None  # a limited rotary: each level starts afresh, not wound on by N gaps
+        tip, ax, move = prog.tip[lo:hi], prog.axis[lo:hi], prog.move[lo:hi]
         if k:
             turn = 2 * math.pi * k / n_bl
             tip, ax = rotate_about(tip, d, turn, o), rotate_about(ax, d, turn)
         if solve:
             t, a, m, x, q, s, src, rep = _solve_blade(
-                tip, ax, prog.move, machine, options, chord, prev, labels
+                tip, ax, move, machine, options, chord, prev, labels[lo:hi]
             )
         else:
-            t, a, m, x, q = tip, ax, np.asarray(prog.move), tip, np.zeros((len(tip), 2))
-            s, src, rep = np.zeros(len(tip), bool), labels, LinearizeReport(0, 0.0, 0)
+            t, a, m, x, q = tip, ax, np.asarray(move), tip, np.zeros((len(tip), 2))
+            s, src, rep = np.zeros(len(tip), bool), labels[lo:hi], LinearizeReport(0, 0.0, 0)
         reps.append(rep)
         prev = q[-1]
         # safe retract before every blade; the posts turn the rotaries to the next pose's at

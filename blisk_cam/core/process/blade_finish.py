@@ -107,6 +107,7 @@ from .operation import (
     iter_run_operation,
     run_operation,
 )
+from .semi_layers import join_programs, layer_allowances, merge_layer_stats
 
 __all__ = [
     "PLAN_STAGES",
@@ -488,12 +489,14 @@ class PlanState:
     #: until "allowance" puts the real one (``tool``) back
     allowance: float = 0.0
     tool: Cutter | None = None
+    #: semi-finishing in layers: the layers' allowances (:mod:`.semi_layers`), () for one
+    layers: tuple = ()
 
     def result(self) -> PlanResult:
         path = ToolPath(
             axis=self.req.axis,
-            cone1=self.passes.cone1,
-            cone2=self.passes.cone2,
+            cone1=self.passes.cone1 if self.passes is not None else self.cone1,
+            cone2=self.passes.cone2 if self.passes is not None else self.cone2,
             tool=self.cutter,
             cusp=self.req.cusp,
             chord=self.req.chord,
@@ -670,6 +673,45 @@ def _stage_allowance(st: PlanState):
 ALLOWANCE_STAGE = Stage("allowance", _stage_allowance)
 
 
+def _stage_layers(st: PlanState):
+    """Semi-finishing in layers (:mod:`.semi_layers`): each layer's allowance planned as its
+    own path (the cones fitted once, by the first), then one program of them all."""
+    req, k = st.req, len(st.layers)
+    cones = (req.cone1, req.cone2)
+    paths = []
+    for i, a in enumerate(st.layers):
+        tol = dataclasses.replace(req.tolerances, allowance=float(a), offset_layers=1)
+        sub = PathRequest(req.axis, *cones, cutter=req.cutter, tolerances=tol,
+                          orientation=req.orientation, gouge=req.gouge, linking=req.linking,
+                          extra=req.extra)
+        gen = iter_run_operation(BLADE_FINISH, st.mesh, sub)
+        while True:
+            try:
+                p = next(gen)
+            except StopIteration as stop:
+                res = stop.value
+                break
+            yield Progress((i + float(p.fraction)) / k, f"layer {i + 1} of {k} ({a:.3f} mm): "
+                           f"{p.message}")
+        if i == 0:
+            st.fit = res.fit
+            cones = (res.path.cone1, res.path.cone2)
+        paths.append(res.path)
+        st.gouge = res.gouge
+    st.cone1, st.cone2 = cones
+    st.curves = [c for p in paths for c in p.curves]
+    st.program = join_programs([p.program for p in paths], [len(p.curves) for p in paths],
+                               req.axis, _link_options(req).rapid_step)
+    st.stats = merge_layer_stats([p.stats for p in paths], st.layers,
+                                 [len(p.curves) for p in paths])
+    st.warnings = [f"layer {i + 1} ({a:g} mm): {w}"
+                   for i, (a, p) in enumerate(zip(st.layers, paths, strict=True))
+                   for w in p.warnings]
+
+
+LAYERS_STAGE = Stage("layers", _stage_layers)
+
+
 def check_allowance_in_channel(mesh: TriMesh, axis: Axis, blade_count: int,
                                allowance: float, *, candidates: int = 256) -> float:
     """The narrowest gap (mm) between the blade and its neighbour (the blade turned by
@@ -757,6 +799,11 @@ class BladeFinish(Operation):
     def start(self, part: TriMesh, request: PathRequest, stock=None) -> PlanState:
         cutter, strategy, _, limits = _check(request)
         allowance = float(request.allowance)
+        if request.offset_layers > 1:  # one pass set per layer (:func:`_stage_layers`)
+            layers = tuple(layer_allowances(allowance, request.offset_from,
+                                            request.offset_layers))
+            return PlanState(mesh=part, req=request, cutter=cutter, strategy=strategy,
+                             limits=limits, allowance=allowance, tool=cutter, layers=layers)
         if allowance > 0:  # semi-finishing: plan with the grown cutter (module docstring)
             return PlanState(mesh=part, req=request, cutter=cutter.grown(allowance),
                              strategy=strategy, limits=limits, allowance=allowance,
@@ -765,6 +812,8 @@ class BladeFinish(Operation):
                          limits=limits)
 
     def stages(self, state: PlanState) -> tuple[Stage, ...]:
+        if state.layers:
+            return (LAYERS_STAGE,)
         if state.allowance > 0:
             return (*PLAN_STAGES, ALLOWANCE_STAGE)
         return PLAN_STAGES

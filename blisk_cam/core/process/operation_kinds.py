@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..channel.gaps import GAP_ORDERS
 from ..collision.options import CollisionOptions
 from ..errors import BliskCamError, OptionError
 from ..geometry.mesh import TriMesh
@@ -42,6 +43,7 @@ from .fillet_finish import FILLET_FINISH, part_fillet
 from .hub_finish import HUB_FINISH, HubRequest, _stage_channel, start_state
 from .operation import Operation, Stage
 from .roughing import RoughingOperation, RoughRequest
+from .semi_layers import layer_allowances
 
 __all__ = ["OPERATION_KINDS", "PLANNED", "OperationContext", "OperationKind",
            "PreparedOperation", "ToolEntry", "narrowest_gap", "operation_kind",
@@ -235,6 +237,7 @@ def prepare_blade_finish(ctx: OperationContext) -> PreparedOperation:
     coll_kw = typed_options(coll, (CollisionOptions,), where)
     try:
         req = PathRequest(ctx.part.axis, cone1, cone2, **ctx.tool.cutter_options(), **path_kw)
+        layer_allowances(req.allowance, req.offset_from, req.offset_layers)  # up front
     except BliskCamError as exc:
         raise BliskCamError(f"{where}: {exc}") from None
     extra = ()
@@ -472,6 +475,8 @@ _ROUGH_KEYS = {
     "safety": (0.5, "the body's distance from the allowance shell, mm", "mm"),
     "station_step": (0.5, "pose spacing along the channel, mm", "mm"),
     "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),
+    "order": ("gap", "gap (every level of a gap, then the next gap) or level (a level in every "
+              "gap, then the next level: the post interleaves the gaps)", "word"),
 }
 
 
@@ -494,6 +499,9 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
     for key in ("stepover", "depth_per_cut"):
         if key not in kw:
             raise BliskCamError(f"{where}: key {key!r} is missing (mm)")
+    if kw.get("order", "gap") not in GAP_ORDERS:
+        raise BliskCamError(f"{where} key 'order': order must be one of {', '.join(GAP_ORDERS)}"
+                            f", got {kw['order']!r}")
     if "axis" in kw:
         axis = kw.pop("axis")
         if axis not in ("blades", "radial"):

@@ -21,7 +21,11 @@ Stages (:mod:`.operation`):
 3. ``pattern`` — zig-zag passes along the channel stepped across it, or plunges
    (:mod:`..channel.patterns`);
 4. ``link`` — the program: feed links in the air beyond the blank's faces, retract / rapid
-   at the safe radius / approach elsewhere; the estimated machining time.
+   at the safe radius / approach elsewhere; the estimated machining time. Ordered by gap
+   (``order``, the default) the gap is linked as one and the post repeats it per gap; by
+   level each level is linked alone, from and back to the safe radius, and the post runs
+   level 1 in every gap, then level 2 … (``stats["level_blocks"]``); ``gaps`` makes the
+   program itself hold several gaps (:mod:`..channel.gaps`).
 
 The tool axis leans with the blades (``follow_blades``, the default): per level and station
 the radial direction tilted toward +θ by the blades' mean camber lean over the band of
@@ -55,6 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..channel.axis import bound_turn, limit_turn, mean_camber_lean
+from ..channel.gaps import GAP_ORDERS, pattern_gaps
 from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
     Piece,
@@ -68,6 +73,7 @@ from ..channel.patterns import (
 )
 from ..channel.region import channel_bounds, cylinder_sections, fill_free, offset_table
 from ..errors import BliskCamError, StockError, ToolError
+from ..geometry.vectors import rotate_about
 from ..part.cones import Cone
 from ..part.model import BliskPart, theta_about
 from ..runtime import Progress, check_cancel
@@ -116,6 +122,14 @@ class RoughRequest:
     check_stock : bool — run the program on the blank and leave out what brings the tool
         body against the stock (the ``link`` stage; False: only the simulation afterwards
         reports it)
+    order : str — ``gap``: every level of a gap before the next gap; ``level``: a level in
+        every gap before the next level (:mod:`..channel.gaps`). The program of one gap is
+        posted for the N gaps in that order: by gap the post repeats it per gap; by level
+        each level is linked alone (from and back to the safe radius, ``stats
+        ["level_blocks"]`` its rows) and the post runs level 1 in every gap, then level 2 …
+    gaps : int or None — the program itself holds gaps 0 … gaps − 1 in ``order``, linked
+        round the axis at the safe radius (None: one gap); a program of several gaps is
+        posted as it is (with the blade count 1 or gaps)
     """
 
     tool: Cutter
@@ -139,6 +153,8 @@ class RoughRequest:
     follow_blades: bool = True
     max_turn: float = math.radians(2.0)
     check_stock: bool = True
+    order: str = "gap"
+    gaps: int | None = None
 
 
 @dataclass
@@ -248,6 +264,14 @@ class RoughingOperation(Operation):
         if req.levels not in LEVEL_MODES:
             raise BliskCamError(f"levels must be one of {', '.join(LEVEL_MODES)}, got "
                                 f"{req.levels!r}")
+        if req.order not in GAP_ORDERS:
+            raise BliskCamError(f"order must be one of {', '.join(GAP_ORDERS)} (by gap: all "
+                                f"levels of a gap, then the next gap; by level: a level in "
+                                f"every gap, then the next level), got {req.order!r}")
+        if req.gaps is not None and not (isinstance(req.gaps, (int, np.integer))
+                                         and 1 <= req.gaps <= part.blade_count):
+            raise BliskCamError(f"the gaps the program holds must be a whole number from 1 to "
+                                f"the blade count {part.blade_count}, got {req.gaps!r}")
         if req.pattern not in PATTERNS:
             raise BliskCamError(f"pattern must be one of {', '.join(PATTERNS)}, got "
                                 f"{req.pattern!r}")
@@ -537,8 +561,7 @@ class RoughingOperation(Operation):
         for pc in st.pieces:
             pc.tip, pc.axis, n_in = bound_turn(pc.tip, pc.axis, req.max_turn)
             inserted += n_in
-        tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
-                                                           self._r_safe(st))
+        tip, axis, move, curve, index, rows, blocks = self._linked(st)
         program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         # the body against the in-process stock: the program run on the blank; a contour
         # pass (its axis differs from the one that cleared the levels above) whose body or
@@ -587,8 +610,7 @@ class RoughingOperation(Operation):
             if not st.pieces:
                 raise BliskCamError("every pass of the channel would bring the tool body "
                                     "against the stock: take a tool with a slimmer body")
-            tip, axis, move, curve, index, rows = link_program(st.pieces, part.axis,
-                                                               self._r_safe(st))
+            tip, axis, move, curve, index, rows, blocks = self._linked(st)
             program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         else:
             if req.check_stock:
@@ -596,8 +618,15 @@ class RoughingOperation(Operation):
                                    "of leaving passes out: check the simulation's crashes")
         curves = [PassCurve(s=float(p.level), closed=False, cc=p.tip, normal=p.axis,
                             tip=p.tip, axis=p.axis) for p in st.pieces]
+        starts = np.cumsum([0] + [len(b[0]) for b in blocks])
+        n_pat = int(req.gaps) if req.gaps is not None else 1
+        if n_pat > 1:
+            tip, axis, move, curve, index, rows, curves = self._patterned(
+                st, blocks, curves, n_pat)
+            program = Program(tip, axis, move, curve, index, np.zeros(len(tip), np.uint8))
         plunge = req.plunge_feed or 0.5 * req.feed
         est = machining_time(tip, move, req.feed, plunge, req.rapid_feed)
+        est["minutes"] /= n_pat  # the program holds n_pat gaps
         P = part.hub_profile
         zt = st.z[~st.outside]
         cone1 = Cone(float(P[0, 0]), float(P[0, 1]), float(P[-1, 0]), float(P[-1, 1]))
@@ -620,6 +649,11 @@ class RoughingOperation(Operation):
             "passes": len(st.pieces),
             "rows": len(tip),
             "gaps": part.blade_count,
+            "order": req.order,
+            "gaps_in_program": int(n_pat),
+            "level_blocks": ([[int(a), int(b)] for a, b in zip(starts[:-1], starts[1:],
+                                                              strict=True)]
+                             if req.order == "level" and n_pat == 1 else []),
             "level_rows": [[int(rows[k][0]), int(rows[k][1])] if k in rows else [0, 0]
                            for k in range(len(st.levels))],
             "level_labels": [lv.label for lv in st.levels],
@@ -651,6 +685,64 @@ class RoughingOperation(Operation):
                            curves=curves, stats=stats, program=program,
                            warnings=list(st.warnings), operation="rough")
         yield Progress(1.0, f"linked {len(tip)} rows")
+
+    def _linked(self, st: _State):
+        """The program of gap 0's pieces in the request's order: (tip, axis, move, curve,
+        index, rows, blocks) — by gap linked as one (:func:`..channel.patterns.link_program`),
+        by level each level linked alone from and back to the safe radius (the post
+        interleaves the gaps level by level); rows[level] the level's [first, last) rows,
+        blocks the linked blocks (one, or one per level)."""
+        if st.req.order != "level":
+            tip, axis, move, curve, index, rows = link_program(st.pieces, st.part.axis,
+                                                               self._r_safe(st))
+            return tip, axis, move, curve, index, rows, [(tip, axis, move, curve, index)]
+        blocks = self._level_blocks(st)
+        tip, axis, move, curve, index = (np.concatenate(x) for x in zip(*blocks, strict=True))
+        starts = np.cumsum([0] + [len(b[0]) for b in blocks])
+        rows = {lv: (int(a), int(b)) for lv, a, b in zip(
+            sorted({pc.level for pc in st.pieces}), starts[:-1], starts[1:], strict=True)}
+        return tip.reshape(-1, 3), axis.reshape(-1, 3), move, curve, index, rows, blocks
+
+    def _level_blocks(self, st: _State):
+        """Gap 0's program as one block per level: each level's pieces linked alone, from and
+        back to the safe radius (tip, axis, move, curve, index; curve indexes ``st.pieces``)."""
+        blocks = []
+        for lv in sorted({pc.level for pc in st.pieces}):
+            ids = np.array([k for k, pc in enumerate(st.pieces) if pc.level == lv], np.int64)
+            t, a, m, c, i, _ = link_program([st.pieces[k] for k in ids], st.part.axis,
+                                            self._r_safe(st))
+            blocks.append((t, a, m, np.where(c >= 0, ids[np.maximum(c, 0)], -1), i))
+        return blocks
+
+    @staticmethod
+    def _rows_of(st: _State, curves, curve) -> dict:
+        """{level: [first, last + 1) rows of its passes} of a program's ``curve`` column."""
+        level = np.array([int(pc.s) for pc in curves])
+        cut = np.nonzero(curve >= 0)[0]
+        rows = {}
+        for lv in np.unique(level[curve[cut]]):
+            r = cut[level[curve[cut]] == lv]
+            rows[int(lv)] = (int(r.min()), int(r.max()) + 1)
+        return rows
+
+    def _patterned(self, st: _State, blocks, curves, n_gaps: int):
+        """The program of ``n_gaps`` gaps in the request's order (:mod:`..channel.gaps`) from
+        gap 0's ``blocks`` (the whole gap, or one per level). Returns (tip, axis, move, curve,
+        index, rows, curves): rows[level] the [first, last + 1) rows of the level's passes
+        over all gaps, curves gap 0's passes then each gap's turned copies."""
+        part = st.part
+        n = len(curves)
+        tip, axis, move, curve, index, _, _ = pattern_gaps(blocks, part.axis, part.pitch,
+                                                           n_gaps, st.req.order, n)
+        d = part.axis.d
+        out = list(curves)
+        for g in range(1, n_gaps):
+            turn = g * part.pitch
+            for pc in curves:
+                t = rotate_about(pc.tip, d, turn, part.axis.o)
+                a = rotate_about(pc.axis, d, turn)
+                out.append(PassCurve(s=pc.s, closed=False, cc=t, normal=a, tip=t, axis=a))
+        return tip, axis, move, curve, index, self._rows_of(st, out, curve), out
 
     def finish(self, state, seconds):
         return OperationResult(state.path, None, dict(seconds))
