@@ -160,18 +160,36 @@ def read_rz_csv(path) -> np.ndarray:
     return np.asarray(pts)
 
 
-def _top_envelope(axis, hub_profile, blade_V, bore_depth: float, z_step: float = 1.0):
-    """As :func:`_envelope` but exact per station: the blade's largest radius in each axial
-    slab, the hub elsewhere."""
+def _top_envelope(axis, hub_profile, blade_V, blade_F, bore_depth: float,
+                  z_step: float = 1.0):
+    """As :func:`_envelope` but per station ``z_step`` mm apart: the largest radius of the
+    blade's triangles whose axial extent meets the station ± one step, the hub elsewhere.
+
+    A triangle's largest radius is at a vertex (r is convex), and a point of the blade between
+    two stations lies on a triangle that meets both stations' windows, so the polygon, linear
+    between stations, contains the whole blade — also where a long triangle leaves a station
+    without any vertex near it (Rotor 37's tip: blade points stood up to 14.5 mm above the
+    nearest-vertex version).
+    """
     r, _, z = theta_about(blade_V, axis)
+    F = np.asarray(blade_F, np.int64)
     z_lo = min(float(hub_profile[0, 1]), float(z.min()))
     z_hi = max(float(hub_profile[-1, 1]), float(z.max()))
     n = max(2, int(math.ceil((z_hi - z_lo) / z_step)) + 1)
     zs = np.linspace(z_lo, z_hi, n)
+    h = zs[1] - zs[0]
     hub = np.interp(zs, hub_profile[:, 1], hub_profile[:, 0])
-    idx = np.clip(np.round((z - z_lo) / (zs[1] - zs[0])).astype(int), 0, n - 1)
     top = hub.copy()
-    np.maximum.at(top, idx, r)
+    if len(F):
+        zf, rf = z[F], r[F].max(axis=1)
+        lo = np.clip(np.ceil((zf.min(axis=1) - z_lo) / h - 1.0 - 1e-9).astype(int), 0, n - 1)
+        hi = np.clip(np.floor((zf.max(axis=1) - z_lo) / h + 1.0 + 1e-9).astype(int), 0, n - 1)
+        count = hi - lo + 1
+        first = np.repeat(np.cumsum(count) - count, count)
+        station = np.repeat(lo, count) + (np.arange(int(count.sum())) - first)
+        np.maximum.at(top, station, np.repeat(rf, count))
+    else:
+        np.maximum.at(top, np.clip(np.round((z - z_lo) / h).astype(int), 0, n - 1), r)
     bore = max(0.0, float(hub.min()) - bore_depth)
     ring = [[bore, z_hi], [bore, z_lo]] + [[t, zz] for t, zz in zip(top, zs, strict=True)]
     return np.asarray(ring, dtype=np.float64)
@@ -220,7 +238,8 @@ def part_from_demo(demo: DemoBlisk, bore_depth: float = 10.0) -> BliskPart:
     return BliskPart(demo.axis, demo.blade_count, demo.blade_vertices,
                      np.asarray(demo.blade_faces, np.int64), profile, demo.hub_vertices,
                      np.asarray(demo.hub_faces, np.int64),
-                     _top_envelope(demo.axis, profile, demo.blade_vertices, bore_depth),
+                     _top_envelope(demo.axis, profile, demo.blade_vertices, demo.blade_faces,
+                                   bore_depth),
                      _sector_start(demo.axis, demo.blade_vertices, pitch))
 
 
@@ -238,7 +257,7 @@ def part_from_blade(blade_V, blade_F, hub_profile, blade_count: int, axis: Axis 
     start = _sector_start(axis, V, pitch)
     HV, HF = _revolved_hub(axis, profile, start, pitch)
     return BliskPart(axis, int(blade_count), V, F, profile, HV, HF,
-                     _top_envelope(axis, profile, V, bore_depth), start)
+                     _top_envelope(axis, profile, V, F, bore_depth), start)
 
 
 # ------------------------------------------------------------------------------ splitting
@@ -431,7 +450,7 @@ def split_blisk_mesh(V, F, blade_count: int | None = None, axis: Axis | None = N
     hused, hinv = np.unique(F[hub_f], return_inverse=True)
     part = BliskPart(axis, n_found, V[used], inv.reshape(-1, 3).astype(np.int64), profile,
                      V[hused], hinv.reshape(-1, 3).astype(np.int64),
-                     _top_envelope(axis, profile, V[used], bore_depth), start)
+                     _top_envelope(axis, profile, V[used], inv.reshape(-1, 3), bore_depth), start)
     return BliskSplit(part, n_found, hub_f, bf, sector)
 
 
