@@ -3,9 +3,10 @@ read empty 1–8 mm inside some leading/trailing-edge faces of the demo blisk. A
 the grid? Measured on a `process` output folder:
 
 * the faces of the blade's edges whose deviation (:func:`blisk_cam.core.stock.deviation.
-  deviation_map`, 8 mm inward) reads ≤ −1 mm, how many the final verdict judges (its
-  "thick" test), and how many faces the part's own solid at the stock's resolution (no cut at
-  all) reads ≤ −1 mm the same way;
+  deviation_map`, 8 mm inward) reads ≤ −1 mm, how many the verdicts judge
+  (:func:`blisk_cam.core.stock.deviation.resolved_points`, issue #22; before it, the final
+  verdict's "thick" test), and how many faces the part's own solid cast on the stock's own
+  rays (no cut at all) reads ≤ −1 mm the same way;
 * the exact swept ball of every program row of the operation (the ball centres' polyline,
   each segment sampled every 0.01 mm, closest points on the blade mesh): the deepest it goes
   into the blade, and how far those faces' centroids lie from it.
@@ -27,9 +28,9 @@ from blisk_cam.core.geometry.distance import MeshDistance
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.hub.channel import side_distance
 from blisk_cam.core.process.job import build_part, job_template, load_job
-from blisk_cam.core.process.job_verdict import _classes, _thick, face_frame
+from blisk_cam.core.process.job_verdict import _classes, face_frame
 from blisk_cam.core.stock.blank import stock_from_allowance
-from blisk_cam.core.stock.deviation import deviation_map
+from blisk_cam.core.stock.deviation import deviation_map, resolved_points, surface_distance
 from blisk_cam.core.stock.dexels import RadialDexels
 from blisk_cam.core.toolpath.paths_io import read_paths_json
 
@@ -43,14 +44,19 @@ edge = np.flatnonzero(np.isin(cls, (4, 5)))
 stock = RadialDexels.load(out / f"{stem}.stock.npz")
 res = stock.resolution
 dev = deviation_map(stock, C[edge], N[edge], reach_out=2.0, reach_in=8.0)
-solid = stock_from_allowance(part, 0.0, res)
+solid = stock_from_allowance(part, 0.0, res, grid=stock)
 ideal = deviation_map(solid, C[edge], N[edge], reach_out=2.0, reach_in=8.0)
-thick = _thick(part, solid, C[edge], N[edge], res)
+path = read_paths_json(out / f"{stem}.paths.json")
+tol = path.chord + res
+thick = resolved_points(solid, C[edge], N[edge], tol, surface_distance(V, F),
+                        cut_depth=path.chord)
 bad = dev <= -1.0
 print(f"edge faces {len(edge)}, stock res {res}: dev<=-1 on {bad.sum()} faces "
-      f"({area[edge][bad].sum():.1f} mm2), min dev {dev.min():.2f}; of those 'thick' (judged): "
-      f"{(bad & thick).sum()}; ideal (part alone at this grid) dev<=-1 on {(ideal <= -1).sum()}")
-path = read_paths_json(out / f"{stem}.paths.json")
+      f"({area[edge][bad].sum():.1f} mm2), min dev {dev.min():.2f}; of those resolved "
+      f"(judged, stock.deviation.resolved_points): {(bad & thick).sum()}; resolved edge faces "
+      f"{thick.sum()} ({100 * thick.mean():.1f} %), worst judged dev "
+      f"{dev[thick].min() if thick.any() else float('nan'):.3f} (tolerance {tol:.3f}); "
+      f"ideal (the part on the stock's own rays) dev<=-1 on {(ideal <= -1).sum()}")
 rho = float(path.tool.radius)
 P = path.program
 cen = P.tip + rho * P.axis
