@@ -106,19 +106,22 @@ def resolved_points(solid: RadialDexels, V, normals, tolerance: float, surface_d
     clean program cuts below the judged surface (its chord tolerance: the linear moves between
     poses cut that far into the surface at most).
 
-    The map reads a sample at depth s below the judged surface on the ray of the sample's cell
-    at the sample's radius (:meth:`.dexels.RadialDexels.ray_points`): up to half a cell across
-    θ and z from the sample, so the depth of that ray point below the surface is not s — where
-    a ray grazes the surface (a blade's side: its normal nearly across the rays) or clips a
-    thin edge, it lies just under the surface whatever s. A vertex is resolved when one of
-    the samples the map reads down to the tolerance (s = ¼ res, ½ res, … ≤ ``tolerance``) falls
-    on a ray point more than ``cut_depth`` (+ 1/16 of a cell) below the judged surface, the
-    depth measured exactly (inside the part by ``solid``, which is exact along the ray, and the
-    distance to the part's surface). A clean program leaves that ray point, so the map reads
-    material there and no gouge past the tolerance; a gouge deeper than the tolerance and half
-    a cell removes that point and every sample above it and the map reads past the tolerance.
-    Elsewhere a clean cut can empty the rays the map reads and it would show a gouge that is
-    the grid's: those vertices are not resolved (the verdicts count them as not judged).
+    The map reads the sample at p + s n on the ray of the sample's cell at the sample's radius
+    (:meth:`.dexels.RadialDexels.ray_points`): up to half a cell across θ and z from the
+    sample, so the depth of that ray point below the surface is not s — where a ray grazes
+    the surface (a blade's side: its normal nearly across the rays) or clips a thin edge, it
+    lies just under the surface whatever s. A ray point is *kept* when it lies more than
+    ``cut_depth`` (+ 1/16 of a cell) below the judged surface, the depth measured exactly
+    (inside the part by ``solid``, which is exact along the ray, and the distance to the
+    part's surface): a clean program leaves it. A vertex is resolved when the map, reading
+    inward from s = −¼ res, meets a kept ray point at a sample s ≥ a − ``tolerance`` (a the
+    allowance): it then reads no gouge past the tolerance after a clean program, and a gouge
+    deeper than the tolerance and half a cell removes that point and every sample above it
+    and the map reads past the tolerance. (When the allowance is within ¼ res of the
+    tolerance or above it, no such sample lies inside the part: every sample from −¼ res up
+    to a − ``tolerance`` must then be kept, the map reading outward.) Elsewhere a clean cut
+    can empty the rays the map reads and it would show a gouge that is the grid's: those
+    vertices are not resolved (the verdicts count them as not judged).
 
     Cost: per point, at most one occupancy look-up and one distance query per sample."""
     V = np.asarray(V, float)
@@ -126,19 +129,34 @@ def resolved_points(solid: RadialDexels, V, normals, tolerance: float, surface_d
     h = 0.25 * solid.resolution
     a = float(allowance)
     need = max(float(cut_depth), 0.0) + 0.25 * h
-    ok = np.zeros(len(V), bool)
-    for k in range(int(math.floor(float(tolerance) / h + 1e-9)), 0, -1):
-        todo = np.flatnonzero(~ok)
-        if len(todo) == 0:
-            break
-        Q = solid.ray_points(V[todo] - (k * h - a) * Nn[todo])
+    lowest = (a - float(tolerance)) / h  # samples s = m h with m ≥ lowest
+    inward = list(range(-1, int(math.ceil(lowest - 1e-9)) - 1, -1))
+
+    def kept(idx, m):
+        Q = solid.ray_points(V[idx] + (m * h) * Nn[idx])
         inside = solid.occupied(Q)
         # a point outside the part lies at most `a` below the judged surface
-        cand = inside if a <= need else np.ones(len(Q), bool)
-        if not cand.any():
-            continue
-        d = np.asarray(surface_distance(Q[cand]), float)
-        ok[todo[cand]] = a + np.where(inside[cand], d, -d) >= need
+        cand = np.flatnonzero(inside if a <= need else np.ones(len(Q), bool))
+        out = np.zeros(len(idx), bool)
+        if len(cand):
+            d = np.asarray(surface_distance(Q[cand]), float)
+            out[cand] = a + np.where(inside[cand], d, -d) >= need
+        return out
+
+    if inward:  # any kept sample the map meets reading inward, deepest first
+        ok = np.zeros(len(V), bool)
+        for m in inward[::-1]:
+            todo = np.flatnonzero(~ok)
+            if len(todo) == 0:
+                break
+            ok[todo] = kept(todo, m)
+        return ok
+    ok = np.ones(len(V), bool)  # every sample from −¼ res out to a − tolerance
+    for m in range(-1, int(math.ceil(lowest - 1e-9)) + 1):
+        todo = np.flatnonzero(ok)
+        if len(todo) == 0:
+            break
+        ok[todo] = kept(todo, m)
     return ok
 
 
