@@ -10,7 +10,11 @@ the tolerance is blade finishing's chord (0.02 mm) plus the resolution, as the t
 verdicts use. Prints, for the blade's vertices and the hub's outer ones: how many, the share
 resolved by each test, and the area (mm²) not judged.
 
-Run: ``python bench/bench_stock_resolved.py [RES_MM]``
+Measured (0.5 mm, 118 × 167 rays, the loaded 2-core machine): blade 50400 vertices, 7089 mm²:
+98.2 % resolved by the ray test (20 mm² not judged), 55.7 % by the disc test (1161 mm²); the
+hub's outer 1347 vertices: 100 % (0 mm²) against 95.8 % (61 mm²).
+
+Run: ``PYTHONPATH=. python bench/bench_stock_resolved.py [RES_MM]``
 """
 import sys
 
