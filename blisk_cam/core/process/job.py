@@ -578,10 +578,10 @@ def fk_check(machine: Machine, solved) -> dict:
     return out
 
 
-def _cut_into_part(runs) -> float:
+def _cut_into_part(runs) -> float | None:
     """How deep the operations ``runs`` cut into the part at most, mm: each program its chord
-    less the allowance it leaves (≥ 0)."""
-    return max([r.path.chord - float(r.path.allowance or 0.0) for r in runs] + [0.0])
+    less the allowance it leaves (< 0: they stay outside the part); None without runs."""
+    return max((r.path.chord - float(r.path.allowance or 0.0) for r in runs), default=None)
 
 
 def final_verdict(job: Job, part: BliskPart, stock, runs):
@@ -595,7 +595,8 @@ def final_verdict(job: Job, part: BliskPart, stock, runs):
     fr = measured.radius if measured is not None else next(
         (float(r.op.options["fillet_radius"]) for r in runs
          if "fillet_radius" in r.op.options), None)
-    cut = max([c.chord for c in contacts] + [_cut_into_part(runs)])
+    into = _cut_into_part(runs)
+    cut = max([c.chord for c in contacts] + ([] if into is None else [into]) + [0.0])
     return job_verdict(part, stock, contacts, resolution=job.resolution,
                        gouge_tolerance=job.gouge_tolerance, fillet_radius=fr, cut_depth=cut)
 

@@ -73,7 +73,7 @@ def _check_frame(part: BliskPart, path: ToolPath, k: int):
 
 def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_tolerance=None,
                   reach_out: float = 2.0, reach_in: float = 0.5, assembly=None,
-                  check_body: bool = True, cut_into_part: float = 0.0):
+                  check_body: bool = True, cut_into_part: float | None = None):
     """Run ``paths`` (ToolPath with programs, in order) on ``stock`` (changed in place);
     yields Progress, returns a :class:`Simulation`. ``gouge_tolerance`` (mm) defaults to the
     largest chord tolerance of the paths plus the stock's resolution. When every program
@@ -86,7 +86,8 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
     reads as one (deeper ones read as that depth: "at least"). How deep a clean program cuts
     below the judged surface (``resolved_points``' ``cut_depth``) is taken from the paths: each
     cuts its chord into the surface it leaves (its allowance), so ``chord − allowance`` into the
-    part; ``cut_into_part`` (mm) adds what earlier operations on this stock cut into it."""
+    part (< 0: it stays that far outside); ``cut_into_part`` (mm, the same figure) adds what
+    earlier operations on this stock cut."""
     paths = list(paths)
     for k, p in enumerate(paths):
         _check_frame(part, p, k)
@@ -127,11 +128,12 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
     dev = np.full(len(V), np.nan)
     dev[surface] = deviation_map(stock, V[surface], N[surface], reach_out=reach_out,
                                  reach_in=reach_in)
+    # how deep into the part the programs (and the earlier ones) cut, mm (< 0: outside it)
+    into = [p.chord - float(getattr(p, "allowance", 0.0) or 0.0) for p in paths]
+    into += [] if cut_into_part is None else [float(cut_into_part)]
     resolved = resolved_points(solid, V[surface], N[surface], tol,
                                surface_distance(V, F[surface[F].any(axis=1)]),
-                               cut_depth=allowance + max(
-                                   [p.chord - float(getattr(p, "allowance", 0.0) or 0.0)
-                                    for p in paths] + [float(cut_into_part)]),
+                               cut_depth=max(0.0, allowance + max(into, default=0.0)),
                                allowance=allowance)
     summary = simulation_summary(part, stock, total, V[surface], dev[surface],
                                  gouge_tolerance=tol, initial_volume=initial,
