@@ -3,9 +3,10 @@ read empty 1–8 mm inside some leading/trailing-edge faces of the demo blisk. A
 the grid? Measured on a `process` output folder:
 
 * the faces of the blade's edges whose deviation (:func:`blisk_cam.core.stock.deviation.
-  deviation_map`, 8 mm inward) reads ≤ −1 mm, how many the final verdict judges (its
-  "thick" test), and how many faces the part's own solid at the stock's resolution (no cut at
-  all) reads ≤ −1 mm the same way;
+  deviation_map`, 8 mm inward) reads ≤ −1 mm, how many the verdicts judge
+  (:func:`blisk_cam.core.stock.deviation.resolved_points`, issue #22; before it, the final
+  verdict's "thick" test), and how many faces the part's own solid cast on the stock's own
+  rays (no cut at all) reads ≤ −1 mm the same way;
 * the exact swept ball of every program row of the operation (the ball centres' polyline,
   each segment sampled every 0.01 mm, closest points on the blade mesh): the deepest it goes
   into the blade, and how far those faces' centroids lie from it.
@@ -13,7 +14,9 @@ the grid? Measured on a `process` output folder:
 On the template (0.5 mm stock): 119 faces (0.8 mm²) read ≤ −1 mm (down to −8), none judged;
 the part alone reads so on 301; the swept ball goes at most 0.012 mm into the blade (chord
 0.02; 0.017 mm with the hub cone at 20 mm) and touches those centroids within 0.011 mm — the
-grid, not a cut.
+grid, not a cut. With issue 22's resolution test (the part cast on the stock's own rays):
+175 faces (1.2 mm²) read ≤ −1 mm, none judged; 95.4 % of the 33584 edge faces judged, the
+worst of them reads −0.499 mm (tolerance 0.520).
 
 Run: ``python bench/bench_job_edges.py DIR [NN-operation]`` (default 03-blade-finishing)
 """
@@ -27,9 +30,9 @@ from blisk_cam.core.geometry.distance import MeshDistance
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.hub.channel import side_distance
 from blisk_cam.core.process.job import build_part, job_template, load_job
-from blisk_cam.core.process.job_verdict import _classes, _thick, face_frame
+from blisk_cam.core.process.job_verdict import _classes, face_frame
 from blisk_cam.core.stock.blank import stock_from_allowance
-from blisk_cam.core.stock.deviation import deviation_map
+from blisk_cam.core.stock.deviation import deviation_map, resolved_points, surface_distance
 from blisk_cam.core.stock.dexels import RadialDexels
 from blisk_cam.core.toolpath.paths_io import read_paths_json
 
@@ -43,14 +46,19 @@ edge = np.flatnonzero(np.isin(cls, (4, 5)))
 stock = RadialDexels.load(out / f"{stem}.stock.npz")
 res = stock.resolution
 dev = deviation_map(stock, C[edge], N[edge], reach_out=2.0, reach_in=8.0)
-solid = stock_from_allowance(part, 0.0, res)
+solid = stock_from_allowance(part, 0.0, res, grid=stock)
 ideal = deviation_map(solid, C[edge], N[edge], reach_out=2.0, reach_in=8.0)
-thick = _thick(part, solid, C[edge], N[edge], res)
+path = read_paths_json(out / f"{stem}.paths.json")
+tol = path.chord + res
+thick = resolved_points(solid, C[edge], N[edge], tol, surface_distance(V, F),
+                        cut_depth=path.chord)
 bad = dev <= -1.0
 print(f"edge faces {len(edge)}, stock res {res}: dev<=-1 on {bad.sum()} faces "
-      f"({area[edge][bad].sum():.1f} mm2), min dev {dev.min():.2f}; of those 'thick' (judged): "
-      f"{(bad & thick).sum()}; ideal (part alone at this grid) dev<=-1 on {(ideal <= -1).sum()}")
-path = read_paths_json(out / f"{stem}.paths.json")
+      f"({area[edge][bad].sum():.1f} mm2), min dev {dev.min():.2f}; of those resolved "
+      f"(judged, stock.deviation.resolved_points): {(bad & thick).sum()}; resolved edge faces "
+      f"{thick.sum()} ({100 * thick.mean():.1f} %), worst judged dev "
+      f"{dev[thick].min() if thick.any() else float('nan'):.3f} (tolerance {tol:.3f}); "
+      f"ideal (the part on the stock's own rays) dev<=-1 on {(ideal <= -1).sum()}")
 rho = float(path.tool.radius)
 P = path.program
 cen = P.tip + rho * P.axis

@@ -155,7 +155,9 @@ def run_simulate(args) -> int:
           f"{dv['max_gouge']:.3f} mm"
           + (f" into the allowance {dv['allowance']:g} mm" if dv.get("allowance") else "")
           + f" (tolerance {dv['gouge_tolerance']:.3f}), "
-          f"{len(summary['crashes'])} crash(es), {summary['seconds']:.1f} s")
+          f"{len(summary['crashes'])} crash(es), {summary['seconds']:.1f} s"
+          + (f"; {dv['not_judged_area_mm2']:.1f} mm² below the stock's resolution not judged"
+             if dv.get("not_judged_area_mm2") else ""))
     if not summary["passed"]:
         why = []
         if summary["crashes"]:

@@ -63,7 +63,9 @@ def summary_line(s: dict) -> str:
             f"({s['volume_removed_mm3']['blisk']:.0f} mm³ on the blisk); left max "
             f"{d['max_left']:.3f} mm (p95 {d['p95_left']:.3f}); gouge max "
             f"{d['max_gouge']:.3f} mm{where} (tolerance {d['gouge_tolerance']:.3f}); "
-            f"{len(s['crashes'])} crash(es); {'passed' if s['passed'] else 'FAILED'}")
+            f"{len(s['crashes'])} crash(es); {'passed' if s['passed'] else 'FAILED'}"
+            + (f" ({d['not_judged_area_mm2']:.1f} mm² below the stock's resolution not judged)"
+               if d.get("not_judged_area_mm2") else ""))
 
 
 def crash_line(s: dict) -> str | None:

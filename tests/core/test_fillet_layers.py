@@ -30,10 +30,10 @@ from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.model import part_from_demo
 from blisk_cam.core.process.fillet_finish import FILLET_FINISH
 from blisk_cam.core.process.hub_finish import HubRequest
-from blisk_cam.core.process.job_verdict import _classes, _thick, face_frame
+from blisk_cam.core.process.job_verdict import _classes, face_frame
 from blisk_cam.core.process.operation import run_operation
 from blisk_cam.core.stock.blank import stock_from_allowance
-from blisk_cam.core.stock.deviation import deviation_map
+from blisk_cam.core.stock.deviation import deviation_map, resolved_points, surface_distance
 from blisk_cam.core.stock.simulation import iter_simulate
 from blisk_cam.core.toolpath.types import MOVE_CUT
 
@@ -132,8 +132,10 @@ def test_the_stock_keeps_at_most_the_scallop_between_the_layers(layered):
     # blade faces between the first layer's contacts and the top: the fillet and the sides,
     # not the edges, where the cells resolve the blade (the verdict's own classes and test)
     cls, _, _ = _classes(part, C, N, hub, R_F)
-    solid = stock_from_allowance(part, 0.0, RES)
-    sel = np.isin(cls, (1, 2, 3)) & (h > 1.0) & (h < TOP - 1.0) & _thick(part, solid, C, N, RES)
+    solid = stock_from_allowance(part, 0.0, RES, grid=stock)
+    tol = path.chord + RES
+    sel = np.isin(cls, (1, 2, 3)) & (h > 1.0) & (h < TOP - 1.0) & resolved_points(
+        solid, C, N, tol, surface_distance(V, F), cut_depth=path.chord)
     assert sel.sum() > 200
     dev = deviation_map(stock, C[sel], N[sel], reach_out=2.0, reach_in=1.0)
     bound = path.stats["scallop_estimate_mm"] + path.chord + RES

@@ -578,6 +578,12 @@ def fk_check(machine: Machine, solved) -> dict:
     return out
 
 
+def _cut_into_part(runs) -> float | None:
+    """How deep the operations ``runs`` cut into the part at most, mm: each program its chord
+    less the allowance it leaves (< 0: they stay outside the part); None without runs."""
+    return max((r.path.chord - float(r.path.allowance or 0.0) for r in runs), default=None)
+
+
 def final_verdict(job: Job, part: BliskPart, stock, runs):
     """The job's final verdict (:func:`.job_verdict.job_verdict`) on ``stock`` (after the
     last operation) from the finishing operations among ``runs``; the fillet named on the
@@ -589,8 +595,10 @@ def final_verdict(job: Job, part: BliskPart, stock, runs):
     fr = measured.radius if measured is not None else next(
         (float(r.op.options["fillet_radius"]) for r in runs
          if "fillet_radius" in r.op.options), None)
+    into = _cut_into_part(runs)
+    cut = max([c.chord for c in contacts] + ([] if into is None else [into]) + [0.0])
     return job_verdict(part, stock, contacts, resolution=job.resolution,
-                       gouge_tolerance=job.gouge_tolerance, fillet_radius=fr)
+                       gouge_tolerance=job.gouge_tolerance, fillet_radius=fr, cut_depth=cut)
 
 
 def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | None = None):
@@ -640,7 +648,8 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
                 raise BliskCamError("the operation planned no moves")
             sim = yield from _scaled(
                 iter_simulate(part, stock, [path], gouge_tolerance=job.gouge_tolerance,
-                              assembly=tool_assembly(op.tool, cutter)),
+                              assembly=tool_assembly(op.tool, cutter),
+                              cut_into_part=_cut_into_part(run.operations)),
                 lo + 0.5 * (hi - lo), hi, f"{label} on the stock")
             tilt = prep.tilt if prep.tilt is not None else _measured_tilt(path)
             depth = op.depth if op.depth is not None else op.kind.default_depth

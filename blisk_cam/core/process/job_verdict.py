@@ -7,12 +7,14 @@ Measured on the stock the last operation left, per face of the part mesh (blade 
 of its pitch sector, :meth:`..part.model.BliskPart.part_mesh`): the deviation at the face's
 centroid along its normal out of the metal (:func:`..stock.deviation.deviation_map`, + left,
 − gouge). The stock is radial dexels of resolution ``res``; a face is judged only where the
-grid resolves the part itself: the part's own solid at that resolution (the "ideal" stock)
-measured the same way must show less than the gouge tolerance either way, and the part must
-hold a disc of one cell's radius across the rays (along θ and z) 1.5 cells below the face
-(thin edges below the grid's cell are reported as *unresolved*, with their area, not judged:
-a cut near a thin edge takes the whole ray there). Hub faces buried under
-the blade are not part of the surface.
+grid resolves the part itself, by the test the per-operation verdicts use
+(:func:`..stock.deviation.resolved_points`): the part's own solid cast on the stock's own rays
+(the "ideal" stock, what a program that never cuts into the part leaves at best on that grid)
+measured the same way must show less than the gouge tolerance of material, and hold the map's
+samples at the tolerance's depth below the face (the grid's ray crosses the part there). Thin
+edges the grid's rays miss or clip are reported as *unresolved*, with their area, not judged:
+a cut near a thin edge takes the whole ray there. Hub faces buried under the blade are not
+part of the surface.
 
 Bounds (mm): a face lies in the *contact region* of a finishing operation (kinds
 :data:`FINISHING_KINDS`; roughing and semi-finishing leave stock on purpose) when its centroid
@@ -64,7 +66,7 @@ from ..hub.fillet import face_principal_curvatures
 from ..hub.surface import HubSurface
 from ..part.model import BliskPart, theta_about
 from ..stock.blank import stock_from_allowance
-from ..stock.deviation import deviation_map
+from ..stock.deviation import deviation_map, resolved_points, surface_distance
 from ..toolpath.types import STATUS_UNRESOLVED
 
 __all__ = ["FINISHING_KINDS", "JobVerdict", "OperationContacts", "Zone", "face_frame",
@@ -259,19 +261,6 @@ def _near(C, contacts: OperationContacts, part: BliskPart, w: float):
     return clear, coll, d_all
 
 
-def _thick(part: BliskPart, solid, C, N, res: float) -> np.ndarray:
-    """(n,) bool: the part holds, 1.5 cells below each point, a disc of one cell's radius
-    across the rays (along θ and z): there the radial dexels resolve the surface. A thin edge
-    (a trailing edge thinner than the cells) is not: a cut near it takes a whole ray."""
-    P = C - 1.5 * res * N
-    _, th, _ = theta_about(P, part.axis)
-    hs = HubSurface(part.hub_profile, part.axis)
-    ok = solid.occupied(P) & solid.occupied(C - 0.5 * res * N)
-    for e in (hs.tangential(th), np.broadcast_to(part.axis.d, P.shape)):
-        ok &= solid.occupied(P + res * e) & solid.occupied(P - res * e)
-    return ok
-
-
 def _under_blades(part: BliskPart, C) -> np.ndarray:
     """(n,) bool: the hub points ``C`` lie under blade 0 or a neighbour, its fillet included:
     inside the blade's root loop (where blade or fillet meets the hub) in the hub's (m, θ) plane,
@@ -312,17 +301,21 @@ def _components(F, faces):
 
 def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = None,
                 gouge_tolerance: float | None = None,
-                fillet_radius: float | None = None) -> JobVerdict:
+                fillet_radius: float | None = None,
+                cut_depth: float | None = None) -> JobVerdict:
     """The final verdict on ``stock`` (the stock after the last operation) of the finishing
     operations' ``contacts`` ([OperationContacts]); see the module docstring.
-    ``fillet_radius`` (mm): blade faces lower than it above the hub are named the fillet."""
+    ``fillet_radius`` (mm): blade faces lower than it above the hub are named the fillet.
+    ``cut_depth`` (mm): the deepest any operation's clean program cuts into the part (its
+    chord less the allowance it leaves; default: the finishing operations' largest chord),
+    for :func:`..stock.deviation.resolved_points`."""
     res = float(resolution if resolution is not None else stock.resolution)
     V, F, hub, C, N, area = face_frame(part)
     cusp_chord = [c.cusp + c.chord for c in contacts]
     b_default = (max(cusp_chord) if cusp_chord else 0.0) + res
     tol = float(gouge_tolerance if gouge_tolerance is not None else
                 max([c.chord for c in contacts] + [0.0]) + res)
-    solid = stock_from_allowance(part, 0.0, res)
+    solid = stock_from_allowance(part, 0.0, stock.resolution, grid=stock)
     surface = np.ones(len(F), bool)
     surface[hub] = ~_under_blades(part, C[hub])
     reach = max(2.0, 2.0 * b_default)
@@ -332,7 +325,10 @@ def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = 
                                  reach_in=reach)
     ideal[surface] = deviation_map(solid, C[surface], N[surface], reach_out=reach,
                                    reach_in=reach)
-    resolved = surface & (np.abs(ideal) <= tol) & _thick(part, solid, C, N, res)
+    if cut_depth is None:
+        cut_depth = max([c.chord for c in contacts] + [0.0])
+    resolved = surface & (ideal <= tol) & resolved_points(
+        solid, C, N, tol, surface_distance(V, F[surface]), cut_depth=cut_depth)
     unresolved = surface & ~resolved
     bound = np.full(len(F), b_default)
     covered = np.full(len(F), -1)

@@ -108,7 +108,9 @@ def setup_sheet(run: JobRun, files: dict) -> str:
         line = (f"- Operation {r.op.index} ({r.op.name}): "
                 f"{'passed' if s['passed'] else 'FAILED'} — material left max {dv['max_left']:.3f}"
                 f" mm (p95 {dv['p95_left']:.3f}), gouge max {dv['max_gouge']:.3f} mm (tolerance "
-                f"{dv['gouge_tolerance']:.3f}), {len(crashes)} crash(es)")
+                f"{dv['gouge_tolerance']:.3f}), {len(crashes)} crash(es)"
+                + (f"; {dv['not_judged_area_mm2']:.1f} mm² below the stock's resolution not "
+                   "judged" if dv.get("not_judged_area_mm2") else ""))
         if crashes:
             c0 = crashes[0]
             line += (f", first at row {c0['row']} ({c0['kind']}, {c0['move']} move, "

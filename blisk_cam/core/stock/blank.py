@@ -281,17 +281,28 @@ def _closed_offset_blade(part: BliskPart, allowance: float):
     return np.vstack([W, np.asarray(extra)]), np.vstack([F] + caps), tip_rz
 
 
-def stock_from_allowance(part: BliskPart, allowance: float, resolution: float) -> RadialDexels:
+def stock_from_allowance(part: BliskPart, allowance: float, resolution: float, *,
+                         grid: RadialDexels | None = None) -> RadialDexels:
     """The part plus a uniform ``allowance`` (mm): the hub's material up to the hub offset by
     the allowance, and blade 0 grown by it (periodic), the blade's material ending at the
-    envelope's top plus the allowance."""
+    envelope's top plus the allowance. With a ``grid`` (a stock) the material is cast on that
+    stock's own rays (its θ0, z0, cells; ``resolution`` is then the grid's): the part as that
+    grid can hold it, ray for ray, which the verdicts compare the stock with."""
     a = float(allowance)
     if not (math.isfinite(a) and a >= 0):
         raise StockError(f"allowance must be a number ≥ 0 mm, got {allowance!r}")
     env = np.asarray(part.envelope, float)
     z_lo, z_hi = env[:, 1].min() - a, env[:, 1].max() + a
-    dex = RadialDexels.empty(part.axis, part.blade_count, part.sector_start, (z_lo, z_hi),
-                             float(env[:, 0].max()) + a, resolution)
+    if grid is not None:
+        if grid.blade_count != part.blade_count:
+            raise StockError(f"the stock is for {grid.blade_count} blades, the part has "
+                             f"{part.blade_count}; use a stock made for this part")
+        dex = RadialDexels(grid.axis, grid.blade_count, grid.theta0, grid.z0, grid.n_theta,
+                           grid.n_z, grid.resolution, grid.r_max, np.zeros((grid.n_rays, 2)),
+                           np.zeros((grid.n_rays, 2)))
+    else:
+        dex = RadialDexels.empty(part.axis, part.blade_count, part.sector_start, (z_lo, z_hi),
+                                 float(env[:, 0].max()) + a, resolution)
     zs = dex.ray_z(np.arange(dex.n_z))
     bore = float(env[:, 0].min())
     # the hub profile offset along its meridional normal (away from the axis side)

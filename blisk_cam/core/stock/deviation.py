@@ -8,6 +8,17 @@ boundary between two samples is refined by bisection; the figure is good to the 
 resolution (a ray stands for its (θ, z) cell). Material beyond ``reach_out`` is reported as
 ``reach_out`` (the deviation is "at least" that), a gouge deeper than ``reach_in`` as
 −``reach_in``.
+
+Where the grid resolves a gouge (:func:`resolved_points`): a ray stands for its (θ, z) cell,
+so the map reads each sample on its cell's ray, up to half a cell from the sample. Where a ray
+grazes the surface (a blade's side: the rays run nearly along it) or clips a thin edge, the
+ray points the map reads lie just under the surface whatever the sample's depth, and a clean
+cut can empty them: the map would read a gouge that is the grid's. The part cast on the
+stock's own rays (``stock_from_allowance(part, 0, res, grid=stock)``, exact along each ray)
+and the distance to the part's surface tell, per vertex, whether one of the ray points the map
+reads down to the tolerance lies deeper than a clean program cuts. There a clean program reads
+no gouge past the tolerance and a gouge past it (and half a cell) does; elsewhere the vertex
+is *not judged* — counted, with its area, never silently passed.
 """
 
 from __future__ import annotations
@@ -17,13 +28,14 @@ import struct
 
 import numpy as np
 
-from ..geometry.mesh import triangle_normals
+from ..geometry.distance import MeshDistance
+from ..geometry.mesh import TriMesh, triangle_normals
 from ..part.model import BliskPart, theta_about
 from .dexels import RadialDexels
 from .removal import RemovalResult
 
-__all__ = ["deviation_map", "ply_bytes", "simulation_summary", "stock_skin", "stl_bytes",
-           "vertex_normals"]
+__all__ = ["deviation_map", "ply_bytes", "resolved_points", "simulation_summary", "stock_skin",
+           "stl_bytes", "surface_distance", "vertex_areas", "vertex_normals"]
 
 
 def vertex_normals(V, F, hub=None) -> np.ndarray:
@@ -82,18 +94,108 @@ def deviation_map(dex: RadialDexels, V, normals, *, reach_out: float = 2.0,
     return out
 
 
+def resolved_points(solid: RadialDexels, V, normals, tolerance: float, surface_distance, *,
+                    cut_depth: float, allowance: float = 0.0) -> np.ndarray:
+    """(n,) bool: where the deviation map at points ``V`` (n, 3) with unit ``normals`` (out of
+    the metal) tells a gouge past ``tolerance`` (mm, below the surface the verdict judges: the
+    part grown by ``allowance`` mm) from the grid's own reading.
+
+    ``solid``: the part cast on the stock's own rays (``stock_from_allowance(part, 0, res,
+    grid=stock)``); ``surface_distance``: a callable, (m, 3) points → (m,) their distance to
+    the part's surface (mm, exact: :func:`surface_distance`); ``cut_depth`` (mm): how deep a
+    clean program cuts below the judged surface (its chord tolerance: the linear moves between
+    poses cut that far into the surface at most).
+
+    The map reads the sample at p + s n on the ray of the sample's cell at the sample's radius
+    (:meth:`.dexels.RadialDexels.ray_points`): up to half a cell across θ and z from the
+    sample, so the depth of that ray point below the surface is not s — where a ray grazes
+    the surface (a blade's side: its normal nearly across the rays) or clips a thin edge, it
+    lies just under the surface whatever s. A ray point is *kept* when it lies more than
+    ``cut_depth`` (+ 1/16 of a cell) below the judged surface, the depth measured exactly
+    (inside the part by ``solid``, which is exact along the ray, and the distance to the
+    part's surface): a clean program leaves it. A vertex is resolved when the map, reading
+    inward from s = −¼ res, meets a kept ray point at a sample s ≥ a − ``tolerance`` (a the
+    allowance): it then reads no gouge past the tolerance after a clean program, and a gouge
+    deeper than the tolerance and half a cell removes that point and every sample above it
+    and the map reads past the tolerance. (When the allowance is within ¼ res of the
+    tolerance or above it, no such sample lies inside the part: every sample from −¼ res up
+    to a − ``tolerance`` must then be kept, the map reading outward.) Elsewhere a clean cut
+    can empty the rays the map reads and it would show a gouge that is the grid's: those
+    vertices are not resolved (the verdicts count them as not judged).
+
+    Cost: per point, at most one occupancy look-up and one distance query per sample."""
+    V = np.asarray(V, float)
+    Nn = np.asarray(normals, float)
+    h = 0.25 * solid.resolution
+    a = float(allowance)
+    need = max(float(cut_depth), 0.0) + 0.25 * h
+    lowest = (a - float(tolerance)) / h  # samples s = m h with m ≥ lowest
+    inward = list(range(-1, int(math.ceil(lowest - 1e-9)) - 1, -1))
+
+    def kept(idx, m):
+        Q = solid.ray_points(V[idx] + (m * h) * Nn[idx])
+        inside = solid.occupied(Q)
+        # a point outside the part lies at most `a` below the judged surface
+        cand = np.flatnonzero(inside if a <= need else np.ones(len(Q), bool))
+        out = np.zeros(len(idx), bool)
+        if len(cand):
+            d = np.asarray(surface_distance(Q[cand]), float)
+            out[cand] = a + np.where(inside[cand], d, -d) >= need
+        return out
+
+    if inward:  # any kept sample the map meets reading inward, deepest first
+        ok = np.zeros(len(V), bool)
+        for m in inward[::-1]:
+            todo = np.flatnonzero(~ok)
+            if len(todo) == 0:
+                break
+            ok[todo] = kept(todo, m)
+        return ok
+    ok = np.ones(len(V), bool)  # every sample from −¼ res out to a − tolerance
+    for m in range(-1, int(math.ceil(lowest - 1e-9)) + 1):
+        todo = np.flatnonzero(ok)
+        if len(todo) == 0:
+            break
+        ok[todo] = kept(todo, m)
+    return ok
+
+
+def surface_distance(V, F):
+    """A callable: (m, 3) points → (m,) their exact distance (mm) to the triangles (V, F)
+    (the part's surface, for :func:`resolved_points`)."""
+    md = MeshDistance(TriMesh.from_arrays(np.asarray(V, float), np.asarray(F, np.int64)),
+                      compiled=True)
+    return lambda P: md.query(np.asarray(P, float)).distance
+
+
+def vertex_areas(V, F) -> np.ndarray:
+    """(n,) mm²: a third of the area of every face around each vertex (the vertices' areas
+    sum to the mesh's)."""
+    F = np.asarray(F, np.int64)
+    a = 0.5 * np.linalg.norm(triangle_normals(V, F), axis=1) / 3.0
+    out = np.zeros(len(V))
+    for k in range(3):
+        np.add.at(out, F[:, k], a)
+    return out
+
+
 def simulation_summary(part: BliskPart, dex: RadialDexels, removal: RemovalResult, V, dev,
                        *, gouge_tolerance: float, initial_volume: float,
-                       reached=None, allowance: float = 0.0) -> dict:
+                       reached=None, allowance: float = 0.0, resolved=None,
+                       area=None) -> dict:
     """The verdict as a JSON-ready dict: volumes (sector and whole blisk, mm³), deviation
     figures (mm), the largest gouge and where, crashes, and ``passed`` (no crash, no gouge
     deeper than ``gouge_tolerance``). With an ``allowance`` a > 0 (the programs leave stock:
     semi-finishing) a gouge is a cut into the allowance: the depth below a (deviation < a),
-    and ``deviation_mm.allowance`` says a."""
+    and ``deviation_mm.allowance`` says a. ``resolved`` (n,) bool (:func:`resolved_points`;
+    None: every vertex): gouges are judged on those vertices only; the others are counted as
+    not judged (``not_judged_vertices``, and with ``area`` (n,) mm² per vertex,
+    ``not_judged_area_mm2``)."""
     dev = np.asarray(dev, float)
     left = dev[dev > 0]
     sel = dev if reached is None else dev[np.asarray(reached, bool)]
-    worst = int(np.argmin(dev)) if len(dev) else -1
+    judged = np.isfinite(dev) if resolved is None else np.asarray(resolved, bool) & np.isfinite(dev)
+    worst = int(np.flatnonzero(judged)[np.argmin(dev[judged])]) if judged.any() else -1
     a = float(allowance)
     gouge = float(a - dev[worst]) if worst >= 0 and dev[worst] < a else 0.0
     n = part.blade_count
@@ -121,7 +223,11 @@ def simulation_summary(part: BliskPart, dex: RadialDexels, removal: RemovalResul
                                             round(math.degrees(float(th[0])), 4),
                                             round(float(z[0]), 4)] if worst >= 0 else None),
             "gouge_tolerance": float(gouge_tolerance),
-            "gouged_vertices": int((dev < a - gouge_tolerance).sum()),
+            "gouged_vertices": int((judged & (dev < a - gouge_tolerance)).sum()),
+            "not_judged_vertices": int((~judged).sum()),
+            **({"not_judged_area_mm2": round(float(np.asarray(area, float)[~judged].sum()), 3),
+                "area_mm2": round(float(np.asarray(area, float).sum()), 3)}
+               if area is not None else {}),
             **({"allowance": a} if a else {}),
         },
         "crashes": [c.as_dict() for c in removal.crashes],

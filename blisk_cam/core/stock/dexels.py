@@ -218,6 +218,22 @@ class RadialDexels:
         j = np.clip(jf, 0, self.n_z - 1).astype(np.int64)
         return i, j, np.hypot(x, y), inside
 
+    def ray_points(self, points) -> np.ndarray:
+        """(n, 3): each point moved onto the ray that stands for it — its cell's ray (θ and z
+        of the cell's centre, in the point's own pitch sector) at the point's radius: the
+        point of the stock :meth:`occupied` reads for it (exactly, in r)."""
+        P = np.asarray(points, float).reshape(-1, 3)
+        e1, e2, d = self.axis.angular_frame()
+        rel = P - self.axis.o
+        x, y = rel @ e1, rel @ e2
+        th = np.arctan2(y, x)
+        k = np.floor((th - self.theta0) / self.pitch)  # the sector the point lies in
+        i, j, r, _ = self.locate(P)
+        t = self.ray_theta(i) + k * self.pitch
+        z = self.ray_z(j)
+        return (self.axis.o + z[:, None] * d
+                + r[:, None] * (np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2))
+
     def occupied(self, points) -> np.ndarray:
         """(n,) bool — the points lie in material (the nearest ray's interval holds their r)."""
         i, j, r, inside = self.locate(points)

@@ -15,7 +15,14 @@ from ..part.model import BliskPart
 from ..runtime import Progress
 from ..toolpath.types import ToolPath
 from .blank import stock_from_allowance
-from .deviation import deviation_map, simulation_summary, vertex_normals
+from .deviation import (
+    deviation_map,
+    resolved_points,
+    simulation_summary,
+    surface_distance,
+    vertex_areas,
+    vertex_normals,
+)
 from .dexels import RadialDexels
 from .removal import RemovalResult, simulate_moves
 
@@ -36,13 +43,15 @@ class Simulation:
     summary: dict
 
 
-def part_surface(part: BliskPart, resolution: float):
+def part_surface(part: BliskPart, resolution: float, *, solid: RadialDexels | None = None):
     """The part mesh of the deviation map: V, F, unit vertex normals (out of the metal) and
     the (n,) mask of vertices on the part's outer surface (hub vertices under the blade, in
-    the part's own material, are not)."""
+    the part's own material, are not). ``solid``: the part as radial dexels of ``resolution``
+    when the caller has it (else it is cast here)."""
     V, F, hub = part.part_mesh()
     N = vertex_normals(V, F, (hub, part.axis))
-    solid = stock_from_allowance(part, 0.0, resolution)
+    if solid is None:
+        solid = stock_from_allowance(part, 0.0, resolution)
     on_hub = np.zeros(len(V), bool)
     on_hub[np.unique(F[hub])] = True
     on_blade = np.zeros(len(V), bool)
@@ -64,12 +73,21 @@ def _check_frame(part: BliskPart, path: ToolPath, k: int):
 
 def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_tolerance=None,
                   reach_out: float = 2.0, reach_in: float = 0.5, assembly=None,
-                  check_body: bool = True):
+                  check_body: bool = True, cut_into_part: float | None = None):
     """Run ``paths`` (ToolPath with programs, in order) on ``stock`` (changed in place);
     yields Progress, returns a :class:`Simulation`. ``gouge_tolerance`` (mm) defaults to the
     largest chord tolerance of the paths plus the stock's resolution. When every program
     leaves stock (``ToolPath.allowance``, semi-finishing) the smallest allowance is the
-    surface the verdict judges gouges against."""
+    surface the verdict judges gouges against.
+
+    Gouges are judged where the grid resolves them (:func:`.deviation.resolved_points`, with
+    the part plus that allowance cast on the stock's own rays); the map reads inward to
+    twice the tolerance plus a cell at least (``reach_in``), so a gouge past the tolerance
+    reads as one (deeper ones read as that depth: "at least"). How deep a clean program cuts
+    below the judged surface (``resolved_points``' ``cut_depth``) is taken from the paths: each
+    cuts its chord into the surface it leaves (its allowance), so ``chord − allowance`` into the
+    part (< 0: it stays that far outside); ``cut_into_part`` (mm, the same figure) adds what
+    earlier operations on this stock cut."""
     paths = list(paths)
     for k, p in enumerate(paths):
         _check_frame(part, p, k)
@@ -100,13 +118,26 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
         total.pairs += res.pairs
         offset += len(p.program)
     yield Progress(0.9, "measuring the deviation on the part")
-    V, F, N, surface = part_surface(part, stock.resolution)
+    tol = float(gouge_tolerance)
+    # a gouge deeper than reach_in reads as −reach_in: the map must see past the tolerance
+    reach_in = max(float(reach_in), 2.0 * tol + stock.resolution)
+    allowance = min((float(getattr(p, "allowance", 0.0) or 0.0) for p in paths), default=0.0)
+    # the part on the stock's own rays: where the grid resolves a gouge past the tolerance
+    solid = stock_from_allowance(part, 0.0, stock.resolution, grid=stock)
+    V, F, N, surface = part_surface(part, stock.resolution, solid=solid)
     dev = np.full(len(V), np.nan)
     dev[surface] = deviation_map(stock, V[surface], N[surface], reach_out=reach_out,
                                  reach_in=reach_in)
-    allowance = min((float(getattr(p, "allowance", 0.0) or 0.0) for p in paths), default=0.0)
+    # how deep into the part the programs (and the earlier ones) cut, mm (< 0: outside it)
+    into = [p.chord - float(getattr(p, "allowance", 0.0) or 0.0) for p in paths]
+    into += [] if cut_into_part is None else [float(cut_into_part)]
+    resolved = resolved_points(solid, V[surface], N[surface], tol,
+                               surface_distance(V, F[surface[F].any(axis=1)]),
+                               cut_depth=max(0.0, allowance + max(into, default=0.0)),
+                               allowance=allowance)
     summary = simulation_summary(part, stock, total, V[surface], dev[surface],
-                                 gouge_tolerance=float(gouge_tolerance), initial_volume=initial,
-                                 allowance=allowance)
+                                 gouge_tolerance=tol, initial_volume=initial,
+                                 allowance=allowance, resolved=resolved,
+                                 area=vertex_areas(V, F)[surface])
     yield Progress(1.0, "done")
     return Simulation(stock, total, V, F, dev, summary)
