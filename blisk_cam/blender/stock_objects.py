@@ -5,8 +5,9 @@ every run; the user's objects are never touched).
 Colours (per vertex, colour attribute ``deviation_color``; the deviation itself, mm, in the
 float attribute ``deviation``): blue = gouge beyond the tolerance (deviation < −tolerance),
 green = within the tolerance (|deviation| ≤ tolerance), red = material left beyond it;
-grey where the deviation is not measured (NaN: hub vertices buried under the blade). The
-stock skin takes the deviation of the nearest part vertex.
+grey where the deviation is not measured (NaN: hub vertices buried under the blade) or not
+judged (below the stock's resolution: the reading may be the grid's; the attribute
+``deviation`` still holds it). The stock skin takes the colour of the nearest part vertex.
 """
 
 from __future__ import annotations
@@ -67,14 +68,15 @@ def _attribute_material(name):
     return mat
 
 
-def _coloured(name, V, F, dev, tolerance, coll, f):
+def _coloured(name, V, F, dev, tolerance, coll, f, judged=None):
     ob = arrays_to_object(name, V, F, coll, mm_per_unit=f)
     mesh = ob.data
     dev = np.asarray(dev, np.float64)
     a = mesh.attributes.new("deviation", "FLOAT", "POINT")
     a.data.foreach_set("value", dev.astype(np.float32))
+    shown = dev if judged is None else np.where(np.asarray(judged, bool), dev, np.nan)
     c = mesh.attributes.new("deviation_color", "FLOAT_COLOR", "POINT")
-    c.data.foreach_set("color", deviation_colors(dev, tolerance).ravel())
+    c.data.foreach_set("color", deviation_colors(shown, tolerance).ravel())
     mesh.attributes.active_color = c
     mesh.materials.append(_attribute_material("Blisk CAM deviation"))
     ob["blisk_cam_role"] = "stock"
@@ -91,25 +93,29 @@ def _remove_previous(coll):
             bpy.data.batch_remove(orphans)
 
 
-def write_stock_objects(scene, V, F, dev, tolerance, stock_V, stock_F, summary: dict) -> dict:
+def write_stock_objects(scene, V, F, dev, tolerance, stock_V, stock_F, summary: dict,
+                        judged=None) -> dict:
     """Replace the objects of the last simulation: the part (V (n, 3) mm, F (m, 3), ``dev``
     (n,) mm) and the remaining stock skin (``stock_V``, ``stock_F``, mm), both coloured by
-    deviation against ``tolerance`` mm; the summary kept on the scene. Returns
-    ``{"part": object, "stock": object}``."""
+    deviation against ``tolerance`` mm (grey where ``judged`` (n,) bool is False); the
+    summary kept on the scene. Returns ``{"part": object, "stock": object}``."""
     from scipy.spatial import cKDTree
 
     f = mm_per_blender_unit(scene)
     coll = ensure_collection(COLLECTION, scene.collection)
     _remove_previous(coll)
-    part = _coloured(PART_NAME, V, F, dev, tolerance, coll, f)
+    part = _coloured(PART_NAME, V, F, dev, tolerance, coll, f, judged)
     stock = None
     if len(stock_F):
+        dev = np.asarray(dev, np.float64)
         ok = np.isfinite(dev)
         sdev = np.full(len(stock_V), np.nan)
+        sjudged = None
         if ok.any():
             _, k = cKDTree(np.asarray(V)[ok]).query(stock_V)
-            sdev = np.asarray(dev)[ok][k]
-        stock = _coloured(STOCK_NAME, stock_V, stock_F, sdev, tolerance, coll, f)
+            sdev = dev[ok][k]
+            sjudged = None if judged is None else np.asarray(judged, bool)[ok][k]
+        stock = _coloured(STOCK_NAME, stock_V, stock_F, sdev, tolerance, coll, f, sjudged)
     scene[KEY_STOCK_SUMMARY] = json.dumps(summary, allow_nan=False, default=float)
     return {"part": part, "stock": stock}
 

@@ -133,7 +133,8 @@ def run_process(args) -> int:
             write_paths_json(orun.path, tmp / names["paths"])
             orun.stock.save(tmp / names["stock"])
             sim = orun.simulation
-            (tmp / names["deviation"]).write_bytes(ply_bytes(sim.V, sim.F, sim.deviation))
+            (tmp / names["deviation"]).write_bytes(
+                ply_bytes(sim.V, sim.F, sim.deviation, sim.judged))
             summary = dict(sim.summary, stock_in=orun.stock_in, stock_out=orun.stock_out)
             (tmp / names["simulation"]).write_text(json.dumps(summary, indent=1) + "\n",
                                                    encoding="utf-8")

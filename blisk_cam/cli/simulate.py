@@ -143,7 +143,7 @@ def run_simulate(args) -> int:
                         (json.dumps(summary, indent=1) + "\n").encode("utf-8"))
     if args.deviation:
         write_atomic(Path(args.deviation).expanduser(),
-                            ply_bytes(sim.V, sim.F, sim.deviation))
+                            ply_bytes(sim.V, sim.F, sim.deviation, sim.judged))
     if args.stock_mesh:
         Vs, Fs = stock_skin(sim.stock)
         write_atomic(Path(args.stock_mesh).expanduser(), stl_bytes(Vs, Fs))

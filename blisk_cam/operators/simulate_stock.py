@@ -201,7 +201,8 @@ class StockJob(ThreadJob):
         summary["seconds"] = round(time.perf_counter() - self.t0, 3)
         summary["blade"] = self.blade_name
         write_stock_objects(context.scene, sim.V, sim.F, sim.deviation,
-                            summary["deviation_mm"]["gouge_tolerance"], *self.skin, summary)
+                            summary["deviation_mm"]["gouge_tolerance"], *self.skin, summary,
+                            judged=sim.judged)
         return summary
 
 

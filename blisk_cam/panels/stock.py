@@ -52,5 +52,7 @@ class BLISKCAM_PT_stock(_BliskCamPanel, Panel):
         legend.label(text=f"Blue: gouge deeper than {tol:.3f} mm", icon="COLOR_BLUE")
         legend.label(text=f"Green: within ±{tol:.3f} mm", icon="COLOR_GREEN")
         legend.label(text=f"Red: material left over {tol:.3f} mm", icon="COLOR_RED")
+        legend.label(text="Grey: not judged (below the stock's resolution) or buried",
+                     icon="RADIOBUT_OFF")
         legend.label(text="Viewport: Solid shading, Color Attribute (or Material Preview)",
                      icon="INFO")

@@ -96,10 +96,14 @@ def test_simulate_stock_equals_core_colours_and_escape(addon, demo, tmp_path):
     tol = sim.summary["deviation_mm"]["gouge_tolerance"]
     col = _attr(part, "deviation_color", 4)
     d = sim.deviation
-    for mask, key in ((ok & (d < -tol), "gouge"), (ok & (np.abs(d) <= tol), "within"),
-                      (ok & (d > tol), "left"), (~ok, "unmeasured")):
+    # coloured where the verdict judges the vertex; grey where it does not (the deviation
+    # attribute above still holds the reading)
+    judged = ok & sim.judged
+    assert judged.sum() > 100 and not (sim.judged & ~ok).any()
+    for mask, key in ((judged & (d < -tol), "gouge"), (judged & (np.abs(d) <= tol), "within"),
+                      (judged & (d > tol), "left"), (~judged, "unmeasured")):
         assert np.allclose(col[mask], DEVIATION_RGBA[key]), key
-    assert (ok & (d > tol)).any() and (ok & (np.abs(d) <= tol)).any()  # red and green
+    assert (judged & (d > tol)).any() and (judged & (np.abs(d) <= tol)).any()  # red, green
     Vs, Fs = stock_skin(sim.stock)
     assert len(stock.data.vertices) == len(Vs) and len(stock.data.polygons) == len(Fs)
     summary = stock_summary(bpy.context.scene)
@@ -112,6 +116,7 @@ def test_simulate_stock_equals_core_colours_and_escape(addon, demo, tmp_path):
     assert any(x.startswith(f"label: removed {summary['volume_removed_mm3']['sector']:.1f}")
                for x in drawn)
     assert any(x.startswith("label: Blue: gouge") for x in drawn)
+    assert any(x.startswith("label: Grey: not judged") for x in drawn)
     # the user's blade is untouched
     assert np.array_equal(blender_io.object_to_arrays(blade)[0], before)
     # ESC cancels a second run: the previous objects and summary are kept

@@ -7,6 +7,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 
 from blisk_cam.cli.main import main
 from blisk_cam.core.geometry.axis import Axis
@@ -52,8 +53,19 @@ def test_simulate_crash_exit_5_and_outputs(tmp_path, capsys):
     assert not rep["passed"]
     assert (1, "rapid") in [(c["row"], c["kind"]) for c in rep["crashes"]]
     assert rep["volume_removed_mm3"]["by_move"]["rapid"] > 0
-    head = (tmp_path / "dev.ply").read_bytes()[:400]
-    assert b"property float deviation" in head
+    raw = (tmp_path / "dev.ply").read_bytes()
+    head, body = raw.split(b"end_header\n", 1)
+    assert b"property float deviation\nproperty uchar judged" in head
+    n = int(head.split(b"element vertex ")[1].split(b"\n")[0])
+    vert = np.frombuffer(body[:17 * n], dtype=[("p", "<f4", 3), ("d", "<f4"), ("j", "u1")])
+    # the judged flags are the verdict's: its count of vertices not judged, the deviation
+    # read back as written, and the rapid's gouge among the judged vertices
+    assert int((vert["j"] == 0).sum()) >= rep["deviation_mm"]["not_judged_vertices"]
+    assert vert["j"].max() == 1 and set(np.unique(vert["j"])) <= {0, 1}
+    judged_dev = vert["d"][vert["j"] == 1].astype(float)
+    assert np.isfinite(judged_dev).all()
+    assert rep["deviation_mm"]["max_gouge"] > 0
+    assert -judged_dev.min() == pytest.approx(rep["deviation_mm"]["max_gouge"], abs=1e-5)
     assert (tmp_path / "stock.stl").stat().st_size > 84
     # the next operation starts from the saved stock: a program in the air removes nothing
     # and finds the same deviation (the gouges of the first run are still there)

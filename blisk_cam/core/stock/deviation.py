@@ -235,18 +235,26 @@ def simulation_summary(part: BliskPart, dex: RadialDexels, removal: RemovalResul
     return summary
 
 
-def ply_bytes(V, F, dev) -> bytes:
-    """Binary little-endian PLY of the mesh with a per-vertex float ``deviation`` (mm)."""
+def ply_bytes(V, F, dev, judged=None) -> bytes:
+    """Binary little-endian PLY of the mesh with a per-vertex float ``deviation`` (mm) and,
+    with ``judged`` ((n,) bool), a per-vertex uchar ``judged`` (1: the verdict judges the
+    vertex; 0: below the stock's resolution or inside the part, its reading not judged)."""
     V = np.asarray(V, "<f4")
     F = np.asarray(F, "<i4")
+    fields = [("p", "<f4", 3), ("d", "<f4")] + ([("j", "u1")] if judged is not None else [])
     head = ("ply\nformat binary_little_endian 1.0\ncomment blisk_cam deviation map, mm "
             "(+ material left, - gouge)\n"
-            f"element vertex {len(V)}\nproperty float x\nproperty float y\nproperty float z\n"
+            + ("comment judged: 1 where the verdict judges the vertex, 0 where the stock's "
+               "resolution cannot\n" if judged is not None else "")
+            + f"element vertex {len(V)}\nproperty float x\nproperty float y\nproperty float z\n"
             "property float deviation\n"
-            f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n")
-    vert = np.empty(len(V), dtype=[("p", "<f4", 3), ("d", "<f4")])
+            + ("property uchar judged\n" if judged is not None else "")
+            + f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n")
+    vert = np.empty(len(V), dtype=fields)
     vert["p"] = V
     vert["d"] = np.asarray(dev, "<f4")
+    if judged is not None:
+        vert["j"] = np.asarray(judged, bool)
     face = np.empty(len(F), dtype=[("n", "u1"), ("i", "<i4", 3)])
     face["n"] = 3
     face["i"] = F

@@ -33,7 +33,9 @@ __all__ = ["Simulation", "iter_simulate", "part_surface"]
 class Simulation:
     """The outcome: the stock after the programs, the removal figures, the part mesh with its
     deviation per vertex (mm; NaN where the vertex is buried in the part: hub faces under a
-    blade), and the JSON-ready summary."""
+    blade), the JSON-ready summary, and ``judged`` (n,) bool: the vertices whose deviation the
+    verdict judges (on the outer surface and resolved by the stock's grid,
+    :func:`.deviation.resolved_points`; the others' readings may be the grid's)."""
 
     stock: RadialDexels
     removal: RemovalResult
@@ -41,6 +43,7 @@ class Simulation:
     F: np.ndarray
     deviation: np.ndarray
     summary: dict
+    judged: np.ndarray | None = None
 
 
 def part_surface(part: BliskPart, resolution: float, *, solid: RadialDexels | None = None):
@@ -139,5 +142,7 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
                                  gouge_tolerance=tol, initial_volume=initial,
                                  allowance=allowance, resolved=resolved,
                                  area=vertex_areas(V, F)[surface])
+    judged = np.zeros(len(V), bool)
+    judged[np.flatnonzero(surface)] = np.asarray(resolved, bool) & np.isfinite(dev[surface])
     yield Progress(1.0, "done")
-    return Simulation(stock, total, V, F, dev, summary)
+    return Simulation(stock, total, V, F, dev, summary, judged)
