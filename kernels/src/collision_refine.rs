@@ -71,14 +71,14 @@ impl Part {
         }
     }
 
-    fn z0(&self) -> f64 {
+    pub fn z0(&self) -> f64 {
         match self {
             Part::Flute { .. } => 0.0,
             Part::Frustum { z0, .. } => *z0,
         }
     }
 
-    fn z1(&self) -> f64 {
+    pub fn z1(&self) -> f64 {
         match self {
             Part::Flute { z1, .. } => *z1,
             Part::Frustum { z1, .. } => *z1,
@@ -131,7 +131,7 @@ impl Part {
 
     /// `_posed_sd` of one point.
     #[inline]
-    fn posed_sd(&self, x: &P3, tip: &P3, axis: &P3) -> f64 {
+    pub fn posed_sd(&self, x: &P3, tip: &P3, axis: &P3) -> f64 {
         let dv = sub(x, tip);
         let z = dot(&dv, axis);
         let rr = dot(&dv, &dv) - z * z;
@@ -233,7 +233,7 @@ fn edge_min(part: &Part, e0: &P3, d: &P3, tip: &P3, axis: &P3, f0: f64, f1: f64,
 }
 
 /// The pairs of one pose: (best (k,), where (k,)) and the pose's bound lowered in place.
-fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> {
+pub fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> {
     struct St {
         best: f64,
         at: P3,
