@@ -47,6 +47,19 @@ fn nanmax(a: f64, b: f64) -> f64 {
     }
 }
 
+/// `x.hypot(y)` (libm's, as numpy's np.hypot), without the call where one side is zero
+/// (then it is the other's magnitude exactly): the cylinder's distance beside or above it.
+#[inline(always)]
+pub fn hypot_exact(x: f64, y: f64) -> f64 {
+    if y == 0.0 {
+        x.abs()
+    } else if x == 0.0 {
+        y.abs()
+    } else {
+        x.hypot(y)
+    }
+}
+
 const GOLDEN_STEPS: usize = 40;
 const EDGE_TOL: f64 = 1e-9;
 
@@ -92,7 +105,7 @@ impl Part {
                 if r0 == r1 {
                     let dr = rho - r0;
                     let dz = nanmax(z0 - z, z - z1);
-                    let out = nanmax(dr, 0.0).hypot(nanmax(dz, 0.0));
+                    let out = hypot_exact(nanmax(dr, 0.0), nanmax(dz, 0.0));
                     if dr > 0.0 || dz > 0.0 { out } else { nanmax(dr, dz) }
                 } else {
                     let mut d2 = seg2(rho, z, 0.0, z0, r0, z0);

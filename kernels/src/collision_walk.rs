@@ -16,7 +16,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use crate::collision_refine::{refine_pose, Pair, Part};
+use crate::collision_refine::{hypot_exact, refine_pose, Pair, Part};
 use crate::swept_cutter::nanmin;
 
 type P3 = [f64; 3];
@@ -76,7 +76,7 @@ fn frustum_grad(z0: f64, r0: f64, z1: f64, r1: f64, rho: f64, z: f64) -> (f64, f
         let (dlo, dhi) = (z0 - z, z - z1);
         let dz = nanmax(dlo, dhi);
         let (er, ez) = (nanmax(dr, 0.0), nanmax(dz, 0.0));
-        let out = er.hypot(ez);
+        let out = hypot_exact(er, ez);
         let outside = out > 0.0;
         let inv = if outside { 1.0 / out } else { 0.0 };
         let radial = dr >= dz;
@@ -125,23 +125,30 @@ fn box_bound(fr: &[f64; 4], c: &P3, tip: &P3, axis: &P3, r: f64, h: &P3) -> f64 
     nanmax(sd - r, if valid { sd - s } else { f64::NEG_INFINITY })
 }
 
-struct Level {
-    c: Vec<P3>,
-    r: Vec<f64>,
-    rep: Vec<P3>,
-    h: Vec<P3>,
+/// A node: box centre, the radius of its sphere, representative point, half-sizes.
+struct Node {
+    c: P3,
+    r: f64,
+    rep: P3,
+    h: P3,
+}
+
+/// A triangle: centroid, the radius of its sphere about it, corners, unit normal (`ok`: a
+/// usable one).
+struct Tri {
+    cen: P3,
+    rad: f64,
+    a: P3,
+    b: P3,
+    c: P3,
+    nrm: P3,
+    ok: bool,
 }
 
 /// `tri_tree._TriTree`'s arrays: levels root first, triangles in Morton order.
 struct Tree {
-    levels: Vec<Level>,
-    cen: Vec<P3>,
-    rad: Vec<f64>,
-    a: Vec<P3>,
-    b: Vec<P3>,
-    c: Vec<P3>,
-    nrm: Vec<P3>,
-    ok: Vec<bool>,
+    levels: Vec<Vec<Node>>,
+    tris: Vec<Tri>,
 }
 
 /// A `_TriTree`'s arrays, copied once (a scene reuses them for every detection).
@@ -173,8 +180,8 @@ impl CollisionTree {
            nrm: PyReadonlyArray2<'_, f64>, ok: PyReadonlyArray1<'_, bool>) -> PyResult<Self> {
         let cen = rows(&cen, "cen", None)?;
         let n = cen.len();
-        let rad = crate::slice1(&rad, "rad")?.to_vec();
-        let ok = crate::slice1(&ok, "ok")?.to_vec();
+        let rad = crate::slice1(&rad, "rad")?;
+        let ok = crate::slice1(&ok, "ok")?;
         if rad.len() != n || ok.len() != n || n == 0 || levels.is_empty() {
             return Err(PyValueError::new_err("rad and ok need one value per triangle; the tree needs triangles and levels"));
         }
@@ -183,23 +190,24 @@ impl CollisionTree {
         for (i, (c, r, rep, h)) in levels.iter().enumerate() {
             let cc = rows(c, "level centres", None)?;
             let q = cc.len();
-            let r = crate::slice1(r, "level radii")?.to_vec();
+            let r = crate::slice1(r, "level radii")?;
             // each level has the nodes its parents' children can name, the leaves the triangles'
             let fits = if i == 0 { q == 1 } else { q > BRANCH * (prev - 1) && q <= BRANCH * prev };
             if r.len() != q || !fits {
                 return Err(PyValueError::new_err("the tree's levels do not nest (BRANCH children per node, root first)"));
             }
-            lv.push(Level { c: cc, r, rep: rows(rep, "level representatives", Some(q))?, h: rows(h, "level half-sizes", Some(q))? });
+            let (rep, h) = (rows(rep, "level representatives", Some(q))?, rows(h, "level half-sizes", Some(q))?);
+            lv.push((0..q).map(|j| Node { c: cc[j], r: r[j], rep: rep[j], h: h[j] }).collect::<Vec<_>>());
             prev = q;
         }
         if n > LEAF * prev || n <= LEAF * (prev - 1) {
             return Err(PyValueError::new_err("the tree's leaves do not hold the triangles (LEAF per leaf)"));
         }
-        let t = Tree {
-            levels: lv, cen, rad,
-            a: rows(&a, "A", Some(n))?, b: rows(&b, "B", Some(n))?, c: rows(&c, "C", Some(n))?,
-            nrm: rows(&nrm, "nrm", Some(n))?, ok,
-        };
+        let (a, b, c, nrm) = (rows(&a, "A", Some(n))?, rows(&b, "B", Some(n))?, rows(&c, "C", Some(n))?, rows(&nrm, "nrm", Some(n))?);
+        let tris = (0..n)
+            .map(|i| Tri { cen: cen[i], rad: rad[i], a: a[i], b: b[i], c: c[i], nrm: nrm[i], ok: ok[i] })
+            .collect();
+        let t = Tree { levels: lv, tris };
         Ok(CollisionTree { t })
     }
 }
@@ -236,29 +244,42 @@ struct Cand {
     lb: f64,
 }
 
+/// Work buffers of the walks of one chunk (reused level after level, walk after walk).
+#[derive(Default)]
+struct Scratch {
+    fr: Vec<(u32, u32)>,
+    nx: Vec<(u32, u32)>,
+    lb: Vec<f64>,
+    srep: Vec<f64>,
+    pose: Vec<u32>,
+}
+
 /// `_TriTree.candidates` for one chunk: the pairs that may hold the part's minimum; `ub`
 /// (mc,) lowered in place.
-fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64) -> Vec<Cand> {
+fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64, sc: &mut Scratch) -> Vec<Cand> {
     let nq = qs.tq.len();
     let mc = qs.mc;
-    let pose = |q: u32| q as usize % mc;
-    let mut fr: Vec<(u32, u32)> = (0..nq as u32).map(|q| (q, 0)).collect();
+    let Scratch { fr, nx, lb, srep, pose } = sc;
+    pose.clear();
+    pose.extend((0..nq).map(|q| (q % mc) as u32));
+    let pose = &pose[..];
+    let pz = |q: u32| pose[q as usize] as usize;
+    fr.clear();
+    fr.extend((0..nq as u32).map(|q| (q, 0)));
     let nl = tree.levels.len();
     for (li, lev) in tree.levels.iter().enumerate() {
-        let use_box = wp.frustum.is_some() && lev.r[0] < GRAD_RADIUS;
-        let mut lb: Vec<f64> = fr
-            .iter()
-            .map(|&(q, n)| {
-                let (t, a, n) = (&qs.tq[q as usize], &qs.aq[q as usize], n as usize);
-                match (&wp.frustum, use_box) {
-                    (Some(f), true) => box_bound(f, &lev.c[n], t, a, lev.r[n], &lev.h[n]),
-                    _ => wp.sd(&lev.c[n], t, a) - lev.r[n],
-                }
-            })
-            .collect();
+        let use_box = wp.frustum.is_some() && lev[0].r < GRAD_RADIUS;
+        lb.clear();
+        lb.extend(fr.iter().map(|&(q, n)| {
+            let (t, a, nd) = (&qs.tq[q as usize], &qs.aq[q as usize], &lev[n as usize]);
+            match (&wp.frustum, use_box) {
+                (Some(f), true) => box_bound(f, &nd.c, t, a, nd.r, &nd.h),
+                _ => wp.sd(&nd.c, t, a) - nd.r,
+            }
+        }));
         let mut k = 0;
         for i in 0..fr.len() {
-            if lb[i] <= ub[pose(fr[i].0)] {
+            if lb[i] <= ub[pz(fr[i].0)] {
                 fr[k] = fr[i];
                 lb[k] = lb[i];
                 k += 1;
@@ -269,19 +290,17 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
         if fr.is_empty() {
             return Vec::new();
         }
-        let mut depth: Option<Vec<f64>> = None;
-        if lev.r[0] < REP_FACTOR * wp.rmax + 8.0 {
-            let mut srep: Vec<f64> = fr
-                .iter()
-                .map(|&(q, n)| wp.sd(&lev.rep[n as usize], &qs.tq[q as usize], &qs.aq[q as usize]))
-                .collect();
+        let mut with_depth = false;
+        if lev[0].r < REP_FACTOR * wp.rmax + 8.0 {
+            srep.clear();
+            srep.extend(fr.iter().map(|&(q, n)| wp.sd(&lev[n as usize].rep, &qs.tq[q as usize], &qs.aq[q as usize])));
             for (&(q, _), &s) in fr.iter().zip(srep.iter()) {
-                let u = &mut ub[pose(q)];
+                let u = &mut ub[pz(q)];
                 *u = nanmin(*u, s);
             }
             let mut k = 0;
             for i in 0..fr.len() {
-                if lb[i] <= ub[pose(fr[i].0)] {
+                if lb[i] <= ub[pz(fr[i].0)] {
                     fr[k] = fr[i];
                     lb[k] = lb[i];
                     srep[k] = srep[i];
@@ -291,45 +310,46 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
             fr.truncate(k);
             lb.truncate(k);
             srep.truncate(k);
-            depth = Some(srep);
+            with_depth = true;
         }
         if fr.len() > DEEP_BEAM * 4 {
-            beam(&mut fr, &mut lb, depth.as_deref(), ub, mc, far);
+            beam(fr, lb, if with_depth { Some(&srep[..]) } else { None }, ub, mc, far);
         }
         if li + 1 < nl {
-            let nxt = tree.levels[li + 1].c.len();
-            let mut out = Vec::with_capacity(fr.len() * BRANCH);
-            for &(q, n) in &fr {
+            let nxt = tree.levels[li + 1].len();
+            nx.clear();
+            for &(q, n) in fr.iter() {
                 for j in 0..BRANCH {
                     let c = BRANCH * n as usize + j;
                     if c < nxt {
-                        out.push((q, c as u32));
+                        nx.push((q, c as u32));
                     }
                 }
             }
-            fr = out;
+            std::mem::swap(fr, nx);
         }
     }
     // leaves → triangles
-    let nt = tree.cen.len();
+    let nt = tree.tris.len();
     let mut pairs: Vec<Cand> = Vec::with_capacity(fr.len() * LEAF);
-    for &(q, n) in &fr {
+    for &(q, n) in fr.iter() {
         let (tip, ax) = (&qs.tq[q as usize], &qs.aq[q as usize]);
         for j in 0..LEAF {
             let t = LEAF * n as usize + j;
             if t >= nt {
                 break;
             }
-            let cen = &tree.cen[t];
+            let tr = &tree.tris[t];
+            let cen = &tr.cen;
             let (sdc, lb) = match &wp.frustum {
                 Some(f) => {
                     let (sdc, dv, al, be, valid) = posed_sd_ab(f, cen, tip, ax);
-                    let lb = sdc - tree.rad[t];
+                    let lb = sdc - tr.rad;
                     if valid {
                         let g = [al * dv[0] + be * ax[0], al * dv[1] + be * ax[1], al * dv[2] + be * ax[2]];
                         let lin = nanmin(
-                            nanmin(dot(&g, &sub(&tree.a[t], cen)), dot(&g, &sub(&tree.b[t], cen))),
-                            dot(&g, &sub(&tree.c[t], cen)),
+                            nanmin(dot(&g, &sub(&tr.a, cen)), dot(&g, &sub(&tr.b, cen))),
+                            dot(&g, &sub(&tr.c, cen)),
                         );
                         (sdc, nanmax(lb, sdc + lin))
                     } else {
@@ -338,17 +358,17 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
                 }
                 None => {
                     let sdc = wp.sd(cen, tip, ax);
-                    (sdc, sdc - tree.rad[t])
+                    (sdc, sdc - tr.rad)
                 }
             };
             pairs.push(Cand { q, t: t as u32, sdc, lb });
         }
     }
     for c in &pairs {
-        let u = &mut ub[pose(c.q)];
+        let u = &mut ub[pz(c.q)];
         *u = nanmin(*u, c.sdc);
     }
-    pairs.retain(|c| c.lb <= ub[pose(c.q)]);
+    pairs.retain(|c| c.lb <= ub[pz(c.q)]);
     pairs
 }
 
@@ -437,13 +457,14 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
         pairs: Vec<Cand>,
     }
     let mut sets: Vec<Set> = Vec::new();
+    let mut scratch = Scratch::default();
     for (j, wp) in parts.iter().enumerate() {
         for &(g, first) in &plan[j] {
             let (tq, aq, nc) = queries[g];
             let row0 = nc * s + first * mc;
             let rows_ = (nc - first) * mc;
             let qs = Queries { tq: &tq[row0..row0 + rows_], aq: &aq[row0..row0 + rows_], mc };
-            let pairs = candidates(trees[g], wp, &qs, &mut ub, far);
+            let pairs = candidates(trees[g], wp, &qs, &mut ub, far, &mut scratch);
             if !pairs.is_empty() {
                 sets.push(Set { part: j, g, first, row0, pairs });
             }
@@ -501,8 +522,8 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
                 .iter()
                 .map(|&x| {
                     let c = &set.pairs[x];
-                    let (t, row) = (c.t as usize, c.q as usize);
-                    Pair { a: &tree.a[t], b: &tree.b[t], c: &tree.c[t], n: &tree.nrm[t], ok: tree.ok[t],
+                    let (tr, row) = (&tree.tris[c.t as usize], c.q as usize);
+                    Pair { a: &tr.a, b: &tr.b, c: &tr.c, n: &tr.nrm, ok: tr.ok,
                            tip: &tq[set.row0 + row], axis: &aq[set.row0 + row] }
                 })
                 .collect();
@@ -511,7 +532,7 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
             let mut bi: Option<(f64, usize, P3)> = None;
             for (&x, (d, w)) in kept.iter().zip(res.into_iter()) {
                 let c = &set.pairs[x];
-                let (d, w) = if beamed && c.sdc < d { (c.sdc, tree.cen[c.t as usize]) } else { (d, w) };
+                let (d, w) = if beamed && c.sdc < d { (c.sdc, tree.tris[c.t as usize].cen) } else { (d, w) };
                 let better = match bi {
                     None => true,
                     Some((bd, _, _)) => d < bd || (bd.is_nan() && !d.is_nan()),

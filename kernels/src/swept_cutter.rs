@@ -71,12 +71,12 @@ impl Profile {
         d2 = nanmin(d2, seg2(rho, z, self.s[0], self.s[1], self.t[0], self.t[1]));
         d2 = nanmin(d2, seg2(rho, z, self.t[0], self.t[1], 0.0, self.h));
         let (vr, vz) = (rho - self.e, z - self.f);
-        let vl = vr.hypot(vz);
         let in_sector = (vr * self.ca - vz * self.sa >= 0.0) && (vr * self.cb + vz * self.sb <= 0.0);
-        let arc_d = (vl - self.r).abs();
+        // |v| is read only inside the arc's sector (libm's hypot is the costly step)
+        let vl = if in_sector { vr.hypot(vz) } else { 0.0 };
         let mut dist = d2.sqrt();
         if in_sector {
-            dist = nanmin(dist, arc_d);
+            dist = nanmin(dist, (vl - self.r).abs());
         }
         let inside = (z >= rho * self.tan_a)
             && (z <= self.h)
