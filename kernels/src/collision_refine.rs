@@ -12,6 +12,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
+use crate::arrays::{points_n, values_n};
 use crate::swept_cutter::{nanmin, seg2, Profile};
 
 type P3 = [f64; 3];
@@ -332,14 +333,6 @@ pub fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> 
     st.into_iter().map(|s| (s.best, s.at)).collect()
 }
 
-fn pts<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str, k: usize) -> PyResult<&'a [P3]> {
-    let p = crate::points(a, what)?;
-    if p.len() != k {
-        return Err(PyValueError::new_err(format!("{what} must have one row per pair")));
-    }
-    Ok(p)
-}
-
 /// `_refine` with the pose `pose` (k,) of each pair and the poses' bounds `ub` (m,):
 /// (best (k,), where (k, 3), ub lowered (m,)).
 #[pyfunction]
@@ -362,13 +355,13 @@ pub fn refine_pairs<'py>(
     let part = Part::from_slice(&part).ok_or_else(|| PyValueError::new_err("unknown part description"))?;
     let pp = crate::slice1(&pose, "pose")?;
     let k = pp.len();
-    let (aa, bb, cc, nn) = (pts(&a, "a", k)?, pts(&b, "b", k)?, pts(&c, "c", k)?, pts(&nrm, "nrm", k)?);
-    let (tt, xx) = (pts(&tip, "tip", k)?, pts(&axis, "axis", k)?);
-    let okk = crate::slice1(&ok, "ok")?;
+    let (aa, bb, cc, nn) = (points_n(&a, "a", k)?, points_n(&b, "b", k)?, points_n(&c, "c", k)?, points_n(&nrm, "nrm", k)?);
+    let (tt, xx) = (points_n(&tip, "tip", k)?, points_n(&axis, "axis", k)?);
+    let okk = values_n(&ok, "ok", k)?;
     let ubb = crate::slice1(&ub, "ub")?;
     let m = ubb.len();
-    if okk.len() != k || pp.iter().any(|&p| p < 0 || p as usize >= m) {
-        return Err(PyValueError::new_err("ok must have one value per pair, pose ids lie in 0..len(ub)"));
+    if pp.iter().any(|&p| p < 0 || p as usize >= m) {
+        return Err(PyValueError::new_err("pose ids must lie in 0..len(ub)"));
     }
     let mut order: Vec<usize> = (0..k).collect();
     order.sort_by_key(|&i| pp[i]);

@@ -16,6 +16,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
+use crate::arrays::{points, points_n, values_n};
 use crate::collision_refine::{hypot_exact, refine_pose, Pair, Part};
 use crate::swept_cutter::nanmin;
 
@@ -157,14 +158,6 @@ pub struct CollisionTree {
     t: Tree,
 }
 
-fn rows(a: &PyReadonlyArray2<'_, f64>, what: &str, n: Option<usize>) -> PyResult<Vec<P3>> {
-    let p = crate::points(a, what)?;
-    if n.is_some_and(|n| p.len() != n) {
-        return Err(PyValueError::new_err(format!("{what} must have one row per triangle or node")));
-    }
-    Ok(p.to_vec())
-}
-
 type LevelArrays<'py> = (PyReadonlyArray2<'py, f64>, PyReadonlyArray1<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>);
 
 #[pymethods]
@@ -178,32 +171,31 @@ impl CollisionTree {
     fn new(levels: Vec<LevelArrays<'_>>, cen: PyReadonlyArray2<'_, f64>, rad: PyReadonlyArray1<'_, f64>,
            a: PyReadonlyArray2<'_, f64>, b: PyReadonlyArray2<'_, f64>, c: PyReadonlyArray2<'_, f64>,
            nrm: PyReadonlyArray2<'_, f64>, ok: PyReadonlyArray1<'_, bool>) -> PyResult<Self> {
-        let cen = rows(&cen, "cen", None)?;
+        let cen = points(&cen, "cen")?;
         let n = cen.len();
-        let rad = crate::slice1(&rad, "rad")?;
-        let ok = crate::slice1(&ok, "ok")?;
-        if rad.len() != n || ok.len() != n || n == 0 || levels.is_empty() {
-            return Err(PyValueError::new_err("rad and ok need one value per triangle; the tree needs triangles and levels"));
+        let (rad, ok) = (values_n(&rad, "rad", n)?, values_n(&ok, "ok", n)?);
+        if n == 0 || levels.is_empty() {
+            return Err(PyValueError::new_err("the tree needs triangles and levels"));
         }
         let mut lv = Vec::with_capacity(levels.len());
         let mut prev = 1usize;
         for (i, (c, r, rep, h)) in levels.iter().enumerate() {
-            let cc = rows(c, "level centres", None)?;
+            let cc = points(c, "level centres")?;
             let q = cc.len();
-            let r = crate::slice1(r, "level radii")?;
+            let r = values_n(r, "level radii", q)?;
             // each level has the nodes its parents' children can name, the leaves the triangles'
             let fits = if i == 0 { q == 1 } else { q > BRANCH * (prev - 1) && q <= BRANCH * prev };
-            if r.len() != q || !fits {
+            if !fits {
                 return Err(PyValueError::new_err("the tree's levels do not nest (BRANCH children per node, root first)"));
             }
-            let (rep, h) = (rows(rep, "level representatives", Some(q))?, rows(h, "level half-sizes", Some(q))?);
+            let (rep, h) = (points_n(rep, "level representatives", q)?, points_n(h, "level half-sizes", q)?);
             lv.push((0..q).map(|j| Node { c: cc[j], r: r[j], rep: rep[j], h: h[j] }).collect::<Vec<_>>());
             prev = q;
         }
         if n > LEAF * prev || n <= LEAF * (prev - 1) {
             return Err(PyValueError::new_err("the tree's leaves do not hold the triangles (LEAF per leaf)"));
         }
-        let (a, b, c, nrm) = (rows(&a, "A", Some(n))?, rows(&b, "B", Some(n))?, rows(&c, "C", Some(n))?, rows(&nrm, "nrm", Some(n))?);
+        let (a, b, c, nrm) = (points_n(&a, "A", n)?, points_n(&b, "B", n)?, points_n(&c, "C", n)?, points_n(&nrm, "nrm", n)?);
         let tris = (0..n)
             .map(|i| Tri { cen: cen[i], rad: rad[i], a: a[i], b: b[i], c: c[i], nrm: nrm[i], ok: ok[i] })
             .collect();
@@ -595,10 +587,10 @@ pub fn collision_detect<'py>(
     }
     let mut qv: Vec<(&[P3], &[P3], usize)> = Vec::with_capacity(queries.len());
     for (tq, aq, nc) in &queries {
-        let (t, a) = (crate::points(tq, "query tips")?, crate::points(aq, "query axes")?);
-        if t.len() != nc * m || a.len() != t.len() || *nc == 0 {
-            return Err(err("each group needs copies × poses query rows"));
+        if *nc == 0 {
+            return Err(err("each group needs at least one copy"));
         }
+        let (t, a) = (points_n(tq, "query tips", nc * m)?, points_n(aq, "query axes", nc * m)?);
         qv.push((t, a, *nc));
     }
     for pl in &plan {
