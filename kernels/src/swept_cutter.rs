@@ -327,6 +327,9 @@ fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f6
     let mut x = vec![[0.0f64; 3]; nb + 1];
     let mut zz = vec![0.0f64; nb + 1];
     let mut nn = vec![0.0f64; nb + 1];
+    // the value at pose j of the leaf, computed once (a pose ends one move, starts the next)
+    let mut vj = vec![0.0f64; nb + 1];
+    let mut have = vec![false; nb + 1];
     for &leaf in leaves {
         let l = leaf as usize;
         for j in 0..=nb {
@@ -334,7 +337,15 @@ fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f6
             x[j] = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
             zz[j] = dot3(&x[j], &tab.la[l * (nb + 1) + j]);
             nn[j] = dot3(&x[j], &x[j]);
+            have[j] = false;
         }
+        let mut value = |j: usize| -> f64 {
+            if !have[j] {
+                vj[j] = vpose(zz[j], nn[j]);
+                have[j] = true;
+            }
+            vj[j]
+        };
         for j in 0..nb {
             let sg = tab.ls[l * nb + j];
             if sg < 0 {
@@ -351,7 +362,7 @@ fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f6
             }
             cands.push(Cand {
                 sg: sg as usize, d0: x[j], d1: x[j + 1], a0: tab.la[l * (nb + 1) + j], z0, n0, phi,
-                reach, eps, lb, dtip, v0: vpose(z0, n0), v1: vpose(z1, n1),
+                reach, eps, lb, dtip, v0: value(j), v1: value(j + 1),
             });
         }
     }
