@@ -522,7 +522,7 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
             let res = refine_pose(&wp.part, &prs, &mut ub[p]);
             // the pose's least value (the first among equal ones)
             let mut bi: Option<(f64, usize, P3)> = None;
-            for (&x, (d, w)) in kept.iter().zip(res.into_iter()) {
+            for (&x, (d, w)) in kept.iter().zip(res) {
                 let c = &set.pairs[x];
                 let (d, w) = if beamed && c.sdc < d { (c.sdc, tree.tris[c.t as usize].cen) } else { (d, w) };
                 let better = match bi {
