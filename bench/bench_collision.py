@@ -17,9 +17,14 @@ rotate, lift, smooth, re-check), the path planning not counted.
 Wall times depend on what else runs (the machine may be shared): the CPU seconds of the
 process and the load average are printed beside them; compare ratios within one run.
 
+Threads and backends: ``detect_by_threads`` times the check on 1 and 2 threads (medians of
+``--repeat`` runs, wall and process CPU) and prints the speed-up 1 → 2 threads, for the
+backend that runs (``kernels``: ``compiled 0.x`` or ``numpy``) and, with ``--both``, for the
+numpy kernels too (the ratio compiled ÷ numpy beside).
+
 Run: ``python bench/bench_collision.py [--resolution 2.0] [--poses 20000]
-[--baseline-poses 500] [--workers 2] [--mild] [--no-avoid] [--repeat 1]``; prints the
-figures as JSON (not a timed test).
+[--baseline-poses 500] [--workers 2] [--mild] [--no-avoid] [--repeat 1] [--both]``; prints
+the figures as JSON (not a timed test).
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from blisk_cam.core.collision.obstacles import Obstacles  # noqa: E402
 from blisk_cam.core.collision.scene import CollisionScene  # noqa: E402
+from blisk_cam.core.kernels import backend  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.tool.assembly import ToolAssembly  # noqa: E402
 from blisk_cam.core.tool.cutter import Cutter  # noqa: E402
@@ -97,6 +103,21 @@ class _Clock:
         self.cpu = time.process_time() - self.c
 
 
+def detect_by_threads(sc, tips, axes, repeat: int) -> dict:
+    """Median wall and CPU seconds of the check on 1 and 2 threads, and the speed-up."""
+    out = {}
+    for w in (1, 2):
+        runs = []
+        for _ in range(max(1, repeat)):
+            with _Clock() as ck:
+                sc.detect(tips, axes, workers=w)
+            runs.append((ck.wall, ck.cpu))
+        out[f"detect_{w}_thread_s"] = round(float(np.median([r[0] for r in runs])), 3)
+        out[f"detect_{w}_thread_cpu_s"] = round(float(np.median([r[1] for r in runs])), 3)
+    out["speedup_1_to_2_threads"] = round(out["detect_1_thread_s"] / out["detect_2_thread_s"], 2)
+    return out
+
+
 def avoid_on_demo(repeat: int = 1) -> dict:
     """Avoidance on the demo (module docstring): best of ``repeat`` runs."""
     from blisk_cam.core.collision.avoid import run_collisions
@@ -135,7 +156,9 @@ def main():
     ap.add_argument("--mild", action="store_true", help="slim holder: few collisions")
     ap.add_argument("--no-avoid", action="store_true", help="skip avoidance on the demo")
     ap.add_argument("--repeat", type=int, default=1, help="best of N runs (build, detect, "
-                    "avoid)")
+                    "avoid); medians of N for the threads figures")
+    ap.add_argument("--both", action="store_true", help="the threads figures of the numpy "
+                    "kernels too")
     args = ap.parse_args()
 
     t0 = time.perf_counter()
@@ -175,6 +198,7 @@ def main():
     t_base_all = t_base * args.poses / nb
     exact = det.clearance[:nb]
     out = {
+        "kernels": backend.backend_name(),
         "assembly": asm.describe(),
         "obstacle_triangles": ob.n_triangles,
         "tree_triangles": int(ob.meshes[0].n_triangles),
@@ -199,6 +223,13 @@ def main():
         "baseline_minus_exact_min_mm": float(np.min(base - exact)),
         "baseline_missed_collisions": int(np.sum((exact < 1.0) & (base >= 1.0))),
     }
+    out["threads"] = detect_by_threads(sc, tips, a, args.repeat)
+    out["load_average_1min_after"] = round(os.getloadavg()[0], 2)
+    if args.both and backend.extension() is not None:
+        with backend.numpy_only():
+            out["threads_numpy"] = detect_by_threads(sc, tips, a, args.repeat)
+        out["detect_compiled_over_numpy_1_thread"] = round(
+            out["threads"]["detect_1_thread_s"] / out["threads_numpy"]["detect_1_thread_s"], 3)
     if not args.no_avoid:
         out.update(avoid_on_demo(args.repeat))
     print(json.dumps(out, indent=1))

@@ -12,6 +12,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
+use crate::arrays::{points_n, values_n};
 use crate::swept_cutter::{nanmin, seg2, Profile};
 
 type P3 = [f64; 3];
@@ -47,6 +48,19 @@ fn nanmax(a: f64, b: f64) -> f64 {
     }
 }
 
+/// `x.hypot(y)` (libm's, as numpy's np.hypot), without the call where one side is zero
+/// (then it is the other's magnitude exactly): the cylinder's distance beside or above it.
+#[inline(always)]
+pub fn hypot_exact(x: f64, y: f64) -> f64 {
+    if y == 0.0 {
+        x.abs()
+    } else if x == 0.0 {
+        y.abs()
+    } else {
+        x.hypot(y)
+    }
+}
+
 const GOLDEN_STEPS: usize = 40;
 const EDGE_TOL: f64 = 1e-9;
 
@@ -71,14 +85,14 @@ impl Part {
         }
     }
 
-    fn z0(&self) -> f64 {
+    pub fn z0(&self) -> f64 {
         match self {
             Part::Flute { .. } => 0.0,
             Part::Frustum { z0, .. } => *z0,
         }
     }
 
-    fn z1(&self) -> f64 {
+    pub fn z1(&self) -> f64 {
         match self {
             Part::Flute { z1, .. } => *z1,
             Part::Frustum { z1, .. } => *z1,
@@ -92,7 +106,7 @@ impl Part {
                 if r0 == r1 {
                     let dr = rho - r0;
                     let dz = nanmax(z0 - z, z - z1);
-                    let out = nanmax(dr, 0.0).hypot(nanmax(dz, 0.0));
+                    let out = hypot_exact(nanmax(dr, 0.0), nanmax(dz, 0.0));
                     if dr > 0.0 || dz > 0.0 { out } else { nanmax(dr, dz) }
                 } else {
                     let mut d2 = seg2(rho, z, 0.0, z0, r0, z0);
@@ -131,7 +145,7 @@ impl Part {
 
     /// `_posed_sd` of one point.
     #[inline]
-    fn posed_sd(&self, x: &P3, tip: &P3, axis: &P3) -> f64 {
+    pub fn posed_sd(&self, x: &P3, tip: &P3, axis: &P3) -> f64 {
         let dv = sub(x, tip);
         let z = dot(&dv, axis);
         let rr = dot(&dv, &dv) - z * z;
@@ -233,7 +247,7 @@ fn edge_min(part: &Part, e0: &P3, d: &P3, tip: &P3, axis: &P3, f0: f64, f1: f64,
 }
 
 /// The pairs of one pose: (best (k,), where (k,)) and the pose's bound lowered in place.
-fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> {
+pub fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> {
     struct St {
         best: f64,
         at: P3,
@@ -319,14 +333,6 @@ fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> {
     st.into_iter().map(|s| (s.best, s.at)).collect()
 }
 
-fn pts<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str, k: usize) -> PyResult<&'a [P3]> {
-    let p = crate::points(a, what)?;
-    if p.len() != k {
-        return Err(PyValueError::new_err(format!("{what} must have one row per pair")));
-    }
-    Ok(p)
-}
-
 /// `_refine` with the pose `pose` (k,) of each pair and the poses' bounds `ub` (m,):
 /// (best (k,), where (k, 3), ub lowered (m,)).
 #[pyfunction]
@@ -349,13 +355,13 @@ pub fn refine_pairs<'py>(
     let part = Part::from_slice(&part).ok_or_else(|| PyValueError::new_err("unknown part description"))?;
     let pp = crate::slice1(&pose, "pose")?;
     let k = pp.len();
-    let (aa, bb, cc, nn) = (pts(&a, "a", k)?, pts(&b, "b", k)?, pts(&c, "c", k)?, pts(&nrm, "nrm", k)?);
-    let (tt, xx) = (pts(&tip, "tip", k)?, pts(&axis, "axis", k)?);
-    let okk = crate::slice1(&ok, "ok")?;
+    let (aa, bb, cc, nn) = (points_n(&a, "a", k)?, points_n(&b, "b", k)?, points_n(&c, "c", k)?, points_n(&nrm, "nrm", k)?);
+    let (tt, xx) = (points_n(&tip, "tip", k)?, points_n(&axis, "axis", k)?);
+    let okk = values_n(&ok, "ok", k)?;
     let ubb = crate::slice1(&ub, "ub")?;
     let m = ubb.len();
-    if okk.len() != k || pp.iter().any(|&p| p < 0 || p as usize >= m) {
-        return Err(PyValueError::new_err("ok must have one value per pair, pose ids lie in 0..len(ub)"));
+    if pp.iter().any(|&p| p < 0 || p as usize >= m) {
+        return Err(PyValueError::new_err("pose ids must lie in 0..len(ub)"));
     }
     let mut order: Vec<usize> = (0..k).collect();
     order.sort_by_key(|&i| pp[i]);

@@ -8,8 +8,10 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArra
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+mod arrays;
 mod closest;
 mod collision_refine;
+mod collision_walk;
 mod knn;
 mod step;
 mod stock;
@@ -350,5 +352,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;
     m.add_class::<swept_cutter::LeafBoxes>()?;
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(collision_walk::collision_detect, m)?)?;
+    m.add_class::<collision_walk::CollisionTree>()?;
     Ok(())
 }

@@ -71,12 +71,12 @@ impl Profile {
         d2 = nanmin(d2, seg2(rho, z, self.s[0], self.s[1], self.t[0], self.t[1]));
         d2 = nanmin(d2, seg2(rho, z, self.t[0], self.t[1], 0.0, self.h));
         let (vr, vz) = (rho - self.e, z - self.f);
-        let vl = vr.hypot(vz);
         let in_sector = (vr * self.ca - vz * self.sa >= 0.0) && (vr * self.cb + vz * self.sb <= 0.0);
-        let arc_d = (vl - self.r).abs();
+        // |v| is read only inside the arc's sector (libm's hypot is the costly step)
+        let vl = if in_sector { vr.hypot(vz) } else { 0.0 };
         let mut dist = d2.sqrt();
         if in_sector {
-            dist = nanmin(dist, arc_d);
+            dist = nanmin(dist, (vl - self.r).abs());
         }
         let inside = (z >= rho * self.tan_a)
             && (z <= self.h)
@@ -327,6 +327,9 @@ fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f6
     let mut x = vec![[0.0f64; 3]; nb + 1];
     let mut zz = vec![0.0f64; nb + 1];
     let mut nn = vec![0.0f64; nb + 1];
+    // the value at pose j of the leaf, computed once (a pose ends one move, starts the next)
+    let mut vj = vec![0.0f64; nb + 1];
+    let mut have = vec![false; nb + 1];
     for &leaf in leaves {
         let l = leaf as usize;
         for j in 0..=nb {
@@ -334,7 +337,15 @@ fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f6
             x[j] = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
             zz[j] = dot3(&x[j], &tab.la[l * (nb + 1) + j]);
             nn[j] = dot3(&x[j], &x[j]);
+            have[j] = false;
         }
+        let mut value = |j: usize| -> f64 {
+            if !have[j] {
+                vj[j] = vpose(zz[j], nn[j]);
+                have[j] = true;
+            }
+            vj[j]
+        };
         for j in 0..nb {
             let sg = tab.ls[l * nb + j];
             if sg < 0 {
@@ -351,7 +362,7 @@ fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f6
             }
             cands.push(Cand {
                 sg: sg as usize, d0: x[j], d1: x[j + 1], a0: tab.la[l * (nb + 1) + j], z0, n0, phi,
-                reach, eps, lb, dtip, v0: vpose(z0, n0), v1: vpose(z1, n1),
+                reach, eps, lb, dtip, v0: value(j), v1: value(j + 1),
             });
         }
     }
@@ -445,8 +456,65 @@ fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f6
     }
 }
 
-fn rows3<'a>(a: &'a numpy::PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 3]]> {
-    crate::points(a, what)
+/// The arrays both searches read: the cutter's profile, the points (k, 3) with their first
+/// bounds `u`, segments `arg` and rounding slack (k,), and the segment and leaf tables (NC
+/// leaves of B moves), checked against one another.
+struct SearchArgs<'a> {
+    prof: Profile,
+    pts: &'a [[f64; 3]],
+    u: &'a [f64],
+    arg: &'a [i64],
+    slack: &'a [f64],
+    tab: Tables<'a>,
+    /// NC, the leaves
+    nc: usize,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn search_args<'a>(
+    profile: &[f64],
+    pc: &'a numpy::PyReadonlyArray2<'_, f64>,
+    u: &'a PyReadonlyArray1<'_, f64>,
+    arg: &'a PyReadonlyArray1<'_, i64>,
+    slack: &'a PyReadonlyArray1<'_, f64>,
+    lt: &'a numpy::PyReadonlyArray2<'_, f64>,
+    la: &'a numpy::PyReadonlyArray2<'_, f64>,
+    ls: &'a numpy::PyReadonlyArray2<'_, i64>,
+    lphi: &'a numpy::PyReadonlyArray2<'_, f64>,
+    ldt: &'a numpy::PyReadonlyArray2<'_, f64>,
+    ta: &'a numpy::PyReadonlyArray2<'_, f64>,
+    tb: &'a numpy::PyReadonlyArray2<'_, f64>,
+    kk: &'a numpy::PyReadonlyArray2<'_, f64>,
+    bb: &'a numpy::PyReadonlyArray2<'_, f64>,
+    chord_ok: &'a PyReadonlyArray1<'_, bool>,
+) -> PyResult<SearchArgs<'a>> {
+    use crate::arrays::{flat, points, points_n, values_n};
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let pts = points(pc, "points")?;
+    let k = pts.len();
+    let (u, arg, slack) = (values_n(u, "u", k)?, values_n(arg, "arg", k)?, values_n(slack, "slack", k)?);
+    let (nc, nb) = (ls.shape()[0], ls.shape()[1]);
+    let ta = points(ta, "ta")?;
+    let ns = ta.len();
+    let tab = Tables {
+        lt: points_n(lt, "lt", nc * (nb + 1))?,
+        la: points_n(la, "la", nc * (nb + 1))?,
+        ls: flat(ls, "ls")?,
+        lphi: flat(lphi, "lphi")?,
+        ldt: flat(ldt, "ldt")?,
+        nb,
+        ta,
+        tb: points_n(tb, "tb", ns)?,
+        kk: points_n(kk, "k", ns)?,
+        bb: points_n(bb, "b", ns)?,
+        chord_ok: values_n(chord_ok, "chord_ok", ns)?,
+    };
+    if tab.lphi.len() != nc * nb || tab.ldt.len() != nc * nb || tab.ls.iter().any(|&s| s >= ns as i64) {
+        return Err(PyValueError::new_err("inconsistent tables (lphi and ldt (NC, B), segment ids in range)"));
+    }
+    Ok(SearchArgs { prof: Profile::from_slice(profile), pts, u, arg, slack, tab, nc })
 }
 
 /// `_fast_search` (steps 1–4 of the fast method) on a chunk: points (k, 3), their first
@@ -479,36 +547,16 @@ pub fn fast_search<'py>(
     delta: f64,
     threads: usize,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
-    if profile.len() != 17 {
-        return Err(PyValueError::new_err("profile must hold 17 numbers"));
-    }
-    let prof = Profile::from_slice(&profile);
-    let pp = rows3(&pc, "points")?;
-    let (uu, aa) = (crate::slice1(&u, "u")?, crate::slice1(&arg, "arg")?);
-    let (qq, ll, sl) = (crate::slice1(&q, "q")?, crate::slice1(&leaf, "leaf")?, crate::slice1(&slack, "slack")?);
+    let sa = search_args(&profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok)?;
+    let (prof, pp, uu, aa, sl, tab) = (sa.prof, sa.pts, sa.u, sa.arg, sa.slack, sa.tab);
+    let (qq, ll) = (crate::slice1(&q, "q")?, crate::slice1(&leaf, "leaf")?);
     let k = pp.len();
-    let nc = ls.shape()[0];
-    let nb = ls.shape()[1];
-    let err = |m: &str| Err(PyValueError::new_err(m.to_string()));
-    if uu.len() != k || aa.len() != k || sl.len() != k || qq.len() != ll.len() {
-        return err("u, arg and slack need one value per point; q and leaf one per pair");
-    }
-    let (lt3, la3) = (rows3(&lt, "lt")?, rows3(&la, "la")?);
-    let lsl = ls.as_slice().map_err(|_| PyValueError::new_err("ls must be C-contiguous"))?;
-    let lph = lphi.as_slice().map_err(|_| PyValueError::new_err("lphi must be C-contiguous"))?;
-    let ldts = ldt.as_slice().map_err(|_| PyValueError::new_err("ldt must be C-contiguous"))?;
-    let (ta3, tb3, kk3, bb3) = (rows3(&ta, "ta")?, rows3(&tb, "tb")?, rows3(&kk, "k")?, rows3(&bb, "b")?);
-    let cok = crate::slice1(&chord_ok, "chord_ok")?;
-    let ns = ta3.len();
-    if lt3.len() != nc * (nb + 1) || la3.len() != nc * (nb + 1) || lph.len() != nc * nb || ldts.len() != nc * nb
-        || tb3.len() != ns || kk3.len() != ns || bb3.len() != ns || cok.len() != ns
-        || lsl.iter().any(|&s| s >= ns as i64)
-        || ll.iter().any(|&l| l < 0 || l as usize >= nc)
+    if qq.len() != ll.len()
+        || ll.iter().any(|&l| l < 0 || l as usize >= sa.nc)
         || qq.iter().any(|&x| x < 0 || x as usize >= k) || qq.windows(2).any(|w| w[1] < w[0])
     {
-        return err("inconsistent tables, leaves or points (q sorted, ids in range)");
+        return Err(PyValueError::new_err("q and leaf need one value per pair (q sorted, ids in range)"));
     }
-    let tab = Tables { lt: lt3, la: la3, ls: lsl, lphi: lph, ldt: ldts, nb, ta: ta3, tb: tb3, kk: kk3, bb: bb3, chord_ok: cok };
     // the runs of pairs of one point
     let mut runs: Vec<(usize, usize)> = Vec::new();
     let mut s = 0;
@@ -559,7 +607,7 @@ impl LeafBoxes {
     fn new(py: Python<'_>, lo: numpy::PyReadonlyArray2<'_, f64>, hi: numpy::PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
         use parry3d_f64::bounding_volume::Aabb;
         use parry3d_f64::math::Vector;
-        let (l3, h3) = (rows3(&lo, "lo")?, rows3(&hi, "hi")?);
+        let (l3, h3) = (crate::arrays::points(&lo, "lo")?, crate::arrays::points(&hi, "hi")?);
         if l3.len() != h3.len() {
             return Err(PyValueError::new_err("lo and hi must have the same rows"));
         }
@@ -628,35 +676,13 @@ pub fn fast_search_boxes<'py>(
     delta: f64,
     threads: usize,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
-    if profile.len() != 17 {
-        return Err(PyValueError::new_err("profile must hold 17 numbers"));
-    }
-    let prof = Profile::from_slice(&profile);
-    let pp = rows3(&pc, "points")?;
-    let (uu, aa, sl) = (crate::slice1(&u, "u")?, crate::slice1(&arg, "arg")?, crate::slice1(&slack, "slack")?);
-    let (clo, chi) = (crate::slice1(&cl_lo, "cl_lo")?, crate::slice1(&cl_hi, "cl_hi")?);
+    let sa = search_args(&profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok)?;
+    let (prof, pp, uu, aa, sl, tab) = (sa.prof, sa.pts, sa.u, sa.arg, sa.slack, sa.tab);
     let k = pp.len();
-    let nc = ls.shape()[0];
-    let nb = ls.shape()[1];
-    let err = |m: &str| Err(PyValueError::new_err(m.to_string()));
-    if uu.len() != k || aa.len() != k || sl.len() != k || clo.len() != k || chi.len() != k {
-        return err("u, arg, slack, cl_lo and cl_hi need one value per point");
+    let (clo, chi) = (crate::arrays::values_n(&cl_lo, "cl_lo", k)?, crate::arrays::values_n(&cl_hi, "cl_hi", k)?);
+    if boxes.n != sa.nc || clo.iter().zip(chi.iter()).any(|(&a, &b)| a < 0 || b < a || b as usize > sa.nc) {
+        return Err(PyValueError::new_err("inconsistent boxes or leaf ranges"));
     }
-    let (lt3, la3) = (rows3(&lt, "lt")?, rows3(&la, "la")?);
-    let lsl = ls.as_slice().map_err(|_| PyValueError::new_err("ls must be C-contiguous"))?;
-    let lph = lphi.as_slice().map_err(|_| PyValueError::new_err("lphi must be C-contiguous"))?;
-    let ldts = ldt.as_slice().map_err(|_| PyValueError::new_err("ldt must be C-contiguous"))?;
-    let (ta3, tb3, kk3, bb3) = (rows3(&ta, "ta")?, rows3(&tb, "tb")?, rows3(&kk, "k")?, rows3(&bb, "b")?);
-    let cok = crate::slice1(&chord_ok, "chord_ok")?;
-    let ns = ta3.len();
-    if lt3.len() != nc * (nb + 1) || la3.len() != nc * (nb + 1) || lph.len() != nc * nb || ldts.len() != nc * nb
-        || tb3.len() != ns || kk3.len() != ns || bb3.len() != ns || cok.len() != ns
-        || lsl.iter().any(|&s| s >= ns as i64) || boxes.n != nc
-        || clo.iter().zip(chi.iter()).any(|(&a, &b)| a < 0 || b < a || b as usize > nc)
-    {
-        return err("inconsistent tables, boxes or leaf ranges");
-    }
-    let tab = Tables { lt: lt3, la: la3, ls: lsl, lphi: lph, ldt: ldts, nb, ta: ta3, tb: tb3, kk: kk3, bb: bb3, chord_ok: cok };
     let bx: &LeafBoxes = &boxes;
     let pl = crate::pool(threads)?;
     let res: Vec<(f64, i64)> = py.detach(|| {

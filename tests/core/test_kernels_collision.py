@@ -57,3 +57,31 @@ def test_collision_status_and_clearance_agree_on_both_backends(holder):
     np.testing.assert_array_equal(got.colliding, ref.colliding)
     np.testing.assert_allclose(got.clearance, ref.clearance, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(got.part, ref.part)
+
+
+@compiled
+def test_compiled_walk_agrees_with_hub_flute_on_target_and_small_batches():
+    """The compiled detection (tree walk and refine in one call) against numpy with a second
+    obstacle group (the hub: one copy, owners per triangle), the flute counted on the target
+    blade too, several chunks per call, and a batch so small that numpy keeps every node
+    (its beams start only past 32 frontier pairs a chunk): every figure the same."""
+    d = make_demo_blisk(resolution=0.3, fillet=False, blade_count=24)
+    V, F = d.blade_vertices, d.blade_faces
+    cutter, tips, axes = _poses(V, F, d.axis, 400, seed=1)
+    ob = Obstacles.build(V, F, d.axis, 24, 1, extra=[("hub", d.hub_vertices, d.hub_faces)],
+                         check_extra=False)
+    sc = CollisionScene(ob, cutter, ToolAssembly(12.0, ((12.0, 3.0), (30.0, 6.0), (60.0, 10.0)),
+                                                 1.0))
+    for fot, chunk, n in ((False, 64, 400), (True, 64, 400), (False, 1024, 3)):
+        with backend.numpy_only():
+            ref = sc.detect(tips[:n], axes[:n], workers=1, chunk=chunk, flute_on_target=fot)
+        got = sc.detect(tips[:n], axes[:n], workers=2, chunk=chunk, flute_on_target=fot)
+        np.testing.assert_array_equal(got.colliding, ref.colliding)
+        np.testing.assert_allclose(got.clearance, ref.clearance, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(got.obstacle, ref.obstacle)
+        np.testing.assert_array_equal(got.part, ref.part)
+        np.testing.assert_allclose(got.point, ref.point, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(got.normal, ref.normal, rtol=0, atol=1e-12)
+        if n > 3 and not fot:  # (with the flute on the target blade every pose touches it)
+            assert 0 < ref.colliding.sum() < n  # both outcomes occur
+            assert np.any(ref.obstacle == len(ob.meshes) - 1)  # the hub is met

@@ -1,0 +1,36 @@
+//! Reading the caller's numpy arrays: rows of points, flat C-contiguous data, one value or
+//! row per item — each a clear error naming the array when its shape or layout is wrong.
+
+use numpy::{Element, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+pub type P3 = [f64; 3];
+
+/// The data of a C-contiguous 2-D array, row after row.
+pub fn flat<'a, T: Element>(a: &'a PyReadonlyArray2<'_, T>, what: &str) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))
+}
+
+/// Rows of a C-contiguous (n, 3) float64 array as points (`crate::points`).
+pub fn points<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [P3]> {
+    crate::points(a, what)
+}
+
+/// [`points`] that must hold `n` rows (one per item of the caller's other arrays).
+pub fn points_n<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str, n: usize) -> PyResult<&'a [P3]> {
+    let p = points(a, what)?;
+    if p.len() != n {
+        return Err(PyValueError::new_err(format!("{what} must have {n} rows, got {}", p.len())));
+    }
+    Ok(p)
+}
+
+/// A C-contiguous 1-D array that must hold `n` values.
+pub fn values_n<'a, T: Element>(a: &'a PyReadonlyArray1<'_, T>, what: &str, n: usize) -> PyResult<&'a [T]> {
+    let s = crate::slice1(a, what)?;
+    if s.len() != n {
+        return Err(PyValueError::new_err(format!("{what} must have {n} values, got {}", s.len())));
+    }
+    Ok(s)
+}
