@@ -816,15 +816,7 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 result.sub_poses += len(poses[0])
                 jobs = [("flute", poses, flute, flute_bounds, 0.0, cutter.h, cutter.max_radius,
                          flute_in)]
-            if check_body and body_swept:
-                for solid in body_swept:
-                    _, per, per_in, deep, n_pairs, n_poses = _job_swept(
-                        dex, tip, axis, rows, True, solid, True, r_cap)
-                    result.pairs += n_pairs
-                    _note_crashes(crash_rows, rows, per, per_in, deep, "body", move, tip,
-                                  row_offset)
-                result.sub_poses += n_poses
-            elif check_body and bodies:
+            if check_body and bodies and not body_swept:
                 bposes = _sub_poses(tip, axis, rows, True, body_step, body_reach)
                 result.sub_poses += len(bposes[0])
                 jobs += [("body", bposes, p, pb, z0, z1, rad, pin)
@@ -838,6 +830,14 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 _note_crashes(crash_rows, rows, per, per_in, deep, kind, move, tip, row_offset)
                 if kind == "flute":
                     result.removed[MOVE_NAMES[m]] += removed
+            if check_body and body_swept:  # after the flute, as the posed body
+                for solid in body_swept:
+                    _, per, per_in, deep, n_pairs, n_poses = _job_swept(
+                        dex, tip, axis, rows, True, solid, True, r_cap)
+                    result.pairs += n_pairs
+                    _note_crashes(crash_rows, rows, per, per_in, deep, "body", move, tip,
+                                  row_offset)
+                result.sub_poses += n_poses
             done += len(rows)
             yield Progress(done / max(len(tip), 1),
                            f"simulating row {done} of {len(tip)}")
