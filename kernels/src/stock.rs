@@ -974,8 +974,12 @@ fn tool_parts<'a>(tool: &'a Tool, measure: bool) -> Vec<Part<'a>> {
             out.push(Part { prim: Some(*p), poly: None, inner, z_lo, z_hi, radius, reach });
         }
         if let Some(pf) = poly {
-            let reach = tool.z_lo.abs().max(tool.z_hi.abs()).hypot(tool.radius);
-            out.push(Part { prim: None, poly: Some(pf), inner, z_lo: tool.z_lo, z_hi: tool.z_hi,
+            // up to its top plane (a bull nose's corner ends at the side's tangent height)
+            let top = pf.planes.iter().filter(|p| p[0].abs() < EPS && p[1] > 0.0)
+                .map(|p| p[2] / p[1]).fold(f64::INFINITY, f64::min);
+            let z_hi = tool.z_hi.min(top + 1e-3);
+            let reach = tool.z_lo.abs().max(z_hi.abs()).hypot(tool.radius);
+            out.push(Part { prim: None, poly: Some(pf), inner, z_lo: tool.z_lo, z_hi,
                             radius: tool.radius, reach });
         }
     };
