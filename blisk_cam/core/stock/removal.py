@@ -26,7 +26,7 @@ Two functions carry the inner loop and can be swapped for compiled kernels one f
 :func:`.dexels.subtract_intervals` (interval subtraction).
 
 With the compiled kernels the flute is instead **swept per move** (``swept``, the default
-there): every ray of the move's box gets the interval of the swept solid in
+there for a ball nose): every ray of the move's box gets the interval of the swept solid in
 closed form — a ball nose's ball as the capsules along its centre path's chords (sagitta ≤ the sweep
 tolerance), a frustum (the side of a ball nose or flat end mill) translated between knots
 with the knot's mid axis (off the true poses by at most the tolerance) or at the sub-poses
@@ -738,11 +738,9 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         told from one passing by). The crash's volume and depth are the whole solid's. The
         body is swept at half this tolerance (its own sub-poses: it only decides crashes),
         the flute at ``sweep_tolerance``.
-    swept : bool or None — the compiled kernel's swept volumes per move (None: when the
-        compiled kernel has them — for a ball nose only with a kernel that does not cull per
-        part, where a bull nose's or a flat end mill's sweep was no faster than its
-        sub-poses) of the flute, per ray in closed form: a ball (the ball
-        nose) as the capsules along its centre path's chords (sagitta ≤
+    swept : bool or None — the compiled kernel's swept volumes per move (None: for a ball
+        nose when the compiled kernel has them) of the flute, per ray in closed form: a ball
+        (the ball nose) as the capsules along its centre path's chords (sagitta ≤
         ``sweep_tolerance``); a frustum (a flat end mill's side, a ball nose's side above the
         ball) translated between knots with the knot's mid axis (off the true poses by at most
         the tolerance) or, when the axis turns so much that more knots than sub-poses would
@@ -791,12 +789,11 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     runs = [(m, a, z) for m, a, z in program.runs()]
     # the body's frustums by the kernel's sweep (the same sub-poses, culled per move)
     body_by_sweep = (swept is not False and compiled and compiled_stock.sweep_body_available())
-    if swept is None:  # where it pays: every cutter once the kernel culls per part, else a
-        # ball nose (a bull nose's corner polygon, swept at the sub-poses, paid the whole
-        # flute's candidate rays)
-        swept = (compiled and compiled_stock.sweep_available()
-                 and (body_by_sweep or (cutter.type == "ball"
-                                        and cutter_primitives(cutter, arc_tolerance)[1] is None)))
+    if swept is None:  # a ball nose (a bull nose's swept flute, though faster with the
+        # per-part culling, reads differently on coarse grids where a ray grazes the sweep's
+        # flank: left to the sub-poses until judged)
+        swept = (compiled and compiled_stock.sweep_available() and cutter.type == "ball"
+                 and cutter_primitives(cutter, arc_tolerance)[1] is None)
     if swept and not compiled_stock.sweep_available():
         raise StockError("the swept-volume removal needs the compiled kernels (make kernels)")
     flute_swept = _flute_solid(cutter, arc_tolerance, ctol, step, tol) if swept else None
