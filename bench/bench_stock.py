@@ -13,9 +13,11 @@ second, sub-poses and ray–solid pairs per second, the deviation-map time, the 
 for a part of the program, the whole program's time extrapolated at the measured rate) and
 the peak resident memory — for every resolution and thread count given, with the backend
 that ran (``kernels: compiled …`` or ``numpy``; ``BLISK_CAM_KERNELS=numpy`` forces the
-reference). ``--kernel``: the compiled kernel's flute removal by sub-poses (``sampled``, the
-numpy reference's arithmetic: the figures before the swept kernel) and/or by swept volumes per
-move (``swept``), each printed for the same rows — before/after in one run.
+reference). ``--kernel``: the compiled kernel's removal by sub-poses (``sampled``, the
+numpy reference's arithmetic, flute and body pose by pose: the figures before the swept
+kernel) and/or by swept volumes per move (``swept``: the flute swept, the body at the same
+sub-poses through the sweep kernel, culled per move and part), each printed for the same rows
+— before/after in one run.
 
 ``--acceptance S0 S1``: instead, issue #22's acceptance on the demo at full scale between the
 LMCs S0 and S1: the finishing program with the axis radial, tilted 75° (its body clears the

@@ -344,6 +344,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
     m.add_function(wrap_pyfunction!(stock_remove, m)?)?;
     m.add_function(wrap_pyfunction!(stock::stock_sweep, m)?)?;
+    m.add("STOCK_SWEEP_REVISION", stock::SWEEP_REVISION)?;
     m.add_class::<FaceTree>()?;
     m.add_class::<PointTree>()?;
     m.add_class::<swept_ball::SweptBallTree>()?;

@@ -602,13 +602,24 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
             let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
             let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
             let mut hits: Vec<Hit> = Vec::new();
-            for &si in &by_row[start[jr]..start[jr + 1]] {
+            let bucket = &by_row[start[jr]..start[jr + 1]];
+            if bucket.is_empty() {
+                return RowOut { removed: 0.0, groups: Vec::new(), overflow: Vec::new() };
+            }
+            let env = RowEnvelope::new(lrow, hrow, nt, k);
+            for &si in bucket {
                 let (tip, ax) = (&s.tips[si], &s.axes[si]);
                 let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, zr, r_b) else {
                     continue;
                 };
-                for c in ca..=cb {
+                let mut c = ca - 1;
+                while c < cb {
+                    c += 1;
                     let i = c.rem_euclid(nt as i64) as usize;
+                    if let Some(skip) = env.skip(i, rlo_w, rhi_w) {
+                        c += skip as i64 - 1;
+                        continue;
+                    }
                     let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
                     if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w) {
                         continue;
@@ -679,6 +690,9 @@ pub struct Tool<'a> {
     pub z_lo: f64,
     pub z_hi: f64,
     pub radius: f64,
+    /// the samples start after the start pose (t ∈ (0, 1], the reference's sub-poses: the
+    /// start pose is the previous move's end, measured with it)
+    pub open_start: bool,
 }
 
 #[inline]
@@ -717,6 +731,19 @@ fn roots(al: f64, be: f64, ga: f64) -> Option<(f64, f64)> {
     }
     let (r1, r2) = (q / al, ga / q);
     Some((r1.min(r2), r1.max(r2)))
+}
+
+/// The ray o + r u within the ball of radius `rad` about `c`: (lo, hi), lo > hi when missed.
+#[inline]
+fn sphere_interval(o: &[f64; 3], u: &[f64; 3], c: &[f64; 3], rad: f64) -> (f64, f64) {
+    let w = sub(o, c);
+    let b = dot(&w, u);
+    let disc = b * b - (dot(&w, &w) - rad * rad);
+    if disc < 0.0 {
+        return (f64::INFINITY, f64::NEG_INFINITY);
+    }
+    let s = disc.sqrt();
+    (-b - s, -b + s)
 }
 
 /// The ray o + r u within the ball of radius `rad` swept by its centre from c0 to c1 (a
@@ -882,13 +909,14 @@ fn frustum_sweep_interval(o: &[f64; 3], u: &[f64; 3], tip: &[f64; 3], ax: &[f64;
 
 /// One move's poses: the knots (tip, axis) of its balls' centre paths, the knots (tip, mid
 /// axis, translation) of its frustums' translational sweeps (empty: the frustums are swept by
-/// the samples) and the samples (tip, axis).
+/// the samples), the samples (tip, axis) and the mid pose.
 struct MovePoses {
     knots: Vec<([f64; 3], [f64; 3])>,
     fknots: Vec<([f64; 3], [f64; 3], [f64; 3])>,
     samples: Vec<([f64; 3], [f64; 3])>,
-    /// the growth of the pose-0 bounding cylinder that holds the whole sweep, mm
-    grow: f64,
+    /// the pose halfway (tip, axis): every pose of the move is the mid pose turned by at most
+    /// half the axis turn about the tip and moved by at most half the tip's travel
+    mid: ([f64; 3], [f64; 3]),
     /// the tip's travel (mm) and the axis turn (rad)
     dist: f64,
     ang: f64,
@@ -911,74 +939,101 @@ fn move_poses(mv: &Moves, i: usize, tool: &Tool) -> MovePoses {
         .collect();
     let need = tool.poly.is_some() || (nf == 0 && tool.prims.iter().any(|p| matches!(p, Prim::Frustum { .. })));
     let ns = mv.samples[i].max(1) as usize;
-    let samples = if need { (0..=ns).map(|j| pose(j as f64 / ns as f64)).collect() } else { Vec::new() };
+    let first = usize::from(tool.open_start);
+    let samples = if need { (first..=ns).map(|j| pose(j as f64 / ns as f64)).collect() } else { Vec::new() };
     let ang = dot(a0, a1).clamp(-1.0, 1.0).acos();
-    let reach = tool.z_lo.abs().max(tool.z_hi.abs()).hypot(tool.radius);
     let dist = dot(&dl, &dl).sqrt();
-    MovePoses { knots, fknots, samples, grow: dist + reach * ang + 1e-6, dist, ang }
+    MovePoses { knots, fknots, samples, mid: pose(0.5), dist, ang }
 }
 
-/// The pieces (a, b) of the ray o + r u inside the move's swept solid (`prims`, `poly`: the
-/// solid's or its inner solid's), appended to `out` (unclipped at r = 0): a ball by the
-/// capsules between its centres at the knots (its centre path's chords), a frustum by its
-/// translational sweeps between knots (the mid axis) or by the samples, the polygon by the
-/// samples.
-fn sweep_pieces(o: &[f64; 3], u: &[f64; 3], mp: &MovePoses, prims: &[Prim], poly: Option<&Profile>,
-                mat: &[(f64, f64)], out: &mut Vec<(f64, f64)>) {
+/// A part of the swept solid culled on its own: a primitive (swept exactly) or the polygon
+/// (`poly`, by the samples), of the solid or of its inner solid (`inner`: the crash
+/// measure's), with a cylinder about the tool axis that holds it (z_lo..z_hi, radius) and
+/// that cylinder's farthest point from the tip (`reach`, mm).
+struct Part<'a> {
+    prim: Option<Prim>,
+    poly: Option<&'a Profile<'a>>,
+    inner: bool,
+    z_lo: f64,
+    z_hi: f64,
+    radius: f64,
+    reach: f64,
+}
+
+/// The tool's parts (the inner solid's too when `measure`): each primitive with its own
+/// bounding cylinder, the polygon with the tool's.
+fn tool_parts<'a>(tool: &'a Tool, measure: bool) -> Vec<Part<'a>> {
+    let mut out = Vec::new();
+    let mut add = |prims: &[Prim], poly: Option<&'a Profile<'a>>, inner: bool| {
+        for p in prims {
+            // a ball's points move with its centre (it turns about it): its reach is zc
+            let (z_lo, z_hi, radius, reach) = match *p {
+                Prim::Ball { zc, rad } => (zc - rad, zc + rad, rad, zc.abs()),
+                Prim::Frustum { z1, r1, z2, r2 } => (z1, z2, r1.max(r2), z1.abs().max(z2.abs()).hypot(r1.max(r2))),
+            };
+            out.push(Part { prim: Some(*p), poly: None, inner, z_lo, z_hi, radius, reach });
+        }
+        if let Some(pf) = poly {
+            // up to its top plane (a bull nose's corner ends at the side's tangent height)
+            let top = pf.planes.iter().filter(|p| p[0].abs() < EPS && p[1] > 0.0)
+                .map(|p| p[2] / p[1]).fold(f64::INFINITY, f64::min);
+            let z_hi = tool.z_hi.min(top + 1e-3);
+            let reach = tool.z_lo.abs().max(z_hi.abs()).hypot(tool.radius);
+            out.push(Part { prim: None, poly: Some(pf), inner, z_lo: tool.z_lo, z_hi,
+                            radius: tool.radius, reach });
+        }
+    };
+    add(&tool.prims, tool.poly.as_ref(), false);
+    if measure {
+        add(&tool.prims_in, tool.poly_in.as_ref(), true);
+    }
+    out
+}
+
+/// The pieces (a, b) of the ray o + r u inside the part's sweep over the move, appended to
+/// `out` (unclipped at r = 0): a ball by the capsules between its centres at the knots (its
+/// centre path's chords), a frustum by its translational sweeps between knots (the mid axis)
+/// or by the samples, the polygon by the samples.
+fn part_pieces(o: &[f64; 3], u: &[f64; 3], mp: &MovePoses, part: &Part, out: &mut Vec<(f64, f64)>) {
     let mut push = |(a, b): (f64, f64)| {
         if b > a {
             out.push((a, b));
         }
     };
-    // does the ray's material meet the cylinder about the start pose's axis z1..z2 of
-    // radius rad, grown by the move's reach (for the frustum `prim` at reach `fr`)
-    let t0 = &mp.knots[0];
-    let meets = |z1: f64, z2: f64, rad: f64, fr: f64| -> bool {
-        let g = mp.dist + fr * mp.ang + 1e-6;
-        let f = ray_frame(o, u, &t0.0, &t0.1);
-        match bounding_interval(&f, z1 - g, z2 + g, rad + g) {
-            Some((ba, bb)) => mat.iter().any(|&(l, h)| l.max(ba) < h.min(bb)),
-            None => false,
-        }
-    };
-    for p in prims {
-        match *p {
-            Prim::Ball { zc, rad } => {
-                for j in 0..mp.knots.len() - 1 {
-                    let ((ta, aa), (tb, ab)) = (&mp.knots[j], &mp.knots[j + 1]);
-                    push(capsule_interval(o, u, &axpy(ta, zc, aa), &axpy(tb, zc, ab), rad));
-                }
+    match part.prim {
+        Some(Prim::Ball { zc, rad }) => {
+            for j in 0..mp.knots.len() - 1 {
+                let ((ta, aa), (tb, ab)) = (&mp.knots[j], &mp.knots[j + 1]);
+                push(capsule_interval(o, u, &axpy(ta, zc, aa), &axpy(tb, zc, ab), rad));
             }
-            Prim::Frustum { z1, r1, z2, r2 } => {
-                let rad = r1.max(r2);
-                if !meets(z1, z2, rad, z1.abs().max(z2.abs()).hypot(rad)) {
-                    continue;
-                }
-                if mp.fknots.is_empty() {
-                    let planes = frustum_planes(z1, r1, z2, r2);
-                    for (tp, ax) in &mp.samples {
-                        let f = ray_frame(o, u, tp, ax);
-                        let (mut lo, mut hi) = (0.0f64, f64::INFINITY);
-                        for pl in &planes {
-                            apply_plane(&f, pl, &mut lo, &mut hi);
-                            if !(hi > lo) {
-                                break;
-                            }
+        }
+        Some(Prim::Frustum { z1, r1, z2, r2 }) => {
+            if mp.fknots.is_empty() {
+                let planes = frustum_planes(z1, r1, z2, r2);
+                for (tp, ax) in &mp.samples {
+                    let f = ray_frame(o, u, tp, ax);
+                    let (mut lo, mut hi) = (0.0f64, f64::INFINITY);
+                    for pl in &planes {
+                        apply_plane(&f, pl, &mut lo, &mut hi);
+                        if !(hi > lo) {
+                            break;
                         }
-                        push((lo, hi));
                     }
-                } else {
-                    for (tp, ax, dl) in &mp.fknots {
-                        push(frustum_sweep_interval(o, u, tp, ax, dl, z1, r1, z2, r2));
-                    }
+                    push((lo, hi));
+                }
+            } else {
+                for (tp, ax, dl) in &mp.fknots {
+                    push(frustum_sweep_interval(o, u, tp, ax, dl, z1, r1, z2, r2));
                 }
             }
         }
-    }
-    if let Some(pf) = poly {
-        for (tp, ax) in &mp.samples {
-            let f = ray_frame(o, u, tp, ax);
-            push(solid_interval(&f, pf));
+        None => {
+            if let Some(pf) = part.poly {
+                for (tp, ax) in &mp.samples {
+                    let f = ray_frame(o, u, tp, ax);
+                    push(solid_interval(&f, pf));
+                }
+            }
         }
     }
 }
@@ -1011,9 +1066,62 @@ fn merge_pieces(v: &mut Vec<(f64, f64)>) {
     v.truncate(n);
 }
 
+/// What `stock_sweep` can do: 2 — every part culled on its own, and `open_start` (the body
+/// swept by the reference's sub-poses).
+pub const SWEEP_REVISION: i64 = 2;
+
+/// Columns per block of a grid row's material envelope.
+const ENV_BLOCK: usize = 16;
+
+/// The material of a grid row in blocks of `ENV_BLOCK` columns: per block the smallest lo and
+/// the largest hi of its rays' material (a block without material: +∞, −∞), so that a run of
+/// columns none of whose material can meet a radius range is skipped at once.
+struct RowEnvelope {
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    nt: usize,
+}
+
+impl RowEnvelope {
+    fn new(lrow: &[f64], hrow: &[f64], nt: usize, k: usize) -> Self {
+        let nb = nt.div_ceil(ENV_BLOCK);
+        let (mut lo, mut hi) = (vec![f64::INFINITY; nb], vec![f64::NEG_INFINITY; nb]);
+        for i in 0..nt {
+            let b = i / ENV_BLOCK;
+            for t in i * k..(i + 1) * k {
+                let (l, h) = (lrow[t], hrow[t]);
+                if h > l {
+                    lo[b] = lo[b].min(l);
+                    hi[b] = hi[b].max(h);
+                }
+            }
+        }
+        RowEnvelope { lo, hi, nt }
+    }
+
+    /// None when column `i`'s block may hold material within (rlo, rhi); otherwise the number
+    /// of columns from `i` to the block's end (all of them skipped).
+    #[inline]
+    fn skip(&self, i: usize, rlo: f64, rhi: f64) -> Option<usize> {
+        let b = i / ENV_BLOCK;
+        if self.lo[b] < rhi && self.hi[b] > rlo {
+            return None;
+        }
+        Some(((b + 1) * ENV_BLOCK).min(self.nt) - i)
+    }
+}
+
 /// Remove the moves' swept solids from the stock `lo`, `hi` ((n_rays, K) row-major, changed
 /// in place); `measure`: per group the material its own sweep met (and its inner sweep's).
 /// Returns what `remove` returns; the count is the candidate ray–move pairs.
+///
+/// Every part of the solid (`tool_parts`) is culled on its own, in each grid row, by its
+/// bounding cylinder about the move's mid pose grown by what the move can move it (half the
+/// tip's travel + the part's reach × half the axis turn): the columns of the row it can meet,
+/// then per ray the material within the row's radii, then within the cylinder. A piece that
+/// lies wholly outside the ray's material hull (beyond its outermost or before its innermost
+/// material, by more than the merge quantum) is dropped: it can neither remove material nor
+/// join two stretches of it, so what is removed and measured is the same without it.
 pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: bool, lo: &mut [f64],
              hi: &mut [f64]) -> (Outcome, u64) {
     let m = mv.t0.len();
@@ -1027,7 +1135,7 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
     let wmax = wmin + nrow - 1;
     let [o, _, _, d] = grid.frame;
     let poses: Vec<MovePoses> = (0..m).map(|i| move_poses(mv, i, tool)).collect();
-    let has_inner = measure && (!tool.prims_in.is_empty() || tool.poly_in.is_some());
+    let parts = tool_parts(tool, measure);
     let block = nt * k;
     let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
     let hi_rows = &mut hi[wmin * block..(wmax + 1) * block];
@@ -1041,44 +1149,68 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
             let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
             let mut hits: Vec<Hit> = Vec::new();
             let mut pcs: Vec<(f64, f64)> = Vec::new();
-            let mut pin: Vec<(f64, f64)> = Vec::new();
-            let mut mat: Vec<(f64, f64)> = Vec::with_capacity(k);
-            for &mi in &by_row[start[jr]..start[jr + 1]] {
+            let bucket = &by_row[start[jr]..start[jr + 1]];
+            if bucket.is_empty() {
+                return RowOut { removed: 0.0, groups: Vec::new(), overflow: Vec::new() };
+            }
+            let env = RowEnvelope::new(lrow, hrow, nt, k);
+            for &mi in bucket {
                 let mp = &poses[mi];
-                let (tip, ax) = (&mv.t0[mi], &mv.a0[mi]);
-                let (zl, zh, rb) = (tool.z_lo - mp.grow, tool.z_hi + mp.grow, tool.radius + mp.grow);
-                let Some((ca, cb, rlo_w, rhi_w)) = reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], zr, rb) else {
-                    continue;
-                };
+                let (tip, ax) = (&mp.mid.0, &mp.mid.1);
                 let g = mv.group[mi] as usize;
-                for c in ca..=cb {
-                    let i = c.rem_euclid(nt as i64) as usize;
-                    let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
-                    if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w) {
-                        continue;
-                    }
-                    let u = &dirs[(c - cmin) as usize];
-                    let f = ray_frame(&origin, u, tip, ax);
-                    let Some((ba, bb)) = bounding_interval(&f, zl, zh, rb) else {
+                for part in &parts {
+                    let gr = 0.5 * (mp.dist + part.reach * mp.ang) + 1e-6;
+                    let (zl, zh, rb) = (part.z_lo - gr, part.z_hi + gr, part.radius + gr);
+                    let Some((ca, cb, rlo_w, rhi_w)) = reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], zr, rb) else {
                         continue;
                     };
-                    if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l.max(ba) < h.min(bb)) {
-                        continue;
-                    }
-                    mat.clear();
-                    mat.extend(lr.iter().zip(hr).filter(|(l, h)| h > l).map(|(&l, &h)| (l, h)));
-                    pcs.clear();
-                    sweep_pieces(&origin, u, mp, &tool.prims, tool.poly.as_ref(), &mat, &mut pcs);
-                    merge_pieces(&mut pcs);
-                    for &(a, b) in &pcs {
-                        hits.push((i, a, b, g, 0.0, f64::NEG_INFINITY));
-                    }
-                    if has_inner && !pcs.is_empty() {
-                        pin.clear();
-                        sweep_pieces(&origin, u, mp, &tool.prims_in, tool.poly_in.as_ref(), &mat, &mut pin);
-                        merge_pieces(&mut pin);
-                        for &(a, b) in &pin {
-                            hits.push((i, 0.0, f64::NEG_INFINITY, g, a, b));
+                    let mut c = ca - 1;
+                    while c < cb {
+                        c += 1;
+                        let i = c.rem_euclid(nt as i64) as usize;
+                        if let Some(skip) = env.skip(i, rlo_w, rhi_w) {
+                            c += skip as i64 - 1;
+                            continue;
+                        }
+                        let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
+                        if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w) {
+                            continue;
+                        }
+                        let u = &dirs[(c - cmin) as usize];
+                        let bound = match part.prim {
+                            // a ball's sweep lies in the ball about its mid centre grown by gr
+                            Some(Prim::Ball { zc, rad }) => {
+                                let (a, b) = sphere_interval(&origin, u, &axpy(tip, zc, ax), rad + gr);
+                                if b >= a { Some((a - CULL_MARGIN, b + CULL_MARGIN)) } else { None }
+                            }
+                            _ => bounding_interval(&ray_frame(&origin, u, tip, ax), zl, zh, rb),
+                        };
+                        let Some((ba, bb)) = bound else {
+                            continue;
+                        };
+                        let (mut ml, mut mh) = (f64::INFINITY, f64::NEG_INFINITY);
+                        let mut meets = false;
+                        for (&l, &h) in lr.iter().zip(hr) {
+                            if h > l {
+                                ml = ml.min(l);
+                                mh = mh.max(h);
+                                meets |= l.max(ba) < h.min(bb);
+                            }
+                        }
+                        if !meets {
+                            continue;
+                        }
+                        pcs.clear();
+                        part_pieces(&origin, u, mp, part, &mut pcs);
+                        merge_pieces(&mut pcs);
+                        for &(a, b) in &pcs {
+                            if a < mh + CULL_MARGIN && b > ml - CULL_MARGIN {
+                                hits.push(if part.inner {
+                                    (i, 0.0, f64::NEG_INFINITY, g, a, b)
+                                } else {
+                                    (i, a, b, g, 0.0, f64::NEG_INFINITY)
+                                });
+                            }
                         }
                     }
                 }
@@ -1139,7 +1271,7 @@ type Overflow<'py> = (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Boun
 #[pyfunction]
 #[pyo3(signature = (lo, hi, n_theta, grid, frame, t0, a0, t1, a1, group, n_groups, boxes, knots,
                     fknots, samples, prims, prims_in, bounds, measure, threads, planes=None, rho=None,
-                    planes_in=None))]
+                    planes_in=None, open_start=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn stock_sweep<'py>(
     py: Python<'py>,
@@ -1166,6 +1298,7 @@ pub fn stock_sweep<'py>(
     planes: Option<PyReadonlyArray2<'py, f64>>,
     rho: Option<PyReadonlyArray2<'py, f64>>,
     planes_in: Option<PyReadonlyArray2<'py, f64>>,
+    open_start: bool,
 ) -> PyResult<(f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, u64, Overflow<'py>)> {
     let shape = lo.shape().to_vec();
     if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
@@ -1218,6 +1351,7 @@ pub fn stock_sweep<'py>(
         z_lo: bounds.0,
         z_hi: bounds.1,
         radius: bounds.2,
+        open_start,
     };
     let g = Grid {
         theta0: grid.0,

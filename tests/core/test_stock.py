@@ -148,6 +148,38 @@ def test_body_removing_material_is_a_crash():
     assert not r.crashes
 
 
+def test_holder_along_the_blades_meets_the_neighbouring_sectors():
+    """A Ø6 holder lying along the blades (the axis at x = 20 mm pointing along y, sloping
+    down 1 in 8) dips into the annulus' top face only 38°–54° from the tip's angle — beyond the
+    first 15° sector of 24 from its start: the body crash is found, with the volume of the
+    holder below the face integrated exactly per (x, y) column (the quadratic in z of the
+    cylinder, the linear bounds of its ends)."""
+    tip = np.array([20.0, 0.0, 15.0])
+    ax = np.array([0.0, 1.0, -0.125]) / math.hypot(1.0, 0.125)
+    tool = Cutter.ball(1.0, h=3.0, shank_diameter=2.0, holder_diameter=6.0, holder_length=25.0)
+    t0, t1 = 3.0 + 2.0 * 2.0, 3.0 + 2.0 * 2.0 + 25.0  # the holder: above flute and shank
+    g = 0.02
+    x, y = np.meshgrid(np.arange(16.0, 24.0, g) + g / 2, np.arange(10.0, 26.0, g) + g / 2)
+    x, y = x.ravel(), y.ravel()
+    w = np.stack([x, y, np.zeros_like(x)], 1) - tip  # P(z) − tip = w + z ez
+    wt, zt = w @ ax, ax[2]
+    # ρ² = |w + z ez|² − (wt + z zt)² ≤ 9: a z² + b z + c ≤ 0
+    a, b, c = 1.0 - zt * zt, 2.0 * (w[:, 2] - wt * zt), (w * w).sum(1) - wt * wt - 9.0
+    disc = np.maximum(b * b - 4.0 * a * c, 0.0)
+    lo, hi = (-b - np.sqrt(disc)) / (2 * a), (-b + np.sqrt(disc)) / (2 * a)
+    # t0 ≤ wt + z zt ≤ t1 (zt < 0), 0 ≤ z ≤ 10, the annulus
+    lo = np.maximum.reduce([lo, (t1 - wt) / zt, np.zeros_like(lo)])
+    hi = np.minimum.reduce([hi, (t0 - wt) / zt, np.full_like(hi, 10.0)])
+    r = np.hypot(x, y)
+    exact = float(np.where((r >= 10.0) & (r <= 30.0), np.maximum(hi - lo, 0.0), 0.0).sum()) * g * g
+    s = blank(RES, n=24)
+    prog = program([tip + [0.0, 0.0, 10.0], tip], ax, [MOVE_RAPID, MOVE_CUT])
+    r = remove_program(s, prog, tool)
+    assert [(c.row, c.kind) for c in r.crashes] == [(1, "body")]
+    assert exact > 1.0
+    assert r.crashes[0].volume == pytest.approx(exact, rel=0.02)
+
+
 def test_ray_solid_intervals_match_point_classification():
     rng = np.random.default_rng(3)
     for cutter in (Cutter.ball(2.0), Cutter.bull(3.0, 1.0), Cutter.flat(2.5),

@@ -12,7 +12,8 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "remove_solids", "sweep_available", "sweep_moves"]
+__all__ = ["available", "remove_solids", "sweep_available", "sweep_body_available",
+           "sweep_moves"]
 
 
 def available() -> bool:
@@ -26,6 +27,13 @@ def sweep_available() -> bool:
     """The compiled swept-volume kernel runs (an extension built before it existed: no)."""
     ext = extension()
     return ext is not None and hasattr(ext, "stock_sweep")
+
+
+def sweep_body_available() -> bool:
+    """The swept-volume kernel also sweeps the body by the reference's sub-poses
+    (``open_start``; an extension built before: no, the body stays posed)."""
+    ext = extension()
+    return sweep_available() and getattr(ext, "STOCK_SWEEP_REVISION", 1) >= 2
 
 
 def _grown(lo, hi, rays, counts, olo, ohi):
@@ -46,7 +54,7 @@ def _grown(lo, hi, rays, counts, olo, ohi):
 
 def sweep_moves(lo, hi, n_theta: int, grid, frame, t0, a0, t1, a1, group, n_groups: int, boxes,
                 knots, fknots, samples, prims, prims_in, bounds, measure: bool, threads: int,
-                planes=None, rho=None, planes_in=None):
+                planes=None, rho=None, planes_in=None, open_start: bool = False):
     """Remove the solids swept by moves from the stock's intervals; None when the kernel is
     not there.
 
@@ -62,7 +70,10 @@ def sweep_moves(lo, hi, n_theta: int, grid, frame, t0, a0, t1, a1, group, n_grou
     bull nose) is swept by the samples. ``prims_in``/``planes_in``: the solid shrunk by the
     crash tolerance (measured with ``measure``). ``boxes`` (m, 4) = (c0, c1, w0, w1): the
     rays the whole sweep can meet (unwrapped columns, up to a whole turn). Other parameters
-    and the returns as :func:`remove_solids` (pairs: candidate ray–move pairs)."""
+    and the returns as :func:`remove_solids` (pairs: candidate ray–move pairs).
+    ``open_start``: the samples are the poses at t = j/samples, j = 1 … samples (the
+    reference's sub-poses: the start pose is the previous move's), not from j = 0
+    (:func:`sweep_body_available`)."""
     if not sweep_available():
         return None
     ext = extension()
@@ -78,7 +89,8 @@ def sweep_moves(lo, hi, n_theta: int, grid, frame, t0, a0, t1, a1, group, n_grou
         i64(knots), i64(fknots), i64(samples), f64(prims).reshape(-1, 5),
         f64(prims_in).reshape(-1, 5),
         tuple(float(x) for x in bounds), bool(measure), max(1, int(threads)),
-        opt(planes, 3), opt(rho, 2), opt(planes_in, 3))
+        opt(planes, 3), opt(rho, 2), opt(planes_in, 3),
+        **({"open_start": True} if open_start else {}))
     lo, hi = _grown(lo, hi, rays, counts, olo, ohi)
     return lo, hi, float(removed), vol, vol_in, depth, int(pairs)
 

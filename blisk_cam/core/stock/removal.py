@@ -32,7 +32,15 @@ tolerance), a frustum (the side of a ball nose or flat end mill) translated betw
 with the knot's mid axis (off the true poses by at most the tolerance) or at the sub-poses
 when the axis turns too much for that, a bull nose's corner at the sub-poses
 (:func:`cutter_primitives`). The sweep holds every sub-pose and exceeds the sub-poses' union
-by the scallop between them; the numpy reference stays pose-sampled.
+by the scallop between them; the numpy reference stays pose-sampled. The body goes through
+the same kernel at its own sub-poses (the reference's, so the same crashes): the kernel culls
+each part of a solid (the ball, each frustum, the corner polygon) by its own cylinder about
+the move's mid pose, so a long holder is evaluated only on the rays whose material it can
+reach.
+
+A solid wider than the sector (a holder lying along the blades) meets several copies of a
+ray — the neighbouring blades' material: every solid's candidate columns run up to a whole
+turn.
 """
 
 from __future__ import annotations
@@ -361,13 +369,12 @@ def _sub_poses(tip, axis, rows, first: bool, step: float, reach: float):
     return tips, axes, rr
 
 
-def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf,
-                     turn: bool = False):
+def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np.inf):
     """For each solid (its axis segment tip + [z_lo, z_hi] · axis, radius ``radius``): the
     (θ, z) box of rays that can meet it — unwrapped columns c0..c1, rows w0..w1 — the radii
-    (r_lo, r_hi) it can reach and its number of candidate rays (0 beyond ``r_cap``). At most
-    one sector of columns, or (``turn``) a whole turn: a solid wider than the sector meets
-    several copies of a ray."""
+    (r_lo, r_hi) it can reach and its number of candidate rays (0 beyond ``r_cap``). Up to a
+    whole turn of columns: a solid wider than the sector (a holder along the blades) meets
+    several copies of a ray — the neighbouring blades."""
     e1, e2, d = dex.axis.angular_frame()
     P0 = tips + z_lo * axes - dex.axis.o
     P1 = tips + z_hi * axes - dex.axis.o
@@ -391,7 +398,7 @@ def _candidate_boxes(dex: RadialDexels, tips, axes, z_lo, z_hi, radius, r_cap=np
     c0 = np.ceil((th_lo - dex.theta0 - base) / dex.d_theta - 0.5).astype(np.int64)
     c1 = np.floor((th_hi - dex.theta0 - base) / dex.d_theta - 0.5).astype(np.int64)
     full = (th_hi - th_lo) >= 2 * math.pi
-    span = dex.n_theta * (dex.blade_count if turn else 1)
+    span = dex.n_theta * dex.blade_count
     c1 = np.where(full, c0 + span - 1, np.minimum(c1, c0 + span - 1))
     shift = np.round(base / dex.d_theta).astype(np.int64)
     c0, c1 = c0 + shift, c1 + shift
@@ -559,6 +566,10 @@ class _SweptSolid:
     bounds: tuple  # (z_lo, z_hi, radius) mm: a cylinder about the axis holding the solid
     step: float  # mm, the samples' spacing (at the solid's reach)
     tol: float  # mm, the sweep tolerance the knots keep
+    # the body: its frustums by the reference's sub-poses (t ∈ (0, 1], spaced ``step`` at
+    # ``sample_reach``: the whole body's), no translational knots
+    posed: bool = False
+    sample_reach: float | None = None
 
     @property
     def reach(self) -> float:
@@ -591,6 +602,27 @@ def _flute_solid(cutter, arc_tolerance, ctol, step, tol) -> _SweptSolid:
                        None if planes is None else _shrink(planes, ctol), bounds, step, tol)
 
 
+def _body_solids(body: ToolAssembly, step: float, ctol: float) -> list:
+    """The body's frustums as the compiled sweep takes them (one solid each: the crash
+    measure is per frustum, as the posed reference's), swept by the reference's sub-poses."""
+    reach = math.hypot(body.top, body.max_radius)
+    out = []
+    for f in body.frustums():
+        prims = np.array([[1.0, f[0], f[1], f[2], f[3]]])
+        out.append(_SweptSolid(prims, shrink_primitives(prims, ctol), None, None, None,
+                               halfplane_bounds(frustum_halfplanes(*f)), step, step,
+                               posed=True, sample_reach=reach))
+    return out
+
+
+def _divisor_at_least(n, q):
+    """Per element the smallest divisor of n (≥ 1) that is ≥ q (n itself at most)."""
+    out = np.array(n, np.int64)
+    for j, (nn, qq) in enumerate(zip(n.tolist(), q.tolist(), strict=True)):
+        out[j] = next((d for d in range(max(int(qq), 1), nn) if nn % d == 0), nn)
+    return out
+
+
 def _job_swept(dex: RadialDexels, tip, axis, rows, first: bool, solid: _SweptSolid, measure,
                r_cap):
     """The moves ending at ``rows`` (from the previous row's pose; the first row of the
@@ -608,6 +640,12 @@ def _job_swept(dex: RadialDexels, tip, axis, rows, first: bool, solid: _SweptSol
     # ray a candidate); the pieces of a slerp are slerps of its sub-arcs
     n = np.maximum(1, np.ceil(np.maximum(dist, reach * ang) / max(solid.bounds[2], 1.0))
                    ).astype(np.int64)
+    if solid.posed:
+        # the reference's sub-poses (:func:`_sub_poses`), each piece an equal share of them
+        posed = np.maximum(1, np.ceil(np.maximum(dist, solid.sample_reach * ang) / solid.step)
+                           ).astype(np.int64)
+        n = _divisor_at_least(posed, n)
+        posed = np.repeat(posed // n, n)
     group = np.repeat(np.arange(len(rows)), n)
     if (n > 1).any():
         k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
@@ -631,12 +669,15 @@ def _job_swept(dex: RadialDexels, tip, axis, rows, first: bool, solid: _SweptSol
     f_reach = float(np.hypot(fr[:, 3], fr[:, [2, 4]].max(axis=1)).max()) if len(fr) else 0.0
     fknots = np.maximum(1, np.ceil(f_reach * ang / (2.0 * solid.tol))).astype(np.int64)
     fknots = np.where(fknots > samples, 0, fknots)
-    # every pose of the move lies within the grow of the start pose's bounding cylinder
-    grow = dist + reach * ang + 1e-6
+    if solid.posed:
+        samples, fknots = posed, np.zeros_like(fknots)
+    # every pose of the move is the mid pose moved by at most half the tip's travel and
+    # turned by at most half the axis turn about the tip
+    grow = 0.5 * (dist + reach * ang) + 1e-6
     z_lo, z_hi, rad = solid.bounds
-    c0, c1, w0, w1, _, _, _, cnt = _candidate_boxes(dex, t0, a0, (z_lo - grow)[:, None],
-                                                    (z_hi + grow)[:, None], rad + grow, r_cap,
-                                                    turn=True)
+    c0, c1, w0, w1, _, _, _, cnt = _candidate_boxes(
+        dex, 0.5 * (t0 + t1), _slerp_rows(a0, a1, np.full(len(a0), 0.5)),
+        (z_lo - grow)[:, None], (z_hi + grow)[:, None], rad + grow, r_cap)
     none = cnt == 0
     boxes = np.stack([c0, np.where(none, c0 - 1, c1), w0, w1], 1)
     e1, e2, d = dex.axis.angular_frame()
@@ -645,9 +686,11 @@ def _job_swept(dex: RadialDexels, tip, axis, rows, first: bool, solid: _SweptSol
         dex.lo, dex.hi, dex.n_theta, (dex.theta0, dex.d_theta, dex.z0, dex.dz), frame, t0, a0,
         t1, a1, group, len(rows), boxes, knots, fknots, samples, solid.prims,
         solid.prims_in, solid.bounds, measure, workers(), planes=solid.planes, rho=solid.rho,
-        planes_in=solid.planes_in if measure else None)
+        planes_in=solid.planes_in if measure else None, open_start=solid.posed)
     dex.lo, dex.hi, removed, vol, vol_in, depth, pairs = out
     cell = dex.d_theta * dex.dz
+    if solid.posed:
+        return removed * cell, vol * cell, vol_in * cell, depth, pairs, int(samples.sum())
     sampled = solid.planes is not None or bool((fknots == 0).any())
     poses = int((knots + 1).sum() + fknots.sum() + (samples + 1).sum() * sampled)
     return removed * cell, vol * cell, vol_in * cell, depth, pairs, poses
@@ -696,9 +739,8 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         body is swept at half this tolerance (its own sub-poses: it only decides crashes),
         the flute at ``sweep_tolerance``.
     swept : bool or None — the compiled kernel's swept volumes per move (None: for a ball
-        nose when the compiled kernel has them; a bull nose's or a flat end mill's sweep is
-        no faster than its sub-poses) of the flute, per ray in closed form: a ball (the ball
-        nose) as the capsules along its centre path's chords (sagitta ≤
+        nose when the compiled kernel has them) of the flute, per ray in closed form: a ball
+        (the ball nose) as the capsules along its centre path's chords (sagitta ≤
         ``sweep_tolerance``); a frustum (a flat end mill's side, a ball nose's side above the
         ball) translated between knots with the knot's mid axis (off the true poses by at most
         the tolerance) or, when the axis turns so much that more knots than sub-poses would
@@ -706,8 +748,11 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         removal holds every sub-pose's and exceeds it by at most the sampling scallop
         (``sweep_tolerance``) — more on a ray grazing a sweep's flank, which a sub-pose
         misses. False: the sub-poses (the numpy reference's arithmetic, which the numpy
-        kernels always run). The body (crash check only) is always swept by sub-poses: per
-        pose its boxes stay tight where a move turns the long holder through a wide fan.
+        kernels always run). The body (crash check only) is always removed at its
+        sub-poses (t ∈ (0, 1], the same as the reference's, so the same crashes); unless
+        ``swept`` is False, with a compiled kernel that can, per move by the sweep kernel:
+        each frustum culled by its own bounding cylinder about the move's mid pose, the
+        sub-poses evaluated only on rays whose material that cylinder meets.
     """
     cutter = as_cutter(cutter)
     body = assembly or body_assembly(cutter)
@@ -742,12 +787,17 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     # removal only lowers the largest radius of material: one bound serves the whole run
     r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
     runs = [(m, a, z) for m, a, z in program.runs()]
-    if swept is None:  # where it pays: a ball nose (a bull nose's corner stays sampled)
+    # the body's frustums by the kernel's sweep (the same sub-poses, culled per move)
+    body_by_sweep = (swept is not False and compiled and compiled_stock.sweep_body_available())
+    if swept is None:  # a ball nose (a bull nose's swept flute, though faster with the
+        # per-part culling, reads differently on coarse grids where a ray grazes the sweep's
+        # flank: left to the sub-poses until judged)
         swept = (compiled and compiled_stock.sweep_available() and cutter.type == "ball"
                  and cutter_primitives(cutter, arc_tolerance)[1] is None)
     if swept and not compiled_stock.sweep_available():
         raise StockError("the swept-volume removal needs the compiled kernels (make kernels)")
     flute_swept = _flute_solid(cutter, arc_tolerance, ctol, step, tol) if swept else None
+    body_swept = _body_solids(body, body_step, ctol) if body_by_sweep else []
     done = 0
     for m, start, stop in runs:
         for s in range(start, stop, batch):
@@ -767,7 +817,7 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 result.sub_poses += len(poses[0])
                 jobs = [("flute", poses, flute, flute_bounds, 0.0, cutter.h, cutter.max_radius,
                          flute_in)]
-            if check_body and bodies:
+            if check_body and bodies and not body_swept:
                 bposes = _sub_poses(tip, axis, rows, True, body_step, body_reach)
                 result.sub_poses += len(bposes[0])
                 jobs += [("body", bposes, p, pb, z0, z1, rad, pin)
@@ -781,6 +831,14 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 _note_crashes(crash_rows, rows, per, per_in, deep, kind, move, tip, row_offset)
                 if kind == "flute":
                     result.removed[MOVE_NAMES[m]] += removed
+            if check_body and body_swept:  # after the flute, as the posed body
+                for solid in body_swept:
+                    _, per, per_in, deep, n_pairs, n_poses = _job_swept(
+                        dex, tip, axis, rows, True, solid, True, r_cap)
+                    result.pairs += n_pairs
+                    _note_crashes(crash_rows, rows, per, per_in, deep, "body", move, tip,
+                                  row_offset)
+                result.sub_poses += n_poses
             done += len(rows)
             yield Progress(done / max(len(tip), 1),
                            f"simulating row {done} of {len(tip)}")
