@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..channel.axis import bound_turn, limit_turn, mean_camber_lean
+from ..channel.floor_band import FluteCheck, band_contacts, band_pieces, band_poses
 from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
     Piece,
@@ -116,6 +117,9 @@ class RoughRequest:
     check_stock : bool — run the program on the blank and leave out what brings the tool
         body against the stock (the ``link`` stage; False: only the simulation afterwards
         reports it)
+    floor_band_step : float, mm — with ``follow_blades``, the rows of the surface-driven
+        passes in the floor band are this far apart in height above the hub (0: none;
+        :mod:`..channel.floor_band`)
     """
 
     tool: Cutter
@@ -139,6 +143,7 @@ class RoughRequest:
     follow_blades: bool = True
     max_turn: float = math.radians(2.0)
     check_stock: bool = True
+    floor_band_step: float = 0.5
 
 
 @dataclass
@@ -162,6 +167,7 @@ class _State:
     unreachable: list = field(default_factory=list)
     contours: list = field(default_factory=list)
     wall_step: float = 0.0
+    band_passes: int = 0
     tables: dict = field(default_factory=dict)
     path: ToolPath = None
 
@@ -522,6 +528,73 @@ class RoughingOperation(Operation):
                 for pc in st.pieces[n0:]:
                     pc.contour = True
             yield Progress((k + 1) / len(st.levels), f"passes of {lv.label}")
+        if req.follow_blades and req.floor_band_step > 0:
+            self._floor_band(st)
+            yield Progress(1.0, f"{st.band_passes} surface-driven passes in the floor band")
+
+    def _floor_band(self, st: _State):
+        """The surface-driven passes of the floor band (:mod:`..channel.floor_band`), after
+        the floor level and counted with it: rows every ``floor_band_step`` mm from the hub
+        up to the allowance + one depth per cut, on both walls (with plunges, and every half
+        depth per cut on up the wall)."""
+        req, part = st.req, st.part
+        H = part.hub_profile
+        hub_r = np.interp(st.z, H[:, 1], H[:, 0])
+        step = req.floor_band_step
+        heights = np.arange(0.5 * step, st.hub_a + req.depth_per_cut + 1e-9, step)
+        if req.pattern == "plunge":
+            # the plunge levels keep one axis each, which leaves the leaning walls a wedge:
+            # rows up the whole wall too, half a depth per cut apart (the level step cusp
+            # of that spacing bounds what is left between them)
+            rv, _, _ = theta_about(part.blade_vertices, part.axis)
+            top = float(rv.max() - hub_r.min())
+            heights = np.concatenate([heights, np.arange(heights[-1] + 0.5 * req.depth_per_cut,
+                                                         top, 0.5 * req.depth_per_cut)])
+        contacts = band_contacts(part.blade_vertices, part.blade_faces, part.axis,
+                                 st.sections, st.theta_ref, part.pitch, st.z, hub_r, heights,
+                                 req.allowance)
+        lean = mean_camber_lean(st.sections, st.z, st.floor,
+                                st.floor + max(req.depth_per_cut, 2.0)) + req.side_tilt
+        # the exact check up to a tool radius above the corner, the region's bounds above
+        # (there the tool is a cylinder, which the bounds model without excess but for the
+        # margin, here the check's tolerance instead)
+        cut_h = st.cutter.f + st.cutter.max_radius
+        check = FluteCheck(st.cutter, part.blade_vertices, part.blade_faces, part.axis,
+                           part.pitch, H, req.allowance, st.hub_a, height=cut_h)
+        tables: dict = {}
+
+        def body(tip, ax):
+            # the shank and holder: the region's bounds with the body's rows of the table
+            r, th, z = theta_about(tip, part.axis)
+            u = np.stack([np.cos(th), np.sin(th), np.zeros_like(th)], 1)
+            t = np.stack([-np.sin(th), np.cos(th), np.zeros_like(th)], 1)
+            e = np.stack(part.axis.angular_frame())
+            side = np.arctan2(np.einsum("ij,ij->i", ax, t @ e), np.einsum("ij,ij->i", ax,
+                                                                          u @ e))
+            # (the table of the largest tilt rounded up to 5°: a few tables for all rounds)
+            big = math.ceil(math.degrees(float(np.abs(side).max())) / 5.0 + 1e-9) * 5.0
+            if big not in tables:
+                tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(math.radians(big))))
+                hs, os_ = offset_table(st.cutter, st.assembly, req.allowance, req.safety,
+                                       -check.tol, tilt=tilt)
+                tables[big] = (hs, np.where(hs >= cut_h, os_, -np.inf))
+            hs, os_ = tables[big]
+            if not np.isfinite(os_).any():
+                return np.ones(len(tip), bool)
+            lo, hi = channel_bounds(st.sections, part.pitch, z, r, (hs, os_), lead=req.lead,
+                                    side=side)
+            th = np.mod(th - st.theta_ref + math.pi, 2 * math.pi) - math.pi
+            return (th >= lo) & (th <= hi)
+
+        deltas = np.radians([0.0, -5.0, 5.0])
+        k = self._floor_index(st)
+        fwd, n0 = True, len(st.pieces)
+        for wall in contacts:
+            bp = band_poses(st.cutter, part.axis, wall, lean, req.lead, check, body, deltas,
+                            req.max_turn)
+            pcs, fwd = band_pieces(k, bp, st.outside, fwd)
+            st.pieces.extend(pcs)
+        st.band_passes = len(st.pieces) - n0
 
     def _r_safe(self, st: _State) -> float:
         return float((st.top.max() + st.req.clearance) / math.cos(min(st.part.pitch, 1.0)))
@@ -637,6 +710,7 @@ class RoughingOperation(Operation):
             "floor_scallop_mm": scallop,
             "wall_levels": sum(lv.walls_only for lv in st.levels),
             "wall_level_step_mm": float(st.wall_step),
+            "floor_band_passes": int(st.band_passes),
             "max_axis_turn_deg": _max_turn(axis, move),
             "axis": "follows the blades" if req.follow_blades else "radial",
             "max_turn_per_step_deg": math.degrees(req.max_turn),
