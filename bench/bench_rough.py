@@ -3,6 +3,7 @@
     python bench/bench_rough.py [--resolution 0.5] [--mesh-resolution 0.3] [--levels from-hub]
         [--pattern zigzag] [--depth 6] [--stepover 6] [--diameter 10] [--corner 1]
         [--axis blades|radial] [--max-turn 2] [--small | --rotor37] [--no-simulate]
+        [--floor-band-step 0.5] [--before-after]
 
 The demo blisk (default parameters, 24 blades; ``--small``: the 25 mm tall test blisk of
 tests/core/test_roughing.py; ``--rotor37``: NASA Rotor 37 patterned to 36 blades, its hub
@@ -16,7 +17,10 @@ the channel volume outside the allowance shell removed after each level (cumulat
 each level, crashes, and the least material left on the part (mm; good to the stock's
 resolution / √2), the largest above the floor band (the allowance + one depth per cut
 above the hub) and in it, and the largest level step cusp excess there (the bound of
-tests/core/test_roughing.py: 0.5 + s |n · a| + res/√2).
+tests/core/test_roughing.py: 0.5 + s |n · a| + res/√2). ``--before-after`` plans and
+simulates twice, without the surface-driven floor-band passes and with them
+(``--floor-band-step``), and prints the planning time of one gap, the share removed and the
+points over the bound (count, largest excess) above and in the floor band side by side.
 """
 
 from __future__ import annotations

@@ -99,12 +99,32 @@ def _turn(points, axis: Axis, angle: float) -> np.ndarray:
     return axis.o + np.outer(zc, d) + np.outer(c * x - s * y, e1) + np.outer(s * x + c * y, e2)
 
 
+def _held(th, z, hold: float) -> np.ndarray:
+    """(m, n) ``th`` with each row's NaN stations within ``hold`` mm of a finite one given
+    the nearest finite value (beyond a leading or trailing edge: the query then finds the
+    edge's nose)."""
+    out = th.copy()
+    for j in range(th.shape[0]):
+        f = np.nonzero(np.isfinite(th[j]))[0]
+        if len(f) == 0:
+            continue
+        pos = np.clip(np.searchsorted(f, np.arange(len(z))), 0, len(f) - 1)
+        left = f[np.clip(pos - 1, 0, len(f) - 1)]
+        right = f[pos]
+        near = np.where(np.abs(z[left] - z) <= np.abs(z[right] - z), left, right)
+        use = ~np.isfinite(th[j]) & (np.abs(z[near] - z) <= hold)
+        out[j, use] = th[j, near[use]]
+    return out
+
+
 def band_contacts(V, F, axis: Axis, sections, theta_ref: float, pitch: float, z, hub_r,
-                  heights, allowance: float):
+                  heights, allowance: float, hold: float = 1.5):
     """The contacts of the rows (module docstring) on both walls: a list of two
     (q (m, n, 3), n (m, n, 3), ok (m, n)) — blade 0's wall facing +θ, then blade 1's facing
     −θ — over rows at ``heights`` (m,) mm above the hub radii ``hub_r`` (n,) at stations
-    ``z`` (n,); q on the allowance offset, n its unit normal into the channel."""
+    ``z`` (n,); q on the allowance offset, n its unit normal into the channel. Within
+    ``hold`` mm beyond a wall's end (the edges' noses) the nearest station's wall angle is
+    held for the query."""
     z = np.asarray(z, float)
     H = np.asarray(heights, float)
     R = np.asarray(hub_r, float)[None, :] + H[:, None]
@@ -112,7 +132,7 @@ def band_contacts(V, F, axis: Axis, sections, theta_ref: float, pitch: float, z,
     dist = MeshDistance(TriMesh.from_arrays(np.asarray(V, float), np.asarray(F, np.int64)))
     out = []
     for upper in (True, False):
-        th = wall_theta(sections, z, R, upper)
+        th = _held(wall_theta(sections, z, R, upper), z, hold)
         ok = np.isfinite(th)
         # the query point the allowance off the estimated wall, into the channel
         thq = np.where(ok, th, 0.0) + (1.0 if upper else -1.0) * allowance / R + theta_ref

@@ -43,7 +43,16 @@ between the levels bracketing the point, the depth per cut — or the wall-level
 floor band —, a the tool axis; the corners of a step of a sharp-cornered tool lie that far off
 the plane through the points it touches, a corner radius leaves less). The floor of each level is
 computed for its own tilts (a tilted tool's low rim keeps the hub allowance) and the
-bounds account for the tilt at every height of the tool. Units mm, radians (degrees only
+bounds account for the tilt at every height of the tool.
+
+In the floor band that is not enough: the wall levels' contours touch each wall where their
+tilt puts the tool first, and the corner riding on the hub fillet keeps the side off the wall
+above it. **Surface-driven passes** (``floor_band_step``, :mod:`..channel.floor_band`) follow
+the floor level: rows of contacts on the blades' allowance offset every ``floor_band_step``
+mm in height from the hub to the level above, the pose following each contact (side tilt the
+mean camber lean ± 5°), checked by exact distances of the cutter's outline to the blades and
+the hub and by the region's bounds above a tool radius up the flute (with plunges, rows go
+on up the whole wall every half depth per cut: the plunge levels keep one axis each). Units mm, radians (degrees only
 in messages).
 """
 
@@ -168,6 +177,7 @@ class _State:
     contours: list = field(default_factory=list)
     wall_step: float = 0.0
     band_passes: int = 0
+    band_tilt: tuple | None = None
     tables: dict = field(default_factory=dict)
     path: ToolPath = None
 
@@ -594,6 +604,10 @@ class RoughingOperation(Operation):
                             req.max_turn)
             pcs, fwd = band_pieces(k, bp, st.outside, fwd)
             st.pieces.extend(pcs)
+            if bp.ok.any():
+                used = bp.side[bp.ok]
+                lo_, hi_ = st.band_tilt or (math.inf, -math.inf)
+                st.band_tilt = (min(lo_, float(used.min())), max(hi_, float(used.max())))
         st.band_passes = len(st.pieces) - n0
 
     def _r_safe(self, st: _State) -> float:
@@ -711,6 +725,8 @@ class RoughingOperation(Operation):
             "wall_levels": sum(lv.walls_only for lv in st.levels),
             "wall_level_step_mm": float(st.wall_step),
             "floor_band_passes": int(st.band_passes),
+            "floor_band_side_tilt_range_deg": [math.degrees(t) for t in st.band_tilt]
+            if st.band_tilt else [],
             "max_axis_turn_deg": _max_turn(axis, move),
             "axis": "follows the blades" if req.follow_blades else "radial",
             "max_turn_per_step_deg": math.degrees(req.max_turn),
