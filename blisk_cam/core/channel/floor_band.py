@@ -369,8 +369,18 @@ def band_poses(cutter: Cutter, axis: Axis, contacts, lean, lead: float, check, b
         tip[f], ax[f], ok[f] = _poses(cutter, axis, qf[f], nf[f], side.ravel()[f], lead,
                                       check, body)
     tip, ax, ok = tip.reshape(m, n, 3), ax.reshape(m, n, 3), ok.reshape(m, n)
-    # a row is split where the tip jumps (not one straight move along the wall)
+    # a row is split where the tip jumps (not one straight move along the wall) and where the
+    # tool half-way along a move (tip and axis the means) comes nearer than the check allows
+    # (a move's chord across a convex wall: an edge's nose)
     jump = np.linalg.norm(np.diff(tip, axis=1), axis=2) > max_jump
+    pair = np.nonzero((ok[:, :-1] & ok[:, 1:] & ~jump).ravel())[0]
+    if len(pair):
+        jj, ii = np.divmod(pair, n - 1)
+        mt = 0.5 * (tip[jj, ii] + tip[jj, ii + 1])
+        ma = ax[jj, ii] + ax[jj, ii + 1]
+        ma /= np.linalg.norm(ma, axis=1)[:, None]
+        bad = (check.clearance(mt, ma) < -check.tol) | ~body(mt, ma)
+        jump[jj[bad], ii[bad]] = True
     return BandPoses(tip, ax, ok, side, jump)
 
 
@@ -398,6 +408,6 @@ def band_pieces(level: int, bp: BandPoses, outside, forward: bool):
             else:
                 idx = idx[drop_straight(bp.tip[j, idx], bp.axis[j, idx])]
             pieces.append(Piece(bp.tip[j, idx], bp.axis[j, idx], level,
-                                (bool(outside[idx[0]]), bool(outside[idx[-1]]))))
+                                (bool(outside[idx[0]]), bool(outside[idx[-1]])), band=True))
         forward = not forward
     return pieces, forward

@@ -52,8 +52,8 @@ the floor level: rows of contacts on the blades' allowance offset every ``floor_
 mm in height from the hub to the level above, the pose following each contact (side tilt the
 mean camber lean ± 5°), checked by exact distances of the cutter's outline to the blades and
 the hub and by the region's bounds above a tool radius up the flute (with plunges, rows go
-on up the whole wall every half depth per cut: the plunge levels keep one axis each). Units mm, radians (degrees only
-in messages).
+on up the whole wall every half depth per cut: the plunge levels keep one axis each; these
+rows feed along the walls, not down the axis). Units mm, radians (degrees only in messages).
 """
 
 from __future__ import annotations
@@ -669,7 +669,8 @@ class RoughingOperation(Operation):
                     if b0 - a0 >= 2:
                         pieces.append(Piece(pc.tip[a0:b0], pc.axis[a0:b0], pc.level,
                                             (pc.outside[0] and a0 == 0,
-                                             pc.outside[1] and b0 == len(s_))))
+                                             pc.outside[1] and b0 == len(s_)),
+                                            band=pc.band))
             st.pieces = pieces
             if not st.pieces:
                 raise BliskCamError("every pass of the channel would bring the tool body "
@@ -724,7 +725,10 @@ class RoughingOperation(Operation):
             "floor_scallop_mm": scallop,
             "wall_levels": sum(lv.walls_only for lv in st.levels),
             "wall_level_step_mm": float(st.wall_step),
-            "floor_band_passes": int(st.band_passes),
+            "floor_band_passes": sum(p.band for p in st.pieces),
+            # the surface-driven passes are the last ones: the program's curve index of the
+            # first (-1: none)
+            "floor_band_first_pass": next((k for k, p in enumerate(st.pieces) if p.band), -1),
             "floor_band_side_tilt_range_deg": [math.degrees(t) for t in st.band_tilt]
             if st.band_tilt else [],
             "max_axis_turn_deg": _max_turn(axis, move),
