@@ -186,7 +186,7 @@ class FluteCheck:
                  allowance: float, hub_allowance: float, tol: float = 0.01,
                  spacing: float = 0.5, side_spacing: float = 1.0, ring: int = 48,
                  sample: float = 0.25, height: float | None = None):
-        prof = cutter.profile(12)
+        prof = cutter.profile(8)
         nb = max(2, int(cutter.e / spacing) + 1)
         rows = [np.stack([np.linspace(0.0, cutter.e, nb), np.zeros(nb)], 1), prof[1:-1]]
         top = float(prof[-2, 1])
@@ -223,6 +223,16 @@ class FluteCheck:
         self.S = np.vstack([S, _turn(S, axis, pitch)])
         self.N = np.vstack([N, _turn(N + o, axis, pitch) - _turn(o[None], axis, pitch)])
         self.tree = cKDTree(self.S)
+        # the query's reach: a point farther than the allowance + 0.3 mm from every sample is
+        # more than the allowance from the surface (samples at most ``sample`` / √3 from any
+        # point of a face); the voxels (edge: the reach) within one voxel of a sample: a
+        # point outside them is farther than the reach from every sample, and is not queried
+        self.vox = float(allowance) + 0.3
+        self.o = self.S.min(axis=0) - 2 * self.vox
+        base = np.unique(self._keys(self.S))
+        near = [base + self._key(di, dj, dk) for di in (-1, 0, 1) for dj in (-1, 0, 1)
+                for dk in (-1, 0, 1)]
+        self.keys = np.unique(np.concatenate(near))
         self.axis, self.pitch = axis, float(pitch)
         self.hub = np.asarray(hub_profile, float)
         self.a, self.ha, self.tol = float(allowance), float(hub_allowance), float(tol)
@@ -257,12 +267,26 @@ class FluteCheck:
                 out[sl] = o
         return out
 
+    _K = 1 << 20
+
+    def _key(self, i, j, k):
+        return (np.asarray(i, np.int64) * self._K + j) * self._K + k
+
+    def _keys(self, P) -> np.ndarray:
+        ijk = np.floor((P - self.o) / self.vox).astype(np.int64)
+        ijk = np.clip(ijk, 0, self._K - 1)
+        return self._key(ijk[:, 0], ijk[:, 1], ijk[:, 2])
+
     def _blades(self, P) -> np.ndarray:
         k, npt = P.shape[:2]
         flat = P.reshape(-1, 3)
         owner = np.repeat(np.arange(k), npt)
         out = np.full(k, np.inf)
-        dd, ii = self.tree.query(flat, distance_upper_bound=self.a + 1.0)
+        keys = self._keys(flat)
+        pos = np.clip(np.searchsorted(self.keys, keys), 0, len(self.keys) - 1)
+        cand = np.nonzero(self.keys[pos] == keys)[0]
+        flat, owner = flat[cand], owner[cand]
+        dd, ii = self.tree.query(flat, distance_upper_bound=self.vox)
         sel = np.nonzero(np.isfinite(dd))[0]
         if len(sel):
             d = np.einsum("ij,ij->i", flat[sel] - self.S[ii[sel]], self.N[ii[sel]])
