@@ -408,14 +408,35 @@ def band_poses(cutter: Cutter, axis: Axis, contacts, lean, lead: float, check, b
     return BandPoses(tip, ax, ok, side, jump)
 
 
-def band_pieces(level: int, bp: BandPoses, outside, forward: bool):
+def _detour(t0, a0, t1, a1, lift: float, step: float):
+    """Poses (k, 3), (k, 3) from the pose (t0, a0) up its axis by ``lift`` mm, across to the
+    pose (t1, a1) lifted the same and down to it, every ≤ ``step`` mm (tips on the straight
+    segments, axes the normalised blend), the two end poses excluded."""
+    pts = [t0, t0 + lift * a0, t1 + lift * a1, t1]
+    axs = [a0, a0, a1, a1]
+    tips, axes = [], []
+    for i in range(3):
+        p, q, u, v = pts[i], pts[i + 1], axs[i], axs[i + 1]
+        k = max(1, int(math.ceil(np.linalg.norm(q - p) / step)))
+        t = (np.arange(1, k + 1) / k)[:, None]
+        tips.append(p + t * (q - p))
+        a = (1 - t) * u + t * v
+        axes.append(a / np.linalg.norm(a, axis=1)[:, None])
+    return np.vstack(tips)[:-1], np.vstack(axes)[:-1]
+
+
+def band_pieces(level: int, bp: BandPoses, outside, forward: bool, check=None, body=None,
+                lift: float = 2.0, step: float = 0.5):
     """[Piece] of the rows of one wall, from the top row down, consecutive rows in opposite
     directions starting ``forward`` (toward +z); each row split where a pose fails or the tip
     jumps (round a leading or trailing edge the contacts of neighbouring stations lie far
-    apart: each run there is its own piece, a lone pose reached down its axis — the
-    footprints of a tool radius round poses a station apart overlap). Returns (pieces,
-    forward) for what follows to continue from."""
-    pieces = []
+    apart: a lone pose is reached down its axis — the footprints of a tool radius round
+    poses a station apart overlap). With ``check`` (:class:`FluteCheck`) and ``body`` (as in
+    :func:`_poses`), consecutive runs are joined at feed by a detour — up the axis by
+    ``lift`` mm, across, down — where every pose of it, every ≤ ``step`` mm, passes both
+    (the rows of a wall become a few pieces instead of a retract, rapid and approach each).
+    Returns (pieces, forward) for what follows to continue from."""
+    seq = []  # (row, station indices) in cutting order
     for j in range(bp.ok.shape[0] - 1, -1, -1):
         runs = []
         for a0, b0 in runs_of(bp.ok[j]):
@@ -426,12 +447,45 @@ def band_pieces(level: int, bp: BandPoses, outside, forward: bool):
         if not forward:
             runs = runs[::-1]
         for a0, b0 in runs:
-            idx = np.arange(a0, b0) if forward else np.arange(b0 - 1, a0 - 1, -1)
-            if len(idx) == 1:  # a lone pose: reached and left along its axis
-                idx = np.repeat(idx, 2)
-            else:
-                idx = idx[drop_straight(bp.tip[j, idx], bp.axis[j, idx])]
-            pieces.append(Piece(bp.tip[j, idx], bp.axis[j, idx], level,
-                                (bool(outside[idx[0]]), bool(outside[idx[-1]])), band=True))
+            seq.append((j, np.arange(a0, b0) if forward else np.arange(b0 - 1, a0 - 1, -1)))
         forward = not forward
+    if not seq:
+        return [], forward
+    # the detours between consecutive runs, all checked at once
+    joins = np.zeros(len(seq) - 1, bool)
+    detours = []
+    if check is not None and len(seq) > 1:
+        owner, T, A = [], [], []
+        for i in range(len(seq) - 1):
+            (j0, i0), (j1, i1) = seq[i], seq[i + 1]
+            t, a = _detour(bp.tip[j0, i0[-1]], bp.axis[j0, i0[-1]], bp.tip[j1, i1[0]],
+                           bp.axis[j1, i1[0]], lift, step)
+            detours.append((t, a))
+            owner.append(np.full(len(t), i))
+            T.append(t)
+            A.append(a)
+        owner, T, A = np.concatenate(owner), np.vstack(T), np.vstack(A)
+        good = (check.clearance(T, A) >= -check.tol) & body(T, A)
+        bad = np.zeros(len(seq) - 1, bool)
+        np.logical_or.at(bad, owner, ~good)
+        joins = ~bad
+    pieces = []
+    tips, axes, first = [], [], None
+    for i, (j, idx) in enumerate(seq):
+        if first is None:
+            first = idx[0]
+        if len(idx) > 1:
+            idx = idx[drop_straight(bp.tip[j, idx], bp.axis[j, idx])]
+        tips.append(bp.tip[j, idx])
+        axes.append(bp.axis[j, idx])
+        if i < len(joins) and joins[i]:
+            tips.append(detours[i][0])
+            axes.append(detours[i][1])
+            continue
+        t, a = np.vstack(tips), np.vstack(axes)
+        if len(t) == 1:  # a lone pose: reached and left along its axis
+            t, a = np.repeat(t, 2, axis=0), np.repeat(a, 2, axis=0)
+        pieces.append(Piece(t, a, level, (bool(outside[first]), bool(outside[idx[-1]])),
+                            band=True))
+        tips, axes, first = [], [], None
     return pieces, forward

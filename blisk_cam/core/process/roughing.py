@@ -602,7 +602,7 @@ class RoughingOperation(Operation):
         for wall in contacts:
             bp = band_poses(st.cutter, part.axis, wall, lean, req.lead, check, body, deltas,
                             req.max_turn)
-            pcs, fwd = band_pieces(k, bp, st.outside, fwd)
+            pcs, fwd = band_pieces(k, bp, st.outside, fwd, check, body)
             st.pieces.extend(pcs)
             if bp.ok.any():
                 used = bp.side[bp.ok]
