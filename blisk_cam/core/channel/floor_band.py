@@ -396,8 +396,15 @@ def band_poses(cutter: Cutter, axis: Axis, contacts, lean, lead: float, check, b
     # a row is split where the tip jumps (not one straight move along the wall) and where the
     # tool half-way along a move (tip and axis the means) comes nearer than the check allows
     # (a move's chord across a convex wall: an edge's nose)
-    jump = np.linalg.norm(np.diff(tip, axis=1), axis=2) > max_jump
-    pair = np.nonzero((ok[:, :-1] & ok[:, 1:] & ~jump).ravel())[0]
+    move = np.linalg.norm(np.diff(tip, axis=1), axis=2)
+    jump = move > max_jump
+    # a straight move between two poses touching a wall whose contact normals turn by ψ over
+    # the move's length L leaves the wall's offset by about L ψ / 8 (the chord's sag on a
+    # circle of radius L / ψ): only moves where that exceeds a quarter of the tolerance are
+    # checked half-way
+    psi = np.arccos(np.clip(np.einsum("ijk,ijk->ij", nrm[:, :-1], nrm[:, 1:]), -1.0, 1.0))
+    curved = move * psi / 8.0 > 0.25 * check.tol
+    pair = np.nonzero((ok[:, :-1] & ok[:, 1:] & ~jump & curved).ravel())[0]
     if len(pair):
         jj, ii = np.divmod(pair, n - 1)
         mt = 0.5 * (tip[jj, ii] + tip[jj, ii + 1])
