@@ -17,25 +17,30 @@ surface at q = c + a n, exact for the mesh, also across its edges and vertices).
 wall (facing −θ) is the same with the query turned back by the pitch onto blade 0.
 
 **Poses.** For each contact and each side tilt φ = φ_m(z) + δ (φ_m the blades' mean camber
-lean of :mod:`.axis`, δ over ±``max_delta``), the tool axis a is the radial direction tilted by
-the lead and φ, and the tip touching q with normal n is q − p(n, a), p the cutter's contact
+lean of :mod:`.axis`; δ tried from 0 outward), the tool axis a is the radial direction tilted
+by the lead and φ, and the tip touching q with normal n is q − p(n, a), p the cutter's contact
 point (:meth:`..tool.cutter.Cutter.contact`; once more with the radial direction at the tip,
-which is where the axis is defined). The pose is admitted by the region's own tests: the tip
-inside the θ bounds of its tilt (:func:`.region.channel_bounds` — the flute, shank and holder
-clear of both blades' allowance) and at or above the floor of its tilt (the hub's allowance,
-:func:`.levels.floor_radius`); where the contact pose lies outside the bounds it is moved to
-the nearer bound (so it stays clear, touching the offset elsewhere: ``gap`` mm from q). Per
-contact the δ with the least gap is taken (ties: the smallest |δ|); along a row the tilt is
-limited to ``max_turn`` per station and the poses recomputed with the limited tilt and
-checked again; a row is split where a pose fails or the tip jumps more than ``max_jump`` mm.
+which is where the axis is defined). The pose is admitted by exact measures, not by the
+region's envelope (whose disc model, smeared over a tilted tool's heights, keeps a bull
+nose's corner a millimetre off a fillet): :class:`FluteCheck` — the cutter's outline up to a
+tool radius above its corner at least the allowance (− 0.01 mm) from both blades' faces and
+the hub allowance from the hub profile; where a neighbouring facet of a concave fillet comes
+nearer, the tip is moved along n by the shortfall and checked again — and the region's bounds
+(:func:`.region.channel_bounds`) for the rest of the flute and the body. The first δ that
+passes is taken; along a row the tilt is limited to ``max_turn`` per station and the poses
+whose tilt changed are computed and checked again. A row is split where a pose fails, the tip
+jumps more than ``max_jump`` mm, or the tool half-way along a move over a curved wall comes
+nearer than the check allows; consecutive runs are joined at feed by a checked detour (up the
+axis, across, down), else linked as separate pieces.
 
 **Spacing.** Two contacts ``step`` apart in height on the allowance offset of a concave
 fillet of radius R_f, touched by a corner of radius r_c < R_f, leave a cusp of at most
 δ² / (8 ρ), 1/ρ = 1/r_c − 1/R_f (the two circles' relative curvature), δ the contacts' distance
-along the surface; a flank contact on a wall leaves none between rows (the flank covers the
-wall above its contact). With ``step`` = 0.5 mm and a 1 mm corner in a 4.5 mm offset fillet:
-≤ 0.04 mm, within the level step cusp s |n · a| everywhere but where the wall is parallel to
-the axis — and there the flank touches.
+along the surface (``step`` / sin α, α the surface's angle to the hub); a flank contact on a
+wall leaves none between rows (the flank covers the wall above its contact). With ``step`` =
+0.5 mm, a 1 mm corner in a 4.5 mm offset fillet: ≤ 0.04 mm where α ≥ 45°, ≤ 0.12 mm at the
+fillet's lowest row — where the normal is within 35° of the axis and the level step cusp
+s |n · a| (s = 2 mm) is above 1.6 mm.
 
 Units mm, radians.
 """
