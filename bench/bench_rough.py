@@ -3,7 +3,7 @@
     python bench/bench_rough.py [--resolution 0.5] [--mesh-resolution 0.3] [--levels from-hub]
         [--pattern zigzag] [--depth 6] [--stepover 6] [--diameter 10] [--corner 1]
         [--axis blades|radial] [--max-turn 2] [--small | --rotor37] [--order gap|level]
-        [--no-simulate]
+        [--no-simulate] [--floor-band-step 0.5] [--before-after]
 
 The demo blisk (default parameters, 24 blades; ``--small``: the 25 mm tall test blisk of
 tests/core/test_roughing.py; ``--rotor37``: NASA Rotor 37 patterned to 36 blades, its hub
@@ -17,7 +17,10 @@ the channel volume outside the allowance shell removed after each level (cumulat
 each level, crashes, and the least material left on the part (mm; good to the stock's
 resolution / √2), the largest above the floor band (the allowance + one depth per cut
 above the hub) and in it, and the largest level step cusp excess there (the bound of
-tests/core/test_roughing.py: 0.5 + s |n · a| + res/√2).
+tests/core/test_roughing.py: 0.5 + s |n · a| + res/√2). ``--before-after`` plans and
+simulates twice, without the surface-driven floor-band passes and with them
+(``--floor-band-step``), and prints the planning time of one gap, the share removed and the
+points over the bound (count, largest excess) above and in the floor band side by side.
 """
 
 from __future__ import annotations
@@ -65,6 +68,10 @@ def main():
                     help="level: the program of every gap, a level in all gaps before the next "
                     "(simulated whole: N times the work of one gap)")
     ap.add_argument("--no-simulate", action="store_true")
+    ap.add_argument("--floor-band-step", type=float, default=0.5,
+                    help="rows of the surface-driven floor-band passes every MM (0: none)")
+    ap.add_argument("--before-after", action="store_true",
+                    help="plan and simulate without the floor-band passes and with them")
     a = ap.parse_args()
 
     if a.small:
@@ -89,21 +96,37 @@ def main():
     else:
         part = part_from_demo(demo)
     blank = stock_from_envelope(part, 2.0, a.resolution)
+    runs = [0.0, a.floor_band_step] if a.before_after else [a.floor_band_step]
+    out = [_run(a, part, blank, step) for step in runs]
+    if a.before_after and not a.no_simulate:
+        print("\nfloor-band passes     planning   removed   over the bound (points, max mm): "
+              "above the band | in the band")
+        for step, o in zip(runs, out, strict=True):
+            print(f"{'none' if step == 0 else f'every {step:g} mm':20s} {o['plan']:8.1f} s "
+                  f"{o['share']:8.1%}   " + " | ".join(
+                      f"{n:4d}, {m:.3f}" for n, m in (o['above'], o['band'])))
+
+
+def _run(a, part, blank, step) -> dict:
+    """Plan (floor-band rows every ``step`` mm) and simulate; prints; returns the figures."""
     R = 0.5 * a.diameter
     tool = Cutter.bull(R, a.corner, h=3 * a.diameter, neck_length=7 * a.diameter)
     req = RoughRequest(tool=tool, stepover=a.stepover, depth_per_cut=a.depth, levels=a.levels,
                        pattern=a.pattern, follow_blades=a.axis == "blades",
-                       max_turn=math.radians(a.max_turn), order=a.order)
+                       max_turn=math.radians(a.max_turn), order=a.order,
+                       floor_band_step=step)
     t = time.perf_counter()
     res = run_operation(RoughingOperation(), part, req, blank.copy())
     plan = time.perf_counter() - t
     p = res.path
     s = p.stats
     name = "rotor 37" if a.rotor37 else "demo"
-    print(f"{name}: {part.blade_count} blades, {len(part.blade_faces)} blade triangles; blank "
+    print(f"\n{name}: {part.blade_count} blades, {len(part.blade_faces)} blade triangles; blank "
           f"{blank.n_theta} × {blank.n_z} rays at {a.resolution:g} mm; tool Ø{a.diameter:g} "
           f"R{a.corner:g}; {a.levels}, {a.pattern}, depth {a.depth:g}, stepover "
-          f"{a.stepover:g} mm")
+          f"{a.stepover:g} mm; floor-band rows " + (f"every {step:g} mm ("
+                                                      f"{s.get('floor_band_passes', 0)} passes)"
+                                                      if step else "none"))
     print(f"roughing time (planning) of one gap: {plan:.2f} s (stages " + ", ".join(
         f"{k} {v:.2f}" for k, v in res.seconds.items()) + f"); all {part.blade_count} gaps: "
         f"{plan:.2f} s (the same program turned by k · 360°/{part.blade_count})")
@@ -122,7 +145,7 @@ def main():
     for w in p.warnings:
         print(f"warning: {w}")
     if a.no_simulate:
-        return
+        return {"plan": plan}
     stock = blank.copy()
     v0 = channel_volume(stock, part.hub_profile)
     shell = channel_volume(stock_from_allowance(part, 0.5, a.resolution), part.hub_profile)
@@ -158,8 +181,12 @@ def main():
     t0, t1 = np.radians(s["side_tilt_range_deg"])
     na = np.max([np.abs(nu * math.cos(q) + nt * math.sin(q))
                  for q in np.linspace(min(t0, 0.0), max(t1, 0.0), 13)], axis=0)
-    step = np.where(band, s.get("wall_level_step_mm") or a.depth, a.depth)
-    excess = dev - (0.5 + step * na + a.resolution / math.sqrt(2))
+    cusp_step = np.where(band, s.get("wall_level_step_mm") or a.depth, a.depth)
+    excess = dev - (0.5 + cusp_step * na + a.resolution / math.sqrt(2))
+    figures = {"plan": plan, "share": (v0 - prev) / removable}
+    for key, m in (("above", ~band), ("band", band)):
+        figures[key] = (int((excess[m] > 0).sum()), max(float(excess[m].max()), 0.0)) \
+            if m.any() else (0, 0.0)
     for name, m in (("above the floor band", ~band), ("in the floor band", band)):
         if m.any():
             print(f"{name}: {m.sum()} points, left {dev[m].min():.3f} … {dev[m].max():.3f} mm "
@@ -178,6 +205,7 @@ def main():
           f"min {dev.min():.3f} mm (resolution effect ±{a.resolution / math.sqrt(2):.3f}), "
           f"median {np.median(dev):.3f} mm")
 
+    return figures
 
 def _touchable(part, tool, V, N, P, Nn, mask, allowance=0.5) -> int:
     """How many of the points ``P[mask]`` (normals ``Nn``) the cutter can touch at their

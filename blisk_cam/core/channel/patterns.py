@@ -41,7 +41,8 @@ class Piece:
     """A run of cutting poses: tips (k, 3) mm, axes (k, 3) unit, the level's index,
     ``outside`` (2,) bool: its first / last pose lies beyond the blank's faces (air),
     ``plunge`` True for a plunge (approach, cut down, retract in one), ``contour`` True for a
-    pass along a wall with its own axis."""
+    pass along a wall with its own axis, ``band`` True for a surface-driven pass of the floor
+    band (:mod:`.floor_band`)."""
 
     tip: np.ndarray
     axis: np.ndarray
@@ -50,6 +51,7 @@ class Piece:
     plunge: bool = False
     station: int = -1
     contour: bool = False
+    band: bool = False
 
 
 def pose_frame(axis: Axis, theta, z, r, theta_ref: float, lead: float, side: float):

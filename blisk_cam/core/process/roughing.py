@@ -47,8 +47,17 @@ between the levels bracketing the point, the depth per cut — or the wall-level
 floor band —, a the tool axis; the corners of a step of a sharp-cornered tool lie that far off
 the plane through the points it touches, a corner radius leaves less). The floor of each level is
 computed for its own tilts (a tilted tool's low rim keeps the hub allowance) and the
-bounds account for the tilt at every height of the tool. Units mm, radians (degrees only
-in messages).
+bounds account for the tilt at every height of the tool.
+
+In the floor band that is not enough: the wall levels' contours touch each wall where their
+tilt puts the tool first, and the corner riding on the hub fillet keeps the side off the wall
+above it. **Surface-driven passes** (``floor_band_step``, :mod:`..channel.floor_band`) follow
+the floor level: rows of contacts on the blades' allowance offset every ``floor_band_step``
+mm in height from the hub to the level above, the pose following each contact (side tilt the
+mean camber lean ± 5°), checked by exact distances of the cutter's outline to the blades and
+the hub and by the region's bounds above a tool radius up the flute (with plunges, rows go
+on up the whole wall every half depth per cut: the plunge levels keep one axis each; these
+rows feed along the walls, not down the axis). Units mm, radians (degrees only in messages).
 """
 
 from __future__ import annotations
@@ -59,6 +68,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..channel.axis import bound_turn, limit_turn, mean_camber_lean
+from ..channel.floor_band import FluteCheck, band_contacts, band_pieces, band_poses
 from ..channel.gaps import GAP_ORDERS, pattern_gaps
 from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
 from ..channel.patterns import (
@@ -130,6 +140,9 @@ class RoughRequest:
     gaps : int or None — the program itself holds gaps 0 … gaps − 1 in ``order``, linked
         round the axis at the safe radius (None: one gap); a program of several gaps is
         posted as it is (with the blade count 1 or gaps)
+    floor_band_step : float, mm — with ``follow_blades``, the rows of the surface-driven
+        passes in the floor band are this far apart in height above the hub (0: none;
+        :mod:`..channel.floor_band`)
     """
 
     tool: Cutter
@@ -155,6 +168,7 @@ class RoughRequest:
     check_stock: bool = True
     order: str = "gap"
     gaps: int | None = None
+    floor_band_step: float = 0.5
 
 
 @dataclass
@@ -178,6 +192,8 @@ class _State:
     unreachable: list = field(default_factory=list)
     contours: list = field(default_factory=list)
     wall_step: float = 0.0
+    band_passes: int = 0
+    band_tilt: tuple | None = None
     tables: dict = field(default_factory=dict)
     path: ToolPath = None
 
@@ -546,6 +562,77 @@ class RoughingOperation(Operation):
                 for pc in st.pieces[n0:]:
                     pc.contour = True
             yield Progress((k + 1) / len(st.levels), f"passes of {lv.label}")
+        if req.follow_blades and req.floor_band_step > 0:
+            self._floor_band(st)
+            yield Progress(1.0, f"{st.band_passes} surface-driven passes in the floor band")
+
+    def _floor_band(self, st: _State):
+        """The surface-driven passes of the floor band (:mod:`..channel.floor_band`), after
+        the floor level and counted with it: rows every ``floor_band_step`` mm from the hub
+        up to the allowance + one depth per cut, on both walls (with plunges, and every half
+        depth per cut on up the wall)."""
+        req, part = st.req, st.part
+        H = part.hub_profile
+        hub_r = np.interp(st.z, H[:, 1], H[:, 0])
+        step = req.floor_band_step
+        heights = np.arange(0.5 * step, st.hub_a + req.depth_per_cut + 1e-9, step)
+        if req.pattern == "plunge":
+            # the plunge levels keep one axis each, which leaves the leaning walls a wedge:
+            # rows up the whole wall too, half a depth per cut apart (the level step cusp
+            # of that spacing bounds what is left between them)
+            rv, _, _ = theta_about(part.blade_vertices, part.axis)
+            top = float(rv.max() - hub_r.min())
+            heights = np.concatenate([heights, np.arange(heights[-1] + 0.5 * req.depth_per_cut,
+                                                         top, 0.5 * req.depth_per_cut)])
+        contacts = band_contacts(part.blade_vertices, part.blade_faces, part.axis,
+                                 st.sections, st.theta_ref, part.pitch, st.z, hub_r, heights,
+                                 req.allowance)
+        lean = mean_camber_lean(st.sections, st.z, st.floor,
+                                st.floor + max(req.depth_per_cut, 2.0)) + req.side_tilt
+        # the exact check up to a tool radius above the corner, the region's bounds above
+        # (there the tool is a cylinder, which the bounds model without excess but for the
+        # margin, here the check's tolerance instead)
+        cut_h = st.cutter.f + st.cutter.max_radius
+        check = FluteCheck(st.cutter, part.blade_vertices, part.blade_faces, part.axis,
+                           part.pitch, H, req.allowance, st.hub_a, height=cut_h)
+        tables: dict = {}
+
+        def body(tip, ax):
+            # the shank and holder: the region's bounds with the body's rows of the table
+            r, th, z = theta_about(tip, part.axis)
+            u = np.stack([np.cos(th), np.sin(th), np.zeros_like(th)], 1)
+            t = np.stack([-np.sin(th), np.cos(th), np.zeros_like(th)], 1)
+            e = np.stack(part.axis.angular_frame())
+            side = np.arctan2(np.einsum("ij,ij->i", ax, t @ e), np.einsum("ij,ij->i", ax,
+                                                                          u @ e))
+            # (the table of the largest tilt rounded up to 5°: a few tables for all rounds)
+            big = math.ceil(math.degrees(float(np.abs(side).max())) / 5.0 + 1e-9) * 5.0
+            if big not in tables:
+                tilt = math.atan(math.hypot(math.tan(req.lead), math.tan(math.radians(big))))
+                hs, os_ = offset_table(st.cutter, st.assembly, req.allowance, req.safety,
+                                       -check.tol, tilt=tilt)
+                tables[big] = (hs, np.where(hs >= cut_h, os_, -np.inf))
+            hs, os_ = tables[big]
+            if not np.isfinite(os_).any():
+                return np.ones(len(tip), bool)
+            lo, hi = channel_bounds(st.sections, part.pitch, z, r, (hs, os_), lead=req.lead,
+                                    side=side)
+            th = np.mod(th - st.theta_ref + math.pi, 2 * math.pi) - math.pi
+            return (th >= lo) & (th <= hi)
+
+        deltas = np.radians([0.0, -5.0, 5.0])
+        k = self._floor_index(st)
+        fwd, n0 = True, len(st.pieces)
+        for wall in contacts:
+            bp = band_poses(st.cutter, part.axis, wall, lean, req.lead, check, body, deltas,
+                            req.max_turn)
+            pcs, fwd = band_pieces(k, bp, st.outside, fwd, check, body)
+            st.pieces.extend(pcs)
+            if bp.ok.any():
+                used = bp.side[bp.ok]
+                lo_, hi_ = st.band_tilt or (math.inf, -math.inf)
+                st.band_tilt = (min(lo_, float(used.min())), max(hi_, float(used.max())))
+        st.band_passes = len(st.pieces) - n0
 
     def _r_safe(self, st: _State) -> float:
         return float((st.top.max() + st.req.clearance) / math.cos(min(st.part.pitch, 1.0)))
@@ -605,7 +692,8 @@ class RoughingOperation(Operation):
                     if b0 - a0 >= 2:
                         pieces.append(Piece(pc.tip[a0:b0], pc.axis[a0:b0], pc.level,
                                             (pc.outside[0] and a0 == 0,
-                                             pc.outside[1] and b0 == len(s_))))
+                                             pc.outside[1] and b0 == len(s_)),
+                                            band=pc.band))
             st.pieces = pieces
             if not st.pieces:
                 raise BliskCamError("every pass of the channel would bring the tool body "
@@ -671,6 +759,12 @@ class RoughingOperation(Operation):
             "floor_scallop_mm": scallop,
             "wall_levels": sum(lv.walls_only for lv in st.levels),
             "wall_level_step_mm": float(st.wall_step),
+            "floor_band_passes": sum(p.band for p in st.pieces),
+            # the surface-driven passes are the last ones: the program's curve index of the
+            # first (-1: none)
+            "floor_band_first_pass": next((k for k, p in enumerate(st.pieces) if p.band), -1),
+            "floor_band_side_tilt_range_deg": [math.degrees(t) for t in st.band_tilt]
+            if st.band_tilt else [],
             "max_axis_turn_deg": _max_turn(axis, move),
             "axis": "follows the blades" if req.follow_blades else "radial",
             "max_turn_per_step_deg": math.degrees(req.max_turn),
