@@ -6,7 +6,8 @@
         --stock (PROFILE.csv | MESH | envelope:MM | STATE.npz) \\
         --tool flat|bull|ball --tool-diameter MM [--corner-radius MM] \\
         --levels from-hub|from-shroud|morph --depth-per-cut MM --stepover MM \\
-        --pattern zigzag|plunge [--order gap|level] --allowance 0.5 [--hub-allowance MM] \\
+        --pattern zigzag|plunge [--order gap|level] [--floor-band-step 0.5] \\
+        --allowance 0.5 [--hub-allowance MM] \\
         --out rough.json \\
         [--nc FILE --machine PRESET --post POST] [--lead DEG] [--side-tilt DEG] ...
 
@@ -94,6 +95,11 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
                    help="gap: every level of a gap, then the next gap; level: a level in "
                    "every gap, then the next level (each level linked alone; the post "
                    "interleaves the gaps) (default gap)")
+    g.add_argument("--floor-band-step", type=_non_negative, default=0.5, metavar="MM",
+                   help="with --axis blades: rows of surface-driven passes on the blades' "
+                   "allowance offset every MM from the hub to the level above, which keep the "
+                   "level-step cusp there too (0: none, shorter but leaves more on the walls "
+                   "by the hub) (default 0.5)")
     g.add_argument("--allowance", type=_non_negative, default=0.5, metavar="MM",
                    help="material left on the blades, mm (default 0.5)")
     g.add_argument("--hub-allowance", type=_non_negative, default=None, metavar="MM",
@@ -174,7 +180,7 @@ def run_rough(args) -> int:
         feed=args.feed or 1000.0, plunge_feed=args.approach_feed or None,
         rapid_feed=args.rapid_feed, spindle=args.spindle,
         follow_blades=args.axis == "blades", max_turn=math.radians(args.max_turn),
-        order=args.order)
+        order=args.order, floor_band_step=args.floor_band_step)
     gen = iter_run_operation(RoughingOperation(), part, req, stock)
     while True:
         try:

@@ -53,10 +53,10 @@ def setup():
     return part, stock_from_envelope(part, 2.0, 1.0)
 
 
-def _plan(setup, order, gaps=None):
+def _plan(setup, order, gaps=None, **kw):
     part, stock = setup
     req = RoughRequest(tool=_tool(), stepover=6.0, depth_per_cut=8.0, follow_blades=False,
-                       station_step=1.0, clearance=CLEARANCE, order=order, gaps=gaps)
+                       station_step=1.0, clearance=CLEARANCE, order=order, gaps=gaps, **kw)
     return plan_roughing(part, req, stock)
 
 
@@ -196,7 +196,9 @@ def test_the_post_does_not_repeat_a_program_of_several_gaps(setup, three):
 def test_bad_order_and_gap_count_are_refused(setup):
     for kw, msg in (({"order": "spiral"}, "order must be one of gap, level"),
                     ({"gaps": 0}, "whole number from 1 to the blade count 24"),
-                    ({"gaps": 25}, "whole number from 1 to the blade count 24")):
+                    ({"gaps": 25}, "whole number from 1 to the blade count 24"),
+                    ({"floor_band_step": -1.0}, r"floor band step \(0: no floor-band passes\) "
+                                                r"must be ≥ 0 mm, got -1")):
         with pytest.raises(BliskCamError, match=msg):
             _plan(setup, **{"order": "gap", **kw})
 
@@ -206,12 +208,14 @@ def test_a_job_takes_the_order_and_checks_it_up_front(tmp_path):
     from tests.core.test_process_kinds import ROUGH_JOB
 
     job = tmp_path / "bad.toml"
-    job.write_text(ROUGH_JOB.replace("stepover = 6\n", 'stepover = 6\norder = "spiral"\n'))
-    gen = iter_run_job(load_job(job))
-    with pytest.raises(BliskCamError, match=r"operation 1 \('roughing'\).*order must be one "
-                                            r"of gap, level"):
-        for _ in range(3):
-            next(gen)
+    for line, msg in (('order = "spiral"', "order must be one of gap, level"),
+                      ("floor_band_step = -0.5", r"key 'floor_band_step': a length must be "
+                                                 r"≥ 0 mm, got -0.5")):
+        job.write_text(ROUGH_JOB.replace("stepover = 6\n", f"stepover = 6\n{line}\n"))
+        gen = iter_run_job(load_job(job))
+        with pytest.raises(BliskCamError, match=r"operation 1 \('roughing'\).*" + msg):
+            for _ in range(3):
+                next(gen)
 
 
 def test_the_rough_command_takes_the_order(capsys):
@@ -225,6 +229,10 @@ def test_the_rough_command_takes_the_order(capsys):
     assert parser.parse_args(base + ["--order", "LEVEL"]).order == "level"
     assert main(base + ["--order", "spiral"]) == 2
     assert "--order" in capsys.readouterr().err
+    assert parser.parse_args(base).floor_band_step == 0.5
+    assert parser.parse_args(base + ["--floor-band-step", "0"]).floor_band_step == 0.0
+    assert main(base + ["--floor-band-step", "-1"]) == 2
+    assert "--floor-band-step" in capsys.readouterr().err
 
 
 def test_round_the_axis_goes_the_shorter_way_in_bounded_steps():

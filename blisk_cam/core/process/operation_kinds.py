@@ -477,6 +477,9 @@ _ROUGH_KEYS = {
     "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),
     "order": ("gap", "gap (every level of a gap, then the next gap) or level (a level in every "
               "gap, then the next level: the post interleaves the gaps)", "word"),
+    "floor_band_step": (0.5, "with axis = blades, rows of surface-driven passes on the blades' "
+                        "allowance offset every MM from the hub to the level above (0: none)",
+                        "mm"),
 }
 
 
@@ -495,6 +498,8 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
             continue
         if isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
             raise BliskCamError(f"{where} key {key!r}: expected a number, got {value!r}")
+        if kind == "mm" and not (math.isfinite(value) and value >= 0):
+            raise BliskCamError(f"{where} key {key!r}: a length must be ≥ 0 mm, got {value!r}")
         kw[key] = math.radians(float(value)) if kind == "deg" else float(value)
     for key in ("stepover", "depth_per_cut"):
         if key not in kw:

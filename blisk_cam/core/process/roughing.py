@@ -296,6 +296,7 @@ class RoughingOperation(Operation):
                 raise BliskCamError(f"{name} must be within ±45°, got "
                                     f"{math.degrees(ang):g}°")
         _num("station step", req.station_step)
+        _num("floor band step (0: no floor-band passes)", req.floor_band_step, positive=False)
         if not (math.isfinite(req.max_turn) and req.max_turn > 0):
             raise BliskCamError(f"the largest axis turn per step must be > 0°, got "
                                 f"{math.degrees(req.max_turn):g}°")
