@@ -106,6 +106,9 @@ _RAMP = math.radians(30.0)
 _COLLIDE = 1e3
 #: largest lean step between stations, in state steps
 _MAX_R = 3
+#: cost of a jump — a turn past the limit between two consecutive poses, both left
+#: colliding (unresolved either way): more than any lean, far less than a colliding pose
+_JUMP = 10.0
 #: samples inside each transition checked for the motion, and verification rounds
 _MOTION_SAMPLES = 3
 _ROUNDS = 4
@@ -263,6 +266,9 @@ class _Planner:
         # path prices their motion per state pair (:meth:`motion_cost`), cached
         self.mpairs = set()
         self.mcost = {}
+        self._axes_cache, self._tips_cache, self._moves_cache = {}, {}, {}
+        self._gather_cache = {}
+        self._dev = self.off[0][:, None] ** 2 + self.off[1][None, :] ** 2  # the lean cost
 
     # --- poses -----------------------------------------------------------------------------
     def set_frames(self, runs, ref_axes):
@@ -361,15 +367,33 @@ class _Planner:
         return c.reshape(len(g), len(il), len(it))
 
     def state_axes(self, gi):
-        """(Fl, Ft, 3) axes of every lean state at pose gi."""
-        gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
-                                  np.arange(self.shape[1]))
-        return self.axes(gg, dl, dt).reshape(*self.shape, 3)
+        """(Fl, Ft, 3) axes of every lean state at pose gi (cached: the frames are set once;
+        read-only)."""
+        gi = int(gi)
+        A = self._axes_cache.get(gi)
+        if A is None:
+            gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
+                                      np.arange(self.shape[1]))
+            A = self.axes(gg, dl, dt).reshape(*self.shape, 3)
+            A.flags.writeable = False
+            self._axes_cache[gi] = A
+        return A
+
+    def state_tips(self, gi):
+        """(Fl, Ft, 3) tips of every lean state at pose gi (cached; read-only)."""
+        gi = int(gi)
+        T = self._tips_cache.get(gi)
+        if T is None:
+            T = self.tips(np.full(self.shape[0] * self.shape[1], gi),
+                          self.state_axes(gi).reshape(-1, 3)).reshape(*self.shape, 3)
+            T.flags.writeable = False
+            self._tips_cache[gi] = T
+        return T
 
     def state_valid(self, gi):
         gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
                                   np.arange(self.shape[1]))
-        return self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(self.shape)
+        return self.valid(gg, dl, dt, self.state_axes(gi).reshape(-1, 3)).reshape(self.shape)
 
     # --- stations --------------------------------------------------------------------------
     def stations(self, g, arc):
@@ -447,6 +471,36 @@ class _Planner:
             ok = cos >= math.cos(limit) - 1e-12
         return np.asarray(offs), ok
 
+    def colliding_states(self, gi):
+        """(Fl, Ft) bool: the valid states of pose gi known exactly to collide (none unless
+        every state of the pose is known exactly, :meth:`measure_exact`)."""
+        k = self.known[int(gi)]
+        if int(gi) not in self.exact:
+            return np.zeros(k.shape, bool)
+        return np.isfinite(k) & (k < self.safety)
+
+    def _gather(self, offs):
+        """(o, Fl, Ft) flat indices into the (Fl + 2r, Ft + 2r) padded grid: the state
+        x − offset for every state x and offset (cached per offsets)."""
+        key = offs.tobytes()
+        got = self._gather_cache.get(key)
+        if got is None:
+            (Fl, Ft), r = self.shape, _MAX_R
+            i = np.arange(Fl)[None, :, None] + r - offs[:, 0][:, None, None]
+            j = np.arange(Ft)[None, None, :] + r - offs[:, 1][:, None, None]
+            got = i * (Ft + 2 * r) + j
+            self._gather_cache[key] = got
+        return got
+
+    def moves(self, gp, gc, limit):
+        """:meth:`_moves` between the states of poses gp and gc, cached."""
+        key = (int(gp), int(gc), float(limit))
+        got = self._moves_cache.get(key)
+        if got is None:
+            got = self._moves(self.state_axes(gp), self.state_axes(gc), limit)
+            self._moves_cache[key] = got
+        return got
+
     def _clear_states(self, gi):
         """(Fl, Ft) bool: the states of pose gi known clear."""
         return self.known[int(gi)] >= self.safety
@@ -472,9 +526,8 @@ class _Planner:
             return self.mcost[key]
         (Fl, Ft), r = self.shape, _MAX_R
         Ap, Ac = self.state_axes(gp), self.state_axes(gc)
-        offs, ok = self._moves(Ap, Ac, limit)
-        Tp = self.tips(np.full(Fl * Ft, gp), Ap.reshape(-1, 3)).reshape(Fl, Ft, 3)
-        Tc = self.tips(np.full(Fl * Ft, gc), Ac.reshape(-1, 3)).reshape(Fl, Ft, 3)
+        offs, ok = self.moves(gp, gc, limit)
+        Tp, Tc = self.state_tips(gp), self.state_tips(gc)
         padA = np.full((Fl + 2 * r, Ft + 2 * r, 3), np.nan)
         padT = padA.copy()
         padK = np.zeros((Fl + 2 * r, Ft + 2 * r), bool)
@@ -487,7 +540,23 @@ class _Planner:
         if sel.any():
             o, i, j = np.nonzero(sel)
             pi, pj = i - offs[o, 0] + r, j - offs[o, 1] + r
-            pen[sel] = self._motion_penalty(padT[pi, pj], padA[pi, pj], Tc[i, j], Ac[i, j])
+            tp, ap, tc, ac = padT[pi, pj], padA[pi, pj], Tc[i, j], Ac[i, j]
+            todo = np.ones(len(o), bool)
+            if self.lip is not None and int(gp) in self.exact and int(gc) in self.exact:
+                # a ball: no tool point moves further than |Δcentre| + L·θ along the motion,
+                # and the clearance is 1-Lipschitz in that displacement, so the motion clears
+                # where (clr(start) + clr(end) − |Δcentre| − L·θ) / 2 ≥ ds (both ends exact)
+                kpp = np.pad(self.known[int(gp)], r, constant_values=-np.inf)[pi, pj]
+                kc = self.known[int(gc)][i, j]
+                dc = float(np.linalg.norm(self.P.tip0[gc] + self.cutter.radius * self.P.ax0[gc]
+                                          - self.P.tip0[gp] - self.cutter.radius
+                                          * self.P.ax0[gp]))
+                th = np.arccos(np.clip(np.einsum("ij,ij->i", ap, ac), -1.0, 1.0))
+                todo = 0.5 * (kpp + kc - dc - self.lip * th) < self.safety
+            vals = np.zeros(len(o))
+            if todo.any():
+                vals[todo] = self._motion_penalty(tp[todo], ap[todo], tc[todo], ac[todo])
+            pen[sel] = vals
         self.mcost[key] = pen
         return pen
 
@@ -504,7 +573,7 @@ class _Planner:
         """(Fl, Ft) as :meth:`motion_cost_fixed`, the other pose given as tip ``tf`` and axis
         ``af`` (3,)."""
         A = self.state_axes(gi).reshape(-1, 3)
-        T = self.tips(np.full(len(A), gi), A)
+        T = self.state_tips(gi).reshape(-1, 3)
         sel = self._clear_states(gi).ravel()
         pen = np.zeros(len(A))
         k = int(sel.sum())
@@ -515,7 +584,7 @@ class _Planner:
 
     def node_costs(self, gi):
         c = self.known[int(gi)]
-        dev = self.off[0][:, None] ** 2 + self.off[1][None, :] ** 2
+        dev = self._dev
         node = np.where(c >= self.safety, dev, _COLLIDE + self.safety
                         - np.maximum(c, -self.safety - 50.0))
         return np.where(np.isfinite(c), node, np.inf)
@@ -577,17 +646,25 @@ class _Planner:
                                                self.max_turn))]
         for j in range(1, len(gst)):
             lim = float(cum[r.st[j]] - cum[r.st[j - 1]])
-            offs, ok = self._moves(A[j - 1], A[j], lim)
+            offs, ok = self.moves(gst[j - 1], gst[j], lim)
             rr = _MAX_R
             pad = np.full((Fl + 2 * rr, Ft + 2 * rr), np.inf)
             pad[rr:rr + Fl, rr:rr + Ft] = cost
-            stack = np.stack([pad[rr - a:rr - a + Fl, rr - b:rr - b + Ft] for a, b in offs])
-            stack = np.where(ok, stack, np.inf)
+            stack = np.where(ok, pad.ravel()[self._gather(offs)], np.inf)
             if (int(gst[j - 1]), int(gst[j])) in self.mpairs:
                 stack = stack + self.motion_cost(gst[j - 1], gst[j], lim)
             arg = np.argmin(stack, axis=0)
             best = np.take_along_axis(stack, arg[None], 0)[0]
-            backs.append((offs, arg))
+            jump = None
+            if r.st[j] == r.st[j - 1] + 1:  # consecutive poses: may jump, both colliding
+                cp, cc_ = self.colliding_states(gst[j - 1]), self.colliding_states(gst[j])
+                if cp.any() and cc_.any():
+                    src = int(np.argmin(np.where(cp, cost, np.inf)))
+                    use = cc_ & (cost.flat[src] + _JUMP < best)
+                    if use.any():
+                        best = np.where(use, cost.flat[src] + _JUMP, best)
+                        jump = (use, np.unravel_index(src, self.shape))
+            backs.append((offs, arg, jump))
             cost = best + self.node_costs(gst[j])
         if r.post is not None:
             gl = gst[-1]
@@ -603,7 +680,10 @@ class _Planner:
         out = np.empty((len(gst), 2), np.int64)
         out[-1] = np.unravel_index(int(np.argmin(cost)), cost.shape)
         for j in range(len(gst) - 1, 0, -1):
-            offs, arg = backs[j - 1]
+            offs, arg, jump = backs[j - 1]
+            if jump is not None and jump[0][out[j, 0], out[j, 1]]:
+                out[j - 1] = jump[1]
+                continue
             a, b = offs[arg[out[j, 0], out[j, 1]]]
             out[j - 1] = out[j] - (a, b)
         return out if start is None else (out, float(cost.min()))
@@ -684,9 +764,12 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     if progress is not None:
         progress(0.5)
     chosen = [None] * len(runs)
-    for rnd in range(_ROUNDS):
+    dirty = [True] * len(runs)  # a run is planned again only when its stations or priced
+    for rnd in range(_ROUNDS):  # motions changed (everything else it reads stays)
         for ri, r in enumerate(runs):
-            chosen[ri] = pl.plan_run(r)
+            if dirty[ri]:
+                chosen[ri] = pl.plan_run(r)
+        dirty = [False] * len(runs)
         result = _evaluate(pl, runs, chosen)
         if rnd == _ROUNDS - 1:
             break
@@ -695,11 +778,12 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         # poses whose motion from the pose before collides: both ends made stations, known
         # exactly, and the motion between them priced per state pair in the next plan
         todo, new_pairs = [], 0
-        for r in runs:
+        for ri, r in enumerate(runs):
             bad = np.nonzero(result["clr"][r.g] < pl.safety)[0]
             bad = np.asarray([i for i in bad if int(r.g[i]) not in pl.exact], np.int64)
             chain = _chain(r)
-            mb = np.nonzero(result["motion"][chain[1:]] < pl.safety)[0]
+            mb = np.nonzero((result["motion"][chain[1:]] < pl.safety)
+                            & (result["clr"][chain[:-1]] >= pl.safety))[0]
             pairs = [(int(chain[i]), int(chain[i + 1])) for i in mb
                      if (int(chain[i]), int(chain[i + 1])) not in pl.mpairs]
             ends = np.asarray([x for p in pairs for x in p], np.int64)
@@ -707,6 +791,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             pl.mpairs.update(pairs)
             new_pairs += len(pairs)
             bad = np.union1d(bad, ends).astype(np.int64)
+            dirty[ri] = bool(len(bad) or pairs)
             if len(bad):
                 r.st = np.union1d(r.st, bad)
                 todo.append(r.g[bad])
@@ -720,7 +805,16 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     tip[idx], axis[idx] = result["tip"][idx], result["axis"][idx]
     clear[idx] = result["clr"][idx]
     motion = result["motion"]
+    # a motion counts against its later pose only when it starts from a clear pose: the
+    # motion out of an unresolved pose belongs to that pose's range (it starts colliding)
+    start = result["motion_from"]
+    start_clear = np.ones(n, bool)
+    has = start >= 0
+    start_clear[has] = clear[start[has]] >= pl.safety
+    motion = np.where(start_clear, motion, np.inf)
     unresolved = (clear < pl.safety) | (motion < pl.safety)
+    for a, b in result["jumps"]:  # both ends of a jump are unresolved (their states collide)
+        unresolved[[a, b]] = True
     why = np.full(n, REASON_TURN, dtype=object)
     cand = [int(gi) for gi in np.nonzero(unresolved)[0] if int(gi) in pl.exact
             and not np.any(pl.known[int(gi)] >= pl.safety)]
@@ -759,7 +853,8 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     tip[g] = pl.tips(g, ax)
     same = (np.abs(dl - pl.u0[g]) < 1e-12) & (np.abs(dt - pl.v0[g]) < 1e-12)
     axis[g[same]], tip[g[same]] = P.ax0[g[same]], P.tip0[g[same]]  # the planned pose, exactly
-    _limit_turns(pl, runs, tip, axis)
+    jumps = _jumps(pl, runs, chosen, axis)
+    _limit_turns(pl, runs, tip, axis, jumps)
     prev_, next_ = [], []
     for r in runs:
         chain = _chain(r)
@@ -773,7 +868,28 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     clr[g] = clr_all[:len(g)]
     motion = np.full(n, np.inf)
     np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
-    return {"tip": tip, "axis": axis, "clr": clr, "motion": motion}
+    motion_from = np.full(n, -1, np.int64)
+    motion_from[a_i] = a_p
+    return {"tip": tip, "axis": axis, "clr": clr, "motion": motion, "jumps": jumps,
+            "motion_from": motion_from}
+
+
+def _jumps(pl: _Planner, runs, chosen, axis):
+    """{(a, b)} consecutive global poses (both stations) between which the shortest path
+    jumped: both states known exactly to collide and the axes turning past the limit."""
+    P, out = pl.P, set()
+    for r, seq in zip(runs, chosen, strict=True):
+        if seq is None:
+            continue
+        for j in np.nonzero(np.diff(r.st) == 1)[0] + 1:
+            ga, gb = int(r.g[r.st[j - 1]]), int(r.g[r.st[j]])
+            if not (pl.colliding_states(ga)[tuple(seq[j - 1])]
+                    and pl.colliding_states(gb)[tuple(seq[j])]):
+                continue
+            lim = turn_limits(P.cc[[ga, gb]], P.ax0[[ga, gb]], pl.rate, pl.max_turn)[0]
+            if float(axis[ga] @ axis[gb]) < math.cos(lim):
+                out.add((ga, gb))
+    return out
 
 
 def _chain(r: _Run):
@@ -783,7 +899,7 @@ def _chain(r: _Run):
     return np.r_[[r.pre] if r.pre is not None else [], r.g, post].astype(np.int64)
 
 
-def _limit_turns(pl: _Planner, runs, tip, axis):
+def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
     """Where the lean interpolated between stations turns faster than the limit between two
     poses, the later axis is turned toward the earlier one (a sweep forward from the fixed
     pose before the run), then the earlier toward the later (backward from the fixed pose
@@ -806,6 +922,8 @@ def _limit_turns(pl: _Planner, runs, tip, axis):
                 if fixed[b]:
                     continue
                 ia, ib = chain[a], chain[b]
+                if (int(chain[min(a, b)]), int(chain[max(a, b)])) in jumps:
+                    continue  # both poses left colliding: the path re-enters past the jump
                 lim = limit[min(a, b)]
                 if float(axis[ia] @ axis[ib]) < math.cos(lim):
                     axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim,
