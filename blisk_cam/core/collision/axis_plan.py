@@ -256,42 +256,56 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         progress(0.5)
     chosen = [None] * len(runs)
     dirty = [True] * len(runs)  # a run is planned again only when its stations or priced
-    for rnd in range(_ROUNDS):  # motions changed (everything else it reads stays)
+    base = [r.st.copy() for r in runs]  # motions changed (everything else it reads stays)
+    hot = [np.zeros(0, np.int64) for _ in runs]  # poses of each run left colliding before
+    best = [None] * len(runs)
+    for rnd in range(_ROUNDS):
         for ri, r in enumerate(runs):
             if dirty[ri]:
                 chosen[ri] = pl.plan_run(r)
         dirty = [False] * len(runs)
         result = _evaluate(pl, runs, chosen)
+        for ri, r in enumerate(runs):  # each run keeps its best round
+            snap = _snapshot(pl, r, result)
+            if best[ri] is None or snap["score"] <= best[ri]["score"]:
+                best[ri] = snap
         if rnd == _ROUNDS - 1:
             break
-        # poses the plan leaves colliding: made stations, all their states measured exactly,
-        # and the runs planned again
+        # poses the plan leaves colliding: made stations (with those of the round before;
+        # the other stations the lean steps and the edges ask for), all their states known
+        # exactly, and the runs planned again — a pose that clears again stops being a
+        # station, or the lean could not change across a stretch of stations closer than
+        # one state step at the turn limit;
         # poses whose motion from the pose before collides: both ends made stations, known
         # exactly, and the motion between them priced per state pair in the next plan
         todo, new_pairs = [], 0
         for ri, r in enumerate(runs):
             bad = np.nonzero(result["clr"][r.g] < pl.safety)[0]
-            bad = np.asarray([i for i in bad if int(r.g[i]) not in pl.exact], np.int64)
             chain = _chain(r)
             mb = np.nonzero((result["motion"][chain[1:]] < pl.safety)
                             & (result["clr"][chain[:-1]] >= pl.safety))[0]
             pairs = [(int(chain[i]), int(chain[i + 1])) for i in mb
                      if (int(chain[i]), int(chain[i + 1])) not in pl.mpairs]
-            ends = np.asarray([x for p in pairs for x in p], np.int64)
-            ends = np.nonzero(np.isin(r.g, ends))[0]
             pl.mpairs.update(pairs)
             new_pairs += len(pairs)
-            bad = np.union1d(bad, ends).astype(np.int64)
-            dirty[ri] = bool(len(bad) or pairs)
-            if len(bad):
-                r.st = np.union1d(r.st, bad)
-                todo.append(r.g[bad])
-        if not todo and not new_pairs:
+            ends = np.asarray([x for p in pl.mpairs for x in p], np.int64)
+            ends = np.nonzero(np.isin(r.g, ends))[0]
+            st = np.union1d(np.union1d(base[ri], bad), np.union1d(hot[ri], ends))
+            st = st.astype(np.int64)
+            hot[ri] = bad
+            dirty[ri] = bool(pairs) or len(st) != len(r.st) or bool(np.any(st != r.st))
+            r.st = st
+            new = np.union1d(bad, ends).astype(np.int64)
+            new = new[[int(r.g[i]) not in pl.exact for i in new]]
+            if len(new):
+                todo.append(r.g[new])
+        if not any(dirty):
             break
         if todo:
             pl.measure_exact(np.concatenate(todo))
         if progress is not None:
             progress(0.5 + 0.1 * (rnd + 1))
+    result = _assemble(pl, runs, best)
     idx = np.nonzero(win)[0]
     tip[idx], axis[idx] = result["tip"][idx], result["axis"][idx]
     clear[idx] = result["clr"][idx]
@@ -363,6 +377,36 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     motion_from[a_i] = a_p
     return {"tip": tip, "axis": axis, "clr": clr, "motion": motion, "jumps": jumps,
             "motion_from": motion_from}
+
+
+def _snapshot(pl: _Planner, r: _Run, result) -> dict:
+    """Run r's poses in one round's ``result`` and its score: the poses left colliding plus
+    those whose motion from a clear pose collides."""
+    chain = _chain(r)
+    nxt = chain[1:]
+    clr = result["clr"]
+    score = int(np.sum(clr[r.g] < pl.safety)) + int(np.sum(
+        (result["motion"][nxt] < pl.safety) & (clr[chain[:-1]] >= pl.safety)))
+    gs = set(int(x) for x in r.g)
+    return {"score": score, "g": r.g, "tip": result["tip"][r.g].copy(),
+            "axis": result["axis"][r.g].copy(), "clr": clr[r.g].copy(), "nxt": nxt,
+            "motion": result["motion"][nxt].copy(), "from": result["motion_from"][nxt].copy(),
+            "jumps": {p for p in result["jumps"] if p[0] in gs}}
+
+
+def _assemble(pl: _Planner, runs, best) -> dict:
+    """The result dict of :func:`_evaluate` from each run's best round."""
+    P = pl.P
+    n = len(P.cc)
+    out = {"tip": P.tip0.copy(), "axis": P.ax0.copy(), "clr": np.full(n, np.inf),
+           "motion": np.full(n, np.inf), "motion_from": np.full(n, -1, np.int64),
+           "jumps": set()}
+    for b in best:
+        g, nxt = b["g"], b["nxt"]
+        out["tip"][g], out["axis"][g], out["clr"][g] = b["tip"], b["axis"], b["clr"]
+        out["motion"][nxt], out["motion_from"][nxt] = b["motion"], b["from"]
+        out["jumps"] |= b["jumps"]
+    return out
 
 
 def _jumps(pl: _Planner, runs, chosen, axis):
