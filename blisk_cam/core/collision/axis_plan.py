@@ -236,6 +236,8 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if closed[ci] and len(parts) > 1 and parts[0][0] == 0 and parts[-1][-1] == k - 1:
             parts = [np.r_[parts[-1], parts[0]]] + parts[1:-1]  # across the closing cut
         for run in parts:
+            if closed[ci] and len(run) == k:  # a whole closed pass: opened where it is clear
+                run = np.roll(run, -_open_at(colliding[s:e]))
             g = s + run
             arc = _arc(cc[g])
             if closed[ci]:
@@ -377,6 +379,24 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     motion_from[a_i] = a_p
     return {"tip": tip, "axis": axis, "clr": clr, "motion": motion, "jumps": jumps,
             "motion_from": motion_from}
+
+
+def _open_at(colliding):
+    """Where a closed pass planned as one cycle starts: the middle of its longest stretch of
+    clear planned poses (read cyclically), 0 when all collide. The cycle's first state is
+    chosen among a few (:meth:`.axis_states._Planner.plan_run`) and its last must turn into
+    it; where the pass's own first pose lies in a colliding stretch (Rotor 37's passes close
+    at the leading edge) that left the stretch unresolved."""
+    c = np.asarray(colliding, bool)
+    k = len(c)
+    if c.all() or not c.any():
+        return 0
+    start = int(np.argmax(c))  # a colliding pose: the clear stretches do not wrap from it
+    free = ~np.roll(c, -start)
+    edges = np.diff(np.r_[0, free.astype(np.int8), 0])
+    lo, hi = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+    j = int(np.argmax(hi - lo))
+    return (start + (lo[j] + hi[j]) // 2) % k
 
 
 def _snapshot(pl: _Planner, r: _Run, result) -> dict:
