@@ -623,6 +623,13 @@ def _count_turn_over(report, path, curves, options):
             limit = turn_limits(cc, unit(np.asarray(ax, float)), float(options.turn_per_mm),
                                 options.max_turn)
         over = t1 > limit + 1e-9
+        if options.mode == "avoid" and options.method == "plan":
+            # the planner jumps only between two unresolved poses (not cut): counted apart
+            st = np.asarray(c1.collision["status"]) == STATUS_UNRESOLVED
+            st = np.r_[st, st[:1]] if c1.closed and len(c1) > 2 else st
+            inside = over & st[:-1] & st[1:]
+            report.n_turn_unresolved += int(inside.sum())
+            over &= ~inside
         report.n_turn_over += int(over.sum())
         if over.any():
             report.max_turn_deg = max(report.max_turn_deg, float(np.degrees(t1[over].max())))

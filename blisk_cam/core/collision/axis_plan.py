@@ -44,7 +44,14 @@ channel under a maximum angle step):
    state is linear in arc length; a pose pair that still turns faster than its limit is
    clamped (sweeps forward and backward).
    Since a colliding state costs more than any lean, the path leaves as few stations
-   colliding as the limits allow.
+   colliding as the limits allow. **Jumps:** between two consecutive poses that are both
+   stations whose states are known exactly to collide, the path may turn past the limit
+   (cost :data:`_JUMP`: more than any lean, far less than a colliding pose). Such poses are
+   unresolved either way and are not cut, so the path re-enters the clear axes right after
+   an unresolved stretch instead of ramping out of it at the turn limit — on Rotor 37 × 36
+   the ramps were most of the poses the per-pose rotation cleared and the planner did not.
+   Every turn past the limit therefore has two unresolved poses at its ends (the report
+   counts them apart, ``turns_between_unresolved``).
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
    linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
    exactly; poses left colliding become exact stations and the runs are planned again
@@ -61,10 +68,13 @@ mid-plane at the pose (the meridional plane turned from the CC point's by half t
 first, last pose, why): "no axis within the limits clears" (the pose is a fact about the tool
 and holder), "the turn limit" (a clear axis exists, or was not ruled out, but no sequence
 within the turn limit reaches it; "or the machine's reach" when a machine is given), or "the
-motion from the pose before collides". "No axis" is claimed only for poses whose every state
-is known exactly to collide and where a 2.5° grid of leads and tilts over the whole lean box
-holds no clear axis either (:func:`_no_axis`; "within ±60° of the reference" when the box
-reaches beyond the states).
+motion from the pose before collides" (only from a clear pose: the motion out of an unresolved
+pose starts colliding and belongs to that pose's range). "No axis" is claimed only for poses
+whose every state is known exactly to collide and where a 2.5° grid of leads and tilts over
+the whole lean box holds no clear axis either (:func:`_no_axis`; "within ±60° of the
+reference" when the box reaches beyond the states).
+
+The states, their clearance and the shortest path live in :mod:`.axis_states`.
 
 Lengths mm, angles radians; numpy only (the distance machinery of :mod:`.scene`).
 """
@@ -76,18 +86,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..geometry.vectors import angle_between
 from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
-from ..tool.cutter import Cutter
 from .axis_field import (
-    MIN_STEP,
     channel_reference,
-    deviation_axes,
     deviation_of,
     sample_motion,
-    transported_frames,
     turn_limits,
+)
+from .axis_states import (
+    _MOTION_SAMPLES,
+    _ROUNDS,
+    _SWING,
+    _Planner,
+    _Run,
+    _touch_ok,
 )
 
 __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
@@ -95,20 +108,8 @@ __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
 
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
-#: the lean states' step, and the coarse grid's (measured at every station), rad
-_STEP = math.radians(5.0)
-_COARSE = 2
-#: widest lean swing searched about the reference (where the limits allow), rad
-_SWING = math.radians(60.0)
 #: the window's ramp: the arc a turn of this angle needs at the turn limit, rad
 _RAMP = math.radians(30.0)
-#: cost of a colliding state (the lean costs are ≤ a few rad²)
-_COLLIDE = 1e3
-#: largest lean step between stations, in state steps
-_MAX_R = 3
-#: samples inside each transition checked for the motion, and verification rounds
-_MOTION_SAMPLES = 3
-_ROUNDS = 4
 #: sweeps of the per-pose turn clamp (forward, backward, …)
 _SWEEPS = 6
 
@@ -151,24 +152,6 @@ class AxisPlan:
     n_window: int = 0
 
 
-def _touch_ok(cutter: Cutter, normal, axis):
-    """(k,) bool: the cutting part can touch the surface with this axis."""
-    return angle_between(normal, axis) <= cutter._g["th_hi"]
-
-
-def _cl(cutter: Cutter, cc, nrm, ax, off, ball_centre):
-    """(k, 3) tips keeping the contact: ball — the centre fixed; others — from the contact."""
-    if ball_centre is not None:
-        return ball_centre - cutter.radius * ax
-    tip = cc + off
-    ok = _touch_ok(cutter, nrm, ax)
-    if np.any(ok):
-        tip[ok] = cutter.cl_points(cc[ok], nrm[ok], ax[ok]) + off[ok]
-    return tip
-
-
-
-
 # ====================================================================== the planner
 def _windows(offs, cc, colliding, reach_mm, closed):
     """(n,) bool: poses within ``reach_mm`` of arc length of a colliding pose of their pass
@@ -195,418 +178,6 @@ def _windows(offs, cc, colliding, reach_mm, closed):
 
 def _arc(cc):
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
-
-
-def _interp_matrix_idx(n, idx):
-    """(n, len(idx)) linear interpolation weights from the values at the sorted indices
-    ``idx`` of 0..n−1 to every index."""
-    x = np.arange(n, dtype=np.float64)
-    j = np.clip(np.searchsorted(idx, x, side="right") - 1, 0, len(idx) - 2)
-    t = (x - idx[j]) / (idx[j + 1] - idx[j])
-    M = np.zeros((n, len(idx)))
-    M[np.arange(n), j] = 1 - t
-    M[np.arange(n), j + 1] += t
-    return M
-
-
-@dataclass
-class _Run:
-    """A run of consecutive window poses of one pass: global indices ``g`` (r,), arc
-    positions, the stations (sorted indices into ``g``), the fixed planned poses
-    before/after (global indices or None); ``cycle``: the run is a whole closed pass, its
-    first pose following its last (the closing cut)."""
-
-    g: np.ndarray
-    arc: np.ndarray
-    st: np.ndarray
-    pre: int | None
-    post: int | None
-    cycle: bool = False
-
-
-class _Planner:
-    """The state of one :func:`plan_axes` call (module docstring): the lean states, the
-    clearance known per station (interpolated from the coarse grid, or exact), the batched
-    evaluations."""
-
-    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span):
-        self.scene, self.P = scene, P
-        self.f, self.k, self.lim_l, self.lim_t = lim
-        self.ref_l, self.ref_t = ref_l, ref_t  # (n,) rad
-        self.rate, self.max_turn, self.machine = turn_per_mm, max_turn, machine
-        self.cutter = scene.cutter
-        self.ball = self.cutter.type == "ball"
-        self.safety = scene.safety
-        # the states: deviations (u, v) from the reference, k·step up to ±span (the frame:
-        # :meth:`set_frames`), the reference itself a state
-        self.step = _STEP
-        m = int(round(span / _STEP))
-        self.off = [np.arange(-m, m + 1) * _STEP for _ in range(2)]
-        # the coarse grid: every _COARSE-th state, both ends included
-        self.cidx = [np.unique(np.r_[np.arange(0, len(o), _COARSE), len(o) - 1])
-                     for o in self.off]
-        self.M = [_interp_matrix_idx(len(o), ci) for o, ci in zip(self.off, self.cidx,
-                                                                   strict=True)]
-        self.shape = (len(self.off[0]), len(self.off[1]))
-        self.n_eval = 0
-        self.known = {}  # global pose → (Fl, Ft) clearance (−inf: not a valid state)
-        self.raw = {}  # global pose → (Gl, Gt) measured clearance of the coarse grid
-        # Lipschitz constant of the clearance in the axis angle (mm/rad): a ball turns about
-        # its centre, so no point of the tool moves further than its distance from the centre
-        a = scene.assembly
-        self.lip = (math.hypot(a.top - self.cutter.radius,
-                               max(a.max_radius, float(self.cutter.max_radius)))
-                    if self.ball else None)
-        self.exact = set()  # poses whose fine states were all measured
-        self.r = self.e1 = self.e2 = self.u0 = self.v0 = None
-        # consecutive pose pairs (global) whose motion was found colliding: the shortest
-        # path prices their motion per state pair (:meth:`motion_cost`), cached
-        self.mpairs = set()
-        self.mcost = {}
-
-    # --- poses -----------------------------------------------------------------------------
-    def set_frames(self, runs, ref_axes):
-        """The states' frame at every run pose: the reference axis ``ref_axes[g]`` and two unit
-        vectors across it, carried along the run by parallel transport (each pose's pair is the
-        one before turned by the smallest rotation taking the reference axis before to this
-        one). A state (u, v) is the reference turned by hypot(u, v) toward u·e1 + v·e2, so a
-        state held along the run turns between two poses by at most the reference's own turn
-        there, and a state step of δ adds at most δ: the turn limit is a bound on the state
-        steps, whatever the surface frame does (at the edges the normal swings by 180° within
-        a millimetre, where leads and tilts held constant turn the axis far faster than the
-        plan)."""
-        n = len(self.P.cc)
-        self.r = np.asarray(ref_axes, dtype=np.float64).copy()
-        self.e1 = np.zeros((n, 3))
-        self.e2 = np.zeros((n, 3))
-        for run in runs:
-            g = run.g
-            start = self.f[g[0]]
-            if np.linalg.norm(np.cross(start, self.r[g[0]])) < 1e-6:
-                start = self.k[g[0]]
-            arc = None
-            if run.cycle:
-                arc = np.r_[run.arc, run.arc[-1] + float(np.linalg.norm(
-                    self.P.cc[g[0]] - self.P.cc[g[-1]]))]
-            self.e1[g], self.e2[g] = transported_frames(self.r[g], start, arc)
-        # the planned axis in these coordinates
-        self.u0, self.v0 = deviation_of(self.P.ax0, self.r, self.e1, self.e2)
-
-    # --- poses -----------------------------------------------------------------------------
-    def axes(self, g, du, dv):
-        """(k, 3) axes at poses g (k,): the reference turned by the state (du, dv) (k,) in the
-        transported frame (:meth:`set_frames`); the exponential map."""
-        return self.inside(g, deviation_axes(self.r[g], self.e1[g], self.e2[g], du, dv))
-
-    def inside(self, g, ax):
-        """(k, 3) the axes brought into the lean limits of poses g (lead and tilt clipped;
-        unchanged where inside): the state between two valid stations may lean past a limit
-        that varies along the pass."""
-        lead, tilt = lead_tilt_of(ax, self.f[g], self.P.nrm[g], self.k[g])
-        with np.errstate(invalid="ignore"):
-            out = ~((np.abs(lead) <= self.lim_l[g] + 1e-12)
-                    & (np.abs(tilt) <= self.lim_t[g] + 1e-12))
-        out &= np.isfinite(lead) & np.isfinite(tilt)
-        if not out.any():
-            return ax
-        ax = ax.copy()
-        o = np.asarray(g)[out]
-        ax[out] = lead_tilt_axes(self.f[o], self.P.nrm[o], self.k[o],
-                                 np.clip(lead[out], -self.lim_l[o], self.lim_l[o]),
-                                 np.clip(tilt[out], -self.lim_t[o], self.lim_t[o]))
-        return ax
-
-    def tips(self, g, ax):
-        P = self.P
-        centre = P.tip0[g] + self.cutter.radius * P.ax0[g] if self.ball else None
-        return _cl(self.cutter, P.cc[g], P.nrm[g], ax, P.off0[g].copy(), centre)
-
-    def valid(self, g, dl, dt, ax):
-        """(k,) bool: the state's axis ``ax`` (brought into the lean limits by :meth:`axes`)
-        lies less than one state step from the state's own (so the states within a step
-        beyond a limit search the limit itself), the cutter touches and (a machine given)
-        the rotaries reach."""
-        own = deviation_axes(self.r[g], self.e1[g], self.e2[g], dl, dt)
-        ok = np.einsum("ij,ij->i", own, ax) > math.cos(self.step) + 1e-12
-        ok &= _touch_ok(self.cutter, self.P.nrm[g], ax)
-        if self.machine is not None and ok.any():
-            ok[ok] = reachable_axes(self.machine, ax[ok])
-        return ok
-
-    def clearance(self, tips, axes):
-        self.n_eval += len(tips)
-        if len(tips) == 0:
-            return np.zeros(0)
-        return self.scene.detect(tips, axes).clearance
-
-    def _states(self, g, il, it):
-        """(k,) poses, lead and tilt offsets of the states (il × it index grids) at poses g."""
-        a, b = len(il), len(it)
-        gg = np.repeat(g, a * b)
-        dl = np.tile(np.repeat(self.off[0][il], b), len(g))
-        dt = np.tile(np.tile(self.off[1][it], a), len(g))
-        return gg, dl, dt
-
-    def grid(self, g, il, it, need=None):
-        """Measure the states il × it at poses g (one batch; only where ``need`` (s, a·b)
-        when given): (s, a, b) clearance, −inf where the state is not valid."""
-        gg, dl, dt = self._states(g, il, it)
-        sel = np.ones(len(gg), bool) if need is None else need.ravel()
-        ax = self.axes(gg[sel], dl[sel], dt[sel])
-        ok = self.valid(gg[sel], dl[sel], dt[sel], ax)
-        c = np.full(len(gg), -np.inf)
-        cs = np.full(int(sel.sum()), -np.inf)
-        cs[ok] = self.clearance(self.tips(gg[sel][ok], ax[ok]), ax[ok])
-        c[sel] = cs
-        return c.reshape(len(g), len(il), len(it))
-
-    def state_axes(self, gi):
-        """(Fl, Ft, 3) axes of every lean state at pose gi."""
-        gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
-                                  np.arange(self.shape[1]))
-        return self.axes(gg, dl, dt).reshape(*self.shape, 3)
-
-    def state_valid(self, gi):
-        gg, dl, dt = self._states(np.asarray([gi]), np.arange(self.shape[0]),
-                                  np.arange(self.shape[1]))
-        return self.valid(gg, dl, dt, self.axes(gg, dl, dt)).reshape(self.shape)
-
-    # --- stations --------------------------------------------------------------------------
-    def stations(self, g, arc):
-        """Indices of the stations of a run (global poses g): the first and last pose, and
-        the next pose once one lean step's worth of arc (step / rate) has passed or the
-        planned axis has turned by one lean step (at the edges, where the normal swings)."""
-        h = self.step / self.rate
-        ax = self.P.ax0[g]
-        out = [0]
-        for i in range(1, len(arc)):
-            if arc[i] - arc[out[-1]] >= h or float(ax[i] @ ax[out[-1]]) < math.cos(self.step):
-                out.append(i)
-        if out[-1] != len(arc) - 1:
-            out.append(len(arc) - 1)
-        return np.asarray(out, np.int64)
-
-    def measure_coarse(self, g):
-        """Known clearance of poses g from the coarse grid, interpolated to the states."""
-        C = self.grid(g, *self.cidx)
-        for gi, c in zip(g, C, strict=True):
-            self.raw[int(gi)] = c
-        ok = np.isfinite(C)
-        num = np.einsum("fa,sab,gb->sfg", self.M[0], np.where(ok, C, 0.0), self.M[1])
-        den = np.einsum("fa,sab,gb->sfg", self.M[0], ok.astype(np.float64), self.M[1])
-        # interpolated from the valid coarse neighbours only (a state next to the lean
-        # limit is not made to collide by the invalid one beyond it)
-        Fc = np.where(den > 1e-9, num / np.maximum(den, 1e-300), -self.safety - 50.0)
-        for gi, fc in zip(g, Fc, strict=True):  # states that are not valid stay out
-            self.known[int(gi)] = np.where(self.state_valid(int(gi)), fc, -np.inf)
-
-    def measure_exact(self, g):
-        """Know every state of poses g exactly: measured, or (a ball) proved colliding by
-        the Lipschitz bound from the coarse grid — a state y collides when some measured
-        coarse state x has clearance(x) + L·∠(x, y) < ds (L: the farthest point of the tool
-        from the ball's centre, about which the axis turns; a reported penetration is never
-        shallower than the true one, so the bound holds). One batch."""
-        g = np.asarray([x for x in np.unique(g) if int(x) not in self.exact], np.int64)
-        if len(g) == 0:
-            return
-        new = np.asarray([x for x in g if int(x) not in self.raw], np.int64)
-        if len(new):
-            self.measure_coarse(new)
-        nst = self.shape[0] * self.shape[1]
-        need = np.ones((len(g), nst), bool)
-        bound = np.full((len(g), nst), np.inf)
-        if self.lip is not None:
-            for j, gi in enumerate(g):
-                Af = self.state_axes(int(gi)).reshape(-1, 3)
-                gg, dl, dt = self._states(np.asarray([gi]), *self.cidx)
-                Ac = self.axes(gg, dl, dt)
-                ang = np.arccos(np.clip(Af @ Ac.T, -1.0, 1.0))
-                c = self.raw[int(gi)].reshape(-1)
-                c = np.where(np.isfinite(c), c, np.inf)
-                bound[j] = np.min(c[None, :] + self.lip * ang, axis=1)
-                need[j] = bound[j] >= self.safety
-        c = self.grid(g, np.arange(self.shape[0]), np.arange(self.shape[1]), need)
-        out = np.where(np.isfinite(bound), np.minimum(bound, self.safety - 1e-6), -np.inf)
-        out[need] = c.reshape(len(g), nst)[need]
-        for gi, o in zip(g, out.reshape(len(g), *self.shape), strict=True):
-            self.known[int(gi)] = np.where(np.isfinite(self.known[int(gi)]), o, -np.inf)
-            self.exact.add(int(gi))
-
-    # --- the shortest path -----------------------------------------------------------------
-    def _moves(self, Ap, Ac, limit):
-        """Offsets (o, 2) and (o, F, F) bool: the state x at the later station may follow
-        the state x − offset at the earlier one (turn ≤ ``limit``, exact)."""
-        (Fl, Ft), r = self.shape, _MAX_R
-        offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1) if a * a + b * b
-                <= r * r]
-        pad = np.full((Fl + 2 * r, Ft + 2 * r, 3), np.nan)
-        pad[r:r + Fl, r:r + Ft] = Ap
-        prev = np.stack([pad[r - a:r - a + Fl, r - b:r - b + Ft] for a, b in offs])
-        cos = np.einsum("oijk,ijk->oij", prev, Ac)
-        with np.errstate(invalid="ignore"):
-            ok = cos >= math.cos(limit) - 1e-12
-        return np.asarray(offs), ok
-
-    def _clear_states(self, gi):
-        """(Fl, Ft) bool: the states of pose gi known clear."""
-        return self.known[int(gi)] >= self.safety
-
-    def _motion_penalty(self, tp, ap, tc, ac):
-        """(k,) cost of the motions between pose rows (tip, axis) → (tip, axis): 0 when
-        every sample inside clears, else C plus the depth (as a colliding state)."""
-        if len(tp) == 0:
-            return np.zeros(0)
-        tq = np.arange(1, _MOTION_SAMPLES + 1) / (_MOTION_SAMPLES + 1)
-        mt, ma = sample_motion(tp, ap, tc, ac, tq)
-        c = self.clearance(mt, ma).reshape(-1, _MOTION_SAMPLES).min(axis=1)
-        return np.where(c >= self.safety, 0.0, _COLLIDE + self.safety
-                        - np.maximum(c, -self.safety - 50.0))
-
-    def motion_cost(self, gp, gc, limit):
-        """(o, Fl, Ft) cost of the motion from the state x − offset at pose gp to the state x
-        at the next pose gc (the offsets and turn test of :meth:`_moves`): measured for the
-        pairs of clear states within the turn limit, 0 for the others (their poses collide
-        and are priced already). Cached per pair."""
-        key = (int(gp), int(gc))
-        if key in self.mcost:
-            return self.mcost[key]
-        (Fl, Ft), r = self.shape, _MAX_R
-        Ap, Ac = self.state_axes(gp), self.state_axes(gc)
-        offs, ok = self._moves(Ap, Ac, limit)
-        Tp = self.tips(np.full(Fl * Ft, gp), Ap.reshape(-1, 3)).reshape(Fl, Ft, 3)
-        Tc = self.tips(np.full(Fl * Ft, gc), Ac.reshape(-1, 3)).reshape(Fl, Ft, 3)
-        padA = np.full((Fl + 2 * r, Ft + 2 * r, 3), np.nan)
-        padT = padA.copy()
-        padK = np.zeros((Fl + 2 * r, Ft + 2 * r), bool)
-        padA[r:r + Fl, r:r + Ft], padT[r:r + Fl, r:r + Ft] = Ap, Tp
-        padK[r:r + Fl, r:r + Ft] = self._clear_states(gp)
-        sl = [(slice(r - a, r - a + Fl), slice(r - b, r - b + Ft)) for a, b in offs]
-        kp = np.stack([padK[i, j] for i, j in sl])
-        sel = ok & kp & self._clear_states(gc)[None]
-        pen = np.zeros(ok.shape)
-        if sel.any():
-            o, i, j = np.nonzero(sel)
-            pi, pj = i - offs[o, 0] + r, j - offs[o, 1] + r
-            pen[sel] = self._motion_penalty(padT[pi, pj], padA[pi, pj], Tc[i, j], Ac[i, j])
-        self.mcost[key] = pen
-        return pen
-
-    def motion_cost_fixed(self, g_fixed, gi, into: bool):
-        """(Fl, Ft) cost of the motion between the fixed planned pose ``g_fixed`` and each
-        clear state of pose gi (``into``: from the fixed pose to gi, else from gi to it)."""
-        key = (int(g_fixed), int(gi)) if into else (int(gi), int(g_fixed))
-        if key not in self.mcost:
-            self.mcost[key] = self.motion_cost_pose(self.P.tip0[g_fixed], self.P.ax0[g_fixed],
-                                                    gi, into)
-        return self.mcost[key]
-
-    def motion_cost_pose(self, tf, af, gi, into: bool):
-        """(Fl, Ft) as :meth:`motion_cost_fixed`, the other pose given as tip ``tf`` and axis
-        ``af`` (3,)."""
-        A = self.state_axes(gi).reshape(-1, 3)
-        T = self.tips(np.full(len(A), gi), A)
-        sel = self._clear_states(gi).ravel()
-        pen = np.zeros(len(A))
-        k = int(sel.sum())
-        tf, af = np.repeat(np.asarray(tf)[None], k, 0), np.repeat(np.asarray(af)[None], k, 0)
-        pen[sel] = (self._motion_penalty(tf, af, T[sel], A[sel]) if into
-                    else self._motion_penalty(T[sel], A[sel], tf, af))
-        return pen.reshape(self.shape)
-
-    def node_costs(self, gi):
-        c = self.known[int(gi)]
-        dev = self.off[0][:, None] ** 2 + self.off[1][None, :] ** 2
-        node = np.where(c >= self.safety, dev, _COLLIDE + self.safety
-                        - np.maximum(c, -self.safety - 50.0))
-        return np.where(np.isfinite(c), node, np.inf)
-
-    def plan_run(self, r: _Run):
-        """(s, 2) fine states of the stations of run r minimising the costs under the exact
-        turn limit between stations (and from/to the fixed poses), or None. A whole closed
-        pass (``r.cycle``) is planned open first, then again with its first station held at
-        the chosen state (or the reference's, or one of its four cheapest) and its last
-        station required to turn into it within the limit, the closing motion priced: the
-        closing cut is bounded like any other."""
-        if not r.cycle:
-            return self._viterbi(r)
-        first = self._viterbi(r)
-        P, g0, gl = self.P, int(r.g[0]), int(r.g[-1])
-        lim = float(angle_between(P.ax0[[gl]], P.ax0[[g0]])[0]) + self.rate * \
-            max(float(np.linalg.norm(P.cc[g0] - P.cc[gl])), MIN_STEP)
-        ref = np.unravel_index(int(np.argmin(self.off[0][:, None] ** 2
-                                             + self.off[1][None, :] ** 2)), self.shape)
-        c0 = self.node_costs(g0).ravel()
-        cheap = [np.unravel_index(int(i), self.shape) for i in np.argsort(c0, kind="stable")[:4]
-                 if np.isfinite(c0[i])]
-        starts = ([tuple(first[0])] if first is not None else []) + [tuple(ref)] + \
-            [tuple(int(x) for x in st) for st in cheap]
-        best, best_cost = None, np.inf
-        for st0 in dict.fromkeys(starts):
-            a0 = self.state_axes(g0)[st0]
-            t0 = self.tips(np.asarray([g0]), a0[None])[0]
-            final = np.where(self.state_axes(gl) @ a0 >= math.cos(lim) - 1e-12, 0.0, np.inf)
-            if (gl, g0) in self.mpairs:
-                final = final + self.motion_cost_pose(t0, a0, gl, False)
-            got = self._viterbi(r, st0, final)
-            if got is not None and got[1] < best_cost:
-                best, best_cost = got[0], got[1]
-        return best if best is not None else first
-
-    def _viterbi(self, r: _Run, start=None, final=None):
-        """The shortest path over the stations of run r (:meth:`plan_run`): (s, 2) states, or
-        None; given ``start`` (the first station's state) and ``final`` ((Fl, Ft) cost added
-        at the last station), returns (states, cost) or None."""
-        P, (Fl, Ft) = self.P, self.shape
-        gst = r.g[r.st]
-        A = [self.state_axes(int(gi)) for gi in gst]
-        cost = self.node_costs(gst[0])
-        if start is not None:
-            keep = np.full(self.shape, np.inf)
-            keep[start] = 0.0
-            cost = cost + keep
-        if r.pre is not None:
-            lim0 = float(angle_between(P.ax0[[r.pre]], P.ax0[[gst[0]]])[0]) + self.rate * \
-                max(float(np.linalg.norm(P.cc[gst[0]] - P.cc[r.pre])), MIN_STEP)
-            cost = cost + np.where(A[0] @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
-            if (int(r.pre), int(gst[0])) in self.mpairs:
-                cost = cost + self.motion_cost_fixed(r.pre, gst[0], True)
-        backs = []
-        # the turn allowed between two stations: the sum of the poses' limits between them
-        # (a state held along the run turns by at most the sum of the reference's turns)
-        cum = np.r_[0.0, np.cumsum(turn_limits(P.cc[r.g], P.ax0[r.g], self.rate,
-                                               self.max_turn))]
-        for j in range(1, len(gst)):
-            lim = float(cum[r.st[j]] - cum[r.st[j - 1]])
-            offs, ok = self._moves(A[j - 1], A[j], lim)
-            rr = _MAX_R
-            pad = np.full((Fl + 2 * rr, Ft + 2 * rr), np.inf)
-            pad[rr:rr + Fl, rr:rr + Ft] = cost
-            stack = np.stack([pad[rr - a:rr - a + Fl, rr - b:rr - b + Ft] for a, b in offs])
-            stack = np.where(ok, stack, np.inf)
-            if (int(gst[j - 1]), int(gst[j])) in self.mpairs:
-                stack = stack + self.motion_cost(gst[j - 1], gst[j], lim)
-            arg = np.argmin(stack, axis=0)
-            best = np.take_along_axis(stack, arg[None], 0)[0]
-            backs.append((offs, arg))
-            cost = best + self.node_costs(gst[j])
-        if r.post is not None:
-            gl = gst[-1]
-            lim1 = float(angle_between(P.ax0[[gl]], P.ax0[[r.post]])[0]) + self.rate * \
-                max(float(np.linalg.norm(P.cc[r.post] - P.cc[gl])), MIN_STEP)
-            cost = cost + np.where(A[-1] @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
-            if (int(gl), int(r.post)) in self.mpairs:
-                cost = cost + self.motion_cost_fixed(r.post, gl, False)
-        if final is not None:
-            cost = cost + final
-        if not np.isfinite(cost.min()):
-            return None
-        out = np.empty((len(gst), 2), np.int64)
-        out[-1] = np.unravel_index(int(np.argmin(cost)), cost.shape)
-        for j in range(len(gst) - 1, 0, -1):
-            offs, arg = backs[j - 1]
-            a, b = offs[arg[out[j, 0], out[j, 1]]]
-            out[j - 1] = out[j] - (a, b)
-        return out if start is None else (out, float(cost.min()))
 
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
@@ -665,6 +236,8 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if closed[ci] and len(parts) > 1 and parts[0][0] == 0 and parts[-1][-1] == k - 1:
             parts = [np.r_[parts[-1], parts[0]]] + parts[1:-1]  # across the closing cut
         for run in parts:
+            if closed[ci] and len(run) == k:  # a whole closed pass: opened where it is clear
+                run = np.roll(run, -_open_at(colliding[s:e]))
             g = s + run
             arc = _arc(cc[g])
             if closed[ci]:
@@ -684,43 +257,71 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     if progress is not None:
         progress(0.5)
     chosen = [None] * len(runs)
+    dirty = [True] * len(runs)  # a run is planned again only when its stations or priced
+    base = [r.st.copy() for r in runs]  # motions changed (everything else it reads stays)
+    hot = [np.zeros(0, np.int64) for _ in runs]  # poses of each run left colliding before
+    best = [None] * len(runs)
     for rnd in range(_ROUNDS):
         for ri, r in enumerate(runs):
-            chosen[ri] = pl.plan_run(r)
+            if dirty[ri]:
+                chosen[ri] = pl.plan_run(r)
+        dirty = [False] * len(runs)
         result = _evaluate(pl, runs, chosen)
+        for ri, r in enumerate(runs):  # each run keeps its best round
+            snap = _snapshot(pl, r, result)
+            if best[ri] is None or snap["score"] <= best[ri]["score"]:
+                best[ri] = snap
         if rnd == _ROUNDS - 1:
             break
-        # poses the plan leaves colliding: made stations, all their states measured exactly,
-        # and the runs planned again
+        # poses the plan leaves colliding: made stations (with those of the round before;
+        # the other stations the lean steps and the edges ask for), all their states known
+        # exactly, and the runs planned again — a pose that clears again stops being a
+        # station, or the lean could not change across a stretch of stations closer than
+        # one state step at the turn limit;
         # poses whose motion from the pose before collides: both ends made stations, known
         # exactly, and the motion between them priced per state pair in the next plan
         todo, new_pairs = [], 0
-        for r in runs:
+        for ri, r in enumerate(runs):
             bad = np.nonzero(result["clr"][r.g] < pl.safety)[0]
-            bad = np.asarray([i for i in bad if int(r.g[i]) not in pl.exact], np.int64)
             chain = _chain(r)
-            mb = np.nonzero(result["motion"][chain[1:]] < pl.safety)[0]
+            mb = np.nonzero((result["motion"][chain[1:]] < pl.safety)
+                            & (result["clr"][chain[:-1]] >= pl.safety))[0]
             pairs = [(int(chain[i]), int(chain[i + 1])) for i in mb
                      if (int(chain[i]), int(chain[i + 1])) not in pl.mpairs]
-            ends = np.asarray([x for p in pairs for x in p], np.int64)
-            ends = np.nonzero(np.isin(r.g, ends))[0]
             pl.mpairs.update(pairs)
             new_pairs += len(pairs)
-            bad = np.union1d(bad, ends).astype(np.int64)
-            if len(bad):
-                r.st = np.union1d(r.st, bad)
-                todo.append(r.g[bad])
-        if not todo and not new_pairs:
+            ends = np.asarray([x for p in pl.mpairs for x in p], np.int64)
+            ends = np.nonzero(np.isin(r.g, ends))[0]
+            st = np.union1d(np.union1d(base[ri], bad), np.union1d(hot[ri], ends))
+            st = st.astype(np.int64)
+            hot[ri] = bad
+            dirty[ri] = bool(pairs) or len(st) != len(r.st) or bool(np.any(st != r.st))
+            r.st = st
+            new = np.union1d(bad, ends).astype(np.int64)
+            new = new[[int(r.g[i]) not in pl.exact for i in new]]
+            if len(new):
+                todo.append(r.g[new])
+        if not any(dirty):
             break
         if todo:
             pl.measure_exact(np.concatenate(todo))
         if progress is not None:
             progress(0.5 + 0.1 * (rnd + 1))
+    result = _assemble(pl, runs, best)
     idx = np.nonzero(win)[0]
     tip[idx], axis[idx] = result["tip"][idx], result["axis"][idx]
     clear[idx] = result["clr"][idx]
     motion = result["motion"]
+    # a motion counts against its later pose only when it starts from a clear pose: the
+    # motion out of an unresolved pose belongs to that pose's range (it starts colliding)
+    start = result["motion_from"]
+    start_clear = np.ones(n, bool)
+    has = start >= 0
+    start_clear[has] = clear[start[has]] >= pl.safety
+    motion = np.where(start_clear, motion, np.inf)
     unresolved = (clear < pl.safety) | (motion < pl.safety)
+    for a, b in result["jumps"]:  # both ends of a jump are unresolved (their states collide)
+        unresolved[[a, b]] = True
     why = np.full(n, REASON_TURN, dtype=object)
     cand = [int(gi) for gi in np.nonzero(unresolved)[0] if int(gi) in pl.exact
             and not np.any(pl.known[int(gi)] >= pl.safety)]
@@ -759,7 +360,8 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     tip[g] = pl.tips(g, ax)
     same = (np.abs(dl - pl.u0[g]) < 1e-12) & (np.abs(dt - pl.v0[g]) < 1e-12)
     axis[g[same]], tip[g[same]] = P.ax0[g[same]], P.tip0[g[same]]  # the planned pose, exactly
-    _limit_turns(pl, runs, tip, axis)
+    jumps = _jumps(pl, runs, chosen, axis)
+    _limit_turns(pl, runs, tip, axis, jumps)
     prev_, next_ = [], []
     for r in runs:
         chain = _chain(r)
@@ -773,7 +375,76 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
     clr[g] = clr_all[:len(g)]
     motion = np.full(n, np.inf)
     np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
-    return {"tip": tip, "axis": axis, "clr": clr, "motion": motion}
+    motion_from = np.full(n, -1, np.int64)
+    motion_from[a_i] = a_p
+    return {"tip": tip, "axis": axis, "clr": clr, "motion": motion, "jumps": jumps,
+            "motion_from": motion_from}
+
+
+def _open_at(colliding):
+    """Where a closed pass planned as one cycle starts: the middle of its longest stretch of
+    clear planned poses (read cyclically), 0 when all collide. The cycle's first state is
+    chosen among a few (:meth:`.axis_states._Planner.plan_run`) and its last must turn into
+    it; where the pass's own first pose lies in a colliding stretch (Rotor 37's passes close
+    at the leading edge) that left the stretch unresolved."""
+    c = np.asarray(colliding, bool)
+    k = len(c)
+    if c.all() or not c.any():
+        return 0
+    start = int(np.argmax(c))  # a colliding pose: the clear stretches do not wrap from it
+    free = ~np.roll(c, -start)
+    edges = np.diff(np.r_[0, free.astype(np.int8), 0])
+    lo, hi = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+    j = int(np.argmax(hi - lo))
+    return (start + (lo[j] + hi[j]) // 2) % k
+
+
+def _snapshot(pl: _Planner, r: _Run, result) -> dict:
+    """Run r's poses in one round's ``result`` and its score: the poses left colliding plus
+    those whose motion from a clear pose collides."""
+    chain = _chain(r)
+    nxt = chain[1:]
+    clr = result["clr"]
+    score = int(np.sum(clr[r.g] < pl.safety)) + int(np.sum(
+        (result["motion"][nxt] < pl.safety) & (clr[chain[:-1]] >= pl.safety)))
+    gs = set(int(x) for x in r.g)
+    return {"score": score, "g": r.g, "tip": result["tip"][r.g].copy(),
+            "axis": result["axis"][r.g].copy(), "clr": clr[r.g].copy(), "nxt": nxt,
+            "motion": result["motion"][nxt].copy(), "from": result["motion_from"][nxt].copy(),
+            "jumps": {p for p in result["jumps"] if p[0] in gs}}
+
+
+def _assemble(pl: _Planner, runs, best) -> dict:
+    """The result dict of :func:`_evaluate` from each run's best round."""
+    P = pl.P
+    n = len(P.cc)
+    out = {"tip": P.tip0.copy(), "axis": P.ax0.copy(), "clr": np.full(n, np.inf),
+           "motion": np.full(n, np.inf), "motion_from": np.full(n, -1, np.int64),
+           "jumps": set()}
+    for b in best:
+        g, nxt = b["g"], b["nxt"]
+        out["tip"][g], out["axis"][g], out["clr"][g] = b["tip"], b["axis"], b["clr"]
+        out["motion"][nxt], out["motion_from"][nxt] = b["motion"], b["from"]
+        out["jumps"] |= b["jumps"]
+    return out
+
+
+def _jumps(pl: _Planner, runs, chosen, axis):
+    """{(a, b)} consecutive global poses (both stations) between which the shortest path
+    jumped: both states known exactly to collide and the axes turning past the limit."""
+    P, out = pl.P, set()
+    for r, seq in zip(runs, chosen, strict=True):
+        if seq is None:
+            continue
+        for j in np.nonzero(np.diff(r.st) == 1)[0] + 1:
+            ga, gb = int(r.g[r.st[j - 1]]), int(r.g[r.st[j]])
+            if not (pl.colliding_states(ga)[tuple(seq[j - 1])]
+                    and pl.colliding_states(gb)[tuple(seq[j])]):
+                continue
+            lim = turn_limits(P.cc[[ga, gb]], P.ax0[[ga, gb]], pl.rate, pl.max_turn)[0]
+            if float(axis[ga] @ axis[gb]) < math.cos(lim):
+                out.add((ga, gb))
+    return out
 
 
 def _chain(r: _Run):
@@ -783,7 +454,7 @@ def _chain(r: _Run):
     return np.r_[[r.pre] if r.pre is not None else [], r.g, post].astype(np.int64)
 
 
-def _limit_turns(pl: _Planner, runs, tip, axis):
+def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
     """Where the lean interpolated between stations turns faster than the limit between two
     poses, the later axis is turned toward the earlier one (a sweep forward from the fixed
     pose before the run), then the earlier toward the later (backward from the fixed pose
@@ -806,6 +477,8 @@ def _limit_turns(pl: _Planner, runs, tip, axis):
                 if fixed[b]:
                     continue
                 ia, ib = chain[a], chain[b]
+                if (int(chain[min(a, b)]), int(chain[max(a, b)])) in jumps:
+                    continue  # both poses left colliding: the path re-enters past the jump
                 lim = limit[min(a, b)]
                 if float(axis[ia] @ axis[ib]) < math.cos(lim):
                     axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim,

@@ -50,6 +50,8 @@ class CollisionReport:
     n_turn_over : int — consecutive pass poses whose axes turn by more than max(max_turn,
         the planned turn there) after avoidance (mostly a corrected pose next to an
         unresolved one, which keeps its planned axis); max_turn_deg : the largest such turn
+    n_turn_unresolved : int — turns past the planner's limit between two unresolved poses
+        (the planner may jump there: neither pose is cut), not in ``n_turn_over``
     links : dict — the link runs checked, colliding, re-routed and unresolved
         (:func:`.reroute.reroute_links`); empty without a program
     method : str — "plan" or "rotate" in mode "avoid", else ""
@@ -82,6 +84,7 @@ class CollisionReport:
     program_clearance: np.ndarray | None = None
     n_turn_over: int = 0
     max_turn_deg: float = 0.0
+    n_turn_unresolved: int = 0
     links: dict = field(default_factory=dict)
     method: str = ""
     unresolved_ranges: list = field(default_factory=list)
@@ -115,6 +118,8 @@ class CollisionReport:
             else None,
             "turn_over_limit": int(self.n_turn_over),
             "max_turn_over_deg": float(self.max_turn_deg),
+            **({"turns_between_unresolved": int(self.n_turn_unresolved)}
+               if self.n_turn_unresolved else {}),
             "obstacles": self.obstacles,
             "assembly": self.assembly,
             "assembly_text": self.assembly_text,
