@@ -1,7 +1,8 @@
 """Threads and cancellation for long core work: the worker count of a run
 (:func:`parallel`), chunked maps over a thread pool, work beside the
-calling thread (:func:`alongside`), and the cooperative cancel poll
-(:func:`cancellable`, :func:`check_cancel`, :class:`Cancelled`).
+calling thread (:func:`alongside`), the cooperative cancel poll
+(:func:`cancellable`, :func:`check_cancel`, :class:`Cancelled`), and long
+work's progress generators run to their end (:func:`run_to_end`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ __all__ = [
     "map_chunks",
     "map_tasks",
     "parallel",
+    "run_to_end",
     "workers",
 ]
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
@@ -216,3 +218,16 @@ class Progress:
 
     fraction: float
     message: str
+
+
+def run_to_end(gen, report=None):
+    """Run a generator of progress reports (the ``iter_…`` functions of long work) to its
+    end and return its return value; ``report``, when given, is called with each item it
+    yields (a :class:`Progress` or a fraction)."""
+    while True:
+        try:
+            item = next(gen)
+        except StopIteration as stop:
+            return stop.value
+        if report is not None:
+            report(item)

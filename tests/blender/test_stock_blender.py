@@ -37,6 +37,7 @@ def _core(blade, hub, s):
     """The core simulation of the same inputs (the panel's figures: float32), called
     directly."""
     from blisk_cam.core.part.model import part_from_blade, read_rz_csv
+    from blisk_cam.core.runtime import run_to_end
     from blisk_cam.core.stock.blank import stock_from_allowance
     from blisk_cam.core.stock.simulation import iter_simulate
     from blisk_cam.operators.common import stored_path
@@ -45,12 +46,7 @@ def _core(blade, hub, s):
     V, F = blender_io.object_to_arrays(blade, bpy.context.evaluated_depsgraph_get())
     part = part_from_blade(V, F, read_rz_csv(hub), int(s.blade_count), path.axis)
     stock = stock_from_allowance(part, float(s.stock_allowance), float(s.stock_resolution))
-    gen = iter_simulate(part, stock, [path])
-    while True:
-        try:
-            next(gen)
-        except StopIteration as stop:
-            return stop.value
+    return run_to_end(iter_simulate(part, stock, [path]))
 
 
 def _attr(ob, name, width=1):

@@ -32,6 +32,7 @@ from blisk_cam.core.process.fillet_finish import FILLET_FINISH
 from blisk_cam.core.process.hub_finish import HubRequest
 from blisk_cam.core.process.job_verdict import _classes, face_frame
 from blisk_cam.core.process.operation import run_operation
+from blisk_cam.core.runtime import run_to_end
 from blisk_cam.core.stock.blank import stock_from_allowance
 from blisk_cam.core.stock.deviation import deviation_map, resolved_points, surface_distance
 from blisk_cam.core.stock.simulation import iter_simulate
@@ -39,13 +40,6 @@ from blisk_cam.core.toolpath.types import MOVE_CUT
 
 RHO, R_F, SCALLOP, TOP, RES, RINGS = 3.0, 8.0, 0.4, 12.0, 0.25, 2
 
-
-def _run(gen):
-    while True:
-        try:
-            next(gen)
-        except StopIteration as stop:
-            return stop.value
 
 
 @pytest.fixture(scope="module")
@@ -123,7 +117,7 @@ def test_layers_contacts_lie_on_the_fillet_and_up_the_wall(layered):
 def test_the_stock_keeps_at_most_the_scallop_between_the_layers(layered):
     part, path = layered
     stock = stock_from_allowance(part, 1.0, RES)
-    _run(iter_simulate(part, stock, [path]))
+    run_to_end(iter_simulate(part, stock, [path]))
     V, F, hub, C, N, _ = face_frame(part)
     hs = HubSurface(part.hub_profile, part.axis)
     _, _, h = hs.coordinates(C)

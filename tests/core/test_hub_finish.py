@@ -341,6 +341,7 @@ def test_hub_finishing_on_rotor37_of_36_blades_leaves_the_scallop_target_on_the_
     from blisk_cam.core.part.model import part_from_blade
     from blisk_cam.core.process.hub_finish import plan_channel
     from blisk_cam.core.process.job_verdict import OperationContacts, job_verdict
+    from blisk_cam.core.runtime import run_to_end
     from blisk_cam.core.stock.simulation import iter_simulate
     from blisk_cam.core.tool.assembly import ToolAssembly
     from tests.support.blades import blade_meta, blade_stl
@@ -358,13 +359,7 @@ def test_hub_finishing_on_rotor37_of_36_blades_leaves_the_scallop_target_on_the_
     path = run_operation(HUB_FINISH, part, req).path
     assert path.stats["passes"] >= 5
     stock = stock_from_allowance(part, 0.3, res)
-    gen = iter_simulate(part, stock, [path], assembly=ToolAssembly(20.0, holder))
-    while True:
-        try:
-            next(gen)
-        except StopIteration as stop:
-            sim = stop.value
-            break
+    sim = run_to_end(iter_simulate(part, stock, [path], assembly=ToolAssembly(20.0, holder)))
     assert sim.summary["crashes"] == []
     ch = plan_channel(part, req)
     hs = HubSurface(part.hub_profile, part.axis)

@@ -34,19 +34,13 @@ from blisk_cam.core.process.job_verdict import (
     job_verdict_dict,
 )
 from blisk_cam.core.process.operation import run_operation
+from blisk_cam.core.runtime import run_to_end
 from blisk_cam.core.stock.blank import stock_from_allowance
 from blisk_cam.core.stock.simulation import iter_simulate
 
 RES = 1.0
 BLANK = 2.0
 
-
-def _run(gen):
-    while True:
-        try:
-            next(gen)
-        except StopIteration as stop:
-            return stop.value
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +50,7 @@ def finished():
                      collisions="off")
     path = run_operation(HUB_FINISH, part, req).path
     stock = stock_from_allowance(part, BLANK, RES)
-    _run(iter_simulate(part, stock, [path]))
+    run_to_end(iter_simulate(part, stock, [path]))
     contacts = OperationContacts.from_path(1, "hub", path)
     return part, path, stock, contacts, job_verdict(part, stock, [contacts], fillet_radius=8.0)
 

@@ -25,6 +25,7 @@ from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.model import part_from_demo
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 from blisk_cam.core.process.job_verdict import OperationContacts, face_frame, job_verdict
+from blisk_cam.core.runtime import run_to_end
 from blisk_cam.core.stock.blank import stock_from_allowance
 from blisk_cam.core.stock.simulation import iter_simulate
 from blisk_cam.core.toolpath.types import MOVE_CUT
@@ -33,14 +34,6 @@ RES = 0.5
 CHORD = 0.05
 SHALLOW, DEEP = 0.25, 1.5  # mm, the planted plunges: within the tolerance, and past it
 
-
-def _run(gen):
-    """The simulation's outcome (its progress dropped)."""
-    while True:
-        try:
-            next(gen)
-        except StopIteration as stop:
-            return stop.value
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +65,7 @@ def planted():
         tip[j] -= depth * n  # the ball dips `depth` into the blade along its normal
         path.program = type(prog)(tip, prog.axis, prog.move, prog.curve, prog.index, prog.flags)
         stock = stock_from_allowance(part, 0.0, RES)
-        sims.append(_run(iter_simulate(part, stock, [path], check_body=False)))
+        sims.append(run_to_end(iter_simulate(part, stock, [path], check_body=False)))
     return sims, q.point[0], rho, part, path
 
 

@@ -70,6 +70,7 @@ from scipy.spatial import cKDTree
 from ..errors import CollisionError
 from ..geometry.vectors import angle_between, unit
 from ..paths.orientation import clamp_turn, consecutive_turn, lead_tilt_of, local_frames
+from ..runtime import run_to_end
 from ..tool.cutter import Cutter
 from ..toolpath.types import (
     MOVE_APPROACH,
@@ -717,12 +718,7 @@ def _program(scene, prog: Program, curves, offs, tip0, ax0, status, det, det0):
 
 def avoid_collisions(scene: CollisionScene, path: ToolPath, options: CollisionOptions):
     """Run :func:`iter_avoid_collisions` to the end: ``(ToolPath, CollisionReport)``."""
-    it = iter_avoid_collisions(scene, path, options)
-    while True:
-        try:
-            next(it)
-        except StopIteration as stop:
-            return stop.value
+    return run_to_end(iter_avoid_collisions(scene, path, options))
 
 
 # ====================================================================== entry point
@@ -774,11 +770,5 @@ def run_collisions(mesh_or_blade, path: ToolPath, obstacles_extra=(),
     CollisionError (a BliskCamError) naming the problem: blade count, neighbours, holder
     profile, safety, an obstacle containing the blade...
     """
-    it = iter_run_collisions(mesh_or_blade, path, obstacles_extra, options)
-    while True:
-        try:
-            x = next(it)
-        except StopIteration as stop:
-            return stop.value
-        if progress is not None:
-            progress(float(x))
+    return run_to_end(iter_run_collisions(mesh_or_blade, path, obstacles_extra, options),
+                      None if progress is None else (lambda x: progress(float(x))))

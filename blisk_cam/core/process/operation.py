@@ -21,7 +21,7 @@ from collections.abc import Callable, Generator, Iterable
 from dataclasses import dataclass, field
 
 from ..kernels.backend import backend_name
-from ..runtime import Progress
+from ..runtime import Progress, run_to_end
 from ..toolpath.types import ToolPath
 
 __all__ = ["Operation", "OperationResult", "Stage", "iter_run_operation", "run_operation",
@@ -112,9 +112,4 @@ def iter_run_operation(operation: Operation, part, request, stock=None, *,
 def run_operation(operation: Operation, part, request, stock=None, *,
                   extra: Iterable[Stage] = ()) -> OperationResult:
     """Run :func:`iter_run_operation` to the end."""
-    it = iter_run_operation(operation, part, request, stock, extra=extra)
-    while True:
-        try:
-            next(it)
-        except StopIteration as stop:
-            return stop.value
+    return run_to_end(iter_run_operation(operation, part, request, stock, extra=extra))
