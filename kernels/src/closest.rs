@@ -10,6 +10,7 @@ use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d_f64::query::PointQuery;
 use rayon::prelude::*;
+use crate::numpy_ops::nanmax;
 
 pub type P3 = [f64; 3];
 
@@ -101,17 +102,6 @@ pub fn triangle_d2(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
     dot(&e, &e)
 }
 
-/// np.maximum: NaN if either is NaN.
-#[inline(always)]
-fn nanmax(a: f64, b: f64) -> f64 {
-    if a.is_nan() || b.is_nan() {
-        f64::NAN
-    } else if a >= b {
-        a
-    } else {
-        b
-    }
-}
 
 /// Faces per leaf of the tree: runs of faces consecutive along a Morton curve of their
 /// centroids (compact runs), so the tree holds a quarter of the nodes it would hold with one

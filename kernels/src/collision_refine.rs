@@ -13,7 +13,8 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::arrays::{points_n, values_n};
-use crate::swept_cutter::{nanmin, seg2, Profile};
+use crate::numpy_ops::{nanmax, nanmin};
+use crate::swept_cutter::{seg2, Profile};
 
 type P3 = [f64; 3];
 
@@ -36,16 +37,6 @@ fn cross(x: &P3, y: &P3) -> P3 {
 #[inline(always)]
 fn norm(a: &P3) -> f64 {
     ((a[0] * a[0] + a[1] * a[1]) + a[2] * a[2]).sqrt()
-}
-#[inline(always)]
-fn nanmax(a: f64, b: f64) -> f64 {
-    if a.is_nan() || b.is_nan() {
-        f64::NAN
-    } else if a >= b {
-        a
-    } else {
-        b
-    }
 }
 
 /// `x.hypot(y)` (libm's, as numpy's np.hypot), without the call where one side is zero

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use crate::arrays::{points, points_n, values_n};
 use crate::collision_refine::{hypot_exact, refine_pose, Pair, Part};
-use crate::swept_cutter::nanmin;
+use crate::numpy_ops::{nanmax, nanmin};
 
 type P3 = [f64; 3];
 
@@ -41,17 +41,6 @@ fn dot(a: &P3, b: &P3) -> f64 {
 #[inline(always)]
 fn sub(a: &P3, b: &P3) -> P3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-/// np.maximum: NaN if either is NaN.
-#[inline(always)]
-fn nanmax(a: f64, b: f64) -> f64 {
-    if a.is_nan() || b.is_nan() {
-        f64::NAN
-    } else if a >= b {
-        a
-    } else {
-        b
-    }
 }
 #[inline(always)]
 fn clip01(t: f64) -> f64 {

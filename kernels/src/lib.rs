@@ -13,6 +13,7 @@ mod closest;
 mod collision_refine;
 mod collision_walk;
 mod knn;
+mod numpy_ops;
 mod step;
 mod stock;
 mod swept_ball;

@@ -8,6 +8,7 @@ use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
+use crate::numpy_ops::{nanmax, nanmin};
 
 /// A cutter's meridional profile (`Cutter.signed_distance_rz`'s constants).
 #[derive(Clone, Copy)]
@@ -39,18 +40,6 @@ pub fn seg2(px: f64, py: f64, ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
     let t = if t > 1.0 { 1.0 } else { t };
     let (ex, ey) = (qx - t * dx, qy - t * dy);
     ex * ex + ey * ey
-}
-
-/// np.minimum: NaN if either is NaN.
-#[inline(always)]
-pub fn nanmin(a: f64, b: f64) -> f64 {
-    if a.is_nan() || b.is_nan() {
-        f64::NAN
-    } else if a <= b {
-        a
-    } else {
-        b
-    }
 }
 
 impl Profile {
@@ -262,17 +251,6 @@ fn dot3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 
-/// np.maximum: NaN if either is NaN.
-#[inline(always)]
-fn nanmax(a: f64, b: f64) -> f64 {
-    if a.is_nan() || b.is_nan() {
-        f64::NAN
-    } else if a >= b {
-        a
-    } else {
-        b
-    }
-}
 
 /// The tables of `_fast_search` (a SweptCutter's or a SweptForest's).
 pub struct Tables<'a> {
