@@ -28,7 +28,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.spatial import cKDTree
 
 from blisk_cam.cli import main as cli
 from blisk_cam.core.errors import ToleranceError, ToolError
@@ -44,7 +43,7 @@ from blisk_cam.core.process.blade_finish import (
     plan_paths,
 )
 from blisk_cam.core.stock.blank import stock_from_allowance
-from blisk_cam.core.stock.deviation import deviation_map, simulation_summary
+from blisk_cam.core.stock.deviation import simulation_summary
 from blisk_cam.core.stock.removal import RemovalResult, remove_program
 from blisk_cam.core.stock.simulation import part_surface
 from blisk_cam.core.tool.cutter import Cutter
@@ -53,6 +52,7 @@ from blisk_cam.core.toolpath.types import MOVE_CUT, Program
 from blisk_cam.core.verify.measure import verify_path
 from blisk_cam.core.verify.verdict import judge, verdict_lines
 from tests.support.mesh_files import write_binary_stl
+from tests.support.patch import deviation_under_passes, short_flute
 
 A = 0.1  # mm, the allowance of paper 003's semi-finishing
 CUSP = CHORD = 0.05
@@ -162,13 +162,9 @@ def _simulate_patch(demo, path, passes=4, poses=20):
     s = np.array([c.s for c in path.curves])
     chosen = np.sort(np.argsort(np.abs(s - 0.5))[:passes])
     mid = path.curves[chosen[0]].cc[len(path.curves[chosen[0]].cc) // 3]
-    # the flute cut short 1 mm above the corner: its side higher up never reaches the blade
-    # near the contact, and the sweep's candidate rays shrink with it; the sweep sampled to
-    # 0.01 mm (a tenth of the allowance, far inside the bounds' resolution term)
-    tool = path.tool.as_dict()
-    tool["h"] = path.tool.f + 1.0
-    cutter = Cutter.from_dict({k: v for k, v in tool.items() if k not in ("shank_diameter",
-                                                                         "holder_diameter")})
+    # the flute cut short; the sweep sampled to 0.01 mm (a tenth of the allowance, far inside
+    # the bounds' resolution term)
+    cutter = short_flute(path.tool)
     core, core_n = [], []
     for i in chosen:
         c = path.curves[i]
@@ -186,17 +182,9 @@ def _simulate_patch(demo, path, passes=4, poses=20):
     on_blade = np.zeros(len(V), bool)
     on_blade[np.unique(F[~hub])] = True
     ratio = morph_between(path.cone1, path.cone2).ratio_of_points(V, path.axis)
-    dist, j = cKDTree(np.vstack(core)).query(V)
-    facing = np.einsum("ij,ij->i", N, np.vstack(core_n)[j]) > 0.9
-    covered = (on_blade & outer & facing & (dist < 1.0) & (ratio > s[chosen[1]])
-               & (ratio < s[chosen[-2]]))
-    assert covered.sum() >= 20
-    # the mesh vertices there (between the passes: the scallops) and the blade points under
-    # the middle passes' contacts
-    inner = slice(len(core[0]), -len(core[-1]))
-    P = np.vstack([V[covered], np.vstack(core)[inner]])
-    Nn = np.vstack([N[covered], np.vstack(core_n)[inner]])
-    return deviation_map(stock, P, Nn, reach_out=1.0, reach_in=0.5), part, stock, P
+    dev, P = deviation_under_passes(stock, (V, N, outer, on_blade), ratio, s[chosen[1]],
+                                    s[chosen[-2]], core, core_n)
+    return dev, part, stock, P
 
 
 @pytest.mark.parametrize("tool", ["ball", "bull"])

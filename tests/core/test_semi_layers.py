@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.spatial import cKDTree
 
 from blisk_cam.core.errors import BliskCamError, ToleranceError
 from blisk_cam.core.geometry.distance import MeshDistance
@@ -35,11 +34,10 @@ from blisk_cam.core.part.profiles import morph_between
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 from blisk_cam.core.process.job import iter_run_job, load_job
 from blisk_cam.core.stock.blank import stock_from_allowance
-from blisk_cam.core.stock.deviation import deviation_map
 from blisk_cam.core.stock.removal import remove_program
 from blisk_cam.core.stock.simulation import part_surface
-from blisk_cam.core.tool.cutter import Cutter
 from blisk_cam.core.toolpath.types import MOVE_CUT, MOVE_RAPID, Program
+from tests.support.patch import deviation_under_passes, short_flute
 
 A, A0, K = 0.1, 0.4, 3
 CUSP = CHORD = 0.05
@@ -119,10 +117,7 @@ def test_the_stock_after_each_layer_is_that_layers_allowance(demo, layered):
     d = demo[0]
     part = part_from_demo(d)
     stock = stock_from_allowance(part, 0.5, RES)
-    tool = layered.tool.as_dict()
-    tool["h"] = layered.tool.f + 1.0  # the flute cut short: its side never reaches the blade
-    cutter = Cutter.from_dict({k: v for k, v in tool.items() if k not in ("shank_diameter",
-                                                                         "holder_diameter")})
+    cutter = short_flute(layered.tool)
     V, F, N, outer = part_surface(part, RES)
     _, _, hub = part.part_mesh()
     on_blade = np.zeros(len(V), bool)
@@ -148,15 +143,8 @@ def test_the_stock_after_each_layer_is_that_layers_allowance(demo, layered):
                            cutter, check_body=False, sweep_tolerance=0.01)
             core.append(on[idx[5:-5]])
             core_n.append(c.normal[idx[5:-5]])
-        dist, j = cKDTree(np.vstack(core)).query(V)
-        facing = np.einsum("ij,ij->i", N, np.vstack(core_n)[j]) > 0.9
-        covered = (on_blade & outer & facing & (dist < 1.0) & (ratio > s[chosen[1]])
-                   & (ratio < s[chosen[-2]]))
-        assert covered.sum() >= 20
-        inner = slice(len(core[0]), -len(core[-1]))
-        P = np.vstack([V[covered], np.vstack(core)[inner]])
-        Nn = np.vstack([N[covered], np.vstack(core_n)[inner]])
-        dev = deviation_map(stock, P, Nn, reach_out=1.0, reach_in=0.5)
+        dev, _ = deviation_under_passes(stock, (V, N, outer, on_blade), ratio, s[chosen[1]],
+                                        s[chosen[-2]], core, core_n)
         lo, hi = a - CHORD, a + CUSP + CHORD
         assert dev.min() >= lo - RES, (a, dev.min())
         assert dev.max() <= hi + RES, (a, dev.max())
