@@ -19,11 +19,11 @@ use crate::swept_cutter::{seg2, Profile};
 type P3 = [f64; 3];
 
 #[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
+pub(crate) fn dot(a: &P3, b: &P3) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 #[inline(always)]
-fn sub(a: &P3, b: &P3) -> P3 {
+pub(crate) fn sub(a: &P3, b: &P3) -> P3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 #[inline(always)]

@@ -17,7 +17,7 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::arrays::{points, points_n, values_n};
-use crate::collision_refine::{hypot_exact, refine_pose, Pair, Part};
+use crate::collision_refine::{dot, hypot_exact, refine_pose, sub, Pair, Part};
 use crate::numpy_ops::{nanmax, nanmin};
 
 type P3 = [f64; 3];
@@ -34,14 +34,6 @@ const FAR_MARGIN: f64 = 1.0;
 const PENETRATION_PAIRS: usize = 16;
 const FAR_PAIRS: usize = 8;
 
-#[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
-}
-#[inline(always)]
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
 #[inline(always)]
 fn clip01(t: f64) -> f64 {
     let t = if t < 0.0 { 0.0 } else { t };
