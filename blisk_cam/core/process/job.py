@@ -682,10 +682,14 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             path = result.path
             if path.program is None or len(path.program) == 0:
                 raise BliskCamError("the operation planned no moves")
+            t_clear = time.perf_counter()
             if op.kind.name != "rough":  # finishing: the rapids clear of the stock before it
                 path.program, moved = clear_rapids(path.program, stock, cutter,
                                                    margin=RAPID_STOCK_MARGIN * job.resolution)
-                path.stats["rapids_clear_of_stock"] = moved
+                path.stats.update({"rapids_lifted_clear_of_stock": moved["moved"],
+                                   "rapids_lift_max_mm": moved["longest_lift_mm"],
+                                   "rapids_still_meeting_stock": moved["still_meeting"]})
+            clear_seconds = time.perf_counter() - t_clear
             near: list = []
             body = tool_assembly(op.tool, cutter)
             sim = yield from _scaled(
@@ -714,7 +718,8 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             raise _prefixed(exc, op.where) from None
         orun = OperationRun(op, path, cut, sim, stock_in,
                             {"volume_mm3": stock.volume(), "digest": stock_digest(stock)},
-                            {**result.seconds, "fine_check": fine_seconds}, stock)
+                            {**result.seconds, "rapid_clearance": clear_seconds,
+                             "fine_check": fine_seconds}, stock)
         if on_operation is not None:
             on_operation(orun)
         orun.stock = None

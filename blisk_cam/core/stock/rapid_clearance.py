@@ -73,6 +73,7 @@ def clear_rapids(program: Program, dex: RadialDexels, cutter, *, margin: float,
     move = np.asarray(program.move)
     step = 0.5 * dex.resolution if step is None else float(step)
     moved, longest, still = 0, 0.0, 0
+    routes = []
     for m, a, b in program.runs():
         if m != MOVE_RAPID or a < 1 or b >= len(move):
             continue
@@ -80,12 +81,15 @@ def clear_rapids(program: Program, dex: RadialDexels, cutter, *, margin: float,
         # (the approach starts there) — when the feed moves round them run along the axis
         lift = [j for j, ok in ((a - 1, move[a - 1] == MOVE_RETRACT),
                                 (b - 1, move[b] == MOVE_APPROACH and b - 1 > a - 1)) if ok]
-        if not lift:
-            continue
-        route = np.arange(a - 1, b)
-        ok = ~cutter_meets_stock(dex, cutter, *_run_poses(tip[route], axis[route], step),
-                                 margin)
-        if ok.all():
+        if lift:
+            routes.append((a, np.arange(a - 1, b), lift))
+    # every route as planned at once; the lifts only for those meeting the stock
+    poses = [_run_poses(tip[route], axis[route], step) for _, route, _ in routes]
+    hit = cutter_meets_stock(dex, cutter, np.vstack([p[0] for p in poses] or [np.zeros((0, 3))]),
+                             np.vstack([p[1] for p in poses] or [np.zeros((0, 3))]), margin)
+    ends = np.cumsum([0] + [len(p[0]) for p in poses])
+    for (a, route, lift), k0, k1 in zip(routes, ends[:-1], ends[1:], strict=True):
+        if not hit[k0:k1].any():
             continue
         for s in np.arange(step, lift_max + 0.5 * step, step):
             t = tip[route].copy()
