@@ -657,14 +657,16 @@ class RoughingOperation(Operation):
         # pass (its axis differs from the one that cleared the levels above) whose body or
         # approach meets material is left out, any other pass loses the stretch of a tool
         # radius + 2 mm round each such pose, and the rest is linked again
-        for _ in range(4 if req.check_stock else 0):
-            check_cancel()
-            near = None if req.fine_check is None else []
+        for round_ in range(4 if req.check_stock else 0):
+            check_cancel()  # with a fine check, first the body rows within two cells of material
+            near, wide = (None, None) if req.fine_check is None else ([], None if round_ else
+                                                                   2.0 * st.stock.resolution)
             res = remove_program(st.stock.copy(), program, st.cutter, st.assembly,
-                                 sweep_tolerance=0.05, near=near)
+                                 sweep_tolerance=0.05, near=near, near_margin=wide)
             hits: dict = {}
             for c in res.crashes + (req.fine_check.crashes(
-                    st.stock, program, st.cutter, st.assembly, near) if near else []):
+                    st.stock, program, st.cutter, st.assembly, near,
+                    grow=wide and 1.5 * wide) if near else []):
                 k = int(curve[c.row]) if c.row < len(curve) else -1
                 j = int(index[c.row]) if k >= 0 else 0
                 if k < 0:  # a link, rapid or approach: the start of the piece it leads to

@@ -72,13 +72,13 @@ def _solids(run: RunProgram, kind: str):
     return [(frustum_halfplanes(*f), f[0], f[2], max(f[1], f[3])) for f in body.frustums()]
 
 
-def near_region(dex: RadialDexels, run: RunProgram, near) -> tuple:
+def near_region(dex: RadialDexels, run: RunProgram, near, grow: float | None = None) -> tuple:
     """The region of the ``near`` rows (``(row, kind, (lo, hi))`` of
     :func:`.removal.simulate_moves`) of ``run`` on the grid of ``dex``: (n_rays,) radii
     ``r_lo``, ``r_hi`` (mm; r_lo > r_hi outside it) — the rays whose material (the stock before
-    the row's batch) the solid grown by one cell meets over the row's move, and their
-    neighbours one cell round."""
-    g = dex.resolution
+    the row's batch) the solid grown by ``grow`` mm (default one cell) meets over the row's
+    move, and their neighbours one cell round."""
+    g = dex.resolution if grow is None else max(float(grow), dex.resolution)
     r_lo = np.full(dex.n_rays, np.inf)
     r_hi = np.full(dex.n_rays, -np.inf)
     tip = np.asarray(run.program.tip, float)
@@ -175,20 +175,21 @@ class FineCheck:
     blank: RadialDexels
     history: list
 
-    def crashes(self, coarse: RadialDexels, program: Program, cutter, body, near) -> list:
+    def crashes(self, coarse: RadialDexels, program: Program, cutter, body, near, *,
+                grow: float | None = None) -> list:
         """The crashes of ``program`` (run with ``cutter`` and ``body`` on ``coarse``, after
         ``history``) at the fine resolution in its ``near`` rows' region (module docstring):
         a list of :class:`.removal.Crash`, rows of ``program``, found at the fine resolution
-        (``Crash.resolution``)."""
+        (``Crash.resolution``); ``grow``: :func:`near_region`'s."""
         found = fine_crashes(self.blank, self.history, coarse,
-                             RunProgram(program, cutter, body), near)
+                             RunProgram(program, cutter, body), near, grow=grow)
         for c in found:
             c.resolution = self.blank.resolution
         return found
 
 
 def fine_crashes(blank: RadialDexels, history, coarse: RadialDexels, run: RunProgram,
-                 near) -> list:
+                 near, *, grow: float | None = None) -> list:
     """:meth:`FineCheck.crashes` (module docstring): ``blank`` the blank at the fine
     resolution, ``history`` the RunPrograms before ``run``, ``coarse`` the stock whose grid
     ``near`` was found on."""
@@ -198,7 +199,7 @@ def fine_crashes(blank: RadialDexels, history, coarse: RadialDexels, run: RunPro
     for rec in near:  # a row once per kind (a batch may note it more than once)
         first.setdefault(rec[:2], rec)
     near = list(first.values())
-    r_lo, r_hi = near_region(coarse, run, near)
+    r_lo, r_hi = near_region(coarse, run, near, grow)
     inside = r_hi > r_lo
     span = (float(r_lo[inside].min()), float(r_hi[inside].max()))
     # the blank kept inside the region (each fine ray clipped to its coarse cell's radii)

@@ -745,7 +745,8 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                    = None, *, sweep_tolerance: float | None = None,
                    arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
                    batch: int = 64, crash_tolerance: float | None = None,
-                   swept: bool | None = None, moving=None, near: list | None = None):
+                   swept: bool | None = None, moving=None, near: list | None = None,
+                   near_margin: float | None = None):
     """Remove the material of every row of ``program`` from ``dex`` (in place); a generator
     yielding :class:`~..runtime.Progress` and returning a :class:`RemovalResult`.
 
@@ -785,8 +786,8 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         each frustum culled by its own bounding cylinder about the move's mid pose, the
         sub-poses evaluated only on rays whose material that cylinder meets.
     moving : (m,) bool or None — the rows that move (False: only the next move's start);
-    near : list or None — the rows whose rapid, or body grown by ``crash_tolerance``, met
-        material without a crash, for :mod:`.fine_check`
+    near : list or None — the rows whose rapid, or body grown by ``near_margin`` (default
+        ``crash_tolerance``), met material without a crash, for :mod:`.fine_check`
     """
     cutter = as_cutter(cutter)
     body = assembly or body_assembly(cutter)
@@ -831,8 +832,9 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     flute_swept = _flute_solid(cutter, arc_tolerance, ctol, step, tol) if swept else None
     body_swept = _body_solids(body, body_step, ctol) if body_by_sweep else []
     # near: the body grown by the crash tolerance in radius (on a scratch copy)
-    grown = ToolAssembly(body.flute_length, tuple((z, r + ctol) for z, r in body.profile))
-    near_body = [] if near is None or not check_body or ctol <= 0 else _body_solids(
+    g = ctol if near_margin is None else float(near_margin)
+    grown = ToolAssembly(body.flute_length, tuple((z, r + g) for z, r in body.profile))
+    near_body = [] if near is None or not check_body or g <= 0 else _body_solids(
         grown, body_step, ctol) if body_by_sweep else [(p, pb, z0, z1, rad) for p, pb, z0, z1,
                                                         rad, _ in _posed_bodies(grown, 0.0)]
     done = 0
