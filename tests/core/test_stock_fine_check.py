@@ -15,10 +15,12 @@ import math
 import numpy as np
 
 from blisk_cam.core.geometry.axis import Axis
+from blisk_cam.core.stock import rapid_clearance
 from blisk_cam.core.stock.blank import stock_from_profile
 from blisk_cam.core.stock.fine_check import FineCheck
-from blisk_cam.core.stock.rapid_clearance import clear_rapids
+from blisk_cam.core.stock.rapid_clearance import clear_rapids, cutter_meets_stock
 from blisk_cam.core.stock.removal import remove_program
+from blisk_cam.core.tool.assembly import ToolAssembly
 from blisk_cam.core.tool.cutter import Cutter
 from blisk_cam.core.toolpath.types import (
     MOVE_APPROACH,
@@ -70,6 +72,29 @@ def test_a_rapid_thinner_than_the_cell_is_caught_by_the_fine_check():
     seg = RHO ** 2 * math.acos((RHO - DIP) / RHO) - (RHO - DIP) * math.sqrt(2 * RHO * DIP
                                                                             - DIP ** 2)
     assert abs(c.volume - 10.0 * seg) <= 0.15 * 10.0 * seg
+
+
+def test_a_body_graze_thinner_than_the_cell_is_caught_by_the_fine_check():
+    """A pose whose Ø8 shank, parallel to the blisk axis, dips DIP into the ring's outer face
+    over its whole height (the flute below the ring): the body's volume in the ring is the
+    lens of the two circles (shank, ring) times the ring's 10 mm."""
+    ball = Cutter.from_spec("ball", RHO)
+    rs = 4.0
+    body = ToolAssembly(ball.h, ((ball.h, rs), (ball.h + 40.0, rs)))
+    d = 60.0 + rs - DIP
+    prog = _program([[d, 0.0, -ball.h - 5.0]], [[0.0, 0.0, 1.0]], [MOVE_CUT])
+    coarse = _stock(RING, 1.0)
+    near: list = []
+    res = remove_program(coarse, prog, ball, body, near=near)
+    assert res.crashes == []  # the job's check before: the body shrunk by 0.5 mm misses it
+    found = FineCheck(_stock(RING, 0.1), []).crashes(coarse, prog, ball, body, near)
+    assert [(c.row, c.kind) for c in found] == [(0, "body")]
+    R = 60.0
+    lens = (rs ** 2 * math.acos((d * d + rs * rs - R * R) / (2 * d * rs))
+            + R ** 2 * math.acos((d * d + R * R - rs * rs) / (2 * d * R))
+            - 0.5 * math.sqrt((-d + rs + R) * (d + rs - R) * (d - rs + R) * (d + rs + R)))
+    assert abs(found[0].volume - 10.0 * lens) <= 0.15 * 10.0 * lens
+    assert abs(found[0].depth - DIP) <= 0.05
 
 
 def test_a_rapid_clear_of_the_stock_is_not_near():
@@ -135,3 +160,26 @@ def test_clear_rapids_lifts_the_route_out_of_the_stock_along_the_tool_axes():
     high = _route(63.0)
     again, info = clear_rapids(high, stock, ball, margin=margin)
     assert info["moved"] == 0 and np.array_equal(again.tip, high.tip)
+
+
+def test_the_cutter_meets_the_stock_alike_compiled_and_numpy(monkeypatch):
+    """The posed cutter's test against the stock: the compiled kernel's per-pose measure and
+    numpy's intervals tell the same poses (random ones round the ridge)."""
+    ball = Cutter.from_spec("ball", RHO)
+    stock = _stock(RIDGE, 0.25)
+    rng = np.random.default_rng(1)
+    tips = np.column_stack([rng.uniform(58, 66, 200), rng.uniform(-3, 3, 200),
+                            rng.uniform(-4, 14, 200)])
+    axes = np.tile([1.0, 0.0, 0.0], (200, 1))
+    first = cutter_meets_stock(stock, ball, tips, axes, 0.5)
+    monkeypatch.setattr(rapid_clearance.compiled_stock, "available", lambda: False)
+    second = cutter_meets_stock(stock, ball, tips, axes, 0.5)
+    assert 0 < first.sum() < len(first)
+    assert np.array_equal(first, second)
+    # and against the ridge's own geometry: a pose whose grown ball (centre radius − ρ −
+    # margin) stays beyond r 62 over the ridge's heights, or beyond 60 elsewhere, is clear
+    c = tips + RHO * axes
+    reach = np.hypot(c[:, 0], c[:, 1]) - RHO - 0.5
+    z_in = (c[:, 2] > 3.0 - RHO - 0.5) & (c[:, 2] < 7.0 + RHO + 0.5)
+    clear = np.where(z_in, reach > 62.0 + 0.25, reach > 60.0 + 0.25)
+    assert not (first & clear).any()

@@ -23,10 +23,20 @@ import math
 
 import numpy as np
 
+from ..kernels import stock as compiled_stock
 from ..tool.cutter import as_cutter
 from ..toolpath.types import MOVE_APPROACH, MOVE_RAPID, MOVE_RETRACT, Program
 from .dexels import RadialDexels
-from .removal import _cut, _overlap, _shrink, _slerp_rows, cutter_halfplanes
+from .removal import (
+    _cut,
+    _job_compiled,
+    _overlap,
+    _shrink,
+    _slerp_rows,
+    cutter_halfplanes,
+    halfplane_bounds,
+    halfplane_edges,
+)
 
 __all__ = ["clear_rapids", "cutter_meets_stock"]
 
@@ -38,8 +48,15 @@ def cutter_meets_stock(dex: RadialDexels, cutter, tips, axes, margin: float) -> 
     if not len(tips):
         return out
     planes = _shrink(cutter_halfplanes(c), -float(margin))
-    rays, a, b, so, _ = _cut(dex, np.asarray(tips, float), np.asarray(axes, float), planes,
-                             -margin, c.h + margin, c.max_radius + margin, group=64)
+    tips, axes = np.asarray(tips, float), np.asarray(axes, float)
+    z0, z1, rad = -margin, c.h + margin, c.max_radius + margin
+    if compiled_stock.available():  # each pose its own group, measured before any removal
+        r_cap = float(dex.hi.max()) if dex.hi.size else 0.0
+        per = _job_compiled(dex.copy(), tips, axes, np.arange(len(tips)), len(tips), planes,
+                            z0, z1, rad, True, None,
+                            (halfplane_bounds(planes), halfplane_edges(planes)), r_cap)[1]
+        return per > 0.0
+    rays, a, b, so, _ = _cut(dex, tips, axes, planes, z0, z1, rad, group=64)
     if len(rays):
         vol, _ = _overlap(dex, rays, a, b)
         out[np.unique(so[vol > 0])] = True
@@ -91,18 +108,29 @@ def clear_rapids(program: Program, dex: RadialDexels, cutter, *, margin: float,
     for (a, route, lift), k0, k1 in zip(routes, ends[:-1], ends[1:], strict=True):
         if not hit[k0:k1].any():
             continue
-        for s in np.arange(step, lift_max + 0.5 * step, step):
-            t = tip[route].copy()
-            for j in lift:
-                t[j - (a - 1)] += s * axis[j]
-            if not cutter_meets_stock(dex, cutter, *_run_poses(t, axis[route], step),
-                                      margin).any():
-                tip[route] = t
-                moved += 1
-                longest = max(longest, float(s))
+        lifts = np.arange(step, lift_max + 0.5 * step, step)
+        found = None
+        for c0 in range(0, len(lifts), 16):  # 16 lifts a call
+            trials = []
+            for s in lifts[c0:c0 + 16]:
+                t = tip[route].copy()
+                for j in lift:
+                    t[j - (a - 1)] += s * axis[j]
+                trials.append((s, t, _run_poses(t, axis[route], step)))
+            meets = cutter_meets_stock(dex, cutter, np.vstack([p[0] for _, _, p in trials]),
+                                       np.vstack([p[1] for _, _, p in trials]), margin)
+            cut = np.cumsum([0] + [len(p[0]) for _, _, p in trials])
+            found = next(((s, t) for (s, t, _), i0, i1 in zip(trials, cut[:-1], cut[1:],
+                                                               strict=True)
+                          if not meets[i0:i1].any()), None)
+            if found is not None:
                 break
-        else:
+        if found is None:
             still += 1
+            continue
+        tip[route] = found[1]
+        moved += 1
+        longest = max(longest, float(found[0]))
     out = Program(tip, np.array(program.axis), move.copy(), np.array(program.curve),
                   np.array(program.index), np.array(program.flags),
                   program.collision_status, program.clearance, program.rotation_deg)
