@@ -702,7 +702,7 @@ def _note_crashes(crash_rows: dict, rows, per, per_in, deep, kind, move, tip, ro
                   near=None, snap=None):
     """Record the rows whose solid (and its inner solid) met material as crashes; with a
     ``near`` list, those whose inner solid did not, ``(row, kind, snap)`` (``snap``: the
-    stock's (lo, hi) before the batch)."""
+    stock's (lo, hi) before the batch, float32: it only bounds the region)."""
     crash = (per_in > CRASH_VOLUME) & (per > CRASH_VOLUME)
     if near is not None:
         near += [(int(rows[j]) + row_offset, "body" if kind == "body" else "rapid", snap)
@@ -847,7 +847,7 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 rows = rows[moving[rows]]
                 if not len(rows):
                     continue
-            snap = (dex.lo.copy(), dex.hi.copy()) if near is not None else None
+            snap = None if near is None else (dex.lo.astype(np.float32), dex.hi.astype(np.float32))
             jobs = []
             if swept:
                 removed, per, per_in, deep, n_pairs, n_poses = _job_swept(
