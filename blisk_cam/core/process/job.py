@@ -59,6 +59,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import time
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
@@ -79,7 +80,9 @@ from ..post.job_program import JobSection, check_job_post, job_program
 from ..presets import preset_names
 from ..runtime import Progress
 from ..stock.blank import is_part_based, stock_from_spec
-from ..stock.dexels import RadialDexels
+from ..stock.dexels import MIN_RESOLUTION, RadialDexels
+from ..stock.fine_check import FineCheck, RunProgram
+from ..stock.rapid_clearance import clear_rapids
 from ..stock.simulation import iter_simulate
 from ..tool.assembly import AssemblyError, holder_profile
 from ..tool.cutter import Cutter
@@ -601,6 +604,37 @@ def final_verdict(job: Job, part: BliskPart, stock, runs):
                        gouge_tolerance=job.gouge_tolerance, fillet_radius=fr, cut_depth=cut)
 
 
+#: the fine re-check of the rows near the stock (:mod:`..stock.fine_check`) runs at the
+#: job's resolution divided by this
+FINE_CHECK_FACTOR = 5.0
+#: a finishing operation's retract and approach points are moved out along the tool axis
+#: until the rapids beyond them clear the stock it starts on by this many of its cells
+#: (:mod:`..stock.rapid_clearance`)
+RAPID_STOCK_MARGIN = 2.0
+
+
+def _fine_blank(job: Job, part: BliskPart) -> RadialDexels | None:
+    """The blank at the fine re-check's resolution; None when it cannot be finer (a stock
+    state .npz keeps its own grid)."""
+    res = max(MIN_RESOLUTION, job.resolution / FINE_CHECK_FACTOR)
+    if res >= job.resolution:
+        return None
+    dex = stock_from_spec(job.blank, part, res)
+    return dex if dex.resolution < job.resolution else None
+
+
+def _add_fine_crashes(sim, found) -> None:
+    """Add the crashes the fine re-check ``found`` to the simulation ``sim`` (its removal,
+    summary and verdict: a crash fails the operation)."""
+    known = {(c.row, c.kind) for c in sim.removal.crashes}
+    new = [c for c in found if (c.row, c.kind) not in known]
+    if not new:
+        return
+    sim.removal.crashes = sorted(sim.removal.crashes + new, key=lambda c: (c.row, c.kind))
+    sim.summary["crashes"] = [c.as_dict() for c in sim.removal.crashes]
+    sim.summary["passed"] = False
+
+
 def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | None = None):
     """Generator: the job's run (module docstring); yields Progress, returns a
     :class:`JobRun`. ``on_operation(run)`` is called after each operation while its stock is
@@ -631,11 +665,13 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             raise _prefixed(exc, op.where) from None
     run = JobRun(job, part, {"volume_mm3": stock.volume(), "digest": stock_digest(stock)})
     n = len(job.operations)
+    fine_blank = _fine_blank(job, part)
+    fine = None if fine_blank is None else FineCheck(fine_blank, [])
     for k, op in enumerate(job.operations):
         lo, hi = 0.02 + 0.9 * k / n, 0.02 + 0.9 * (k + 1) / n
         label = f"operation {op.index} ({op.name})"
         cutter = make_cutter(op.tool)
-        ctx = OperationContext(part, cutter, op.tool, dict(op.options), stock, op.where)
+        ctx = OperationContext(part, cutter, op.tool, dict(op.options), stock, op.where, fine)
         prep = op.kind.prepare(ctx)
         stock_in = {"volume_mm3": stock.volume(), "digest": stock_digest(stock)}
         try:
@@ -646,11 +682,32 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             path = result.path
             if path.program is None or len(path.program) == 0:
                 raise BliskCamError("the operation planned no moves")
+            t_clear = time.perf_counter()
+            if op.kind.name != "rough":  # finishing: the rapids clear of the stock before it
+                path.program, moved = clear_rapids(path.program, stock, cutter,
+                                                   margin=RAPID_STOCK_MARGIN * job.resolution)
+                path.stats.update({"rapids_lifted_clear_of_stock": moved["moved"],
+                                   "rapids_lift_max_mm": moved["longest_lift_mm"],
+                                   "rapids_still_meeting_stock": moved["still_meeting"]})
+            clear_seconds = time.perf_counter() - t_clear
+            near: list = []
+            body = tool_assembly(op.tool, cutter)
             sim = yield from _scaled(
                 iter_simulate(part, stock, [path], gouge_tolerance=job.gouge_tolerance,
-                              assembly=tool_assembly(op.tool, cutter),
-                              cut_into_part=_cut_into_part(run.operations)),
+                              assembly=body, cut_into_part=_cut_into_part(run.operations),
+                              near=near),
                 lo + 0.5 * (hi - lo), hi, f"{label} on the stock")
+            # the rapids and body rows that met material the stock's crash test let pass
+            # (thinner than half a cell) judged again on a fine stock round them
+            t_fine = time.perf_counter()
+            if near and fine is not None:
+                yield Progress(hi, f"{label}: re-checking {len(near)} rows near the stock at "
+                               f"{fine.blank.resolution:g} mm")
+                _add_fine_crashes(sim, fine.crashes(stock, path.program, cutter, body, near))
+            if fine is not None:
+                fine.history.append(RunProgram(path.program, cutter, body))
+            near = []
+            fine_seconds = time.perf_counter() - t_fine
             tilt = prep.tilt if prep.tilt is not None else _measured_tilt(path)
             depth = op.depth if op.depth is not None else op.kind.default_depth
             limits = [x for x in (op.tool.max_spindle, job.max_spindle) if x]
@@ -661,7 +718,8 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             raise _prefixed(exc, op.where) from None
         orun = OperationRun(op, path, cut, sim, stock_in,
                             {"volume_mm3": stock.volume(), "digest": stock_digest(stock)},
-                            dict(result.seconds), stock)
+                            {**result.seconds, "rapid_clearance": clear_seconds,
+                             "fine_check": fine_seconds}, stock)
         if on_operation is not None:
             on_operation(orun)
         orun.stock = None

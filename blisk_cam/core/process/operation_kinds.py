@@ -89,7 +89,9 @@ class OperationContext:
     (:class:`..tool.cutter.Cutter`), ``tool`` (:class:`ToolEntry`), ``options`` (the
     operation's own keys as typed in the job file, user units), ``stock`` (the
     :class:`..stock.dexels.RadialDexels` before the operation; None while the job is checked),
-    ``where`` (e.g. "job blisk.toml operation 2 ('finish')")."""
+    ``where`` (e.g. "job blisk.toml operation 2 ('finish')"), ``fine_check`` (the job's
+    :class:`..stock.fine_check.FineCheck`, for an operation that checks its program against
+    the stock itself: roughing; None: none)."""
 
     part: object
     cutter: object
@@ -97,6 +99,7 @@ class OperationContext:
     options: dict
     stock: object = None
     where: str = ""
+    fine_check: object = None
 
 
 @dataclass
@@ -513,7 +516,8 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
             raise BliskCamError(f"{where} key 'axis': blades or radial, got {axis!r}")
         kw["follow_blades"] = axis == "blades"
     try:
-        req = RoughRequest(tool=ctx.cutter, assembly=tool_assembly(ctx.tool, ctx.cutter), **kw)
+        req = RoughRequest(tool=ctx.cutter, assembly=tool_assembly(ctx.tool, ctx.cutter),
+                           fine_check=ctx.fine_check, **kw)
     except (BliskCamError, TypeError, ValueError) as exc:
         raise BliskCamError(f"{where}: {exc}") from None
     return PreparedOperation(RoughingOperation(), ctx.part, req, (), 0.0, reads_stock=True,

@@ -131,7 +131,8 @@ class RoughRequest:
         :func:`..channel.axis.bound_turn`)
     check_stock : bool — run the program on the blank and leave out what brings the tool
         body against the stock (the ``link`` stage; False: only the simulation afterwards
-        reports it)
+        reports it); ``fine_check`` (:class:`..stock.fine_check.FineCheck` or None) judges
+        the rows near the stock again on a finer stock (the body thinner than a cell)
     order : str — ``gap``: every level of a gap before the next gap; ``level``: a level in
         every gap before the next level (:mod:`..channel.gaps`). The program of one gap is
         posted for the N gaps in that order: by gap the post repeats it per gap; by level
@@ -166,6 +167,7 @@ class RoughRequest:
     follow_blades: bool = True
     max_turn: float = math.radians(2.0)
     check_stock: bool = True
+    fine_check: object = None
     order: str = "gap"
     gaps: int | None = None
     floor_band_step: float = 0.5
@@ -655,12 +657,16 @@ class RoughingOperation(Operation):
         # pass (its axis differs from the one that cleared the levels above) whose body or
         # approach meets material is left out, any other pass loses the stretch of a tool
         # radius + 2 mm round each such pose, and the rest is linked again
-        for _ in range(4 if req.check_stock else 0):
-            check_cancel()
+        for round_ in range(4 if req.check_stock else 0):
+            check_cancel()  # with a fine check, first the body rows within two cells of material
+            near, wide = (None, None) if req.fine_check is None else ([], None if round_ else
+                                                                   2.0 * st.stock.resolution)
             res = remove_program(st.stock.copy(), program, st.cutter, st.assembly,
-                                 sweep_tolerance=0.05)
+                                 sweep_tolerance=0.05, near=near, near_margin=wide)
             hits: dict = {}
-            for c in res.crashes:
+            for c in res.crashes + (req.fine_check.crashes(
+                    st.stock, program, st.cutter, st.assembly, near,
+                    grow=wide and 1.5 * wide) if near else []):
                 k = int(curve[c.row]) if c.row < len(curve) else -1
                 j = int(index[c.row]) if k >= 0 else 0
                 if k < 0:  # a link, rapid or approach: the start of the piece it leads to

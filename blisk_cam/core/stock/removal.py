@@ -52,7 +52,7 @@ import numpy as np
 
 from ..errors import StockError
 from ..kernels import stock as compiled_stock
-from ..runtime import Progress, check_cancel, workers
+from ..runtime import Progress, check_cancel, run_to_end, workers
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
 from ..toolpath.types import MOVE_NAMES, MOVE_RAPID, Program
@@ -313,11 +313,13 @@ class Crash:
     volume: float  # mm³ removed in the sector
     depth: float  # mm, the longest stretch removed along one ray (radial)
     where: tuple  # (x, y, z) mm of the tool tip at the row
+    resolution: float | None = None  # mm: found by :mod:`.fine_check` at this resolution
 
     def as_dict(self) -> dict:
         return {"row": self.row, "kind": self.kind, "move": self.move,
                 "volume_mm3": round(self.volume, 6), "depth_mm": round(self.depth, 4),
-                "tip_mm": [round(float(x), 4) for x in self.where]}
+                "tip_mm": [round(float(x), 4) for x in self.where],
+                **({"found_at_resolution_mm": self.resolution} if self.resolution else {})}
 
 
 @dataclass
@@ -696,9 +698,16 @@ def _job_swept(dex: RadialDexels, tip, axis, rows, first: bool, solid: _SweptSol
     return removed * cell, vol * cell, vol_in * cell, depth, pairs, poses
 
 
-def _note_crashes(crash_rows: dict, rows, per, per_in, deep, kind, move, tip, row_offset):
-    """Record the rows whose solid (and its inner solid) met material as crashes."""
-    for j in np.nonzero((per_in > CRASH_VOLUME) & (per > CRASH_VOLUME))[0]:
+def _note_crashes(crash_rows: dict, rows, per, per_in, deep, kind, move, tip, row_offset,
+                  near=None, snap=None):
+    """Record the rows whose solid (and its inner solid) met material as crashes; with a
+    ``near`` list, those whose inner solid did not, ``(row, kind, snap)`` (``snap``: the
+    stock's (lo, hi) before the batch, float32: it only bounds the region)."""
+    crash = (per_in > CRASH_VOLUME) & (per > CRASH_VOLUME)
+    if near is not None:
+        near += [(int(rows[j]) + row_offset, "body" if kind == "body" else "rapid", snap)
+                 for j in np.nonzero(~crash & (per > CRASH_VOLUME))[0]]
+    for j in np.nonzero(crash)[0]:
         key = (int(rows[j]), "body" if kind == "body" else "rapid")
         c = crash_rows.get(key)
         if c is None:
@@ -710,11 +719,34 @@ def _note_crashes(crash_rows: dict, rows, per, per_in, deep, kind, move, tip, ro
             c.depth = max(c.depth, float(deep[j]))
 
 
+def _posed_bodies(body: ToolAssembly, ctol: float) -> list:
+    return [(fp, (halfplane_bounds(fp), halfplane_edges(fp)), f[0], f[2], max(f[1], f[3]),
+             _shrink(fp, ctol)) for f in body.frustums() for fp in [frustum_halfplanes(*f)]]
+
+
+def _near_body(scratch, tip, axis, rows, solids, step, reach, compiled, r_cap, crash_rows,
+               near, snap, row_offset):
+    """Add to ``near`` the ``rows`` (no crash) whose grown body ``solids`` meets ``scratch``."""
+    per = np.zeros(len(rows))
+    if isinstance(solids[0], _SweptSolid):
+        for solid in solids:
+            per += _job_swept(scratch, tip, axis, rows, True, solid, True, r_cap)[1]
+    else:
+        tips, axes, rr = _sub_poses(tip, axis, rows, True, step, reach)
+        group = np.searchsorted(rows, rr)
+        for planes, bounds, z0, z1, rad in solids:
+            args = (scratch, tips, axes, group, len(rows), planes, z0, z1, rad, True, None)
+            per += (_job_compiled(*args, bounds, r_cap) if compiled else _job_numpy(*args))[1]
+    near += [(int(rows[j]) + row_offset, "body", snap) for j in np.nonzero(per > CRASH_VOLUME)[0]
+             if (int(rows[j]), "body") not in crash_rows]
+
+
 def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAssembly | None
                    = None, *, sweep_tolerance: float | None = None,
                    arc_tolerance: float = 1e-3, check_body: bool = True, row_offset: int = 0,
                    batch: int = 64, crash_tolerance: float | None = None,
-                   swept: bool | None = None):
+                   swept: bool | None = None, moving=None, near: list | None = None,
+                   near_margin: float | None = None):
     """Remove the material of every row of ``program`` from ``dex`` (in place); a generator
     yielding :class:`~..runtime.Progress` and returning a :class:`RemovalResult`.
 
@@ -753,6 +785,9 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         ``swept`` is False, with a compiled kernel that can, per move by the sweep kernel:
         each frustum culled by its own bounding cylinder about the move's mid pose, the
         sub-poses evaluated only on rays whose material that cylinder meets.
+    moving : (m,) bool or None — the rows that move (False: only the next move's start);
+    near : list or None — the rows whose rapid, or body grown by ``near_margin`` (default
+        ``crash_tolerance``), met material without a crash, for :mod:`.fine_check`
     """
     cutter = as_cutter(cutter)
     body = assembly or body_assembly(cutter)
@@ -770,9 +805,7 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
     if not ctol >= 0:
         raise StockError(f"crash tolerance must be ≥ 0 mm, got {crash_tolerance}")
     flute_in = _shrink(flute, ctol)
-    bodies = [(fp, (halfplane_bounds(fp), halfplane_edges(fp)), f[0], f[2], max(f[1], f[3]),
-               _shrink(fp, ctol))
-              for f in body.frustums() for fp in [frustum_halfplanes(*f)]]
+    bodies = _posed_bodies(body, ctol)
     body_reach = math.hypot(body.top, body.max_radius)
     radii = [r for f in body.frustums() for r in (f[1], f[3]) if r > 0]
     body_step = max(step, math.sqrt(8.0 * min(radii, default=rho) * max(0.5 * ctol, tol)))
@@ -798,11 +831,23 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
         raise StockError("the swept-volume removal needs the compiled kernels (make kernels)")
     flute_swept = _flute_solid(cutter, arc_tolerance, ctol, step, tol) if swept else None
     body_swept = _body_solids(body, body_step, ctol) if body_by_sweep else []
+    # near: the body grown by the crash tolerance in radius (on a scratch copy)
+    g = ctol if near_margin is None else float(near_margin)
+    grown = ToolAssembly(body.flute_length, tuple((z, r + g) for z, r in body.profile))
+    near_body = [] if near is None or not check_body or g <= 0 else _body_solids(
+        grown, body_step, ctol) if body_by_sweep else [(p, pb, z0, z1, rad) for p, pb, z0, z1,
+                                                        rad, _ in _posed_bodies(grown, 0.0)]
     done = 0
     for m, start, stop in runs:
         for s in range(start, stop, batch):
             check_cancel()
             rows = np.arange(s, min(stop, s + batch))
+            done += len(rows)
+            if moving is not None:
+                rows = rows[moving[rows]]
+                if not len(rows):
+                    continue
+            snap = None if near is None else (dex.lo.astype(np.float32), dex.hi.astype(np.float32))
             jobs = []
             if swept:
                 removed, per, per_in, deep, n_pairs, n_poses = _job_swept(
@@ -810,7 +855,7 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                 result.pairs += n_pairs
                 result.sub_poses += n_poses
                 _note_crashes(crash_rows, rows, per, per_in, deep, "flute", move, tip,
-                              row_offset)
+                              row_offset, near, snap)
                 result.removed[MOVE_NAMES[m]] += removed
             else:
                 poses = _sub_poses(tip, axis, rows, True, step, reach)
@@ -824,11 +869,13 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                          for p, pb, z0, z1, rad, pin in bodies]
             for kind, (tips, axes, rr), planes, bounds, z0, z1, rad, p_in in jobs:
                 measure = kind == "body" or m == MOVE_RAPID
-                args = (dex, tips, axes, rr - s, len(rows), planes, z0, z1, rad, measure, p_in)
+                args = (dex, tips, axes, np.searchsorted(rows, rr), len(rows), planes, z0, z1,
+                        rad, measure, p_in)
                 out = _job_compiled(*args, bounds, r_cap) if compiled else _job_numpy(*args)
                 removed, per, per_in, deep, n_pairs = out
                 result.pairs += n_pairs
-                _note_crashes(crash_rows, rows, per, per_in, deep, kind, move, tip, row_offset)
+                _note_crashes(crash_rows, rows, per, per_in, deep, kind, move, tip, row_offset,
+                              near if measure else None, snap)
                 if kind == "flute":
                     result.removed[MOVE_NAMES[m]] += removed
             if check_body and body_swept:  # after the flute, as the posed body
@@ -837,9 +884,11 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
                         dex, tip, axis, rows, True, solid, True, r_cap)
                     result.pairs += n_pairs
                     _note_crashes(crash_rows, rows, per, per_in, deep, "body", move, tip,
-                                  row_offset)
+                                  row_offset, near, snap)
                 result.sub_poses += n_poses
-            done += len(rows)
+            if near_body:
+                _near_body(dex.copy(), tip, axis, rows, near_body, body_step, body_reach,
+                           compiled, r_cap, crash_rows, near, snap, row_offset)
             yield Progress(done / max(len(tip), 1),
                            f"simulating row {done} of {len(tip)}")
     result.crashes = sorted(crash_rows.values(), key=lambda c: (c.row, c.kind))
@@ -848,9 +897,4 @@ def simulate_moves(dex: RadialDexels, program: Program, cutter, assembly: ToolAs
 
 def remove_program(dex: RadialDexels, program: Program, cutter, assembly=None, **kw):
     """Run :func:`simulate_moves` to the end (no progress); returns the RemovalResult."""
-    gen = simulate_moves(dex, program, cutter, assembly, **kw)
-    while True:
-        try:
-            next(gen)
-        except StopIteration as stop:
-            return stop.value
+    return run_to_end(simulate_moves(dex, program, cutter, assembly, **kw))

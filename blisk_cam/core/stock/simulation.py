@@ -76,7 +76,8 @@ def _check_frame(part: BliskPart, path: ToolPath, k: int):
 
 def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_tolerance=None,
                   reach_out: float = 2.0, reach_in: float = 0.5, assembly=None,
-                  check_body: bool = True, cut_into_part: float | None = None):
+                  check_body: bool = True, cut_into_part: float | None = None,
+                  near: list | None = None):
     """Run ``paths`` (ToolPath with programs, in order) on ``stock`` (changed in place);
     yields Progress, returns a :class:`Simulation`. ``gouge_tolerance`` (mm) defaults to the
     largest chord tolerance of the paths plus the stock's resolution. When every program
@@ -90,7 +91,9 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
     below the judged surface (``resolved_points``' ``cut_depth``) is taken from the paths: each
     cuts its chord into the surface it leaves (its allowance), so ``chord − allowance`` into the
     part (< 0: it stays that far outside); ``cut_into_part`` (mm, the same figure) adds what
-    earlier operations on this stock cut."""
+    earlier operations on this stock cut. ``near``: a list collecting the rows whose rapid or
+    body met material the crash test let pass (:func:`.removal.simulate_moves`; rows counted
+    over ``paths`` in order), for :mod:`.fine_check`."""
     paths = list(paths)
     for k, p in enumerate(paths):
         _check_frame(part, p, k)
@@ -105,7 +108,7 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
     offset = 0
     for p in paths:
         gen = simulate_moves(stock, p.program, p.tool, assembly, check_body=check_body,
-                             row_offset=offset)
+                             row_offset=offset, near=near)
         while True:
             try:
                 pr = next(gen)
