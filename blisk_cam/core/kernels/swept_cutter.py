@@ -58,11 +58,16 @@ def boxes_available() -> bool:
     return ext is not None and hasattr(ext, "fast_search_boxes")
 
 
-def leaf_boxes(lo, hi):
-    """The compiled tree of the leaves' boxes ``lo``, ``hi`` (NC, 3) mm (each bounding the
-    volume the cutter sweeps along the leaf's moves)."""
+def leaf_boxes(lo, hi, starts=None):
+    """The compiled trees of the leaves' boxes ``lo``, ``hi`` (NC, 3) mm (each bounding the
+    volume the cutter sweeps along the leaf's moves); ``starts`` (M,), optional: the first
+    leaf of each member of a forest, ascending from 0 (a tree per member: a point's query
+    walks its member's leaves only; the same leaves are found)."""
     c = np.ascontiguousarray
-    return extension().LeafBoxes(c(lo, dtype=np.float64), c(hi, dtype=np.float64))
+    if starts is None:
+        return extension().LeafBoxes(c(lo, dtype=np.float64), c(hi, dtype=np.float64))
+    return extension().LeafBoxes(c(lo, dtype=np.float64), c(hi, dtype=np.float64),
+                                 c(starts, dtype=np.int64))
 
 
 def fast_search_boxes(cutter, tab, boxes, Pc, u, arg, slack, cl_lo, cl_hi, xtol: float,

@@ -178,7 +178,8 @@ class SweptForest:
                 lo, hi = zip(*(m._leaf_box_arrays() for m in self.members
                                if m.tree is not None), strict=True)
                 self._cboxes = compiled_cutter.leaf_boxes(np.concatenate(lo),
-                                                          np.concatenate(hi))
+                                                          np.concatenate(hi),
+                                                          self._co[self._has])
             return compiled_cutter.fast_search_boxes(
                 self.cutter, self, self._cboxes, Pc, u, arg, self._slk[wc], self._co[wc],
                 self._co[wc] + self._ncl[wc], self.xtol, delta, workers())

@@ -20,6 +20,7 @@ from scipy.spatial import cKDTree
 from ..errors import BliskCamError, ToleranceError
 from ..geometry.bvh import CHUNK, GROUP_MIN, ClusterTree, group_argmin, query_groups, run_clusters
 from ..geometry.vectors import dot, rotate, slerp
+from ..kernels import knn as compiled_knn
 from ..kernels import swept_cutter as compiled_cutter
 from ..runtime import map_chunks, workers
 from ..tool.cutter import as_cutter
@@ -345,13 +346,25 @@ class SweptCutter:
     def _upper_bound(self, Pc):
         """Distances to the poses of the nearest corner centres: (u (k,), segment (k,))."""
         kk = int(min(4, len(self.ta) * self._ring_m))
-        _, j = self.kd.query(Pc, k=kk)
-        j = np.asarray(j, dtype=np.int64).reshape(-1) // self._ring_m
+        j = self._ring_nearest(Pc, kk).reshape(-1) // self._ring_m
         qi = np.repeat(np.arange(len(Pc)), kk)
         tk = np.take
         d = self.cutter.signed_distance(tk(Pc, qi, axis=0), tk(self.ta, j, axis=0),
                                         tk(self.aa, j, axis=0))
         return group_argmin(len(Pc), qi, d, j)
+
+    def _ring_nearest(self, Pc, kk):
+        """(k, kk) int64: the ``kk`` ring points nearest each point (scipy's set; the compiled
+        k-d tree answers when it runs, scipy where the kk-th and the next are at the same
+        distance, and in the order of distance either way)."""
+        if not compiled_knn.available():
+            _, j = self.kd.query(Pc, k=kk)
+            return np.asarray(j, dtype=np.int64).reshape(len(Pc), kk)
+        if getattr(self, "_ckd", None) is None:
+            self._ckd = compiled_knn.point_tree(self.kd.data)
+        return compiled_knn.nearest_k(
+            self._ckd, Pc, kk, np.inf, workers(),
+            ties=lambda Q: np.asarray(self.kd.query(Q, k=kk)[1], np.int64).reshape(-1, kk))
 
     def _exact_chunk(self, Pc):
         """The "exact" method on a chunk of points: (distance (k,), segment (k,))."""
