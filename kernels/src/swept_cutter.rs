@@ -14,6 +14,7 @@ use crate::numpy_ops::nanmin;
 mod prune;
 use prune::fast_point;
 
+
 /// A cutter's meridional profile (`Cutter.signed_distance_rz`'s constants).
 #[derive(Clone, Copy)]
 pub struct Profile {
@@ -391,6 +392,7 @@ pub fn fast_search<'py>(
             s = i;
         }
     }
+    let reach = prune::leaf_reach(&tab, sa.nc);
     let pl = crate::pool(threads)?;
     let res: Vec<(f64, i64)> = py.detach(|| {
         pl.install(|| {
@@ -398,7 +400,7 @@ pub fn fast_search<'py>(
                 .with_min_len(4)
                 .map(|&(a, b)| {
                     let p = qq[a] as usize;
-                    fast_point(&prof, &tab, &pp[p], &ll[a..b], uu[p], aa[p], sl[p], xtol, delta)
+                    fast_point(&prof, &tab, &reach, &pp[p], &ll[a..b], uu[p], aa[p], sl[p], xtol, delta)
                 })
                 .collect()
         })
@@ -419,22 +421,26 @@ pub fn fast_search<'py>(
 /// its minimum: the others' moves are all farther than the bound, so they change nothing).
 /// A forest's members (runs of leaves, `starts`) each get a tree of their own: a point asks
 /// its member's only (one tree over all members walked the neighbouring levels' leaves too,
-/// nine in ten of those it met on Rotor 37's scallops); the leaves found are the same.
+/// nine in ten of those it met on Rotor 37's scallops); the leaves found are the same. A leaf
+/// may have several boxes (`pieces`, along the tool: together tighter than one box of a
+/// whole tilted tool); it is found when one of them is.
 #[pyclass(frozen)]
 pub struct LeafBoxes {
     /// (first leaf, tree of the member's leaves numbered from it)
     trees: Vec<(usize, parry3d_f64::partitioning::Bvh)>,
     n: usize,
+    pieces: usize,
 }
 
 #[pymethods]
 impl LeafBoxes {
     /// lo, hi (NC, 3) float64 mm: each leaf's box (already padded by the cutter's reach);
-    /// `starts` (M,) int64, optional: the first leaf of each member, ascending from 0.
+    /// `starts` (M,) int64, optional: the first leaf of each member, ascending from 0;
+    /// `pieces`: boxes per leaf (rows `pieces · l ..` are leaf l's).
     #[new]
-    #[pyo3(signature = (lo, hi, starts=None))]
+    #[pyo3(signature = (lo, hi, starts=None, pieces=1))]
     fn new(py: Python<'_>, lo: numpy::PyReadonlyArray2<'_, f64>, hi: numpy::PyReadonlyArray2<'_, f64>,
-           starts: Option<PyReadonlyArray1<'_, i64>>) -> PyResult<Self> {
+           starts: Option<PyReadonlyArray1<'_, i64>>, pieces: usize) -> PyResult<Self> {
         use parry3d_f64::bounding_volume::Aabb;
         use parry3d_f64::math::Vector;
         use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
@@ -447,7 +453,10 @@ impl LeafBoxes {
             .zip(h3.iter())
             .map(|(a, b)| Aabb::new(Vector::new(a[0], a[1], a[2]), Vector::new(b[0], b[1], b[2])))
             .collect();
-        let n = boxes.len();
+        if pieces == 0 || boxes.len() % pieces != 0 {
+            return Err(PyValueError::new_err("lo and hi must hold `pieces` rows per leaf"));
+        }
+        let n = boxes.len() / pieces;
         let mut cuts: Vec<usize> = match &starts {
             Some(st) => {
                 let st = crate::slice1(st, "starts")?;
@@ -464,10 +473,11 @@ impl LeafBoxes {
         let trees = py.detach(|| {
             cuts.windows(2)
                 .filter(|w| w[1] > w[0])
-                .map(|w| (w[0], Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes[w[0]..w[1]])))
+                .map(|w| (w[0], Bvh::from_leaves(BvhBuildStrategy::Binned,
+                                                 &boxes[w[0] * pieces..w[1] * pieces])))
                 .collect()
         });
-        Ok(LeafBoxes { trees, n })
+        Ok(LeafBoxes { trees, n, pieces })
     }
 }
 
@@ -490,13 +500,16 @@ impl LeafBoxes {
                 break;
             }
             for leaf in bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
-                let l = (leaf as usize + s) as i64;
+                let l = (leaf as usize / self.pieces + s) as i64;
                 if l >= lo && l < hi {
                     out.push(l);
                 }
             }
         }
         out.sort_unstable();
+        if self.pieces > 1 {
+            out.dedup();
+        }
         out
     }
 }
@@ -540,6 +553,7 @@ pub fn fast_search_boxes<'py>(
         return Err(PyValueError::new_err("inconsistent boxes or leaf ranges"));
     }
     let bx: &LeafBoxes = &boxes;
+    let reach = prune::leaf_reach(&tab, sa.nc);
     let pl = crate::pool(threads)?;
     let res: Vec<(f64, i64)> = py.detach(|| {
         pl.install(|| {
@@ -552,7 +566,7 @@ pub fn fast_search_boxes<'py>(
                     if leaves.is_empty() {
                         return (uu[i], aa[i]);
                     }
-                    fast_point(&prof, &tab, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta)
+                    fast_point(&prof, &tab, &reach, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta)
                 })
                 .collect()
         })

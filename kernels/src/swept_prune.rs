@@ -18,7 +18,10 @@
 //! * step 2's motion bound `max(lb, (v0 + v1 − D)/2) < u2` decides which moves go on; with
 //!   `L` in place of a value not evaluated the bound is lower (rounding is monotone), so a
 //!   move it drops the exact bound drops too; a move it keeps is decided on the exact values,
-//!   evaluated then.
+//!   evaluated then;
+//! * step 1's chord bound `max(−max(z0, z1), min(z0, z1) − h) − eps < u0` needs eps's square
+//!   root only when the height part is below `u0` plus an upper bound of every move's eps in
+//!   the leaf (see [`LeafReach`]): above it, the plain step drops the move too.
 //!
 //! Leaves are the caller's (sorted), moves in leaf order, as in the plain steps.
 
@@ -81,17 +84,21 @@ fn value(prof: &Profile, p: &mut Pose) -> f64 {
 /// `swept_cutter::fast_point` (steps 1–4 for one point and its candidate leaves) with the
 /// pose values evaluated only where they can matter (module docstring): (u, arg).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f64,
-                         arg0: i64, slack: f64, xtol: f64, delta: f64) -> (f64, i64) {
+pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &[f64; 3],
+                         leaves: &[i64], u0: f64, arg0: i64, slack: f64, xtol: f64, delta: f64)
+                         -> (f64, i64) {
     let nb = tab.nb;
     let h = prof.h;
     let rm = max_radius(prof);
     let mut poses: Vec<Pose> = Vec::with_capacity(leaves.len() * (nb + 1));
     let mut cands: Vec<Cand> = Vec::new();
-    // 1. heights above the tips, the chord bound (the plain step's floats)
+    // 1. heights above the tips, the chord bound (the plain step's floats); a move whose
+    // height bound alone is above u0 by more than the leaf's largest allowance is dropped
+    // without its allowance's square root (the plain step drops it too)
     for &leaf in leaves {
         let l = leaf as usize;
         let base = poses.len();
+        let skip_above = u0 + eps_bound(&reach[l], p, slack);
         for j in 0..=nb {
             let t = &tab.lt[l * (nb + 1) + j];
             let x = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
@@ -107,6 +114,9 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i
             }
             let (q0, q1) = (&poses[base + j], &poses[base + j + 1]);
             let (z0, z1, n0, n1) = (q0.z, q1.z, q0.n, q1.n);
+            if nanmax(-nanmax(z0, z1), nanmin(z0, z1) - h) >= skip_above {
+                continue;
+            }
             let phi = tab.lphi[l * nb + j];
             let dtip = tab.ldt[l * nb + j];
             let reach = nanmax(n0, n1).sqrt();
@@ -227,4 +237,49 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i
     } else {
         (u, arg)
     }
+}
+
+/// What a leaf's moves can reach, from its first pose: every pose of the leaf has its tip
+/// within `tt` of the first tip; `phi_max`, `dt_max` the largest turn and tip move of one
+/// move.
+pub(super) struct LeafReach {
+    t0: [f64; 3],
+    tt: f64,
+    phi_max: f64,
+    dt_max: f64,
+}
+
+/// [`LeafReach`] of every leaf of the tables.
+pub(super) fn leaf_reach(tab: &Tables, nc: usize) -> Vec<LeafReach> {
+    let nb = tab.nb;
+    (0..nc)
+        .map(|l| {
+            let t0 = tab.lt[l * (nb + 1)];
+            let mut tt = 0.0f64;
+            for j in 1..=nb {
+                let t = &tab.lt[l * (nb + 1) + j];
+                let d = [t[0] - t0[0], t[1] - t0[1], t[2] - t0[2]];
+                tt = tt.max(super::dot3(&d, &d).sqrt());
+            }
+            let (mut phi_max, mut dt_max) = (0.0f64, 0.0f64);
+            for j in 0..nb {
+                phi_max = phi_max.max(tab.lphi[l * nb + j]);
+                dt_max = dt_max.max(tab.ldt[l * nb + j]);
+            }
+            // a rounding allowance: the norms are far more accurate than 1e-9
+            LeafReach { t0, tt: tt * (1.0 + 1e-9) + 1e-12, phi_max, dt_max }
+        })
+        .collect()
+}
+
+/// An upper bound of the allowance `eps` of step 1 of every move of the leaf for the point
+/// (the reach from a pose's tip is at most |x0| + tt), with a rounding allowance: a move
+/// whose height bound is at least `u0` plus it has `lb ≥ u0` in the plain step's floats.
+#[inline]
+fn eps_bound(lr: &LeafReach, p: &[f64; 3], slack: f64) -> f64 {
+    let x = [p[0] - lr.t0[0], p[1] - lr.t0[1], p[2] - lr.t0[2]];
+    let xl = super::dot3(&x, &x).sqrt() + lr.tt;
+    let e = (lr.phi_max * lr.phi_max * xl + 2.0 * lr.phi_max * lr.dt_max) * (0.125 * (1.0 + 1e-6))
+        + slack;
+    e * (1.0 + 1e-9) + 1e-9 * (1.0 + xl)
 }

@@ -44,6 +44,9 @@ def _golden_step(f, lo, hi, x1, x2, f1, f2):
     return (lo, hi, np.where(left, nx, x2), np.where(left, x1, nx), np.where(left, fn, f2),
             np.where(left, f1, fn))
 
+#: boxes per leaf of the compiled candidates, along the tool (:meth:`SweptCutter._leaf_box_arrays`)
+BOX_PIECES = 4
+
 #: how :class:`SweptCutter` finds the minimum over each move (see its docstring)
 SWEEP_METHODS = ("fast", "exact")
 
@@ -391,19 +394,28 @@ class SweptCutter:
         return group_argmin(kc, q, vmin, sg)
 
     def _leaf_box_arrays(self):
-        """(lo, hi) (NC, 3) mm: per leaf the box of its poses' axis segments (tip to h),
-        widened by the cutter's largest radius, the slerp's bulge and a rounding pad: it holds
-        the volume the cutter sweeps along the leaf's moves (for the compiled candidates)."""
+        """(lo, hi) (NC · P, 3) mm: per leaf, P = :data:`BOX_PIECES` boxes, piece k of the
+        poses' axis segments (tip + z axis for z from k h / P to (k + 1) h / P), widened by the
+        cutter's largest radius, the slerp's bulge and a rounding pad: together they hold the
+        volume the cutter sweeps along the leaf's moves (for the compiled candidates; one box
+        of a whole tilted tool spans its length across the axis too)."""
         h = self.cutter.h
-        pts = np.concatenate([self._lt, self._lt + h * self._la], axis=1)
+        z = h * np.arange(BOX_PIECES + 1) / BOX_PIECES
+        los, his = [], []
+        for z0, z1 in zip(z[:-1], z[1:], strict=True):
+            pts = np.concatenate([self._lt + z0 * self._la, self._lt + z1 * self._la], axis=1)
+            los.append(pts.min(axis=1))
+            his.append(pts.max(axis=1))
+        scale = max(1.0, float(np.abs(self._lt).max(initial=0.0)) + h)
         pad = (self.cutter.max_radius * (1.0 + 1e-9) + 1e-9 + self.bulge + 2.0 * self._slack
-               + 1e-9 * max(1.0, float(np.abs(pts).max(initial=0.0))))
-        return pts.min(axis=1) - pad, pts.max(axis=1) + pad
+               + 1e-9 * scale)
+        return (np.stack(los, 1).reshape(-1, 3) - pad, np.stack(his, 1).reshape(-1, 3) + pad)
 
     def _compiled_boxes(self):
         """The compiled tree of :meth:`_leaf_box_arrays` (built once)."""
         if getattr(self, "_cboxes", None) is None:
-            self._cboxes = compiled_cutter.leaf_boxes(*self._leaf_box_arrays())
+            self._cboxes = compiled_cutter.leaf_boxes(*self._leaf_box_arrays(),
+                                                      pieces=BOX_PIECES)
         return self._cboxes
 
     def _fast_chunk(self, Pc, delta: float = 1e-6):
