@@ -12,6 +12,7 @@ mod arrays;
 mod closest;
 mod collision_refine;
 mod collision_walk;
+mod hypot;
 mod knn;
 mod numpy_ops;
 mod step;

@@ -67,7 +67,7 @@ impl Profile {
         let (vr, vz) = (rho - self.e, z - self.f);
         let in_sector = (vr * self.ca - vz * self.sa >= 0.0) && (vr * self.cb + vz * self.sb <= 0.0);
         // |v| is read only inside the arc's sector (libm's hypot is the costly step)
-        let vl = if in_sector { vr.hypot(vz) } else { 0.0 };
+        let vl = if in_sector { crate::hypot::hypot(vr, vz) } else { 0.0 };
         let mut dist = d2.sqrt();
         if in_sector {
             dist = nanmin(dist, (vl - self.r).abs());
