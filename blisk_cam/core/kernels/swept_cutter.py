@@ -53,9 +53,11 @@ def fast_search(cutter, tab, Pc, u, arg, q, leaf, slack, xtol: float, delta: flo
 
 
 def boxes_available() -> bool:
-    """Whether the compiled candidate search runs (see :func:`fast_search_boxes`)."""
+    """Whether the compiled candidate search runs (see :func:`fast_search_boxes`; an
+    extension built before :func:`leaf_boxes` took member starts and pieces does not)."""
     ext = extension()
-    return ext is not None and hasattr(ext, "fast_search_boxes")
+    return (ext is not None and hasattr(ext, "fast_search_boxes")
+            and getattr(ext, "LEAF_BOXES_REVISION", 1) >= 2)
 
 
 def leaf_boxes(lo, hi, starts=None, pieces: int = 1):
