@@ -3,14 +3,19 @@ ball path of ~20k poses on it (passes on z-planes, CC points on the analytic sur
 bull-nose and a flat-mill path (lead 10°) on a 20k-triangle case, swept with the fast method
 and — with ``--exact`` — with the exact one, printing both times and how far apart they are.
 
-Run: ``python bench/bench_verify.py [--triangles 100000] [--poses 20000] [--exact]``; prints
-the timings and the report summary as JSON.
+With ``--threads 1,2`` (the default) the ball path is verified once per thread count, each
+with its wall and process-CPU seconds, the load average and the speed-up from the first
+count to the last (the figures of every run must be the same).
+
+Run: ``python bench/bench_verify.py [--triangles 100000] [--poses 20000] [--exact]
+[--threads 1,2]``; prints the timings and the report summary as JSON.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -84,7 +89,10 @@ def main(argv=None):
     ap.add_argument("--bull-poses", type=int, default=4_000)
     ap.add_argument("--exact", action="store_true",
                     help="also sweep the non-ball cutters with the exact (slow) method")
+    ap.add_argument("--threads", default="1,2",
+                    help="thread counts of the ball path's verify, e.g. 1,2 (speed-up printed)")
     args = ap.parse_args(argv)
+    threads = [int(x) for x in args.threads.split(",")]
     mesh, path = build(args.triangles, args.poses, n_levels=args.levels)
     print(f"mesh: {mesh.n_faces} triangles, path: {path.n_poses} poses, "
           f"{len(path.curves)} passes, nominal cusp {path.cusp:.4f} mm")
@@ -98,9 +106,19 @@ def main(argv=None):
     md.query(q)
     tq = time.perf_counter() - t
     print(f"closest points: tree {tb:.2f} s, 100k queries within 8 mm {tq:.2f} s")
-    t = time.perf_counter()
-    rep = verify_path(mesh, path, spacing=args.spacing)
-    print(f"verify_path: {time.perf_counter() - t:.2f} s")
+    runs = []
+    for n in threads:
+        t, c = time.perf_counter(), time.process_time()
+        rep = verify_path(mesh, path, spacing=args.spacing, workers=n)
+        runs.append((n, time.perf_counter() - t, time.process_time() - c, rep))
+        print(f"verify_path, {n} thread(s): {runs[-1][1]:.2f} s wall, {runs[-1][2]:.2f} s CPU "
+              f"(load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+    if len(runs) > 1:
+        same = all(r.summary() | {"timings": 0} == runs[0][3].summary() | {"timings": 0}
+                   for *_, r in runs)
+        print(f"verify_path speed-up {runs[0][0]} -> {runs[-1][0]} threads: "
+              f"x{runs[0][1] / runs[-1][1]:.2f} wall, CPU {runs[0][2]:.2f} -> {runs[-1][2]:.2f} s"
+              + ("" if same else " (FIGURES DIFFER between thread counts)"))
     figures = {k: v for k, v in rep.summary().items() if not k.startswith("pair")}
     print(json.dumps(figures, indent=1))
     print("pair cusp min/max:", np.nanmin(rep.pair_cusp), np.nanmax(rep.pair_cusp))

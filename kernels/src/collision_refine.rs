@@ -48,7 +48,7 @@ pub fn hypot_exact(x: f64, y: f64) -> f64 {
     } else if x == 0.0 {
         y.abs()
     } else {
-        x.hypot(y)
+        crate::hypot::hypot(x, y)
     }
 }
 

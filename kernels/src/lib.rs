@@ -12,6 +12,7 @@ mod arrays;
 mod closest;
 mod collision_refine;
 mod collision_walk;
+mod hypot;
 mod knn;
 mod numpy_ops;
 mod step;
@@ -353,6 +354,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;
     m.add_class::<swept_cutter::LeafBoxes>()?;
+    // 2: LeafBoxes takes a forest's member starts and several boxes per leaf
+    m.add("LEAF_BOXES_REVISION", 2)?;
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(collision_walk::collision_detect, m)?)?;
     m.add_class::<collision_walk::CollisionTree>()?;

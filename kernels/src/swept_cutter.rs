@@ -8,7 +8,12 @@ use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use crate::numpy_ops::{nanmax, nanmin};
+use crate::numpy_ops::nanmin;
+
+#[path = "swept_prune.rs"]
+mod prune;
+use prune::fast_point;
+
 
 /// A cutter's meridional profile (`Cutter.signed_distance_rz`'s constants).
 #[derive(Clone, Copy)]
@@ -62,7 +67,7 @@ impl Profile {
         let (vr, vz) = (rho - self.e, z - self.f);
         let in_sector = (vr * self.ca - vz * self.sa >= 0.0) && (vr * self.cb + vz * self.sb <= 0.0);
         // |v| is read only inside the arc's sector (libm's hypot is the costly step)
-        let vl = if in_sector { vr.hypot(vz) } else { 0.0 };
+        let vl = if in_sector { crate::hypot::hypot(vr, vz) } else { 0.0 };
         let mut dist = d2.sqrt();
         if in_sector {
             dist = nanmin(dist, (vl - self.r).abs());
@@ -275,165 +280,6 @@ fn sd_in_frame(prof: &Profile, x: &[f64; 3], axis: &[f64; 3]) -> f64 {
     prof.sd_rz((if rr > 0.0 || rr.is_nan() { rr } else { 0.0 }).sqrt(), z)
 }
 
-/// Steps 1–4 of `_fast_search` for one point and its candidate leaves: (u, arg).
-#[allow(clippy::too_many_arguments)]
-fn fast_point(prof: &Profile, tab: &Tables, p: &[f64; 3], leaves: &[i64], u0: f64, arg0: i64,
-              slack: f64, xtol: f64, delta: f64) -> (f64, i64) {
-    struct Cand {
-        sg: usize,
-        d0: [f64; 3],
-        d1: [f64; 3],
-        a0: [f64; 3],
-        z0: f64,
-        n0: f64,
-        phi: f64,
-        reach: f64,
-        eps: f64,
-        lb: f64,
-        dtip: f64,
-        v0: f64,
-        v1: f64,
-    }
-    let nb = tab.nb;
-    let h = prof.h;
-    let vpose = |zn: f64, nn: f64| {
-        let rr = nn - zn * zn;
-        prof.sd_rz((if rr > 0.0 || rr.is_nan() { rr } else { 0.0 }).sqrt(), zn)
-    };
-    // 1. heights above the tips, the chord bound
-    let mut cands: Vec<Cand> = Vec::new();
-    let mut x = vec![[0.0f64; 3]; nb + 1];
-    let mut zz = vec![0.0f64; nb + 1];
-    let mut nn = vec![0.0f64; nb + 1];
-    // the value at pose j of the leaf, computed once (a pose ends one move, starts the next)
-    let mut vj = vec![0.0f64; nb + 1];
-    let mut have = vec![false; nb + 1];
-    for &leaf in leaves {
-        let l = leaf as usize;
-        for j in 0..=nb {
-            let t = &tab.lt[l * (nb + 1) + j];
-            x[j] = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
-            zz[j] = dot3(&x[j], &tab.la[l * (nb + 1) + j]);
-            nn[j] = dot3(&x[j], &x[j]);
-            have[j] = false;
-        }
-        let mut value = |j: usize| -> f64 {
-            if !have[j] {
-                vj[j] = vpose(zz[j], nn[j]);
-                have[j] = true;
-            }
-            vj[j]
-        };
-        for j in 0..nb {
-            let sg = tab.ls[l * nb + j];
-            if sg < 0 {
-                continue;
-            }
-            let (z0, z1, n0, n1) = (zz[j], zz[j + 1], nn[j], nn[j + 1]);
-            let phi = tab.lphi[l * nb + j];
-            let dtip = tab.ldt[l * nb + j];
-            let reach = nanmax(n0, n1).sqrt();
-            let eps = (phi * phi * reach + 2.0 * phi * dtip) * (0.125 * (1.0 + 1e-9)) + slack;
-            let lb = nanmax(-nanmax(z0, z1), nanmin(z0, z1) - h) - eps;
-            if !(lb < u0) {
-                continue;
-            }
-            cands.push(Cand {
-                sg: sg as usize, d0: x[j], d1: x[j + 1], a0: tab.la[l * (nb + 1) + j], z0, n0, phi,
-                reach, eps, lb, dtip, v0: value(j), v1: value(j + 1),
-            });
-        }
-    }
-    // 2. the values at the poses: the point's best so far (the last of equal ones), then the
-    // motion bound
-    let mut u = u0;
-    for c in &cands {
-        u = nanmin(u, nanmin(c.v0, c.v1));
-    }
-    let mut arg = if u0 <= u { arg0 } else { -1 };
-    for c in &cands {
-        if nanmin(c.v0, c.v1) <= u {
-            arg = c.sg as i64;
-        }
-    }
-    // 3. convexity along the chord: a bracket per move; then 4. the golden-section search
-    let mut pairs: Vec<Pair> = Vec::new();
-    let mut lo: Vec<f64> = Vec::new();
-    let mut hi: Vec<f64> = Vec::new();
-    let mut segs: Vec<usize> = Vec::new();
-    for c in &cands {
-        let dd = (c.dtip + c.phi * c.reach) * (1.0 + 1e-9) + slack;
-        let lb = nanmax(c.lb, 0.5 * (c.v0 + c.v1 - dd));
-        if !(lb < u) {
-            continue;
-        }
-        let k = &tab.kk[c.sg];
-        let v = &c.d1;
-        let (co, si) = ((-c.phi).cos(), (-c.phi).sin());
-        let kv = dot3(k, v);
-        let kx = [k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2], k[0] * v[1] - k[1] * v[0]];
-        let w = kv * (1.0 - co);
-        let p1 = [
-            v[0] * co + kx[0] * si + k[0] * w,
-            v[1] * co + kx[1] * si + k[1] * w,
-            v[2] * co + kx[2] * si + k[2] * w,
-        ];
-        let ch = [p1[0] - c.d0[0], p1[1] - c.d0[1], p1[2] - c.d0[2]];
-        let g0 = sd_in_frame(prof, &[c.d0[0] + delta * ch[0], c.d0[1] + delta * ch[1], c.d0[2] + delta * ch[2]], &c.a0);
-        let g1 = sd_in_frame(prof, &[p1[0] - delta * ch[0], p1[1] - delta * ch[1], p1[2] - delta * ch[2]], &c.a0);
-        let s0 = (g0 - c.v0) / delta;
-        let s1 = (g1 - c.v1) / delta;
-        let uu = u + c.eps + 2.0 * delta * dot3(&ch, &ch).sqrt() + slack;
-        // _bracket_below
-        let (mut tlo, mut thi) = (0.0f64, 1.0f64);
-        let ra = (uu - c.v0) / s0;
-        let rb = 1.0 - (uu - c.v1) / s1;
-        if s0 > 0.0 {
-            thi = nanmin(thi, ra);
-        }
-        if s0 < 0.0 {
-            tlo = nanmax(tlo, ra);
-        }
-        if s1 > 0.0 {
-            tlo = nanmax(tlo, rb);
-        }
-        if s1 < 0.0 {
-            thi = nanmin(thi, rb);
-        }
-        let dead = (s0 == 0.0 && c.v0 > uu) || (s1 == 0.0 && c.v1 > uu) || !uu.is_finite()
-            || tlo.is_nan() || thi.is_nan();
-        if dead {
-            tlo = 1.0;
-            thi = 0.0;
-        }
-        if !tab.chord_ok[c.sg] {
-            tlo = 0.0;
-            thi = 1.0;
-        }
-        if !(tlo <= thi) {
-            continue;
-        }
-        let (ta, tb, b) = (&tab.ta[c.sg], &tab.tb[c.sg], &tab.bb[c.sg]);
-        let dl = [tb[0] - ta[0], tb[1] - ta[1], tb[2] - ta[2]];
-        pairs.push(Pair {
-            za: c.z0, zb: dot3(&c.d0, b), ta: dot3(&dl, &c.a0), tb: dot3(&dl, b), n0: c.n0,
-            m2: 2.0 * dot3(&c.d0, &dl), l2: dot3(&dl, &dl), phi: c.phi, d: dd,
-        });
-        lo.push(tlo);
-        hi.push(thi);
-        segs.push(c.sg);
-    }
-    if pairs.is_empty() {
-        return (u, arg);
-    }
-    let (best, i) = search_point(prof, &pairs, &lo, &hi, 0, pairs.len(), u, xtol);
-    if best < u {
-        (best, segs[i.max(0) as usize] as i64)
-    } else {
-        (u, arg)
-    }
-}
-
 /// The arrays both searches read: the cutter's profile, the points (k, 3) with their first
 /// bounds `u`, segments `arg` and rounding slack (k,), and the segment and leaf tables (NC
 /// leaves of B moves), checked against one another.
@@ -546,6 +392,7 @@ pub fn fast_search<'py>(
             s = i;
         }
     }
+    let reach = prune::leaf_reach(&tab, sa.nc);
     let pl = crate::pool(threads)?;
     let res: Vec<(f64, i64)> = py.detach(|| {
         pl.install(|| {
@@ -553,7 +400,7 @@ pub fn fast_search<'py>(
                 .with_min_len(4)
                 .map(|&(a, b)| {
                     let p = qq[a] as usize;
-                    fast_point(&prof, &tab, &pp[p], &ll[a..b], uu[p], aa[p], sl[p], xtol, delta)
+                    fast_point(&prof, &tab, &reach, &pp[p], &ll[a..b], uu[p], aa[p], sl[p], xtol, delta)
                 })
                 .collect()
         })
@@ -569,22 +416,34 @@ pub fn fast_search<'py>(
 }
 
 /// Boxes bounding the volume a cutter sweeps along each leaf (a run of moves) of a swept
-/// cutter or forest, in parry3d-f64's bounding-volume tree: the candidate leaves of a point
+/// cutter or forest, in parry3d-f64's bounding-volume trees: the candidate leaves of a point
 /// are those whose box comes within its upper bound (a superset of the leaves that can hold
 /// its minimum: the others' moves are all farther than the bound, so they change nothing).
+/// A forest's members (runs of leaves, `starts`) each get a tree of their own: a point asks
+/// its member's only (one tree over all members walked the neighbouring levels' leaves too,
+/// nine in ten of those it met on Rotor 37's scallops); the leaves found are the same. A leaf
+/// may have several boxes (`pieces`, along the tool: together tighter than one box of a
+/// whole tilted tool); it is found when one of them is.
 #[pyclass(frozen)]
 pub struct LeafBoxes {
-    bvh: parry3d_f64::partitioning::Bvh,
+    /// (first leaf, tree of the member's leaves numbered from it)
+    trees: Vec<(usize, parry3d_f64::partitioning::Bvh)>,
     n: usize,
+    pieces: usize,
 }
 
 #[pymethods]
 impl LeafBoxes {
-    /// lo, hi (NC, 3) float64 mm: each leaf's box (already padded by the cutter's reach).
+    /// lo, hi (NC, 3) float64 mm: each leaf's box (already padded by the cutter's reach);
+    /// `starts` (M,) int64, optional: the first leaf of each member, ascending from 0;
+    /// `pieces`: boxes per leaf (rows `pieces · l ..` are leaf l's).
     #[new]
-    fn new(py: Python<'_>, lo: numpy::PyReadonlyArray2<'_, f64>, hi: numpy::PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+    #[pyo3(signature = (lo, hi, starts=None, pieces=1))]
+    fn new(py: Python<'_>, lo: numpy::PyReadonlyArray2<'_, f64>, hi: numpy::PyReadonlyArray2<'_, f64>,
+           starts: Option<PyReadonlyArray1<'_, i64>>, pieces: usize) -> PyResult<Self> {
         use parry3d_f64::bounding_volume::Aabb;
         use parry3d_f64::math::Vector;
+        use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
         let (l3, h3) = (crate::arrays::points(&lo, "lo")?, crate::arrays::points(&hi, "hi")?);
         if l3.len() != h3.len() {
             return Err(PyValueError::new_err("lo and hi must have the same rows"));
@@ -594,9 +453,31 @@ impl LeafBoxes {
             .zip(h3.iter())
             .map(|(a, b)| Aabb::new(Vector::new(a[0], a[1], a[2]), Vector::new(b[0], b[1], b[2])))
             .collect();
-        let n = boxes.len();
-        let bvh = py.detach(|| parry3d_f64::partitioning::Bvh::from_leaves(parry3d_f64::partitioning::BvhBuildStrategy::Binned, &boxes));
-        Ok(LeafBoxes { bvh, n })
+        if pieces == 0 || boxes.len() % pieces != 0 {
+            return Err(PyValueError::new_err("lo and hi must hold `pieces` rows per leaf"));
+        }
+        let n = boxes.len() / pieces;
+        let mut cuts: Vec<usize> = match &starts {
+            Some(st) => {
+                let st = crate::slice1(st, "starts")?;
+                if st.first().is_some_and(|&s| s != 0) || st.windows(2).any(|w| w[1] < w[0])
+                    || st.iter().any(|&s| s < 0 || s as usize > n) {
+                    return Err(PyValueError::new_err("starts must ascend from 0 within the leaves"));
+                }
+                st.iter().map(|&s| s as usize).collect()
+            }
+            None => vec![0],
+        };
+        cuts.push(n);
+        cuts.dedup();
+        let trees = py.detach(|| {
+            cuts.windows(2)
+                .filter(|w| w[1] > w[0])
+                .map(|w| (w[0], Bvh::from_leaves(BvhBuildStrategy::Binned,
+                                                 &boxes[w[0] * pieces..w[1] * pieces])))
+                .collect()
+        });
+        Ok(LeafBoxes { trees, n, pieces })
     }
 }
 
@@ -607,18 +488,28 @@ impl LeafBoxes {
         use parry3d_f64::query::PointQuery;
         let pv = Vector::new(p[0], p[1], p[2]);
         let mut out: Vec<i64> = Vec::new();
-        if self.n == 0 {
+        if self.n == 0 || hi <= lo {
             return out;
         }
         // a point inside the swept volume (u < 0): the leaves whose box holds it
         let r = if r > 0.0 { r } else { 0.0 };
-        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
-            let l = leaf as i64;
-            if l >= lo && l < hi {
-                out.push(l);
+        // the trees whose leaves meet lo..hi (the first one starting at or before lo)
+        let first = self.trees.partition_point(|&(s, _)| s as i64 <= lo).saturating_sub(1);
+        for (s, bvh) in self.trees[first..].iter() {
+            if *s as i64 >= hi {
+                break;
+            }
+            for leaf in bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+                let l = (leaf as usize / self.pieces + s) as i64;
+                if l >= lo && l < hi {
+                    out.push(l);
+                }
             }
         }
         out.sort_unstable();
+        if self.pieces > 1 {
+            out.dedup();
+        }
         out
     }
 }
@@ -662,6 +553,7 @@ pub fn fast_search_boxes<'py>(
         return Err(PyValueError::new_err("inconsistent boxes or leaf ranges"));
     }
     let bx: &LeafBoxes = &boxes;
+    let reach = prune::leaf_reach(&tab, sa.nc);
     let pl = crate::pool(threads)?;
     let res: Vec<(f64, i64)> = py.detach(|| {
         pl.install(|| {
@@ -674,7 +566,7 @@ pub fn fast_search_boxes<'py>(
                     if leaves.is_empty() {
                         return (uu[i], aa[i]);
                     }
-                    fast_point(&prof, &tab, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta)
+                    fast_point(&prof, &tab, &reach, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta)
                 })
                 .collect()
         })

@@ -102,6 +102,34 @@ def test_swept_bull_nose_distances_within_1e9_on_both_backends():
     assert (d_ref < 0).any() and (d_ref > 0).any()  # points inside and outside the volume
 
 
+@compiled
+def test_swept_forest_compiled_per_member_trees_and_ring_bound():
+    """A forest of members (a pass pair each, overlapping in space): each point's distance
+    to its member on the compiled backend is the member's own query's bit for bit (the
+    compiled candidates walk the member's tree only, the first bound comes from the compiled
+    k-d tree of ring points) and within 1e-9 mm of the numpy forest's."""
+    from blisk_cam.core.verify.forest import SweptForest
+
+    ta, aa, tb, ab, own, P = _turning_moves(seed=2)
+    cut = Cutter.bull(6.0, 2.0)
+
+    def members():
+        return [SweptCutter(cut, ta[m], aa[m], tb[m], ab[m], own[m])
+                for m in (own // 2 == g for g in range(3))]
+
+    which = np.random.default_rng(3).integers(0, 3, len(P))
+    with backend.numpy_only():
+        d_ref, _ = SweptForest(members()).nearest(P, which)
+    ms = members()
+    d, _ = SweptForest(ms).nearest(P, which)
+    own_d = np.empty(len(P))
+    for g, m in enumerate(ms):
+        own_d[which == g] = m.nearest(P[which == g])[0]
+    np.testing.assert_array_equal(d, own_d)
+    np.testing.assert_allclose(d, d_ref, rtol=0, atol=1e-9)
+    assert (d_ref < 0).any() and (d_ref > 0).any()
+
+
 def _plane_case(cutter, lead_deg, tilt_deg, xs=(104.0, 110.0, 116.0, 122.0), push=0.0):
     """The half-plane y = 0 (normal +y) between the cylinders r = 100 and r = 130 about z,
     and straight passes x = xs along +z of ``cutter``, leaning ``lead`` toward the feed and

@@ -9,7 +9,14 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["point_tree", "nearest_k"]
+__all__ = ["available", "point_tree", "nearest_k"]
+
+
+def available() -> bool:
+    """Whether the compiled k-d tree runs (the extension is installed and not switched
+    off)."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "PointTree")
 
 
 def point_tree(points, threads: int = 1):

@@ -53,16 +53,26 @@ def fast_search(cutter, tab, Pc, u, arg, q, leaf, slack, xtol: float, delta: flo
 
 
 def boxes_available() -> bool:
-    """Whether the compiled candidate search runs (see :func:`fast_search_boxes`)."""
+    """Whether the compiled candidate search runs (see :func:`fast_search_boxes`; an
+    extension built before :func:`leaf_boxes` took member starts and pieces does not)."""
     ext = extension()
-    return ext is not None and hasattr(ext, "fast_search_boxes")
+    return (ext is not None and hasattr(ext, "fast_search_boxes")
+            and getattr(ext, "LEAF_BOXES_REVISION", 1) >= 2)
 
 
-def leaf_boxes(lo, hi):
-    """The compiled tree of the leaves' boxes ``lo``, ``hi`` (NC, 3) mm (each bounding the
-    volume the cutter sweeps along the leaf's moves)."""
+def leaf_boxes(lo, hi, starts=None, pieces: int = 1):
+    """The compiled trees of the leaves' boxes ``lo``, ``hi`` (NC · pieces, 3) mm (``pieces``
+    boxes per leaf, in a row, together bounding the volume the cutter sweeps along the
+    leaf's moves); ``starts`` (M,), optional: the first leaf of each member of a forest,
+    ascending from 0 (a tree per member: a point's query walks its member's leaves only; the
+    same leaves are found)."""
     c = np.ascontiguousarray
-    return extension().LeafBoxes(c(lo, dtype=np.float64), c(hi, dtype=np.float64))
+    lo, hi = c(lo, dtype=np.float64), c(hi, dtype=np.float64)
+    if starts is None and pieces == 1:
+        return extension().LeafBoxes(lo, hi)
+    if starts is None:
+        starts = np.zeros(1, np.int64)
+    return extension().LeafBoxes(lo, hi, c(starts, dtype=np.int64), int(pieces))
 
 
 def fast_search_boxes(cutter, tab, boxes, Pc, u, arg, slack, cl_lo, cl_hi, xtol: float,

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..kernels import swept_cutter as compiled_cutter
 from ..runtime import map_chunks, map_tasks, workers
-from .sweep import SweptCutter, _fast_search, _sphere_trace
+from .sweep import BOX_PIECES, SweptCutter, _fast_search, _sphere_trace
 
 __all__ = ["SweptForest"]
 
@@ -178,7 +178,8 @@ class SweptForest:
                 lo, hi = zip(*(m._leaf_box_arrays() for m in self.members
                                if m.tree is not None), strict=True)
                 self._cboxes = compiled_cutter.leaf_boxes(np.concatenate(lo),
-                                                          np.concatenate(hi))
+                                                          np.concatenate(hi),
+                                                          self._co[self._has], BOX_PIECES)
             return compiled_cutter.fast_search_boxes(
                 self.cutter, self, self._cboxes, Pc, u, arg, self._slk[wc], self._co[wc],
                 self._co[wc] + self._ncl[wc], self.xtol, delta, workers())

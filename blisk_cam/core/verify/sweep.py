@@ -20,6 +20,7 @@ from scipy.spatial import cKDTree
 from ..errors import BliskCamError, ToleranceError
 from ..geometry.bvh import CHUNK, GROUP_MIN, ClusterTree, group_argmin, query_groups, run_clusters
 from ..geometry.vectors import dot, rotate, slerp
+from ..kernels import knn as compiled_knn
 from ..kernels import swept_cutter as compiled_cutter
 from ..runtime import map_chunks, workers
 from ..tool.cutter import as_cutter
@@ -42,6 +43,9 @@ def _golden_step(f, lo, hi, x1, x2, f1, f2):
     fn = f(nx)
     return (lo, hi, np.where(left, nx, x2), np.where(left, x1, nx), np.where(left, fn, f2),
             np.where(left, f1, fn))
+
+#: boxes per leaf of the compiled candidates, along the tool (:meth:`SweptCutter._leaf_box_arrays`)
+BOX_PIECES = 4
 
 #: how :class:`SweptCutter` finds the minimum over each move (see its docstring)
 SWEEP_METHODS = ("fast", "exact")
@@ -345,13 +349,25 @@ class SweptCutter:
     def _upper_bound(self, Pc):
         """Distances to the poses of the nearest corner centres: (u (k,), segment (k,))."""
         kk = int(min(4, len(self.ta) * self._ring_m))
-        _, j = self.kd.query(Pc, k=kk)
-        j = np.asarray(j, dtype=np.int64).reshape(-1) // self._ring_m
+        j = self._ring_nearest(Pc, kk).reshape(-1) // self._ring_m
         qi = np.repeat(np.arange(len(Pc)), kk)
         tk = np.take
         d = self.cutter.signed_distance(tk(Pc, qi, axis=0), tk(self.ta, j, axis=0),
                                         tk(self.aa, j, axis=0))
         return group_argmin(len(Pc), qi, d, j)
+
+    def _ring_nearest(self, Pc, kk):
+        """(k, kk) int64: the ``kk`` ring points nearest each point (scipy's set; the compiled
+        k-d tree answers when it runs, scipy where the kk-th and the next are at the same
+        distance, and in the order of distance either way)."""
+        if not compiled_knn.available():
+            _, j = self.kd.query(Pc, k=kk)
+            return np.asarray(j, dtype=np.int64).reshape(len(Pc), kk)
+        if getattr(self, "_ckd", None) is None:
+            self._ckd = compiled_knn.point_tree(self.kd.data)
+        return compiled_knn.nearest_k(
+            self._ckd, Pc, kk, np.inf, workers(),
+            ties=lambda Q: np.asarray(self.kd.query(Q, k=kk)[1], np.int64).reshape(-1, kk))
 
     def _exact_chunk(self, Pc):
         """The "exact" method on a chunk of points: (distance (k,), segment (k,))."""
@@ -378,19 +394,28 @@ class SweptCutter:
         return group_argmin(kc, q, vmin, sg)
 
     def _leaf_box_arrays(self):
-        """(lo, hi) (NC, 3) mm: per leaf the box of its poses' axis segments (tip to h),
-        widened by the cutter's largest radius, the slerp's bulge and a rounding pad: it holds
-        the volume the cutter sweeps along the leaf's moves (for the compiled candidates)."""
+        """(lo, hi) (NC · P, 3) mm: per leaf, P = :data:`BOX_PIECES` boxes, piece k of the
+        poses' axis segments (tip + z axis for z from k h / P to (k + 1) h / P), widened by the
+        cutter's largest radius, the slerp's bulge and a rounding pad: together they hold the
+        volume the cutter sweeps along the leaf's moves (for the compiled candidates; one box
+        of a whole tilted tool spans its length across the axis too)."""
         h = self.cutter.h
-        pts = np.concatenate([self._lt, self._lt + h * self._la], axis=1)
+        z = h * np.arange(BOX_PIECES + 1) / BOX_PIECES
+        los, his = [], []
+        for z0, z1 in zip(z[:-1], z[1:], strict=True):
+            pts = np.concatenate([self._lt + z0 * self._la, self._lt + z1 * self._la], axis=1)
+            los.append(pts.min(axis=1))
+            his.append(pts.max(axis=1))
+        scale = max(1.0, float(np.abs(self._lt).max(initial=0.0)) + h)
         pad = (self.cutter.max_radius * (1.0 + 1e-9) + 1e-9 + self.bulge + 2.0 * self._slack
-               + 1e-9 * max(1.0, float(np.abs(pts).max(initial=0.0))))
-        return pts.min(axis=1) - pad, pts.max(axis=1) + pad
+               + 1e-9 * scale)
+        return (np.stack(los, 1).reshape(-1, 3) - pad, np.stack(his, 1).reshape(-1, 3) + pad)
 
     def _compiled_boxes(self):
         """The compiled tree of :meth:`_leaf_box_arrays` (built once)."""
         if getattr(self, "_cboxes", None) is None:
-            self._cboxes = compiled_cutter.leaf_boxes(*self._leaf_box_arrays())
+            self._cboxes = compiled_cutter.leaf_boxes(*self._leaf_box_arrays(),
+                                                      pieces=BOX_PIECES)
         return self._cboxes
 
     def _fast_chunk(self, Pc, delta: float = 1e-6):
