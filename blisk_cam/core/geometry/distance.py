@@ -34,14 +34,19 @@ class MeshDistance:
     compiled : bool — with the compiled kernels running, the nearest faces come from their
         tree (:class:`NearestFaces`' kernel): the same distances and points, but of faces at
         exactly the same distance (a point on a shared edge or vertex) the lowest id instead
-        of the last in this tree's leaf order. Verify opts in; the planners keep their ties.
+        of the last in this tree's leaf order. Verify and the link check opt in.
+    faces : NearestFaces or None — with ``compiled``, one already made on ``mesh`` to share
+        (its compiled tree is then built once for both)
     """
 
-    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8, compiled: bool = False):
+    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8, compiled: bool = False,
+                 faces: NearestFaces | None = None):
         self.mesh = mesh
         V, F = mesh.V, mesh.F
         self._A, self._B, self._C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-        self._faces = NearestFaces(mesh) if compiled and extension() is not None else None
+        self._faces = None
+        if compiled and extension() is not None:
+            self._faces = faces if faces is not None and faces.mesh is mesh else NearestFaces(mesh)
         self._frames = None
         if self._faces is not None:  # the numpy tree is not needed
             return
