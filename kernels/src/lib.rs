@@ -14,6 +14,8 @@ mod collision_refine;
 mod collision_walk;
 mod knn;
 mod numpy_ops;
+mod probe;
+mod slice_roots;
 mod step;
 mod stock;
 mod swept_ball;
@@ -356,5 +358,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(collision_walk::collision_detect, m)?)?;
     m.add_class::<collision_walk::CollisionTree>()?;
+    m.add_function(wrap_pyfunction!(probe::points_within, m)?)?;
+    m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
     Ok(())
 }
