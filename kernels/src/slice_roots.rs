@@ -15,6 +15,9 @@ use crate::numpy_ops::nanmax;
 
 type P3 = [f64; 3];
 
+/// Fewer edges than this are solved on the calling thread.
+const PARALLEL_MIN: usize = 16_384;
+
 #[inline(always)]
 fn dot(a: &P3, b: &P3) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
@@ -112,7 +115,10 @@ pub fn cone_edge_roots<'py>(
     let ee = crate::arrays::flat(&edges, "edges")?;
     let ids = crate::slice1(&edge_ids, "edge_ids")?;
     let ne = ee.len() / 2;
-    if ids.iter().any(|&i| i < 0 || i as usize >= ne) || ee.iter().any(|&i| i < 0 || i as usize >= n) {
+    // only the edges asked for are checked (a level crosses a few thousand of millions)
+    let bad_vertex = |i: i64| i < 0 || i as usize >= n;
+    if ids.iter().any(|&e| e < 0 || e as usize >= ne
+                      || bad_vertex(ee[2 * e as usize]) || bad_vertex(ee[2 * e as usize + 1])) {
         return Err(PyValueError::new_err("edge or vertex ids out of range"));
     }
     let ln = Line { alpha: line.0, beta: line.1, gamma: line.2, alpha2: line.3, on_tol };
@@ -120,27 +126,33 @@ pub fn cone_edge_roots<'py>(
     let k = ids.len();
     let mut pts = vec![0.0f64; 3 * k];
     let mut ts = vec![0.0f64; k];
+    let one = |((p, t), &e): ((&mut [f64], &mut f64), &i64)| {
+        let (i0, i1) = (ee[2 * e as usize] as usize, ee[2 * e as usize + 1] as usize);
+        let f0 = ln.side(rr[i0], zz[i0]);
+        let f1 = ln.side(rr[i1], zz[i1]);
+        let tr = ln.root(&rad[i0], &rad[i1], zz[i0], zz[i1], f0, f1);
+        // vertices on the level (snapped to zero): the crossing is the vertex
+        let tv = if f0 == 0.0 { 0.0 } else if f1 == 0.0 { 1.0 } else { tr };
+        let (a, b) = (&vv[i0], &vv[i1]);
+        if tv == 1.0 {
+            p.copy_from_slice(b); // exactly the vertex
+        } else {
+            for j in 0..3 {
+                p[j] = a[j] + tv * (b[j] - a[j]);
+            }
+        }
+        *t = tv;
+    };
     py.detach(|| {
-        pl.install(|| {
-            pts.par_chunks_mut(3).zip(ts.par_iter_mut()).zip(ids.par_iter()).with_min_len(256)
-                .for_each(|((p, t), &e)| {
-                    let (i0, i1) = (ee[2 * e as usize] as usize, ee[2 * e as usize + 1] as usize);
-                    let f0 = ln.side(rr[i0], zz[i0]);
-                    let f1 = ln.side(rr[i1], zz[i1]);
-                    let tr = ln.root(&rad[i0], &rad[i1], zz[i0], zz[i1], f0, f1);
-                    // vertices on the level (snapped to zero): the crossing is the vertex
-                    let tv = if f0 == 0.0 { 0.0 } else if f1 == 0.0 { 1.0 } else { tr };
-                    let (a, b) = (&vv[i0], &vv[i1]);
-                    if tv == 1.0 {
-                        p.copy_from_slice(b); // exactly the vertex
-                    } else {
-                        for j in 0..3 {
-                            p[j] = a[j] + tv * (b[j] - a[j]);
-                        }
-                    }
-                    *t = tv;
-                });
-        })
+        if threads <= 1 || k < PARALLEL_MIN {
+            // a level's few thousand edges: less than the threads' start-up
+            pts.chunks_mut(3).zip(ts.iter_mut()).zip(ids.iter()).for_each(one);
+        } else {
+            pl.install(|| {
+                pts.par_chunks_mut(3).zip(ts.par_iter_mut()).zip(ids.par_iter())
+                    .with_min_len(1024).for_each(one)
+            });
+        }
     });
     let pts = PyArray1::from_vec(py, pts).reshape([k, 3])?;
     Ok((pts, PyArray1::from_vec(py, ts)))

@@ -148,3 +148,22 @@ def test_intrusion_screens_agree_on_both_backends(demo):
     ref = gen._probe_samples().any_within(C, 6.0 - 1e-5)
     assert np.array_equal(got, ref) and 0 < ref.sum() < len(C)
     assert np.array_equal(gen._nearest_samples(C), _Generator._nearest_samples_scipy(gen, C))
+
+
+@compiled
+def test_mesh_tables_are_numpys(demo):
+    """The faces around each vertex, and the tree over all samples made from the mesh: the
+    same tables and the same nearest samples as from ``_ProbeSamples.all_points``."""
+    d, mesh = demo
+    args = (mesh, d.axis, d.hub_cone, d.tip_cone, 6.0, 0.05, 0.01)
+    got = _Generator(*args)._vertex_face_table()
+    with backend.numpy_only():
+        ref = _Generator(*args)._vertex_face_table()
+    for g, r in zip(got, ref, strict=True):
+        assert g.dtype == r.dtype and np.array_equal(g, r)
+    gen = _Generator(*args)
+    rng = np.random.default_rng(6)
+    C = mesh.V[rng.choice(len(mesh.V), 2000)] + rng.normal(0.0, 3.0, (2000, 3))
+    tree = compiled_knn.point_tree(gen._probe_samples().all_points(), 2)
+    assert np.array_equal(compiled_knn.nearest_k(gen._compiled_probe_tree(), C, 8, 6.05, 2),
+                          compiled_knn.nearest_k(tree, C, 8, 6.05, 2))

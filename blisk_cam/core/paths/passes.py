@@ -19,6 +19,7 @@ from ..errors import ConeError, ToleranceError
 from ..geometry.axis import Axis, meridional
 from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
+from ..kernels import mesh_tables as compiled_tables
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
@@ -462,8 +463,9 @@ class _Generator:
         numpy kernels run."""
         if extension() is None:
             return None
-        if getattr(self, "_cptree", None) is None:
-            self._cptree = compiled_knn.point_tree(self._probe_samples().all_points(), workers())
+        if getattr(self, "_cptree", None) is None:  # the samples of _ProbeSamples.all_points
+            m = self.mesh
+            self._cptree = compiled_tables.sample_tree(m.V, m.edges, m.F, workers())
         return self._cptree
 
     def _any_within(self, C, bound):
@@ -561,6 +563,8 @@ class _Generator:
         (3 m,)) — the faces of vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being
         their corner ``corner[...]``."""
         if not hasattr(self, "_vf"):
+            self._vf = compiled_tables.vertex_face_table(self.mesh.F, len(self.mesh.V))
+        if self._vf is None:
             F = self.mesh.F
             order = np.argsort(F.ravel(), kind="stable")
             vs = F.ravel()[order]
