@@ -17,7 +17,7 @@ from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.cones import MorphingCones
-from blisk_cam.core.paths.passes import _Generator
+from blisk_cam.core.paths.passes import _fixed_point_lift, _Generator, _unique_per_row
 from blisk_cam.core.paths.slicing import MeshConeSlicer
 
 compiled = pytest.mark.skipif(
@@ -167,3 +167,25 @@ def test_mesh_tables_are_numpys(demo):
     tree = compiled_knn.point_tree(gen._probe_samples().all_points(), 2)
     assert np.array_equal(compiled_knn.nearest_k(gen._compiled_probe_tree(), C, 8, 6.05, 2),
                           compiled_knn.nearest_k(tree, C, 8, 6.05, 2))
+
+
+@compiled
+def test_fixed_point_lift_compiled_bit_for_bit(demo):
+    """Ball centres at the surface and sunk into it, on the faces holding their 8 nearest
+    samples (the lift's own candidates): the same λ as the numpy steps."""
+    d, mesh = demo
+    gen = _Generator(mesh, d.axis, d.hub_cone, d.tip_cone, 6.0, 0.05, 0.01)
+    rng = np.random.default_rng(11)
+    n = 3000
+    f = rng.integers(0, len(mesh.F), n)
+    w = rng.dirichlet(np.ones(3), n)
+    p = np.einsum("qk,qkj->qj", w, mesh.V[mesh.F[f]])
+    nn = mesh.interpolate_normals(f, w)
+    for lam0, steps in ((np.zeros(n), 4), (rng.uniform(-0.2, 0.0, n), 12)):
+        C = p + (6.0 + lam0)[:, None] * nn
+        cand = _unique_per_row(gen._probe_faces(gen._nearest_samples(C)))
+        got = gen._lift(p, nn, lam0, cand, steps)
+        ref = _fixed_point_lift(p, nn, lam0, mesh.V[mesh.F[np.maximum(cand, 0)]], cand >= 0,
+                                6.0, steps)
+        assert np.array_equal(got, ref)
+        assert np.count_nonzero(ref != lam0) > 100  # the steps did lift

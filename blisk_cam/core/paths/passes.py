@@ -19,6 +19,7 @@ from ..errors import ConeError, ToleranceError
 from ..geometry.axis import Axis, meridional
 from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
+from ..kernels import lift as compiled_lift
 from ..kernels import mesh_tables as compiled_tables
 from ..kernels.backend import extension
 from ..part.cones import Cone
@@ -393,8 +394,18 @@ class _Generator:
         # lift only moves the centre away from them
         c0 = D[idx] + (rho + lam_i)[:, None] * DN[idx]
         cand = _unique_per_row(self._probe_faces(self._nearest_samples(c0)))
+        return self._lift(D[idx], DN[idx], lam_i, cand, 12)
+
+    def _lift(self, p, n, lam, cand, steps):
+        """:func:`_fixed_point_lift` on the candidate faces ``cand`` (q, c), −1 padded:
+        compiled when installed (the same λ), else from their (q, c, 3, 3) corners."""
+        got = compiled_lift.fixed_point_lift(
+            self.mesh.V, self.mesh.F, cand, p, n, lam,
+            (self.radius, LIFT_TOLERANCE, LIFT_GAIN, PLANE_BOUND_SLACK), steps, workers())
+        if got is not None:
+            return got
         tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]
-        return _fixed_point_lift(D[idx], DN[idx], lam_i, tri, cand >= 0, rho, 12)
+        return _fixed_point_lift(p, n, lam, tri, cand >= 0, self.radius, steps)
 
     def intrusion_lift(self, D, DN, lam):
         """Extra λ (mm) where a part of the mesh *away* from the CC point comes closer than ρ
@@ -553,9 +564,7 @@ class _Generator:
         corners = self.mesh.edges[np.stack([e0[need], e1[need]], 1)].reshape(len(need), 4)
         pos = np.searchsorted(verts, corners)
         cand = _unique_per_row(ring[pos].reshape(len(need), -1))  # (q', c) padded with −1
-        tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]  # (q', c, 3, 3)
-        lam[need] = _fixed_point_lift(D[need], DN[need], np.zeros(len(need)), tri, cand >= 0,
-                                      self.radius, 4)
+        lam[need] = self._lift(D[need], DN[need], np.zeros(len(need)), cand, 4)
         return lam
 
     def _vertex_face_table(self):
