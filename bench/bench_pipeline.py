@@ -9,9 +9,10 @@ For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` tria
   from disk, weld (``TriMesh.from_arrays``), plan (``pipeline.plan_paths``: fit, passes,
   orient, link), write the paths JSON — wall time per stage and in total;
 * the same run through the real command line (``python -m blisk_cam paths``, a new process:
-  interpreter start and imports included), timed from outside, with its ``seconds_*`` stats;
+  interpreter start and imports included), timed from outside, with its ``seconds_*`` stats
+  and its peak memory (its resident high-water mark, MB);
 * ``trimesh.intersections.mesh_multiplane`` for 50 planes of the same mesh in the same run,
-  and the ratio whole run / trimesh (goal ≤ 2);
+  and the ratio whole run / trimesh (goal ≤ 1, issue 21);
 * ``verify.verify_path`` with 1 and 2 threads vs the plan's own time (goal: verify ≤ plan),
   for a ball and a bull-nose (R6, corner 2) path on the blade at ``--verify-triangles``
   (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it, ``--verify-only``
@@ -121,7 +122,8 @@ def whole_run(stl, axis, c1, c2, chord, out):
 
 def cli_run(stl, axis, c1, c2, chord, out):
     """The same plan through ``python -m blisk_cam paths`` in a new process (what the user
-    waits for at the prompt): (wall time seen from outside, the JSON's stats)."""
+    waits for at the prompt): (wall time seen from outside, the JSON's stats with the
+    process's peak resident memory added as ``peak_mb``)."""
     cone = [str(x) for c in (c1, c2) for x in (c.r1, c.z1, c.r2, c.z2)]
     cmd = [sys.executable, "-m", "blisk_cam", "paths", "--mesh", str(stl),
            "--axis", *(str(x) for x in (*axis.origin, *axis.direction)),
@@ -130,12 +132,32 @@ def cli_run(stl, axis, c1, c2, chord, out):
     env = dict(os.environ)
     if _BACKEND["name"] == "numpy":
         env[backend.ENV] = "numpy"
-    t0 = time.perf_counter()
-    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env)
-    wall = time.perf_counter() - t0
-    if done.returncode != 0:
-        raise SystemExit(f"CLI failed ({done.returncode}): {done.stderr[-2000:]}")
-    return wall, json.loads(Path(out).read_text())["stats"]
+    with tempfile.TemporaryFile("w+") as err:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=err, env=env)
+        peak = _peak_memory_mb(proc)
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0:
+            err.seek(0)
+            raise SystemExit(f"CLI failed ({proc.returncode}): {err.read()[-2000:]}")
+    stats = json.loads(Path(out).read_text())["stats"]
+    stats["peak_mb"] = peak
+    return wall, stats
+
+
+def _peak_memory_mb(proc, every=0.05):
+    """Wait for ``proc``; its peak resident memory (MB): the high-water mark of its own
+    memory (VmHWM, /proc), read every ``every`` s until it exits (NaN where /proc is not
+    there). Not ru_maxrss: on Linux a child started from this process inherits this
+    process's resident size at the fork into that figure."""
+    kb = []
+    status = Path(f"/proc/{proc.pid}/status")
+    while proc.poll() is None:  # Popen returns after the exec: the CLI's own memory
+        with contextlib.suppress(OSError, ValueError):
+            kb += [float(x.split()[1]) for x in status.read_text().splitlines()
+                   if x.startswith("VmHWM:")]
+        time.sleep(every)
+    return max(kb) / 1024.0 if kb else float("nan")
 
 
 def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball", "bull"),
@@ -218,7 +240,8 @@ def _blade_lines(name, F, chord, t, path, cli_wall, cli, t_tm):
     rest = cli_wall - sum(cli.get("seconds_" + k, 0.0) for k in top)
     print(f"[{name}] CLI `python -m blisk_cam paths` (new process): {cli_wall:.2f} s at the "
           f"prompt = {' + '.join(parts)} + write and exit {rest:.2f} s "
-          f"(stats seconds_wall {cli.get('seconds_wall', float('nan')):.2f})", flush=True)
+          f"(stats seconds_wall {cli.get('seconds_wall', float('nan')):.2f}); peak memory "
+          f"{cli['peak_mb']:.0f} MB (its resident high-water mark, read every 50 ms)", flush=True)
     if t_tm is None:
         print(f"[{name}] trimesh not installed: no mesh_multiplane comparison")
 

@@ -168,6 +168,42 @@ impl PointTree {
         best.len() == cap && best[k - 1].0 == best[k].0
     }
 
+    /// Whether some point lies at a squared distance (summed as in [`d2`]) below `ub2` from
+    /// `q`: scipy's `isfinite(query(q, k=1, distance_upper_bound=sqrt(ub2))[0])`.
+    pub fn any_below(&self, q: &P3, ub2: f64) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        stack.push(0);
+        while let Some(n) = stack.pop() {
+            // a lower bound of every point's squared distance (see box_d2)
+            if !(box_d2(q, &self.boxes[n as usize]) < ub2) {
+                continue;
+            }
+            match self.nodes[n as usize] {
+                Node::Leaf { start, end } => {
+                    if self.pts[start as usize..end as usize].iter().any(|p| d2(q, p) < ub2) {
+                        return true;
+                    }
+                }
+                Node::Split { left, right } => {
+                    // the nearer child is searched first (a hit ends the search)
+                    let dl = box_d2(q, &self.boxes[left as usize]);
+                    let dr = box_d2(q, &self.boxes[right as usize]);
+                    if dl <= dr {
+                        stack.push(right);
+                        stack.push(left);
+                    } else {
+                        stack.push(left);
+                        stack.push(right);
+                    }
+                }
+            }
+        }
+        false
+    }
+
     pub fn knn_many(&self, qs: &[P3], k: usize, ub2: f64) -> (Vec<i64>, Vec<bool>) {
         let mut ids = vec![-1i64; qs.len() * k];
         let mut tie = vec![false; qs.len()];

@@ -15,6 +15,10 @@ mod collision_walk;
 mod hypot;
 mod knn;
 mod numpy_ops;
+mod lift;
+mod mesh_samples;
+mod probe;
+mod slice_roots;
 mod step;
 mod stock;
 mod swept_ball;
@@ -359,5 +363,10 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(collision_walk::collision_detect, m)?)?;
     m.add_class::<collision_walk::CollisionTree>()?;
+    m.add_function(wrap_pyfunction!(probe::points_within, m)?)?;
+    m.add_function(wrap_pyfunction!(lift::fixed_point_lift, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
+    m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
     Ok(())
 }

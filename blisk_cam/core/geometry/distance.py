@@ -34,14 +34,23 @@ class MeshDistance:
     compiled : bool — with the compiled kernels running, the nearest faces come from their
         tree (:class:`NearestFaces`' kernel): the same distances and points, but of faces at
         exactly the same distance (a point on a shared edge or vertex) the lowest id instead
-        of the last in this tree's leaf order. Verify opts in; the planners keep their ties.
+        of the last in this tree's leaf order. Verify opts in.
+    faces : NearestFaces or None — one already made on ``mesh``: the nearest faces come from
+        it on either backend (the same distances and points, ties by the lowest id as with
+        ``compiled``) and its trees are shared; no tree of this class is built (the link
+        check: at 1M faces that tree took longer than the whole plan)
     """
 
-    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8, compiled: bool = False):
+    def __init__(self, mesh: TriMesh, *, leaf_size: int = 8, compiled: bool = False,
+                 faces: NearestFaces | None = None):
         self.mesh = mesh
         V, F = mesh.V, mesh.F
         self._A, self._B, self._C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-        self._faces = NearestFaces(mesh) if compiled and extension() is not None else None
+        if faces is not None and faces.mesh is not mesh:
+            raise ValueError("MeshDistance: faces must be a NearestFaces of the same mesh")
+        self._faces = faces
+        if faces is None and compiled and extension() is not None:
+            self._faces = NearestFaces(mesh)
         self._frames = None
         if self._faces is not None:  # the numpy tree is not needed
             return

@@ -9,7 +9,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "point_tree", "nearest_k"]
+__all__ = ["available", "point_tree", "nearest_k", "points_within"]
 
 
 def available() -> bool:
@@ -39,3 +39,15 @@ def nearest_k(tree, queries, k: int, bound: float, threads: int, ties=None):
     if ties is not None and np.any(tie):
         ids[tie] = ties(Q[tie])
     return ids
+
+
+def points_within(tree, queries, bound: float, threads: int):
+    """(q,) bool: a point of ``tree`` lies closer than ``bound`` mm to each query (q, 3)
+    (squared distance below ``bound²``, summed as scipy sums it: scipy's
+    ``isfinite(query(k=1, distance_upper_bound=bound)[0])``), on ``threads`` threads with
+    the GIL released; None when the numpy kernels run."""
+    ext = extension()
+    if ext is None:
+        return None
+    Q = np.ascontiguousarray(queries, dtype=np.float64)
+    return ext.points_within(tree, Q, float(bound), max(1, int(threads)))

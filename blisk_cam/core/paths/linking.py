@@ -181,6 +181,11 @@ class SurfaceProjector:
         self.mesh, self.axis, self.morph = mesh, axis, morph
         self._nf = NearestFaces(mesh)
 
+    @property
+    def nearest_faces(self) -> NearestFaces:
+        """The exact closest-point search on the mesh (shared with the link check)."""
+        return self._nf
+
     def project(self, points):
         """(q (k, 3), normal (k, 3), face (k,)) — closest points on the mesh, smooth normals."""
         q, face, bary = self._nf.query(points)

@@ -10,7 +10,6 @@ operator to drive; ``generate_paths`` simply exhausts it.
 
 from __future__ import annotations
 
-import itertools
 import time
 
 import numpy as np
@@ -20,6 +19,8 @@ from ..errors import ConeError, ToleranceError
 from ..geometry.axis import Axis, meridional
 from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
+from ..kernels import lift as compiled_lift
+from ..kernels import mesh_tables as compiled_tables
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
@@ -32,6 +33,7 @@ from .expansion import (
     measure_cusp,
     strip_width,
 )
+from .probe_samples import _ProbeSamples, _workers
 from .sampling import CENTRE_CHORD_SHARE, sample_polyline
 from .slicing import LevelCurve, MeshConeSlicer
 
@@ -191,18 +193,6 @@ def _fixed_point_lift(p, n, lam, tri, valid, rho, steps):
     return lam
 
 
-#: k-d tree queries of fewer points than this run on the calling thread: scipy starts its
-#: worker threads per call, which costs more than the search of a few hundred points
-#: (measured at 1M triangles: 10–50 ball centres ~30 µs a point on one thread, ~100 µs with
-#: workers=-1). Every point's answer is the same either way.
-THREADED_QUERY_MIN = 512
-
-
-def _workers(n: int) -> int:
-    """``workers`` for a k-d tree query of ``n`` points (see ``THREADED_QUERY_MIN``)."""
-    return -1 if n >= THREADED_QUERY_MIN else 1
-
-
 def _unique_per_row(ids):
     """Rows of non-negative ids with repeats replaced by −1 and the −1 columns that every
     row has squeezed out: (q, c) → (q, c') int, c' ≤ c."""
@@ -215,126 +205,6 @@ def _unique_per_row(ids):
     srt = -np.sort(-srt, axis=1)  # valid ids first, −1 last
     width = int((srt >= 0).sum(axis=1).max())
     return srt[:, : max(width, 1)]
-
-
-#: relative width (on squared distances) of the band around a search bound inside which
-#: :class:`_ProbeSamples` leaves the decision to the k-d tree over all samples: its own sums
-#: of squares differ from ours by a few ulps
-PROBE_TIE_BAND = 1e-12
-#: slack (mm) added to the vertex search radius of :class:`_ProbeSamples` for the rounding of
-#: the midpoints and centroids (~1e-14 mm at blade coordinates)
-PROBE_RADIUS_SLACK = 1e-9
-
-
-class _ProbeSamples:
-    """The surface samples of the intrusion checks — every vertex, edge midpoint and face
-    centroid, numbered ``v``, ``nv + e``, ``nv + ne + f`` — searched from ball centres with the
-    answers of a k-d tree over all of them (:meth:`_Generator._probe_tree`), found through a
-    k-d tree over the vertices alone.
-
-    A ball centre lies ~ρ from the surface, which touches the ball's sphere: a k-d search
-    around it must open every leaf whose box the sphere cuts, a patch of millimetres around
-    the contact, and it opens 6× fewer points among the vertices than among all samples.
-    What makes that exact: a midpoint m of an edge (u, v) and a centroid g of a face (a, b, c)
-    satisfy ``|m − x|² = (|u − x|² + |v − x|²)/2 − |u − v|²/4`` and
-    ``|g − x|² = mean |a_i − x|² − (1/9) Σ_{i<j} |a_i − a_j|²``, so a sample within D of x has a
-    vertex within ``sqrt(D² + L²/3)`` (L the longest edge), and every sample belongs to the
-    faces around that vertex (with the L of those faces, at most). The candidates are
-    measured exactly; the rare row where a squared distance falls within ``PROBE_TIE_BAND`` of
-    the bound is answered by the full tree, so every answer is the full tree's. (The k nearest
-    samples the same way would cost more than the full tree's own search: the candidates of
-    the k-th nearest must be sorted per row.)
-    """
-
-    def __init__(self, mesh, vertex_faces, full_tree):
-        V, F, e = mesh.V, mesh.F, mesh.edges
-        self.V, self.F, self.E, self.nv, self.ne = V, F, e, len(V), len(e)
-        self.ptr, self.fids, self.corner = vertex_faces
-        self.face_edges = mesh.face_edges  # (v0v1, v1v2, v2v0): corner j starts edge j
-        # L_f² / 3 of the faces around each vertex, at most (the reach of its samples)
-        # V.take with contiguous indices: ~5x faster than V[e[:, 0]] (a strided index) here
-        de = V.take(np.ascontiguousarray(e[:, 0]), axis=0) - V.take(np.ascontiguousarray(
-            e[:, 1]), axis=0)
-        l2 = np.einsum("ij,ij->i", de, de)
-        fe = self.face_edges
-        face_l2 = np.maximum(np.maximum(l2[fe[:, 0]], l2[fe[:, 1]]), l2[fe[:, 2]]) / 3.0
-        deg = np.diff(self.ptr)
-        self.vcover2 = np.zeros(self.nv)
-        if len(self.fids):
-            has = deg > 0
-            self.vcover2[has] = np.maximum.reduceat(face_l2[self.fids], self.ptr[:-1][has])
-        self.cover2 = float(self.vcover2.max()) if self.nv else 0.0
-        self.vtree = cKDTree(V, leafsize=64, balanced_tree=False, compact_nodes=False)
-        self._full_tree = full_tree  # callable: the k-d tree over all samples, built on demand
-        self.fallback_rows = 0
-
-    def sample_points(self, sid):
-        """(k, 3) coordinates (mm) of the samples ``sid`` (k,): a vertex, ``0.5 (u + v)`` of
-        an edge, ``(a + b + c) / 3`` of a face — the very sums, so the very numbers, of
-        :meth:`_Generator._probe_tree`."""
-        V, nv, ne = self.V, self.nv, self.ne
-        out = np.empty((len(sid), 3))
-        isv, isc = sid < nv, sid >= nv + ne
-        ise = ~isv & ~isc
-        out[isv] = V[sid[isv]]
-        e = self.E[sid[ise] - nv]
-        out[ise] = 0.5 * (V[e[:, 0]] + V[e[:, 1]])
-        f = self.F[sid[isc] - nv - ne]
-        out[isc] = (V[f[:, 0]] + V[f[:, 1]] + V[f[:, 2]]) / 3.0
-        return out
-
-    def all_points(self):
-        """(nv + ne + nf, 3) every sample, in id order."""
-        V, F, e = self.V, self.F, self.E
-
-        def corner(ids, j):  # V.take with a contiguous index: a strided one gathers ~5x slower
-            return V.take(np.ascontiguousarray(ids[:, j]), axis=0)
-
-        # centroids as V[F].mean(axis=1) sums them ((a + b) + c) / 3, without its (m, 3, 3)
-        # copy and strided reduction
-        cen = (corner(F, 0) + corner(F, 1) + corner(F, 2)) / 3.0
-        return np.vstack([V, 0.5 * (corner(e, 0) + corner(e, 1)), cen])
-
-    def any_within(self, C, bound):
-        """(q,) bool: a sample lies closer than ``bound`` (mm) to the point — the k-d tree's
-        ``isfinite(query(C, k=1, distance_upper_bound=bound)[0])``."""
-        q = len(C)
-        out = np.zeros(q, dtype=bool)
-        if q == 0:
-            return out
-        b2 = bound * bound
-        lo, hi = b2 * (1.0 - PROBE_TIE_BAND), b2 * (1.0 + PROBE_TIE_BAND)
-        lists = self.vtree.query_ball_point(C, np.sqrt(b2 + self.cover2) + PROBE_RADIUS_SLACK,
-                                            workers=_workers(q), return_sorted=False)
-        cnt = np.fromiter(map(len, lists), dtype=np.int64, count=q)
-        v = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
-                        count=int(cnt.sum()))
-        row = np.repeat(np.arange(q), cnt)
-        d = self.V[v] - C[row]
-        d2 = np.einsum("ij,ij->i", d, d)
-        out[row[d2 < lo]] = True
-        amb = [row[(d2 >= lo) & (d2 <= hi)]]
-        # the faces around the vertices that can hold a sample inside, of the rows not decided
-        reach = np.sqrt(b2 + self.vcover2[v]) + PROBE_RADIUS_SLACK
-        keep = ~out[row] & (d2 < reach * reach)
-        v, row = v[keep], row[keep]
-        deg = self.ptr[v + 1] - self.ptr[v]
-        k = np.repeat(self.ptr[v] - (np.cumsum(deg) - deg), deg) + np.arange(int(deg.sum()))
-        f, j = self.fids[k], self.corner[k]
-        fe = self.face_edges
-        row = np.tile(np.repeat(row, deg), 3)
-        d = self.sample_points(np.concatenate([self.nv + self.ne + f, self.nv + fe[f, j],
-                                               self.nv + fe[f, (j + 2) % 3]])) - C[row]
-        d2 = np.einsum("ij,ij->i", d, d)
-        out[row[d2 < lo]] = True
-        amb.append(row[(d2 >= lo) & (d2 <= hi)])
-        amb = np.unique(np.concatenate(amb))
-        amb = amb[~out[amb]]
-        if len(amb):
-            self.fallback_rows += len(amb)
-            dist, _ = self._full_tree().query(C[amb], k=1, distance_upper_bound=bound)
-            out[amb] = np.isfinite(dist)
-        return out
 
 
 def _next_step(trials, target):
@@ -502,10 +372,9 @@ class _Generator:
         reaching into the ball has a sample that close, see :meth:`_probe_tree`). With
         ``screen`` only the centres with a sample deeper than ``facet_tolerance`` inside the
         ball are measured (a cheap, tightly bounded KD search); the others get −inf."""
-        probes = self._probe_samples()
         if screen:
             out = np.full(len(centres), -np.inf)
-            hit = probes.any_within(centres, self.radius - self.facet_tolerance)
+            hit = self._any_within(centres, self.radius - self.facet_tolerance)
             if np.any(hit):
                 out[hit] = self._pose_shortfall(centres[hit])
             return out
@@ -525,8 +394,18 @@ class _Generator:
         # lift only moves the centre away from them
         c0 = D[idx] + (rho + lam_i)[:, None] * DN[idx]
         cand = _unique_per_row(self._probe_faces(self._nearest_samples(c0)))
+        return self._lift(D[idx], DN[idx], lam_i, cand, 12)
+
+    def _lift(self, p, n, lam, cand, steps):
+        """:func:`_fixed_point_lift` on the candidate faces ``cand`` (q, c), −1 padded:
+        compiled when installed (the same λ), else from their (q, c, 3, 3) corners."""
+        got = compiled_lift.fixed_point_lift(
+            self.mesh.V, self.mesh.F, cand, p, n, lam,
+            (self.radius, LIFT_TOLERANCE, LIFT_GAIN, PLANE_BOUND_SLACK), steps, workers())
+        if got is not None:
+            return got
         tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]
-        return _fixed_point_lift(D[idx], DN[idx], lam_i, tri, cand >= 0, rho, 12)
+        return _fixed_point_lift(p, n, lam, tri, cand >= 0, self.radius, steps)
 
     def intrusion_lift(self, D, DN, lam):
         """Extra λ (mm) where a part of the mesh *away* from the CC point comes closer than ρ
@@ -555,7 +434,7 @@ class _Generator:
         at = np.arange(0.0, arc[-1], INTRUSION_PROBE_SPACING)
         probe = np.unique(np.append(np.searchsorted(arc, at), q - 1))
         probe = probe[probe < q]
-        hp = np.nonzero(self._probe_samples().any_within(C[probe], rho - 1e-5))[0]
+        hp = np.nonzero(self._any_within(C[probe], rho - 1e-5))[0]
         if len(hp) == 0:
             return extra
         # a face can reach into the ball while no vertex or centroid does: the windows extend
@@ -590,24 +469,61 @@ class _Generator:
                                   balanced_tree=False, compact_nodes=False)
         return self._ptree
 
+    def _compiled_probe_tree(self):
+        """The compiled k-d tree over all samples (built on first use), or None when the
+        numpy kernels run."""
+        if extension() is None:
+            return None
+        if getattr(self, "_cptree", None) is None:  # the samples of _ProbeSamples.all_points
+            m = self.mesh
+            self._cptree = compiled_tables.sample_tree(m.V, m.edges, m.F, workers())
+        return self._cptree
+
+    def _any_within(self, C, bound):
+        """(q,) bool: a surface sample lies closer than ``bound`` mm to the point (q, 3) — the
+        full tree's answer (:meth:`_ProbeSamples.any_within`), compiled when installed."""
+        tree = self._compiled_probe_tree() if len(C) else None
+        if tree is not None:
+            return compiled_knn.points_within(tree, C, bound, workers())
+        return self._probe_samples().any_within(C, bound)
+
     def _nearest_samples(self, centres):
         """(q, 8) ids of the samples nearest the ball centres (q, 3) within ρ + 0.05 mm, −1
-        where there are fewer: the k-d tree over all samples (through the vertices, as
-        :class:`_ProbeSamples` does for the screens, the candidates of the 8th nearest are
-        ~300 a centre to measure and sort per row: 2–3× the tree's own search, measured)."""
-        if extension() is not None:  # compiled; scipy settles its ties
-            if getattr(self, "_cptree", None) is None:
-                self._cptree = compiled_knn.point_tree(self._probe_samples().all_points(),
-                                                       workers())
-            return compiled_knn.nearest_k(self._cptree, centres, 8, self.radius + 0.05, workers(),
-                                          ties=self._nearest_samples_scipy)
+        where there are fewer, by (squared distance, id): of samples at the same distance
+        the lowest ids (a rule of the mesh alone, not of a tree's traversal). The k-d tree
+        over all samples (through the vertices, as :class:`_ProbeSamples` does for the
+        screens, the candidates of the 8th nearest are ~300 a centre to measure and sort per
+        row: 2–3× the tree's own search, measured); compiled when installed."""
+        tree = self._compiled_probe_tree()
+        if tree is not None:  # (distance, id) order: no row left to scipy
+            return compiled_knn.nearest_k(tree, centres, 8, self.radius + 0.05, workers())
         return self._nearest_samples_scipy(centres)
 
-    def _nearest_samples_scipy(self, centres):
+    def _nearest_samples_scipy(self, centres, k=8, extra=4):
+        """:meth:`_nearest_samples` by scipy's k-d tree: the k + ``extra`` nearest, ordered
+        by (squared distance summed as scipy sums it, id); rows whose last is as near as
+        their k-th may hide more samples at that distance and are asked again with more."""
         bound, tree = self.radius + 0.05, self._probe_tree()
-        _, near = tree.query(centres, k=8, distance_upper_bound=bound,
-                             workers=_workers(len(centres)))
-        return np.where(near < tree.n, near, -1)
+        out = np.full((len(centres), k), -1, dtype=np.int64)
+        rows = np.arange(len(centres))
+        m = k + extra
+        while len(rows):
+            _, near = tree.query(centres[rows], k=m, distance_upper_bound=bound,
+                                 workers=_workers(len(rows)))
+            valid = near < tree.n
+            near = np.where(valid, near, -1)
+            d = tree.data[np.maximum(near, 0)] - centres[rows][:, None, :]
+            d2 = np.where(valid, (d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1])
+                          + d[..., 2] * d[..., 2], np.inf)
+            key_id = np.where(valid, near, np.iinfo(np.int64).max)
+            order = np.lexsort((key_id, d2), axis=1)[:, :k]
+            d2s = np.take_along_axis(d2, order, axis=1)
+            out[rows] = np.take_along_axis(near, order, axis=1)
+            # every sample nearer than the last found is among the m: the k are exact unless
+            # the last is valid and at the k-th's distance
+            again = valid[:, -1] & (d2.max(axis=1) == d2s[:, -1])
+            rows, m = rows[again], 4 * m
+        return out
 
     def _probe_faces(self, ids):
         """Faces holding the probe-tree samples ``ids`` (q, k): the ring of a vertex, the two
@@ -648,9 +564,7 @@ class _Generator:
         corners = self.mesh.edges[np.stack([e0[need], e1[need]], 1)].reshape(len(need), 4)
         pos = np.searchsorted(verts, corners)
         cand = _unique_per_row(ring[pos].reshape(len(need), -1))  # (q', c) padded with −1
-        tri = self.mesh.V[self.mesh.F[np.maximum(cand, 0)]]  # (q', c, 3, 3)
-        lam[need] = _fixed_point_lift(D[need], DN[need], np.zeros(len(need)), tri, cand >= 0,
-                                      self.radius, 4)
+        lam[need] = self._lift(D[need], DN[need], np.zeros(len(need)), cand, 4)
         return lam
 
     def _vertex_face_table(self):
@@ -658,6 +572,8 @@ class _Generator:
         (3 m,)) — the faces of vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being
         their corner ``corner[...]``."""
         if not hasattr(self, "_vf"):
+            self._vf = compiled_tables.vertex_face_table(self.mesh.F, len(self.mesh.V))
+        if self._vf is None:
             F = self.mesh.F
             order = np.argsort(F.ravel(), kind="stable")
             vs = F.ravel()[order]

@@ -27,8 +27,10 @@ import numpy as np
 from ..geometry.axis import Axis, meridional
 from ..geometry.closest import barycentric
 from ..geometry.mesh import TriMesh, chain_graph_paths
+from ..kernels import slicing as compiled_slicing
 from ..part.cones import MorphingCones
 from ..part.profiles import MorphingProfiles
+from ..runtime import workers
 
 __all__ = ["LevelCurve", "MeshConeSlicer"]
 
@@ -390,6 +392,12 @@ class MeshConeSlicer:
         """
         if lines is None:
             lines = self.morph.segment_lines(s)
+        if isinstance(self.morph, MorphingCones):  # one line, f = α r + β z + γ: compiled
+            got = compiled_slicing.cone_edge_roots(self.r, self.z, self.radial, self.mesh.V,
+                                                   self.edges, edge_ids, lines[0], self.on_tol,
+                                                   workers())
+            if got is not None:
+                return got
         ev = self.edges[edge_ids]
         i0, i1 = ev[:, 0], ev[:, 1]
         k = len(i0)

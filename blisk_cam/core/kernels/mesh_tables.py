@@ -1,0 +1,34 @@
+"""Tables of a mesh for the passes' intrusion checks, compiled: the faces around each vertex
+(the permutation of numpy's stable argsort, by a counting sort) and the k-d tree over every
+vertex, edge midpoint and face centroid (the same sums, so the same points, as
+:meth:`blisk_cam.core.paths.probe_samples._ProbeSamples.all_points`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .backend import extension
+
+__all__ = ["sample_tree", "vertex_face_table"]
+
+
+def vertex_face_table(F, n_vertices: int):
+    """(ptr (n + 1,), face (3 m,), corner (3 m,)) int64 of the faces F (m, 3): the faces of
+    vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being their corner
+    ``corner[...]``; None when the numpy kernels run."""
+    ext = extension()
+    if ext is None:
+        return None
+    return ext.vertex_face_table(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices))
+
+
+def sample_tree(V, E, F, threads: int):
+    """The compiled k-d tree (:func:`.knn.point_tree`'s kind) over the vertices V (n, 3) mm,
+    the midpoints of the edges E (e, 2) and the centroids of the faces F (m, 3), numbered
+    in that order; None when the numpy kernels run."""
+    ext = extension()
+    if ext is None:
+        return None
+    c = np.ascontiguousarray
+    return ext.sample_point_tree(c(V, dtype=np.float64), c(E, dtype=np.int64),
+                                 c(F, dtype=np.int64), max(1, int(threads)))

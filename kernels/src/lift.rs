@@ -1,0 +1,143 @@
+//! The fixed-point lift of `passes._fixed_point_lift` (paper 001 §3: the ball kept clear of
+//! the mesh around its contact): per point, while the exact distance from the ball centre
+//! `p + (ρ + λ) n` to its nearest candidate triangle is below `ρ − tol`, λ grows by
+//! `gain (ρ − d)`. The distances are `passes._point_triangle_distance` operation for
+//! operation (three-term dot products summed as numpy's einsum, `(x0 y0 + x2 y2) + x1 y1`;
+//! np.clip and np.minimum with numpy's NaN), so λ is the numpy reference's to the last bit.
+//! A triangle whose plane is farther than `ρ − tol + slack` is skipped (its distance cannot
+//! decide a step; the numpy code skips it too, with the same slack far above rounding).
+
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use rayon::prelude::*;
+
+use crate::numpy_ops::nanmin;
+
+type P3 = [f64; 3];
+
+#[inline(always)]
+fn dot(a: &P3, b: &P3) -> f64 {
+    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
+}
+#[inline(always)]
+fn sub(a: &P3, b: &P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+/// `passes._cross`: u1 v2 − u2 v1, u2 v0 − u0 v2, u0 v1 − u1 v0.
+#[inline(always)]
+fn cross(u: &P3, v: &P3) -> P3 {
+    [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+}
+/// np.clip(x, 0, 1) as numpy computes it (NaN passes through).
+#[inline(always)]
+fn clip01(x: f64) -> f64 {
+    if x.is_nan() {
+        return x;
+    }
+    let y = if x > 0.0 { x } else { 0.0 };
+    if y < 1.0 { y } else { 1.0 }
+}
+
+/// `passes._point_triangle_distance` for one point and one triangle.
+pub fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
+    let n = cross(&sub(b, a), &sub(c, a));
+    let n2 = dot(&n, &n);
+    let h = dot(&sub(p, a), &n) / if n2 > 0.0 { n2 } else { 1.0 };
+    let foot = [p[0] - h * n[0], p[1] - h * n[1], p[2] - h * n[2]];
+    let mut inside = n2 > 0.0;
+    for (u, v) in [(a, b), (b, c), (c, a)] {
+        inside &= dot(&cross(&sub(v, u), &sub(&foot, u)), &n) >= 0.0;
+    }
+    let mut best = if inside { h.abs() * n2.sqrt() } else { f64::INFINITY };
+    for (u, v) in [(a, b), (b, c), (c, a)] {
+        let uv = sub(v, u);
+        let l2 = dot(&uv, &uv);
+        let t = clip01(dot(&sub(p, u), &uv) / if l2 > 0.0 { l2 } else { 1.0 });
+        let q = [u[0] + t * uv[0], u[1] + t * uv[1], u[2] + t * uv[2]];
+        let d = sub(p, &q);
+        best = nanmin(best, dot(&d, &d).sqrt());
+    }
+    best
+}
+
+/// (q,) λ after up to `steps` fixed-point steps, from `lam` (q,), for points `p` and unit
+/// normals `n` (q, 3), candidate faces `cand` (q, c) of the mesh V (nv, 3), F (m, 3)
+/// (−1: padding); `consts` = (ρ, tol, gain, slack). On `threads` threads, GIL released.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn fixed_point_lift<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'py, f64>,
+    f: PyReadonlyArray2<'py, i64>,
+    cand: PyReadonlyArray2<'py, i64>,
+    p: PyReadonlyArray2<'py, f64>,
+    n: PyReadonlyArray2<'py, f64>,
+    lam: PyReadonlyArray1<'py, f64>,
+    consts: (f64, f64, f64, f64),
+    steps: usize,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let vv = crate::points(&v, "V")?;
+    let ff = crate::arrays::flat(&f, "F")?;
+    let pp = crate::points(&p, "p")?;
+    let q = pp.len();
+    let nn = crate::arrays::points_n(&n, "n", q)?;
+    let l0 = crate::arrays::values_n(&lam, "lam", q)?;
+    let cc = crate::arrays::flat(&cand, "cand")?;
+    let width = if q == 0 { 0 } else { cc.len() / q };
+    if cc.len() != q * width {
+        return Err(PyValueError::new_err("cand must have one row per point"));
+    }
+    let (nv, m) = (vv.len() as i64, (ff.len() / 3) as i64);
+    if cc.iter().any(|&i| i >= m) {
+        return Err(PyValueError::new_err("cand holds face ids out of range"));
+    }
+    if cc.iter().filter(|&&i| i >= 0).any(|&i| {
+        let t = &ff[3 * i as usize..3 * i as usize + 3];
+        t.iter().any(|&x| x < 0 || x >= nv)
+    }) {
+        return Err(PyValueError::new_err("F holds vertex ids out of range"));
+    }
+    let (rho, tol, gain, slack) = consts;
+    let limit = rho - tol + slack;
+    let pl = crate::pool(threads)?;
+    let mut out = l0.to_vec();
+    let one = |(i, lam): (usize, &mut f64)| {
+        let row = &cc[i * width..(i + 1) * width];
+        // the candidates' corners, normals and plane offsets (pruning only)
+        let tris: Vec<(P3, P3, P3, P3, f64, f64)> = row.iter().filter(|&&fi| fi >= 0).map(|&fi| {
+            let t = &ff[3 * fi as usize..3 * fi as usize + 3];
+            let (a, b, c) = (vv[t[0] as usize], vv[t[1] as usize], vv[t[2] as usize]);
+            let nrm = cross(&sub(&b, &a), &sub(&c, &a));
+            let n2 = dot(&nrm, &nrm);
+            let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
+            (a, b, c, nrm, inv, dot(&a, &nrm))
+        }).collect();
+        for _ in 0..steps {
+            let s = rho + *lam;
+            let c = [pp[i][0] + s * nn[i][0], pp[i][1] + s * nn[i][1], pp[i][2] + s * nn[i][2]];
+            let mut dmin = f64::INFINITY;
+            for (a, b, cc_, nrm, inv, an) in &tris {
+                let plane = (dot(&c, nrm) - an).abs() * inv;
+                if plane < limit {
+                    dmin = nanmin(dmin, point_triangle_distance(&c, a, b, cc_));
+                }
+            }
+            let short = rho - dmin;
+            if short > tol {
+                *lam += short * gain;
+            } else {
+                break;
+            }
+        }
+    };
+    py.detach(|| {
+        if threads <= 1 || q < 256 {
+            out.iter_mut().enumerate().for_each(one);
+        } else {
+            pl.install(|| out.par_iter_mut().enumerate().with_min_len(32).for_each(one));
+        }
+    });
+    Ok(PyArray1::from_vec(py, out))
+}

@@ -1,0 +1,80 @@
+//! Tables of the passes' intrusion checks (`passes._Generator`), made from the mesh in one
+//! pass each: the faces around every vertex (`_vertex_face_table`: numpy's stable argsort of
+//! the corners by vertex, as a counting sort — the same permutation) and the k-d tree over
+//! every vertex, edge midpoint `0.5 (u + v)` and face centroid `((a + b) + c) / 3` (the very
+//! sums of `_ProbeSamples.all_points`, so the very points), without the (n + e + f, 3) array.
+
+use numpy::{PyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::knn;
+
+fn ids_in_range(ids: &[i64], n: usize, what: &str) -> PyResult<()> {
+    if ids.iter().any(|&i| i < 0 || i as usize >= n) {
+        return Err(PyValueError::new_err(format!("{what} holds vertex ids out of range")));
+    }
+    Ok(())
+}
+
+/// (ptr (n + 1,), face (3 m,), corner (3 m,)) int64: the faces around vertex v are
+/// `face[ptr[v]:ptr[v + 1]]` (ascending), v being their corner `corner[...]`; F (m, 3).
+#[pyfunction]
+pub fn vertex_face_table<'py>(py: Python<'py>, f: PyReadonlyArray2<'py, i64>, n_vertices: usize)
+    -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>)> {
+    let ff = crate::arrays::flat(&f, "F")?;
+    ids_in_range(ff, n_vertices, "F")?;
+    let (ptr, face, corner) = py.detach(|| {
+        let mut ptr = vec![0i64; n_vertices + 1];
+        for &v in ff {
+            ptr[v as usize + 1] += 1;
+        }
+        for i in 0..n_vertices {
+            ptr[i + 1] += ptr[i];
+        }
+        let mut next: Vec<i64> = ptr[..n_vertices].to_vec();
+        let mut face = vec![0i64; ff.len()];
+        let mut corner = vec![0i64; ff.len()];
+        for (i, &v) in ff.iter().enumerate() {
+            let p = &mut next[v as usize];
+            face[*p as usize] = (i / 3) as i64;
+            corner[*p as usize] = (i % 3) as i64;
+            *p += 1;
+        }
+        (ptr, face, corner)
+    });
+    Ok((PyArray1::from_vec(py, ptr), PyArray1::from_vec(py, face), PyArray1::from_vec(py, corner)))
+}
+
+/// The k-d tree (`PointTree`) over the samples of the mesh V (n, 3), edges E (e, 2), faces
+/// F (m, 3): vertices, then edge midpoints, then face centroids (ids n + e + f order), built
+/// on `threads` threads.
+#[pyfunction]
+pub fn sample_point_tree(py: Python<'_>, v: PyReadonlyArray2<'_, f64>, e: PyReadonlyArray2<'_, i64>,
+                         f: PyReadonlyArray2<'_, i64>, threads: usize) -> PyResult<crate::PointTree> {
+    let vv = crate::points(&v, "V")?;
+    let ee = crate::arrays::flat(&e, "E")?;
+    let ff = crate::arrays::flat(&f, "F")?;
+    ids_in_range(ee, vv.len(), "E")?;
+    ids_in_range(ff, vv.len(), "F")?;
+    let total = vv.len() + ee.len() / 2 + ff.len() / 3;
+    if total >= u32::MAX as usize {
+        return Err(PyValueError::new_err("too many points for one tree"));
+    }
+    let pl = crate::pool(threads)?;
+    let tree = py.detach(|| {
+        let mut pts: Vec<[f64; 3]> = Vec::with_capacity(total);
+        pts.extend_from_slice(vv);
+        pts.extend(ee.chunks_exact(2).map(|w| {
+            let (a, b) = (&vv[w[0] as usize], &vv[w[1] as usize]);
+            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])]
+        }));
+        pts.extend(ff.chunks_exact(3).map(|t| {
+            let (a, b, c) = (&vv[t[0] as usize], &vv[t[1] as usize], &vv[t[2] as usize]);
+            [((a[0] + b[0]) + c[0]) / 3.0, ((a[1] + b[1]) + c[1]) / 3.0,
+             ((a[2] + b[2]) + c[2]) / 3.0]
+        }));
+        pl.install(|| knn::PointTree::new(pts))
+    });
+    Ok(crate::PointTree { tree })
+}
