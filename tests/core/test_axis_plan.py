@@ -46,15 +46,21 @@ def case():
 
 
 def test_turn_per_mm_holds_between_consecutive_poses(case):
+    """Everywhere, unresolved poses included (issue 25: no two consecutive poses turn more
+    than the limit); the report counts no turn over it."""
     _, _, path, out = case
     new, _, opts = out["plan"]
+    checked = 0
     for c0, c1 in zip(path.curves, new.curves, strict=True):
         a = np.asarray(c1.axis)
         turn = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
         limit = turn_limits(c0.cc, c0.axis, opts.turn_per_mm)
+        assert np.all(turn <= limit + 1e-6), np.degrees((turn - limit).max())
         st = np.asarray(c1.collision["status"]) == STATUS_UNRESOLVED
-        cut = ~(st[1:] & st[:-1])  # a jump is allowed only between two unresolved poses
-        assert np.all(turn[cut] <= limit[cut] + 1e-6), np.degrees((turn - limit)[cut].max())
+        checked += int(np.sum(st[1:] & st[:-1]))
+    assert checked  # pairs of unresolved poses are among them: the check is not idle
+    assert not new.collision.get("turns_between_unresolved")
+    assert new.collision.get("turn_over_limit", 0) == 0
 
 
 def test_every_pose_clear_or_in_a_reported_range(case):
@@ -281,18 +287,24 @@ def test_closed_pass_closing_cut_and_motions(case):
 
 
 def test_jumps_and_motions_stay_inside_unresolved_stretches(case):
-    """The planner may leave the turn limit only between two consecutive poses that both
-    collide (measured again here), each counted in ``turns_between_unresolved``; and a pose
-    is reported for "the motion from the pose before" only when that pose before is clear
-    (the motion out of a colliding pose belongs to that pose's range)."""
+    """With ``turn_jumps`` the planner may leave the turn limit, but only between two
+    consecutive poses that both collide (measured again here), each counted in
+    ``turns_between_unresolved``, and it leaves no more poses unresolved than the bounded
+    plan; and (either way) a pose is reported for "the motion from the pose before" only when
+    that pose before is clear (the motion out of a colliding pose belongs to that pose's
+    range)."""
+    from dataclasses import replace
+
     from blisk_cam.core.collision.axis_plan import REASON_MOTION
 
     _, mesh, path, out = case
-    new, _, opts = out["plan"]
+    bounded, _, opts = out["plan"]
+    sub = type(path)(**{**path.__dict__, "curves": path.curves[:6], "program": None})
+    new, _ = run_collisions(mesh, sub, [], replace(opts, turn_jumps=True))
     ob = Obstacles.build(mesh.V, mesh.F, path.axis, N_BLADES, 1, [])
     scene = CollisionScene(ob, path.tool, opts.assembly(path.tool))
     jumps = 0
-    for c0, c1 in zip(path.curves, new.curves, strict=True):
+    for c0, c1 in zip(sub.curves, new.curves, strict=True):
         a = np.asarray(c1.axis)
         turn = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
         over = np.nonzero(turn > turn_limits(c0.cc, c0.axis, opts.turn_per_mm) + 1e-6)[0]
@@ -300,10 +312,52 @@ def test_jumps_and_motions_stay_inside_unresolved_stretches(case):
             clr = scene.detect(c1.tip, c1.axis).clearance
             assert np.all(clr[over] < opts.safety) and np.all(clr[over + 1] < opts.safety)
         jumps += len(over)
-    assert jumps  # the case jumps (16 times): the check is not idle
+    assert jumps  # the case jumps: the check is not idle
     assert new.collision.get("turns_between_unresolved", 0) == jumps
-    for r in new.collision.get("unresolved_ranges", []):
-        if r["why"] == REASON_MOTION and r["from"] > 0:
-            c = new.curves[r["pass"]]
-            i = r["from"] - 1
-            assert scene.detect(c.tip[i:i + 1], c.axis[i:i + 1]).clearance[0] >= opts.safety
+
+    def unresolved(p, k):
+        return sum(int(np.sum(np.asarray(c.collision["status"]) == STATUS_UNRESOLVED))
+                   for c in p.curves[:k])
+
+    assert unresolved(new, 6) <= unresolved(bounded, 6)
+    for p in (new, bounded):
+        for r in p.collision.get("unresolved_ranges", []):
+            if r["why"] == REASON_MOTION and r["from"] > 0:
+                c = p.curves[r["pass"]]
+                i = r["from"] - 1
+                assert scene.detect(c.tip[i:i + 1], c.axis[i:i + 1]).clearance[0] >= opts.safety
+
+
+def test_routes_out_of_unresolved_pass_ends(case):
+    """A pass end left unresolved collides whatever its axis, so the retract out of it (the
+    approach into it) starts colliding: the re-routed link leaves those rows out and goes
+    straight along the pose's axis to its first clear row; every re-routed row clears
+    (measured again), and every colliding link row belongs to a link named unresolved."""
+    from blisk_cam.core.toolpath.types import MOVE_APPROACH, MOVE_RETRACT, STATUS_CORRECTED
+
+    _, mesh, path, out = case
+    new, rep, opts = out["plan"]
+    prog = new.program
+    ob = Obstacles.build(mesh.V, mesh.F, path.axis, N_BLADES, 1, [])
+    scene = CollisionScene(ob, path.tool, opts.assembly(path.tool))
+    clr = scene.detect(prog.tip, prog.axis).clearance
+    cur, st, mv = np.asarray(prog.curve), np.asarray(prog.collision_status), prog.move
+    link = cur < 0
+    assert np.all(clr[link & (st == STATUS_CORRECTED)] >= opts.safety)
+    listed = set()
+    for u in rep.links["unresolved_links"]:
+        listed.update(range(*u["rows"]))
+    assert set(np.nonzero(link & (st == STATUS_UNRESOLVED))[0]) <= listed
+    ends = 0
+    for i in np.nonzero(~link & (st == STATUS_UNRESOLVED))[0]:
+        for j, kind in ((i + 1, MOVE_RETRACT), (i - 1, MOVE_APPROACH)):
+            if not (0 <= j < len(prog)) or not link[j] or mv[j] != kind \
+                    or st[j] != STATUS_CORRECTED:
+                continue
+            d = prog.tip[j] - prog.tip[i]
+            a = prog.axis[i] / np.linalg.norm(prog.axis[i])
+            assert np.linalg.norm(d - (d @ a) * a) < 1e-6 and d @ a > 0  # along its axis
+            assert np.allclose(prog.axis[j], prog.axis[i], atol=1e-9)
+            assert clr[i] < opts.safety <= clr[j]
+            ends += 1
+    assert ends  # the case re-routes links at unresolved pass ends: the check is not idle

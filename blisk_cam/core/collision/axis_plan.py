@@ -11,7 +11,7 @@ channel under a maximum angle step):
    the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
    ramps in and out. Outside the window the planned axis is kept.
 2. **States.** Per window pose the states: deviations (u, v) of the pose's reference axis
-   (the planned axis, or the channel reference below), a square grid of ±60° in 5° steps,
+   (the planned axis, or the channel reference below), a square grid of ±40° in 2.5° steps,
    the axis the reference turned by hypot(u, v) toward u·e1 + v·e2 (:func:`.axis_field.
    deviation_axes`), where (e1, e2) is carried along the run by parallel transport
    (:func:`.axis_field.transported_frames`). A state held along the pass then turns between
@@ -27,7 +27,7 @@ channel under a maximum angle step):
    centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
    CC point and normal, plus the plan's few-µm lift λ along the normal).
 3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
-   of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
+   of arc apart (2.5° / turn_per_mm) or where the planned axis itself has turned by a step (the
    edges). At each station a coarse 10° grid is measured by
    :meth:`.scene.CollisionScene.detect` — every station of every pass in one batched call —
    and interpolated onto the states. Poses the plan leaves colliding become stations whose
@@ -42,16 +42,20 @@ channel under a maximum angle step):
    poses' limits between them (:func:`turn_limits`: the planned turn plus ``turn_per_mm`` ×
    the arc step; and from/to the fixed planned poses around the run). Between stations the
    state is linear in arc length; a pose pair that still turns faster than its limit is
-   clamped (sweeps forward and backward).
+   clamped (sweeps forward and backward; the last sweeps hold the turn limit even where
+   that leaves an axis a little past a lean limit).
    Since a colliding state costs more than any lean, the path leaves as few stations
-   colliding as the limits allow. **Jumps:** between two consecutive poses that are both
-   stations whose states are known exactly to collide, the path may turn past the limit
-   (cost :data:`_JUMP`: more than any lean, far less than a colliding pose). Such poses are
-   unresolved either way and are not cut, so the path re-enters the clear axes right after
-   an unresolved stretch instead of ramping out of it at the turn limit — on Rotor 37 × 36
-   the ramps were most of the poses the per-pose rotation cleared and the planner did not.
-   Every turn past the limit therefore has two unresolved poses at its ends (the report
-   counts them apart, ``turns_between_unresolved``).
+   colliding as the limits allow. The turn limit is a hard constraint everywhere, between
+   unresolved poses too: an unresolved pose takes the least deep axis the limit lets the
+   path reach (issue 25: no two consecutive poses turn more than the limit). **Jumps**
+   (``jumps=True``, ``CollisionOptions.turn_jumps``, not the default): between two
+   consecutive poses that are both stations whose states are known exactly to collide, the
+   path may turn past the limit (cost :data:`_JUMP`: more than any lean, far less than a
+   colliding pose), so it re-enters the clear axes right after an unresolved stretch
+   instead of ramping out of it at the turn limit; every such turn has two unresolved poses
+   at its ends (the report counts them apart, ``turns_between_unresolved``). Measured on
+   Rotor 37 × 36 (``bench/bench_axis_planner.py``): bounded 1154 → 10xx unresolved poses
+   with the 2.5° states, with jumps 991; the demo 806 / 581.
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
    linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
    exactly; poses left colliding become exact stations and the runs are planned again
@@ -71,7 +75,7 @@ within the turn limit reaches it; "or the machine's reach" when a machine is giv
 motion from the pose before collides" (only from a clear pose: the motion out of an unresolved
 pose starts colliding and belongs to that pose's range). "No axis" is claimed only for poses
 whose every state is known exactly to collide and where a 2.5° grid of leads and tilts over
-the whole lean box holds no clear axis either (:func:`_no_axis`; "within ±60° of the
+the whole lean box holds no clear axis either (:func:`_no_axis`; "within ±40° of the
 reference" when the box reaches beyond the states).
 
 The states, their clearance and the shortest path live in :mod:`.axis_states`.
@@ -182,7 +186,7 @@ def _arc(cc):
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
               max_turn=None, machine=None, reference="planned", blisk_axis=None,
-              blade_count=None, edge_lead=0.0, progress=None) -> AxisPlan:
+              blade_count=None, edge_lead=0.0, jumps=False, progress=None) -> AxisPlan:
     """Plan the tool axes of the passes (module docstring).
 
     Parameters
@@ -224,7 +228,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if edge_lead:
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
-    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING)
+    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING, jumps)
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -433,6 +437,8 @@ def _jumps(pl: _Planner, runs, chosen, axis):
     """{(a, b)} consecutive global poses (both stations) between which the shortest path
     jumped: both states known exactly to collide and the axes turning past the limit."""
     P, out = pl.P, set()
+    if not pl.jumps:
+        return out
     for r, seq in zip(runs, chosen, strict=True):
         if seq is None:
             continue
@@ -469,7 +475,11 @@ def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
         fixed[0] = r.pre is not None or r.cycle
         fixed[-1] = r.post is not None or r.cycle
         moved = set()
-        for sweep in range(_SWEEPS):
+        # the lean limits kept first; sweeps that still leave a pair over the turn limit
+        # (the clip into a lean limit turned an axis back) are followed by sweeps that hold
+        # the turn limit alone, so no two consecutive poses turn past it (the lean then
+        # leaves its limit by less than that pair's excess)
+        for sweep in range(2 * _SWEEPS):
             changed = False
             pairs = [(i, i + 1) for i in range(m - 1)] if sweep % 2 == 0 else \
                 [(i, i - 1) for i in range(m - 1, 0, -1)]
@@ -483,7 +493,8 @@ def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
                 if float(axis[ia] @ axis[ib]) < math.cos(lim):
                     axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim,
                                           tuple(P.nrm[ib]))
-                    axis[ib] = pl.inside(np.asarray([ib]), axis[ib][None])[0]
+                    if sweep < _SWEEPS:
+                        axis[ib] = pl.inside(np.asarray([ib]), axis[ib][None])[0]
                     moved.add(int(ib))
                     changed = True
             if not changed:

@@ -28,11 +28,16 @@ from .axis_field import (
     turn_limits,
 )
 
-#: the lean states' step, and the coarse grid's (measured at every station), rad
-_STEP = math.radians(5.0)
-_COARSE = 2
+#: the lean states' step, rad, and the coarse grid's in steps (measured at every station:
+#: every 10°). Near the blade edges the planned axis swings by tens of degrees within a
+#: millimetre and the turn limit leaves a state change of a fraction of a degree per pose, so
+#: a lean can change only across a few millimetres: 5° steps (the first grid) left poses
+#: after the edges colliding that a 2.5° change would clear (Rotor 37 × 36, turn bounded
+#: everywhere: 1154 unresolved with 5° steps to ±60°)
+_STEP = math.radians(2.5)
+_COARSE = 4
 #: widest lean swing searched about the reference (where the limits allow), rad
-_SWING = math.radians(60.0)
+_SWING = math.radians(40.0)
 #: cost of a colliding state (the lean costs are ≤ a few rad²)
 _COLLIDE = 1e3
 #: largest lean step between stations, in state steps
@@ -96,8 +101,10 @@ class _Planner:
     clearance known per station (interpolated from the coarse grid, or exact), the batched
     evaluations."""
 
-    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span):
+    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span,
+                 jumps=False):
         self.scene, self.P = scene, P
+        self.jumps = bool(jumps)
         self.f, self.k, self.lim_l, self.lim_t = lim
         self.ref_l, self.ref_t = ref_l, ref_t  # (n,) rad
         self.rate, self.max_turn, self.machine = turn_per_mm, max_turn, machine
@@ -520,7 +527,7 @@ class _Planner:
             arg = np.argmin(stack, axis=0)
             best = np.take_along_axis(stack, arg[None], 0)[0]
             jump = None
-            if r.st[j] == r.st[j - 1] + 1:  # consecutive poses: may jump, both colliding
+            if self.jumps and r.st[j] == r.st[j - 1] + 1:  # may jump, both colliding
                 cp, cc_ = self.colliding_states(gst[j - 1]), self.colliding_states(gst[j])
                 if cp.any() and cc_.any():
                     src = int(np.argmin(np.where(cp, cost, np.inf)))
