@@ -75,8 +75,8 @@ within the turn limit reaches it; "or the machine's reach" when a machine is giv
 motion from the pose before collides" (only from a clear pose: the motion out of an unresolved
 pose starts colliding and belongs to that pose's range). "No axis" is claimed only for poses
 whose every state is known exactly to collide and where a 2.5° grid of leads and tilts over
-the whole lean box holds no clear axis either (:func:`_no_axis`; "within ±40° of the
-reference" when the box reaches beyond the states).
+the whole lean box holds no clear axis either (:func:`_no_axis`, measured level by level,
+the deep collisions proving their neighbours by the Lipschitz bound).
 
 The states, their clearance and the shortest path live in :mod:`.axis_states`.
 
@@ -94,7 +94,6 @@ from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from .axis_field import (
     channel_reference,
-    deviation_of,
     sample_motion,
     turn_limits,
 )
@@ -508,45 +507,59 @@ def _no_axis(pl: _Planner, gis):
     """{pose: why or None} for poses gis whose every state is known colliding: the claim
     checked on a 2.5° grid of leads and tilts over the pose's whole lean box (the limits
     included; axes the cutter cannot touch with, or the machine cannot reach, left out), the
-    contact kept. Grid axes inside the states' square (|u|, |v| ≤ the swing) are measured
-    unless the Lipschitz bound from the known states proves them colliding (a ball); none
-    clear → REASON_NO_AXIS when the whole box lies inside the square, else "no axis within
-    ±swing"; a clear one → None (a clear axis exists: the turn limit keeps it out of reach)."""
-    step, edge = math.radians(2.5), pl.off[0][-1] + 1e-9
-    rows, owners, covered = [], [], {}
+    contact kept. Level by level — every 4th grid point, then every 2nd, then the rest —
+    a grid axis is measured unless (a ball) the Lipschitz bound from the states known and
+    the grid axes measured before proves it colliding; a clear one → None (a clear axis
+    exists: the turn limit keeps it out of reach), none → REASON_NO_AXIS. Batched per
+    level."""
+    step = math.radians(2.5)
+    boxes = {}
     for gi in gis:
         ll, lt = float(pl.lim_l[gi]), float(pl.lim_t[gi])
-        L, T = np.meshgrid(np.r_[np.arange(-ll, ll, step), ll], np.r_[np.arange(-lt, lt, step), lt],
-                           indexing="ij")
+        il = np.r_[np.arange(-ll, ll, step), ll]
+        it = np.r_[np.arange(-lt, lt, step), lt]
+        L, T = np.meshgrid(il, it, indexing="ij")
+        I, J = np.meshgrid(np.arange(len(il)), np.arange(len(it)), indexing="ij")
         m = L.size
         g = np.full(m, gi)
         ax = lead_tilt_axes(pl.f[g], pl.P.nrm[g], pl.k[g], L.ravel(), T.ravel())
         ok = _touch_ok(pl.cutter, pl.P.nrm[g], ax)
         if pl.machine is not None and ok.any():
             ok[ok] = reachable_axes(pl.machine, ax[ok])
-        ax = ax[ok]
-        u, v = deviation_of(ax, pl.r[gi], pl.e1[gi], pl.e2[gi])
-        inside = (np.abs(u) <= edge) & (np.abs(v) <= edge)
-        covered[gi] = bool(inside.all())
-        ax = ax[inside]
-        if pl.lip is not None and len(ax):
-            k = pl.known[gi].ravel()
-            fin = np.isfinite(k)
-            A = pl.state_axes(gi).reshape(-1, 3)[fin]
-            ang = np.arccos(np.clip(ax @ A.T, -1.0, 1.0))
-            ax = ax[np.min(k[fin][None, :] + pl.lip * ang, axis=1) >= pl.safety]
-        rows.append(ax)
-        owners.append(np.full(len(ax), gi))
-    ax = np.vstack(rows) if rows else np.zeros((0, 3))
-    own = np.concatenate(owners) if owners else np.zeros(0, np.int64)
-    clr = pl.clearance(pl.tips(own, ax), ax) if len(ax) else np.zeros(0)
-    out = {}
-    for gi in gis:
-        if np.any(clr[own == gi] >= pl.safety):
-            out[gi] = None
-        else:
-            out[gi] = REASON_NO_AXIS if covered[gi] else \
-                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
+        I, J = I.ravel()[ok], J.ravel()[ok]
+        lev = np.where((I % 4 == 0) & (J % 4 == 0), 0, np.where((I % 2 == 0) & (J % 2 == 0),
+                                                                 1, 2))
+        k = pl.known[gi].ravel()
+        fin = np.isfinite(k)
+        boxes[gi] = {"ax": ax[ok], "lev": lev, "val": np.full(int(ok.sum()), np.nan),
+                     "src_ax": pl.state_axes(gi).reshape(-1, 3)[fin], "src_val": k[fin]}
+    out = {gi: REASON_NO_AXIS for gi in gis}
+    for level in range(3):
+        rows, owners, blocks = [], [], []
+        for gi, b in boxes.items():
+            if out[gi] is None:
+                continue
+            sel = np.nonzero(b["lev"] == level)[0]
+            if pl.lip is not None and len(sel):
+                done = ~np.isnan(b["val"])
+                A = np.vstack([b["src_ax"], b["ax"][done]])
+                V = np.r_[b["src_val"], b["val"][done]]
+                if len(A):
+                    ang = np.arccos(np.clip(b["ax"][sel] @ A.T, -1.0, 1.0))
+                    sel = sel[np.min(V[None, :] + pl.lip * ang, axis=1) >= pl.safety]
+            rows.append(sel)
+            owners.append(np.full(len(sel), gi))
+            blocks.append(b["ax"][sel])
+        if not rows:
+            break
+        own = np.concatenate(owners).astype(np.int64)
+        idx = np.concatenate(rows).astype(np.int64)
+        ax = np.vstack(blocks)
+        clr = pl.clearance(pl.tips(own, ax), ax) if len(ax) else np.zeros(0)
+        for gi, i, c in zip(own, idx, clr, strict=True):
+            boxes[int(gi)]["val"][i] = c
+            if c >= pl.safety:
+                out[int(gi)] = None
     return out
 
 
