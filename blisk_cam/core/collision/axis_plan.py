@@ -11,7 +11,7 @@ channel under a maximum angle step):
    the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
    ramps in and out. Outside the window the planned axis is kept.
 2. **States.** Per window pose the states: deviations (u, v) of the pose's reference axis
-   (the planned axis, or the channel reference below), a square grid of ±40° in 2.5° steps,
+   (the planned axis, or the channel reference below), a square grid of ±60° in 5° steps,
    the axis the reference turned by hypot(u, v) toward u·e1 + v·e2 (:func:`.axis_field.
    deviation_axes`), where (e1, e2) is carried along the run by parallel transport
    (:func:`.axis_field.transported_frames`). A state held along the pass then turns between
@@ -27,7 +27,7 @@ channel under a maximum angle step):
    centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
    CC point and normal, plus the plan's few-µm lift λ along the normal).
 3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
-   of arc apart (2.5° / turn_per_mm) or where the planned axis itself has turned by a step (the
+   of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
    edges). At each station a coarse 10° grid is measured by
    :meth:`.scene.CollisionScene.detect` — every station of every pass in one batched call —
    and interpolated onto the states. Poses the plan leaves colliding become stations whose
@@ -53,9 +53,11 @@ channel under a maximum angle step):
    path may turn past the limit (cost :data:`_JUMP`: more than any lean, far less than a
    colliding pose), so it re-enters the clear axes right after an unresolved stretch
    instead of ramping out of it at the turn limit; every such turn has two unresolved poses
-   at its ends (the report counts them apart, ``turns_between_unresolved``). Measured on
-   Rotor 37 × 36 (``bench/bench_axis_planner.py``): bounded 1154 → 10xx unresolved poses
-   with the 2.5° states, with jumps 991; the demo 806 / 581.
+   at its ends (the report counts them apart, ``turns_between_unresolved``). The bound
+   costs poses where a lean must change within a blade edge: there the planned axis swings
+   by tens of degrees within a millimetre and the limit lets the lean change by a fraction
+   of a degree per pose (``bench/bench_axis_planner.py``, unresolved poses bounded / with
+   jumps: Rotor 37 × 36 about 1150 / 991, the demo about 810 / 580).
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
    linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
    exactly; poses left colliding become exact stations and the runs are planned again
