@@ -509,7 +509,7 @@ def _no_axis(pl: _Planner, gis):
     """{pose: why or None} for poses gis whose every state is known colliding: the claim
     checked on a 2.5° grid of leads and tilts over the pose's whole lean box (the limits
     included; axes the cutter cannot touch with, or the machine cannot reach, left out), the
-    contact kept. Level by level — every 4th grid point, then every 2nd, then the rest —
+    contact kept. Level by level — every 8th grid point, then every 4th, every 2nd, the rest —
     a grid axis is measured unless (a ball) the Lipschitz bound from the states known and
     the grid axes measured before proves it colliding; a clear one → None (a clear axis
     exists: the turn limit keeps it out of reach), none → REASON_NO_AXIS. Batched per
@@ -529,14 +529,15 @@ def _no_axis(pl: _Planner, gis):
         if pl.machine is not None and ok.any():
             ok[ok] = reachable_axes(pl.machine, ax[ok])
         I, J = I.ravel()[ok], J.ravel()[ok]
-        lev = np.where((I % 4 == 0) & (J % 4 == 0), 0, np.where((I % 2 == 0) & (J % 2 == 0),
-                                                                 1, 2))
+        lev = np.full(len(I), 3)
+        for k, every in ((2, 2), (1, 4), (0, 8)):
+            lev[(I % every == 0) & (J % every == 0)] = k
         k = pl.known[gi].ravel()
         fin = np.isfinite(k)
         boxes[gi] = {"ax": ax[ok], "lev": lev, "val": np.full(int(ok.sum()), np.nan),
                      "src_ax": pl.state_axes(gi).reshape(-1, 3)[fin], "src_val": k[fin]}
     out = {gi: REASON_NO_AXIS for gi in gis}
-    for level in range(3):
+    for level in range(4):
         rows, owners, blocks = [], [], []
         for gi, b in boxes.items():
             if out[gi] is None:
