@@ -20,9 +20,12 @@ material left and gouge (mm; bound cusp + chord and chord), the avoidance
 wall time and its time per pose. Not a timed test: figures only.
 
 Measured on this shared 2-core machine (unresolved pass poses; ms per pass pose, the same
-load for each pair): demo — rotate 971, the planner before the jumps 896 (71 ms), after 581
-(47 ms); Rotor 37 × 36 — rotate 1010, the planner before 1349 (34 ms, 568 k candidates),
-after 991 (17 ms, 275 k candidates).
+load within a run): demo — rotate 971 (1394 with the poses at its turns over the limit),
+the planner with the turn limit everywhere (the default) 806, with jumps 581; Rotor 37 × 36
+— rotate 1010 (2070), the planner 1154 (program rows 1166, every link re-routed), with jumps
+991 (program rows 1001); 16–18 ms per pass pose for the planner against 3–9 for rotate.
+Before this round: jumps were the default (581 / 991, program rows 1045 on Rotor 37: 11
+links out of unresolved pass ends did not re-route).
 
 Run: ``python bench/bench_axis_planner.py [--case demo|r37|both] [--no-verify]
 [--methods rotate,plan,plan-jumps]`` (``plan-jumps``: the planner with
