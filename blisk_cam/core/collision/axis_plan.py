@@ -266,13 +266,17 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     base = [r.st.copy() for r in runs]  # motions changed (everything else it reads stays)
     hot = [np.zeros(0, np.int64) for _ in runs]  # poses of each run left colliding before
     best = [None] * len(runs)
+    result = None
     for rnd in range(_ROUNDS):
+        redo = list(dirty)
         for ri, r in enumerate(runs):
             if dirty[ri]:
                 chosen[ri] = pl.plan_run(r)
         dirty = [False] * len(runs)
-        result = _evaluate(pl, runs, chosen)
+        result = _evaluate_again(pl, runs, chosen, result, redo)
         for ri, r in enumerate(runs):  # each run keeps its best round
+            if not redo[ri]:
+                continue  # planned as before: the same poses, the same score
             snap = _snapshot(pl, r, result)
             if best[ri] is None or snap["score"] <= best[ri]["score"]:
                 best[ri] = snap
@@ -338,6 +342,29 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         why[(why == REASON_TURN) & unresolved] = REASON_TURN + " or the machine's reach"
     ranges = _ranges(offs, unresolved, why, np.minimum(clear, motion))
     return AxisPlan(tip, axis, clear, unresolved, ranges, motion, pl.n_eval, int(win.sum()))
+
+
+def _evaluate_again(pl: _Planner, runs, chosen, prev, redo) -> dict:
+    """:func:`_evaluate` of the runs planned anew (``redo``), the others' poses, clearances,
+    motions and jumps copied from ``prev`` (their plans did not change; None: all anew)."""
+    if prev is None or all(redo):
+        return _evaluate(pl, runs, chosen)
+    sub = [i for i, x in enumerate(redo) if x]
+    out = {k: (v.copy() if isinstance(v, np.ndarray) else set(v)) for k, v in prev.items()}
+    if not sub:
+        return out
+    new = _evaluate(pl, [runs[i] for i in sub], [chosen[i] for i in sub])
+    for i in sub:
+        r = runs[i]
+        nxt = _chain(r)[1:]
+        gs = set(int(x) for x in r.g)
+        for k in ("tip", "axis", "clr"):
+            out[k][r.g] = new[k][r.g]
+        for k in ("motion", "motion_from"):
+            out[k][nxt] = new[k][nxt]
+        out["jumps"] = {p for p in out["jumps"] if p[0] not in gs} | \
+            {p for p in new["jumps"] if p[0] in gs}
+    return out
 
 
 def _evaluate(pl: _Planner, runs, chosen) -> dict:
