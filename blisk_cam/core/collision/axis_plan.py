@@ -401,12 +401,28 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
         next_.append(chain[1:])
     a_p, a_i = np.concatenate(prev_), np.concatenate(next_)
     tq = np.arange(1, _MOTION_SAMPLES + 1) / (_MOTION_SAMPLES + 1)
-    mt, ma = sample_motion(tip[a_p], axis[a_p], tip[a_i], axis[a_i], tq)
-    clr_all = pl.clearance(np.vstack([tip[g], mt]), np.vstack([axis[g], ma]))
-    clr = np.full(n, np.inf)
-    clr[g] = clr_all[:len(g)]
+    clr = np.full(n, np.nan)
+    clr[g] = pl.clearance(tip[g], axis[g])
+    # the motions' samples; a ball's proved clear by the Lipschitz bound from the measured
+    # ends (no tool point moves further than t·D from the start, D = |Δcentre| + L·θ) are
+    # not measured, their bound standing for their clearance (≥ ds)
+    lo = np.full((len(a_p), _MOTION_SAMPLES), -np.inf)
+    if pl.lip is not None:
+        rho = float(pl.cutter.radius)
+        D = np.linalg.norm(tip[a_i] + rho * axis[a_i] - tip[a_p] - rho * axis[a_p], axis=1) \
+            + pl.lip * np.arccos(np.clip(np.einsum("ij,ij->i", axis[a_p], axis[a_i]), -1, 1))
+        cs = np.nan_to_num(clr[a_p], nan=-np.inf)
+        ce = np.nan_to_num(clr[a_i], nan=-np.inf)
+        lo = np.maximum(cs[:, None] - tq[None] * D[:, None],
+                        ce[:, None] - (1 - tq[None]) * D[:, None])
+    rows, cols = np.nonzero(lo < pl.safety)
+    mt, ma = sample_motion(tip[a_p[rows]], axis[a_p[rows]], tip[a_i[rows]], axis[a_i[rows]],
+                           tq[cols], paired=True)
+    samples = lo.copy()
+    samples[rows, cols] = pl.clearance(mt, ma)
+    clr = np.where(np.isnan(clr), np.inf, clr)
     motion = np.full(n, np.inf)
-    np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
+    np.minimum.at(motion, a_i, samples.min(axis=1))
     motion_from = np.full(n, -1, np.int64)
     motion_from[a_i] = a_p
     return {"tip": tip, "axis": axis, "clr": clr, "motion": motion, "jumps": jumps,
