@@ -20,12 +20,16 @@ material left and gouge (mm; bound cusp + chord and chord), the avoidance
 wall time and its time per pose. Not a timed test: figures only.
 
 Measured on this shared 2-core machine (unresolved pass poses; ms per pass pose, the same
-load for each pair): demo — rotate 971, the planner before the jumps 896 (71 ms), after 581
-(47 ms); Rotor 37 × 36 — rotate 1010, the planner before 1349 (34 ms, 568 k candidates),
-after 991 (17 ms, 275 k candidates).
+load within a run): demo — rotate 971 (1394 with the poses at its turns over the limit),
+the planner with the turn limit everywhere (the default) 806, with jumps 581; Rotor 37 × 36
+— rotate 1010 (2070), the planner 1154 (program rows 1166, every link re-routed), with jumps
+991 (program rows 1001); 16–18 ms per pass pose for the planner against 3–9 for rotate.
+Before this round: jumps were the default (581 / 991, program rows 1045 on Rotor 37: 11
+links out of unresolved pass ends did not re-route).
 
 Run: ``python bench/bench_axis_planner.py [--case demo|r37|both] [--no-verify]
-[--methods rotate,plan]``
+[--methods rotate,plan,plan-jumps]`` (``plan-jumps``: the planner with
+``CollisionOptions.turn_jumps``, turns past the limit allowed between two unresolved poses)
 """
 
 from __future__ import annotations
@@ -117,7 +121,13 @@ def run(name, methods, verify):
         if "method" not in CollisionOptions.__dataclass_fields__:
             print(f"  {method}: not in this tree")
             continue
-        opts = CollisionOptions(**{**opts.__dict__, "method": method})
+        extra_opts = {"method": method}
+        if method == "plan-jumps":  # the planner with turns past the limit between
+            extra_opts = {"method": "plan", "turn_jumps": True}  # two unresolved poses
+            if "turn_jumps" not in CollisionOptions.__dataclass_fields__:
+                print(f"  {method}: not in this tree")
+                continue
+        opts = CollisionOptions(**{**opts.__dict__, **extra_opts})
         t = time.perf_counter()
         path, rep = run_collisions(mesh, planned, options=opts)
         dt = time.perf_counter() - t
@@ -126,7 +136,8 @@ def run(name, methods, verify):
         before = rep.n_colliding_before
         worst, excess, over, over_cut, at = turn_figures(planned, path, opts.turn_per_mm)
         ranges = (path.collision or {}).get("unresolved_ranges") or []
-        print(f"  {method:6s}: colliding before {before} of {rep.n_checked} rows "
+        links = getattr(rep, "links", None) or {}
+        print(f"  {method:10s}: colliding before {before} of {rep.n_checked} rows "
               f"({100 * before / rep.n_checked:.1f} %); unresolved pass poses {unres} "
               f"({100 * unres / n:.1f} %) in {len(ranges)} ranges, program rows "
               f"{rep.n_unresolved}; max turn {worst:.2f}°, {over} turns over the limit "
@@ -136,6 +147,9 @@ def run(name, methods, verify):
         print(f"          poses unresolved or at a turn over the limit (what the acceptance "
               f"counts against): {int(np.sum((status == 2) | at))} "
               f"({100 * np.sum((status == 2) | at) / n:.1f} %)")
+        print(f"          links: {links.get('links_colliding', 0)} colliding, "
+              f"{links.get('links_rerouted', 0)} re-routed, "
+              f"{links.get('links_unresolved', 0)} unresolved")
         planner = (path.collision or {}).get("planner")
         if planner:
             print(f"          planner: {planner}")
@@ -152,7 +166,7 @@ def run(name, methods, verify):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--case", default="both", choices=("demo", "r37", "both"))
-    ap.add_argument("--methods", default="rotate,plan")
+    ap.add_argument("--methods", default="rotate,plan,plan-jumps")
     ap.add_argument("--no-verify", action="store_true")
     a = ap.parse_args()
     names = ("demo", "r37") if a.case == "both" else (a.case,)

@@ -46,15 +46,21 @@ def case():
 
 
 def test_turn_per_mm_holds_between_consecutive_poses(case):
+    """Everywhere, unresolved poses included (issue 25: no two consecutive poses turn more
+    than the limit); the report counts no turn over it."""
     _, _, path, out = case
     new, _, opts = out["plan"]
+    checked = 0
     for c0, c1 in zip(path.curves, new.curves, strict=True):
         a = np.asarray(c1.axis)
         turn = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
         limit = turn_limits(c0.cc, c0.axis, opts.turn_per_mm)
+        assert np.all(turn <= limit + 1e-6), np.degrees((turn - limit).max())
         st = np.asarray(c1.collision["status"]) == STATUS_UNRESOLVED
-        cut = ~(st[1:] & st[:-1])  # a jump is allowed only between two unresolved poses
-        assert np.all(turn[cut] <= limit[cut] + 1e-6), np.degrees((turn - limit)[cut].max())
+        checked += int(np.sum(st[1:] & st[:-1]))
+    assert checked  # pairs of unresolved poses are among them: the check is not idle
+    assert not new.collision.get("turns_between_unresolved")
+    assert new.collision.get("turn_over_limit", 0) == 0
 
 
 def test_every_pose_clear_or_in_a_reported_range(case):
@@ -272,7 +278,16 @@ def test_closed_pass_closing_cut_and_motions(case):
             states.append((tp[ok], ax[ok]))
         (tp0, ax0), (tp1, ax1) = states
         lim = turn_limits(c.cc[i - 1:i + 1], c.axis[i - 1:i + 1], opts.turn_per_mm)[0]
-        p, q = np.nonzero(ax0 @ ax1.T >= math.cos(lim))
+        ok = ax0 @ ax1.T >= math.cos(lim)
+        # the turn limit holds everywhere: a witness must also turn within it from the
+        # planned pose before and into the planned pose after the pair
+        a_new = np.asarray(new.curves[ci].axis)
+        lims = turn_limits(c.cc, c.axis, opts.turn_per_mm)
+        if i >= 2:
+            ok &= (ax0 @ a_new[i - 2] >= math.cos(lims[i - 2]))[:, None]
+        if i + 1 < len(a_new):
+            ok &= (ax1 @ a_new[i + 1] >= math.cos(lims[i]))[None, :]
+        p, q = np.nonzero(ok)
         if len(p) == 0:
             continue
         mt, ma = sample_motion(tp0[p], ax0[p], tp1[q], ax1[q], tq)
@@ -281,18 +296,29 @@ def test_closed_pass_closing_cut_and_motions(case):
 
 
 def test_jumps_and_motions_stay_inside_unresolved_stretches(case):
-    """The planner may leave the turn limit only between two consecutive poses that both
-    collide (measured again here), each counted in ``turns_between_unresolved``; and a pose
-    is reported for "the motion from the pose before" only when that pose before is clear
-    (the motion out of a colliding pose belongs to that pose's range)."""
+    """With ``turn_jumps`` the planner may leave the turn limit, but only between two
+    consecutive poses that both collide (measured again here), each counted in
+    ``turns_between_unresolved``, and it leaves no more poses unresolved than the bounded
+    plan; and (either way) a pose is reported for "the motion from the pose before" only when
+    that pose before is clear (the motion out of a colliding pose belongs to that pose's
+    range)."""
+    from dataclasses import replace
+
     from blisk_cam.core.collision.axis_plan import REASON_MOTION
 
     _, mesh, path, out = case
-    new, _, opts = out["plan"]
+    bounded, _, opts = out["plan"]
+    # the three passes the bounded plan leaves most poses unresolved on
+    worst = np.argsort([-int(np.sum(np.asarray(c.collision["status"]) == STATUS_UNRESOLVED))
+                        for c in bounded.curves], kind="stable")[:3]
+    sub = type(path)(**{**path.__dict__, "curves": [path.curves[i] for i in worst],
+                        "program": None})
+    bounded_sub = [bounded.curves[i] for i in worst]
+    new, _ = run_collisions(mesh, sub, [], replace(opts, turn_jumps=True))
     ob = Obstacles.build(mesh.V, mesh.F, path.axis, N_BLADES, 1, [])
     scene = CollisionScene(ob, path.tool, opts.assembly(path.tool))
     jumps = 0
-    for c0, c1 in zip(path.curves, new.curves, strict=True):
+    for c0, c1 in zip(sub.curves, new.curves, strict=True):
         a = np.asarray(c1.axis)
         turn = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
         over = np.nonzero(turn > turn_limits(c0.cc, c0.axis, opts.turn_per_mm) + 1e-6)[0]
@@ -300,10 +326,36 @@ def test_jumps_and_motions_stay_inside_unresolved_stretches(case):
             clr = scene.detect(c1.tip, c1.axis).clearance
             assert np.all(clr[over] < opts.safety) and np.all(clr[over + 1] < opts.safety)
         jumps += len(over)
-    assert jumps  # the case jumps (16 times): the check is not idle
+    assert jumps  # the case jumps: the check is not idle
     assert new.collision.get("turns_between_unresolved", 0) == jumps
-    for r in new.collision.get("unresolved_ranges", []):
-        if r["why"] == REASON_MOTION and r["from"] > 0:
-            c = new.curves[r["pass"]]
-            i = r["from"] - 1
-            assert scene.detect(c.tip[i:i + 1], c.axis[i:i + 1]).clearance[0] >= opts.safety
+
+    def unresolved(curves):
+        return sum(int(np.sum(np.asarray(c.collision["status"]) == STATUS_UNRESOLVED))
+                   for c in curves)
+
+    assert unresolved(new.curves) <= unresolved(bounded_sub)
+    for p in (new, bounded):
+        for r in p.collision.get("unresolved_ranges", []):
+            if r["why"] == REASON_MOTION and r["from"] > 0:
+                c = p.curves[r["pass"]]
+                i = r["from"] - 1
+                assert scene.detect(c.tip[i:i + 1], c.axis[i:i + 1]).clearance[0] >= opts.safety
+
+
+def test_route_rows_left_out_only_next_to_an_unresolved_pass_end():
+    """The rows a route may leave out: the colliding retract rows right after an unresolved
+    pass end and the colliding approach rows right before one — nothing else."""
+    from blisk_cam.core.collision.reroute import _out_of_lost_ends
+    from blisk_cam.core.toolpath.types import MOVE_APPROACH, MOVE_RAPID, MOVE_RETRACT
+
+    mv = np.array([MOVE_RETRACT] * 3 + [MOVE_RAPID] * 3 + [MOVE_APPROACH] * 3)
+    clear = np.array([0, 0, 1, 1, 1, 1, 1, 0, 0], bool)
+    assert _out_of_lost_ends(clear, mv, (False, False)) is None
+    assert _out_of_lost_ends(clear, mv, (True, False)) is None
+    keep = _out_of_lost_ends(clear, mv, (True, True))
+    assert keep.tolist() == [False, False, True, True, True, True, True, False, False]
+    hole = clear.copy()
+    hole[4] = False  # a colliding rapid: no route, whatever the ends
+    assert _out_of_lost_ends(hole, mv, (True, True)) is None
+    late = np.array([1, 0, 1, 1, 1, 1, 1, 1, 1], bool)  # colliding after a clear row
+    assert _out_of_lost_ends(late, mv, (True, True)) is None

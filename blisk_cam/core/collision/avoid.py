@@ -447,7 +447,7 @@ def _avoid_by_plan(scene, path, options, curves, offs, P: _Poses, det0, lim):
                      machine=options.machine, reference=options.axis_reference,
                      blisk_axis=path.axis, blade_count=options.blade_count,
                      edge_lead=math.radians(5.0) if options.axis_reference == "channel" else 0.0,
-                     progress=prog)
+                     jumps=bool(options.turn_jumps), progress=prog)
     yield 0.8
     P.tip[:], P.ax[:] = plan.tip, plan.axis
     det = yield from _scaled(_detect_chunks(scene, P.tip, P.ax), 0.8, 0.95)

@@ -21,14 +21,15 @@ __all__ = ["MIN_STEP", "channel_reference", "deviation_axes", "deviation_of",
 MIN_STEP = 0.05
 
 
-def sample_motion(tip0, ax0, tip1, ax1, t):
+def sample_motion(tip0, ax0, tip1, ax1, t, paired=False):
     """Poses on the motion between two poses (k rows each) at fractions ``t`` (s,) in (0, 1):
     the tip linear, the axis turned uniformly in the plane of the two (slerp). Returns
-    (tips (k·s, 3), axes (k·s, 3)), pose-major."""
+    (tips (k·s, 3), axes (k·s, 3)), pose-major; ``paired``: ``t`` (k,), one fraction per
+    row (k poses returned)."""
     t = np.asarray(t, dtype=np.float64)
     om = angle_between(ax0, ax1)[:, None, None]
     so = np.sin(om)
-    tt = t[None, :, None]
+    tt = t[:, None, None] if paired else t[None, :, None]
     small = so < 1e-9
     w0 = np.where(small, 1 - tt, np.sin((1 - tt) * om) / np.where(small, 1.0, so))
     w1 = np.where(small, tt, np.sin(tt * om) / np.where(small, 1.0, so))

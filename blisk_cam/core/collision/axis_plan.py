@@ -42,16 +42,22 @@ channel under a maximum angle step):
    poses' limits between them (:func:`turn_limits`: the planned turn plus ``turn_per_mm`` ×
    the arc step; and from/to the fixed planned poses around the run). Between stations the
    state is linear in arc length; a pose pair that still turns faster than its limit is
-   clamped (sweeps forward and backward).
+   clamped (sweeps forward and backward; the last sweeps hold the turn limit even where
+   that leaves an axis a little past a lean limit).
    Since a colliding state costs more than any lean, the path leaves as few stations
-   colliding as the limits allow. **Jumps:** between two consecutive poses that are both
-   stations whose states are known exactly to collide, the path may turn past the limit
-   (cost :data:`_JUMP`: more than any lean, far less than a colliding pose). Such poses are
-   unresolved either way and are not cut, so the path re-enters the clear axes right after
-   an unresolved stretch instead of ramping out of it at the turn limit — on Rotor 37 × 36
-   the ramps were most of the poses the per-pose rotation cleared and the planner did not.
-   Every turn past the limit therefore has two unresolved poses at its ends (the report
-   counts them apart, ``turns_between_unresolved``).
+   colliding as the limits allow. The turn limit is a hard constraint everywhere, between
+   unresolved poses too: an unresolved pose takes the least deep axis the limit lets the
+   path reach (issue 25: no two consecutive poses turn more than the limit). **Jumps**
+   (``jumps=True``, ``CollisionOptions.turn_jumps``, not the default): between two
+   consecutive poses that are both stations whose states are known exactly to collide, the
+   path may turn past the limit (cost :data:`_JUMP`: more than any lean, far less than a
+   colliding pose), so it re-enters the clear axes right after an unresolved stretch
+   instead of ramping out of it at the turn limit; every such turn has two unresolved poses
+   at its ends (the report counts them apart, ``turns_between_unresolved``). The bound
+   costs poses where a lean must change within a blade edge: there the planned axis swings
+   by tens of degrees within a millimetre and the limit lets the lean change by a fraction
+   of a degree per pose (``bench/bench_axis_planner.py``, unresolved poses bounded / with
+   jumps: Rotor 37 × 36 about 1150 / 991, the demo about 810 / 580).
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
    linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
    exactly; poses left colliding become exact stations and the runs are planned again
@@ -71,8 +77,8 @@ within the turn limit reaches it; "or the machine's reach" when a machine is giv
 motion from the pose before collides" (only from a clear pose: the motion out of an unresolved
 pose starts colliding and belongs to that pose's range). "No axis" is claimed only for poses
 whose every state is known exactly to collide and where a 2.5° grid of leads and tilts over
-the whole lean box holds no clear axis either (:func:`_no_axis`; "within ±60° of the
-reference" when the box reaches beyond the states).
+the whole lean box holds no clear axis either (:func:`_no_axis`, measured level by level,
+the deep collisions proving their neighbours by the Lipschitz bound).
 
 The states, their clearance and the shortest path live in :mod:`.axis_states`.
 
@@ -90,7 +96,6 @@ from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from .axis_field import (
     channel_reference,
-    deviation_of,
     sample_motion,
     turn_limits,
 )
@@ -182,7 +187,7 @@ def _arc(cc):
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
               max_turn=None, machine=None, reference="planned", blisk_axis=None,
-              blade_count=None, edge_lead=0.0, progress=None) -> AxisPlan:
+              blade_count=None, edge_lead=0.0, jumps=False, progress=None) -> AxisPlan:
     """Plan the tool axes of the passes (module docstring).
 
     Parameters
@@ -224,7 +229,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if edge_lead:
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
-    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING)
+    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING, jumps)
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -261,13 +266,17 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     base = [r.st.copy() for r in runs]  # motions changed (everything else it reads stays)
     hot = [np.zeros(0, np.int64) for _ in runs]  # poses of each run left colliding before
     best = [None] * len(runs)
+    result = None
     for rnd in range(_ROUNDS):
+        redo = list(dirty)
         for ri, r in enumerate(runs):
             if dirty[ri]:
                 chosen[ri] = pl.plan_run(r)
         dirty = [False] * len(runs)
-        result = _evaluate(pl, runs, chosen)
+        result = _evaluate_again(pl, runs, chosen, result, redo)
         for ri, r in enumerate(runs):  # each run keeps its best round
+            if not redo[ri]:
+                continue  # planned as before: the same poses, the same score
             snap = _snapshot(pl, r, result)
             if best[ri] is None or snap["score"] <= best[ri]["score"]:
                 best[ri] = snap
@@ -335,6 +344,29 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     return AxisPlan(tip, axis, clear, unresolved, ranges, motion, pl.n_eval, int(win.sum()))
 
 
+def _evaluate_again(pl: _Planner, runs, chosen, prev, redo) -> dict:
+    """:func:`_evaluate` of the runs planned anew (``redo``), the others' poses, clearances,
+    motions and jumps copied from ``prev`` (their plans did not change; None: all anew)."""
+    if prev is None or all(redo):
+        return _evaluate(pl, runs, chosen)
+    sub = [i for i, x in enumerate(redo) if x]
+    out = {k: (v.copy() if isinstance(v, np.ndarray) else set(v)) for k, v in prev.items()}
+    if not sub:
+        return out
+    new = _evaluate(pl, [runs[i] for i in sub], [chosen[i] for i in sub])
+    for i in sub:
+        r = runs[i]
+        nxt = _chain(r)[1:]
+        gs = set(int(x) for x in r.g)
+        for k in ("tip", "axis", "clr"):
+            out[k][r.g] = new[k][r.g]
+        for k in ("motion", "motion_from"):
+            out[k][nxt] = new[k][nxt]
+        out["jumps"] = {p for p in out["jumps"] if p[0] not in gs} | \
+            {p for p in new["jumps"] if p[0] in gs}
+    return out
+
+
 def _evaluate(pl: _Planner, runs, chosen) -> dict:
     """Poses of every run from its stations' states (the lean linear in arc length between
     stations; a run without a feasible plan keeps its planned poses), their exact clearance
@@ -369,12 +401,28 @@ def _evaluate(pl: _Planner, runs, chosen) -> dict:
         next_.append(chain[1:])
     a_p, a_i = np.concatenate(prev_), np.concatenate(next_)
     tq = np.arange(1, _MOTION_SAMPLES + 1) / (_MOTION_SAMPLES + 1)
-    mt, ma = sample_motion(tip[a_p], axis[a_p], tip[a_i], axis[a_i], tq)
-    clr_all = pl.clearance(np.vstack([tip[g], mt]), np.vstack([axis[g], ma]))
-    clr = np.full(n, np.inf)
-    clr[g] = clr_all[:len(g)]
+    clr = np.full(n, np.nan)
+    clr[g] = pl.clearance(tip[g], axis[g])
+    # the motions' samples; a ball's proved clear by the Lipschitz bound from the measured
+    # ends (no tool point moves further than t·D from the start, D = |Δcentre| + L·θ) are
+    # not measured, their bound standing for their clearance (≥ ds)
+    lo = np.full((len(a_p), _MOTION_SAMPLES), -np.inf)
+    if pl.lip is not None:
+        rho = float(pl.cutter.radius)
+        D = np.linalg.norm(tip[a_i] + rho * axis[a_i] - tip[a_p] - rho * axis[a_p], axis=1) \
+            + pl.lip * np.arccos(np.clip(np.einsum("ij,ij->i", axis[a_p], axis[a_i]), -1, 1))
+        cs = np.nan_to_num(clr[a_p], nan=-np.inf)
+        ce = np.nan_to_num(clr[a_i], nan=-np.inf)
+        lo = np.maximum(cs[:, None] - tq[None] * D[:, None],
+                        ce[:, None] - (1 - tq[None]) * D[:, None])
+    rows, cols = np.nonzero(lo < pl.safety)
+    mt, ma = sample_motion(tip[a_p[rows]], axis[a_p[rows]], tip[a_i[rows]], axis[a_i[rows]],
+                           tq[cols], paired=True)
+    samples = lo.copy()
+    samples[rows, cols] = pl.clearance(mt, ma)
+    clr = np.where(np.isnan(clr), np.inf, clr)
     motion = np.full(n, np.inf)
-    np.minimum.at(motion, a_i, clr_all[len(g):].reshape(-1, _MOTION_SAMPLES).min(axis=1))
+    np.minimum.at(motion, a_i, samples.min(axis=1))
     motion_from = np.full(n, -1, np.int64)
     motion_from[a_i] = a_p
     return {"tip": tip, "axis": axis, "clr": clr, "motion": motion, "jumps": jumps,
@@ -433,6 +481,8 @@ def _jumps(pl: _Planner, runs, chosen, axis):
     """{(a, b)} consecutive global poses (both stations) between which the shortest path
     jumped: both states known exactly to collide and the axes turning past the limit."""
     P, out = pl.P, set()
+    if not pl.jumps:
+        return out
     for r, seq in zip(runs, chosen, strict=True):
         if seq is None:
             continue
@@ -469,7 +519,11 @@ def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
         fixed[0] = r.pre is not None or r.cycle
         fixed[-1] = r.post is not None or r.cycle
         moved = set()
-        for sweep in range(_SWEEPS):
+        # the lean limits kept first; sweeps that still leave a pair over the turn limit
+        # (the clip into a lean limit turned an axis back) are followed by sweeps that hold
+        # the turn limit alone, so no two consecutive poses turn past it (the lean then
+        # leaves its limit by less than that pair's excess)
+        for sweep in range(2 * _SWEEPS):
             changed = False
             pairs = [(i, i + 1) for i in range(m - 1)] if sweep % 2 == 0 else \
                 [(i, i - 1) for i in range(m - 1, 0, -1)]
@@ -483,7 +537,8 @@ def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
                 if float(axis[ia] @ axis[ib]) < math.cos(lim):
                     axis[ib] = clamp_turn(tuple(axis[ia]), tuple(axis[ib]), lim,
                                           tuple(P.nrm[ib]))
-                    axis[ib] = pl.inside(np.asarray([ib]), axis[ib][None])[0]
+                    if sweep < _SWEEPS:
+                        axis[ib] = pl.inside(np.asarray([ib]), axis[ib][None])[0]
                     moved.add(int(ib))
                     changed = True
             if not changed:
@@ -497,45 +552,60 @@ def _no_axis(pl: _Planner, gis):
     """{pose: why or None} for poses gis whose every state is known colliding: the claim
     checked on a 2.5° grid of leads and tilts over the pose's whole lean box (the limits
     included; axes the cutter cannot touch with, or the machine cannot reach, left out), the
-    contact kept. Grid axes inside the states' square (|u|, |v| ≤ the swing) are measured
-    unless the Lipschitz bound from the known states proves them colliding (a ball); none
-    clear → REASON_NO_AXIS when the whole box lies inside the square, else "no axis within
-    ±swing"; a clear one → None (a clear axis exists: the turn limit keeps it out of reach)."""
-    step, edge = math.radians(2.5), pl.off[0][-1] + 1e-9
-    rows, owners, covered = [], [], {}
+    contact kept. Level by level — every 8th grid point, then every 4th, every 2nd, the rest —
+    a grid axis is measured unless (a ball) the Lipschitz bound from the states known and
+    the grid axes measured before proves it colliding; a clear one → None (a clear axis
+    exists: the turn limit keeps it out of reach), none → REASON_NO_AXIS. Batched per
+    level."""
+    step = math.radians(2.5)
+    boxes = {}
     for gi in gis:
         ll, lt = float(pl.lim_l[gi]), float(pl.lim_t[gi])
-        L, T = np.meshgrid(np.r_[np.arange(-ll, ll, step), ll], np.r_[np.arange(-lt, lt, step), lt],
-                           indexing="ij")
+        il = np.r_[np.arange(-ll, ll, step), ll]
+        it = np.r_[np.arange(-lt, lt, step), lt]
+        L, T = np.meshgrid(il, it, indexing="ij")
+        I, J = np.meshgrid(np.arange(len(il)), np.arange(len(it)), indexing="ij")
         m = L.size
         g = np.full(m, gi)
         ax = lead_tilt_axes(pl.f[g], pl.P.nrm[g], pl.k[g], L.ravel(), T.ravel())
         ok = _touch_ok(pl.cutter, pl.P.nrm[g], ax)
         if pl.machine is not None and ok.any():
             ok[ok] = reachable_axes(pl.machine, ax[ok])
-        ax = ax[ok]
-        u, v = deviation_of(ax, pl.r[gi], pl.e1[gi], pl.e2[gi])
-        inside = (np.abs(u) <= edge) & (np.abs(v) <= edge)
-        covered[gi] = bool(inside.all())
-        ax = ax[inside]
-        if pl.lip is not None and len(ax):
-            k = pl.known[gi].ravel()
-            fin = np.isfinite(k)
-            A = pl.state_axes(gi).reshape(-1, 3)[fin]
-            ang = np.arccos(np.clip(ax @ A.T, -1.0, 1.0))
-            ax = ax[np.min(k[fin][None, :] + pl.lip * ang, axis=1) >= pl.safety]
-        rows.append(ax)
-        owners.append(np.full(len(ax), gi))
-    ax = np.vstack(rows) if rows else np.zeros((0, 3))
-    own = np.concatenate(owners) if owners else np.zeros(0, np.int64)
-    clr = pl.clearance(pl.tips(own, ax), ax) if len(ax) else np.zeros(0)
-    out = {}
-    for gi in gis:
-        if np.any(clr[own == gi] >= pl.safety):
-            out[gi] = None
-        else:
-            out[gi] = REASON_NO_AXIS if covered[gi] else \
-                f"no axis within ±{math.degrees(_SWING):g}° of the reference lean clears"
+        I, J = I.ravel()[ok], J.ravel()[ok]
+        lev = np.full(len(I), 3)
+        for k, every in ((2, 2), (1, 4), (0, 8)):
+            lev[(I % every == 0) & (J % every == 0)] = k
+        k = pl.known[gi].ravel()
+        fin = np.isfinite(k)
+        boxes[gi] = {"ax": ax[ok], "lev": lev, "val": np.full(int(ok.sum()), np.nan),
+                     "src_ax": pl.state_axes(gi).reshape(-1, 3)[fin], "src_val": k[fin]}
+    out = {gi: REASON_NO_AXIS for gi in gis}
+    for level in range(4):
+        rows, owners, blocks = [], [], []
+        for gi, b in boxes.items():
+            if out[gi] is None:
+                continue
+            sel = np.nonzero(b["lev"] == level)[0]
+            if pl.lip is not None and len(sel):
+                done = ~np.isnan(b["val"])
+                A = np.vstack([b["src_ax"], b["ax"][done]])
+                V = np.r_[b["src_val"], b["val"][done]]
+                if len(A):
+                    ang = np.arccos(np.clip(b["ax"][sel] @ A.T, -1.0, 1.0))
+                    sel = sel[np.min(V[None, :] + pl.lip * ang, axis=1) >= pl.safety]
+            rows.append(sel)
+            owners.append(np.full(len(sel), gi))
+            blocks.append(b["ax"][sel])
+        if not rows:
+            break
+        own = np.concatenate(owners).astype(np.int64)
+        idx = np.concatenate(rows).astype(np.int64)
+        ax = np.vstack(blocks)
+        clr = pl.clearance(pl.tips(own, ax), ax) if len(ax) else np.zeros(0)
+        for gi, i, c in zip(own, idx, clr, strict=True):
+            boxes[int(gi)]["val"][i] = c
+            if c >= pl.safety:
+                out[int(gi)] = None
     return out
 
 

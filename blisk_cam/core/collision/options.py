@@ -48,6 +48,9 @@ class CollisionOptions(OptionGroup):
     machine : Machine or None — the planner keeps the axes inside its rotaries' reach
     max_iterations : int — rotation steps per pose (Eqs. 16–17)
     gouge_tol : float or None, mm — ε of Eq. 14 (None: the path's chord tolerance / 4)
+    turn_jumps : bool — let the planner turn past the turn limit between two consecutive
+        poses that both collide whatever their axis (fewer unresolved poses, but the path is
+        then not bounded in turn there; default False: bounded everywhere, issue 25)
     """
 
     title = "Collisions (holder and shank against the blade, its neighbours, obstacles)"
@@ -107,6 +110,7 @@ class CollisionOptions(OptionGroup):
     max_turn: float | None = None
     max_iterations: int = 8
     gouge_tol: float | None = None
+    turn_jumps: bool = False
 
     def __post_init__(self):
         mode = str(self.mode).strip().lower()

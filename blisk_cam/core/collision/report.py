@@ -51,7 +51,8 @@ class CollisionReport:
         the planned turn there) after avoidance (mostly a corrected pose next to an
         unresolved one, which keeps its planned axis); max_turn_deg : the largest such turn
     n_turn_unresolved : int — turns past the planner's limit between two unresolved poses
-        (the planner may jump there: neither pose is cut), not in ``n_turn_over``
+        (only with ``CollisionOptions.turn_jumps`` the planner may jump there), not in
+        ``n_turn_over``
     links : dict — the link runs checked, colliding, re-routed and unresolved
         (:func:`.reroute.reroute_links`); empty without a program
     method : str — "plan" or "rotate" in mode "avoid", else ""

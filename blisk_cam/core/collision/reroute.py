@@ -42,7 +42,12 @@ the blades' largest radius by the cutter radius and ds (the flute then clears ev
 Δ_1 = g where the surface is that far out already), each later try g = max(the body's
 largest radius, ds, 5 mm) more, ``ROUTE_TRIES`` tries in all. A run that no try clears keeps
 its planned rows — never dropped — its colliding rows unresolved (status 2), and is named in
-the report with the reason.
+the report with the reason. A pass pose left unresolved collides whatever its axis, so the
+retract out of it (the approach into it) starts colliding: there the route's leading
+retract rows (trailing approach rows) that collide are left out — the tool goes straight
+along the axis to the first clear row, a move that belongs to that pose's unresolved range
+(as the motion out of an unresolved pose on a pass does) — and every other row must
+clear.
 
 Status of a route row: 1 (corrected); its rotation is the angle from the planned axis — A's
 planned axis on the retract, B's on the approach, the slerp of the two on the rapids.
@@ -350,7 +355,9 @@ def _try_routes(scene, program: Program, planned: Program, axis: Axis, ax0, hit,
             if res is None:
                 reasons[r] = why
             else:
-                built.append((r, res))
+                lost = (r.before >= 0 and program.collision_status[r.before] == STATUS_UNRESOLVED,
+                        r.after >= 0 and program.collision_status[r.after] == STATUS_UNRESOLVED)
+                built.append((r, res, lost))
         if built:
             _check_routes(scene, built, lift, routes, reasons)
         todo = [r for r in todo if r not in routes]
@@ -360,8 +367,9 @@ def _try_routes(scene, program: Program, planned: Program, axis: Axis, ax0, hit,
 
 
 def _check_routes(scene, built, lift, routes, reasons):
-    """Detect the poses of the ``built`` (run, route) pairs in one go; a route that clears
-    goes to ``routes``, else its run's reason (the worst pose) to ``reasons``."""
+    """Detect the poses of the ``built`` (run, route, lost ends) triples in one go; a route
+    that clears (:func:`_out_of_lost_ends`) goes to ``routes``, else its run's reason (the
+    worst pose) to ``reasons``."""
     T = np.vstack([b[1][0] for b in built])
     X = np.vstack([b[1][1] for b in built])
     rapid = np.concatenate([b[1][2] for b in built]) == MOVE_RAPID
@@ -374,11 +382,12 @@ def _check_routes(scene, built, lift, routes, reasons):
             names[sel] = [scene.obstacles.names[i] if i >= 0 else "an obstacle"
                           for i in det.obstacle]
     o = 0
-    for r, res in built:
+    for r, res, lost in built:
         n = len(res[0])
         c = clr_r[o:o + n]
-        if np.all(c >= scene.safety):
-            routes[r] = (*res, c)
+        keep = _out_of_lost_ends(c >= scene.safety, res[2], lost)
+        if keep is not None:
+            routes[r] = tuple(x[keep] for x in res) + (c[keep],)
         else:
             j = int(np.argmin(c))
             name = names[o + j]
@@ -390,6 +399,28 @@ def _check_routes(scene, built, lift, routes, reasons):
                           f"tried ({lift:.3f} mm above the linked one) the {leg} "
                           f"{how} '{name}' (ds {scene.safety:g} mm)")
         o += n
+
+
+def _out_of_lost_ends(clear, moves, lost):
+    """(k,) bool rows of a route to keep, or None when the route collides. Every row must
+    clear, but for the retract out of (the approach into) a pass pose left unresolved
+    (``lost`` = (before, after)): the tool there collides whatever axis it takes, so the
+    straight retract along its axis starts colliding; its leading colliding rows are dropped
+    (the retract goes straight to its first clear row, a move that starts in that pose's
+    collision and belongs to the pose's unresolved range, as the motion out of an unresolved
+    pose on a pass does), and so are the approach's trailing ones. Any other colliding row,
+    or a retract / approach colliding after a clear row, and the route collides."""
+    keep = np.ones(len(clear), bool)
+    bad = ~clear
+    if lost[0]:
+        lead = np.cumprod(bad & (moves == MOVE_RETRACT)).astype(bool)
+        if lead.any() and not lead.all():
+            keep &= ~lead
+    if lost[1]:
+        tail = np.cumprod((bad & (moves == MOVE_APPROACH))[::-1])[::-1].astype(bool)
+        if tail.any() and not tail.all():
+            keep &= ~tail
+    return keep if np.all(clear[keep]) else None
 
 
 def _spliced(program: Program, runs, routes, st, rot):
