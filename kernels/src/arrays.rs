@@ -9,7 +9,8 @@ pub type P3 = [f64; 3];
 
 /// The data of a C-contiguous 2-D array, row after row.
 pub fn flat<'a, T: Element>(a: &'a PyReadonlyArray2<'_, T>, what: &str) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))
+    a.as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))
 }
 
 /// Rows of a C-contiguous (n, 3) float64 array as points (`crate::points`).
@@ -21,16 +22,26 @@ pub fn points<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a 
 pub fn points_n<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str, n: usize) -> PyResult<&'a [P3]> {
     let p = points(a, what)?;
     if p.len() != n {
-        return Err(PyValueError::new_err(format!("{what} must have {n} rows, got {}", p.len())));
+        return Err(PyValueError::new_err(format!(
+            "{what} must have {n} rows, got {}",
+            p.len()
+        )));
     }
     Ok(p)
 }
 
 /// A C-contiguous 1-D array that must hold `n` values.
-pub fn values_n<'a, T: Element>(a: &'a PyReadonlyArray1<'_, T>, what: &str, n: usize) -> PyResult<&'a [T]> {
+pub fn values_n<'a, T: Element>(
+    a: &'a PyReadonlyArray1<'_, T>,
+    what: &str,
+    n: usize,
+) -> PyResult<&'a [T]> {
     let s = crate::slice1(a, what)?;
     if s.len() != n {
-        return Err(PyValueError::new_err(format!("{what} must have {n} values, got {}", s.len())));
+        return Err(PyValueError::new_err(format!(
+            "{what} must have {n} values, got {}",
+            s.len()
+        )));
     }
     Ok(s)
 }

@@ -5,12 +5,12 @@
 //! for operation (every three-term dot product summed as numpy's einsum does,
 //! `(x0 y0 + x2 y2) + x1 y1`), so the chosen face is the numpy reference's.
 
+use crate::numpy_ops::nanmax;
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d_f64::query::PointQuery;
 use rayon::prelude::*;
-use crate::numpy_ops::nanmax;
 
 pub type P3 = [f64; 3];
 
@@ -26,13 +26,18 @@ fn dot(a: &P3, b: &P3) -> f64 {
 
 #[inline(always)]
 fn cross(x: &P3, y: &P3) -> P3 {
-    [x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]]
+    [
+        x[1] * y[2] - x[2] * y[1],
+        x[2] * y[0] - x[0] * y[2],
+        x[0] * y[1] - x[1] * y[0],
+    ]
 }
 
 /// `closest._triple`: n · (x × y) summed left to right.
 #[inline(always)]
 fn triple(n: &P3, x: &P3, y: &P3) -> f64 {
-    n[0] * (x[1] * y[2] - x[2] * y[1]) + n[1] * (x[2] * y[0] - x[0] * y[2])
+    n[0] * (x[1] * y[2] - x[2] * y[1])
+        + n[1] * (x[2] * y[0] - x[0] * y[2])
         + n[2] * (x[0] * y[1] - x[1] * y[0])
 }
 
@@ -40,7 +45,11 @@ fn triple(n: &P3, x: &P3, y: &P3) -> f64 {
 #[inline(always)]
 fn clip01(t: f64) -> f64 {
     let t = if t < 0.0 { 0.0 } else { t };
-    if t > 1.0 { 1.0 } else { t }
+    if t > 1.0 {
+        1.0
+    } else {
+        t
+    }
 }
 
 /// `closest_on_segments` for one point: (t, squared distance).
@@ -50,7 +59,11 @@ fn on_segment(p: &P3, a: &P3, b: &P3) -> (f64, f64) {
     let dd = dot(&d, &d);
     let dd = if dd > 0.0 { dd } else { 1.0 };
     let t = clip01(dot(&sub(p, a), &d) / dd);
-    let e = [p[0] - (a[0] + t * d[0]), p[1] - (a[1] + t * d[1]), p[2] - (a[2] + t * d[2])];
+    let e = [
+        p[0] - (a[0] + t * d[0]),
+        p[1] - (a[1] + t * d[1]),
+        p[2] - (a[2] + t * d[2]),
+    ];
     (t, dot(&e, &e))
 }
 
@@ -62,8 +75,20 @@ pub fn triangle_d2(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
     let (lab, lbc, lca) = (dot(&ab, &ab), dot(&bc, &bc), dot(&ca, &ca));
     let c_long = lab >= lbc && lab >= lca;
     let a_long = lbc >= lca;
-    let x = if c_long { bc } else if a_long { ca } else { ab };
-    let y = if c_long { ca } else if a_long { ab } else { bc };
+    let x = if c_long {
+        bc
+    } else if a_long {
+        ca
+    } else {
+        ab
+    };
+    let y = if c_long {
+        ca
+    } else if a_long {
+        ab
+    } else {
+        bc
+    };
     let n = cross(&x, &y);
     let nn = dot(&n, &n);
     // np.maximum(np.maximum(lab, lbc), lca) ** 2 (NaN propagates through np.maximum)
@@ -102,7 +127,6 @@ pub fn triangle_d2(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
     dot(&e, &e)
 }
 
-
 /// Faces per leaf of the tree: runs of faces consecutive along a Morton curve of their
 /// centroids (compact runs), so the tree holds a quarter of the nodes it would hold with one
 /// face per leaf (its memory dominated the orient stage's peak).
@@ -133,7 +157,11 @@ impl FaceTree {
             .iter()
             .map(|t| {
                 let (a, b, c) = (v[t[0]], v[t[1]], v[t[2]]);
-                [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0]
+                [
+                    (a[0] + b[0] + c[0]) / 3.0,
+                    (a[1] + b[1] + c[1]) / 3.0,
+                    (a[2] + b[2] + c[2]) / 3.0,
+                ]
             })
             .collect();
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -154,7 +182,11 @@ impl FaceTree {
             }
             k
         };
-        let mut keyed: Vec<(u64, u32)> = cen.iter().enumerate().map(|(i, c)| (code(c), i as u32)).collect();
+        let mut keyed: Vec<(u64, u32)> = cen
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (code(c), i as u32))
+            .collect();
         drop(cen);
         keyed.sort_unstable();
         let order: Vec<u32> = keyed.into_iter().map(|x| x.1).collect();
@@ -170,7 +202,10 @@ impl FaceTree {
                         }
                     }
                 }
-                Aabb::new(Vector::new(lo[0], lo[1], lo[2]), Vector::new(hi[0], hi[1], hi[2]))
+                Aabb::new(
+                    Vector::new(lo[0], lo[1], lo[2]),
+                    Vector::new(hi[0], hi[1], hi[2]),
+                )
             })
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
@@ -202,8 +237,16 @@ impl FaceTree {
                 d * d
             },
             |leaf, _| {
-                let d2 = self.run(leaf).iter().map(|&fi| self.d2(p, fi)).fold(f64::NAN, f64::min);
-                if d2.is_nan() { None } else { Some(d2) }
+                let d2 = self
+                    .run(leaf)
+                    .iter()
+                    .map(|&fi| self.d2(p, fi))
+                    .fold(f64::NAN, f64::min);
+                if d2.is_nan() {
+                    None
+                } else {
+                    Some(d2)
+                }
             },
         );
         let Some((_, best1)) = first else { return -1 };
@@ -211,7 +254,10 @@ impl FaceTree {
         // and the distances' rounding): the least d2, then the lowest id, as numpy decides
         let r = best1.sqrt() * (1.0 + 1e-9) + 1e-9;
         let (mut best, mut id) = (f64::INFINITY, u32::MAX);
-        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+        for leaf in self
+            .bvh
+            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
+        {
             for &face in self.run(leaf) {
                 let d2 = self.d2(p, face);
                 if d2 < best || (d2 == best && face < id) {
@@ -220,10 +266,17 @@ impl FaceTree {
                 }
             }
         }
-        if id == u32::MAX { -1 } else { id as i64 }
+        if id == u32::MAX {
+            -1
+        } else {
+            id as i64
+        }
     }
 
     pub fn nearest_many(&self, pts: &[P3]) -> Vec<i64> {
-        pts.par_iter().with_min_len(64).map(|p| self.nearest(p)).collect()
+        pts.par_iter()
+            .with_min_len(64)
+            .map(|p| self.nearest(p))
+            .collect()
     }
 }

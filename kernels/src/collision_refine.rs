@@ -32,7 +32,11 @@ fn axpy(a: &P3, t: f64, d: &P3) -> P3 {
 }
 #[inline(always)]
 fn cross(x: &P3, y: &P3) -> P3 {
-    [x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]]
+    [
+        x[1] * y[2] - x[2] * y[1],
+        x[2] * y[0] - x[0] * y[2],
+        x[0] * y[1] - x[1] * y[0],
+    ]
 }
 #[inline(always)]
 fn norm(a: &P3) -> f64 {
@@ -57,8 +61,22 @@ const EDGE_TOL: f64 = 1e-9;
 
 /// A tool part about its axis (meridional ρ, z), z0 ≤ z ≤ z1.
 pub enum Part {
-    Flute { p: Profile, e: f64, r: f64, f: f64, th_lo: f64, th_hi: f64, top: [f64; 2], z1: f64 },
-    Frustum { z0: f64, r0: f64, z1: f64, r1: f64 },
+    Flute {
+        p: Profile,
+        e: f64,
+        r: f64,
+        f: f64,
+        th_lo: f64,
+        th_hi: f64,
+        top: [f64; 2],
+        z1: f64,
+    },
+    Frustum {
+        z0: f64,
+        r0: f64,
+        z1: f64,
+        r1: f64,
+    },
 }
 
 impl Part {
@@ -68,10 +86,20 @@ impl Part {
         match (s.first().copied(), s.len()) {
             (Some(k), 26) if k == 0.0 => Some(Part::Flute {
                 p: Profile::from_slice(&s[1..18]),
-                e: s[18], r: s[19], f: s[20], th_lo: s[21], th_hi: s[22], top: [s[23], s[24]],
+                e: s[18],
+                r: s[19],
+                f: s[20],
+                th_lo: s[21],
+                th_hi: s[22],
+                top: [s[23], s[24]],
                 z1: s[25],
             }),
-            (Some(k), 5) if k == 1.0 => Some(Part::Frustum { z0: s[1], r0: s[2], z1: s[3], r1: s[4] }),
+            (Some(k), 5) if k == 1.0 => Some(Part::Frustum {
+                z0: s[1],
+                r0: s[2],
+                z1: s[3],
+                r1: s[4],
+            }),
             _ => None,
         }
     }
@@ -98,16 +126,30 @@ impl Part {
                     let dr = rho - r0;
                     let dz = nanmax(z0 - z, z - z1);
                     let out = hypot_exact(nanmax(dr, 0.0), nanmax(dz, 0.0));
-                    if dr > 0.0 || dz > 0.0 { out } else { nanmax(dr, dz) }
+                    if dr > 0.0 || dz > 0.0 {
+                        out
+                    } else {
+                        nanmax(dr, dz)
+                    }
                 } else {
                     let mut d2 = seg2(rho, z, 0.0, z0, r0, z0);
                     d2 = nanmin(d2, seg2(rho, z, r0, z0, r1, z1));
                     d2 = nanmin(d2, seg2(rho, z, r1, z1, 0.0, z1));
                     let t = (z - z0) / (z1 - z0);
-                    let t = if t < 0.0 { 0.0 } else if t > 1.0 { 1.0 } else { t };
+                    let t = if t < 0.0 {
+                        0.0
+                    } else if t > 1.0 {
+                        1.0
+                    } else {
+                        t
+                    };
                     let inside = z >= z0 && z <= z1 && rho <= r0 + t * (r1 - r0);
                     let d = d2.sqrt();
-                    if inside { -d } else { d }
+                    if inside {
+                        -d
+                    } else {
+                        d
+                    }
                 }
             }
         }
@@ -117,9 +159,23 @@ impl Part {
     /// axial part c.
     fn support_rz(&self, s: f64, c: f64) -> (f64, f64) {
         match self {
-            &Part::Flute { e, r, f, th_lo, th_hi, top, .. } => {
+            &Part::Flute {
+                e,
+                r,
+                f,
+                th_lo,
+                th_hi,
+                top,
+                ..
+            } => {
                 let th = s.atan2(-c);
-                let th_c = if th < th_lo { th_lo } else if th > th_hi { th_hi } else { th };
+                let th_c = if th < th_lo {
+                    th_lo
+                } else if th > th_hi {
+                    th_hi
+                } else {
+                    th
+                };
                 if th > th_hi {
                     (top[0], top[1])
                 } else if th < th_lo {
@@ -129,7 +185,11 @@ impl Part {
                 }
             }
             &Part::Frustum { z0, r0, z1, r1 } => {
-                if r0 * s + z0 * c >= r1 * s + z1 * c { (r0, z0) } else { (r1, z1) }
+                if r0 * s + z0 * c >= r1 * s + z1 * c {
+                    (r0, z0)
+                } else {
+                    (r1, z1)
+                }
             }
         }
     }
@@ -152,13 +212,21 @@ impl Part {
             let m = s.max(1e-300);
             [perp[0] / m, perp[1] / m, perp[2] / m]
         } else {
-            let rf = if axis[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+            let rf = if axis[0].abs() < 0.9 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 1.0, 0.0]
+            };
             let ap = cross(axis, &rf);
             let l = norm(&ap);
             [ap[0] / l, ap[1] / l, ap[2] / l]
         };
         let (rho, z) = self.support_rz(s, c);
-        [tip[0] + z * axis[0] + rho * u[0], tip[1] + z * axis[1] + rho * u[1], tip[2] + z * axis[2] + rho * u[2]]
+        [
+            tip[0] + z * axis[0] + rho * u[0],
+            tip[1] + z * axis[1] + rho * u[1],
+            tip[2] + z * axis[2] + rho * u[2],
+        ]
     }
 }
 
@@ -179,7 +247,16 @@ pub struct Pair<'a> {
 }
 
 /// `_edge_minima` of one edge E0 + x D: (best value, x).
-fn edge_min(part: &Part, e0: &P3, d: &P3, tip: &P3, axis: &P3, f0: f64, f1: f64, ub: &mut f64) -> (f64, f64) {
+fn edge_min(
+    part: &Part,
+    e0: &P3,
+    d: &P3,
+    tip: &P3,
+    axis: &P3,
+    f0: f64,
+    f1: f64,
+    ub: &mut f64,
+) -> (f64, f64) {
     let g = 0.5 * (5.0f64.sqrt() - 1.0);
     let sd = |x: f64| part.posed_sd(&axpy(e0, x, d), tip, axis);
     let mut val = nanmin(f0, f1);
@@ -202,10 +279,23 @@ fn edge_min(part: &Part, e0: &P3, d: &P3, tip: &P3, axis: &P3, f0: f64, f1: f64,
         let sb = (fhi - v2) / (hi - x2);
         let den = sa - sb;
         let xi = (v2 - sb * x2 - v1 + sa * x1) / (if den != 0.0 { den } else { 1.0 });
-        let xi = if xi < x1 { x1 } else if xi > x2 { x2 } else { xi };
+        let xi = if xi < x1 {
+            x1
+        } else if xi > x2 {
+            x2
+        } else {
+            xi
+        };
         let mid = nanmin(
-            nanmin(nanmax(v1, v2 + sb * (x1 - x2)), nanmax(v1 + sa * (x2 - x1), v2)),
-            if den != 0.0 { nanmax(v1 + sa * (xi - x1), v2 + sb * (xi - x2)) } else { f64::INFINITY },
+            nanmin(
+                nanmax(v1, v2 + sb * (x1 - x2)),
+                nanmax(v1 + sa * (x2 - x1), v2),
+            ),
+            if den != 0.0 {
+                nanmax(v1 + sa * (xi - x1), v2 + sb * (xi - x2))
+            } else {
+                f64::INFINITY
+            },
         );
         let bound = nanmin(nanmin(b_left, b_right), mid);
         let go = bound <= *ub && val - bound > EDGE_TOL;
@@ -257,7 +347,11 @@ pub fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> 
                 at = p;
             }
         };
-        let fv = [part.posed_sd(a, tip, axis), part.posed_sd(b, tip, axis), part.posed_sd(c, tip, axis)];
+        let fv = [
+            part.posed_sd(a, tip, axis),
+            part.posed_sd(b, tip, axis),
+            part.posed_sd(c, tip, axis),
+        ];
         offer(fv[0], *a);
         offer(fv[1], *b);
         offer(fv[2], *c);
@@ -277,7 +371,13 @@ pub fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> 
         if hit_b {
             offer(-hp, q);
         }
-        let plane_lb = if above { hm } else if below { -hp } else { f64::NEG_INFINITY };
+        let plane_lb = if above {
+            hm
+        } else if below {
+            -hp
+        } else {
+            f64::NEG_INFINITY
+        };
         if pr.ok && !above && !below {
             let w = -hm / (if hp - hm > 0.0 { hp - hm } else { 1.0 });
             let q = axpy(&ym, w, &sub(&yp, &ym));
@@ -301,13 +401,23 @@ pub fn refine_pose(part: &Part, pairs: &[Pair], ub: &mut f64) -> Vec<(f64, P3)> 
             }
         }
         *ub = nanmin(*ub, best);
-        st.push(St { best, at, fv, plane_lb, solved: hit || hit_b });
+        st.push(St {
+            best,
+            at,
+            fv,
+            plane_lb,
+            solved: hit || hit_b,
+        });
     }
     for (pr, s) in pairs.iter().zip(st.iter_mut()) {
         if s.solved {
             continue;
         }
-        let ends = [(pr.a, pr.b, s.fv[0], s.fv[1]), (pr.b, pr.c, s.fv[1], s.fv[2]), (pr.c, pr.a, s.fv[2], s.fv[0])];
+        let ends = [
+            (pr.a, pr.b, s.fv[0], s.fv[1]),
+            (pr.b, pr.c, s.fv[1], s.fv[2]),
+            (pr.c, pr.a, s.fv[2], s.fv[0]),
+        ];
         for (e0, e1, f0, f1) in ends {
             let d = sub(e1, e0);
             let lb = nanmax(0.5 * (f0 + f1 - norm(&d)), s.plane_lb);
@@ -342,11 +452,21 @@ pub fn refine_pairs<'py>(
     pose: PyReadonlyArray1<'py, i64>,
     ub: PyReadonlyArray1<'py, f64>,
     threads: usize,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>)> {
-    let part = Part::from_slice(&part).ok_or_else(|| PyValueError::new_err("unknown part description"))?;
+) -> PyResult<(
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<f64>>,
+)> {
+    let part =
+        Part::from_slice(&part).ok_or_else(|| PyValueError::new_err("unknown part description"))?;
     let pp = crate::slice1(&pose, "pose")?;
     let k = pp.len();
-    let (aa, bb, cc, nn) = (points_n(&a, "a", k)?, points_n(&b, "b", k)?, points_n(&c, "c", k)?, points_n(&nrm, "nrm", k)?);
+    let (aa, bb, cc, nn) = (
+        points_n(&a, "a", k)?,
+        points_n(&b, "b", k)?,
+        points_n(&c, "c", k)?,
+        points_n(&nrm, "nrm", k)?,
+    );
     let (tt, xx) = (points_n(&tip, "tip", k)?, points_n(&axis, "axis", k)?);
     let okk = values_n(&ok, "ok", k)?;
     let ubb = crate::slice1(&ub, "ub")?;
@@ -371,7 +491,15 @@ pub fn refine_pairs<'py>(
                 .map(|&(s, e)| {
                     let pairs: Vec<Pair> = order[s..e]
                         .iter()
-                        .map(|&i| Pair { a: &aa[i], b: &bb[i], c: &cc[i], n: &nn[i], ok: okk[i], tip: &tt[i], axis: &xx[i] })
+                        .map(|&i| Pair {
+                            a: &aa[i],
+                            b: &bb[i],
+                            c: &cc[i],
+                            n: &nn[i],
+                            ok: okk[i],
+                            tip: &tt[i],
+                            axis: &xx[i],
+                        })
                         .collect();
                     let mut u = ubb[pp[order[s]] as usize];
                     let out = refine_pose(&part, &pairs, &mut u);
@@ -392,5 +520,9 @@ pub fn refine_pairs<'py>(
         }
     }
     let at = PyArray1::from_vec(py, at).reshape([k, 3])?;
-    Ok((PyArray1::from_vec(py, best), at, PyArray1::from_vec(py, ub_out)))
+    Ok((
+        PyArray1::from_vec(py, best),
+        at,
+        PyArray1::from_vec(py, ub_out),
+    ))
 }

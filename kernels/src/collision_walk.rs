@@ -37,7 +37,11 @@ const FAR_PAIRS: usize = 8;
 #[inline(always)]
 fn clip01(t: f64) -> f64 {
     let t = if t < 0.0 { 0.0 } else { t };
-    if t > 1.0 { 1.0 } else { t }
+    if t > 1.0 {
+        1.0
+    } else {
+        t
+    }
 }
 
 /// `posed_tool._seg_near`: (squared distance, nearest ρ, nearest z) to the segment a → b.
@@ -62,9 +66,21 @@ fn frustum_grad(z0: f64, r0: f64, z1: f64, r1: f64, rho: f64, z: f64) -> (f64, f
         let outside = out > 0.0;
         let inv = if outside { 1.0 / out } else { 0.0 };
         let radial = dr >= dz;
-        let gz = if outside { ez * inv } else if radial { 0.0 } else { 1.0 };
+        let gz = if outside {
+            ez * inv
+        } else if radial {
+            0.0
+        } else {
+            1.0
+        };
         let sd = if outside { out } else { nanmax(dr, dz) };
-        let gr = if outside { er * inv } else if radial { 1.0 } else { 0.0 };
+        let gr = if outside {
+            er * inv
+        } else if radial {
+            1.0
+        } else {
+            0.0
+        };
         return (sd, gr, if dlo > dhi { -gz } else { gz });
     }
     let mut best = seg_near(rho, z, 0.0, z0, r0, z0);
@@ -139,7 +155,12 @@ pub struct CollisionTree {
     t: Tree,
 }
 
-type LevelArrays<'py> = (PyReadonlyArray2<'py, f64>, PyReadonlyArray1<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>);
+type LevelArrays<'py> = (
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray2<'py, f64>,
+);
 
 #[pymethods]
 impl CollisionTree {
@@ -149,9 +170,16 @@ impl CollisionTree {
     /// (n,), corners A, B, C (n, 3), unit normals (n, 3), `ok` (n,) a usable normal.
     #[new]
     #[allow(clippy::too_many_arguments)]
-    fn new(levels: Vec<LevelArrays<'_>>, cen: PyReadonlyArray2<'_, f64>, rad: PyReadonlyArray1<'_, f64>,
-           a: PyReadonlyArray2<'_, f64>, b: PyReadonlyArray2<'_, f64>, c: PyReadonlyArray2<'_, f64>,
-           nrm: PyReadonlyArray2<'_, f64>, ok: PyReadonlyArray1<'_, bool>) -> PyResult<Self> {
+    fn new(
+        levels: Vec<LevelArrays<'_>>,
+        cen: PyReadonlyArray2<'_, f64>,
+        rad: PyReadonlyArray1<'_, f64>,
+        a: PyReadonlyArray2<'_, f64>,
+        b: PyReadonlyArray2<'_, f64>,
+        c: PyReadonlyArray2<'_, f64>,
+        nrm: PyReadonlyArray2<'_, f64>,
+        ok: PyReadonlyArray1<'_, bool>,
+    ) -> PyResult<Self> {
         let cen = points(&cen, "cen")?;
         let n = cen.len();
         let (rad, ok) = (values_n(&rad, "rad", n)?, values_n(&ok, "ok", n)?);
@@ -165,20 +193,53 @@ impl CollisionTree {
             let q = cc.len();
             let r = values_n(r, "level radii", q)?;
             // each level has the nodes its parents' children can name, the leaves the triangles'
-            let fits = if i == 0 { q == 1 } else { q > BRANCH * (prev - 1) && q <= BRANCH * prev };
+            let fits = if i == 0 {
+                q == 1
+            } else {
+                q > BRANCH * (prev - 1) && q <= BRANCH * prev
+            };
             if !fits {
-                return Err(PyValueError::new_err("the tree's levels do not nest (BRANCH children per node, root first)"));
+                return Err(PyValueError::new_err(
+                    "the tree's levels do not nest (BRANCH children per node, root first)",
+                ));
             }
-            let (rep, h) = (points_n(rep, "level representatives", q)?, points_n(h, "level half-sizes", q)?);
-            lv.push((0..q).map(|j| Node { c: cc[j], r: r[j], rep: rep[j], h: h[j] }).collect::<Vec<_>>());
+            let (rep, h) = (
+                points_n(rep, "level representatives", q)?,
+                points_n(h, "level half-sizes", q)?,
+            );
+            lv.push(
+                (0..q)
+                    .map(|j| Node {
+                        c: cc[j],
+                        r: r[j],
+                        rep: rep[j],
+                        h: h[j],
+                    })
+                    .collect::<Vec<_>>(),
+            );
             prev = q;
         }
         if n > LEAF * prev || n <= LEAF * (prev - 1) {
-            return Err(PyValueError::new_err("the tree's leaves do not hold the triangles (LEAF per leaf)"));
+            return Err(PyValueError::new_err(
+                "the tree's leaves do not hold the triangles (LEAF per leaf)",
+            ));
         }
-        let (a, b, c, nrm) = (points_n(&a, "A", n)?, points_n(&b, "B", n)?, points_n(&c, "C", n)?, points_n(&nrm, "nrm", n)?);
+        let (a, b, c, nrm) = (
+            points_n(&a, "A", n)?,
+            points_n(&b, "B", n)?,
+            points_n(&c, "C", n)?,
+            points_n(&nrm, "nrm", n)?,
+        );
         let tris = (0..n)
-            .map(|i| Tri { cen: cen[i], rad: rad[i], a: a[i], b: b[i], c: c[i], nrm: nrm[i], ok: ok[i] })
+            .map(|i| Tri {
+                cen: cen[i],
+                rad: rad[i],
+                a: a[i],
+                b: b[i],
+                c: c[i],
+                nrm: nrm[i],
+                ok: ok[i],
+            })
             .collect();
         let t = Tree { levels: lv, tris };
         Ok(CollisionTree { t })
@@ -229,10 +290,23 @@ struct Scratch {
 
 /// `_TriTree.candidates` for one chunk: the pairs that may hold the part's minimum; `ub`
 /// (mc,) lowered in place.
-fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64, sc: &mut Scratch) -> Vec<Cand> {
+fn candidates(
+    tree: &Tree,
+    wp: &WalkPart,
+    qs: &Queries,
+    ub: &mut [f64],
+    far: f64,
+    sc: &mut Scratch,
+) -> Vec<Cand> {
     let nq = qs.tq.len();
     let mc = qs.mc;
-    let Scratch { fr, nx, lb, srep, pose } = sc;
+    let Scratch {
+        fr,
+        nx,
+        lb,
+        srep,
+        pose,
+    } = sc;
     pose.clear();
     pose.extend((0..nq).map(|q| (q % mc) as u32));
     let pose = &pose[..];
@@ -266,7 +340,9 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
         let mut with_depth = false;
         if lev[0].r < REP_FACTOR * wp.rmax + 8.0 {
             srep.clear();
-            srep.extend(fr.iter().map(|&(q, n)| wp.sd(&lev[n as usize].rep, &qs.tq[q as usize], &qs.aq[q as usize])));
+            srep.extend(fr.iter().map(|&(q, n)| {
+                wp.sd(&lev[n as usize].rep, &qs.tq[q as usize], &qs.aq[q as usize])
+            }));
             for (&(q, _), &s) in fr.iter().zip(srep.iter()) {
                 let u = &mut ub[pz(q)];
                 *u = nanmin(*u, s);
@@ -286,7 +362,14 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
             with_depth = true;
         }
         if fr.len() > DEEP_BEAM * 4 {
-            beam(fr, lb, if with_depth { Some(&srep[..]) } else { None }, ub, mc, far);
+            beam(
+                fr,
+                lb,
+                if with_depth { Some(&srep[..]) } else { None },
+                ub,
+                mc,
+                far,
+            );
         }
         if li + 1 < nl {
             let nxt = tree.levels[li + 1].len();
@@ -319,7 +402,11 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
                     let (sdc, dv, al, be, valid) = posed_sd_ab(f, cen, tip, ax);
                     let lb = sdc - tr.rad;
                     if valid {
-                        let g = [al * dv[0] + be * ax[0], al * dv[1] + be * ax[1], al * dv[2] + be * ax[2]];
+                        let g = [
+                            al * dv[0] + be * ax[0],
+                            al * dv[1] + be * ax[1],
+                            al * dv[2] + be * ax[2],
+                        ];
                         let lin = nanmin(
                             nanmin(dot(&g, &sub(&tr.a, cen)), dot(&g, &sub(&tr.b, cen))),
                             dot(&g, &sub(&tr.c, cen)),
@@ -334,7 +421,12 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
                     (sdc, sdc - tr.rad)
                 }
             };
-            pairs.push(Cand { q, t: t as u32, sdc, lb });
+            pairs.push(Cand {
+                q,
+                t: t as u32,
+                sdc,
+                lb,
+            });
         }
     }
     for c in &pairs {
@@ -349,7 +441,14 @@ fn candidates(tree: &Tree, wp: &WalkPart, qs: &Queries, ub: &mut [f64], far: f64
 /// by query), a pose known to penetrate keeps its DEEP_BEAM nodes with the deepest
 /// representatives, a query whose nodes are all ≥ `far` its FAR_BEAM nodes with the least
 /// lower bound (the node that gave the pose's bound first); order kept.
-fn beam(fr: &mut Vec<(u32, u32)>, lb: &mut Vec<f64>, depth: Option<&[f64]>, ub: &[f64], mc: usize, far: f64) {
+fn beam(
+    fr: &mut Vec<(u32, u32)>,
+    lb: &mut Vec<f64>,
+    depth: Option<&[f64]>,
+    ub: &[f64],
+    mc: usize,
+    far: f64,
+) {
     let n = fr.len();
     let mut keep = vec![true; n];
     let mut any = false;
@@ -363,7 +462,13 @@ fn beam(fr: &mut Vec<(u32, u32)>, lb: &mut Vec<f64>, depth: Option<&[f64]>, ub: 
         let ubp = ub[q as usize % mc];
         let deep = ubp < 0.0;
         let lbmin = lb[s..e].iter().copied().fold(f64::INFINITY, nanmin);
-        let width = if deep { DEEP_BEAM } else if lbmin >= far { FAR_BEAM } else { 0 };
+        let width = if deep {
+            DEEP_BEAM
+        } else if lbmin >= far {
+            FAR_BEAM
+        } else {
+            0
+        };
         if width > 0 && e - s > width {
             any = true;
             let key = |i: usize| -> f64 {
@@ -371,7 +476,11 @@ fn beam(fr: &mut Vec<(u32, u32)>, lb: &mut Vec<f64>, depth: Option<&[f64]>, ub: 
                     None => lb[i],
                     Some(dq) => {
                         if deep {
-                            if dq[i] < 0.0 { dq[i] - 1e3 } else { lb[i] }
+                            if dq[i] < 0.0 {
+                                dq[i] - 1e3
+                            } else {
+                                lb[i]
+                            }
                         } else if dq[i] <= ubp + 1e-12 {
                             -2e3
                         } else {
@@ -381,7 +490,11 @@ fn beam(fr: &mut Vec<(u32, u32)>, lb: &mut Vec<f64>, depth: Option<&[f64]>, ub: 
                 }
             };
             let mut idx: Vec<usize> = (s..e).collect();
-            idx.sort_by(|&x, &y| key(x).partial_cmp(&key(y)).unwrap_or(std::cmp::Ordering::Equal));
+            idx.sort_by(|&x, &y| {
+                key(x)
+                    .partial_cmp(&key(y))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
             for &i in &idx[width..] {
                 keep[i] = false;
             }
@@ -417,8 +530,16 @@ struct Hit {
 
 /// `CollisionScene._chunk` for poses `s..e` of the batch.
 #[allow(clippy::too_many_arguments)]
-fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], queries: &[(&[P3], &[P3], usize)],
-         s: usize, e: usize, cap: f64, safety: f64) -> Vec<Hit> {
+fn chunk(
+    trees: &[&Tree],
+    parts: &[WalkPart],
+    plan: &[Vec<(usize, usize)>],
+    queries: &[(&[P3], &[P3], usize)],
+    s: usize,
+    e: usize,
+    cap: f64,
+    safety: f64,
+) -> Vec<Hit> {
     let mc = e - s;
     let far = safety + FAR_MARGIN;
     let mut ub = vec![cap; mc];
@@ -436,14 +557,35 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
             let (tq, aq, nc) = queries[g];
             let row0 = nc * s + first * mc;
             let rows_ = (nc - first) * mc;
-            let qs = Queries { tq: &tq[row0..row0 + rows_], aq: &aq[row0..row0 + rows_], mc };
+            let qs = Queries {
+                tq: &tq[row0..row0 + rows_],
+                aq: &aq[row0..row0 + rows_],
+                mc,
+            };
             let pairs = candidates(trees[g], wp, &qs, &mut ub, far, &mut scratch);
             if !pairs.is_empty() {
-                sets.push(Set { part: j, g, first, row0, pairs });
+                sets.push(Set {
+                    part: j,
+                    g,
+                    first,
+                    row0,
+                    pairs,
+                });
             }
         }
     }
-    let mut out = vec![Hit { d: cap, g: -1, part: -1, row: -1, copy: -1, t: -1, w: [f64::NAN; 3] }; mc];
+    let mut out = vec![
+        Hit {
+            d: cap,
+            g: -1,
+            part: -1,
+            row: -1,
+            copy: -1,
+            t: -1,
+            w: [f64::NAN; 3]
+        };
+        mc
+    ];
     for set in sets.iter_mut() {
         let tree = trees[set.g];
         let (tq, aq, _) = queries[set.g];
@@ -486,18 +628,34 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
             }
             let run = &order[i..e2];
             let deep = ub[p] < 0.0;
-            let lbmin = run.iter().map(|&x| set.pairs[x].lb).fold(f64::INFINITY, nanmin);
+            let lbmin = run
+                .iter()
+                .map(|&x| set.pairs[x].lb)
+                .fold(f64::INFINITY, nanmin);
             let far_p = lbmin >= far;
             let beamed = deep || far_p;
-            let take = if deep { run.len().min(PENETRATION_PAIRS) } else if far_p { run.len().min(FAR_PAIRS) } else { run.len() };
+            let take = if deep {
+                run.len().min(PENETRATION_PAIRS)
+            } else if far_p {
+                run.len().min(FAR_PAIRS)
+            } else {
+                run.len()
+            };
             let kept = &run[..take];
             let prs: Vec<Pair> = kept
                 .iter()
                 .map(|&x| {
                     let c = &set.pairs[x];
                     let (tr, row) = (&tree.tris[c.t as usize], c.q as usize);
-                    Pair { a: &tr.a, b: &tr.b, c: &tr.c, n: &tr.nrm, ok: tr.ok,
-                           tip: &tq[set.row0 + row], axis: &aq[set.row0 + row] }
+                    Pair {
+                        a: &tr.a,
+                        b: &tr.b,
+                        c: &tr.c,
+                        n: &tr.nrm,
+                        ok: tr.ok,
+                        tip: &tq[set.row0 + row],
+                        axis: &aq[set.row0 + row],
+                    }
                 })
                 .collect();
             let res = refine_pose(&wp.part, &prs, &mut ub[p]);
@@ -505,7 +663,11 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
             let mut bi: Option<(f64, usize, P3)> = None;
             for (&x, (d, w)) in kept.iter().zip(res) {
                 let c = &set.pairs[x];
-                let (d, w) = if beamed && c.sdc < d { (c.sdc, tree.tris[c.t as usize].cen) } else { (d, w) };
+                let (d, w) = if beamed && c.sdc < d {
+                    (c.sdc, tree.tris[c.t as usize].cen)
+                } else {
+                    (d, w)
+                };
                 let better = match bi {
                     None => true,
                     Some((bd, _, _)) => d < bd || (bd.is_nan() && !d.is_nan()),
@@ -518,8 +680,15 @@ fn chunk(trees: &[&Tree], parts: &[WalkPart], plan: &[Vec<(usize, usize)>], quer
                 if d < out[p].d {
                     let c = &set.pairs[x];
                     let j = c.q as usize;
-                    out[p] = Hit { d, g: set.g as i64, part: set.part as i64, row: (set.row0 + j) as i64,
-                                   copy: (set.first + j / mc) as i64, t: c.t as i64, w };
+                    out[p] = Hit {
+                        d,
+                        g: set.g as i64,
+                        part: set.part as i64,
+                        row: (set.row0 + j) as i64,
+                        copy: (set.first + j / mc) as i64,
+                        t: c.t as i64,
+                        w,
+                    };
                 }
             }
             i = e2;
@@ -549,7 +718,11 @@ pub fn collision_detect<'py>(
     trees: Vec<PyRef<'py, CollisionTree>>,
     parts: Vec<(Vec<f64>, f64)>,
     plan: Vec<Vec<(usize, usize)>>,
-    queries: Vec<(PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, usize)>,
+    queries: Vec<(
+        PyReadonlyArray2<'py, f64>,
+        PyReadonlyArray2<'py, f64>,
+        usize,
+    )>,
     m: usize,
     chunk_size: usize,
     cap: f64,
@@ -558,40 +731,68 @@ pub fn collision_detect<'py>(
 ) -> PyResult<DetectOut<'py>> {
     let err = |s: &str| PyValueError::new_err(s.to_string());
     if chunk_size == 0 || plan.len() != parts.len() || queries.len() != trees.len() {
-        return Err(err("chunk_size ≥ 1, one plan per part and one query set per tree"));
+        return Err(err(
+            "chunk_size ≥ 1, one plan per part and one query set per tree",
+        ));
     }
     let mut wparts = Vec::with_capacity(parts.len());
     for (spec, rmax) in &parts {
         let part = Part::from_slice(spec).ok_or_else(|| err("unknown part description"))?;
-        let frustum = if spec[0] == 1.0 { Some([spec[1], spec[2], spec[3], spec[4]]) } else { None };
-        wparts.push(WalkPart { part, frustum, rmax: *rmax });
+        let frustum = if spec[0] == 1.0 {
+            Some([spec[1], spec[2], spec[3], spec[4]])
+        } else {
+            None
+        };
+        wparts.push(WalkPart {
+            part,
+            frustum,
+            rmax: *rmax,
+        });
     }
     let mut qv: Vec<(&[P3], &[P3], usize)> = Vec::with_capacity(queries.len());
     for (tq, aq, nc) in &queries {
         if *nc == 0 {
             return Err(err("each group needs at least one copy"));
         }
-        let (t, a) = (points_n(tq, "query tips", nc * m)?, points_n(aq, "query axes", nc * m)?);
+        let (t, a) = (
+            points_n(tq, "query tips", nc * m)?,
+            points_n(aq, "query axes", nc * m)?,
+        );
         qv.push((t, a, *nc));
     }
     for pl in &plan {
-        if pl.iter().any(|&(g, first)| g >= trees.len() || first >= qv[g].2) {
+        if pl
+            .iter()
+            .any(|&(g, first)| g >= trees.len() || first >= qv[g].2)
+        {
             return Err(err("plan names a group or copy that does not exist"));
         }
     }
     let tr: Vec<&Tree> = trees.iter().map(|t| &t.t).collect();
-    let spans: Vec<(usize, usize)> = (0..m).step_by(chunk_size).map(|s| (s, (s + chunk_size).min(m))).collect();
+    let spans: Vec<(usize, usize)> = (0..m)
+        .step_by(chunk_size)
+        .map(|s| (s, (s + chunk_size).min(m)))
+        .collect();
     let pool = crate::pool(threads)?;
     let res: Vec<Vec<Hit>> = py.detach(|| {
         pool.install(|| {
-            spans.par_iter().with_max_len(1)
+            spans
+                .par_iter()
+                .with_max_len(1)
                 .map(|&(s, e)| chunk(&tr, &wparts, &plan, &qv, s, e, cap, safety))
                 .collect()
         })
     });
     let hits: Vec<Hit> = res.into_iter().flatten().collect();
     let d: Vec<f64> = hits.iter().map(|h| h.d).collect();
-    let ids: Vec<i64> = hits.iter().flat_map(|h| [h.g, h.part, h.row, h.copy, h.t]).collect();
+    let ids: Vec<i64> = hits
+        .iter()
+        .flat_map(|h| [h.g, h.part, h.row, h.copy, h.t])
+        .collect();
     let w: Vec<f64> = hits.iter().flat_map(|h| h.w).collect();
-    Ok((PyArray1::from_vec(py, d), PyArray1::from_vec(py, ids).reshape([m, 5])?, PyArray1::from_vec(py, w).reshape([m, 3])?))
+    Ok((
+        PyArray1::from_vec(py, d),
+        PyArray1::from_vec(py, ids).reshape([m, 5])?,
+        PyArray1::from_vec(py, w).reshape([m, 3])?,
+    ))
 }

@@ -43,7 +43,11 @@ fn kernel_matches_libm() -> bool {
         let a = 1.0 + (rnd() >> 11) as f64 / (1u64 << 53) as f64;
         let b = 1.0 + (rnd() >> 11) as f64 / (1u64 << 53) as f64;
         let ea = (rnd() % 60) as i32 - 30;
-        let eb = if i % 2 == 0 { ea + (rnd() % 9) as i32 - 4 } else { (rnd() % 60) as i32 - 30 };
+        let eb = if i % 2 == 0 {
+            ea + (rnd() % 9) as i32 - 4
+        } else {
+            (rnd() % 60) as i32 - 30
+        };
         let (x, y) = (a * 2f64.powi(ea), b * 2f64.powi(eb));
         if hypot_in_range(x, y).is_some_and(|h| h.to_bits() != x.hypot(y).to_bits()) {
             return false;
@@ -58,8 +62,10 @@ fn kernel_matches_libm() -> bool {
 fn hypot_in_range(x: f64, y: f64) -> Option<f64> {
     let (x, y) = (x.abs(), y.abs());
     let (ax, ay) = if x < y { (y, x) } else { (x, y) };
-    if ax <= f64::from_bits(0x58F0_0000_0000_0000) && ay >= f64::from_bits(0x26F0_0000_0000_0000)
-        && ay > ax * f64::from_bits(0x3C90_0000_0000_0000) {
+    if ax <= f64::from_bits(0x58F0_0000_0000_0000)
+        && ay >= f64::from_bits(0x26F0_0000_0000_0000)
+        && ay > ax * f64::from_bits(0x3C90_0000_0000_0000)
+    {
         Some(kernel(ax, ay))
     } else {
         None

@@ -21,7 +21,7 @@ enum Node {
 }
 
 pub struct PointTree {
-    pts: Vec<P3>, // in tree order (leaf ranges are contiguous)
+    pts: Vec<P3>,  // in tree order (leaf ranges are contiguous)
     ids: Vec<u32>, // the input id of each
     nodes: Vec<Node>,
     boxes: Vec<[f64; 6]>, // per node: lo (3), hi (3)
@@ -33,7 +33,13 @@ pub struct PointTree {
 fn box_d2(q: &P3, b: &[f64; 6]) -> f64 {
     let mut g = [0.0f64; 3];
     for j in 0..3 {
-        g[j] = if q[j] < b[j] { b[j] - q[j] } else if q[j] > b[j + 3] { q[j] - b[j + 3] } else { 0.0 };
+        g[j] = if q[j] < b[j] {
+            b[j] - q[j]
+        } else if q[j] > b[j + 3] {
+            q[j] - b[j + 3]
+        } else {
+            0.0
+        };
     }
     (g[0] * g[0] + g[1] * g[1]) + g[2] * g[2]
 }
@@ -47,13 +53,23 @@ fn d2(a: &P3, b: &P3) -> f64 {
 impl PointTree {
     pub fn new(pts: Vec<P3>) -> Self {
         // the points move with their ids (contiguous, not gathered through an index)
-        let mut items: Vec<(P3, u32)> = pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect();
+        let mut items: Vec<(P3, u32)> = pts
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (*p, i as u32))
+            .collect();
         drop(pts);
         let (nodes, boxes) = if items.is_empty() {
             (Vec::new(), Vec::new())
         } else {
-            let mut region = [f64::INFINITY, f64::INFINITY, f64::INFINITY,
-                              f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+            let mut region = [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ];
             for (p, _) in &items {
                 for j in 0..3 {
                     region[j] = region[j].min(p[j]);
@@ -64,24 +80,37 @@ impl PointTree {
         };
         let ids = items.iter().map(|x| x.1).collect();
         let sorted = items.into_iter().map(|x| x.0).collect();
-        PointTree { pts: sorted, ids, nodes, boxes }
+        PointTree {
+            pts: sorted,
+            ids,
+            nodes,
+            boxes,
+        }
     }
 
     /// The subtree of the points `idx` (at `offset` in the tree order) inside `region`:
     /// split at the median along the region's longest side (the two halves built in
     /// parallel when large); each node's box is the tight box of its points (bottom-up).
-    fn build(idx: &mut [(P3, u32)], offset: usize, region: [f64; 6])
-        -> (Vec<Node>, Vec<[f64; 6]>) {
+    fn build(idx: &mut [(P3, u32)], offset: usize, region: [f64; 6]) -> (Vec<Node>, Vec<[f64; 6]>) {
         if idx.len() <= LEAF {
-            let mut b = [f64::INFINITY, f64::INFINITY, f64::INFINITY,
-                         f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+            let mut b = [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ];
             for (p, _) in idx.iter() {
                 for j in 0..3 {
                     b[j] = b[j].min(p[j]);
                     b[j + 3] = b[j + 3].max(p[j]);
                 }
             }
-            let leaf = Node::Leaf { start: offset as u32, end: (offset + idx.len()) as u32 };
+            let leaf = Node::Leaf {
+                start: offset as u32,
+                end: (offset + idx.len()) as u32,
+            };
             return (vec![leaf], vec![b]);
         }
         let ext = |j: usize| region[j + 3] - region[j];
@@ -95,19 +124,34 @@ impl PointTree {
         let n = idx.len();
         let (l, r) = idx.split_at_mut(m);
         let ((ln, lb), (rn, rb)) = if n > 50_000 {
-            rayon::join(|| Self::build(l, offset, lr), || Self::build(r, offset + m, rr))
+            rayon::join(
+                || Self::build(l, offset, lr),
+                || Self::build(r, offset + m, rr),
+            )
         } else {
             (Self::build(l, offset, lr), Self::build(r, offset + m, rr))
         };
         let (nl, nr) = (ln.len() as u32, rn.len() as u32);
         let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
         let mut boxes = Vec::with_capacity(1 + ln.len() + rn.len());
-        nodes.push(Node::Split { left: 1, right: 1 + nl });
+        nodes.push(Node::Split {
+            left: 1,
+            right: 1 + nl,
+        });
         let (a, b) = (lb[0], rb[0]);
-        boxes.push([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2]),
-                    a[3].max(b[3]), a[4].max(b[4]), a[5].max(b[5])]);
+        boxes.push([
+            a[0].min(b[0]),
+            a[1].min(b[1]),
+            a[2].min(b[2]),
+            a[3].max(b[3]),
+            a[4].max(b[4]),
+            a[5].max(b[5]),
+        ]);
         let shift = |node: Node, by: u32| match node {
-            Node::Split { left, right } => Node::Split { left: left + by, right: right + by },
+            Node::Split { left, right } => Node::Split {
+                left: left + by,
+                right: right + by,
+            },
             leaf => leaf,
         };
         nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
@@ -127,7 +171,11 @@ impl PointTree {
             let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
             stack.push((0, box_d2(q, &self.boxes[0])));
             while let Some((n, plane2)) = stack.pop() {
-                let bound = if best.len() == cap { best[cap - 1].0 } else { ub2 };
+                let bound = if best.len() == cap {
+                    best[cap - 1].0
+                } else {
+                    ub2
+                };
                 // a node behind a plane farther than the bound holds nothing nearer
                 if plane2 >= ub2 || (best.len() == cap && plane2 > bound) {
                     continue;
@@ -163,7 +211,11 @@ impl PointTree {
             }
         }
         for (j, o) in out.iter_mut().enumerate() {
-            *o = if j < best.len().min(k) { best[j].1 as i64 } else { -1 };
+            *o = if j < best.len().min(k) {
+                best[j].1 as i64
+            } else {
+                -1
+            };
         }
         best.len() == cap && best[k - 1].0 == best[k].0
     }
@@ -183,7 +235,10 @@ impl PointTree {
             }
             match self.nodes[n as usize] {
                 Node::Leaf { start, end } => {
-                    if self.pts[start as usize..end as usize].iter().any(|p| d2(q, p) < ub2) {
+                    if self.pts[start as usize..end as usize]
+                        .iter()
+                        .any(|p| d2(q, p) < ub2)
+                    {
                         return true;
                     }
                 }

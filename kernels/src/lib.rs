@@ -4,7 +4,10 @@
 //! the reference and the fallback. Every kernel releases the GIL; the parallel ones run on
 //! a rayon pool of the caller's thread count (the user's `--threads`).
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -14,9 +17,9 @@ mod collision_refine;
 mod collision_walk;
 mod hypot;
 mod knn;
-mod numpy_ops;
 mod lift;
 mod mesh_samples;
+mod numpy_ops;
 mod probe;
 mod slice_roots;
 mod step;
@@ -32,7 +35,10 @@ use std::sync::{Arc, Mutex, OnceLock};
 fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
     let n = threads.max(1);
-    let mut pools = POOLS.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap();
+    let mut pools = POOLS
+        .get_or_init(|| Mutex::new(HashMap::new()))
+        .lock()
+        .unwrap();
     if let Some(p) = pools.get(&n) {
         return Ok(p.clone());
     }
@@ -57,18 +63,26 @@ struct FaceTree {
 impl FaceTree {
     /// V (n, 3) float64 mm, F (m, 3) int64 vertex ids (in range: checked).
     #[new]
-    fn new(py: Python<'_>, v: PyReadonlyArray2<'_, f64>, f: PyReadonlyArray2<'_, i64>) -> PyResult<Self> {
+    fn new(
+        py: Python<'_>,
+        v: PyReadonlyArray2<'_, f64>,
+        f: PyReadonlyArray2<'_, i64>,
+    ) -> PyResult<Self> {
         let vv = points(&v, "V")?.to_vec();
         if f.shape()[1] != 3 {
             return Err(PyValueError::new_err("F must be (m, 3)"));
         }
-        let fs = f.as_slice().map_err(|_| PyValueError::new_err("F must be C-contiguous"))?;
+        let fs = f
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("F must be C-contiguous"))?;
         let n = vv.len() as i64;
         if fs.iter().any(|&i| i < 0 || i >= n) {
             return Err(PyValueError::new_err("F holds vertex ids out of range"));
         }
-        let ff: Vec<[usize; 3]> =
-            fs.chunks_exact(3).map(|t| [t[0] as usize, t[1] as usize, t[2] as usize]).collect();
+        let ff: Vec<[usize; 3]> = fs
+            .chunks_exact(3)
+            .map(|t| [t[0] as usize, t[1] as usize, t[2] as usize])
+            .collect();
         let tree = py.detach(|| closest::FaceTree::new(vv, ff));
         Ok(FaceTree { tree })
     }
@@ -76,8 +90,12 @@ impl FaceTree {
     /// (k,) int64: the nearest face of each point (k, 3) (least squared distance as
     /// `closest_on_triangles` computes it, then the lowest id; -1 for a non-finite point),
     /// on `threads` threads.
-    fn nearest<'py>(&self, py: Python<'py>, p: PyReadonlyArray2<'py, f64>, threads: usize)
-        -> PyResult<Bound<'py, PyArray1<i64>>> {
+    fn nearest<'py>(
+        &self,
+        py: Python<'py>,
+        p: PyReadonlyArray2<'py, f64>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<i64>>> {
         let pp = points(&p, "points")?;
         let pl = pool(threads)?;
         let out = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
@@ -109,9 +127,14 @@ impl PointTree {
     /// (ids (q, k) int64, -1 padded; tie (q,) bool): the k nearest points of each query
     /// (q, 3) closer than `bound` mm, by (distance, id); `tie`: the k-th and the next are at
     /// the same distance (scipy may choose another of them). On `threads` threads.
-    fn query<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, k: usize, bound: f64,
-                  threads: usize)
-        -> PyResult<(Bound<'py, PyArray2<i64>>, Bound<'py, PyArray1<bool>>)> {
+    fn query<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        k: usize,
+        bound: f64,
+        threads: usize,
+    ) -> PyResult<(Bound<'py, PyArray2<i64>>, Bound<'py, PyArray1<bool>>)> {
         if k == 0 {
             return Err(PyValueError::new_err("k must be at least 1"));
         }
@@ -126,21 +149,37 @@ impl PointTree {
 
 /// The squared distances of `closest_on_triangles` (pairwise rows of p, a, b, c), (k,).
 #[pyfunction]
-fn triangle_d2<'py>(py: Python<'py>, p: PyReadonlyArray2<'py, f64>, a: PyReadonlyArray2<'py, f64>,
-                    b: PyReadonlyArray2<'py, f64>, c: PyReadonlyArray2<'py, f64>)
-    -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let (pp, aa, bb, cc) = (points(&p, "p")?, points(&a, "a")?, points(&b, "b")?, points(&c, "c")?);
+fn triangle_d2<'py>(
+    py: Python<'py>,
+    p: PyReadonlyArray2<'py, f64>,
+    a: PyReadonlyArray2<'py, f64>,
+    b: PyReadonlyArray2<'py, f64>,
+    c: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (pp, aa, bb, cc) = (
+        points(&p, "p")?,
+        points(&a, "a")?,
+        points(&b, "b")?,
+        points(&c, "c")?,
+    );
     if aa.len() != pp.len() || bb.len() != pp.len() || cc.len() != pp.len() {
-        return Err(PyValueError::new_err("p, a, b, c must have the same length"));
+        return Err(PyValueError::new_err(
+            "p, a, b, c must have the same length",
+        ));
     }
-    let out: Vec<f64> = (0..pp.len()).map(|i| closest::triangle_d2(&pp[i], &aa[i], &bb[i], &cc[i])).collect();
+    let out: Vec<f64> = (0..pp.len())
+        .map(|i| closest::triangle_d2(&pp[i], &aa[i], &bb[i], &cc[i]))
+        .collect();
     Ok(PyArray1::from_vec(py, out))
 }
 
 /// Rows of a C-contiguous (n, 3) float64 array as points.
 fn points<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 3]]> {
     if a.shape()[1] != 3 {
-        return Err(PyValueError::new_err(format!("{what} must be (n, 3), got {:?}", a.shape())));
+        return Err(PyValueError::new_err(format!(
+            "{what} must be (n, 3), got {:?}",
+            a.shape()
+        )));
     }
     let s = a
         .as_slice()
@@ -176,7 +215,9 @@ fn forward_step<'py>(
     let old = match (&old_trace, &unchanged_to) {
         (Some(t), Some(u)) => {
             if t.shape() != [k, 3] || u.len() != k + 1 {
-                return Err(PyValueError::new_err("old_trace must be (k, 3), unchanged_to (k + 1,)"));
+                return Err(PyValueError::new_err(
+                    "old_trace must be (k, 3), unchanged_to (k + 1,)",
+                ));
             }
             let ts = t
                 .as_slice()
@@ -186,7 +227,11 @@ fn forward_step<'py>(
             Some((ts, slice1(u, "unchanged_to")?))
         }
         (None, None) => None,
-        _ => return Err(PyValueError::new_err("old_trace and unchanged_to go together")),
+        _ => {
+            return Err(PyValueError::new_err(
+                "old_trace and unchanged_to go together",
+            ))
+        }
     };
     let out = py.detach(|| step::forward_step(pp, cc, tol_p, tol_c, old));
     let trace: Vec<i64> = out.trace.iter().flatten().copied().collect();
@@ -205,7 +250,9 @@ fn first_equal_point<'py>(
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let (xs, ys, zs) = (slice1(&x, "x")?, slice1(&y, "y")?, slice1(&z, "z")?);
     if xs.len() != ys.len() || xs.len() != zs.len() {
-        return Err(PyValueError::new_err("x, y and z must have the same length"));
+        return Err(PyValueError::new_err(
+            "x, y and z must have the same length",
+        ));
     }
     let bits = |s: &[f64]| -> &[u64] {
         // SAFETY: f64 and u64 have the same size and alignment
@@ -256,11 +303,18 @@ fn stock_remove<'py>(
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
     u64,
-    (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>),
+    (
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<f64>>,
+    ),
 )> {
     let shape = lo.shape().to_vec();
     if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
-        return Err(PyValueError::new_err("lo and hi must be (n_z · n_theta, K) alike"));
+        return Err(PyValueError::new_err(
+            "lo and hi must be (n_z · n_theta, K) alike",
+        ));
     }
     let fr = points(&frame, "frame")?;
     if fr.len() != 4 {
@@ -270,21 +324,29 @@ fn stock_remove<'py>(
     let gg = slice1(&group, "group")?;
     let m = tt.len();
     if aa.len() != m || gg.len() != m || boxes.shape() != [m, 4] {
-        return Err(PyValueError::new_err("tips, axes, group and boxes must describe the same solids"));
+        return Err(PyValueError::new_err(
+            "tips, axes, group and boxes must describe the same solids",
+        ));
     }
     if gg.iter().any(|&g| g < 0 || g as usize >= n_groups) {
         return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
     }
-    let bx = boxes.as_slice().map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
+    let bx = boxes
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
     let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
     let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
     let pl = points(&planes, "planes")?;
     let rr = match &rho {
         Some(r) => {
             if r.shape() != [pl.len(), 2] {
-                return Err(PyValueError::new_err("rho must be (q, 2), one range per plane"));
+                return Err(PyValueError::new_err(
+                    "rho must be (q, 2), one range per plane",
+                ));
             }
-            let rs = r.as_slice().map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
+            let rs = r
+                .as_slice()
+                .map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
             // SAFETY: as in `points`
             Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
         }
@@ -318,10 +380,15 @@ fn stock_remove<'py>(
             None => None,
         },
     };
-    let ls = lo.as_slice_mut().map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
-    let hs = hi.as_slice_mut().map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
+    let ls = lo
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
+    let hs = hi
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
     let pool_ = pool(threads)?;
-    let (out, pairs) = py.detach(|| pool_.install(|| stock::remove(&g, &sol, n_groups, measure, ls, hs)));
+    let (out, pairs) =
+        py.detach(|| pool_.install(|| stock::remove(&g, &sol, n_groups, measure, ls, hs)));
     let counts: Vec<i64> = out.overflow.iter().map(|p| p.len() as i64).collect();
     let olo: Vec<f64> = out.overflow.iter().flatten().map(|p| p.0).collect();
     let ohi: Vec<f64> = out.overflow.iter().flatten().map(|p| p.1).collect();

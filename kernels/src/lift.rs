@@ -27,7 +27,11 @@ fn sub(a: &P3, b: &P3) -> P3 {
 /// `passes._cross`: u1 v2 − u2 v1, u2 v0 − u0 v2, u0 v1 − u1 v0.
 #[inline(always)]
 fn cross(u: &P3, v: &P3) -> P3 {
-    [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
 }
 /// np.clip(x, 0, 1) as numpy computes it (NaN passes through).
 #[inline(always)]
@@ -36,7 +40,11 @@ fn clip01(x: f64) -> f64 {
         return x;
     }
     let y = if x > 0.0 { x } else { 0.0 };
-    if y < 1.0 { y } else { 1.0 }
+    if y < 1.0 {
+        y
+    } else {
+        1.0
+    }
 }
 
 /// `passes._point_triangle_distance` for one point and one triangle.
@@ -49,7 +57,11 @@ pub fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
     for (u, v) in [(a, b), (b, c), (c, a)] {
         inside &= dot(&cross(&sub(v, u), &sub(&foot, u)), &n) >= 0.0;
     }
-    let mut best = if inside { h.abs() * n2.sqrt() } else { f64::INFINITY };
+    let mut best = if inside {
+        h.abs() * n2.sqrt()
+    } else {
+        f64::INFINITY
+    };
     for (u, v) in [(a, b), (b, c), (c, a)] {
         let uv = sub(v, u);
         let l2 = dot(&uv, &uv);
@@ -106,17 +118,25 @@ pub fn fixed_point_lift<'py>(
     let one = |(i, lam): (usize, &mut f64)| {
         let row = &cc[i * width..(i + 1) * width];
         // the candidates' corners, normals and plane offsets (pruning only)
-        let tris: Vec<(P3, P3, P3, P3, f64, f64)> = row.iter().filter(|&&fi| fi >= 0).map(|&fi| {
-            let t = &ff[3 * fi as usize..3 * fi as usize + 3];
-            let (a, b, c) = (vv[t[0] as usize], vv[t[1] as usize], vv[t[2] as usize]);
-            let nrm = cross(&sub(&b, &a), &sub(&c, &a));
-            let n2 = dot(&nrm, &nrm);
-            let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
-            (a, b, c, nrm, inv, dot(&a, &nrm))
-        }).collect();
+        let tris: Vec<(P3, P3, P3, P3, f64, f64)> = row
+            .iter()
+            .filter(|&&fi| fi >= 0)
+            .map(|&fi| {
+                let t = &ff[3 * fi as usize..3 * fi as usize + 3];
+                let (a, b, c) = (vv[t[0] as usize], vv[t[1] as usize], vv[t[2] as usize]);
+                let nrm = cross(&sub(&b, &a), &sub(&c, &a));
+                let n2 = dot(&nrm, &nrm);
+                let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
+                (a, b, c, nrm, inv, dot(&a, &nrm))
+            })
+            .collect();
         for _ in 0..steps {
             let s = rho + *lam;
-            let c = [pp[i][0] + s * nn[i][0], pp[i][1] + s * nn[i][1], pp[i][2] + s * nn[i][2]];
+            let c = [
+                pp[i][0] + s * nn[i][0],
+                pp[i][1] + s * nn[i][1],
+                pp[i][2] + s * nn[i][2],
+            ];
             let mut dmin = f64::INFINITY;
             for (a, b, cc_, nrm, inv, an) in &tris {
                 let plane = (dot(&c, nrm) - an).abs() * inv;
@@ -136,7 +156,12 @@ pub fn fixed_point_lift<'py>(
         if threads <= 1 || q < 256 {
             out.iter_mut().enumerate().for_each(one);
         } else {
-            pl.install(|| out.par_iter_mut().enumerate().with_min_len(32).for_each(one));
+            pl.install(|| {
+                out.par_iter_mut()
+                    .enumerate()
+                    .with_min_len(32)
+                    .for_each(one)
+            });
         }
     });
     Ok(PyArray1::from_vec(py, out))

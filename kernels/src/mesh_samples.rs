@@ -12,7 +12,9 @@ use crate::knn;
 
 fn ids_in_range(ids: &[i64], n: usize, what: &str) -> PyResult<()> {
     if ids.iter().any(|&i| i < 0 || i as usize >= n) {
-        return Err(PyValueError::new_err(format!("{what} holds vertex ids out of range")));
+        return Err(PyValueError::new_err(format!(
+            "{what} holds vertex ids out of range"
+        )));
     }
     Ok(())
 }
@@ -20,8 +22,15 @@ fn ids_in_range(ids: &[i64], n: usize, what: &str) -> PyResult<()> {
 /// (ptr (n + 1,), face (3 m,), corner (3 m,)) int64: the faces around vertex v are
 /// `face[ptr[v]:ptr[v + 1]]` (ascending), v being their corner `corner[...]`; F (m, 3).
 #[pyfunction]
-pub fn vertex_face_table<'py>(py: Python<'py>, f: PyReadonlyArray2<'py, i64>, n_vertices: usize)
-    -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>)> {
+pub fn vertex_face_table<'py>(
+    py: Python<'py>,
+    f: PyReadonlyArray2<'py, i64>,
+    n_vertices: usize,
+) -> PyResult<(
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+)> {
     let ff = crate::arrays::flat(&f, "F")?;
     ids_in_range(ff, n_vertices, "F")?;
     let (ptr, face, corner) = py.detach(|| {
@@ -43,15 +52,24 @@ pub fn vertex_face_table<'py>(py: Python<'py>, f: PyReadonlyArray2<'py, i64>, n_
         }
         (ptr, face, corner)
     });
-    Ok((PyArray1::from_vec(py, ptr), PyArray1::from_vec(py, face), PyArray1::from_vec(py, corner)))
+    Ok((
+        PyArray1::from_vec(py, ptr),
+        PyArray1::from_vec(py, face),
+        PyArray1::from_vec(py, corner),
+    ))
 }
 
 /// The k-d tree (`PointTree`) over the samples of the mesh V (n, 3), edges E (e, 2), faces
 /// F (m, 3): vertices, then edge midpoints, then face centroids (ids n + e + f order), built
 /// on `threads` threads.
 #[pyfunction]
-pub fn sample_point_tree(py: Python<'_>, v: PyReadonlyArray2<'_, f64>, e: PyReadonlyArray2<'_, i64>,
-                         f: PyReadonlyArray2<'_, i64>, threads: usize) -> PyResult<crate::PointTree> {
+pub fn sample_point_tree(
+    py: Python<'_>,
+    v: PyReadonlyArray2<'_, f64>,
+    e: PyReadonlyArray2<'_, i64>,
+    f: PyReadonlyArray2<'_, i64>,
+    threads: usize,
+) -> PyResult<crate::PointTree> {
     let vv = crate::points(&v, "V")?;
     let ee = crate::arrays::flat(&e, "E")?;
     let ff = crate::arrays::flat(&f, "F")?;
@@ -67,12 +85,19 @@ pub fn sample_point_tree(py: Python<'_>, v: PyReadonlyArray2<'_, f64>, e: PyRead
         pts.extend_from_slice(vv);
         pts.extend(ee.chunks_exact(2).map(|w| {
             let (a, b) = (&vv[w[0] as usize], &vv[w[1] as usize]);
-            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])]
+            [
+                0.5 * (a[0] + b[0]),
+                0.5 * (a[1] + b[1]),
+                0.5 * (a[2] + b[2]),
+            ]
         }));
         pts.extend(ff.chunks_exact(3).map(|t| {
             let (a, b, c) = (&vv[t[0] as usize], &vv[t[1] as usize], &vv[t[2] as usize]);
-            [((a[0] + b[0]) + c[0]) / 3.0, ((a[1] + b[1]) + c[1]) / 3.0,
-             ((a[2] + b[2]) + c[2]) / 3.0]
+            [
+                ((a[0] + b[0]) + c[0]) / 3.0,
+                ((a[1] + b[1]) + c[1]) / 3.0,
+                ((a[2] + b[2]) + c[2]) / 3.0,
+            ]
         }));
         pl.install(|| knn::PointTree::new(pts))
     });

@@ -11,15 +11,24 @@ use rayon::prelude::*;
 /// (q,) bool: a point of `tree` lies closer than `bound` mm to the query (q, 3); on
 /// `threads` threads, the GIL released.
 #[pyfunction]
-pub fn points_within<'py>(py: Python<'py>, tree: &Bound<'py, crate::PointTree>,
-                          q: PyReadonlyArray2<'py, f64>, bound: f64, threads: usize)
-    -> PyResult<Bound<'py, PyArray1<bool>>> {
+pub fn points_within<'py>(
+    py: Python<'py>,
+    tree: &Bound<'py, crate::PointTree>,
+    q: PyReadonlyArray2<'py, f64>,
+    bound: f64,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let qq = crate::points(&q, "queries")?;
     let pl = crate::pool(threads)?;
     let t = &tree.get().tree;
     let ub2 = bound * bound;
     let out: Vec<bool> = py.detach(|| {
-        pl.install(|| qq.par_iter().with_min_len(64).map(|c| t.any_below(c, ub2)).collect())
+        pl.install(|| {
+            qq.par_iter()
+                .with_min_len(64)
+                .map(|c| t.any_below(c, ub2))
+                .collect()
+        })
     });
     Ok(PyArray1::from_vec(py, out))
 }

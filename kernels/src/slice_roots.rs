@@ -43,7 +43,11 @@ impl Line {
     #[inline(always)]
     fn side(&self, r: f64, z: f64) -> f64 {
         let f = self.alpha * r + self.beta * z + self.gamma;
-        if f.abs() <= self.on_tol { 0.0 } else { f }
+        if f.abs() <= self.on_tol {
+            0.0
+        } else {
+            f
+        }
     }
 
     /// `_roots_on_lines(..., residual=False)` for one edge.
@@ -59,7 +63,10 @@ impl Line {
         let disc = nanmax(b * b - 4.0 * a * c, 0.0);
         let sq = disc.sqrt();
         let qq = -0.5 * (b + sq.copysign(b));
-        let r12 = [if qq != 0.0 { c / qq } else { f64::NAN }, if a != 0.0 { qq / a } else { f64::NAN }];
+        let r12 = [
+            if qq != 0.0 { c / qq } else { f64::NAN },
+            if a != 0.0 { qq / a } else { f64::NAN },
+        ];
         let lin = if f1 != f0 { f0 / (f0 - f1) } else { 0.5 };
         let mut tt = [0.0f64; 2];
         let mut rr = [0.0f64; 2];
@@ -86,7 +93,11 @@ impl Line {
         let g = alpha * r + beta * (z0 + t * dz) + gamma;
         let dg = alpha * dot(&qt, &dq) / nanmax(r, 1e-300) + beta * dz;
         let tn = if dg.abs() > 1e-300 { t - g / dg } else { t };
-        if tn.is_finite() && tn >= 0.0 && tn <= 1.0 { tn } else { t }
+        if tn.is_finite() && tn >= 0.0 && tn <= 1.0 {
+            tn
+        } else {
+            t
+        }
     }
 }
 
@@ -117,11 +128,21 @@ pub fn cone_edge_roots<'py>(
     let ne = ee.len() / 2;
     // only the edges asked for are checked (a level crosses a few thousand of millions)
     let bad_vertex = |i: i64| i < 0 || i as usize >= n;
-    if ids.iter().any(|&e| e < 0 || e as usize >= ne
-                      || bad_vertex(ee[2 * e as usize]) || bad_vertex(ee[2 * e as usize + 1])) {
+    if ids.iter().any(|&e| {
+        e < 0
+            || e as usize >= ne
+            || bad_vertex(ee[2 * e as usize])
+            || bad_vertex(ee[2 * e as usize + 1])
+    }) {
         return Err(PyValueError::new_err("edge or vertex ids out of range"));
     }
-    let ln = Line { alpha: line.0, beta: line.1, gamma: line.2, alpha2: line.3, on_tol };
+    let ln = Line {
+        alpha: line.0,
+        beta: line.1,
+        gamma: line.2,
+        alpha2: line.3,
+        on_tol,
+    };
     let pl = crate::pool(threads)?;
     let k = ids.len();
     let mut pts = vec![0.0f64; 3 * k];
@@ -132,7 +153,13 @@ pub fn cone_edge_roots<'py>(
         let f1 = ln.side(rr[i1], zz[i1]);
         let tr = ln.root(&rad[i0], &rad[i1], zz[i0], zz[i1], f0, f1);
         // vertices on the level (snapped to zero): the crossing is the vertex
-        let tv = if f0 == 0.0 { 0.0 } else if f1 == 0.0 { 1.0 } else { tr };
+        let tv = if f0 == 0.0 {
+            0.0
+        } else if f1 == 0.0 {
+            1.0
+        } else {
+            tr
+        };
         let (a, b) = (&vv[i0], &vv[i1]);
         if tv == 1.0 {
             p.copy_from_slice(b); // exactly the vertex
@@ -146,11 +173,17 @@ pub fn cone_edge_roots<'py>(
     py.detach(|| {
         if threads <= 1 || k < PARALLEL_MIN {
             // a level's few thousand edges: less than the threads' start-up
-            pts.chunks_mut(3).zip(ts.iter_mut()).zip(ids.iter()).for_each(one);
+            pts.chunks_mut(3)
+                .zip(ts.iter_mut())
+                .zip(ids.iter())
+                .for_each(one);
         } else {
             pl.install(|| {
-                pts.par_chunks_mut(3).zip(ts.par_iter_mut()).zip(ids.par_iter())
-                    .with_min_len(1024).for_each(one)
+                pts.par_chunks_mut(3)
+                    .zip(ts.par_iter_mut())
+                    .zip(ids.par_iter())
+                    .with_min_len(1024)
+                    .for_each(one)
             });
         }
     });

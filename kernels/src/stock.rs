@@ -10,7 +10,9 @@
 //! bounding cylinder, between its end planes) meets no material are skipped: subtracting
 //! an interval from air changes nothing.
 
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
@@ -58,8 +60,15 @@ pub struct Solids<'a> {
 /// within `r_b` of its axis segment, so its points in the row's plane lie within `r_b` of
 /// the plane projection of the part of the segment within `r_b` in height. None: no ray.
 #[inline]
-fn row_reach(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], s: &Solids, si: usize, zr: f64, r_b: f64)
-             -> Option<(i64, i64, f64, f64)> {
+fn row_reach(
+    g: &Grid,
+    tip: &[f64; 3],
+    ax: &[f64; 3],
+    s: &Solids,
+    si: usize,
+    zr: f64,
+    r_b: f64,
+) -> Option<(i64, i64, f64, f64)> {
     reach_in_row(g, tip, ax, s.z_lo, s.z_hi, s.c0[si], s.c1[si], zr, r_b)
 }
 
@@ -67,13 +76,28 @@ fn row_reach(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], s: &Solids, si: usize, zr:
 /// whose box has the columns c0..c1.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn reach_in_row(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], z_lo: f64, z_hi: f64, c0: i64, c1: i64,
-                zr: f64, r_b: f64) -> Option<(i64, i64, f64, f64)> {
+fn reach_in_row(
+    g: &Grid,
+    tip: &[f64; 3],
+    ax: &[f64; 3],
+    z_lo: f64,
+    z_hi: f64,
+    c0: i64,
+    c1: i64,
+    zr: f64,
+    r_b: f64,
+) -> Option<(i64, i64, f64, f64)> {
     let [o, e1, e2, d] = g.frame;
-    let p0 = [tip[0] + z_lo * ax[0] - o[0], tip[1] + z_lo * ax[1] - o[1],
-              tip[2] + z_lo * ax[2] - o[2]];
-    let p1 = [tip[0] + z_hi * ax[0] - o[0], tip[1] + z_hi * ax[1] - o[1],
-              tip[2] + z_hi * ax[2] - o[2]];
+    let p0 = [
+        tip[0] + z_lo * ax[0] - o[0],
+        tip[1] + z_lo * ax[1] - o[1],
+        tip[2] + z_lo * ax[2] - o[2],
+    ];
+    let p1 = [
+        tip[0] + z_hi * ax[0] - o[0],
+        tip[1] + z_hi * ax[1] - o[1],
+        tip[2] + z_hi * ax[2] - o[2],
+    ];
     let (h0, h1) = (dot(&p0, &d), dot(&p1, &d));
     let dh = h1 - h0;
     let pad = 1e-6 * (1.0 + h0.abs().max(h1.abs()));
@@ -96,7 +120,11 @@ fn reach_in_row(g: &Grid, tip: &[f64; 3], ax: &[f64; 3], z_lo: f64, z_hi: f64, c
     let b = [x0 + tb * (x1 - x0), y0 + tb * (y1 - y0)];
     let ab = [b[0] - a[0], b[1] - a[1]];
     let l2 = ab[0] * ab[0] + ab[1] * ab[1];
-    let t = if l2 > 0.0 { (-(a[0] * ab[0] + a[1] * ab[1]) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if l2 > 0.0 {
+        (-(a[0] * ab[0] + a[1] * ab[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let dmin = (a[0] + t * ab[0]).hypot(a[1] + t * ab[1]);
     let dmax = a[0].hypot(a[1]).max(b[0].hypot(b[1]));
     let scale = 1.0 + dmax;
@@ -193,7 +221,14 @@ fn ray_frame(o: &[f64; 3], u: &[f64; 3], tip: &[f64; 3], ax: &[f64; 3]) -> RayFr
     let a = (1.0 - zu * zu).max(0.0);
     let b = 2.0 * (dot(&dv, u) - z0 * zu);
     let c = (dot(&dv, &dv) - z0 * z0).max(0.0);
-    RayFrame { z0, zu, a, b, c, sa: a.sqrt() }
+    RayFrame {
+        z0,
+        zu,
+        a,
+        b,
+        c,
+        sa: a.sqrt(),
+    }
 }
 
 /// The ray's interval inside the bounding cylinder ρ ≤ radius, z_lo ≤ z ≤ z_hi (a superset
@@ -218,7 +253,13 @@ fn bounding_interval(f: &RayFrame, z_lo: f64, z_hi: f64, radius: f64) -> Option<
         if disc < 0.0 {
             return None;
         }
-        let qq = -0.5 * (f.b + if f.b >= 0.0 { disc.sqrt() } else { -disc.sqrt() });
+        let qq = -0.5
+            * (f.b
+                + if f.b >= 0.0 {
+                    disc.sqrt()
+                } else {
+                    -disc.sqrt()
+                });
         let r1 = qq / f.a;
         let r2 = if qq != 0.0 { cc / qq } else { r1 };
         lo = lo.max(r1.min(r2));
@@ -267,7 +308,11 @@ fn apply_plane(f: &RayFrame, plane: &[f64; 3], lo: &mut f64, hi: &mut f64) {
     let sq = disc.max(0.0).sqrt();
     let lin = a2.abs() < 1e-12;
     let qq = -0.5 * (a1 + if a1 >= 0.0 { sq } else { -sq });
-    let (r1, r2) = if lin { (-a0 / a1, f64::NAN) } else { (qq / a2, a0 / qq) };
+    let (r1, r2) = if lin {
+        (-a0 / a1, f64::NAN)
+    } else {
+        (qq / a2, a0 / qq)
+    };
     let real = disc >= 0.0 || lin;
     let tol = 1e-9 * (1.0 + m0.abs());
     let v1 = real && r1.is_finite() && m0 + m1 * r1 >= -tol;
@@ -341,7 +386,10 @@ fn solid_interval(f: &RayFrame, p: &Profile) -> (f64, f64) {
             }
         }
         let pad = 1e-9 * (1.0 + f.c + f.b.abs() * hi.abs() + f.a * hi * hi);
-        ((qmin - pad).max(0.0).sqrt(), (qmax + pad).max(0.0).sqrt() * (1.0 + 1e-9) + 1e-9)
+        (
+            (qmin - pad).max(0.0).sqrt(),
+            (qmax + pad).max(0.0).sqrt() * (1.0 + 1e-9) + 1e-9,
+        )
     } else if f.a == 0.0 {
         let r = f.c.sqrt();
         (r * (1.0 - 1e-9) - 1e-9, r * (1.0 + 1e-9) + 1e-9)
@@ -412,9 +460,20 @@ type Hit = (usize, f64, f64, usize, f64, f64);
 /// Subtract the union of a grid row's hits from its rays' material (and, with `measure`,
 /// measure per group the material its union and its inner union met first).
 #[allow(clippy::too_many_arguments)]
-fn apply_hits(lrow: &mut [f64], hrow: &mut [f64], hits: &mut [Hit], k: usize, measure: bool,
-              w: usize, nt: usize) -> RowOut {
-    let mut ro = RowOut { removed: 0.0, groups: Vec::new(), overflow: Vec::new() };
+fn apply_hits(
+    lrow: &mut [f64],
+    hrow: &mut [f64],
+    hits: &mut [Hit],
+    k: usize,
+    measure: bool,
+    w: usize,
+    nt: usize,
+) -> RowOut {
+    let mut ro = RowOut {
+        removed: 0.0,
+        groups: Vec::new(),
+        overflow: Vec::new(),
+    };
     if hits.is_empty() {
         return ro;
     }
@@ -432,7 +491,12 @@ fn apply_hits(lrow: &mut [f64], hrow: &mut [f64], hits: &mut [Hit], k: usize, me
         }
         let (lr, hr) = (&mut lrow[i * k..(i + 1) * k], &mut hrow[i * k..(i + 1) * k]);
         mat.clear();
-        mat.extend(lr.iter().zip(hr.iter()).filter(|(l, h)| h > l).map(|(&l, &h)| (l, h)));
+        mat.extend(
+            lr.iter()
+                .zip(hr.iter())
+                .filter(|(l, h)| h > l)
+                .map(|(&l, &h)| (l, h)),
+        );
         if measure {
             let mut g0 = p;
             while g0 < e {
@@ -451,7 +515,12 @@ fn apply_hits(lrow: &mut [f64], hrow: &mut [f64], hits: &mut [Hit], k: usize, me
                     dmax = dmax.max(ll);
                 }
                 iv.clear();
-                iv.extend(hits[g0..g1].iter().filter(|h| h.5 > h.4).map(|h| (h.4, h.5)));
+                iv.extend(
+                    hits[g0..g1]
+                        .iter()
+                        .filter(|h| h.5 > h.4)
+                        .map(|h| (h.4, h.5)),
+                );
                 iv.sort_by(|x, y| x.0.total_cmp(&y.0));
                 merge_sorted(&iv, &mut merged);
                 let v_in: f64 = merged.iter().map(|&(a, b)| overlap(&mat, a, b).0).sum();
@@ -560,7 +629,11 @@ fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> O
         .map(|c| {
             let ang = grid.theta0 + (c as f64 + 0.5) * grid.d_theta;
             let (sn, cs) = (ang.sin(), ang.cos());
-            [cs * e1[0] + sn * e2[0], cs * e1[1] + sn * e2[1], cs * e1[2] + sn * e2[2]]
+            [
+                cs * e1[0] + sn * e2[0],
+                cs * e1[1] + sn * e2[1],
+                cs * e1[2] + sn * e2[2],
+            ]
         })
         .collect();
     let pairs: u64 = live
@@ -570,17 +643,38 @@ fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> O
             nw * (c1[i] - c0[i] + 1) as u64
         })
         .sum();
-    Some(RowBuckets { wmin, nrow, start, by_row, cmin, dirs, pairs })
+    Some(RowBuckets {
+        wmin,
+        nrow,
+        start,
+        by_row,
+        cmin,
+        dirs,
+        pairs,
+    })
 }
 
 /// Remove the solids from the stock `lo`, `hi` ((n_rays, K) row-major, changed in place);
 /// `measure`: also the material each group's union met (crash checks).
-pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut [f64],
-              hi: &mut [f64]) -> (Outcome, u64) {
+pub fn remove(
+    grid: &Grid,
+    s: &Solids,
+    n_groups: usize,
+    measure: bool,
+    lo: &mut [f64],
+    hi: &mut [f64],
+) -> (Outcome, u64) {
     let (nt, k) = (grid.n_theta, grid.k);
     let mut out = Outcome::new(n_groups);
-    let Some(RowBuckets { wmin, nrow, start, by_row, cmin, dirs, pairs }) =
-        row_buckets(grid, s.c0, s.c1, s.w0, s.w1)
+    let Some(RowBuckets {
+        wmin,
+        nrow,
+        start,
+        by_row,
+        cmin,
+        dirs,
+        pairs,
+    }) = row_buckets(grid, s.c0, s.c1, s.w0, s.w1)
     else {
         return (out, 0);
     };
@@ -604,7 +698,11 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
             let mut hits: Vec<Hit> = Vec::new();
             let bucket = &by_row[start[jr]..start[jr + 1]];
             if bucket.is_empty() {
-                return RowOut { removed: 0.0, groups: Vec::new(), overflow: Vec::new() };
+                return RowOut {
+                    removed: 0.0,
+                    groups: Vec::new(),
+                    overflow: Vec::new(),
+                };
             }
             let env = RowEnvelope::new(lrow, hrow, nt, k);
             for &si in bucket {
@@ -621,7 +719,11 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
                         continue;
                     }
                     let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
-                    if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w) {
+                    if !lr
+                        .iter()
+                        .zip(hr)
+                        .any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w)
+                    {
                         continue;
                     }
                     let u = &dirs[(c - cmin) as usize];
@@ -629,7 +731,11 @@ pub fn remove(grid: &Grid, s: &Solids, n_groups: usize, measure: bool, lo: &mut 
                     let Some((ba, bb)) = bounding_interval(&f, s.z_lo, s.z_hi, s.radius) else {
                         continue;
                     };
-                    if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l.max(ba) < h.min(bb)) {
+                    if !lr
+                        .iter()
+                        .zip(hr)
+                        .any(|(&l, &h)| h > l && l.max(ba) < h.min(bb))
+                    {
                         continue;
                     }
                     let (a, b) = solid_interval(&f, &profile);
@@ -711,8 +817,16 @@ fn slerp(a0: &[f64; 3], a1: &[f64; 3], t: f64) -> [f64; 3] {
     let c = dot(a0, a1).clamp(-1.0, 1.0);
     let om = c.acos();
     let so = om.sin();
-    let (w0, w1) = if so < 1e-9 { (1.0 - t, t) } else { (((1.0 - t) * om).sin() / so, (t * om).sin() / so) };
-    let v = [w0 * a0[0] + w1 * a1[0], w0 * a0[1] + w1 * a1[1], w0 * a0[2] + w1 * a1[2]];
+    let (w0, w1) = if so < 1e-9 {
+        (1.0 - t, t)
+    } else {
+        (((1.0 - t) * om).sin() / so, (t * om).sin() / so)
+    };
+    let v = [
+        w0 * a0[0] + w1 * a1[0],
+        w0 * a0[1] + w1 * a1[1],
+        w0 * a0[2] + w1 * a1[2],
+    ];
     let n = dot(&v, &v).sqrt();
     [v[0] / n, v[1] / n, v[2] / n]
 }
@@ -749,7 +863,13 @@ fn sphere_interval(o: &[f64; 3], u: &[f64; 3], c: &[f64; 3], rad: f64) -> (f64, 
 /// The ray o + r u within the ball of radius `rad` swept by its centre from c0 to c1 (a
 /// capsule): (lo, hi), lo > hi when missed.
 #[inline]
-fn capsule_interval(o: &[f64; 3], u: &[f64; 3], c0: &[f64; 3], c1: &[f64; 3], rad: f64) -> (f64, f64) {
+fn capsule_interval(
+    o: &[f64; 3],
+    u: &[f64; 3],
+    c0: &[f64; 3],
+    c1: &[f64; 3],
+    rad: f64,
+) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     let r2 = rad * rad;
     for c in [c0, c1] {
@@ -800,8 +920,17 @@ fn capsule_interval(o: &[f64; 3], u: &[f64; 3], c0: &[f64; 3], c1: &[f64; 3], ra
 /// the cone's boundary is tangent to r = const (every extreme of a linear function over F
 /// lies on one of them). (lo, hi), lo > hi when missed.
 #[allow(clippy::too_many_arguments)]
-fn frustum_sweep_interval(o: &[f64; 3], u: &[f64; 3], tip: &[f64; 3], ax: &[f64; 3], dl: &[f64; 3],
-                          z1: f64, r1: f64, z2: f64, r2: f64) -> (f64, f64) {
+fn frustum_sweep_interval(
+    o: &[f64; 3],
+    u: &[f64; 3],
+    tip: &[f64; 3],
+    ax: &[f64; 3],
+    dl: &[f64; 3],
+    z1: f64,
+    r1: f64,
+    z2: f64,
+    r2: f64,
+) -> (f64, f64) {
     let k = if z2 > z1 { (r2 - r1) / (z2 - z1) } else { 0.0 };
     let w0 = sub(o, tip);
     let z0 = dot(&w0, ax);
@@ -821,7 +950,12 @@ fn frustum_sweep_interval(o: &[f64; 3], u: &[f64; 3], tip: &[f64; 3], ax: &[f64;
     let gt = -dot(&p0, &pd) - m0 * mt;
     let g0 = dot(&p0, &p0) - m0 * m0;
     // linear constraints cr r + ct t + c0 ≥ 0
-    let lin = [(0.0, 1.0, 0.0), (0.0, -1.0, 1.0), (zu, -zd, z0 - z1), (-zu, zd, z2 - z0)];
+    let lin = [
+        (0.0, 1.0, 0.0),
+        (0.0, -1.0, 1.0),
+        (zu, -zd, z0 - z1),
+        (-zu, zd, z2 - z0),
+    ];
     let scale = 1.0 + w0[0].abs() + w0[1].abs() + w0[2].abs() + r2.abs().max(r1.abs()) + z2.abs();
     let ltol = 1e-12 * scale;
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -846,8 +980,14 @@ fn frustum_sweep_interval(o: &[f64; 3], u: &[f64; 3], tip: &[f64; 3], ax: &[f64;
         }
         // g along the line: al s² + be s + ga ≤ 0
         let al = grr * vr * vr + 2.0 * grt * vr * vt + gtt * vt * vt;
-        let be = 2.0 * (grr * pr * vr + grt * (pr * vt + pt * vr) + gtt * pt * vt + gr * vr + gt * vt);
-        let ga = grr * pr * pr + 2.0 * grt * pr * pt + gtt * pt * pt + 2.0 * gr * pr + 2.0 * gt * pt + g0;
+        let be =
+            2.0 * (grr * pr * vr + grt * (pr * vt + pt * vr) + gtt * pt * vt + gr * vr + gt * vt);
+        let ga = grr * pr * pr
+            + 2.0 * grt * pr * pt
+            + gtt * pt * pt
+            + 2.0 * gr * pr
+            + 2.0 * gt * pt
+            + g0;
         let gs = 1e-12 * (1.0 + ga.abs() + be.abs() + al.abs());
         let (x, y) = if al.abs() <= 1e-13 * (1.0 + grr.abs() + gtt.abs()) {
             if be.abs() <= gs {
@@ -937,13 +1077,25 @@ fn move_poses(mv: &Moves, i: usize, tool: &Tool) -> MovePoses {
             (p, slerp(a0, a1, 0.5 * (ta + tb)), sub(&q, &p))
         })
         .collect();
-    let need = tool.poly.is_some() || (nf == 0 && tool.prims.iter().any(|p| matches!(p, Prim::Frustum { .. })));
+    let need = tool.poly.is_some()
+        || (nf == 0 && tool.prims.iter().any(|p| matches!(p, Prim::Frustum { .. })));
     let ns = mv.samples[i].max(1) as usize;
     let first = usize::from(tool.open_start);
-    let samples = if need { (first..=ns).map(|j| pose(j as f64 / ns as f64)).collect() } else { Vec::new() };
+    let samples = if need {
+        (first..=ns).map(|j| pose(j as f64 / ns as f64)).collect()
+    } else {
+        Vec::new()
+    };
     let ang = dot(a0, a1).clamp(-1.0, 1.0).acos();
     let dist = dot(&dl, &dl).sqrt();
-    MovePoses { knots, fknots, samples, mid: pose(0.5), dist, ang }
+    MovePoses {
+        knots,
+        fknots,
+        samples,
+        mid: pose(0.5),
+        dist,
+        ang,
+    }
 }
 
 /// A part of the swept solid culled on its own: a primitive (swept exactly) or the polygon
@@ -969,18 +1121,39 @@ fn tool_parts<'a>(tool: &'a Tool, measure: bool) -> Vec<Part<'a>> {
             // a ball's points move with its centre (it turns about it): its reach is zc
             let (z_lo, z_hi, radius, reach) = match *p {
                 Prim::Ball { zc, rad } => (zc - rad, zc + rad, rad, zc.abs()),
-                Prim::Frustum { z1, r1, z2, r2 } => (z1, z2, r1.max(r2), z1.abs().max(z2.abs()).hypot(r1.max(r2))),
+                Prim::Frustum { z1, r1, z2, r2 } => {
+                    (z1, z2, r1.max(r2), z1.abs().max(z2.abs()).hypot(r1.max(r2)))
+                }
             };
-            out.push(Part { prim: Some(*p), poly: None, inner, z_lo, z_hi, radius, reach });
+            out.push(Part {
+                prim: Some(*p),
+                poly: None,
+                inner,
+                z_lo,
+                z_hi,
+                radius,
+                reach,
+            });
         }
         if let Some(pf) = poly {
             // up to its top plane (a bull nose's corner ends at the side's tangent height)
-            let top = pf.planes.iter().filter(|p| p[0].abs() < EPS && p[1] > 0.0)
-                .map(|p| p[2] / p[1]).fold(f64::INFINITY, f64::min);
+            let top = pf
+                .planes
+                .iter()
+                .filter(|p| p[0].abs() < EPS && p[1] > 0.0)
+                .map(|p| p[2] / p[1])
+                .fold(f64::INFINITY, f64::min);
             let z_hi = tool.z_hi.min(top + 1e-3);
             let reach = tool.z_lo.abs().max(z_hi.abs()).hypot(tool.radius);
-            out.push(Part { prim: None, poly: Some(pf), inner, z_lo: tool.z_lo, z_hi,
-                            radius: tool.radius, reach });
+            out.push(Part {
+                prim: None,
+                poly: Some(pf),
+                inner,
+                z_lo: tool.z_lo,
+                z_hi,
+                radius: tool.radius,
+                reach,
+            });
         }
     };
     add(&tool.prims, tool.poly.as_ref(), false);
@@ -1004,7 +1177,13 @@ fn part_pieces(o: &[f64; 3], u: &[f64; 3], mp: &MovePoses, part: &Part, out: &mu
         Some(Prim::Ball { zc, rad }) => {
             for j in 0..mp.knots.len() - 1 {
                 let ((ta, aa), (tb, ab)) = (&mp.knots[j], &mp.knots[j + 1]);
-                push(capsule_interval(o, u, &axpy(ta, zc, aa), &axpy(tb, zc, ab), rad));
+                push(capsule_interval(
+                    o,
+                    u,
+                    &axpy(ta, zc, aa),
+                    &axpy(tb, zc, ab),
+                    rad,
+                ));
             }
         }
         Some(Prim::Frustum { z1, r1, z2, r2 }) => {
@@ -1043,8 +1222,16 @@ fn part_pieces(o: &[f64; 3], u: &[f64; 3], mp: &MovePoses, part: &Part, out: &mu
 fn frustum_planes(z1: f64, r1: f64, z2: f64, r2: f64) -> [[f64; 3]; 3] {
     let (dr, dz) = (r2 - r1, z2 - z1);
     let l = dr.hypot(dz);
-    let (nr, nz) = if l > 0.0 { (dz / l, -dr / l) } else { (1.0, 0.0) };
-    [[0.0, 1.0, z2], [nr, nz, nr * r1 + nz * z1], [0.0, -1.0, -z1]]
+    let (nr, nz) = if l > 0.0 {
+        (dz / l, -dr / l)
+    } else {
+        (1.0, 0.0)
+    };
+    [
+        [0.0, 1.0, z2],
+        [nr, nz, nr * r1 + nz * z1],
+        [0.0, -1.0, -z1],
+    ]
 }
 
 /// Merge the (unsorted) pieces in place into disjoint sorted intervals clipped at r ≥ 0.
@@ -1122,13 +1309,27 @@ impl RowEnvelope {
 /// lies wholly outside the ray's material hull (beyond its outermost or before its innermost
 /// material, by more than the merge quantum) is dropped: it can neither remove material nor
 /// join two stretches of it, so what is removed and measured is the same without it.
-pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: bool, lo: &mut [f64],
-             hi: &mut [f64]) -> (Outcome, u64) {
+pub fn sweep(
+    grid: &Grid,
+    mv: &Moves,
+    tool: &Tool,
+    n_groups: usize,
+    measure: bool,
+    lo: &mut [f64],
+    hi: &mut [f64],
+) -> (Outcome, u64) {
     let m = mv.t0.len();
     let (nt, k) = (grid.n_theta, grid.k);
     let mut out = Outcome::new(n_groups);
-    let Some(RowBuckets { wmin, nrow, start, by_row, cmin, dirs, pairs }) =
-        row_buckets(grid, mv.c0, mv.c1, mv.w0, mv.w1)
+    let Some(RowBuckets {
+        wmin,
+        nrow,
+        start,
+        by_row,
+        cmin,
+        dirs,
+        pairs,
+    }) = row_buckets(grid, mv.c0, mv.c1, mv.w0, mv.w1)
     else {
         return (out, 0);
     };
@@ -1151,7 +1352,11 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
             let mut pcs: Vec<(f64, f64)> = Vec::new();
             let bucket = &by_row[start[jr]..start[jr + 1]];
             if bucket.is_empty() {
-                return RowOut { removed: 0.0, groups: Vec::new(), overflow: Vec::new() };
+                return RowOut {
+                    removed: 0.0,
+                    groups: Vec::new(),
+                    overflow: Vec::new(),
+                };
             }
             let env = RowEnvelope::new(lrow, hrow, nt, k);
             for &mi in bucket {
@@ -1161,7 +1366,9 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
                 for part in &parts {
                     let gr = 0.5 * (mp.dist + part.reach * mp.ang) + 1e-6;
                     let (zl, zh, rb) = (part.z_lo - gr, part.z_hi + gr, part.radius + gr);
-                    let Some((ca, cb, rlo_w, rhi_w)) = reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], zr, rb) else {
+                    let Some((ca, cb, rlo_w, rhi_w)) =
+                        reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], zr, rb)
+                    else {
                         continue;
                     };
                     let mut c = ca - 1;
@@ -1173,15 +1380,24 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
                             continue;
                         }
                         let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
-                        if !lr.iter().zip(hr).any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w) {
+                        if !lr
+                            .iter()
+                            .zip(hr)
+                            .any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w)
+                        {
                             continue;
                         }
                         let u = &dirs[(c - cmin) as usize];
                         let bound = match part.prim {
                             // a ball's sweep lies in the ball about its mid centre grown by gr
                             Some(Prim::Ball { zc, rad }) => {
-                                let (a, b) = sphere_interval(&origin, u, &axpy(tip, zc, ax), rad + gr);
-                                if b >= a { Some((a - CULL_MARGIN, b + CULL_MARGIN)) } else { None }
+                                let (a, b) =
+                                    sphere_interval(&origin, u, &axpy(tip, zc, ax), rad + gr);
+                                if b >= a {
+                                    Some((a - CULL_MARGIN, b + CULL_MARGIN))
+                                } else {
+                                    None
+                                }
                             }
                             _ => bounding_interval(&ray_frame(&origin, u, tip, ax), zl, zh, rb),
                         };
@@ -1226,37 +1442,69 @@ pub fn sweep(grid: &Grid, mv: &Moves, tool: &Tool, n_groups: usize, measure: boo
 /// range of each edge, or None).
 pub fn polygon_profile<'a>(planes: &'a [[f64; 3]], rho: Option<&'a [[f64; 2]]>) -> Profile<'a> {
     let q = planes.len();
-    let order: Vec<usize> = if q > 2 { [q - 1, q - 2].into_iter().chain(0..q - 2).collect() } else { (0..q).collect() };
-    let mut always: Vec<bool> = planes.iter().map(|p| p[0].abs() < EPS && p[1] > 0.0).collect();
+    let order: Vec<usize> = if q > 2 {
+        [q - 1, q - 2].into_iter().chain(0..q - 2).collect()
+    } else {
+        (0..q).collect()
+    };
+    let mut always: Vec<bool> = planes
+        .iter()
+        .map(|p| p[0].abs() < EPS && p[1] > 0.0)
+        .collect();
     for &i in order.iter().take(2) {
         always[i] = true;
     }
     if rho.is_none() {
         always = vec![true; q];
     }
-    Profile { planes, order, always, rho }
+    Profile {
+        planes,
+        order,
+        always,
+        rho,
+    }
 }
 
 fn prims_of(a: &[[f64; 5]]) -> PyResult<Vec<Prim>> {
     a.iter()
         .map(|p| match p[0] as i64 {
-            0 => Ok(Prim::Ball { zc: p[1], rad: p[2] }),
-            1 => Ok(Prim::Frustum { z1: p[1], r1: p[2], z2: p[3], r2: p[4] }),
-            _ => Err(PyValueError::new_err("a primitive's kind must be 0 (ball) or 1 (frustum)")),
+            0 => Ok(Prim::Ball {
+                zc: p[1],
+                rad: p[2],
+            }),
+            1 => Ok(Prim::Frustum {
+                z1: p[1],
+                r1: p[2],
+                z2: p[3],
+                r2: p[4],
+            }),
+            _ => Err(PyValueError::new_err(
+                "a primitive's kind must be 0 (ball) or 1 (frustum)",
+            )),
         })
         .collect()
 }
 
 fn rows5<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 5]]> {
     if a.shape()[1] != 5 {
-        return Err(PyValueError::new_err(format!("{what} must be (p, 5), got {:?}", a.shape())));
+        return Err(PyValueError::new_err(format!(
+            "{what} must be (p, 5), got {:?}",
+            a.shape()
+        )));
     }
-    let s = a.as_slice().map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))?;
+    let s = a
+        .as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))?;
     // SAFETY: [f64; 5] has the size and alignment of five f64 in a row
     Ok(unsafe { std::slice::from_raw_parts(s.as_ptr() as *const [f64; 5], s.len() / 5) })
 }
 
-type Overflow<'py> = (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+type Overflow<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+);
 
 /// Remove the swept solids of moves from the stock (see `stock::sweep` and
 /// `removal.simulate_moves`): `lo`, `hi` (n_rays, K) float64 changed in place; `grid`,
@@ -1299,29 +1547,56 @@ pub fn stock_sweep<'py>(
     rho: Option<PyReadonlyArray2<'py, f64>>,
     planes_in: Option<PyReadonlyArray2<'py, f64>>,
     open_start: bool,
-) -> PyResult<(f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, u64, Overflow<'py>)> {
+) -> PyResult<(
+    f64,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    u64,
+    Overflow<'py>,
+)> {
     let shape = lo.shape().to_vec();
     if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
-        return Err(PyValueError::new_err("lo and hi must be (n_z · n_theta, K) alike"));
+        return Err(PyValueError::new_err(
+            "lo and hi must be (n_z · n_theta, K) alike",
+        ));
     }
     let fr = crate::points(&frame, "frame")?;
     if fr.len() != 4 {
         return Err(PyValueError::new_err("frame must be (4, 3)"));
     }
-    let (pt0, pa0, pt1, pa1) = (crate::points(&t0, "t0")?, crate::points(&a0, "a0")?,
-                                crate::points(&t1, "t1")?, crate::points(&a1, "a1")?);
+    let (pt0, pa0, pt1, pa1) = (
+        crate::points(&t0, "t0")?,
+        crate::points(&a0, "a0")?,
+        crate::points(&t1, "t1")?,
+        crate::points(&a1, "a1")?,
+    );
     let gg = crate::slice1(&group, "group")?;
-    let (kn, sm) = (crate::slice1(&knots, "knots")?, crate::slice1(&samples, "samples")?);
+    let (kn, sm) = (
+        crate::slice1(&knots, "knots")?,
+        crate::slice1(&samples, "samples")?,
+    );
     let fk = crate::slice1(&fknots, "fknots")?;
     let m = pt0.len();
-    if pa0.len() != m || pt1.len() != m || pa1.len() != m || gg.len() != m || kn.len() != m
-        || sm.len() != m || fk.len() != m || boxes.shape() != [m, 4] {
-        return Err(PyValueError::new_err("t0, a0, t1, a1, group, boxes, knots and samples must describe the same moves"));
+    if pa0.len() != m
+        || pt1.len() != m
+        || pa1.len() != m
+        || gg.len() != m
+        || kn.len() != m
+        || sm.len() != m
+        || fk.len() != m
+        || boxes.shape() != [m, 4]
+    {
+        return Err(PyValueError::new_err(
+            "t0, a0, t1, a1, group, boxes, knots and samples must describe the same moves",
+        ));
     }
     if gg.iter().any(|&g| g < 0 || g as usize >= n_groups) {
         return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
     }
-    let bx = boxes.as_slice().map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
+    let bx = boxes
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
     let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
     let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
     let pl = match &planes {
@@ -1331,9 +1606,13 @@ pub fn stock_sweep<'py>(
     let rr = match (&rho, pl) {
         (Some(r), Some(pl)) => {
             if r.shape() != [pl.len(), 2] {
-                return Err(PyValueError::new_err("rho must be (q, 2), one range per plane"));
+                return Err(PyValueError::new_err(
+                    "rho must be (q, 2), one range per plane",
+                ));
             }
-            let rs = r.as_slice().map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
+            let rs = r
+                .as_slice()
+                .map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
             // SAFETY: as in `points`
             Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
         }
@@ -1363,12 +1642,29 @@ pub fn stock_sweep<'py>(
         k: shape[1],
         frame: [fr[0], fr[1], fr[2], fr[3]],
     };
-    let mv = Moves { t0: pt0, a0: pa0, t1: pt1, a1: pa1, group: gg, c0: &c0, c1: &c1, w0: &w0, w1: &w1,
-                     knots: kn, fknots: fk, samples: sm };
-    let ls = lo.as_slice_mut().map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
-    let hs = hi.as_slice_mut().map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
+    let mv = Moves {
+        t0: pt0,
+        a0: pa0,
+        t1: pt1,
+        a1: pa1,
+        group: gg,
+        c0: &c0,
+        c1: &c1,
+        w0: &w0,
+        w1: &w1,
+        knots: kn,
+        fknots: fk,
+        samples: sm,
+    };
+    let ls = lo
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
+    let hs = hi
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
     let pool_ = crate::pool(threads)?;
-    let (out, pairs) = py.detach(|| pool_.install(|| sweep(&g, &mv, &tool, n_groups, measure, ls, hs)));
+    let (out, pairs) =
+        py.detach(|| pool_.install(|| sweep(&g, &mv, &tool, n_groups, measure, ls, hs)));
     let counts: Vec<i64> = out.overflow.iter().map(|p| p.len() as i64).collect();
     let olo: Vec<f64> = out.overflow.iter().flatten().map(|p| p.0).collect();
     let ohi: Vec<f64> = out.overflow.iter().flatten().map(|p| p.1).collect();

@@ -6,11 +6,11 @@
 //! `(x0 y0 + x2 y2) + x1 y1`), operation for operation, so the minimum is the numpy
 //! reference's float.
 
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d_f64::query::PointQuery;
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
@@ -54,7 +54,10 @@ impl SegTree {
                     lo[j] -= pad;
                     hi[j] += pad;
                 }
-                Aabb::new(Vector::new(lo[0], lo[1], lo[2]), Vector::new(hi[0], hi[1], hi[2]))
+                Aabb::new(
+                    Vector::new(lo[0], lo[1], lo[2]),
+                    Vector::new(hi[0], hi[1], hi[2]),
+                )
             })
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
@@ -70,7 +73,11 @@ impl SegTree {
         // np.clip(t, 0, 1): NaN stays NaN
         let t = if t < 0.0 { 0.0 } else { t };
         let t = if t > 1.0 { 1.0 } else { t };
-        let e = [p[0] - (a[0] + t * d[0]), p[1] - (a[1] + t * d[1]), p[2] - (a[2] + t * d[2])];
+        let e = [
+            p[0] - (a[0] + t * d[0]),
+            p[1] - (a[1] + t * d[1]),
+            p[2] - (a[2] + t * d[2]),
+        ];
         dot(&e, &e)
     }
 
@@ -96,14 +103,26 @@ impl SegTree {
                 d * d
             },
             |leaf, _| {
-                let d2 = self.run(leaf).map(|s| self.d2(p, s)).fold(f64::NAN, f64::min);
-                if d2.is_nan() { None } else { Some(d2) }
+                let d2 = self
+                    .run(leaf)
+                    .map(|s| self.d2(p, s))
+                    .fold(f64::NAN, f64::min);
+                if d2.is_nan() {
+                    None
+                } else {
+                    Some(d2)
+                }
             },
         );
-        let Some((_, best1)) = first else { return (f64::INFINITY, -1) };
+        let Some((_, best1)) = first else {
+            return (f64::INFINITY, -1);
+        };
         let r = best1.sqrt() * (1.0 + 1e-9) + 1e-9;
         let (mut best, mut id) = (f64::INFINITY, -1i64);
-        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+        for leaf in self
+            .bvh
+            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
+        {
             for s in self.run(leaf) {
                 let d2 = self.d2(p, s);
                 if d2 < best || (d2 == best && s as i64 > id) {
@@ -116,7 +135,10 @@ impl SegTree {
     }
 
     pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
-        pts.par_iter().with_min_len(64).map(|p| self.nearest(p)).unzip()
+        pts.par_iter()
+            .with_min_len(64)
+            .map(|p| self.nearest(p))
+            .unzip()
     }
 
     /// The segments of the leaves whose box comes within `radius` of the point (a superset
@@ -128,7 +150,10 @@ impl SegTree {
         if !(r >= 0.0) {
             return out;
         }
-        for leaf in self.bvh.leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r) {
+        for leaf in self
+            .bvh
+            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
+        {
             out.extend(self.run(leaf).map(|s| s as i64));
         }
         out
@@ -136,8 +161,12 @@ impl SegTree {
 
     /// (query ids, segment ids): `within` of every point, in point order.
     pub fn within_many(&self, pts: &[P3], radius: &[f64]) -> (Vec<i64>, Vec<i64>) {
-        let lists: Vec<Vec<i64>> =
-            pts.par_iter().zip(radius.par_iter()).with_min_len(64).map(|(p, &r)| self.within(p, r)).collect();
+        let lists: Vec<Vec<i64>> = pts
+            .par_iter()
+            .zip(radius.par_iter())
+            .with_min_len(64)
+            .map(|(p, &r)| self.within(p, r))
+            .collect();
         let n: usize = lists.iter().map(|l| l.len()).sum();
         let (mut q, mut s) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for (i, l) in lists.into_iter().enumerate() {
@@ -158,12 +187,23 @@ pub struct SweptBallTree {
 impl SweptBallTree {
     /// a, b, d = b − a (S, 3) float64 mm; dd (S,) |d|² with 0 replaced by 1.
     #[new]
-    fn new(py: Python<'_>, a: PyReadonlyArray2<'_, f64>, b: PyReadonlyArray2<'_, f64>,
-           d: PyReadonlyArray2<'_, f64>, dd: PyReadonlyArray1<'_, f64>) -> PyResult<Self> {
-        let (aa, bb, d3) = (crate::points(&a, "a")?, crate::points(&b, "b")?, crate::points(&d, "d")?);
+    fn new(
+        py: Python<'_>,
+        a: PyReadonlyArray2<'_, f64>,
+        b: PyReadonlyArray2<'_, f64>,
+        d: PyReadonlyArray2<'_, f64>,
+        dd: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Self> {
+        let (aa, bb, d3) = (
+            crate::points(&a, "a")?,
+            crate::points(&b, "b")?,
+            crate::points(&d, "d")?,
+        );
         let dd = crate::slice1(&dd, "dd")?;
         if bb.len() != aa.len() || d3.len() != aa.len() || dd.len() != aa.len() {
-            return Err(PyValueError::new_err("a, b, d and dd must describe the same segments"));
+            return Err(PyValueError::new_err(
+                "a, b, d and dd must describe the same segments",
+            ));
         }
         let (aa, d3, dd) = (aa.to_vec(), d3.to_vec(), dd.to_vec());
         let tree = py.detach(|| SegTree::new(aa, bb, d3, dd));
@@ -172,8 +212,12 @@ impl SweptBallTree {
 
     /// (d2 (k,) the least squared distance of each point (k, 3) to the segments, seg (k,)
     /// int64 the segment: the highest id of equal ones), on `threads` threads.
-    fn nearest<'py>(&self, py: Python<'py>, p: PyReadonlyArray2<'py, f64>, threads: usize)
-        -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    fn nearest<'py>(
+        &self,
+        py: Python<'py>,
+        p: PyReadonlyArray2<'py, f64>,
+        threads: usize,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
         let pp = crate::points(&p, "points")?;
         let pl = crate::pool(threads)?;
         let (d2, seg) = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
@@ -182,12 +226,19 @@ impl SweptBallTree {
 
     /// (query (p,), segment (p,)) int64: a superset of the segments within `radius` (k,) mm
     /// of each point (k, 3) (every segment truly within is listed), by point.
-    fn within<'py>(&self, py: Python<'py>, p: PyReadonlyArray2<'py, f64>, radius: PyReadonlyArray1<'py, f64>,
-                   threads: usize) -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>)> {
+    fn within<'py>(
+        &self,
+        py: Python<'py>,
+        p: PyReadonlyArray2<'py, f64>,
+        radius: PyReadonlyArray1<'py, f64>,
+        threads: usize,
+    ) -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>)> {
         let pp = crate::points(&p, "points")?;
         let rr = crate::slice1(&radius, "radius")?;
         if rr.len() != pp.len() {
-            return Err(PyValueError::new_err("radius must give one value per point"));
+            return Err(PyValueError::new_err(
+                "radius must give one value per point",
+            ));
         }
         let pl = crate::pool(threads)?;
         let (q, s) = py.detach(|| pl.install(|| self.tree.within_many(pp, rr)));

@@ -4,16 +4,15 @@
 //! same pruning by the point's best after every step, the same pairs dropped), the points
 //! in parallel. The cutter's distance is `Cutter.signed_distance_rz` operation for operation.
 
+use crate::numpy_ops::nanmin;
 use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use crate::numpy_ops::nanmin;
 
 #[path = "swept_prune.rs"]
 mod prune;
 use prune::fast_point;
-
 
 /// A cutter's meridional profile (`Cutter.signed_distance_rz`'s constants).
 #[derive(Clone, Copy)]
@@ -52,8 +51,20 @@ impl Profile {
     /// sector bounds, tan α, cos β, sin β).
     pub fn from_slice(p: &[f64]) -> Profile {
         Profile {
-            e: p[0], f: p[1], r: p[2], h: p[3], b: [p[4], p[5]], s: [p[6], p[7]], t: [p[8], p[9]],
-            sa: p[10], ca: p[11], sb: p[12], cb: p[13], tan_a: p[14], cos_b: p[15], sin_b: p[16],
+            e: p[0],
+            f: p[1],
+            r: p[2],
+            h: p[3],
+            b: [p[4], p[5]],
+            s: [p[6], p[7]],
+            t: [p[8], p[9]],
+            sa: p[10],
+            ca: p[11],
+            sb: p[12],
+            cb: p[13],
+            tan_a: p[14],
+            cos_b: p[15],
+            sin_b: p[16],
         }
     }
 
@@ -65,9 +76,14 @@ impl Profile {
         d2 = nanmin(d2, seg2(rho, z, self.s[0], self.s[1], self.t[0], self.t[1]));
         d2 = nanmin(d2, seg2(rho, z, self.t[0], self.t[1], 0.0, self.h));
         let (vr, vz) = (rho - self.e, z - self.f);
-        let in_sector = (vr * self.ca - vz * self.sa >= 0.0) && (vr * self.cb + vz * self.sb <= 0.0);
+        let in_sector =
+            (vr * self.ca - vz * self.sa >= 0.0) && (vr * self.cb + vz * self.sb <= 0.0);
         // |v| is read only inside the arc's sector (libm's hypot is the costly step)
-        let vl = if in_sector { crate::hypot::hypot(vr, vz) } else { 0.0 };
+        let vl = if in_sector {
+            crate::hypot::hypot(vr, vz)
+        } else {
+            0.0
+        };
         let mut dist = d2.sqrt();
         if in_sector {
             dist = nanmin(dist, (vl - self.r).abs());
@@ -76,7 +92,11 @@ impl Profile {
             && (z <= self.h)
             && ((rho - self.s[0]) * self.cos_b - (z - self.s[1]) * self.sin_b <= 0.0)
             && !(in_sector && vl > self.r);
-        if inside { -dist } else { dist }
+        if inside {
+            -dist
+        } else {
+            dist
+        }
     }
 }
 
@@ -119,15 +139,31 @@ struct State {
 }
 
 /// One point's pairs `i0..i1`, stepped together: (best, pair achieving it or −1).
-fn search_point(prof: &Profile, pairs: &[Pair], lo0: &[f64], hi0: &[f64], i0: usize, i1: usize,
-                u0: f64, xtol: f64) -> (f64, i64) {
+fn search_point(
+    prof: &Profile,
+    pairs: &[Pair],
+    lo0: &[f64],
+    hi0: &[f64],
+    i0: usize,
+    i1: usize,
+    u0: f64,
+    xtol: f64,
+) -> (f64, i64) {
     let gold = 0.5 * (5.0f64.sqrt() - 1.0);
     let mut live: Vec<State> = (i0..i1)
         .map(|i| {
             let (lo, hi) = (lo0[i], hi0[i]);
             let x1 = hi - gold * (hi - lo);
             let x2 = lo + gold * (hi - lo);
-            State { i, lo, hi, x1, x2, f1: pairs[i].f(prof, x1), f2: pairs[i].f(prof, x2) }
+            State {
+                i,
+                lo,
+                hi,
+                x1,
+                x2,
+                f1: pairs[i].f(prof, x1),
+                f2: pairs[i].f(prof, x2),
+            }
         })
         .collect();
     let (mut u, mut arg) = (u0, -1i64);
@@ -165,7 +201,11 @@ fn search_point(prof: &Profile, pairs: &[Pair], lo0: &[f64], hi0: &[f64], i0: us
             } else {
                 st.lo = st.x1;
             }
-            let nx = if left { st.hi - gold * (st.hi - st.lo) } else { st.lo + gold * (st.hi - st.lo) };
+            let nx = if left {
+                st.hi - gold * (st.hi - st.lo)
+            } else {
+                st.lo + gold * (st.hi - st.lo)
+            };
             let fnx = pairs[st.i].f(prof, nx);
             if left {
                 st.x2 = st.x1;
@@ -206,21 +246,37 @@ pub fn golden_pairs<'py>(
     let uu = crate::slice1(&u, "u")?;
     let (ll, hh) = (crate::slice1(&lo, "lo")?, crate::slice1(&hi, "hi")?);
     if scal.len() != 9 {
-        return Err(PyValueError::new_err("scal must be (za, zb, Ta, Tb, n0, m2, L2, phi, D)"));
+        return Err(PyValueError::new_err(
+            "scal must be (za, zb, Ta, Tb, n0, m2, L2, phi, D)",
+        ));
     }
-    let cols: Vec<&[f64]> = scal.iter().map(|c| crate::slice1(c, "scal")).collect::<PyResult<_>>()?;
+    let cols: Vec<&[f64]> = scal
+        .iter()
+        .map(|c| crate::slice1(c, "scal"))
+        .collect::<PyResult<_>>()?;
     let m = qq.len();
     if cols.iter().any(|c| c.len() != m) || ll.len() != m || hh.len() != m {
-        return Err(PyValueError::new_err("q, scal, lo and hi must describe the same pairs"));
+        return Err(PyValueError::new_err(
+            "q, scal, lo and hi must describe the same pairs",
+        ));
     }
     let kc = uu.len();
     if qq.iter().any(|&x| x < 0 || x as usize >= kc) || qq.windows(2).any(|w| w[1] < w[0]) {
-        return Err(PyValueError::new_err("q must be sorted point ids in 0..len(u)"));
+        return Err(PyValueError::new_err(
+            "q must be sorted point ids in 0..len(u)",
+        ));
     }
     let pairs: Vec<Pair> = (0..m)
         .map(|i| Pair {
-            za: cols[0][i], zb: cols[1][i], ta: cols[2][i], tb: cols[3][i], n0: cols[4][i],
-            m2: cols[5][i], l2: cols[6][i], phi: cols[7][i], d: cols[8][i],
+            za: cols[0][i],
+            zb: cols[1][i],
+            ta: cols[2][i],
+            tb: cols[3][i],
+            n0: cols[4][i],
+            m2: cols[5][i],
+            l2: cols[6][i],
+            phi: cols[7][i],
+            d: cols[8][i],
         })
         .collect();
     // the runs of pairs of one point
@@ -255,7 +311,6 @@ pub fn golden_pairs<'py>(
 fn dot3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
-
 
 /// The tables of `_fast_search` (a SweptCutter's or a SweptForest's).
 pub struct Tables<'a> {
@@ -318,7 +373,11 @@ fn search_args<'a>(
     }
     let pts = points(pc, "points")?;
     let k = pts.len();
-    let (u, arg, slack) = (values_n(u, "u", k)?, values_n(arg, "arg", k)?, values_n(slack, "slack", k)?);
+    let (u, arg, slack) = (
+        values_n(u, "u", k)?,
+        values_n(arg, "arg", k)?,
+        values_n(slack, "slack", k)?,
+    );
     let (nc, nb) = (ls.shape()[0], ls.shape()[1]);
     let ta = points(ta, "ta")?;
     let ns = ta.len();
@@ -335,10 +394,23 @@ fn search_args<'a>(
         bb: points_n(bb, "b", ns)?,
         chord_ok: values_n(chord_ok, "chord_ok", ns)?,
     };
-    if tab.lphi.len() != nc * nb || tab.ldt.len() != nc * nb || tab.ls.iter().any(|&s| s >= ns as i64) {
-        return Err(PyValueError::new_err("inconsistent tables (lphi and ldt (NC, B), segment ids in range)"));
+    if tab.lphi.len() != nc * nb
+        || tab.ldt.len() != nc * nb
+        || tab.ls.iter().any(|&s| s >= ns as i64)
+    {
+        return Err(PyValueError::new_err(
+            "inconsistent tables (lphi and ldt (NC, B), segment ids in range)",
+        ));
     }
-    Ok(SearchArgs { prof: Profile::from_slice(profile), pts, u, arg, slack, tab, nc })
+    Ok(SearchArgs {
+        prof: Profile::from_slice(profile),
+        pts,
+        u,
+        arg,
+        slack,
+        tab,
+        nc,
+    })
 }
 
 /// `_fast_search` (steps 1–4 of the fast method) on a chunk: points (k, 3), their first
@@ -371,15 +443,20 @@ pub fn fast_search<'py>(
     delta: f64,
     threads: usize,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
-    let sa = search_args(&profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok)?;
+    let sa = search_args(
+        &profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok,
+    )?;
     let (prof, pp, uu, aa, sl, tab) = (sa.prof, sa.pts, sa.u, sa.arg, sa.slack, sa.tab);
     let (qq, ll) = (crate::slice1(&q, "q")?, crate::slice1(&leaf, "leaf")?);
     let k = pp.len();
     if qq.len() != ll.len()
         || ll.iter().any(|&l| l < 0 || l as usize >= sa.nc)
-        || qq.iter().any(|&x| x < 0 || x as usize >= k) || qq.windows(2).any(|w| w[1] < w[0])
+        || qq.iter().any(|&x| x < 0 || x as usize >= k)
+        || qq.windows(2).any(|w| w[1] < w[0])
     {
-        return Err(PyValueError::new_err("q and leaf need one value per pair (q sorted, ids in range)"));
+        return Err(PyValueError::new_err(
+            "q and leaf need one value per pair (q sorted, ids in range)",
+        ));
     }
     // the runs of pairs of one point
     let mut runs: Vec<(usize, usize)> = Vec::new();
@@ -400,7 +477,18 @@ pub fn fast_search<'py>(
                 .with_min_len(4)
                 .map(|&(a, b)| {
                     let p = qq[a] as usize;
-                    fast_point(&prof, &tab, &reach, &pp[p], &ll[a..b], uu[p], aa[p], sl[p], xtol, delta)
+                    fast_point(
+                        &prof,
+                        &tab,
+                        &reach,
+                        &pp[p],
+                        &ll[a..b],
+                        uu[p],
+                        aa[p],
+                        sl[p],
+                        xtol,
+                        delta,
+                    )
                 })
                 .collect()
         })
@@ -439,12 +527,20 @@ impl LeafBoxes {
     /// `pieces`: boxes per leaf (rows `pieces · l ..` are leaf l's).
     #[new]
     #[pyo3(signature = (lo, hi, starts=None, pieces=1))]
-    fn new(py: Python<'_>, lo: numpy::PyReadonlyArray2<'_, f64>, hi: numpy::PyReadonlyArray2<'_, f64>,
-           starts: Option<PyReadonlyArray1<'_, i64>>, pieces: usize) -> PyResult<Self> {
+    fn new(
+        py: Python<'_>,
+        lo: numpy::PyReadonlyArray2<'_, f64>,
+        hi: numpy::PyReadonlyArray2<'_, f64>,
+        starts: Option<PyReadonlyArray1<'_, i64>>,
+        pieces: usize,
+    ) -> PyResult<Self> {
         use parry3d_f64::bounding_volume::Aabb;
         use parry3d_f64::math::Vector;
         use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
-        let (l3, h3) = (crate::arrays::points(&lo, "lo")?, crate::arrays::points(&hi, "hi")?);
+        let (l3, h3) = (
+            crate::arrays::points(&lo, "lo")?,
+            crate::arrays::points(&hi, "hi")?,
+        );
         if l3.len() != h3.len() {
             return Err(PyValueError::new_err("lo and hi must have the same rows"));
         }
@@ -454,15 +550,21 @@ impl LeafBoxes {
             .map(|(a, b)| Aabb::new(Vector::new(a[0], a[1], a[2]), Vector::new(b[0], b[1], b[2])))
             .collect();
         if pieces == 0 || boxes.len() % pieces != 0 {
-            return Err(PyValueError::new_err("lo and hi must hold `pieces` rows per leaf"));
+            return Err(PyValueError::new_err(
+                "lo and hi must hold `pieces` rows per leaf",
+            ));
         }
         let n = boxes.len() / pieces;
         let mut cuts: Vec<usize> = match &starts {
             Some(st) => {
                 let st = crate::slice1(st, "starts")?;
-                if st.first().is_some_and(|&s| s != 0) || st.windows(2).any(|w| w[1] < w[0])
-                    || st.iter().any(|&s| s < 0 || s as usize > n) {
-                    return Err(PyValueError::new_err("starts must ascend from 0 within the leaves"));
+                if st.first().is_some_and(|&s| s != 0)
+                    || st.windows(2).any(|w| w[1] < w[0])
+                    || st.iter().any(|&s| s < 0 || s as usize > n)
+                {
+                    return Err(PyValueError::new_err(
+                        "starts must ascend from 0 within the leaves",
+                    ));
                 }
                 st.iter().map(|&s| s as usize).collect()
             }
@@ -473,8 +575,15 @@ impl LeafBoxes {
         let trees = py.detach(|| {
             cuts.windows(2)
                 .filter(|w| w[1] > w[0])
-                .map(|w| (w[0], Bvh::from_leaves(BvhBuildStrategy::Binned,
-                                                 &boxes[w[0] * pieces..w[1] * pieces])))
+                .map(|w| {
+                    (
+                        w[0],
+                        Bvh::from_leaves(
+                            BvhBuildStrategy::Binned,
+                            &boxes[w[0] * pieces..w[1] * pieces],
+                        ),
+                    )
+                })
                 .collect()
         });
         Ok(LeafBoxes { trees, n, pieces })
@@ -494,7 +603,10 @@ impl LeafBoxes {
         // a point inside the swept volume (u < 0): the leaves whose box holds it
         let r = if r > 0.0 { r } else { 0.0 };
         // the trees whose leaves meet lo..hi (the first one starting at or before lo)
-        let first = self.trees.partition_point(|&(s, _)| s as i64 <= lo).saturating_sub(1);
+        let first = self
+            .trees
+            .partition_point(|&(s, _)| s as i64 <= lo)
+            .saturating_sub(1);
         for (s, bvh) in self.trees[first..].iter() {
             if *s as i64 >= hi {
                 break;
@@ -545,11 +657,21 @@ pub fn fast_search_boxes<'py>(
     delta: f64,
     threads: usize,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
-    let sa = search_args(&profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok)?;
+    let sa = search_args(
+        &profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok,
+    )?;
     let (prof, pp, uu, aa, sl, tab) = (sa.prof, sa.pts, sa.u, sa.arg, sa.slack, sa.tab);
     let k = pp.len();
-    let (clo, chi) = (crate::arrays::values_n(&cl_lo, "cl_lo", k)?, crate::arrays::values_n(&cl_hi, "cl_hi", k)?);
-    if boxes.n != sa.nc || clo.iter().zip(chi.iter()).any(|(&a, &b)| a < 0 || b < a || b as usize > sa.nc) {
+    let (clo, chi) = (
+        crate::arrays::values_n(&cl_lo, "cl_lo", k)?,
+        crate::arrays::values_n(&cl_hi, "cl_hi", k)?,
+    );
+    if boxes.n != sa.nc
+        || clo
+            .iter()
+            .zip(chi.iter())
+            .any(|(&a, &b)| a < 0 || b < a || b as usize > sa.nc)
+    {
         return Err(PyValueError::new_err("inconsistent boxes or leaf ranges"));
     }
     let bx: &LeafBoxes = &boxes;
@@ -566,7 +688,9 @@ pub fn fast_search_boxes<'py>(
                     if leaves.is_empty() {
                         return (uu[i], aa[i]);
                     }
-                    fast_point(&prof, &tab, &reach, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta)
+                    fast_point(
+                        &prof, &tab, &reach, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta,
+                    )
                 })
                 .collect()
         })

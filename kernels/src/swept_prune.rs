@@ -68,7 +68,11 @@ fn lower_bound(z: f64, n: f64, h: f64, rm: f64) -> f64 {
     let rr = n - z * z;
     let rho = (if rr > 0.0 { rr } else { 0.0 }).sqrt();
     let lb = (-z).max(z - h).max(rho - rm) - 1e-9 * (1.0 + rho + z.abs());
-    if lb.is_nan() { f64::NEG_INFINITY } else { lb }
+    if lb.is_nan() {
+        f64::NEG_INFINITY
+    } else {
+        lb
+    }
 }
 
 #[inline(always)]
@@ -84,9 +88,18 @@ fn value(prof: &Profile, p: &mut Pose) -> f64 {
 /// `swept_cutter::fast_point` (steps 1–4 for one point and its candidate leaves) with the
 /// pose values evaluated only where they can matter (module docstring): (u, arg).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &[f64; 3],
-                         leaves: &[i64], u0: f64, arg0: i64, slack: f64, xtol: f64, delta: f64)
-                         -> (f64, i64) {
+pub(super) fn fast_point(
+    prof: &Profile,
+    tab: &Tables,
+    reach: &[LeafReach],
+    p: &[f64; 3],
+    leaves: &[i64],
+    u0: f64,
+    arg0: i64,
+    slack: f64,
+    xtol: f64,
+    delta: f64,
+) -> (f64, i64) {
     let nb = tab.nb;
     let h = prof.h;
     let rm = max_radius(prof);
@@ -105,7 +118,14 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &
             let a = &tab.la[l * (nb + 1) + j];
             let z = super::dot3(&x, a);
             let n = super::dot3(&x, &x);
-            poses.push(Pose { x, z, n, lb: f64::NAN, v: f64::INFINITY, have: false });
+            poses.push(Pose {
+                x,
+                z,
+                n,
+                lb: f64::NAN,
+                v: f64::INFINITY,
+                have: false,
+            });
         }
         for j in 0..nb {
             let sg = tab.ls[l * nb + j];
@@ -125,8 +145,16 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &
             if !(lb < u0) {
                 continue;
             }
-            cands.push(Cand { sg: sg as usize, p0: base + j, a0: tab.la[l * (nb + 1) + j], phi,
-                              reach, eps, lb, dtip });
+            cands.push(Cand {
+                sg: sg as usize,
+                p0: base + j,
+                a0: tab.la[l * (nb + 1) + j],
+                phi,
+                reach,
+                eps,
+                lb,
+                dtip,
+            });
         }
     }
     // 2. the point's best so far: only poses that may reach u0 are evaluated
@@ -176,7 +204,11 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &
         let v = &d1;
         let (co, si) = ((-c.phi).cos(), (-c.phi).sin());
         let kv = super::dot3(k, v);
-        let kx = [k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2], k[0] * v[1] - k[1] * v[0]];
+        let kx = [
+            k[1] * v[2] - k[2] * v[1],
+            k[2] * v[0] - k[0] * v[2],
+            k[0] * v[1] - k[1] * v[0],
+        ];
         let w = kv * (1.0 - co);
         let p1 = [
             v[0] * co + kx[0] * si + k[0] * w,
@@ -184,8 +216,24 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &
             v[2] * co + kx[2] * si + k[2] * w,
         ];
         let ch = [p1[0] - d0[0], p1[1] - d0[1], p1[2] - d0[2]];
-        let g0 = sd_in_frame(prof, &[d0[0] + delta * ch[0], d0[1] + delta * ch[1], d0[2] + delta * ch[2]], &c.a0);
-        let g1 = sd_in_frame(prof, &[p1[0] - delta * ch[0], p1[1] - delta * ch[1], p1[2] - delta * ch[2]], &c.a0);
+        let g0 = sd_in_frame(
+            prof,
+            &[
+                d0[0] + delta * ch[0],
+                d0[1] + delta * ch[1],
+                d0[2] + delta * ch[2],
+            ],
+            &c.a0,
+        );
+        let g1 = sd_in_frame(
+            prof,
+            &[
+                p1[0] - delta * ch[0],
+                p1[1] - delta * ch[1],
+                p1[2] - delta * ch[2],
+            ],
+            &c.a0,
+        );
         let s0 = (g0 - v0) / delta;
         let s1 = (g1 - v1) / delta;
         let uu = u + c.eps + 2.0 * delta * super::dot3(&ch, &ch).sqrt() + slack;
@@ -205,8 +253,11 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &
         if s1 < 0.0 {
             thi = nanmin(thi, rb);
         }
-        let dead = (s0 == 0.0 && v0 > uu) || (s1 == 0.0 && v1 > uu) || !uu.is_finite()
-            || tlo.is_nan() || thi.is_nan();
+        let dead = (s0 == 0.0 && v0 > uu)
+            || (s1 == 0.0 && v1 > uu)
+            || !uu.is_finite()
+            || tlo.is_nan()
+            || thi.is_nan();
         if dead {
             tlo = 1.0;
             thi = 0.0;
@@ -221,8 +272,15 @@ pub(super) fn fast_point(prof: &Profile, tab: &Tables, reach: &[LeafReach], p: &
         let (ta, tb, b) = (&tab.ta[c.sg], &tab.tb[c.sg], &tab.bb[c.sg]);
         let dl = [tb[0] - ta[0], tb[1] - ta[1], tb[2] - ta[2]];
         pairs.push(Pair {
-            za: z0, zb: super::dot3(&d0, b), ta: super::dot3(&dl, &c.a0), tb: super::dot3(&dl, b),
-            n0, m2: 2.0 * super::dot3(&d0, &dl), l2: super::dot3(&dl, &dl), phi: c.phi, d: dd,
+            za: z0,
+            zb: super::dot3(&d0, b),
+            ta: super::dot3(&dl, &c.a0),
+            tb: super::dot3(&dl, b),
+            n0,
+            m2: 2.0 * super::dot3(&d0, &dl),
+            l2: super::dot3(&dl, &dl),
+            phi: c.phi,
+            d: dd,
         });
         lo.push(tlo);
         hi.push(thi);
@@ -267,7 +325,12 @@ pub(super) fn leaf_reach(tab: &Tables, nc: usize) -> Vec<LeafReach> {
                 dt_max = dt_max.max(tab.ldt[l * nb + j]);
             }
             // a rounding allowance: the norms are far more accurate than 1e-9
-            LeafReach { t0, tt: tt * (1.0 + 1e-9) + 1e-12, phi_max, dt_max }
+            LeafReach {
+                t0,
+                tt: tt * (1.0 + 1e-9) + 1e-12,
+                phi_max,
+                dt_max,
+            }
         })
         .collect()
 }

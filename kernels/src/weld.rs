@@ -25,14 +25,28 @@ pub fn first_equal_point(x: &[u64], y: &[u64], z: &[u64]) -> Vec<i64> {
     let mut table = vec![u32::MAX; size];
     let mut first = vec![0i64; k];
     let wide = k >= u32::MAX as usize;
-    let mut table64 = if wide { vec![usize::MAX; size] } else { Vec::new() };
+    let mut table64 = if wide {
+        vec![usize::MAX; size]
+    } else {
+        Vec::new()
+    };
     for i in 0..k {
         let (a, b, c) = (x[i], y[i], z[i]);
         let mut s = (mix(a, b, c) >> (64 - bits)) as usize & mask;
         loop {
-            let held = if wide { table64[s] } else if table[s] == u32::MAX { usize::MAX } else { table[s] as usize };
+            let held = if wide {
+                table64[s]
+            } else if table[s] == u32::MAX {
+                usize::MAX
+            } else {
+                table[s] as usize
+            };
             if held == usize::MAX {
-                if wide { table64[s] = i } else { table[s] = i as u32 }
+                if wide {
+                    table64[s] = i
+                } else {
+                    table[s] = i as u32
+                }
                 first[i] = i as i64;
                 break;
             }
