@@ -7,7 +7,7 @@
         --tool flat|bull|ball --tool-diameter MM [--corner-radius MM] \\
         --levels from-hub|from-shroud|morph (--depth-per-cut MM | --level-scallop MM) \\
         [--max-depth-per-cut MM] --stepover MM \\
-        --pattern zigzag|plunge [--order gap|level] [--floor-band-step 0.5] \\
+        --pattern zigzag|plunge|trochoid [--order gap|level] [--floor-band-step 0.5] \\
         --allowance 0.5 [--hub-allowance MM] \\
         --out rough.json \\
         [--nc FILE --machine PRESET --post POST] [--lead DEG] [--side-tilt DEG] ...
@@ -99,7 +99,8 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
                    help="largest step across the channel, mm (≤ the tool diameter)")
     g.add_argument("--pattern", type=str.lower, choices=PATTERNS, default="zigzag",
                    help="zigzag: passes along the channel stepped across it; plunge: feeds "
-                   "along the tool axis (default zigzag)")
+                   "along the tool axis; trochoid: loops across the channel stepped along it "
+                   "by --stepover, then a pass along each wall (default zigzag)")
     g.add_argument("--order", type=str.lower, choices=GAP_ORDERS, default="gap",
                    help="gap: every level of a gap, then the next gap; level: a level in "
                    "every gap, then the next level (each level linked alone; the post "

@@ -468,7 +468,7 @@ _ROUGH_KEYS = {
     "max_depth_per_cut": (None, "with level_scallop: the largest step between levels, mm "
                           "(default: the flute length)", "mm"),
     "levels": ("from-hub", "from-hub, from-shroud or morph", "word"),
-    "pattern": ("zigzag", "zigzag or plunge", "word"),
+    "pattern": ("zigzag", "zigzag, plunge or trochoid", "word"),
     "allowance": (0.5, "material left on the blades, mm (paper 003: 0.5)", "mm"),
     "hub_allowance": (None, "material left on the hub, mm (default: allowance)", "mm"),
     "lead": (0.0, "tool axis tilted from radial toward +z, degrees", "deg"),

@@ -12,14 +12,16 @@ Stages (:mod:`.operation`):
 1. ``levels`` — stations along the axis over the blank (and a tool radius beyond its faces),
    the shroud (the blank's top), the floor (the lowest tip that keeps the hub allowance,
    :func:`..channel.levels.floor_radius`) and the levels from the shroud down in the
-   requested mode (:func:`..channel.levels.level_radii`);
+   requested mode (:func:`..channel.levels.level_radii`; with a level scallop the steps
+   from the walls' slope, :mod:`..channel.level_scallop`);
 2. ``region`` — the blade's sections on cylinders from the hub to the tip, and per level the
    θ bounds the tool — flute, shank and holder — may take between the blades keeping the
    allowance (:mod:`..channel.region`; the body keeps the allowance plus the safety, since
    the allowance shell is still stock); stations where the bounds cross are left out, with a
    warning naming the level;
-3. ``pattern`` — zig-zag passes along the channel stepped across it, or plunges
-   (:mod:`..channel.patterns`);
+3. ``pattern`` — zig-zag passes along the channel stepped across it, plunges
+   (:mod:`..channel.patterns`) or trochoidal loops across it stepped along
+   (:mod:`..channel.trochoid`);
 4. ``link`` — the program: feed links in the air beyond the blank's faces, retract / rapid
    at the safe radius / approach elsewhere; the estimated machining time. Ordered by gap
    (``order``, the default) the gap is linked as one and the post repeats it per gap; by
@@ -89,6 +91,7 @@ from ..channel.region import (
     offset_table,
     refined_bounds,
 )
+from ..channel.trochoid import trochoid_passes
 from ..errors import BliskCamError, StockError, ToolError
 from ..geometry.vectors import rotate_about
 from ..part.cones import Cone
@@ -103,7 +106,7 @@ from .operation import Operation, OperationResult, Stage, run_operation
 
 __all__ = ["PATTERNS", "RoughRequest", "RoughingOperation", "plan_roughing"]
 
-PATTERNS = ("zigzag", "plunge")
+PATTERNS = ("zigzag", "plunge", "trochoid")
 
 
 @dataclass
@@ -119,7 +122,7 @@ class RoughRequest:
         slope leaving at most this step cusp, capped (None: the flute length;
         :mod:`..channel.level_scallop`)
     levels : str — ``from-hub`` | ``from-shroud`` | ``morph``
-    pattern : str — ``zigzag`` | ``plunge``
+    pattern : str — ``zigzag`` | ``plunge`` | ``trochoid``
     allowance : float, mm — material left on the blades (default 0.5, paper 003 §5)
     hub_allowance : float or None, mm — material left on the hub (None: ``allowance``)
     lead, side_tilt : float, rad — the tool axis tilted from radial toward +z / +θ
@@ -551,6 +554,9 @@ class RoughingOperation(Operation):
             elif req.pattern == "zigzag":
                 pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
                                               req.stepover, frame, fwd, low)
+            elif req.pattern == "trochoid":
+                pcs, fwd = trochoid_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
+                                           req.stepover, frame, fwd, st.cutter.max_radius)
             else:
                 # the holes' radius half-way up the corner: the grid leaves no island above
                 # half the corner radius (the next level takes the rest)
@@ -559,7 +565,7 @@ class RoughingOperation(Operation):
             st.pieces.extend(pcs)
             for theta, r, side, ok in st.contours[k]:  # the contour pass along each wall
                 n0 = len(st.pieces)
-                if req.pattern == "zigzag":
+                if req.pattern != "plunge":
                     tips, axes = pose_frame(part.axis, theta, lv.z, r, st.theta_ref, req.lead,
                                             side)
                     st.pieces.extend(pass_pieces(k, tips, axes, ok, lv.outside, fwd))
