@@ -239,6 +239,10 @@ def test_scallop_levels_vary_with_the_walls_and_stay_within_the_cap(scalloped):
     # shrink; up the blade they grow
     assert steps.max() - steps.min() > 0.5, steps
     assert steps[-1] < steps.max() - 0.5
+    # the floor band reaches over the hub fillet (4 mm on the demo) + the corner radius + R
+    # sin 20° (fillet_band): the fillet's radius measured on the blade mesh
+    assert s["floor_band_height_mm"] == pytest.approx(
+        ALLOWANCE + 4.0 + 1.0 + 4.0 * math.sin(math.radians(20.0)), abs=0.25)
 
 
 def test_scallop_roughing_leaves_at_most_the_scallop_on_the_walls(scalloped):
