@@ -185,9 +185,10 @@ class FluteCheck:
     over a sample spacing is second order), and less the outline's ``sag`` (the ring's chord
     and the corner arc's: what the samples can miss, 0.015 mm for a Ø8 R1 bull nose) must be
     at least the allowance − ``tol``, so that the exact distance keeps the allowance − ``tol``
-    − that second-order term (≤ 0.02 mm in all, 0.023 before the sag was counted) against a
-    plane or a concave wall; beside a convex edge of radius ρ the ring also misses the
-    edge's own curvature, about s² / 2 · (1/R + 1/ρ) for a ring step s (not counted); the
+    − that second-order term (≤ 0.02 mm in all, 0.023 before the sag was counted); beside a
+    convex edge of radius ρ the distance along the ring also rises by about
+    s² / 2 · (1/R + 1/(ρ + a)) off its least (s the ring's step), so the ring is refined
+    round each pose's nearest points (:meth:`FluteCheck._refined`, ≤ 0.009 mm then); the
     hub's by the exact distance to its profile (a polyline (r, z)) with the hub allowance.
     Up the side to ``height`` mm above the tip (None: the flute length); the tool above it
     is the caller's (the region's bounds with the table's rows above that height)."""
