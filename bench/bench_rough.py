@@ -3,7 +3,7 @@
     python bench/bench_rough.py [--resolution 0.5] [--mesh-resolution 0.3] [--levels from-hub]
         [--pattern zigzag] [--depth 6] [--stepover 6] [--diameter 10] [--corner 1]
         [--axis blades|radial] [--max-turn 2] [--small | --rotor37] [--order gap|level]
-        [--no-simulate] [--floor-band-step 0.5] [--before-after]
+        [--no-simulate] [--floor-band-step 0.5] [--before-after] [--level-scallop H]
 
 The demo blisk (default parameters, 24 blades; ``--small``: the 25 mm tall test blisk of
 tests/core/test_roughing.py; ``--rotor37``: NASA Rotor 37 patterned to 36 blades, its hub
@@ -21,6 +21,9 @@ tests/core/test_roughing.py: 0.5 + s |n · a| + res/√2). ``--before-after`` pl
 simulates twice, without the surface-driven floor-band passes and with them
 (``--floor-band-step``), and prints the planning time of one gap, the share removed and the
 points over the bound (count, largest excess) above and in the floor band side by side.
+``--level-scallop H`` spaces the levels for a step cusp H (``--depth`` their cap) and prints
+the steps; the bound above the floor band (its height from the stats) is then 0.5 + H +
+res/√2 on the blade walls (:data:`blisk_cam.core.channel.level_scallop.WALL_SLOPE`).
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import numpy as np  # noqa: E402
 
+from blisk_cam.core.channel.level_scallop import WALL_SLOPE  # noqa: E402
 from blisk_cam.core.channel.levels import channel_volume  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.part.model import part_from_blade, part_from_demo, theta_about  # noqa: E402
@@ -57,6 +61,7 @@ def main():
     ap.add_argument("--levels", default="from-hub")
     ap.add_argument("--pattern", default="zigzag")
     ap.add_argument("--depth", type=float, default=6.0)
+    ap.add_argument("--level-scallop", type=float, default=None)
     ap.add_argument("--stepover", type=float, default=6.0)
     ap.add_argument("--diameter", type=float, default=10.0)
     ap.add_argument("--corner", type=float, default=1.0)
@@ -111,7 +116,9 @@ def _run(a, part, blank, step) -> dict:
     """Plan (floor-band rows every ``step`` mm) and simulate; prints; returns the figures."""
     R = 0.5 * a.diameter
     tool = Cutter.bull(R, a.corner, h=3 * a.diameter, neck_length=7 * a.diameter)
-    req = RoughRequest(tool=tool, stepover=a.stepover, depth_per_cut=a.depth, levels=a.levels,
+    depth = dict(level_scallop=a.level_scallop, max_depth_per_cut=a.depth) \
+        if a.level_scallop else dict(depth_per_cut=a.depth)
+    req = RoughRequest(tool=tool, stepover=a.stepover, levels=a.levels, **depth,
                        pattern=a.pattern, follow_blades=a.axis == "blades",
                        max_turn=math.radians(a.max_turn), order=a.order,
                        floor_band_step=step)
@@ -142,6 +149,10 @@ def _run(a, part, blank, step) -> dict:
           f"own turn added to the side tilt's); {s.get('wall_levels', 0)} wall levels every "
           f"{s.get('wall_level_step_mm', 0.0):.2f} mm; unreachable: "
           f"{', '.join(s['unreachable_levels']) or 'none'}")
+    if a.level_scallop:
+        print(f"level scallop {a.level_scallop:g} mm: steps " + ", ".join(
+            f"{x:.2f}" for x in s["level_steps_mm"]) + f" mm; floor band up to "
+            f"{s['floor_band_height_mm']:.2f} mm above the hub")
     for w in p.warnings:
         print(f"warning: {w}")
     if a.no_simulate:
@@ -174,7 +185,7 @@ def _run(a, part, blank, step) -> dict:
     P, Nn = V[surf], N[surf]
     r, th, z = theta_about(P, part.axis)
     H = part.hub_profile
-    band = r < np.interp(z, H[:, 1], H[:, 0]) + 0.5 + a.depth
+    band = r < np.interp(z, H[:, 1], H[:, 0]) + s["floor_band_height_mm"]
     radial = np.stack([np.cos(th), np.sin(th), np.zeros_like(th)], 1)
     tang = np.stack([-np.sin(th), np.cos(th), np.zeros_like(th)], 1)
     nu, nt = np.einsum("ij,ij->i", Nn, radial), np.einsum("ij,ij->i", Nn, tang)
@@ -183,6 +194,10 @@ def _run(a, part, blank, step) -> dict:
                  for q in np.linspace(min(t0, 0.0), max(t1, 0.0), 13)], axis=0)
     cusp_step = np.where(band, s.get("wall_level_step_mm") or a.depth, a.depth)
     excess = dev - (0.5 + cusp_step * na + a.resolution / math.sqrt(2))
+    if a.level_scallop:  # on the walls above the band: the scallop
+        wall = np.abs(nu) <= math.sin(WALL_SLOPE)
+        excess = np.where(band, excess, np.where(wall, dev - (
+            0.5 + a.level_scallop + a.resolution / math.sqrt(2)), -np.inf))
     figures = {"plan": plan, "share": (v0 - prev) / removable}
     for key, m in (("above", ~band), ("band", band)):
         figures[key] = (int((excess[m] > 0).sum()), max(float(excess[m].max()), 0.0)) \

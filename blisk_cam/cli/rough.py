@@ -5,8 +5,9 @@
     python -m blisk_cam rough --part MESH [--hub-profile CSV] --blade-count N \\
         --stock (PROFILE.csv | MESH | envelope:MM | STATE.npz) \\
         --tool flat|bull|ball --tool-diameter MM [--corner-radius MM] \\
-        --levels from-hub|from-shroud|morph --depth-per-cut MM --stepover MM \\
-        --pattern zigzag|plunge [--order gap|level] [--floor-band-step 0.5] \\
+        --levels from-hub|from-shroud|morph (--depth-per-cut MM | --level-scallop MM) \\
+        [--max-depth-per-cut MM] --stepover MM \\
+        --pattern zigzag|plunge|trochoid [--order gap|level] [--floor-band-step 0.5] \\
         --allowance 0.5 [--hub-allowance MM] \\
         --out rough.json \\
         [--nc FILE --machine PRESET --post POST] [--lead DEG] [--side-tilt DEG] ...
@@ -84,13 +85,22 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
     g.add_argument("--levels", type=str.lower, choices=LEVEL_MODES, default="from-hub",
                    help="level surfaces: offset from the hub, from the shroud, or morphed "
                    "hub → shroud (default from-hub)")
-    g.add_argument("--depth-per-cut", required=True, type=positive, metavar="MM",
-                   help="largest step between levels, mm")
+    depth = g.add_mutually_exclusive_group(required=True)
+    depth.add_argument("--depth-per-cut", type=positive, default=None, metavar="MM",
+                       help="constant largest step between levels, mm")
+    depth.add_argument("--level-scallop", type=positive, default=None, metavar="MM",
+                       help="instead, levels spaced from the blade walls' slope so that the "
+                       "step cusp a level leaves on them is at most MM (the worst point of "
+                       "each level decides; capped by --max-depth-per-cut)")
+    g.add_argument("--max-depth-per-cut", type=positive, default=None, metavar="MM",
+                   help="with --level-scallop: the largest step between levels, mm (default: "
+                   "the flute length)")
     g.add_argument("--stepover", required=True, type=positive, metavar="MM",
                    help="largest step across the channel, mm (≤ the tool diameter)")
     g.add_argument("--pattern", type=str.lower, choices=PATTERNS, default="zigzag",
                    help="zigzag: passes along the channel stepped across it; plunge: feeds "
-                   "along the tool axis (default zigzag)")
+                   "along the tool axis; trochoid: loops across the channel stepped along it "
+                   "by --stepover, then a pass along each wall (default zigzag)")
     g.add_argument("--order", type=str.lower, choices=GAP_ORDERS, default="gap",
                    help="gap: every level of a gap, then the next gap; level: a level in "
                    "every gap, then the next level (each level linked alone; the post "
@@ -134,6 +144,9 @@ def _check(args):
         raise UsageError("--nc needs --machine (preset or TOML) and --post (controller)")
     if (args.machine or args.post) and not args.nc:
         raise UsageError("--machine/--post post the program with --nc FILE; give --nc")
+    if args.max_depth_per_cut is not None and args.level_scallop is None:
+        raise UsageError("--max-depth-per-cut caps the steps of --level-scallop; with "
+                         "--depth-per-cut (constant steps) leave it out")
     if args.tool == "bull" and not args.corner_radius:
         raise UsageError("--tool bull needs --corner-radius (0 < r < diameter/2)")
     if args.tool != "bull" and args.corner_radius:
@@ -180,7 +193,8 @@ def run_rough(args) -> int:
         feed=args.feed or 1000.0, plunge_feed=args.approach_feed or None,
         rapid_feed=args.rapid_feed, spindle=args.spindle,
         follow_blades=args.axis == "blades", max_turn=math.radians(args.max_turn),
-        order=args.order, floor_band_step=args.floor_band_step)
+        order=args.order, floor_band_step=args.floor_band_step,
+        level_scallop=args.level_scallop, max_depth_per_cut=args.max_depth_per_cut)
     gen = iter_run_operation(RoughingOperation(), part, req, stock)
     while True:
         try:

@@ -35,7 +35,8 @@ from ..part.model import theta_about
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter
 
-__all__ = ["Section", "channel_bounds", "cylinder_sections", "fill_free", "offset_table"]
+__all__ = ["Section", "channel_bounds", "cylinder_sections", "fill_free", "offset_table",
+           "refined_bounds"]
 
 
 class Section:
@@ -273,3 +274,37 @@ def fill_free(z, lo, hi, pitch: float, overlap, hold: float, blend: float,
     lo[und] = ((1 - f) * nl + f * tl)[und]
     hi[und] = ((1 - f) * nh + f * th)[und]
     return lo, hi
+
+
+def refined_bounds(sections, pitch, z, r, outside, table, lead: float, side, chord: float = 0.5,
+                    rounds: int = 8):
+    """Stations and bounds of one level, refined where a bound moves more than ``chord`` mm
+    between two stations: a straight move of length L between two points of the envelope
+    of circles of radius o (≥ the tool's radius) leaves it by at most L²/(8 o), so chords of
+    ≤ 0.5 mm stay within the margin — also where the envelope turns round a leading or
+    trailing edge and its slope in z is unbounded (there halving the z step is what shortens
+    the chord). ``side`` (n,) the side tilt per station (rad), interpolated linearly at the
+    inserted stations; ``lead`` the axis's lead (rad). Returns (z, r, outside, lo, hi, side)."""
+    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=lead, side=side)
+    for _ in range(rounds):
+        both = np.isfinite(lo[:-1]) & np.isfinite(lo[1:]) & np.isfinite(hi[:-1]) & \
+            np.isfinite(hi[1:])
+        rm = 0.5 * (r[:-1] + r[1:])
+        with np.errstate(invalid="ignore"):
+            jump = np.maximum(np.abs(np.diff(lo)), np.abs(np.diff(hi))) * rm
+        bad = np.nonzero(both & (jump > chord))[0]
+        if len(bad) == 0:
+            break
+        zm = 0.5 * (z[bad] + z[bad + 1])
+        r_m = 0.5 * (r[bad] + r[bad + 1])
+        out_m = outside[bad] & outside[bad + 1]
+        s_m = 0.5 * (side[bad] + side[bad + 1])
+        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=lead, side=s_m)
+        order = np.argsort(np.concatenate([z, zm]), kind="stable")
+        z = np.concatenate([z, zm])[order]
+        r = np.concatenate([r, r_m])[order]
+        outside = np.concatenate([outside, out_m])[order]
+        side = np.concatenate([side, s_m])[order]
+        lo = np.concatenate([lo, lo_m])[order]
+        hi = np.concatenate([hi, hi_m])[order]
+    return z, r, outside, lo, hi, side

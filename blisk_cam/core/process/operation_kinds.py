@@ -31,6 +31,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..channel.gaps import GAP_ORDERS
+from ..channel.level_scallop import check_depth_options
 from ..collision.options import CollisionOptions
 from ..errors import BliskCamError, OptionError
 from ..geometry.mesh import TriMesh
@@ -464,9 +465,13 @@ __all__ += ["ball_fits_channel", "prepare_fillet_finish", "prepare_hub_finish"]
 #: job key → (default in user units, help, kind of value); lead and side tilt in degrees
 _ROUGH_KEYS = {
     "stepover": (None, "largest step across the channel, mm (≤ the tool diameter)", "mm"),
-    "depth_per_cut": (None, "largest step between levels, mm", "mm"),
+    "depth_per_cut": (None, "largest step between levels, mm (or level_scallop)", "mm"),
+    "level_scallop": (None, "instead of depth_per_cut: levels spaced so that the step cusp on "
+                      "the blade walls is at most MM (from the walls' slope)", "mm"),
+    "max_depth_per_cut": (None, "with level_scallop: the largest step between levels, mm "
+                          "(default: the flute length)", "mm"),
     "levels": ("from-hub", "from-hub, from-shroud or morph", "word"),
-    "pattern": ("zigzag", "zigzag or plunge", "word"),
+    "pattern": ("zigzag", "zigzag, plunge or trochoid", "word"),
     "allowance": (0.5, "material left on the blades, mm (paper 003: 0.5)", "mm"),
     "hub_allowance": (None, "material left on the hub, mm (default: allowance)", "mm"),
     "lead": (0.0, "tool axis tilted from radial toward +z, degrees", "deg"),
@@ -504,9 +509,11 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
         if kind == "mm" and not (math.isfinite(value) and value >= 0):
             raise BliskCamError(f"{where} key {key!r}: a length must be ≥ 0 mm, got {value!r}")
         kw[key] = math.radians(float(value)) if kind == "deg" else float(value)
-    for key in ("stepover", "depth_per_cut"):
-        if key not in kw:
-            raise BliskCamError(f"{where}: key {key!r} is missing (mm)")
+    if "stepover" not in kw:
+        raise BliskCamError(f"{where}: key 'stepover' is missing (mm)")
+    if ("depth_per_cut" in kw) == ("level_scallop" in kw):
+        raise BliskCamError(f"{where}: give one of the keys 'depth_per_cut' (constant steps, "
+                            "mm) and 'level_scallop' (steps from the walls' slope, mm)")
     if kw.get("order", "gap") not in GAP_ORDERS:
         raise BliskCamError(f"{where} key 'order': order must be one of {', '.join(GAP_ORDERS)}"
                             f", got {kw['order']!r}")
@@ -518,6 +525,7 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
     try:
         req = RoughRequest(tool=ctx.cutter, assembly=tool_assembly(ctx.tool, ctx.cutter),
                            fine_check=ctx.fine_check, **kw)
+        check_depth_options(req, ctx.cutter)
     except (BliskCamError, TypeError, ValueError) as exc:
         raise BliskCamError(f"{where}: {exc}") from None
     return PreparedOperation(RoughingOperation(), ctx.part, req, (), 0.0, reads_stock=True,

@@ -12,14 +12,16 @@ Stages (:mod:`.operation`):
 1. ``levels`` — stations along the axis over the blank (and a tool radius beyond its faces),
    the shroud (the blank's top), the floor (the lowest tip that keeps the hub allowance,
    :func:`..channel.levels.floor_radius`) and the levels from the shroud down in the
-   requested mode (:func:`..channel.levels.level_radii`);
+   requested mode (:func:`..channel.levels.level_radii`; with a level scallop the steps
+   from the walls' slope, :mod:`..channel.level_scallop`);
 2. ``region`` — the blade's sections on cylinders from the hub to the tip, and per level the
    θ bounds the tool — flute, shank and holder — may take between the blades keeping the
    allowance (:mod:`..channel.region`; the body keeps the allowance plus the safety, since
    the allowance shell is still stock); stations where the bounds cross are left out, with a
    warning naming the level;
-3. ``pattern`` — zig-zag passes along the channel stepped across it, or plunges
-   (:mod:`..channel.patterns`);
+3. ``pattern`` — zig-zag passes along the channel stepped across it, plunges
+   (:mod:`..channel.patterns`) or trochoidal loops across it stepped along
+   (:mod:`..channel.trochoid`);
 4. ``link`` — the program: feed links in the air beyond the blank's faces, retract / rapid
    at the safe radius / approach elsewhere; the estimated machining time. Ordered by gap
    (``order``, the default) the gap is linked as one and the post repeats it per gap; by
@@ -70,7 +72,8 @@ import numpy as np
 from ..channel.axis import bound_turn, limit_turn, mean_camber_lean
 from ..channel.floor_band import FluteCheck, band_contacts, band_pieces, band_poses
 from ..channel.gaps import GAP_ORDERS, pattern_gaps
-from ..channel.levels import LEVEL_MODES, Level, floor_radius, level_radii, stock_top
+from ..channel.level_scallop import channel_levels, check_depth_options
+from ..channel.levels import LEVEL_MODES, Level, floor_radius, stock_top
 from ..channel.patterns import (
     Piece,
     link_program,
@@ -81,7 +84,14 @@ from ..channel.patterns import (
     runs_of,
     zigzag_passes,
 )
-from ..channel.region import channel_bounds, cylinder_sections, fill_free, offset_table
+from ..channel.region import (
+    channel_bounds,
+    cylinder_sections,
+    fill_free,
+    offset_table,
+    refined_bounds,
+)
+from ..channel.trochoid import trochoid_passes
 from ..errors import BliskCamError, StockError, ToolError
 from ..geometry.vectors import rotate_about
 from ..part.cones import Cone
@@ -96,7 +106,7 @@ from .operation import Operation, OperationResult, Stage, run_operation
 
 __all__ = ["PATTERNS", "RoughRequest", "RoughingOperation", "plan_roughing"]
 
-PATTERNS = ("zigzag", "plunge")
+PATTERNS = ("zigzag", "plunge", "trochoid")
 
 
 @dataclass
@@ -107,9 +117,12 @@ class RoughRequest:
     ----------
     tool : Cutter — flat, bull nose or ball (DIN 66215)
     stepover : float, mm — the largest step across the channel (≤ the tool diameter)
-    depth_per_cut : float, mm — the largest step between levels
+    depth_per_cut : float or None, mm — the constant largest step between levels
+    level_scallop, max_depth_per_cut : float or None, mm — instead, steps from the walls'
+        slope leaving at most this step cusp, capped (None: the flute length;
+        :mod:`..channel.level_scallop`)
     levels : str — ``from-hub`` | ``from-shroud`` | ``morph``
-    pattern : str — ``zigzag`` | ``plunge``
+    pattern : str — ``zigzag`` | ``plunge`` | ``trochoid``
     allowance : float, mm — material left on the blades (default 0.5, paper 003 §5)
     hub_allowance : float or None, mm — material left on the hub (None: ``allowance``)
     lead, side_tilt : float, rad — the tool axis tilted from radial toward +z / +θ
@@ -148,7 +161,7 @@ class RoughRequest:
 
     tool: Cutter
     stepover: float
-    depth_per_cut: float
+    depth_per_cut: float | None = None
     levels: str = "from-hub"
     pattern: str = "zigzag"
     allowance: float = 0.5
@@ -171,6 +184,8 @@ class RoughRequest:
     order: str = "gap"
     gaps: int | None = None
     floor_band_step: float = 0.5
+    level_scallop: float | None = None
+    max_depth_per_cut: float | None = None
 
 
 @dataclass
@@ -198,6 +213,9 @@ class _State:
     band_tilt: tuple | None = None
     tables: dict = field(default_factory=dict)
     path: ToolPath = None
+    depth: float = 0.0
+    band: float = 0.0
+    steps: list = field(default_factory=list)
 
 
 def _num(name, value, *, positive=True, error=BliskCamError) -> float:
@@ -270,7 +288,7 @@ class RoughingOperation(Operation):
         if cutter.type == "taper":
             raise ToolError("roughing takes a flat, bull-nose or ball cutter, not a tapered "
                             "ball")
-        depth = _num("depth per cut", req.depth_per_cut)
+        check_depth_options(req, cutter)
         step = _num("stepover", req.stepover)
         if step > cutter.d * (1 + 1e-9):
             raise ToolError(f"stepover {step:g} mm is larger than the tool diameter "
@@ -305,9 +323,6 @@ class RoughingOperation(Operation):
         _num("safety distance", req.safety, positive=False)
         for name, f in (("feed", req.feed), ("rapid feed", req.rapid_feed)):
             _num(name, f)
-        if depth > cutter.h:
-            raise ToolError(f"depth per cut {depth:g} mm is more than the flute length "
-                            f"{cutter.h:g} mm of the {cutter.type} cutter Ø{cutter.d:g}")
         # the blank must hold the part
         V = part.blade_vertices
         inside = stock.occupied(V)
@@ -365,8 +380,6 @@ class RoughingOperation(Operation):
         st.top = np.interp(st.z, zr, top)
         st.floor = floor_radius(part.hub_profile, st.cutter, st.hub_a, st.z,
                                 lead=req.lead, side=req.side_tilt)
-        st.levels = level_radii(st.z, st.floor, st.top, req.levels, req.depth_per_cut)
-        yield Progress(0.3, f"{len(st.levels)} levels")
         rv, _, _ = theta_about(part.blade_vertices, part.axis)
         r_lo = max(float(rv.min()), float(st.floor.min()) - req.allowance - 0.5)
         r_hi = float(rv.max())
@@ -378,7 +391,10 @@ class RoughingOperation(Operation):
                                           np.arange(fine, r_hi + 0.25, 0.25)]))
         st.sections = cylinder_sections(part.blade_vertices, part.blade_faces, part.axis,
                                         radii, st.theta_ref, 0.3)
-        yield Progress(0.7, "blade sections")
+        st.levels, st.steps, st.depth, st.band = channel_levels(
+            part, st.cutter, st.sections, st.z, st.floor, st.top, req,
+            lean=req.follow_blades and req.pattern != "plunge")
+        yield Progress(0.7, f"blade sections, {len(st.levels)} levels")
         floor_level = st.levels[-1]
         for lv in st.levels:
             # the floor level keeps the radial axis: a tilted flat bottom would leave a
@@ -394,7 +410,7 @@ class RoughingOperation(Operation):
             # above it; a contour pass every ≤ 2 mm up lets the side reach the wall there
             above = st.levels[-2].r if len(st.levels) > 1 else st.top
             span = float(np.max(above - floor_level.r))
-            n = int(math.ceil(span / min(2.0, req.depth_per_cut) - 1e-9))
+            n = int(math.ceil(span / min(2.0, st.depth) - 1e-9))
             K = len(st.levels)
             st.wall_step = span / n if n > 1 else 0.0
             walls = []
@@ -414,7 +430,7 @@ class RoughingOperation(Operation):
         """The level's side tilt following the blades (:mod:`..channel.axis`) and its tip
         radius raised to the floor of that tilt."""
         req = st.req
-        lean = mean_camber_lean(st.sections, st.z, lv.r, lv.r + max(req.depth_per_cut, 2.0))
+        lean = mean_camber_lean(st.sections, st.z, lv.r, lv.r + max(st.depth, 2.0))
         lv.side = limit_turn(lean + req.side_tilt, req.max_turn)
         lv.z = st.z
         lv.r = self._floor_of(st, lv, lv.side)
@@ -427,8 +443,8 @@ class RoughingOperation(Operation):
         for k, lv in enumerate(st.levels):
             check_cancel()
             table = self._table(st, float(np.abs(lv.side).max()))
-            z, r, outside, lo, hi, side = _refined_bounds(
-                st.sections, part.pitch, st.z, lv.r, st.outside, table, req, lv.side)
+            z, r, outside, lo, hi, side = refined_bounds(
+                st.sections, part.pitch, st.z, lv.r, st.outside, table, req.lead, lv.side)
             lo, hi = fill_free(z, lo, hi, part.pitch, np.interp(z, st.z, overlap), hold, 5.0,
                                0.5 * part.pitch)
             lv.z, lv.r, lv.outside, lv.side = z, r, outside, side
@@ -488,7 +504,7 @@ class RoughingOperation(Operation):
         floor of that tilt and at the bound of that tilt. Returns [(theta, r, side, reach)]
         over the level's stations, blade 0's wall first."""
         req, part = st.req, st.part
-        y = 0.5 * req.depth_per_cut
+        y = 0.5 * st.depth
         found = [[np.full(len(lv.z), np.inf), lv.side.copy()] for _ in range(2)]
         # the choice on every third section (the bounds of the chosen tilt, below, on all)
         few = st.sections[::3]
@@ -540,6 +556,9 @@ class RoughingOperation(Operation):
             elif req.pattern == "zigzag":
                 pcs, fwd, low = zigzag_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
                                               req.stepover, frame, fwd, low)
+            elif req.pattern == "trochoid":
+                pcs, fwd = trochoid_passes(k, lv.z, lv.r, lo, hi, reach, lv.outside,
+                                           req.stepover, frame, fwd, st.cutter.max_radius)
             else:
                 # the holes' radius half-way up the corner: the grid leaves no island above
                 # half the corner radius (the next level takes the rest)
@@ -548,7 +567,7 @@ class RoughingOperation(Operation):
             st.pieces.extend(pcs)
             for theta, r, side, ok in st.contours[k]:  # the contour pass along each wall
                 n0 = len(st.pieces)
-                if req.pattern == "zigzag":
+                if req.pattern != "plunge":
                     tips, axes = pose_frame(part.axis, theta, lv.z, r, st.theta_ref, req.lead,
                                             side)
                     st.pieces.extend(pass_pieces(k, tips, axes, ok, lv.outside, fwd))
@@ -578,20 +597,20 @@ class RoughingOperation(Operation):
         H = part.hub_profile
         hub_r = np.interp(st.z, H[:, 1], H[:, 0])
         step = req.floor_band_step
-        heights = np.arange(0.5 * step, st.hub_a + req.depth_per_cut + 1e-9, step)
+        heights = np.arange(0.5 * step, st.hub_a + st.band + 1e-9, step)
         if req.pattern == "plunge":
             # the plunge levels keep one axis each, which leaves the leaning walls a wedge:
             # rows up the whole wall too, half a depth per cut apart (the level step cusp
             # of that spacing bounds what is left between them)
             rv, _, _ = theta_about(part.blade_vertices, part.axis)
             top = float(rv.max() - hub_r.min())
-            heights = np.concatenate([heights, np.arange(heights[-1] + 0.5 * req.depth_per_cut,
-                                                         top, 0.5 * req.depth_per_cut)])
+            heights = np.concatenate([heights, np.arange(heights[-1] + 0.5 * st.depth,
+                                                         top, 0.5 * st.depth)])
         contacts = band_contacts(part.blade_vertices, part.blade_faces, part.axis,
                                  st.sections, st.theta_ref, part.pitch, st.z, hub_r, heights,
                                  req.allowance)
         lean = mean_camber_lean(st.sections, st.z, st.floor,
-                                st.floor + max(req.depth_per_cut, 2.0)) + req.side_tilt
+                                st.floor + max(st.depth, 2.0)) + req.side_tilt
         # the exact check up to a tool radius above the corner, the region's bounds above
         # (there the tool is a cylinder, which the bounds model without excess but for the
         # margin, here the check's tolerance instead)
@@ -735,7 +754,9 @@ class RoughingOperation(Operation):
             "pattern": req.pattern,
             "level_mode": req.levels,
             "levels": len(st.levels),
-            "depth_per_cut_mm": float(req.depth_per_cut),
+            "depth_per_cut_mm": float(st.depth),
+            "level_scallop_mm": req.level_scallop, "level_steps_mm": list(st.steps),
+            "floor_band_height_mm": float(st.hub_a + st.band),
             "stepover_mm": float(req.stepover),
             "allowance_mm": float(req.allowance),
             "hub_allowance_mm": float(st.hub_a),
@@ -847,40 +868,6 @@ class RoughingOperation(Operation):
 
     def finish(self, state, seconds):
         return OperationResult(state.path, None, dict(seconds))
-
-
-def _refined_bounds(sections, pitch, z, r, outside, table, req, side, chord: float = 0.5,
-                    rounds: int = 8):
-    """Stations and bounds of one level, refined where a bound moves more than ``chord`` mm
-    between two stations: a straight move of length L between two points of the envelope
-    of circles of radius o (≥ the tool's radius) leaves it by at most L²/(8 o), so chords of
-    ≤ 0.5 mm stay within the margin — also where the envelope turns round a leading or
-    trailing edge and its slope in z is unbounded (there halving the z step is what shortens
-    the chord). ``side`` (n,) the side tilt per station (rad), interpolated linearly at the
-    inserted stations. Returns (z, r, outside, lo, hi, side)."""
-    lo, hi = channel_bounds(sections, pitch, z, r, table, lead=req.lead, side=side)
-    for _ in range(rounds):
-        both = np.isfinite(lo[:-1]) & np.isfinite(lo[1:]) & np.isfinite(hi[:-1]) & \
-            np.isfinite(hi[1:])
-        rm = 0.5 * (r[:-1] + r[1:])
-        with np.errstate(invalid="ignore"):
-            jump = np.maximum(np.abs(np.diff(lo)), np.abs(np.diff(hi))) * rm
-        bad = np.nonzero(both & (jump > chord))[0]
-        if len(bad) == 0:
-            break
-        zm = 0.5 * (z[bad] + z[bad + 1])
-        r_m = 0.5 * (r[bad] + r[bad + 1])
-        out_m = outside[bad] & outside[bad + 1]
-        s_m = 0.5 * (side[bad] + side[bad + 1])
-        lo_m, hi_m = channel_bounds(sections, pitch, zm, r_m, table, lead=req.lead, side=s_m)
-        order = np.argsort(np.concatenate([z, zm]), kind="stable")
-        z = np.concatenate([z, zm])[order]
-        r = np.concatenate([r, r_m])[order]
-        outside = np.concatenate([outside, out_m])[order]
-        side = np.concatenate([side, s_m])[order]
-        lo = np.concatenate([lo, lo_m])[order]
-        hi = np.concatenate([hi, hi_m])[order]
-    return z, r, outside, lo, hi, side
 
 
 def _max_turn(axis, move) -> float:
