@@ -74,6 +74,9 @@ def add_hub_arguments(parser: argparse.ArgumentParser):
                         "passes aim, 0 … 1 (default 0.3)")
     parser.add_argument("--allowance", type=_non_negative, default=0.0, metavar="MM",
                         help="distance kept from the blades (default 0)")
+    parser.add_argument("--hub-allowance", type=_non_negative, default=0.0, metavar="MM",
+                        help="hub: stock left on the hub, mm (default 0; e.g. 0.1 to "
+                        "semi-finish it: the passes run on the hub offset by it)")
     parser.add_argument("--chord", type=positive, default=0.05, metavar="MM",
                         help="chord tolerance (default 0.05)")
     parser.add_argument("--gaps", choices=("one", "all"), default="one",
@@ -103,6 +106,9 @@ def _request(args):
     fillet = args.operation == "fillet"
     if not fillet and args.stepover is None and args.scallop is None:
         raise UsageError("give the hub spacing: --stepover MM or --scallop MM")
+    if fillet and args.hub_allowance:
+        raise UsageError("--hub-allowance is for hub finishing: the fillet pass leaves no "
+                         "stock on the hub")
     if fillet and args.fillet_radius is None:
         raise UsageError("--operation fillet needs --fillet-radius MM (the ball must be "
                          "smaller than the fillet)")
@@ -115,7 +121,8 @@ def _request(args):
         ring_width=args.ring_width, ring_stepover=args.ring_stepover,
         ring_scallop=args.ring_scallop, extend=args.extend, lead=math.radians(args.lead),
         tilt=math.radians(tilt), axis_mode=args.axis, aim_spread=args.aim_spread,
-        allowance=args.allowance, chord=args.chord, gaps=args.gaps,
+        allowance=args.allowance, hub_allowance=args.hub_allowance, chord=args.chord,
+        gaps=args.gaps,
         collisions=args.collisions, flute_length=args.flute_length,
         holder=holder_profile(args.holder, "--holder") if args.holder else None,
         safety=args.safety, fillet_radius=args.fillet_radius, layers=args.layers)

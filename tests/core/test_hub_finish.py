@@ -153,13 +153,10 @@ def test_hub_tool_body_is_clear_of_the_blades_and_the_program_is_linked(part, hu
     assert back.collision["unresolved"] == 0
 
 
-def test_hub_scallop_measured_on_the_stock(part):
-    """Two neighbouring passes (their middle part) run on a stock 0.3 mm above the part: the
-    material left between them, read on the stock at the hub, stays within the scallop
-    target plus the stock's resolution, and the passes did cut (less than the 0.3 mm)."""
-    res_mm, h = 0.15, 0.15
-    req = HubRequest(tool_diameter=2 * RHO, scallop=h, extend=4.0, allowance=0.4,
-                     collisions="off")
+def _left_between_two_passes(part, req, stock_allowance, res_mm):
+    """The hub's two most widely spaced neighbouring passes of ``req`` (their middle part)
+    run on a stock ``stock_allowance`` mm above the part at ``res_mm``: (path, the material
+    left on the hub between them, read on the stock on the passes' own CC lines)."""
     path = run_operation(HUB_FINISH, part, req).path
     widest = int(np.argmax(np.diff([c.s for c in path.curves])))
     pair = path.curves[widest:widest + 2]
@@ -178,9 +175,10 @@ def test_hub_scallop_measured_on_the_stock(part):
                    curve=np.repeat([0, 1], [len(c.tip) for c in pair]),
                    index=np.concatenate([np.arange(len(c.tip)) for c in pair]),
                    flags=np.zeros(len(tips), np.uint8))
-    stock = stock_from_allowance(part, 0.3, res_mm)
+    stock = stock_from_allowance(part, stock_allowance, res_mm)
     remove_program(stock, prog, path.tool, check_body=False, sweep_tolerance=0.01)
-    # hub points between the two passes, away from their ends: on their own CC lines
+    # hub points between the two passes, away from their ends (the part's own hub: the
+    # passes' CC lines read on it by their (m, θ))
     from blisk_cam.core.hub.surface import HubSurface
     hub = HubSurface(part.hub_profile, part.axis)
     ma, ta, _ = hub.coordinates(pair[0].cc)
@@ -192,10 +190,63 @@ def test_hub_scallop_measured_on_the_stock(part):
     f = np.linspace(0.0, 1.0, 41)
     TH = (thA[:, None] + f[None, :] * (thB - thA)[:, None]).ravel()
     M = np.repeat(ms, len(f))
-    left = deviation_map(stock, hub.point(M, TH), hub.normal(M, TH))
+    return path, deviation_map(stock, hub.point(M, TH), hub.normal(M, TH))
+
+
+def test_hub_scallop_measured_on_the_stock(part):
+    """Two neighbouring passes (their middle part) run on a stock 0.3 mm above the part: the
+    material left between them, read on the stock at the hub, stays within the scallop
+    target plus the stock's resolution, and the passes did cut (less than the 0.3 mm)."""
+    res_mm, h = 0.15, 0.15
+    req = HubRequest(tool_diameter=2 * RHO, scallop=h, extend=4.0, allowance=0.4,
+                     collisions="off")
+    _, left = _left_between_two_passes(part, req, 0.3, res_mm)
     assert left.max() <= h + res_mm
     assert left.max() < 0.3 - res_mm  # the passes cut
     assert left.min() >= -req.chord - res_mm  # and did not dig into the hub
+
+
+def test_hub_semi_finishing_leaves_the_hub_allowance_on_the_stock(part):
+    """Issue 23 item 2 for the hub: with a hub allowance a the passes run on the hub offset
+    by a. Measured independently: the ball centres lie ρ + a from the part's own hub
+    profile, and on a stock 0.6 mm above the part the hub keeps between a − chord and
+    a + scallop (± the stock's resolution) between two passes — the passes cut, but no
+    deeper than the allowance."""
+    res_mm, h, a = 0.15, 0.15, 0.25
+    req = HubRequest(tool_diameter=2 * RHO, scallop=h, extend=4.0, allowance=0.4,
+                     hub_allowance=a, collisions="off")
+    path, left = _left_between_two_passes(part, req, 0.6, res_mm)
+    centres = np.vstack([c.cc[5:-5] + RHO * c.normal[5:-5] for c in path.curves])
+    inside = _profile_distance(centres, part)
+    z = (centres - part.axis.o) @ part.axis.d
+    hz = part.hub_profile[:, 1]
+    within = (z > hz.min() + RHO + 1.0) & (z < hz.max() - RHO - 1.0)
+    assert within.sum() > 100
+    assert np.abs(inside[within] - (RHO + a)).max() <= 1e-3
+    assert path.stats["hub_allowance_mm"] == a
+    assert path.stats["hub_left_min_mm"] == pytest.approx(a, abs=1e-3)
+    assert left.max() <= a + h + res_mm
+    assert left.max() < 0.6 - res_mm  # the passes cut
+    assert left.min() >= a - req.chord - res_mm  # and left the allowance
+
+
+def test_hub_offset_that_folds_is_refused():
+    """A concave bend of the hub profile tighter than the offset is refused by name; a gentle
+    one is offset exactly (every segment moved a along its normal)."""
+    from blisk_cam.core.errors import PartError
+    from blisk_cam.core.geometry.axis import Axis
+    from blisk_cam.core.hub.surface import HubSurface
+    axis = Axis(np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    # (r, z): a notch 0.5 mm deep and 1 mm wide in a hub at r 100
+    notch = HubSurface(np.array([[100.0, -20.0], [100.0, -0.5], [99.5, 0.0], [100.0, 0.5],
+                                 [100.0, 20.0]]), axis)
+    with pytest.raises(PartError, match="folds over itself"):
+        notch.offset(2.0)
+    gentle = HubSurface(np.array([[100.0, -20.0], [102.0, 0.0], [103.0, 20.0]]), axis)
+    off = gentle.offset(0.7)
+    pts = off.point(np.linspace(1.0, off.length - 1.0, 200), np.zeros(200))
+    assert np.abs(gentle.distance(pts) - 0.7).max() <= 1e-9
+    assert gentle.offset(0.0) is gentle
 
 
 def test_two_regions_space_the_ring_beside_the_blades_by_its_own_stepover(part):
@@ -268,6 +319,12 @@ def test_hub_command_writes_the_paths_json_and_refuses_a_big_ball(part, tmp_path
                         "8", "--out", str(tmp_path / "f.json")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "fillet radius is 8 mm" in err[0]
+    assert not (tmp_path / "f.json").exists()
+    # the fillet pass leaves no stock on the hub: a hub allowance there is refused by name
+    assert main(base + ["--operation", "fillet", "--tool-diameter", "6", "--fillet-radius",
+                        "8", "--hub-allowance", "0.1", "--out", str(tmp_path / "f.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--hub-allowance" in err[0]
     assert not (tmp_path / "f.json").exists()
 
 

@@ -69,6 +69,39 @@ class HubSurface:
             km[1:-1] = -sgn * turn / (0.5 * (self.seg_len[:-1] + self.seg_len[1:]))
         self._kappa_m = km
 
+    def offset(self, a: float) -> HubSurface:
+        """The hub surface offset by ``a`` mm along its normal, out of the material (a ≥ 0):
+        the surface a ball leaves ``a`` mm of stock on (hub semi-finishing, paper 003 §5 —
+        the hub's counterpart of the blade offset of :mod:`..process.blade_finish`). The
+        offset of a surface of revolution is its meridian's offset revolved: every profile
+        segment moves ``a`` along its own normal and the vertices go to the meets of the moved
+        segments (the miter point a / cos(β/2) along the bisector, β the turn at the vertex).
+        PartError where the offset folds over itself: a concave bend of the profile tighter
+        than ``a``."""
+        a = float(a)
+        if not (np.isfinite(a) and a >= 0.0):
+            raise PartError(f"hub offset must be a number ≥ 0 mm, got {a!r}")
+        if a == 0.0:
+            return self
+        seg = np.diff(self.profile, axis=0)
+        nrm = np.stack([self._seg_tan[:, 1], -self._seg_tan[:, 0]], 1)
+        nrm *= np.where(nrm[:, :1] < 0, -1.0, 1.0)
+        vn = self._vertex_normal
+        # the segment normal on either side of each vertex (the ends: their own segment's)
+        side = np.vstack([nrm[:1], nrm])
+        cos_half = np.einsum("ij,ij->i", vn, side)
+        Q = self.profile + (a / np.maximum(cos_half, 1e-9))[:, None] * vn
+        new = np.diff(Q, axis=0)
+        folds = np.einsum("ij,ij->i", new, seg) <= 0.0
+        if np.any(folds):
+            i = int(np.argmax(folds))
+            r, z = self.profile[i]
+            raise PartError(
+                f"the hub offset by {a:g} mm folds over itself near r {r:.1f} mm, z {z:.1f} "
+                f"mm (a concave bend of the hub profile tighter than {a:g} mm): leave less "
+                f"stock on the hub")
+        return HubSurface(Q, self.axis)
+
     @property
     def length(self) -> float:
         """Meridional length of the profile, mm."""

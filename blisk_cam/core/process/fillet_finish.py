@@ -196,6 +196,10 @@ class FilletFinish(Operation):
         if request.fillet_radius is None:
             raise BliskCamError("fillet finishing needs the fillet radius (mm): the ball must "
                                 "be smaller than it")
+        if request.hub_allowance:
+            raise BliskCamError(f"fillet finishing leaves no stock on the hub (hub allowance "
+                                f"{request.hub_allowance:g} mm): semi-finish the hub with hub "
+                                f"finishing, or set the hub allowance to 0")
         if not (isinstance(request.layers, int) and 1 <= request.layers <= 50):
             raise BliskCamError(f"fillet layers must be a whole number in 1 … 50, got "
                                 f"{request.layers!r}")

@@ -89,6 +89,9 @@ class HubRequest:
         aim_spread across the tips' gap (1: the first pass aims beside blade 0's tip, 0: every
         pass at the middle; the blade sides bulge between root and tip)
     allowance : float — distance kept from the blades (stock left on them)
+    hub_allowance : float — stock left on the hub, mm (hub semi-finishing, paper 003 §5:
+        the passes are planned on the hub offset by it, :meth:`..hub.surface.HubSurface.offset`;
+        0: finishing); fillet finishing leaves none
     chord : float — chord tolerance of the CC polylines; max_step the longest step
     gaps : "one" | "all" — gap 0 only (the NC post repeats it per blade) or all N gaps; the
         collision check runs on gap 0 before the pattern and the other gaps take its status
@@ -118,6 +121,7 @@ class HubRequest:
     axis_mode: str = "channel"
     aim_spread: float = 0.3
     allowance: float = 0.0
+    hub_allowance: float = 0.0
     chord: float = 0.05
     max_step: float = 2.0
     gaps: str = "one"
@@ -164,7 +168,7 @@ class HubRequest:
             for name in ("ring_stepover", "ring_scallop"):
                 if getattr(self, name) is not None:
                     positive(name, getattr(self, name))
-        for name in ("extend", "allowance", "ring_width"):
+        for name in ("extend", "allowance", "hub_allowance", "ring_width"):
             positive(name, getattr(self, name), zero_ok=True)
         for name in ("chord", "max_step", "approach", "clearance_margin"):
             positive(name, getattr(self, name))
@@ -229,7 +233,7 @@ def start_state(part: BliskPart, req: HubRequest, *, spacing: bool = True) -> Hu
         raise BliskCamError("hub finishing needs at least two blades (the gap between blade 0 "
                             "and blade 1)")
     cutter = Cutter.ball(req.radius)
-    hub = HubSurface(part.hub_profile, part.axis)
+    hub = HubSurface(part.hub_profile, part.axis).offset(req.hub_allowance)
     return HubState(part=part, req=req, cutter=cutter, hub=hub,
                     blade=TriMesh.from_arrays(part.blade_vertices, part.blade_faces))
 
@@ -459,6 +463,9 @@ def _stage_checks(st: HubState):
         sep_max = max(sep_max, float(sep.max()))
         scallop_max = max(scallop_max, float(scallop_for_stepover(req.radius, sep, kappa).max()))
     zero = int(sum(int(np.count_nonzero(c.flags & FLAG_ZERO_SPEED)) for c in st.curves))
+    # the ball's distance from the hub itself (the part's profile, not the offset planned on):
+    # the stock it leaves where it touches, measured independently of the offset
+    left = HubSurface(st.part.hub_profile, st.part.axis).distance(C) - req.radius
     st.stats.update({
         "operation": st.operation,
         "tool": st.req.tool_name,
@@ -478,6 +485,9 @@ def _stage_checks(st: HubState):
         "tilt_deg": math.degrees(req.tilt),
         "ring_width_mm": float(req.ring_width),
         "zero_speed_poses": zero,
+        "hub_allowance_mm": float(req.hub_allowance),
+        "hub_left_min_mm": float(left.min()),
+        "hub_left_max_mm": float(left.max()),
     })
     return
     yield

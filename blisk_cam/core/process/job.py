@@ -589,11 +589,13 @@ def _cut_into_part(runs) -> float | None:
 
 def final_verdict(job: Job, part: BliskPart, stock, runs):
     """The job's final verdict (:func:`.job_verdict.job_verdict`) on ``stock`` (after the
-    last operation) from the finishing operations among ``runs``; the fillet named on the
+    last operation) from the finishing operations among ``runs`` (a hub finishing that
+    leaves a ``hub_allowance`` semi-finishes: its contacts finish nothing); the fillet named on the
     part up to its measured radius (else a fillet operation's ``fillet_radius``)."""
     contacts = [OperationContacts.from_path(r.op.index, r.op.name, r.path, r.op.kind.name)
                 for r in runs
-                if r.op.kind.name in FINISHING_KINDS]
+                if r.op.kind.name in FINISHING_KINDS
+                and not float(r.op.options.get("hub_allowance") or 0.0) > 0.0]
     measured = part_fillet(part)
     fr = measured.radius if measured is not None else next(
         (float(r.op.options["fillet_radius"]) for r in runs

@@ -351,6 +351,8 @@ _HUB_KEYS = {
     "axis_mode": ("channel", "channel (aimed through the gap at the tips) or normal", "word"),
     "aim_spread": (0.3, "channel mode: spread of the aim across the tips' gap, 0 … 1", "num"),
     "allowance": (0.0, "distance kept from the blades (and stock left), mm", "mm"),
+    "hub_allowance": (0.0, "stock left on the hub, mm (> 0: hub semi-finishing, its contacts "
+                      "then finish nothing in the final verdict)", "mm"),
     "chord": (0.05, "chord tolerance, mm", "mm"),
     "approach": (2.0, "approach/retract along the tool axis, mm", "mm"),
     "clearance_margin": (10.0, "clearance cylinder outside the blade tips, mm", "mm"),
@@ -456,7 +458,8 @@ register_operation_kind(OperationKind(
     "fillet_finish", "fillet finishing (the lower fillet edge; layers across it by a scallop)",
     prepare_fillet_finish,
     _options_of({**_HUB_KEYS, **_FILLET_KEYS}, drop=("stepover", "ring_width",
-                                                     "ring_stepover", "ring_scallop")),
+                                                     "ring_stepover", "ring_scallop",
+                                                     "hub_allowance")),
     default_depth=0.2))
 __all__ += ["ball_fits_channel", "prepare_fillet_finish", "prepare_hub_finish"]
 
