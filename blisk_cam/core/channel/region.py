@@ -36,7 +36,7 @@ from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter
 
 __all__ = ["Section", "channel_bounds", "cylinder_sections", "fill_free", "offset_table",
-           "refined_bounds"]
+           "refined_bounds", "widest_circle"]
 
 
 class Section:
@@ -308,3 +308,35 @@ def refined_bounds(sections, pitch, z, r, outside, table, lead: float, side, cho
         lo = np.concatenate([lo, lo_m])[order]
         hi = np.concatenate([hi, hi_m])[order]
     return z, r, outside, lo, hi, side
+
+
+def widest_circle(part, sections, z, r_floor, band) -> tuple[float, float]:
+    """(widest, narrowest) at the hub (mm): the diameter of the widest circle between blade 0
+    and blade 1 on the band of cylinders ``band`` mm above the floor that lies axially within
+    the blade row (a circle beyond the leading or trailing edge is not in the channel), and
+    the narrowest circumferential gap between the blades there."""
+    hs = np.array([band[0] - 1e-6, band[0], band[1], band[1] + 1e-6])
+    zs = np.concatenate([s.z for s in sections if len(s.z)])
+    if len(zs) == 0:
+        return math.inf, math.inf
+    z_lo, z_hi = float(zs.min()), float(zs.max())
+
+    def fits(o):
+        lo, hi = channel_bounds(sections, part.pitch, z, r_floor,
+                                (hs, np.array([-np.inf, o, o, -np.inf])))
+        d = np.isfinite(lo) & np.isfinite(hi) & (z >= z_lo + o) & (z <= z_hi - o)
+        return d, (hi - lo)
+
+    d0, w0 = fits(0.5)  # (a disc, not a point: the section points lie 0.3 mm apart)
+    if not d0.any():
+        return math.inf, math.inf
+    lo_o, hi_o = 0.5, 0.5 * (z_hi - z_lo)
+    for _ in range(30):
+        mid = 0.5 * (lo_o + hi_o)
+        d, w = fits(mid)
+        if (d & (w >= 0)).any():
+            lo_o = mid
+        else:
+            hi_o = mid
+    throat = float((w0[d0] * r_floor[d0]).min()) + 1.0
+    return 2.0 * lo_o, throat

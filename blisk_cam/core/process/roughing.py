@@ -90,6 +90,7 @@ from ..channel.region import (
     fill_free,
     offset_table,
     refined_bounds,
+    widest_circle,
 )
 from ..channel.trochoid import trochoid_passes
 from ..errors import BliskCamError, StockError, ToolError
@@ -233,38 +234,6 @@ def _blade_theta(part: BliskPart) -> float:
     return float(math.atan2(np.sin(th).mean(), np.cos(th).mean()))
 
 
-def _widest_circle(part, sections, z, r_floor, band) -> tuple[float, float]:
-    """(widest, narrowest) at the hub (mm): the diameter of the widest circle between blade 0
-    and blade 1 on the band of cylinders ``band`` mm above the floor that lies axially within
-    the blade row (a circle beyond the leading or trailing edge is not in the channel), and
-    the narrowest circumferential gap between the blades there."""
-    hs = np.array([band[0] - 1e-6, band[0], band[1], band[1] + 1e-6])
-    zs = np.concatenate([s.z for s in sections if len(s.z)])
-    if len(zs) == 0:
-        return math.inf, math.inf
-    z_lo, z_hi = float(zs.min()), float(zs.max())
-
-    def fits(o):
-        lo, hi = channel_bounds(sections, part.pitch, z, r_floor,
-                                (hs, np.array([-np.inf, o, o, -np.inf])))
-        d = np.isfinite(lo) & np.isfinite(hi) & (z >= z_lo + o) & (z <= z_hi - o)
-        return d, (hi - lo)
-
-    d0, w0 = fits(0.5)  # (a disc, not a point: the section points lie 0.3 mm apart)
-    if not d0.any():
-        return math.inf, math.inf
-    lo_o, hi_o = 0.5, 0.5 * (z_hi - z_lo)
-    for _ in range(30):
-        mid = 0.5 * (lo_o + hi_o)
-        d, w = fits(mid)
-        if (d & (w >= 0)).any():
-            lo_o = mid
-        else:
-            hi_o = mid
-    throat = float((w0[d0] * r_floor[d0]).min()) + 1.0
-    return 2.0 * lo_o, throat
-
-
 class RoughingOperation(Operation):
     """Channel roughing (module docstring). ``part`` a :class:`~..part.model.BliskPart`,
     ``request`` a :class:`RoughRequest`, ``stock`` the blank (radial dexels of one sector,
@@ -341,7 +310,7 @@ class RoughingOperation(Operation):
         radii = np.arange(float(r_floor.min()) + band[0] - 0.5,
                           float(r_floor.max()) + band[1] + 0.5, 0.25)
         secs = cylinder_sections(V, part.blade_faces, part.axis, radii, st.theta_ref, 0.3)
-        widest, throat = _widest_circle(part, secs, st.z, r_floor, band)
+        widest, throat = widest_circle(part, secs, st.z, r_floor, band)
         if math.isfinite(widest):
             if a >= 0.5 * widest:
                 raise BliskCamError(f"allowance {a:g} mm is larger than half the channel: the "
