@@ -61,7 +61,7 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
     """Add the ``rough`` options to ``parser``."""
     from ..core.channel.gaps import GAP_ORDERS
     from ..core.channel.levels import LEVEL_MODES
-    from ..core.process.roughing import PATTERNS
+    from ..core.process.roughing import BODY_MEETS_STOCK, PATTERNS
 
     add_part_arguments(parser)
     parser.add_argument("--stock", required=True, metavar="BLANK",
@@ -105,6 +105,12 @@ def add_rough_arguments(parser: argparse.ArgumentParser):
                    help="gap: every level of a gap, then the next gap; level: a level in "
                    "every gap, then the next level (each level linked alone; the post "
                    "interleaves the gaps) (default gap)")
+    g.add_argument("--body-meets-stock", type=str.lower, choices=BODY_MEETS_STOCK,
+                   default="leave-out",
+                   help="where the tool body would meet the stock the levels above left: "
+                   "leave-out that stretch with a warning naming the level (default), or flag "
+                   "it: kept, its rows marked as unresolved collisions (--nc then refuses them "
+                   "unless --allow-collisions)")
     g.add_argument("--floor-band-step", type=_non_negative, default=0.5, metavar="MM",
                    help="with --axis blades: rows of surface-driven passes on the blades' "
                    "allowance offset every MM from the hub to the level above, which keep the "
@@ -194,7 +200,8 @@ def run_rough(args) -> int:
         rapid_feed=args.rapid_feed, spindle=args.spindle,
         follow_blades=args.axis == "blades", max_turn=math.radians(args.max_turn),
         order=args.order, floor_band_step=args.floor_band_step,
-        level_scallop=args.level_scallop, max_depth_per_cut=args.max_depth_per_cut)
+        level_scallop=args.level_scallop, max_depth_per_cut=args.max_depth_per_cut,
+        body_meets_stock=args.body_meets_stock)
     gen = iter_run_operation(RoughingOperation(), part, req, stock)
     while True:
         try:

@@ -260,3 +260,56 @@ def test_round_the_axis_goes_the_shorter_way_in_bounded_steps():
     t = np.clip(-np.einsum("ij,ij->i", a, e) / np.einsum("ij,ij->i", e, e), 0, 1)
     near = np.linalg.norm(a + t[:, None] * e, axis=1)
     assert near.min() >= 100 * math.cos(0.25)
+
+
+def test_where_the_body_meets_the_stock_is_left_out_or_flagged_at_the_users_choice(
+        setup, monkeypatch):
+    """Issue 23: what the tool body cannot pass without meeting the stock is left out with a
+    warning naming the level, or — the user's choice, ``body_meets_stock="flag"`` — kept
+    with its rows flagged as unresolved collisions, which the post's gate refuses unless
+    collisions are allowed. A body crash is planted on one cutting row of the stock check's
+    first round (the crash finding itself is the stock simulation's, tested there)."""
+    from blisk_cam.core.post.gate import CollisionGateError, collision_gate
+    from blisk_cam.core.process import roughing
+    from blisk_cam.core.stock.removal import Crash
+    from blisk_cam.core.toolpath.types import STATUS_UNRESOLVED
+
+    clean = _plan(setup, "gap")
+    assert clean.collision["unresolved"] == 0
+    collision_gate(clean)  # checked and clear: posted without a note
+    cut = np.flatnonzero(clean.program.move == MOVE_CUT)
+    planted = int(cut[len(cut) // 2])
+    where = tuple(clean.program.tip[planted])
+    calls = []
+
+    def crashing(stock, program, *a, **kw):
+        res = remove_program(stock, program, *a, **kw)
+        calls.append(len(program.tip))
+        if len(calls) == 1:  # the first round runs the program planned clean
+            assert np.array_equal(program.tip, clean.program.tip)
+            res.crashes.append(Crash(planted, "body", "cut", 1.0, 0.5, where))
+        return res
+    monkeypatch.setattr(roughing, "remove_program", crashing)
+
+    calls.clear()
+    left = _plan(setup, "gap")
+    assert len(left.program.tip) < len(clean.program.tip)
+    assert not np.any(np.all(np.isclose(left.program.tip, where), axis=1))
+    assert any("would meet the stock" in w and "left out" in w for w in left.warnings)
+    assert left.collision["unresolved"] == 0
+
+    calls.clear()
+    flagged = _plan(setup, "gap", body_meets_stock="flag")
+    assert np.array_equal(flagged.program.tip, clean.program.tip)  # nothing left out
+    status = flagged.program.collision_status
+    assert np.flatnonzero(status == STATUS_UNRESOLVED).tolist() == [planted]
+    assert flagged.collision["unresolved"] == 1
+    # the level of the planted row (a pass's s is its level's index)
+    level = clean.stats["level_labels"][int(clean.curves[int(clean.program.curve[planted])].s)]
+    assert any(w.startswith(level) and "flagged as unresolved" in w for w in flagged.warnings)
+    with pytest.raises(CollisionGateError):
+        collision_gate(flagged)
+    assert collision_gate(flagged, allow_collisions=True).unresolved == 1
+    with pytest.raises(BliskCamError, match="where the body meets the stock: one of "
+                                            "leave-out, flag"):
+        _plan(setup, "gap", body_meets_stock="ignore")

@@ -43,7 +43,7 @@ from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
 from .fillet_finish import FILLET_FINISH, part_fillet
 from .hub_finish import HUB_FINISH, HubRequest, _stage_channel, start_state
 from .operation import Operation, Stage
-from .roughing import RoughingOperation, RoughRequest
+from .roughing import BODY_MEETS_STOCK, RoughingOperation, RoughRequest
 from .semi_layers import layer_allowances
 
 __all__ = ["OPERATION_KINDS", "PLANNED", "OperationContext", "OperationKind",
@@ -488,6 +488,9 @@ _ROUGH_KEYS = {
     "clearance": (5.0, "safe radius above the blank's top for rapids, mm", "mm"),
     "order": ("gap", "gap (every level of a gap, then the next gap) or level (a level in every "
               "gap, then the next level: the post interleaves the gaps)", "word"),
+    "body_meets_stock": ("leave-out", "where the tool body would meet the stock the levels "
+                         "above left: leave-out that stretch (named) or flag it as unresolved "
+                         "collisions (the post refuses them unless allowed)", "word"),
     "floor_band_step": (0.5, "with axis = blades, rows of surface-driven passes on the blades' "
                         "allowance offset every MM from the hub to the level above (0: none)",
                         "mm"),
@@ -517,6 +520,9 @@ def prepare_rough(ctx: OperationContext) -> PreparedOperation:
     if ("depth_per_cut" in kw) == ("level_scallop" in kw):
         raise BliskCamError(f"{where}: give one of the keys 'depth_per_cut' (constant steps, "
                             "mm) and 'level_scallop' (steps from the walls' slope, mm)")
+    if kw.get("body_meets_stock", "leave-out") not in BODY_MEETS_STOCK:
+        raise BliskCamError(f"{where} key 'body_meets_stock': one of "
+                            f"{', '.join(BODY_MEETS_STOCK)}, got {kw['body_meets_stock']!r}")
     if kw.get("order", "gap") not in GAP_ORDERS:
         raise BliskCamError(f"{where} key 'order': order must be one of {', '.join(GAP_ORDERS)}"
                             f", got {kw['order']!r}")

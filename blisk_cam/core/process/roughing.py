@@ -102,12 +102,14 @@ from ..stock.dexels import RadialDexels
 from ..stock.removal import body_assembly, remove_program
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import Cutter, as_cutter
-from ..toolpath.types import MOVE_CUT, PassCurve, Program, ToolPath
+from ..toolpath.types import MOVE_CUT, STATUS_UNRESOLVED, PassCurve, Program, ToolPath
 from .operation import Operation, OperationResult, Stage, run_operation
 
-__all__ = ["PATTERNS", "RoughRequest", "RoughingOperation", "plan_roughing"]
+__all__ = ["BODY_MEETS_STOCK", "PATTERNS", "RoughRequest", "RoughingOperation", "plan_roughing"]
 
 PATTERNS = ("zigzag", "plunge", "trochoid")
+#: what the roughing's stock check does where the tool body would meet the stock
+BODY_MEETS_STOCK = ("leave-out", "flag")
 
 
 @dataclass
@@ -158,6 +160,11 @@ class RoughRequest:
     floor_band_step : float, mm — with ``follow_blades``, the rows of the surface-driven
         passes in the floor band are this far apart in height above the hub (0: none;
         :mod:`..channel.floor_band`)
+    body_meets_stock : str — what ``check_stock`` does where the tool body would meet the
+        stock: ``leave-out`` that stretch (a warning names the level), or ``flag`` it: the
+        passes are kept and those rows flagged as unresolved collisions (the program's
+        ``collision_status``; the post refuses them unless the user allows collisions, the
+        stock simulation reports the crashes) — the issue's "at the user's choice"
     """
 
     tool: Cutter
@@ -187,6 +194,7 @@ class RoughRequest:
     floor_band_step: float = 0.5
     level_scallop: float | None = None
     max_depth_per_cut: float | None = None
+    body_meets_stock: str = "leave-out"
 
 
 @dataclass
@@ -277,6 +285,12 @@ class RoughingOperation(Operation):
                                          and 1 <= req.gaps <= part.blade_count):
             raise BliskCamError(f"the gaps the program holds must be a whole number from 1 to "
                                 f"the blade count {part.blade_count}, got {req.gaps!r}")
+        if req.body_meets_stock not in BODY_MEETS_STOCK:
+            raise BliskCamError(f"where the body meets the stock: one of "
+                                f"{', '.join(BODY_MEETS_STOCK)}, got {req.body_meets_stock!r}")
+        if req.body_meets_stock == "flag" and (req.gaps or 1) > 1:
+            raise BliskCamError("flagging where the body meets the stock needs the program of "
+                                "one gap (the post repeats it): leave 'gaps' unset")
         if req.pattern not in PATTERNS:
             raise BliskCamError(f"pattern must be one of {', '.join(PATTERNS)}, got "
                                 f"{req.pattern!r}")
@@ -652,9 +666,10 @@ class RoughingOperation(Operation):
             res = remove_program(st.stock.copy(), program, st.cutter, st.assembly,
                                  sweep_tolerance=0.05, near=near, near_margin=wide)
             hits: dict = {}
-            for c in res.crashes + (req.fine_check.crashes(
-                    st.stock, program, st.cutter, st.assembly, near,
-                    grow=wide and 1.5 * wide) if near else []):
+            crashes = res.crashes + (req.fine_check.crashes(
+                st.stock, program, st.cutter, st.assembly, near,
+                grow=wide and 1.5 * wide) if near else [])
+            for c in crashes:
                 k = int(curve[c.row]) if c.row < len(curve) else -1
                 j = int(index[c.row]) if k >= 0 else 0
                 if k < 0:  # a link, rapid or approach: the start of the piece it leads to
@@ -663,6 +678,16 @@ class RoughingOperation(Operation):
                 if k >= 0:
                     hits.setdefault(k, []).append(j)
             if not hits:
+                break
+            if req.body_meets_stock == "flag":
+                flagged = sorted({int(c.row) for c in crashes if c.row < len(tip)})
+                program.collision_status = np.zeros(len(tip), np.int8)
+                program.collision_status[flagged] = STATUS_UNRESOLVED
+                st.warnings.append(
+                    f"{', '.join(sorted({st.levels[st.pieces[k].level].label for k in hits}))}"
+                    f": the tool body meets the stock the levels above left on {len(flagged)} "
+                    "rows: kept and flagged as unresolved collisions (the post refuses them "
+                    "unless collisions are allowed)")
                 break
             pieces = []
             for k, pc in enumerate(st.pieces):
@@ -774,7 +799,15 @@ class RoughingOperation(Operation):
         st.path = ToolPath(axis=part.axis, cone1=cone1, cone2=cone2, tool=st.cutter,
                            cusp=max(scallop, 1e-3), chord=max(req.margin, 1e-3),
                            curves=curves, stats=stats, program=program,
-                           warnings=list(st.warnings), operation="rough")
+                           warnings=list(st.warnings), operation="rough",
+                           collision=None if not req.check_stock else {
+                               "mode": "check", "checked_poses": int(len(tip)),
+                               "unresolved": int(np.count_nonzero(
+                                   program.collision_status
+                                   if program.collision_status is not None else ())),
+                               "checks": "the tool body kept off the blades' and the hub's "
+                                         "allowance by the region; against the stock the "
+                                         "levels above left by simulating the program"})
         yield Progress(1.0, f"linked {len(tip)} rows")
 
     def _linked(self, st: _State):
