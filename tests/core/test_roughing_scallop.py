@@ -25,7 +25,6 @@ from blisk_cam.core.channel.level_scallop import (
 )
 from blisk_cam.core.errors import BliskCamError, ToolError
 from blisk_cam.core.geometry.axis import Axis
-from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.model import part_from_demo, theta_about
 from blisk_cam.core.process.roughing import RoughRequest, plan_roughing
 from blisk_cam.core.stock.blank import stock_from_envelope
@@ -33,6 +32,7 @@ from blisk_cam.core.stock.deviation import deviation_map
 from blisk_cam.core.stock.removal import remove_program
 from blisk_cam.core.stock.simulation import part_surface
 from blisk_cam.core.tool.cutter import Cutter
+from tests.core.test_roughing import _demo, _tool
 
 RES = 1.0
 ALLOWANCE = 0.5
@@ -209,17 +209,6 @@ def test_flute_check_keeps_the_exact_allowance_on_a_plane_and_in_a_concave_fille
 
 
 # ------------------------------------------------------------------ roughing with a scallop
-def _demo():
-    return make_demo_blisk(resolution=0.2, hub_cone=(150.0, -12.0, 154.0, 12.0),
-                           tip_cone=(178.0, -12.0, 181.0, 12.0), chord_hub=22.0,
-                           chord_tip=22.0, fillet_radius=4.0, hub_extension=4.0,
-                           max_thickness_hub=2.5, max_thickness_tip=1.5)
-
-
-def _tool():
-    return Cutter.bull(4.0, 1.0, h=24.0, neck_length=30.0)
-
-
 @pytest.fixture(scope="module")
 def scalloped():
     part = part_from_demo(_demo())
