@@ -143,6 +143,16 @@ def radial_step_limit(h: float, cutter: Cutter, normals, axes, radial) -> np.nda
     return np.where(np.isfinite(dr), dr, np.inf)
 
 
+def _blade_vertices(V, F, axis: Axis):
+    """(r, θ, z, unit normals (k, 3), radial directions (k, 3)) of the blade mesh's vertices:
+    what :func:`fillet_band` and :func:`wall_samples` read the walls' slope from."""
+    mesh = TriMesh.from_arrays(np.asarray(V, float), np.asarray(F, np.int64))
+    r, th, z = theta_about(mesh.V, axis)
+    e1, e2, _ = axis.angular_frame()
+    u = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
+    return r, th, z, mesh.vertex_normals, u
+
+
 def fillet_band(part, cutter: Cutter, lean: float = math.radians(20.0)) -> float:
     """The height (mm above the hub) up to which the levels' passes cannot be trusted to
     reach the walls, which the floor band's surface-driven passes then finish: the hub
@@ -152,12 +162,8 @@ def fillet_band(part, cutter: Cutter, lean: float = math.radians(20.0)) -> float
     (its corner rides on the fillet) plus R sin(``lean``) (the region's disc model smears a
     tool tilted by up to ``lean`` over that much height, keeping a bull nose's corner off the
     fillet, :func:`.region.offset_table`)."""
-    mesh = TriMesh.from_arrays(np.asarray(part.blade_vertices, float),
-                               np.asarray(part.blade_faces, np.int64))
-    r, th, z = theta_about(mesh.V, part.axis)
-    e1, e2, _ = part.axis.angular_frame()
-    u = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
-    cb = np.abs(np.einsum("ij,ij->i", mesh.vertex_normals, u))
+    r, _, z, N, u = _blade_vertices(part.blade_vertices, part.blade_faces, part.axis)
+    cb = np.abs(np.einsum("ij,ij->i", N, u))
     H = np.asarray(part.hub_profile, float)
     y = r - np.interp(z, H[:, 1], H[:, 0])
     use = (cb >= math.cos(math.radians(60.0))) & (cb <= math.cos(math.radians(30.0))) & \
@@ -169,11 +175,7 @@ def fillet_band(part, cutter: Cutter, lean: float = math.radians(20.0)) -> float
 def wall_samples(V, F, axis: Axis):
     """The blade walls' samples (module docstring): (r, θ, z, normal (k, 3)) of the mesh's
     vertices whose normal lies within :data:`WALL_SLOPE` of the tangential plane."""
-    mesh = TriMesh.from_arrays(np.asarray(V, float), np.asarray(F, np.int64))
-    P, N = mesh.V, mesh.vertex_normals
-    r, th, z = theta_about(P, axis)
-    e1, e2, _ = axis.angular_frame()
-    u = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
+    r, th, z, N, u = _blade_vertices(V, F, axis)
     wall = np.abs(np.einsum("ij,ij->i", N, u)) <= math.sin(WALL_SLOPE)
     return r[wall], th[wall], z[wall], N[wall]
 
