@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-__all__ = ["bound_turn", "limit_turn", "mean_camber_lean", "turn_angles"]
+__all__ = ["bound_turn", "limit_turn", "mean_camber_lean", "tilted_axes", "turn_angles"]
 
 
 def _section_mid(sec, z, half: float) -> np.ndarray:
@@ -157,3 +157,14 @@ def bound_turn(tips, axes, max_step: float):
     a[j == 0] = axes[seg[j == 0]]
     return (np.concatenate([p, tips[-1:]]), np.concatenate([a, axes[-1:]]),
             int(k.sum() - len(w)))
+
+
+def tilted_axes(axis, theta, lead: float, side):
+    """(radial directions (k, 3), unit tool axes (k, 3)) at the angles ``theta`` (k,) rad
+    about the blisk ``axis`` (:class:`..geometry.axis.Axis`): the radial direction tilted by
+    ``lead`` (rad) toward +z and ``side`` (k,) rad toward +θ."""
+    e1, e2, d = axis.angular_frame()
+    u = np.cos(theta)[:, None] * e1 + np.sin(theta)[:, None] * e2
+    t = -np.sin(theta)[:, None] * e1 + np.cos(theta)[:, None] * e2
+    a = u + np.tan(side)[:, None] * t + math.tan(lead) * d
+    return u, a / np.linalg.norm(a, axis=1)[:, None]

@@ -58,7 +58,7 @@ from ..geometry.distance import MeshDistance
 from ..geometry.mesh import TriMesh
 from ..part.model import theta_about
 from ..tool.cutter import Cutter
-from .axis import limit_turn
+from .axis import limit_turn, tilted_axes
 from .patterns import Piece, drop_straight, runs_of
 
 __all__ = ["BandPoses", "FluteCheck", "band_contacts", "band_pieces", "band_poses",
@@ -378,16 +378,6 @@ class FluteCheck:
         return out
 
 
-def _frame(axis: Axis, theta_abs, lead: float, side):
-    """(k, 3) unit tool axes: the radial direction at ``theta_abs`` tilted by ``lead`` toward
-    +z and ``side`` (k,) toward +θ."""
-    e1, e2, d = axis.angular_frame()
-    u = np.cos(theta_abs)[:, None] * e1 + np.sin(theta_abs)[:, None] * e2
-    t = -np.sin(theta_abs)[:, None] * e1 + np.cos(theta_abs)[:, None] * e2
-    a = u + np.tan(side)[:, None] * t + math.tan(lead) * d
-    return a / np.linalg.norm(a, axis=1)[:, None]
-
-
 def _poses(cutter: Cutter, axis: Axis, q, n, side, lead: float, check, body,
            nudges: int = 2):
     """Poses touching q (k, 3) with normals n at side tilts ``side`` (k,): (tip (k, 3),
@@ -396,12 +386,12 @@ def _poses(cutter: Cutter, axis: Axis, q, n, side, lead: float, check, body,
     faceted concave fillet's neighbouring faces), the tip is moved along n by the shortfall
     and checked again (``nudges`` times)."""
     _, thq, _ = theta_about(q, axis)
-    a = _frame(axis, thq, lead, side)
+    _, a = tilted_axes(axis, thq, lead, side)
     ok = np.einsum("ij,ij->i", n, a) > 1e-3
     nn = np.where(ok[:, None], n, a)
     tip = q + cutter.contact(nn, a)[0]
     _, tht, _ = theta_about(tip, axis)
-    a = _frame(axis, tht, lead, side)
+    _, a = tilted_axes(axis, tht, lead, side)
     ok &= np.einsum("ij,ij->i", n, a) > 1e-3
     nn = np.where(ok[:, None], n, a)
     tip = q + cutter.contact(nn, a)[0]

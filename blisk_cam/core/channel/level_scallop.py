@@ -61,7 +61,7 @@ from ..geometry.axis import Axis
 from ..geometry.mesh import TriMesh
 from ..part.model import theta_about
 from ..tool.cutter import Cutter
-from .axis import mean_camber_lean
+from .axis import mean_camber_lean, tilted_axes
 from .levels import LEVEL_MODES, Level, level_radii
 
 __all__ = ["WALL_SLOPE", "channel_levels", "check_depth_options", "cusp_of_step", "fillet_band",
@@ -300,16 +300,6 @@ def scallop_levels(z, floor, top, mode: str, h: float, cap: float, cutter: Cutte
     return levels, steps
 
 
-def _tool_axes(axis: Axis, th, lead: float, side):
-    """(k, 3) the radial directions at ``th`` (k,) and the tool axes tilted from them by
-    ``lead`` toward +z and ``side`` (k,) toward +θ (rad)."""
-    e1, e2, d = axis.angular_frame()
-    u = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
-    tg = -np.sin(th)[:, None] * e1 + np.cos(th)[:, None] * e2
-    a = u + np.tan(side)[:, None] * tg + math.tan(lead) * d
-    return u, a / np.linalg.norm(a, axis=1)[:, None]
-
-
 def sample_limits(h: float, cutter: Cutter, axis: Axis, samples, lead: float, tilt_lo,
                   tilt_hi, n_tilts: int = 7) -> np.ndarray:
     """(k,) the largest radial step (mm) at each wall sample (r, θ, z, normal) of
@@ -321,7 +311,7 @@ def sample_limits(h: float, cutter: Cutter, axis: Axis, samples, lead: float, ti
     hi = np.broadcast_to(np.asarray(tilt_hi, float), th.shape)
     out = np.full(len(th), np.inf)
     for f in np.linspace(0.0, 1.0, max(2, n_tilts)):
-        u, a = _tool_axes(axis, th, lead, lo + f * (hi - lo))
+        u, a = tilted_axes(axis, th, lead, lo + f * (hi - lo))
         out = np.minimum(out, radial_step_limit(h, cutter, N, a, u))
     return out
 
