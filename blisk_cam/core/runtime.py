@@ -24,6 +24,7 @@ __all__ = [
     "map_tasks",
     "parallel",
     "run_to_end",
+    "scaled_progress",
     "workers",
 ]
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
@@ -231,3 +232,15 @@ def run_to_end(gen, report=None):
             return stop.value
         if report is not None:
             report(item)
+
+
+def scaled_progress(gen, lo: float, hi: float, prefix: str):
+    """``yield from gen`` (a generator of :class:`Progress`) with its fractions mapped to
+    [``lo``, ``hi``] and its messages prefixed by ``prefix``; returns its return value (a
+    stage of a longer run: one operation of a job, one layer of a semi-finishing)."""
+    while True:
+        try:
+            pr = next(gen)
+        except StopIteration as stop:
+            return stop.value
+        yield Progress(lo + (hi - lo) * float(pr.fraction), f"{prefix}: {pr.message}")

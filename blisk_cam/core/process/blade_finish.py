@@ -91,7 +91,7 @@ from ..paths.orientation import (
 )
 from ..paths.passes import iter_generate_paths
 from ..paths.spacing import expansion_radius, lead_for_concave, surface_radii
-from ..runtime import Progress
+from ..runtime import Progress, scaled_progress
 from ..tool.cutter import Cutter
 from ..toolpath.types import (
     FLAG_AXIS_SMOOTHED,
@@ -688,15 +688,8 @@ def _stage_layers(st: PlanState):
         sub = PathRequest(req.axis, *cones, cutter=req.cutter, tolerances=tol,
                           orientation=req.orientation, gouge=req.gouge, linking=req.linking,
                           extra=req.extra)
-        gen = iter_run_operation(BLADE_FINISH, st.mesh, sub)
-        while True:
-            try:
-                p = next(gen)
-            except StopIteration as stop:
-                res = stop.value
-                break
-            yield Progress((i + float(p.fraction)) / k, f"layer {i + 1} of {k} ({a:.3f} mm): "
-                           f"{p.message}")
+        res = yield from scaled_progress(iter_run_operation(BLADE_FINISH, st.mesh, sub),
+                                         i / k, (i + 1) / k, f"layer {i + 1} of {k} ({a:.3f} mm)")
         if i == 0:
             st.fit = res.fit
             cones = (res.path.cone1, res.path.cone2)

@@ -78,7 +78,7 @@ from ..post.export import get_post
 from ..post.gate import CollisionGateError
 from ..post.job_program import JobSection, check_job_post, job_program
 from ..presets import preset_names
-from ..runtime import Progress
+from ..runtime import Progress, scaled_progress
 from ..stock.blank import is_part_based, stock_from_spec
 from ..stock.dexels import MIN_RESOLUTION, RadialDexels
 from ..stock.fine_check import FineCheck, RunProgram
@@ -550,17 +550,6 @@ def _prefixed(exc: BliskCamError, where: str) -> BliskCamError:
         return BliskCamError(msg)
 
 
-def _scaled(gen, lo: float, hi: float, prefix: str):
-    """``yield from gen`` with its Progress fractions mapped to [lo, hi] and messages
-    prefixed; returns its value."""
-    while True:
-        try:
-            pr = next(gen)
-        except StopIteration as stop:
-            return stop.value
-        yield Progress(lo + (hi - lo) * float(pr.fraction), f"{prefix}: {pr.message}")
-
-
 def fk_check(machine: Machine, solved) -> dict:
     """Forward kinematics of every pose block of every solved section against its planned
     tip and axis, and whether every program row of the operation is there once per blade:
@@ -677,7 +666,7 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
         prep = op.kind.prepare(ctx)
         stock_in = {"volume_mm3": stock.volume(), "digest": stock_digest(stock)}
         try:
-            result = yield from _scaled(
+            result = yield from scaled_progress(
                 iter_run_operation(prep.operation, prep.part_input, prep.request,
                                    stock if prep.reads_stock else None, extra=prep.extra),
                 lo, lo + 0.5 * (hi - lo), label)
@@ -694,7 +683,7 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             clear_seconds = time.perf_counter() - t_clear
             near: list = []
             body = tool_assembly(op.tool, cutter)
-            sim = yield from _scaled(
+            sim = yield from scaled_progress(
                 iter_simulate(part, stock, [path], gouge_tolerance=job.gouge_tolerance,
                               assembly=body, cut_into_part=_cut_into_part(run.operations),
                               near=near),
