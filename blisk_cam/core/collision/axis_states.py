@@ -66,9 +66,6 @@ def _cl(cutter: Cutter, cc, nrm, ax, off, ball_centre):
     return tip
 
 
-
-
-
 def _interp_matrix_idx(n, idx):
     """(n, len(idx)) linear interpolation weights from the values at the sorted indices
     ``idx`` of 0..n−1 to every index."""
@@ -523,8 +520,7 @@ class _Planner:
         P, g0, gl = self.P, int(r.g[0]), int(r.g[-1])
         lim = float(angle_between(P.ax0[[gl]], P.ax0[[g0]])[0]) + self.rate * \
             max(float(np.linalg.norm(P.cc[g0] - P.cc[gl])), MIN_STEP)
-        ref = np.unravel_index(int(np.argmin(self.off[0][:, None] ** 2
-                                             + self.off[1][None, :] ** 2)), self.shape)
+        ref = np.unravel_index(int(np.argmin(self._dev)), self.shape)
         c0 = self.node_costs(g0).ravel()
         cheap = [np.unravel_index(int(i), self.shape) for i in np.argsort(c0, kind="stable")[:4]
                  if np.isfinite(c0[i])]
@@ -548,7 +544,6 @@ class _Planner:
         at the last station), returns (states, cost) or None."""
         P, (Fl, Ft) = self.P, self.shape
         gst = r.g[r.st]
-        A = [self.state_axes(int(gi)) for gi in gst]
         cost = self.node_costs(gst[0])
         if start is not None:
             keep = np.full(self.shape, np.inf)
@@ -557,7 +552,8 @@ class _Planner:
         if r.pre is not None:
             lim0 = float(angle_between(P.ax0[[r.pre]], P.ax0[[gst[0]]])[0]) + self.rate * \
                 max(float(np.linalg.norm(P.cc[gst[0]] - P.cc[r.pre])), MIN_STEP)
-            cost = cost + np.where(A[0] @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
+            first = self.state_axes(int(gst[0]))
+            cost = cost + np.where(first @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
             if (int(r.pre), int(gst[0])) in self.mpairs:
                 cost = cost + self.motion_cost_fixed(r.pre, gst[0], True)
         backs = []
@@ -591,7 +587,8 @@ class _Planner:
             gl = gst[-1]
             lim1 = float(angle_between(P.ax0[[gl]], P.ax0[[r.post]])[0]) + self.rate * \
                 max(float(np.linalg.norm(P.cc[r.post] - P.cc[gl])), MIN_STEP)
-            cost = cost + np.where(A[-1] @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
+            last = self.state_axes(int(gst[-1]))
+            cost = cost + np.where(last @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
             if (int(gl), int(r.post)) in self.mpairs:
                 cost = cost + self.motion_cost_fixed(r.post, gl, False)
         if final is not None:
