@@ -47,15 +47,14 @@ fn clip01(x: f64) -> f64 {
     }
 }
 
-/// `passes._point_triangle_distance` for one point and one triangle.
-pub fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
-    let n = cross(&sub(b, a), &sub(c, a));
-    let n2 = dot(&n, &n);
-    let h = dot(&sub(p, a), &n) / if n2 > 0.0 { n2 } else { 1.0 };
+/// `passes._point_triangle_distance` for one point and one triangle, given its normal
+/// `n` = (b − a) × (c − a) and `n2` = n · n (the caller's table holds them per face).
+fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3, n: &P3, n2: f64) -> f64 {
+    let h = dot(&sub(p, a), n) / if n2 > 0.0 { n2 } else { 1.0 };
     let foot = [p[0] - h * n[0], p[1] - h * n[1], p[2] - h * n[2]];
     let mut inside = n2 > 0.0;
     for (u, v) in [(a, b), (b, c), (c, a)] {
-        inside &= dot(&cross(&sub(v, u), &sub(&foot, u)), &n) >= 0.0;
+        inside &= dot(&cross(&sub(v, u), &sub(&foot, u)), n) >= 0.0;
     }
     let mut best = if inside {
         h.abs() * n2.sqrt()
@@ -118,7 +117,7 @@ pub fn fixed_point_lift<'py>(
     let one = |(i, lam): (usize, &mut f64)| {
         let row = &cc[i * width..(i + 1) * width];
         // the candidates' corners, normals and plane offsets (pruning only)
-        let tris: Vec<(P3, P3, P3, P3, f64, f64)> = row
+        let tris: Vec<(P3, P3, P3, P3, f64, f64, f64)> = row
             .iter()
             .filter(|&&fi| fi >= 0)
             .map(|&fi| {
@@ -127,7 +126,7 @@ pub fn fixed_point_lift<'py>(
                 let nrm = cross(&sub(&b, &a), &sub(&c, &a));
                 let n2 = dot(&nrm, &nrm);
                 let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
-                (a, b, c, nrm, inv, dot(&a, &nrm))
+                (a, b, c, nrm, n2, inv, dot(&a, &nrm))
             })
             .collect();
         for _ in 0..steps {
@@ -138,10 +137,10 @@ pub fn fixed_point_lift<'py>(
                 pp[i][2] + s * nn[i][2],
             ];
             let mut dmin = f64::INFINITY;
-            for (a, b, cc_, nrm, inv, an) in &tris {
+            for (a, b, cc_, nrm, n2, inv, an) in &tris {
                 let plane = (dot(&c, nrm) - an).abs() * inv;
                 if plane < limit {
-                    dmin = nanmin(dmin, point_triangle_distance(&c, a, b, cc_));
+                    dmin = nanmin(dmin, point_triangle_distance(&c, a, b, cc_, nrm, *n2));
                 }
             }
             let short = rho - dmin;

@@ -873,14 +873,10 @@ fn capsule_interval(
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     let r2 = rad * rad;
     for c in [c0, c1] {
-        let w = sub(o, c);
-        let b = dot(&w, u);
-        let disc = b * b - (dot(&w, &w) - r2);
-        if disc >= 0.0 {
-            let s = disc.sqrt();
-            lo = lo.min(-b - s);
-            hi = hi.max(-b + s);
-        }
+        // a miss is (+inf, -inf) and a NaN discriminant (NaN, NaN): min/max keep lo, hi
+        let (a, b) = sphere_interval(o, u, c, rad);
+        lo = lo.min(a);
+        hi = hi.max(b);
     }
     let dv = sub(c1, c0);
     let l2 = dot(&dv, &dv);
