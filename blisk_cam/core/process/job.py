@@ -83,7 +83,7 @@ from ..stock.blank import is_part_based, stock_from_spec
 from ..stock.dexels import MIN_RESOLUTION, RadialDexels
 from ..stock.fine_check import FineCheck, RunProgram
 from ..stock.rapid_clearance import clear_rapids
-from ..stock.simulation import iter_simulate
+from ..stock.simulation import cut_into, iter_simulate, part_on_grid
 from ..tool.assembly import AssemblyError, holder_profile
 from ..tool.cutter import Cutter
 from ..toolpath.types import MOVE_CUT
@@ -573,14 +573,15 @@ def fk_check(machine: Machine, solved) -> dict:
 def _cut_into_part(runs) -> float | None:
     """How deep the operations ``runs`` cut into the part at most, mm: each program its chord
     less the allowance it leaves (< 0: they stay outside the part); None without runs."""
-    return max((r.path.chord - float(r.path.allowance or 0.0) for r in runs), default=None)
+    return cut_into([r.path for r in runs])
 
 
-def final_verdict(job: Job, part: BliskPart, stock, runs):
+def final_verdict(job: Job, part: BliskPart, stock, runs, *, solid=None):
     """The job's final verdict (:func:`.job_verdict.job_verdict`) on ``stock`` (after the
     last operation) from the finishing operations among ``runs`` (a hub finishing that
     leaves a ``hub_allowance`` semi-finishes: its contacts finish nothing); the fillet named on the
-    part up to its measured radius (else a fillet operation's ``fillet_radius``)."""
+    part up to its measured radius (else a fillet operation's ``fillet_radius``). ``solid``:
+    the part cast on the stock's grid when the caller has it."""
     contacts = [OperationContacts.from_path(r.op.index, r.op.name, r.path, r.op.kind.name)
                 for r in runs
                 if r.op.kind.name in FINISHING_KINDS
@@ -592,7 +593,8 @@ def final_verdict(job: Job, part: BliskPart, stock, runs):
     into = _cut_into_part(runs)
     cut = max([c.chord for c in contacts] + ([] if into is None else [into]) + [0.0])
     return job_verdict(part, stock, contacts, resolution=job.resolution,
-                       gouge_tolerance=job.gouge_tolerance, fillet_radius=fr, cut_depth=cut)
+                       gouge_tolerance=job.gouge_tolerance, fillet_radius=fr, cut_depth=cut,
+                       solid=solid)
 
 
 #: the fine re-check of the rows near the stock (:mod:`..stock.fine_check`) runs at the
@@ -656,6 +658,7 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             raise _prefixed(exc, op.where) from None
     run = JobRun(job, part, {"volume_mm3": stock.volume(), "digest": stock_digest(stock)})
     n = len(job.operations)
+    frame = part_on_grid(part, stock)  # what every operation's verdict judges against
     fine_blank = _fine_blank(job, part)
     fine = None if fine_blank is None else FineCheck(fine_blank, [])
     for k, op in enumerate(job.operations):
@@ -686,7 +689,7 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             sim = yield from scaled_progress(
                 iter_simulate(part, stock, [path], gouge_tolerance=job.gouge_tolerance,
                               assembly=body, cut_into_part=_cut_into_part(run.operations),
-                              near=near),
+                              near=near, frame=frame),
                 lo + 0.5 * (hi - lo), hi, f"{label} on the stock")
             # the rapids and body rows that met material the stock's crash test let pass
             # (thinner than half a cell) judged again on a fine stock round them
@@ -717,7 +720,7 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
         run.operations.append(orun)
     yield Progress(0.92, "the final verdict on the stock")
     try:
-        run.verdict = final_verdict(job, part, stock, run.operations)
+        run.verdict = final_verdict(job, part, stock, run.operations, solid=frame.solid)
     except BliskCamError as exc:
         raise _prefixed(exc, f"job {job.file.name} final verdict") from None
     yield Progress(0.93, "writing the programs")

@@ -302,20 +302,22 @@ def _components(F, faces):
 def job_verdict(part: BliskPart, stock, contacts, *, resolution: float | None = None,
                 gouge_tolerance: float | None = None,
                 fillet_radius: float | None = None,
-                cut_depth: float | None = None) -> JobVerdict:
+                cut_depth: float | None = None, solid=None) -> JobVerdict:
     """The final verdict on ``stock`` (the stock after the last operation) of the finishing
     operations' ``contacts`` ([OperationContacts]); see the module docstring.
     ``fillet_radius`` (mm): blade faces lower than it above the hub are named the fillet.
     ``cut_depth`` (mm): the deepest any operation's clean program cuts into the part (its
     chord less the allowance it leaves; default: the finishing operations' largest chord),
-    for :func:`..stock.deviation.resolved_points`."""
+    for :func:`..stock.deviation.resolved_points`. ``solid``: the part cast on the stock's
+    grid (``stock_from_allowance(part, 0, res, grid=stock)``) when the caller has it."""
     res = float(resolution if resolution is not None else stock.resolution)
     V, F, hub, C, N, area = face_frame(part)
     cusp_chord = [c.cusp + c.chord for c in contacts]
     b_default = (max(cusp_chord) if cusp_chord else 0.0) + res
     tol = float(gouge_tolerance if gouge_tolerance is not None else
                 max([c.chord for c in contacts] + [0.0]) + res)
-    solid = stock_from_allowance(part, 0.0, stock.resolution, grid=stock)
+    if solid is None:
+        solid = stock_from_allowance(part, 0.0, stock.resolution, grid=stock)
     surface = np.ones(len(F), bool)
     surface[hub] = ~_under_blades(part, C[hub])
     reach = max(2.0, 2.0 * b_default)

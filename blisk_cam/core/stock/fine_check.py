@@ -32,6 +32,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import maximum_filter, minimum_filter
 
 from ..runtime import check_cancel
 from ..tool.assembly import ToolAssembly
@@ -97,18 +98,8 @@ def near_region(dex: RadialDexels, run: RunProgram, near, grow: float | None = N
     # one cell round (θ wraps, z does not)
     L = r_lo.reshape(dex.n_z, dex.n_theta)
     H = r_hi.reshape(dex.n_z, dex.n_theta)
-    L2, H2 = L.copy(), H.copy()
-    for dj in (-1, 0, 1):
-        for di in (-1, 0, 1):
-            Ls = np.roll(L, di, axis=1)
-            Hs = np.roll(H, di, axis=1)
-            if dj:
-                Ls = np.roll(Ls, dj, axis=0)
-                Hs = np.roll(Hs, dj, axis=0)
-                edge = 0 if dj > 0 else -1
-                Ls[edge], Hs[edge] = np.inf, -np.inf
-            np.minimum(L2, Ls, out=L2)
-            np.maximum(H2, Hs, out=H2)
+    L2 = minimum_filter(L, size=3, mode=("constant", "wrap"), cval=np.inf)
+    H2 = maximum_filter(H, size=3, mode=("constant", "wrap"), cval=-np.inf)
     return L2.ravel(), H2.ravel()
 
 

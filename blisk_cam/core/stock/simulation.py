@@ -26,7 +26,7 @@ from .deviation import (
 from .dexels import RadialDexels
 from .removal import RemovalResult, simulate_moves
 
-__all__ = ["Simulation", "iter_simulate", "part_surface"]
+__all__ = ["PartOnGrid", "Simulation", "cut_into", "iter_simulate", "part_on_grid", "part_surface"]
 
 
 @dataclass
@@ -63,6 +63,49 @@ def part_surface(part: BliskPart, resolution: float, *, solid: RadialDexels | No
     return V, F, N, ~buried
 
 
+@dataclass(frozen=True)
+class PartOnGrid:
+    """What every simulation of one part on one stock grid judges against, built once per
+    grid (:func:`part_on_grid`; a job's operations share one): ``solid`` the part cast on the
+    stock's own rays; the part mesh ``V`` (n, 3) mm, ``F`` (m, 3), unit vertex normals ``N``
+    (n, 3) and ``surface`` (n,) bool, the vertices on the outer surface
+    (:func:`part_surface`); ``distance`` (m', 3) points → (m',) exact distance (mm) to the
+    surface's faces (:func:`.deviation.surface_distance`); ``area`` (n,) mm², each vertex's
+    share of the faces' area."""
+
+    solid: RadialDexels
+    V: np.ndarray
+    F: np.ndarray
+    N: np.ndarray
+    surface: np.ndarray
+    distance: object
+    area: np.ndarray
+
+    def fits(self, stock: RadialDexels) -> bool:
+        """Whether this was cast on ``stock``'s grid (the same rays)."""
+        a, b = self.solid, stock
+        return (a.blade_count == b.blade_count and a.n_theta == b.n_theta and a.n_z == b.n_z
+                and a.theta0 == b.theta0 and a.z0 == b.z0 and a.resolution == b.resolution
+                and a.axis.as_list() == b.axis.as_list())
+
+
+def part_on_grid(part: BliskPart, stock: RadialDexels) -> PartOnGrid:
+    """The :class:`PartOnGrid` of ``part`` on ``stock``'s grid (its rays; the material does
+    not matter)."""
+    solid = stock_from_allowance(part, 0.0, stock.resolution, grid=stock)
+    V, F, N, surface = part_surface(part, stock.resolution, solid=solid)
+    return PartOnGrid(solid, V, F, N, surface, surface_distance(V, F[surface[F].any(axis=1)]),
+                      vertex_areas(V, F))
+
+
+def cut_into(paths) -> float | None:
+    """How deep the programs ``paths`` (ToolPath) cut into the part at most, mm: each its chord
+    less the allowance it leaves (< 0: they stay that far outside the part); None without
+    paths."""
+    return max((p.chord - float(getattr(p, "allowance", 0.0) or 0.0) for p in paths),
+               default=None)
+
+
 def _check_frame(part: BliskPart, path: ToolPath, k: int):
     a, b = np.asarray(part.axis.as_list()), np.asarray(path.axis.as_list())
     if not (np.allclose(a[:3], b[:3], atol=1e-6) and np.allclose(a[3:], b[3:], atol=1e-9)):
@@ -77,7 +120,7 @@ def _check_frame(part: BliskPart, path: ToolPath, k: int):
 def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_tolerance=None,
                   reach_out: float = 2.0, reach_in: float = 0.5, assembly=None,
                   check_body: bool = True, cut_into_part: float | None = None,
-                  near: list | None = None):
+                  near: list | None = None, frame: PartOnGrid | None = None):
     """Run ``paths`` (ToolPath with programs, in order) on ``stock`` (changed in place);
     yields Progress, returns a :class:`Simulation`. ``gouge_tolerance`` (mm) defaults to the
     largest chord tolerance of the paths plus the stock's resolution. When every program
@@ -93,13 +136,17 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
     part (< 0: it stays that far outside); ``cut_into_part`` (mm, the same figure) adds what
     earlier operations on this stock cut. ``near``: a list collecting the rows whose rapid or
     body met material the crash test let pass (:func:`.removal.simulate_moves`; rows counted
-    over ``paths`` in order), for :mod:`.fine_check`."""
+    over ``paths`` in order), for :mod:`.fine_check`. ``frame``: :func:`part_on_grid` of this
+    part on this stock's grid when the caller has it (a job: one for all its operations)."""
     paths = list(paths)
     for k, p in enumerate(paths):
         _check_frame(part, p, k)
     if stock.blade_count != part.blade_count:
         raise StockError(f"the stock is for {stock.blade_count} blades, the part has "
                          f"{part.blade_count}; use a stock made for this part")
+    if frame is not None and not frame.fits(stock):
+        raise StockError("the part's frame was cast on another stock grid; build it with "
+                         "part_on_grid(part, stock) for this stock")
     if gouge_tolerance is None:
         gouge_tolerance = max([p.chord for p in paths] + [0.0]) + stock.resolution
     initial = stock.volume()
@@ -129,22 +176,21 @@ def iter_simulate(part: BliskPart, stock: RadialDexels, paths, *, gouge_toleranc
     reach_in = max(float(reach_in), 2.0 * tol + stock.resolution)
     allowance = min((float(getattr(p, "allowance", 0.0) or 0.0) for p in paths), default=0.0)
     # the part on the stock's own rays: where the grid resolves a gouge past the tolerance
-    solid = stock_from_allowance(part, 0.0, stock.resolution, grid=stock)
-    V, F, N, surface = part_surface(part, stock.resolution, solid=solid)
+    if frame is None:
+        frame = part_on_grid(part, stock)
+    solid, V, F, N, surface = frame.solid, frame.V, frame.F, frame.N, frame.surface
     dev = np.full(len(V), np.nan)
     dev[surface] = deviation_map(stock, V[surface], N[surface], reach_out=reach_out,
                                  reach_in=reach_in)
     # how deep into the part the programs (and the earlier ones) cut, mm (< 0: outside it)
-    into = [p.chord - float(getattr(p, "allowance", 0.0) or 0.0) for p in paths]
-    into += [] if cut_into_part is None else [float(cut_into_part)]
-    resolved = resolved_points(solid, V[surface], N[surface], tol,
-                               surface_distance(V, F[surface[F].any(axis=1)]),
-                               cut_depth=max(0.0, allowance + max(into, default=0.0)),
+    into = [x for x in (cut_into(paths), cut_into_part) if x is not None]
+    resolved = resolved_points(solid, V[surface], N[surface], tol, frame.distance,
+                               cut_depth=max(0.0, allowance + max(map(float, into), default=0.0)),
                                allowance=allowance)
     summary = simulation_summary(part, stock, total, V[surface], dev[surface],
                                  gouge_tolerance=tol, initial_volume=initial,
                                  allowance=allowance, resolved=resolved,
-                                 area=vertex_areas(V, F)[surface])
+                                 area=frame.area[surface])
     judged = np.zeros(len(V), bool)
     judged[np.flatnonzero(surface)] = np.asarray(resolved, bool) & np.isfinite(dev[surface])
     yield Progress(1.0, "done")
