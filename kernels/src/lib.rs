@@ -297,19 +297,7 @@ fn stock_remove<'py>(
     threads: usize,
     rho: Option<PyReadonlyArray2<'py, f64>>,
     planes_in: Option<PyReadonlyArray2<'py, f64>>,
-) -> PyResult<(
-    f64,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    u64,
-    (
-        Bound<'py, PyArray1<i64>>,
-        Bound<'py, PyArray1<i64>>,
-        Bound<'py, PyArray1<f64>>,
-        Bound<'py, PyArray1<f64>>,
-    ),
-)> {
+) -> PyResult<stock::Removed<'py>> {
     let shape = lo.shape().to_vec();
     if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
         return Err(PyValueError::new_err(
@@ -380,31 +368,9 @@ fn stock_remove<'py>(
             None => None,
         },
     };
-    let ls = lo
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
-    let hs = hi
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
-    let pool_ = pool(threads)?;
-    let (out, pairs) =
-        py.detach(|| pool_.install(|| stock::remove(&g, &sol, n_groups, measure, ls, hs)));
-    let counts: Vec<i64> = out.overflow.iter().map(|p| p.len() as i64).collect();
-    let olo: Vec<f64> = out.overflow.iter().flatten().map(|p| p.0).collect();
-    let ohi: Vec<f64> = out.overflow.iter().flatten().map(|p| p.1).collect();
-    Ok((
-        out.removed,
-        PyArray1::from_vec(py, out.group_vol),
-        PyArray1::from_vec(py, out.group_vol_in),
-        PyArray1::from_vec(py, out.group_depth),
-        pairs,
-        (
-            PyArray1::from_vec(py, out.overflow_rays),
-            PyArray1::from_vec(py, counts),
-            PyArray1::from_vec(py, olo),
-            PyArray1::from_vec(py, ohi),
-        ),
-    ))
+    stock::run_on_stock(py, &mut lo, &mut hi, threads, |ls, hs| {
+        stock::remove(&g, &sol, n_groups, measure, ls, hs)
+    })
 }
 
 #[pymodule]

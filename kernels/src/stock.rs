@@ -710,43 +710,36 @@ pub fn remove(
                 let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, zr, r_b) else {
                     continue;
                 };
-                let mut c = ca - 1;
-                while c < cb {
-                    c += 1;
-                    let i = c.rem_euclid(nt as i64) as usize;
-                    if let Some(skip) = env.skip(i, rlo_w, rhi_w) {
-                        c += skip as i64 - 1;
-                        continue;
-                    }
-                    let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
-                    if !lr
-                        .iter()
-                        .zip(hr)
-                        .any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w)
-                    {
-                        continue;
-                    }
-                    let u = &dirs[(c - cmin) as usize];
-                    let f = ray_frame(&origin, u, tip, ax);
-                    let Some((ba, bb)) = bounding_interval(&f, s.z_lo, s.z_hi, s.radius) else {
-                        continue;
-                    };
-                    if !lr
-                        .iter()
-                        .zip(hr)
-                        .any(|(&l, &h)| h > l && l.max(ba) < h.min(bb))
-                    {
-                        continue;
-                    }
-                    let (a, b) = solid_interval(&f, &profile);
-                    if b > a {
-                        let (ai, bi) = match (&inner, measure) {
-                            (Some(pin), true) => solid_interval(&f, pin),
-                            _ => (0.0, f64::NEG_INFINITY),
+                each_live_column(
+                    &env,
+                    lrow,
+                    hrow,
+                    k,
+                    (ca, cb),
+                    (rlo_w, rhi_w),
+                    |c, i, lr, hr| {
+                        let u = &dirs[(c - cmin) as usize];
+                        let f = ray_frame(&origin, u, tip, ax);
+                        let Some((ba, bb)) = bounding_interval(&f, s.z_lo, s.z_hi, s.radius) else {
+                            return;
                         };
-                        hits.push((i, a, b, s.group[si] as usize, ai, bi));
-                    }
-                }
+                        if !lr
+                            .iter()
+                            .zip(hr)
+                            .any(|(&l, &h)| h > l && l.max(ba) < h.min(bb))
+                        {
+                            return;
+                        }
+                        let (a, b) = solid_interval(&f, &profile);
+                        if b > a {
+                            let (ai, bi) = match (&inner, measure) {
+                                (Some(pin), true) => solid_interval(&f, pin),
+                                _ => (0.0, f64::NEG_INFINITY),
+                            };
+                            hits.push((i, a, b, s.group[si] as usize, ai, bi));
+                        }
+                    },
+                );
             }
             apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
         })
@@ -1259,6 +1252,40 @@ const ENV_BLOCK: usize = 16;
 /// The material of a grid row in blocks of `ENV_BLOCK` columns: per block the smallest lo and
 /// the largest hi of its rays' material (a block without material: +∞, −∞), so that a run of
 /// columns none of whose material can meet a radius range is skipped at once.
+/// The columns `ca..=cb` (unwrapped; the index mod `nt`) of one grid row whose material can
+/// lie within the radii (`rlo`, `rhi`): whole blocks are skipped by the row's envelope, then
+/// single columns by their own intervals; `visit(c, i, lo, hi)` for each one left, with the
+/// column's K intervals.
+#[inline(always)]
+fn each_live_column<F: FnMut(i64, usize, &[f64], &[f64])>(
+    env: &RowEnvelope,
+    lrow: &[f64],
+    hrow: &[f64],
+    k: usize,
+    (ca, cb): (i64, i64),
+    (rlo, rhi): (f64, f64),
+    mut visit: F,
+) {
+    let nt = env.nt as i64;
+    let mut c = ca - 1;
+    while c < cb {
+        c += 1;
+        let i = c.rem_euclid(nt) as usize;
+        if let Some(skip) = env.skip(i, rlo, rhi) {
+            c += skip as i64 - 1;
+            continue;
+        }
+        let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
+        if lr
+            .iter()
+            .zip(hr)
+            .any(|(&l, &h)| h > l && l < rhi && h > rlo)
+        {
+            visit(c, i, lr, hr);
+        }
+    }
+}
+
 struct RowEnvelope {
     lo: Vec<f64>,
     hi: Vec<f64>,
@@ -1367,64 +1394,57 @@ pub fn sweep(
                     else {
                         continue;
                     };
-                    let mut c = ca - 1;
-                    while c < cb {
-                        c += 1;
-                        let i = c.rem_euclid(nt as i64) as usize;
-                        if let Some(skip) = env.skip(i, rlo_w, rhi_w) {
-                            c += skip as i64 - 1;
-                            continue;
-                        }
-                        let (lr, hr) = (&lrow[i * k..(i + 1) * k], &hrow[i * k..(i + 1) * k]);
-                        if !lr
-                            .iter()
-                            .zip(hr)
-                            .any(|(&l, &h)| h > l && l < rhi_w && h > rlo_w)
-                        {
-                            continue;
-                        }
-                        let u = &dirs[(c - cmin) as usize];
-                        let bound = match part.prim {
-                            // a ball's sweep lies in the ball about its mid centre grown by gr
-                            Some(Prim::Ball { zc, rad }) => {
-                                let (a, b) =
-                                    sphere_interval(&origin, u, &axpy(tip, zc, ax), rad + gr);
-                                if b >= a {
-                                    Some((a - CULL_MARGIN, b + CULL_MARGIN))
-                                } else {
-                                    None
+                    each_live_column(
+                        &env,
+                        lrow,
+                        hrow,
+                        k,
+                        (ca, cb),
+                        (rlo_w, rhi_w),
+                        |c, i, lr, hr| {
+                            let u = &dirs[(c - cmin) as usize];
+                            let bound = match part.prim {
+                                // a ball's sweep lies in the ball about its mid centre grown by gr
+                                Some(Prim::Ball { zc, rad }) => {
+                                    let (a, b) =
+                                        sphere_interval(&origin, u, &axpy(tip, zc, ax), rad + gr);
+                                    if b >= a {
+                                        Some((a - CULL_MARGIN, b + CULL_MARGIN))
+                                    } else {
+                                        None
+                                    }
+                                }
+                                _ => bounding_interval(&ray_frame(&origin, u, tip, ax), zl, zh, rb),
+                            };
+                            let Some((ba, bb)) = bound else {
+                                return;
+                            };
+                            let (mut ml, mut mh) = (f64::INFINITY, f64::NEG_INFINITY);
+                            let mut meets = false;
+                            for (&l, &h) in lr.iter().zip(hr) {
+                                if h > l {
+                                    ml = ml.min(l);
+                                    mh = mh.max(h);
+                                    meets |= l.max(ba) < h.min(bb);
                                 }
                             }
-                            _ => bounding_interval(&ray_frame(&origin, u, tip, ax), zl, zh, rb),
-                        };
-                        let Some((ba, bb)) = bound else {
-                            continue;
-                        };
-                        let (mut ml, mut mh) = (f64::INFINITY, f64::NEG_INFINITY);
-                        let mut meets = false;
-                        for (&l, &h) in lr.iter().zip(hr) {
-                            if h > l {
-                                ml = ml.min(l);
-                                mh = mh.max(h);
-                                meets |= l.max(ba) < h.min(bb);
+                            if !meets {
+                                return;
                             }
-                        }
-                        if !meets {
-                            continue;
-                        }
-                        pcs.clear();
-                        part_pieces(&origin, u, mp, part, &mut pcs);
-                        merge_pieces(&mut pcs);
-                        for &(a, b) in &pcs {
-                            if a < mh + CULL_MARGIN && b > ml - CULL_MARGIN {
-                                hits.push(if part.inner {
-                                    (i, 0.0, f64::NEG_INFINITY, g, a, b)
-                                } else {
-                                    (i, a, b, g, 0.0, f64::NEG_INFINITY)
-                                });
+                            pcs.clear();
+                            part_pieces(&origin, u, mp, part, &mut pcs);
+                            merge_pieces(&mut pcs);
+                            for &(a, b) in &pcs {
+                                if a < mh + CULL_MARGIN && b > ml - CULL_MARGIN {
+                                    hits.push(if part.inner {
+                                        (i, 0.0, f64::NEG_INFINITY, g, a, b)
+                                    } else {
+                                        (i, a, b, g, 0.0, f64::NEG_INFINITY)
+                                    });
+                                }
                             }
-                        }
-                    }
+                        },
+                    );
                 }
             }
             apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
@@ -1502,6 +1522,54 @@ type Overflow<'py> = (
     Bound<'py, PyArray1<f64>>,
 );
 
+/// What `stock_remove` and `stock_sweep` return (see `stock_remove`).
+pub type Removed<'py> = (
+    f64,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    u64,
+    Overflow<'py>,
+);
+
+/// Run `kernel` on the stock `lo`, `hi` (C-contiguous, changed in place) on `threads` workers
+/// with the GIL released, and hand its outcome to Python as `stock_remove` returns it.
+pub fn run_on_stock<'py, K>(
+    py: Python<'py>,
+    lo: &mut PyReadwriteArray2<'py, f64>,
+    hi: &mut PyReadwriteArray2<'py, f64>,
+    threads: usize,
+    kernel: K,
+) -> PyResult<Removed<'py>>
+where
+    K: FnOnce(&mut [f64], &mut [f64]) -> (Outcome, u64) + Send,
+{
+    let ls = lo
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
+    let hs = hi
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
+    let pool_ = crate::pool(threads)?;
+    let (out, pairs) = py.detach(|| pool_.install(|| kernel(ls, hs)));
+    let counts: Vec<i64> = out.overflow.iter().map(|p| p.len() as i64).collect();
+    let olo: Vec<f64> = out.overflow.iter().flatten().map(|p| p.0).collect();
+    let ohi: Vec<f64> = out.overflow.iter().flatten().map(|p| p.1).collect();
+    Ok((
+        out.removed,
+        PyArray1::from_vec(py, out.group_vol),
+        PyArray1::from_vec(py, out.group_vol_in),
+        PyArray1::from_vec(py, out.group_depth),
+        pairs,
+        (
+            PyArray1::from_vec(py, out.overflow_rays),
+            PyArray1::from_vec(py, counts),
+            PyArray1::from_vec(py, olo),
+            PyArray1::from_vec(py, ohi),
+        ),
+    ))
+}
+
 /// Remove the swept solids of moves from the stock (see `stock::sweep` and
 /// `removal.simulate_moves`): `lo`, `hi` (n_rays, K) float64 changed in place; `grid`,
 /// `frame` as `stock_remove`; per move its start and end tips and unit axes (m, 3), group
@@ -1543,14 +1611,7 @@ pub fn stock_sweep<'py>(
     rho: Option<PyReadonlyArray2<'py, f64>>,
     planes_in: Option<PyReadonlyArray2<'py, f64>>,
     open_start: bool,
-) -> PyResult<(
-    f64,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    u64,
-    Overflow<'py>,
-)> {
+) -> PyResult<Removed<'py>> {
     let shape = lo.shape().to_vec();
     if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
         return Err(PyValueError::new_err(
@@ -1652,29 +1713,7 @@ pub fn stock_sweep<'py>(
         fknots: fk,
         samples: sm,
     };
-    let ls = lo
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("lo must be C-contiguous"))?;
-    let hs = hi
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("hi must be C-contiguous"))?;
-    let pool_ = crate::pool(threads)?;
-    let (out, pairs) =
-        py.detach(|| pool_.install(|| sweep(&g, &mv, &tool, n_groups, measure, ls, hs)));
-    let counts: Vec<i64> = out.overflow.iter().map(|p| p.len() as i64).collect();
-    let olo: Vec<f64> = out.overflow.iter().flatten().map(|p| p.0).collect();
-    let ohi: Vec<f64> = out.overflow.iter().flatten().map(|p| p.1).collect();
-    Ok((
-        out.removed,
-        PyArray1::from_vec(py, out.group_vol),
-        PyArray1::from_vec(py, out.group_vol_in),
-        PyArray1::from_vec(py, out.group_depth),
-        pairs,
-        (
-            PyArray1::from_vec(py, out.overflow_rays),
-            PyArray1::from_vec(py, counts),
-            PyArray1::from_vec(py, olo),
-            PyArray1::from_vec(py, ohi),
-        ),
-    ))
+    run_on_stock(py, &mut lo, &mut hi, threads, |ls, hs| {
+        sweep(&g, &mv, &tool, n_groups, measure, ls, hs)
+    })
 }
