@@ -96,6 +96,7 @@ from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from .axis_field import (
     channel_reference,
+    path_steps,
     sample_motion,
     turn_limits,
 )
@@ -108,7 +109,7 @@ from .axis_states import (
     _touch_ok,
 )
 
-__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
+__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "path_steps", "plan_axes",
            "sample_motion", "turn_limits"]
 
 #: default turn limit per mm of path, rad/mm
@@ -158,19 +159,19 @@ class AxisPlan:
 
 
 # ====================================================================== the planner
-def _windows(offs, cc, colliding, reach_mm, closed):
-    """(n,) bool: poses within ``reach_mm`` of arc length of a colliding pose of their pass
-    (around the closing cut of a closed pass, ``closed`` (p,) bool)."""
+def _windows(offs, cc, nrm, corner, colliding, reach_mm, closed):
+    """(n,) bool: poses within ``reach_mm`` of tool path (:func:`_path_arc`) of a colliding
+    pose of their pass (around the closing cut of a closed pass, ``closed`` (p,) bool)."""
     out = np.zeros(len(cc), bool)
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
         hit = np.nonzero(colliding[s:e])[0]
         if len(hit) == 0:
             continue
-        arc = _arc(cc[s:e])
+        arc = _path_arc(cc[s:e], nrm[s:e], corner)
         h = arc[hit]
         if closed[ci]:
-            L = arc[-1] + float(np.linalg.norm(cc[s] - cc[e - 1]))
+            L = arc[-1] + float(path_steps(cc[[e - 1, s]], nrm[[e - 1, s]], corner)[0])
             h = np.concatenate([h - L, h, h + L])
         lo = np.searchsorted(arc, h - reach_mm, side="left")
         hi = np.searchsorted(arc, h + reach_mm, side="right")
@@ -182,7 +183,15 @@ def _windows(offs, cc, colliding, reach_mm, closed):
 
 
 def _arc(cc):
+    """(k + 1,) the contact's arc length along the poses, mm."""
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
+
+
+def _path_arc(cc, nrm, corner):
+    """(k,) the tool path's arc length along the poses, mm (:func:`.axis_field.path_steps`:
+    the length the turn limit is measured along, so the window's ramps, the stations' spacing
+    and the lean's interpolation between stations all read the limit's own distance)."""
+    return np.concatenate([[0.0], np.cumsum(path_steps(cc, nrm, corner))])
 
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
@@ -211,7 +220,9 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     n = len(cc)
     f, k_side, lim_lead, lim_tilt = lim
     closed = [bool(c.closed) and offs[i + 1] - offs[i] > 2 for i, c in enumerate(curves)]
-    win = _windows(offs, cc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9, closed)
+    corner = scene.cutter.corner_radius
+    win = _windows(offs, cc, nrm, corner, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9,
+                   closed)
     tip, axis = tip0.copy(), ax0.copy()
     clear = np.full(n, np.inf)
     if not win.any():
@@ -244,7 +255,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             if closed[ci] and len(run) == k:  # a whole closed pass: opened where it is clear
                 run = np.roll(run, -_open_at(colliding[s:e]))
             g = s + run
-            arc = _arc(cc[g])
+            arc = _path_arc(cc[g], nrm[g], corner)
             if closed[ci]:
                 cyc = len(run) == k
                 pre, post = (None, None) if cyc else (s + (run[0] - 1) % k, s + (run[-1] + 1) % k)
@@ -480,7 +491,7 @@ def _assemble(pl: _Planner, runs, best) -> dict:
 def _jumps(pl: _Planner, runs, chosen, axis):
     """{(a, b)} consecutive global poses (both stations) between which the shortest path
     jumped: both states known exactly to collide and the axes turning past the limit."""
-    P, out = pl.P, set()
+    out = set()
     if not pl.jumps:
         return out
     for r, seq in zip(runs, chosen, strict=True):
@@ -491,7 +502,7 @@ def _jumps(pl: _Planner, runs, chosen, axis):
             if not (pl.colliding_states(ga)[tuple(seq[j - 1])]
                     and pl.colliding_states(gb)[tuple(seq[j])]):
                 continue
-            lim = turn_limits(P.cc[[ga, gb]], P.ax0[[ga, gb]], pl.rate, pl.max_turn)[0]
+            lim = pl.turn_limit(ga, gb)
             if float(axis[ga] @ axis[gb]) < math.cos(lim):
                 out.add((ga, gb))
     return out
@@ -514,7 +525,7 @@ def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
     for r in runs:
         chain = _chain(r)
         m = len(chain)
-        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn) * (1 - 1e-9)
+        limit = pl.turn_limits(chain) * (1 - 1e-9)
         fixed = np.zeros(m, bool)
         fixed[0] = r.pre is not None or r.cycle
         fixed[-1] = r.post is not None or r.cycle
