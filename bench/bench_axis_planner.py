@@ -38,6 +38,7 @@ import argparse
 import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -146,7 +147,8 @@ def run(name, methods, verify, max_turn=None):
         status = np.concatenate([np.asarray(c.collision["status"]) for c in path.curves])
         unres = int(np.sum(status == 2))
         before = rep.n_colliding_before
-        cap = opts.max_turn if method != "rotate" else max_turn
+        # the planner's limit, its per-pose cap included, judges every method
+        cap = replace(opts, max_turn=max_turn).plan_max_turn
         worst, excess, over, over_cut, at, added = turn_figures(planned, path, opts.turn_per_mm,
                                                                 cap)
         ranges = (path.collision or {}).get("unresolved_ranges") or []
@@ -155,9 +157,9 @@ def run(name, methods, verify, max_turn=None):
               f"({100 * before / rep.n_checked:.1f} %); unresolved pass poses {unres} "
               f"({100 * unres / n:.1f} %) in {len(ranges)} ranges, program rows "
               f"{rep.n_unresolved}; max turn {worst:.2f}°, {over} turns over the limit "
-              f"(planned + {math.degrees(opts.turn_per_mm):g}°/mm of tool path"
-              f"{'' if cap is None else f', ≤ {math.degrees(cap):g}° per pose'}; it adds up "
-              f"to {added:.2f}° per pose), worst by {excess:.2f}°, {over_cut} of them with a pose "
+              f"(planned + {math.degrees(opts.turn_per_mm):g}°/mm of tool path, ≤ "
+              f"{math.degrees(cap):g}° per pose; it adds up to {added:.2f}° per pose), worst "
+              f"by {excess:.2f}°, {over_cut} of them with a pose "
               f"not unresolved at either end; avoidance {dt:.1f} s "
               f"({1e3 * dt / n:.2f} ms per pass pose)", flush=True)
         print(f"          poses unresolved or at a turn over the limit (what the acceptance "
@@ -185,8 +187,8 @@ def main():
     ap.add_argument("--methods", default="rotate,plan,plan-jumps")
     ap.add_argument("--no-verify", action="store_true")
     ap.add_argument("--max-turn", type=float, default=None, metavar="DEG",
-                    help="the planner's per-pose cap on the turn the limit adds "
-                         "(CollisionOptions.max_turn; default none)")
+                    help="the planner's per-pose cap on the turn its limit adds to the planned "
+                         "one (CollisionOptions.max_turn; default 5°, 89 for practically none)")
     a = ap.parse_args()
     names = ("demo", "r37") if a.case == "both" else (a.case,)
     cap = None if a.max_turn is None else math.radians(a.max_turn)

@@ -443,7 +443,7 @@ def _avoid_by_plan(scene, path, options, curves, offs, P: _Poses, det0, lim):
         box["x"] = x
 
     plan = plan_axes(scene, curves, offs, P, lim, det0.colliding,
-                     turn_per_mm=float(options.turn_per_mm), max_turn=options.max_turn,
+                     turn_per_mm=float(options.turn_per_mm), max_turn=options.plan_max_turn,
                      machine=options.machine, reference=options.axis_reference,
                      blisk_axis=path.axis, blade_count=options.blade_count,
                      edge_lead=math.radians(5.0) if options.axis_reference == "channel" else 0.0,
@@ -626,7 +626,7 @@ def _count_turn_over(report, path, curves, options, cutter: Cutter):
                            for x in (np.asarray(c0.cc, float), np.asarray(c0.normal, float),
                                      unit(np.asarray(c0.axis, float))))
             limit = turn_limits(cc, nrm, ax, cutter.corner_radius, float(options.turn_per_mm),
-                                options.max_turn)
+                                options.plan_max_turn)
         over = t1 > limit + 1e-9
         if options.mode == "avoid" and options.method == "plan":
             # the planner jumps only between two unresolved poses (not cut): counted apart

@@ -7,9 +7,18 @@ the ball leaves the surface between them. Here the axis of every pose of a pass 
 *together* (the axis-field idea of commercial 5-axis CAM: interpolate the axis through the
 channel under a maximum angle step):
 
+0. **Path length.** The turn limit is per mm of the *tool's* path, not the contact's: the
+   machine feeds along the tool's own path (with TCPM the programmed tip) and the rotary
+   speed it sees is the turn ÷ (tool path length ÷ feed). The length between two poses is
+   the distance between their corner centres at the contact, cc + r·n (a ball's centre,
+   which every axis of a ball keeps), never less than the contact's own distance
+   (:func:`.axis_field.path_steps`, which says why that point). Round a blade edge of
+   radius ~0.5 mm a Ø12 ball's centre travels ~π·6.5 ≈ 20 mm while the contact travels
+   ~1.6 mm: measured along the contact the limit let the lean change by a fraction of a
+   degree per pose there. Every "arc" below is this length.
 1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
-   the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
-   ramps in and out. Outside the window the planned axis is kept.
+   the path length the widest lean swing needs at the turn limit (``30° / turn_per_mm``):
+   the ramps in and out. Outside the window the planned axis is kept.
 2. **States.** Per window pose the states: deviations (u, v) of the pose's reference axis
    (the planned axis, or the channel reference below), a square grid of ±60° in 5° steps,
    the axis the reference turned by hypot(u, v) toward u·e1 + v·e2 (:func:`.axis_field.
@@ -27,7 +36,7 @@ channel under a maximum angle step):
    centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
    CC point and normal, plus the plan's few-µm lift λ along the normal).
 3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
-   of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
+   of path apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
    edges). At each station a coarse 10° grid is measured by
    :meth:`.scene.CollisionScene.detect` — every station of every pass in one batched call —
    and interpolated onto the states. Poses the plan leaves colliding become stations whose
@@ -40,8 +49,9 @@ channel under a maximum angle step):
 
    with the exact turn between the states of consecutive stations within the sum of the
    poses' limits between them (:func:`turn_limits`: the planned turn plus ``turn_per_mm`` ×
-   the arc step; and from/to the fixed planned poses around the run). Between stations the
-   state is linear in arc length; a pose pair that still turns faster than its limit is
+   the path step, the added part capped by ``max_turn`` per pose when given; and from/to
+   the fixed planned poses around the run). Between stations the state is linear in path
+   length; a pose pair that still turns faster than its limit is
    clamped (sweeps forward and backward; the last sweeps hold the turn limit even where
    that leaves an axis a little past a lean limit).
    Since a colliding state costs more than any lean, the path leaves as few stations
