@@ -15,7 +15,7 @@ import numpy as np
 from ..geometry.vectors import angle_between, unit
 
 __all__ = ["MIN_STEP", "channel_reference", "deviation_axes", "deviation_of", "path_steps",
-           "sample_motion", "transported_frames", "turn_limits"]
+           "sample_motion", "transported_frames", "turn_allowance", "turn_limits"]
 
 #: shortest step the turn limit counts, mm (see :func:`turn_limits`)
 MIN_STEP = 0.05
@@ -69,31 +69,38 @@ def path_steps(cc, normal, corner_radius):
     contact itself. It is the one point of the cutter the contact fixes whatever the axis
     (the tip is recomputed from the contact for every axis the planner tries), so the limit
     is one number per pose pair, known before the axes are chosen — the shortest path needs
-    that; the programmed tip would move with the chosen axis. Every other point of the
-    cutter lies within the tool radius R of it, so a tip's step differs from its step by at
-    most about R × the turn; round an edge the corner centre goes round at the edge radius
-    + r, the cutter's axis line at the edge radius + R: the corner centre's path is the
-    shorter, the cautious choice. Never less than the contact's own distance (on a concave
-    surface the corner centre's path is the shorter one)."""
+    that; the programmed tip would move with the chosen axis. The tip (and the cutter's
+    centre on its axis) lies within the tool radius R of it in a direction that turns with
+    the axis, so its step differs from this one by at most about R × the turn. Round an edge
+    with the axis held across it, the corner centre goes round at the edge radius + r, the
+    cutter's axis at the edge radius + R: for a bull nose or a flat end the corner centre's
+    path is the shorter one, the cautious choice (a flat end counts the contact's). Never
+    less than the contact's own distance (on a concave surface the corner centre's path is
+    the shorter one)."""
     cc = np.asarray(cc, dtype=np.float64)
     centre = cc + float(corner_radius) * np.asarray(normal, dtype=np.float64)
     return np.maximum(np.linalg.norm(np.diff(cc, axis=0), axis=1),
                       np.linalg.norm(np.diff(centre, axis=0), axis=1))
 
 
+def turn_allowance(cc, normal, corner_radius, turn_per_mm, max_turn=None):
+    """(k − 1,) rad: the turn the limit adds to the planned one between consecutive poses:
+    ``turn_per_mm`` × the tool path's length between them (:func:`path_steps`, at least
+    :data:`MIN_STEP` mm), capped by ``max_turn`` per pose when given."""
+    added = turn_per_mm * np.maximum(path_steps(cc, normal, corner_radius), MIN_STEP)
+    return added if max_turn is None else np.minimum(added, max_turn)
+
+
 def turn_limits(cc, normal, planned_axes, corner_radius, turn_per_mm, max_turn=None):
     """(k − 1,) largest axis turn (rad) allowed between consecutive poses of a pass (contact
     points ``cc``, unit normals ``normal``, planned axes (k, 3)): the planned turn there (the
-    surface's own, which avoidance does not judge) plus ``turn_per_mm`` × the tool path's
-    length between them (:func:`path_steps`, at least :data:`MIN_STEP` mm), the added part
-    capped by ``max_turn`` per pose when given. The one definition of the limit: the
-    planner, its verification and the report's "turns over the limit" all read it."""
-    ds = path_steps(cc, normal, corner_radius)
-    added = turn_per_mm * np.maximum(ds, MIN_STEP)
-    if max_turn is not None:
-        added = np.minimum(added, max_turn)
+    surface's own, which avoidance does not judge) plus :func:`turn_allowance` —
+    ``turn_per_mm`` × the tool path's length between them, capped by ``max_turn`` per pose
+    when given. The one definition of the limit: the planner, its verification and the
+    report's "turns over the limit" all read it."""
     a = np.asarray(planned_axes, dtype=np.float64)
-    return angle_between(a[:-1], a[1:]) + added
+    return angle_between(a[:-1], a[1:]) + turn_allowance(cc, normal, corner_radius,
+                                                          turn_per_mm, max_turn)
 
 
 def _transport(a, b, v):

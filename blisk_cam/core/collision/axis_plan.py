@@ -5,17 +5,23 @@ Paper 004 §3 turns each colliding pose by its own smallest rotation and smooths
 (:mod:`.avoid`, method ``"rotate"``); neighbouring poses may then turn by tens of degrees and
 the ball leaves the surface between them. Here the axis of every pose of a pass is chosen
 *together* (the axis-field idea of commercial 5-axis CAM: interpolate the axis through the
-channel under a maximum angle step):
+channel under a maximum angle step).
 
-0. **Path length.** The turn limit is per mm of the *tool's* path, not the contact's: the
-   machine feeds along the tool's own path (with TCPM the programmed tip) and the rotary
-   speed it sees is the turn ÷ (tool path length ÷ feed). The length between two poses is
-   the distance between their corner centres at the contact, cc + r·n (a ball's centre,
-   which every axis of a ball keeps), never less than the contact's own distance
-   (:func:`.axis_field.path_steps`, which says why that point). Round a blade edge of
-   radius ~0.5 mm a Ø12 ball's centre travels ~π·6.5 ≈ 20 mm while the contact travels
-   ~1.6 mm: measured along the contact the limit let the lean change by a fraction of a
-   degree per pose there. Every "arc" below is this length.
+**Path length.** The turn limit is per mm of the *tool's* path, not the contact's: the
+machine feeds along the tool's own path (with TCPM the programmed tip), and the rotary speed
+it sees is the turn ÷ (tool path length ÷ feed). The length between two poses is the distance
+between their corner centres at the contact, cc + r·n (a ball's centre, which every axis of a
+ball keeps), never less than the contact's own distance (:func:`.axis_field.path_steps`
+says why that point). Round a blade edge of radius ~0.5 mm a Ø12 ball's centre travels
+~π·6.5 ≈ 20 mm while the contact travels ~1.6 mm: measured along the contact, the limit let
+the lean change by a fraction of a degree per pose there. The turn the limit adds per pose
+is capped too (``max_turn``;
+``CollisionOptions.plan_max_turn``, 5° by default): between two poses the machine turns the
+axis uniformly while the tip goes straight, so a ball's centre leaves the straight line by
+R·(1 − cos(θ/2)). Every "arc" and "path" below is this length, accumulated as the limit
+allows turn along it (:meth:`.axis_states._Planner.arc`: where the cap binds, the cap ÷
+turn_per_mm). The steps:
+
 1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
    the path length the widest lean swing needs at the turn limit (``30° / turn_per_mm``):
    the ramps in and out. Outside the window the planned axis is kept.
@@ -106,7 +112,6 @@ from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from .axis_field import (
     channel_reference,
-    path_steps,
     sample_motion,
     turn_limits,
 )
@@ -119,8 +124,8 @@ from .axis_states import (
     _touch_ok,
 )
 
-__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "path_steps", "plan_axes",
-           "sample_motion", "turn_limits"]
+__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes", "sample_motion",
+           "turn_limits"]
 
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
@@ -169,19 +174,20 @@ class AxisPlan:
 
 
 # ====================================================================== the planner
-def _windows(offs, cc, nrm, corner, colliding, reach_mm, closed):
-    """(n,) bool: poses within ``reach_mm`` of tool path (:func:`_path_arc`) of a colliding
-    pose of their pass (around the closing cut of a closed pass, ``closed`` (p,) bool)."""
-    out = np.zeros(len(cc), bool)
+def _windows(offs, arc_of, colliding, reach_mm, closed):
+    """(n,) bool: poses within ``reach_mm`` of arc (``arc_of``: :meth:`_Planner.arc`) of a
+    colliding pose of their pass (around the closing cut of a closed pass, ``closed`` (p,)
+    bool)."""
+    out = np.zeros(len(colliding), bool)
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
         hit = np.nonzero(colliding[s:e])[0]
         if len(hit) == 0:
             continue
-        arc = _path_arc(cc[s:e], nrm[s:e], corner)
+        arc = arc_of(np.arange(s, e))
         h = arc[hit]
         if closed[ci]:
-            L = arc[-1] + float(path_steps(cc[[e - 1, s]], nrm[[e - 1, s]], corner)[0])
+            L = arc[-1] + float(arc_of(np.asarray([e - 1, s]))[1])
             h = np.concatenate([h - L, h, h + L])
         lo = np.searchsorted(arc, h - reach_mm, side="left")
         hi = np.searchsorted(arc, h + reach_mm, side="right")
@@ -197,11 +203,6 @@ def _arc(cc):
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
 
 
-def _path_arc(cc, nrm, corner):
-    """(k,) the tool path's arc length along the poses, mm (:func:`.axis_field.path_steps`:
-    the length the turn limit is measured along, so the window's ramps, the stations' spacing
-    and the lean's interpolation between stations all read the limit's own distance)."""
-    return np.concatenate([[0.0], np.cumsum(path_steps(cc, nrm, corner))])
 
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
@@ -230,9 +231,8 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     n = len(cc)
     f, k_side, lim_lead, lim_tilt = lim
     closed = [bool(c.closed) and offs[i + 1] - offs[i] > 2 for i, c in enumerate(curves)]
-    corner = scene.cutter.corner_radius
-    win = _windows(offs, cc, nrm, corner, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9,
-                   closed)
+    pl = _Planner(scene, P, lim, turn_per_mm, max_turn, machine, _SWING, jumps)
+    win = _windows(offs, pl.arc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9, closed)
     tip, axis = tip0.copy(), ax0.copy()
     clear = np.full(n, np.inf)
     if not win.any():
@@ -250,7 +250,6 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if edge_lead:
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
-    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING, jumps)
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -265,7 +264,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             if closed[ci] and len(run) == k:  # a whole closed pass: opened where it is clear
                 run = np.roll(run, -_open_at(colliding[s:e]))
             g = s + run
-            arc = _path_arc(cc[g], nrm[g], corner)
+            arc = pl.arc(g)
             if closed[ci]:
                 cyc = len(run) == k
                 pre, post = (None, None) if cyc else (s + (run[0] - 1) % k, s + (run[-1] + 1) % k)

@@ -22,18 +22,19 @@ from ..tool.cutter import Cutter
 from .axis_field import (
     deviation_axes,
     deviation_of,
-    path_steps,
     sample_motion,
     transported_frames,
+    turn_allowance,
     turn_limits,
 )
 
 #: the lean states' step and the coarse grid's (measured at every station), rad. Finer
-#: steps help near the blade edges, where the planned axis swings by tens of degrees within
-#: a millimetre and the turn limit lets a lean change by a fraction of a degree per pose
-#: (Rotor 37 × 36, turn bounded everywhere: 2.5° steps to ±40° left 1101 poses unresolved
-#: against 1154), but cost about twice the candidates on the demo for no gain there (822
-#: against 806)
+#: steps helped near the blade edges while the turn limit was measured along the contact,
+#: which lets a lean change there by a fraction of a degree per pose (Rotor 37 × 36, turn
+#: bounded everywhere: 2.5° steps to ±40° left 1101 poses unresolved against 1154), but cost
+#: about twice the candidates on the demo for no gain there (822 against 806); measured
+#: along the tool's path (:func:`.axis_field.path_steps`) the limit lets the lean change
+#: round an edge as the ball's centre goes round it
 _STEP = math.radians(5.0)
 _COARSE = 2
 #: widest lean swing searched about the reference (where the limits allow), rad
@@ -98,12 +99,10 @@ class _Planner:
     clearance known per station (interpolated from the coarse grid, or exact), the batched
     evaluations."""
 
-    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span,
-                 jumps=False):
+    def __init__(self, scene, P, lim, turn_per_mm, max_turn, machine, span, jumps=False):
         self.scene, self.P = scene, P
         self.jumps = bool(jumps)
         self.f, self.k, self.lim_l, self.lim_t = lim
-        self.ref_l, self.ref_t = ref_l, ref_t  # (n,) rad
         self.rate, self.max_turn, self.machine = turn_per_mm, max_turn, machine
         self.cutter = scene.cutter
         self.ball = self.cutter.type == "ball"
@@ -160,17 +159,23 @@ class _Planner:
                 start = self.k[g[0]]
             arc = None
             if run.cycle:
-                arc = np.r_[run.arc, run.arc[-1] + float(self.path_steps(g[[-1, 0]])[0])]
+                arc = np.r_[run.arc, run.arc[-1] + float(self.arc(g[[-1, 0]])[1])]
             self.e1[g], self.e2[g] = transported_frames(self.r[g], start, arc)
         # the planned axis in these coordinates
         self.u0, self.v0 = deviation_of(self.P.ax0, self.r, self.e1, self.e2)
 
     # --- the turn limit --------------------------------------------------------------------
-    def path_steps(self, chain):
-        """(m − 1,) mm: the tool path's length between consecutive poses of the global pose
-        sequence ``chain`` (:func:`.axis_field.path_steps`)."""
-        P = self.P
-        return path_steps(P.cc[chain], P.nrm[chain], self.cutter.corner_radius)
+    def arc(self, chain):
+        """(m,) mm: the arc along the global pose sequence ``chain`` the planner measures in —
+        the turn limit's allowance (:func:`.axis_field.turn_allowance`) accumulated, ÷
+        ``turn_per_mm``: the tool path's length (:func:`.axis_field.path_steps`) where the
+        per-pose cap does not bind. The window's ramps, the stations' spacing and the lean's
+        interpolation between stations all read it, so a lean spread over a stretch turns
+        each pose in proportion to the turn its limit allows there."""
+        P, ch = self.P, np.asarray(chain, np.int64)
+        add = turn_allowance(P.cc[ch], P.nrm[ch], self.cutter.corner_radius, self.rate,
+                             self.max_turn)
+        return np.r_[0.0, np.cumsum(add)] / self.rate
 
     def turn_limits(self, chain):
         """(m − 1,) rad: the turn limit between consecutive poses of the global pose sequence
