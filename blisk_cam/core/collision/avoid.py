@@ -383,6 +383,7 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         report.unresolved_ranges = unresolved_ranges(offs, status, det.clearance, plan)
         report.planner = {"poses_planned": plan.n_window, "candidates": plan.n_candidates,
                           "turn_per_mm_deg": math.degrees(options.turn_per_mm),
+                          "max_turn_per_pose_deg": math.degrees(options.plan_max_turn),
                           "axis_reference": options.axis_reference}
         if report.unresolved_ranges:
             report.tool_hint = holder_hint(scene, P, status == STATUS_UNRESOLVED, plan)
