@@ -19,13 +19,20 @@ poses by turning faster than the limit: those poses do not count as resolved), v
 material left and gouge (mm; bound cusp + chord and chord), the avoidance
 wall time and its time per pose. Not a timed test: figures only.
 
+The turn limit every method is judged by is the planner's: the planned turn + 2° per mm of
+the tool's path (the ball's centre, ``axis_field.path_steps``), at most 5° per pose
+(``--max-turn``; ``CollisionOptions.plan_max_turn``).
+
 Measured on this shared 2-core machine (unresolved pass poses; ms per pass pose, the same
-load within a run): demo — rotate 971 (1394 with the poses at its turns over the limit),
-the planner with the turn limit everywhere (the default) 806, with jumps 581; Rotor 37 × 36
-— rotate 1010 (2070), the planner 1154 (program rows 1166, every link re-routed), with jumps
-991 (program rows 1001); 16–18 ms per pass pose for the planner against 3–9 for rotate.
-Before this round: jumps were the default (581 / 991, program rows 1045 on Rotor 37: 11
-links out of unresolved pass ends did not re-route).
+load within a run): demo — rotate 971 (1420 with the poses at its 406 turns over the limit),
+the planner with the turn limit everywhere (the default) 887 (max turn between poses 8.7°),
+with jumps 584; ``--max-turn 89`` (no per-pose cap) 804 (12.5°), with jumps 586; Rotor 37 ×
+36 — rotate 1010 (1268, 222 turns over), the planner 908 (program rows 908, every link
+re-routed; 8.3°), with jumps 821; without the cap 850 (15.2°), with jumps 819; 33–38 ms per
+pass pose for the planner (Rotor 37, the tree before and after side by side: 37.9 and 36.0)
+against 6–14 for rotate. Before the limit was measured along the tool's path (along the
+contact points): demo 806, with jumps 581, rotate 1394 counting its turns over that limit;
+Rotor 37 1154 (program rows 1166), with jumps 991, rotate 2070 counting.
 
 Run: ``python bench/bench_axis_planner.py [--case demo|r37|both] [--no-verify]
 [--methods rotate,plan,plan-jumps]`` (``plan-jumps``: the planner with

@@ -69,11 +69,13 @@ turn_per_mm). The steps:
    path may turn past the limit (cost :data:`_JUMP`: more than any lean, far less than a
    colliding pose), so it re-enters the clear axes right after an unresolved stretch
    instead of ramping out of it at the turn limit; every such turn has two unresolved poses
-   at its ends (the report counts them apart, ``turns_between_unresolved``). The bound
-   costs poses where a lean must change within a blade edge: there the planned axis swings
-   by tens of degrees within a millimetre and the limit lets the lean change by a fraction
-   of a degree per pose (``bench/bench_axis_planner.py``, unresolved poses bounded / with
-   jumps: Rotor 37 × 36 about 1150 / 991, the demo about 810 / 580).
+   at its ends (the report counts them apart, ``turns_between_unresolved``). Measured along
+   the contact, the bound cost poses where a lean must change within a blade edge (the
+   planned axis swings by tens of degrees within a millimetre of contact); along the tool's
+   path (``bench/bench_axis_planner.py``, unresolved pass poses bounded / with jumps, the
+   5° per-pose cap — without it): Rotor 37 × 36 about 908 / 821 — 850 / 819 (along the
+   contact 1154 / 991), the demo about 887 / 584 — 804 / 586 (806 / 581); paper 004's
+   per-pose rotation leaves 1010 and 971, and turns past the limit besides.
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
    linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
    exactly; poses left colliding become exact stations and the runs are planned again
