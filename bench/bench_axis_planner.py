@@ -19,13 +19,20 @@ poses by turning faster than the limit: those poses do not count as resolved), v
 material left and gouge (mm; bound cusp + chord and chord), the avoidance
 wall time and its time per pose. Not a timed test: figures only.
 
+The turn limit every method is judged by is the planner's: the planned turn + 2° per mm of
+the tool's path (the ball's centre, ``axis_field.path_steps``), at most 5° per pose
+(``--max-turn``; ``CollisionOptions.plan_max_turn``).
+
 Measured on this shared 2-core machine (unresolved pass poses; ms per pass pose, the same
-load within a run): demo — rotate 971 (1394 with the poses at its turns over the limit),
-the planner with the turn limit everywhere (the default) 806, with jumps 581; Rotor 37 × 36
-— rotate 1010 (2070), the planner 1154 (program rows 1166, every link re-routed), with jumps
-991 (program rows 1001); 16–18 ms per pass pose for the planner against 3–9 for rotate.
-Before this round: jumps were the default (581 / 991, program rows 1045 on Rotor 37: 11
-links out of unresolved pass ends did not re-route).
+load within a run): demo — rotate 971 (1420 with the poses at its 406 turns over the limit),
+the planner with the turn limit everywhere (the default) 887 (max turn between poses 8.7°),
+with jumps 584; ``--max-turn 89`` (no per-pose cap) 804 (12.5°), with jumps 586; Rotor 37 ×
+36 — rotate 1010 (1268, 222 turns over), the planner 908 (program rows 908, every link
+re-routed; 8.3°), with jumps 821; without the cap 850 (15.2°), with jumps 819; 33–38 ms per
+pass pose for the planner (Rotor 37, the tree before and after side by side: 37.9 and 36.0)
+against 6–14 for rotate. Before the limit was measured along the tool's path (along the
+contact points): demo 806, with jumps 581, rotate 1394 counting its turns over that limit;
+Rotor 37 1154 (program rows 1166), with jumps 991, rotate 2070 counting.
 
 Run: ``python bench/bench_axis_planner.py [--case demo|r37|both] [--no-verify]
 [--methods rotate,plan,plan-jumps]`` (``plan-jumps``: the planner with
@@ -38,6 +45,7 @@ import argparse
 import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +61,7 @@ from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
+from blisk_cam.core.tool.cutter import as_cutter  # noqa: E402
 from blisk_cam.core.verify.measure import verify_path  # noqa: E402
 
 HOLDER = ((15.0, 6.0), (40.0, 6.0), (40.0, 16.0), (100.0, 16.0))
@@ -76,33 +85,42 @@ def case(name):
     return mesh, req, 36, {"max_tilt": math.radians(85)}
 
 
-def turn_figures(planned, path, turn_per_mm):
+def turn_figures(planned, path, turn_per_mm, max_turn=None):
     """(largest turn between consecutive pass poses, deg; largest excess over the planner's
-    limit — the planned turn + turn_per_mm × the CC step —, deg; turns over that limit;
-    of them, those with a pose not unresolved at either end (the others lie inside an
-    unresolved stretch, which is not cut); (n,) bool: the pass poses at either end of such
-    a turn)."""
-    worst, excess, over, over_cut, at = 0.0, 0.0, 0, 0, []
+    limit — the planned turn + turn_per_mm × the tool path's length (``turn_limits``, the
+    one definition the planner and the report read; a closed pass's closing cut included) —,
+    deg; turns over that limit; of them, those with a pose not unresolved at either end (the
+    others lie inside an unresolved stretch, which is not cut); (n,) bool: the pass poses at
+    either end of such a turn; the largest turn the limit adds to a planned turn at one
+    pose, deg)."""
+    corner = as_cutter(planned.tool).corner_radius
+    worst, excess, over, over_cut, at, added = 0.0, 0.0, 0, 0, [], 0.0
     for c0, c in zip(planned.curves, path.curves, strict=True):
         a = np.asarray(c.axis, float)
         mask = np.zeros(len(a), bool)
         at.append(mask)
         if len(a) < 2:
             continue
+        idx = np.r_[np.arange(len(a)), 0] if c.closed and len(a) > 2 else np.arange(len(a))
+        a = a[idx]
+        a0 = np.asarray(c0.axis, float)[idx]
         t = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
-        lim = turn_limits(c0.cc, c0.axis, turn_per_mm)
+        lim = turn_limits(np.asarray(c0.cc)[idx], np.asarray(c0.normal)[idx], a0, corner,
+                          turn_per_mm, max_turn)
+        t0 = np.arccos(np.clip(np.einsum("ij,ij->i", a0[1:], a0[:-1]), -1, 1))
+        added = max(added, float(np.degrees((lim - t0).max())))
         worst = max(worst, float(np.degrees(t.max())))
         excess = max(excess, float(np.degrees((t - lim).max())))
         bad = t > lim + 1e-9
-        un = np.asarray(c.collision["status"]) == 2
+        un = (np.asarray(c.collision["status"]) == 2)[idx]
         over += int(np.sum(bad))
         over_cut += int(np.sum(bad & ~(un[1:] & un[:-1])))
-        mask[:-1] |= bad
-        mask[1:] |= bad
-    return worst, excess, over, over_cut, np.concatenate(at)
+        np.logical_or.at(mask, idx[:-1][bad], True)
+        np.logical_or.at(mask, idx[1:][bad], True)
+    return worst, excess, over, over_cut, np.concatenate(at), added
 
 
-def run(name, methods, verify):
+def run(name, methods, verify, max_turn=None):
     mesh, req, blades, extra = case(name)
     t = time.perf_counter()
     planned = plan_paths(mesh, req).path
@@ -127,6 +145,8 @@ def run(name, methods, verify):
             if "turn_jumps" not in CollisionOptions.__dataclass_fields__:
                 print(f"  {method}: not in this tree")
                 continue
+        if max_turn is not None and method != "rotate":  # the planner's per-pose cap
+            extra_opts["max_turn"] = max_turn
         opts = CollisionOptions(**{**opts.__dict__, **extra_opts})
         t = time.perf_counter()
         path, rep = run_collisions(mesh, planned, options=opts)
@@ -134,14 +154,19 @@ def run(name, methods, verify):
         status = np.concatenate([np.asarray(c.collision["status"]) for c in path.curves])
         unres = int(np.sum(status == 2))
         before = rep.n_colliding_before
-        worst, excess, over, over_cut, at = turn_figures(planned, path, opts.turn_per_mm)
+        # the planner's limit, its per-pose cap included, judges every method
+        cap = replace(opts, max_turn=max_turn).plan_max_turn
+        worst, excess, over, over_cut, at, added = turn_figures(planned, path, opts.turn_per_mm,
+                                                                cap)
         ranges = (path.collision or {}).get("unresolved_ranges") or []
         links = getattr(rep, "links", None) or {}
         print(f"  {method:10s}: colliding before {before} of {rep.n_checked} rows "
               f"({100 * before / rep.n_checked:.1f} %); unresolved pass poses {unres} "
               f"({100 * unres / n:.1f} %) in {len(ranges)} ranges, program rows "
               f"{rep.n_unresolved}; max turn {worst:.2f}°, {over} turns over the limit "
-              f"(planned + 2°/mm), worst by {excess:.2f}°, {over_cut} of them with a pose "
+              f"(planned + {math.degrees(opts.turn_per_mm):g}°/mm of tool path, ≤ "
+              f"{math.degrees(cap):g}° per pose; it adds up to {added:.2f}° per pose), worst "
+              f"by {excess:.2f}°, {over_cut} of them with a pose "
               f"not unresolved at either end; avoidance {dt:.1f} s "
               f"({1e3 * dt / n:.2f} ms per pass pose)", flush=True)
         print(f"          poses unresolved or at a turn over the limit (what the acceptance "
@@ -168,10 +193,14 @@ def main():
     ap.add_argument("--case", default="both", choices=("demo", "r37", "both"))
     ap.add_argument("--methods", default="rotate,plan,plan-jumps")
     ap.add_argument("--no-verify", action="store_true")
+    ap.add_argument("--max-turn", type=float, default=None, metavar="DEG",
+                    help="the planner's per-pose cap on the turn its limit adds to the planned "
+                         "one (CollisionOptions.max_turn; default 5°, 89 for practically none)")
     a = ap.parse_args()
     names = ("demo", "r37") if a.case == "both" else (a.case,)
+    cap = None if a.max_turn is None else math.radians(a.max_turn)
     for name in names:
-        run(name, a.methods.split(","), not a.no_verify)
+        run(name, a.methods.split(","), not a.no_verify, cap)
 
 
 if __name__ == "__main__":

@@ -71,3 +71,42 @@ def test_log_inverts_exp():
     A = deviation_axes(R, e1, e2, u, v)
     uu, vv = deviation_of(A, R, e1, e2)
     assert np.allclose(uu, u, atol=1e-9) and np.allclose(vv, v, atol=1e-9)
+
+
+def _edge(radius, k=19, inward=False):
+    """Contact points and unit normals round half a circle of ``radius`` mm (a blade edge;
+    ``inward``: the normals toward the centre, a concave fillet), the planned axes fixed
+    along z (no planned turn)."""
+    phi = np.linspace(0.0, math.pi, k)
+    n = np.c_[np.cos(phi), np.sin(phi), np.zeros(k)]
+    return radius * n, (-n if inward else n), np.tile([0.0, 0.0, 1.0], (k, 1)), phi
+
+
+def test_the_turn_limit_is_per_mm_of_the_tool_path_round_an_edge():
+    """Round a 0.5 mm blade edge a Ø12 ball's centre runs on a circle of 6.5 mm while the
+    contact runs on 0.5 mm: the limit allows turn_per_mm × the centre's chord per pose,
+    2·6.5·sin(Δφ/2) (analytic), 13 times the contact's; a flat end (no corner) the
+    contact's; a concave arc (the centre's circle the smaller) the contact's too."""
+    from blisk_cam.core.collision.axis_field import MIN_STEP, path_steps, turn_limits
+
+    rate = math.radians(2.0)
+    cc, n, ax, phi = _edge(0.5)
+    dphi = np.diff(phi)
+    got = turn_limits(cc, n, ax, 6.0, rate)
+    assert np.allclose(got, rate * 2 * 6.5 * np.sin(dphi / 2), rtol=1e-12)
+    assert np.allclose(path_steps(cc, n, 6.0).sum(), 2 * 6.5 * np.sin(dphi / 2).sum())
+    flat = turn_limits(cc, n, ax, 0.0, rate)
+    assert np.allclose(flat, rate * np.maximum(2 * 0.5 * np.sin(dphi / 2), MIN_STEP))
+    cc, n, ax, phi = _edge(10.0, inward=True)  # the centre on a 4 mm circle
+    assert np.allclose(turn_limits(cc, n, ax, 6.0, rate),
+                       rate * 2 * 10.0 * np.sin(np.diff(phi) / 2), rtol=1e-12)
+    # the planned turn is added; a pose repeated counts MIN_STEP; max_turn caps the added part
+    tilt = np.c_[np.sin(phi), np.zeros(len(phi)), np.cos(phi)]
+    assert np.allclose(turn_limits(cc, n, tilt, 6.0, rate) - np.diff(phi),
+                       rate * 2 * 10.0 * np.sin(np.diff(phi) / 2), atol=1e-12)
+    same = np.zeros((2, 3)), np.tile([1.0, 0.0, 0.0], (2, 1)), np.tile([0.0, 0.0, 1.0], (2, 1))
+    assert np.allclose(turn_limits(*same, 6.0, rate), rate * MIN_STEP)
+    cap = math.radians(1.0)
+    cc, n, ax, _ = _edge(0.5)
+    assert np.allclose(turn_limits(cc, n, ax, 6.0, rate, cap),
+                       np.minimum(rate * 2 * 6.5 * np.sin(dphi / 2), cap))

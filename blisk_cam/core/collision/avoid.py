@@ -376,13 +376,14 @@ def iter_avoid_collisions(scene: CollisionScene, path: ToolPath, options: Collis
         c.collision = {"status": status[s:e].copy(), "clearance": det.clearance[s:e].copy(),
                        "rotation": rotation[s:e].copy()}
     report = _curve_report(scene, options, offs, P, status, det, rotation)
-    _count_turn_over(report, path, curves, options)
+    _count_turn_over(report, path, curves, options, scene.cutter)
     if options.mode == "avoid":
         report.method = options.method
     if plan is not None:
         report.unresolved_ranges = unresolved_ranges(offs, status, det.clearance, plan)
         report.planner = {"poses_planned": plan.n_window, "candidates": plan.n_candidates,
                           "turn_per_mm_deg": math.degrees(options.turn_per_mm),
+                          "max_turn_per_pose_deg": math.degrees(options.plan_max_turn),
                           "axis_reference": options.axis_reference}
         if report.unresolved_ranges:
             report.tool_hint = holder_hint(scene, P, status == STATUS_UNRESOLVED, plan)
@@ -443,7 +444,7 @@ def _avoid_by_plan(scene, path, options, curves, offs, P: _Poses, det0, lim):
         box["x"] = x
 
     plan = plan_axes(scene, curves, offs, P, lim, det0.colliding,
-                     turn_per_mm=float(options.turn_per_mm), max_turn=options.max_turn,
+                     turn_per_mm=float(options.turn_per_mm), max_turn=options.plan_max_turn,
                      machine=options.machine, reference=options.axis_reference,
                      blisk_axis=path.axis, blade_count=options.blade_count,
                      edge_lead=math.radians(5.0) if options.axis_reference == "channel" else 0.0,
@@ -609,8 +610,10 @@ def _curve_report(scene, options, offs, P: _Poses, status, det, rotation):
     )
 
 
-def _count_turn_over(report, path, curves, options):
-    """Count in ``report`` the consecutive turns over max(planned turn, ``max_turn``)."""
+def _count_turn_over(report, path, curves, options, cutter: Cutter):
+    """Count in ``report`` the consecutive turns over the limit: the planner's
+    (:func:`.axis_field.turn_limits`, per mm of the tool path of ``cutter``) for method
+    "plan", else max(planned turn, ``max_turn``) (the rotation's own smoothing limit)."""
     delta = math.radians(2.0) if options.max_turn is None else float(options.max_turn)
     for c0, c1 in zip(path.curves, curves, strict=True):
         if len(c1) < 2:
@@ -619,10 +622,12 @@ def _count_turn_over(report, path, curves, options):
         t1 = consecutive_turn(c1.axis, c1.closed)
         limit = np.maximum(t0, delta)
         if options.mode == "avoid" and options.method == "plan":  # the planner's limit
-            cc = np.vstack([c1.cc, c1.cc[:1]]) if c1.closed and len(c1) > 2 else c1.cc
-            ax = np.vstack([c0.axis, c0.axis[:1]]) if c1.closed and len(c1) > 2 else c0.axis
-            limit = turn_limits(cc, unit(np.asarray(ax, float)), float(options.turn_per_mm),
-                                options.max_turn)
+            loop = c1.closed and len(c1) > 2
+            cc, nrm, ax = (np.vstack([x, x[:1]]) if loop else x
+                           for x in (np.asarray(c0.cc, float), np.asarray(c0.normal, float),
+                                     unit(np.asarray(c0.axis, float))))
+            limit = turn_limits(cc, nrm, ax, cutter.corner_radius, float(options.turn_per_mm),
+                                options.plan_max_turn)
         over = t1 > limit + 1e-9
         if options.mode == "avoid" and options.method == "plan":
             # the planner jumps only between two unresolved poses (not cut): counted apart

@@ -14,8 +14,8 @@ import numpy as np
 
 from ..geometry.vectors import angle_between, unit
 
-__all__ = ["MIN_STEP", "channel_reference", "deviation_axes", "deviation_of",
-           "sample_motion", "transported_frames", "turn_limits"]
+__all__ = ["MIN_STEP", "channel_reference", "deviation_axes", "deviation_of", "path_steps",
+           "sample_motion", "transported_frames", "turn_allowance", "turn_limits"]
 
 #: shortest step the turn limit counts, mm (see :func:`turn_limits`)
 MIN_STEP = 0.05
@@ -56,17 +56,51 @@ def channel_reference(cc, normal, blisk_axis, blade_count: int):
     return unit(np.cos(half)[:, None] * er + np.sin(half)[:, None] * et, keep_zero=False)
 
 
-def turn_limits(cc, planned_axes, turn_per_mm, max_turn=None):
-    """(k − 1,) largest axis turn (rad) allowed between consecutive poses of a pass: the
-    planned turn there (the surface's own, which avoidance does not judge) plus
-    ``turn_per_mm`` × the CC distance (at least :data:`MIN_STEP` mm), the added part capped
-    by ``max_turn`` per pose when given."""
-    ds = np.linalg.norm(np.diff(np.asarray(cc, dtype=np.float64), axis=0), axis=1)
-    added = turn_per_mm * np.maximum(ds, MIN_STEP)
-    if max_turn is not None:
-        added = np.minimum(added, max_turn)
+def path_steps(cc, normal, corner_radius):
+    """(k − 1,) mm: the length of tool path between consecutive poses — the distance the turn
+    limit is measured along (:func:`turn_limits`; the axis planner's arc, :mod:`.axis_plan`).
+
+    The machine feeds along the tool's own path (with TCPM the programmed tip), and the
+    rotary speed it sees is the turn ÷ (tool path length ÷ feed); round a blade edge of radius
+    ~0.5 mm a Ø12 ball's centre travels ~π·6.5 ≈ 20 mm while the contact travels ~1.6 mm.
+    The point measured is the **corner centre at the contact**, ``cc + r·n`` (r the cutter's
+    corner radius, n the unit surface normal at the contact): for a ball its centre, for a
+    bull nose the centre of the corner circle that touches, for a flat end (r = 0) the
+    contact itself. It is the one point of the cutter the contact fixes whatever the axis
+    (the tip is recomputed from the contact for every axis the planner tries), so the limit
+    is one number per pose pair, known before the axes are chosen — the shortest path needs
+    that; the programmed tip would move with the chosen axis. The tip (and the cutter's
+    centre on its axis) lies within the tool radius R of it in a direction that turns with
+    the axis, so its step differs from this one by at most about R × the turn. Round an edge
+    with the axis held across it, the corner centre goes round at the edge radius + r, the
+    cutter's axis at the edge radius + R: for a bull nose or a flat end the corner centre's
+    path is the shorter one, the cautious choice (a flat end counts the contact's). Never
+    less than the contact's own distance (on a concave surface the corner centre's path is
+    the shorter one)."""
+    cc = np.asarray(cc, dtype=np.float64)
+    centre = cc + float(corner_radius) * np.asarray(normal, dtype=np.float64)
+    return np.maximum(np.linalg.norm(np.diff(cc, axis=0), axis=1),
+                      np.linalg.norm(np.diff(centre, axis=0), axis=1))
+
+
+def turn_allowance(cc, normal, corner_radius, turn_per_mm, max_turn=None):
+    """(k − 1,) rad: the turn the limit adds to the planned one between consecutive poses:
+    ``turn_per_mm`` × the tool path's length between them (:func:`path_steps`, at least
+    :data:`MIN_STEP` mm), capped by ``max_turn`` per pose when given."""
+    added = turn_per_mm * np.maximum(path_steps(cc, normal, corner_radius), MIN_STEP)
+    return added if max_turn is None else np.minimum(added, max_turn)
+
+
+def turn_limits(cc, normal, planned_axes, corner_radius, turn_per_mm, max_turn=None):
+    """(k − 1,) largest axis turn (rad) allowed between consecutive poses of a pass (contact
+    points ``cc``, unit normals ``normal``, planned axes (k, 3)): the planned turn there (the
+    surface's own, which avoidance does not judge) plus :func:`turn_allowance` —
+    ``turn_per_mm`` × the tool path's length between them, capped by ``max_turn`` per pose
+    when given. The one definition of the limit: the planner, its verification and the
+    report's "turns over the limit" all read it."""
     a = np.asarray(planned_axes, dtype=np.float64)
-    return angle_between(a[:-1], a[1:]) + added
+    return angle_between(a[:-1], a[1:]) + turn_allowance(cc, normal, corner_radius,
+                                                          turn_per_mm, max_turn)
 
 
 def _transport(a, b, v):

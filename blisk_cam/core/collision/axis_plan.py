@@ -5,11 +5,26 @@ Paper 004 §3 turns each colliding pose by its own smallest rotation and smooths
 (:mod:`.avoid`, method ``"rotate"``); neighbouring poses may then turn by tens of degrees and
 the ball leaves the surface between them. Here the axis of every pose of a pass is chosen
 *together* (the axis-field idea of commercial 5-axis CAM: interpolate the axis through the
-channel under a maximum angle step):
+channel under a maximum angle step).
+
+**Path length.** The turn limit is per mm of the *tool's* path, not the contact's: the
+machine feeds along the tool's own path (with TCPM the programmed tip), and the rotary speed
+it sees is the turn ÷ (tool path length ÷ feed). The length between two poses is the distance
+between their corner centres at the contact, cc + r·n (a ball's centre, which every axis of a
+ball keeps), never less than the contact's own distance (:func:`.axis_field.path_steps`
+says why that point). Round a blade edge of radius ~0.5 mm a Ø12 ball's centre travels
+~π·6.5 ≈ 20 mm while the contact travels ~1.6 mm: measured along the contact, the limit let
+the lean change by a fraction of a degree per pose there. The turn the limit adds per pose
+is capped too (``max_turn``;
+``CollisionOptions.plan_max_turn``, 5° by default): between two poses the machine turns the
+axis uniformly while the tip goes straight, so a ball's centre leaves the straight line by
+R·(1 − cos(θ/2)). Every "arc" and "path" below is this length, accumulated as the limit
+allows turn along it (:meth:`.axis_states._Planner.arc`: where the cap binds, the cap ÷
+turn_per_mm). The steps:
 
 1. **Window.** Poses whose planned axis collides (clearance < ds), widened along the pass by
-   the arc length the widest lean swing needs at the turn limit (``30° / turn_per_mm``): the
-   ramps in and out. Outside the window the planned axis is kept.
+   the path length the widest lean swing needs at the turn limit (``30° / turn_per_mm``):
+   the ramps in and out. Outside the window the planned axis is kept.
 2. **States.** Per window pose the states: deviations (u, v) of the pose's reference axis
    (the planned axis, or the channel reference below), a square grid of ±60° in 5° steps,
    the axis the reference turned by hypot(u, v) toward u·e1 + v·e2 (:func:`.axis_field.
@@ -27,7 +42,7 @@ channel under a maximum angle step):
    centre fixed; bull nose / flat / taper: :meth:`~..tool.cutter.Cutter.cl_points` from the
    CC point and normal, plus the plan's few-µm lift λ along the normal).
 3. **Stations and clearance.** The shortest path runs over stations: the poses one lean step
-   of arc apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
+   of path apart (5° / turn_per_mm) or where the planned axis itself has turned by a step (the
    edges). At each station a coarse 10° grid is measured by
    :meth:`.scene.CollisionScene.detect` — every station of every pass in one batched call —
    and interpolated onto the states. Poses the plan leaves colliding become stations whose
@@ -40,8 +55,9 @@ channel under a maximum angle step):
 
    with the exact turn between the states of consecutive stations within the sum of the
    poses' limits between them (:func:`turn_limits`: the planned turn plus ``turn_per_mm`` ×
-   the arc step; and from/to the fixed planned poses around the run). Between stations the
-   state is linear in arc length; a pose pair that still turns faster than its limit is
+   the path step, the added part capped by ``max_turn`` per pose when given; and from/to
+   the fixed planned poses around the run). Between stations the state is linear in path
+   length; a pose pair that still turns faster than its limit is
    clamped (sweeps forward and backward; the last sweeps hold the turn limit even where
    that leaves an axis a little past a lean limit).
    Since a colliding state costs more than any lean, the path leaves as few stations
@@ -53,11 +69,13 @@ channel under a maximum angle step):
    path may turn past the limit (cost :data:`_JUMP`: more than any lean, far less than a
    colliding pose), so it re-enters the clear axes right after an unresolved stretch
    instead of ramping out of it at the turn limit; every such turn has two unresolved poses
-   at its ends (the report counts them apart, ``turns_between_unresolved``). The bound
-   costs poses where a lean must change within a blade edge: there the planned axis swings
-   by tens of degrees within a millimetre and the limit lets the lean change by a fraction
-   of a degree per pose (``bench/bench_axis_planner.py``, unresolved poses bounded / with
-   jumps: Rotor 37 × 36 about 1150 / 991, the demo about 810 / 580).
+   at its ends (the report counts them apart, ``turns_between_unresolved``). Measured along
+   the contact, the bound cost poses where a lean must change within a blade edge (the
+   planned axis swings by tens of degrees within a millimetre of contact); along the tool's
+   path (``bench/bench_axis_planner.py``, unresolved pass poses bounded / with jumps, the
+   5° per-pose cap — without it): Rotor 37 × 36 about 908 / 821 — 850 / 819 (along the
+   contact 1154 / 991), the demo about 887 / 584 — 804 / 586 (806 / 581); paper 004's
+   per-pose rotation leaves 1010 and 971, and turns past the limit besides.
 5. **Verification.** Every planned pose and the motion between consecutive poses (the tip
    linear, the axis turned uniformly, :data:`_MOTION_SAMPLES` points inside) are measured
    exactly; poses left colliding become exact stations and the runs are planned again
@@ -108,8 +126,8 @@ from .axis_states import (
     _touch_ok,
 )
 
-__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes",
-           "sample_motion", "turn_limits"]
+__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes", "sample_motion",
+           "turn_limits"]
 
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
@@ -158,19 +176,20 @@ class AxisPlan:
 
 
 # ====================================================================== the planner
-def _windows(offs, cc, colliding, reach_mm, closed):
-    """(n,) bool: poses within ``reach_mm`` of arc length of a colliding pose of their pass
-    (around the closing cut of a closed pass, ``closed`` (p,) bool)."""
-    out = np.zeros(len(cc), bool)
+def _windows(offs, arc_of, colliding, reach_mm, closed):
+    """(n,) bool: poses within ``reach_mm`` of arc (``arc_of``: :meth:`_Planner.arc`) of a
+    colliding pose of their pass (around the closing cut of a closed pass, ``closed`` (p,)
+    bool)."""
+    out = np.zeros(len(colliding), bool)
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
         hit = np.nonzero(colliding[s:e])[0]
         if len(hit) == 0:
             continue
-        arc = _arc(cc[s:e])
+        arc = arc_of(np.arange(s, e))
         h = arc[hit]
         if closed[ci]:
-            L = arc[-1] + float(np.linalg.norm(cc[s] - cc[e - 1]))
+            L = arc[-1] + float(arc_of(np.asarray([e - 1, s]))[1])
             h = np.concatenate([h - L, h, h + L])
         lo = np.searchsorted(arc, h - reach_mm, side="left")
         hi = np.searchsorted(arc, h + reach_mm, side="right")
@@ -182,7 +201,10 @@ def _windows(offs, cc, colliding, reach_mm, closed):
 
 
 def _arc(cc):
+    """(k + 1,) the contact's arc length along the poses, mm."""
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
+
+
 
 
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
@@ -211,7 +233,8 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     n = len(cc)
     f, k_side, lim_lead, lim_tilt = lim
     closed = [bool(c.closed) and offs[i + 1] - offs[i] > 2 for i, c in enumerate(curves)]
-    win = _windows(offs, cc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9, closed)
+    pl = _Planner(scene, P, lim, turn_per_mm, max_turn, machine, _SWING, jumps)
+    win = _windows(offs, pl.arc, colliding, _RAMP / max(turn_per_mm, 1e-9) + 1e-9, closed)
     tip, axis = tip0.copy(), ax0.copy()
     clear = np.full(n, np.inf)
     if not win.any():
@@ -229,7 +252,6 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
         if edge_lead:
             ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
                                -lim_lead[w], lim_lead[w])
-    pl = _Planner(scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, _SWING, jumps)
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -244,7 +266,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
             if closed[ci] and len(run) == k:  # a whole closed pass: opened where it is clear
                 run = np.roll(run, -_open_at(colliding[s:e]))
             g = s + run
-            arc = _arc(cc[g])
+            arc = pl.arc(g)
             if closed[ci]:
                 cyc = len(run) == k
                 pre, post = (None, None) if cyc else (s + (run[0] - 1) % k, s + (run[-1] + 1) % k)
@@ -480,7 +502,7 @@ def _assemble(pl: _Planner, runs, best) -> dict:
 def _jumps(pl: _Planner, runs, chosen, axis):
     """{(a, b)} consecutive global poses (both stations) between which the shortest path
     jumped: both states known exactly to collide and the axes turning past the limit."""
-    P, out = pl.P, set()
+    out = set()
     if not pl.jumps:
         return out
     for r, seq in zip(runs, chosen, strict=True):
@@ -491,7 +513,7 @@ def _jumps(pl: _Planner, runs, chosen, axis):
             if not (pl.colliding_states(ga)[tuple(seq[j - 1])]
                     and pl.colliding_states(gb)[tuple(seq[j])]):
                 continue
-            lim = turn_limits(P.cc[[ga, gb]], P.ax0[[ga, gb]], pl.rate, pl.max_turn)[0]
+            lim = pl.turn_limit(ga, gb)
             if float(axis[ga] @ axis[gb]) < math.cos(lim):
                 out.add((ga, gb))
     return out
@@ -514,7 +536,7 @@ def _limit_turns(pl: _Planner, runs, tip, axis, jumps=frozenset()):
     for r in runs:
         chain = _chain(r)
         m = len(chain)
-        limit = turn_limits(P.cc[chain], P.ax0[chain], pl.rate, pl.max_turn) * (1 - 1e-9)
+        limit = pl.turn_limits(chain) * (1 - 1e-9)
         fixed = np.zeros(m, bool)
         fixed[0] = r.pre is not None or r.cycle
         fixed[-1] = r.post is not None or r.cycle

@@ -20,20 +20,21 @@ from ..machine.kinematics import reachable_axes
 from ..paths.orientation import lead_tilt_axes, lead_tilt_of
 from ..tool.cutter import Cutter
 from .axis_field import (
-    MIN_STEP,
     deviation_axes,
     deviation_of,
     sample_motion,
     transported_frames,
+    turn_allowance,
     turn_limits,
 )
 
 #: the lean states' step and the coarse grid's (measured at every station), rad. Finer
-#: steps help near the blade edges, where the planned axis swings by tens of degrees within
-#: a millimetre and the turn limit lets a lean change by a fraction of a degree per pose
-#: (Rotor 37 × 36, turn bounded everywhere: 2.5° steps to ±40° left 1101 poses unresolved
-#: against 1154), but cost about twice the candidates on the demo for no gain there (822
-#: against 806)
+#: steps helped near the blade edges while the turn limit was measured along the contact,
+#: which lets a lean change there by a fraction of a degree per pose (Rotor 37 × 36, turn
+#: bounded everywhere: 2.5° steps to ±40° left 1101 poses unresolved against 1154), but cost
+#: about twice the candidates on the demo for no gain there (822 against 806); measured
+#: along the tool's path (:func:`.axis_field.path_steps`) the limit lets the lean change
+#: round an edge as the ball's centre goes round it
 _STEP = math.radians(5.0)
 _COARSE = 2
 #: widest lean swing searched about the reference (where the limits allow), rad
@@ -98,12 +99,10 @@ class _Planner:
     clearance known per station (interpolated from the coarse grid, or exact), the batched
     evaluations."""
 
-    def __init__(self, scene, P, lim, ref_l, ref_t, turn_per_mm, max_turn, machine, span,
-                 jumps=False):
+    def __init__(self, scene, P, lim, turn_per_mm, max_turn, machine, span, jumps=False):
         self.scene, self.P = scene, P
         self.jumps = bool(jumps)
         self.f, self.k, self.lim_l, self.lim_t = lim
-        self.ref_l, self.ref_t = ref_l, ref_t  # (n,) rad
         self.rate, self.max_turn, self.machine = turn_per_mm, max_turn, machine
         self.cutter = scene.cutter
         self.ball = self.cutter.type == "ball"
@@ -160,11 +159,37 @@ class _Planner:
                 start = self.k[g[0]]
             arc = None
             if run.cycle:
-                arc = np.r_[run.arc, run.arc[-1] + float(np.linalg.norm(
-                    self.P.cc[g[0]] - self.P.cc[g[-1]]))]
+                arc = np.r_[run.arc, run.arc[-1] + float(self.arc(g[[-1, 0]])[1])]
             self.e1[g], self.e2[g] = transported_frames(self.r[g], start, arc)
         # the planned axis in these coordinates
         self.u0, self.v0 = deviation_of(self.P.ax0, self.r, self.e1, self.e2)
+
+    # --- the turn limit --------------------------------------------------------------------
+    def arc(self, chain):
+        """(m,) mm: the arc along the global pose sequence ``chain`` the planner measures in —
+        the turn limit's allowance (:func:`.axis_field.turn_allowance`) accumulated, ÷
+        ``turn_per_mm``: the tool path's length (:func:`.axis_field.path_steps`) where the
+        per-pose cap does not bind. The window's ramps, the stations' spacing and the lean's
+        interpolation between stations all read it, so a lean spread over a stretch turns
+        each pose in proportion to the turn its limit allows there."""
+        P, ch = self.P, np.asarray(chain, np.int64)
+        add = turn_allowance(P.cc[ch], P.nrm[ch], self.cutter.corner_radius, self.rate,
+                             self.max_turn)
+        return np.r_[0.0, np.cumsum(add)] / self.rate
+
+    def turn_limits(self, chain):
+        """(m − 1,) rad: the turn limit between consecutive poses of the global pose sequence
+        ``chain`` (:func:`.axis_field.turn_limits`: the planned turn + ``turn_per_mm`` × the
+        tool path's length, the added part capped by ``max_turn``) — the one place the
+        planner reads it, between run poses, to and from the fixed planned poses around a
+        run, across a closed pass's closing cut and for the jumps alike."""
+        P, ch = self.P, np.asarray(chain, np.int64)
+        return turn_limits(P.cc[ch], P.nrm[ch], P.ax0[ch], self.cutter.corner_radius,
+                           self.rate, self.max_turn)
+
+    def turn_limit(self, ga, gb) -> float:
+        """The turn limit (rad) from pose ga to the next pose gb (:meth:`turn_limits`)."""
+        return float(self.turn_limits([int(ga), int(gb)])[0])
 
     # --- poses -----------------------------------------------------------------------------
     def axes(self, g, du, dv):
@@ -517,9 +542,8 @@ class _Planner:
         if not r.cycle:
             return self._viterbi(r)
         first = self._viterbi(r)
-        P, g0, gl = self.P, int(r.g[0]), int(r.g[-1])
-        lim = float(angle_between(P.ax0[[gl]], P.ax0[[g0]])[0]) + self.rate * \
-            max(float(np.linalg.norm(P.cc[g0] - P.cc[gl])), MIN_STEP)
+        g0, gl = int(r.g[0]), int(r.g[-1])
+        lim = self.turn_limit(gl, g0)
         ref = np.unravel_index(int(np.argmin(self._dev)), self.shape)
         c0 = self.node_costs(g0).ravel()
         cheap = [np.unravel_index(int(i), self.shape) for i in np.argsort(c0, kind="stable")[:4]
@@ -550,8 +574,7 @@ class _Planner:
             keep[start] = 0.0
             cost = cost + keep
         if r.pre is not None:
-            lim0 = float(angle_between(P.ax0[[r.pre]], P.ax0[[gst[0]]])[0]) + self.rate * \
-                max(float(np.linalg.norm(P.cc[gst[0]] - P.cc[r.pre])), MIN_STEP)
+            lim0 = self.turn_limit(r.pre, gst[0])
             first = self.state_axes(int(gst[0]))
             cost = cost + np.where(first @ P.ax0[r.pre] >= math.cos(lim0) - 1e-12, 0.0, np.inf)
             if (int(r.pre), int(gst[0])) in self.mpairs:
@@ -559,8 +582,7 @@ class _Planner:
         backs = []
         # the turn allowed between two stations: the sum of the poses' limits between them
         # (a state held along the run turns by at most the sum of the reference's turns)
-        cum = np.r_[0.0, np.cumsum(turn_limits(P.cc[r.g], P.ax0[r.g], self.rate,
-                                               self.max_turn))]
+        cum = np.r_[0.0, np.cumsum(self.turn_limits(r.g))]
         for j in range(1, len(gst)):
             lim = float(cum[r.st[j]] - cum[r.st[j - 1]])
             offs, ok = self.moves(gst[j - 1], gst[j], lim)
@@ -585,8 +607,7 @@ class _Planner:
             cost = best + self.node_costs(gst[j])
         if r.post is not None:
             gl = gst[-1]
-            lim1 = float(angle_between(P.ax0[[gl]], P.ax0[[r.post]])[0]) + self.rate * \
-                max(float(np.linalg.norm(P.cc[r.post] - P.cc[gl])), MIN_STEP)
+            lim1 = self.turn_limit(gl, r.post)
             last = self.state_axes(int(gst[-1]))
             cost = cost + np.where(last @ P.ax0[r.post] >= math.cos(lim1) - 1e-12, 0.0, np.inf)
             if (int(gl), int(r.post)) in self.mpairs:

@@ -22,6 +22,9 @@ COLLISION_MODES = ("off", "check", "avoid")
 #: which can change the finish and approach the machine's reach), reports every collision,
 #: and the NC gate (post/gate.py) refuses to post unresolved poses; avoid is chosen on purpose
 DEFAULT_CHECK_MODE = "check"
+#: the axis planner's default cap on the turn its limit adds to the planned one between two
+#: consecutive poses, rad (:attr:`CollisionOptions.plan_max_turn`)
+DEFAULT_PLAN_MAX_TURN = math.radians(5.0)
 
 
 @dataclass(frozen=True)
@@ -39,11 +42,14 @@ class CollisionOptions(OptionGroup):
     safety : float, mm — ds (default 1 mm)
     max_lead, max_tilt : float, rad — axis limits of a corrected pose from the surface normal
         (default 30° each, either sign; a pose planned beyond them: its planned angles)
-    max_turn : float or None, rad — smoothing limit between consecutive poses (None: 2° for
-        method "rotate", no per-pose cap beyond ``turn_per_mm`` for "plan")
+    max_turn : float or None, rad — the turn limit per pose: method "rotate", its smoothing
+        limit between consecutive poses (None: 2°); "plan", the cap on the turn
+        ``turn_per_mm`` adds to the planned one (None: 5°, :attr:`plan_max_turn`)
     method : "plan" | "rotate" — avoidance by the axis planner over the whole pass
         (:mod:`.axis_plan`, default) or by paper 004's per-pose rotation (:mod:`.avoid`)
-    turn_per_mm : float, rad/mm — the planner's largest axis turn per mm of path (2°/mm)
+    turn_per_mm : float, rad/mm — the planner's largest axis turn per mm of the tool's path
+        (2°/mm; the length the corner centre at the contact travels, a ball's centre:
+        :func:`.axis_field.path_steps`)
     axis_reference : "planned" | "channel" — what the planner keeps the axes close to
     machine : Machine or None — the planner keeps the axes inside its rotaries' reach
     max_iterations : int — rotation steps per pose (Eqs. 16–17)
@@ -95,8 +101,9 @@ class CollisionOptions(OptionGroup):
         flag="--avoid-method", prop="avoid_method")
     turn_per_mm: float = option(
         math.radians(2.0), "Max Turn per mm", "Avoidance (plan) turns the tool axis by at most "
-        "this many degrees per mm of path between consecutive poses (or the planned turn "
-        "where the plan turns faster)", unit="deg", lo=0.0, lo_open=True, hi=math.radians(90.0),
+        "this many degrees per mm of the tool's path (a ball's centre) between consecutive "
+        "poses, and at most 5° per pose, beyond the planned turn there", unit="deg", lo=0.0,
+        lo_open=True, hi=math.radians(90.0),
         flag="--max-turn-per-mm")
     axis_reference: str = option(
         "planned", "Axis Reference", "What avoidance (plan) keeps the axes close to: the "
@@ -144,6 +151,16 @@ class CollisionOptions(OptionGroup):
             raise CollisionError(f"collision gouge tolerance must be ≥ 0 mm, got "
                                  f"{self.gouge_tol!r}")
         check_group(self)  # the declared bounds (as the panel and the flags show them)
+
+    @property
+    def plan_max_turn(self) -> float:
+        """The axis planner's per-pose cap, rad: ``max_turn``, or 5° when None. The turn limit
+        is per mm of path, but the turn between two poses matters too: the machine turns the
+        axis uniformly while the programmed tip goes straight, so a ball's centre leaves the
+        straight line between two poses by R·(1 − cos(θ/2)) — 0.051 mm for a Ø12 ball
+        turning 15°, which the path's long steps allowed at 2°/mm (up to 17.6° on Rotor 37),
+        0.006 mm at 5°."""
+        return DEFAULT_PLAN_MAX_TURN if self.max_turn is None else float(self.max_turn)
 
     def assembly(self, cutter) -> ToolAssembly:
         """The :class:`~..tool.assembly.ToolAssembly` of these options for ``cutter``."""

@@ -47,9 +47,11 @@ class CollisionReport:
         colliding pose, NaN elsewhere: compare with ``curve_rotation_normal``
     curve_lift : list of (k,) float, mm — lift along the normal (Eq. 15)
     program_status : (m,) int8 or None; program_clearance : (m,) float or None
-    n_turn_over : int — consecutive pass poses whose axes turn by more than max(max_turn,
-        the planned turn there) after avoidance (mostly a corrected pose next to an
-        unresolved one, which keeps its planned axis); max_turn_deg : the largest such turn
+    n_turn_over : int — consecutive pass poses whose axes turn past the limit after
+        avoidance: method "plan", the planner's (the planned turn + turn_per_mm × the tool
+        path's length, :func:`.axis_field.turn_limits`); method "rotate", max(max_turn, the
+        planned turn there) (mostly a corrected pose next to an unresolved one, which keeps
+        its planned axis); max_turn_deg : the largest such turn
     n_turn_unresolved : int — turns past the planner's limit between two unresolved poses
         (only with ``CollisionOptions.turn_jumps`` the planner may jump there), not in
         ``n_turn_over``
