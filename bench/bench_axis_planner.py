@@ -60,11 +60,13 @@ from blisk_cam.core.collision.options import CollisionOptions  # noqa: E402
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
+from blisk_cam.core.part.cones import Cone  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
 from blisk_cam.core.tool.cutter import as_cutter  # noqa: E402
 from blisk_cam.core.verify.measure import verify_path  # noqa: E402
 
 HOLDER = ((15.0, 6.0), (40.0, 6.0), (40.0, 16.0), (100.0, 16.0))
+DEMO_HUB_LIFT = 4.0  # mm, the demo path's hub cone moved out from the hub (radially)
 
 
 def case(name):
@@ -72,7 +74,12 @@ def case(name):
     if name == "demo":
         b = make_demo_blisk()
         mesh = TriMesh.from_arrays(b.blade_vertices, b.blade_faces)
-        req = PathRequest(b.axis, b.hub_cone, b.tip_cone, tool_type="ball", tool_diameter=12.0,
+        # the hub cone 4 mm up the blade: the Ø12 ball does not fit the demo's 3.3 mm hub
+        # fillet, and from the hub cone itself the planned path gouges 0.060 mm before any
+        # avoidance (with 4 mm: 0.017 mm, within the chord)
+        c1 = Cone(b.hub_cone.r1 + DEMO_HUB_LIFT, b.hub_cone.z1, b.hub_cone.r2 + DEMO_HUB_LIFT,
+                  b.hub_cone.z2)
+        req = PathRequest(b.axis, c1, b.tip_cone, tool_type="ball", tool_diameter=12.0,
                           cusp=0.05, chord=0.05)
         return mesh, req, b.blade_count, {}
     from support.blades import nasa_blade
