@@ -132,6 +132,10 @@ pub fn triangle_d2(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
 /// face per leaf (its memory dominated the orient stage's peak).
 const RUN: usize = 4;
 
+/// Consecutive points searched one after the other, each from the previous one's nearest
+/// face (the unit of work of the threads).
+const WARM_RUN: usize = 64;
+
 /// A mesh's faces in parry's bounding-volume tree (one leaf per run of [`RUN`] faces).
 pub struct FaceTree {
     v: Vec<P3>,
@@ -225,47 +229,53 @@ impl FaceTree {
 
     /// The nearest face of one point (-1 for a non-finite point or an empty mesh).
     pub fn nearest(&self, p: &P3) -> i64 {
+        self.nearest_from(p, -1)
+    }
+
+    /// [`Self::nearest`], searched from the face `guess` (a face id or −1: e.g. the previous
+    /// point's along a polyline): its distance bounds the search from the start. One
+    /// best-first walk: a run is visited while its box is within the least distance found so
+    /// far (with room for the boxes' and the distances' rounding), so every face at the least
+    /// squared distance is compared — the least d2, then the lowest id, whatever the guess.
+    pub fn nearest_from(&self, p: &P3, guess: i64) -> i64 {
         if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) || self.f.is_empty() {
             return -1;
         }
         let pv = Vector::new(p[0], p[1], p[2]);
-        // best first: a run holding a face at (about) the least distance
-        let first = self.bvh.find_best(
-            f64::MAX,
-            |node, _| {
-                let d = node.aabb().distance_to_local_point(pv, true);
-                d * d
-            },
+        let best = std::cell::Cell::new((f64::INFINITY, u32::MAX));
+        let consider = |face: u32| {
+            let d2 = self.d2(p, face);
+            let (b, id) = best.get();
+            if d2 < b || (d2 == b && face < id) {
+                best.set((d2, face));
+            }
+        };
+        // the reach of a least squared distance d2 (a box farther cannot hold a face as near)
+        let reach = |d2: f64| d2.sqrt() * (1.0 + 1e-9) + 1e-9;
+        let mut start = f64::MAX;
+        if guess >= 0 && (guess as usize) < self.f.len() {
+            consider(guess as u32);
+            let (b, _) = best.get();
+            if b.is_finite() {
+                start = reach(b);
+            }
+        }
+        self.bvh.find_best(
+            start,
+            |node, _| node.aabb().distance_to_local_point(pv, true),
             |leaf, _| {
-                let d2 = self
-                    .run(leaf)
-                    .iter()
-                    .map(|&fi| self.d2(p, fi))
-                    .fold(f64::NAN, f64::min);
-                if d2.is_nan() {
-                    None
+                for &face in self.run(leaf) {
+                    consider(face);
+                }
+                let (b, _) = best.get();
+                if b.is_finite() {
+                    Some(reach(b))
                 } else {
-                    Some(d2)
+                    None
                 }
             },
         );
-        let Some((_, best1)) = first else { return -1 };
-        // every face of the runs whose box is within that distance (with room for the boxes'
-        // and the distances' rounding): the least d2, then the lowest id, as numpy decides
-        let r = best1.sqrt() * (1.0 + 1e-9) + 1e-9;
-        let (mut best, mut id) = (f64::INFINITY, u32::MAX);
-        for leaf in self
-            .bvh
-            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
-        {
-            for &face in self.run(leaf) {
-                let d2 = self.d2(p, face);
-                if d2 < best || (d2 == best && face < id) {
-                    best = d2;
-                    id = face;
-                }
-            }
-        }
+        let (_, id) = best.get();
         if id == u32::MAX {
             -1
         } else {
@@ -273,10 +283,22 @@ impl FaceTree {
         }
     }
 
+    /// [`Self::nearest`] of every point; in runs of consecutive points each searched from the
+    /// previous one's face (neighbouring points of a polyline or a grid share their nearest
+    /// faces; the faces found do not depend on it).
     pub fn nearest_many(&self, pts: &[P3]) -> Vec<i64> {
-        pts.par_iter()
-            .with_min_len(64)
-            .map(|p| self.nearest(p))
-            .collect()
+        let mut out = vec![-1i64; pts.len()];
+        out.par_chunks_mut(WARM_RUN)
+            .zip(pts.par_chunks(WARM_RUN))
+            .for_each(|(o, ps)| {
+                let mut g = -1i64;
+                for (oi, p) in o.iter_mut().zip(ps) {
+                    *oi = self.nearest_from(p, g);
+                    if *oi >= 0 {
+                        g = *oi;
+                    }
+                }
+            });
+        out
     }
 }

@@ -25,6 +25,10 @@ fn dot(a: &P3, b: &P3) -> f64 {
 /// Consecutive segments per leaf (a pass polyline's moves are short next to the ball).
 const RUN: usize = 4;
 
+/// Consecutive points searched one after the other, each from the previous one's nearest
+/// segment (the unit of work of the threads).
+const WARM_RUN: usize = 64;
+
 pub struct SegTree {
     a: Vec<P3>,
     d: Vec<P3>,
@@ -89,6 +93,15 @@ impl SegTree {
     /// (least squared distance, segment: the highest id among equal ones; inf and −1 for a
     /// non-finite point or no segments).
     pub fn nearest(&self, p: &P3) -> (f64, i64) {
+        self.nearest_from(p, -1)
+    }
+
+    /// [`Self::nearest`] searched from the segment `guess` (an id or −1, e.g. the previous
+    /// point's): its distance bounds the search from the start. One best-first walk: a run is
+    /// visited while its box is within the least distance found so far (with room for the
+    /// boxes' and the distances' rounding), so every segment at the least squared distance is
+    /// compared — the same (d2, segment) whatever the guess.
+    pub fn nearest_from(&self, p: &P3, guess: i64) -> (f64, i64) {
         if self.a.is_empty() {
             return (f64::INFINITY, -1);
         }
@@ -96,49 +109,60 @@ impl SegTree {
             return (f64::NAN, -1); // numpy's minimum of NaN distances
         }
         let pv = Vector::new(p[0], p[1], p[2]);
-        let first = self.bvh.find_best(
-            f64::MAX,
-            |node, _| {
-                let d = node.aabb().distance_to_local_point(pv, true);
-                d * d
-            },
+        let best = std::cell::Cell::new((f64::INFINITY, -1i64));
+        let consider = |s: usize| {
+            let d2 = self.d2(p, s);
+            let (b, id) = best.get();
+            if d2 < b || (d2 == b && s as i64 > id) {
+                best.set((d2, s as i64));
+            }
+        };
+        let reach = |d2: f64| d2.sqrt() * (1.0 + 1e-9) + 1e-9;
+        let mut start = f64::MAX;
+        if guess >= 0 && (guess as usize) < self.a.len() {
+            consider(guess as usize);
+            let (b, _) = best.get();
+            if b.is_finite() {
+                start = reach(b);
+            }
+        }
+        self.bvh.find_best(
+            start,
+            |node, _| node.aabb().distance_to_local_point(pv, true),
             |leaf, _| {
-                let d2 = self
-                    .run(leaf)
-                    .map(|s| self.d2(p, s))
-                    .fold(f64::NAN, f64::min);
-                if d2.is_nan() {
-                    None
+                for s in self.run(leaf) {
+                    consider(s);
+                }
+                let (b, _) = best.get();
+                if b.is_finite() {
+                    Some(reach(b))
                 } else {
-                    Some(d2)
+                    None
                 }
             },
         );
-        let Some((_, best1)) = first else {
-            return (f64::INFINITY, -1);
-        };
-        let r = best1.sqrt() * (1.0 + 1e-9) + 1e-9;
-        let (mut best, mut id) = (f64::INFINITY, -1i64);
-        for leaf in self
-            .bvh
-            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
-        {
-            for s in self.run(leaf) {
-                let d2 = self.d2(p, s);
-                if d2 < best || (d2 == best && s as i64 > id) {
-                    best = d2;
-                    id = s as i64;
-                }
-            }
-        }
-        (best, id)
+        best.get()
     }
 
+    /// [`Self::nearest`] of every point; in runs of consecutive points each searched from the
+    /// previous one's segment (neighbouring samples share their nearest passes; the figures
+    /// do not depend on it).
     pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
-        pts.par_iter()
-            .with_min_len(64)
-            .map(|p| self.nearest(p))
-            .unzip()
+        let mut d2 = vec![f64::INFINITY; pts.len()];
+        let mut seg = vec![-1i64; pts.len()];
+        d2.par_chunks_mut(WARM_RUN)
+            .zip(seg.par_chunks_mut(WARM_RUN))
+            .zip(pts.par_chunks(WARM_RUN))
+            .for_each(|((dd, ss), ps)| {
+                let mut g = -1i64;
+                for ((di, si), p) in dd.iter_mut().zip(ss.iter_mut()).zip(ps) {
+                    (*di, *si) = self.nearest_from(p, g);
+                    if *si >= 0 {
+                        g = *si;
+                    }
+                }
+            });
+        (d2, seg)
     }
 
     /// The segments of the leaves whose box comes within `radius` of the point (a superset
