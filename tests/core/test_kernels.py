@@ -185,7 +185,8 @@ def test_triangle_distance_port_is_bit_identical():
 
 
 @compiled
-def test_nearest_faces_identical_on_both_backends():
+@pytest.mark.parametrize("disks", [False, True])
+def test_nearest_faces_identical_on_both_backends(disks):
     from blisk_cam.core.geometry.distance import NearestFaces
     from blisk_cam.core.part.blisk import make_demo_blisk
     from blisk_cam.core.runtime import parallel
@@ -201,7 +202,7 @@ def test_nearest_faces_identical_on_both_backends():
         ref = NearestFaces(mesh).query(P)
     for threads in (1, 2):
         with parallel(threads):
-            got = NearestFaces(mesh).query(P)
+            got = NearestFaces(mesh, disks=disks).query(P)
         for g, r in zip(got, ref, strict=True):
             np.testing.assert_array_equal(g, r)
 
