@@ -31,6 +31,7 @@ const WARM_RUN: usize = 64;
 
 pub struct SegTree {
     a: Vec<P3>,
+    b: Vec<P3>,
     d: Vec<P3>,
     dd: Vec<f64>,
     bvh: Bvh,
@@ -65,7 +66,8 @@ impl SegTree {
             })
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
-        SegTree { a, d, dd, bvh }
+        let b = b.to_vec();
+        SegTree { a, b, d, dd, bvh }
     }
 
     /// `SweptBall._d2` of one point and one segment.
@@ -91,12 +93,7 @@ impl SegTree {
     }
 
     /// (least squared distance, segment: the highest id among equal ones; inf and −1 for a
-    /// non-finite point or no segments).
-    pub fn nearest(&self, p: &P3) -> (f64, i64) {
-        self.nearest_from(p, -1)
-    }
-
-    /// [`Self::nearest`] searched from the segment `guess` (an id or −1, e.g. the previous
+    /// non-finite point or no segments), searched from the segment `guess` (an id or −1, e.g. the previous
     /// point's): its distance bounds the search from the start. One best-first walk: a run is
     /// visited while its box is within the least distance found so far (with room for the
     /// boxes' and the distances' rounding), so every segment at the least squared distance is
@@ -144,7 +141,7 @@ impl SegTree {
         best.get()
     }
 
-    /// [`Self::nearest`] of every point; in runs of consecutive points each searched from the
+    /// [`Self::nearest_from`] of every point; in runs of consecutive points each searched from the
     /// previous one's segment (neighbouring samples share their nearest passes; the figures
     /// do not depend on it).
     pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
@@ -163,6 +160,77 @@ impl SegTree {
                 }
             });
         (d2, seg)
+    }
+
+    /// `closest.ray_capsules_first_hit` of one ray (`o` + t `n`, unit n) and capsule `s`
+    /// (radius² `r2`), operation for operation: the least valid t of the two end spheres and
+    /// the cylinder, ∞ where the ray misses.
+    #[inline]
+    fn capsule_first_hit(&self, o: &P3, n: &P3, s: usize, r2: f64) -> f64 {
+        let mut best = f64::INFINITY;
+        for cen in [&self.a[s], &self.b[s]] {
+            let oc = [o[0] - cen[0], o[1] - cen[1], o[2] - cen[2]];
+            let bq = dot(n, &oc);
+            let h = bq * bq - (dot(&oc, &oc) - r2);
+            let t = -bq - (if h > 0.0 { h } else { 0.0 }).sqrt();
+            if h >= 0.0 && t >= 0.0 && t < best {
+                best = t;
+            }
+        }
+        let (a, ba) = (&self.a[s], &self.d[s]);
+        let oa = [o[0] - a[0], o[1] - a[1], o[2] - a[2]];
+        let baba = dot(ba, ba);
+        let bard = dot(ba, n);
+        let baoa = dot(ba, &oa);
+        let rdoa = dot(n, &oa);
+        let oaoa = dot(&oa, &oa);
+        let aa = baba - bard * bard;
+        let bb = baba * rdoa - baoa * bard;
+        let cc = baba * oaoa - baoa * baoa - r2 * baba;
+        let h = bb * bb - aa * cc;
+        // np.maximum(baba, 1e-300): NaN propagates
+        let floor = if baba.is_nan() || baba > 1e-300 { baba } else { 1e-300 };
+        let okc = aa > 1e-12 * floor && h >= 0.0;
+        if okc {
+            let t = (-bb - (if h > 0.0 { h } else { 0.0 }).sqrt()) / aa;
+            let y = baoa + t * bard;
+            if t >= 0.0 && y >= 0.0 && y <= baba && t < best {
+                best = t;
+            }
+        }
+        best
+    }
+
+    /// `SweptBall.height_along` of one point: the first hit of the ray `o` + t `n` with the
+    /// capsules of radius `radius` around the segments, t ≤ `hmax` (∞ otherwise). Only a
+    /// segment within `radius` + `hmax` of `o` can be hit that soon: the segments of the
+    /// leaves within it (with the reach's rounding room of [`Self::within`]) are tried,
+    /// the least t kept (the minimum over the numpy reference's superset is the same).
+    pub fn first_hit(&self, o: &P3, n: &P3, radius: f64, hmax: f64) -> f64 {
+        let r2 = radius * radius;
+        let mut best = f64::INFINITY;
+        let reach = radius + hmax;
+        let pv = Vector::new(o[0], o[1], o[2]);
+        let r = reach * (1.0 + 1e-12) + 1e-12;
+        if !(r >= 0.0) || !(o[0].is_finite() && o[1].is_finite() && o[2].is_finite()) {
+            return f64::INFINITY;
+        }
+        for leaf in self
+            .bvh
+            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
+        {
+            for s in self.run(leaf) {
+                let t = self.capsule_first_hit(o, n, s, r2);
+                if t < best {
+                    best = t;
+                }
+            }
+        }
+        if best > hmax {
+            f64::INFINITY
+        } else {
+            best
+        }
     }
 
     /// The segments of the leaves whose box comes within `radius` of the point (a superset
@@ -246,6 +314,40 @@ impl SweptBallTree {
         let pl = crate::pool(threads)?;
         let (d2, seg) = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
         Ok((PyArray1::from_vec(py, d2), PyArray1::from_vec(py, seg)))
+    }
+
+    /// (k,) mm: the first hit of each ray `p` + t `n` (points and unit directions (k, 3)) with
+    /// the capsules of `radius` around the segments, ∞ beyond `hmax` (k,) mm or without one
+    /// (`SweptBall.height_along`), on `threads` threads.
+    fn first_hits<'py>(
+        &self,
+        py: Python<'py>,
+        p: PyReadonlyArray2<'py, f64>,
+        n: PyReadonlyArray2<'py, f64>,
+        radius: f64,
+        hmax: PyReadonlyArray1<'py, f64>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let pp = crate::points(&p, "points")?;
+        let nn = crate::points(&n, "directions")?;
+        let hh = crate::slice1(&hmax, "max_height")?;
+        if nn.len() != pp.len() || hh.len() != pp.len() {
+            return Err(PyValueError::new_err(
+                "points, directions and max_height must be one per point",
+            ));
+        }
+        let pl = crate::pool(threads)?;
+        let out: Vec<f64> = py.detach(|| {
+            pl.install(|| {
+                pp.par_iter()
+                    .zip(nn.par_iter())
+                    .zip(hh.par_iter())
+                    .with_min_len(64)
+                    .map(|((o, d), &h)| self.tree.first_hit(o, d, radius, h))
+                    .collect()
+            })
+        });
+        Ok(PyArray1::from_vec(py, out))
     }
 
     /// (query (p,), segment (p,)) int64: a superset of the segments within `radius` (k,) mm
