@@ -17,6 +17,16 @@ use rayon::prelude::*;
 
 pub type P3 = [f64; 3];
 
+/// np.maximum-free max that keeps a NaN (a NaN reach makes the group search alone).
+#[inline(always)]
+fn nanmax_f(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
 #[inline(always)]
 fn dot(a: &P3, b: &P3) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
@@ -35,7 +45,35 @@ pub struct SegTree {
     d: Vec<P3>,
     dd: Vec<f64>,
     bvh: Bvh,
+    /// each leaf's box (lo, hi), for the group queries' own tests
+    boxes: Vec<[f64; 6]>,
 }
+
+/// The squared distance from a point to a box (lo, hi) (0 inside).
+#[inline(always)]
+pub fn box_d2(bx: &[f64; 6], p: &P3) -> f64 {
+    let mut s = 0.0;
+    for j in 0..3 {
+        let e = (bx[j] - p[j]).max(p[j] - bx[3 + j]).max(0.0);
+        s += e * e;
+    }
+    s
+}
+
+/// The reach of a least squared distance `d2`: a box farther than it (with room for the
+/// boxes' and the distances' rounding) holds nothing as near.
+#[inline(always)]
+pub fn reach(d2: f64) -> f64 {
+    d2.sqrt() * (1.0 + 1e-9) + 1e-9
+}
+
+/// Points per group of [`SegTree::nearest_group`] (consecutive samples of a grid or a
+/// polyline lie within a few mm of each other).
+pub const GROUP: usize = 32;
+
+/// Candidate leaves above which a group is searched point by point (its points are far
+/// apart: one walk per point is then cheaper than testing every candidate per point).
+pub const GROUP_MAX_LEAVES: usize = 256;
 
 impl SegTree {
     /// Segments a + t d (t ∈ [0, 1]) with |d|² `dd` (0 replaced by 1), and their ends `b`
@@ -67,7 +105,21 @@ impl SegTree {
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
         let b = b.to_vec();
-        SegTree { a, b, d, dd, bvh }
+        let boxes = boxes
+            .iter()
+            .map(|x| {
+                let (lo, hi) = (x.mins, x.maxs);
+                [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]
+            })
+            .collect();
+        SegTree {
+            a,
+            b,
+            d,
+            dd,
+            bvh,
+            boxes,
+        }
     }
 
     /// `SweptBall._d2` of one point and one segment.
@@ -141,9 +193,8 @@ impl SegTree {
         best.get()
     }
 
-    /// [`Self::nearest_from`] of every point; in runs of consecutive points each searched from the
-    /// previous one's segment (neighbouring samples share their nearest passes; the figures
-    /// do not depend on it).
+    /// [`Self::nearest_from`] of every point, by groups of [`GROUP`] consecutive points
+    /// ([`Self::nearest_group`]; the figures do not depend on the grouping).
     pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
         let mut d2 = vec![f64::INFINITY; pts.len()];
         let mut seg = vec![-1i64; pts.len()];
@@ -152,14 +203,108 @@ impl SegTree {
             .zip(pts.par_chunks(WARM_RUN))
             .for_each(|((dd, ss), ps)| {
                 let mut g = -1i64;
-                for ((di, si), p) in dd.iter_mut().zip(ss.iter_mut()).zip(ps) {
-                    (*di, *si) = self.nearest_from(p, g);
-                    if *si >= 0 {
-                        g = *si;
-                    }
+                for ((dg, sg), pg) in dd
+                    .chunks_mut(GROUP)
+                    .zip(ss.chunks_mut(GROUP))
+                    .zip(ps.chunks(GROUP))
+                {
+                    g = self.nearest_group(pg, dg, sg, g);
                 }
             });
         (d2, seg)
+    }
+
+    /// [`Self::nearest_from`] of a group of nearby points with one tree walk: the first
+    /// finite point is searched alone (from `guess`); its segment s0 bounds every point's
+    /// least distance (d2 to s0), so every segment that can be nearest to one of them lies in
+    /// a leaf whose box comes within max(|p − c| + reach(d2(p, s0))) of the group's centre c:
+    /// those leaves are listed once, then each point tests them (box, then segments) against
+    /// its own best so far. Every segment at a point's least distance is compared, so the
+    /// (d2, segment) are [`Self::nearest_from`]'s. Returns the last segment found (the next
+    /// group's guess).
+    pub fn nearest_group(&self, ps: &[P3], dd: &mut [f64], ss: &mut [i64], guess: i64) -> i64 {
+        let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
+        let alone = |dd: &mut [f64], ss: &mut [i64], mut g: i64| -> i64 {
+            for ((di, si), p) in dd.iter_mut().zip(ss.iter_mut()).zip(ps) {
+                (*di, *si) = self.nearest_from(p, g);
+                if *si >= 0 {
+                    g = *si;
+                }
+            }
+            g
+        };
+        let Some(i0) = ps.iter().position(finite) else {
+            return alone(dd, ss, guess);
+        };
+        let (d0, s0) = self.nearest_from(&ps[i0], guess);
+        if s0 < 0 || ps.len() < 4 {
+            return alone(dd, ss, guess);
+        }
+        let s0u = s0 as usize;
+        let (mut c, mut m) = ([0.0f64; 3], 0.0f64);
+        for p in ps.iter().filter(|p| finite(p)) {
+            for j in 0..3 {
+                c[j] += p[j];
+            }
+            m += 1.0;
+        }
+        let c = [c[0] / m, c[1] / m, c[2] / m];
+        let mut rg = 0.0f64;
+        for p in ps.iter().filter(|p| finite(p)) {
+            let e = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            let u = reach(self.d2(p, s0u));
+            rg = nanmax_f(rg, dot(&e, &e).sqrt() + u);
+        }
+        let r = rg * (1.0 + 1e-9) + 1e-9;
+        if !(r < f64::INFINITY) {
+            return alone(dd, ss, s0);
+        }
+        let cv = Vector::new(c[0], c[1], c[2]);
+        let mut cands: Vec<u32> = Vec::new();
+        for leaf in self
+            .bvh
+            .leaves(|node| node.aabb().distance_to_local_point(cv, true) <= r)
+        {
+            cands.push(leaf);
+            if cands.len() > GROUP_MAX_LEAVES {
+                return alone(dd, ss, s0);
+            }
+        }
+        let mut last = s0;
+        for (i, p) in ps.iter().enumerate() {
+            if i == i0 {
+                (dd[i], ss[i]) = (d0, s0);
+                continue;
+            }
+            if !finite(p) {
+                (dd[i], ss[i]) = self.nearest_from(p, -1);
+                continue;
+            }
+            let (mut b, mut id) = (f64::INFINITY, -1i64);
+            let mut r2 = f64::INFINITY;
+            let consider = |s: usize, b: &mut f64, id: &mut i64, r2: &mut f64| {
+                let d2 = self.d2(p, s);
+                if d2 < *b || (d2 == *b && s as i64 > *id) {
+                    *b = d2;
+                    *id = s as i64;
+                    let rr = reach(d2);
+                    *r2 = rr * rr;
+                }
+            };
+            consider(s0u, &mut b, &mut id, &mut r2);
+            for &leaf in &cands {
+                if box_d2(&self.boxes[leaf as usize], p) <= r2 {
+                    for s in self.run(leaf) {
+                        consider(s, &mut b, &mut id, &mut r2);
+                    }
+                }
+            }
+            (dd[i], ss[i]) = (b, id);
+            if id >= 0 {
+                last = id;
+            }
+        }
+        last
     }
 
     /// `closest.ray_capsules_first_hit` of one ray (`o` + t `n`, unit n) and capsule `s`
