@@ -165,7 +165,7 @@ class MeshDistance:
                 raise ValueError(f"MeshDistance.query: near must give one guess per point, "
                                  f"got {len(near)} for {k} points")
         if self._faces is not None:
-            face = self._faces.query(P)[1]
+            face = self._faces.faces(P)
         else:
             _, face = nearest(self.tree, P, self._d2, fastfn=self._fast_d2, near=near,
                                keepfn=self._lb_keep)
@@ -307,6 +307,16 @@ class NearestFaces:
             return q[row], face, bary[row]
         q, _, _, bary = closest_on_triangles(P, A[face], B[face], C[face])  # NaN points
         return q, face, bary
+
+    def faces(self, points):
+        """(k,) int64 — the face of :meth:`query`'s closest point to each of (k, 3) points
+        (the compiled kernel's answer alone, without the closest points, when it runs)."""
+        P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        if len(P) and self.mesh.n_faces and extension() is not None:
+            if self._ctree is None:
+                self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
+            return compiled_closest.nearest_faces(self._ctree, P, workers())
+        return self.query(P)[1]
 
     def _query_compiled(self, P):
         """:meth:`query` by the compiled kernel: the same faces (the least squared distance
