@@ -153,11 +153,22 @@ pub struct FaceTree {
 /// finds ~25 runs within its box reach, but only the faces under it within their disks).
 /// Slivers (an angle below ~0.06°, whose normal from rounded edges is off) and zero-area
 /// faces get n = 0: the bound is then that of the sphere around the centroid.
+///
+/// With it, the capsule around the face's longest edge, of radius the opposite vertex's
+/// height (the angles at that edge's ends are at most 90°, so the whole face projects onto
+/// the edge): tight on long thin faces, whose disk is wide (Rotor 37's blade as stored: the
+/// exact distance took 43 % of a ball-centre query with the disks alone).
 #[derive(Clone, Copy)]
 struct FaceDisk {
     c: P3,
     n: P3,
     r: f64,
+    /// the longest edge: start, direction (end − start), 1 / |direction|² (0 if degenerate)
+    es: P3,
+    ed: P3,
+    einv: f64,
+    /// the capsule's radius: the opposite vertex's distance to that edge, padded
+    eh: f64,
 }
 
 impl FaceDisk {
@@ -183,7 +194,39 @@ impl FaceDisk {
             .fold(0.0f64, f64::max);
         // the vertices' own distance to the plane (rounding of n) and the radius' rounding
         let r = r * (1.0 + 1e-9) + 1e-12;
-        FaceDisk { c: cen, n, r }
+        // the longest edge and the opposite vertex
+        let (lab, lbc, lca) = (
+            dot(&sub(b, a), &sub(b, a)),
+            dot(&sub(c, b), &sub(c, b)),
+            dot(&sub(a, c), &sub(a, c)),
+        );
+        let (es, ee, opp) = if lab >= lbc && lab >= lca {
+            (*a, *b, *c)
+        } else if lbc >= lca {
+            (*b, *c, *a)
+        } else {
+            (*c, *a, *b)
+        };
+        let ed = sub(&ee, &es);
+        let ll = dot(&ed, &ed);
+        let (einv, eh) = if ll > 0.0 && ll.is_finite() {
+            let einv = 1.0 / ll;
+            let w = sub(&opp, &es);
+            let t = dot(&w, &ed) * einv;
+            let e = [w[0] - t * ed[0], w[1] - t * ed[1], w[2] - t * ed[2]];
+            (einv, dot(&e, &e).sqrt() * (1.0 + 1e-9) + 1e-9 * (1.0 + ll.sqrt()))
+        } else {
+            (0.0, 0.0) // a point face: its disk bound alone (the capsule is not used)
+        };
+        FaceDisk {
+            c: cen,
+            n,
+            r,
+            es,
+            ed,
+            einv,
+            eh,
+        }
     }
 
     /// A lower bound (mm) of the distance from `p` to the face, less a rounding pad
@@ -195,7 +238,18 @@ impl FaceDisk {
         let z = dot(&d, &self.n);
         let rin = (dd - z * z).max(0.0).sqrt();
         let e = (rin - self.r).max(0.0);
-        let lb = (z * z + e * e).sqrt() - 1e-9 * (1.0 + dd.sqrt() + self.r);
+        let mut lb = (z * z + e * e).sqrt() - 1e-9 * (1.0 + dd.sqrt() + self.r);
+        if self.einv > 0.0 {
+            let w = sub(p, &self.es);
+            let t = (dot(&w, &self.ed) * self.einv).clamp(0.0, 1.0);
+            let q = [
+                w[0] - t * self.ed[0],
+                w[1] - t * self.ed[1],
+                w[2] - t * self.ed[2],
+            ];
+            let dq = dot(&q, &q).sqrt();
+            lb = lb.max(dq - self.eh - 1e-9 * (1.0 + dq + self.eh));
+        }
         if lb.is_nan() {
             f64::NEG_INFINITY
         } else {
