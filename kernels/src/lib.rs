@@ -61,12 +61,16 @@ struct FaceTree {
 
 #[pymethods]
 impl FaceTree {
-    /// V (n, 3) float64 mm, F (m, 3) int64 vertex ids (in range: checked).
+    /// V (n, 3) float64 mm, F (m, 3) int64 vertex ids (in range: checked); `disks`: keep
+    /// a bound per face (7 floats a face) that makes queries far off the surface faster
+    /// (the same answers).
     #[new]
+    #[pyo3(signature = (v, f, disks = false))]
     fn new(
         py: Python<'_>,
         v: PyReadonlyArray2<'_, f64>,
         f: PyReadonlyArray2<'_, i64>,
+        disks: bool,
     ) -> PyResult<Self> {
         let vv = points(&v, "V")?.to_vec();
         if f.shape()[1] != 3 {
@@ -83,7 +87,7 @@ impl FaceTree {
             .chunks_exact(3)
             .map(|t| [t[0] as usize, t[1] as usize, t[2] as usize])
             .collect();
-        let tree = py.detach(|| closest::FaceTree::new(vv, ff));
+        let tree = py.detach(|| closest::FaceTree::new(vv, ff, disks));
         Ok(FaceTree { tree })
     }
 

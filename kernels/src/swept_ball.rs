@@ -17,6 +17,16 @@ use rayon::prelude::*;
 
 pub type P3 = [f64; 3];
 
+/// np.maximum-free max that keeps a NaN (a NaN reach makes the group search alone).
+#[inline(always)]
+fn nanmax_f(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
 #[inline(always)]
 fn dot(a: &P3, b: &P3) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
@@ -25,12 +35,45 @@ fn dot(a: &P3, b: &P3) -> f64 {
 /// Consecutive segments per leaf (a pass polyline's moves are short next to the ball).
 const RUN: usize = 4;
 
+/// Consecutive points searched one after the other, each from the previous one's nearest
+/// segment (the unit of work of the threads).
+const WARM_RUN: usize = 64;
+
 pub struct SegTree {
     a: Vec<P3>,
+    b: Vec<P3>,
     d: Vec<P3>,
     dd: Vec<f64>,
     bvh: Bvh,
+    /// each leaf's box (lo, hi), for the group queries' own tests
+    boxes: Vec<[f64; 6]>,
 }
+
+/// The squared distance from a point to a box (lo, hi) (0 inside).
+#[inline(always)]
+pub fn box_d2(bx: &[f64; 6], p: &P3) -> f64 {
+    let mut s = 0.0;
+    for j in 0..3 {
+        let e = (bx[j] - p[j]).max(p[j] - bx[3 + j]).max(0.0);
+        s += e * e;
+    }
+    s
+}
+
+/// The reach of a least squared distance `d2`: a box farther than it (with room for the
+/// boxes' and the distances' rounding) holds nothing as near.
+#[inline(always)]
+pub fn reach(d2: f64) -> f64 {
+    d2.sqrt() * (1.0 + 1e-9) + 1e-9
+}
+
+/// Points per group of [`SegTree::nearest_group`] (consecutive samples of a grid or a
+/// polyline lie within a few mm of each other).
+pub const GROUP: usize = 32;
+
+/// Candidate leaves above which a group is searched point by point (its points are far
+/// apart: one walk per point is then cheaper than testing every candidate per point).
+pub const GROUP_MAX_LEAVES: usize = 256;
 
 impl SegTree {
     /// Segments a + t d (t ∈ [0, 1]) with |d|² `dd` (0 replaced by 1), and their ends `b`
@@ -61,7 +104,22 @@ impl SegTree {
             })
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
-        SegTree { a, d, dd, bvh }
+        let b = b.to_vec();
+        let boxes = boxes
+            .iter()
+            .map(|x| {
+                let (lo, hi) = (x.mins, x.maxs);
+                [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]
+            })
+            .collect();
+        SegTree {
+            a,
+            b,
+            d,
+            dd,
+            bvh,
+            boxes,
+        }
     }
 
     /// `SweptBall._d2` of one point and one segment.
@@ -87,8 +145,12 @@ impl SegTree {
     }
 
     /// (least squared distance, segment: the highest id among equal ones; inf and −1 for a
-    /// non-finite point or no segments).
-    pub fn nearest(&self, p: &P3) -> (f64, i64) {
+    /// non-finite point or no segments), searched from the segment `guess` (an id or −1, e.g. the previous
+    /// point's): its distance bounds the search from the start. One best-first walk: a run is
+    /// visited while its box is within the least distance found so far (with room for the
+    /// boxes' and the distances' rounding), so every segment at the least squared distance is
+    /// compared — the same (d2, segment) whatever the guess.
+    pub fn nearest_from(&self, p: &P3, guess: i64) -> (f64, i64) {
         if self.a.is_empty() {
             return (f64::INFINITY, -1);
         }
@@ -96,49 +158,224 @@ impl SegTree {
             return (f64::NAN, -1); // numpy's minimum of NaN distances
         }
         let pv = Vector::new(p[0], p[1], p[2]);
-        let first = self.bvh.find_best(
-            f64::MAX,
-            |node, _| {
-                let d = node.aabb().distance_to_local_point(pv, true);
-                d * d
-            },
+        let best = std::cell::Cell::new((f64::INFINITY, -1i64));
+        let consider = |s: usize| {
+            let d2 = self.d2(p, s);
+            let (b, id) = best.get();
+            if d2 < b || (d2 == b && s as i64 > id) {
+                best.set((d2, s as i64));
+            }
+        };
+        let reach = |d2: f64| d2.sqrt() * (1.0 + 1e-9) + 1e-9;
+        let mut start = f64::MAX;
+        if guess >= 0 && (guess as usize) < self.a.len() {
+            consider(guess as usize);
+            let (b, _) = best.get();
+            if b.is_finite() {
+                start = reach(b);
+            }
+        }
+        self.bvh.find_best(
+            start,
+            |node, _| node.aabb().distance_to_local_point(pv, true),
             |leaf, _| {
-                let d2 = self
-                    .run(leaf)
-                    .map(|s| self.d2(p, s))
-                    .fold(f64::NAN, f64::min);
-                if d2.is_nan() {
-                    None
+                for s in self.run(leaf) {
+                    consider(s);
+                }
+                let (b, _) = best.get();
+                if b.is_finite() {
+                    Some(reach(b))
                 } else {
-                    Some(d2)
+                    None
                 }
             },
         );
-        let Some((_, best1)) = first else {
-            return (f64::INFINITY, -1);
+        best.get()
+    }
+
+    /// [`Self::nearest_from`] of every point, by groups of [`GROUP`] consecutive points
+    /// ([`Self::nearest_group`]; the figures do not depend on the grouping).
+    pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
+        let mut d2 = vec![f64::INFINITY; pts.len()];
+        let mut seg = vec![-1i64; pts.len()];
+        d2.par_chunks_mut(WARM_RUN)
+            .zip(seg.par_chunks_mut(WARM_RUN))
+            .zip(pts.par_chunks(WARM_RUN))
+            .for_each(|((dd, ss), ps)| {
+                let mut g = -1i64;
+                for ((dg, sg), pg) in dd
+                    .chunks_mut(GROUP)
+                    .zip(ss.chunks_mut(GROUP))
+                    .zip(ps.chunks(GROUP))
+                {
+                    g = self.nearest_group(pg, dg, sg, g);
+                }
+            });
+        (d2, seg)
+    }
+
+    /// [`Self::nearest_from`] of a group of nearby points with one tree walk: the first
+    /// finite point is searched alone (from `guess`); its segment s0 bounds every point's
+    /// least distance (d2 to s0), so every segment that can be nearest to one of them lies in
+    /// a leaf whose box comes within max(|p − c| + reach(d2(p, s0))) of the group's centre c:
+    /// those leaves are listed once, then each point tests them (box, then segments) against
+    /// its own best so far. Every segment at a point's least distance is compared, so the
+    /// (d2, segment) are [`Self::nearest_from`]'s. Returns the last segment found (the next
+    /// group's guess).
+    pub fn nearest_group(&self, ps: &[P3], dd: &mut [f64], ss: &mut [i64], guess: i64) -> i64 {
+        let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
+        let alone = |dd: &mut [f64], ss: &mut [i64], mut g: i64| -> i64 {
+            for ((di, si), p) in dd.iter_mut().zip(ss.iter_mut()).zip(ps) {
+                (*di, *si) = self.nearest_from(p, g);
+                if *si >= 0 {
+                    g = *si;
+                }
+            }
+            g
         };
-        let r = best1.sqrt() * (1.0 + 1e-9) + 1e-9;
-        let (mut best, mut id) = (f64::INFINITY, -1i64);
+        let Some(i0) = ps.iter().position(finite) else {
+            return alone(dd, ss, guess);
+        };
+        let (d0, s0) = self.nearest_from(&ps[i0], guess);
+        if s0 < 0 || ps.len() < 4 {
+            return alone(dd, ss, guess);
+        }
+        let s0u = s0 as usize;
+        let (mut c, mut m) = ([0.0f64; 3], 0.0f64);
+        for p in ps.iter().filter(|p| finite(p)) {
+            for j in 0..3 {
+                c[j] += p[j];
+            }
+            m += 1.0;
+        }
+        let c = [c[0] / m, c[1] / m, c[2] / m];
+        let mut rg = 0.0f64;
+        for p in ps.iter().filter(|p| finite(p)) {
+            let e = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            let u = reach(self.d2(p, s0u));
+            rg = nanmax_f(rg, dot(&e, &e).sqrt() + u);
+        }
+        let r = rg * (1.0 + 1e-9) + 1e-9;
+        if !(r < f64::INFINITY) {
+            return alone(dd, ss, s0);
+        }
+        let cv = Vector::new(c[0], c[1], c[2]);
+        let mut cands: Vec<u32> = Vec::new();
+        for leaf in self
+            .bvh
+            .leaves(|node| node.aabb().distance_to_local_point(cv, true) <= r)
+        {
+            cands.push(leaf);
+            if cands.len() > GROUP_MAX_LEAVES {
+                return alone(dd, ss, s0);
+            }
+        }
+        let mut last = s0;
+        for (i, p) in ps.iter().enumerate() {
+            if i == i0 {
+                (dd[i], ss[i]) = (d0, s0);
+                continue;
+            }
+            if !finite(p) {
+                (dd[i], ss[i]) = self.nearest_from(p, -1);
+                continue;
+            }
+            let (mut b, mut id) = (f64::INFINITY, -1i64);
+            let mut r2 = f64::INFINITY;
+            let consider = |s: usize, b: &mut f64, id: &mut i64, r2: &mut f64| {
+                let d2 = self.d2(p, s);
+                if d2 < *b || (d2 == *b && s as i64 > *id) {
+                    *b = d2;
+                    *id = s as i64;
+                    let rr = reach(d2);
+                    *r2 = rr * rr;
+                }
+            };
+            consider(s0u, &mut b, &mut id, &mut r2);
+            for &leaf in &cands {
+                if box_d2(&self.boxes[leaf as usize], p) <= r2 {
+                    for s in self.run(leaf) {
+                        consider(s, &mut b, &mut id, &mut r2);
+                    }
+                }
+            }
+            (dd[i], ss[i]) = (b, id);
+            if id >= 0 {
+                last = id;
+            }
+        }
+        last
+    }
+
+    /// `closest.ray_capsules_first_hit` of one ray (`o` + t `n`, unit n) and capsule `s`
+    /// (radius² `r2`), operation for operation: the least valid t of the two end spheres and
+    /// the cylinder, ∞ where the ray misses.
+    #[inline]
+    fn capsule_first_hit(&self, o: &P3, n: &P3, s: usize, r2: f64) -> f64 {
+        let mut best = f64::INFINITY;
+        for cen in [&self.a[s], &self.b[s]] {
+            let oc = [o[0] - cen[0], o[1] - cen[1], o[2] - cen[2]];
+            let bq = dot(n, &oc);
+            let h = bq * bq - (dot(&oc, &oc) - r2);
+            let t = -bq - (if h > 0.0 { h } else { 0.0 }).sqrt();
+            if h >= 0.0 && t >= 0.0 && t < best {
+                best = t;
+            }
+        }
+        let (a, ba) = (&self.a[s], &self.d[s]);
+        let oa = [o[0] - a[0], o[1] - a[1], o[2] - a[2]];
+        let baba = dot(ba, ba);
+        let bard = dot(ba, n);
+        let baoa = dot(ba, &oa);
+        let rdoa = dot(n, &oa);
+        let oaoa = dot(&oa, &oa);
+        let aa = baba - bard * bard;
+        let bb = baba * rdoa - baoa * bard;
+        let cc = baba * oaoa - baoa * baoa - r2 * baba;
+        let h = bb * bb - aa * cc;
+        // np.maximum(baba, 1e-300): NaN propagates
+        let floor = if baba.is_nan() || baba > 1e-300 { baba } else { 1e-300 };
+        let okc = aa > 1e-12 * floor && h >= 0.0;
+        if okc {
+            let t = (-bb - (if h > 0.0 { h } else { 0.0 }).sqrt()) / aa;
+            let y = baoa + t * bard;
+            if t >= 0.0 && y >= 0.0 && y <= baba && t < best {
+                best = t;
+            }
+        }
+        best
+    }
+
+    /// `SweptBall.height_along` of one point: the first hit of the ray `o` + t `n` with the
+    /// capsules of radius `radius` around the segments, t ≤ `hmax` (∞ otherwise). Only a
+    /// segment within `radius` + `hmax` of `o` can be hit that soon: the segments of the
+    /// leaves within it (with the reach's rounding room of [`Self::within`]) are tried,
+    /// the least t kept (the minimum over the numpy reference's superset is the same).
+    pub fn first_hit(&self, o: &P3, n: &P3, radius: f64, hmax: f64) -> f64 {
+        let r2 = radius * radius;
+        let mut best = f64::INFINITY;
+        let reach = radius + hmax;
+        let pv = Vector::new(o[0], o[1], o[2]);
+        let r = reach * (1.0 + 1e-12) + 1e-12;
+        if !(r >= 0.0) || !(o[0].is_finite() && o[1].is_finite() && o[2].is_finite()) {
+            return f64::INFINITY;
+        }
         for leaf in self
             .bvh
             .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
         {
             for s in self.run(leaf) {
-                let d2 = self.d2(p, s);
-                if d2 < best || (d2 == best && s as i64 > id) {
-                    best = d2;
-                    id = s as i64;
+                let t = self.capsule_first_hit(o, n, s, r2);
+                if t < best {
+                    best = t;
                 }
             }
         }
-        (best, id)
-    }
-
-    pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
-        pts.par_iter()
-            .with_min_len(64)
-            .map(|p| self.nearest(p))
-            .unzip()
+        if best > hmax {
+            f64::INFINITY
+        } else {
+            best
+        }
     }
 
     /// The segments of the leaves whose box comes within `radius` of the point (a superset
@@ -222,6 +459,40 @@ impl SweptBallTree {
         let pl = crate::pool(threads)?;
         let (d2, seg) = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
         Ok((PyArray1::from_vec(py, d2), PyArray1::from_vec(py, seg)))
+    }
+
+    /// (k,) mm: the first hit of each ray `p` + t `n` (points and unit directions (k, 3)) with
+    /// the capsules of `radius` around the segments, ∞ beyond `hmax` (k,) mm or without one
+    /// (`SweptBall.height_along`), on `threads` threads.
+    fn first_hits<'py>(
+        &self,
+        py: Python<'py>,
+        p: PyReadonlyArray2<'py, f64>,
+        n: PyReadonlyArray2<'py, f64>,
+        radius: f64,
+        hmax: PyReadonlyArray1<'py, f64>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let pp = crate::points(&p, "points")?;
+        let nn = crate::points(&n, "directions")?;
+        let hh = crate::slice1(&hmax, "max_height")?;
+        if nn.len() != pp.len() || hh.len() != pp.len() {
+            return Err(PyValueError::new_err(
+                "points, directions and max_height must be one per point",
+            ));
+        }
+        let pl = crate::pool(threads)?;
+        let out: Vec<f64> = py.detach(|| {
+            pl.install(|| {
+                pp.par_iter()
+                    .zip(nn.par_iter())
+                    .zip(hh.par_iter())
+                    .with_min_len(64)
+                    .map(|((o, d), &h)| self.tree.first_hit(o, d, radius, h))
+                    .collect()
+            })
+        });
+        Ok(PyArray1::from_vec(py, out))
     }
 
     /// (query (p,), segment (p,)) int64: a superset of the segments within `radius` (k,) mm

@@ -185,7 +185,8 @@ def test_triangle_distance_port_is_bit_identical():
 
 
 @compiled
-def test_nearest_faces_identical_on_both_backends():
+@pytest.mark.parametrize("disks", [False, True])
+def test_nearest_faces_identical_on_both_backends(disks):
     from blisk_cam.core.geometry.distance import NearestFaces
     from blisk_cam.core.part.blisk import make_demo_blisk
     from blisk_cam.core.runtime import parallel
@@ -201,9 +202,41 @@ def test_nearest_faces_identical_on_both_backends():
         ref = NearestFaces(mesh).query(P)
     for threads in (1, 2):
         with parallel(threads):
-            got = NearestFaces(mesh).query(P)
+            got = NearestFaces(mesh, disks=disks).query(P)
         for g, r in zip(got, ref, strict=True):
             np.testing.assert_array_equal(g, r)
+
+
+@compiled
+def test_nearest_faces_with_disks_on_needles_and_slivers():
+    """The per-face bounds (disk and longest-edge capsule) skip only faces that cannot be
+    nearest: a strip of long needle faces (4 mm by 0.02 mm, like a scanned blade's leading
+    edge), slivers and a zero-area face, queried on the strip, around it and 6 mm off it,
+    give numpy's faces (the least distance, then the lowest id)."""
+    from blisk_cam.core.geometry.distance import NearestFaces
+
+    rng = np.random.default_rng(4)
+    x = np.linspace(0.0, 2.0, 101)  # 0.02 mm apart along x, 4 mm long along y
+    top = np.stack([x, np.full_like(x, 4.0), 0.3 * np.sin(3 * x)], 1)
+    bot = np.stack([x, np.zeros_like(x), 0.3 * np.sin(3 * x)], 1)
+    V = np.vstack([bot, top, [[1.0, 2.0, 0.1], [1.0 + 1e-9, 2.0, 0.1], [1.0, 2.0, 0.1]]])
+    n = len(x)
+    i = np.arange(n - 1)
+    F = np.vstack([np.stack([i, i + 1, n + i], 1), np.stack([i + 1, n + i + 1, n + i], 1),
+                   [[2 * n, 2 * n + 1, 2 * n + 2]]])
+    mesh = TriMesh(V, F)
+    f = rng.integers(0, len(F) - 1, 1500)
+    w = rng.dirichlet([1.0, 1.0, 1.0], 1500)
+    on = np.einsum("ij,ijk->ik", w, V[F[f]])  # on the faces, then a few µm off them
+    P = np.vstack([on + rng.normal(scale=0.005, size=(1500, 3)),
+                   rng.uniform([-0.5, -1.0, -1.0], [2.5, 5.0, 1.0], (1500, 3)),
+                   rng.uniform([-0.5, -1.0, 5.0], [2.5, 5.0, 7.0], (1500, 3)),
+                   V[:2 * n]])  # vertices: ties among their faces
+    with backend.numpy_only():
+        ref = NearestFaces(mesh).query(P)
+    got = NearestFaces(mesh, disks=True).query(P)
+    for g, r in zip(got, ref, strict=True):
+        np.testing.assert_array_equal(g, r)
 
 
 @compiled

@@ -50,7 +50,7 @@ class MeshDistance:
             raise ValueError("MeshDistance: faces must be a NearestFaces of the same mesh")
         self._faces = faces
         if faces is None and compiled and extension() is not None:
-            self._faces = NearestFaces(mesh)
+            self._faces = NearestFaces(mesh, disks=True)
         self._frames = None
         if self._faces is not None:  # the numpy tree is not needed
             return
@@ -165,7 +165,7 @@ class MeshDistance:
                 raise ValueError(f"MeshDistance.query: near must give one guess per point, "
                                  f"got {len(near)} for {k} points")
         if self._faces is not None:
-            face = self._faces.query(P)[1]
+            face = self._faces.faces(P)
         else:
             _, face = nearest(self.tree, P, self._d2, fastfn=self._fast_d2, near=near,
                                keepfn=self._lb_keep)
@@ -215,10 +215,13 @@ class NearestFaces:
     Parameters
     ----------
     mesh : TriMesh
+    disks : bool — the compiled tree keeps a bound per face (7 floats a face) that makes
+        queries far off the surface (ball centres) faster; the same answers
     """
 
-    def __init__(self, mesh: TriMesh):
+    def __init__(self, mesh: TriMesh, *, disks: bool = False):
         self.mesh = mesh
+        self._disks = bool(disks)
         self._trees = None
         self._ctree = None  # the compiled kernels' tree (built on first compiled query)
 
@@ -305,12 +308,22 @@ class NearestFaces:
         q, _, _, bary = closest_on_triangles(P, A[face], B[face], C[face])  # NaN points
         return q, face, bary
 
+    def faces(self, points):
+        """(k,) int64 — the face of :meth:`query`'s closest point to each of (k, 3) points
+        (the compiled kernel's answer alone, without the closest points, when it runs)."""
+        P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        if len(P) and self.mesh.n_faces and extension() is not None:
+            if self._ctree is None:
+                self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
+            return compiled_closest.nearest_faces(self._ctree, P, workers())
+        return self.query(P)[1]
+
     def _query_compiled(self, P):
         """:meth:`query` by the compiled kernel: the same faces (the least squared distance
         of :func:`closest_on_triangles`, then the lowest id), then their closest points
         computed row-wise here, as the numpy path computes them."""
         if self._ctree is None:
-            self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F)
+            self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
         face = compiled_closest.nearest_faces(self._ctree, P, workers())
         F = self.mesh.F[face]  # face −1 (a NaN point): any face, the point stays NaN
         V = self.mesh.V

@@ -11,7 +11,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["segment_tree", "nearest_segments", "segments_within"]
+__all__ = ["segment_tree", "nearest_segments", "segments_within", "first_hits"]
 
 
 def segment_tree(a, b, d, dd):
@@ -37,3 +37,16 @@ def segments_within(tree, points, radius, threads: int):
     P = np.ascontiguousarray(points, dtype=np.float64)
     r = np.ascontiguousarray(np.broadcast_to(np.asarray(radius, np.float64), (len(P),)))
     return tree.within(P, r, max(1, int(threads)))
+
+
+def first_hits(tree, points, directions, radius: float, max_height, threads: int):
+    """(k,) mm: the first hit of each ray ``points + t directions`` ((k, 3), unit directions)
+    with the capsules of ``radius`` mm around the tree's segments, ``inf`` beyond
+    ``max_height`` (k,) mm or without one — ``SweptBall.height_along``'s figures (the ray–
+    capsule arithmetic of :func:`..geometry.closest.ray_capsules_first_hit`), on ``threads``
+    threads."""
+    c = np.ascontiguousarray
+    P = c(points, dtype=np.float64)
+    h = c(np.broadcast_to(np.asarray(max_height, np.float64), (len(P),)))
+    return tree.first_hits(P, c(directions, dtype=np.float64), float(radius), h,
+                           max(1, int(threads)))

@@ -52,22 +52,22 @@ class SweptForest:
         self.members = list(members)
         self.chunk = max(int(chunk), 1)
         ms = self.members
-        live = [m for m in ms if isinstance(m, SweptCutter) and m.tree is not None]
+        live = [m for m in ms if isinstance(m, SweptCutter) and m.has_tree]
         self.fast = (bool(live) and all(isinstance(m, SweptCutter) and m.method == "fast"
                                         for m in ms)
                      and len({(repr(m.cutter.as_dict()), m.xtol) for m in live}) == 1)
         if not self.fast:
             return
         self.cutter, self.xtol = live[0].cutter, live[0].xtol
-        has = np.array([m.tree is not None for m in ms])
+        has = np.array([m.has_tree for m in ms])
         nseg = np.array([len(m.ta) for m in ms], dtype=np.int64)
-        ncl = np.array([len(m._ls) if m.tree is not None else 0 for m in ms], dtype=np.int64)
+        ncl = np.array([len(m._ls) if m.has_tree else 0 for m in ms], dtype=np.int64)
         self._has = has
         self._ncl = ncl
         self._cboxes = None
         self._so = np.cumsum(nseg) - nseg  # first segment of each member in the tables
         self._co = np.cumsum(ncl) - ncl  # first cluster of each member
-        self._slk = np.array([m._slack if m.tree is not None else 0.0 for m in ms])
+        self._slk = np.array([m._slack if m.has_tree else 0.0 for m in ms])
 
         def cat(name):
             return np.concatenate([getattr(m, name) for m in live])
@@ -78,7 +78,7 @@ class SweptForest:
             cat(n) for n in ("_lt", "_la", "_lphi", "_ldt"))
         self._ls = np.concatenate([np.where(m._ls >= 0, m._ls + so, -1)
                                    for m, so in zip(ms, self._so, strict=True)
-                                   if m.tree is not None])
+                                   if m.has_tree])
 
     def __len__(self):
         return len(self.members)
@@ -176,7 +176,7 @@ class SweptForest:
         if boxes:  # the candidates and steps 1–4 compiled
             if self._cboxes is None:
                 lo, hi = zip(*(m._leaf_box_arrays() for m in self.members
-                               if m.tree is not None), strict=True)
+                               if m.has_tree), strict=True)
                 self._cboxes = compiled_cutter.leaf_boxes(np.concatenate(lo),
                                                           np.concatenate(hi),
                                                           self._co[self._has], BOX_PIECES)

@@ -142,7 +142,9 @@ def _grid_samples(V, F, faces, nf):
     eface = np.concatenate(eface_l)
     # grid edges of n = 1 faces are mesh edges shared by two faces: keep one copy
     key = np.sort(edges, axis=1)
-    _, first = np.unique(key, axis=0, return_index=True)
+    # the first copy of each edge: one int64 per (low, high) pair (exact below 3e9 samples
+    # here) is unique exactly when the pair is, and a 1-D unique is far faster than by rows
+    _, first = np.unique(key[:, 0] * np.int64(base + 1) + key[:, 1], return_index=True)
     first = np.sort(first)
     edges, eface = key[first], eface[first]
     return P, face, bary, vertex, edges, eface

@@ -152,11 +152,9 @@ class SweptBall:
         hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),))
         # a hit at height t lies on a capsule whose segment is within ρ + t of the point (the
         # first hit is the least over every listed segment: a longer list gives the same)
-        if self._ctree is not None:
-            qi, sg = compiled_ball.segments_within(self._ctree, P, self.radius + hmax,
-                                                   workers())
-        else:
-            qi, sg = within(self.tree, P, self.radius + hmax)
+        if self._ctree is not None:  # the same walk and arithmetic, compiled
+            return compiled_ball.first_hits(self._ctree, P, N, self.radius, hmax, workers())
+        qi, sg = within(self.tree, P, self.radius + hmax)
         if len(qi):
             t = ray_capsules_first_hit(P[qi], N[qi], self.a[sg], self.b[sg], self.radius)
             np.minimum.at(out, qi, t)
