@@ -18,6 +18,7 @@ mod collision_walk;
 mod hypot;
 mod knn;
 mod lift;
+mod level_chains;
 mod mesh_samples;
 mod numpy_ops;
 mod polyline_distance;
@@ -437,5 +438,6 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
+    m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
     Ok(())
 }
