@@ -15,7 +15,7 @@ from blisk_cam.core.kernels import mesh_tables as compiled_tables
 
 compiled = pytest.mark.skipif(
     compiled_tables.chain_directed(2, np.array([[0, 1]])) is None,
-    reason="the compiled kernels are not built/installed with the mesh graph tables (make "
+    reason="the compiled kernels are not built/installed with chain_directed (make "
            "kernels) or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
 )
 
