@@ -50,7 +50,6 @@ from blisk_cam.core.geometry.mesh_io import read_mesh  # noqa: E402
 from blisk_cam.core.kernels import backend  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
-from blisk_cam.core.runtime import parallel  # noqa: E402
 from blisk_cam.core.toolpath.paths_io import write_paths_json  # noqa: E402
 from tests.support.blades import subdivided_blade  # noqa: E402
 from tests.support.mesh_files import write_binary_stl  # noqa: E402
@@ -112,8 +111,7 @@ def whole_run(stl, axis, c1, c2, chord, out):
     t1 = time.perf_counter()
     req = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
                       cusp=0.05, chord=chord)
-    with parallel(None):  # as the CLI plans: the compiled kernels on every core
-        res = plan_paths(mesh, req)
+    res = plan_paths(mesh, req)
     t["plan"] = time.perf_counter() - t1
     t1 = time.perf_counter()
     write_paths_json(res.path, out)

@@ -12,7 +12,6 @@ from pathlib import Path
 from ..core.collision.options import DEFAULT_CHECK_MODE, CollisionOptions
 from ..core.errors import BliskCamError
 from ..core.options import PATH_OPTION_GROUPS, CutterOptions
-from ..core.runtime import parallel
 from ..core.tool.assembly import AssemblyError, holder_profile
 from .blender import _blender_outputs
 from .flags import (
@@ -305,17 +304,14 @@ def plan_from_args(args, log=print, progress=None):
         extra = (collision_stage(args.collision, obstacles),)
     t = time.perf_counter()
     it = iter_plan_paths(mesh, req, extra=extra)
-    # the compiled kernels of the plan on every core (their answers do not depend on the
-    # thread count: each row is computed as on one thread)
-    with parallel(None):
-        while True:  # the stages yield Progress: a percentage line on stderr now and then
-            try:
-                p = next(it)
-            except StopIteration as stop:
-                plan = stop.value
-                break
-            progress.report("collisions" if "collision" in p.message else "plan",
-                            p.fraction, p.message)
+    while True:  # the stages yield Progress: a percentage line on stderr now and then
+        try:
+            p = next(it)
+        except StopIteration as stop:
+            plan = stop.value
+            break
+        progress.report("collisions" if "collision" in p.message else "plan", p.fraction,
+                        p.message)
     times["plan"] = time.perf_counter() - t
     if extra:  # the collision stage's share of the plan
         times["collision"] = float(plan.path.stats.get("seconds_collision", 0.0))
