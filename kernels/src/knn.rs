@@ -16,7 +16,7 @@ pub type P3 = [f64; 3];
 const LEAF: usize = 16;
 
 enum Node {
-    Leaf { start: u32, end: u32, frame: u32 },
+    Leaf { start: u32, end: u32 },
     Split { left: u32, right: u32 },
 }
 
@@ -25,111 +25,6 @@ pub struct PointTree {
     ids: Vec<u32>, // the input id of each
     nodes: Vec<Node>,
     boxes: Vec<[f64; 6]>, // per node: lo (3), hi (3)
-    frames: Vec<Frame>,   // per leaf: its oriented box (see Frame)
-}
-
-/// The oriented box of a leaf's points: orthonormal axes `n` and `t` (the third is n × t)
-/// and the range [lo, hi] of the points' projections on each of the three. A leaf of samples
-/// of a surface is a thin patch, often oblique to the coordinate axes: its axis-aligned box
-/// reaches far nearer a query off the surface (a ball centre ρ from it) than its points do,
-/// and the search would open every leaf within ~sqrt(2ρ · thickness) of the contact; the
-/// oriented box's bound is nearly the points' own distance.
-#[derive(Clone, Copy)]
-struct Frame {
-    n: P3,
-    t: P3,
-    lo: P3,
-    hi: P3,
-}
-
-#[inline(always)]
-fn dot3(a: &P3, b: &P3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline(always)]
-fn cross3(a: &P3, b: &P3) -> P3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-#[inline(always)]
-fn unit(a: P3) -> Option<P3> {
-    let l = dot3(&a, &a).sqrt();
-    if l > 0.0 && l.is_finite() {
-        Some([a[0] / l, a[1] / l, a[2] / l])
-    } else {
-        None
-    }
-}
-
-impl Frame {
-    /// The frame of `pts`: t towards the point farthest from the centroid, n across t and
-    /// the point farthest from that line (the patch's normal for a flat patch); the
-    /// coordinate axes when the points are (nearly) on a line.
-    fn of(pts: &[P3]) -> Self {
-        let k = pts.len().max(1) as f64;
-        let mut c = [0.0; 3];
-        for p in pts {
-            for j in 0..3 {
-                c[j] += p[j] / k;
-            }
-        }
-        let d = |p: &P3| [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
-        let far = pts
-            .iter()
-            .map(|p| d(p))
-            .max_by(|a, b| dot3(a, a).total_cmp(&dot3(b, b)));
-        let axes = far.and_then(unit).and_then(|t| {
-            let side = pts
-                .iter()
-                .map(|p| cross3(&t, &d(p)))
-                .max_by(|a, b| dot3(a, a).total_cmp(&dot3(b, b)))?;
-            let n = unit(side)?;
-            let t = unit(cross3(&cross3(&n, &t), &n))?; // t made exactly ⟂ n, up to rounding
-            Some((n, t))
-        });
-        let (n, t) = axes.unwrap_or(([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]));
-        let b = cross3(&n, &t);
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in pts {
-            for (j, u) in [&n, &t, &b].into_iter().enumerate() {
-                let s = dot3(p, u);
-                lo[j] = lo[j].min(s);
-                hi[j] = hi[j].max(s);
-            }
-        }
-        Frame { n, t, lo, hi }
-    }
-
-    /// A lower bound of the squared distance (as summed by [`d2`]) from `q` to every point of
-    /// the leaf: the gaps to the projection ranges, each shortened by 1e-9 (1 + |q·u|) mm so
-    /// that the rounding of the projections and of the axes' orthonormality (~1e-13 mm at
-    /// blisk coordinates) can only make it smaller.
-    #[inline(always)]
-    fn d2(&self, q: &P3) -> f64 {
-        let b = cross3(&self.n, &self.t);
-        let mut acc = 0.0;
-        for (j, u) in [&self.n, &self.t, &b].into_iter().enumerate() {
-            let s = dot3(q, u);
-            let gap = if s < self.lo[j] {
-                self.lo[j] - s
-            } else if s > self.hi[j] {
-                s - self.hi[j]
-            } else {
-                0.0
-            };
-            let g = gap - 1e-9 * (1.0 + s.abs());
-            if g > 0.0 {
-                acc += g * g;
-            }
-        }
-        acc * (1.0 - 1e-9)
-    }
 }
 
 /// Squared distance from q to a box, a lower bound of the squared distance (as summed by
@@ -184,26 +79,12 @@ impl PointTree {
             Self::build(&mut items, 0, region)
         };
         let ids = items.iter().map(|x| x.1).collect();
-        let sorted: Vec<P3> = items.into_iter().map(|x| x.0).collect();
-        let mut nodes = nodes;
-        let mut ranges = Vec::new();
-        for node in nodes.iter_mut() {
-            if let Node::Leaf { start, end, frame } = node {
-                *frame = ranges.len() as u32;
-                ranges.push((*start as usize, *end as usize));
-            }
-        }
-        let frames = ranges
-            .par_iter()
-            .with_min_len(256)
-            .map(|&(a, b)| Frame::of(&sorted[a..b]))
-            .collect();
+        let sorted = items.into_iter().map(|x| x.0).collect();
         PointTree {
             pts: sorted,
             ids,
             nodes,
             boxes,
-            frames,
         }
     }
 
@@ -229,7 +110,6 @@ impl PointTree {
             let leaf = Node::Leaf {
                 start: offset as u32,
                 end: (offset + idx.len()) as u32,
-                frame: 0, // numbered once the tree is built
             };
             return (vec![leaf], vec![b]);
         }
@@ -301,11 +181,7 @@ impl PointTree {
                     continue;
                 }
                 match self.nodes[n as usize] {
-                    Node::Leaf { start, end, frame } => {
-                        let f2 = self.frames[frame as usize].d2(q);
-                        if f2 >= ub2 || (best.len() == cap && f2 > bound) {
-                            continue;
-                        }
+                    Node::Leaf { start, end } => {
                         for s in start as usize..end as usize {
                             let i = self.ids[s];
                             let d = d2(q, &self.pts[s]);
@@ -358,10 +234,7 @@ impl PointTree {
                 continue;
             }
             match self.nodes[n as usize] {
-                Node::Leaf { start, end, frame } => {
-                    if !(self.frames[frame as usize].d2(q) < ub2) {
-                        continue;
-                    }
+                Node::Leaf { start, end } => {
                     if self.pts[start as usize..end as usize]
                         .iter()
                         .any(|p| d2(q, p) < ub2)
