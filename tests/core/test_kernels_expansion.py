@@ -83,3 +83,31 @@ def test_column_neighbours_are_scipys():
     assert np.array_equal(got, ref)
     with backend.numpy_only():
         assert np.array_equal(_nearest_index(pts, q), ref)
+
+
+@compiled
+def test_tree_off_a_tilted_patch_is_scipys():
+    """Queries a ball radius off a dense, oblique, slightly curved patch (the lift's and the
+    scallop's case, where every box near the contact is about as near as the points) get
+    scipy's k nearest within the bound, by (distance, id), and its answer of 'any within'."""
+    rng = np.random.default_rng(9)
+    uv = rng.uniform(-3, 3, (40000, 2))
+    n = np.array([1.0, 2.0, 2.0]) / 3.0
+    t = np.cross(n, [0.0, 0.0, 1.0])
+    t /= np.linalg.norm(t)
+    b = np.cross(n, t)
+    pts = 100.0 + uv[:, :1] * t + uv[:, 1:] * b + (0.02 * (uv ** 2).sum(1))[:, None] * n
+    pts = np.concatenate([pts, pts[:50]])  # repeated points: ties by id
+    q = 100.0 + rng.uniform(-2, 2, (500, 1)) * t + rng.uniform(-2, 2, (500, 1)) * b + 6.0 * n
+    tree = compiled_knn.point_tree(pts)
+    got = compiled_knn.nearest_k(tree, q, 8, 6.05, 1)
+    d, i = cKDTree(pts).query(q, k=64, distance_upper_bound=6.05)
+    valid = np.isfinite(d)
+    diff = pts[np.where(valid, i, 0)] - q[:, None, :]
+    d2 = np.where(valid, (diff[..., 0] ** 2 + diff[..., 1] ** 2) + diff[..., 2] ** 2, np.inf)
+    order = np.lexsort((np.where(valid, i, len(pts)), d2), axis=1)[:, :8]
+    ref = np.where(np.take_along_axis(valid, order, 1), np.take_along_axis(i, order, 1), -1)
+    assert np.array_equal(got, ref) and np.count_nonzero(got >= 0) > 1000
+    within = compiled_knn.points_within(tree, q, 6.0, 1)
+    assert np.array_equal(within, np.isfinite(cKDTree(pts).query(q, distance_upper_bound=6.0)[0]))
+    assert 0 < np.count_nonzero(within) < len(q)
