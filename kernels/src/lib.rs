@@ -18,8 +18,10 @@ mod collision_walk;
 mod hypot;
 mod knn;
 mod lift;
+mod level_chains;
 mod mesh_samples;
 mod numpy_ops;
+mod polyline_distance;
 mod probe;
 mod slice_roots;
 mod step;
@@ -405,5 +407,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
+    m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
+    m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
     Ok(())
 }

@@ -9,7 +9,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["sample_tree", "vertex_face_table"]
+__all__ = ["chain_directed", "sample_tree", "vertex_face_table"]
 
 
 def vertex_face_table(F, n_vertices: int):
@@ -32,3 +32,18 @@ def sample_tree(V, E, F, threads: int):
     c = np.ascontiguousarray
     return ext.sample_point_tree(c(V, dtype=np.float64), c(E, dtype=np.int64),
                                  c(F, dtype=np.int64), max(1, int(threads)))
+
+
+def chain_directed(n_nodes: int, links):
+    """The chains of directed links (k, 2) over ``n_nodes`` (``geometry.mesh``'s
+    ``_chain_directed``: a list of (order (p,) int64, closed bool), the same chains in the
+    same order); None when the numpy kernels run or the links are not disjoint directed
+    paths and cycles (the numpy reference then takes the general route)."""
+    ext = extension()
+    if ext is None or not hasattr(ext, "chain_directed"):
+        return None
+    got = ext.chain_directed(np.ascontiguousarray(links, dtype=np.int64), int(n_nodes))
+    if got is None:
+        return None
+    order, starts, closed = got
+    return [(order[starts[i]:starts[i + 1]], bool(closed[i])) for i in range(len(closed))]

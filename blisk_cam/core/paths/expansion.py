@@ -23,6 +23,9 @@ from scipy.spatial import cKDTree
 
 from ..errors import ToleranceError
 from ..geometry.mesh import TriMesh
+from ..kernels import knn as compiled_knn
+from ..kernels import polyline as compiled_polyline
+from ..runtime import workers
 
 __all__ = [
     "strip_width",
@@ -150,9 +153,19 @@ class PolylineDistance:
         u = (np.arange(len(seg)) - start + 0.5) / n[seg]
         samples = self.a[seg] + u[:, None] * (self.b[seg] - self.a[seg])
         self.seg_of_sample = seg
-        self.tree = cKDTree(samples)
+        self.samples = samples
+        self._tree = None  # scipy's, made on first use
+        self._ctree = None  # the compiled one, made on first use when installed
         self._memo: dict[int, tuple] = {}
         self.k = min(k, len(samples))
+
+    @property
+    def tree(self):
+        """scipy's k-d tree of the samples (made on first use: the compiled kernels need it
+        only for the rows they leave to it)."""
+        if self._tree is None:
+            self._tree = cKDTree(self.samples)
+        return self._tree
 
     def __call__(self, points, near=None):
         """(q,) distances (mm) from (q, 3) points to the nearest polyline segment.
@@ -178,6 +191,23 @@ class PolylineDistance:
         return d
 
     def _distance(self, p, hint):
+        """The compiled kernel's answer where it is installed (the rows it leaves, a tie at
+        the k-th nearest sample, measured by :meth:`_distance_numpy`), else the numpy one:
+        the same floats."""
+        if len(p) == 0 or not compiled_polyline.available():
+            return self._distance_numpy(p, hint)
+        if self._ctree is None:
+            self._ctree = compiled_knn.point_tree(self.samples, workers())
+        d, rest = compiled_polyline.polyline_distance(
+            self._ctree, p, hint, self.k, self.seg_of_sample, self.a, self.ab, self.L2,
+            workers())
+        if np.any(rest):
+            d[rest] = self._distance_numpy(p[rest], hint[rest])
+        return d
+
+    def _distance_numpy(self, p, hint):
+        """The reference: scipy's k nearest samples of each hint, their segments once
+        each, the least exact distance."""
         _, idx = self.tree.query(hint, k=self.k)
         # the k nearest samples lie on a few segments (several samples each): each segment
         # once per point, the minimum over the rest would repeat its distance
@@ -229,7 +259,7 @@ def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None
         best = max(best, float(np.max(np.minimum(ma, mb))))
         if prev is not None:
             ppts, pma, pmb = prev
-            _, j = cKDTree(pts).query(ppts)
+            j = _nearest_index(pts, ppts)
             # along the column ppts → pts[j]: (pma, pmb) → (ma[j], mb[j]), linear in λ
             ga = pma - pmb
             gb = ma[j] - mb[j]
@@ -242,6 +272,17 @@ def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None
                 best = max(best, float(np.max(ridge)))
         prev = (pts, ma, mb)
     return best
+
+
+def _nearest_index(points, queries):
+    """(q,) int: the nearest of ``points`` (n, 3) to each query (q, 3) — scipy's
+    ``cKDTree(points).query(queries)[1]``; the compiled k-d tree's where it is installed
+    (rows whose nearest two are at the same distance asked of scipy: its choice)."""
+    if compiled_knn.available() and len(queries):
+        tree = compiled_knn.point_tree(points, workers())
+        return compiled_knn.nearest_k(tree, queries, 1, np.inf, workers(),
+                                      ties=lambda Q: cKDTree(points).query(Q)[1][:, None])[:, 0]
+    return cKDTree(points).query(queries)[1]
 
 
 def check_tolerances(radius: float, cusp: float, chord: float):

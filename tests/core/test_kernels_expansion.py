@@ -1,0 +1,113 @@
+"""The compiled distance to ball-centre polylines (``expansion.PolylineDistance``, the scallop
+measurement of the passes stage, issue 21) against the numpy reference on the same inputs:
+the same floats bit for bit, rows with a tie at the k-th nearest sample handed to scipy; the
+column neighbours of ``measure_cusp`` are scipy's.
+
+Tests comparing the two backends skip (saying why) when the extension is not built."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from blisk_cam.core.kernels import backend
+from blisk_cam.core.kernels import knn as compiled_knn
+from blisk_cam.core.kernels import polyline as compiled_polyline
+from blisk_cam.core.paths.expansion import PolylineDistance, _nearest_index
+
+compiled = pytest.mark.skipif(
+    not compiled_polyline.available(),
+    reason="the compiled kernels are not built/installed with polyline_distance (make "
+           "kernels) or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
+)
+
+
+def _polylines(rng):
+    """A wavy open polyline, a closed loop and a lattice polyline (integer corners: samples
+    and hints at equal distances, the ties of the k-th nearest)."""
+    t = np.linspace(0.0, 6.0, 90)
+    wavy = np.stack([10 * t, 3 * np.sin(t), 0.5 * np.cos(3 * t)], 1) + rng.normal(0, 1e-3, (90, 3))
+    a = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    loop = np.stack([20 + 8 * np.cos(a), 5 * np.sin(a), np.full(60, 4.0)], 1)
+    lattice = np.array([[0, 10, 0], [4, 10, 0], [4, 14, 0], [0, 14, 0], [0, 10, 4]], float)
+    return [(wavy, False), (loop, True), (lattice, False), (wavy[:1], False)]
+
+
+def _queries(rng):
+    p = np.concatenate([
+        rng.uniform([-5, -8, -3], [65, 8, 8], (3000, 3)),
+        np.stack(np.meshgrid(np.arange(-1, 6), np.arange(9, 16), np.arange(-1, 3)), -1)
+        .reshape(-1, 3).astype(float) * np.array([1.0, 1.0, 1.0]),
+    ])
+    hint = p + rng.normal(0, 0.5, p.shape)
+    hint[3000:] = p[3000:] + np.array([0.5, 0.0, 0.0])  # lattice hints: exact ties
+    return p, hint
+
+
+@compiled
+def test_polyline_distance_compiled_equals_numpy_bit_for_bit():
+    rng = np.random.default_rng(7)
+    polys = _polylines(rng)
+    p, hint = _queries(rng)
+    for resample, k in ((0.25, 6), (1.0, 6), (0.5, 3)):
+        dist = PolylineDistance(polys, resample=resample, k=k)
+        got = dist._distance(p, hint)
+        ref = dist._distance_numpy(p, hint)
+        assert np.array_equal(got, ref), (resample, k)
+        # the kernel itself: the tied rows are flagged (and only they hold NaN)
+        tree = compiled_knn.point_tree(dist.samples)
+        d, rest = compiled_polyline.polyline_distance(
+            tree, p, hint, dist.k, dist.seg_of_sample, dist.a, dist.ab, dist.L2, 2)
+        assert np.array_equal(d[~rest], ref[~rest]) and np.all(np.isnan(d[rest]))
+        assert 0 < np.count_nonzero(rest) < len(p) // 4
+        # an independent check of the reference: brute force over every segment is never
+        # farther than the candidates' least distance, and equal where the nearest is found
+        ap = p[:, None, :] - dist.a[None]
+        tt = np.clip(np.einsum("qsj,sj->qs", ap, dist.ab) / dist.L2, 0, 1)
+        brute = np.linalg.norm(ap - tt[..., None] * dist.ab, axis=2).min(axis=1)
+        assert np.all(brute <= ref + 1e-12)
+        assert np.mean(np.abs(brute - ref) < 1e-9) > 0.5  # noisy hints miss some
+    with backend.numpy_only():
+        assert np.array_equal(PolylineDistance(polys)(p, near=hint),
+                              PolylineDistance(polys)._distance_numpy(p, hint))
+
+
+@compiled
+def test_column_neighbours_are_scipys():
+    rng = np.random.default_rng(3)
+    pts = np.concatenate([rng.normal(0, 5, (500, 3)), np.round(rng.normal(0, 3, (200, 3)))])
+    q = np.concatenate([rng.normal(0, 5, (400, 3)), np.round(rng.normal(0, 3, (300, 3))) + 0.5])
+    got = _nearest_index(pts, q)
+    ref = cKDTree(pts).query(q)[1]
+    assert np.array_equal(got, ref)
+    with backend.numpy_only():
+        assert np.array_equal(_nearest_index(pts, q), ref)
+
+
+@compiled
+def test_tree_off_a_tilted_patch_is_scipys():
+    """Queries a ball radius off a dense, oblique, slightly curved patch (the lift's and the
+    scallop's case, where every box near the contact is about as near as the points) get
+    scipy's k nearest within the bound, by (distance, id), and its answer of 'any within'."""
+    rng = np.random.default_rng(9)
+    uv = rng.uniform(-3, 3, (40000, 2))
+    n = np.array([1.0, 2.0, 2.0]) / 3.0
+    t = np.cross(n, [0.0, 0.0, 1.0])
+    t /= np.linalg.norm(t)
+    b = np.cross(n, t)
+    pts = 100.0 + uv[:, :1] * t + uv[:, 1:] * b + (0.02 * (uv ** 2).sum(1))[:, None] * n
+    pts = np.concatenate([pts, pts[:50]])  # repeated points: ties by id
+    q = 100.0 + rng.uniform(-2, 2, (500, 1)) * t + rng.uniform(-2, 2, (500, 1)) * b + 6.0 * n
+    tree = compiled_knn.point_tree(pts)
+    got = compiled_knn.nearest_k(tree, q, 8, 6.05, 1)
+    d, i = cKDTree(pts).query(q, k=64, distance_upper_bound=6.05)
+    valid = np.isfinite(d)
+    diff = pts[np.where(valid, i, 0)] - q[:, None, :]
+    d2 = np.where(valid, (diff[..., 0] ** 2 + diff[..., 1] ** 2) + diff[..., 2] ** 2, np.inf)
+    order = np.lexsort((np.where(valid, i, len(pts)), d2), axis=1)[:, :8]
+    ref = np.where(np.take_along_axis(valid, order, 1), np.take_along_axis(i, order, 1), -1)
+    assert np.array_equal(got, ref) and np.count_nonzero(got >= 0) > 1000
+    within = compiled_knn.points_within(tree, q, 6.0, 1)
+    assert np.array_equal(within, np.isfinite(cKDTree(pts).query(q, distance_upper_bound=6.0)[0]))
+    assert 0 < np.count_nonzero(within) < len(q)
