@@ -27,6 +27,7 @@ import time
 
 import bpy
 
+from ..blender.path_objects import text_lines
 from ..blender.settings import path_request, settings_cones, store_statistics, summary
 from ..core.errors import BliskCamError
 from ..core.geometry.weld import input_vertex_values
@@ -83,6 +84,8 @@ class PathJob:
         self._verify_result = self._verify_error = None
         self.verify_cancelled = False
         self.written_json = None  # the paths JSON show_paths wrote
+        self.paths_json = None  # the planned path's JSON (without verify), by the plan worker
+        self._paths_text = None  # its (Text content, stored form): path_objects.text_lines
         self.paths_seconds = None  # seconds from the start until the paths were shown
         self.verify_seconds = None  # seconds the worker took
         # the interactive planning on a worker thread (poll_plan)
@@ -131,7 +134,9 @@ class PathJob:
 
             def work():
                 try:
-                    self.step(float("inf"), cancel)
+                    if self.step(float("inf"), cancel):  # the JSON too: less on the UI thread
+                        self.paths_json = _paths_json(self.plan.path)
+                        self._paths_text = text_lines(self.paths_json)
                 except BaseException as exc:  # handed to the main thread, raised there
                     self._plan_error = exc
 
@@ -166,8 +171,8 @@ class PathJob:
         """Start measuring the planned path on a worker thread; False when verify is off.
 
         The thread reads only this job's arrays (``mesh``, ``V``, the planned ``ToolPath``)
-        and writes only ``_verify_result`` (report, verdict, paths JSON, colour-map values) /
-        ``_verify_error``: no ``bpy``. The main thread polls :attr:`verify_ready` and then
+        and writes only ``_verify_result`` (report, verdict, paths JSON, colour-map values,
+        Text content) / ``_verify_error``: no ``bpy``. The main thread polls :attr:`verify_ready` and then
         calls :meth:`attach_verify`, which only writes the Blender data."""
         if not self.want_verify or self.plan is None:
             return False
@@ -183,7 +188,8 @@ class PathJob:
                 # the rest of the figures too (pure core), so attaching is only bpy work
                 verdict, json_text = self._verdict_json(report)
                 values = self._map_values(report)
-                self._verify_result = (report, verdict, json_text, values)
+                self._verify_result = (report, verdict, json_text, values,
+                                       text_lines(json_text)[0])
             except BaseException as exc:  # handed to the main thread, reported there
                 self._verify_error = exc
             self.verify_seconds = time.perf_counter() - t0
@@ -270,16 +276,18 @@ class PathJob:
         blade = self._blade()
         path = self.plan.path
         values = self._map_values(self.verify)
-        json_text = None
+        json_text, text = self.paths_json, self._paths_text
         self.verdict = None
         if self.verify is not None:  # the verdict goes into the paths JSON ("verify")
             self.verdict, json_text = self._verdict_json(self.verify)
+            text = None
         output.write_path_objects(
             scene, blade, path, settings,
             json_text=json_text,
             verify=self.verify,
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
+            text=None if text is None else text[0],
         )
         if self.set_blade:
             settings.blade = blade
@@ -297,8 +305,12 @@ class PathJob:
         from ..blender import path_objects as output
 
         text = self.finish(context)  # self.verify is None: the paths without figures
-        self.written_json = output.stored_paths_json(self.blade_name)
+        self.written_json = (self._paths_text[1] if self._paths_text is not None
+                             else output.stored_paths_json(self.blade_name))
         self.paths_seconds = time.perf_counter() - self.t0
+        # the worker starts after the writing: while this thread writes (bpy calls holding
+        # the GIL) a verify worker would take every other GIL turn and stretch this tick
+        # 2-6× (measured on Rotor 37) for a gain of this tick's length at most
         if self.start_verify():
             _VERIFYING[self.scene_name] = self
         return text
@@ -321,7 +333,7 @@ class PathJob:
                 f"the paths of '{self.blade_name}' changed while they were being verified; "
                 "the verify figures were dropped (generate again to verify)"
             )
-        self.verify, self.verdict, json_text, values = self._verify_result
+        self.verify, self.verdict, json_text, values, lines = self._verify_result
         self._verify_result = None
         path = self.plan.path
         scene = context.scene
@@ -332,6 +344,7 @@ class PathJob:
             verify=self.verify,
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
+            text=lines,
         )
         store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0,
                          self.verdict)
@@ -344,6 +357,16 @@ class PathJob:
             pass
         self.run_verify()
         return self.finish(context)
+
+
+def _paths_json(path) -> str:
+    """The paths JSON of ``path`` (``blender.path_objects.paths_json_text``; no bpy, so the
+    planning worker makes it)."""
+    import json
+
+    from ..core.toolpath.paths_io import path_to_dict
+
+    return json.dumps(path_to_dict(path), allow_nan=False)
 
 
 def verify_pending(scene_name: str) -> bool:
