@@ -172,8 +172,9 @@ class PathJob:
 
         The thread reads only this job's arrays (``mesh``, ``V``, the planned ``ToolPath``)
         and writes only ``_verify_result`` (report, verdict, paths JSON, colour-map values,
-        Text content) / ``_verify_error``: no ``bpy``. The main thread polls :attr:`verify_ready` and then
-        calls :meth:`attach_verify`, which only writes the Blender data."""
+        Text content and the tail appended to the shown JSON) / ``_verify_error``: no
+        ``bpy``. The main thread polls :attr:`verify_ready` and then calls
+        :meth:`attach_verify`, which only writes the Blender data."""
         if not self.want_verify or self.plan is None:
             return False
         from ..core.verify.measure import verify_path
@@ -188,8 +189,11 @@ class PathJob:
                 # the rest of the figures too (pure core), so attaching is only bpy work
                 verdict, json_text = self._verdict_json(report)
                 values = self._map_values(report)
+                # the shown JSON with the verdict appended: only its end is rewritten
+                head = self.paths_json[:-1] if self.paths_json else None
+                tail = json_text[len(head):] if head and json_text.startswith(head) else None
                 self._verify_result = (report, verdict, json_text, values,
-                                       text_lines(json_text)[0])
+                                       text_lines(json_text)[0], tail)
             except BaseException as exc:  # handed to the main thread, reported there
                 self._verify_error = exc
             self.verify_seconds = time.perf_counter() - t0
@@ -333,7 +337,7 @@ class PathJob:
                 f"the paths of '{self.blade_name}' changed while they were being verified; "
                 "the verify figures were dropped (generate again to verify)"
             )
-        self.verify, self.verdict, json_text, values, lines = self._verify_result
+        self.verify, self.verdict, json_text, values, lines, tail = self._verify_result
         self._verify_result = None
         path = self.plan.path
         scene = context.scene
@@ -345,6 +349,7 @@ class PathJob:
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
             text=lines,
+            tail=tail,
         )
         store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0,
                          self.verdict)
