@@ -303,9 +303,10 @@ class PathJob:
         self.warnings = self._warnings()
         return summary(settings)
 
-    def show_paths(self, context) -> str:
-        """Write the planned path's objects now, without verify figures, and start the
-        verify worker (when asked); returns the summary of the paths."""
+    def show_paths(self, context, verify_now: bool = True) -> str:
+        """Write the planned path's objects now, without verify figures, and (with
+        ``verify_now``) start the verify worker when asked (else :meth:`begin_verify`
+        does); returns the summary of the paths."""
         from ..blender import path_objects as output
 
         text = self.finish(context)  # self.verify is None: the paths without figures
@@ -315,9 +316,16 @@ class PathJob:
         # the worker starts after the writing: while this thread writes (bpy calls holding
         # the GIL) a verify worker would take every other GIL turn and stretch this tick
         # 2-6× (measured on Rotor 37) for a gain of this tick's length at most
+        if verify_now:
+            self.begin_verify()
+        return text
+
+    def begin_verify(self) -> bool:
+        """:meth:`start_verify` and list the job as the scene's pending verify."""
         if self.start_verify():
             _VERIFYING[self.scene_name] = self
-        return text
+            return True
+        return False
 
     def attach_verify(self, context) -> str:
         """Attach the worker's figures to the shown paths (main thread); returns the summary.
@@ -433,20 +441,25 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         """Plan → show the paths → poll the verify worker → attach its figures."""
         job = self._job
         wm = context.window_manager
-        if not job.planned:
-            job.poll_plan()
+        # planned means the worker is done too (its last step, the paths JSON, follows the
+        # plan): showing while it still runs would make the JSON twice, fighting for the GIL
+        if job.written_json is None and not job.poll_plan():
             wm.progress_update(int(90 * job.fraction))
             self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
             return None
-        if job.written_json is None:  # planned on the last tick: show the paths now
-            text = job.show_paths(context)
+        if job.written_json is None:  # planned: show the paths now (this tick)
+            text = job.show_paths(context, verify_now=False)
             self.running.discard(job.scene_name)  # a new Generate may start (and cancel)
-            if not job.verify_pending:
+            if not job.want_verify:
                 self._report_done(job, text)
                 return {"FINISHED"}
             wm.progress_update(95)
             self._status(context, "paths shown, verifying them", escape="ESC skips the verify")
             _tag_redraw(context)
+            # the worker last: from its start it takes every other GIL turn from this tick
+            if not job.begin_verify():
+                self._report_done(job, text)
+                return {"FINISHED"}
             return None
         if job.verify_cancelled:  # a new Generate took over: the paths stay, no figures
             self.report({"WARNING"}, "Verify dropped: a new generation started")
