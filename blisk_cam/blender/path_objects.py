@@ -37,7 +37,8 @@ Collection ``"Blisk CAM – <blade>"`` (en dash), a child of the blade's first c
 The paths JSON of the result (exactly what ``core.toolpath.paths_io.write_paths_json`` writes) is
 kept in a Text datablock ``"Blisk CAM – <blade>.json"`` so ``export_paths`` works after a reload.
 Regenerating builds the new collection completely, then removes the old one: a failure or a
-cancel leaves the previous result as it was. The blade object itself is never modified.
+cancel leaves the previous result as it was (only the pose empties, computed before, are made
+after the removal, with their final names). The blade object itself is never modified.
 
 Coordinates: core works in mm, objects in Blender units (``mm / mm_per_blender_unit``).
 """
@@ -79,6 +80,7 @@ __all__ = [
     "find_output_collection",
     "output_objects",
     "stored_paths_json",
+    "text_lines",
     "paths_json_text",
     "write_path_objects",
     "write_cone_objects",
@@ -177,15 +179,44 @@ def stored_paths_json(blade_name: str) -> str | None:
 def _to_text_lines(json_text: str) -> str:
     r"""The one-line JSON broken after every point (``"], ["`` → ``"],\n["``) for the Text
     datablock: Blender's Text is quadratic in the length of a line (a 1 MB line takes
-    minutes) and fast with many short lines. Whitespace between JSON tokens is free, and
-    ``json.dumps`` output holds no raw newline, so removing every newline restores it."""
+    minutes) and fast with many short lines; a line still longer than :data:`TEXT_LINE`
+    characters is broken further (:func:`_wrapped`). ``json.dumps`` output holds no raw
+    newline, so removing every newline gives the JSON back (with ``"],["`` between points)."""
     if "\n" in json_text:
         raise BliskCamError("internal: the paths JSON to store holds a raw newline")
-    return json_text.replace("], [", "],\n[")
+    lines = json_text.replace("], [", "],\n[").split("\n")
+    return "\n".join(_wrapped(x) if len(x) > TEXT_LINE else x for x in lines)
+
+
+#: the longest line the Text datablock is given: lists that are not lists of points (the
+#: per-pose ``move`` names, 130 000 characters on Rotor 37, 0.8 s in ``from_string``) are
+#: broken after a ``", "`` every this many characters (a newline inserted, nothing replaced:
+#: removing the newlines gives what the point breaks alone give)
+TEXT_LINE = 1000
+
+
+def _wrapped(line: str) -> str:
+    """``line`` with a newline after the last ``", "`` before every :data:`TEXT_LINE`
+    characters (after exactly that many where there is none)."""
+    out, start = [], 0
+    while len(line) - start > TEXT_LINE:
+        cut = line.rfind(", ", start, start + TEXT_LINE)
+        cut = cut + 2 if cut > start else start + TEXT_LINE
+        out.append(line[start:cut])
+        start = cut
+    out.append(line[start:])
+    return "\n".join(out)
 
 
 def _from_text_lines(stored: str) -> str:
     return stored.replace("\n", "")
+
+
+def text_lines(json_text: str) -> tuple[str, str]:
+    """(the Text datablock's content for ``json_text``, what :func:`stored_paths_json` then
+    returns). No bpy: a worker thread makes them for ``write_path_objects(text=...)``."""
+    lines = _to_text_lines(json_text)
+    return lines, _from_text_lines(lines)
 
 
 def paths_json_text(path) -> str:
@@ -455,12 +486,11 @@ def _status_points_node_group(radius_bu):
     return ng
 
 
-def _pose_empties(coll, prefix, path, idx, f, size_mm):
-    """Single-arrow Empties at the chosen poses (tip at the origin, local Z = tool axis)."""
-    from mathutils import Matrix
-
+def _pose_frames(path, idx, f):
+    """(M (k, 4, 4) world matrices in Blender units: tip at the origin, local Z = tool axis;
+    status (k,) int collision status or None) of the poses ``idx`` (k,) of ``path``."""
     if len(idx) == 0:
-        return []
+        return np.zeros((0, 4, 4)), None
     tips = np.concatenate([c.tip for c in path.curves])[idx]
     axes = np.concatenate([c.axis for c in path.curves])[idx]
     status = pose_collision_status(path)
@@ -473,6 +503,14 @@ def _pose_empties(coll, prefix, path, idx, f, size_mm):
     M = np.zeros((len(idx), 4, 4))
     M[:, :3, 0], M[:, :3, 1], M[:, :3, 2], M[:, :3, 3] = x, y, z, tips / f
     M[:, 3, 3] = 1.0
+    return M, status
+
+
+def _pose_empties(coll, prefix, M, idx, status, f, size_mm):
+    """Single-arrow Empties at the poses ``idx`` (frames ``M``, status ``status`` of
+    :func:`_pose_frames`) in ``coll``, named ``"<prefix> pose k"``."""
+    from mathutils import Matrix
+
     width = len(str(len(idx)))
     objs = []
     for k, m in enumerate(M):  # one object per shown pose: at most pose_count (capped)
@@ -600,6 +638,7 @@ def write_path_objects(
     verify=None,
     blade_arrays=None,
     vertex_values=None,
+    text: str | None = None,
 ) -> dict:
     """Show ``path`` (a core ``ToolPath``, mm) as objects in the blade's output collection,
     replacing the previous ones, and keep its paths JSON in a Text datablock.
@@ -615,6 +654,7 @@ def write_path_objects(
     verify : core.verify.VerifyReport, optional — colours by measured cusp use its pairs
     blade_arrays : (V (n, 3) mm, F (m, 3)) — the blade mesh as read; with ``vertex_values``
         (n,) material left per *input* vertex (NaN outside) a verify colour-map copy is made
+    text : str, optional — ``json_text``'s Text content made beforehand (:func:`text_lines`)
 
     Returns
     -------
@@ -640,14 +680,17 @@ def write_path_objects(
     except Exception:
         _remove_collection_tree(new)
         raise
-    objs["text"] = _replace_output(scene, blade, old, new, poses_coll, json_text)
+    if text is None:
+        text = _to_text_lines(json_text)
+    objs["text"] = _replace_output(scene, blade, old, new, poses_coll, text)
+    objs["pose_empties"] = _pose_empties(*objs["pose_empties"])
     return objs
 
 
 def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_values):
     """Fill the collection ``new`` with the objects of ``path`` for the blade named ``bname``
-    (see :func:`write_path_objects`); returns the objects (dict) and the collection of the
-    pose empties."""
+    (see :func:`write_path_objects`); returns the objects (dict; its ``pose_empties`` are
+    still the arguments of :func:`_pose_empties`) and the collection of the pose empties."""
     name = collection_name(bname)
     new[KEY_BLADE] = bname
     new[KEY_CUSP] = float(path.cusp)
@@ -688,7 +731,10 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
     poses_coll = bpy.data.collections.new(name + " poses (new)")
     new.children.link(poses_coll)
     idx = pose_indices(path.n_poses, min(int(settings.pose_count), MAX_POSE_EMPTIES))
-    objs["pose_empties"] = _pose_empties(poses_coll, bname, path, idx, f, 2.0 * radius)
+    M, status = _pose_frames(path, idx, f)
+    # the empties themselves are made once the old output is gone (write_path_objects):
+    # with their final names, not renamed one by one afterwards (half the writing time)
+    objs["pose_empties"] = (poses_coll, bname, M, idx, status, f, 2.0 * radius)
     cc_all = np.concatenate([np.asarray(c.cc, dtype=np.float64) for c in path.curves])
     try:
         objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
@@ -701,9 +747,10 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
     return objs, poses_coll
 
 
-def _replace_output(scene, blade, old, new, poses_coll, json_text):
+def _replace_output(scene, blade, old, new, poses_coll, lines):
     """The complete result ``new`` replaces ``old`` (removed): final names, linked beside the
-    blade, the paths JSON in the Text datablock (the old one reused); returns the Text."""
+    blade, the paths JSON (``lines``: :func:`_to_text_lines`) in the Text datablock (the old
+    one reused); returns the Text."""
     name = collection_name(blade.name)
     old_text = bpy.data.texts.get(old.get(KEY_TEXT, "")) if old is not None else None
     if old is not None:
@@ -716,7 +763,7 @@ def _replace_output(scene, blade, old, new, poses_coll, json_text):
             ob.data.name = ob.name
     _link_under(_parent_collection(scene, blade), new)
     text = old_text or bpy.data.texts.get(name + ".json") or bpy.data.texts.new(name + ".json")
-    text.from_string(_to_text_lines(json_text))
+    text.from_string(lines)
     text.use_fake_user = True
     new[KEY_TEXT] = text.name
     return text
@@ -732,6 +779,8 @@ def attach_verify(
     verify,
     blade_arrays=None,
     vertex_values=None,
+    text: str | None = None,
+    tail: str | None = None,
 ) -> dict:
     """Add a verify run's figures to the output :func:`write_path_objects` wrote for ``path``
     without them (the interactive Generate shows the paths first, then verifies): afterwards
@@ -744,10 +793,16 @@ def attach_verify(
     * with ``blade_arrays`` and ``vertex_values`` the ``"<blade> verify"`` colour-map copy
       (replacing one already there).
 
-    Parameters as for :func:`write_path_objects`. Raises BliskCamError when the blade has no
-    output collection (cleared meanwhile). Returns dict — ``collection``, ``verify`` (object
-    or None), ``text``.
+    Parameters as for :func:`write_path_objects` (``text``: ``json_text``'s Text content made
+    beforehand, :func:`text_lines`; ``tail``: when ``json_text`` is the stored JSON but for
+    its last character, followed by ``tail`` — the verdict appended — only that character of
+    the Text is replaced, by ``tail``, instead of the whole Text being rewritten). Raises
+    BliskCamError when the blade has no output collection (cleared meanwhile). Returns dict
+    — ``collection``, ``verify`` (object or None), ``text``.
     """
+    lines = text
+    if tail is not None and not json_text.endswith(tail):
+        raise BliskCamError("internal: the verify JSON does not end with its tail")
     settings = settings if settings is not None else scene.blisk_cam
     bname = blade.name
     coll = find_output_collection(bname)
@@ -783,9 +838,25 @@ def attach_verify(
         text = bpy.data.texts.new(collection_name(bname) + ".json")
         text.use_fake_user = True
         coll[KEY_TEXT] = text.name
-    text.from_string(_to_text_lines(json_text))
+        tail = None
+    if tail is None or not _replace_last_character(text, tail):
+        text.from_string(_to_text_lines(json_text) if lines is None else lines)
     out["text"] = text
     return out
+
+
+def _replace_last_character(text, tail: str) -> bool:
+    """Replace the Text's last character (the stored JSON's closing brace) by ``tail`` (broken
+    into lines as :func:`_to_text_lines` does): milliseconds where rewriting the whole Text
+    takes a tenth of a second. False (nothing changed) when the Text does not end with "}"."""
+    n = len(text.lines) - 1
+    body = text.lines[n].body if n >= 0 else ""
+    if not body.endswith("}"):
+        return False
+    text.cursor_set(n, character=len(body) - 1)
+    text.cursor_set(n, character=len(body), select=True)
+    text.write(_to_text_lines(tail))
+    return True
 
 
 def clear_path_objects(blade_name: str) -> bool:

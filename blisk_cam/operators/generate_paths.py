@@ -27,6 +27,7 @@ import time
 
 import bpy
 
+from ..blender.path_objects import text_lines
 from ..blender.settings import path_request, settings_cones, store_statistics, summary
 from ..core.errors import BliskCamError
 from ..core.geometry.weld import input_vertex_values
@@ -83,6 +84,8 @@ class PathJob:
         self._verify_result = self._verify_error = None
         self.verify_cancelled = False
         self.written_json = None  # the paths JSON show_paths wrote
+        self.paths_json = None  # the planned path's JSON (without verify), by the plan worker
+        self._paths_text = None  # its (Text content, stored form): path_objects.text_lines
         self.paths_seconds = None  # seconds from the start until the paths were shown
         self.verify_seconds = None  # seconds the worker took
         # the interactive planning on a worker thread (poll_plan)
@@ -131,7 +134,9 @@ class PathJob:
 
             def work():
                 try:
-                    self.step(float("inf"), cancel)
+                    if self.step(float("inf"), cancel):  # the JSON too: less on the UI thread
+                        self.paths_json = _paths_json(self.plan.path)
+                        self._paths_text = text_lines(self.paths_json)
                 except BaseException as exc:  # handed to the main thread, raised there
                     self._plan_error = exc
 
@@ -166,9 +171,10 @@ class PathJob:
         """Start measuring the planned path on a worker thread; False when verify is off.
 
         The thread reads only this job's arrays (``mesh``, ``V``, the planned ``ToolPath``)
-        and writes only ``_verify_result`` (report, verdict, paths JSON, colour-map values) /
-        ``_verify_error``: no ``bpy``. The main thread polls :attr:`verify_ready` and then
-        calls :meth:`attach_verify`, which only writes the Blender data."""
+        and writes only ``_verify_result`` (report, verdict, paths JSON, colour-map values,
+        Text content and the tail appended to the shown JSON) / ``_verify_error``: no
+        ``bpy``. The main thread polls :attr:`verify_ready` and then calls
+        :meth:`attach_verify`, which only writes the Blender data."""
         if not self.want_verify or self.plan is None:
             return False
         from ..core.verify.measure import verify_path
@@ -183,7 +189,11 @@ class PathJob:
                 # the rest of the figures too (pure core), so attaching is only bpy work
                 verdict, json_text = self._verdict_json(report)
                 values = self._map_values(report)
-                self._verify_result = (report, verdict, json_text, values)
+                # the shown JSON with the verdict appended: only its end is rewritten
+                head = self.paths_json[:-1] if self.paths_json else None
+                tail = json_text[len(head):] if head and json_text.startswith(head) else None
+                self._verify_result = (report, verdict, json_text, values,
+                                       text_lines(json_text)[0], tail)
             except BaseException as exc:  # handed to the main thread, reported there
                 self._verify_error = exc
             self.verify_seconds = time.perf_counter() - t0
@@ -270,16 +280,18 @@ class PathJob:
         blade = self._blade()
         path = self.plan.path
         values = self._map_values(self.verify)
-        json_text = None
+        json_text, text = self.paths_json, self._paths_text
         self.verdict = None
         if self.verify is not None:  # the verdict goes into the paths JSON ("verify")
             self.verdict, json_text = self._verdict_json(self.verify)
+            text = None
         output.write_path_objects(
             scene, blade, path, settings,
             json_text=json_text,
             verify=self.verify,
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
+            text=None if text is None else text[0],
         )
         if self.set_blade:
             settings.blade = blade
@@ -291,17 +303,29 @@ class PathJob:
         self.warnings = self._warnings()
         return summary(settings)
 
-    def show_paths(self, context) -> str:
-        """Write the planned path's objects now, without verify figures, and start the
-        verify worker (when asked); returns the summary of the paths."""
+    def show_paths(self, context, verify_now: bool = True) -> str:
+        """Write the planned path's objects now, without verify figures, and (with
+        ``verify_now``) start the verify worker when asked (else :meth:`begin_verify`
+        does); returns the summary of the paths."""
         from ..blender import path_objects as output
 
         text = self.finish(context)  # self.verify is None: the paths without figures
-        self.written_json = output.stored_paths_json(self.blade_name)
+        self.written_json = (self._paths_text[1] if self._paths_text is not None
+                             else output.stored_paths_json(self.blade_name))
         self.paths_seconds = time.perf_counter() - self.t0
+        # the worker starts after the writing: while this thread writes (bpy calls holding
+        # the GIL) a verify worker would take every other GIL turn and stretch this tick
+        # 2-6× (measured on Rotor 37) for a gain of this tick's length at most
+        if verify_now:
+            self.begin_verify()
+        return text
+
+    def begin_verify(self) -> bool:
+        """:meth:`start_verify` and list the job as the scene's pending verify."""
         if self.start_verify():
             _VERIFYING[self.scene_name] = self
-        return text
+            return True
+        return False
 
     def attach_verify(self, context) -> str:
         """Attach the worker's figures to the shown paths (main thread); returns the summary.
@@ -321,7 +345,7 @@ class PathJob:
                 f"the paths of '{self.blade_name}' changed while they were being verified; "
                 "the verify figures were dropped (generate again to verify)"
             )
-        self.verify, self.verdict, json_text, values = self._verify_result
+        self.verify, self.verdict, json_text, values, lines, tail = self._verify_result
         self._verify_result = None
         path = self.plan.path
         scene = context.scene
@@ -332,6 +356,8 @@ class PathJob:
             verify=self.verify,
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
+            text=lines,
+            tail=tail,
         )
         store_statistics(settings, blade.name, path, self.verify, time.perf_counter() - self.t0,
                          self.verdict)
@@ -344,6 +370,16 @@ class PathJob:
             pass
         self.run_verify()
         return self.finish(context)
+
+
+def _paths_json(path) -> str:
+    """The paths JSON of ``path`` (``blender.path_objects.paths_json_text``; no bpy, so the
+    planning worker makes it)."""
+    import json
+
+    from ..core.toolpath.paths_io import path_to_dict
+
+    return json.dumps(path_to_dict(path), allow_nan=False)
 
 
 def verify_pending(scene_name: str) -> bool:
@@ -405,20 +441,25 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         """Plan → show the paths → poll the verify worker → attach its figures."""
         job = self._job
         wm = context.window_manager
-        if not job.planned:
-            job.poll_plan()
+        # planned means the worker is done too (its last step, the paths JSON, follows the
+        # plan): showing while it still runs would make the JSON twice, fighting for the GIL
+        if job.written_json is None and not job.poll_plan():
             wm.progress_update(int(90 * job.fraction))
             self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
             return None
-        if job.written_json is None:  # planned on the last tick: show the paths now
-            text = job.show_paths(context)
+        if job.written_json is None:  # planned: show the paths now (this tick)
+            text = job.show_paths(context, verify_now=False)
             self.running.discard(job.scene_name)  # a new Generate may start (and cancel)
-            if not job.verify_pending:
+            if not job.want_verify:
                 self._report_done(job, text)
                 return {"FINISHED"}
             wm.progress_update(95)
             self._status(context, "paths shown, verifying them", escape="ESC skips the verify")
             _tag_redraw(context)
+            # the worker last: from its start it takes every other GIL turn from this tick
+            if not job.begin_verify():
+                self._report_done(job, text)
+                return {"FINISHED"}
             return None
         if job.verify_cancelled:  # a new Generate took over: the paths stay, no figures
             self.report({"WARNING"}, "Verify dropped: a new generation started")
