@@ -214,7 +214,10 @@ impl FaceDisk {
             let w = sub(&opp, &es);
             let t = dot(&w, &ed) * einv;
             let e = [w[0] - t * ed[0], w[1] - t * ed[1], w[2] - t * ed[2]];
-            (einv, dot(&e, &e).sqrt() * (1.0 + 1e-9) + 1e-9 * (1.0 + ll.sqrt()))
+            (
+                einv,
+                dot(&e, &e).sqrt() * (1.0 + 1e-9) + 1e-9 * (1.0 + ll.sqrt()),
+            )
         } else {
             (0.0, 0.0) // a point face: its disk bound alone (the capsule is not used)
         };

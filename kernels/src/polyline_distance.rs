@@ -94,14 +94,20 @@ pub fn polyline_distance<'py>(
     let sos = crate::slice1(&seg_of_sample, "seg_of_sample")?;
     let ll = crate::slice1(&l2, "l2")?;
     if hh.len() != pp.len() {
-        return Err(PyValueError::new_err("p and hint must have the same length"));
+        return Err(PyValueError::new_err(
+            "p and hint must have the same length",
+        ));
     }
     if abab.len() != aa.len() || ll.len() != aa.len() {
-        return Err(PyValueError::new_err("a, ab and l2 must have the same length"));
+        return Err(PyValueError::new_err(
+            "a, ab and l2 must have the same length",
+        ));
     }
     let ns = aa.len() as i64;
     if sos.iter().any(|&s| s < 0 || s >= ns) {
-        return Err(PyValueError::new_err("seg_of_sample holds segment ids out of range"));
+        return Err(PyValueError::new_err(
+            "seg_of_sample holds segment ids out of range",
+        ));
     }
     let t = &tree.get().tree;
     let pl = crate::pool(threads)?;

@@ -334,7 +334,11 @@ impl SegTree {
         let cc = baba * oaoa - baoa * baoa - r2 * baba;
         let h = bb * bb - aa * cc;
         // np.maximum(baba, 1e-300): NaN propagates
-        let floor = if baba.is_nan() || baba > 1e-300 { baba } else { 1e-300 };
+        let floor = if baba.is_nan() || baba > 1e-300 {
+            baba
+        } else {
+            1e-300
+        };
         let okc = aa > 1e-12 * floor && h >= 0.0;
         if okc {
             let t = (-bb - (if h > 0.0 { h } else { 0.0 }).sqrt()) / aa;
