@@ -16,6 +16,7 @@ from blisk_cam.core.collision.axis_plan import REASON_NO_AXIS, turn_limits
 from blisk_cam.core.collision.obstacles import Obstacles
 from blisk_cam.core.collision.options import CollisionOptions
 from blisk_cam.core.collision.scene import CollisionScene
+from blisk_cam.core.errors import CollisionError
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.cones import Cone
@@ -73,6 +74,88 @@ def test_turn_per_mm_holds_between_consecutive_poses(case):
     assert beyond_contact  # the tool path's length, not the contact's, bounds the turn
     assert not new.collision.get("turns_between_unresolved")
     assert new.collision.get("turn_over_limit", 0) == 0
+
+
+def _busiest(path, planned, k=3):
+    """``path`` with only its ``k`` passes whose axes ``planned`` turned most often (no
+    program): a cheap sub-case where avoidance has work to do."""
+    moved = [int(np.sum(np.einsum("ij,ij->i", np.asarray(c0.axis), np.asarray(c1.axis))
+                        < 1 - 1e-9)) for c0, c1 in zip(path.curves, planned.curves, strict=True)]
+    keep = sorted(np.argsort(moved)[-k:])
+    return type(path)(**{**path.__dict__, "curves": [path.curves[i] for i in keep],
+                         "program": None})
+
+
+def _added_turn(before, after):
+    """The largest turn (rad) between consecutive poses of ``after`` beyond the planned turn
+    of ``before`` there."""
+    worst = 0.0
+    for c0, c1 in zip(before.curves, after.curves, strict=True):
+        a, a0 = np.asarray(c1.axis), np.asarray(c0.axis)
+        turn = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
+        planned = np.arccos(np.clip(np.einsum("ij,ij->i", a0[1:], a0[:-1]), -1, 1))
+        worst = max(worst, float((turn - planned).max(initial=0.0)))
+    return worst
+
+
+def test_the_users_cap_per_pose_holds(case):
+    """``--max-turn-per-pose 2`` (CollisionOptions.max_turn): the turn avoidance adds to the
+    planned one stays ≤ 2° between any two consecutive poses (the limit per mm still
+    applies), measured on the axes; the default 5° cap lets some pairs past 2°."""
+    _, mesh, path, out = case
+    cap = math.radians(2.0)
+    sub = _busiest(path, out["plan"][0])
+    opts = CollisionOptions(mode="avoid", blade_count=N_BLADES, neighbours=1, flute_length=12.0,
+                            holder=HOLDER, safety=1.0, max_turn=cap)
+    new = run_collisions(mesh, sub, [], opts)[0]
+    assert _added_turn(sub, new) <= cap + 1e-6
+    assert _added_turn(path, out["plan"][0]) > cap  # the default allows more
+    assert new.collision["planner"]["max_turn_per_pose_deg"] == pytest.approx(2.0)
+
+
+def _mean_angle_to(path, planned, direction, mask):
+    """Mean angle (rad) of the axes of ``path`` at the poses ``mask`` (over all passes) from
+    ``direction`` (3,), or (None) from each pass's mean planned axis (``planned``)."""
+    out = []
+    for c0, c1 in zip(planned.curves, path.curves, strict=True):
+        a, a0 = np.asarray(c1.axis), np.asarray(c0.axis)
+        ref = direction if direction is not None else a0.sum(0) / np.linalg.norm(a0.sum(0))
+        out.append(np.arccos(np.clip(a @ ref, -1, 1)))
+    return float(np.concatenate(out)[mask].mean())
+
+
+def test_fixed_and_per_pass_references_pull_the_axes_toward_them(case):
+    """``--axis-reference fixed --reference-direction X Y Z`` (here the blade's radial
+    direction, within the lean limits of most poses) keeps the axes avoidance chooses closer
+    to that direction than the planned reference does; ``pass`` closer to each pass's mean
+    planned axis (the rotaries move less); the turn limit holds for both. A fixed reference
+    without a direction is refused by name."""
+    d, mesh, path, out = case
+    sub = _busiest(path, out["plan"][0])
+    base = dict(mode="avoid", blade_count=N_BLADES, neighbours=1, flute_length=12.0,
+                holder=HOLDER, safety=1.0)
+    planned = run_collisions(mesh, sub, [], CollisionOptions(**base))[0]
+    ax0 = np.vstack([c.axis for c in sub.curves])
+    cc = np.vstack([c.cc for c in sub.curves]).mean(0)
+    radial = cc - (cc @ np.array(d.axis.d)) * np.array(d.axis.d)
+    radial /= np.linalg.norm(radial)
+    for reference, direction in (("fixed", radial), ("pass", None)):
+        opts = CollisionOptions(**base, axis_reference=reference,
+                                reference_direction=None if direction is None
+                                else tuple(direction))
+        new = run_collisions(mesh, sub, [], opts)[0]
+        ax = np.vstack([c.axis for c in new.curves])
+        moved = (np.einsum("ij,ij->i", ax, ax0) < 1 - 1e-9) | (
+            np.einsum("ij,ij->i", np.vstack([c.axis for c in planned.curves]), ax0) < 1 - 1e-9)
+        assert moved.any()
+        mine = _mean_angle_to(new, sub, direction, moved)
+        theirs = _mean_angle_to(planned, sub, direction, moved)
+        assert mine < theirs - math.radians(2), (reference, math.degrees(mine),
+                                                 math.degrees(theirs))
+        assert new.collision.get("turn_over_limit", 0) == 0
+        assert new.collision["planner"]["axis_reference"] == reference
+    with pytest.raises(CollisionError, match="Reference Direction"):
+        CollisionOptions(**base, axis_reference="fixed")
 
 
 def test_every_pose_clear_or_in_a_reported_range(case):

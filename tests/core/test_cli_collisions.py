@@ -76,6 +76,9 @@ def test_check_mode_changes_nothing(blade, tmp_path, capsys):
     (["--blade-count", "24", "--holder", "36 6 60 -1"], ["holder"]),
     (["--blade-count", "24", "--safety", "-1"], ["safety", "≥ 0"]),
     (["--blade-count", "24", "--holder", "36 6 60"], ["--holder", "pairs"]),
+    (["--blade-count", "24", "--max-turn-per-pose", "95"], ["--max-turn-per-pose", "89"]),
+    (["--blade-count", "24", "--collisions", "avoid", "--axis-reference", "fixed"],
+     ["reference direction", "--reference-direction"]),
 ])
 def test_bad_collision_input_one_line(blade, tmp_path, capsys, extra, words):
     out = tmp_path / "p.json"

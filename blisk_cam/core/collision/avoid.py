@@ -447,8 +447,8 @@ def _avoid_by_plan(scene, path, options, curves, offs, P: _Poses, det0, lim):
                      turn_per_mm=float(options.turn_per_mm), max_turn=options.plan_max_turn,
                      machine=options.machine, reference=options.axis_reference,
                      blisk_axis=path.axis, blade_count=options.blade_count,
-                     edge_lead=math.radians(5.0) if options.axis_reference == "channel" else 0.0,
-                     jumps=bool(options.turn_jumps), progress=prog)
+                     edge_lead=options.plan_edge_lead, jumps=bool(options.turn_jumps),
+                     progress=prog, direction=options.reference_direction)
     yield 0.8
     P.tip[:], P.ax[:] = plan.tip, plan.axis
     det = yield from _scaled(_detect_chunks(scene, P.tip, P.ax), 0.8, 0.95)

@@ -88,6 +88,12 @@ mid-plane at the pose (the meridional plane turned from the CC point's by half t
 ``edge_lead`` of extra lead where the pose lies within one tool diameter of the pass ends
 (leading and trailing edges of a blade pass).
 
+**Fixed or per-pass reference.** ``reference="fixed"`` measures the lean cost from one
+direction for every pose (``direction``, the part's frame), ``reference="pass"`` from one
+direction per pass, the mean of its planned axes: where the limits allow, a pass is then held
+at one axis and the rotaries stay still (:func:`reference_axes`). Both are brought inside the
+lean limits like the channel's; ``edge_lead`` adds to any reference.
+
 **Unresolved poses** (clearance < ds at the chosen axis) come as ranges per pass (pass,
 first, last pose, why): "no axis within the limits clears" (the pose is a fact about the tool
 and holder), "the turn limit" (a clear axis exists, or was not ruled out, but no sequence
@@ -110,6 +116,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import CollisionError
+from ..geometry.vectors import unit
 from ..machine.kinematics import reachable_axes
 from ..paths.orientation import clamp_turn, lead_tilt_axes, lead_tilt_of
 from .axis_field import (
@@ -126,8 +134,8 @@ from .axis_states import (
     _touch_ok,
 )
 
-__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes", "sample_motion",
-           "turn_limits"]
+__all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes", "reference_axes",
+           "sample_motion", "turn_limits"]
 
 #: default turn limit per mm of path, rad/mm
 DEFAULT_TURN_PER_MM = math.radians(2.0)
@@ -207,9 +215,37 @@ def _arc(cc):
 
 
 
+def reference_axes(reference, P, offs, w, *, blisk_axis=None, blade_count=None,
+                   direction=None):
+    """(len(w), 3) unit axes the lean cost of the window poses ``w`` is measured from, or None
+    for ``"planned"`` (the planned axes themselves). ``"channel"``: the axis interpolated
+    between the two blade sides of the gap (:func:`.axis_field.channel_reference`);
+    ``"pass"``: one direction per pass, the mean of its planned axes (a pass held at one axis
+    where the limits allow: the rotaries move least); ``"fixed"``: ``direction`` (3,) for every
+    pose (in the part's frame, e.g. a machine's preferred head direction). Each is brought
+    inside the lean limits by the caller."""
+    if reference == "planned":
+        return None
+    if reference == "channel":
+        if blisk_axis is None or not blade_count:
+            return None
+        return channel_reference(P.cc[w], P.nrm[w], blisk_axis, blade_count)
+    if reference == "pass":
+        o = np.asarray(offs, dtype=np.int64)
+        which = np.searchsorted(o, w, side="right") - 1
+        mean = np.add.reduceat(P.ax0, o[:-1], axis=0)
+        return unit(mean[which], keep_zero=False)
+    if reference == "fixed":
+        d = np.asarray(direction, dtype=np.float64).reshape(3)
+        return np.repeat(unit(d[None], keep_zero=False), len(w), axis=0)
+    raise CollisionError(f"axis reference must be planned, channel, pass or fixed, got "
+                         f"{reference!r}")
+
+
 def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TURN_PER_MM,
               max_turn=None, machine=None, reference="planned", blisk_axis=None,
-              blade_count=None, edge_lead=0.0, jumps=False, progress=None) -> AxisPlan:
+              blade_count=None, edge_lead=0.0, jumps=False, progress=None,
+              direction=None) -> AxisPlan:
     """Plan the tool axes of the passes (module docstring).
 
     Parameters
@@ -221,8 +257,9 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     colliding : (n,) bool — the planned poses that collide
     turn_per_mm : float, rad/mm; max_turn : float or None, rad per pose
     machine : Machine or None — axes outside its rotaries' reach are excluded
-    reference : "planned" | "channel"; blisk_axis, blade_count: for "channel"
-    edge_lead : float, rad — extra lead at the pass ends (channel reference only)
+    reference : "planned" | "channel" | "pass" | "fixed" (:func:`reference_axes`);
+        blisk_axis, blade_count: for "channel"; direction (3,): for "fixed"
+    edge_lead : float, rad — extra lead at the pass ends (a tool diameter in from each end)
     progress : callable(fraction) or None
 
     Returns
@@ -242,16 +279,17 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
     l0, t0 = lead_tilt_of(ax0, f, nrm, k_side)
     l0, t0 = np.nan_to_num(l0), np.nan_to_num(t0)
     ref_l, ref_t = l0.copy(), t0.copy()
-    if reference == "channel" and blisk_axis is not None and blade_count:
-        w = np.nonzero(win)[0]
-        ch = channel_reference(cc[w], nrm[w], blisk_axis, blade_count)
-        cl, ct = lead_tilt_of(ch, f[w], nrm[w], k_side[w])
+    w = np.nonzero(win)[0]
+    R = reference_axes(reference, P, offs, w, blisk_axis=blisk_axis, blade_count=blade_count,
+                       direction=direction)
+    if R is not None:  # the reference's lead and tilt, brought inside the lean limits
+        cl, ct = lead_tilt_of(R, f[w], nrm[w], k_side[w])
         good = np.isfinite(cl) & np.isfinite(ct)
         ref_l[w] = np.where(good, np.clip(cl, -lim_lead[w], lim_lead[w]), ref_l[w])
         ref_t[w] = np.where(good, np.clip(ct, -lim_tilt[w], lim_tilt[w]), ref_t[w])
-        if edge_lead:
-            ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
-                               -lim_lead[w], lim_lead[w])
+    if edge_lead:
+        ref_l[w] = np.clip(ref_l[w] + _edge_weight(offs, cc, w, scene.cutter) * edge_lead,
+                           -lim_lead[w], lim_lead[w])
     runs = []
     for ci in range(len(offs) - 1):
         s, e = offs[ci], offs[ci + 1]
@@ -275,8 +313,7 @@ def plan_axes(scene, curves, offs, P, lim, colliding, *, turn_per_mm=DEFAULT_TUR
                 post = s + run[-1] + 1 if run[-1] + 1 < k else None
             runs.append(_Run(g, arc, pl.stations(g, arc), pre, post, cyc))
     ref_axes = ax0.copy()
-    if reference == "channel" and blisk_axis is not None and blade_count:
-        w = np.nonzero(win)[0]
+    if R is not None or edge_lead:
         ref_axes[w] = lead_tilt_axes(f[w], nrm[w], k_side[w], ref_l[w], ref_t[w])
     pl.set_frames(runs, ref_axes)
     # the coarse grid at every station of every run: one batched measurement

@@ -50,7 +50,11 @@ class CollisionOptions(OptionGroup):
     turn_per_mm : float, rad/mm — the planner's largest axis turn per mm of the tool's path
         (2°/mm; the length the corner centre at the contact travels, a ball's centre:
         :func:`.axis_field.path_steps`)
-    axis_reference : "planned" | "channel" — what the planner keeps the axes close to
+    axis_reference : "planned" | "channel" | "pass" | "fixed" — what the planner keeps the
+        axes close to (:func:`.axis_plan.reference_axes`)
+    reference_direction : (3,) or None — the direction of ``axis_reference="fixed"``
+    edge_lead : float or None, rad — extra lead at the pass ends (None: 5° with the channel
+        reference, 0 otherwise; :attr:`plan_edge_lead`)
     machine : Machine or None — the planner keeps the axes inside its rotaries' reach
     max_iterations : int — rotation steps per pose (Eqs. 16–17)
     gouge_tol : float or None, mm — ε of Eq. 14 (None: the path's chord tolerance / 4)
@@ -107,17 +111,39 @@ class CollisionOptions(OptionGroup):
         flag="--max-turn-per-mm")
     axis_reference: str = option(
         "planned", "Axis Reference", "What avoidance (plan) keeps the axes close to: the "
-        "planned (requested) lead/tilt, or the channel: the axis interpolated between the two "
+        "planned (requested) lead/tilt; the channel: the axis interpolated between the two "
         "blade sides of the gap (radial in the channel's mid-plane), with extra lead at the "
-        "leading and trailing edges",
+        "leading and trailing edges; one direction per pass (the mean of its planned axes); "
+        "or a fixed direction",
         choices=(Choice("planned", "Planned", "Closest to the requested lead/tilt"),
-                 Choice("channel", "Channel", "Closest to the channel's mid-plane")),
+                 Choice("channel", "Channel", "Closest to the channel's mid-plane"),
+                 Choice("pass", "Per Pass", "Closest to one direction per pass (the mean of "
+                        "its planned axes): the rotaries move least"),
+                 Choice("fixed", "Fixed", "Closest to one direction for every pose (Reference "
+                        "Direction)")),
         flag="--axis-reference")
+    reference_direction: tuple | None = option(
+        None, "Reference Direction", "Axis reference fixed: the direction the tool axes are "
+        "kept close to, in the part's frame (x y z, any length; 0 0 0: not set)", size=3,
+        flag="--reference-direction", none_as=(0.0, 0.0, 0.0))
+    edge_lead: float | None = option(
+        None, "Edge Lead", "Avoidance (plan) adds this lead to the reference within one tool "
+        "diameter of each pass end (the leading and trailing edges), degrees (not set: 5° with "
+        "the channel reference, none otherwise)", unit="deg", lo=0.0, hi=math.radians(45.0),
+        flag="--edge-lead", blender=False)
     machine: object = None  # core.machine Machine: avoidance stays inside its reach
-    max_turn: float | None = None
+    max_turn: float | None = option(
+        None, "Max Turn per Pose", "Avoidance turns the tool axis by at most this angle "
+        "between consecutive poses, degrees: plan, on top of the planned turn and within the "
+        "limit per mm (0: 5°); rotate, its smoothing limit (0: 2°)", unit="deg", lo=0.0,
+        hi=math.radians(89.0), none_as=0.0, flag="--max-turn-per-pose")
     max_iterations: int = 8
     gouge_tol: float | None = None
-    turn_jumps: bool = False
+    turn_jumps: bool = option(
+        False, "Jump Between Unresolved", "Avoidance (plan) may turn past the turn limit "
+        "between two consecutive poses that collide whatever their axis: fewer unresolved "
+        "poses, but the axis is not bounded in turn there (off: bounded everywhere)",
+        flag="--turn-jumps")
 
     def __post_init__(self):
         mode = str(self.mode).strip().lower()
@@ -138,9 +164,16 @@ class CollisionOptions(OptionGroup):
                                  f"{self.max_turn!r} rad")
         if self.method not in ("plan", "rotate"):
             raise CollisionError(f"avoidance method must be plan or rotate, got {self.method!r}")
-        if self.axis_reference not in ("planned", "channel"):
-            raise CollisionError(f"axis reference must be planned or channel, got "
-                                 f"{self.axis_reference!r}")
+        if self.axis_reference not in ("planned", "channel", "pass", "fixed"):
+            raise CollisionError(f"axis reference must be planned, channel, pass or fixed, "
+                                 f"got {self.axis_reference!r}")
+        if self.axis_reference == "fixed":
+            d = self.reference_direction
+            ok = d is not None and len(d) == 3 and all(math.isfinite(float(x)) for x in d)
+            if not ok or math.hypot(*map(float, d)) < 1e-9:
+                raise CollisionError("the fixed axis reference needs a direction: set Reference "
+                                     "Direction (--reference-direction X Y Z), not zero, got "
+                                     f"{d!r}")
         if not (isinstance(self.turn_per_mm, (int, float)) and 0 < self.turn_per_mm
                 and math.isfinite(self.turn_per_mm)):
             raise CollisionError(f"the turn limit per mm must be > 0°/mm, got "
@@ -161,6 +194,14 @@ class CollisionOptions(OptionGroup):
         turning 15°, which the path's long steps allowed at 2°/mm (up to 17.6° on Rotor 37),
         0.006 mm at 5°."""
         return DEFAULT_PLAN_MAX_TURN if self.max_turn is None else float(self.max_turn)
+
+    @property
+    def plan_edge_lead(self) -> float:
+        """The planner's extra lead at the pass ends, rad: ``edge_lead``, or 5° with the
+        channel reference and 0 otherwise when None."""
+        if self.edge_lead is not None:
+            return float(self.edge_lead)
+        return math.radians(5.0) if self.axis_reference == "channel" else 0.0
 
     def assembly(self, cutter) -> ToolAssembly:
         """The :class:`~..tool.assembly.ToolAssembly` of these options for ``cutter``."""
