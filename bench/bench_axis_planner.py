@@ -6,7 +6,8 @@ blades.
 Set-up (issue 25): Ø12 ball, 15 mm flute, Ø12 shank to 40 mm, Ø32 holder to 100 mm, safety
 1 mm, ±2 neighbours — the command line's ``--tool ball --tool-diameter 12 --flute-length 15
 --holder "15 6 40 6 40 16 100 16" --safety 1 --blade-count N --collisions avoid``. The demo
-path: cusp 0.05, chord 0.05, local axis (lead 0, tilt 0); Rotor 37: the README's radial
+path: cusp 0.05, chord 0.05, local axis (lead 0, tilt 0), the hub cone 4 mm out from the hub
+(the Ø12 ball does not fit the demo's 3.3 mm fillet); Rotor 37: the README's radial
 75° lean, lead 5°, ``--max-tilt 85``.
 
 Printed per case: verify of the planned path (before any avoidance); per method: colliding
@@ -24,9 +25,11 @@ the tool's path (the ball's centre, ``axis_field.path_steps``), at most 5° per 
 (``--max-turn``; ``CollisionOptions.plan_max_turn``).
 
 Measured on this shared 2-core machine (unresolved pass poses; ms per pass pose, the same
-load within a run): demo — rotate 971 (1420 with the poses at its 406 turns over the limit),
-the planner with the turn limit everywhere (the default) 887 (max turn between poses 8.7°),
-with jumps 584; ``--max-turn 89`` (no per-pose cap) 804 (12.5°), with jumps 586; Rotor 37 ×
+load within a run): demo — rotate 870 (1251 with the poses at its 345 turns over the limit),
+the planner with the turn limit everywhere (the default) 824 (max turn between poses 8.6°),
+with jumps 565, verify after avoidance 0.048 mm left, 0.017 mm gouge (from the hub cone
+itself, where the planned path gouges 0.060 mm before any avoidance: rotate 971 (1420),
+planner 887, ``--max-turn 89`` (no per-pose cap) 804 (12.5°)); Rotor 37 ×
 36 — rotate 1010 (1268, 222 turns over), the planner 908 (program rows 908, every link
 re-routed; 8.3°), with jumps 821; without the cap 850 (15.2°), with jumps 819; 33–38 ms per
 pass pose for the planner (Rotor 37, the tree before and after side by side: 37.9 and 36.0)
