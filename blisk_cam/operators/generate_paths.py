@@ -31,6 +31,7 @@ from ..blender.path_objects import text_lines
 from ..blender.settings import path_request, settings_cones, store_statistics, summary
 from ..core.errors import BliskCamError
 from ..core.geometry.weld import input_vertex_values
+from ..core.runtime import parallel
 from .common import (
     blade_axis,
     blade_problem,
@@ -134,7 +135,10 @@ class PathJob:
 
             def work():
                 try:
-                    if self.step(float("inf"), cancel):  # the JSON too: less on the UI thread
+                    # the compiled kernels on every core, as verify does (the same answers)
+                    with parallel(None):
+                        done = self.step(float("inf"), cancel)
+                    if done:  # the JSON too: less on the UI thread
                         self.paths_json = _paths_json(self.plan.path)
                         self._paths_text = text_lines(self.paths_json)
                 except BaseException as exc:  # handed to the main thread, raised there
