@@ -20,7 +20,9 @@ process and the load average are printed beside them; compare ratios within one 
 Threads and backends: ``detect_by_threads`` times the check on 1 and 2 threads (medians of
 ``--repeat`` runs, wall and process CPU) and prints the speed-up 1 → 2 threads, for the
 backend that runs (``kernels``: ``compiled 0.x`` or ``numpy``) and, with ``--both``, for the
-numpy kernels too (the ratio compiled ÷ numpy beside).
+numpy kernels too (the ratio compiled ÷ numpy beside). ``build_and_detect`` (and with
+``--both`` ``build_and_detect_numpy``): the build (obstacles, triangle tree) and the first
+check on the new scene, wall and CPU seconds, on 1 and 2 threads.
 
 Run: ``python bench/bench_collision.py [--resolution 2.0] [--poses 20000]
 [--baseline-poses 500] [--workers 2] [--mild] [--no-avoid] [--repeat 1] [--both]``; prints
@@ -115,6 +117,30 @@ def detect_by_threads(sc, tips, axes, repeat: int) -> dict:
         out[f"detect_{w}_thread_s"] = round(float(np.median([r[0] for r in runs])), 3)
         out[f"detect_{w}_thread_cpu_s"] = round(float(np.median([r[1] for r in runs])), 3)
     out["speedup_1_to_2_threads"] = round(out["detect_1_thread_s"] / out["detect_2_thread_s"], 2)
+    return out
+
+
+def build_detect_by_threads(V, F, axis, cutter, asm, tips, axes, repeat: int) -> dict:
+    """Median wall and CPU seconds of the scene's build (Obstacles.build and the triangle
+    tree) and of the first check on it, on 1 and 2 threads (``runtime.parallel`` for the
+    build, ``workers`` for the check): what Check Collisions waits for."""
+    from blisk_cam.core.runtime import parallel
+
+    out = {}
+    for w in (1, 2):
+        runs = []
+        for _ in range(max(1, repeat)):
+            with parallel(w):
+                with _Clock() as cb:
+                    ob = Obstacles.build(V, F, axis, 24, 2, check_extra=False)
+                    sc = CollisionScene(ob, cutter, asm)
+                with _Clock() as cd:
+                    sc.detect(tips, axes, workers=w)
+            runs.append((cb.wall, cb.cpu, cd.wall, cd.cpu))
+        med = np.median(np.array(runs), axis=0)
+        for k, x in zip(("build_s", "build_cpu_s", "detect_s", "detect_cpu_s"), med,
+                        strict=True):
+            out[f"{k.split('_')[0]}_{w}_thread_{'_'.join(k.split('_')[1:])}"] = round(float(x), 3)
     return out
 
 
@@ -224,10 +250,14 @@ def main():
         "baseline_missed_collisions": int(np.sum((exact < 1.0) & (base >= 1.0))),
     }
     out["threads"] = detect_by_threads(sc, tips, a, args.repeat)
+    out["build_and_detect"] = build_detect_by_threads(V, F, d.axis, cutter, asm, tips, a,
+                                                      args.repeat)
     out["load_average_1min_after"] = round(os.getloadavg()[0], 2)
     if args.both and backend.extension() is not None:
         with backend.numpy_only():
             out["threads_numpy"] = detect_by_threads(sc, tips, a, args.repeat)
+            out["build_and_detect_numpy"] = build_detect_by_threads(V, F, d.axis, cutter, asm,
+                                                                    tips, a, args.repeat)
         out["detect_compiled_over_numpy_1_thread"] = round(
             out["threads"]["detect_1_thread_s"] / out["threads_numpy"]["detect_1_thread_s"], 3)
     if not args.no_avoid:

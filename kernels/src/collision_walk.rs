@@ -23,9 +23,9 @@ use crate::numpy_ops::{nanmax, nanmin};
 type P3 = [f64; 3];
 
 /// children per node of the tree (`tri_tree._BRANCH`)
-const BRANCH: usize = 4;
+pub(crate) const BRANCH: usize = 4;
 /// triangles per leaf (`tri_tree._LEAF`)
-const LEAF: usize = 8;
+pub(crate) const LEAF: usize = 8;
 const GRAD_RADIUS: f64 = 2.0;
 const REP_FACTOR: f64 = 4.0;
 const DEEP_BEAM: usize = 8;
@@ -124,35 +124,35 @@ fn box_bound(fr: &[f64; 4], c: &P3, tip: &P3, axis: &P3, r: f64, h: &P3) -> f64 
 }
 
 /// A node: box centre, the radius of its sphere, representative point, half-sizes.
-struct Node {
-    c: P3,
-    r: f64,
-    rep: P3,
-    h: P3,
+pub(crate) struct Node {
+    pub(crate) c: P3,
+    pub(crate) r: f64,
+    pub(crate) rep: P3,
+    pub(crate) h: P3,
 }
 
 /// A triangle: centroid, the radius of its sphere about it, corners, unit normal (`ok`: a
 /// usable one).
-struct Tri {
-    cen: P3,
-    rad: f64,
-    a: P3,
-    b: P3,
-    c: P3,
-    nrm: P3,
-    ok: bool,
+pub(crate) struct Tri {
+    pub(crate) cen: P3,
+    pub(crate) rad: f64,
+    pub(crate) a: P3,
+    pub(crate) b: P3,
+    pub(crate) c: P3,
+    pub(crate) nrm: P3,
+    pub(crate) ok: bool,
 }
 
 /// `tri_tree._TriTree`'s arrays: levels root first, triangles in Morton order.
-struct Tree {
-    levels: Vec<Vec<Node>>,
-    tris: Vec<Tri>,
+pub(crate) struct Tree {
+    pub(crate) levels: Vec<Vec<Node>>,
+    pub(crate) tris: Vec<Tri>,
 }
 
 /// A `_TriTree`'s arrays, copied once (a scene reuses them for every detection).
 #[pyclass(frozen)]
 pub struct CollisionTree {
-    t: Tree,
+    pub(crate) t: Tree,
 }
 
 type LevelArrays<'py> = (

@@ -14,6 +14,7 @@ use pyo3::prelude::*;
 mod arrays;
 mod closest;
 mod collision_refine;
+mod collision_tree;
 mod collision_walk;
 mod hypot;
 mod knn;
@@ -402,6 +403,9 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(collision_walk::collision_detect, m)?)?;
     m.add_class::<collision_walk::CollisionTree>()?;
+    m.add_function(wrap_pyfunction!(collision_tree::collision_tree_build, m)?)?;
+    m.add_function(wrap_pyfunction!(collision_tree::collision_tree_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(collision_tree::collision_tree_normals, m)?)?;
     m.add_function(wrap_pyfunction!(probe::points_within, m)?)?;
     m.add_function(wrap_pyfunction!(lift::fixed_point_lift, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table, m)?)?;

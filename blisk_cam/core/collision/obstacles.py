@@ -56,11 +56,15 @@ def _mesh_arrays(name, V, F):
 
 @dataclass(frozen=True)
 class Obstacle:
-    """A named triangle mesh: V (n, 3) float64 mm, F (m, 3) int64."""
+    """A named triangle mesh: V (n, 3) float64 mm, F (m, 3) int64. ``turned_from``: set by
+    :meth:`Obstacles.build` on a neighbour it made — (the blade's V, sign, k, blade count):
+    V is that array turned by sign·k·360°/N about the axis, F the blade's (the collision
+    scene then need not compare the vertices to know it is a copy)."""
 
     name: str
     V: np.ndarray = field(repr=False)
     F: np.ndarray = field(repr=False)
+    turned_from: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def n_triangles(self) -> int:
@@ -122,7 +126,7 @@ class Obstacles:
         for j in range(1, k + 1):
             for sign, tag in ((1, "+"), (-1, "-")):
                 turned = rotate_about(V, axis.d, sign * j * pitch, axis.o, form="outer")
-                meshes.append(Obstacle(f"blade {tag}{j}", turned, F))
+                meshes.append(Obstacle(f"blade {tag}{j}", turned, F, (V, sign, j, n)))
         names = {m.name for m in meshes}
         for e in extra:
             if isinstance(e, Obstacle):

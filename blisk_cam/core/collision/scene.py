@@ -199,6 +199,10 @@ def _copy_angle(obstacles: Obstacles, i: int):
     blade, ob = obstacles.meshes[0], obstacles.meshes[i]
     j = (i + 1) // 2
     angle = (1 if i % 2 else -1) * j * 2.0 * math.pi / obstacles.blade_count
+    src = ob.turned_from
+    if src is not None and src[0] is blade.V and ob.F is blade.F and \
+            src[1:] == (1 if i % 2 else -1, j, obstacles.blade_count):
+        return angle  # Obstacles.build turned it so (the check below would say the same)
     if ob.F.shape != blade.F.shape or ob.V.shape != blade.V.shape or \
             not (ob.F is blade.F or np.array_equal(ob.F, blade.F)):
         return None
@@ -455,7 +459,7 @@ class CollisionScene:
                     continue
                 row, cid, T = ids[sel, 2], ids[sel, 3], ids[sel, 4]
                 ts, as_, ws = queries[gi][0][row], queries[gi][1][row], w[sel]
-                nn = g.tree.nrm[T]
+                nn = g.tree.normals(T)
                 foot = ts + np.einsum("ij,ij->i", ws - ts, as_)[:, None] * as_
                 side = np.einsum("ij,ij->i", nn, foot - ws)
                 nn = np.where((side < 0)[:, None], -nn, nn)

@@ -6,6 +6,7 @@ by beam search and golden-section steps along edges. mm.
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -31,6 +32,8 @@ _FAR_BEAM = 8
 _DEEP_BEAM = 8
 _REP_FACTOR = 4.0
 _GRAD_RADIUS = 2.0
+#: a compiled-built tree's numpy arrays, made when first used
+_LAZY = frozenset(("A", "B", "C", "cen", "rad", "nrm", "ok", "levels", "counts"))
 
 
 # ====================================================================== triangle tree
@@ -53,15 +56,49 @@ class _TriTree:
     """Triangles in Morton order with an implicit binary tree of bounding spheres (see the
     module docstring)."""
 
-    def __init__(self, V, F, owner):
+    def __init__(self, V, F, owner, compiled: bool | None = None):
         """V (n, 3) float mm, F (m, 3) int triangles, owner (m,) int obstacle per
-        triangle."""
+        triangle. ``compiled``: build with the compiled kernels (None: when they run) — the
+        compiled detection's tree, the same as the numpy build's arrays bit for bit; the
+        numpy arrays are then made (from the same order) only when first used —, False: the
+        numpy build (the reference)."""
         V = np.ascontiguousarray(V, dtype=np.float64)
+        if compiled is None:
+            compiled = compiled_refine.build_tree_available()
+        if compiled:
+            self._compiled, order = compiled_refine.build_tree(V, F, workers())
+            self.owner = np.asarray(owner)[order]
+            self.n = len(order)
+            self._lazy, self._lock = (V, F, order), threading.Lock()
+            return
         cen = (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0
         order = np.argsort(_morton(cen), kind="stable")
+        self._arrays(V, F, order, cen)
+        self.owner = owner[order]
+
+    def __getattr__(self, name):
+        """A compiled-built tree's numpy arrays (``_LAZY``), made from its order when first
+        asked for (once, whichever thread asks)."""
+        if name not in _LAZY or "_lazy" not in self.__dict__:
+            raise AttributeError(name)
+        with self._lock:
+            if self._lazy is not None:
+                V, F, order = self._lazy
+                self._arrays(V, F, order, (V[F[:, 0]] + V[F[:, 1]] + V[F[:, 2]]) / 3.0)
+                self._lazy = None
+        return self.__dict__[name]
+
+    def normals(self, T):
+        """(k, 3) unit normals of triangles T (k,)."""
+        if self.__dict__.get("_lazy") is not None:
+            return compiled_refine.tree_normals(self._compiled, T)
+        return self.nrm[T]
+
+    def _arrays(self, V, F, order, cen):
+        """The tree's arrays from the triangles' Morton ``order`` and centroids ``cen`` (m, 3)
+        (in F's order)."""
         Fo = F[order]
         self.A, self.B, self.C = V[Fo[:, 0]], V[Fo[:, 1]], V[Fo[:, 2]]
-        self.owner = owner[order]
         self.cen = cen[order]
         r2 = None
         for x in (self.A, self.B, self.C):

@@ -19,7 +19,8 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "collision_tree", "detect", "detect_available", "refine_pairs"]
+__all__ = ["available", "build_tree", "build_tree_available", "collision_tree", "detect",
+           "detect_available", "refine_pairs", "tree_arrays", "tree_normals"]
 
 
 def available() -> bool:
@@ -44,6 +45,34 @@ def detect_available() -> bool:
     """Whether the compiled detection (tree walk and refine in one call) runs."""
     ext = extension()
     return ext is not None and hasattr(ext, "collision_detect")
+
+
+def build_tree_available() -> bool:
+    """Whether the compiled triangle-tree build (:func:`build_tree`) runs."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "collision_tree_build")
+
+
+def build_tree(V, F, threads: int):
+    """``tri_tree._TriTree`` built compiled (the Morton sort and gathers in parallel on
+    ``threads`` threads, the GIL released): V (n, 3) float mm, F (m, 3) int triangles
+    (indices into V). Returns (the compiled tree — what :func:`collision_tree` makes of the
+    numpy build's arrays, bit for bit —, order (m,) int64 the triangles' Morton order)."""
+    c = np.ascontiguousarray
+    return extension().collision_tree_build(c(V, dtype=np.float64), c(F, dtype=np.int64),
+                                            max(1, int(threads)))
+
+
+def tree_arrays(tree):
+    """A compiled tree's arrays: ([centroids (m, 3), radii (m,), A, B, C (m, 3), unit normals
+    (m, 3), ok (m,)], levels [(centre (q, 3), radius (q,), representative (q, 3), half-sizes
+    (q, 3))] root first) — ``_TriTree``'s, for comparing the two builds."""
+    return extension().collision_tree_arrays(tree)
+
+
+def tree_normals(tree, T):
+    """The unit normals (k, 3) of a compiled tree's triangles T (k,) (Morton order)."""
+    return extension().collision_tree_normals(tree, np.ascontiguousarray(T, dtype=np.int64))
 
 
 def collision_tree(levels, cen, rad, A, B, C, nrm, ok):
