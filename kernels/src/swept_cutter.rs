@@ -128,7 +128,7 @@ impl Pair {
 }
 
 #[derive(Clone, Copy)]
-struct State {
+pub(crate) struct State {
     i: usize, // the pair's index in the caller's arrays
     lo: f64,
     hi: f64,
@@ -139,6 +139,7 @@ struct State {
 }
 
 /// One point's pairs `i0..i1`, stepped together: (best, pair achieving it or −1).
+#[allow(clippy::too_many_arguments)]
 fn search_point(
     prof: &Profile,
     pairs: &[Pair],
@@ -148,30 +149,30 @@ fn search_point(
     i1: usize,
     u0: f64,
     xtol: f64,
+    live: &mut Vec<State>,
 ) -> (f64, i64) {
     let gold = 0.5 * (5.0f64.sqrt() - 1.0);
-    let mut live: Vec<State> = (i0..i1)
-        .map(|i| {
-            let (lo, hi) = (lo0[i], hi0[i]);
-            let x1 = hi - gold * (hi - lo);
-            let x2 = lo + gold * (hi - lo);
-            State {
-                i,
-                lo,
-                hi,
-                x1,
-                x2,
-                f1: pairs[i].f(prof, x1),
-                f2: pairs[i].f(prof, x2),
-            }
-        })
-        .collect();
+    live.clear();
+    live.extend((i0..i1).map(|i| {
+        let (lo, hi) = (lo0[i], hi0[i]);
+        let x1 = hi - gold * (hi - lo);
+        let x2 = lo + gold * (hi - lo);
+        State {
+            i,
+            lo,
+            hi,
+            x1,
+            x2,
+            f1: pairs[i].f(prof, x1),
+            f2: pairs[i].f(prof, x2),
+        }
+    }));
     let (mut u, mut arg) = (u0, -1i64);
     for _ in 0..200 {
         // the best among the pairs that may beat the point's best (NaN: no update, as
         // numpy's minimum over the group is then NaN)
         let (mut gmin, mut gi, mut any, mut nan) = (f64::INFINITY, -1i64, false, false);
-        for st in &live {
+        for st in live.iter() {
             let fb = nanmin(st.f1, st.f2);
             if !(fb >= u) {
                 any = true;
@@ -293,7 +294,9 @@ pub fn golden_pairs<'py>(
         pl.install(|| {
             runs.par_iter()
                 .with_min_len(8)
-                .map(|&(a, b)| search_point(&prof, &pairs, ll, hh, a, b, uu[qq[a] as usize], xtol))
+                .map_init(Vec::new, |live, &(a, b)| {
+                    search_point(&prof, &pairs, ll, hh, a, b, uu[qq[a] as usize], xtol, live)
+                })
                 .collect()
         })
     });
@@ -475,9 +478,10 @@ pub fn fast_search<'py>(
         pl.install(|| {
             runs.par_iter()
                 .with_min_len(4)
-                .map(|&(a, b)| {
+                .map_init(prune::Scratch::default, |sc, &(a, b)| {
                     let p = qq[a] as usize;
                     fast_point(
+                        sc,
                         &prof,
                         &tab,
                         &reach,
@@ -591,14 +595,15 @@ impl LeafBoxes {
 }
 
 impl LeafBoxes {
-    /// The leaves in `lo..hi` whose box comes within `r` of the point, ascending.
-    fn near(&self, p: &[f64; 3], r: f64, lo: i64, hi: i64) -> Vec<i64> {
+    /// The leaves in `lo..hi` whose box comes within `r` of the point, ascending, into
+    /// `out` (cleared first).
+    fn near(&self, p: &[f64; 3], r: f64, lo: i64, hi: i64, out: &mut Vec<i64>) {
         use parry3d_f64::math::Vector;
         use parry3d_f64::query::PointQuery;
         let pv = Vector::new(p[0], p[1], p[2]);
-        let mut out: Vec<i64> = Vec::new();
+        out.clear();
         if self.n == 0 || hi <= lo {
-            return out;
+            return;
         }
         // a point inside the swept volume (u < 0): the leaves whose box holds it
         let r = if r > 0.0 { r } else { 0.0 };
@@ -622,7 +627,6 @@ impl LeafBoxes {
         if self.pieces > 1 {
             out.dedup();
         }
-        out
     }
 }
 
@@ -682,16 +686,20 @@ pub fn fast_search_boxes<'py>(
             (0..k)
                 .into_par_iter()
                 .with_min_len(4)
-                .map(|i| {
-                    let r = uu[i] * (1.0 + 1e-9) + 1e-9 + sl[i];
-                    let leaves = bx.near(&pp[i], r, clo[i], chi[i]);
-                    if leaves.is_empty() {
-                        return (uu[i], aa[i]);
-                    }
-                    fast_point(
-                        &prof, &tab, &reach, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta,
-                    )
-                })
+                .map_init(
+                    || (prune::Scratch::default(), Vec::new()),
+                    |(sc, leaves), i| {
+                        let r = uu[i] * (1.0 + 1e-9) + 1e-9 + sl[i];
+                        bx.near(&pp[i], r, clo[i], chi[i], leaves);
+                        if leaves.is_empty() {
+                            return (uu[i], aa[i]);
+                        }
+                        fast_point(
+                            sc, &prof, &tab, &reach, &pp[i], leaves, uu[i], aa[i], sl[i], xtol,
+                            delta,
+                        )
+                    },
+                )
                 .collect()
         })
     });
