@@ -754,12 +754,12 @@ _MIX = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9,
 
 
 def _first_of_equal_rows(P, w):
-    """(k,) int64: for each point of ``P`` (k, 3) with member ``w`` (k,), the first row
-    holding the same member and the same coordinates bit for bit (itself when none comes
-    before it). Rows are grouped by a hash of their bits, sorted stably, and equal
-    neighbours in that order matched by their bits, so rows are only ever merged with
-    identical ones (two different rows sharing a hash may leave a repeat unmerged: it is
-    then searched twice, with the same figures)."""
+    """(k,) int64: for each point of ``P`` (k, 3) with member ``w`` (k,), a row holding the
+    same member and the same coordinates bit for bit, the same for all of them and the first
+    of them in the order given (itself when it is the first). Rows are sorted by a hash of
+    their bits and equal neighbours in that order matched by their bits, so rows are only
+    ever merged with identical ones (two different rows sharing a hash may leave a repeat
+    unmerged: it is then searched twice, with the same figures)."""
     k = len(P)
     bits = np.empty((k, 4), dtype=np.uint64)
     bits[:, 0] = np.asarray(w, dtype=np.int64).view(np.uint64)
@@ -767,13 +767,13 @@ def _first_of_equal_rows(P, w):
     with np.errstate(over="ignore"):
         h = bits * _MIX
     h = (h[:, 0] ^ (h[:, 1] >> np.uint64(7))) ^ (h[:, 2] ^ (h[:, 3] >> np.uint64(13)))
-    o = np.argsort(h, kind="stable")
+    o = np.argsort(h)
     b = bits[o]
     same = np.zeros(k, dtype=bool)
     if k > 1:
         same[1:] = np.all(b[1:] == b[:-1], axis=1)
     head = np.flatnonzero(~same)  # the first row of each run, in sorted positions
-    grp = np.cumsum(~same) - 1
     first = np.empty(k, dtype=np.int64)
-    first[o] = o[head][grp]  # stable: a run's first sorted row is its first original row
+    if k:
+        first[o] = np.minimum.reduceat(o, head)[np.cumsum(~same) - 1]
     return first
