@@ -706,3 +706,80 @@ pub fn fast_search_boxes<'py>(
     let (uo, ao): (Vec<f64>, Vec<i64>) = res.into_iter().unzip();
     Ok((PyArray1::from_vec(py, uo), PyArray1::from_vec(py, ao)))
 }
+
+/// `SweptCutter._upper_bound`'s values and minimum: point i against the cutter posed at the
+/// tip and axis of each of its segments `seg[i, :]` (numpy's indexing: −n..n−1), as
+/// `Cutter.signed_distance` computes them; then `bvh.group_argmin` (NaN-propagating minimum;
+/// the segment is the last listed of those at the minimum, −1 when none is). Returns
+/// (u (k,), arg (k,)).
+#[pyfunction]
+#[pyo3(signature = (profile, pc, seg, ta, aa, threads))]
+pub fn pose_bound<'py>(
+    py: Python<'py>,
+    profile: Vec<f64>,
+    pc: numpy::PyReadonlyArray2<'py, f64>,
+    seg: numpy::PyReadonlyArray2<'py, i64>,
+    ta: numpy::PyReadonlyArray2<'py, f64>,
+    aa: numpy::PyReadonlyArray2<'py, f64>,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    use crate::arrays::{flat, points, points_n};
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let prof = Profile::from_slice(&profile);
+    let pts = points(&pc, "points")?;
+    let k = pts.len();
+    let kk = seg.shape()[1];
+    let sg = flat(&seg, "seg")?;
+    let tt = points(&ta, "ta")?;
+    let ns = tt.len() as i64;
+    let ax = points_n(&aa, "aa", tt.len())?;
+    if sg.len() != k * kk || sg.iter().any(|&s| s < -ns || s >= ns) {
+        return Err(PyValueError::new_err(
+            "seg must give (k, kk) segment ids within -len(ta)..len(ta)",
+        ));
+    }
+    let pl = crate::pool(threads)?;
+    let res: Vec<(f64, i64)> = py.detach(|| {
+        pl.install(|| {
+            (0..k)
+                .into_par_iter()
+                .with_min_len(256)
+                .map(|i| {
+                    let p = &pts[i];
+                    let ids = &sg[i * kk..(i + 1) * kk];
+                    let val = |s: i64| {
+                        let j = (if s < 0 { s + ns } else { s }) as usize;
+                        let t = &tt[j];
+                        sd_in_frame(&prof, &[p[0] - t[0], p[1] - t[1], p[2] - t[2]], &ax[j])
+                    };
+                    // np.minimum.at from inf: a NaN stays
+                    let mut best = f64::INFINITY;
+                    let mut vals = [0.0f64; 8];
+                    for (n, &s) in ids.iter().enumerate() {
+                        let v = val(s);
+                        if n < 8 {
+                            vals[n] = v;
+                        }
+                        best = if v.is_nan() || best.is_nan() {
+                            f64::NAN
+                        } else {
+                            best.min(v)
+                        };
+                    }
+                    let mut arg = -1i64;
+                    for (n, &s) in ids.iter().enumerate() {
+                        let v = if n < 8 { vals[n] } else { val(s) };
+                        if v <= best {
+                            arg = s;
+                        }
+                    }
+                    (best, arg)
+                })
+                .collect()
+        })
+    });
+    let (u, a): (Vec<f64>, Vec<i64>) = res.into_iter().unzip();
+    Ok((PyArray1::from_vec(py, u), PyArray1::from_vec(py, a)))
+}

@@ -378,6 +378,9 @@ class SweptCutter:
         """Distances to the poses of the nearest corner centres: (u (k,), segment (k,))."""
         kk = int(min(4, len(self.ta) * self._ring_m))
         j = self._ring_nearest(Pc, kk).reshape(-1) // self._ring_m
+        if compiled_cutter.pose_bound_available():  # the same floats, compiled
+            return compiled_cutter.pose_bound(self.cutter, Pc, j.reshape(len(Pc), kk), self.ta,
+                                              self.aa, workers())
         qi = np.repeat(np.arange(len(Pc)), kk)
         tk = np.take
         d = self.cutter.signed_distance(tk(Pc, qi, axis=0), tk(self.ta, j, axis=0),
