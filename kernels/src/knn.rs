@@ -15,6 +15,17 @@ pub type P3 = [f64; 3];
 
 const LEAF: usize = 16;
 
+/// Queries per run of [`PointTree::knn_many`] (one seeded by the one before).
+const SEEDED: usize = 64;
+
+/// The buffers of [`PointTree::knn_seeded`]: the best (squared distance, id, position in
+/// the tree's order) so far, and the walk's stack.
+#[derive(Default)]
+pub struct KnnBuffers {
+    best: Vec<(f64, u32, u32)>,
+    stack: Vec<(u32, f64)>,
+}
+
 enum Node {
     Leaf { start: u32, end: u32 },
     Split { left: u32, right: u32 },
@@ -165,10 +176,40 @@ impl PointTree {
     /// The (up to) k nearest ids of `q` with squared distance below `ub2`, by (distance,
     /// id); and whether the k-th and the (k + 1)-th are at the same distance.
     pub fn knn(&self, q: &P3, k: usize, ub2: f64, out: &mut [i64]) -> bool {
-        let mut best: Vec<(f64, u32)> = Vec::with_capacity(k + 2);
+        let mut buf = KnnBuffers::default();
+        self.knn_seeded(q, k, ub2, out, &mut buf)
+    }
+
+    /// [`Self::knn`] seeded with the points `buf` holds from the query before (a query near
+    /// the one before starts with their distances as its bound, and so opens fewer nodes).
+    /// The answer is the same whatever the seeds: the k + 1 smallest (distance, id) pairs
+    /// below `ub2` are one set, each point enters it once (a seed met again in its leaf is
+    /// skipped), and a node is skipped only when its box's lower bound is above the
+    /// (k + 1)-th smallest pair so far, which no point in it can then beat. Leaves in `buf`
+    /// the answer's points, for the next query's seeds.
+    pub fn knn_seeded(
+        &self,
+        q: &P3,
+        k: usize,
+        ub2: f64,
+        out: &mut [i64],
+        buf: &mut KnnBuffers,
+    ) -> bool {
         let cap = k + 1;
+        let KnnBuffers { best, stack } = buf;
+        // the seeds: the previous answer's points at their distances from q
+        let seeds: Vec<u32> = best.iter().map(|e| e.2).collect::<Vec<u32>>();
+        best.clear();
+        for &s in &seeds {
+            let d = d2(q, &self.pts[s as usize]);
+            if d < ub2 {
+                best.push((d, self.ids[s as usize], s));
+            }
+        }
+        best.sort_unstable_by(|a, b| (a.0, a.1).partial_cmp(&(b.0, b.1)).unwrap());
+        best.truncate(cap);
         if !self.nodes.is_empty() {
-            let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
+            stack.clear();
             stack.push((0, box_d2(q, &self.boxes[0])));
             while let Some((n, plane2)) = stack.pop() {
                 let bound = if best.len() == cap {
@@ -176,7 +217,6 @@ impl PointTree {
                 } else {
                     ub2
                 };
-                // a node behind a plane farther than the bound holds nothing nearer
                 if plane2 >= ub2 || (best.len() == cap && plane2 > bound) {
                     continue;
                 }
@@ -188,11 +228,14 @@ impl PointTree {
                             if !(d < ub2) {
                                 continue;
                             }
-                            if best.len() == cap && (d, i) >= best[cap - 1] {
+                            if best.len() == cap && (d, i) >= (best[cap - 1].0, best[cap - 1].1) {
                                 continue;
                             }
-                            let pos = best.partition_point(|&e| e < (d, i));
-                            best.insert(pos, (d, i));
+                            if seeds.contains(&(s as u32)) && best.iter().any(|e| e.1 == i) {
+                                continue;
+                            }
+                            let pos = best.partition_point(|&e| (e.0, e.1) < (d, i));
+                            best.insert(pos, (d, i, s as u32));
                             best.truncate(cap);
                         }
                     }
@@ -262,11 +305,20 @@ impl PointTree {
     pub fn knn_many(&self, qs: &[P3], k: usize, ub2: f64) -> (Vec<i64>, Vec<bool>) {
         let mut ids = vec![-1i64; qs.len() * k];
         let mut tie = vec![false; qs.len()];
-        ids.par_chunks_mut(k)
-            .zip(tie.par_iter_mut())
-            .zip(qs.par_iter())
-            .with_min_len(64)
-            .for_each(|((o, t), q)| *t = self.knn(q, k, ub2, o));
+        if k == 0 {
+            return (ids, tie);
+        }
+        // runs of SEEDED queries in order, each seeded by the one before (queries come
+        // along paths: neighbours), the runs in parallel; the answers do not depend on it
+        ids.par_chunks_mut(k * SEEDED)
+            .zip(tie.par_chunks_mut(SEEDED))
+            .zip(qs.par_chunks(SEEDED))
+            .for_each(|((o, t), q)| {
+                let mut buf = KnnBuffers::default();
+                for ((oi, ti), qi) in o.chunks_mut(k).zip(t.iter_mut()).zip(q.iter()) {
+                    *ti = self.knn_seeded(qi, k, ub2, oi, &mut buf);
+                }
+            });
         (ids, tie)
     }
 }

@@ -397,6 +397,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_cutter::pose_bound, m)?)?;
     m.add_class::<swept_cutter::LeafBoxes>()?;
     // 2: LeafBoxes takes a forest's member starts and several boxes per leaf
     m.add("LEAF_BOXES_REVISION", 2)?;

@@ -128,7 +128,7 @@ impl Pair {
 }
 
 #[derive(Clone, Copy)]
-struct State {
+pub(crate) struct State {
     i: usize, // the pair's index in the caller's arrays
     lo: f64,
     hi: f64,
@@ -139,6 +139,7 @@ struct State {
 }
 
 /// One point's pairs `i0..i1`, stepped together: (best, pair achieving it or −1).
+#[allow(clippy::too_many_arguments)]
 fn search_point(
     prof: &Profile,
     pairs: &[Pair],
@@ -148,30 +149,30 @@ fn search_point(
     i1: usize,
     u0: f64,
     xtol: f64,
+    live: &mut Vec<State>,
 ) -> (f64, i64) {
     let gold = 0.5 * (5.0f64.sqrt() - 1.0);
-    let mut live: Vec<State> = (i0..i1)
-        .map(|i| {
-            let (lo, hi) = (lo0[i], hi0[i]);
-            let x1 = hi - gold * (hi - lo);
-            let x2 = lo + gold * (hi - lo);
-            State {
-                i,
-                lo,
-                hi,
-                x1,
-                x2,
-                f1: pairs[i].f(prof, x1),
-                f2: pairs[i].f(prof, x2),
-            }
-        })
-        .collect();
+    live.clear();
+    live.extend((i0..i1).map(|i| {
+        let (lo, hi) = (lo0[i], hi0[i]);
+        let x1 = hi - gold * (hi - lo);
+        let x2 = lo + gold * (hi - lo);
+        State {
+            i,
+            lo,
+            hi,
+            x1,
+            x2,
+            f1: pairs[i].f(prof, x1),
+            f2: pairs[i].f(prof, x2),
+        }
+    }));
     let (mut u, mut arg) = (u0, -1i64);
     for _ in 0..200 {
         // the best among the pairs that may beat the point's best (NaN: no update, as
         // numpy's minimum over the group is then NaN)
         let (mut gmin, mut gi, mut any, mut nan) = (f64::INFINITY, -1i64, false, false);
-        for st in &live {
+        for st in live.iter() {
             let fb = nanmin(st.f1, st.f2);
             if !(fb >= u) {
                 any = true;
@@ -293,7 +294,9 @@ pub fn golden_pairs<'py>(
         pl.install(|| {
             runs.par_iter()
                 .with_min_len(8)
-                .map(|&(a, b)| search_point(&prof, &pairs, ll, hh, a, b, uu[qq[a] as usize], xtol))
+                .map_init(Vec::new, |live, &(a, b)| {
+                    search_point(&prof, &pairs, ll, hh, a, b, uu[qq[a] as usize], xtol, live)
+                })
                 .collect()
         })
     });
@@ -475,9 +478,10 @@ pub fn fast_search<'py>(
         pl.install(|| {
             runs.par_iter()
                 .with_min_len(4)
-                .map(|&(a, b)| {
+                .map_init(prune::Scratch::default, |sc, &(a, b)| {
                     let p = qq[a] as usize;
                     fast_point(
+                        sc,
                         &prof,
                         &tab,
                         &reach,
@@ -591,14 +595,15 @@ impl LeafBoxes {
 }
 
 impl LeafBoxes {
-    /// The leaves in `lo..hi` whose box comes within `r` of the point, ascending.
-    fn near(&self, p: &[f64; 3], r: f64, lo: i64, hi: i64) -> Vec<i64> {
+    /// The leaves in `lo..hi` whose box comes within `r` of the point, ascending, into
+    /// `out` (cleared first).
+    fn near(&self, p: &[f64; 3], r: f64, lo: i64, hi: i64, out: &mut Vec<i64>) {
         use parry3d_f64::math::Vector;
         use parry3d_f64::query::PointQuery;
         let pv = Vector::new(p[0], p[1], p[2]);
-        let mut out: Vec<i64> = Vec::new();
+        out.clear();
         if self.n == 0 || hi <= lo {
-            return out;
+            return;
         }
         // a point inside the swept volume (u < 0): the leaves whose box holds it
         let r = if r > 0.0 { r } else { 0.0 };
@@ -622,7 +627,6 @@ impl LeafBoxes {
         if self.pieces > 1 {
             out.dedup();
         }
-        out
     }
 }
 
@@ -682,19 +686,100 @@ pub fn fast_search_boxes<'py>(
             (0..k)
                 .into_par_iter()
                 .with_min_len(4)
-                .map(|i| {
-                    let r = uu[i] * (1.0 + 1e-9) + 1e-9 + sl[i];
-                    let leaves = bx.near(&pp[i], r, clo[i], chi[i]);
-                    if leaves.is_empty() {
-                        return (uu[i], aa[i]);
-                    }
-                    fast_point(
-                        &prof, &tab, &reach, &pp[i], &leaves, uu[i], aa[i], sl[i], xtol, delta,
-                    )
-                })
+                .map_init(
+                    || (prune::Scratch::default(), Vec::new()),
+                    |(sc, leaves), i| {
+                        let r = uu[i] * (1.0 + 1e-9) + 1e-9 + sl[i];
+                        bx.near(&pp[i], r, clo[i], chi[i], leaves);
+                        if leaves.is_empty() {
+                            return (uu[i], aa[i]);
+                        }
+                        fast_point(
+                            sc, &prof, &tab, &reach, &pp[i], leaves, uu[i], aa[i], sl[i], xtol,
+                            delta,
+                        )
+                    },
+                )
                 .collect()
         })
     });
     let (uo, ao): (Vec<f64>, Vec<i64>) = res.into_iter().unzip();
     Ok((PyArray1::from_vec(py, uo), PyArray1::from_vec(py, ao)))
+}
+
+/// `SweptCutter._upper_bound`'s values and minimum: point i against the cutter posed at the
+/// tip and axis of each of its segments `seg[i, :]` (numpy's indexing: −n..n−1), as
+/// `Cutter.signed_distance` computes them; then `bvh.group_argmin` (NaN-propagating minimum;
+/// the segment is the last listed of those at the minimum, −1 when none is). Returns
+/// (u (k,), arg (k,)).
+#[pyfunction]
+#[pyo3(signature = (profile, pc, seg, ta, aa, threads))]
+pub fn pose_bound<'py>(
+    py: Python<'py>,
+    profile: Vec<f64>,
+    pc: numpy::PyReadonlyArray2<'py, f64>,
+    seg: numpy::PyReadonlyArray2<'py, i64>,
+    ta: numpy::PyReadonlyArray2<'py, f64>,
+    aa: numpy::PyReadonlyArray2<'py, f64>,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    use crate::arrays::{flat, points, points_n};
+    if profile.len() != 17 {
+        return Err(PyValueError::new_err("profile must hold 17 numbers"));
+    }
+    let prof = Profile::from_slice(&profile);
+    let pts = points(&pc, "points")?;
+    let k = pts.len();
+    let kk = seg.shape()[1];
+    let sg = flat(&seg, "seg")?;
+    let tt = points(&ta, "ta")?;
+    let ns = tt.len() as i64;
+    let ax = points_n(&aa, "aa", tt.len())?;
+    if sg.len() != k * kk || sg.iter().any(|&s| s < -ns || s >= ns) {
+        return Err(PyValueError::new_err(
+            "seg must give (k, kk) segment ids within -len(ta)..len(ta)",
+        ));
+    }
+    let pl = crate::pool(threads)?;
+    let res: Vec<(f64, i64)> = py.detach(|| {
+        pl.install(|| {
+            (0..k)
+                .into_par_iter()
+                .with_min_len(256)
+                .map(|i| {
+                    let p = &pts[i];
+                    let ids = &sg[i * kk..(i + 1) * kk];
+                    let val = |s: i64| {
+                        let j = (if s < 0 { s + ns } else { s }) as usize;
+                        let t = &tt[j];
+                        sd_in_frame(&prof, &[p[0] - t[0], p[1] - t[1], p[2] - t[2]], &ax[j])
+                    };
+                    // np.minimum.at from inf: a NaN stays
+                    let mut best = f64::INFINITY;
+                    let mut vals = [0.0f64; 8];
+                    for (n, &s) in ids.iter().enumerate() {
+                        let v = val(s);
+                        if n < 8 {
+                            vals[n] = v;
+                        }
+                        best = if v.is_nan() || best.is_nan() {
+                            f64::NAN
+                        } else {
+                            best.min(v)
+                        };
+                    }
+                    let mut arg = -1i64;
+                    for (n, &s) in ids.iter().enumerate() {
+                        let v = if n < 8 { vals[n] } else { val(s) };
+                        if v <= best {
+                            arg = s;
+                        }
+                    }
+                    (best, arg)
+                })
+                .collect()
+        })
+    });
+    let (u, a): (Vec<f64>, Vec<i64>) = res.into_iter().unzip();
+    Ok((PyArray1::from_vec(py, u), PyArray1::from_vec(py, a)))
 }

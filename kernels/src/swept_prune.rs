@@ -25,7 +25,7 @@
 //!
 //! Leaves are the caller's (sorted), moves in leaf order, as in the plain steps.
 
-use super::{sd_in_frame, search_point, Pair, Profile, Tables};
+use super::{sd_in_frame, search_point, Pair, Profile, State, Tables};
 use crate::numpy_ops::{nanmax, nanmin};
 
 /// The largest radius of the cutter's profile (mm): every boundary point of the meridional
@@ -85,10 +85,24 @@ fn value(prof: &Profile, p: &mut Pose) -> f64 {
     p.v
 }
 
+/// The buffers of [`fast_point`], kept by a worker from one point to the next (their
+/// contents are each point's own: every one is cleared before use).
+#[derive(Default)]
+pub(super) struct Scratch {
+    poses: Vec<Pose>,
+    cands: Vec<Cand>,
+    pairs: Vec<Pair>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    segs: Vec<usize>,
+    live: Vec<State>,
+}
+
 /// `swept_cutter::fast_point` (steps 1–4 for one point and its candidate leaves) with the
 /// pose values evaluated only where they can matter (module docstring): (u, arg).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn fast_point(
+    sc: &mut Scratch,
     prof: &Profile,
     tab: &Tables,
     reach: &[LeafReach],
@@ -103,8 +117,21 @@ pub(super) fn fast_point(
     let nb = tab.nb;
     let h = prof.h;
     let rm = max_radius(prof);
-    let mut poses: Vec<Pose> = Vec::with_capacity(leaves.len() * (nb + 1));
-    let mut cands: Vec<Cand> = Vec::new();
+    let Scratch {
+        poses,
+        cands,
+        pairs,
+        lo,
+        hi,
+        segs,
+        live,
+    } = sc;
+    poses.clear();
+    cands.clear();
+    pairs.clear();
+    lo.clear();
+    hi.clear();
+    segs.clear();
     // 1. heights above the tips, the chord bound (the plain step's floats); a move whose
     // height bound alone is above u0 by more than the leaf's largest allowance is dropped
     // without its allowance's square root (the plain step drops it too)
@@ -158,7 +185,7 @@ pub(super) fn fast_point(
         }
     }
     // 2. the point's best so far: only poses that may reach u0 are evaluated
-    for c in &cands {
+    for c in cands.iter() {
         for k in [c.p0, c.p0 + 1] {
             let q = &mut poses[k];
             if q.lb.is_nan() {
@@ -170,21 +197,17 @@ pub(super) fn fast_point(
         }
     }
     let mut u = u0;
-    for c in &cands {
+    for c in cands.iter() {
         u = nanmin(u, nanmin(poses[c.p0].v, poses[c.p0 + 1].v));
     }
     let mut arg = if u0 <= u { arg0 } else { -1 };
-    for c in &cands {
+    for c in cands.iter() {
         if nanmin(poses[c.p0].v, poses[c.p0 + 1].v) <= u {
             arg = c.sg as i64;
         }
     }
     // the motion bound, then 3. convexity along the chord and 4. the golden-section search
-    let mut pairs: Vec<Pair> = Vec::new();
-    let mut lo: Vec<f64> = Vec::new();
-    let mut hi: Vec<f64> = Vec::new();
-    let mut segs: Vec<usize> = Vec::new();
-    for c in &cands {
+    for c in cands.iter() {
         let dd = (c.dtip + c.phi * c.reach) * (1.0 + 1e-9) + slack;
         let (q0, q1) = (&poses[c.p0], &poses[c.p0 + 1]);
         let w0 = if q0.have { q0.v } else { q0.lb };
@@ -289,7 +312,7 @@ pub(super) fn fast_point(
     if pairs.is_empty() {
         return (u, arg);
     }
-    let (best, i) = search_point(prof, &pairs, &lo, &hi, 0, pairs.len(), u, xtol);
+    let (best, i) = search_point(prof, pairs, lo, hi, 0, pairs.len(), u, xtol, live);
     if best < u {
         (best, segs[i.max(0) as usize] as i64)
     } else {

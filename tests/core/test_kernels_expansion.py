@@ -111,3 +111,38 @@ def test_tree_off_a_tilted_patch_is_scipys():
     within = compiled_knn.points_within(tree, q, 6.0, 1)
     assert np.array_equal(within, np.isfinite(cKDTree(pts).query(q, distance_upper_bound=6.0)[0]))
     assert 0 < np.count_nonzero(within) < len(q)
+
+
+def _brute_knn(pts, q, k, bound):
+    """(q, k) ids of the k nearest points below ``bound`` by (squared distance summed as the
+    kernel sums it, id), −1 where fewer; (q,) whether the k-th and (k + 1)-th tie."""
+    diff = pts[None, :, :] - q[:, None, :]
+    d2 = (diff[..., 0] ** 2 + diff[..., 1] ** 2) + diff[..., 2] ** 2
+    d2 = np.where(d2 < bound * bound, d2, np.inf)
+    order = np.lexsort((np.broadcast_to(np.arange(len(pts)), d2.shape), d2), axis=1)
+    ids = np.where(np.isfinite(np.take_along_axis(d2, order, 1)), order, -1)
+    dk = np.take_along_axis(d2, order[:, k - 1 : k + 1], 1)
+    return ids[:, :k], np.isfinite(dk[:, 1]) & (dk[:, 0] == dk[:, 1])
+
+
+@compiled
+def test_tree_queries_along_a_path_seeded_by_the_one_before():
+    """Queries along a path (each seeded by the answer of the one before it) get the k
+    nearest by (distance, id) of the brute force, the same as asked one by one in any
+    order; on a grid with repeated points (ties everywhere) and with a bound that leaves
+    some queries fewer than k points."""
+    g = np.stack(np.meshgrid(np.arange(12.0), np.arange(12.0), np.arange(4.0),
+                             indexing="ij"), -1).reshape(-1, 3)
+    pts = np.concatenate([g, g[::7]])  # repeated points: ties by id
+    s = np.linspace(0.0, 1.0, 300)[:, None]
+    q = np.concatenate([(1 - s) * [0.3, 0.2, 1.5] + s * [10.7, 11.1, 2.0],  # a path
+                        [[5.5, 5.5, 1.5], [5.0, 5.0, 1.0], [30.0, 30.0, 30.0]]])
+    tree = compiled_knn.point_tree(pts)
+    for bound in (np.inf, 1.2):
+        ids, tie = tree.query(q, 4, bound, 1)
+        ref, ref_tie = _brute_knn(pts, q, 4, bound)
+        assert np.array_equal(ids, ref) and np.array_equal(tie, ref_tie)
+        assert tie.any() and (ids >= 0).any()
+        rev = tree.query(q[::-1].copy(), 4, bound, 2)[0][::-1]  # other seeds, two threads
+        assert np.array_equal(rev, ref)
+    assert (tree.query(q, 4, 1.2, 1)[0] == -1).any()  # some with fewer than k within

@@ -208,3 +208,31 @@ def test_verify_reports_agree_on_both_backends(tool):
             assert x == y, k
     if tool == "ball":  # the same arithmetic: the very floats
         assert a == b
+
+
+@pytest.mark.skipif(backend.extension() is None
+                    or not hasattr(backend.extension(), "pose_bound"),
+                    reason="the compiled kernels are not installed or predate pose_bound")
+def test_swept_cutter_pose_bound_is_numpys_bit_for_bit():
+    """The first bound of the fast method (each point against the poses of the segments of
+    its nearest ring points: value and segment) is the same on both backends, bit for bit,
+    with points inside and outside the cutters, a NaN point, and ties (a segment listed
+    twice: the last listed is named)."""
+    from blisk_cam.core.geometry.bvh import group_argmin
+    from blisk_cam.core.kernels import swept_cutter as compiled_cutter
+
+    ta, aa, tb, ab, own, P = _turning_moves(seed=5)
+    P = np.vstack([P[:800], [[np.nan, 0.0, 0.0]]])
+    cut = Cutter.bull(6.0, 2.0)
+    rng = np.random.default_rng(7)
+    seg = rng.integers(-len(ta), len(ta), (len(P), 4))
+    seg[:50, 3] = seg[:50, 1]  # ties
+    u, arg = compiled_cutter.pose_bound(cut, P, seg, ta, aa, 2)
+    qi = np.repeat(np.arange(len(P)), 4)
+    j = seg.reshape(-1)
+    with np.errstate(invalid="ignore"):  # the NaN point
+        d = cut.signed_distance(P[qi], ta[j], aa[j])
+        u_ref, arg_ref = group_argmin(len(P), qi, d, j)
+    np.testing.assert_array_equal(u, u_ref)
+    np.testing.assert_array_equal(arg, arg_ref)
+    assert (u < 0).any() and (u > 0).any() and np.isnan(u[-1]) and arg[-1] == -1

@@ -116,3 +116,22 @@ def cutter_profile(cutter):
     return (cutter.e, cutter.f, cutter.r, cutter.h, *B, *S, *T, math.sin(g["th_lo"]),
             math.cos(g["th_lo"]), math.sin(g["th_hi"]), math.cos(g["th_hi"]),
             math.tan(cutter.alpha), math.cos(cutter.beta), math.sin(cutter.beta))
+
+
+def pose_bound_available() -> bool:
+    """Whether the compiled :func:`pose_bound` runs."""
+    ext = extension()
+    return ext is not None and hasattr(ext, "pose_bound")
+
+
+def pose_bound(cutter, Pc, seg, ta, aa, threads: int):
+    """``SweptCutter._upper_bound``'s last step compiled: each point of ``Pc`` (k, 3) against
+    the cutter posed at the tip ``ta`` and axis ``aa`` of each of its segments ``seg`` (k, kk)
+    (numpy's indexing), ``Cutter.signed_distance``'s floats; the minimum per point and the
+    last listed segment reaching it, as ``bvh.group_argmin``. Returns (u (k,) mm, arg (k,)
+    int64)."""
+    c = np.ascontiguousarray
+    return extension().pose_bound(
+        [float(x) for x in cutter_profile(cutter)], c(Pc, dtype=np.float64),
+        c(seg, dtype=np.int64), c(ta, dtype=np.float64), c(aa, dtype=np.float64),
+        max(1, int(threads)))

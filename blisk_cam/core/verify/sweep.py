@@ -378,6 +378,9 @@ class SweptCutter:
         """Distances to the poses of the nearest corner centres: (u (k,), segment (k,))."""
         kk = int(min(4, len(self.ta) * self._ring_m))
         j = self._ring_nearest(Pc, kk).reshape(-1) // self._ring_m
+        if compiled_cutter.pose_bound_available():  # the same floats, compiled
+            return compiled_cutter.pose_bound(self.cutter, Pc, j.reshape(len(Pc), kk), self.ta,
+                                              self.aa, workers())
         qi = np.repeat(np.arange(len(Pc)), kk)
         tk = np.take
         d = self.cutter.signed_distance(tk(Pc, qi, axis=0), tk(self.ta, j, axis=0),
@@ -468,6 +471,14 @@ class SweptCutter:
         arg = np.full(k, -1, dtype=np.int64)
         if not self.has_tree or k == 0:
             return out, arg
+        # a point asked more than once is searched once (its figures are a function of its
+        # coordinates alone; the material samples repeat ~1 in 4)
+        first = _first_of_equal_rows(P, np.zeros(k, np.int64))
+        uniq = first == np.arange(k)
+        if not np.all(uniq):
+            du, gu = self.nearest(P[uniq], chunk)
+            pos = np.cumsum(uniq) - 1
+            return du[pos[first]], gu[pos[first]]
         run = self._fast_chunk if self.method == "fast" else self._exact_chunk
 
         def one(s0):
@@ -738,3 +749,34 @@ def swept_cutter(tool, curves, owners=None, method: str = "fast"):
     if cutter.type == "ball":
         return SweptBall.from_curves(curves, cutter.radius, owners)
     return SweptCutter.from_curves(cutter, curves, owners, method=method)
+
+
+#: odd 64-bit multipliers of :func:`_first_of_equal_rows`'s hash
+_MIX = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9,
+                 0x27D4EB2F165667C5], dtype=np.uint64)
+
+
+def _first_of_equal_rows(P, w):
+    """(k,) int64: for each point of ``P`` (k, 3) with member ``w`` (k,), a row holding the
+    same member and the same coordinates bit for bit, the same for all of them and the first
+    of them in the order given (itself when it is the first). Rows are sorted by a hash of
+    their bits and equal neighbours in that order matched by their bits, so rows are only
+    ever merged with identical ones (two different rows sharing a hash may leave a repeat
+    unmerged: it is then searched twice, with the same figures)."""
+    k = len(P)
+    bits = np.empty((k, 4), dtype=np.uint64)
+    bits[:, 0] = np.asarray(w, dtype=np.int64).view(np.uint64)
+    bits[:, 1:] = np.ascontiguousarray(P, dtype=np.float64).view(np.uint64)
+    with np.errstate(over="ignore"):
+        h = bits * _MIX
+    h = (h[:, 0] ^ (h[:, 1] >> np.uint64(7))) ^ (h[:, 2] ^ (h[:, 3] >> np.uint64(13)))
+    o = np.argsort(h)
+    b = bits[o]
+    same = np.zeros(k, dtype=bool)
+    if k > 1:
+        same[1:] = np.all(b[1:] == b[:-1], axis=1)
+    head = np.flatnonzero(~same)  # the first row of each run, in sorted positions
+    first = np.empty(k, dtype=np.int64)
+    if k:
+        first[o] = np.minimum.reduceat(o, head)[np.cumsum(~same) - 1]
+    return first
