@@ -34,10 +34,35 @@ mod weld;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
-/// A rayon pool of `threads` workers (made once per count and kept).
+/// A rayon pool of `threads` workers (made once per count and kept; one worker: a pool of the
+/// calling thread's own).
 fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+    thread_local! {
+        // one single-worker pool per calling thread: Python threads that each ask for one
+        // worker (the chunks `runtime.map_chunks` spreads over its threads) would otherwise
+        // queue on one shared worker and run one after another
+        static OWN: std::cell::RefCell<Option<Arc<rayon::ThreadPool>>> =
+            const { std::cell::RefCell::new(None) };
+    }
     let n = threads.max(1);
+    if n == 1 {
+        return OWN.with(|own| {
+            let mut own = own.borrow_mut();
+            if let Some(p) = own.as_ref() {
+                return Ok(p.clone());
+            }
+            let p = Arc::new(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(1)
+                    .thread_name(|_| "blisk_cam-kernels-own".to_string())
+                    .build()
+                    .map_err(|e| PyValueError::new_err(format!("cannot start a thread: {e}")))?,
+            );
+            *own = Some(p.clone());
+            Ok(p)
+        });
+    }
     let mut pools = POOLS
         .get_or_init(|| Mutex::new(HashMap::new()))
         .lock()
@@ -53,6 +78,14 @@ fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     let p = Arc::new(p);
     pools.insert(n, p.clone());
     Ok(p)
+}
+
+/// Which rayon pool a kernel called from this thread with `threads` workers runs on (an
+/// opaque number: equal numbers, the same pool), for the test that Python threads asking for
+/// one worker each get pools of their own.
+#[pyfunction]
+fn pool_identity(threads: usize) -> PyResult<usize> {
+    Ok(Arc::as_ptr(&pool(threads)?) as usize)
 }
 
 /// The faces of a mesh in parry's bounding-volume tree, for nearest-face queries (see
@@ -389,6 +422,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
     m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
     m.add_function(wrap_pyfunction!(stock_remove, m)?)?;
+    m.add_function(wrap_pyfunction!(pool_identity, m)?)?;
     m.add_function(wrap_pyfunction!(stock::stock_sweep, m)?)?;
     m.add("STOCK_SWEEP_REVISION", stock::SWEEP_REVISION)?;
     m.add_class::<FaceTree>()?;

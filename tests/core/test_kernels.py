@@ -421,3 +421,33 @@ def test_stock_swept_moves_against_sampled_numpy():
             assert got.volume == pytest.approx(fine.volume, rel=1e-3)
             assert abs(got.volume - fine.volume) < abs(ref.volume - fine.volume)
         assert {(c.row, c.kind) for c in got.crashes} == {(c.row, c.kind) for c in ref.crashes}
+
+
+@compiled
+def test_threads_asking_one_worker_each_get_pools_of_their_own():
+    """runtime.map_chunks spreads chunks over Python threads that each call a kernel with one
+    worker; on one shared single-worker pool they ran one after another (the bull-nose verify
+    on 2 threads took as long as on 1). Each thread's one-worker pool is its own and is kept;
+    a pool of several workers is shared."""
+    import threading
+
+    from blisk_cam.core.runtime import map_chunks, parallel
+
+    ids = {}
+    both = threading.Barrier(2, timeout=60)  # the first two chunks meet: two threads
+
+    def one(s):
+        if s < 2:
+            both.wait()
+        ids[(threading.get_ident(), s)] = (backend.pool_identity(1), backend.pool_identity(1),
+                                           backend.pool_identity(2))
+
+    with parallel(2):
+        map_chunks(one, 8, 1)
+    threads = {t for t, _ in ids}
+    assert len(threads) >= 2  # the chunks ran on several Python threads
+    for own, again, _ in ids.values():
+        assert own == again  # kept for the thread
+    per_thread = {t: ids[(t, s)][0] for t, s in ids}
+    assert len(set(per_thread.values())) == len(threads)  # one pool per thread
+    assert len({v[2] for v in ids.values()}) == 1  # the 2-worker pool is shared

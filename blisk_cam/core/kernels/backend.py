@@ -65,3 +65,13 @@ def numpy_only():
         yield
     finally:
         _forced_numpy -= 1
+
+
+def pool_identity(threads: int) -> int | None:
+    """An opaque number naming the worker pool a compiled kernel called from this thread with
+    ``threads`` workers runs on (equal numbers: the same pool), or None on the numpy
+    backend. Python threads that ask for one worker each (:func:`..runtime.map_chunks`'s
+    chunks) get pools of their own, so their kernels run side by side."""
+    ext = extension()
+    return None if ext is None or not hasattr(ext, "pool_identity") else int(
+        ext.pool_identity(int(threads)))
