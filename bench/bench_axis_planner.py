@@ -58,12 +58,13 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 from blisk_cam.core.collision.avoid import run_collisions  # noqa: E402
-from blisk_cam.core.collision.axis_plan import turn_limits  # noqa: E402
+from blisk_cam.core.collision.axis_field import pass_turn_limits  # noqa: E402
 from blisk_cam.core.collision.options import CollisionOptions  # noqa: E402
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.part.cones import Cone  # noqa: E402
+from blisk_cam.core.paths.orientation import consecutive_turn  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
 from blisk_cam.core.tool.cutter import as_cutter  # noqa: E402
 from blisk_cam.core.verify.measure import verify_path  # noqa: E402
@@ -112,12 +113,10 @@ def turn_figures(planned, path, turn_per_mm, max_turn=None):
         if len(a) < 2:
             continue
         idx = np.r_[np.arange(len(a)), 0] if c.closed and len(a) > 2 else np.arange(len(a))
-        a = a[idx]
-        a0 = np.asarray(c0.axis, float)[idx]
-        t = np.arccos(np.clip(np.einsum("ij,ij->i", a[1:], a[:-1]), -1, 1))
-        lim = turn_limits(np.asarray(c0.cc)[idx], np.asarray(c0.normal)[idx], a0, corner,
-                          turn_per_mm, max_turn)
-        t0 = np.arccos(np.clip(np.einsum("ij,ij->i", a0[1:], a0[:-1]), -1, 1))
+        t = consecutive_turn(a, c.closed)
+        lim = pass_turn_limits(c0.cc, c0.normal, c0.axis, c.closed, corner, turn_per_mm,
+                               max_turn)
+        t0 = consecutive_turn(c0.axis, c.closed)
         added = max(added, float(np.degrees((lim - t0).max())))
         worst = max(worst, float(np.degrees(t.max())))
         excess = max(excess, float(np.degrees((t - lim).max())))

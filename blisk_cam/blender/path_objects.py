@@ -675,22 +675,22 @@ def write_path_objects(
     old = find_output_collection(bname)  # replaced once the new result is complete
     new = bpy.data.collections.new(name + " (new)")
     try:
-        objs, poses_coll = _fill_output(new, bname, path, settings, f, verify, blade_arrays,
-                                        vertex_values)
+        objs, pending = _fill_output(new, bname, path, settings, f, verify, blade_arrays,
+                                     vertex_values)
     except Exception:
         _remove_collection_tree(new)
         raise
     if text is None:
         text = _to_text_lines(json_text)
-    objs["text"] = _replace_output(scene, blade, old, new, poses_coll, text)
-    objs["pose_empties"] = _pose_empties(*objs["pose_empties"])
+    objs["text"] = _replace_output(scene, blade, old, new, pending[0], text)
+    objs["pose_empties"] = _pose_empties(*pending)
     return objs
 
 
 def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_values):
     """Fill the collection ``new`` with the objects of ``path`` for the blade named ``bname``
-    (see :func:`write_path_objects`); returns the objects (dict; its ``pose_empties`` are
-    still the arguments of :func:`_pose_empties`) and the collection of the pose empties."""
+    (see :func:`write_path_objects`); returns the objects (dict, without the pose empties)
+    and the arguments of :func:`_pose_empties` (the collection of the pose empties first)."""
     name = collection_name(bname)
     new[KEY_BLADE] = bname
     new[KEY_CUSP] = float(path.cusp)
@@ -734,7 +734,7 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
     M, status = _pose_frames(path, idx, f)
     # the empties themselves are made once the old output is gone (write_path_objects):
     # with their final names, not renamed one by one afterwards (half the writing time)
-    objs["pose_empties"] = (poses_coll, bname, M, idx, status, f, 2.0 * radius)
+    pending = (poses_coll, bname, M, idx, status, f, 2.0 * radius)
     cc_all = np.concatenate([np.asarray(c.cc, dtype=np.float64) for c in path.curves])
     try:
         objs.update(_cone_objects(new, bname, path.axis, path.cone1, path.cone2, cc_all, f))
@@ -744,7 +744,7 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
         V, F = blade_arrays
         objs["verify"] = _verify_object(bname, V, F, vertex_values, float(path.cusp),
                                         float(path.chord), f, new)
-    return objs, poses_coll
+    return objs, pending
 
 
 def _replace_output(scene, blade, old, new, poses_coll, lines):

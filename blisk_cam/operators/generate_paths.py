@@ -27,7 +27,7 @@ import time
 
 import bpy
 
-from ..blender.path_objects import text_lines
+from ..blender.path_objects import paths_json_text, text_lines
 from ..blender.settings import path_request, settings_cones, store_statistics, summary
 from ..core.errors import BliskCamError
 from ..core.geometry.weld import input_vertex_values
@@ -139,7 +139,7 @@ class PathJob:
                     with parallel(None):
                         done = self.step(float("inf"), cancel)
                     if done:  # the JSON too: less on the UI thread
-                        self.paths_json = _paths_json(self.plan.path)
+                        self.paths_json = paths_json_text(self.plan.path)
                         self._paths_text = text_lines(self.paths_json)
                 except BaseException as exc:  # handed to the main thread, raised there
                     self._plan_error = exc
@@ -307,10 +307,9 @@ class PathJob:
         self.warnings = self._warnings()
         return summary(settings)
 
-    def show_paths(self, context, verify_now: bool = True) -> str:
-        """Write the planned path's objects now, without verify figures, and (with
-        ``verify_now``) start the verify worker when asked (else :meth:`begin_verify`
-        does); returns the summary of the paths."""
+    def show_paths(self, context) -> str:
+        """Write the planned path's objects now, without verify figures; returns the summary
+        of the paths (:meth:`begin_verify` then starts the verify worker)."""
         from ..blender import path_objects as output
 
         text = self.finish(context)  # self.verify is None: the paths without figures
@@ -320,8 +319,6 @@ class PathJob:
         # the worker starts after the writing: while this thread writes (bpy calls holding
         # the GIL) a verify worker would take every other GIL turn and stretch this tick
         # 2-6× (measured on Rotor 37) for a gain of this tick's length at most
-        if verify_now:
-            self.begin_verify()
         return text
 
     def begin_verify(self) -> bool:
@@ -374,16 +371,6 @@ class PathJob:
             pass
         self.run_verify()
         return self.finish(context)
-
-
-def _paths_json(path) -> str:
-    """The paths JSON of ``path`` (``blender.path_objects.paths_json_text``; no bpy, so the
-    planning worker makes it)."""
-    import json
-
-    from ..core.toolpath.paths_io import path_to_dict
-
-    return json.dumps(path_to_dict(path), allow_nan=False)
 
 
 def verify_pending(scene_name: str) -> bool:
@@ -452,7 +439,7 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
             self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
             return None
         if job.written_json is None:  # planned: show the paths now (this tick)
-            text = job.show_paths(context, verify_now=False)
+            text = job.show_paths(context)
             self.running.discard(job.scene_name)  # a new Generate may start (and cancel)
             if not job.want_verify:
                 self._report_done(job, text)

@@ -82,7 +82,8 @@ from ..toolpath.types import (
     Program,
     ToolPath,
 )
-from .axis_plan import plan_axes, turn_limits
+from .axis_field import pass_turn_limits
+from .axis_plan import plan_axes
 from .obstacles import Obstacle, Obstacles
 from .options import CollisionOptions
 from .posed_tool import PART_FLUTE, _posed_sd
@@ -622,12 +623,9 @@ def _count_turn_over(report, path, curves, options, cutter: Cutter):
         t1 = consecutive_turn(c1.axis, c1.closed)
         limit = np.maximum(t0, delta)
         if options.mode == "avoid" and options.method == "plan":  # the planner's limit
-            loop = c1.closed and len(c1) > 2
-            cc, nrm, ax = (np.vstack([x, x[:1]]) if loop else x
-                           for x in (np.asarray(c0.cc, float), np.asarray(c0.normal, float),
-                                     unit(np.asarray(c0.axis, float))))
-            limit = turn_limits(cc, nrm, ax, cutter.corner_radius, float(options.turn_per_mm),
-                                options.plan_max_turn)
+            limit = pass_turn_limits(c0.cc, c0.normal, c0.axis, c1.closed,
+                                     cutter.corner_radius, float(options.turn_per_mm),
+                                     options.plan_max_turn)
         over = t1 > limit + 1e-9
         if options.mode == "avoid" and options.method == "plan":
             # the planner jumps only between two unresolved poses (not cut): counted apart

@@ -14,8 +14,9 @@ import numpy as np
 
 from ..geometry.vectors import angle_between, unit
 
-__all__ = ["MIN_STEP", "channel_reference", "deviation_axes", "deviation_of", "path_steps",
-           "sample_motion", "transported_frames", "turn_allowance", "turn_limits"]
+__all__ = ["MIN_STEP", "channel_reference", "deviation_axes", "deviation_of",
+           "pass_turn_limits", "path_steps", "sample_motion", "transported_frames",
+           "turn_allowance", "turn_limits"]
 
 #: shortest step the turn limit counts, mm (see :func:`turn_limits`)
 MIN_STEP = 0.05
@@ -101,6 +102,20 @@ def turn_limits(cc, normal, planned_axes, corner_radius, turn_per_mm, max_turn=N
     a = np.asarray(planned_axes, dtype=np.float64)
     return angle_between(a[:-1], a[1:]) + turn_allowance(cc, normal, corner_radius,
                                                           turn_per_mm, max_turn)
+
+
+def pass_turn_limits(cc, normal, planned_axes, closed, corner_radius, turn_per_mm,
+                     max_turn=None):
+    """:func:`turn_limits` of one pass, aligned with
+    :func:`..paths.orientation.consecutive_turn`: (k − 1,), or for a closed pass of more than
+    two poses (k,) with the closing pair (last pose → first) last; the planned axes made
+    unit."""
+    loop = closed and len(cc) > 2
+    cc, nrm, ax = (np.vstack([x, x[:1]]) if loop else x
+                   for x in (np.asarray(cc, dtype=np.float64),
+                             np.asarray(normal, dtype=np.float64),
+                             unit(np.asarray(planned_axes, dtype=np.float64))))
+    return turn_limits(cc, nrm, ax, corner_radius, turn_per_mm, max_turn)
 
 
 def _transport(a, b, v):

@@ -133,6 +133,7 @@ from .axis_states import (
     _Run,
     _touch_ok,
 )
+from .options import AXIS_REFERENCES
 
 __all__ = ["AxisPlan", "UnresolvedRange", "channel_reference", "plan_axes", "reference_axes",
            "sample_motion", "turn_limits"]
@@ -209,10 +210,8 @@ def _windows(offs, arc_of, colliding, reach_mm, closed):
 
 
 def _arc(cc):
-    """(k + 1,) the contact's arc length along the poses, mm."""
+    """(k,) the contact's arc length along the poses ``cc`` (k, 3) from the first, mm."""
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(cc, axis=0), axis=1))])
-
-
 
 
 def reference_axes(reference, P, offs, w, *, blisk_axis=None, blade_count=None,
@@ -238,7 +237,7 @@ def reference_axes(reference, P, offs, w, *, blisk_axis=None, blade_count=None,
     if reference == "fixed":
         d = np.asarray(direction, dtype=np.float64).reshape(3)
         return np.repeat(unit(d[None], keep_zero=False), len(w), axis=0)
-    raise CollisionError(f"axis reference must be planned, channel, pass or fixed, got "
+    raise CollisionError(f"axis reference must be one of {', '.join(AXIS_REFERENCES)}, got "
                          f"{reference!r}")
 
 

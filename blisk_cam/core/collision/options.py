@@ -25,6 +25,8 @@ DEFAULT_CHECK_MODE = "check"
 #: the axis planner's default cap on the turn its limit adds to the planned one between two
 #: consecutive poses, rad (:attr:`CollisionOptions.plan_max_turn`)
 DEFAULT_PLAN_MAX_TURN = math.radians(5.0)
+#: what the axis planner may keep the axes close to (``axis_reference``)
+AXIS_REFERENCES = ("planned", "channel", "pass", "fixed")
 
 
 @dataclass(frozen=True)
@@ -164,8 +166,8 @@ class CollisionOptions(OptionGroup):
                                  f"{self.max_turn!r} rad")
         if self.method not in ("plan", "rotate"):
             raise CollisionError(f"avoidance method must be plan or rotate, got {self.method!r}")
-        if self.axis_reference not in ("planned", "channel", "pass", "fixed"):
-            raise CollisionError(f"axis reference must be planned, channel, pass or fixed, "
+        if self.axis_reference not in AXIS_REFERENCES:
+            raise CollisionError(f"axis reference must be one of {', '.join(AXIS_REFERENCES)}, "
                                  f"got {self.axis_reference!r}")
         if self.axis_reference == "fixed":
             d = self.reference_direction

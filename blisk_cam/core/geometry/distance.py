@@ -313,18 +313,20 @@ class NearestFaces:
         (the compiled kernel's answer alone, without the closest points, when it runs)."""
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         if len(P) and self.mesh.n_faces and extension() is not None:
-            if self._ctree is None:
-                self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
-            return compiled_closest.nearest_faces(self._ctree, P, workers())
+            return self._compiled_faces(P)
         return self.query(P)[1]
+
+    def _compiled_faces(self, P):
+        """(k,) the compiled kernel's nearest face of each point (its tree built once)."""
+        if self._ctree is None:
+            self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
+        return compiled_closest.nearest_faces(self._ctree, P, workers())
 
     def _query_compiled(self, P):
         """:meth:`query` by the compiled kernel: the same faces (the least squared distance
         of :func:`closest_on_triangles`, then the lowest id), then their closest points
         computed row-wise here, as the numpy path computes them."""
-        if self._ctree is None:
-            self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
-        face = compiled_closest.nearest_faces(self._ctree, P, workers())
+        face = self._compiled_faces(P)
         F = self.mesh.F[face]  # face −1 (a NaN point): any face, the point stays NaN
         V = self.mesh.V
         q, _, _, bary = closest_on_triangles(P, V[F[:, 0]], V[F[:, 1]], V[F[:, 2]])

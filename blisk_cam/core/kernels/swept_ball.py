@@ -11,7 +11,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["segment_tree", "nearest_segments", "segments_within", "first_hits"]
+__all__ = ["segment_tree", "nearest_segments", "first_hits"]
 
 
 def segment_tree(a, b, d, dd):
@@ -29,14 +29,6 @@ def nearest_segments(tree, points, threads: int):
     """(d2 (k,) mm², seg (k,) int64): each point's (k, 3) least squared distance to the
     segments and the segment, on ``threads`` threads (the GIL released)."""
     return tree.nearest(np.ascontiguousarray(points, dtype=np.float64), max(1, int(threads)))
-
-
-def segments_within(tree, points, radius, threads: int):
-    """(query (p,), segment (p,)) int64: every segment within ``radius`` (k,) mm of each point
-    (k, 3), and some a little farther (the tree's boxes decide), grouped by point."""
-    P = np.ascontiguousarray(points, dtype=np.float64)
-    r = np.ascontiguousarray(np.broadcast_to(np.asarray(radius, np.float64), (len(P),)))
-    return tree.within(P, r, max(1, int(threads)))
 
 
 def first_hits(tree, points, directions, radius: float, max_height, threads: int):

@@ -570,12 +570,6 @@ def fk_check(machine: Machine, solved) -> dict:
     return out
 
 
-def _cut_into_part(runs) -> float | None:
-    """How deep the operations ``runs`` cut into the part at most, mm: each program its chord
-    less the allowance it leaves (< 0: they stay outside the part); None without runs."""
-    return cut_into([r.path for r in runs])
-
-
 def final_verdict(job: Job, part: BliskPart, stock, runs, *, solid=None):
     """The job's final verdict (:func:`.job_verdict.job_verdict`) on ``stock`` (after the
     last operation) from the finishing operations among ``runs`` (a hub finishing that
@@ -590,7 +584,7 @@ def final_verdict(job: Job, part: BliskPart, stock, runs, *, solid=None):
     fr = measured.radius if measured is not None else next(
         (float(r.op.options["fillet_radius"]) for r in runs
          if "fillet_radius" in r.op.options), None)
-    into = _cut_into_part(runs)
+    into = cut_into([r.path for r in runs])
     cut = max([c.chord for c in contacts] + ([] if into is None else [into]) + [0.0])
     return job_verdict(part, stock, contacts, resolution=job.resolution,
                        gouge_tolerance=job.gouge_tolerance, fillet_radius=fr, cut_depth=cut,
@@ -688,7 +682,8 @@ def iter_run_job(job: Job, *, on_operation: Callable[[OperationRun], None] | Non
             body = tool_assembly(op.tool, cutter)
             sim = yield from scaled_progress(
                 iter_simulate(part, stock, [path], gouge_tolerance=job.gouge_tolerance,
-                              assembly=body, cut_into_part=_cut_into_part(run.operations),
+                              assembly=body,
+                              cut_into_part=cut_into([r.path for r in run.operations]),
                               near=near, frame=frame),
                 lo + 0.5 * (hi - lo), hi, f"{label} on the stock")
             # the rapids and body rows that met material the stock's crash test let pass

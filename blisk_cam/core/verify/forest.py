@@ -9,7 +9,7 @@ import numpy as np
 
 from ..kernels import swept_cutter as compiled_cutter
 from ..runtime import map_chunks, map_tasks, workers
-from .sweep import BOX_PIECES, SweptCutter, _fast_search, _first_of_equal_rows, _sphere_trace
+from .sweep import BOX_PIECES, SweptCutter, _fast_search, _sphere_trace, searched_once
 
 __all__ = ["SweptForest"]
 
@@ -120,9 +120,9 @@ class SweptForest:
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         k = len(P)
         w = self._which(which, k)
-        out = np.full(k, np.inf)
-        arg = np.full(k, -1, dtype=np.int64)
         if not self.fast:
+            out = np.full(k, np.inf)
+            arg = np.full(k, -1, dtype=np.int64)
             if near is None:
                 def ask(m, rows):
                     return m.nearest(P[rows])
@@ -142,12 +142,13 @@ class SweptForest:
         # function of its coordinates and member alone (class docstring), and the scallops'
         # callers repeat ~1 query in 5 (grid samples shared by rows, the ridges' ends and
         # regula falsi iterates met again)
-        first = _first_of_equal_rows(P, w)
-        uniq = first == np.arange(k)
-        if not np.all(uniq):
-            du, gu = self.nearest(P[uniq], w[uniq])
-            pos = np.cumsum(uniq) - 1
-            return du[pos[first]], gu[pos[first]]
+        return searched_once(P, w, self._nearest_fast)
+
+    def _nearest_fast(self, P, w):
+        """:meth:`nearest` of distinct (point, member) rows by the fast joint pass."""
+        k = len(P)
+        out = np.full(k, np.inf)
+        arg = np.full(k, -1, dtype=np.int64)
         order = np.argsort(w, kind="stable")
         sel = order[self._has[w[order]]]  # members without segments: inf, −1
         Ps, ws = P[sel], w[sel]

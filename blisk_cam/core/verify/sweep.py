@@ -31,7 +31,7 @@ from .sweep_ball import SweptBall, _curve_polyline
 #: serialises the first builds of the "fast" trees (:attr:`SweptCutter.tree`)
 _TREE_LOCK = threading.Lock()
 
-__all__ = ["SWEEP_METHODS", "SweepError", "SweptCutter", "swept_cutter"]
+__all__ = ["SWEEP_METHODS", "SweepError", "SweptCutter", "searched_once", "swept_cutter"]
 
 
 _GOLD = 0.5 * (np.sqrt(5.0) - 1.0)
@@ -467,18 +467,18 @@ class SweptCutter:
         """Signed distance to the swept volume (k,) and the nearest segment (k,)."""
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         k = len(P)
-        out = np.full(k, np.inf)
-        arg = np.full(k, -1, dtype=np.int64)
         if not self.has_tree or k == 0:
-            return out, arg
+            return np.full(k, np.inf), np.full(k, -1, dtype=np.int64)
         # a point asked more than once is searched once (its figures are a function of its
         # coordinates alone; the material samples repeat ~1 in 4)
-        first = _first_of_equal_rows(P, np.zeros(k, np.int64))
-        uniq = first == np.arange(k)
-        if not np.all(uniq):
-            du, gu = self.nearest(P[uniq], chunk)
-            pos = np.cumsum(uniq) - 1
-            return du[pos[first]], gu[pos[first]]
+        return searched_once(P, np.zeros(k, np.int64),
+                             lambda Q, _: self._nearest_distinct(Q, chunk))
+
+    def _nearest_distinct(self, P, chunk):
+        """:meth:`nearest` of distinct points, chunk by chunk."""
+        k = len(P)
+        out = np.full(k, np.inf)
+        arg = np.full(k, -1, dtype=np.int64)
         run = self._fast_chunk if self.method == "fast" else self._exact_chunk
 
         def one(s0):
@@ -754,6 +754,20 @@ def swept_cutter(tool, curves, owners=None, method: str = "fast"):
 #: odd 64-bit multipliers of :func:`_first_of_equal_rows`'s hash
 _MIX = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9,
                  0x27D4EB2F165667C5], dtype=np.uint64)
+
+
+def searched_once(P, w, search):
+    """``search(P, w)`` — (k,) values and (k,) ints for points ``P`` (k, 3) of members ``w``
+    (k,) — asked for each distinct (point, member) row once (:func:`_first_of_equal_rows`)
+    and spread back to its repeats: for searches whose answer is a function of the point and
+    member alone."""
+    first = _first_of_equal_rows(P, w)
+    uniq = first == np.arange(len(P))
+    if np.all(uniq):
+        return search(P, w)
+    du, gu = search(P[uniq], w[uniq])
+    pos = np.cumsum(uniq) - 1
+    return du[pos[first]], gu[pos[first]]
 
 
 def _first_of_equal_rows(P, w):
