@@ -43,7 +43,7 @@ fn triple(n: &P3, x: &P3, y: &P3) -> f64 {
 
 /// np.clip(t, 0, 1): NaN stays NaN.
 #[inline(always)]
-fn clip01(t: f64) -> f64 {
+pub(crate) fn clip01(t: f64) -> f64 {
     let t = if t < 0.0 { 0.0 } else { t };
     if t > 1.0 {
         1.0
@@ -180,9 +180,13 @@ impl FaceDisk {
         ];
         let n = cross(&sub(b, a), &sub(c, a));
         let nl = dot(&n, &n).sqrt();
-        let longest = dot(&sub(b, a), &sub(b, a))
-            .max(dot(&sub(c, b), &sub(c, b)))
-            .max(dot(&sub(a, c), &sub(a, c)));
+        // the squared edges; the longest one and the opposite vertex make the capsule below
+        let (lab, lbc, lca) = (
+            dot(&sub(b, a), &sub(b, a)),
+            dot(&sub(c, b), &sub(c, b)),
+            dot(&sub(a, c), &sub(a, c)),
+        );
+        let longest = lab.max(lbc).max(lca);
         let n = if nl > 1e-3 * longest && nl.is_finite() {
             [n[0] / nl, n[1] / nl, n[2] / nl]
         } else {
@@ -195,11 +199,6 @@ impl FaceDisk {
         // the vertices' own distance to the plane (rounding of n) and the radius' rounding
         let r = r * (1.0 + 1e-9) + 1e-12;
         // the longest edge and the opposite vertex
-        let (lab, lbc, lca) = (
-            dot(&sub(b, a), &sub(b, a)),
-            dot(&sub(c, b), &sub(c, b)),
-            dot(&sub(a, c), &sub(a, c)),
-        );
         let (es, ee, opp) = if lab >= lbc && lab >= lca {
             (*a, *b, *c)
         } else if lbc >= lca {
@@ -273,7 +272,7 @@ fn spread(mut x: u64) -> u64 {
 }
 
 impl FaceTree {
-    /// `disks`: keep each face's [`FaceDisk`] (7 floats a face) to skip faces far off a
+    /// `disks`: keep each face's [`FaceDisk`] (15 floats a face) to skip faces far off a
     /// query (points far off the surface, e.g. ball centres); the answers are the same.
     pub fn new(v: Vec<P3>, f: Vec<[usize; 3]>, disks: bool) -> Self {
         let cen: Vec<P3> = f
@@ -377,7 +376,7 @@ impl FaceTree {
             }
         };
         // the reach of a least squared distance d2 (a box farther cannot hold a face as near)
-        let reach = |d2: f64| d2.sqrt() * (1.0 + 1e-9) + 1e-9;
+        let reach = crate::swept_ball::reach;
         let mut start = f64::MAX;
         if guess >= 0 && (guess as usize) < self.f.len() {
             consider(guess as u32);

@@ -38,8 +38,9 @@ fn cross(x: &P3, y: &P3) -> P3 {
         x[0] * y[1] - x[1] * y[0],
     ]
 }
+/// `np.linalg.norm(a, axis=1)` of one row: the squares summed left to right.
 #[inline(always)]
-fn norm(a: &P3) -> f64 {
+pub(crate) fn norm(a: &P3) -> f64 {
     ((a[0] * a[0] + a[1] * a[1]) + a[2] * a[2]).sqrt()
 }
 

@@ -16,6 +16,7 @@ use pyo3::types::PyList;
 use rayon::prelude::*;
 
 use crate::arrays::{flat, points};
+use crate::collision_refine::{dot, norm, sub};
 use crate::collision_walk::{CollisionTree, Node, Tree, Tri, BRANCH, LEAF};
 use crate::numpy_ops::{nanmax, nanmin};
 
@@ -32,22 +33,11 @@ fn spread(x: u64) -> u64 {
     x
 }
 
-#[inline(always)]
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
 /// `np.einsum("ij,ij->i", e, e)` of one row, summed as numpy's einsum sums three products
-/// (numpy 1.26 and 2.x alike): (x² + z²) + y².
+/// (numpy 1.26 and 2.x alike): (x² + z²) + y² — `collision_refine::dot`'s order.
 #[inline(always)]
 fn sq(e: &P3) -> f64 {
-    (e[0] * e[0] + e[2] * e[2]) + e[1] * e[1]
-}
-
-/// `np.linalg.norm(d, axis=1)` of one row: the squares summed left to right.
-#[inline(always)]
-fn norm(d: &P3) -> f64 {
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    dot(e, e)
 }
 
 #[inline(always)]

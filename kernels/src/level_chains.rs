@@ -7,7 +7,8 @@
 //! None where the numpy reference takes another route (links not of the directed form: the
 //! general graph route).
 
-use numpy::{PyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 /// (order (p,) int64, starts (c + 1,) int64, closed (c,) bool): the chains of the directed
@@ -27,6 +28,11 @@ pub fn chain_directed<'py>(
         Bound<'py, PyArray1<bool>>,
     )>,
 > {
+    if links.shape()[1] != 2 {
+        return Err(PyValueError::new_err(
+            "links must be (k, 2): one (from, to) pair a row",
+        ));
+    }
     let ll = crate::arrays::flat(&links, "links")?;
     if ll.iter().any(|&v| v < 0 || v as usize >= n) {
         return Ok(None);

@@ -98,7 +98,7 @@ struct FaceTree {
 #[pymethods]
 impl FaceTree {
     /// V (n, 3) float64 mm, F (m, 3) int64 vertex ids (in range: checked); `disks`: keep
-    /// a bound per face (7 floats a face) that makes queries far off the surface faster
+    /// a bound per face (15 floats a face) that makes queries far off the surface faster
     /// (the same answers).
     #[new]
     #[pyo3(signature = (v, f, disks = false))]

@@ -14,28 +14,11 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
+use crate::closest::clip01;
+use crate::collision_refine::dot;
 use crate::numpy_ops::nanmin;
 
 pub type P3 = [f64; 3];
-
-#[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
-}
-
-/// np.clip(x, 0, 1) (NaN stays NaN).
-#[inline(always)]
-fn clip01(x: f64) -> f64 {
-    if x.is_nan() {
-        x
-    } else if x < 0.0 {
-        0.0
-    } else if x > 1.0 {
-        1.0
-    } else {
-        x
-    }
-}
 
 /// Squared distance from `p` to the segment `a + t ab` (`l2` = |ab|², 0 replaced by 1).
 #[inline(always)]
@@ -51,17 +34,14 @@ pub fn segment_d2(p: &P3, a: &P3, ab: &P3, l2: f64) -> f64 {
 #[inline(always)]
 pub fn least_distance(p: &P3, segs: &mut [i64], a: &[P3], ab: &[P3], l2: &[f64]) -> f64 {
     segs.sort_unstable();
-    let mut best = f64::INFINITY;
-    let mut first = true;
-    let mut last = -1i64;
+    let mut best = f64::INFINITY; // nanmin(∞, d2) is d2, NaN included
+    let mut last = -1i64; // ids are ≥ 0
     for &s in segs.iter() {
-        if !first && s == last {
+        if s == last {
             continue;
         }
         let i = s as usize;
-        let d2 = segment_d2(p, &a[i], &ab[i], l2[i]);
-        best = if first { d2 } else { nanmin(best, d2) };
-        first = false;
+        best = nanmin(best, segment_d2(p, &a[i], &ab[i], l2[i]));
         last = s;
     }
     best.sqrt()

@@ -1249,9 +1249,6 @@ pub const SWEEP_REVISION: i64 = 2;
 /// Columns per block of a grid row's material envelope.
 const ENV_BLOCK: usize = 16;
 
-/// The material of a grid row in blocks of `ENV_BLOCK` columns: per block the smallest lo and
-/// the largest hi of its rays' material (a block without material: +∞, −∞), so that a run of
-/// columns none of whose material can meet a radius range is skipped at once.
 /// The columns `ca..=cb` (unwrapped; the index mod `nt`) of one grid row whose material can
 /// lie within the radii (`rlo`, `rhi`): whole blocks are skipped by the row's envelope, then
 /// single columns by their own intervals; `visit(c, i, lo, hi)` for each one left, with the
@@ -1286,6 +1283,9 @@ fn each_live_column<F: FnMut(i64, usize, &[f64], &[f64])>(
     }
 }
 
+/// The material of a grid row in blocks of `ENV_BLOCK` columns: per block the smallest lo and
+/// the largest hi of its rays' material (a block without material: +∞, −∞), so that a run of
+/// columns none of whose material can meet a radius range is skipped at once.
 struct RowEnvelope {
     lo: Vec<f64>,
     hi: Vec<f64>,

@@ -15,17 +15,9 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-pub type P3 = [f64; 3];
+use crate::numpy_ops::nanmax;
 
-/// np.maximum-free max that keeps a NaN (a NaN reach makes the group search alone).
-#[inline(always)]
-fn nanmax_f(a: f64, b: f64) -> f64 {
-    if a.is_nan() || b.is_nan() {
-        f64::NAN
-    } else {
-        a.max(b)
-    }
-}
+pub type P3 = [f64; 3];
 
 #[inline(always)]
 fn dot(a: &P3, b: &P3) -> f64 {
@@ -166,7 +158,6 @@ impl SegTree {
                 best.set((d2, s as i64));
             }
         };
-        let reach = |d2: f64| d2.sqrt() * (1.0 + 1e-9) + 1e-9;
         let mut start = f64::MAX;
         if guess >= 0 && (guess as usize) < self.a.len() {
             consider(guess as usize);
@@ -253,7 +244,7 @@ impl SegTree {
         for p in ps.iter().filter(|p| finite(p)) {
             let e = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
             let u = reach(self.d2(p, s0u));
-            rg = nanmax_f(rg, dot(&e, &e).sqrt() + u);
+            rg = nanmax(rg, dot(&e, &e).sqrt() + u); // a NaN reach: the group searched alone
         }
         let r = rg * (1.0 + 1e-9) + 1e-9;
         if !(r < f64::INFINITY) {

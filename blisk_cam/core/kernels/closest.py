@@ -14,7 +14,7 @@ __all__ = ["face_tree", "nearest_faces", "triangle_d2"]
 
 def face_tree(V, F, disks: bool = False):
     """The compiled tree of the faces F (m, 3) of vertices V (n, 3) mm; None when the numpy
-    kernels run. ``disks``: keep a bound per face (7 floats a face) that makes queries far
+    kernels run. ``disks``: keep a bound per face (15 floats a face) that makes queries far
     off the surface (ball centres) faster; the faces found are the same."""
     ext = extension()
     if ext is None:
