@@ -174,14 +174,10 @@ impl PointTree {
     }
 
     /// The (up to) k nearest ids of `q` with squared distance below `ub2`, by (distance,
-    /// id); and whether the k-th and the (k + 1)-th are at the same distance.
-    pub fn knn(&self, q: &P3, k: usize, ub2: f64, out: &mut [i64]) -> bool {
-        let mut buf = KnnBuffers::default();
-        self.knn_seeded(q, k, ub2, out, &mut buf)
-    }
-
-    /// [`Self::knn`] seeded with the points `buf` holds from the query before (a query near
-    /// the one before starts with their distances as its bound, and so opens fewer nodes).
+    /// id), into `out`; and whether the k-th and the (k + 1)-th are at the same distance.
+    /// Seeded with the points `buf` holds from the query before (a query near the one before
+    /// starts with their distances as its bound, and so opens fewer nodes; a fresh `buf`: no
+    /// seeds).
     /// The answer is the same whatever the seeds: the k + 1 smallest (distance, id) pairs
     /// below `ub2` are one set, each point enters it once (a seed met again in its leaf is
     /// skipped), and a node is skipped only when its box's lower bound is above the
@@ -198,14 +194,10 @@ impl PointTree {
         let cap = k + 1;
         let KnnBuffers { best, stack } = buf;
         // the seeds: the previous answer's points at their distances from q
-        let seeds: Vec<u32> = best.iter().map(|e| e.2).collect::<Vec<u32>>();
-        best.clear();
-        for &s in &seeds {
-            let d = d2(q, &self.pts[s as usize]);
-            if d < ub2 {
-                best.push((d, self.ids[s as usize], s));
-            }
+        for e in best.iter_mut() {
+            e.0 = d2(q, &self.pts[e.2 as usize]);
         }
+        best.retain(|e| e.0 < ub2);
         best.sort_unstable_by(|a, b| (a.0, a.1).partial_cmp(&(b.0, b.1)).unwrap());
         best.truncate(cap);
         if !self.nodes.is_empty() {
@@ -231,10 +223,10 @@ impl PointTree {
                             if best.len() == cap && (d, i) >= (best[cap - 1].0, best[cap - 1].1) {
                                 continue;
                             }
-                            if seeds.contains(&(s as u32)) && best.iter().any(|e| e.1 == i) {
-                                continue;
-                            }
                             let pos = best.partition_point(|&e| (e.0, e.1) < (d, i));
+                            if best.get(pos).is_some_and(|e| e.2 == s as u32) {
+                                continue; // a seed still held, at its own (distance, id)
+                            }
                             best.insert(pos, (d, i, s as u32));
                             best.truncate(cap);
                         }

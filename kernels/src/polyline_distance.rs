@@ -16,6 +16,7 @@ use rayon::prelude::*;
 
 use crate::closest::clip01;
 use crate::collision_refine::dot;
+use crate::knn::KnnBuffers;
 use crate::numpy_ops::nanmin;
 
 pub type P3 = [f64; 3];
@@ -100,9 +101,10 @@ pub fn polyline_distance<'py>(
                 .enumerate()
                 .with_min_len(64)
                 .for_each_init(
-                    || vec![-1i64; k],
-                    |ids, (i, (di, fi))| {
-                        let tie = t.knn(&hh[i], k, f64::INFINITY, ids);
+                    || (vec![-1i64; k], KnnBuffers::default()),
+                    |(ids, buf), (i, (di, fi))| {
+                        // seeded by the worker's query before (the same answer, found sooner)
+                        let tie = t.knn_seeded(&hh[i], k, f64::INFINITY, ids, buf);
                         if tie || ids.iter().any(|&x| x < 0 || x as usize >= sos.len()) {
                             *fi = true;
                             return;
