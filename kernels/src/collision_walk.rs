@@ -123,6 +123,30 @@ fn box_bound(fr: &[f64; 4], c: &P3, tip: &P3, axis: &P3, r: f64, h: &P3) -> f64 
     nanmax(sd - r, if valid { sd - s } else { f64::NEG_INFINITY })
 }
 
+/// Margin of [`certainly_above`]: far above the rounding of the exact distances (mm).
+const PREFILTER_EPS: f64 = 1e-9;
+
+/// Whether the frustum's signed distance at `x` is certainly above `thr`, from the bounding
+/// cylinder (z0 ≤ z ≤ z1, ρ ≤ rmax) alone: sd ≥ max(z0 − z, z − z1, ρ − rmax) (the frustum
+/// lies inside that cylinder), tested with a margin of [`PREFILTER_EPS`] and without the
+/// square root. A node or triangle it rejects is one the exact bound rejects too (its bound
+/// sd − r is above the pose's bound, and its sd does not lower the bound): the walk's
+/// decisions are unchanged, only the exact distances of far nodes are not computed.
+#[inline(always)]
+fn certainly_above(z0: f64, z1: f64, rmax: f64, x: &P3, tip: &P3, axis: &P3, thr: f64) -> bool {
+    let thr = thr + PREFILTER_EPS;
+    let dv = sub(x, tip);
+    let z = dot(&dv, axis);
+    if z0 - z > thr || z - z1 > thr {
+        return true;
+    }
+    let t = thr + rmax;
+    if t < 0.0 {
+        return true;
+    }
+    dot(&dv, &dv) - z * z > t * t
+}
+
 /// A node: box centre, the radius of its sphere, representative point, half-sizes.
 pub(crate) struct Node {
     pub(crate) c: P3,
@@ -316,24 +340,29 @@ fn candidates(
     let nl = tree.levels.len();
     for (li, lev) in tree.levels.iter().enumerate() {
         let use_box = wp.frustum.is_some() && lev[0].r < GRAD_RADIUS;
+        // the nodes whose lower bound reaches their pose's bound (ub does not change here)
         lb.clear();
-        lb.extend(fr.iter().map(|&(q, n)| {
-            let (t, a, nd) = (&qs.tq[q as usize], &qs.aq[q as usize], &lev[n as usize]);
-            match (&wp.frustum, use_box) {
-                (Some(f), true) => box_bound(f, &nd.c, t, a, nd.r, &nd.h),
-                _ => wp.sd(&nd.c, t, a) - nd.r,
-            }
-        }));
         let mut k = 0;
         for i in 0..fr.len() {
-            if lb[i] <= ub[pz(fr[i].0)] {
+            let (q, n) = fr[i];
+            let (t, a, nd) = (&qs.tq[q as usize], &qs.aq[q as usize], &lev[n as usize]);
+            let u = ub[pz(q)];
+            let b = match (&wp.frustum, use_box) {
+                (Some(f), _)
+                    if certainly_above(f[0], f[2], f[1].max(f[3]), &nd.c, t, a, u + nd.r) =>
+                {
+                    continue
+                }
+                (Some(f), true) => box_bound(f, &nd.c, t, a, nd.r, &nd.h),
+                _ => wp.sd(&nd.c, t, a) - nd.r,
+            };
+            if b <= u {
                 fr[k] = fr[i];
-                lb[k] = lb[i];
+                lb.push(b);
                 k += 1;
             }
         }
         fr.truncate(k);
-        lb.truncate(k);
         if fr.is_empty() {
             return Vec::new();
         }
@@ -398,6 +427,20 @@ fn candidates(
             let tr = &tree.tris[t];
             let cen = &tr.cen;
             let (sdc, lb) = match &wp.frustum {
+                // below: lb ≥ sdc − rad > ub now ≥ ub at the end, and sdc > ub lowers nothing
+                Some(f)
+                    if certainly_above(
+                        f[0],
+                        f[2],
+                        f[1].max(f[3]),
+                        cen,
+                        tip,
+                        ax,
+                        ub[pz(q)] + tr.rad,
+                    ) =>
+                {
+                    continue
+                }
                 Some(f) => {
                     let (sdc, dv, al, be, valid) = posed_sd_ab(f, cen, tip, ax);
                     let lb = sdc - tr.rad;
