@@ -369,8 +369,26 @@ fn candidates(
         let mut with_depth = false;
         if lev[0].r < REP_FACTOR * wp.rmax + 8.0 {
             srep.clear();
+            // a representative certainly above max(bound, 0) lowers no bound and, in the
+            // beam, is neither a depth nor within the bound: +∞ stands for it
             srep.extend(fr.iter().map(|&(q, n)| {
-                wp.sd(&lev[n as usize].rep, &qs.tq[q as usize], &qs.aq[q as usize])
+                let (x, t, a) = (&lev[n as usize].rep, &qs.tq[q as usize], &qs.aq[q as usize]);
+                match &wp.frustum {
+                    Some(f)
+                        if certainly_above(
+                            f[0],
+                            f[2],
+                            f[1].max(f[3]),
+                            x,
+                            t,
+                            a,
+                            nanmax(ub[pz(q)], 0.0),
+                        ) =>
+                    {
+                        f64::INFINITY
+                    }
+                    _ => wp.sd(x, t, a),
+                }
             }));
             for (&(q, _), &s) in fr.iter().zip(srep.iter()) {
                 let u = &mut ub[pz(q)];
