@@ -88,6 +88,8 @@ __all__ = [
     "clear_path_objects",
     "restyle",
     "attach_verify",
+    "show_verify_map",
+    "remove_verify_map",
     "curve_points_mm",
 ]
 
@@ -819,20 +821,10 @@ def attach_verify(
         _, _, _, sc = spline_pieces(path, key, cusp)
         ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in sc]
         _style_curves(ob, settings.color_mode, float(path.cusp))
-    out = {"collection": coll, "verify": None}
+    out = {"collection": coll, "verify": objs["verify"]}
     if blade_arrays is not None and vertex_values is not None:
-        old = objs["verify"]
-        if old is not None:
-            data = old.data
-            bpy.data.objects.remove(old)
-            if data is not None and data.users == 0:
-                bpy.data.meshes.remove(data)
-        V, F = blade_arrays
-        ob = _verify_object(bname, V, F, vertex_values, float(path.cusp), float(path.chord),
-                            f, coll)
-        ob.name = ob[KEY_NAME]
-        ob.data.name = ob.name
-        out["verify"] = ob
+        out["verify"] = _replace_verify_object(coll, objs["verify"], bname, path, blade_arrays,
+                                               vertex_values, f)
     text = bpy.data.texts.get(coll.get(KEY_TEXT, ""))
     if text is None:
         text = bpy.data.texts.new(collection_name(bname) + ".json")
@@ -843,6 +835,42 @@ def attach_verify(
         text.from_string(_to_text_lines(json_text) if lines is None else lines)
     out["text"] = text
     return out
+
+
+def _replace_verify_object(coll, old, bname, path, blade_arrays, vertex_values, f):
+    """The verify colour map made anew in ``coll`` (``old`` removed), with its final name."""
+    _remove_object(old)
+    V, F = blade_arrays
+    ob = _verify_object(bname, V, F, vertex_values, float(path.cusp), float(path.chord), f, coll)
+    ob.name = ob[KEY_NAME]
+    ob.data.name = ob.name
+    return ob
+
+
+def _remove_object(ob):
+    """Delete ``ob`` (None: nothing) and its mesh when nothing else uses it."""
+    if ob is None:
+        return
+    data = ob.data
+    bpy.data.objects.remove(ob)
+    if data is not None and data.users == 0:
+        bpy.data.meshes.remove(data)
+
+
+def show_verify_map(scene, blade, path, blade_arrays, vertex_values):
+    """The verify colour map alone, before the other figures (arguments and object as
+    :func:`attach_verify`'s, which keeps it when then given no ``blade_arrays``): the
+    interactive Generate shows it as soon as the material left is measured."""
+    coll = find_output_collection(blade.name)
+    if coll is None:
+        raise BliskCamError(f"the paths of '{blade.name}' were removed; generate again")
+    return _replace_verify_object(coll, output_objects(coll)["verify"], blade.name, path,
+                                  blade_arrays, vertex_values, mm_per_blender_unit(scene))
+
+
+def remove_verify_map(blade_name: str):
+    """Remove a blade's verify colour map (a verify dropped after :func:`show_verify_map`)."""
+    _remove_object(output_objects(find_output_collection(blade_name))["verify"])
 
 
 def _replace_last_character(text, tail: str) -> bool:

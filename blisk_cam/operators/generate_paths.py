@@ -11,8 +11,12 @@ the ``verify`` setting on, ``core.verify.verify_path`` then measures the path on
 worker thread while the UI stays free, the panel shows "Verifying…", and the timer attaches
 the figures when they are ready: the verdict in the paths JSON, the measured cusp per curve,
 the statistics and (``verify_map``) the colour-map copy of the blade
-(:func:`blisk_cam.blender.path_objects.attach_verify`). ESC while verifying, or a new Generate,
-drops the pending figures and stops the worker at its next chunk of points (``verify_path``'s cancel
+(:func:`blisk_cam.blender.path_objects.attach_verify`). The colour map comes first: the
+worker hands the material left over as soon as it is measured (``verify_path``'s
+``on_material_left``, before the scallops, a third of verify) and the next tick shows it
+(:func:`~blisk_cam.blender.path_objects.show_verify_map`; the same values the report then
+holds). ESC while verifying, or a new Generate, drops the pending figures (and a colour map
+already shown) and stops the worker at its next chunk of points (``verify_path``'s cancel
 hook): the new paths stay, without verify figures or a colour map.
 
 In background mode, or called with EXEC_DEFAULT, it runs synchronously (plan, verify, then
@@ -84,6 +88,10 @@ class PathJob:
         self._cancel = None  # threading.Event of the running worker
         self._verify_result = self._verify_error = None
         self.verify_cancelled = False
+        # the colour-map values the worker hands over before its last steps, and whether
+        # show_map showed them (attach_verify then keeps that map)
+        self._early_values = None
+        self.map_shown = False
         self.written_json = None  # the paths JSON show_paths wrote
         self.paths_json = None  # the planned path's JSON (without verify), by the plan worker
         self._paths_text = None  # its (Text content, stored form): path_objects.text_lines
@@ -186,13 +194,17 @@ class PathJob:
         mesh, path = self.mesh, self.plan.path
         cancel = self._cancel = threading.Event()  # set by cancel_verify: the worker stops
 
+        early = self.material_left_measured
+
         def work():
             t0 = time.perf_counter()
             try:
-                report = verify_path(mesh, path, cancel=cancel)
+                report = verify_path(mesh, path, cancel=cancel, on_material_left=early)
                 # the rest of the figures too (pure core), so attaching is only bpy work
                 verdict, json_text = self._verdict_json(report)
-                values = self._map_values(report)
+                values = self._early_values  # the report's vertex_values, mapped already
+                if values is None:
+                    values = self._map_values(report)
                 # the shown JSON with the verdict appended: only its end is rewritten
                 head = self.paths_json[:-1] if self.paths_json else None
                 tail = json_text[len(head):] if head and json_text.startswith(head) else None
@@ -202,11 +214,17 @@ class PathJob:
                 self._verify_error = exc
             self.verify_seconds = time.perf_counter() - t0
 
-        self._verify_result = self._verify_error = None
-        self.verify_cancelled = False
+        self._verify_result = self._verify_error = self._early_values = None
+        self.verify_cancelled = self.map_shown = False
         self._thread = threading.Thread(target=work, name="blisk_cam verify", daemon=True)
         self._thread.start()
         return True
+
+    def material_left_measured(self, vertex_values):
+        """The worker's ``on_material_left``: keep the colour map's values (per input vertex)
+        for :meth:`show_map`. No bpy."""
+        if self.want_map:
+            self._early_values = input_vertex_values(self.mesh, self.V, vertex_values)
 
     @property
     def verify_pending(self) -> bool:
@@ -230,12 +248,44 @@ class PathJob:
     def cancel_verify(self):
         """Drop the pending figures: they are never attached, and the worker stops at its
         next chunk of points (``verify_path``'s cancel hook; it ends with
-        ``core.runtime.Cancelled`` in ``_verify_error`` and no result)."""
+        ``core.runtime.Cancelled`` in ``_verify_error`` and no result). A colour map shown
+        already (:meth:`show_map`) is removed: the paths stay without any verify figure.
+        Main thread (bpy)."""
         self.verify_cancelled = True
         if getattr(self, "_cancel", None) is not None:
             self._cancel.set()
         if _VERIFYING.get(self.scene_name) is self:
             del _VERIFYING[self.scene_name]
+        self._drop_map()
+
+    def show_map(self, context) -> bool:
+        """Show the colour map as soon as the worker has handed its values over (the
+        material left is measured; the scallops are not), if the shown paths are still this
+        job's; True when it did now. Main thread (bpy)."""
+        values = self._early_values
+        if values is None or self.map_shown or self.verify_cancelled or not self._ours():
+            return False
+        from ..blender import path_objects as output
+
+        output.show_verify_map(context.scene, self._blade(), self.plan.path, (self.V, self.F),
+                               values)
+        self.map_shown = True
+        return True
+
+    def _ours(self) -> bool:
+        """The blade's output is still the one :meth:`show_paths` wrote."""
+        from ..blender import path_objects as output
+
+        return output.stored_paths_json(self.blade_name) == self.written_json
+
+    def _drop_map(self):
+        """Remove the colour map :meth:`show_map` showed (while the paths are this job's)."""
+        if getattr(self, "map_shown", False):
+            self.map_shown = False
+            if self._ours():
+                from ..blender import path_objects as output
+
+                output.remove_verify_map(self.blade_name)
 
     # --- writing ------------------------------------------------------------------------
     def _verdict_json(self, report):
@@ -339,9 +389,10 @@ class PathJob:
         if _VERIFYING.get(self.scene_name) is self:
             del _VERIFYING[self.scene_name]
         if self._verify_error is not None:
+            self._drop_map()
             raise self._verify_error
         blade = self._blade()
-        if output.stored_paths_json(self.blade_name) != self.written_json:
+        if not self._ours():
             raise BliskCamError(
                 f"the paths of '{self.blade_name}' changed while they were being verified; "
                 "the verify figures were dropped (generate again to verify)"
@@ -355,7 +406,9 @@ class PathJob:
             scene, blade, path, settings,
             json_text=json_text,
             verify=self.verify,
-            blade_arrays=(self.V, self.F) if values is not None else None,
+            # the map shown early holds these values already (the same array)
+            blade_arrays=(self.V, self.F) if values is not None and not self.map_shown
+            else None,
             vertex_values=values,
             text=lines,
             tail=tail,
@@ -456,6 +509,10 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
             self.report({"WARNING"}, "Verify dropped: a new generation started")
             return {"FINISHED"}
         if not job.verify_ready:
+            if job.show_map(context):  # the colour map now, the other figures later
+                self._status(context, "colour map shown, measuring the scallops",
+                             escape="ESC skips the verify")
+                _tag_redraw(context)
             return None
         try:
             text = job.attach_verify(context)

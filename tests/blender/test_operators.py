@@ -731,6 +731,61 @@ def test_interactive_generate_shows_the_paths_then_the_verify_map(addon, demo):
     assert not [x for x in labels if x.startswith("Verifying")]
 
 
+def test_the_colour_map_shows_before_the_other_verify_figures(addon, demo):
+    """The worker hands the material left over before its scallops: the next tick shows the
+    colour map alone (no verdict yet), a later one the other figures, keeping that map; the
+    end equals the synchronous run. ESC once the map is shown removes it with the figures."""
+    import threading
+
+    scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, verify=True, verify_map=True)
+    s = scene.blisk_cam
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}  # synchronous: the reference
+    ref_json = _without_stats(output.stored_paths_json("Blade"))
+    ref = _verify_state()
+    output.clear_path_objects("Blade")
+    handed, go = threading.Event(), threading.Event()
+    for esc in (False, True):
+        handed.clear()
+        go.clear()
+        op = _runner()
+        job = op._job
+        hand_over = job.material_left_measured
+
+        def held(values, hand_over=hand_over):  # the worker held once it has handed them
+            hand_over(values)
+            handed.set()
+            go.wait(600.0)
+
+        job.material_left_measured = held
+        try:
+            assert _until_paths_shown(op) == {"RUNNING_MODAL"}
+            assert handed.wait(600.0) and _verify_state()["map"] is None
+            assert op.step(bpy.context) == {"RUNNING_MODAL"}  # this tick shows the map
+            early = _verify_state()
+            assert job.map_shown and job.verify_pending and not s.stat_verified
+            np.testing.assert_array_equal(early["map"], ref["map"])
+            assert early["verdict"] is None and early["map_objects"] == ["Blade verify"]
+            map_object = output.output_objects(output.find_output_collection("Blade"))["verify"]
+            if esc:  # the paths stay, without any verify figure: the map goes too
+                assert op.step(bpy.context, "ESC") == {"FINISHED"}
+                assert _verify_state()["map_objects"] == [] and not job.map_shown
+        finally:
+            go.set()
+        assert job.wait_verify(600.0)
+        if esc:
+            assert _verify_state()["map_objects"] == [] and _verify_state()["verdict"] is None
+            assert not gen_mod._VERIFYING and not s.stat_verified
+            continue
+        assert op.step(bpy.context) == {"FINISHED"}, op.reports
+        got = _verify_state()
+        assert _without_stats(output.stored_paths_json("Blade")) == ref_json
+        np.testing.assert_array_equal(got["map"], ref["map"])
+        assert got["spline_cusp"] == ref["spline_cusp"] and got["materials"] == ref["materials"]
+        assert got["map_objects"] == ["Blade verify"] and s.stat_verified
+        kept = output.output_objects(output.find_output_collection("Blade"))["verify"]
+        assert kept.as_pointer() == map_object.as_pointer()  # the early map, not a new one
+
+
 def test_cancelling_a_pending_verify_leaves_a_consistent_scene(addon, demo):
     scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, verify=True, verify_map=True)
     s = scene.blisk_cam
