@@ -298,8 +298,14 @@ class PathJob:
 
         path = self.plan.path
         verdict = judge(report, path.cusp, path.chord, path.tool, path=path)
-        return verdict, json.dumps({**path_to_dict(path), "verify": verdict_dict(verdict)},
-                                   allow_nan=False)
+        verify = verdict_dict(verdict)
+        head = self.paths_json
+        if path.verify is None and head is not None and head.endswith("}") and len(head) > 2:
+            # the planned path's JSON, made already, with "verify" appended: json.dumps of
+            # the merged dict gives these very bytes (a key new to the dict goes last; a
+            # nested value is written as on its own), without writing the path again
+            return verdict, f'{head[:-1]}, "verify": {json.dumps(verify, allow_nan=False)}}}'
+        return verdict, json.dumps({**path_to_dict(path), "verify": verify}, allow_nan=False)
 
     def _blade(self):
         blade = bpy.data.objects.get(self.blade_name)

@@ -779,6 +779,13 @@ def test_the_colour_map_shows_before_the_other_verify_figures(addon, demo):
         assert op.step(bpy.context) == {"FINISHED"}, op.reports
         got = _verify_state()
         assert _without_stats(output.stored_paths_json("Blade")) == ref_json
+        # the verdict appended to the planned path's JSON: the bytes of the merged dict's
+        from blisk_cam.core.toolpath.paths_io import path_to_dict
+        from blisk_cam.core.verify.verdict import verdict_dict
+
+        whole = {**path_to_dict(job.plan.path), "verify": verdict_dict(job.verdict)}
+        stored = output.text_lines(json.dumps(whole, allow_nan=False))[1]  # as the Text keeps
+        assert output.stored_paths_json("Blade") == stored
         np.testing.assert_array_equal(got["map"], ref["map"])
         assert got["spline_cusp"] == ref["spline_cusp"] and got["materials"] == ref["materials"]
         assert got["map_objects"] == ["Blade verify"] and s.stat_verified
