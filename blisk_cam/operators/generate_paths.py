@@ -90,7 +90,7 @@ class PathJob:
         self.verify_cancelled = False
         # the colour-map values the worker hands over before its last steps, and whether
         # show_map showed them (attach_verify then keeps that map)
-        self._early_values = None
+        self._early_values = self._news = None
         self.map_shown = False
         self.written_json = None  # the paths JSON show_paths wrote
         self.paths_json = None  # the planned path's JSON (without verify), by the plan worker
@@ -205,17 +205,20 @@ class PathJob:
                 values = self._early_values  # the report's vertex_values, mapped already
                 if values is None:
                     values = self._map_values(report)
-                # the shown JSON with the verdict appended: only its end is rewritten
+                # the shown JSON with the verdict appended: only its end is rewritten (the
+                # whole Text's content is made only when not)
                 head = self.paths_json[:-1] if self.paths_json else None
                 tail = json_text[len(head):] if head and json_text.startswith(head) else None
                 self._verify_result = (report, verdict, json_text, values,
-                                       text_lines(json_text)[0], tail)
+                                       None if tail else text_lines(json_text)[0], tail)
             except BaseException as exc:  # handed to the main thread, reported there
                 self._verify_error = exc
             self.verify_seconds = time.perf_counter() - t0
+            self._news.set()
 
         self._verify_result = self._verify_error = self._early_values = None
         self.verify_cancelled = self.map_shown = False
+        self._news = threading.Event()  # set by the worker: the map's values, then its end
         self._thread = threading.Thread(target=work, name="blisk_cam verify", daemon=True)
         self._thread.start()
         return True
@@ -225,6 +228,13 @@ class PathJob:
         for :meth:`show_map`. No bpy."""
         if self.want_map:
             self._early_values = input_vertex_values(self.mesh, self.V, vertex_values)
+            self._news.set()
+
+    def wait_news(self, wait: float):
+        """Wait up to ``wait`` seconds for the worker's news (the colour map's values, its
+        end): a tick acts on it at once instead of at the next timer event."""
+        if self._news is not None and self._news.wait(wait):
+            self._news.clear()
 
     @property
     def verify_pending(self) -> bool:
@@ -514,6 +524,8 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         if job.verify_cancelled:  # a new Generate took over: the paths stay, no figures
             self.report({"WARNING"}, "Verify dropped: a new generation started")
             return {"FINISHED"}
+        if not job.verify_ready:
+            job.wait_news(0.02)  # the map's values or the end, caught within this tick
         if not job.verify_ready:
             if job.show_map(context):  # the colour map now, the other figures later
                 self._status(context, "colour map shown, measuring the scallops",
