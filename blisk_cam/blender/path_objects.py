@@ -70,8 +70,15 @@ from ..core.errors import BliskCamError
 from ..core.geometry.axis import angular_range
 from ..core.part.profiles import morph_between
 from ..core.toolpath import types as _toolpath
-from ..core.toolpath.paths_io import path_to_dict
 from .objects import arrays_to_object, colored_material, cone_to_object, mm_per_blender_unit
+from .paths_text import (
+    TEXT_LINE,
+    from_text_lines,
+    paths_json_text,
+    replace_last_character,
+    text_lines,
+    to_text_lines,
+)
 
 __all__ = [
     "COLLECTION_PREFIX",
@@ -80,6 +87,7 @@ __all__ = [
     "find_output_collection",
     "output_objects",
     "stored_paths_json",
+    "TEXT_LINE",
     "text_lines",
     "paths_json_text",
     "write_path_objects",
@@ -175,55 +183,7 @@ def stored_paths_json(blade_name: str) -> str | None:
     if coll is None:
         return None
     text = bpy.data.texts.get(coll.get(KEY_TEXT, ""))
-    return _from_text_lines(text.as_string()) if text is not None else None
-
-
-def _to_text_lines(json_text: str) -> str:
-    r"""The one-line JSON broken after every point (``"], ["`` → ``"],\n["``) for the Text
-    datablock: Blender's Text is quadratic in the length of a line (a 1 MB line takes
-    minutes) and fast with many short lines; a line still longer than :data:`TEXT_LINE`
-    characters is broken further (:func:`_wrapped`). ``json.dumps`` output holds no raw
-    newline, so removing every newline gives the JSON back (with ``"],["`` between points)."""
-    if "\n" in json_text:
-        raise BliskCamError("internal: the paths JSON to store holds a raw newline")
-    lines = json_text.replace("], [", "],\n[").split("\n")
-    return "\n".join(_wrapped(x) if len(x) > TEXT_LINE else x for x in lines)
-
-
-#: the longest line the Text datablock is given: lists that are not lists of points (the
-#: per-pose ``move`` names, 130 000 characters on Rotor 37, 0.8 s in ``from_string``) are
-#: broken after a ``", "`` every this many characters (a newline inserted, nothing replaced:
-#: removing the newlines gives what the point breaks alone give)
-TEXT_LINE = 1000
-
-
-def _wrapped(line: str) -> str:
-    """``line`` with a newline after the last ``", "`` before every :data:`TEXT_LINE`
-    characters (after exactly that many where there is none)."""
-    out, start = [], 0
-    while len(line) - start > TEXT_LINE:
-        cut = line.rfind(", ", start, start + TEXT_LINE)
-        cut = cut + 2 if cut > start else start + TEXT_LINE
-        out.append(line[start:cut])
-        start = cut
-    out.append(line[start:])
-    return "\n".join(out)
-
-
-def _from_text_lines(stored: str) -> str:
-    return stored.replace("\n", "")
-
-
-def text_lines(json_text: str) -> tuple[str, str]:
-    """(the Text datablock's content for ``json_text``, what :func:`stored_paths_json` then
-    returns). No bpy: a worker thread makes them for ``write_path_objects(text=...)``."""
-    lines = _to_text_lines(json_text)
-    return lines, _from_text_lines(lines)
-
-
-def paths_json_text(path) -> str:
-    """The paths JSON of ``path`` as text: byte for byte what ``write_paths_json`` writes."""
-    return json.dumps(path_to_dict(path), allow_nan=False)
+    return from_text_lines(text.as_string()) if text is not None else None
 
 
 # --- colours -----------------------------------------------------------------------------
@@ -683,7 +643,7 @@ def write_path_objects(
         _remove_collection_tree(new)
         raise
     if text is None:
-        text = _to_text_lines(json_text)
+        text = to_text_lines(json_text)
     objs["text"] = _replace_output(scene, blade, old, new, pending[0], text)
     objs["pose_empties"] = _pose_empties(*pending)
     return objs
@@ -751,7 +711,7 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
 
 def _replace_output(scene, blade, old, new, poses_coll, lines):
     """The complete result ``new`` replaces ``old`` (removed): final names, linked beside the
-    blade, the paths JSON (``lines``: :func:`_to_text_lines`) in the Text datablock (the old
+    blade, the paths JSON (``lines``: :func:`to_text_lines`) in the Text datablock (the old
     one reused); returns the Text."""
     name = collection_name(blade.name)
     old_text = bpy.data.texts.get(old.get(KEY_TEXT, "")) if old is not None else None
@@ -831,8 +791,8 @@ def attach_verify(
         text.use_fake_user = True
         coll[KEY_TEXT] = text.name
         tail = None
-    if tail is None or not _replace_last_character(text, tail):
-        text.from_string(_to_text_lines(json_text) if lines is None else lines)
+    if tail is None or not replace_last_character(text, tail):
+        text.from_string(to_text_lines(json_text) if lines is None else lines)
     out["text"] = text
     return out
 
@@ -871,20 +831,6 @@ def show_verify_map(scene, blade, path, blade_arrays, vertex_values):
 def remove_verify_map(blade_name: str):
     """Remove a blade's verify colour map (a verify dropped after :func:`show_verify_map`)."""
     _remove_object(output_objects(find_output_collection(blade_name))["verify"])
-
-
-def _replace_last_character(text, tail: str) -> bool:
-    """Replace the Text's last character (the stored JSON's closing brace) by ``tail`` (broken
-    into lines as :func:`_to_text_lines` does): milliseconds where rewriting the whole Text
-    takes a tenth of a second. False (nothing changed) when the Text does not end with "}"."""
-    n = len(text.lines) - 1
-    body = text.lines[n].body if n >= 0 else ""
-    if not body.endswith("}"):
-        return False
-    text.cursor_set(n, character=len(body) - 1)
-    text.cursor_set(n, character=len(body), select=True)
-    text.write(_to_text_lines(tail))
-    return True
 
 
 def clear_path_objects(blade_name: str) -> bool:
