@@ -12,7 +12,8 @@ runs per repetition:
   blocked the whole time;
 * interactive — the operator's modal code stepped by hand (``ModalRunner``: timers do not
   fire in background mode) on an emulated 50 ms timer, as Blender runs it after ``invoke``:
-  time until the paths are in the scene, time until the colour map is there (shown as soon
+  time until the paths are in the scene (the objects: with verify on, their JSON is stored a
+  tick later, from the verify worker), time until the colour map is there (shown as soon
   as the worker has measured the material left, before its scallops), time until the other
   figures are attached (the run's end), the worker's verify time, the tick attaching the
   figures, and the longest single tick (the longest the UI is frozen) while planning
@@ -87,7 +88,7 @@ def run_interactive():
         result = runner.step(ctx)
         b = time.perf_counter()
         next_fire = max(next_fire + TICK, b)
-        if t_paths is None and runner._job.written_json is not None:
+        if t_paths is None and runner._job.paths_seconds is not None:
             t_paths, show_tick = b - t0, b - a
         elif t_paths is None:
             plan_ticks.append(b - a)

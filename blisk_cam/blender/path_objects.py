@@ -96,6 +96,7 @@ __all__ = [
     "clear_path_objects",
     "restyle",
     "attach_verify",
+    "store_paths_text",
     "show_verify_map",
     "remove_verify_map",
     "curve_points_mm",
@@ -105,6 +106,8 @@ COLLECTION_PREFIX = "Blisk CAM – "  # en dash
 #: custom property names on the output collection
 KEY_BLADE = "blisk_cam_blade"
 KEY_TEXT = "blisk_cam_paths_text"
+#: on a collection written with ``defer_text``: the previous result's Text name, until stored
+KEY_TEXT_PENDING = "blisk_cam_paths_text_pending"
 KEY_CUSP = "blisk_cam_cusp"
 KEY_CHORD = "blisk_cam_chord"
 KEY_ROLE = "blisk_cam_role"  # on objects: "cc", "tip", "poses", "pose", "verify", CONE_ROLES
@@ -601,6 +604,7 @@ def write_path_objects(
     blade_arrays=None,
     vertex_values=None,
     text: str | None = None,
+    defer_text: bool = False,
 ) -> dict:
     """Show ``path`` (a core ``ToolPath``, mm) as objects in the blade's output collection,
     replacing the previous ones, and keep its paths JSON in a Text datablock.
@@ -617,6 +621,9 @@ def write_path_objects(
     blade_arrays : (V (n, 3) mm, F (m, 3)) — the blade mesh as read; with ``vertex_values``
         (n,) material left per *input* vertex (NaN outside) a verify colour-map copy is made
     text : str, optional — ``json_text``'s Text content made beforehand (:func:`text_lines`)
+    defer_text : bool — no JSON now (``json_text``, ``text`` unused): :func:`store_paths_text`
+        stores it later (the interactive Generate shows the paths before their JSON is made);
+        until then the output holds no JSON (:func:`has_paths` is False)
 
     Returns
     -------
@@ -631,7 +638,7 @@ def write_path_objects(
     f = mm_per_blender_unit(scene)
     bname = blade.name
     name = collection_name(bname)
-    if json_text is None:
+    if json_text is None and not defer_text:
         json_text = paths_json_text(path)
 
     old = find_output_collection(bname)  # replaced once the new result is complete
@@ -642,7 +649,7 @@ def write_path_objects(
     except Exception:
         _remove_collection_tree(new)
         raise
-    if text is None:
+    if text is None and not defer_text:
         text = to_text_lines(json_text)
     objs["text"] = _replace_output(scene, blade, old, new, pending[0], text)
     objs["pose_empties"] = _pose_empties(*pending)
@@ -712,7 +719,8 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
 def _replace_output(scene, blade, old, new, poses_coll, lines):
     """The complete result ``new`` replaces ``old`` (removed): final names, linked beside the
     blade, the paths JSON (``lines``: :func:`to_text_lines`) in the Text datablock (the old
-    one reused); returns the Text."""
+    one reused); returns the Text (None with ``lines`` None: the old Text's name is kept for
+    :func:`store_paths_text`)."""
     name = collection_name(blade.name)
     old_text = bpy.data.texts.get(old.get(KEY_TEXT, "")) if old is not None else None
     if old is not None:
@@ -724,11 +732,32 @@ def _replace_output(scene, blade, old, new, poses_coll, lines):
         if ob.data is not None:
             ob.data.name = ob.name
     _link_under(_parent_collection(scene, blade), new)
-    text = old_text or bpy.data.texts.get(name + ".json") or bpy.data.texts.new(name + ".json")
+    if lines is None:
+        new[KEY_TEXT_PENDING] = old_text.name if old_text is not None else ""
+        return None
+    return _store_text(new, lines, old_text, name + ".json")
+
+
+def _store_text(coll, lines, old_text, name):
+    """The paths JSON (``lines``) in the output ``coll``'s Text datablock (``old_text``, the
+    previous result's, reused; else the one called ``name``, made if missing); the Text."""
+    text = old_text or bpy.data.texts.get(name) or bpy.data.texts.new(name)
     text.from_string(lines)
     text.use_fake_user = True
-    new[KEY_TEXT] = text.name
+    coll[KEY_TEXT] = text.name
     return text
+
+
+def store_paths_text(blade_name: str, lines: str):
+    """Store the paths JSON (``lines``: :func:`text_lines`' Text content) of the output
+    :func:`write_path_objects` wrote with ``defer_text``; returns the Text, or None (nothing
+    written) when that output is gone or holds its JSON already (cleared, regenerated)."""
+    coll = find_output_collection(blade_name)
+    if coll is None or KEY_TEXT_PENDING not in coll:
+        return None
+    old_text = bpy.data.texts.get(coll[KEY_TEXT_PENDING])
+    del coll[KEY_TEXT_PENDING]
+    return _store_text(coll, lines, old_text, collection_name(blade_name) + ".json")
 
 
 def attach_verify(

@@ -8,9 +8,11 @@ the progress; ESC while planning stops the worker at its next step and leaves th
 result as it was (the new objects are only built once the path is complete). As soon as the
 path is planned its objects (curves, poses, empties, cones) replace the previous ones; with
 the ``verify`` setting on, ``core.verify.verify_path`` then measures the path on another
-worker thread while the UI stays free, the panel shows "Verifying…", and the timer attaches
-the figures when they are ready: the verdict in the paths JSON, the measured cusp per curve,
-the statistics and (``verify_map``) the colour-map copy of the blade
+worker thread while the UI stays free (that worker first makes the paths JSON, which the
+next tick stores: the objects do not wait for it; ESC or any end stores it too), the panel
+shows "Verifying…", and the timer attaches the figures when they are ready: the verdict in
+the paths JSON, the measured cusp per curve, the statistics and (``verify_map``) the
+colour-map copy of the blade
 (:func:`blisk_cam.blender.path_objects.attach_verify`). The colour map comes first: the
 worker hands the material left over as soon as it is measured (``verify_path``'s
 ``on_material_left``, before the scallops, a third of verify) and the next tick shows it
@@ -92,7 +94,7 @@ class PathJob:
         # show_map showed them (attach_verify then keeps that map)
         self._early_values = self._news = None
         self.map_shown = False
-        self.written_json = None  # the paths JSON show_paths wrote
+        self.written_json = None  # the paths JSON stored for the shown paths
         self.paths_json = None  # the planned path's JSON (without verify), by the plan worker
         self._paths_text = None  # its (Text content, stored form): path_objects.text_lines
         self.paths_seconds = None  # seconds from the start until the paths were shown
@@ -146,9 +148,8 @@ class PathJob:
                     # the compiled kernels on every core, as verify does (the same answers)
                     with parallel(None):
                         done = self.step(float("inf"), cancel)
-                    if done:  # the JSON too: less on the UI thread
-                        self.paths_json = paths_json_text(self.plan.path)
-                        self._paths_text = text_lines(self.paths_json)
+                    if done and not self.want_verify:  # the JSON too: less on the UI thread
+                        self._make_json()  # (with verify: the verify worker, once shown)
                 except BaseException as exc:  # handed to the main thread, raised there
                     self._plan_error = exc
 
@@ -199,6 +200,9 @@ class PathJob:
         def work():
             t0 = time.perf_counter()
             try:
+                if self._paths_text is None:  # the shown paths' JSON first (store_text)
+                    self._make_json()
+                    self._news.set()
                 report = verify_path(mesh, path, cancel=cancel, on_material_left=early)
                 # the rest of the figures too (pure core), so attaching is only bpy work
                 verdict, json_text = self._verdict_json(report)
@@ -222,6 +226,34 @@ class PathJob:
         self._thread = threading.Thread(target=work, name="blisk_cam verify", daemon=True)
         self._thread.start()
         return True
+
+    def _make_json(self):
+        """The planned path's JSON and its Text content (no bpy: the workers make them)."""
+        lines = text_lines(js := paths_json_text(self.plan.path))
+        self.paths_json = js
+        self._paths_text = lines
+
+    def store_text(self) -> bool:
+        """Store the shown paths' JSON (:func:`~blisk_cam.blender.path_objects.store_paths_text`)
+        once the verify worker has made it (its first step); True when stored now. Main
+        thread (bpy)."""
+        if self.written_json is not None or self._paths_text is None:
+            return False
+        from ..blender import path_objects as output
+
+        if output.store_paths_text(self.blade_name, self._paths_text[0]) is None:
+            return False  # the output is gone or replaced: attach_verify says so
+        self.written_json = self._paths_text[1]
+        return True
+
+    def ensure_text(self):
+        """The shown paths' JSON stored now, made here if the worker has not made it (a verify
+        dropped, stopped or failed before): the paths are never left without their JSON."""
+        if self.paths_seconds is None or self.written_json is not None:
+            return
+        if self._paths_text is None:
+            self._make_json()
+        self.store_text()
 
     def material_left_measured(self, vertex_values):
         """The worker's ``on_material_left``: keep the colour map's values (per input vertex)
@@ -267,6 +299,7 @@ class PathJob:
         if _VERIFYING.get(self.scene_name) is self:
             del _VERIFYING[self.scene_name]
         self._drop_map()
+        self.ensure_text()
 
     def show_map(self, context) -> bool:
         """Show the colour map as soon as the worker has handed its values over (the
@@ -286,7 +319,8 @@ class PathJob:
         """The blade's output is still the one :meth:`show_paths` wrote."""
         from ..blender import path_objects as output
 
-        return output.stored_paths_json(self.blade_name) == self.written_json
+        return (self.written_json is not None
+                and output.stored_paths_json(self.blade_name) == self.written_json)
 
     def _drop_map(self):
         """Remove the colour map :meth:`show_map` showed (while the paths are this job's)."""
@@ -340,9 +374,10 @@ class PathJob:
             warnings.append(" ".join(x.strip() for x in verdict_lines(self.verdict)[:3]))
         return warnings
 
-    def finish(self, context) -> str:
+    def finish(self, context, defer_text: bool = False) -> str:
         """Write the objects and statistics (with the verify figures, if measured); returns
-        the summary for the report."""
+        the summary for the report. ``defer_text``: the paths JSON stored later
+        (:meth:`store_text`)."""
         from ..blender import path_objects as output
 
         scene = context.scene
@@ -362,6 +397,7 @@ class PathJob:
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
             text=None if text is None else text[0],
+            defer_text=defer_text,
         )
         if self.set_blade:
             settings.blade = blade
@@ -378,9 +414,13 @@ class PathJob:
         of the paths (:meth:`begin_verify` then starts the verify worker)."""
         from ..blender import path_objects as output
 
-        text = self.finish(context)  # self.verify is None: the paths without figures
-        self.written_json = (self._paths_text[1] if self._paths_text is not None
-                             else output.stored_paths_json(self.blade_name))
+        # self.verify is None: the paths without figures; with verify, their JSON too is
+        # made by the verify worker (its first step) and stored by a later tick (store_text)
+        defer = self._paths_text is None and self.want_verify
+        text = self.finish(context, defer_text=defer)
+        if not defer:
+            self.written_json = (self._paths_text[1] if self._paths_text is not None
+                                 else output.stored_paths_json(self.blade_name))
         self.paths_seconds = time.perf_counter() - self.t0
         # the worker starts after the writing: while this thread writes (bpy calls holding
         # the GIL) a verify worker would take every other GIL turn and stretch this tick
@@ -406,6 +446,7 @@ class PathJob:
             del _VERIFYING[self.scene_name]
         if self._verify_error is not None:
             self._drop_map()
+            self.ensure_text()
             raise self._verify_error
         blade = self._blade()
         if not self._ours():
@@ -501,13 +542,13 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         """Plan → show the paths → poll the verify worker → attach its figures."""
         job = self._job
         wm = context.window_manager
-        # planned means the worker is done too (its last step, the paths JSON, follows the
-        # plan): showing while it still runs would make the JSON twice, fighting for the GIL
-        if job.written_json is None and not job.poll_plan():
+        # planned means the worker is done too (without verify its last step, the paths
+        # JSON, follows the plan): showing while it still runs would fight it for the GIL
+        if job.paths_seconds is None and not job.poll_plan():
             wm.progress_update(int(90 * job.fraction))
             self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
             return None
-        if job.written_json is None:  # planned: show the paths now (this tick)
+        if job.paths_seconds is None:  # planned: show the paths now (this tick)
             text = job.show_paths(context)
             self.running.discard(job.scene_name)  # a new Generate may start (and cancel)
             if not job.want_verify:
@@ -525,9 +566,10 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
             self.report({"WARNING"}, "Verify dropped: a new generation started")
             return {"FINISHED"}
         if not job.verify_ready:
-            job.wait_news(0.02)  # the map's values or the end, caught within this tick
+            job.wait_news(0.02)  # the JSON, the map's values or the end, within this tick
+        stored = job.store_text()  # the shown paths' JSON, the worker's first product
         if not job.verify_ready:
-            if job.show_map(context):  # the colour map now, the other figures later
+            if not stored and job.show_map(context):  # the map now, the other figures later
                 self._status(context, "colour map shown, measuring the scallops",
                              escape="ESC skips the verify")
                 _tag_redraw(context)
@@ -543,7 +585,7 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
 
     def escape(self, context):
         job = self._job
-        if job.written_json is None:
+        if job.paths_seconds is None:  # still planning
             return ModalJobOperator.escape(self, context)
         # the new paths are shown: keep them (FINISHED, one undo step), drop the figures
         job.cancel_verify()
@@ -556,6 +598,7 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         job.cancel_plan()  # ESC or an error while planning: the worker stops at its next step
         if job.verify_pending:  # ended by Blender (file load, window closed) or an error
             job.cancel_verify()
+        job.ensure_text()  # the shown paths keep their JSON however the run ended
         _tag_redraw(context)
 
 

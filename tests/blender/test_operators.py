@@ -536,7 +536,8 @@ def _runner(op_class=None):
 
 
 def _until_paths_shown(runner, max_ticks=500):
-    """Timer ticks until the planned paths are written; the return set of the last tick."""
+    """Timer ticks until the planned paths are written with their JSON (stored by a tick
+    after the one showing them when verify is on); the return set of the last tick."""
     for _ in range(max_ticks):
         result = runner.step(bpy.context)
         if result != {"RUNNING_MODAL"} or runner._job.written_json is not None:
@@ -791,6 +792,49 @@ def test_the_colour_map_shows_before_the_other_verify_figures(addon, demo):
         assert got["map_objects"] == ["Blade verify"] and s.stat_verified
         kept = output.output_objects(output.find_output_collection("Blade"))["verify"]
         assert kept.as_pointer() == map_object.as_pointer()  # the early map, not a new one
+
+
+def _until_shown_without_json(runner, max_ticks=500):
+    """Timer ticks until the tick showing the planned paths (verify on: their JSON not yet)."""
+    for _ in range(max_ticks):
+        assert runner.step(bpy.context) == {"RUNNING_MODAL"}, runner.reports
+        if runner._job.paths_seconds is not None:
+            return
+        runner._job.wait_plan(0.05)
+    raise AssertionError("the paths were not planned in time")
+
+
+def test_the_paths_show_before_their_json_which_is_never_missing_after(addon, demo):
+    """With verify on, the tick the plan completes shows the objects; the verify worker makes
+    the paths JSON first and a later tick stores it, in the previous result's Text. ESC on
+    the very next tick: the JSON is made then, the paths never stay without it."""
+    scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, verify=True, verify_map=False)
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}  # an old result and its Text
+    name = output.collection_name("Blade") + ".json"
+    old_text = bpy.data.texts[name]
+    scene.blisk_cam.cusp = 0.45
+    for esc in (False, True):
+        op = _runner()
+        job = op._job
+        _until_shown_without_json(op)
+        objs = output.output_objects(output.find_output_collection("Blade"))
+        assert objs["cc"] is not None and len(objs["pose_empties"]) == POSE_CAP
+        assert not output.has_paths("Blade") and job.written_json is None
+        if esc:
+            assert op.step(bpy.context, "ESC") == {"FINISHED"}
+        else:
+            assert _until_paths_shown(op) == {"RUNNING_MODAL"}
+        stored = output.stored_paths_json("Blade")
+        expect = output.text_lines(output.paths_json_text(job.plan.path))[1]
+        assert stored == expect == job.written_json and output.has_paths("Blade")
+        assert json.loads(stored)["tolerances"]["cusp"] == pytest.approx(0.45)
+        # the previous result's Text, reused: no "….json.001" beside it
+        assert bpy.data.texts[name] == old_text
+        assert [t.name for t in bpy.data.texts if t.name.startswith(name)] == [name]
+        job.wait_verify(600.0)
+        if not esc:
+            assert _ticks_to_the_end(op) == {"FINISHED"}
+            assert "verify" in json.loads(output.stored_paths_json("Blade"))
 
 
 def test_cancelling_a_pending_verify_leaves_a_consistent_scene(addon, demo):
