@@ -252,7 +252,10 @@ class PathJob:
         if self.paths_seconds is None or self.written_json is not None:
             return
         if self._paths_text is None:
-            self._make_json()
+            try:
+                self._make_json()
+            except ValueError:  # not JSON (a non-finite value): the worker failed on it too
+                return  # and attach_verify reports its error; the objects stay without JSON
         self.store_text()
 
     def material_left_measured(self, vertex_values):
