@@ -12,10 +12,13 @@ runs per repetition:
   blocked the whole time;
 * interactive — the operator's modal code stepped by hand (``ModalRunner``: timers do not
   fire in background mode) on an emulated 50 ms timer, as Blender runs it after ``invoke``:
-  time until the paths are in the scene, time until the colour map is there, the worker's
-  verify time, the tick attaching the figures, and the longest single tick (the longest the
-  UI is frozen) while planning (reading the mesh, writing the paths included) and while
-  polling the verify worker (a tick only checks the thread; it may wait for the GIL).
+  time until the paths are in the scene (the objects: with verify on, their JSON is stored a
+  tick later, from the verify worker), time until the colour map is there (shown as soon
+  as the worker has measured the material left, before its scallops), time until the other
+  figures are attached (the run's end), the worker's verify time, the tick attaching the
+  figures, and the longest single tick (the longest the UI is frozen) while planning
+  (reading the mesh, writing the paths included) and while polling the verify worker (a
+  tick only checks the thread, or shows the colour map; it may wait for the GIL).
 
 Times run from the start of the operator (reading the mesh included). The machine may be
 shared: compare the figures of one run with each other.
@@ -62,7 +65,7 @@ def run_sync():
 
 
 def run_interactive():
-    """(paths shown, colour map there, longest tick planning, longest tick verifying), s."""
+    """Seconds: paths shown, colour map there, figures attached, longest ticks…"""
     import bpy
 
     from blisk_cam.blender import path_objects as output
@@ -74,7 +77,7 @@ def run_interactive():
     runner = ModalRunner(gen.BLISKCAM_OT_generate_paths, gen.PathJob(ctx))  # invoke
     runner.start(ctx)
     first_tick = time.perf_counter() - t0
-    t_paths = t_map = None
+    t_paths = t_map = t_done = None
     plan_ticks, verify_ticks, show_tick = [], [], 0.0
     next_fire = time.perf_counter() + TICK
     while True:
@@ -85,22 +88,28 @@ def run_interactive():
         result = runner.step(ctx)
         b = time.perf_counter()
         next_fire = max(next_fire + TICK, b)
-        if t_paths is None and runner._job.written_json is not None:
+        if t_paths is None and runner._job.paths_seconds is not None:
             t_paths, show_tick = b - t0, b - a
         elif t_paths is None:
             plan_ticks.append(b - a)
         else:
             verify_ticks.append(b - a)
+        if t_map is None and getattr(runner._job, "map_shown", False):
+            t_map = b - t0
         if result != {"RUNNING_MODAL"}:
             assert result == {"FINISHED"}, runner.reports
-            t_map = b - t0
+            t_done = b - t0
             break
     objs = output.output_objects(output.find_output_collection(runner._job.blade_name))
-    return {"paths": t_paths, "map": t_map, "has_map": objs["verify"] is not None,
+    if t_map is None and objs["verify"] is not None:  # shown with the figures, at the end
+        t_map = t_done
+    return {"paths": t_paths, "map": t_map, "done": t_done,
+            "has_map": objs["verify"] is not None,
             "invoke": first_tick, "plan_tick": max(plan_ticks), "show_tick": show_tick,
             "poll_tick": max(verify_ticks[:-1] or [0.0]),
             "attach_tick": verify_ticks[-1] if verify_ticks else 0.0,
-            "worker": runner._job.verify_seconds}
+            "worker": runner._job.verify_seconds,
+            "plan": runner._job.plan.path.stats.get("seconds_plan", float("nan"))}
 
 
 def main():
@@ -131,19 +140,26 @@ def main():
             x = inter[-1]
             print(f"run {k + 1}: synchronous {sync[-1]:6.2f} s (paths and map together, the UI "
                   f"blocked throughout) | interactive: paths shown {x['paths']:6.2f} s, colour "
-                  f"map {x['map']:6.2f} s{'' if x['has_map'] else ' (no map object!)'} "
+                  f"map {x['map'] or float('nan'):6.2f} s"
+                  f"{'' if x['has_map'] else ' (no map object!)'}, figures {x['done']:6.2f} s "
                   f"(verify worker {x['worker']:.2f} s)")
+            print(f"       the panel's own share: paths shown − planning stages "
+                  f"{x['paths'] - x['plan']:.2f} s, colour map − paths shown "
+                  f"{x['map'] - x['paths']:.2f} s = {(x['map'] - x['paths']) / x['worker']:.2f} × "
+                  "the verify worker's time")
             print(f"       UI frozen at most: invoke (read the mesh) {1e3 * x['invoke']:.0f} ms, "
                   f"a planning tick {1e3 * x['plan_tick']:.0f} ms, writing the paths "
-                  f"{1e3 * x['show_tick']:.0f} ms, a tick polling the worker "
+                  f"{1e3 * x['show_tick']:.0f} ms, a tick polling the worker (or showing the map) "
                   f"{1e3 * x['poll_tick']:.0f} ms, attaching the figures "
                   f"{1e3 * x['attach_tick']:.0f} ms")
         med = statistics.median
         ms_ = med(sync)
-        mp, mm = med([x["paths"] for x in inter]), med([x["map"] for x in inter])
+        mp, mm = med([x["paths"] for x in inter]), med([x["map"] or 0.0 for x in inter])
+        md = med([x["done"] for x in inter])
         print(f"median of {args.repeat}: synchronous {ms_:.2f} s; interactive paths shown "
               f"{mp:.2f} s ({mp / ms_:.2f} of synchronous), colour map {mm:.2f} s "
-              f"({mm / ms_:.2f}); longest tick while verifying "
+              f"({mm / ms_:.2f}), figures {md:.2f} s ({md / ms_:.2f}); longest tick while "
+              f"verifying "
               f"{1e3 * med([x['poll_tick'] for x in inter]):.0f} ms")
     finally:
         blisk_cam.unregister()

@@ -70,8 +70,15 @@ from ..core.errors import BliskCamError
 from ..core.geometry.axis import angular_range
 from ..core.part.profiles import morph_between
 from ..core.toolpath import types as _toolpath
-from ..core.toolpath.paths_io import path_to_dict
 from .objects import arrays_to_object, colored_material, cone_to_object, mm_per_blender_unit
+from .paths_text import (
+    TEXT_LINE,
+    from_text_lines,
+    paths_json_text,
+    replace_last_character,
+    text_lines,
+    to_text_lines,
+)
 
 __all__ = [
     "COLLECTION_PREFIX",
@@ -80,6 +87,7 @@ __all__ = [
     "find_output_collection",
     "output_objects",
     "stored_paths_json",
+    "TEXT_LINE",
     "text_lines",
     "paths_json_text",
     "write_path_objects",
@@ -88,6 +96,9 @@ __all__ = [
     "clear_path_objects",
     "restyle",
     "attach_verify",
+    "store_paths_text",
+    "show_verify_map",
+    "remove_verify_map",
     "curve_points_mm",
 ]
 
@@ -95,6 +106,8 @@ COLLECTION_PREFIX = "Blisk CAM – "  # en dash
 #: custom property names on the output collection
 KEY_BLADE = "blisk_cam_blade"
 KEY_TEXT = "blisk_cam_paths_text"
+#: on a collection written with ``defer_text``: the previous result's Text name, until stored
+KEY_TEXT_PENDING = "blisk_cam_paths_text_pending"
 KEY_CUSP = "blisk_cam_cusp"
 KEY_CHORD = "blisk_cam_chord"
 KEY_ROLE = "blisk_cam_role"  # on objects: "cc", "tip", "poses", "pose", "verify", CONE_ROLES
@@ -173,55 +186,7 @@ def stored_paths_json(blade_name: str) -> str | None:
     if coll is None:
         return None
     text = bpy.data.texts.get(coll.get(KEY_TEXT, ""))
-    return _from_text_lines(text.as_string()) if text is not None else None
-
-
-def _to_text_lines(json_text: str) -> str:
-    r"""The one-line JSON broken after every point (``"], ["`` → ``"],\n["``) for the Text
-    datablock: Blender's Text is quadratic in the length of a line (a 1 MB line takes
-    minutes) and fast with many short lines; a line still longer than :data:`TEXT_LINE`
-    characters is broken further (:func:`_wrapped`). ``json.dumps`` output holds no raw
-    newline, so removing every newline gives the JSON back (with ``"],["`` between points)."""
-    if "\n" in json_text:
-        raise BliskCamError("internal: the paths JSON to store holds a raw newline")
-    lines = json_text.replace("], [", "],\n[").split("\n")
-    return "\n".join(_wrapped(x) if len(x) > TEXT_LINE else x for x in lines)
-
-
-#: the longest line the Text datablock is given: lists that are not lists of points (the
-#: per-pose ``move`` names, 130 000 characters on Rotor 37, 0.8 s in ``from_string``) are
-#: broken after a ``", "`` every this many characters (a newline inserted, nothing replaced:
-#: removing the newlines gives what the point breaks alone give)
-TEXT_LINE = 1000
-
-
-def _wrapped(line: str) -> str:
-    """``line`` with a newline after the last ``", "`` before every :data:`TEXT_LINE`
-    characters (after exactly that many where there is none)."""
-    out, start = [], 0
-    while len(line) - start > TEXT_LINE:
-        cut = line.rfind(", ", start, start + TEXT_LINE)
-        cut = cut + 2 if cut > start else start + TEXT_LINE
-        out.append(line[start:cut])
-        start = cut
-    out.append(line[start:])
-    return "\n".join(out)
-
-
-def _from_text_lines(stored: str) -> str:
-    return stored.replace("\n", "")
-
-
-def text_lines(json_text: str) -> tuple[str, str]:
-    """(the Text datablock's content for ``json_text``, what :func:`stored_paths_json` then
-    returns). No bpy: a worker thread makes them for ``write_path_objects(text=...)``."""
-    lines = _to_text_lines(json_text)
-    return lines, _from_text_lines(lines)
-
-
-def paths_json_text(path) -> str:
-    """The paths JSON of ``path`` as text: byte for byte what ``write_paths_json`` writes."""
-    return json.dumps(path_to_dict(path), allow_nan=False)
+    return from_text_lines(text.as_string()) if text is not None else None
 
 
 # --- colours -----------------------------------------------------------------------------
@@ -639,6 +604,7 @@ def write_path_objects(
     blade_arrays=None,
     vertex_values=None,
     text: str | None = None,
+    defer_text: bool = False,
 ) -> dict:
     """Show ``path`` (a core ``ToolPath``, mm) as objects in the blade's output collection,
     replacing the previous ones, and keep its paths JSON in a Text datablock.
@@ -655,6 +621,9 @@ def write_path_objects(
     blade_arrays : (V (n, 3) mm, F (m, 3)) — the blade mesh as read; with ``vertex_values``
         (n,) material left per *input* vertex (NaN outside) a verify colour-map copy is made
     text : str, optional — ``json_text``'s Text content made beforehand (:func:`text_lines`)
+    defer_text : bool — no JSON now (``json_text``, ``text`` unused): :func:`store_paths_text`
+        stores it later (the interactive Generate shows the paths before their JSON is made);
+        until then the output holds no JSON (:func:`has_paths` is False)
 
     Returns
     -------
@@ -669,7 +638,7 @@ def write_path_objects(
     f = mm_per_blender_unit(scene)
     bname = blade.name
     name = collection_name(bname)
-    if json_text is None:
+    if json_text is None and not defer_text:
         json_text = paths_json_text(path)
 
     old = find_output_collection(bname)  # replaced once the new result is complete
@@ -680,8 +649,8 @@ def write_path_objects(
     except Exception:
         _remove_collection_tree(new)
         raise
-    if text is None:
-        text = _to_text_lines(json_text)
+    if text is None and not defer_text:
+        text = to_text_lines(json_text)
     objs["text"] = _replace_output(scene, blade, old, new, pending[0], text)
     objs["pose_empties"] = _pose_empties(*pending)
     return objs
@@ -749,8 +718,9 @@ def _fill_output(new, bname, path, settings, f, verify, blade_arrays, vertex_val
 
 def _replace_output(scene, blade, old, new, poses_coll, lines):
     """The complete result ``new`` replaces ``old`` (removed): final names, linked beside the
-    blade, the paths JSON (``lines``: :func:`_to_text_lines`) in the Text datablock (the old
-    one reused); returns the Text."""
+    blade, the paths JSON (``lines``: :func:`to_text_lines`) in the Text datablock (the old
+    one reused); returns the Text (None with ``lines`` None: the old Text's name is kept for
+    :func:`store_paths_text`)."""
     name = collection_name(blade.name)
     old_text = bpy.data.texts.get(old.get(KEY_TEXT, "")) if old is not None else None
     if old is not None:
@@ -762,11 +732,32 @@ def _replace_output(scene, blade, old, new, poses_coll, lines):
         if ob.data is not None:
             ob.data.name = ob.name
     _link_under(_parent_collection(scene, blade), new)
-    text = old_text or bpy.data.texts.get(name + ".json") or bpy.data.texts.new(name + ".json")
+    if lines is None:
+        new[KEY_TEXT_PENDING] = old_text.name if old_text is not None else ""
+        return None
+    return _store_text(new, lines, old_text, name + ".json")
+
+
+def _store_text(coll, lines, old_text, name):
+    """The paths JSON (``lines``) in the output ``coll``'s Text datablock (``old_text``, the
+    previous result's, reused; else the one called ``name``, made if missing); the Text."""
+    text = old_text or bpy.data.texts.get(name) or bpy.data.texts.new(name)
     text.from_string(lines)
     text.use_fake_user = True
-    new[KEY_TEXT] = text.name
+    coll[KEY_TEXT] = text.name
     return text
+
+
+def store_paths_text(blade_name: str, lines: str):
+    """Store the paths JSON (``lines``: :func:`text_lines`' Text content) of the output
+    :func:`write_path_objects` wrote with ``defer_text``; returns the Text, or None (nothing
+    written) when that output is gone or holds its JSON already (cleared, regenerated)."""
+    coll = find_output_collection(blade_name)
+    if coll is None or KEY_TEXT_PENDING not in coll:
+        return None
+    old_text = bpy.data.texts.get(coll[KEY_TEXT_PENDING])
+    del coll[KEY_TEXT_PENDING]
+    return _store_text(coll, lines, old_text, collection_name(blade_name) + ".json")
 
 
 def attach_verify(
@@ -819,44 +810,56 @@ def attach_verify(
         _, _, _, sc = spline_pieces(path, key, cusp)
         ob.data[KEY_SPLINE_CUSP] = [float(x) if np.isfinite(x) else -1.0 for x in sc]
         _style_curves(ob, settings.color_mode, float(path.cusp))
-    out = {"collection": coll, "verify": None}
+    out = {"collection": coll, "verify": objs["verify"]}
     if blade_arrays is not None and vertex_values is not None:
-        old = objs["verify"]
-        if old is not None:
-            data = old.data
-            bpy.data.objects.remove(old)
-            if data is not None and data.users == 0:
-                bpy.data.meshes.remove(data)
-        V, F = blade_arrays
-        ob = _verify_object(bname, V, F, vertex_values, float(path.cusp), float(path.chord),
-                            f, coll)
-        ob.name = ob[KEY_NAME]
-        ob.data.name = ob.name
-        out["verify"] = ob
+        out["verify"] = _replace_verify_object(coll, objs["verify"], bname, path, blade_arrays,
+                                               vertex_values, f)
     text = bpy.data.texts.get(coll.get(KEY_TEXT, ""))
     if text is None:
         text = bpy.data.texts.new(collection_name(bname) + ".json")
         text.use_fake_user = True
         coll[KEY_TEXT] = text.name
         tail = None
-    if tail is None or not _replace_last_character(text, tail):
-        text.from_string(_to_text_lines(json_text) if lines is None else lines)
+    if tail is None or not replace_last_character(text, tail):
+        text.from_string(to_text_lines(json_text) if lines is None else lines)
     out["text"] = text
     return out
 
 
-def _replace_last_character(text, tail: str) -> bool:
-    """Replace the Text's last character (the stored JSON's closing brace) by ``tail`` (broken
-    into lines as :func:`_to_text_lines` does): milliseconds where rewriting the whole Text
-    takes a tenth of a second. False (nothing changed) when the Text does not end with "}"."""
-    n = len(text.lines) - 1
-    body = text.lines[n].body if n >= 0 else ""
-    if not body.endswith("}"):
-        return False
-    text.cursor_set(n, character=len(body) - 1)
-    text.cursor_set(n, character=len(body), select=True)
-    text.write(_to_text_lines(tail))
-    return True
+def _replace_verify_object(coll, old, bname, path, blade_arrays, vertex_values, f):
+    """The verify colour map made anew in ``coll`` (``old`` removed), with its final name."""
+    _remove_object(old)
+    V, F = blade_arrays
+    ob = _verify_object(bname, V, F, vertex_values, float(path.cusp), float(path.chord), f, coll)
+    ob.name = ob[KEY_NAME]
+    ob.data.name = ob.name
+    return ob
+
+
+def _remove_object(ob):
+    """Delete ``ob`` (None: nothing) and its mesh when nothing else uses it."""
+    if ob is None:
+        return
+    data = ob.data
+    bpy.data.objects.remove(ob)
+    if data is not None and data.users == 0:
+        bpy.data.meshes.remove(data)
+
+
+def show_verify_map(scene, blade, path, blade_arrays, vertex_values):
+    """The verify colour map alone, before the other figures (arguments and object as
+    :func:`attach_verify`'s, which keeps it when then given no ``blade_arrays``): the
+    interactive Generate shows it as soon as the material left is measured."""
+    coll = find_output_collection(blade.name)
+    if coll is None:
+        raise BliskCamError(f"the paths of '{blade.name}' were removed; generate again")
+    return _replace_verify_object(coll, output_objects(coll)["verify"], blade.name, path,
+                                  blade_arrays, vertex_values, mm_per_blender_unit(scene))
+
+
+def remove_verify_map(blade_name: str):
+    """Remove a blade's verify colour map (a verify dropped after :func:`show_verify_map`)."""
+    _remove_object(output_objects(find_output_collection(blade_name))["verify"])
 
 
 def clear_path_objects(blade_name: str) -> bool:

@@ -8,11 +8,17 @@ the progress; ESC while planning stops the worker at its next step and leaves th
 result as it was (the new objects are only built once the path is complete). As soon as the
 path is planned its objects (curves, poses, empties, cones) replace the previous ones; with
 the ``verify`` setting on, ``core.verify.verify_path`` then measures the path on another
-worker thread while the UI stays free, the panel shows "Verifying…", and the timer attaches
-the figures when they are ready: the verdict in the paths JSON, the measured cusp per curve,
-the statistics and (``verify_map``) the colour-map copy of the blade
-(:func:`blisk_cam.blender.path_objects.attach_verify`). ESC while verifying, or a new Generate,
-drops the pending figures and stops the worker at its next chunk of points (``verify_path``'s cancel
+worker thread while the UI stays free (that worker first makes the paths JSON, which the
+next tick stores: the objects do not wait for it; ESC or any end stores it too), the panel
+shows "Verifying…", and the timer attaches the figures when they are ready: the verdict in
+the paths JSON, the measured cusp per curve, the statistics and (``verify_map``) the
+colour-map copy of the blade
+(:func:`blisk_cam.blender.path_objects.attach_verify`). The colour map comes first: the
+worker hands the material left over as soon as it is measured (``verify_path``'s
+``on_material_left``, before the scallops, a third of verify) and the next tick shows it
+(:func:`~blisk_cam.blender.path_objects.show_verify_map`; the same values the report then
+holds). ESC while verifying, or a new Generate, drops the pending figures (and a colour map
+already shown) and stops the worker at its next chunk of points (``verify_path``'s cancel
 hook): the new paths stay, without verify figures or a colour map.
 
 In background mode, or called with EXEC_DEFAULT, it runs synchronously (plan, verify, then
@@ -84,7 +90,11 @@ class PathJob:
         self._cancel = None  # threading.Event of the running worker
         self._verify_result = self._verify_error = None
         self.verify_cancelled = False
-        self.written_json = None  # the paths JSON show_paths wrote
+        # the colour-map values the worker hands over before its last steps, and whether
+        # show_map showed them (attach_verify then keeps that map)
+        self._early_values = self._news = None
+        self.map_shown = False
+        self.written_json = None  # the paths JSON stored for the shown paths
         self.paths_json = None  # the planned path's JSON (without verify), by the plan worker
         self._paths_text = None  # its (Text content, stored form): path_objects.text_lines
         self.paths_seconds = None  # seconds from the start until the paths were shown
@@ -138,9 +148,8 @@ class PathJob:
                     # the compiled kernels on every core, as verify does (the same answers)
                     with parallel(None):
                         done = self.step(float("inf"), cancel)
-                    if done:  # the JSON too: less on the UI thread
-                        self.paths_json = paths_json_text(self.plan.path)
-                        self._paths_text = text_lines(self.paths_json)
+                    if done and not self.want_verify:  # the JSON too: less on the UI thread
+                        self._make_json()  # (with verify: the verify worker, once shown)
                 except BaseException as exc:  # handed to the main thread, raised there
                     self._plan_error = exc
 
@@ -186,27 +195,81 @@ class PathJob:
         mesh, path = self.mesh, self.plan.path
         cancel = self._cancel = threading.Event()  # set by cancel_verify: the worker stops
 
+        early = self.material_left_measured
+
         def work():
             t0 = time.perf_counter()
             try:
-                report = verify_path(mesh, path, cancel=cancel)
+                if self._paths_text is None:  # the shown paths' JSON first (store_text)
+                    self._make_json()
+                    self._news.set()
+                report = verify_path(mesh, path, cancel=cancel, on_material_left=early)
                 # the rest of the figures too (pure core), so attaching is only bpy work
                 verdict, json_text = self._verdict_json(report)
-                values = self._map_values(report)
-                # the shown JSON with the verdict appended: only its end is rewritten
+                values = self._early_values  # the report's vertex_values, mapped already
+                if values is None:
+                    values = self._map_values(report)
+                # the shown JSON with the verdict appended: only its end is rewritten (the
+                # whole Text's content is made only when not)
                 head = self.paths_json[:-1] if self.paths_json else None
                 tail = json_text[len(head):] if head and json_text.startswith(head) else None
                 self._verify_result = (report, verdict, json_text, values,
-                                       text_lines(json_text)[0], tail)
+                                       None if tail else text_lines(json_text)[0], tail)
             except BaseException as exc:  # handed to the main thread, reported there
                 self._verify_error = exc
             self.verify_seconds = time.perf_counter() - t0
+            self._news.set()
 
-        self._verify_result = self._verify_error = None
-        self.verify_cancelled = False
+        self._verify_result = self._verify_error = self._early_values = None
+        self.verify_cancelled = self.map_shown = False
+        self._news = threading.Event()  # set by the worker: the map's values, then its end
         self._thread = threading.Thread(target=work, name="blisk_cam verify", daemon=True)
         self._thread.start()
         return True
+
+    def _make_json(self):
+        """The planned path's JSON and its Text content (no bpy: the workers make them)."""
+        lines = text_lines(js := paths_json_text(self.plan.path))
+        self.paths_json = js
+        self._paths_text = lines
+
+    def store_text(self) -> bool:
+        """Store the shown paths' JSON (:func:`~blisk_cam.blender.path_objects.store_paths_text`)
+        once the verify worker has made it (its first step); True when stored now. Main
+        thread (bpy)."""
+        if self.written_json is not None or self._paths_text is None:
+            return False
+        from ..blender import path_objects as output
+
+        if output.store_paths_text(self.blade_name, self._paths_text[0]) is None:
+            return False  # the output is gone or replaced: attach_verify says so
+        self.written_json = self._paths_text[1]
+        return True
+
+    def ensure_text(self):
+        """The shown paths' JSON stored now, made here if the worker has not made it (a verify
+        dropped, stopped or failed before): the paths are never left without their JSON."""
+        if self.paths_seconds is None or self.written_json is not None:
+            return
+        if self._paths_text is None:
+            try:
+                self._make_json()
+            except ValueError:  # not JSON (a non-finite value): the worker failed on it too
+                return  # and attach_verify reports its error; the objects stay without JSON
+        self.store_text()
+
+    def material_left_measured(self, vertex_values):
+        """The worker's ``on_material_left``: keep the colour map's values (per input vertex)
+        for :meth:`show_map`. No bpy."""
+        if self.want_map:
+            self._early_values = input_vertex_values(self.mesh, self.V, vertex_values)
+            self._news.set()
+
+    def wait_news(self, wait: float):
+        """Wait up to ``wait`` seconds for the worker's news (the colour map's values, its
+        end): a tick acts on it at once instead of at the next timer event."""
+        if self._news is not None and self._news.wait(wait):
+            self._news.clear()
 
     @property
     def verify_pending(self) -> bool:
@@ -230,12 +293,46 @@ class PathJob:
     def cancel_verify(self):
         """Drop the pending figures: they are never attached, and the worker stops at its
         next chunk of points (``verify_path``'s cancel hook; it ends with
-        ``core.runtime.Cancelled`` in ``_verify_error`` and no result)."""
+        ``core.runtime.Cancelled`` in ``_verify_error`` and no result). A colour map shown
+        already (:meth:`show_map`) is removed: the paths stay without any verify figure.
+        Main thread (bpy)."""
         self.verify_cancelled = True
         if getattr(self, "_cancel", None) is not None:
             self._cancel.set()
         if _VERIFYING.get(self.scene_name) is self:
             del _VERIFYING[self.scene_name]
+        self._drop_map()
+        self.ensure_text()
+
+    def show_map(self, context) -> bool:
+        """Show the colour map as soon as the worker has handed its values over (the
+        material left is measured; the scallops are not), if the shown paths are still this
+        job's; True when it did now. Main thread (bpy)."""
+        values = self._early_values
+        if values is None or self.map_shown or self.verify_cancelled or not self._ours():
+            return False
+        from ..blender import path_objects as output
+
+        output.show_verify_map(context.scene, self._blade(), self.plan.path, (self.V, self.F),
+                               values)
+        self.map_shown = True
+        return True
+
+    def _ours(self) -> bool:
+        """The blade's output is still the one :meth:`show_paths` wrote."""
+        from ..blender import path_objects as output
+
+        return (self.written_json is not None
+                and output.stored_paths_json(self.blade_name) == self.written_json)
+
+    def _drop_map(self):
+        """Remove the colour map :meth:`show_map` showed (while the paths are this job's)."""
+        if getattr(self, "map_shown", False):
+            self.map_shown = False
+            if self._ours():
+                from ..blender import path_objects as output
+
+                output.remove_verify_map(self.blade_name)
 
     # --- writing ------------------------------------------------------------------------
     def _verdict_json(self, report):
@@ -248,8 +345,14 @@ class PathJob:
 
         path = self.plan.path
         verdict = judge(report, path.cusp, path.chord, path.tool, path=path)
-        return verdict, json.dumps({**path_to_dict(path), "verify": verdict_dict(verdict)},
-                                   allow_nan=False)
+        verify = verdict_dict(verdict)
+        head = self.paths_json
+        if path.verify is None and head is not None and head.endswith("}") and len(head) > 2:
+            # the planned path's JSON, made already, with "verify" appended: json.dumps of
+            # the merged dict gives these very bytes (a key new to the dict goes last; a
+            # nested value is written as on its own), without writing the path again
+            return verdict, f'{head[:-1]}, "verify": {json.dumps(verify, allow_nan=False)}}}'
+        return verdict, json.dumps({**path_to_dict(path), "verify": verify}, allow_nan=False)
 
     def _blade(self):
         blade = bpy.data.objects.get(self.blade_name)
@@ -274,9 +377,10 @@ class PathJob:
             warnings.append(" ".join(x.strip() for x in verdict_lines(self.verdict)[:3]))
         return warnings
 
-    def finish(self, context) -> str:
+    def finish(self, context, defer_text: bool = False) -> str:
         """Write the objects and statistics (with the verify figures, if measured); returns
-        the summary for the report."""
+        the summary for the report. ``defer_text``: the paths JSON stored later
+        (:meth:`store_text`)."""
         from ..blender import path_objects as output
 
         scene = context.scene
@@ -296,6 +400,7 @@ class PathJob:
             blade_arrays=(self.V, self.F) if values is not None else None,
             vertex_values=values,
             text=None if text is None else text[0],
+            defer_text=defer_text,
         )
         if self.set_blade:
             settings.blade = blade
@@ -312,9 +417,13 @@ class PathJob:
         of the paths (:meth:`begin_verify` then starts the verify worker)."""
         from ..blender import path_objects as output
 
-        text = self.finish(context)  # self.verify is None: the paths without figures
-        self.written_json = (self._paths_text[1] if self._paths_text is not None
-                             else output.stored_paths_json(self.blade_name))
+        # self.verify is None: the paths without figures; with verify, their JSON too is
+        # made by the verify worker (its first step) and stored by a later tick (store_text)
+        defer = self._paths_text is None and self.want_verify
+        text = self.finish(context, defer_text=defer)
+        if not defer:
+            self.written_json = (self._paths_text[1] if self._paths_text is not None
+                                 else output.stored_paths_json(self.blade_name))
         self.paths_seconds = time.perf_counter() - self.t0
         # the worker starts after the writing: while this thread writes (bpy calls holding
         # the GIL) a verify worker would take every other GIL turn and stretch this tick
@@ -339,9 +448,11 @@ class PathJob:
         if _VERIFYING.get(self.scene_name) is self:
             del _VERIFYING[self.scene_name]
         if self._verify_error is not None:
+            self._drop_map()
+            self.ensure_text()
             raise self._verify_error
         blade = self._blade()
-        if output.stored_paths_json(self.blade_name) != self.written_json:
+        if not self._ours():
             raise BliskCamError(
                 f"the paths of '{self.blade_name}' changed while they were being verified; "
                 "the verify figures were dropped (generate again to verify)"
@@ -355,7 +466,9 @@ class PathJob:
             scene, blade, path, settings,
             json_text=json_text,
             verify=self.verify,
-            blade_arrays=(self.V, self.F) if values is not None else None,
+            # the map shown early holds these values already (the same array)
+            blade_arrays=(self.V, self.F) if values is not None and not self.map_shown
+            else None,
             vertex_values=values,
             text=lines,
             tail=tail,
@@ -432,13 +545,13 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         """Plan → show the paths → poll the verify worker → attach its figures."""
         job = self._job
         wm = context.window_manager
-        # planned means the worker is done too (its last step, the paths JSON, follows the
-        # plan): showing while it still runs would make the JSON twice, fighting for the GIL
-        if job.written_json is None and not job.poll_plan():
+        # planned means the worker is done too (without verify its last step, the paths
+        # JSON, follows the plan): showing while it still runs would fight it for the GIL
+        if job.paths_seconds is None and not job.poll_plan():
             wm.progress_update(int(90 * job.fraction))
             self._status(context, f"{int(100 * job.fraction)} % — {job.message}")
             return None
-        if job.written_json is None:  # planned: show the paths now (this tick)
+        if job.paths_seconds is None:  # planned: show the paths now (this tick)
             text = job.show_paths(context)
             self.running.discard(job.scene_name)  # a new Generate may start (and cancel)
             if not job.want_verify:
@@ -456,6 +569,13 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
             self.report({"WARNING"}, "Verify dropped: a new generation started")
             return {"FINISHED"}
         if not job.verify_ready:
+            job.wait_news(0.02)  # the JSON, the map's values or the end, within this tick
+        stored = job.store_text()  # the shown paths' JSON, the worker's first product
+        if not job.verify_ready:
+            if not stored and job.show_map(context):  # the map now, the other figures later
+                self._status(context, "colour map shown, measuring the scallops",
+                             escape="ESC skips the verify")
+                _tag_redraw(context)
             return None
         try:
             text = job.attach_verify(context)
@@ -468,7 +588,7 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
 
     def escape(self, context):
         job = self._job
-        if job.written_json is None:
+        if job.paths_seconds is None:  # still planning
             return ModalJobOperator.escape(self, context)
         # the new paths are shown: keep them (FINISHED, one undo step), drop the figures
         job.cancel_verify()
@@ -481,6 +601,7 @@ class BLISKCAM_OT_generate_paths(ModalJobOperator, bpy.types.Operator):
         job.cancel_plan()  # ESC or an error while planning: the worker stops at its next step
         if job.verify_pending:  # ended by Blender (file load, window closed) or an error
             job.cancel_verify()
+        job.ensure_text()  # the shown paths keep their JSON however the run ended
         _tag_redraw(context)
 
 

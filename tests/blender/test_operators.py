@@ -536,7 +536,8 @@ def _runner(op_class=None):
 
 
 def _until_paths_shown(runner, max_ticks=500):
-    """Timer ticks until the planned paths are written; the return set of the last tick."""
+    """Timer ticks until the planned paths are written with their JSON (stored by a tick
+    after the one showing them when verify is on); the return set of the last tick."""
     for _ in range(max_ticks):
         result = runner.step(bpy.context)
         if result != {"RUNNING_MODAL"} or runner._job.written_json is not None:
@@ -729,6 +730,111 @@ def test_interactive_generate_shows_the_paths_then_the_verify_map(addon, demo):
     assert f"Verify: {ref_json['verify']['status']}" in labels
     assert f"Measured max material left: {s.stat_material_left:.4f} mm" in labels
     assert not [x for x in labels if x.startswith("Verifying")]
+
+
+def test_the_colour_map_shows_before_the_other_verify_figures(addon, demo):
+    """The worker hands the material left over before its scallops: the next tick shows the
+    colour map alone (no verdict yet), a later one the other figures, keeping that map; the
+    end equals the synchronous run. ESC once the map is shown removes it with the figures."""
+    import threading
+
+    scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, verify=True, verify_map=True)
+    s = scene.blisk_cam
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}  # synchronous: the reference
+    ref_json = _without_stats(output.stored_paths_json("Blade"))
+    ref = _verify_state()
+    output.clear_path_objects("Blade")
+    handed, go = threading.Event(), threading.Event()
+    for esc in (False, True):
+        handed.clear()
+        go.clear()
+        op = _runner()
+        job = op._job
+        hand_over = job.material_left_measured
+
+        def held(values, hand_over=hand_over):  # the worker held once it has handed them
+            hand_over(values)
+            handed.set()
+            go.wait(600.0)
+
+        job.material_left_measured = held
+        try:
+            assert _until_paths_shown(op) == {"RUNNING_MODAL"}
+            assert handed.wait(600.0) and _verify_state()["map"] is None
+            assert op.step(bpy.context) == {"RUNNING_MODAL"}  # this tick shows the map
+            early = _verify_state()
+            assert job.map_shown and job.verify_pending and not s.stat_verified
+            np.testing.assert_array_equal(early["map"], ref["map"])
+            assert early["verdict"] is None and early["map_objects"] == ["Blade verify"]
+            map_object = output.output_objects(output.find_output_collection("Blade"))["verify"]
+            if esc:  # the paths stay, without any verify figure: the map goes too
+                assert op.step(bpy.context, "ESC") == {"FINISHED"}
+                assert _verify_state()["map_objects"] == [] and not job.map_shown
+        finally:
+            go.set()
+        assert job.wait_verify(600.0)
+        if esc:
+            assert _verify_state()["map_objects"] == [] and _verify_state()["verdict"] is None
+            assert not gen_mod._VERIFYING and not s.stat_verified
+            continue
+        assert op.step(bpy.context) == {"FINISHED"}, op.reports
+        got = _verify_state()
+        assert _without_stats(output.stored_paths_json("Blade")) == ref_json
+        # the verdict appended to the planned path's JSON: the bytes of the merged dict's
+        from blisk_cam.core.toolpath.paths_io import path_to_dict
+        from blisk_cam.core.verify.verdict import verdict_dict
+
+        whole = {**path_to_dict(job.plan.path), "verify": verdict_dict(job.verdict)}
+        stored = output.text_lines(json.dumps(whole, allow_nan=False))[1]  # as the Text keeps
+        assert output.stored_paths_json("Blade") == stored
+        np.testing.assert_array_equal(got["map"], ref["map"])
+        assert got["spline_cusp"] == ref["spline_cusp"] and got["materials"] == ref["materials"]
+        assert got["map_objects"] == ["Blade verify"] and s.stat_verified
+        kept = output.output_objects(output.find_output_collection("Blade"))["verify"]
+        assert kept.as_pointer() == map_object.as_pointer()  # the early map, not a new one
+
+
+def _until_shown_without_json(runner, max_ticks=500):
+    """Timer ticks until the tick showing the planned paths (verify on: their JSON not yet)."""
+    for _ in range(max_ticks):
+        assert runner.step(bpy.context) == {"RUNNING_MODAL"}, runner.reports
+        if runner._job.paths_seconds is not None:
+            return
+        runner._job.wait_plan(0.05)
+    raise AssertionError("the paths were not planned in time")
+
+
+def test_the_paths_show_before_their_json_which_is_never_missing_after(addon, demo):
+    """With verify on, the tick the plan completes shows the objects; the verify worker makes
+    the paths JSON first and a later tick stores it, in the previous result's Text. ESC on
+    the very next tick: the JSON is made then, the paths never stay without it."""
+    scene, blade = _blade_scene(demo, cusp=0.5, chord=0.5, verify=True, verify_map=False)
+    assert bpy.ops.blisk_cam.generate_paths() == {"FINISHED"}  # an old result and its Text
+    name = output.collection_name("Blade") + ".json"
+    old_text = bpy.data.texts[name]
+    scene.blisk_cam.cusp = 0.45
+    for esc in (False, True):
+        op = _runner()
+        job = op._job
+        _until_shown_without_json(op)
+        objs = output.output_objects(output.find_output_collection("Blade"))
+        assert objs["cc"] is not None and len(objs["pose_empties"]) == POSE_CAP
+        assert not output.has_paths("Blade") and job.written_json is None
+        if esc:
+            assert op.step(bpy.context, "ESC") == {"FINISHED"}
+        else:
+            assert _until_paths_shown(op) == {"RUNNING_MODAL"}
+        stored = output.stored_paths_json("Blade")
+        expect = output.text_lines(output.paths_json_text(job.plan.path))[1]
+        assert stored == expect == job.written_json and output.has_paths("Blade")
+        assert json.loads(stored)["tolerances"]["cusp"] == pytest.approx(0.45)
+        # the previous result's Text, reused: no "….json.001" beside it
+        assert bpy.data.texts[name] == old_text
+        assert [t.name for t in bpy.data.texts if t.name.startswith(name)] == [name]
+        job.wait_verify(600.0)
+        if not esc:
+            assert _ticks_to_the_end(op) == {"FINISHED"}
+            assert "verify" in json.loads(output.stored_paths_json("Blade"))
 
 
 def test_cancelling_a_pending_verify_leaves_a_consistent_scene(addon, demo):

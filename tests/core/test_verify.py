@@ -1019,3 +1019,18 @@ def test_cancel_hook_of_the_wrong_type_is_refused(sphere_bull):
     mesh, path = sphere_bull
     with pytest.raises(TypeError, match="threading.Event or a callable"):
         verify_path(mesh, path, cancel=3)
+
+
+def test_material_left_is_handed_over_before_the_scallops(sphere_bull):
+    """``on_material_left`` gets, once and before the scallops step starts, the per-vertex
+    material left the report then holds (a front end's early colour map is the final one)."""
+    mesh, path = sphere_bull
+    events = []
+    rep = verify_path(mesh, path, progress=lambda p: events.append(p.message),
+                      on_material_left=lambda v: events.append(np.array(v)))
+    got = [e for e in events if isinstance(e, np.ndarray)]
+    assert len(got) == 1
+    steps = [e if isinstance(e, str) else "values" for e in events]
+    assert steps.index("material") < steps.index("values") < steps.index("scallops")
+    np.testing.assert_array_equal(got[0], rep.vertex_values)
+    assert np.isfinite(got[0]).any() and np.isnan(got[0]).any()  # inside and outside

@@ -316,6 +316,7 @@ def verify_path(
     workers: int | None = None,
     cancel=None,
     progress=None,
+    on_material_left=None,
 ) -> VerifyReport:
     """Measure a tool path on its mesh, independently of the generator.
 
@@ -339,6 +340,9 @@ def verify_path(
     progress : None or callable(:class:`~..runtime.Progress`) — told the fraction done and
         the step starting (mesh tree, poses, samples, material, scallops, totals), for a
         front end's progress line; it does not change the figures
+    on_material_left : None or callable(vertex_values (n_vertices,) mm) — called once, on the
+        calling thread, as soon as the material left is measured (before the scallops): the
+        report's ``vertex_values`` to come (a front end shows its colour map early)
 
     Returns
     -------
@@ -346,7 +350,7 @@ def verify_path(
     """
     with parallel(workers), cancellable(cancel, "verify"):
         report = _verify_path(mesh, as_measured_on_blade(path), spacing, subsamples, refine,
-                              method, progress)
+                              method, progress, on_material_left)
     report.allowance = float(path.allowance or 0.0)
     return report
 
@@ -356,7 +360,8 @@ _STEPS = {"mesh tree": 0.0, "poses": 0.05, "samples": 0.35, "material": 0.45,
           "scallops": 0.7, "links": 0.93, "totals": 0.95}
 
 
-def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None):
+def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
+                 on_material_left=None):
     """:func:`verify_path` on the threads set by the caller: the named steps in order."""
     def step(name):
         check_cancel()
@@ -395,6 +400,8 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None)
     levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
                                                         P + rho * normals)
     tim["material"] = time.perf_counter() - t1
+    if on_material_left is not None:
+        on_material_left(smp.at_vertices(values, mesh.n_vertices))
 
     step("scallops")
     t1 = time.perf_counter()
@@ -765,10 +772,7 @@ def _totals(mesh, smp, P, values, whole, sc: _Scallops, ncur):
     else:
         max_left, max_gouge = np.nan, 0.0
         left_at = gouge_at = np.full(3, np.nan)
-    vertex_values = np.full(mesh.n_vertices, np.nan)
-    isv = smp.vertex >= 0
-    vertex_values[smp.vertex[isv]] = values[: len(smp)][isv]
-    return max_left, max_gouge, left_at, gouge_at, vertex_values
+    return max_left, max_gouge, left_at, gouge_at, smp.at_vertices(values, mesh.n_vertices)
 
 
 def _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim) -> VerifyReport:

@@ -54,6 +54,14 @@ class SurfaceSamples:
     def __len__(self) -> int:
         return len(self.points)
 
+    def at_vertices(self, values, n_vertices: int) -> np.ndarray:
+        """(n_vertices,) the values (k′ ≥ k,) of the samples that are mesh vertices, at their
+        vertices; NaN at the other vertices (outside the region)."""
+        out = np.full(int(n_vertices), np.nan)
+        isv = self.vertex >= 0
+        out[self.vertex[isv]] = np.asarray(values)[: len(self)][isv]
+        return out
+
 
 @lru_cache(maxsize=128)
 def _grid_template(n: int):
