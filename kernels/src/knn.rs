@@ -15,6 +15,37 @@ pub type P3 = [f64; 3];
 
 const LEAF: usize = 16;
 
+/// Anchors below which [`PointTree::grouped`] builds a plain subtree over their groups' points
+/// (a mesh vertex owns ~6 samples: ~6000 points, 200 kB to sort, in cache).
+const GROUP_ANCHORS: usize = 1024;
+
+/// The groups of [`PointTree::grouped`].
+struct Groups<'a, F> {
+    ptr: &'a [u32],
+    members: &'a [u32],
+    point: &'a F,
+}
+
+/// The tight box (lo (3), hi (3)) of points; empty: +∞ lows and −∞ highs (every query's
+/// lower bound to it is +∞).
+fn bounds<'a>(pts: impl Iterator<Item = &'a P3>) -> [f64; 6] {
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for p in pts {
+        for j in 0..3 {
+            b[j] = b[j].min(p[j]);
+            b[j + 3] = b[j + 3].max(p[j]);
+        }
+    }
+    b
+}
+
 /// Queries per run of [`PointTree::knn_many`] (one seeded by the one before).
 const SEEDED: usize = 64;
 
@@ -171,6 +202,148 @@ impl PointTree {
         boxes.extend(lb);
         boxes.extend(rb);
         (nodes, boxes)
+    }
+
+    /// A tree over points that come in groups, each near its anchor (a mesh vertex with the
+    /// edge midpoints and face centroids it owns, `mesh_samples::sample_point_tree`): the
+    /// upper splits are made on the anchors alone (a sixth of a mesh's samples: the passes
+    /// over the whole data that make a k-d tree's build slow sort a sixth of it), down to
+    /// [`GROUP_ANCHORS`] anchors; below, the points of those anchors' groups get the
+    /// subtree of [`PointTree::new`] (small enough to stay in cache), so the leaves and
+    /// their boxes are as tight as a plain tree's. The group of anchor `a` is
+    /// `members[ptr[a]..ptr[a + 1]]`, point ids whose coordinates are `point(id)`. The points
+    /// and ids are those [`PointTree::new`] is given for the same samples, and a query's
+    /// answer is a property of the point set, not of the tree's shape (see
+    /// [`PointTree::knn_seeded`] and [`PointTree::any_below`]): the same answers, from less
+    /// work and less memory (no (point, id) copy of every sample at once, no subtree's nodes
+    /// and boxes copied into its parent's).
+    pub fn grouped(
+        anchors: &[P3],
+        ptr: Vec<u32>,
+        members: Vec<u32>,
+        point: &(impl Fn(u32) -> P3 + Sync),
+    ) -> Self {
+        let total = ptr[anchors.len()] as usize;
+        let mut items: Vec<(P3, u32)> = anchors
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (*p, i as u32))
+            .collect();
+        let mut pts = vec![[0.0f64; 3]; total];
+        let mut ids = vec![0u32; total];
+        let nodes = if total == 0 {
+            Vec::new()
+        } else {
+            let region = bounds(items.iter().map(|x| &x.0));
+            let g = Groups {
+                ptr: &ptr,
+                members: &members,
+                point,
+            };
+            Self::split_groups(&mut items, &mut pts, &mut ids, 0, region, &g)
+        };
+        // freed before the boxes are made (the build's peak memory); the tight boxes go
+        // bottom-up (a node's children come after it) into one array, no subtree's boxes
+        // copied into its parent's
+        drop((items, ptr, members));
+        let mut boxes = vec![[0.0f64; 6]; nodes.len()];
+        for i in (0..nodes.len()).rev() {
+            boxes[i] = match nodes[i] {
+                Node::Leaf { start, end } => bounds(pts[start as usize..end as usize].iter()),
+                Node::Split { left, right } => {
+                    let (a, b) = (boxes[left as usize], boxes[right as usize]);
+                    [
+                        a[0].min(b[0]),
+                        a[1].min(b[1]),
+                        a[2].min(b[2]),
+                        a[3].max(b[3]),
+                        a[4].max(b[4]),
+                        a[5].max(b[5]),
+                    ]
+                }
+            };
+        }
+        PointTree {
+            pts,
+            ids,
+            nodes,
+            boxes,
+        }
+    }
+
+    /// The subtree of the groups of anchors `idx` inside `region`, their points written to
+    /// `pts`, `ids` (at `offset` in the tree order): see [`PointTree::grouped`].
+    fn split_groups<F: Fn(u32) -> P3 + Sync>(
+        idx: &mut [(P3, u32)],
+        pts: &mut [P3],
+        ids: &mut [u32],
+        offset: usize,
+        region: [f64; 6],
+        g: &Groups<'_, F>,
+    ) -> Vec<Node> {
+        let size = |a: u32| (g.ptr[a as usize + 1] - g.ptr[a as usize]) as usize;
+        if idx.len() <= GROUP_ANCHORS {
+            let mut items: Vec<(P3, u32)> = Vec::with_capacity(pts.len());
+            for (_, a) in idx.iter() {
+                for &m in &g.members[g.ptr[*a as usize] as usize..g.ptr[*a as usize + 1] as usize] {
+                    items.push(((g.point)(m), m));
+                }
+            }
+            if items.is_empty() {
+                // anchors without points: an empty leaf no query enters (its box is empty)
+                return vec![Node::Leaf {
+                    start: offset as u32,
+                    end: offset as u32,
+                }];
+            }
+            let tight = bounds(items.iter().map(|x| &x.0));
+            let (sub, _) = Self::build(&mut items, offset, tight);
+            for ((p, i), (q, m)) in pts.iter_mut().zip(ids.iter_mut()).zip(items) {
+                *p = q;
+                *i = m;
+            }
+            return sub;
+        }
+        let ext = |j: usize| region[j + 3] - region[j];
+        let dim = (0..3).max_by(|&a, &b| ext(a).total_cmp(&ext(b))).unwrap();
+        let m = idx.len() / 2;
+        idx.select_nth_unstable_by(m, |a, b| a.0[dim].total_cmp(&b.0[dim]));
+        let val = idx[m].0[dim];
+        let (mut lr, mut rr) = (region, region);
+        lr[dim + 3] = val;
+        rr[dim] = val;
+        let n = idx.len();
+        let (l, r) = idx.split_at_mut(m);
+        let nl_pts: usize = l.iter().map(|x| size(x.1)).sum();
+        let (lp, rp) = pts.split_at_mut(nl_pts);
+        let (li, ri) = ids.split_at_mut(nl_pts);
+        let (ln, rn) = if n > 8_192 {
+            rayon::join(
+                || Self::split_groups(l, lp, li, offset, lr, g),
+                || Self::split_groups(r, rp, ri, offset + nl_pts, rr, g),
+            )
+        } else {
+            (
+                Self::split_groups(l, lp, li, offset, lr, g),
+                Self::split_groups(r, rp, ri, offset + nl_pts, rr, g),
+            )
+        };
+        let nl = ln.len() as u32;
+        let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
+        nodes.push(Node::Split {
+            left: 1,
+            right: 1 + nl,
+        });
+        let shift = |node: Node, by: u32| match node {
+            Node::Split { left, right } => Node::Split {
+                left: left + by,
+                right: right + by,
+            },
+            leaf => leaf,
+        };
+        nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
+        nodes.extend(rn.into_iter().map(|x| shift(x, 1 + nl)));
+        nodes
     }
 
     /// The (up to) k nearest ids of `q` with squared distance below `ub2`, by (distance,
