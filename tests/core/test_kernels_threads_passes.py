@@ -138,3 +138,42 @@ def test_plan_same_on_one_and_two_threads():
         assert ca.s == cb.s
         for k in ("cc", "normal", "tip", "axis", "face", "move", "flags"):
             assert np.array_equal(getattr(ca, k), getattr(cb, k)), k
+
+
+@compiled
+def test_sample_tree_on_a_flat_grid_with_exact_ties():
+    """A flat triangulated grid (its leaves' frames lie in the plane z = 0: the bound they
+    give is exactly the height of a centre above it) and a copy folded along x = 0: centres
+    above nodes, edge midpoints and random spots at heights around ρ, with bounds at exactly
+    the distances the samples have (a sample at the bound is not within it) and a hair above
+    them (a frame's bound that rounded above its points' distances would drop them)."""
+    x, y = np.meshgrid(np.arange(-10.0, 10.5, 0.5), np.arange(-10.0, 10.5, 0.5))
+    n = x.shape[0]
+    V = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1))
+    a = (i * n + j).ravel()
+    F = np.vstack([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    rng = np.random.default_rng(8)
+    for fold in (False, True):
+        W = V.copy()
+        if fold:
+            W[:, 2] = 0.7 * np.abs(W[:, 0])
+        mesh = TriMesh.from_arrays(W, F)
+        e, T = mesh.edges, mesh.V[mesh.F]
+        pts = np.vstack([mesh.V, 0.5 * (mesh.V[e[:, 0]] + mesh.V[e[:, 1]]),
+                         ((T[:, 0] + T[:, 1]) + T[:, 2]) / 3.0])
+        C = np.vstack([
+            pts[rng.choice(len(pts), 500)] + [0.0, 0.0, 6.0],
+            pts[rng.choice(len(pts), 500)] + [0.25, 0.25, 5.9],
+            np.column_stack([rng.uniform(-9, 9, (500, 2)), rng.uniform(5.5, 6.5, 500)]),
+        ])
+        plain = compiled_knn.point_tree(pts, 1)
+        tree = compiled_tables.sample_tree(mesh.V, e, mesh.F, 2)
+        for bound in (6.05, 6.0, 6.0 + 1e-9, np.nextafter(6.0, 7.0), 5.9,
+                      np.sqrt(2 * 0.25 ** 2 + 5.9 ** 2)):
+            ids, tie = tree.query(C, 8, float(bound), 2)
+            ref_ids, ref_tie = plain.query(C, 8, float(bound), 1)
+            assert np.array_equal(ids, ref_ids) and np.array_equal(tie, ref_tie), bound
+            got = compiled_knn.points_within(tree, C, float(bound), 2)
+            assert np.array_equal(got, compiled_knn.points_within(plain, C, float(bound), 1))
+        assert np.count_nonzero(ref_tie) > 50  # the ties are there
