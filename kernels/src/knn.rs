@@ -109,7 +109,7 @@ struct Frame {
 /// the projections' scale (their rounding is below 1e-15 of it; the axes are unit and
 /// orthogonal within 1e-15), the squares summed, less 1e-9 of the sum (the frame's own
 /// rounding and `d2`'s are below 1e-14 of a squared distance); NaN-safe (a gap that is not
-/// a positive number counts 0).
+/// a positive number counts 0: a frame of NaNs bounds nothing).
 #[inline(always)]
 fn frame_d2(q: &P3, f: &Frame) -> f64 {
     let qmax = q[0].abs().max(q[1].abs()).max(q[2].abs());
@@ -399,33 +399,51 @@ impl PointTree {
         // bottom-up (a node's children come after it) into one array, no subtree's boxes
         // copied into its parent's
         drop((items, ptr, members));
-        let mut boxes = vec![[0.0f64; 6]; nodes.len()];
-        for i in (0..nodes.len()).rev() {
-            boxes[i] = match nodes[i] {
-                Node::Leaf { start, end, .. } => bounds(pts[start as usize..end as usize].iter()),
-                Node::Split { left, right } => {
-                    let (a, b) = (boxes[left as usize], boxes[right as usize]);
-                    [
-                        a[0].min(b[0]),
-                        a[1].min(b[1]),
-                        a[2].min(b[2]),
-                        a[3].max(b[3]),
-                        a[4].max(b[4]),
-                        a[5].max(b[5]),
-                    ]
-                }
-            };
-        }
+        // the leaves' boxes and frames in parallel (each of its own points), then the splits'
+        // boxes bottom-up; a leaf whose points span no plane gets a frame of NaNs (no bound)
         let mut nodes = nodes;
-        let mut frames = Vec::new();
-        for node in nodes.iter_mut() {
-            if let Node::Leaf { start, end, frame } = node {
-                if let Some(f) = frame_of(&pts[*start as usize..*end as usize]) {
-                    *frame = frames.len() as u32;
-                    frames.push(f);
+        let mut boxes = vec![[0.0f64; 6]; nodes.len()];
+        boxes
+            .par_iter_mut()
+            .zip(nodes.par_iter())
+            .with_min_len(1024)
+            .for_each(|(b, node)| {
+                if let Node::Leaf { start, end, .. } = node {
+                    *b = bounds(pts[*start as usize..*end as usize].iter());
                 }
+            });
+        for i in (0..nodes.len()).rev() {
+            if let Node::Split { left, right } = nodes[i] {
+                let (a, b) = (boxes[left as usize], boxes[right as usize]);
+                boxes[i] = [
+                    a[0].min(b[0]),
+                    a[1].min(b[1]),
+                    a[2].min(b[2]),
+                    a[3].max(b[3]),
+                    a[4].max(b[4]),
+                    a[5].max(b[5]),
+                ];
             }
         }
+        let mut ranges: Vec<(u32, u32)> = Vec::new();
+        for node in nodes.iter_mut() {
+            if let Node::Leaf { start, end, frame } = node {
+                *frame = ranges.len() as u32;
+                ranges.push((*start, *end));
+            }
+        }
+        let frames: Vec<Frame> = ranges
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(a, b)| {
+                frame_of(&pts[a as usize..b as usize]).unwrap_or(Frame {
+                    axes: [[f64::NAN; 3]; 3],
+                    lo: [f64::NAN; 3],
+                    hi: [f64::NAN; 3],
+                    reach: f64::NAN,
+                })
+            })
+            .collect();
         PointTree {
             pts,
             ids,
