@@ -8,12 +8,55 @@
 //! traversal: the search here keeps the k + 1 nearest by (distance, id) and reports a row
 //! whose k-th and (k + 1)-th are at the same distance, so that the caller asks scipy for
 //! that row; every other row's set of k is scipy's.
+//!
+//! The tree over a mesh's samples (`PointTree::grouped`) splits on the vertices first and
+//! keeps per leaf a box in the frame of the surface patch (`Frame`): a ball centre ρ off the
+//! surface is seen ρ away from the leaves around its contact, so fewer are opened. Each
+//! pruning bound is a lower bound of the squared distances as summed here, so the answers
+//! are those of the plain tree over the same points.
 
 use rayon::prelude::*;
 
 pub type P3 = [f64; 3];
 
 const LEAF: usize = 16;
+
+/// Points per leaf of a [`PointTree::grouped`] tree: leaves with a [`Frame`] are opened less
+/// often, and large ones bound best (the lift's nearest and the screens along 25 levels of
+/// the demo and Rotor 37 at 1M: 16 points a leaf 1.4 / -, 32: 1.07 / 1.51, 64: 0.89 / 1.24,
+/// 128: 0.84 / 1.26 s of CPU for the build and both searches).
+const FRAME_LEAF: usize = 64;
+
+/// Anchors below which [`PointTree::grouped`] builds a plain subtree over their groups' points
+/// (a mesh vertex owns ~6 samples: ~6000 points, 200 kB to sort, in cache).
+const GROUP_ANCHORS: usize = 1024;
+
+/// The groups of [`PointTree::grouped`].
+struct Groups<'a, F> {
+    ptr: &'a [u32],
+    members: &'a [u32],
+    point: &'a F,
+}
+
+/// The tight box (lo (3), hi (3)) of points; empty: +∞ lows and −∞ highs (every query's
+/// lower bound to it is +∞).
+fn bounds<'a>(pts: impl Iterator<Item = &'a P3>) -> [f64; 6] {
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for p in pts {
+        for j in 0..3 {
+            b[j] = b[j].min(p[j]);
+            b[j + 3] = b[j + 3].max(p[j]);
+        }
+    }
+    b
+}
 
 /// Queries per run of [`PointTree::knn_many`] (one seeded by the one before).
 const SEEDED: usize = 64;
@@ -27,8 +70,17 @@ pub struct KnnBuffers {
 }
 
 enum Node {
-    Leaf { start: u32, end: u32 },
-    Split { left: u32, right: u32 },
+    /// points `start..end` of the tree order; `frame`: their [`Frame`] in `frames`, or
+    /// [`NO_FRAME`]
+    Leaf {
+        start: u32,
+        end: u32,
+        frame: u32,
+    },
+    Split {
+        left: u32,
+        right: u32,
+    },
 }
 
 pub struct PointTree {
@@ -36,6 +88,131 @@ pub struct PointTree {
     ids: Vec<u32>, // the input id of each
     nodes: Vec<Node>,
     boxes: Vec<[f64; 6]>, // per node: lo (3), hi (3)
+    frames: Vec<Frame>,   // per leaf of a `grouped` tree (see `Node::Leaf`)
+}
+
+/// A leaf without a [`Frame`] (the trees of [`PointTree::new`]).
+const NO_FRAME: u32 = u32::MAX;
+
+/// A box around a leaf's points in a frame of their own: `axes` (unit, orthogonal), the last
+/// the normal of the surface patch the points sample; `lo` ≤ axes[j]·p ≤ `hi` for every point
+/// p; `reach` = √3 · max |p_j| (the scale of the projections' rounding). A ball centre ρ off
+/// a surface lies ρ from the frame box of the leaves around its contact plus their distance
+/// along the surface, which axis-aligned boxes (as thick as the patch is tilted) do not
+/// show: the leaves the search must open are fewer.
+struct Frame {
+    axes: [P3; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+    reach: f64,
+}
+
+/// A lower bound of the squared distance (as [`d2`] sums it) from `q` to every point in the
+/// frame box: per axis the gap between q's projection and [lo, hi], less a margin 1e-11 of
+/// the projections' scale (their rounding is below 1e-15 of it; the axes are unit and
+/// orthogonal within 1e-15), the squares summed, less 1e-9 of the sum (the frame's own
+/// rounding and `d2`'s are below 1e-14 of a squared distance); NaN-safe (a gap that is not
+/// a positive number counts 0: a frame of NaNs bounds nothing).
+#[inline(always)]
+fn frame_d2(q: &P3, f: &Frame) -> f64 {
+    let qmax = q[0].abs().max(q[1].abs()).max(q[2].abs());
+    let margin = 1e-11 * (f.reach + 1.8 * qmax);
+    let mut sum = 0.0;
+    for j in 0..3 {
+        let a = &f.axes[j];
+        let t = a[0] * q[0] + a[1] * q[1] + a[2] * q[2];
+        let gap = (f.lo[j] - t).max(t - f.hi[j]) - margin;
+        if gap > 0.0 {
+            sum += gap * gap;
+        }
+    }
+    sum * (1.0 - 1e-9)
+}
+
+/// The [`Frame`] of points (≥ 3 not on one line, all finite), else None: the normal of the
+/// plane their covariance spans most (the largest cross product of two of its rows), the
+/// first axis along the covariance row of largest spread across it.
+fn frame_of(pts: &[P3]) -> Option<Frame> {
+    if pts.len() < 3 {
+        return None;
+    }
+    let k = pts.len() as f64;
+    let mut c = [0.0f64; 3];
+    for p in pts {
+        for j in 0..3 {
+            c[j] += p[j];
+        }
+    }
+    for cj in c.iter_mut() {
+        *cj /= k;
+    }
+    let mut m = [[0.0f64; 3]; 3];
+    for p in pts {
+        let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+        for a in 0..3 {
+            for b in 0..3 {
+                m[a][b] += d[a] * d[b];
+            }
+        }
+    }
+    let cross = |u: &P3, v: &P3| -> P3 {
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
+    };
+    let dot = |u: &P3, v: &P3| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let unit = |x: P3| -> Option<P3> {
+        let l = dot(&x, &x);
+        if !(l > 0.0 && l.is_finite()) {
+            return None;
+        }
+        let l = l.sqrt();
+        Some([x[0] / l, x[1] / l, x[2] / l])
+    };
+    let mut n = [0.0f64; 3];
+    let mut best = 0.0f64;
+    for (u, v) in [(0, 1), (1, 2), (2, 0)] {
+        let x = cross(&m[u], &m[v]);
+        let l = dot(&x, &x);
+        if l > best {
+            best = l;
+            n = x;
+        }
+    }
+    let n = unit(n)?;
+    let row = (0..3)
+        .max_by(|&a, &b| dot(&m[a], &m[a]).total_cmp(&dot(&m[b], &m[b])))
+        .unwrap();
+    let r = m[row];
+    let along = dot(&r, &n);
+    let u = unit([
+        r[0] - along * n[0],
+        r[1] - along * n[1],
+        r[2] - along * n[2],
+    ])?;
+    let v = unit(cross(&n, &u))?;
+    let axes = [u, v, n];
+    let (mut lo, mut hi, mut pmax) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0.0f64);
+    for p in pts {
+        for j in 0..3 {
+            let t = axes[j][0] * p[0] + axes[j][1] * p[1] + axes[j][2] * p[2];
+            lo[j] = lo[j].min(t);
+            hi[j] = hi[j].max(t);
+        }
+        pmax = pmax.max(p[0].abs()).max(p[1].abs()).max(p[2].abs());
+    }
+    let reach = 1.8 * pmax;
+    if !(lo.iter().chain(hi.iter()).all(|x| x.is_finite()) && reach.is_finite()) {
+        return None;
+    }
+    Some(Frame {
+        axes,
+        lo,
+        hi,
+        reach,
+    })
 }
 
 /// Squared distance from q to a box, a lower bound of the squared distance (as summed by
@@ -87,7 +264,7 @@ impl PointTree {
                     region[j + 3] = region[j + 3].max(p[j]);
                 }
             }
-            Self::build(&mut items, 0, region)
+            Self::build(&mut items, 0, region, LEAF)
         };
         let ids = items.iter().map(|x| x.1).collect();
         let sorted = items.into_iter().map(|x| x.0).collect();
@@ -96,14 +273,20 @@ impl PointTree {
             ids,
             nodes,
             boxes,
+            frames: Vec::new(),
         }
     }
 
     /// The subtree of the points `idx` (at `offset` in the tree order) inside `region`:
     /// split at the median along the region's longest side (the two halves built in
     /// parallel when large); each node's box is the tight box of its points (bottom-up).
-    fn build(idx: &mut [(P3, u32)], offset: usize, region: [f64; 6]) -> (Vec<Node>, Vec<[f64; 6]>) {
-        if idx.len() <= LEAF {
+    fn build(
+        idx: &mut [(P3, u32)],
+        offset: usize,
+        region: [f64; 6],
+        leaf: usize,
+    ) -> (Vec<Node>, Vec<[f64; 6]>) {
+        if idx.len() <= leaf {
             let mut b = [
                 f64::INFINITY,
                 f64::INFINITY,
@@ -121,6 +304,7 @@ impl PointTree {
             let leaf = Node::Leaf {
                 start: offset as u32,
                 end: (offset + idx.len()) as u32,
+                frame: NO_FRAME,
             };
             return (vec![leaf], vec![b]);
         }
@@ -136,11 +320,14 @@ impl PointTree {
         let (l, r) = idx.split_at_mut(m);
         let ((ln, lb), (rn, rb)) = if n > 50_000 {
             rayon::join(
-                || Self::build(l, offset, lr),
-                || Self::build(r, offset + m, rr),
+                || Self::build(l, offset, lr, leaf),
+                || Self::build(r, offset + m, rr, leaf),
             )
         } else {
-            (Self::build(l, offset, lr), Self::build(r, offset + m, rr))
+            (
+                Self::build(l, offset, lr, leaf),
+                Self::build(r, offset + m, rr, leaf),
+            )
         };
         let (nl, nr) = (ln.len() as u32, rn.len() as u32);
         let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
@@ -171,6 +358,178 @@ impl PointTree {
         boxes.extend(lb);
         boxes.extend(rb);
         (nodes, boxes)
+    }
+
+    /// A tree over points that come in groups, each near its anchor (a mesh vertex with the
+    /// edge midpoints and face centroids it owns, `mesh_samples::sample_point_tree`): the
+    /// upper splits are made on the anchors alone (a sixth of a mesh's samples: the passes
+    /// over the whole data that make a k-d tree's build slow sort a sixth of it), down to
+    /// [`GROUP_ANCHORS`] anchors; below, the points of those anchors' groups get the
+    /// subtree of [`PointTree::new`] (small enough to stay in cache), so the leaves and
+    /// their boxes are as tight as a plain tree's. The group of anchor `a` is
+    /// `members[ptr[a]..ptr[a + 1]]`, point ids whose coordinates are `point(id)`. The points
+    /// and ids are those [`PointTree::new`] is given for the same samples, and a query's
+    /// answer is a property of the point set, not of the tree's shape (see
+    /// [`PointTree::knn_seeded`] and [`PointTree::any_below`]): the same answers, from less
+    /// work and less memory (no (point, id) copy of every sample at once, no subtree's nodes
+    /// and boxes copied into its parent's).
+    pub fn grouped(
+        anchors: &[P3],
+        ptr: Vec<u32>,
+        members: Vec<u32>,
+        point: &(impl Fn(u32) -> P3 + Sync),
+    ) -> Self {
+        let total = ptr[anchors.len()] as usize;
+        let mut items: Vec<(P3, u32)> = anchors
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (*p, i as u32))
+            .collect();
+        let mut pts = vec![[0.0f64; 3]; total];
+        let mut ids = vec![0u32; total];
+        let nodes = if total == 0 {
+            Vec::new()
+        } else {
+            let region = bounds(items.iter().map(|x| &x.0));
+            let g = Groups {
+                ptr: &ptr,
+                members: &members,
+                point,
+            };
+            Self::split_groups(&mut items, &mut pts, &mut ids, 0, region, &g)
+        };
+        // freed before the boxes are made (the build's peak memory); the tight boxes go
+        // bottom-up (a node's children come after it) into one array, no subtree's boxes
+        // copied into its parent's
+        drop((items, ptr, members));
+        // the leaves' boxes and frames in parallel (each of its own points), then the splits'
+        // boxes bottom-up; a leaf whose points span no plane gets a frame of NaNs (no bound)
+        let mut nodes = nodes;
+        let mut boxes = vec![[0.0f64; 6]; nodes.len()];
+        boxes
+            .par_iter_mut()
+            .zip(nodes.par_iter())
+            .with_min_len(1024)
+            .for_each(|(b, node)| {
+                if let Node::Leaf { start, end, .. } = node {
+                    *b = bounds(pts[*start as usize..*end as usize].iter());
+                }
+            });
+        for i in (0..nodes.len()).rev() {
+            if let Node::Split { left, right } = nodes[i] {
+                let (a, b) = (boxes[left as usize], boxes[right as usize]);
+                boxes[i] = [
+                    a[0].min(b[0]),
+                    a[1].min(b[1]),
+                    a[2].min(b[2]),
+                    a[3].max(b[3]),
+                    a[4].max(b[4]),
+                    a[5].max(b[5]),
+                ];
+            }
+        }
+        let mut ranges: Vec<(u32, u32)> = Vec::new();
+        for node in nodes.iter_mut() {
+            if let Node::Leaf { start, end, frame } = node {
+                *frame = ranges.len() as u32;
+                ranges.push((*start, *end));
+            }
+        }
+        let frames: Vec<Frame> = ranges
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(a, b)| {
+                frame_of(&pts[a as usize..b as usize]).unwrap_or(Frame {
+                    axes: [[f64::NAN; 3]; 3],
+                    lo: [f64::NAN; 3],
+                    hi: [f64::NAN; 3],
+                    reach: f64::NAN,
+                })
+            })
+            .collect();
+        PointTree {
+            pts,
+            ids,
+            nodes,
+            boxes,
+            frames,
+        }
+    }
+
+    /// The subtree of the groups of anchors `idx` inside `region`, their points written to
+    /// `pts`, `ids` (at `offset` in the tree order): see [`PointTree::grouped`].
+    fn split_groups<F: Fn(u32) -> P3 + Sync>(
+        idx: &mut [(P3, u32)],
+        pts: &mut [P3],
+        ids: &mut [u32],
+        offset: usize,
+        region: [f64; 6],
+        g: &Groups<'_, F>,
+    ) -> Vec<Node> {
+        let size = |a: u32| (g.ptr[a as usize + 1] - g.ptr[a as usize]) as usize;
+        if idx.len() <= GROUP_ANCHORS {
+            let mut items: Vec<(P3, u32)> = Vec::with_capacity(pts.len());
+            for (_, a) in idx.iter() {
+                for &m in &g.members[g.ptr[*a as usize] as usize..g.ptr[*a as usize + 1] as usize] {
+                    items.push(((g.point)(m), m));
+                }
+            }
+            if items.is_empty() {
+                // anchors without points: an empty leaf no query enters (its box is empty)
+                return vec![Node::Leaf {
+                    start: offset as u32,
+                    end: offset as u32,
+                    frame: NO_FRAME,
+                }];
+            }
+            let tight = bounds(items.iter().map(|x| &x.0));
+            let (sub, _) = Self::build(&mut items, offset, tight, FRAME_LEAF);
+            for ((p, i), (q, m)) in pts.iter_mut().zip(ids.iter_mut()).zip(items) {
+                *p = q;
+                *i = m;
+            }
+            return sub;
+        }
+        let ext = |j: usize| region[j + 3] - region[j];
+        let dim = (0..3).max_by(|&a, &b| ext(a).total_cmp(&ext(b))).unwrap();
+        let m = idx.len() / 2;
+        idx.select_nth_unstable_by(m, |a, b| a.0[dim].total_cmp(&b.0[dim]));
+        let val = idx[m].0[dim];
+        let (mut lr, mut rr) = (region, region);
+        lr[dim + 3] = val;
+        rr[dim] = val;
+        let n = idx.len();
+        let (l, r) = idx.split_at_mut(m);
+        let nl_pts: usize = l.iter().map(|x| size(x.1)).sum();
+        let (lp, rp) = pts.split_at_mut(nl_pts);
+        let (li, ri) = ids.split_at_mut(nl_pts);
+        let (ln, rn) = if n > 8_192 {
+            rayon::join(
+                || Self::split_groups(l, lp, li, offset, lr, g),
+                || Self::split_groups(r, rp, ri, offset + nl_pts, rr, g),
+            )
+        } else {
+            (
+                Self::split_groups(l, lp, li, offset, lr, g),
+                Self::split_groups(r, rp, ri, offset + nl_pts, rr, g),
+            )
+        };
+        let nl = ln.len() as u32;
+        let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
+        nodes.push(Node::Split {
+            left: 1,
+            right: 1 + nl,
+        });
+        let shift = |node: Node, by: u32| match node {
+            Node::Split { left, right } => Node::Split {
+                left: left + by,
+                right: right + by,
+            },
+            leaf => leaf,
+        };
+        nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
+        nodes.extend(rn.into_iter().map(|x| shift(x, 1 + nl)));
+        nodes
     }
 
     /// The (up to) k nearest ids of `q` with squared distance below `ub2`, by (distance,
@@ -213,7 +572,14 @@ impl PointTree {
                     continue;
                 }
                 match self.nodes[n as usize] {
-                    Node::Leaf { start, end } => {
+                    Node::Leaf { start, end, frame } => {
+                        if frame != NO_FRAME {
+                            // a lower bound of every point's squared distance, as plane2
+                            let l2 = frame_d2(q, &self.frames[frame as usize]);
+                            if l2 >= ub2 || (best.len() == cap && l2 > bound) {
+                                continue;
+                            }
+                        }
                         for s in start as usize..end as usize {
                             let i = self.ids[s];
                             let d = d2(q, &self.pts[s]);
@@ -269,7 +635,10 @@ impl PointTree {
                 continue;
             }
             match self.nodes[n as usize] {
-                Node::Leaf { start, end } => {
+                Node::Leaf { start, end, frame } => {
+                    if frame != NO_FRAME && frame_d2(q, &self.frames[frame as usize]) >= ub2 {
+                        continue; // a lower bound of every point's squared distance
+                    }
                     if self.pts[start as usize..end as usize]
                         .iter()
                         .any(|p| d2(q, p) < ub2)

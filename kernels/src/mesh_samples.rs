@@ -61,7 +61,8 @@ pub fn vertex_face_table<'py>(
 
 /// The k-d tree (`PointTree`) over the samples of the mesh V (n, 3), edges E (e, 2), faces
 /// F (m, 3): vertices, then edge midpoints, then face centroids (ids n + e + f order), built
-/// on `threads` threads.
+/// on `threads` threads, its splits made on the vertices (each owning its samples, see
+/// `knn::PointTree::grouped`: the answers of `PointTree::new` over the same points).
 #[pyfunction]
 pub fn sample_point_tree(
     py: Python<'_>,
@@ -81,25 +82,63 @@ pub fn sample_point_tree(
     }
     let pl = crate::pool(threads)?;
     let tree = py.detach(|| {
-        let mut pts: Vec<[f64; 3]> = Vec::with_capacity(total);
-        pts.extend_from_slice(vv);
-        pts.extend(ee.chunks_exact(2).map(|w| {
-            let (a, b) = (&vv[w[0] as usize], &vv[w[1] as usize]);
-            [
-                0.5 * (a[0] + b[0]),
-                0.5 * (a[1] + b[1]),
-                0.5 * (a[2] + b[2]),
-            ]
-        }));
-        pts.extend(ff.chunks_exact(3).map(|t| {
-            let (a, b, c) = (&vv[t[0] as usize], &vv[t[1] as usize], &vv[t[2] as usize]);
-            [
-                ((a[0] + b[0]) + c[0]) / 3.0,
-                ((a[1] + b[1]) + c[1]) / 3.0,
-                ((a[2] + b[2]) + c[2]) / 3.0,
-            ]
-        }));
-        pl.install(|| knn::PointTree::new(pts))
+        let (n, ne) = (vv.len(), ee.len() / 2);
+        // each sample in the group of a vertex (the vertex itself, the edges whose first
+        // vertex it is, the faces whose first corner it is; ascending ids): the tree's splits
+        // are made on the vertices alone (`knn::PointTree::grouped`)
+        let mut ptr = vec![1u32; n + 1];
+        ptr[0] = 0;
+        for w in ee.chunks_exact(2) {
+            ptr[w[0] as usize + 1] += 1;
+        }
+        for t in ff.chunks_exact(3) {
+            ptr[t[0] as usize + 1] += 1;
+        }
+        for v in 0..n {
+            ptr[v + 1] += ptr[v];
+        }
+        let mut next: Vec<u32> = ptr[..n].to_vec();
+        let mut members = vec![0u32; total];
+        for (v, o) in next.iter_mut().enumerate() {
+            members[*o as usize] = v as u32;
+            *o += 1;
+        }
+        for (j, w) in ee.chunks_exact(2).enumerate() {
+            let o = &mut next[w[0] as usize];
+            members[*o as usize] = (n + j) as u32;
+            *o += 1;
+        }
+        for (k, t) in ff.chunks_exact(3).enumerate() {
+            let o = &mut next[t[0] as usize];
+            members[*o as usize] = (n + ne + k) as u32;
+            *o += 1;
+        }
+        drop(next);
+        // the very sums of `_ProbeSamples.all_points`
+        let point = |id: u32| -> [f64; 3] {
+            let i = id as usize;
+            if i < n {
+                vv[i]
+            } else if i < n + ne {
+                let w = &ee[2 * (i - n)..2 * (i - n) + 2];
+                let (a, b) = (&vv[w[0] as usize], &vv[w[1] as usize]);
+                [
+                    0.5 * (a[0] + b[0]),
+                    0.5 * (a[1] + b[1]),
+                    0.5 * (a[2] + b[2]),
+                ]
+            } else {
+                let k = i - n - ne;
+                let t = &ff[3 * k..3 * k + 3];
+                let (a, b, c) = (&vv[t[0] as usize], &vv[t[1] as usize], &vv[t[2] as usize]);
+                [
+                    ((a[0] + b[0]) + c[0]) / 3.0,
+                    ((a[1] + b[1]) + c[1]) / 3.0,
+                    ((a[2] + b[2]) + c[2]) / 3.0,
+                ]
+            }
+        };
+        pl.install(|| knn::PointTree::grouped(vv, ptr, members, &point))
     });
     Ok(crate::PointTree { tree })
 }
