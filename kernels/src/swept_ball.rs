@@ -39,6 +39,77 @@ pub struct SegTree {
     bvh: Bvh,
     /// each leaf's box (lo, hi), for the group queries' own tests
     boxes: Vec<[f64; 6]>,
+    /// each leaf's capsule (see [`LeafCapsule`])
+    caps: Vec<LeafCapsule>,
+}
+
+/// The capsule around a leaf's run of segments: the chord from the run's first start to its
+/// last end, and the largest distance of the run's ends from it (padded). The distance to a
+/// segment's points is convex along the segment, so every segment of the run lies within
+/// `rad` of the chord, and dist(p, chord) − rad is a lower bound of the distance from p to
+/// any of them. A ball's surface samples lie on the thin shell ρ from their nearest centre:
+/// the neighbouring passes' runs come within a few tenths of a mm of that distance, where an
+/// axis-aligned box around a slanted run is loose by up to its length; the chord is not.
+#[derive(Clone, Copy)]
+pub struct LeafCapsule {
+    s: P3,
+    d: P3,
+    /// 1 / |d|² (0 for a point chord)
+    inv: f64,
+    rad: f64,
+}
+
+impl LeafCapsule {
+    fn new(a: &[P3], b: &[P3]) -> Self {
+        let s = a[0];
+        let e = b[b.len() - 1];
+        let d = [e[0] - s[0], e[1] - s[1], e[2] - s[2]];
+        let ll = dot(&d, &d);
+        let inv = if ll > 0.0 && ll.is_finite() {
+            1.0 / ll
+        } else {
+            0.0
+        };
+        let mut cap = LeafCapsule {
+            s,
+            d,
+            inv,
+            rad: 0.0,
+        };
+        let mut rad = 0.0f64;
+        let mut scale = 1.0f64;
+        for p in a.iter().chain(b) {
+            rad = nanmax(rad, cap.dist2(p).sqrt());
+            scale = nanmax(scale, p[0].abs().max(p[1].abs()).max(p[2].abs()));
+        }
+        // the chord's and the queries' rounding: far below 1e-9 of the coordinates
+        cap.rad = if rad.is_finite() {
+            rad * (1.0 + 1e-9) + 1e-9 * scale
+        } else {
+            f64::INFINITY
+        };
+        cap
+    }
+
+    /// The squared distance from `p` to the chord.
+    #[inline(always)]
+    fn dist2(&self, p: &P3) -> f64 {
+        let w = [p[0] - self.s[0], p[1] - self.s[1], p[2] - self.s[2]];
+        let t = (dot(&w, &self.d) * self.inv).clamp(0.0, 1.0);
+        let e = [
+            w[0] - t * self.d[0],
+            w[1] - t * self.d[1],
+            w[2] - t * self.d[2],
+        ];
+        dot(&e, &e)
+    }
+
+    /// Whether every segment of the leaf is farther than `r` from `p` (false for NaN).
+    #[inline(always)]
+    pub fn beyond(&self, p: &P3, r: f64) -> bool {
+        let rr = r + self.rad;
+        self.dist2(p) > rr * rr
+    }
 }
 
 /// The squared distance from a point to a box (lo, hi) (0 inside).
@@ -96,6 +167,13 @@ impl SegTree {
             })
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
+        let caps = (0..a.len())
+            .step_by(RUN)
+            .map(|s| {
+                let e = (s + RUN).min(a.len());
+                LeafCapsule::new(&a[s..e], &b[s..e])
+            })
+            .collect();
         let b = b.to_vec();
         let boxes = boxes
             .iter()
@@ -111,6 +189,7 @@ impl SegTree {
             dd,
             bvh,
             boxes,
+            caps,
         }
     }
 
@@ -170,8 +249,11 @@ impl SegTree {
             start,
             |node, _| node.aabb().distance_to_local_point(pv, true),
             |leaf, _| {
-                for s in self.run(leaf) {
-                    consider(s);
+                let (b, _) = best.get();
+                if !(b.is_finite() && self.caps[leaf as usize].beyond(p, reach(b))) {
+                    for s in self.run(leaf) {
+                        consider(s);
+                    }
                 }
                 let (b, _) = best.get();
                 if b.is_finite() {
@@ -272,21 +354,26 @@ impl SegTree {
                 continue;
             }
             let (mut b, mut id) = (f64::INFINITY, -1i64);
-            let mut r2 = f64::INFINITY;
-            let consider = |s: usize, b: &mut f64, id: &mut i64, r2: &mut f64| {
+            let (mut r, mut r2) = (f64::INFINITY, f64::INFINITY);
+            let consider = |s: usize, b: &mut f64, id: &mut i64, r: &mut f64, r2: &mut f64| {
                 let d2 = self.d2(p, s);
                 if d2 < *b || (d2 == *b && s as i64 > *id) {
                     *b = d2;
                     *id = s as i64;
-                    let rr = reach(d2);
-                    *r2 = rr * rr;
+                    *r = reach(d2);
+                    *r2 = *r * *r;
                 }
             };
-            consider(s0u, &mut b, &mut id, &mut r2);
+            consider(s0u, &mut b, &mut id, &mut r, &mut r2);
+            if last >= 0 && last != s0 {
+                // the previous point's segment: its neighbour's nearest is likely its own
+                consider(last as usize, &mut b, &mut id, &mut r, &mut r2);
+            }
             for &leaf in &cands {
-                if box_d2(&self.boxes[leaf as usize], p) <= r2 {
+                let l = leaf as usize;
+                if box_d2(&self.boxes[l], p) <= r2 && !self.caps[l].beyond(p, r) {
                     for s in self.run(leaf) {
-                        consider(s, &mut b, &mut id, &mut r2);
+                        consider(s, &mut b, &mut id, &mut r, &mut r2);
                     }
                 }
             }
@@ -359,6 +446,9 @@ impl SegTree {
             .bvh
             .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
         {
+            if self.caps[leaf as usize].beyond(o, r) {
+                continue; // every hit of its capsules is beyond hmax
+            }
             for s in self.run(leaf) {
                 let t = self.capsule_first_hit(o, n, s, r2);
                 if t < best {
