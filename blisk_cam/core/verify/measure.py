@@ -587,7 +587,7 @@ class _Scallops:
     pair_where: np.ndarray
     pair_n: np.ndarray
     ridge_pts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    ridge_nrm: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    ridge_face: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     ridge_val: np.ndarray = field(default_factory=lambda: np.zeros(0))
     ridge_pair: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
@@ -644,11 +644,30 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
     hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
-    hn_ = np.concatenate([sc.ridge_nrm, normals[valid][arg[has]]])
+    top_n = normals[valid][arg[has]]
+    nr = len(sc.ridge_pts)
+
+    def normals_of(rows):
+        # the smooth normals of the ridge points are interpolated for the rows traced only
+        out = np.empty((len(rows), 3))
+        ridge = rows < nr
+        out[ridge] = _ridge_normals(mesh, sc, rows[ridge])
+        out[~ridge] = top_n[rows[~ridge] - nr]
+        return out
+
     hv = np.concatenate([sc.ridge_val, mat[valid][arg[has]]])
     hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
-    sc.pair_cn = _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho)
+    sc.pair_cn = _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho)
     return sc
+
+
+def _ridge_normals(mesh, sc: _Scallops, rows):
+    """(k, 3) the smooth normals at the ridge points ``rows`` (k,) (row-wise: the same
+    floats as for all of them at once)."""
+    rf = sc.ridge_face[rows]
+    FX = mesh.F[rf]
+    bX = barycentric(sc.ridge_pts[rows], mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
+    return mesh.interpolate_normals(rf, bX)
 
 
 def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, known=None,
@@ -713,17 +732,15 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     sc.pair_cusp = np.where(better, rmax, sc.pair_cusp)
     sc.pair_where[better] = x[ra[better]]
     sc.ridge_pts = x
-    rf = smp.edge_face[eidx]
-    FX = mesh.F[rf]
-    bX = barycentric(x, mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
-    sc.ridge_nrm = mesh.interpolate_normals(rf, bX)
+    sc.ridge_face = smp.edge_face[eidx]  # their normals: :func:`_ridge_normals`
     sc.ridge_val, sc.ridge_pair = rv, epair
 
 
-def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
+def _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho):
     """Largest scallop height along the normal per pair (NaN where none): from the points
-    ``hp`` (normals ``hn_``, material left ``hv``, pair ``hq``) up to the nearer of the
-    pair's two swept volumes (``cut``: the levels' :class:`SweptForest`)."""
+    ``hp`` (normals ``normals_of(rows)`` (k, 3) of rows (k,), asked for the points traced
+    only; material left ``hv``, pair ``hq``) up to the nearer of the pair's two swept volumes
+    (``cut``: the levels' :class:`SweptForest`)."""
     heights = np.where(hv > 0, np.nan, hv)
     hmax = np.maximum(4.0 * hv, 1e-6 * rho)
     # the height is the material left divided by the cosine of a slowly varying angle:
@@ -733,7 +750,10 @@ def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
 
     live = (hv > 0) & near_top
     # every live point traced up to its pair's lower level's passes and to its upper's
-    pi, lv, up = _two_level_queries(np.nonzero(live)[0], hq[live], npairs)
+    rows = np.nonzero(live)[0]
+    pi, lv, up = _two_level_queries(rows, hq[live], npairs)
+    hn_ = np.empty((len(hp), 3))
+    hn_[rows] = normals_of(rows)
     h = cut.height_along(hp[pi], hn_[pi], hmax[pi], lv)
     h_lo = np.full(len(hp), np.inf)  # up to the pair's lower level's passes
     h_hi = np.full(len(hp), np.inf)
