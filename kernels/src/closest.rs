@@ -127,6 +127,79 @@ pub fn triangle_d2(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
     dot(&e, &e)
 }
 
+/// `closest_on_triangles` for one point and one triangle, operation for operation:
+/// (closest point, squared distance, feature — 0 interior, 1..3 edge ab/bc/ca, 4..6 vertex
+/// a/b/c —, barycentric coordinates).
+pub fn triangle_closest(p: &P3, a: &P3, b: &P3, c: &P3) -> (P3, f64, i8, P3) {
+    let ab = sub(b, a);
+    let bc = sub(c, b);
+    let ca = sub(a, c);
+    let (lab, lbc, lca) = (dot(&ab, &ab), dot(&bc, &bc), dot(&ca, &ca));
+    let c_long = lab >= lbc && lab >= lca;
+    let a_long = lbc >= lca;
+    let x = if c_long {
+        bc
+    } else if a_long {
+        ca
+    } else {
+        ab
+    };
+    let y = if c_long {
+        ca
+    } else if a_long {
+        ab
+    } else {
+        bc
+    };
+    let n = cross(&x, &y);
+    let nn = dot(&n, &n);
+    let m = nanmax(nanmax(lab, lbc), lca);
+    let ok = nn > 1e-24 * (m * m);
+    let inv = if ok { 1.0 / nn } else { 0.0 };
+    let s = dot(&sub(a, p), &n) * inv;
+    let q_in = [p[0] + s * n[0], p[1] + s * n[1], p[2] + s * n[2]];
+    let (qa, qb, qc) = (sub(a, &q_in), sub(b, &q_in), sub(c, &q_in));
+    let u = triple(&n, &qb, &qc) * inv;
+    let v = triple(&n, &qc, &qa) * inv;
+    let w = triple(&n, &qa, &qb) * inv;
+    let inside = ok && u >= 0.0 && v >= 0.0 && w >= 0.0;
+    let (q, feature, bary) = if inside {
+        let s_uvw = (u + v) + w;
+        (q_in, 0i8, [u / s_uvw, v / s_uvw, w / s_uvw])
+    } else {
+        let mut best = f64::INFINITY;
+        let mut bary = [0.0f64; 3];
+        let mut feature = 0i8;
+        for (s0, e0, i0, i1, fe, fs, fend) in [
+            (a, b, 0usize, 1usize, 1i8, 4i8, 5i8),
+            (b, c, 1, 2, 2, 5, 6),
+            (c, a, 2, 0, 3, 6, 4),
+        ] {
+            let (t, d2) = on_segment(p, s0, e0);
+            if d2 < best {
+                best = d2;
+                bary = [0.0; 3];
+                bary[i0] = 1.0 - t;
+                bary[i1] = t;
+                feature = if t <= 0.0 {
+                    fs
+                } else if t >= 1.0 {
+                    fend
+                } else {
+                    fe
+                };
+            }
+        }
+        let mut q = [0.0; 3];
+        for j in 0..3 {
+            q[j] = (bary[0] * a[j] + bary[1] * b[j]) + bary[2] * c[j];
+        }
+        (q, feature, bary)
+    };
+    let e = sub(p, &q);
+    (q, dot(&e, &e), feature, bary)
+}
+
 /// Faces per leaf of the tree: runs of faces consecutive along a Morton curve of their
 /// centroids (compact runs), so the tree holds a quarter of the nodes it would hold with one
 /// face per leaf (its memory dominated the orient stage's peak).
@@ -420,6 +493,21 @@ impl FaceTree {
         } else {
             id as i64
         }
+    }
+
+    /// `closest_on_triangles` of each point and its face (`face` −1: numpy's index −1, the
+    /// last face, as `MeshDistance.query` indexes it), (q, d2, feature, bary) per point.
+    pub fn closest_many(&self, pts: &[P3], faces: &[i64]) -> Vec<(P3, f64, i8, P3)> {
+        let m = self.f.len() as i64;
+        pts.par_iter()
+            .zip(faces.par_iter())
+            .with_min_len(256)
+            .map(|(p, &f)| {
+                let fi = if f < 0 { f + m } else { f } as usize;
+                let t = self.f[fi];
+                triangle_closest(p, &self.v[t[0]], &self.v[t[1]], &self.v[t[2]])
+            })
+            .collect()
     }
 
     /// [`Self::nearest_from`] of every point; in runs of consecutive points each searched from the
