@@ -473,6 +473,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<FaceTree>()?;
     m.add_class::<PointTree>()?;
     m.add_class::<swept_ball::SweptBallTree>()?;
+    m.add_function(wrap_pyfunction!(swept_ball::forest_nearest, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_ball::forest_first_hits, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;

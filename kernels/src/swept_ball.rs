@@ -601,3 +601,141 @@ impl SweptBallTree {
         Ok((PyArray1::from_vec(py, q), PyArray1::from_vec(py, s)))
     }
 }
+
+/// The work units of a forest query: (member, first, end) runs of at most [`WARM_RUN`] of
+/// the points of each member (`start` (members + 1,): the points sorted by member).
+fn forest_units(start: &[i64], members: usize) -> PyResult<Vec<(usize, usize, usize)>> {
+    if start.len() != members + 1 {
+        return Err(PyValueError::new_err(
+            "start must give one offset per tree and the end",
+        ));
+    }
+    let mut units = Vec::new();
+    for j in 0..members {
+        let (s, e) = (start[j], start[j + 1]);
+        if s < 0 || e < s {
+            return Err(PyValueError::new_err(
+                "start must be non-decreasing offsets",
+            ));
+        }
+        let (s, e) = (s as usize, e as usize);
+        let mut a = s;
+        while a < e {
+            let b = (a + WARM_RUN).min(e);
+            units.push((j, a, b));
+            a = b;
+        }
+    }
+    Ok(units)
+}
+
+/// Several swept balls' trees queried in one call (verify's per-level volumes): the points
+/// (k, 3) sorted by member, member j's being `start[j]..start[j + 1]`; each point's
+/// (d2, segment) in its member is [`SweptBallTree::nearest`]'s (the grouping does not change
+/// them). Runs of the members' points share the `threads` threads (one call instead of one
+/// per member: no per-call overhead, no thread idle at a small member's end).
+#[pyfunction]
+pub fn forest_nearest<'py>(
+    py: Python<'py>,
+    trees: Vec<Bound<'py, SweptBallTree>>,
+    p: PyReadonlyArray2<'py, f64>,
+    start: PyReadonlyArray1<'py, i64>,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    let pp = crate::points(&p, "points")?;
+    let st = crate::slice1(&start, "start")?;
+    let units = forest_units(st, trees.len())?;
+    if st[trees.len()] as usize != pp.len() {
+        return Err(PyValueError::new_err(
+            "start must end at the number of points",
+        ));
+    }
+    let ts: Vec<&SegTree> = trees.iter().map(|t| &t.get().tree).collect();
+    let pl = crate::pool(threads)?;
+    let (d2, seg) = py.detach(|| {
+        pl.install(|| {
+            let parts: Vec<(usize, Vec<f64>, Vec<i64>)> = units
+                .par_iter()
+                .map(|&(j, a, b)| {
+                    let (mut dd, mut ss) = (vec![f64::INFINITY; b - a], vec![-1i64; b - a]);
+                    let mut g = -1i64;
+                    for ((dg, sg), pg) in dd
+                        .chunks_mut(GROUP)
+                        .zip(ss.chunks_mut(GROUP))
+                        .zip(pp[a..b].chunks(GROUP))
+                    {
+                        g = ts[j].nearest_group(pg, dg, sg, g);
+                    }
+                    (a, dd, ss)
+                })
+                .collect();
+            let mut d2 = vec![f64::INFINITY; pp.len()];
+            let mut seg = vec![-1i64; pp.len()];
+            for (a, dd, ss) in parts {
+                d2[a..a + dd.len()].copy_from_slice(&dd);
+                seg[a..a + ss.len()].copy_from_slice(&ss);
+            }
+            (d2, seg)
+        })
+    });
+    Ok((PyArray1::from_vec(py, d2), PyArray1::from_vec(py, seg)))
+}
+
+/// [`SweptBallTree::first_hits`] of points sorted by member (as [`forest_nearest`]) against
+/// their member's capsules of `radius`, in one call: (k,) mm.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn forest_first_hits<'py>(
+    py: Python<'py>,
+    trees: Vec<Bound<'py, SweptBallTree>>,
+    p: PyReadonlyArray2<'py, f64>,
+    n: PyReadonlyArray2<'py, f64>,
+    radius: f64,
+    hmax: PyReadonlyArray1<'py, f64>,
+    start: PyReadonlyArray1<'py, i64>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let pp = crate::points(&p, "points")?;
+    let nn = crate::points(&n, "directions")?;
+    let hh = crate::slice1(&hmax, "max_height")?;
+    let st = crate::slice1(&start, "start")?;
+    if nn.len() != pp.len() || hh.len() != pp.len() {
+        return Err(PyValueError::new_err(
+            "points, directions and max_height must be one per point",
+        ));
+    }
+    let units = forest_units(st, trees.len())?;
+    if st[trees.len()] as usize != pp.len() {
+        return Err(PyValueError::new_err(
+            "start must end at the number of points",
+        ));
+    }
+    let ts: Vec<&SegTree> = trees.iter().map(|t| &t.get().tree).collect();
+    let pl = crate::pool(threads)?;
+    let out = py.detach(|| {
+        pl.install(|| {
+            let parts: Vec<(usize, Vec<f64>)> = units
+                .par_iter()
+                .map(|&(j, a, b)| {
+                    let t = ts[j];
+                    let h: Vec<f64> = (a..b)
+                        .map(|i| {
+                            if t.a.is_empty() {
+                                f64::INFINITY
+                            } else {
+                                t.first_hit(&pp[i], &nn[i], radius, hh[i])
+                            }
+                        })
+                        .collect();
+                    (a, h)
+                })
+                .collect();
+            let mut out = vec![f64::INFINITY; pp.len()];
+            for (a, h) in parts {
+                out[a..a + h.len()].copy_from_slice(&h);
+            }
+            out
+        })
+    });
+    Ok(PyArray1::from_vec(py, out))
+}

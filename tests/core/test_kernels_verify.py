@@ -268,3 +268,39 @@ def test_nearest_closest_points_are_numpys_bit_for_bit():
             np.testing.assert_array_equal(got, want)
             assert got.dtype == want.dtype
     assert set(np.unique(feat)) >= {0, 1, 2, 3} and face[-1] == -1
+
+
+@compiled
+def test_swept_ball_forest_in_one_call_identical_on_both_backends():
+    """A forest of swept balls (one per pass, one without segments) asked in one compiled
+    call: each point's distance, segment and height along a direction are those of its
+    member alone on the numpy backend, on 1 and 2 threads."""
+    from blisk_cam.core.verify.forest import SweptForest
+
+    a, b, own, P = _helices(n_pass=5, n=120)
+    rng = np.random.default_rng(7)
+    which = rng.integers(0, 6, len(P))  # member 5 has no segments
+    up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+
+    def members():
+        z = np.zeros((0, 3))
+        return [SweptBall(a[own == i], b[own == i], 3.0) for i in range(5)] + [
+            SweptBall(z, z, 3.0)]
+
+    with backend.numpy_only():
+        ref = SweptForest(members())
+        assert not ref.balls
+        d_ref, s_ref = ref.nearest(P, which)
+        h_ref = ref.height_along(P, up, 4.0, which)
+    for threads in (1, 2):
+        with parallel(threads):
+            got = SweptForest(members())
+            assert got.balls
+            d, s = got.nearest(P, which)
+            h = got.height_along(P, up, 4.0, which)
+        np.testing.assert_array_equal(d, d_ref)
+        np.testing.assert_array_equal(h, h_ref)
+        # a point equally near two segments (their shared end) may name either
+        same = s == s_ref
+        assert same.mean() > 0.9 and np.all(s[which == 5] == -1)
+    assert np.isinf(d_ref[which == 5]).all() and np.isfinite(h_ref).any()

@@ -711,7 +711,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     for _ in range(max(int(refine), 1)):
         t = (ta * gb - tb * ga) / (gb - ga)
         x = xa + t[:, None] * (xb - xa)
-        if known is not None and near is None:
+        if known is not None and near is None and not cut.balls:
             # the iterates after the first move by far less than a tenth of the edge
             near = _two_level_near(cut, x, epair, npairs,
                                    0.1 * np.linalg.norm(xb - xa, axis=1),
@@ -872,7 +872,10 @@ def _two_level_near(cut, P, strip, npairs, margin, guess):
     """A ball's per-level :meth:`.sweep_ball.SweptBall.near` for :func:`_two_level_distances`'s
     ``near``: the queries of :func:`_two_level_queries` of the points (k, 3) (``margin``
     (k,) mm, ``guess`` (k, 3) where the nearest centres are likely) and, per level holding
-    any, its listed segments — [(rows of those queries, near)]."""
+    any, its listed segments — [(rows of those queries, near)]; None for compiled balls
+    (``cut.balls``: their queries are full ones, asked of every level in one call)."""
+    if cut.balls:  # compiled: every query is a full one, asked of all levels at once
+        return None
     pi, lv, _ = _two_level_queries(np.arange(len(P)), strip, npairs)
     return cut.per_member(lv, lambda m, rows: m.near(P[pi[rows]], margin[pi[rows]],
                                                      guess[pi[rows]]))
