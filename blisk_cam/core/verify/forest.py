@@ -164,7 +164,8 @@ class SweptForest:
         each tree's rows in that order (trees + 1,))."""
         check_cancel()  # one call for every member: checked before it
         has = np.array([m._ctree is not None for m in self.members])
-        order = np.argsort(w, kind="stable")
+        # the same stable order; small ints sort by radix (~4x faster than int64's merge)
+        order = np.argsort(w.astype(np.int16) if len(has) < 2**15 else w, kind="stable")
         rows = order[has[w[order]]]
         trees = [m._ctree for m in self.members if m._ctree is not None]
         tid = np.cumsum(has) - 1  # the tree of each member that has one
