@@ -9,7 +9,6 @@ use crate::numpy_ops::nanmax;
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
-use parry3d_f64::query::PointQuery;
 use rayon::prelude::*;
 
 pub type P3 = [f64; 3];
@@ -304,16 +303,27 @@ impl FaceDisk {
         }
     }
 
-    /// A lower bound (mm) of the distance from `p` to the face, less a rounding pad
-    /// (1e-9 of the lengths: far above the exact kernel's own rounding); −∞ for a NaN.
+    /// Whether the face is farther than `r` from `p` by its lower bounds, less a rounding
+    /// pad (1e-9 of the lengths: far above the exact kernel's own rounding): the disk's,
+    /// sqrt(z² + max(ρ − r_disk, 0)²), and the longest-edge capsule's, its distance less
+    /// its radius — compared squared with the squared reach (one square root, where the
+    /// point lies beyond the disk's rim), the pads taken with |d| ≤ max(1, |d|²). False for
+    /// a NaN (such a face is compared).
     #[inline(always)]
-    fn lower_bound(&self, p: &P3) -> f64 {
+    fn beyond(&self, p: &P3, r: f64) -> bool {
         let d = sub(p, &self.c);
         let dd = dot(&d, &d);
         let z = dot(&d, &self.n);
-        let rin = (dd - z * z).max(0.0).sqrt();
-        let e = (rin - self.r).max(0.0);
-        let mut lb = (z * z + e * e).sqrt() - 1e-9 * (1.0 + dd.sqrt() + self.r);
+        let rin2 = (dd - z * z).max(0.0);
+        let e = if rin2 > self.r * self.r {
+            rin2.sqrt() - self.r
+        } else {
+            0.0
+        };
+        let rr = r + 1e-9 * (1.0 + dd.max(1.0) + self.r);
+        if z * z + e * e > rr * rr {
+            return true;
+        }
         if self.einv > 0.0 {
             let w = sub(p, &self.es);
             let t = (dot(&w, &self.ed) * self.einv).clamp(0.0, 1.0);
@@ -322,14 +332,11 @@ impl FaceDisk {
                 w[1] - t * self.ed[1],
                 w[2] - t * self.ed[2],
             ];
-            let dq = dot(&q, &q).sqrt();
-            lb = lb.max(dq - self.eh - 1e-9 * (1.0 + dq + self.eh));
+            let dq2 = dot(&q, &q);
+            let rq = r + self.eh + 1e-9 * (1.0 + dq2.max(1.0) + self.eh);
+            return dq2 > rq * rq;
         }
-        if lb.is_nan() {
-            f64::NEG_INFINITY
-        } else {
-            lb
-        }
+        false
     }
 }
 
@@ -439,7 +446,6 @@ impl FaceTree {
         if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) || self.f.is_empty() {
             return -1;
         }
-        let pv = Vector::new(p[0], p[1], p[2]);
         let best = std::cell::Cell::new((f64::INFINITY, u32::MAX));
         let consider = |face: u32| {
             let d2 = self.d2(p, face);
@@ -449,18 +455,28 @@ impl FaceTree {
             }
         };
         // the reach of a least squared distance d2 (a box farther cannot hold a face as near)
+        // the walk compares squared distances (no square root per box): a box is visited
+        // while its squared distance is below the squared reach, as its distance below it
         let reach = crate::swept_ball::reach;
+        let reach2 = |d2: f64| {
+            let r = reach(d2);
+            r * r
+        };
         let mut start = f64::MAX;
         if guess >= 0 && (guess as usize) < self.f.len() {
             consider(guess as u32);
             let (b, _) = best.get();
             if b.is_finite() {
-                start = reach(b);
+                start = reach2(b);
             }
         }
         self.bvh.find_best(
             start,
-            |node, _| node.aabb().distance_to_local_point(pv, true),
+            |node, _| {
+                let a = node.aabb();
+                let bx = [a.mins.x, a.mins.y, a.mins.z, a.maxs.x, a.maxs.y, a.maxs.z];
+                crate::swept_ball::box_d2(&bx, p)
+            },
             |leaf, _| {
                 match &self.disks {
                     Some(disks) => {
@@ -468,7 +484,7 @@ impl FaceTree {
                             // a face whose disk is beyond the reach of the best cannot
                             // reach or tie it
                             let (b, _) = best.get();
-                            if !(disks[face as usize].lower_bound(p) > reach(b)) {
+                            if !disks[face as usize].beyond(p, reach(b)) {
                                 consider(face);
                             }
                         }
@@ -481,7 +497,7 @@ impl FaceTree {
                 }
                 let (b, _) = best.get();
                 if b.is_finite() {
-                    Some(reach(b))
+                    Some(reach2(b))
                 } else {
                     None
                 }

@@ -228,7 +228,6 @@ impl SegTree {
         if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
             return (f64::NAN, -1); // numpy's minimum of NaN distances
         }
-        let pv = Vector::new(p[0], p[1], p[2]);
         let best = std::cell::Cell::new((f64::INFINITY, -1i64));
         let consider = |s: usize| {
             let d2 = self.d2(p, s);
@@ -237,17 +236,28 @@ impl SegTree {
                 best.set((d2, s as i64));
             }
         };
+        // squared distances in the walk (no square root per box), against the squared reach
+        let reach2 = |d2: f64| {
+            let r = reach(d2);
+            r * r
+        };
         let mut start = f64::MAX;
         if guess >= 0 && (guess as usize) < self.a.len() {
             consider(guess as usize);
             let (b, _) = best.get();
             if b.is_finite() {
-                start = reach(b);
+                start = reach2(b);
             }
         }
         self.bvh.find_best(
             start,
-            |node, _| node.aabb().distance_to_local_point(pv, true),
+            |node, _| {
+                let a = node.aabb();
+                box_d2(
+                    &[a.mins.x, a.mins.y, a.mins.z, a.maxs.x, a.maxs.y, a.maxs.z],
+                    p,
+                )
+            },
             |leaf, _| {
                 let (b, _) = best.get();
                 if !(b.is_finite() && self.caps[leaf as usize].beyond(p, reach(b))) {
@@ -257,7 +267,7 @@ impl SegTree {
                 }
                 let (b, _) = best.get();
                 if b.is_finite() {
-                    Some(reach(b))
+                    Some(reach2(b))
                 } else {
                     None
                 }
