@@ -37,9 +37,8 @@ pub struct SegTree {
     d: Vec<P3>,
     dd: Vec<f64>,
     bvh: Bvh,
-    /// each leaf's box (lo, hi), for the group queries' own tests
-    boxes: Vec<[f64; 6]>,
-    /// each leaf's capsule (see [`LeafCapsule`])
+    /// each leaf's capsule (see [`LeafCapsule`]), for the group queries' own tests (tighter
+    /// than the leaf's box and as cheap)
     caps: Vec<LeafCapsule>,
 }
 
@@ -175,20 +174,12 @@ impl SegTree {
             })
             .collect();
         let b = b.to_vec();
-        let boxes = boxes
-            .iter()
-            .map(|x| {
-                let (lo, hi) = (x.mins, x.maxs);
-                [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]
-            })
-            .collect();
         SegTree {
             a,
             b,
             d,
             dd,
             bvh,
-            boxes,
             caps,
         }
     }
@@ -301,7 +292,7 @@ impl SegTree {
     /// finite point is searched alone (from `guess`); its segment s0 bounds every point's
     /// least distance (d2 to s0), so every segment that can be nearest to one of them lies in
     /// a leaf whose box comes within max(|p − c| + reach(d2(p, s0))) of the group's centre c:
-    /// those leaves are listed once, then each point tests them (box, then segments) against
+    /// those leaves are listed once, then each point tests them (capsule, then segments) against
     /// its own best so far. Every segment at a point's least distance is compared, so the
     /// (d2, segment) are [`Self::nearest_from`]'s. Returns the last segment found (the next
     /// group's guess).
@@ -381,7 +372,7 @@ impl SegTree {
             }
             for &leaf in &cands {
                 let l = leaf as usize;
-                if box_d2(&self.boxes[l], p) <= r2 && !self.caps[l].beyond(p, r) {
+                if !self.caps[l].beyond(p, r) {
                     for s in self.run(leaf) {
                         consider(s, &mut b, &mut id, &mut r, &mut r2);
                     }
