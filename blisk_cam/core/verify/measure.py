@@ -619,7 +619,8 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
     known = guess = None
     if isinstance(cut[0], SweptBall):
-        guess = P + rho * normals  # where the nearest ball centres are likely
+        if not cut.balls:  # (compiled balls find their own start: no guess needed)
+            guess = P + rho * normals  # where the nearest ball centres are likely
         # a ball's distance to one level is the minimum over that level's segments of the
         # same point–segment distances as the whole path's: where the nearest pass of all is
         # one of the strip's two, it is that level's distance, bit for bit (a swept cutter's
@@ -694,7 +695,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
             mlo, mhi = _two_level_distances(
                 cut, smp.points[ends], strip[ends], npairs,
                 need=(~known[2][ends], ~known[3][ends]),
-                guess=smp.points[ends] + rho * smp.normals[ends])
+                guess=None if cut.balls else smp.points[ends] + rho * smp.normals[ends])
             dlo = np.where(known[2][ends], dlo, mlo)
             dhi = np.where(known[3][ends], dhi, mhi)
         g = dlo - dhi
