@@ -645,14 +645,14 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
     hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
-    top_n = normals[valid][arg[has]]
-    nr = len(sc.ridge_pts)
+    top_n, nr = normals[valid][arg[has]], len(sc.ridge_pts)
 
-    def normals_of(rows):
-        # the smooth normals of the ridge points are interpolated for the rows traced only
-        out = np.empty((len(rows), 3))
-        ridge = rows < nr
-        out[ridge] = _ridge_normals(mesh, sc, rows[ridge])
+    def normals_of(rows):  # the ridge points' smooth normals: only those traced (row-wise)
+        out, ridge = np.empty((len(rows), 3)), rows < nr
+        rf = sc.ridge_face[rows[ridge]]
+        FX = mesh.F[rf]
+        out[ridge] = mesh.interpolate_normals(rf, barycentric(
+            sc.ridge_pts[rows[ridge]], mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]]))
         out[~ridge] = top_n[rows[~ridge] - nr]
         return out
 
@@ -660,15 +660,6 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
     sc.pair_cn = _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho)
     return sc
-
-
-def _ridge_normals(mesh, sc: _Scallops, rows):
-    """(k, 3) the smooth normals at the ridge points ``rows`` (k,) (row-wise: the same
-    floats as for all of them at once)."""
-    rf = sc.ridge_face[rows]
-    FX = mesh.F[rf]
-    bX = barycentric(sc.ridge_pts[rows], mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
-    return mesh.interpolate_normals(rf, bX)
 
 
 def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, known=None,
@@ -712,7 +703,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     for _ in range(max(int(refine), 1)):
         t = (ta * gb - tb * ga) / (gb - ga)
         x = xa + t[:, None] * (xb - xa)
-        if known is not None and near is None and not cut.balls:
+        if known is not None and near is None and not cut.balls:  # (compiled: full queries)
             # the iterates after the first move by far less than a tenth of the edge
             near = _two_level_near(cut, x, epair, npairs,
                                    0.1 * np.linalg.norm(xb - xa, axis=1),
@@ -733,15 +724,14 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     sc.pair_cusp = np.where(better, rmax, sc.pair_cusp)
     sc.pair_where[better] = x[ra[better]]
     sc.ridge_pts = x
-    sc.ridge_face = smp.edge_face[eidx]  # their normals: :func:`_ridge_normals`
+    sc.ridge_face = smp.edge_face[eidx]  # their normals: asked in :func:`_scallops`
     sc.ridge_val, sc.ridge_pair = rv, epair
 
 
 def _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho):
     """Largest scallop height along the normal per pair (NaN where none): from the points
-    ``hp`` (normals ``normals_of(rows)`` (k, 3) of rows (k,), asked for the points traced
-    only; material left ``hv``, pair ``hq``) up to the nearer of the pair's two swept volumes
-    (``cut``: the levels' :class:`SweptForest`)."""
+    ``hp`` (normals ``normals_of(rows)`` of the rows traced, material left ``hv``, pair
+    ``hq``) up to the nearer of the pair's two swept volumes (``cut``: the levels' forest)."""
     heights = np.where(hv > 0, np.nan, hv)
     hmax = np.maximum(4.0 * hv, 1e-6 * rho)
     # the height is the material left divided by the cosine of a slowly varying angle:
@@ -873,10 +863,7 @@ def _two_level_near(cut, P, strip, npairs, margin, guess):
     """A ball's per-level :meth:`.sweep_ball.SweptBall.near` for :func:`_two_level_distances`'s
     ``near``: the queries of :func:`_two_level_queries` of the points (k, 3) (``margin``
     (k,) mm, ``guess`` (k, 3) where the nearest centres are likely) and, per level holding
-    any, its listed segments — [(rows of those queries, near)]; None for compiled balls
-    (``cut.balls``: their queries are full ones, asked of every level in one call)."""
-    if cut.balls:  # compiled: every query is a full one, asked of all levels at once
-        return None
+    any, its listed segments — [(rows of those queries, near)]."""
     pi, lv, _ = _two_level_queries(np.arange(len(P)), strip, npairs)
     return cut.per_member(lv, lambda m, rows: m.near(P[pi[rows]], margin[pi[rows]],
                                                      guess[pi[rows]]))
