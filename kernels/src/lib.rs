@@ -475,6 +475,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<swept_ball::SweptBallTree>()?;
     m.add_function(wrap_pyfunction!(swept_ball::forest_nearest, m)?)?;
     m.add_function(wrap_pyfunction!(swept_ball::forest_first_hits, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_ball::ridge_steps, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;

@@ -6,7 +6,7 @@
 //! `(x0 y0 + x2 y2) + x1 y1`), operation for operation, so the minimum is the numpy
 //! reference's float.
 
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
@@ -739,4 +739,169 @@ pub fn forest_first_hits<'py>(
         })
     });
     Ok(PyArray1::from_vec(py, out))
+}
+
+/// np.sign: −1, 0 or 1, NaN for NaN.
+#[inline(always)]
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else if x == 0.0 {
+        0.0
+    } else {
+        f64::NAN
+    }
+}
+
+/// The regula falsi (Illinois) of verify's scallop ridges (`measure._ridge_points`), every
+/// step of every edge here: edge i runs from `xa` to `xb` (k, 3) with g = d_lo − d_hi
+/// `ga`, `gb` at its ends, its levels `lo[i]` and `lo[i] + 1` (trees, None for a level
+/// without segments: distance ∞); each step takes t = (ta gb − tb ga) / (gb − ga), the
+/// point xa + t (xb − xa) and its distances sqrt(d2) − `radius` to the two levels
+/// ([`SegTree::nearest_from`]'s d2), then the numpy code's updates, operation for operation.
+/// Returns the last iterates and their two distances (x (k, 3), d_lo (k,), d_hi (k,)).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn ridge_steps<'py>(
+    py: Python<'py>,
+    trees: Vec<Option<Bound<'py, SweptBallTree>>>,
+    xa: PyReadonlyArray2<'py, f64>,
+    xb: PyReadonlyArray2<'py, f64>,
+    ga: PyReadonlyArray1<'py, f64>,
+    gb: PyReadonlyArray1<'py, f64>,
+    lo: PyReadonlyArray1<'py, i64>,
+    radius: f64,
+    steps: usize,
+    threads: usize,
+) -> PyResult<(
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+)> {
+    let (pa, pb) = (crate::points(&xa, "xa")?, crate::points(&xb, "xb")?);
+    let (g0, g1) = (crate::slice1(&ga, "ga")?, crate::slice1(&gb, "gb")?);
+    let lv = crate::slice1(&lo, "lo")?;
+    let k = pa.len();
+    if pb.len() != k || g0.len() != k || g1.len() != k || lv.len() != k {
+        return Err(PyValueError::new_err(
+            "xa, xb, ga, gb and lo must be one per edge",
+        ));
+    }
+    if lv.iter().any(|&l| l < 0 || (l as usize) + 1 >= trees.len()) {
+        return Err(PyValueError::new_err(
+            "lo must name a level whose next level is in trees",
+        ));
+    }
+    let ts: Vec<Option<&SegTree>> = trees
+        .iter()
+        .map(|t| t.as_ref().map(|t| &t.get().tree))
+        .collect();
+    let steps = steps.max(1);
+    // the edges by level (stable), in runs of one level: each step's points of a run are
+    // searched by groups ([`SegTree::nearest_group`]: the same (d2, segment) as alone)
+    let mut order: Vec<usize> = (0..k).collect();
+    order.sort_by_key(|&i| lv[i]);
+    let mut units = Vec::new();
+    let mut a = 0;
+    while a < k {
+        let l = lv[order[a]];
+        let mut b = a + 1;
+        while b < k && b - a < WARM_RUN && lv[order[b]] == l {
+            b += 1;
+        }
+        units.push((a, b));
+        a = b;
+    }
+    let pl = crate::pool(threads)?;
+    let rows: Vec<(P3, f64, f64)> = py.detach(|| {
+        pl.install(|| {
+            let parts: Vec<Vec<(P3, f64, f64)>> = units
+                .par_iter()
+                .map(|&(u0, u1)| {
+                    let idx = &order[u0..u1];
+                    let n = idx.len();
+                    let l = lv[idx[0]] as usize;
+                    let dist = |xs: &[P3], tree: Option<&SegTree>, out: &mut [f64]| {
+                        let Some(t) = tree else {
+                            out.fill(f64::INFINITY);
+                            return;
+                        };
+                        let mut d2 = vec![f64::INFINITY; xs.len()];
+                        let mut sg = vec![-1i64; xs.len()];
+                        let mut g = -1i64;
+                        for ((dg, sgg), pg) in d2
+                            .chunks_mut(GROUP)
+                            .zip(sg.chunks_mut(GROUP))
+                            .zip(xs.chunks(GROUP))
+                        {
+                            g = t.nearest_group(pg, dg, sgg, g);
+                        }
+                        for (o, v) in out.iter_mut().zip(&d2) {
+                            *o = v.sqrt() - radius;
+                        }
+                    };
+                    let mut ta = vec![0.0f64; n];
+                    let mut tb = vec![1.0f64; n];
+                    let mut ga: Vec<f64> = idx.iter().map(|&i| g0[i]).collect();
+                    let mut gb: Vec<f64> = idx.iter().map(|&i| g1[i]).collect();
+                    let mut last = vec![0u8; n];
+                    let mut xs = vec![[0.0f64; 3]; n];
+                    let mut la = vec![f64::NAN; n];
+                    let mut lb = vec![f64::NAN; n];
+                    let mut t = vec![0.0f64; n];
+                    for _ in 0..steps {
+                        for e in 0..n {
+                            let (a, b) = (&pa[idx[e]], &pb[idx[e]]);
+                            t[e] = (ta[e] * gb[e] - tb[e] * ga[e]) / (gb[e] - ga[e]);
+                            xs[e] = [
+                                a[0] + t[e] * (b[0] - a[0]),
+                                a[1] + t[e] * (b[1] - a[1]),
+                                a[2] + t[e] * (b[2] - a[2]),
+                            ];
+                        }
+                        dist(&xs, ts[l], &mut la);
+                        dist(&xs, ts[l + 1], &mut lb);
+                        for e in 0..n {
+                            let gx = la[e] - lb[e];
+                            let repl_a = sign(gx) == sign(ga[e]);
+                            if !repl_a && last[e] == 2 {
+                                ga[e] *= 0.5;
+                            }
+                            if repl_a && last[e] == 1 {
+                                gb[e] *= 0.5;
+                            }
+                            if repl_a {
+                                (ta[e], ga[e]) = (t[e], gx);
+                            } else {
+                                (tb[e], gb[e]) = (t[e], gx);
+                            }
+                            last[e] = if repl_a { 1 } else { 2 };
+                        }
+                    }
+                    (0..n).map(|e| (xs[e], la[e], lb[e])).collect()
+                })
+                .collect();
+            let mut rows = vec![([0.0f64; 3], f64::NAN, f64::NAN); k];
+            for (&(u0, _), part) in units.iter().zip(parts) {
+                for (e, r) in part.into_iter().enumerate() {
+                    rows[order[u0 + e]] = r;
+                }
+            }
+            rows
+        })
+    });
+    let mut xs = Vec::with_capacity(3 * k);
+    let (mut dl, mut dh) = (Vec::with_capacity(k), Vec::with_capacity(k));
+    for (x, a, b) in rows {
+        xs.extend_from_slice(&x);
+        dl.push(a);
+        dh.push(b);
+    }
+    Ok((
+        PyArray1::from_vec(py, xs).reshape([k, 3])?,
+        PyArray1::from_vec(py, dl),
+        PyArray1::from_vec(py, dh),
+    ))
 }

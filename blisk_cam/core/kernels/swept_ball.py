@@ -12,7 +12,7 @@ import numpy as np
 from .backend import extension
 
 __all__ = ["first_hits", "forest_available", "forest_first_hits", "forest_nearest",
-           "nearest_segments", "segment_tree"]
+           "nearest_segments", "ridge_steps", "segment_tree"]
 
 
 def segment_tree(a, b, d, dd):
@@ -46,9 +46,10 @@ def first_hits(tree, points, directions, radius: float, max_height, threads: int
 
 
 def forest_available() -> bool:
-    """Whether the installed kernels query several swept balls' trees in one call."""
+    """Whether the installed kernels query several swept balls' trees in one call
+    (:func:`forest_nearest`, :func:`forest_first_hits`, :func:`ridge_steps`)."""
     ext = extension()
-    return ext is not None and hasattr(ext, "forest_nearest")
+    return ext is not None and hasattr(ext, "ridge_steps")
 
 
 def forest_nearest(trees, points, start, threads: int):
@@ -70,3 +71,14 @@ def forest_first_hits(trees, points, directions, radius: float, max_height, star
     return extension().forest_first_hits(list(trees), P, c(directions, dtype=np.float64),
                                          float(radius), h, c(start, dtype=np.int64),
                                          max(1, int(threads)))
+
+
+def ridge_steps(trees, xa, xb, ga, gb, lo, radius: float, steps: int, threads: int):
+    """The Illinois regula falsi of verify's scallop ridges on the levels' trees (None for a
+    level without segments), every step of every edge in one call (see the kernel's
+    docstring): (x (k, 3), d_lo (k,), d_hi (k,))."""
+    c = np.ascontiguousarray
+    return extension().ridge_steps(list(trees), c(xa, dtype=np.float64),
+                                   c(xb, dtype=np.float64), c(ga, dtype=np.float64),
+                                   c(gb, dtype=np.float64), c(lo, dtype=np.int64),
+                                   float(radius), int(steps), max(1, int(threads)))

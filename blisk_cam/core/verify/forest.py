@@ -163,6 +163,19 @@ class SweptForest:
         # regula falsi iterates met again)
         return searched_once(P, w, self._nearest_fast)
 
+    def ridge_steps(self, xa, xb, ga, gb, lo, steps):
+        """Compiled balls (``balls``): the regula falsi of :func:`.measure._ridge_points`,
+        ``steps`` steps of every edge from ``xa`` to ``xb`` (k, 3) (g = d_lo − d_hi ``ga``,
+        ``gb`` at the ends, levels ``lo`` and ``lo`` + 1 (k,)) in one compiled call, with its
+        arithmetic: (last iterates (k, 3), their distances to the two levels (k,), (k,)).
+        None otherwise (the caller steps in numpy)."""
+        if not self.balls:
+            return None
+        check_cancel()
+        return compiled_ball.ridge_steps([m._ctree for m in self.members], xa, xb, ga, gb, lo,
+                                         self.members[0].radius, max(int(steps), 1),
+                                         workers())
+
     def _ball_rows(self, w):
         """The compiled balls' joint query of points of members ``w`` (k,): (the rows whose
         member has segments, sorted by member (stable), the members' trees, the offsets of

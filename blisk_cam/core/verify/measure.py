@@ -650,9 +650,8 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     def normals_of(rows):  # the ridge points' smooth normals: only those traced (row-wise)
         out, ridge = np.empty((len(rows), 3)), rows < nr
         rf = sc.ridge_face[rows[ridge]]
-        FX = mesh.F[rf]
         out[ridge] = mesh.interpolate_normals(rf, barycentric(
-            sc.ridge_pts[rows[ridge]], mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]]))
+            sc.ridge_pts[rows[ridge]], *(mesh.V[mesh.F[rf, j]] for j in range(3))))
         out[~ridge] = top_n[rows[~ridge] - nr]
         return out
 
@@ -697,13 +696,13 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         return
     ea, eb = smp.edges[eidx, 0], smp.edges[eidx, 1]
     xa, xb = smp.points[ea], smp.points[eb]
-    ta, tb = np.zeros(len(eidx)), np.ones(len(eidx))
+    ta, tb, near = np.zeros(len(eidx)), np.ones(len(eidx)), None
     last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
-    near = None
-    for _ in range(max(int(refine), 1)):
+    steps = cut.ridge_steps(xa, xb, ga, gb, epair, refine)  # compiled balls: every step
+    for _ in range(max(int(refine), 1) if steps is None else 0):
         t = (ta * gb - tb * ga) / (gb - ga)
         x = xa + t[:, None] * (xb - xa)
-        if known is not None and near is None and not cut.balls:  # (compiled: full queries)
+        if known is not None and near is None:
             # the iterates after the first move by far less than a tenth of the edge
             near = _two_level_near(cut, x, epair, npairs,
                                    0.1 * np.linalg.norm(xb - xa, axis=1),
@@ -717,6 +716,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
         tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
         last = np.where(repl_a, 1, 2).astype(np.int8)
+    x, la, lb = (x, la, lb) if steps is None else steps
     rv = np.minimum(la, lb)
     rmax = _group_max(npairs, epair, rv)
     better = np.isfinite(rmax) & ~(rmax <= sc.pair_cusp)
