@@ -122,6 +122,16 @@ pub fn box_d2(bx: &[f64; 6], p: &P3) -> f64 {
     s
 }
 
+/// The squared distance from a point to a tree node's box (0 inside).
+#[inline(always)]
+fn node_d2(node: &parry3d_f64::partitioning::BvhNode, p: &P3) -> f64 {
+    let a = node.aabb();
+    box_d2(
+        &[a.mins.x, a.mins.y, a.mins.z, a.maxs.x, a.maxs.y, a.maxs.z],
+        p,
+    )
+}
+
 /// The reach of a least squared distance `d2`: a box farther than it (with room for the
 /// boxes' and the distances' rounding) holds nothing as near.
 #[inline(always)]
@@ -333,12 +343,9 @@ impl SegTree {
         if !(r < f64::INFINITY) {
             return alone(dd, ss, s0);
         }
-        let cv = Vector::new(c[0], c[1], c[2]);
         let mut cands: Vec<u32> = Vec::new();
-        for leaf in self
-            .bvh
-            .leaves(|node| node.aabb().distance_to_local_point(cv, true) <= r)
-        {
+        let rr = r * r; // squared: no square root per box (r holds far more than its rounding)
+        for leaf in self.bvh.leaves(|node| node_d2(node, &c) <= rr) {
             cands.push(leaf);
             if cands.len() > GROUP_MAX_LEAVES {
                 return alone(dd, ss, s0);
@@ -438,15 +445,12 @@ impl SegTree {
         let r2 = radius * radius;
         let mut best = f64::INFINITY;
         let reach = radius + hmax;
-        let pv = Vector::new(o[0], o[1], o[2]);
         let r = reach * (1.0 + 1e-12) + 1e-12;
         if !(r >= 0.0) || !(o[0].is_finite() && o[1].is_finite() && o[2].is_finite()) {
             return f64::INFINITY;
         }
-        for leaf in self
-            .bvh
-            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
-        {
+        let rr = r * r;
+        for leaf in self.bvh.leaves(|node| node_d2(node, o) <= rr) {
             if self.caps[leaf as usize].beyond(o, r) {
                 continue; // every hit of its capsules is beyond hmax
             }
