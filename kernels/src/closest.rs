@@ -9,7 +9,6 @@ use crate::numpy_ops::nanmax;
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
-use parry3d_f64::query::PointQuery;
 use rayon::prelude::*;
 
 pub type P3 = [f64; 3];
@@ -127,6 +126,79 @@ pub fn triangle_d2(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
     dot(&e, &e)
 }
 
+/// `closest_on_triangles` for one point and one triangle, operation for operation:
+/// (closest point, squared distance, feature — 0 interior, 1..3 edge ab/bc/ca, 4..6 vertex
+/// a/b/c —, barycentric coordinates).
+pub fn triangle_closest(p: &P3, a: &P3, b: &P3, c: &P3) -> (P3, f64, i8, P3) {
+    let ab = sub(b, a);
+    let bc = sub(c, b);
+    let ca = sub(a, c);
+    let (lab, lbc, lca) = (dot(&ab, &ab), dot(&bc, &bc), dot(&ca, &ca));
+    let c_long = lab >= lbc && lab >= lca;
+    let a_long = lbc >= lca;
+    let x = if c_long {
+        bc
+    } else if a_long {
+        ca
+    } else {
+        ab
+    };
+    let y = if c_long {
+        ca
+    } else if a_long {
+        ab
+    } else {
+        bc
+    };
+    let n = cross(&x, &y);
+    let nn = dot(&n, &n);
+    let m = nanmax(nanmax(lab, lbc), lca);
+    let ok = nn > 1e-24 * (m * m);
+    let inv = if ok { 1.0 / nn } else { 0.0 };
+    let s = dot(&sub(a, p), &n) * inv;
+    let q_in = [p[0] + s * n[0], p[1] + s * n[1], p[2] + s * n[2]];
+    let (qa, qb, qc) = (sub(a, &q_in), sub(b, &q_in), sub(c, &q_in));
+    let u = triple(&n, &qb, &qc) * inv;
+    let v = triple(&n, &qc, &qa) * inv;
+    let w = triple(&n, &qa, &qb) * inv;
+    let inside = ok && u >= 0.0 && v >= 0.0 && w >= 0.0;
+    let (q, feature, bary) = if inside {
+        let s_uvw = (u + v) + w;
+        (q_in, 0i8, [u / s_uvw, v / s_uvw, w / s_uvw])
+    } else {
+        let mut best = f64::INFINITY;
+        let mut bary = [0.0f64; 3];
+        let mut feature = 0i8;
+        for (s0, e0, i0, i1, fe, fs, fend) in [
+            (a, b, 0usize, 1usize, 1i8, 4i8, 5i8),
+            (b, c, 1, 2, 2, 5, 6),
+            (c, a, 2, 0, 3, 6, 4),
+        ] {
+            let (t, d2) = on_segment(p, s0, e0);
+            if d2 < best {
+                best = d2;
+                bary = [0.0; 3];
+                bary[i0] = 1.0 - t;
+                bary[i1] = t;
+                feature = if t <= 0.0 {
+                    fs
+                } else if t >= 1.0 {
+                    fend
+                } else {
+                    fe
+                };
+            }
+        }
+        let mut q = [0.0; 3];
+        for j in 0..3 {
+            q[j] = (bary[0] * a[j] + bary[1] * b[j]) + bary[2] * c[j];
+        }
+        (q, feature, bary)
+    };
+    let e = sub(p, &q);
+    (q, dot(&e, &e), feature, bary)
+}
+
 /// Faces per leaf of the tree: runs of faces consecutive along a Morton curve of their
 /// centroids (compact runs), so the tree holds a quarter of the nodes it would hold with one
 /// face per leaf (its memory dominated the orient stage's peak).
@@ -231,16 +303,27 @@ impl FaceDisk {
         }
     }
 
-    /// A lower bound (mm) of the distance from `p` to the face, less a rounding pad
-    /// (1e-9 of the lengths: far above the exact kernel's own rounding); −∞ for a NaN.
+    /// Whether the face is farther than `r` from `p` by its lower bounds, less a rounding
+    /// pad (1e-9 of the lengths: far above the exact kernel's own rounding): the disk's,
+    /// sqrt(z² + max(ρ − r_disk, 0)²), and the longest-edge capsule's, its distance less
+    /// its radius — compared squared with the squared reach (one square root, where the
+    /// point lies beyond the disk's rim), the pads taken with |d| ≤ max(1, |d|²). False for
+    /// a NaN (such a face is compared).
     #[inline(always)]
-    fn lower_bound(&self, p: &P3) -> f64 {
+    fn beyond(&self, p: &P3, r: f64) -> bool {
         let d = sub(p, &self.c);
         let dd = dot(&d, &d);
         let z = dot(&d, &self.n);
-        let rin = (dd - z * z).max(0.0).sqrt();
-        let e = (rin - self.r).max(0.0);
-        let mut lb = (z * z + e * e).sqrt() - 1e-9 * (1.0 + dd.sqrt() + self.r);
+        let rin2 = (dd - z * z).max(0.0);
+        let e = if rin2 > self.r * self.r {
+            rin2.sqrt() - self.r
+        } else {
+            0.0
+        };
+        let rr = r + 1e-9 * (1.0 + dd.max(1.0) + self.r);
+        if z * z + e * e > rr * rr {
+            return true;
+        }
         if self.einv > 0.0 {
             let w = sub(p, &self.es);
             let t = (dot(&w, &self.ed) * self.einv).clamp(0.0, 1.0);
@@ -249,14 +332,11 @@ impl FaceDisk {
                 w[1] - t * self.ed[1],
                 w[2] - t * self.ed[2],
             ];
-            let dq = dot(&q, &q).sqrt();
-            lb = lb.max(dq - self.eh - 1e-9 * (1.0 + dq + self.eh));
+            let dq2 = dot(&q, &q);
+            let rq = r + self.eh + 1e-9 * (1.0 + dq2.max(1.0) + self.eh);
+            return dq2 > rq * rq;
         }
-        if lb.is_nan() {
-            f64::NEG_INFINITY
-        } else {
-            lb
-        }
+        false
     }
 }
 
@@ -366,7 +446,6 @@ impl FaceTree {
         if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) || self.f.is_empty() {
             return -1;
         }
-        let pv = Vector::new(p[0], p[1], p[2]);
         let best = std::cell::Cell::new((f64::INFINITY, u32::MAX));
         let consider = |face: u32| {
             let d2 = self.d2(p, face);
@@ -376,18 +455,28 @@ impl FaceTree {
             }
         };
         // the reach of a least squared distance d2 (a box farther cannot hold a face as near)
+        // the walk compares squared distances (no square root per box): a box is visited
+        // while its squared distance is below the squared reach, as its distance below it
         let reach = crate::swept_ball::reach;
+        let reach2 = |d2: f64| {
+            let r = reach(d2);
+            r * r
+        };
         let mut start = f64::MAX;
         if guess >= 0 && (guess as usize) < self.f.len() {
             consider(guess as u32);
             let (b, _) = best.get();
             if b.is_finite() {
-                start = reach(b);
+                start = reach2(b);
             }
         }
         self.bvh.find_best(
             start,
-            |node, _| node.aabb().distance_to_local_point(pv, true),
+            |node, _| {
+                let a = node.aabb();
+                let bx = [a.mins.x, a.mins.y, a.mins.z, a.maxs.x, a.maxs.y, a.maxs.z];
+                crate::swept_ball::box_d2(&bx, p)
+            },
             |leaf, _| {
                 match &self.disks {
                     Some(disks) => {
@@ -395,7 +484,7 @@ impl FaceTree {
                             // a face whose disk is beyond the reach of the best cannot
                             // reach or tie it
                             let (b, _) = best.get();
-                            if !(disks[face as usize].lower_bound(p) > reach(b)) {
+                            if !disks[face as usize].beyond(p, reach(b)) {
                                 consider(face);
                             }
                         }
@@ -408,7 +497,7 @@ impl FaceTree {
                 }
                 let (b, _) = best.get();
                 if b.is_finite() {
-                    Some(reach(b))
+                    Some(reach2(b))
                 } else {
                     None
                 }
@@ -420,6 +509,21 @@ impl FaceTree {
         } else {
             id as i64
         }
+    }
+
+    /// `closest_on_triangles` of each point and its face (`face` −1: numpy's index −1, the
+    /// last face, as `MeshDistance.query` indexes it), (q, d2, feature, bary) per point.
+    pub fn closest_many(&self, pts: &[P3], faces: &[i64]) -> Vec<(P3, f64, i8, P3)> {
+        let m = self.f.len() as i64;
+        pts.par_iter()
+            .zip(faces.par_iter())
+            .with_min_len(256)
+            .map(|(p, &f)| {
+                let fi = if f < 0 { f + m } else { f } as usize;
+                let t = self.f[fi];
+                triangle_closest(p, &self.v[t[0]], &self.v[t[1]], &self.v[t[2]])
+            })
+            .collect()
     }
 
     /// [`Self::nearest_from`] of every point; in runs of consecutive points each searched from the

@@ -141,6 +141,51 @@ impl FaceTree {
         let out = py.detach(|| pl.install(|| self.tree.nearest_many(pp)));
         Ok(PyArray1::from_vec(py, out))
     }
+
+    /// (face (k,) int64, q (k, 3), d2 (k,), feature (k,) int8, bary (k, 3)): the nearest face
+    /// of each point (k, 3) as `nearest` finds it, and `closest_on_triangles` of the point
+    /// and that face (a non-finite point: face −1, the figures of numpy's face −1), on
+    /// `threads` threads.
+    #[allow(clippy::type_complexity)]
+    fn nearest_closest<'py>(
+        &self,
+        py: Python<'py>,
+        p: PyReadonlyArray2<'py, f64>,
+        threads: usize,
+    ) -> PyResult<(
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray2<f64>>,
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<i8>>,
+        Bound<'py, PyArray2<f64>>,
+    )> {
+        let pp = points(&p, "points")?;
+        let pl = pool(threads)?;
+        let (face, rows) = py.detach(|| {
+            pl.install(|| {
+                let face = self.tree.nearest_many(pp);
+                let rows = self.tree.closest_many(pp, &face);
+                (face, rows)
+            })
+        });
+        let k = pp.len();
+        let mut q = Vec::with_capacity(3 * k);
+        let mut bary = Vec::with_capacity(3 * k);
+        let (mut d2, mut feat) = (Vec::with_capacity(k), Vec::with_capacity(k));
+        for (qi, di, fi, bi) in rows {
+            q.extend_from_slice(&qi);
+            d2.push(di);
+            feat.push(fi);
+            bary.extend_from_slice(&bi);
+        }
+        Ok((
+            PyArray1::from_vec(py, face),
+            PyArray1::from_vec(py, q).reshape([k, 3])?,
+            PyArray1::from_vec(py, d2),
+            PyArray1::from_vec(py, feat),
+            PyArray1::from_vec(py, bary).reshape([k, 3])?,
+        ))
+    }
 }
 
 /// A k-d tree of points for k-nearest queries within a bound (see `passes._nearest_samples`).
@@ -428,6 +473,9 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<FaceTree>()?;
     m.add_class::<PointTree>()?;
     m.add_class::<swept_ball::SweptBallTree>()?;
+    m.add_function(wrap_pyfunction!(swept_ball::forest_nearest, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_ball::forest_first_hits, m)?)?;
+    m.add_function(wrap_pyfunction!(swept_ball::ridge_steps, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::golden_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search, m)?)?;
     m.add_function(wrap_pyfunction!(swept_cutter::fast_search_boxes, m)?)?;

@@ -6,7 +6,7 @@
 //! `(x0 y0 + x2 y2) + x1 y1`), operation for operation, so the minimum is the numpy
 //! reference's float.
 
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
@@ -37,8 +37,78 @@ pub struct SegTree {
     d: Vec<P3>,
     dd: Vec<f64>,
     bvh: Bvh,
-    /// each leaf's box (lo, hi), for the group queries' own tests
-    boxes: Vec<[f64; 6]>,
+    /// each leaf's capsule (see [`LeafCapsule`]), for the group queries' own tests (tighter
+    /// than the leaf's box and as cheap)
+    caps: Vec<LeafCapsule>,
+}
+
+/// The capsule around a leaf's run of segments: the chord from the run's first start to its
+/// last end, and the largest distance of the run's ends from it (padded). The distance to a
+/// segment's points is convex along the segment, so every segment of the run lies within
+/// `rad` of the chord, and dist(p, chord) − rad is a lower bound of the distance from p to
+/// any of them. A ball's surface samples lie on the thin shell ρ from their nearest centre:
+/// the neighbouring passes' runs come within a few tenths of a mm of that distance, where an
+/// axis-aligned box around a slanted run is loose by up to its length; the chord is not.
+#[derive(Clone, Copy)]
+pub struct LeafCapsule {
+    s: P3,
+    d: P3,
+    /// 1 / |d|² (0 for a point chord)
+    inv: f64,
+    rad: f64,
+}
+
+impl LeafCapsule {
+    fn new(a: &[P3], b: &[P3]) -> Self {
+        let s = a[0];
+        let e = b[b.len() - 1];
+        let d = [e[0] - s[0], e[1] - s[1], e[2] - s[2]];
+        let ll = dot(&d, &d);
+        let inv = if ll > 0.0 && ll.is_finite() {
+            1.0 / ll
+        } else {
+            0.0
+        };
+        let mut cap = LeafCapsule {
+            s,
+            d,
+            inv,
+            rad: 0.0,
+        };
+        let mut rad = 0.0f64;
+        let mut scale = 1.0f64;
+        for p in a.iter().chain(b) {
+            rad = nanmax(rad, cap.dist2(p).sqrt());
+            scale = nanmax(scale, p[0].abs().max(p[1].abs()).max(p[2].abs()));
+        }
+        // the chord's and the queries' rounding: far below 1e-9 of the coordinates
+        cap.rad = if rad.is_finite() {
+            rad * (1.0 + 1e-9) + 1e-9 * scale
+        } else {
+            f64::INFINITY
+        };
+        cap
+    }
+
+    /// The squared distance from `p` to the chord.
+    #[inline(always)]
+    fn dist2(&self, p: &P3) -> f64 {
+        let w = [p[0] - self.s[0], p[1] - self.s[1], p[2] - self.s[2]];
+        let t = (dot(&w, &self.d) * self.inv).clamp(0.0, 1.0);
+        let e = [
+            w[0] - t * self.d[0],
+            w[1] - t * self.d[1],
+            w[2] - t * self.d[2],
+        ];
+        dot(&e, &e)
+    }
+
+    /// Whether every segment of the leaf is farther than `r` from `p` (false for NaN).
+    #[inline(always)]
+    pub fn beyond(&self, p: &P3, r: f64) -> bool {
+        let rr = r + self.rad;
+        self.dist2(p) > rr * rr
+    }
 }
 
 /// The squared distance from a point to a box (lo, hi) (0 inside).
@@ -50,6 +120,16 @@ pub fn box_d2(bx: &[f64; 6], p: &P3) -> f64 {
         s += e * e;
     }
     s
+}
+
+/// The squared distance from a point to a tree node's box (0 inside).
+#[inline(always)]
+fn node_d2(node: &parry3d_f64::partitioning::BvhNode, p: &P3) -> f64 {
+    let a = node.aabb();
+    box_d2(
+        &[a.mins.x, a.mins.y, a.mins.z, a.maxs.x, a.maxs.y, a.maxs.z],
+        p,
+    )
 }
 
 /// The reach of a least squared distance `d2`: a box farther than it (with room for the
@@ -96,21 +176,21 @@ impl SegTree {
             })
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
-        let b = b.to_vec();
-        let boxes = boxes
-            .iter()
-            .map(|x| {
-                let (lo, hi) = (x.mins, x.maxs);
-                [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]
+        let caps = (0..a.len())
+            .step_by(RUN)
+            .map(|s| {
+                let e = (s + RUN).min(a.len());
+                LeafCapsule::new(&a[s..e], &b[s..e])
             })
             .collect();
+        let b = b.to_vec();
         SegTree {
             a,
             b,
             d,
             dd,
             bvh,
-            boxes,
+            caps,
         }
     }
 
@@ -149,7 +229,6 @@ impl SegTree {
         if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
             return (f64::NAN, -1); // numpy's minimum of NaN distances
         }
-        let pv = Vector::new(p[0], p[1], p[2]);
         let best = std::cell::Cell::new((f64::INFINITY, -1i64));
         let consider = |s: usize| {
             let d2 = self.d2(p, s);
@@ -158,24 +237,38 @@ impl SegTree {
                 best.set((d2, s as i64));
             }
         };
+        // squared distances in the walk (no square root per box), against the squared reach
+        let reach2 = |d2: f64| {
+            let r = reach(d2);
+            r * r
+        };
         let mut start = f64::MAX;
         if guess >= 0 && (guess as usize) < self.a.len() {
             consider(guess as usize);
             let (b, _) = best.get();
             if b.is_finite() {
-                start = reach(b);
+                start = reach2(b);
             }
         }
         self.bvh.find_best(
             start,
-            |node, _| node.aabb().distance_to_local_point(pv, true),
+            |node, _| {
+                let a = node.aabb();
+                box_d2(
+                    &[a.mins.x, a.mins.y, a.mins.z, a.maxs.x, a.maxs.y, a.maxs.z],
+                    p,
+                )
+            },
             |leaf, _| {
-                for s in self.run(leaf) {
-                    consider(s);
+                let (b, _) = best.get();
+                if !(b.is_finite() && self.caps[leaf as usize].beyond(p, reach(b))) {
+                    for s in self.run(leaf) {
+                        consider(s);
+                    }
                 }
                 let (b, _) = best.get();
                 if b.is_finite() {
-                    Some(reach(b))
+                    Some(reach2(b))
                 } else {
                     None
                 }
@@ -209,7 +302,7 @@ impl SegTree {
     /// finite point is searched alone (from `guess`); its segment s0 bounds every point's
     /// least distance (d2 to s0), so every segment that can be nearest to one of them lies in
     /// a leaf whose box comes within max(|p − c| + reach(d2(p, s0))) of the group's centre c:
-    /// those leaves are listed once, then each point tests them (box, then segments) against
+    /// those leaves are listed once, then each point tests them (capsule, then segments) against
     /// its own best so far. Every segment at a point's least distance is compared, so the
     /// (d2, segment) are [`Self::nearest_from`]'s. Returns the last segment found (the next
     /// group's guess).
@@ -250,12 +343,9 @@ impl SegTree {
         if !(r < f64::INFINITY) {
             return alone(dd, ss, s0);
         }
-        let cv = Vector::new(c[0], c[1], c[2]);
         let mut cands: Vec<u32> = Vec::new();
-        for leaf in self
-            .bvh
-            .leaves(|node| node.aabb().distance_to_local_point(cv, true) <= r)
-        {
+        let rr = r * r; // squared: no square root per box (r holds far more than its rounding)
+        for leaf in self.bvh.leaves(|node| node_d2(node, &c) <= rr) {
             cands.push(leaf);
             if cands.len() > GROUP_MAX_LEAVES {
                 return alone(dd, ss, s0);
@@ -272,21 +362,26 @@ impl SegTree {
                 continue;
             }
             let (mut b, mut id) = (f64::INFINITY, -1i64);
-            let mut r2 = f64::INFINITY;
-            let consider = |s: usize, b: &mut f64, id: &mut i64, r2: &mut f64| {
+            let (mut r, mut r2) = (f64::INFINITY, f64::INFINITY);
+            let consider = |s: usize, b: &mut f64, id: &mut i64, r: &mut f64, r2: &mut f64| {
                 let d2 = self.d2(p, s);
                 if d2 < *b || (d2 == *b && s as i64 > *id) {
                     *b = d2;
                     *id = s as i64;
-                    let rr = reach(d2);
-                    *r2 = rr * rr;
+                    *r = reach(d2);
+                    *r2 = *r * *r;
                 }
             };
-            consider(s0u, &mut b, &mut id, &mut r2);
+            consider(s0u, &mut b, &mut id, &mut r, &mut r2);
+            if last >= 0 && last != s0 {
+                // the previous point's segment: its neighbour's nearest is likely its own
+                consider(last as usize, &mut b, &mut id, &mut r, &mut r2);
+            }
             for &leaf in &cands {
-                if box_d2(&self.boxes[leaf as usize], p) <= r2 {
+                let l = leaf as usize;
+                if !self.caps[l].beyond(p, r) {
                     for s in self.run(leaf) {
-                        consider(s, &mut b, &mut id, &mut r2);
+                        consider(s, &mut b, &mut id, &mut r, &mut r2);
                     }
                 }
             }
@@ -350,15 +445,15 @@ impl SegTree {
         let r2 = radius * radius;
         let mut best = f64::INFINITY;
         let reach = radius + hmax;
-        let pv = Vector::new(o[0], o[1], o[2]);
         let r = reach * (1.0 + 1e-12) + 1e-12;
         if !(r >= 0.0) || !(o[0].is_finite() && o[1].is_finite() && o[2].is_finite()) {
             return f64::INFINITY;
         }
-        for leaf in self
-            .bvh
-            .leaves(|node| node.aabb().distance_to_local_point(pv, true) <= r)
-        {
+        let rr = r * r;
+        for leaf in self.bvh.leaves(|node| node_d2(node, o) <= rr) {
+            if self.caps[leaf as usize].beyond(o, r) {
+                continue; // every hit of its capsules is beyond hmax
+            }
             for s in self.run(leaf) {
                 let t = self.capsule_first_hit(o, n, s, r2);
                 if t < best {
@@ -510,4 +605,307 @@ impl SweptBallTree {
         let (q, s) = py.detach(|| pl.install(|| self.tree.within_many(pp, rr)));
         Ok((PyArray1::from_vec(py, q), PyArray1::from_vec(py, s)))
     }
+}
+
+/// The work units of a forest query: (member, first, end) runs of at most [`WARM_RUN`] of
+/// the points of each member (`start` (members + 1,): the points sorted by member).
+fn forest_units(start: &[i64], members: usize) -> PyResult<Vec<(usize, usize, usize)>> {
+    if start.len() != members + 1 {
+        return Err(PyValueError::new_err(
+            "start must give one offset per tree and the end",
+        ));
+    }
+    let mut units = Vec::new();
+    for j in 0..members {
+        let (s, e) = (start[j], start[j + 1]);
+        if s < 0 || e < s {
+            return Err(PyValueError::new_err(
+                "start must be non-decreasing offsets",
+            ));
+        }
+        let (s, e) = (s as usize, e as usize);
+        let mut a = s;
+        while a < e {
+            let b = (a + WARM_RUN).min(e);
+            units.push((j, a, b));
+            a = b;
+        }
+    }
+    Ok(units)
+}
+
+/// Several swept balls' trees queried in one call (verify's per-level volumes): the points
+/// (k, 3) sorted by member, member j's being `start[j]..start[j + 1]`; each point's
+/// (d2, segment) in its member is [`SweptBallTree::nearest`]'s (the grouping does not change
+/// them). Runs of the members' points share the `threads` threads (one call instead of one
+/// per member: no per-call overhead, no thread idle at a small member's end).
+#[pyfunction]
+pub fn forest_nearest<'py>(
+    py: Python<'py>,
+    trees: Vec<Bound<'py, SweptBallTree>>,
+    p: PyReadonlyArray2<'py, f64>,
+    start: PyReadonlyArray1<'py, i64>,
+    threads: usize,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    let pp = crate::points(&p, "points")?;
+    let st = crate::slice1(&start, "start")?;
+    let units = forest_units(st, trees.len())?;
+    if st[trees.len()] as usize != pp.len() {
+        return Err(PyValueError::new_err(
+            "start must end at the number of points",
+        ));
+    }
+    let ts: Vec<&SegTree> = trees.iter().map(|t| &t.get().tree).collect();
+    let pl = crate::pool(threads)?;
+    let (d2, seg) = py.detach(|| {
+        pl.install(|| {
+            let parts: Vec<(usize, Vec<f64>, Vec<i64>)> = units
+                .par_iter()
+                .map(|&(j, a, b)| {
+                    let (mut dd, mut ss) = (vec![f64::INFINITY; b - a], vec![-1i64; b - a]);
+                    let mut g = -1i64;
+                    for ((dg, sg), pg) in dd
+                        .chunks_mut(GROUP)
+                        .zip(ss.chunks_mut(GROUP))
+                        .zip(pp[a..b].chunks(GROUP))
+                    {
+                        g = ts[j].nearest_group(pg, dg, sg, g);
+                    }
+                    (a, dd, ss)
+                })
+                .collect();
+            let mut d2 = vec![f64::INFINITY; pp.len()];
+            let mut seg = vec![-1i64; pp.len()];
+            for (a, dd, ss) in parts {
+                d2[a..a + dd.len()].copy_from_slice(&dd);
+                seg[a..a + ss.len()].copy_from_slice(&ss);
+            }
+            (d2, seg)
+        })
+    });
+    Ok((PyArray1::from_vec(py, d2), PyArray1::from_vec(py, seg)))
+}
+
+/// [`SweptBallTree::first_hits`] of points sorted by member (as [`forest_nearest`]) against
+/// their member's capsules of `radius`, in one call: (k,) mm.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn forest_first_hits<'py>(
+    py: Python<'py>,
+    trees: Vec<Bound<'py, SweptBallTree>>,
+    p: PyReadonlyArray2<'py, f64>,
+    n: PyReadonlyArray2<'py, f64>,
+    radius: f64,
+    hmax: PyReadonlyArray1<'py, f64>,
+    start: PyReadonlyArray1<'py, i64>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let pp = crate::points(&p, "points")?;
+    let nn = crate::points(&n, "directions")?;
+    let hh = crate::slice1(&hmax, "max_height")?;
+    let st = crate::slice1(&start, "start")?;
+    if nn.len() != pp.len() || hh.len() != pp.len() {
+        return Err(PyValueError::new_err(
+            "points, directions and max_height must be one per point",
+        ));
+    }
+    let units = forest_units(st, trees.len())?;
+    if st[trees.len()] as usize != pp.len() {
+        return Err(PyValueError::new_err(
+            "start must end at the number of points",
+        ));
+    }
+    let ts: Vec<&SegTree> = trees.iter().map(|t| &t.get().tree).collect();
+    let pl = crate::pool(threads)?;
+    let out = py.detach(|| {
+        pl.install(|| {
+            let parts: Vec<(usize, Vec<f64>)> = units
+                .par_iter()
+                .map(|&(j, a, b)| {
+                    let t = ts[j];
+                    let h: Vec<f64> = (a..b)
+                        .map(|i| {
+                            if t.a.is_empty() {
+                                f64::INFINITY
+                            } else {
+                                t.first_hit(&pp[i], &nn[i], radius, hh[i])
+                            }
+                        })
+                        .collect();
+                    (a, h)
+                })
+                .collect();
+            let mut out = vec![f64::INFINITY; pp.len()];
+            for (a, h) in parts {
+                out[a..a + h.len()].copy_from_slice(&h);
+            }
+            out
+        })
+    });
+    Ok(PyArray1::from_vec(py, out))
+}
+
+/// np.sign: −1, 0 or 1, NaN for NaN.
+#[inline(always)]
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else if x == 0.0 {
+        0.0
+    } else {
+        f64::NAN
+    }
+}
+
+/// The regula falsi (Illinois) of verify's scallop ridges (`measure._ridge_points`), every
+/// step of every edge here: edge i runs from `xa` to `xb` (k, 3) with g = d_lo − d_hi
+/// `ga`, `gb` at its ends, its levels `lo[i]` and `lo[i] + 1` (trees, None for a level
+/// without segments: distance ∞); each step takes t = (ta gb − tb ga) / (gb − ga), the
+/// point xa + t (xb − xa) and its distances sqrt(d2) − `radius` to the two levels
+/// ([`SegTree::nearest_from`]'s d2), then the numpy code's updates, operation for operation.
+/// Returns the last iterates and their two distances (x (k, 3), d_lo (k,), d_hi (k,)).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn ridge_steps<'py>(
+    py: Python<'py>,
+    trees: Vec<Option<Bound<'py, SweptBallTree>>>,
+    xa: PyReadonlyArray2<'py, f64>,
+    xb: PyReadonlyArray2<'py, f64>,
+    ga: PyReadonlyArray1<'py, f64>,
+    gb: PyReadonlyArray1<'py, f64>,
+    lo: PyReadonlyArray1<'py, i64>,
+    radius: f64,
+    steps: usize,
+    threads: usize,
+) -> PyResult<(
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+)> {
+    let (pa, pb) = (crate::points(&xa, "xa")?, crate::points(&xb, "xb")?);
+    let (g0, g1) = (crate::slice1(&ga, "ga")?, crate::slice1(&gb, "gb")?);
+    let lv = crate::slice1(&lo, "lo")?;
+    let k = pa.len();
+    if pb.len() != k || g0.len() != k || g1.len() != k || lv.len() != k {
+        return Err(PyValueError::new_err(
+            "xa, xb, ga, gb and lo must be one per edge",
+        ));
+    }
+    if lv.iter().any(|&l| l < 0 || (l as usize) + 1 >= trees.len()) {
+        return Err(PyValueError::new_err(
+            "lo must name a level whose next level is in trees",
+        ));
+    }
+    let ts: Vec<Option<&SegTree>> = trees
+        .iter()
+        .map(|t| t.as_ref().map(|t| &t.get().tree))
+        .collect();
+    let steps = steps.max(1);
+    // the edges by level (stable), in runs of one level: each step's points of a run are
+    // searched by groups ([`SegTree::nearest_group`]: the same (d2, segment) as alone)
+    let mut order: Vec<usize> = (0..k).collect();
+    order.sort_by_key(|&i| lv[i]);
+    let mut units = Vec::new();
+    let mut a = 0;
+    while a < k {
+        let l = lv[order[a]];
+        let mut b = a + 1;
+        while b < k && b - a < WARM_RUN && lv[order[b]] == l {
+            b += 1;
+        }
+        units.push((a, b));
+        a = b;
+    }
+    let pl = crate::pool(threads)?;
+    let rows: Vec<(P3, f64, f64)> = py.detach(|| {
+        pl.install(|| {
+            let parts: Vec<Vec<(P3, f64, f64)>> = units
+                .par_iter()
+                .map(|&(u0, u1)| {
+                    let idx = &order[u0..u1];
+                    let n = idx.len();
+                    let l = lv[idx[0]] as usize;
+                    let dist = |xs: &[P3], tree: Option<&SegTree>, out: &mut [f64]| {
+                        let Some(t) = tree else {
+                            out.fill(f64::INFINITY);
+                            return;
+                        };
+                        let mut d2 = vec![f64::INFINITY; xs.len()];
+                        let mut sg = vec![-1i64; xs.len()];
+                        let mut g = -1i64;
+                        for ((dg, sgg), pg) in d2
+                            .chunks_mut(GROUP)
+                            .zip(sg.chunks_mut(GROUP))
+                            .zip(xs.chunks(GROUP))
+                        {
+                            g = t.nearest_group(pg, dg, sgg, g);
+                        }
+                        for (o, v) in out.iter_mut().zip(&d2) {
+                            *o = v.sqrt() - radius;
+                        }
+                    };
+                    let mut ta = vec![0.0f64; n];
+                    let mut tb = vec![1.0f64; n];
+                    let mut ga: Vec<f64> = idx.iter().map(|&i| g0[i]).collect();
+                    let mut gb: Vec<f64> = idx.iter().map(|&i| g1[i]).collect();
+                    let mut last = vec![0u8; n];
+                    let mut xs = vec![[0.0f64; 3]; n];
+                    let mut la = vec![f64::NAN; n];
+                    let mut lb = vec![f64::NAN; n];
+                    let mut t = vec![0.0f64; n];
+                    for _ in 0..steps {
+                        for e in 0..n {
+                            let (a, b) = (&pa[idx[e]], &pb[idx[e]]);
+                            t[e] = (ta[e] * gb[e] - tb[e] * ga[e]) / (gb[e] - ga[e]);
+                            xs[e] = [
+                                a[0] + t[e] * (b[0] - a[0]),
+                                a[1] + t[e] * (b[1] - a[1]),
+                                a[2] + t[e] * (b[2] - a[2]),
+                            ];
+                        }
+                        dist(&xs, ts[l], &mut la);
+                        dist(&xs, ts[l + 1], &mut lb);
+                        for e in 0..n {
+                            let gx = la[e] - lb[e];
+                            let repl_a = sign(gx) == sign(ga[e]);
+                            if !repl_a && last[e] == 2 {
+                                ga[e] *= 0.5;
+                            }
+                            if repl_a && last[e] == 1 {
+                                gb[e] *= 0.5;
+                            }
+                            if repl_a {
+                                (ta[e], ga[e]) = (t[e], gx);
+                            } else {
+                                (tb[e], gb[e]) = (t[e], gx);
+                            }
+                            last[e] = if repl_a { 1 } else { 2 };
+                        }
+                    }
+                    (0..n).map(|e| (xs[e], la[e], lb[e])).collect()
+                })
+                .collect();
+            let mut rows = vec![([0.0f64; 3], f64::NAN, f64::NAN); k];
+            for (&(u0, _), part) in units.iter().zip(parts) {
+                for (e, r) in part.into_iter().enumerate() {
+                    rows[order[u0 + e]] = r;
+                }
+            }
+            rows
+        })
+    });
+    let mut xs = Vec::with_capacity(3 * k);
+    let (mut dl, mut dh) = (Vec::with_capacity(k), Vec::with_capacity(k));
+    for (x, a, b) in rows {
+        xs.extend_from_slice(&x);
+        dl.push(a);
+        dh.push(b);
+    }
+    Ok((
+        PyArray1::from_vec(py, xs).reshape([k, 3])?,
+        PyArray1::from_vec(py, dl),
+        PyArray1::from_vec(py, dh),
+    ))
 }

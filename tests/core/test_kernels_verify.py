@@ -236,3 +236,71 @@ def test_swept_cutter_pose_bound_is_numpys_bit_for_bit():
     np.testing.assert_array_equal(u, u_ref)
     np.testing.assert_array_equal(arg, arg_ref)
     assert (u < 0).any() and (u > 0).any() and np.isnan(u[-1]) and arg[-1] == -1
+
+
+@compiled
+def test_nearest_closest_points_are_numpys_bit_for_bit():
+    """The compiled faces' closest points (MeshDistance.query with the compiled kernels): the
+    point, squared distance, feature and barycentric coordinates of closest_on_triangles on
+    each point's face, bit for bit — on a strip of needle faces, a sliver and a zero-area
+    face, at points on, around, far off and exactly at the vertices, and at a NaN point."""
+    from blisk_cam.core.geometry.closest import closest_on_triangles
+    from blisk_cam.core.kernels.closest import face_tree, nearest_closest, nearest_faces
+
+    rng = np.random.default_rng(5)
+    x = np.linspace(0.0, 2.0, 41)
+    top = np.stack([x, np.full_like(x, 4.0), 0.3 * np.sin(3 * x)], 1)
+    bot = np.stack([x, np.zeros_like(x), -0.2 * np.cos(2 * x)], 1)
+    V = np.vstack([bot, top, [[1.0, 2.0, 0.1], [1.0 + 1e-9, 2.0, 0.1], [1.0, 2.0, 0.1]]])
+    n = len(x)
+    i = np.arange(n - 1)
+    F = np.vstack([np.stack([i, i + 1, n + i], 1), np.stack([i + 1, n + i + 1, n + i], 1),
+                   [[2 * n, 2 * n + 1, 2 * n + 2]]])
+    P = np.vstack([rng.uniform([-0.5, -1.0, -1.0], [2.5, 5.0, 1.0], (3000, 3)),
+                   rng.uniform([-0.5, -1.0, 5.0], [2.5, 5.0, 7.0], (500, 3)),
+                   V, [[np.nan, 0.0, 0.0]]])
+    for disks in (False, True):
+        tree = face_tree(V, F, disks)
+        face, q, d2, feat, bary = nearest_closest(tree, P, 2)
+        np.testing.assert_array_equal(face, nearest_faces(tree, P, 1))
+        ref = closest_on_triangles(P, V[F[face, 0]], V[F[face, 1]], V[F[face, 2]])
+        for got, want in zip((q, d2, feat, bary), ref, strict=True):
+            np.testing.assert_array_equal(got, want)
+            assert got.dtype == want.dtype
+    assert set(np.unique(feat)) >= {0, 1, 2, 3} and face[-1] == -1
+
+
+@compiled
+def test_swept_ball_forest_in_one_call_identical_on_both_backends():
+    """A forest of swept balls (one per pass, one without segments) asked in one compiled
+    call: each point's distance, segment and height along a direction are those of its
+    member alone on the numpy backend, on 1 and 2 threads."""
+    from blisk_cam.core.verify.forest import SweptForest
+
+    a, b, own, P = _helices(n_pass=5, n=120)
+    rng = np.random.default_rng(7)
+    which = rng.integers(0, 6, len(P))  # member 5 has no segments
+    up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+
+    def members():
+        z = np.zeros((0, 3))
+        return [SweptBall(a[own == i], b[own == i], 3.0) for i in range(5)] + [
+            SweptBall(z, z, 3.0)]
+
+    with backend.numpy_only():
+        ref = SweptForest(members())
+        assert not ref.balls
+        d_ref, s_ref = ref.nearest(P, which)
+        h_ref = ref.height_along(P, up, 4.0, which)
+    for threads in (1, 2):
+        with parallel(threads):
+            got = SweptForest(members())
+            assert got.balls
+            d, s = got.nearest(P, which)
+            h = got.height_along(P, up, 4.0, which)
+        np.testing.assert_array_equal(d, d_ref)
+        np.testing.assert_array_equal(h, h_ref)
+        # a point equally near two segments (their shared end) may name either
+        same = s == s_ref
+        assert same.mean() > 0.9 and np.all(s[which == 5] == -1)
+    assert np.isinf(d_ref[which == 5]).all() and np.isfinite(h_ref).any()

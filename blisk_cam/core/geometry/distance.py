@@ -164,12 +164,17 @@ class MeshDistance:
             if near.shape != P.shape:
                 raise ValueError(f"MeshDistance.query: near must give one guess per point, "
                                  f"got {len(near)} for {k} points")
-        if self._faces is not None:
-            face = self._faces.faces(P)
+        got = self._faces.closest_compiled(P) if self._faces is not None else None
+        if got is not None:  # the faces and their closest points, compiled (the same floats)
+            face, q, d2, feat, bary = got
         else:
-            _, face = nearest(self.tree, P, self._d2, fastfn=self._fast_d2, near=near,
-                               keepfn=self._lb_keep)
-        q, d2, feat, bary = closest_on_triangles(P, self._A[face], self._B[face], self._C[face])
+            if self._faces is not None:
+                face = self._faces.faces(P)
+            else:
+                _, face = nearest(self.tree, P, self._d2, fastfn=self._fast_d2, near=near,
+                                   keepfn=self._lb_keep)
+            q, d2, feat, bary = closest_on_triangles(P, self._A[face], self._B[face],
+                                                     self._C[face])
         mesh = self.mesh
         fn = mesh.face_normals
         pn = fn[face].copy()
@@ -315,6 +320,16 @@ class NearestFaces:
         if len(P) and self.mesh.n_faces and extension() is not None:
             return self._compiled_faces(P)
         return self.query(P)[1]
+
+    def closest_compiled(self, P):
+        """(face, q, d2, feature, bary) of the compiled kernel for (k, 3) points: its nearest
+        faces and ``closest_on_triangles`` of each point and its face, with that function's
+        arithmetic (the same floats); None on the numpy backend or without points."""
+        if not (len(P) and self.mesh.n_faces and extension() is not None):
+            return None
+        if self._ctree is None:
+            self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
+        return compiled_closest.nearest_closest(self._ctree, P, workers())
 
     def _compiled_faces(self, P):
         """(k,) the compiled kernel's nearest face of each point (its tree built once)."""

@@ -9,7 +9,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["face_tree", "nearest_faces", "triangle_d2"]
+__all__ = ["face_tree", "nearest_closest", "nearest_faces", "triangle_d2"]
 
 
 def face_tree(V, F, disks: bool = False):
@@ -28,6 +28,17 @@ def nearest_faces(tree, points, threads: int):
     lowest id among equal ones; −1 for a non-finite point), on ``threads`` threads (the GIL
     released)."""
     return tree.nearest(np.ascontiguousarray(points, dtype=np.float64), max(1, int(threads)))
+
+
+def nearest_closest(tree, points, threads: int):
+    """(face (k,) int64, q (k, 3), d2 (k,), feature (k,) int8, bary (k, 3)): the faces of
+    :func:`nearest_faces` and ``closest_on_triangles`` of each point and its face, computed
+    with its arithmetic (a point without a face, −1, takes numpy's face −1: the last), on
+    ``threads`` threads; None when the installed kernels predate it."""
+    if not hasattr(tree, "nearest_closest"):
+        return None
+    return tree.nearest_closest(np.ascontiguousarray(points, dtype=np.float64),
+                                max(1, int(threads)))
 
 
 def triangle_d2(p, a, b, c):

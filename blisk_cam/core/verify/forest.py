@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kernels import swept_ball as compiled_ball
 from ..kernels import swept_cutter as compiled_cutter
-from ..runtime import map_chunks, map_tasks, workers
+from ..runtime import check_cancel, map_chunks, map_tasks, workers
 from .sweep import BOX_PIECES, SweptCutter, _fast_search, _sphere_trace, searched_once
+from .sweep_ball import SweptBall
 
 __all__ = ["SweptForest"]
 
@@ -39,8 +41,13 @@ class SweptForest:
     their segments cannot come within it, so they never change a value; the per-level
     queries' chunk tails took the flat test before too.)
 
-    Other members (:class:`SweptBall`, the "exact" method) are asked member by member, one
-    task each (:func:`..runtime.map_tasks`), each with its points in the order given.
+    :class:`SweptBall` members of one radius with compiled trees (``balls``) are asked in one
+    compiled call: the points sorted by member, runs of each member's points sharing the
+    threads (one call per level, five times over: ~260 calls on Rotor 37, each with its
+    Python and thread-pool overhead and a thread idle at its end); each point's figures are
+    its member's own. Other members (numpy balls, the "exact" method) are asked member by
+    member, one task each (:func:`..runtime.map_tasks`), each with its points in the order
+    given.
 
     Parameters
     ----------
@@ -56,6 +63,10 @@ class SweptForest:
         self.fast = (bool(live) and all(isinstance(m, SweptCutter) and m.method == "fast"
                                         for m in ms)
                      and len({(repr(m.cutter.as_dict()), m.xtol) for m in live}) == 1)
+        # swept balls of one radius with compiled trees: every member's queries in one call
+        self.balls = (bool(ms) and all(isinstance(m, SweptBall) for m in ms)
+                      and len({m.radius for m in ms}) == 1 and compiled_ball.forest_available()
+                      and all(m._ctree is not None or len(m.a) == 0 for m in ms))
         if not self.fast:
             return
         self.cutter, self.xtol = live[0].cutter, live[0].xtol
@@ -120,6 +131,14 @@ class SweptForest:
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         k = len(P)
         w = self._which(which, k)
+        if self.balls:  # compiled balls: the guesses are not needed (the same result)
+            out = np.full(k, np.inf)
+            arg = np.full(k, -1, dtype=np.int64)
+            rows, trees, start = self._ball_rows(w)
+            if len(rows):
+                d2, seg = compiled_ball.forest_nearest(trees, P[rows], start, workers())
+                out[rows], arg[rows] = np.sqrt(d2) - self.members[0].radius, seg
+            return out, arg
         if not self.fast:
             out = np.full(k, np.inf)
             arg = np.full(k, -1, dtype=np.int64)
@@ -143,6 +162,34 @@ class SweptForest:
         # callers repeat ~1 query in 5 (grid samples shared by rows, the ridges' ends and
         # regula falsi iterates met again)
         return searched_once(P, w, self._nearest_fast)
+
+    def ridge_steps(self, xa, xb, ga, gb, lo, steps):
+        """Compiled balls (``balls``): the regula falsi of :func:`.measure._ridge_points`,
+        ``steps`` steps of every edge from ``xa`` to ``xb`` (k, 3) (g = d_lo − d_hi ``ga``,
+        ``gb`` at the ends, levels ``lo`` and ``lo`` + 1 (k,)) in one compiled call, with its
+        arithmetic: (last iterates (k, 3), their distances to the two levels (k,), (k,)).
+        None otherwise (the caller steps in numpy)."""
+        if not self.balls:
+            return None
+        check_cancel()
+        return compiled_ball.ridge_steps([m._ctree for m in self.members], xa, xb, ga, gb, lo,
+                                         self.members[0].radius, max(int(steps), 1),
+                                         workers())
+
+    def _ball_rows(self, w):
+        """The compiled balls' joint query of points of members ``w`` (k,): (the rows whose
+        member has segments, sorted by member (stable), the members' trees, the offsets of
+        each tree's rows in that order (trees + 1,))."""
+        check_cancel()  # one call for every member: checked before it
+        has = np.array([m._ctree is not None for m in self.members])
+        # the same stable order; small ints sort by radix (~4x faster than int64's merge)
+        order = np.argsort(w.astype(np.int16) if len(has) < 2**15 else w, kind="stable")
+        rows = order[has[w[order]]]
+        trees = [m._ctree for m in self.members if m._ctree is not None]
+        tid = np.cumsum(has) - 1  # the tree of each member that has one
+        start = np.zeros(len(trees) + 1, dtype=np.int64)
+        np.cumsum(np.bincount(tid[w[rows]], minlength=len(trees)), out=start[1:])
+        return rows, trees, start
 
     def _nearest_fast(self, P, w):
         """:meth:`nearest` of distinct (point, member) rows by the fast joint pass."""
@@ -210,6 +257,14 @@ class SweptForest:
         N = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
         w = self._which(which, len(P))
         hmax = np.broadcast_to(np.asarray(max_height, float), (len(P),)).copy()
+        if self.balls:
+            t = np.full(len(P), np.inf)
+            rows, trees, start = self._ball_rows(w)
+            if len(rows):
+                t[rows] = compiled_ball.forest_first_hits(
+                    trees, P[rows], N[rows], self.members[0].radius, hmax[rows], start,
+                    workers())
+            return t
         if not self.fast:
             t = np.full(len(P), np.inf)
             for rows, h in self.per_member(

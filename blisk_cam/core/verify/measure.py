@@ -594,7 +594,7 @@ class _Scallops:
     pair_where: np.ndarray
     pair_n: np.ndarray
     ridge_pts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    ridge_nrm: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    ridge_face: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     ridge_val: np.ndarray = field(default_factory=lambda: np.zeros(0))
     ridge_pair: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
@@ -626,7 +626,8 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     gsign = np.where(near_lo, -1.0, np.where(near_hi, 1.0, np.nan))
     known = guess = None
     if isinstance(cut[0], SweptBall):
-        guess = P + rho * normals  # where the nearest ball centres are likely
+        if not cut.balls:  # (compiled balls find their own start: no guess needed)
+            guess = P + rho * normals  # where the nearest ball centres are likely
         # a ball's distance to one level is the minimum over that level's segments of the
         # same point–segment distances as the whole path's: where the nearest pass of all is
         # one of the strip's two, it is that level's distance, bit for bit (a swept cutter's
@@ -651,10 +652,19 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
     hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
-    hn_ = np.concatenate([sc.ridge_nrm, normals[valid][arg[has]]])
+    top_n, nr = normals[valid][arg[has]], len(sc.ridge_pts)
+
+    def normals_of(rows):  # the ridge points' smooth normals: only those traced (row-wise)
+        out, ridge = np.empty((len(rows), 3)), rows < nr
+        rf = sc.ridge_face[rows[ridge]]
+        out[ridge] = mesh.interpolate_normals(rf, barycentric(
+            sc.ridge_pts[rows[ridge]], *(mesh.V[mesh.F[rf, j]] for j in range(3))))
+        out[~ridge] = top_n[rows[~ridge] - nr]
+        return out
+
     hv = np.concatenate([sc.ridge_val, mat[valid][arg[has]]])
     hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
-    sc.pair_cn = _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho)
+    sc.pair_cn = _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho)
     return sc
 
 
@@ -682,7 +692,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
             mlo, mhi = _two_level_distances(
                 cut, smp.points[ends], strip[ends], npairs,
                 need=(~known[2][ends], ~known[3][ends]),
-                guess=smp.points[ends] + rho * smp.normals[ends])
+                guess=None if cut.balls else smp.points[ends] + rho * smp.normals[ends])
             dlo = np.where(known[2][ends], dlo, mlo)
             dhi = np.where(known[3][ends], dhi, mhi)
         g = dlo - dhi
@@ -693,10 +703,10 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         return
     ea, eb = smp.edges[eidx, 0], smp.edges[eidx, 1]
     xa, xb = smp.points[ea], smp.points[eb]
-    ta, tb = np.zeros(len(eidx)), np.ones(len(eidx))
+    ta, tb, near = np.zeros(len(eidx)), np.ones(len(eidx)), None
     last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
-    near = None
-    for _ in range(max(int(refine), 1)):
+    steps = cut.ridge_steps(xa, xb, ga, gb, epair, refine)  # compiled balls: every step
+    for _ in range(max(int(refine), 1) if steps is None else 0):
         t = (ta * gb - tb * ga) / (gb - ga)
         x = xa + t[:, None] * (xb - xa)
         if known is not None and near is None:
@@ -713,6 +723,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
         tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
         last = np.where(repl_a, 1, 2).astype(np.int8)
+    x, la, lb = (x, la, lb) if steps is None else steps
     rv = np.minimum(la, lb)
     rmax = _group_max(npairs, epair, rv)
     better = np.isfinite(rmax) & ~(rmax <= sc.pair_cusp)
@@ -720,17 +731,14 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     sc.pair_cusp = np.where(better, rmax, sc.pair_cusp)
     sc.pair_where[better] = x[ra[better]]
     sc.ridge_pts = x
-    rf = smp.edge_face[eidx]
-    FX = mesh.F[rf]
-    bX = barycentric(x, mesh.V[FX[:, 0]], mesh.V[FX[:, 1]], mesh.V[FX[:, 2]])
-    sc.ridge_nrm = mesh.interpolate_normals(rf, bX)
+    sc.ridge_face = smp.edge_face[eidx]  # their normals: asked in :func:`_scallops`
     sc.ridge_val, sc.ridge_pair = rv, epair
 
 
-def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
+def _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho):
     """Largest scallop height along the normal per pair (NaN where none): from the points
-    ``hp`` (normals ``hn_``, material left ``hv``, pair ``hq``) up to the nearer of the
-    pair's two swept volumes (``cut``: the levels' :class:`SweptForest`)."""
+    ``hp`` (normals ``normals_of(rows)`` of the rows traced, material left ``hv``, pair
+    ``hq``) up to the nearer of the pair's two swept volumes (``cut``: the levels' forest)."""
     heights = np.where(hv > 0, np.nan, hv)
     hmax = np.maximum(4.0 * hv, 1e-6 * rho)
     # the height is the material left divided by the cosine of a slowly varying angle:
@@ -740,7 +748,10 @@ def _scallop_heights(cut, hp, hn_, hv, hq, npairs, rho):
 
     live = (hv > 0) & near_top
     # every live point traced up to its pair's lower level's passes and to its upper's
-    pi, lv, up = _two_level_queries(np.nonzero(live)[0], hq[live], npairs)
+    rows = np.nonzero(live)[0]
+    pi, lv, up = _two_level_queries(rows, hq[live], npairs)
+    hn_ = np.empty((len(hp), 3))
+    hn_[rows] = normals_of(rows)
     h = cut.height_along(hp[pi], hn_[pi], hmax[pi], lv)
     h_lo = np.full(len(hp), np.inf)  # up to the pair's lower level's passes
     h_hi = np.full(len(hp), np.inf)
