@@ -305,19 +305,10 @@ def _interpolated_contacts(cutter, curves, nsub):
     return np.vstack(pts), np.concatenate(ids), np.vstack(tps), np.vstack(axs)
 
 
-def verify_path(
-    mesh: TriMesh,
-    path: ToolPath,
-    *,
-    spacing: float | None = None,
-    subsamples: int = 8,
-    refine: int = 3,
-    method: str = "fast",
-    workers: int | None = None,
-    cancel=None,
-    progress=None,
-    on_material_left=None,
-) -> VerifyReport:
+def verify_path(mesh: TriMesh, path: ToolPath, *, spacing: float | None = None,
+                subsamples: int = 8, refine: int = 3, method: str = "fast",
+                workers: int | None = None, cancel=None, progress=None,
+                on_material_left=None) -> VerifyReport:
     """Measure a tool path on its mesh, independently of the generator.
 
     Parameters
