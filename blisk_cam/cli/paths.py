@@ -256,13 +256,15 @@ def read_obstacles(files, units="mm"):
 def plan_from_args(args, log=print, progress=None):
     """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
     plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
-    or None, {stage: seconds}). Every stage is timed (``seconds_<stage>`` in the JSON's
+    or None, {stage: seconds}); V, F (the file's arrays, for ``--blend``/``--preview``) are
+    None without those outputs. Every stage is timed (``seconds_<stage>`` in the JSON's
     stats). ``progress``: a :class:`.progress.StageProgress` for the percentage lines on
     stderr (None: silent)."""
     from ..core.geometry.mesh import TriMesh
     from ..core.geometry.mesh_io import check_blade_size, read_mesh, to_mm
     from ..core.part.fitting import fit_cones_to_mesh
     from ..core.process.blade_finish import PathRequest, iter_plan_paths
+    from ..core.runtime import workers
     from .progress import StageProgress
 
     progress = progress or StageProgress(quiet=True)
@@ -276,6 +278,8 @@ def plan_from_args(args, log=print, progress=None):
     t = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F)
     times["weld"] = time.perf_counter() - t
+    if not (getattr(args, "blend", None) or getattr(args, "preview", None)):
+        V = F = None  # the file's triangle soup (3 corners a face) is not held through the plan
     c1, c2 = args.cone1_obj, args.cone2_obj
     fit = None
     if c1 is None or c2 is None:
@@ -324,7 +328,8 @@ def plan_from_args(args, log=print, progress=None):
         from ..core.verify.measure import verify_path
 
         t = time.perf_counter()
-        report = verify_path(mesh, plan.path, progress=progress.step("verify"))
+        report = verify_path(mesh, plan.path, progress=progress.step("verify"),
+                             workers=workers())
         times["verify"] = time.perf_counter() - t
         progress.done("verify", times["verify"])
     return V, F, mesh, req, plan, report, times
@@ -423,7 +428,7 @@ def _cmd_paths(args):
             f" in {req.offset_layers} offset layers from {req.offset_from:g} mm ("
             + ", ".join(f"{a:g}" for a in path.stats["layer_allowances"]) + " mm)")
     print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm"
-          f"{stock}; kernels: {path.stats.get('kernels', 'numpy')}")
+          f"{stock}; kernels: {path.stats.get('kernels', 'numpy')}, {_threads_text(path.stats)}")
     for w in plan.warnings:
         print(f"warning: {w}")
     if verdict is not None:
@@ -462,6 +467,14 @@ def _cmd_paths(args):
               f"the outputs were written, {nc_text}")
         return 4
     return 0
+
+
+def _threads_text(stats) -> str:
+    """'2 threads' (or '1 thread') of the JSON's stats (the plan's threads)."""
+    from ..core.runtime import workers
+
+    n = int(stats.get("threads", workers()))
+    return f"{n} thread{'s' if n != 1 else ''}"
 
 
 def _mm(x) -> str:
