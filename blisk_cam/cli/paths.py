@@ -395,10 +395,14 @@ def _cmd_paths(args):
     t_wall = time.perf_counter()
     startup = process_age()
     check_paths_args(args)
+    from ..core.runtime import alongside
     from ..core.toolpath.paths_io import write_paths_json
     from .progress import StageProgress
 
     progress = StageProgress(quiet=args.quiet)
+    # the mesh file's SHA-256 (for nc's constant-error budget) on a thread of its own while
+    # the plan runs: hashlib releases the GIL (with --threads 1: at the write, as before)
+    mesh_stats = alongside(lambda: planned_mesh_stats(args.mesh, args.units))
     V, F, mesh, req, plan, report, times = plan_from_args(args, progress=progress)
     path = plan.path
     verdict = None
@@ -417,7 +421,7 @@ def _cmd_paths(args):
     if plan.collision is not None:
         path.stats["seconds_collision"] = times["collision"]
     path.stats["seconds_wall"] = time.perf_counter() - t_wall + (startup or 0.0)
-    path.stats.update(planned_mesh_stats(args.mesh, args.units))
+    path.stats.update(mesh_stats())
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
     print(f"wrote {out}: {_summary_line(path, times, report)}")

@@ -63,3 +63,10 @@ def test_paths_verify_gives_the_same_json_on_one_and_two_threads(blade, tmp_path
         assert kernels.endswith(f"{n} thread" + ("s" if n > 1 else ""))
         runs[n] = _without_timings(data)
     assert runs[1] == runs[2]
+
+
+def test_the_cli_leaves_a_users_arena_limit_alone(monkeypatch):
+    from blisk_cam.cli import allocator
+
+    monkeypatch.setenv("MALLOC_ARENA_MAX", "4")
+    assert allocator.use_one_heap() is False  # the environment's choice stands
