@@ -4,7 +4,7 @@ glibc's malloc gives each thread that allocates its own heap (an "arena"). The c
 kernels' worker threads (rayon) allocate their buffers there; what they free stays in
 their heap, where the main thread's next arrays cannot use it, so planning on two threads
 held up to ~100 MB more at its peak than on one (Rotor 37 subdivided to 1.29M triangles:
-828–971 MB against 865 MB; with one heap 808 MB on two threads, the same CPU time).
+809–949 MiB against 845 MiB; with one heap 790 MiB on two threads, the same CPU time).
 ``python -m blisk_cam`` asks for one heap before any thread starts; elsewhere (another
 libc, Blender's process, the tests) nothing is changed.
 """
