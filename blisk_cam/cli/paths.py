@@ -273,10 +273,12 @@ def plan_from_args(args, log=print, progress=None):
     t = time.perf_counter()
     V, F = read_mesh(args.mesh)
     V = to_mm(V, args.units)
-    check_blade_size(V, args.axis_obj)  # metres or inches: refused with the size and the fix
     times["load"] = time.perf_counter() - t
     t = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F)
+    # metres or inches: refused with the size and the fix; measured on the welded vertices
+    # (the file's corners, an STL's three per face, are the same points ~6 times over)
+    check_blade_size(mesh.V, args.axis_obj)
     times["weld"] = time.perf_counter() - t
     if not (getattr(args, "blend", None) or getattr(args, "preview", None)):
         V = F = None  # the file's triangle soup (3 corners a face) is not held through the plan
