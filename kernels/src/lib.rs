@@ -304,18 +304,15 @@ fn first_equal_point<'py>(
 }
 
 /// For each row of `v` (n, 3) float64, the index of the first row with the same coordinates
-/// (−0.0 as 0.0; see `weld._welded`), (n,) int64, on `threads` threads (the same answer for
-/// any count); None when there are too many rows (the caller takes the columns' kernel).
+/// (−0.0 as 0.0; see `weld._welded`), (n,) int64; None when there are too many rows (the
+/// caller takes the columns' kernel).
 #[pyfunction]
 fn first_equal_rows<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'py, f64>,
-    threads: usize,
 ) -> PyResult<Option<Bound<'py, PyArray1<i64>>>> {
     let rows = points(&v, "v")?;
-    let pl = pool(threads)?;
-    let n = pl.current_num_threads();
-    let first = py.detach(|| pl.install(|| weld::first_equal_rows(rows, n)));
+    let first = py.detach(|| weld::first_equal_rows(rows));
     Ok(first.map(|f| PyArray1::from_vec(py, f)))
 }
 

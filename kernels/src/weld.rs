@@ -62,12 +62,12 @@ pub fn first_equal_point(x: &[u64], y: &[u64], z: &[u64]) -> Vec<i64> {
 
 /// `first[i]`: the lowest j with row j of `v` equal to row i, bit for bit after adding 0.0
 /// (−0.0 counts as 0.0), as [`first_equal_point`] gives for the columns `v[:, c] + 0.0` — read
-/// from the rows, without the columns' copies. `parts` ≥ 1 hash partitions (a power of two
-/// is used), one task each: equal rows share a hash, so a partition holds whole groups, and
-/// each task inserts its rows in index order into a table of its own, so the answer does
-/// not depend on `parts`. None when there are too many rows for 32-bit slots.
-pub fn first_equal_rows(v: &[[f64; 3]], parts: usize) -> Option<Vec<i64>> {
-    use rayon::prelude::*;
+/// from the rows, without the columns' copies (the table and the answer are all the memory).
+/// One pass, one thread: the insertions into one table are sequential by nature (splitting
+/// the rows by hash over two threads, each with a table of its own, was no faster on this
+/// 2-core machine and held the hashes or the row lists besides). None when there are too
+/// many rows for 32-bit slots.
+pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
     let k = v.len();
     if k >= u32::MAX as usize {
         return None;
@@ -79,53 +79,24 @@ pub fn first_equal_rows(v: &[[f64; 3]], parts: usize) -> Option<Vec<i64>> {
             (p[2] + 0.0).to_bits(),
         ]
     };
-    let hash: Vec<u64> = v
-        .par_chunks(1 << 14)
-        .flat_map_iter(|c| {
-            c.iter().map(|p| {
-                let b = key(p);
-                mix(b[0], b[1], b[2])
-            })
-        })
-        .collect();
-    // the partition: the hash's top bits; the slot: the bits below them
-    let pbits = (usize::BITS - 1 - parts.max(1).leading_zeros()).min(8);
-    let lists: Vec<Vec<u32>> = if pbits == 0 {
-        vec![(0..k as u32).collect()]
-    } else {
-        let mut lists = vec![Vec::with_capacity(k >> pbits); 1 << pbits];
-        for (i, &h) in hash.iter().enumerate() {
-            lists[(h >> (64 - pbits)) as usize].push(i as u32);
-        }
-        lists
-    };
+    let bits = (usize::BITS - (2 * k.max(1) - 1).leading_zeros()).max(1);
+    let mask = (1usize << bits) - 1;
+    let mut table = vec![u32::MAX; 1usize << bits];
     let mut first = vec![0i64; k];
-    struct Out(*mut i64);
-    // SAFETY: each task writes only the rows of its own partition (disjoint indices)
-    unsafe impl Sync for Out {}
-    let out = Out(first.as_mut_ptr());
-    let out = &out;
-    lists.par_iter().for_each(|rows| {
-        let bits = (usize::BITS - (2 * rows.len().max(1) - 1).leading_zeros()).max(1);
-        let mask = (1usize << bits) - 1;
-        let mut table = vec![u32::MAX; 1usize << bits];
-        for &i in rows {
-            let b = key(&v[i as usize]);
-            let mut s = ((hash[i as usize] << pbits) >> (64 - bits)) as usize & mask;
-            let found = loop {
-                let held = table[s];
-                if held == u32::MAX {
-                    table[s] = i;
-                    break i;
-                }
-                if key(&v[held as usize]) == b {
-                    break held;
-                }
-                s = (s + 1) & mask;
-            };
-            // SAFETY: i < k and no other task writes row i
-            unsafe { *out.0.add(i as usize) = found as i64 };
-        }
-    });
+    for (i, p) in v.iter().enumerate() {
+        let b = key(p);
+        let mut s = (mix(b[0], b[1], b[2]) >> (64 - bits)) as usize & mask;
+        first[i] = loop {
+            let held = table[s];
+            if held == u32::MAX {
+                table[s] = i as u32;
+                break i as i64;
+            }
+            if key(&v[held as usize]) == b {
+                break held as i64;
+            }
+            s = (s + 1) & mask;
+        };
+    }
     Some(first)
 }

@@ -15,7 +15,6 @@ from scipy.spatial import cKDTree
 
 from ..errors import MeshError
 from ..kernels import weld as compiled_weld
-from ..runtime import workers
 
 __all__ = ["input_vertex_values"]
 
@@ -183,8 +182,8 @@ def _welded(V, used, weld_tolerance):
     iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
     # representative (lowest input index) of every used vertex: exact duplicates, then
     # clusters closer than tol. + 0.0 turns −0.0 into 0.0. The compiled kernel reads the
-    # rows (on the threads of runtime.parallel); the reference hashes contiguous columns
-    first = compiled_weld.first_equal_rows(Vu, workers())
+    # rows; the reference hashes contiguous columns
+    first = compiled_weld.first_equal_rows(Vu)
     if first is None:
         first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
     pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending

@@ -21,14 +21,13 @@ def first_equal_point(x, y, z):
     return ext.first_equal_point(*(np.ascontiguousarray(c, dtype=np.float64) for c in (x, y, z)))
 
 
-def first_equal_rows(V, threads: int):
+def first_equal_rows(V):
     """For each row of ``V`` ((k, 3) float64, mm, finite), the index of the first row equal to
     it (−0.0 counted as 0.0: the answer :func:`first_equal_point` gives for the columns
-    ``V[:, j] + 0.0``), (k,) int64, read from the rows on ``threads`` threads (the same answer
-    for any count); None when the numpy kernels run (or a wheel without this kernel, or more
-    rows than it takes)."""
+    ``V[:, j] + 0.0``), (k,) int64, read from the rows (no column copies); None when the
+    numpy kernels run (or a wheel without this kernel, or more rows than it takes)."""
     ext = extension()
     fn = getattr(ext, "first_equal_rows", None) if ext is not None else None
     if fn is None:
         return None
-    return fn(np.ascontiguousarray(V, dtype=np.float64), max(1, int(threads)))
+    return fn(np.ascontiguousarray(V, dtype=np.float64))
