@@ -35,6 +35,12 @@ def test_first_equal_rows_is_the_lowest_equal_row():
     got = compiled_weld.first_equal_rows(P)
     np.testing.assert_array_equal(got, _lowest_equal_row(P))
     np.testing.assert_array_equal(got, weld._first_equal_point([P[:, j] + 0.0 for j in range(3)]))
+    # the rows at an odd byte of a buffer (as dask hands a task's arrays over): the same
+    buf = bytearray(P.nbytes + 4)
+    odd = np.frombuffer(buf, dtype=np.float64, offset=4, count=P.size).reshape(P.shape)
+    odd[...] = P
+    assert not odd.flags.aligned
+    np.testing.assert_array_equal(compiled_weld.first_equal_rows(odd), got)
 
 
 def test_the_welded_mesh_is_the_same_on_one_and_two_threads_and_both_backends():

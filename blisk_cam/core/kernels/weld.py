@@ -30,4 +30,6 @@ def first_equal_rows(V):
     fn = getattr(ext, "first_equal_rows", None) if ext is not None else None
     if fn is None:
         return None
-    return fn(np.ascontiguousarray(V, dtype=np.float64))
+    # aligned too: the caller's arrays may sit at any byte of a buffer (dask hands a task's
+    # arrays over in its message frames), which np.ascontiguousarray keeps as they are
+    return fn(np.require(V, dtype=np.float64, requirements=("C_CONTIGUOUS", "ALIGNED")))
