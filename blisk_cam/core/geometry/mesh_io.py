@@ -76,7 +76,10 @@ def _read_stl(raw: bytes):
         if 84 + 50 * n == len(raw):
             rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
             data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
-            V = data["v"].reshape(-1, 3).astype(np.float64)
+            # widened straight from the records into the result (reshaping the strided
+            # field first would copy it as float32 on the way)
+            V = np.empty((3 * n, 3), dtype=np.float64)
+            V.reshape(n, 3, 3)[...] = data["v"]
             return V, np.arange(len(V)).reshape(-1, 3)
     text = raw.decode("ascii", errors="strict")
     if not text.lstrip().lower().startswith("solid"):
