@@ -2,6 +2,10 @@
 
 import sys
 
+from .cli.allocator import use_one_heap
+
+use_one_heap()  # before numpy's and the kernels' threads start (see cli/allocator.py)
+
 try:
     import numpy  # noqa: F401 - the core needs numpy and scipy
     import scipy  # noqa: F401

@@ -12,8 +12,8 @@ import sys
 from ..core.errors import BliskCamError
 from ..core.options import check_value, fields, from_user, to_user
 
-__all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "check_file_roles",
-           "finite", "option_args", "positive"]
+__all__ = ["PROG", "CliInternalError", "UsageError", "add_option_flags", "add_threads_argument",
+           "check_file_roles", "finite", "option_args", "positive", "threads"]
 
 
 class UsageError(BliskCamError):
@@ -86,6 +86,29 @@ def whole(text):
         return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+
+
+def threads(text):
+    """argparse type of ``--threads``: a whole number ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number of threads (1 or more), got '{text}'") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected 1 or more threads, got {value}")
+    return value
+
+
+def add_threads_argument(parser) -> None:
+    """``--threads N`` of every command that computes: the threads of the compiled kernels
+    (rayon) and of the chunked queries (:func:`..core.runtime.parallel`); default every core
+    this process may use. The results do not depend on it."""
+    from ..core.runtime import default_workers
+
+    parser.add_argument("--threads", type=threads, default=None, metavar="N",
+                        help=f"threads of the computation (default: every core, "
+                        f"{default_workers()} here); the results do not depend on it")
 
 
 def add_option_flags(parser, stages):

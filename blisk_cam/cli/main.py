@@ -41,9 +41,18 @@ import sys
 
 from ..core.errors import BliskCamError
 from ..core.kernels.backend import backend_name
+from ..core.runtime import parallel
 from ..core.version import __version__
 from .blender import _cmd_demo
-from .flags import PROG, CliInternalError, UsageError, _fail, finite, positive
+from .flags import (
+    PROG,
+    CliInternalError,
+    UsageError,
+    _fail,
+    add_threads_argument,
+    finite,
+    positive,
+)
 from .hub import add_hub_arguments
 from .nc import add_nc_arguments
 from .paths import ENGINES, _cmd_paths, add_paths_arguments
@@ -53,6 +62,10 @@ from .rough import add_rough_arguments
 from .simulate import add_simulate_arguments
 
 __all__ = ["main", "build_parser"]
+
+#: the commands that compute in this process and take ``--threads N`` (demo runs Blender's
+#: operators, which choose their own threads; batch sizes its Dask cluster with --workers)
+THREADED_COMMANDS = ("paths", "nc", "robot", "simulate", "rough", "hub", "process")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -175,6 +188,8 @@ def build_parser() -> argparse.ArgumentParser:
     for name, help_text, description, add_arguments, run in commands:
         command = sub.add_parser(name, help=help_text, description=description)
         add_arguments(command)
+        if name in THREADED_COMMANDS:
+            add_threads_argument(command)
         command.set_defaults(func=run)
     return parser
 
@@ -298,7 +313,11 @@ def main(argv=None) -> int:
     except SystemExit as exc:  # --help
         return exc.code if isinstance(exc.code, int) else 0
     try:
-        return int(args.func(args) or 0)
+        if getattr(args, "threads", False) is False:  # a command without --threads
+            return int(args.func(args) or 0)
+        with parallel(args.threads) as n:  # every core unless --threads N
+            args.threads = n
+            return int(args.func(args) or 0)
     except UsageError as exc:
         _fail(exc)
         return 2

@@ -256,13 +256,15 @@ def read_obstacles(files, units="mm"):
 def plan_from_args(args, log=print, progress=None):
     """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
     plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
-    or None, {stage: seconds}). Every stage is timed (``seconds_<stage>`` in the JSON's
+    or None, {stage: seconds}); V, F (the file's arrays, for ``--blend``/``--preview``) are
+    None without those outputs. Every stage is timed (``seconds_<stage>`` in the JSON's
     stats). ``progress``: a :class:`.progress.StageProgress` for the percentage lines on
     stderr (None: silent)."""
     from ..core.geometry.mesh import TriMesh
     from ..core.geometry.mesh_io import check_blade_size, read_mesh, to_mm
     from ..core.part.fitting import fit_cones_to_mesh
     from ..core.process.blade_finish import PathRequest, iter_plan_paths
+    from ..core.runtime import workers
     from .progress import StageProgress
 
     progress = progress or StageProgress(quiet=True)
@@ -271,11 +273,15 @@ def plan_from_args(args, log=print, progress=None):
     t = time.perf_counter()
     V, F = read_mesh(args.mesh)
     V = to_mm(V, args.units)
-    check_blade_size(V, args.axis_obj)  # metres or inches: refused with the size and the fix
     times["load"] = time.perf_counter() - t
     t = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F)
+    # metres or inches: refused with the size and the fix; measured on the welded vertices
+    # (the file's corners, an STL's three per face, are the same points ~6 times over)
+    check_blade_size(mesh.V, args.axis_obj)
     times["weld"] = time.perf_counter() - t
+    if not (getattr(args, "blend", None) or getattr(args, "preview", None)):
+        V = F = None  # the file's triangle soup (3 corners a face) is not held through the plan
     c1, c2 = args.cone1_obj, args.cone2_obj
     fit = None
     if c1 is None or c2 is None:
@@ -324,7 +330,8 @@ def plan_from_args(args, log=print, progress=None):
         from ..core.verify.measure import verify_path
 
         t = time.perf_counter()
-        report = verify_path(mesh, plan.path, progress=progress.step("verify"))
+        report = verify_path(mesh, plan.path, progress=progress.step("verify"),
+                             workers=workers())
         times["verify"] = time.perf_counter() - t
         progress.done("verify", times["verify"])
     return V, F, mesh, req, plan, report, times
@@ -390,10 +397,14 @@ def _cmd_paths(args):
     t_wall = time.perf_counter()
     startup = process_age()
     check_paths_args(args)
+    from ..core.runtime import alongside
     from ..core.toolpath.paths_io import write_paths_json
     from .progress import StageProgress
 
     progress = StageProgress(quiet=args.quiet)
+    # the mesh file's SHA-256 (for nc's constant-error budget) on a thread of its own while
+    # the plan runs: hashlib releases the GIL (with --threads 1: at the write, as before)
+    mesh_stats = alongside(lambda: planned_mesh_stats(args.mesh, args.units))
     V, F, mesh, req, plan, report, times = plan_from_args(args, progress=progress)
     path = plan.path
     verdict = None
@@ -412,7 +423,7 @@ def _cmd_paths(args):
     if plan.collision is not None:
         path.stats["seconds_collision"] = times["collision"]
     path.stats["seconds_wall"] = time.perf_counter() - t_wall + (startup or 0.0)
-    path.stats.update(planned_mesh_stats(args.mesh, args.units))
+    path.stats.update(mesh_stats())
     write_paths_json(path, out)
     times["write"] = time.perf_counter() - t
     print(f"wrote {out}: {_summary_line(path, times, report)}")
@@ -423,7 +434,7 @@ def _cmd_paths(args):
             f" in {req.offset_layers} offset layers from {req.offset_from:g} mm ("
             + ", ".join(f"{a:g}" for a in path.stats["layer_allowances"]) + " mm)")
     print(f"tool: {req.cutter.describe()}, cusp {req.cusp:g} mm, chord {req.chord:g} mm"
-          f"{stock}; kernels: {path.stats.get('kernels', 'numpy')}")
+          f"{stock}; kernels: {path.stats.get('kernels', 'numpy')}, {_threads_text(path.stats)}")
     for w in plan.warnings:
         print(f"warning: {w}")
     if verdict is not None:
@@ -462,6 +473,14 @@ def _cmd_paths(args):
               f"the outputs were written, {nc_text}")
         return 4
     return 0
+
+
+def _threads_text(stats) -> str:
+    """'2 threads' (or '1 thread') of the JSON's stats (the plan's threads)."""
+    from ..core.runtime import workers
+
+    n = int(stats.get("threads", workers()))
+    return f"{n} thread{'s' if n != 1 else ''}"
 
 
 def _mm(x) -> str:

@@ -128,7 +128,7 @@ def run_simulate(args) -> int:
     last = -1.0
     while True:
         try:
-            with parallel(None):  # the compiled removal kernel on every core
+            with parallel(args.threads):  # the compiled removal kernel: --threads (every core)
                 pr = next(gen)
         except StopIteration as stop:
             sim = stop.value

@@ -23,12 +23,15 @@ __all__ = [
     "map_chunks",
     "map_tasks",
     "parallel",
+    "requested_workers",
     "run_to_end",
     "scaled_progress",
     "workers",
 ]
 # threads for chunked queries (set by :func:`parallel`); 1 = run in the calling thread
 _WORKERS = contextvars.ContextVar("blisk_cam_geometry_workers", default=1)
+# the count of the innermost :func:`parallel` block around this code (None: no block)
+_REQUESTED = contextvars.ContextVar("blisk_cam_requested_workers", default=None)
 
 
 def default_workers() -> int:
@@ -42,15 +45,29 @@ def default_workers() -> int:
 @contextlib.contextmanager
 def parallel(workers: int | None):
     """Within the block, chunked queries (:func:`map_chunks`: nearest primitives, pairs within
-    a radius, swept-cutter distances) run on ``workers`` threads (None: every core). numpy
-    and scipy's k-d tree release the GIL in their loops; each chunk is computed exactly as
-    on one thread, so the results do not depend on ``workers``."""
-    n = default_workers() if workers is None else max(1, int(workers))
+    a radius, swept-cutter distances) and the compiled kernels run on ``workers`` threads.
+    None: the count of an enclosing block (the caller's choice, e.g. the command line's
+    ``--threads``, wins over a library default), else every core. numpy and scipy's k-d tree
+    release the GIL in their loops; each chunk is computed exactly as on one thread, so the
+    results do not depend on ``workers``."""
+    if workers is None:
+        n = _REQUESTED.get() or default_workers()
+    else:
+        n = max(1, int(workers))
     token = _WORKERS.set(n)
+    asked = _REQUESTED.set(n)
     try:
         yield n
     finally:
+        _REQUESTED.reset(asked)
         _WORKERS.reset(token)
+
+
+def requested_workers() -> int | None:
+    """The thread count of the innermost :func:`parallel` block around the caller, None
+    outside every block (a library default, e.g. collision detection's two threads, may
+    then apply)."""
+    return _REQUESTED.get()
 
 
 def workers() -> int:

@@ -348,6 +348,19 @@ fn first_equal_point<'py>(
     Ok(PyArray1::from_vec(py, first))
 }
 
+/// For each row of `v` (n, 3) float64, the index of the first row with the same coordinates
+/// (−0.0 as 0.0; see `weld._welded`), (n,) int64; None when there are too many rows (the
+/// caller takes the columns' kernel).
+#[pyfunction]
+fn first_equal_rows<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Option<Bound<'py, PyArray1<i64>>>> {
+    let rows = points(&v, "v")?;
+    let first = py.detach(|| weld::first_equal_rows(rows));
+    Ok(first.map(|f| PyArray1::from_vec(py, f)))
+}
+
 /// Remove posed solids from the stock (see `stock::remove` and `removal.simulate_moves`):
 /// `lo`, `hi` (n_rays, K) float64 changed in place; `grid` = (θ0, Δθ, z0, Δz), `frame`
 /// (4, 3) = origin, e1, e2, d; per solid its tip and axis (m, 3), group (m,) int64 in
@@ -465,6 +478,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("VERSION", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(forward_step, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
+    m.add_function(wrap_pyfunction!(first_equal_rows, m)?)?;
     m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
     m.add_function(wrap_pyfunction!(stock_remove, m)?)?;
     m.add_function(wrap_pyfunction!(pool_identity, m)?)?;

@@ -59,3 +59,44 @@ pub fn first_equal_point(x: &[u64], y: &[u64], z: &[u64]) -> Vec<i64> {
     }
     first
 }
+
+/// `first[i]`: the lowest j with row j of `v` equal to row i, bit for bit after adding 0.0
+/// (−0.0 counts as 0.0), as [`first_equal_point`] gives for the columns `v[:, c] + 0.0` — read
+/// from the rows, without the columns' copies (the table and the answer are all the memory).
+/// One pass, one thread: the insertions into one table are sequential by nature (splitting
+/// the rows by hash over two threads, each with a table of its own, was no faster on this
+/// 2-core machine and held the hashes or the row lists besides). None when there are too
+/// many rows for 32-bit slots.
+pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
+    let k = v.len();
+    if k >= u32::MAX as usize {
+        return None;
+    }
+    let key = |p: &[f64; 3]| {
+        [
+            (p[0] + 0.0).to_bits(),
+            (p[1] + 0.0).to_bits(),
+            (p[2] + 0.0).to_bits(),
+        ]
+    };
+    let bits = (usize::BITS - (2 * k.max(1) - 1).leading_zeros()).max(1);
+    let mask = (1usize << bits) - 1;
+    let mut table = vec![u32::MAX; 1usize << bits];
+    let mut first = vec![0i64; k];
+    for (i, p) in v.iter().enumerate() {
+        let b = key(p);
+        let mut s = (mix(b[0], b[1], b[2]) >> (64 - bits)) as usize & mask;
+        first[i] = loop {
+            let held = table[s];
+            if held == u32::MAX {
+                table[s] = i as u32;
+                break i as i64;
+            }
+            if key(&v[held as usize]) == b {
+                break held as i64;
+            }
+            s = (s + 1) & mask;
+        };
+    }
+    Some(first)
+}

@@ -91,6 +91,7 @@ from ..errors import CollisionError
 from ..geometry.axis import Axis
 from ..geometry.vectors import rotate_about, rotation_matrix
 from ..kernels import collision as compiled_collision
+from ..runtime import requested_workers
 from ..runtime import workers as runtime_workers
 from ..tool.assembly import ToolAssembly
 from ..tool.cutter import as_cutter
@@ -390,12 +391,13 @@ class CollisionScene:
         parts = self.parts(flute_on_target)
         specs = [_part_spec(p) for p, _ in parts]
         if compiled_collision.detect_available() and all(x is not None for x in specs):
-            nw = workers or (runtime_workers() if runtime_workers() > 1
-                             else min(2, os.cpu_count() or 1))
+            nw = workers or (runtime_workers() if runtime_workers() > 1 or requested_workers()
+                             else min(2, os.cpu_count() or 1))  # --threads N: N
             self._detect_compiled(tips, axes, parts, specs, out, chunk, nw, progress)
             return Detection(*out, self.safety, self.cap)
         spans = [(s, min(s + chunk, m)) for s in range(0, m, chunk)]
-        nw = workers or min(2, os.cpu_count() or 1)
+        nw = workers or (runtime_workers() if requested_workers()
+                         else min(2, os.cpu_count() or 1))
         done = 0
 
         def work(span):

@@ -28,6 +28,9 @@ BLADE_RADIUS_MM = (20.0, 3000.0)
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply")
 
+#: vertices per block of :func:`check_blade_size`
+_SIZE_CHECK_BLOCK = 1 << 15
+
 
 def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     """(V (n, 3) float64 mm, F (m, 3) int64) of a mesh file.
@@ -73,7 +76,10 @@ def _read_stl(raw: bytes):
         if 84 + 50 * n == len(raw):
             rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
             data = np.frombuffer(raw, dtype=rec, count=n, offset=84)
-            V = data["v"].reshape(-1, 3).astype(np.float64)
+            # widened straight from the records into the result (reshaping the strided
+            # field first would copy it as float32 on the way)
+            V = np.empty((3 * n, 3), dtype=np.float64)
+            V.reshape(n, 3, 3)[...] = data["v"]
             return V, np.arange(len(V)).reshape(-1, 3)
     text = raw.decode("ascii", errors="strict")
     if not text.lstrip().lower().startswith("solid"):
@@ -214,8 +220,12 @@ def check_blade_size(V, axis) -> None:
     """MeshError, with the size and the fix, when the mesh's outer radius about ``axis`` (a
     :class:`.axis.Axis`) is not that of a blisk blade in mm (:data:`BLADE_RADIUS_MM`): a file
     in metres or inches names ``--units m`` / ``--units in`` and what the radius would be."""
-    r, _ = meridional(np.asarray(V, dtype=np.float64), axis)
-    rmax = float(np.max(r)) if len(r) else 0.0
+    V = np.asarray(V, dtype=np.float64)
+    # in blocks that stay in the cache: the temporaries of 3M corners at once cost more in
+    # fresh pages than the arithmetic (a block's NaN propagates as np.max's does)
+    step = _SIZE_CHECK_BLOCK
+    rmax = (float(np.max([np.max(meridional(V[s:s + step], axis)[0])
+                          for s in range(0, len(V), step)])) if len(V) else 0.0)
     lo, hi = BLADE_RADIUS_MM
     if lo <= rmax <= hi:
         return

@@ -181,12 +181,13 @@ def _welded(V, used, weld_tolerance):
     Vu = V if used.all() else V[used]
     iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
     # representative (lowest input index) of every used vertex: exact duplicates, then
-    # clusters closer than tol. + 0.0 turns −0.0 into 0.0 (contiguous columns)
-    cols = [Vu[:, j] + 0.0 for j in range(3)]
-    first = _first_equal_point(cols)
+    # clusters closer than tol. + 0.0 turns −0.0 into 0.0. The compiled kernel reads the
+    # rows; the reference hashes contiguous columns
+    first = compiled_weld.first_equal_rows(Vu)
+    if first is None:
+        first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
     pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
-    rcols = [c[pos] for c in cols]  # every used vertex equals one of them
-    del cols
+    rcols = list((Vu[pos] + 0.0).T)  # every used vertex equals one of them
     diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
     if diag == 0.0:
         raise MeshError("all vertices coincide: the mesh has no extent")

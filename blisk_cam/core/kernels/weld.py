@@ -8,7 +8,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["first_equal_point"]
+__all__ = ["first_equal_point", "first_equal_rows"]
 
 
 def first_equal_point(x, y, z):
@@ -19,3 +19,17 @@ def first_equal_point(x, y, z):
     if ext is None:
         return None
     return ext.first_equal_point(*(np.ascontiguousarray(c, dtype=np.float64) for c in (x, y, z)))
+
+
+def first_equal_rows(V):
+    """For each row of ``V`` ((k, 3) float64, mm, finite), the index of the first row equal to
+    it (−0.0 counted as 0.0: the answer :func:`first_equal_point` gives for the columns
+    ``V[:, j] + 0.0``), (k,) int64, read from the rows (no column copies); None when the
+    numpy kernels run (or a wheel without this kernel, or more rows than it takes)."""
+    ext = extension()
+    fn = getattr(ext, "first_equal_rows", None) if ext is not None else None
+    if fn is None:
+        return None
+    # aligned too: the caller's arrays may sit at any byte of a buffer (dask hands a task's
+    # arrays over in its message frames), which np.ascontiguousarray keeps as they are
+    return fn(np.require(V, dtype=np.float64, requirements=("C_CONTIGUOUS", "ALIGNED")))

@@ -21,7 +21,7 @@ from collections.abc import Callable, Generator, Iterable
 from dataclasses import dataclass, field
 
 from ..kernels.backend import backend_name
-from ..runtime import Progress, run_to_end
+from ..runtime import Progress, run_to_end, workers
 from ..toolpath.types import ToolPath
 
 __all__ = ["Operation", "OperationResult", "Stage", "iter_run_operation", "run_operation",
@@ -96,7 +96,7 @@ def iter_run_operation(operation: Operation, part, request, stock=None, *,
     stages, then the ``extra`` ones (e.g. a collision check); yields Progress, returns the
     :class:`OperationResult`. The stage times are in ``result.seconds`` and in the path's
     stats (``seconds_<stage>``, ``seconds_plan`` their sum), with the kernels that ran
-    (``kernels``: ``"compiled 0.1.0"`` or ``"numpy"``)."""
+    (``kernels``: ``"compiled 0.1.0"`` or ``"numpy"``) and their ``threads``."""
     state = operation.start(part, request, stock)
     seconds: dict[str, float] = {}
     for stage in (*operation.stages(state), *extra):
@@ -105,6 +105,7 @@ def iter_run_operation(operation: Operation, part, request, stock=None, *,
     result.path.stats.update({f"seconds_{k}": v for k, v in seconds.items()})
     result.path.stats["seconds_plan"] = float(sum(seconds.values()))
     result.path.stats["kernels"] = backend_name()
+    result.path.stats["threads"] = workers()  # the kernels' threads (results do not depend on it)
     result.seconds = dict(seconds)
     return result
 
