@@ -185,9 +185,16 @@ class MeshConeSlicer:
         return float(np.mean(np.abs(c1.signed_distance(v[:, 0], v[:, 1]))))
 
     # ------------------------------------------------------------------------------------
-    def vertex_side(self, s: float, vertices):
-        """Signed meridional distance f_s of the given vertices, snapped to 0 within ``on_tol``."""
-        f = self.morph.f(s, self.r[vertices], self.z[vertices])
+    def vertex_side(self, s: float, vertices, lines=None):
+        """Signed meridional distance f_s of the given vertices, snapped to 0 within ``on_tol``.
+
+        ``lines`` = ``morph.segment_lines(s)`` when the caller has them already (a cone pair's
+        f_s is then evaluated from its one line, the arithmetic of ``MorphingCones.f``)."""
+        if lines is not None and isinstance(self.morph, MorphingCones):
+            alpha, beta, gamma = (float(v) for v in lines[0])
+            f = alpha * self.r[vertices] + beta * self.z[vertices] + gamma
+        else:
+            f = self.morph.f(s, self.r[vertices], self.z[vertices])
         f[np.abs(f) <= self.on_tol] = 0.0
         return f
 
@@ -204,14 +211,15 @@ class MeshConeSlicer:
         cand = self._candidate_faces(s, m)
         if len(cand) == 0:
             return []
+        lines = self.morph.segment_lines(s)
         # the side of every corner (a vertex shared by several faces is evaluated once per
         # corner: the same elementwise arithmetic, cheaper than de-duplicating with a sort)
-        f_corner = self.vertex_side(s, mesh.F[cand].ravel())
+        f_corner = self.vertex_side(s, mesh.F[cand].ravel(), lines)
         # zero goes outside the region at the end levels, below otherwise
         above = (f_corner > 0 if s < 1.0 else f_corner >= 0).reshape(-1, 3)
         n_above = above.sum(axis=1)
         crossed = (n_above == 1) | (n_above == 2)
-        if not np.any(crossed):
+        if not crossed.any():
             return []
         faces = cand[crossed]
         ab = above[crossed]
@@ -227,12 +235,11 @@ class MeshConeSlicer:
         e_dn = np.where(first_up, e_k[:, 1], e_k[:, 0])
         uedges, linv = _unique_inverse(np.concatenate([e_up, e_dn]))
         links = linv.reshape(2, -1).T  # (c, 2) directed up → dn
-        lines = self.morph.segment_lines(s)
         pts, t = self._edge_roots(s, uedges, lines=lines)
         ev = self.edges[uedges]
         vn = self.vertex_normals
         nrm = (1.0 - t)[:, None] * vn[ev[:, 0]] + t[:, None] * vn[ev[:, 1]]
-        ln = np.linalg.norm(nrm, axis=1)
+        ln = np.sqrt(np.add.reduce(nrm * nrm, axis=1))  # np.linalg.norm's arithmetic
         nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
         nxt = np.full(len(uedges), -1, dtype=np.int64)
         nxt[links[:, 0]] = links[:, 1]
@@ -249,8 +256,8 @@ class MeshConeSlicer:
             # several crossing edges can share one point (a vertex on the level): drop repeats
             p = pts[order]
             keep = np.ones(len(order), dtype=bool)
-            keep[1:] = np.any(p[1:] != p[:-1], axis=1)
-            if closed and len(order) > 1 and np.all(p[-1] == p[0]):
+            keep[1:] = (p[1:] != p[:-1]).any(axis=1)
+            if closed and len(order) > 1 and (p[-1] == p[0]).all():
                 keep[-1] = False
             order = order[keep]
             if len(order) < 2:
@@ -401,7 +408,7 @@ class MeshConeSlicer:
         ev = self.edges[edge_ids]
         i0, i1 = ev[:, 0], ev[:, 1]
         k = len(i0)
-        f01 = self.vertex_side(s, np.concatenate([i0, i1]))  # one call for both ends
+        f01 = self.vertex_side(s, np.concatenate([i0, i1]), lines)  # one call for both ends
         f0, f1 = f01[:k], f01[k:]
         if len(lines) == 1:
             alpha, beta, gamma = (float(v) for v in lines[0])
