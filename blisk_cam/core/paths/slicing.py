@@ -20,6 +20,7 @@ first/last curve itself, made of the boundary vertices, instead of a ragged nois
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,6 +73,10 @@ class LevelCurve:
     def length(self) -> float:
         p = np.vstack([self.points, self.points[:1]]) if self.closed else self.points
         return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+
+
+#: corner k + 1 of corner k (0 → 1 → 2 → 0)
+_NEXT_CORNER = np.array([1, 2, 0])
 
 
 class MeshConeSlicer:
@@ -167,16 +172,24 @@ class MeshConeSlicer:
         v = (np.asarray(x, dtype=np.float64) - self._bucket_lo) * self._bucket_scale
         return np.floor(np.clip(v, 0.0, self._N_BUCKETS - 1))
 
+    def _bucket_index(self, x: float) -> int:
+        """``int(self._bucket_of(x))`` of one float, in Python floats: the same IEEE
+        arithmetic without numpy's per-scalar overhead (this runs twice a level)."""
+        v = (float(x) - float(self._bucket_lo)) * float(self._bucket_scale)
+        return int(math.floor(min(max(v, 0.0), self._N_BUCKETS - 1)))
+
     def _candidate_faces(self, s: float, m: float):
         """Ascending ids of the faces with smin ≤ s + m and smax ≥ s − m."""
         lo = s - m - self._narrow_span
-        k0, k1 = int(self._bucket_of(lo)), int(self._bucket_of(s + m))
+        k0, k1 = self._bucket_index(lo), self._bucket_index(s + m)
         near = self._narrow_faces[self._bucket_start[k0]:self._bucket_start[k1 + 1]]
         smin = self.face_smin[near]
         near = near[(smin >= lo) & (smin <= s + m) & (self.face_smax[near] >= s - m)]
         w = self._wide_faces
-        w = w[(self.face_smin[w] <= s + m) & (self.face_smax[w] >= s - m)]
-        return np.sort(np.concatenate([near, w]))
+        if len(w):
+            w = w[(self.face_smin[w] <= s + m) & (self.face_smax[w] >= s - m)]
+            near = np.concatenate([near, w])
+        return np.sort(near)
 
     def _cone_gap(self) -> float:
         """A typical meridional distance between cone 1 and cone 2 (mm)."""
@@ -217,14 +230,13 @@ class MeshConeSlicer:
         f_corner = self.vertex_side(s, mesh.F[cand].ravel(), lines)
         # zero goes outside the region at the end levels, below otherwise
         above = (f_corner > 0 if s < 1.0 else f_corner >= 0).reshape(-1, 3)
-        n_above = above.sum(axis=1)
-        crossed = (n_above == 1) | (n_above == 2)
+        crossed = above.any(axis=1) & ~above.all(axis=1)  # one or two corners above
         if not crossed.any():
             return []
         faces = cand[crossed]
         ab = above[crossed]
         fe = self.face_edges[faces]  # (c, 3): edges v0v1, v1v2, v2v0
-        cross_e = ab != ab[:, [1, 2, 0]]  # edge k joins corner k and k+1
+        cross_e = ab != ab[:, _NEXT_CORNER]  # edge k joins corner k and k+1
         # each crossed face has exactly two crossing edges; orient the link from the edge
         # entered below→above to the one left above→below (counter-clockwise in the face)
         k_idx = np.nonzero(cross_e)[1].reshape(-1, 2)
