@@ -52,10 +52,15 @@ fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
             if let Some(p) = own.as_ref() {
                 return Ok(p.clone());
             }
+            // the calling thread is the pool's one worker: a kernel runs on it directly, with
+            // no hand-off to another thread and back (and no worker spinning after each job —
+            // ~50–100 µs of CPU per call, which the plan's thousands of small calls at 20k
+            // triangles added up to ~0.1–0.2 s). Rayon leaks such a pool's registry (a few
+            // hundred bytes, once per Python thread that calls a kernel with one worker).
             let p = Arc::new(
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(1)
-                    .thread_name(|_| "blisk_cam-kernels-own".to_string())
+                    .use_current_thread()
                     .build()
                     .map_err(|e| PyValueError::new_err(format!("cannot start a thread: {e}")))?,
             );

@@ -201,7 +201,7 @@ class PolylineDistance:
         d, rest = compiled_polyline.polyline_distance(
             self._ctree, p, hint, self.k, self.seg_of_sample, self.a, self.ab, self.L2,
             workers())
-        if np.any(rest):
+        if rest.any():
             d[rest] = self._distance_numpy(p[rest], hint[rest])
         return d
 
@@ -256,7 +256,7 @@ def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None
             near = pts + radius * level_normals[i]
             ma = dist_a(pts, near=near) - radius
             mb = dist_b(pts, near=near) - radius
-        best = max(best, float(np.max(np.minimum(ma, mb))))
+        best = max(best, float(np.minimum(ma, mb).max()))
         if prev is not None:
             ppts, pma, pmb = prev
             j = _nearest_index(pts, ppts)
@@ -264,12 +264,12 @@ def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None
             ga = pma - pmb
             gb = ma[j] - mb[j]
             cross = (ga <= 0) & (gb >= 0) | (ga >= 0) & (gb <= 0)
-            if np.any(cross):
+            if cross.any():
                 den = ga[cross] - gb[cross]
                 lam = np.where(np.abs(den) > 0, ga[cross] / np.where(den != 0, den, 1.0), 0.5)
                 lam = np.clip(lam, 0.0, 1.0)
                 ridge = (1 - lam) * pma[cross] + lam * ma[j][cross]
-                best = max(best, float(np.max(ridge)))
+                best = max(best, float(ridge.max()))
         prev = (pts, ma, mb)
     return best
 

@@ -73,21 +73,33 @@ def _resample(points, closed, spacing, normals=None, offset=0.0):
     (interpolated along the segment, unit). With ``offset`` ρ the spacing is measured along
     the offset polyline ``p + ρ n`` (the ball-centre path), which puts many samples where the
     normal turns — around a thin leading edge, where the scallop between passes peaks."""
-    P = np.vstack([points, points[:1]]) if closed else points
-    N = None if normals is None else (np.vstack([normals, normals[:1]]) if closed else normals)
+    # the arithmetic of np.vstack / np.diff / np.linalg.norm / np.clip written out (the same
+    # operations on the same values, so the same floats): at ~400 points a level, called for
+    # every level sampled, their generic wrappers cost more than the work
+    P = np.concatenate((points, points[:1])) if closed else np.asarray(points)
+    N = None if normals is None else (
+        np.concatenate((normals, normals[:1])) if closed else np.asarray(normals))
     if len(P) < 2:
         return points if normals is None else (points, normals)
-    L = np.linalg.norm(np.diff(P if N is None or offset == 0 else P + offset * N, axis=0), axis=1)
-    cum = np.concatenate([[0.0], np.cumsum(L)])
+    dP = P[1:] - P[:-1]
+    if N is None or offset == 0:
+        D = dP
+    else:
+        Q = P + offset * N
+        D = Q[1:] - Q[:-1]
+    L = np.sqrt(np.add.reduce(D * D, axis=1))
+    cum = np.empty(len(L) + 1)
+    cum[0] = 0.0
+    np.cumsum(L, out=cum[1:])
     n = max(2, int(np.ceil(cum[-1] / spacing)) + 1)
     u = np.linspace(0.0, cum[-1], n, endpoint=not closed)
-    seg = np.clip(np.searchsorted(cum, u, side="right") - 1, 0, len(L) - 1)
-    w = (u - cum[seg]) / np.where(L[seg] > 0, L[seg], 1.0)
-    out = P[seg] + w[:, None] * (P[seg + 1] - P[seg])
+    seg = np.minimum(np.maximum(np.searchsorted(cum, u, side="right") - 1, 0), len(L) - 1)
+    w = ((u - cum[seg]) / np.where(L > 0, L, 1.0)[seg])[:, None]
+    out = P[seg] + w * dP[seg]
     if N is None:
         return out
-    nn = N[seg] + w[:, None] * (N[seg + 1] - N[seg])
-    ln = np.linalg.norm(nn, axis=1)
+    nn = N[seg] + w * (N[1:] - N[:-1])[seg]
+    ln = np.sqrt(np.add.reduce(nn * nn, axis=1))
     return out, nn / np.where(ln > 0, ln, 1.0)[:, None]
 
 
@@ -619,7 +631,7 @@ class _Generator:
         if not pn:
             out = np.zeros((0, 3)), np.zeros((0, 3))
         else:
-            out = np.vstack([x[0] for x in pn]), np.vstack([x[1] for x in pn])
+            out = np.concatenate([x[0] for x in pn]), np.concatenate([x[1] for x in pn])
         self._level_samples[s] = out
         return out
 

@@ -20,6 +20,7 @@ first/last curve itself, made of the boundary vertices, instead of a ragged nois
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,6 +73,10 @@ class LevelCurve:
     def length(self) -> float:
         p = np.vstack([self.points, self.points[:1]]) if self.closed else self.points
         return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+
+
+#: corner k + 1 of corner k (0 → 1 → 2 → 0)
+_NEXT_CORNER = np.array([1, 2, 0])
 
 
 class MeshConeSlicer:
@@ -167,16 +172,24 @@ class MeshConeSlicer:
         v = (np.asarray(x, dtype=np.float64) - self._bucket_lo) * self._bucket_scale
         return np.floor(np.clip(v, 0.0, self._N_BUCKETS - 1))
 
+    def _bucket_index(self, x: float) -> int:
+        """``int(self._bucket_of(x))`` of one float, in Python floats: the same IEEE
+        arithmetic without numpy's per-scalar overhead (this runs twice a level)."""
+        v = (float(x) - float(self._bucket_lo)) * float(self._bucket_scale)
+        return int(math.floor(min(max(v, 0.0), self._N_BUCKETS - 1)))
+
     def _candidate_faces(self, s: float, m: float):
         """Ascending ids of the faces with smin ≤ s + m and smax ≥ s − m."""
         lo = s - m - self._narrow_span
-        k0, k1 = int(self._bucket_of(lo)), int(self._bucket_of(s + m))
+        k0, k1 = self._bucket_index(lo), self._bucket_index(s + m)
         near = self._narrow_faces[self._bucket_start[k0]:self._bucket_start[k1 + 1]]
         smin = self.face_smin[near]
         near = near[(smin >= lo) & (smin <= s + m) & (self.face_smax[near] >= s - m)]
         w = self._wide_faces
-        w = w[(self.face_smin[w] <= s + m) & (self.face_smax[w] >= s - m)]
-        return np.sort(np.concatenate([near, w]))
+        if len(w):
+            w = w[(self.face_smin[w] <= s + m) & (self.face_smax[w] >= s - m)]
+            near = np.concatenate([near, w])
+        return np.sort(near)
 
     def _cone_gap(self) -> float:
         """A typical meridional distance between cone 1 and cone 2 (mm)."""
@@ -185,9 +198,16 @@ class MeshConeSlicer:
         return float(np.mean(np.abs(c1.signed_distance(v[:, 0], v[:, 1]))))
 
     # ------------------------------------------------------------------------------------
-    def vertex_side(self, s: float, vertices):
-        """Signed meridional distance f_s of the given vertices, snapped to 0 within ``on_tol``."""
-        f = self.morph.f(s, self.r[vertices], self.z[vertices])
+    def vertex_side(self, s: float, vertices, lines=None):
+        """Signed meridional distance f_s of the given vertices, snapped to 0 within ``on_tol``.
+
+        ``lines`` = ``morph.segment_lines(s)`` when the caller has them already (a cone pair's
+        f_s is then evaluated from its one line, the arithmetic of ``MorphingCones.f``)."""
+        if lines is not None and isinstance(self.morph, MorphingCones):
+            alpha, beta, gamma = (float(v) for v in lines[0])
+            f = alpha * self.r[vertices] + beta * self.z[vertices] + gamma
+        else:
+            f = self.morph.f(s, self.r[vertices], self.z[vertices])
         f[np.abs(f) <= self.on_tol] = 0.0
         return f
 
@@ -204,19 +224,19 @@ class MeshConeSlicer:
         cand = self._candidate_faces(s, m)
         if len(cand) == 0:
             return []
+        lines = self.morph.segment_lines(s)
         # the side of every corner (a vertex shared by several faces is evaluated once per
         # corner: the same elementwise arithmetic, cheaper than de-duplicating with a sort)
-        f_corner = self.vertex_side(s, mesh.F[cand].ravel())
+        f_corner = self.vertex_side(s, mesh.F[cand].ravel(), lines)
         # zero goes outside the region at the end levels, below otherwise
         above = (f_corner > 0 if s < 1.0 else f_corner >= 0).reshape(-1, 3)
-        n_above = above.sum(axis=1)
-        crossed = (n_above == 1) | (n_above == 2)
-        if not np.any(crossed):
+        crossed = above.any(axis=1) & ~above.all(axis=1)  # one or two corners above
+        if not crossed.any():
             return []
         faces = cand[crossed]
         ab = above[crossed]
         fe = self.face_edges[faces]  # (c, 3): edges v0v1, v1v2, v2v0
-        cross_e = ab != ab[:, [1, 2, 0]]  # edge k joins corner k and k+1
+        cross_e = ab != ab[:, _NEXT_CORNER]  # edge k joins corner k and k+1
         # each crossed face has exactly two crossing edges; orient the link from the edge
         # entered below→above to the one left above→below (counter-clockwise in the face)
         k_idx = np.nonzero(cross_e)[1].reshape(-1, 2)
@@ -227,12 +247,11 @@ class MeshConeSlicer:
         e_dn = np.where(first_up, e_k[:, 1], e_k[:, 0])
         uedges, linv = _unique_inverse(np.concatenate([e_up, e_dn]))
         links = linv.reshape(2, -1).T  # (c, 2) directed up → dn
-        lines = self.morph.segment_lines(s)
         pts, t = self._edge_roots(s, uedges, lines=lines)
         ev = self.edges[uedges]
         vn = self.vertex_normals
         nrm = (1.0 - t)[:, None] * vn[ev[:, 0]] + t[:, None] * vn[ev[:, 1]]
-        ln = np.linalg.norm(nrm, axis=1)
+        ln = np.sqrt(np.add.reduce(nrm * nrm, axis=1))  # np.linalg.norm's arithmetic
         nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
         nxt = np.full(len(uedges), -1, dtype=np.int64)
         nxt[links[:, 0]] = links[:, 1]
@@ -249,8 +268,8 @@ class MeshConeSlicer:
             # several crossing edges can share one point (a vertex on the level): drop repeats
             p = pts[order]
             keep = np.ones(len(order), dtype=bool)
-            keep[1:] = np.any(p[1:] != p[:-1], axis=1)
-            if closed and len(order) > 1 and np.all(p[-1] == p[0]):
+            keep[1:] = (p[1:] != p[:-1]).any(axis=1)
+            if closed and len(order) > 1 and (p[-1] == p[0]).all():
                 keep[-1] = False
             order = order[keep]
             if len(order) < 2:
@@ -401,7 +420,7 @@ class MeshConeSlicer:
         ev = self.edges[edge_ids]
         i0, i1 = ev[:, 0], ev[:, 1]
         k = len(i0)
-        f01 = self.vertex_side(s, np.concatenate([i0, i1]))  # one call for both ends
+        f01 = self.vertex_side(s, np.concatenate([i0, i1]), lines)  # one call for both ends
         f0, f1 = f01[:k], f01[k:]
         if len(lines) == 1:
             alpha, beta, gamma = (float(v) for v in lines[0])
