@@ -21,6 +21,10 @@ For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` tria
   the demo blade and ±2 neighbours) with 1 and 2 threads (``--no-collision`` skips it; it
   runs with ``--verify-only`` too).
 
+The process runs numpy's OpenBLAS on one thread, as ``python -m blisk_cam`` does
+(``blisk_cam/cli/blas.py``; trimesh's planes too); ``OPENBLAS_NUM_THREADS`` set in the
+environment wins, and the first line prints it.
+
 Every figure is taken on each backend of ``--backends`` (default ``compiled,numpy``: the
 compiled kernels, then ``BLISK_CAM_KERNELS=numpy``) in the same run, with the 1-minute load
 average beside it (the machine may be shared: compare ratios within one run).
@@ -38,10 +42,14 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+from blisk_cam.cli.blas import BLAS_THREADS_ENV, use_one_blas_thread  # noqa: E402
+
+use_one_blas_thread()  # as `python -m blisk_cam` runs (before numpy loads OpenBLAS)
+
+import numpy as np  # noqa: E402
 
 from blisk_cam.core.errors import BliskCamError  # noqa: E402
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
@@ -314,7 +322,8 @@ def main():
     if "compiled" in backends and backend.extension() is None:
         print("compiled kernels not installed (make kernels): the numpy backend only")
         backends = ("numpy",)
-    print(f"backends: {', '.join(backends)}; {load()}", flush=True)
+    print(f"backends: {', '.join(backends)}; {load()}; BLAS threads "
+          f"{os.environ.get(BLAS_THREADS_ENV)} (as the CLI: blisk_cam/cli/blas.py)", flush=True)
     threads = tuple(int(x) for x in args.threads.split(","))
     tools = tuple(args.tools.split(","))
     if not tools or not set(tools) <= {"ball", "bull"}:

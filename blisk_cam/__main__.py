@@ -3,8 +3,10 @@
 import sys
 
 from .cli.allocator import use_one_heap
+from .cli.blas import use_one_blas_thread
 
 use_one_heap()  # before numpy's and the kernels' threads start (see cli/allocator.py)
+use_one_blas_thread()  # before numpy loads OpenBLAS (see cli/blas.py)
 
 try:
     import numpy  # noqa: F401 - the core needs numpy and scipy

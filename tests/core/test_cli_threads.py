@@ -3,6 +3,7 @@ error naming the flag, records the threads beside the kernels, and the results d
 depend on it."""
 
 import json
+import os
 
 import pytest
 
@@ -70,3 +71,23 @@ def test_the_cli_leaves_a_users_arena_limit_alone(monkeypatch):
 
     monkeypatch.setenv("MALLOC_ARENA_MAX", "4")
     assert allocator.use_one_heap() is False  # the environment's choice stands
+
+
+def test_the_cli_asks_for_one_blas_thread_before_numpy_loads():
+    """``python -m blisk_cam`` sets OPENBLAS_NUM_THREADS=1 before numpy is imported (OpenBLAS
+    reads it once, at load), unless the user's environment names a count."""
+    import subprocess
+    import sys
+
+    probe = ("import os, runpy, sys\n"
+             "sys.argv = ['blisk_cam', '--version']\n"
+             "try:\n    runpy.run_module('blisk_cam', run_name='__main__')\n"
+             "except SystemExit:\n    pass\n"
+             "print(os.environ.get('OPENBLAS_NUM_THREADS'), 'numpy' in sys.modules)\n")
+    for user, want in ((None, "1"), ("3", "3")):
+        env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+        if user is not None:
+            env["OPENBLAS_NUM_THREADS"] = user
+        out = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True,
+                             text=True, check=True, timeout=120).stdout.split()
+        assert out[-2:] == [want, "True"]
