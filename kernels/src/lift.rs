@@ -112,7 +112,7 @@ pub fn fixed_point_lift<'py>(
     }
     let (rho, tol, gain, slack) = consts;
     let limit = rho - tol + slack;
-    let pl = crate::pool(threads)?;
+    let pl = crate::pool_for(threads, q)?;
     let mut out = l0.to_vec();
     let one = |(i, lam): (usize, &mut f64)| {
         let row = &cc[i * width..(i + 1) * width];

@@ -91,7 +91,7 @@ pub fn polyline_distance<'py>(
         ));
     }
     let t = &tree.get().tree;
-    let pl = crate::pool(threads)?;
+    let pl = crate::pool_for(threads, pp.len())?;
     let mut d = vec![f64::NAN; pp.len()];
     let mut fb = vec![false; pp.len()];
     py.detach(|| {

@@ -19,7 +19,7 @@ pub fn points_within<'py>(
     threads: usize,
 ) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let qq = crate::points(&q, "queries")?;
-    let pl = crate::pool(threads)?;
+    let pl = crate::pool_for(threads, qq.len())?;
     let t = &tree.get().tree;
     let ub2 = bound * bound;
     let out: Vec<bool> = py.detach(|| {

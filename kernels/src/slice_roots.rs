@@ -143,7 +143,7 @@ pub fn cone_edge_roots<'py>(
         alpha2: line.3,
         on_tol,
     };
-    let pl = crate::pool(threads)?;
+    let pl = crate::pool_for(threads, ids.len())?;
     let k = ids.len();
     let mut pts = vec![0.0f64; 3 * k];
     let mut ts = vec![0.0f64; k];
