@@ -332,6 +332,9 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
     step("poses")
     t1 = time.perf_counter()
     pc, cc_checks = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
+    # the links and the region's holes need only the mesh and the program: a thread too
+    links = alongside(lambda: (link_checks(md, path.program, cutter, rho, subsamples),
+                               region_holes(mesh, axis, path.cone1, path.cone2)))
     tim["poses"] = time.perf_counter() - t1
 
     step("samples")
@@ -356,7 +359,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("links")
     t1 = time.perf_counter()
-    links = link_checks(md, path.program, cutter, rho, subsamples)
+    links, holes = links()
     tim["links"] = time.perf_counter() - t1
 
     step("totals")
@@ -369,7 +372,6 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
         progress(Progress(1.0, "done"))
     rep = _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
     rep.link_gouge, rep.link_gouge_at, rep.link_gouge_row, rep.link_rows = links
-    holes = region_holes(mesh, axis, path.cone1, path.cone2)
     if holes:
         rep.uncovered_holes = len(holes)
         rep.uncovered_area = float(sum(h.area for h in holes))
@@ -478,7 +480,7 @@ def _path_checks(pc, md, curves, cutter, rho, subsamples):
         sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
         # the CC polylines' points: where the centres' closest points are (a k-d search
         # from 6 mm off the surface is slow; the result does not depend on the guess)
-        cq = md.query(np.vstack(sub), near=np.vstack(
+        cq = md.query(np.vstack(sub), near=lambda: np.vstack(
             [_subsample(c, c.cc, subsamples, True) for c in curves]))
         check_cancel()
         dev = cq.signed_distance - rho
