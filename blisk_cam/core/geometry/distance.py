@@ -180,7 +180,7 @@ class MeshDistance:
                                                      self._C[face])
         mesh = self.mesh
         fn = mesh.face_normals
-        pn = fn[face].copy()
+        pn = fn[face]  # (a new array: fancy indexing copies)
         on_edge = (feat >= 1) & (feat <= 3)
         if np.any(on_edge):
             e = mesh.face_edges[face[on_edge], feat[on_edge] - 1]

@@ -252,11 +252,12 @@ def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
 def _ridges(samples, strip, g, npairs):
     """Grid edges inside one strip across which g changes sign: (edge ids, pair ids)."""
     ea, eb = samples.edges[:, 0], samples.edges[:, 1]
-    same = (strip[ea] == strip[eb]) & (strip[ea] >= 0) & (strip[ea] < npairs)
+    sa = strip[ea]
+    same = (sa == strip[eb]) & (sa >= 0) & (sa < npairs)
     ga, gb = g[ea], g[eb]
     cross = same & (((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0)))
     idx = np.nonzero(cross)[0]
-    return idx, strip[ea[idx]]
+    return idx, sa[idx]
 
 
 def verify_path(mesh: TriMesh, path: ToolPath, *, spacing: float | None = None,
