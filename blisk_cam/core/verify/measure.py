@@ -333,9 +333,6 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
     step("poses")
     t1 = time.perf_counter()
     pc, cc_checks = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
-    # the links and the region's holes need only the mesh and the program: a thread too
-    links = alongside(lambda: (link_checks(md, path.program, cutter, rho, subsamples),
-                               region_holes(mesh, axis, path.cone1, path.cone2)))
     tim["poses"] = time.perf_counter() - t1
 
     step("samples")
@@ -354,6 +351,12 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("scallops")
     t1 = time.perf_counter()
+    # the CC points' checks, the links and the region's holes need no later step: with
+    # several threads they run alongside the scallops, filling the cores that its serial
+    # parts leave idle (started here, they do not slow the samples' thread or the material)
+    cc_checks = alongside(cc_checks)
+    links = alongside(lambda: (link_checks(md, path.program, cutter, rho, subsamples),
+                               region_holes(mesh, axis, path.cone1, path.cone2)))
     sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
                    lab, rho, refine, method)
     tim["scallops"] = time.perf_counter() - t1
@@ -367,7 +370,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
     t1 = time.perf_counter()
     tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
     tim["totals"] = time.perf_counter() - t1
-    cc_checks()  # the CC points' checks, started alongside in "poses"
+    cc_checks()  # the CC points' checks, started alongside in "scallops"
     tim["total"] = time.perf_counter() - t0
     if progress is not None:
         progress(Progress(1.0, "done"))
@@ -420,16 +423,14 @@ class _PoseChecks:
 
 def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples):
     """The tool's path against the exact offset (:func:`_path_checks`: over/undercut, the
-    gouge feet), then the CC points' checks (:func:`_cc_checks`) started :func:`alongside`:
-    with several threads they fill the cores that the later steps' serial parts leave idle.
-    Returns (:class:`_PoseChecks`, a function to call before reading its CC figures)."""
+    gouge feet). Returns (:class:`_PoseChecks`, the CC points' checks (:func:`_cc_checks`)
+    as a function to run before reading its CC figures: nothing downstream needs them)."""
     ncur = len(curves)
     pc = _PoseChecks(*(np.full(ncur, np.nan) for _ in range(5)))
     if not ncur:
         return pc, lambda: pc
     _path_checks(pc, md, curves, cutter, rho, subsamples)
-    return pc, alongside(lambda: _cc_checks(pc, mesh, md, curves, cutter, rho, cones, axis,
-                                            subsamples))
+    return pc, lambda: _cc_checks(pc, mesh, md, curves, cutter, rho, cones, axis, subsamples)
 
 
 def _cc_checks(pc, mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _PoseChecks:
