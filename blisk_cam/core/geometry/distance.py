@@ -151,8 +151,11 @@ class MeshDistance:
 
         ``near`` (optional, (k, 3) mm): guesses of the closest points (e.g. the contact
         points under ball centres); they only make the search faster — the result is the
-        same bit for bit, ties included (see :func:`_nearest`).
+        same bit for bit, ties included (see :func:`_nearest`); or a function returning them,
+        called only when this tree searches (the compiled faces' kernel needs no guess).
         """
+        if callable(near):
+            near = near() if self._faces is None else None
         P = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         k = len(P)
         if k == 0:
@@ -177,7 +180,7 @@ class MeshDistance:
                                                      self._C[face])
         mesh = self.mesh
         fn = mesh.face_normals
-        pn = fn[face].copy()
+        pn = fn[face]  # (a new array: fancy indexing copies)
         on_edge = (feat >= 1) & (feat <= 3)
         if np.any(on_edge):
             e = mesh.face_edges[face[on_edge], feat[on_edge] - 1]

@@ -482,8 +482,12 @@ class TriMesh:
         """Smooth normals at points given by face ids (k,) and barycentric coords (k, 3)."""
         vn = self.vertex_normals
         F = self.F[np.asarray(faces)]
-        b = np.asarray(bary, dtype=np.float64)
-        n = (vn[F] * b[:, :, None]).sum(axis=1)
+        b = np.asarray(bary, dtype=np.float64).reshape(-1, 3)
+        # three weighted sums, in the order a sum over the corners adds them (the same
+        # floats), without the (k, 3, 3) temporary: ~2x faster
+        n = vn[F[:, 0]] * b[:, 0:1]
+        n += vn[F[:, 1]] * b[:, 1:2]
+        n += vn[F[:, 2]] * b[:, 2:3]
         ln = np.linalg.norm(n, axis=1)
         return n / np.where(ln > 0, ln, 1.0)[:, None]
 

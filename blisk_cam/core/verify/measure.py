@@ -42,13 +42,14 @@ from ..geometry.axis import meridional
 from ..geometry.closest import ClosestPoints, barycentric, closest_on_segments, closest_on_triangles
 from ..geometry.distance import MeshDistance, closest_points
 from ..geometry.mesh import TriMesh
-from ..geometry.vectors import dot, slerp, unit
+from ..geometry.vectors import dot
 from ..part.fitting import region_holes
 from ..part.profiles import morph_between
 from ..runtime import Cancelled, Progress, alongside, cancellable, check_cancel, map_tasks, parallel
 from ..tool.cutter import as_cutter
 from ..toolpath.types import PassCurve, ToolPath
 from .allowance import as_measured_on_blade
+from .contacts import cl_or_nan, interpolated_contacts
 from .forest import SweptForest
 from .links import cut_runs, link_checks
 from .samples import SurfaceSamples, default_spacing, surface_samples
@@ -251,58 +252,12 @@ def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
 def _ridges(samples, strip, g, npairs):
     """Grid edges inside one strip across which g changes sign: (edge ids, pair ids)."""
     ea, eb = samples.edges[:, 0], samples.edges[:, 1]
-    same = (strip[ea] == strip[eb]) & (strip[ea] >= 0) & (strip[ea] < npairs)
+    sa = strip[ea]
+    same = (sa == strip[eb]) & (sa >= 0) & (sa < npairs)
     ga, gb = g[ea], g[eb]
     cross = same & (((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0)))
     idx = np.nonzero(cross)[0]
-    return idx, strip[ea[idx]]
-
-
-def _cl_or_nan(cutter, cc, normal, axis):
-    """Tip points of the cutter touching ``cc``; NaN rows where the axis is tilted beyond
-    the cutter's side (no contact possible)."""
-    out = np.full_like(cc, np.nan)
-    th = np.arctan2(np.linalg.norm(np.cross(normal, axis), axis=1), dot(normal, axis))
-    ok = th <= 0.5 * np.pi - cutter.beta
-    if np.any(ok):
-        out[ok] = cutter.cl_points(cc[ok], normal[ok], axis[ok])
-    return out
-
-
-def _interpolated_contacts(cutter, curves, nsub):
-    """Per pass, at ``nsub`` points of every segment (tip and CC linear, axis on the great arc,
-    normal interpolated and normalised): the posed cutter's extreme point toward −n, i.e. the
-    point that touches when the pose is right. Returns (points (q, 3), curve id (q,),
-    tips (q, 3), axes (q, 3))."""
-    pts, ids, tps, axs = [], [], [], []
-    t = np.arange(0, nsub) / nsub
-    for i, c in enumerate(curves):
-        tips_a, tips_b = _curve_polyline(c, c.tip)
-        ax_a, ax_b = _curve_polyline(c, c.axis)
-        n_a, n_b = _curve_polyline(c, c.normal)
-        m = len(tips_a)
-        tt = np.tile(t, m)
-        rep_ = np.repeat(np.arange(m), nsub)
-        tip = tips_a[rep_] + tt[:, None] * (tips_b - tips_a)[rep_]
-        ax = slerp(unit(ax_a[rep_], keep_zero=False), unit(ax_b[rep_], keep_zero=False), tt,
-                   weights_first=True)
-        nn = n_a[rep_] + tt[:, None] * (n_b - n_a)[rep_]
-        if not (c.closed and len(c.tip) > 2):  # the last pose itself
-            tip = np.vstack([tip, c.tip[-1:]])
-            ax = np.vstack([ax, c.axis[-1:] / np.linalg.norm(c.axis[-1])])
-            nn = np.vstack([nn, c.normal[-1:]])
-        nn /= np.maximum(np.linalg.norm(nn, axis=1), 1e-300)[:, None]
-        th = np.arctan2(np.linalg.norm(np.cross(nn, ax), axis=1), dot(nn, ax))
-        ok = th <= 0.5 * np.pi - cutter.beta
-        off, _ = cutter.contact(nn[ok], ax[ok])
-        pts.append(tip[ok] - off)
-        ids.append(np.full(int(ok.sum()), i, dtype=np.int64))
-        tps.append(tip[ok])
-        axs.append(ax[ok])
-    if not pts:
-        z = np.zeros((0, 3))
-        return z, np.zeros(0, np.int64), z, z
-    return np.vstack(pts), np.concatenate(ids), np.vstack(tps), np.vstack(axs)
+    return idx, sa[idx]
 
 
 def verify_path(mesh: TriMesh, path: ToolPath, *, spacing: float | None = None,
@@ -377,7 +332,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("poses")
     t1 = time.perf_counter()
-    pc = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
+    pc, cc_checks = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
     tim["poses"] = time.perf_counter() - t1
 
     step("samples")
@@ -396,25 +351,31 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("scallops")
     t1 = time.perf_counter()
+    # the CC points' checks, the links and the region's holes need no later step: with
+    # several threads they run alongside the scallops, filling the cores that its serial
+    # parts leave idle (started here, they do not slow the samples' thread or the material)
+    cc_checks = alongside(cc_checks)
+    links = alongside(lambda: (link_checks(md, path.program, cutter, rho, subsamples),
+                               region_holes(mesh, axis, path.cone1, path.cone2)))
     sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
                    lab, rho, refine, method)
     tim["scallops"] = time.perf_counter() - t1
 
     step("links")
     t1 = time.perf_counter()
-    links = link_checks(md, path.program, cutter, rho, subsamples)
+    links, holes = links()
     tim["links"] = time.perf_counter() - t1
 
     step("totals")
     t1 = time.perf_counter()
     tot = _totals(mesh, smp, P, values, whole, sc, len(curves))
     tim["totals"] = time.perf_counter() - t1
+    cc_checks()  # the CC points' checks, started alongside in "scallops"
     tim["total"] = time.perf_counter() - t0
     if progress is not None:
         progress(Progress(1.0, "done"))
     rep = _report(cutter, rho, spacing, curves, levels, P, values, pc, sc, tot, tim)
     rep.link_gouge, rep.link_gouge_at, rep.link_gouge_row, rep.link_rows = links
-    holes = region_holes(mesh, axis, path.cone1, path.cone2)
     if holes:
         rep.uncovered_holes = len(holes)
         rep.uncovered_area = float(sum(h.area for h in holes))
@@ -460,13 +421,22 @@ class _PoseChecks:
     feet: tuple | None = None
 
 
-def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _PoseChecks:
-    """CC points on the mesh and on their LMC, normals, tips against the CC data, chord of the
-    CC polylines, and the tool's path against the exact offset (over/undercut)."""
+def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples):
+    """The tool's path against the exact offset (:func:`_path_checks`: over/undercut, the
+    gouge feet). Returns (:class:`_PoseChecks`, the CC points' checks (:func:`_cc_checks`)
+    as a function to run before reading its CC figures: nothing downstream needs them)."""
     ncur = len(curves)
     pc = _PoseChecks(*(np.full(ncur, np.nan) for _ in range(5)))
     if not ncur:
-        return pc
+        return pc, lambda: pc
+    _path_checks(pc, md, curves, cutter, rho, subsamples)
+    return pc, lambda: _cc_checks(pc, mesh, md, curves, cutter, rho, cones, axis, subsamples)
+
+
+def _cc_checks(pc, mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _PoseChecks:
+    """CC points on the mesh and on their LMC, normals, tips against the CC data, chord of the
+    CC polylines (into ``pc``)."""
+    ncur = len(curves)
     is_ball = cutter.type == "ball"
     cc_all = np.vstack([np.asarray(c.cc, float) for c in curves])
     nrm_all = np.vstack([np.asarray(c.normal, float) for c in curves])
@@ -484,7 +454,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         pc.mismatch = float(np.linalg.norm(tips + rho * axs - (cc_all + rho * nrm_all),
                                            axis=1).max())
     else:  # the tip implied by the CC data (the cutter touching cc) against the path's
-        mm = np.linalg.norm(tips - _cl_or_nan(cutter, cc_all, un, axs), axis=1)
+        mm = np.linalg.norm(tips - cl_or_nan(cutter, cc_all, un, axs), axis=1)
         pc.mismatch = float(np.inf if np.any(np.isnan(mm)) else mm.max())
     # the CC point against the posed cutter's surface (0 when the cutter touches it there)
     pc.pose_contact = np.abs(cutter.signed_distance(cc_all, tips, axs))
@@ -498,15 +468,21 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
         dch = md.query(subp).distance
         pc.cc_chord = _group_max(ncur, sid, dch)
         pc.chord_at = subp[int(np.argmax(dch))]
-    check_cancel()
-    if is_ball:
+    return pc
+
+
+def _path_checks(pc, md, curves, cutter, rho, subsamples):
+    """The tool's path against the exact offset: over/undercut and the gouge feet (into
+    ``pc``)."""
+    ncur = len(curves)
+    if cutter.type == "ball":
         # centre polylines against the exact offset
         cen = [np.asarray(c.tip, float) + rho * np.asarray(c.axis, float) for c in curves]
         sub = [_subsample(c, x, subsamples, True) for c, x in zip(curves, cen, strict=True)]
         sid = np.repeat(np.arange(ncur), [len(x) for x in sub])
         # the CC polylines' points: where the centres' closest points are (a k-d search
         # from 6 mm off the surface is slow; the result does not depend on the guess)
-        cq = md.query(np.vstack(sub), near=np.vstack(
+        cq = md.query(np.vstack(sub), near=lambda: np.vstack(
             [_subsample(c, c.cc, subsamples, True) for c in curves]))
         check_cancel()
         dev = cq.signed_distance - rho
@@ -514,7 +490,7 @@ def _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples) -> _Pos
     else:
         # the interpolated poses' lowest points (toward −n); the mesh point under each
         # against the posed cutter (< 0: the surface is cut into there)
-        xs, sid, xtip, xax = _interpolated_contacts(cutter, curves, subsamples)
+        xs, sid, xtip, xax = interpolated_contacts(cutter, curves, subsamples)
         check_cancel()
         cq = md.query(xs)
         check_cancel()

@@ -24,7 +24,7 @@ def _curve_polyline(c: PassCurve, pts):
     if len(pts) == 1:
         return pts, pts
     if c.closed and len(pts) > 2:
-        return pts, np.roll(pts, -1, axis=0)
+        return pts, np.concatenate([pts[1:], pts[:1]])  # (np.roll's values, faster)
     return pts[:-1], pts[1:]
 
 
