@@ -19,6 +19,7 @@ from scipy.sparse import csgraph
 
 from ..errors import MeshError
 from ..kernels import mesh_tables as compiled_tables
+from ..kernels import weld as compiled_weld
 from .weld import (
     _checked_arrays,
     _edge_table,
@@ -325,11 +326,14 @@ class TriMesh:
         # (half-edge 3f + k starts at corner k of face f)
         inconsistent = self.F.ravel()[h0] == self.F.ravel()[h1]
         m = len(self.F)
-        g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
-        # no pair of faces twice (that would be a repeated face); the components need no
-        # sorted columns: skip the conversion's per-row sort
-        g.has_canonical_format = True
-        ncomp, labels = csgraph.connected_components(g, directed=False)
+        got = compiled_weld.face_components(m, f0, f1)  # the same labels, by union–find
+        if got is None:
+            g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
+            # no pair of faces twice (that would be a repeated face); the components need no
+            # sorted columns: skip the conversion's per-row sort
+            g.has_canonical_format = True
+            got = csgraph.connected_components(g, directed=False)
+        ncomp, labels = got
         flip = np.zeros(m, dtype=bool)
         if np.any(inconsistent):
             flip = _parity_flip(m, f0, f1, inconsistent, labels, ncomp)

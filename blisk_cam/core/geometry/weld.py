@@ -315,7 +315,11 @@ def _edge_table(F, n):
     * ``edge_faces`` (e, 2) — their faces (−1 where there is none).
 
     Raises MeshError when an edge has more than two faces (non-manifold).
+    The compiled kernel gives the same arrays by a counting sort (None: this reference).
     """
+    got = compiled_weld.edge_table(F, n)
+    if got is not None:
+        return got
     n = np.int64(n)
     ha = F.ravel()
     hb = F[:, [1, 2, 0]].ravel()

@@ -8,7 +8,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["first_equal_point", "first_equal_rows"]
+__all__ = ["edge_table", "face_components", "first_equal_point", "first_equal_rows"]
 
 
 def first_equal_point(x, y, z):
@@ -33,3 +33,33 @@ def first_equal_rows(V):
     # aligned too: the caller's arrays may sit at any byte of a buffer (dask hands a task's
     # arrays over in its message frames), which np.ascontiguousarray keeps as they are
     return fn(np.require(V, dtype=np.float64, requirements=("C_CONTIGUOUS", "ALIGNED")))
+
+
+def edge_table(F, n_vertices: int):
+    """The edge table of the faces F (m, 3) over ``n_vertices`` (``geometry.weld``'s
+    ``_edge_table``: a dict of ``edges``, ``face_edges``, ``edge_halfedges``,
+    ``edge_faces``, the same arrays) by a counting sort of the half-edges; None when the
+    numpy kernels run (or a wheel without this kernel), when an edge has more than two faces
+    (the numpy reference then raises) or the ids exceed 32 bits."""
+    ext = extension()
+    fn = getattr(ext, "edge_table_arrays", None) if ext is not None else None
+    if fn is None:
+        return None
+    got = fn(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices))
+    if got is None:
+        return None
+    edges, face_edges, edge_halfedges, edge_faces = got
+    return {"edges": edges, "face_edges": face_edges, "edge_faces": edge_faces,
+            "edge_halfedges": edge_halfedges}
+
+
+def face_components(m: int, f0, f1):
+    """(count, labels (m,) int32): the connected components of m faces linked by the pairs
+    (f0, f1) ((p,) int64), numbered as scipy's ``csgraph.connected_components`` numbers them
+    (by each component's lowest face); None when the numpy kernels run."""
+    ext = extension()
+    fn = getattr(ext, "face_components", None) if ext is not None else None
+    if fn is None:
+        return None
+    return fn(int(m), np.ascontiguousarray(f0, dtype=np.int64),
+              np.ascontiguousarray(f1, dtype=np.int64))
