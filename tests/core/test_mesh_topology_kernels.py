@@ -28,7 +28,7 @@ def _same(a, b, where):
         assert np.array_equal(a.view(np.uint8), b.view(np.uint8)), where
     elif isinstance(a, list):
         assert isinstance(b, list) and len(a) == len(b), where
-        for i, (x, y) in enumerate(zip(a, b)):
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
             _same(x, y, f"{where}[{i}]")
     else:
         assert a == b, where
