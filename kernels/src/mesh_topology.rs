@@ -7,7 +7,7 @@
 //! here a counting sort by the lower vertex (stable: half-edges ascending in each bucket)
 //! and a sort of each (small) bucket by (higher vertex, half-edge) give that very order.
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
 /// The arrays of `_edge_table`, flat (each (e, 2) or (m, 3) row-major).
@@ -174,4 +174,76 @@ pub fn face_components<'py>(
     }
     let (count, labels) = py.detach(|| components(m, a, b));
     Ok((count, PyArray1::from_vec(py, labels)))
+}
+
+/// `(b − a) × (c − a)` of every face (a, b, c) of `f` over the points `v`, row-major (m, 3):
+/// the very products and differences of `mesh.triangle_normals` (Rust does not fuse them into
+/// FMAs), so the same bits. None when a face holds an id outside 0..n (numpy then says so, or
+/// wraps a negative id as it does).
+pub fn normals(v: &[[f64; 3]], f: &[i64]) -> Option<Vec<f64>> {
+    let n = v.len();
+    if f.iter().any(|&i| i < 0 || i as usize >= n) {
+        return None;
+    }
+    let mut out = vec![0.0f64; f.len()];
+    for (o, t) in out.chunks_exact_mut(3).zip(f.chunks_exact(3)) {
+        let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
+        let (u0, u1, u2) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+        let (v0, v1, v2) = (c[0] - a[0], c[1] - a[1], c[2] - a[2]);
+        o[0] = u1 * v2 - u2 * v1;
+        o[1] = u2 * v0 - u0 * v2;
+        o[2] = u0 * v1 - u1 * v0;
+    }
+    Some(out)
+}
+
+/// `triangle_normals(V, F)`: (m, 3) float64, or None (an id out of range: numpy's turn).
+#[pyfunction]
+pub fn triangle_normals<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'py, f64>,
+    f: PyReadonlyArray2<'py, i64>,
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let pts = crate::points(&v, "V")?;
+    let ff = crate::arrays::flat(&f, "F")?;
+    if f.shape()[1] != 3 {
+        return Err(pyo3::exceptions::PyValueError::new_err("F must be (m, 3)"));
+    }
+    let Some(out) = py.detach(|| normals(pts, ff)) else {
+        return Ok(None);
+    };
+    let k = out.len() / 3;
+    let a: Bound<'py, PyArray1<f64>> = PyArray1::from_vec(py, out);
+    Ok(Some(a.reshape([k, 3])?.into_any()))
+}
+
+/// `_interior_pairs` of an edge table: from `edge_halfedges` (e, 2) the two half-edges of
+/// each edge of two faces, in edge order, and their faces: (h0, h1, f0, f1) (p,) int64.
+#[pyfunction]
+pub fn interior_pairs<'py>(
+    py: Python<'py>,
+    hei: PyReadonlyArray2<'py, i64>,
+) -> PyResult<(Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>)> {
+    let h = crate::arrays::flat(&hei, "edge_halfedges")?;
+    if hei.shape()[1] != 2 {
+        return Err(pyo3::exceptions::PyValueError::new_err("edge_halfedges must be (e, 2)"));
+    }
+    let (h0, h1, f0, f1) = py.detach(|| {
+        let p = h.chunks_exact(2).filter(|r| r[1] >= 0).count();
+        let (mut h0, mut h1) = (Vec::with_capacity(p), Vec::with_capacity(p));
+        let (mut f0, mut f1) = (Vec::with_capacity(p), Vec::with_capacity(p));
+        for r in h.chunks_exact(2).filter(|r| r[1] >= 0) {
+            h0.push(r[0]);
+            h1.push(r[1]);
+            f0.push(r[0].div_euclid(3));
+            f1.push(r[1].div_euclid(3));
+        }
+        (h0, h1, f0, f1)
+    });
+    Ok((
+        PyArray1::from_vec(py, h0),
+        PyArray1::from_vec(py, h1),
+        PyArray1::from_vec(py, f0),
+        PyArray1::from_vec(py, f1),
+    ))
 }

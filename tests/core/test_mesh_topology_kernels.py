@@ -121,3 +121,25 @@ def test_the_edge_table_and_components_against_the_reference():
     ref_count, ref_labels = csgraph.connected_components(g, directed=False)
     assert count == ref_count
     _same(labels, ref_labels, "labels")
+
+
+@kernel
+def test_triangle_normals_and_interior_pairs_against_the_reference():
+    rng = np.random.default_rng(11)
+    V = rng.normal(size=(400, 3)) * [1e3, 1.0, 1e-3]  # magnitudes far apart: rounding shows
+    F = rng.integers(0, 400, size=(900, 3))
+    got = compiled_weld.triangle_normals(V, F)
+    assert got is not None
+    with backend.numpy_only():
+        ref = triangle_normals(V, F)
+    _same(got, ref, "normals")
+    np.testing.assert_allclose(got, np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]))
+    assert compiled_weld.triangle_normals(V, F - 400) is None  # negative ids: numpy's turn
+    s = trimesh.creation.icosphere(subdivisions=2)
+    topo = weld._edge_table(np.asarray(s.faces)[:200], len(s.vertices))
+    got = compiled_weld.interior_pairs(topo["edge_halfedges"])
+    with backend.numpy_only():
+        ref = weld._interior_pairs(topo)
+    assert 0 < len(ref[0]) < len(topo["edges"])  # some edges of one face, some of two
+    for x, y in zip(got, ref, strict=True):
+        _same(x, y, "pairs")

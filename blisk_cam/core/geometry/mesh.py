@@ -38,6 +38,9 @@ def triangle_normals(V, F):
     the edge vectors (b − a) × (c − a), the same products and differences, computed on
     contiguous coordinate columns (~3x faster at a million faces, the same values)."""
     F = np.asarray(F)
+    got = compiled_weld.triangle_normals(V, F) if isinstance(V, np.ndarray) else None
+    if got is not None:  # the compiled kernel: the same operations in one pass
+        return got
     x, y, z = (np.ascontiguousarray(V[:, j]) for j in range(3))
     f0, f1, f2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
     ax, ay, az = x[f0], y[f0], z[f0]

@@ -373,6 +373,9 @@ def _interior_pairs(topo):
     """(h0, h1, f0, f1): the two half-edges (p,) of each edge of two faces, in edge order, and
     their faces, from an edge table (:func:`_edge_table`)."""
     hei = topo["edge_halfedges"]
+    got = compiled_weld.interior_pairs(hei)  # the same arrays in one pass
+    if got is not None:
+        return got
     two = hei[:, 1] >= 0
     h0, h1 = hei[two, 0], hei[two, 1]
     return h0, h1, h0 // 3, h1 // 3

@@ -8,7 +8,8 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["edge_table", "face_components", "first_equal_point", "first_equal_rows"]
+__all__ = ["edge_table", "face_components", "first_equal_point", "first_equal_rows",
+           "interior_pairs", "triangle_normals"]
 
 
 def first_equal_point(x, y, z):
@@ -63,3 +64,26 @@ def face_components(m: int, f0, f1):
         return None
     return fn(int(m), np.ascontiguousarray(f0, dtype=np.int64),
               np.ascontiguousarray(f1, dtype=np.int64))
+
+
+def triangle_normals(V, F):
+    """``geometry.mesh.triangle_normals`` of V (n, 3) float64 and F (m, 3) int64 in one pass
+    (the same products and differences, so the same bits), (m, 3) float64; None when the
+    numpy kernels run, the arrays are of other types, or an id is out of range."""
+    ext = extension()
+    fn = getattr(ext, "triangle_normals", None) if ext is not None else None
+    if (fn is None or V.dtype != np.float64 or F.dtype != np.int64 or len(F) == 0
+            or V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3):
+        return None
+    req = ("C_CONTIGUOUS", "ALIGNED")
+    return fn(np.require(V, requirements=req), np.require(F, requirements=req))
+
+
+def interior_pairs(edge_halfedges):
+    """``geometry.weld._interior_pairs`` from an edge table's ``edge_halfedges`` (e, 2):
+    (h0, h1, f0, f1) (p,) int64 in one pass; None when the numpy kernels run."""
+    ext = extension()
+    fn = getattr(ext, "interior_pairs", None) if ext is not None else None
+    if fn is None:
+        return None
+    return fn(np.ascontiguousarray(edge_halfedges, dtype=np.int64))
