@@ -46,15 +46,22 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
         *p += 1;
     }
     drop(fill);
-    let mut edges = Vec::with_capacity(h / 2 + 2);
-    let mut edge_halfedges = Vec::with_capacity(h / 2 + 2);
-    let mut face_edges = vec![0i64; h];
-    let mut e = 0i64;
+    // each bucket sorted and its edges counted first: the arrays are made at their size (the
+    // mesh keeps them for the whole run; a grown Vec would hold up to twice the memory)
+    let mut n_edges = 0usize;
     for lo in 0..n {
         let s = &mut bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
         if s.len() > 1 {
             s.sort_unstable(); // (hi, half-edge) pairs are distinct: the stable order
         }
+        n_edges += s.iter().enumerate().filter(|&(j, p)| j == 0 || s[j - 1].0 != p.0).count();
+    }
+    let mut edges = Vec::with_capacity(2 * n_edges);
+    let mut edge_halfedges = Vec::with_capacity(2 * n_edges);
+    let mut face_edges = vec![0i64; h];
+    let mut e = 0i64;
+    for lo in 0..n {
+        let s = &bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
         let mut j = 0;
         while j < s.len() {
             let (hi, h0) = s[j];
@@ -80,6 +87,7 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
             j = k;
         }
     }
+    debug_assert_eq!(edges.len(), edges.capacity());
     // floor division: −1 stays −1
     let edge_faces = edge_halfedges.iter().map(|&x| if x < 0 { -1 } else { x / 3 }).collect();
     Some(EdgeTable { edges, face_edges, edge_halfedges, edge_faces })
