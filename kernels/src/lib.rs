@@ -529,7 +529,6 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::edge_table_arrays, m)?)?;
-    m.add_function(wrap_pyfunction!(mesh_topology::face_components, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
     Ok(())

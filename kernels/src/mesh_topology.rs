@@ -1,14 +1,19 @@
-//! The topology `TriMesh` keeps (`blisk_cam/core/geometry/weld.py::_edge_table` and the face
-//! components of `mesh.TriMesh._orient`), in one pass each instead of numpy's sort of the
-//! 3m half-edges and scipy's sparse graph: the same arrays, value for value.
+//! The topology `TriMesh` keeps (`blisk_cam/core/geometry/weld.py::_edge_table`, its interior
+//! edge pairs) and its face normals (`mesh.triangle_normals`), in one pass each instead of
+//! numpy's sort of the 3m half-edges and its gathers: the same arrays, value for value.
+//! (The face components stay scipy's: a union–find here gave the same labels a little
+//! faster but raised the CLI's resident high-water mark later in the run, by how the freed
+//! memory of scipy's graph is reused.)
 //!
 //! The edge table: half-edge 3f + k runs from corner k to corner k + 1 of face f; its edge
 //! key is (lower vertex, higher vertex). numpy sorts the keys `lower · n + higher` stably;
 //! here a counting sort by the lower vertex (stable: half-edges ascending in each bucket)
 //! and a sort of each (small) bucket by (higher vertex, half-edge) give that very order.
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+
+const _: () = assert!(std::mem::size_of::<(u32, u32)>() == std::mem::size_of::<i64>());
 
 /// The arrays of `_edge_table`, flat (each (e, 2) or (m, 3) row-major).
 pub struct EdgeTable {
@@ -27,6 +32,7 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
         return None;
     }
     let next = |i: usize| if i % 3 == 2 { i - 2 } else { i + 1 };
+    let mut face_edges = vec![0i64; h]; // first: the mesh keeps it (see the buckets below)
     // counting sort of the half-edges by their lower vertex
     let mut ptr = vec![0u32; n + 1];
     for i in 0..h {
@@ -36,16 +42,28 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
     for v in 0..n {
         ptr[v + 1] += ptr[v];
     }
-    let mut fill: Vec<u32> = ptr[..n].to_vec();
-    let mut bucket = vec![(0u32, 0u32); h]; // (higher vertex, half-edge)
-    for i in 0..h {
-        let (a, b) = (f[i], f[next(i)]);
-        let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-        let p = &mut fill[lo as usize];
-        bucket[*p as usize] = (hi as u32, i as u32);
-        *p += 1;
+    // the buckets of (higher vertex, half-edge) pairs live in the memory of `face_edges`
+    // (one i64 per half-edge, as one pair): no temporary of the half-edges' size, and the
+    // arrays the mesh keeps come before anything freed (no hole left in the heap under them)
+    {
+        // SAFETY: (u32, u32) has the size of an i64 and an alignment it satisfies; the view
+        // ends before `face_edges` is written as ids
+        let bucket: &mut [(u32, u32)] = unsafe {
+            std::slice::from_raw_parts_mut(face_edges.as_mut_ptr() as *mut (u32, u32), h)
+        };
+        let mut fill: Vec<u32> = ptr[..n].to_vec();
+        for i in 0..h {
+            let (a, b) = (f[i], f[next(i)]);
+            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+            let p = &mut fill[lo as usize];
+            bucket[*p as usize] = (hi as u32, i as u32);
+            *p += 1;
+        }
+        drop(fill);
     }
-    drop(fill);
+    // SAFETY: as above; the last use of this view comes before `face_edges` is written
+    let bucket: &mut [(u32, u32)] =
+        unsafe { std::slice::from_raw_parts_mut(face_edges.as_mut_ptr() as *mut (u32, u32), h) };
     // each bucket sorted and its edges counted first: the arrays are made at their size (the
     // mesh keeps them for the whole run; a grown Vec would hold up to twice the memory)
     let mut n_edges = 0usize;
@@ -58,8 +76,6 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
     }
     let mut edges = Vec::with_capacity(2 * n_edges);
     let mut edge_halfedges = Vec::with_capacity(2 * n_edges);
-    let mut face_edges = vec![0i64; h];
-    let mut e = 0i64;
     for lo in 0..n {
         let s = &bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
         let mut j = 0;
@@ -75,60 +91,20 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
             edges.push(lo as i64);
             edges.push(hi as i64);
             edge_halfedges.push(h0 as i64);
-            face_edges[h0 as usize] = e;
-            if k - j == 2 {
-                let h1 = s[j + 1].1;
-                edge_halfedges.push(h1 as i64);
-                face_edges[h1 as usize] = e;
-            } else {
-                edge_halfedges.push(-1);
-            }
-            e += 1;
+            edge_halfedges.push(if k - j == 2 { s[j + 1].1 as i64 } else { -1 });
             j = k;
         }
     }
-    debug_assert_eq!(edges.len(), edges.capacity());
+    // the buckets are read: `face_edges` becomes the ids
+    for (e, hs) in edge_halfedges.chunks_exact(2).enumerate() {
+        face_edges[hs[0] as usize] = e as i64;
+        if hs[1] >= 0 {
+            face_edges[hs[1] as usize] = e as i64;
+        }
+    }
     // floor division: −1 stays −1
     let edge_faces = edge_halfedges.iter().map(|&x| if x < 0 { -1 } else { x / 3 }).collect();
     Some(EdgeTable { edges, face_edges, edge_halfedges, edge_faces })
-}
-
-/// Connected components of the graph over `m` nodes with the undirected links (f0[i], f1[i]):
-/// (count, labels) numbered as scipy's `csgraph.connected_components` numbers them — in the
-/// order of each component's lowest node (union–find, then relabelled by first appearance).
-pub fn components(m: usize, f0: &[i64], f1: &[i64]) -> (usize, Vec<i32>) {
-    let mut parent: Vec<u32> = (0..m as u32).collect();
-    fn find(p: &mut [u32], mut x: u32) -> u32 {
-        while p[x as usize] != x {
-            let g = p[p[x as usize] as usize];
-            p[x as usize] = g; // path halving
-            x = g;
-        }
-        x
-    }
-    for (&a, &b) in f0.iter().zip(f1) {
-        let (ra, rb) = (find(&mut parent, a as u32), find(&mut parent, b as u32));
-        if ra != rb {
-            // the lower root wins: a component's root is its lowest node
-            if ra < rb {
-                parent[rb as usize] = ra
-            } else {
-                parent[ra as usize] = rb
-            }
-        }
-    }
-    let mut labels = vec![0i32; m];
-    let mut count = 0usize;
-    for v in 0..m {
-        let r = find(&mut parent, v as u32) as usize;
-        labels[v] = if r == v {
-            count += 1;
-            (count - 1) as i32
-        } else {
-            labels[r] // r < v: labelled already
-        };
-    }
-    (count, labels)
 }
 
 type Arr<'py> = Bound<'py, PyArray1<i64>>;
@@ -162,26 +138,6 @@ pub fn edge_table_arrays<'py>(
         two(t.edge_halfedges, 2)?,
         two(t.edge_faces, 2)?,
     )))
-}
-
-/// (count, labels (m,) int32): the connected components of the faces linked by (f0, f1), as
-/// scipy's `csgraph.connected_components(directed=False)` gives them.
-#[pyfunction]
-pub fn face_components<'py>(
-    py: Python<'py>,
-    m: usize,
-    f0: PyReadonlyArray1<'py, i64>,
-    f1: PyReadonlyArray1<'py, i64>,
-) -> PyResult<(usize, Bound<'py, PyArray1<i32>>)> {
-    let (a, b) = (crate::slice1(&f0, "f0")?, crate::slice1(&f1, "f1")?);
-    if a.len() != b.len() {
-        return Err(pyo3::exceptions::PyValueError::new_err("f0 and f1 must have the same length"));
-    }
-    if m >= u32::MAX as usize || a.iter().chain(b).any(|&v| v < 0 || v as usize >= m) {
-        return Err(pyo3::exceptions::PyValueError::new_err("face ids out of range"));
-    }
-    let (count, labels) = py.detach(|| components(m, a, b));
-    Ok((count, PyArray1::from_vec(py, labels)))
 }
 
 /// `(b − a) × (c − a)` of every face (a, b, c) of `f` over the points `v`, row-major (m, 3):

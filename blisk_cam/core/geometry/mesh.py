@@ -329,14 +329,11 @@ class TriMesh:
         # (half-edge 3f + k starts at corner k of face f)
         inconsistent = self.F.ravel()[h0] == self.F.ravel()[h1]
         m = len(self.F)
-        got = compiled_weld.face_components(m, f0, f1)  # the same labels, by union–find
-        if got is None:
-            g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
-            # no pair of faces twice (that would be a repeated face); the components need no
-            # sorted columns: skip the conversion's per-row sort
-            g.has_canonical_format = True
-            got = csgraph.connected_components(g, directed=False)
-        ncomp, labels = got
+        g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
+        # no pair of faces twice (that would be a repeated face); the components need no
+        # sorted columns: skip the conversion's per-row sort
+        g.has_canonical_format = True
+        ncomp, labels = csgraph.connected_components(g, directed=False)
         flip = np.zeros(m, dtype=bool)
         if np.any(inconsistent):
             flip = _parity_flip(m, f0, f1, inconsistent, labels, ncomp)

@@ -8,7 +8,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["edge_table", "face_components", "first_equal_point", "first_equal_rows",
+__all__ = ["edge_table", "first_equal_point", "first_equal_rows",
            "interior_pairs", "triangle_normals"]
 
 
@@ -52,18 +52,6 @@ def edge_table(F, n_vertices: int):
     edges, face_edges, edge_halfedges, edge_faces = got
     return {"edges": edges, "face_edges": face_edges, "edge_faces": edge_faces,
             "edge_halfedges": edge_halfedges}
-
-
-def face_components(m: int, f0, f1):
-    """(count, labels (m,) int32): the connected components of m faces linked by the pairs
-    (f0, f1) ((p,) int64), numbered as scipy's ``csgraph.connected_components`` numbers them
-    (by each component's lowest face); None when the numpy kernels run."""
-    ext = extension()
-    fn = getattr(ext, "face_components", None) if ext is not None else None
-    if fn is None:
-        return None
-    return fn(int(m), np.ascontiguousarray(f0, dtype=np.int64),
-              np.ascontiguousarray(f1, dtype=np.int64))
 
 
 def triangle_normals(V, F):
