@@ -21,6 +21,7 @@ mod knn;
 mod level_chains;
 mod lift;
 mod mesh_samples;
+mod mesh_topology;
 mod numpy_ops;
 mod polyline_distance;
 mod probe;
@@ -527,5 +528,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_topology::edge_table_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
     Ok(())
 }

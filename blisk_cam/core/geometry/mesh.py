@@ -19,6 +19,7 @@ from scipy.sparse import csgraph
 
 from ..errors import MeshError
 from ..kernels import mesh_tables as compiled_tables
+from ..kernels import weld as compiled_weld
 from .weld import (
     _checked_arrays,
     _edge_table,
@@ -37,6 +38,9 @@ def triangle_normals(V, F):
     the edge vectors (b − a) × (c − a), the same products and differences, computed on
     contiguous coordinate columns (~3x faster at a million faces, the same values)."""
     F = np.asarray(F)
+    got = compiled_weld.triangle_normals(V, F) if isinstance(V, np.ndarray) else None
+    if got is not None:  # the compiled kernel: the same operations in one pass
+        return got
     x, y, z = (np.ascontiguousarray(V[:, j]) for j in range(3))
     f0, f1, f2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
     ax, ay, az = x[f0], y[f0], z[f0]

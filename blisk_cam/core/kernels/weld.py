@@ -8,7 +8,8 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["first_equal_point", "first_equal_rows"]
+__all__ = ["edge_table", "first_equal_point", "first_equal_rows",
+           "interior_pairs", "triangle_normals"]
 
 
 def first_equal_point(x, y, z):
@@ -33,3 +34,44 @@ def first_equal_rows(V):
     # aligned too: the caller's arrays may sit at any byte of a buffer (dask hands a task's
     # arrays over in its message frames), which np.ascontiguousarray keeps as they are
     return fn(np.require(V, dtype=np.float64, requirements=("C_CONTIGUOUS", "ALIGNED")))
+
+
+def edge_table(F, n_vertices: int):
+    """The edge table of the faces F (m, 3) over ``n_vertices`` (``geometry.weld``'s
+    ``_edge_table``: a dict of ``edges``, ``face_edges``, ``edge_halfedges``,
+    ``edge_faces``, the same arrays) by a counting sort of the half-edges; None when the
+    numpy kernels run (or a wheel without this kernel), when an edge has more than two faces
+    (the numpy reference then raises) or the ids exceed 32 bits."""
+    ext = extension()
+    fn = getattr(ext, "edge_table_arrays", None) if ext is not None else None
+    if fn is None:
+        return None
+    got = fn(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices))
+    if got is None:
+        return None
+    edges, face_edges, edge_halfedges, edge_faces = got
+    return {"edges": edges, "face_edges": face_edges, "edge_faces": edge_faces,
+            "edge_halfedges": edge_halfedges}
+
+
+def triangle_normals(V, F):
+    """``geometry.mesh.triangle_normals`` of V (n, 3) float64 and F (m, 3) int64 in one pass
+    (the same products and differences, so the same bits), (m, 3) float64; None when the
+    numpy kernels run, the arrays are of other types, or an id is out of range."""
+    ext = extension()
+    fn = getattr(ext, "triangle_normals", None) if ext is not None else None
+    if (fn is None or V.dtype != np.float64 or F.dtype != np.int64 or len(F) == 0
+            or V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3):
+        return None
+    req = ("C_CONTIGUOUS", "ALIGNED")
+    return fn(np.require(V, requirements=req), np.require(F, requirements=req))
+
+
+def interior_pairs(edge_halfedges):
+    """``geometry.weld._interior_pairs`` from an edge table's ``edge_halfedges`` (e, 2):
+    (h0, h1, f0, f1) (p,) int64 in one pass; None when the numpy kernels run."""
+    ext = extension()
+    fn = getattr(ext, "interior_pairs", None) if ext is not None else None
+    if fn is None:
+        return None
+    return fn(np.ascontiguousarray(edge_halfedges, dtype=np.int64))

@@ -1,0 +1,213 @@
+//! The topology `TriMesh` keeps (`blisk_cam/core/geometry/weld.py::_edge_table`, its interior
+//! edge pairs) and its face normals (`mesh.triangle_normals`), in one pass each instead of
+//! numpy's sort of the 3m half-edges and its gathers: the same arrays, value for value.
+//! (The face components stay scipy's: a union–find here gave the same labels a little
+//! faster but raised the CLI's resident high-water mark later in the run, by how the freed
+//! memory of scipy's graph is reused.)
+//!
+//! The edge table: half-edge 3f + k runs from corner k to corner k + 1 of face f; its edge
+//! key is (lower vertex, higher vertex). numpy sorts the keys `lower · n + higher` stably;
+//! here a counting sort by the lower vertex (stable: half-edges ascending in each bucket)
+//! and a sort of each (small) bucket by (higher vertex, half-edge) give that very order.
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+const _: () = assert!(std::mem::size_of::<(u32, u32)>() == std::mem::size_of::<i64>());
+
+/// The arrays of `_edge_table`, flat (each (e, 2) or (m, 3) row-major).
+pub struct EdgeTable {
+    pub edges: Vec<i64>,
+    pub face_edges: Vec<i64>,
+    pub edge_halfedges: Vec<i64>,
+    pub edge_faces: Vec<i64>,
+}
+
+/// The edge table of faces `f` (3m vertex ids, row-major, all in 0..n); None when an edge
+/// has more than two half-edges (non-manifold: the caller's numpy reference says so) or the
+/// mesh is too large for 32-bit ids.
+pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
+    let h = f.len();
+    if h >= u32::MAX as usize || n >= u32::MAX as usize {
+        return None;
+    }
+    let next = |i: usize| if i % 3 == 2 { i - 2 } else { i + 1 };
+    let mut face_edges = vec![0i64; h]; // first: the mesh keeps it (see the buckets below)
+    // counting sort of the half-edges by their lower vertex
+    let mut ptr = vec![0u32; n + 1];
+    for i in 0..h {
+        let lo = f[i].min(f[next(i)]) as usize;
+        ptr[lo + 1] += 1;
+    }
+    for v in 0..n {
+        ptr[v + 1] += ptr[v];
+    }
+    // the buckets of (higher vertex, half-edge) pairs live in the memory of `face_edges`
+    // (one i64 per half-edge, as one pair): no temporary of the half-edges' size, and the
+    // arrays the mesh keeps come before anything freed (no hole left in the heap under them)
+    {
+        // SAFETY: (u32, u32) has the size of an i64 and an alignment it satisfies; the view
+        // ends before `face_edges` is written as ids
+        let bucket: &mut [(u32, u32)] = unsafe {
+            std::slice::from_raw_parts_mut(face_edges.as_mut_ptr() as *mut (u32, u32), h)
+        };
+        let mut fill: Vec<u32> = ptr[..n].to_vec();
+        for i in 0..h {
+            let (a, b) = (f[i], f[next(i)]);
+            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+            let p = &mut fill[lo as usize];
+            bucket[*p as usize] = (hi as u32, i as u32);
+            *p += 1;
+        }
+        drop(fill);
+    }
+    // SAFETY: as above; the last use of this view comes before `face_edges` is written
+    let bucket: &mut [(u32, u32)] =
+        unsafe { std::slice::from_raw_parts_mut(face_edges.as_mut_ptr() as *mut (u32, u32), h) };
+    // each bucket sorted and its edges counted first: the arrays are made at their size (the
+    // mesh keeps them for the whole run; a grown Vec would hold up to twice the memory)
+    let mut n_edges = 0usize;
+    for lo in 0..n {
+        let s = &mut bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
+        if s.len() > 1 {
+            s.sort_unstable(); // (hi, half-edge) pairs are distinct: the stable order
+        }
+        n_edges += s.iter().enumerate().filter(|&(j, p)| j == 0 || s[j - 1].0 != p.0).count();
+    }
+    let mut edges = Vec::with_capacity(2 * n_edges);
+    let mut edge_halfedges = Vec::with_capacity(2 * n_edges);
+    for lo in 0..n {
+        let s = &bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
+        let mut j = 0;
+        while j < s.len() {
+            let (hi, h0) = s[j];
+            let mut k = j + 1;
+            while k < s.len() && s[k].0 == hi {
+                k += 1;
+            }
+            if k - j > 2 {
+                return None;
+            }
+            edges.push(lo as i64);
+            edges.push(hi as i64);
+            edge_halfedges.push(h0 as i64);
+            edge_halfedges.push(if k - j == 2 { s[j + 1].1 as i64 } else { -1 });
+            j = k;
+        }
+    }
+    // the buckets are read: `face_edges` becomes the ids
+    for (e, hs) in edge_halfedges.chunks_exact(2).enumerate() {
+        face_edges[hs[0] as usize] = e as i64;
+        if hs[1] >= 0 {
+            face_edges[hs[1] as usize] = e as i64;
+        }
+    }
+    // floor division: −1 stays −1
+    let edge_faces = edge_halfedges.iter().map(|&x| if x < 0 { -1 } else { x / 3 }).collect();
+    Some(EdgeTable { edges, face_edges, edge_halfedges, edge_faces })
+}
+
+type Arr<'py> = Bound<'py, PyArray1<i64>>;
+
+/// `_edge_table(F, n)` as (edges (e, 2), face_edges (m, 3), edge_halfedges (e, 2),
+/// edge_faces (e, 2)) int64; None when an edge has more than two faces (or too many ids).
+#[pyfunction]
+pub fn edge_table_arrays<'py>(
+    py: Python<'py>,
+    f: PyReadonlyArray2<'py, i64>,
+    n_vertices: usize,
+) -> PyResult<Option<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)>> {
+    let ff = crate::arrays::flat(&f, "F")?;
+    if ff.len() % 3 != 0 {
+        return Err(pyo3::exceptions::PyValueError::new_err("F must be (m, 3)"));
+    }
+    if ff.iter().any(|&v| v < 0 || v as usize >= n_vertices) {
+        return Err(pyo3::exceptions::PyValueError::new_err("F holds vertex ids out of range"));
+    }
+    let Some(t) = py.detach(|| edge_table(ff, n_vertices)) else {
+        return Ok(None);
+    };
+    let two = |v: Vec<i64>, c: usize| -> PyResult<Bound<'py, PyAny>> {
+        let k = v.len() / c;
+        let a: Arr<'py> = PyArray1::from_vec(py, v);
+        Ok(a.reshape([k, c])?.into_any())
+    };
+    Ok(Some((
+        two(t.edges, 2)?,
+        two(t.face_edges, 3)?,
+        two(t.edge_halfedges, 2)?,
+        two(t.edge_faces, 2)?,
+    )))
+}
+
+/// `(b − a) × (c − a)` of every face (a, b, c) of `f` over the points `v`, row-major (m, 3):
+/// the very products and differences of `mesh.triangle_normals` (Rust does not fuse them into
+/// FMAs), so the same bits. None when a face holds an id outside 0..n (numpy then says so, or
+/// wraps a negative id as it does).
+pub fn normals(v: &[[f64; 3]], f: &[i64]) -> Option<Vec<f64>> {
+    let n = v.len();
+    if f.iter().any(|&i| i < 0 || i as usize >= n) {
+        return None;
+    }
+    let mut out = vec![0.0f64; f.len()];
+    for (o, t) in out.chunks_exact_mut(3).zip(f.chunks_exact(3)) {
+        let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
+        let (u0, u1, u2) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+        let (v0, v1, v2) = (c[0] - a[0], c[1] - a[1], c[2] - a[2]);
+        o[0] = u1 * v2 - u2 * v1;
+        o[1] = u2 * v0 - u0 * v2;
+        o[2] = u0 * v1 - u1 * v0;
+    }
+    Some(out)
+}
+
+/// `triangle_normals(V, F)`: (m, 3) float64, or None (an id out of range: numpy's turn).
+#[pyfunction]
+pub fn triangle_normals<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'py, f64>,
+    f: PyReadonlyArray2<'py, i64>,
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let pts = crate::points(&v, "V")?;
+    let ff = crate::arrays::flat(&f, "F")?;
+    if f.shape()[1] != 3 {
+        return Err(pyo3::exceptions::PyValueError::new_err("F must be (m, 3)"));
+    }
+    let Some(out) = py.detach(|| normals(pts, ff)) else {
+        return Ok(None);
+    };
+    let k = out.len() / 3;
+    let a: Bound<'py, PyArray1<f64>> = PyArray1::from_vec(py, out);
+    Ok(Some(a.reshape([k, 3])?.into_any()))
+}
+
+/// `_interior_pairs` of an edge table: from `edge_halfedges` (e, 2) the two half-edges of
+/// each edge of two faces, in edge order, and their faces: (h0, h1, f0, f1) (p,) int64.
+#[pyfunction]
+pub fn interior_pairs<'py>(
+    py: Python<'py>,
+    hei: PyReadonlyArray2<'py, i64>,
+) -> PyResult<(Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>)> {
+    let h = crate::arrays::flat(&hei, "edge_halfedges")?;
+    if hei.shape()[1] != 2 {
+        return Err(pyo3::exceptions::PyValueError::new_err("edge_halfedges must be (e, 2)"));
+    }
+    let (h0, h1, f0, f1) = py.detach(|| {
+        let p = h.chunks_exact(2).filter(|r| r[1] >= 0).count();
+        let (mut h0, mut h1) = (Vec::with_capacity(p), Vec::with_capacity(p));
+        let (mut f0, mut f1) = (Vec::with_capacity(p), Vec::with_capacity(p));
+        for r in h.chunks_exact(2).filter(|r| r[1] >= 0) {
+            h0.push(r[0]);
+            h1.push(r[1]);
+            f0.push(r[0].div_euclid(3));
+            f1.push(r[1].div_euclid(3));
+        }
+        (h0, h1, f0, f1)
+    });
+    Ok((
+        PyArray1::from_vec(py, h0),
+        PyArray1::from_vec(py, h1),
+        PyArray1::from_vec(py, f0),
+        PyArray1::from_vec(py, f1),
+    ))
+}

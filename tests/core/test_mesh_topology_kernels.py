@@ -1,0 +1,154 @@
+"""The compiled mesh topology (the edge table by a counting sort, its interior pairs, the
+face normals) against the numpy reference: the prepared mesh — vertices, faces, maps,
+counts, orientation flips and everything cached (edges, face adjacency, normals, loops) —
+bit for bit the same on both backends, on an open patch, closed solids, a mesh with flipped
+faces, several components, and a non-manifold mesh refused with the same message."""
+
+import numpy as np
+import pytest
+
+from blisk_cam.core.errors import MeshError
+from blisk_cam.core.geometry import weld
+from blisk_cam.core.geometry.mesh import TriMesh, triangle_normals
+from blisk_cam.core.kernels import backend
+from blisk_cam.core.kernels import weld as compiled_weld
+
+kernel = pytest.mark.skipif(
+    compiled_weld.edge_table(np.array([[0, 1, 2]]), 3) is None,
+    reason="the compiled kernels (with the edge table) are not installed or numpy runs",
+)
+
+
+def _icosphere(subdiv):
+    """A unit icosphere (closed, outward, (V, F)) by repeated midpoint subdivision."""
+    g = (1 + 5**0.5) / 2
+    V = np.array([[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
+                  [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]], float)
+    F = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9],
+                  [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2],
+                  [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
+                  [8, 6, 7], [9, 8, 1]])
+    for _ in range(subdiv):
+        e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+        uniq, inv = np.unique(e, axis=0, return_inverse=True)
+        mid = len(V) + inv.ravel().reshape(3, -1).T  # midpoints of (01, 12, 20)
+        V = np.vstack([V, V[uniq].mean(1)])
+        a, b, c = F.T
+        m01, m12, m20 = mid.T
+        F = np.vstack([np.stack(x, 1) for x in ((a, m01, m20), (b, m12, m01), (c, m20, m12),
+                                                 (m01, m12, m20))])
+    return V / np.linalg.norm(V, axis=1, keepdims=True), F
+
+
+def _same(a, b, where):
+    if isinstance(a, np.ndarray):
+        assert isinstance(b, np.ndarray) and a.dtype == b.dtype and a.shape == b.shape, where
+        assert np.array_equal(a.view(np.uint8), b.view(np.uint8)), where
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _same(x, y, f"{where}[{i}]")
+    else:
+        assert a == b, where
+
+
+def _both(V, F):
+    """The mesh prepared on the compiled and the numpy backend, compared in full."""
+    a = TriMesh.from_arrays(V, F)
+    _ = a.vertex_normals, a.boundary_loops()
+    with backend.numpy_only():
+        b = TriMesh.from_arrays(V, F)
+        _ = b.vertex_normals, b.boundary_loops()
+    for name in ("V", "F", "vertex_map", "face_map", "flipped_faces", "welded_vertices",
+                 "dropped_faces"):
+        _same(getattr(a, name), getattr(b, name), name)
+    assert sorted(a._cache) == sorted(b._cache)
+    for key in a._cache:
+        _same(a._cache[key], b._cache[key], key)
+    return a
+
+
+def _soup(V, F):
+    """The triangle soup of a mesh (every corner its own vertex), as an STL gives it."""
+    return V[F].reshape(-1, 3), np.arange(3 * len(F)).reshape(-1, 3)
+
+
+@kernel
+def test_open_patch():
+    x, y = np.meshgrid(np.linspace(0, 10, 30), np.linspace(0, 5, 20))
+    V = np.stack([x.ravel(), y.ravel(), 0.1 * np.sin(x.ravel())], axis=1)
+    i = np.arange(29)[None, :] + 30 * np.arange(19)[:, None]
+    i = i.ravel()
+    F = np.concatenate([np.stack([i, i + 1, i + 31], 1), np.stack([i, i + 31, i + 30], 1)])
+    mesh = _both(*_soup(V, F))
+    assert mesh.n_vertices == 600 and len(mesh.boundary_loops()) == 1  # measured: one rim
+
+
+@kernel
+def test_closed_solids_with_flipped_faces_and_several_components():
+    V1, F1 = _icosphere(3)
+    V2 = V1 * 0.5 + [3.0, 0.0, 0.0]
+    F2 = F1[:, ::-1] + len(V1)  # a second sphere, inside out
+    V = np.concatenate([V1, V2])
+    F = np.concatenate([F1, F2])
+    rng = np.random.default_rng(3)
+    F = F[rng.permutation(len(F))]  # the components interleaved in face order
+    flip = rng.random(len(F)) < 0.1
+    F[flip] = F[flip][:, ::-1]
+    mesh = _both(*_soup(V, F))
+    assert mesh.boundary_loops() == [] and mesh.flipped_faces > 0
+    # measured: both spheres end up outward (positive volume about their own centres)
+    n2 = triangle_normals(mesh.V, mesh.F)
+    c = mesh.V[mesh.F].mean(axis=1)
+    far = c[:, 0] > 1.5
+    for sel, centre in ((~far, [0, 0, 0]), (far, [3, 0, 0])):
+        assert np.sum(np.einsum("ij,ij->i", c[sel] - centre, n2[sel])) > 0
+
+
+@kernel
+def test_a_non_manifold_mesh_is_refused_the_same_way():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+    F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])  # three faces on edge 0–1
+    with pytest.raises(MeshError) as a:
+        TriMesh.from_arrays(V, F)
+    with backend.numpy_only(), pytest.raises(MeshError) as b:
+        TriMesh.from_arrays(V, F)
+    assert str(a.value) == str(b.value) and "non-manifold" in str(a.value)
+    assert compiled_weld.edge_table(F, len(V)) is None
+
+
+@kernel
+def test_the_edge_table_against_the_reference():
+    rng = np.random.default_rng(7)
+    Vs, Fs = _icosphere(2)
+    n = len(Vs)
+    perm = rng.permutation(n)  # vertex ids in no order: long unsorted key runs
+    F = perm[Fs][:300]  # an open piece, boundary edges included
+    got = compiled_weld.edge_table(F, n + 5)
+    with backend.numpy_only():
+        ref = weld._edge_table(F, n + 5)
+    assert sorted(got) == sorted(ref)
+    for key in ref:
+        _same(got[key], ref[key], key)
+
+
+@kernel
+def test_triangle_normals_and_interior_pairs_against_the_reference():
+    rng = np.random.default_rng(11)
+    V = rng.normal(size=(400, 3)) * [1e3, 1.0, 1e-3]  # magnitudes far apart: rounding shows
+    F = rng.integers(0, 400, size=(900, 3))
+    got = compiled_weld.triangle_normals(V, F)
+    assert got is not None
+    with backend.numpy_only():
+        ref = triangle_normals(V, F)
+    _same(got, ref, "normals")
+    np.testing.assert_allclose(got, np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]))
+    assert compiled_weld.triangle_normals(V, F - 400) is None  # negative ids: numpy's turn
+    Vs, Fs = _icosphere(2)
+    topo = weld._edge_table(Fs[:200], len(Vs))
+    got = compiled_weld.interior_pairs(topo["edge_halfedges"])
+    with backend.numpy_only():
+        ref = weld._interior_pairs(topo)
+    assert 0 < len(ref[0]) < len(topo["edges"])  # some edges of one face, some of two
+    for x, y in zip(got, ref, strict=True):
+        _same(x, y, "pairs")
