@@ -20,8 +20,12 @@ runs per repetition:
   (reading the mesh, writing the paths included) and while polling the verify worker (a
   tick only checks the thread, or shows the colour map; it may wait for the GIL).
 
-Times run from the start of the operator (reading the mesh included). The machine may be
-shared: compare the figures of one run with each other.
+Times run from the start of the operator (reading the mesh included). The planning stages'
+figure is wall time (``seconds_plan``); the process CPU until the paths are shown is printed
+beside it: ``bench_plan_cpu.py`` prints CPU seconds, and on a loaded machine the wall time of
+the same work is longer (the panel plans the same request on the same mesh as the core:
+``tests/blender/test_generate_core.py``; its worker thread takes the core's CPU time). The
+machine may be shared: compare the figures of one run with each other.
 """
 
 from __future__ import annotations
@@ -73,7 +77,7 @@ def run_interactive():
     from blisk_cam.operators.modal_job import ModalRunner
 
     ctx = bpy.context
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     runner = ModalRunner(gen.BLISKCAM_OT_generate_paths, gen.PathJob(ctx))  # invoke
     runner.start(ctx)
     first_tick = time.perf_counter() - t0
@@ -90,6 +94,7 @@ def run_interactive():
         next_fire = max(next_fire + TICK, b)
         if t_paths is None and runner._job.paths_seconds is not None:
             t_paths, show_tick = b - t0, b - a
+            cpu_paths = time.process_time() - c0
         elif t_paths is None:
             plan_ticks.append(b - a)
         else:
@@ -109,7 +114,8 @@ def run_interactive():
             "poll_tick": max(verify_ticks[:-1] or [0.0]),
             "attach_tick": verify_ticks[-1] if verify_ticks else 0.0,
             "worker": runner._job.verify_seconds,
-            "plan": runner._job.plan.path.stats.get("seconds_plan", float("nan"))}
+            "plan": runner._job.plan.path.stats.get("seconds_plan", float("nan")),
+            "cpu_paths": cpu_paths}
 
 
 def main():
@@ -143,6 +149,9 @@ def main():
                   f"map {x['map'] or float('nan'):6.2f} s"
                   f"{'' if x['has_map'] else ' (no map object!)'}, figures {x['done']:6.2f} s "
                   f"(verify worker {x['worker']:.2f} s)")
+            print(f"       planning stages {x['plan']:.2f} s wall; process CPU until the paths "
+                  f"are shown {x['cpu_paths']:.2f} s (every thread: compare with "
+                  "bench_plan_cpu.py's CPU, not with the stages' wall)")
             print(f"       the panel's own share: paths shown − planning stages "
                   f"{x['paths'] - x['plan']:.2f} s, colour map − paths shown "
                   f"{x['map'] - x['paths']:.2f} s = {(x['map'] - x['paths']) / x['worker']:.2f} × "
