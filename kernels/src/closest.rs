@@ -66,69 +66,18 @@ fn on_segment(p: &P3, a: &P3, b: &P3) -> (f64, f64) {
     (t, dot(&e, &e))
 }
 
-/// The squared distance `closest_on_triangles` returns for one point and one triangle.
+/// The squared distance `closest_on_triangles` returns for one point and one triangle:
+/// [`triangle_closest`]'s, whose feature and barycentric work the compiler drops once it is
+/// inlined here (the same operations, so the same bits).
+#[inline(always)]
 pub fn triangle_d2(p: &P3, a: &P3, b: &P3, c: &P3) -> f64 {
-    let ab = sub(b, a);
-    let bc = sub(c, b);
-    let ca = sub(a, c);
-    let (lab, lbc, lca) = (dot(&ab, &ab), dot(&bc, &bc), dot(&ca, &ca));
-    let c_long = lab >= lbc && lab >= lca;
-    let a_long = lbc >= lca;
-    let x = if c_long {
-        bc
-    } else if a_long {
-        ca
-    } else {
-        ab
-    };
-    let y = if c_long {
-        ca
-    } else if a_long {
-        ab
-    } else {
-        bc
-    };
-    let n = cross(&x, &y);
-    let nn = dot(&n, &n);
-    // np.maximum(np.maximum(lab, lbc), lca) ** 2 (NaN propagates through np.maximum)
-    let m = nanmax(nanmax(lab, lbc), lca);
-    let ok = nn > 1e-24 * (m * m);
-    let inv = if ok { 1.0 / nn } else { 0.0 };
-    let s = dot(&sub(a, p), &n) * inv;
-    let q_in = [p[0] + s * n[0], p[1] + s * n[1], p[2] + s * n[2]];
-    let (qa, qb, qc) = (sub(a, &q_in), sub(b, &q_in), sub(c, &q_in));
-    let u = triple(&n, &qb, &qc) * inv;
-    let v = triple(&n, &qc, &qa) * inv;
-    let w = triple(&n, &qa, &qb) * inv;
-    let inside = ok && u >= 0.0 && v >= 0.0 && w >= 0.0;
-    let q = if inside {
-        q_in
-    } else {
-        let mut best = f64::INFINITY;
-        let mut bary = [0.0f64; 3];
-        for (s0, e0, i0, i1) in [(a, b, 0usize, 1usize), (b, c, 1, 2), (c, a, 2, 0)] {
-            let (t, d2) = on_segment(p, s0, e0);
-            if d2 < best {
-                best = d2;
-                bary = [0.0; 3];
-                bary[i0] = 1.0 - t;
-                bary[i1] = t;
-            }
-        }
-        // bary[:, :1] * a + bary[:, 1:2] * b + bary[:, 2:] * c
-        let mut q = [0.0; 3];
-        for j in 0..3 {
-            q[j] = (bary[0] * a[j] + bary[1] * b[j]) + bary[2] * c[j];
-        }
-        q
-    };
-    let e = sub(p, &q);
-    dot(&e, &e)
+    triangle_closest(p, a, b, c).1
 }
 
 /// `closest_on_triangles` for one point and one triangle, operation for operation:
 /// (closest point, squared distance, feature — 0 interior, 1..3 edge ab/bc/ca, 4..6 vertex
 /// a/b/c —, barycentric coordinates).
+#[inline(always)]
 pub fn triangle_closest(p: &P3, a: &P3, b: &P3, c: &P3) -> (P3, f64, i8, P3) {
     let ab = sub(b, a);
     let bc = sub(c, b);
