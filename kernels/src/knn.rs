@@ -238,6 +238,20 @@ fn d2(a: &P3, b: &P3) -> f64 {
     (x * x + y * y) + z * z
 }
 
+/// The k-d split of `idx` (each item's point first) across the widest side of `region`: the
+/// median position `m` (items partially sorted about it) and the two halves' regions.
+fn median_split(idx: &mut [(P3, u32)], region: [f64; 6]) -> (usize, [f64; 6], [f64; 6]) {
+    let ext = |j: usize| region[j + 3] - region[j];
+    let dim = (0..3).max_by(|&a, &b| ext(a).total_cmp(&ext(b))).unwrap();
+    let m = idx.len() / 2;
+    idx.select_nth_unstable_by(m, |a, b| a.0[dim].total_cmp(&b.0[dim]));
+    let val = idx[m].0[dim];
+    let (mut lr, mut rr) = (region, region);
+    lr[dim + 3] = val;
+    rr[dim] = val;
+    (m, lr, rr)
+}
+
 impl PointTree {
     pub fn new(pts: Vec<P3>) -> Self {
         // the points move with their ids (contiguous, not gathered through an index)
@@ -308,14 +322,7 @@ impl PointTree {
             };
             return (vec![leaf], vec![b]);
         }
-        let ext = |j: usize| region[j + 3] - region[j];
-        let dim = (0..3).max_by(|&a, &b| ext(a).total_cmp(&ext(b))).unwrap();
-        let m = idx.len() / 2;
-        idx.select_nth_unstable_by(m, |a, b| a.0[dim].total_cmp(&b.0[dim]));
-        let val = idx[m].0[dim];
-        let (mut lr, mut rr) = (region, region);
-        lr[dim + 3] = val;
-        rr[dim] = val;
+        let (m, lr, rr) = median_split(idx, region);
         let n = idx.len();
         let (l, r) = idx.split_at_mut(m);
         let ((ln, lb), (rn, rb)) = if n > 50_000 {
@@ -490,14 +497,7 @@ impl PointTree {
             }
             return sub;
         }
-        let ext = |j: usize| region[j + 3] - region[j];
-        let dim = (0..3).max_by(|&a, &b| ext(a).total_cmp(&ext(b))).unwrap();
-        let m = idx.len() / 2;
-        idx.select_nth_unstable_by(m, |a, b| a.0[dim].total_cmp(&b.0[dim]));
-        let val = idx[m].0[dim];
-        let (mut lr, mut rr) = (region, region);
-        lr[dim + 3] = val;
-        rr[dim] = val;
+        let (m, lr, rr) = median_split(idx, region);
         let n = idx.len();
         let (l, r) = idx.split_at_mut(m);
         let nl_pts: usize = l.iter().map(|x| size(x.1)).sum();
