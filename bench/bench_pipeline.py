@@ -1,7 +1,8 @@
 """Benchmark the whole batch run the user waits for (issue 13); prints figures (no assertions).
 
     python bench/bench_pipeline.py [--triangles 1000000] [--chord 0.01] [--no-verify]
-    python bench/bench_pipeline.py --verify-only --only rotor37 --verify-triangles 20000 [--verify-repeat 3]
+    python bench/bench_pipeline.py --verify-only --only rotor37 --verify-triangles 20000 \
+        [--verify-repeat 3]
 
 For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` triangles:
 

@@ -33,7 +33,7 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
     }
     let next = |i: usize| if i % 3 == 2 { i - 2 } else { i + 1 };
     let mut face_edges = vec![0i64; h]; // first: the mesh keeps it (see the buckets below)
-    // counting sort of the half-edges by their lower vertex
+                                        // counting sort of the half-edges by their lower vertex
     let mut ptr = vec![0u32; n + 1];
     for i in 0..h {
         let lo = f[i].min(f[next(i)]) as usize;
@@ -72,7 +72,11 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
         if s.len() > 1 {
             s.sort_unstable(); // (hi, half-edge) pairs are distinct: the stable order
         }
-        n_edges += s.iter().enumerate().filter(|&(j, p)| j == 0 || s[j - 1].0 != p.0).count();
+        n_edges += s
+            .iter()
+            .enumerate()
+            .filter(|&(j, p)| j == 0 || s[j - 1].0 != p.0)
+            .count();
     }
     let mut edges = Vec::with_capacity(2 * n_edges);
     let mut edge_halfedges = Vec::with_capacity(2 * n_edges);
@@ -103,8 +107,16 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
         }
     }
     // floor division: −1 stays −1
-    let edge_faces = edge_halfedges.iter().map(|&x| if x < 0 { -1 } else { x / 3 }).collect();
-    Some(EdgeTable { edges, face_edges, edge_halfedges, edge_faces })
+    let edge_faces = edge_halfedges
+        .iter()
+        .map(|&x| if x < 0 { -1 } else { x / 3 })
+        .collect();
+    Some(EdgeTable {
+        edges,
+        face_edges,
+        edge_halfedges,
+        edge_faces,
+    })
 }
 
 type Arr<'py> = Bound<'py, PyArray1<i64>>;
@@ -116,13 +128,22 @@ pub fn edge_table_arrays<'py>(
     py: Python<'py>,
     f: PyReadonlyArray2<'py, i64>,
     n_vertices: usize,
-) -> PyResult<Option<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)>> {
+) -> PyResult<
+    Option<(
+        Bound<'py, PyAny>,
+        Bound<'py, PyAny>,
+        Bound<'py, PyAny>,
+        Bound<'py, PyAny>,
+    )>,
+> {
     let ff = crate::arrays::flat(&f, "F")?;
     if ff.len() % 3 != 0 {
         return Err(pyo3::exceptions::PyValueError::new_err("F must be (m, 3)"));
     }
     if ff.iter().any(|&v| v < 0 || v as usize >= n_vertices) {
-        return Err(pyo3::exceptions::PyValueError::new_err("F holds vertex ids out of range"));
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "F holds vertex ids out of range",
+        ));
     }
     let Some(t) = py.detach(|| edge_table(ff, n_vertices)) else {
         return Ok(None);
@@ -190,7 +211,9 @@ pub fn interior_pairs<'py>(
 ) -> PyResult<(Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>)> {
     let h = crate::arrays::flat(&hei, "edge_halfedges")?;
     if hei.shape()[1] != 2 {
-        return Err(pyo3::exceptions::PyValueError::new_err("edge_halfedges must be (e, 2)"));
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "edge_halfedges must be (e, 2)",
+        ));
     }
     let (h0, h1, f0, f1) = py.detach(|| {
         let p = h.chunks_exact(2).filter(|r| r[1] >= 0).count();
