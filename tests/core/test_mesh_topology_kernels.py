@@ -152,3 +152,18 @@ def test_triangle_normals_and_interior_pairs_against_the_reference():
     assert 0 < len(ref[0]) < len(topo["edges"])  # some edges of one face, some of two
     for x, y in zip(got, ref, strict=True):
         _same(x, y, "pairs")
+
+
+def test_the_reference_edge_table_widens_int32_faces():
+    """numpy 1.x's default int on Windows is int32: faces of that type over more than 46 341
+    vertices must give the int64 table (the key lower * n + higher overflowed in int32)."""
+    n = 60_000
+    a = np.arange(n - 2)
+    F = np.stack([a, a + 1, a + 2], axis=1)  # a triangle strip over every vertex
+    with backend.numpy_only():
+        ref = weld._edge_table(F.astype(np.int64), n)
+        got = weld._edge_table(F.astype(np.int32), n)
+    for key in ref:
+        _same(ref[key], got[key], key)
+    assert len(ref["edges"]) == 2 * (n - 2) + 1  # each triangle adds two edges to the first's
+    assert ref["edges"].max() == n - 1

@@ -321,6 +321,9 @@ def _edge_table(F, n):
     if got is not None:
         return got
     n = np.int64(n)
+    # int64 as the kernel reads them: an int32 F (numpy 1.x's default int on Windows) would
+    # overflow the key lower * n + higher in place past 46 341 vertices
+    F = np.asarray(F, dtype=np.int64)
     ha = F.ravel()
     hb = F[:, [1, 2, 0]].ravel()
     key = np.minimum(ha, hb)
