@@ -44,6 +44,7 @@ from ..core.kernels.backend import backend_name
 from ..core.runtime import parallel
 from ..core.version import __version__
 from .blender import _cmd_demo
+from .console import never_fail_on_encoding
 from .flags import (
     PROG,
     CliInternalError,
@@ -297,6 +298,7 @@ def _cmd_rough(args):
 
 def main(argv=None) -> int:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    never_fail_on_encoding()
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv:

@@ -6,6 +6,7 @@ verified paths JSON (numpy/scipy only; Blender outputs through
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -379,9 +380,12 @@ def _summary_line(path, times, report) -> str:
 
 def process_age():
     """Seconds since this process started (the interpreter, Blender and the imports the
-    user also waits for), from Linux's /proc; None where that is not available."""
+    user also waits for), from Linux's /proc or Windows' process times; None where neither
+    is available (macOS)."""
     import os
 
+    if sys.platform == "win32":
+        return _windows_process_age()
     try:
         with open("/proc/self/stat") as fh:
             after_name = fh.read().rsplit(")", 1)[1].split()
@@ -391,6 +395,29 @@ def process_age():
         return max(0.0, uptime - int(after_name[19]) / os.sysconf("SC_CLK_TCK"))
     except (OSError, ValueError, IndexError, AttributeError):
         return None
+
+
+def _windows_process_age():
+    """:func:`process_age` on Windows: now less the process' creation time (kernel32's
+    GetProcessTimes, 100 ns ticks since 1601); None when the call fails."""
+    import ctypes
+    from ctypes import wintypes
+
+    try:
+        k32 = ctypes.WinDLL("kernel32", use_last_error=True)
+        k32.GetCurrentProcess.restype = wintypes.HANDLE
+        times = [wintypes.FILETIME() for _ in range(4)]  # creation, exit, kernel, user
+        if not k32.GetProcessTimes(k32.GetCurrentProcess(), *map(ctypes.byref, times)):
+            return None
+        now = wintypes.FILETIME()
+        k32.GetSystemTimeAsFileTime(ctypes.byref(now))
+    except (OSError, AttributeError):
+        return None
+
+    def ticks(ft):
+        return (ft.dwHighDateTime << 32) | ft.dwLowDateTime
+
+    return max(0.0, (ticks(now) - ticks(times[0])) * 1e-7)
 
 
 def _cmd_paths(args):

@@ -5,6 +5,7 @@ the CLI runs has its figure."""
 import hashlib
 import json
 import os
+import sys
 
 import pytest
 
@@ -22,6 +23,7 @@ def blade(tmp_path_factory):
     return path, [str(x) for x in d.hub_cone.as_list()], [str(x) for x in d.tip_cone.as_list()]
 
 
+@pytest.mark.skipif(sys.platform == "darwin", reason="macOS: no /proc, no process times read")
 def test_process_age_counts_the_interpreter():
     age = cli_paths.process_age()
     assert age is not None and age > 0.0  # this pytest process has run for a while
@@ -36,7 +38,9 @@ def test_stage_times_add_up_to_the_wall_time(blade, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert rc == 0
     st = json.loads(out.read_text())["stats"]
-    stages = ("startup", "load", "weld", "plan", "verify")
+    stages = ("load", "weld", "plan", "verify")
+    if cli_paths.process_age() is not None:  # Linux, Windows
+        stages = ("startup", *stages)
     assert all(f"seconds_{k}" in st for k in stages)
     total = sum(st[f"seconds_{k}"] for k in ("startup", "load", "weld", "fit", "plan",
                                                "collision", "verify") if f"seconds_{k}" in st)

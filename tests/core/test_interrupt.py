@@ -15,6 +15,9 @@ import pytest
 from blisk_cam.core.runtime import map_chunks, map_tasks, parallel
 
 
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"),
+                    reason="Windows: no signal can be sent to one thread (Ctrl-C there is a "
+                           "console event, not a POSIX signal)")
 def test_sigint_drops_queued_tasks_and_stops_running_chunks():
     main = threading.get_ident()
     lock = threading.Lock()

@@ -18,6 +18,7 @@ import contextlib
 import hashlib
 import json
 import math
+import sys
 from pathlib import Path
 
 import pytest
@@ -45,6 +46,13 @@ DIGESTS = {
     "demo": "84a7ca7bb90ab3a0d9ea8ae6e6c6189ecc2ad44176a1a734745bd6487dddd564",
     "rotor37": "de899b694a041295af839e9afecf2e164d98f2760c2caac2949eb37952b8116f",
 }
+
+#: why the demo digest is Linux's alone: measured with the Windows wheel in Windows CPython
+#: 3.11 (numpy 1.26.4) under Wine 8, the demo path's 76 558 floats that differ from Linux's
+#: differ by at most 1.2e-11 mm (the maths library's last bits), but one zero-speed pose's
+#: FLAG_LOCAL_GOUGE bit flips, as between hosts above. Rotor 37's digest held there.
+DEMO_ELSEWHERE = ("the demo digest was recorded on Linux: elsewhere a zero-speed pose's "
+                  "local-gouge bit may flip (Windows under Wine: floats within 1.2e-11 mm)")
 
 STAGE_KEYS = tuple(f"seconds_{s.name}" for s in PLAN_STAGES) + ("seconds_plan",)
 
@@ -108,6 +116,8 @@ def test_paths_json_digest_is_unchanged(name, kernels, tmp_path):
     reference too (the same digest: the compiled kernels change no output)."""
     if kernels == "numpy" and backend.extension() is None:
         pytest.skip("the numpy kernels are the installed ones: run above")
+    if name == "demo" and not sys.platform.startswith("linux"):
+        pytest.skip(DEMO_ELSEWHERE)
     with backend.numpy_only() if kernels == "numpy" else contextlib.nullcontext():
         mesh, req = {"demo": demo_case, "rotor37": rotor37_case}[name]()
         path = plan_paths(mesh, req).path

@@ -417,3 +417,24 @@ def test_paths_and_nc_in_one_run_match_the_nc_command(tmp_path, capsys):
                    "--post", "linuxcnc", "--out", str(bad), "--max-rotary-step", "0"])
     assert rc == 2 and not bad.exists()
     assert "max rotary step" in capsys.readouterr().err.lower()
+
+
+def test_cli_writes_to_a_stream_that_cannot_encode_every_character(paths_files, tmp_path):
+    """On Windows a redirected stdout/stderr is in the ANSI code page (cp1252), which has no
+    '≈' (nc's summary line): the run still succeeds, the character printed as '?'."""
+    out = tmp_path / "a.apt"
+    code = (
+        "import sys\n"
+        "from blisk_cam.cli.main import main\n"
+        f"sys.exit(main(['nc', '--paths', {str(paths_files['good'])!r}, '--machine', "
+        f"'ac-trunnion', '--post', 'apt', '--out', {str(out)!r}]))\n"
+    )
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = dict(os.environ, PYTHONIOENCODING="cp1252")
+    cp = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, env=env,
+                        timeout=120)
+    assert cp.returncode == 0, cp.stderr.decode("cp1252")
+    summary = cp.stdout.decode("cp1252")
+    assert "apt for AC trunnion" in summary and "blocks" in summary
+    assert "? 1." in summary or "? 0." in summary  # "≈ 1.5 min" of cutting, as "?"
+    assert out.read_text(encoding="ascii").startswith("PARTNO/")

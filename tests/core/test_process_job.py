@@ -121,7 +121,7 @@ def _d_eff_ball(D: float, ap: float, beta: float) -> float:
 
 def test_outputs_program_and_stock_chain(processed, tmp_path):
     rc, job, out = processed
-    summary = json.loads((out / "summary.json").read_text())
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     ops = summary["operations"]
     final = summary["final_verdict"]["status"]
     assert rc == (5 if not all(o["passed"] for o in ops) or final == "failed" else
@@ -131,7 +131,7 @@ def test_outputs_program_and_stock_chain(processed, tmp_path):
     # no row of either program moves the body or a rapid through the stock (the radial
     # rapid down to the first pass once crashed 14 mm into the semi-finishing stock)
     for stem in ("01-semi-finish", "02-finish"):
-        sim = json.loads((out / f"{stem}.simulation.json").read_text())
+        sim = json.loads((out / f"{stem}.simulation.json").read_text(encoding="utf-8"))
         assert sim["crashes"] == [], (stem, sim["crashes"])
         assert sim["volume_removed_mm3"]["by_move"]["rapid"] == 0.0, stem
     for stem in ("01-semi-finish", "02-finish"):
@@ -167,7 +167,7 @@ def test_outputs_program_and_stock_chain(processed, tmp_path):
     assert "COLLISIONS NOT CHECKED" not in text
     for p in paths:
         assert p.collision is not None
-    sheet = (out / "setup_sheet.md").read_text()
+    sheet = (out / "setup_sheet.md").read_text(encoding="utf-8")
     assert "| T3 | Ø16 ball |" in sheet and "| T7 | Ø10 ball |" in sheet
     assert sheet.count("| blade_finish |") == 2
 
