@@ -24,7 +24,7 @@ from ..kernels import mesh_tables as compiled_tables
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
-from ..runtime import Progress, workers
+from ..runtime import Progress, alongside, workers
 from ..toolpath.types import BallTool, PassCurve, ToolPath
 from .expansion import (
     PolylineDistance,
@@ -241,6 +241,17 @@ class _Generator:
         check_tolerances(radius, cusp, chord)
         self.mesh = mesh
         self.axis = axis
+        # the compiled tables of the intrusion checks (each one compiled call, the GIL
+        # released) are built on a side thread while the slicer is set up and the first
+        # levels are sliced and sampled; with one thread, on first use (as before)
+        self._tables_result = None
+        self._tables = None
+        if extension() is not None:
+            V, E, F = mesh.V, mesh.edges, mesh.F  # read here: the side thread touches no cache
+            n = workers()  # the tree on the caller's threads (its splits run in parallel)
+            self._tables_result = alongside(lambda: (
+                compiled_tables.vertex_face_table(F, len(V)),
+                compiled_tables.sample_tree(V, E, F, n)))
         # LMC between two cones, LMRS (paper 001 §4.2) when either generatrix is a Profile
         self.morph = morph_between(cone1, cone2)
         self.radius, self.cusp, self.chord = float(radius), float(cusp), float(chord)
@@ -481,15 +492,19 @@ class _Generator:
                                   balanced_tree=False, compact_nodes=False)
         return self._ptree
 
+    def _compiled_tables(self):
+        """(faces around each vertex, k-d tree over all samples) compiled, started when the
+        generator was made (:func:`..runtime.alongside`), or None when the numpy kernels
+        run."""
+        if self._tables is None and self._tables_result is not None:
+            self._tables = self._tables_result()
+        return self._tables
+
     def _compiled_probe_tree(self):
-        """The compiled k-d tree over all samples (built on first use), or None when the
-        numpy kernels run."""
-        if extension() is None:
+        """The compiled k-d tree over all samples, or None when the numpy kernels run."""
+        if extension() is None or self._compiled_tables() is None:
             return None
-        if getattr(self, "_cptree", None) is None:  # the samples of _ProbeSamples.all_points
-            m = self.mesh
-            self._cptree = compiled_tables.sample_tree(m.V, m.edges, m.F, workers())
-        return self._cptree
+        return self._compiled_tables()[1]  # the samples of _ProbeSamples.all_points
 
     def _any_within(self, C, bound):
         """(q,) bool: a surface sample lies closer than ``bound`` mm to the point (q, 3) — the
@@ -584,7 +599,8 @@ class _Generator:
         (3 m,)) — the faces of vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being
         their corner ``corner[...]``."""
         if not hasattr(self, "_vf"):
-            self._vf = compiled_tables.vertex_face_table(self.mesh.F, len(self.mesh.V))
+            tables = self._compiled_tables()
+            self._vf = None if tables is None else tables[0]
         if self._vf is None:
             F = self.mesh.F
             order = np.argsort(F.ravel(), kind="stable")
