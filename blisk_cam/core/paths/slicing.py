@@ -101,12 +101,22 @@ class MeshConeSlicer:
         self.on_tol = float(on_tol)
         V = mesh.V
         self.r, self.z = meridional(V, axis)
-        p = V - axis.o
-        self.radial = p - self.z[:, None] * axis.d  # (n, 3) radial vector of each vertex
+        # (n, 3) radial vector of each vertex: p − z d, p = V − o (in place: the same floats
+        # without a second (n, 3) temporary)
+        self.radial = V - axis.o
+        self.radial -= self.z[:, None] * axis.d
         self.s = morph.ratio(self.r, self.z)  # (n,) morph field
-        s0, s1, s2 = self.s[mesh.F[:, 0]], self.s[mesh.F[:, 1]], self.s[mesh.F[:, 2]]
-        self.face_smin = np.minimum(np.minimum(s0, s1), s2)
-        self.face_smax = np.maximum(np.maximum(s0, s1), s2)
+        # the faces' least and largest s, corner by corner into two arrays: min(min(s0, s1),
+        # s2) as before, without the three (m,) corner arrays held at once (the set-up's
+        # peak memory runs beside the passes' sample tree build)
+        s_of = self.s
+        self.face_smin = s_of[mesh.F[:, 0]]
+        self.face_smax = self.face_smin.copy()
+        for k in (1, 2):
+            sk = s_of[mesh.F[:, k]]
+            np.minimum(self.face_smin, sk, out=self.face_smin)
+            np.maximum(self.face_smax, sk, out=self.face_smax)
+            del sk
         self.edges = mesh.edges
         self.face_edges = mesh.face_edges
         self.vertex_normals = mesh.vertex_normals
@@ -144,6 +154,7 @@ class MeshConeSlicer:
         finite = np.isfinite(width)
         cut = float(np.quantile(width[finite], 0.999)) if finite.any() else 0.0
         is_narrow = finite & (width <= cut)
+        del width, finite  # (the temporaries go as soon as done: a smaller peak memory)
         narrow = np.nonzero(is_narrow)[0]
         lo_n = lo[narrow]
         nb = self._N_BUCKETS
@@ -157,8 +168,10 @@ class MeshConeSlicer:
         self._bucket_lo = np.float64(a)
         self._bucket_scale = np.float64((nb - 1) / (b - a) if b > a else 0.0)
         key = self._bucket_of(lo_n).astype(np.uint16)
+        del lo_n
         order = np.argsort(key, kind="stable")  # by bucket, then by face id
         self._narrow_faces = narrow[order]
+        del narrow, order
         # faces of bucket k: _narrow_faces[_bucket_start[k]:_bucket_start[k + 1]]
         self._bucket_start = np.concatenate([[0], np.cumsum(np.bincount(key, minlength=nb))])
         self._narrow_span = 2.0 * cut + 1e-9  # slack: the window only pre-selects
