@@ -21,6 +21,7 @@ from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
 from ..kernels import lift as compiled_lift
 from ..kernels import mesh_tables as compiled_tables
+from ..kernels import polyline as compiled_polyline
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
@@ -653,7 +654,9 @@ class _Generator:
         """Surface points ``sample_spacing`` apart on the level ``s`` and their normals."""
         if s in self._level_samples:
             return self._level_samples[s]
-        pn = [_resample(c.points, c.closed, self.sample_spacing, c.normals, self.radius)
+        pn = [compiled_polyline.resample_offset(c.points, c.normals, c.closed,
+                                                self.sample_spacing, self.radius)
+              or _resample(c.points, c.closed, self.sample_spacing, c.normals, self.radius)
               for c in self.level(s)]
         if not pn:
             out = np.zeros((0, 3)), np.zeros((0, 3))
