@@ -44,7 +44,11 @@ pub fn resample_offset<'py>(
         let segs = m - 1;
         let q = |i: usize| -> P3 {
             let (a, b) = (at(i), nat(i));
-            [a[0] + offset * b[0], a[1] + offset * b[1], a[2] + offset * b[2]]
+            [
+                a[0] + offset * b[0],
+                a[1] + offset * b[1],
+                a[2] + offset * b[2],
+            ]
         };
         let mut l = vec![0.0f64; segs];
         let mut cum = vec![0.0f64; segs + 1];

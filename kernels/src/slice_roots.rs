@@ -256,7 +256,9 @@ pub fn cone_level<'py>(
     let cc = crate::slice1(&cand, "cand")?;
     let (m, ne) = (ff.len() / 3, ee.len() / 2);
     if fe.len() != 3 * m {
-        return Err(PyValueError::new_err("face_edges must have a row per face of F"));
+        return Err(PyValueError::new_err(
+            "face_edges must have a row per face of F",
+        ));
     }
     let bad_vertex = |i: i64| i < 0 || i as usize >= n;
     // only the faces asked for (and their edges) are checked
@@ -272,7 +274,9 @@ pub fn cone_level<'py>(
                 })
         }
     }) {
-        return Err(PyValueError::new_err("face, edge or vertex ids out of range"));
+        return Err(PyValueError::new_err(
+            "face, edge or vertex ids out of range",
+        ));
     }
     let ln = Line {
         alpha: line.0,
