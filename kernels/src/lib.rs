@@ -25,6 +25,7 @@ mod mesh_topology;
 mod numpy_ops;
 mod polyline_distance;
 mod probe;
+mod resample;
 mod slice_roots;
 mod step;
 mod stock;
@@ -526,6 +527,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
+    m.add_function(wrap_pyfunction!(slice_roots::cone_level, m)?)?;
+    m.add_function(wrap_pyfunction!(resample::resample_offset, m)?)?;
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::edge_table_arrays, m)?)?;

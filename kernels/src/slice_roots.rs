@@ -50,6 +50,42 @@ impl Line {
         }
     }
 
+    /// The crossing of the edge (i0, i1) (`_edge_roots` for one edge): its parameter t,
+    /// returned, and its point, written to `p` (3 floats).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn crossing(
+        &self,
+        rr: &[f64],
+        zz: &[f64],
+        rad: &[P3],
+        vv: &[P3],
+        i0: usize,
+        i1: usize,
+        p: &mut [f64],
+    ) -> f64 {
+        let f0 = self.side(rr[i0], zz[i0]);
+        let f1 = self.side(rr[i1], zz[i1]);
+        let tr = self.root(&rad[i0], &rad[i1], zz[i0], zz[i1], f0, f1);
+        // vertices on the level (snapped to zero): the crossing is the vertex
+        let tv = if f0 == 0.0 {
+            0.0
+        } else if f1 == 0.0 {
+            1.0
+        } else {
+            tr
+        };
+        let (a, b) = (&vv[i0], &vv[i1]);
+        if tv == 1.0 {
+            p.copy_from_slice(b); // exactly the vertex
+        } else {
+            for j in 0..3 {
+                p[j] = a[j] + tv * (b[j] - a[j]);
+            }
+        }
+        tv
+    }
+
     /// `_roots_on_lines(..., residual=False)` for one edge.
     fn root(&self, q0: &P3, q1: &P3, z0: f64, z1: f64, f0: f64, f1: f64) -> f64 {
         let (alpha, beta, gamma, a2) = (self.alpha, self.beta, self.gamma, self.alpha2);
@@ -149,26 +185,7 @@ pub fn cone_edge_roots<'py>(
     let mut ts = vec![0.0f64; k];
     let one = |((p, t), &e): ((&mut [f64], &mut f64), &i64)| {
         let (i0, i1) = (ee[2 * e as usize] as usize, ee[2 * e as usize + 1] as usize);
-        let f0 = ln.side(rr[i0], zz[i0]);
-        let f1 = ln.side(rr[i1], zz[i1]);
-        let tr = ln.root(&rad[i0], &rad[i1], zz[i0], zz[i1], f0, f1);
-        // vertices on the level (snapped to zero): the crossing is the vertex
-        let tv = if f0 == 0.0 {
-            0.0
-        } else if f1 == 0.0 {
-            1.0
-        } else {
-            tr
-        };
-        let (a, b) = (&vv[i0], &vv[i1]);
-        if tv == 1.0 {
-            p.copy_from_slice(b); // exactly the vertex
-        } else {
-            for j in 0..3 {
-                p[j] = a[j] + tv * (b[j] - a[j]);
-            }
-        }
-        *t = tv;
+        *t = ln.crossing(rr, zz, rad, vv, i0, i1, p);
     };
     py.detach(|| {
         if threads <= 1 || k < PARALLEL_MIN {
@@ -189,4 +206,157 @@ pub fn cone_edge_roots<'py>(
     });
     let pts = PyArray1::from_vec(py, pts).reshape([k, 3])?;
     Ok((pts, PyArray1::from_vec(py, ts)))
+}
+
+/// The crossing part of `slicing.MeshConeSlicer.slice` for a linear morphing cone, in one
+/// call: of the candidate faces `cand` (c,) (of F (m, 3), whose edges v0v1, v1v2, v2v0 are
+/// `face_edges` (m, 3) of `edges` (ne, 2)), those the line crosses (`vertex_side` of every
+/// corner, above the level where f > 0, or f ≥ 0 with `end_above_zero`: the end level s = 1),
+/// the links from the edge each is entered by below → above to the edge it is left by
+/// (counter-clockwise in the face), the crossed edges (ascending, unique), their crossings
+/// (`cone_edge_roots`) and the smooth normals there (the vertex normals `vn` (n, 3)
+/// interpolated along the edge, unit as numpy's norm makes them). Operation for operation
+/// the numpy reference's, so the same floats.
+///
+/// Returns (edges (u,) int64, links (f, 2) int64 — indices into edges, points (u, 3),
+/// t (u,), normals (u, 3)); on the calling thread (a level crosses a few thousand faces),
+/// the GIL released.
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn cone_level<'py>(
+    py: Python<'py>,
+    r: PyReadonlyArray1<'py, f64>,
+    z: PyReadonlyArray1<'py, f64>,
+    radial: PyReadonlyArray2<'py, f64>,
+    v: PyReadonlyArray2<'py, f64>,
+    vn: PyReadonlyArray2<'py, f64>,
+    f: PyReadonlyArray2<'py, i64>,
+    edges: PyReadonlyArray2<'py, i64>,
+    face_edges: PyReadonlyArray2<'py, i64>,
+    cand: PyReadonlyArray1<'py, i64>,
+    line: (f64, f64, f64, f64),
+    on_tol: f64,
+    end_above_zero: bool,
+) -> PyResult<(
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray2<i64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<f64>>,
+)> {
+    let rr = crate::slice1(&r, "r")?;
+    let n = rr.len();
+    let zz = crate::arrays::values_n(&z, "z", n)?;
+    let rad = crate::arrays::points_n(&radial, "radial", n)?;
+    let vv = crate::arrays::points_n(&v, "V", n)?;
+    let nn = crate::arrays::points_n(&vn, "vn", n)?;
+    let ff = crate::arrays::flat(&f, "F")?;
+    let ee = crate::arrays::flat(&edges, "edges")?;
+    let fe = crate::arrays::flat(&face_edges, "face_edges")?;
+    let cc = crate::slice1(&cand, "cand")?;
+    let (m, ne) = (ff.len() / 3, ee.len() / 2);
+    if fe.len() != 3 * m {
+        return Err(PyValueError::new_err(
+            "face_edges must have a row per face of F",
+        ));
+    }
+    let bad_vertex = |i: i64| i < 0 || i as usize >= n;
+    // only the faces asked for (and their edges) are checked
+    if cc.iter().any(|&c| {
+        c < 0 || c as usize >= m || {
+            let k = 3 * c as usize;
+            ff[k..k + 3].iter().any(|&x| bad_vertex(x))
+                || fe[k..k + 3].iter().any(|&e| {
+                    e < 0
+                        || e as usize >= ne
+                        || bad_vertex(ee[2 * e as usize])
+                        || bad_vertex(ee[2 * e as usize + 1])
+                })
+        }
+    }) {
+        return Err(PyValueError::new_err(
+            "face, edge or vertex ids out of range",
+        ));
+    }
+    let ln = Line {
+        alpha: line.0,
+        beta: line.1,
+        gamma: line.2,
+        alpha2: line.3,
+        on_tol,
+    };
+    let (uedges, links, pts, ts, nrm) = py.detach(|| {
+        // the crossed faces, in the candidates' order: the links up → dn (edge ids)
+        let mut up: Vec<i64> = Vec::new();
+        let mut dn: Vec<i64> = Vec::new();
+        for &c in cc {
+            let k = 3 * c as usize;
+            let mut ab = [false; 3];
+            for j in 0..3 {
+                let x = ff[k + j] as usize;
+                let s = ln.side(rr[x], zz[x]);
+                ab[j] = if end_above_zero { s >= 0.0 } else { s > 0.0 };
+            }
+            if (ab[0] && ab[1] && ab[2]) || !(ab[0] || ab[1] || ab[2]) {
+                continue;
+            }
+            // edge j joins corner j and j + 1; exactly two of the three cross
+            let mut kk = [0usize; 2];
+            let mut q = 0;
+            for j in 0..3 {
+                if ab[j] != ab[(j + 1) % 3] {
+                    kk[q] = j;
+                    q += 1;
+                }
+            }
+            let (e0, e1) = (fe[k + kk[0]], fe[k + kk[1]]);
+            if !ab[kk[0]] {
+                up.push(e0); // corner k below → corner k + 1 above: going up
+                dn.push(e1);
+            } else {
+                up.push(e1);
+                dn.push(e0);
+            }
+        }
+        let mut uedges: Vec<i64> = up.iter().chain(dn.iter()).copied().collect();
+        uedges.sort_unstable();
+        uedges.dedup();
+        let at = |e: i64| uedges.binary_search(&e).unwrap() as i64;
+        let links: Vec<i64> = up
+            .iter()
+            .zip(dn.iter())
+            .flat_map(|(&a, &b)| [at(a), at(b)])
+            .collect();
+        let u = uedges.len();
+        let mut pts = vec![0.0f64; 3 * u];
+        let mut ts = vec![0.0f64; u];
+        let mut nrm = vec![0.0f64; 3 * u];
+        for (i, &e) in uedges.iter().enumerate() {
+            let (i0, i1) = (ee[2 * e as usize] as usize, ee[2 * e as usize + 1] as usize);
+            let t = ln.crossing(rr, zz, rad, vv, i0, i1, &mut pts[3 * i..3 * i + 3]);
+            ts[i] = t;
+            // (1 − t) n0 + t n1, divided by its norm ((x0² + x1²) + x2², 1 where it is 0)
+            let w = 1.0 - t;
+            let x = [
+                w * nn[i0][0] + t * nn[i1][0],
+                w * nn[i0][1] + t * nn[i1][1],
+                w * nn[i0][2] + t * nn[i1][2],
+            ];
+            let l = norm(&x);
+            let l = if l > 0.0 { l } else { 1.0 };
+            for j in 0..3 {
+                nrm[3 * i + j] = x[j] / l;
+            }
+        }
+        (uedges, links, pts, ts, nrm)
+    });
+    let nf = links.len() / 2;
+    let u = uedges.len();
+    Ok((
+        PyArray1::from_vec(py, uedges),
+        PyArray1::from_vec(py, links).reshape([nf, 2])?,
+        PyArray1::from_vec(py, pts).reshape([u, 3])?,
+        PyArray1::from_vec(py, ts),
+        PyArray1::from_vec(py, nrm).reshape([u, 3])?,
+    ))
 }

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 
 from ..kernels import closest as compiled_closest
 from ..kernels.backend import extension
-from ..runtime import workers
+from ..runtime import alongside, workers
 from .bvh import ClusterTree, nearest
 from .closest import ClosestPoints, _capsule_distance, _cross, _edge_capsules, closest_on_triangles
 from .mesh import TriMesh
@@ -232,6 +232,24 @@ class NearestFaces:
         self._disks = bool(disks)
         self._trees = None
         self._ctree = None  # the compiled kernels' tree (built on first compiled query)
+        self._ctree_result = None  # its build started by build_alongside
+
+    def build_alongside(self):
+        """Start building the compiled tree on a side thread (:func:`..runtime.alongside`),
+        for a caller with other work before its first query (the plan: the passes before the
+        orient stage). With one thread, or on the numpy backend, the tree is built on the first
+        query, as without this call; the tree, and so every answer, is the same."""
+        if self._ctree is None and self._ctree_result is None and extension() is not None:
+            V, F, disks = self.mesh.V, self.mesh.F, self._disks
+            self._ctree_result = alongside(lambda: compiled_closest.face_tree(V, F, disks))
+
+    def _compiled_tree(self):
+        """The compiled tree (built now, or taken from :meth:`build_alongside`)."""
+        if self._ctree is None:
+            pending, self._ctree_result = self._ctree_result, None
+            self._ctree = (pending() if pending is not None else
+                           compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks))
+        return self._ctree
 
     def _build(self):
         V, F = self.mesh.V, self.mesh.F
@@ -330,15 +348,11 @@ class NearestFaces:
         arithmetic (the same floats); None on the numpy backend or without points."""
         if not (len(P) and self.mesh.n_faces and extension() is not None):
             return None
-        if self._ctree is None:
-            self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
-        return compiled_closest.nearest_closest(self._ctree, P, workers())
+        return compiled_closest.nearest_closest(self._compiled_tree(), P, workers())
 
     def _compiled_faces(self, P):
         """(k,) the compiled kernel's nearest face of each point (its tree built once)."""
-        if self._ctree is None:
-            self._ctree = compiled_closest.face_tree(self.mesh.V, self.mesh.F, self._disks)
-        return compiled_closest.nearest_faces(self._ctree, P, workers())
+        return compiled_closest.nearest_faces(self._compiled_tree(), P, workers())
 
     def _query_compiled(self, P):
         """:meth:`query` by the compiled kernel: the same faces (the least squared distance

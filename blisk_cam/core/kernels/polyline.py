@@ -3,7 +3,8 @@
 point name the candidate segments, the distance is the least over them, exact to each, with
 the numpy reference's arithmetic operation for operation. Rows the tree cannot answer as
 scipy would (a tie at the k-th nearest, fewer than k found) are flagged for the caller's
-numpy answer."""
+numpy answer. And the level samples those distances are measured at: a polyline resampled
+along its offset (``paths.passes._resample``, the same floats)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["available", "polyline_distance"]
+__all__ = ["available", "polyline_distance", "resample_offset"]
 
 
 def available() -> bool:
@@ -33,3 +34,18 @@ def polyline_distance(tree, p, hint, k: int, seg_of_sample, a, ab, L2, threads: 
         int(k), np.ascontiguousarray(seg_of_sample, dtype=np.int64),
         np.ascontiguousarray(a, dtype=f64), np.ascontiguousarray(ab, dtype=f64),
         np.ascontiguousarray(L2, dtype=f64), max(1, int(threads)))
+
+
+def resample_offset(points, normals, closed: bool, spacing: float, offset: float):
+    """(points (q, 3) mm, normals (q, 3)): the polyline ``points`` (k, 3) with unit
+    ``normals`` (k, 3) (``closed``: back to its first point too) resampled at most ``spacing``
+    mm apart along ``points + offset · normals``, with the normals interpolated there (unit) —
+    ``paths.passes._resample(points, closed, spacing, normals, offset)``'s floats. None when
+    the numpy kernels run (or the installed ones predate this kernel), or where the numpy
+    reference must answer (fewer than two points, a length that is not finite)."""
+    ext = extension()
+    if ext is None or not hasattr(ext, "resample_offset"):
+        return None
+    c = np.ascontiguousarray
+    return ext.resample_offset(c(points, dtype=np.float64), c(normals, dtype=np.float64),
+                               bool(closed), float(spacing), float(offset))

@@ -1,6 +1,7 @@
 """The slicing roots of :meth:`blisk_cam.core.paths.slicing.MeshConeSlicer._edge_roots` for a
 linear morphing cone, compiled (the same arithmetic, operation for operation: the crossing
-points and edge parameters are the numpy reference's to the last bit)."""
+points and edge parameters are the numpy reference's to the last bit), and the whole crossing
+part of :meth:`~blisk_cam.core.paths.slicing.MeshConeSlicer.slice` in one call."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["cone_edge_roots"]
+__all__ = ["cone_edge_roots", "cone_level"]
 
 
 def cone_edge_roots(r, z, radial, V, edges, edge_ids, line, on_tol: float, threads: int):
@@ -26,3 +27,30 @@ def cone_edge_roots(r, z, radial, V, edges, edge_ids, line, on_tol: float, threa
         c(r, dtype=np.float64), c(z, dtype=np.float64), c(radial, dtype=np.float64),
         c(V, dtype=np.float64), c(edges, dtype=np.int64), c(edge_ids, dtype=np.int64),
         (alpha, beta, gamma, alpha**2), float(on_tol), max(1, int(threads)))
+
+
+def cone_level(r, z, radial, V, vn, F, edges, face_edges, cand, line, on_tol: float,
+               end_above_zero: bool):
+    """The crossing part of ``MeshConeSlicer.slice`` for a linear morphing cone, in one call:
+    of the candidate faces ``cand`` (c,) int of ``F`` (m, 3) (edges v0v1, v1v2, v2v0 in
+    ``face_edges`` (m, 3) of ``edges`` (ne, 2)) those the meridional line ``line`` = (α, β, γ)
+    crosses (a corner is above where its side f > 0, f ≥ 0 with ``end_above_zero``; vertices
+    within ``on_tol`` mm on the line), and of their crossed edges the crossings and the smooth
+    normals (``vn`` (n, 3) interpolated along the edge, unit) — the numpy reference's floats.
+
+    Returns
+    -------
+    edges (u,) int64 ascending, links (f, 2) int64 (indices into ``edges``: entered below →
+    above, left above → below), points (u, 3) mm, t (u,), normals (u, 3); None when the numpy
+    kernels run (or the installed ones predate this kernel).
+    """
+    ext = extension()
+    if ext is None or not hasattr(ext, "cone_level"):
+        return None
+    alpha, beta, gamma = (float(x) for x in line)
+    c = np.ascontiguousarray
+    f64, i64 = np.float64, np.int64
+    return ext.cone_level(
+        c(r, dtype=f64), c(z, dtype=f64), c(radial, dtype=f64), c(V, dtype=f64),
+        c(vn, dtype=f64), c(F, dtype=i64), c(edges, dtype=i64), c(face_edges, dtype=i64),
+        c(cand, dtype=i64), (alpha, beta, gamma, alpha**2), float(on_tol), bool(end_above_zero))

@@ -175,11 +175,13 @@ class SurfaceProjector:
     """Exact closest points on the mesh with smooth normals, and points on an LMC level on
     the mesh between two given points (the spiral blend and on-surface links)."""
 
-    def __init__(self, mesh: TriMesh, axis: Axis, morph: MorphingCones):
+    def __init__(self, mesh: TriMesh, axis: Axis, morph: MorphingCones,
+                 nearest: NearestFaces | None = None):
         # exact closest points without a whole-mesh tree: the generator projects only a few
         # clustered points (links, the spiral blend), so nothing is built until it does
+        # (``nearest``: one made on ``mesh`` already, e.g. with its tree building alongside)
         self.mesh, self.axis, self.morph = mesh, axis, morph
-        self._nf = NearestFaces(mesh)
+        self._nf = NearestFaces(mesh) if nearest is None else nearest
 
     @property
     def nearest_faces(self) -> NearestFaces:

@@ -21,10 +21,11 @@ from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
 from ..kernels import lift as compiled_lift
 from ..kernels import mesh_tables as compiled_tables
+from ..kernels import polyline as compiled_polyline
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
-from ..runtime import Progress, workers
+from ..runtime import Progress, alongside, workers
 from ..toolpath.types import BallTool, PassCurve, ToolPath
 from .expansion import (
     PolylineDistance,
@@ -219,6 +220,17 @@ def _unique_per_row(ids):
     return srt[:, : max(width, 1)]
 
 
+def _narrow_table(table, n_faces):
+    """The vertex-face table ``(ptr, face, corner)`` with the faces as int32 and the corners
+    as int8 (the same values; at 1M faces 33 MB less, held through the passes), or None. Kept
+    int64 for a mesh whose sample ids (vertices + edges + faces ≈ 3.5 × faces) might not fit
+    in int32 arithmetic."""
+    if table is None or 8 * n_faces >= 2**31:
+        return table
+    ptr, face, corner = table
+    return ptr, face.astype(np.int32), corner.astype(np.int8)
+
+
 def _next_step(trials, target):
     """Next side step Δs aiming the scallop at ``target`` (mm), from the trials (Δs, H) so
     far: the scallop grows like ``a Δs² + b`` (the offset b: chord sag of the centre path,
@@ -241,6 +253,17 @@ class _Generator:
         check_tolerances(radius, cusp, chord)
         self.mesh = mesh
         self.axis = axis
+        # the compiled tables of the intrusion checks (each one compiled call, the GIL
+        # released) are built on a side thread while the slicer is set up and the first
+        # levels are sliced and sampled; with one thread, on first use (as before)
+        self._tables_result = None
+        self._tables = None
+        if extension() is not None:
+            V, E, F = mesh.V, mesh.edges, mesh.F  # read here: the side thread touches no cache
+            n = workers()  # the tree on the caller's threads (its splits run in parallel)
+            self._tables_result = alongside(lambda: (
+                _narrow_table(compiled_tables.vertex_face_table(F, len(V)), len(F)),
+                compiled_tables.sample_tree(V, E, F, n)))
         # LMC between two cones, LMRS (paper 001 §4.2) when either generatrix is a Profile
         self.morph = morph_between(cone1, cone2)
         self.radius, self.cusp, self.chord = float(radius), float(cusp), float(chord)
@@ -481,15 +504,19 @@ class _Generator:
                                   balanced_tree=False, compact_nodes=False)
         return self._ptree
 
+    def _compiled_tables(self):
+        """(faces around each vertex, k-d tree over all samples) compiled, started when the
+        generator was made (:func:`..runtime.alongside`), or None when the numpy kernels
+        run."""
+        if self._tables is None and self._tables_result is not None:
+            self._tables = self._tables_result()
+        return self._tables
+
     def _compiled_probe_tree(self):
-        """The compiled k-d tree over all samples (built on first use), or None when the
-        numpy kernels run."""
-        if extension() is None:
+        """The compiled k-d tree over all samples, or None when the numpy kernels run."""
+        if extension() is None or self._compiled_tables() is None:
             return None
-        if getattr(self, "_cptree", None) is None:  # the samples of _ProbeSamples.all_points
-            m = self.mesh
-            self._cptree = compiled_tables.sample_tree(m.V, m.edges, m.F, workers())
-        return self._cptree
+        return self._compiled_tables()[1]  # the samples of _ProbeSamples.all_points
 
     def _any_within(self, C, bound):
         """(q,) bool: a surface sample lies closer than ``bound`` mm to the point (q, 3) — the
@@ -584,13 +611,14 @@ class _Generator:
         (3 m,)) — the faces of vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being
         their corner ``corner[...]``."""
         if not hasattr(self, "_vf"):
-            self._vf = compiled_tables.vertex_face_table(self.mesh.F, len(self.mesh.V))
+            tables = self._compiled_tables()
+            self._vf = None if tables is None else tables[0]
         if self._vf is None:
             F = self.mesh.F
             order = np.argsort(F.ravel(), kind="stable")
             vs = F.ravel()[order]
-            self._vf = (np.searchsorted(vs, np.arange(len(self.mesh.V) + 1)), order // 3,
-                        order % 3)
+            self._vf = _narrow_table((np.searchsorted(vs, np.arange(len(self.mesh.V) + 1)),
+                                      order // 3, order % 3), len(F))
         return self._vf
 
     def _vertex_faces(self, verts):
@@ -626,7 +654,9 @@ class _Generator:
         """Surface points ``sample_spacing`` apart on the level ``s`` and their normals."""
         if s in self._level_samples:
             return self._level_samples[s]
-        pn = [_resample(c.points, c.closed, self.sample_spacing, c.normals, self.radius)
+        pn = [compiled_polyline.resample_offset(c.points, c.normals, c.closed,
+                                                self.sample_spacing, self.radius)
+              or _resample(c.points, c.closed, self.sample_spacing, c.normals, self.radius)
               for c in self.level(s)]
         if not pn:
             out = np.zeros((0, 3)), np.zeros((0, 3))

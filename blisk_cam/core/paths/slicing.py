@@ -101,12 +101,22 @@ class MeshConeSlicer:
         self.on_tol = float(on_tol)
         V = mesh.V
         self.r, self.z = meridional(V, axis)
-        p = V - axis.o
-        self.radial = p - self.z[:, None] * axis.d  # (n, 3) radial vector of each vertex
+        # (n, 3) radial vector of each vertex: p − z d, p = V − o (in place: the same floats
+        # without a second (n, 3) temporary)
+        self.radial = V - axis.o
+        self.radial -= self.z[:, None] * axis.d
         self.s = morph.ratio(self.r, self.z)  # (n,) morph field
-        s0, s1, s2 = self.s[mesh.F[:, 0]], self.s[mesh.F[:, 1]], self.s[mesh.F[:, 2]]
-        self.face_smin = np.minimum(np.minimum(s0, s1), s2)
-        self.face_smax = np.maximum(np.maximum(s0, s1), s2)
+        # the faces' least and largest s, corner by corner into two arrays: min(min(s0, s1),
+        # s2) as before, without the three (m,) corner arrays held at once (the set-up's
+        # peak memory runs beside the passes' sample tree build)
+        s_of = self.s
+        self.face_smin = s_of[mesh.F[:, 0]]
+        self.face_smax = self.face_smin.copy()
+        for k in (1, 2):
+            sk = s_of[mesh.F[:, k]]
+            np.minimum(self.face_smin, sk, out=self.face_smin)
+            np.maximum(self.face_smax, sk, out=self.face_smax)
+            del sk
         self.edges = mesh.edges
         self.face_edges = mesh.face_edges
         self.vertex_normals = mesh.vertex_normals
@@ -144,6 +154,7 @@ class MeshConeSlicer:
         finite = np.isfinite(width)
         cut = float(np.quantile(width[finite], 0.999)) if finite.any() else 0.0
         is_narrow = finite & (width <= cut)
+        del width, finite  # (the temporaries go as soon as done: a smaller peak memory)
         narrow = np.nonzero(is_narrow)[0]
         lo_n = lo[narrow]
         nb = self._N_BUCKETS
@@ -157,8 +168,10 @@ class MeshConeSlicer:
         self._bucket_lo = np.float64(a)
         self._bucket_scale = np.float64((nb - 1) / (b - a) if b > a else 0.0)
         key = self._bucket_of(lo_n).astype(np.uint16)
+        del lo_n
         order = np.argsort(key, kind="stable")  # by bucket, then by face id
         self._narrow_faces = narrow[order]
+        del narrow, order
         # faces of bucket k: _narrow_faces[_bucket_start[k]:_bucket_start[k + 1]]
         self._bucket_start = np.concatenate([[0], np.cumsum(np.bincount(key, minlength=nb))])
         self._narrow_span = 2.0 * cut + 1e-9  # slack: the window only pre-selects
@@ -225,34 +238,21 @@ class MeshConeSlicer:
         if len(cand) == 0:
             return []
         lines = self.morph.segment_lines(s)
-        # the side of every corner (a vertex shared by several faces is evaluated once per
-        # corner: the same elementwise arithmetic, cheaper than de-duplicating with a sort)
-        f_corner = self.vertex_side(s, mesh.F[cand].ravel(), lines)
-        # zero goes outside the region at the end levels, below otherwise
-        above = (f_corner > 0 if s < 1.0 else f_corner >= 0).reshape(-1, 3)
-        crossed = above.any(axis=1) & ~above.all(axis=1)  # one or two corners above
-        if not crossed.any():
-            return []
-        faces = cand[crossed]
-        ab = above[crossed]
-        fe = self.face_edges[faces]  # (c, 3): edges v0v1, v1v2, v2v0
-        cross_e = ab != ab[:, _NEXT_CORNER]  # edge k joins corner k and k+1
-        # each crossed face has exactly two crossing edges; orient the link from the edge
-        # entered below→above to the one left above→below (counter-clockwise in the face)
-        k_idx = np.nonzero(cross_e)[1].reshape(-1, 2)
-        rows = np.arange(len(faces))
-        first_up = ~ab[rows, k_idx[:, 0]]  # corner k below → corner k+1 above: going up
-        e_k = fe[rows[:, None], k_idx]  # (c, 2)
-        e_up = np.where(first_up, e_k[:, 0], e_k[:, 1])
-        e_dn = np.where(first_up, e_k[:, 1], e_k[:, 0])
-        uedges, linv = _unique_inverse(np.concatenate([e_up, e_dn]))
-        links = linv.reshape(2, -1).T  # (c, 2) directed up → dn
-        pts, t = self._edge_roots(s, uedges, lines=lines)
-        ev = self.edges[uedges]
-        vn = self.vertex_normals
-        nrm = (1.0 - t)[:, None] * vn[ev[:, 0]] + t[:, None] * vn[ev[:, 1]]
-        ln = np.sqrt(np.add.reduce(nrm * nrm, axis=1))  # np.linalg.norm's arithmetic
-        nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
+        got = None
+        if isinstance(self.morph, MorphingCones):  # one line: the crossing in one call
+            got = compiled_slicing.cone_level(
+                self.r, self.z, self.radial, mesh.V, self.vertex_normals, mesh.F, self.edges,
+                self.face_edges, cand, lines[0], self.on_tol, not s < 1.0)
+        if got is not None:
+            uedges, links, pts, t, nrm = got
+            if len(uedges) == 0:
+                return []
+            faces = None
+        else:
+            crossing = self._crossing(s, cand, lines)
+            if crossing is None:
+                return []
+            faces, uedges, links, pts, t, nrm = crossing
         nxt = np.full(len(uedges), -1, dtype=np.int64)
         nxt[links[:, 0]] = links[:, 1]
         kinked = len(lines) > 1
@@ -291,6 +291,49 @@ class MeshConeSlicer:
         if len(curves) > 1:
             curves.sort(key=lambda c: -c.length())
         return curves
+
+    def _crossing(self, s: float, cand, lines):
+        """The crossing part of :meth:`slice` (the numpy reference of the compiled
+        ``cone_level``): of the candidate faces those the level crosses, their links from the
+        edge entered below → above to the edge left above → below, the crossed edges
+        (ascending), their crossings and the smooth normals there. None when no face is
+        crossed.
+
+        Returns
+        -------
+        faces (f,) int — the crossed faces; edges (u,) int; links (f, 2) int (indices into
+        edges); points (u, 3) mm; t (u,); normals (u, 3)
+        """
+        mesh = self.mesh
+        # the side of every corner (a vertex shared by several faces is evaluated once per
+        # corner: the same elementwise arithmetic, cheaper than de-duplicating with a sort)
+        f_corner = self.vertex_side(s, mesh.F[cand].ravel(), lines)
+        # zero goes outside the region at the end levels, below otherwise
+        above = (f_corner > 0 if s < 1.0 else f_corner >= 0).reshape(-1, 3)
+        crossed = above.any(axis=1) & ~above.all(axis=1)  # one or two corners above
+        if not crossed.any():
+            return None
+        faces = cand[crossed]
+        ab = above[crossed]
+        fe = self.face_edges[faces]  # (c, 3): edges v0v1, v1v2, v2v0
+        cross_e = ab != ab[:, _NEXT_CORNER]  # edge k joins corner k and k+1
+        # each crossed face has exactly two crossing edges; orient the link from the edge
+        # entered below→above to the one left above→below (counter-clockwise in the face)
+        k_idx = np.nonzero(cross_e)[1].reshape(-1, 2)
+        rows = np.arange(len(faces))
+        first_up = ~ab[rows, k_idx[:, 0]]  # corner k below → corner k+1 above: going up
+        e_k = fe[rows[:, None], k_idx]  # (c, 2)
+        e_up = np.where(first_up, e_k[:, 0], e_k[:, 1])
+        e_dn = np.where(first_up, e_k[:, 1], e_k[:, 0])
+        uedges, linv = _unique_inverse(np.concatenate([e_up, e_dn]))
+        links = linv.reshape(2, -1).T  # (c, 2) directed up → dn
+        pts, t = self._edge_roots(s, uedges, lines=lines)
+        ev = self.edges[uedges]
+        vn = self.vertex_normals
+        nrm = (1.0 - t)[:, None] * vn[ev[:, 0]] + t[:, None] * vn[ev[:, 1]]
+        ln = np.sqrt(np.add.reduce(nrm * nrm, axis=1))  # np.linalg.norm's arithmetic
+        nrm = nrm / np.where(ln > 0, ln, 1.0)[:, None]
+        return faces, uedges, links, pts, t, nrm
 
     def _insert_kink_points(self, curve: LevelCurve, seg_face) -> LevelCurve:
         """The level curve with its corners inside faces added (LMRS only, paper 001 §4.2).

@@ -58,7 +58,7 @@ from scipy.spatial import cKDTree
 from ..collision.avoid import iter_run_collisions
 from ..errors import BliskCamError, OrientationError, ToleranceError, ToolError
 from ..geometry.axis import Axis, cylindrical
-from ..geometry.distance import MeshDistance
+from ..geometry.distance import MeshDistance, NearestFaces
 from ..geometry.mesh import TriMesh
 from ..geometry.vectors import rotation_matrix
 from ..options import (
@@ -478,6 +478,7 @@ class PlanState:
     passes: object = None
     morph: object = None
     projector: SurfaceProjector | None = None
+    nearest: NearestFaces | None = None  # the projector's, made by "passes"
     link_options: LinkOptions | None = None
     curves: list = field(default_factory=list)
     gouge: LocalGougeReport = field(default_factory=LocalGougeReport)
@@ -560,10 +561,21 @@ def _stage_fit(st: PlanState):
 
 def _stage_passes(st: PlanState):
     """The CC passes: mesh ∩ LMC, sampled for the chord, spaced for the cusp (paper 001)."""
-    st.passes = yield from iter_generate_paths(
+    it = iter_generate_paths(
         st.mesh, st.req.axis, st.cone1, st.cone2, tool_radius=st.rho, cusp=st.req.cusp,
         chord=st.req.chord,
     )
+    # the orient stage's face tree (one compiled call, ~0.2 s at 1M faces) is built beside
+    # the passes, from their first progress on (their own sample tree is built by then)
+    st.nearest = NearestFaces(st.mesh)
+    try:
+        first = next(it)
+    except StopIteration as stop:
+        st.passes = stop.value
+    else:
+        st.nearest.build_alongside()
+        yield first
+        st.passes = yield from it
     st.stats.update(st.passes.stats)
     yield Progress(1.0, "orienting and linking")
 
@@ -571,7 +583,7 @@ def _stage_passes(st: PlanState):
 def _stage_order(st: PlanState):
     """Machining order and direction of the passes, the spiral (:mod:`..paths.linking`)."""
     st.morph = morph_between(st.passes.cone1, st.passes.cone2)  # LMC, or LMRS for a Profile
-    st.projector = SurfaceProjector(st.mesh, st.req.axis, st.morph)
+    st.projector = SurfaceProjector(st.mesh, st.req.axis, st.morph, nearest=st.nearest)
     st.link_options = _link_options(st.req, st.rho)
     st.curves = order_passes(st.passes.curves, st.link_options, st.morph, st.req.axis,
                              st.projector)
