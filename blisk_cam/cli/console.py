@@ -15,13 +15,18 @@ import sys
 __all__ = ["never_fail_on_encoding"]
 
 
+#: error handlers that write something for any character (Python gives stderr
+#: "backslashreplace"; stdout gets "strict", or "surrogateescape" on some hosts: both raise)
+_NEVER_RAISE = ("replace", "backslashreplace", "xmlcharrefreplace", "namereplace", "ignore")
+
+
 def never_fail_on_encoding() -> None:
     """Reconfigure ``sys.stdout`` and ``sys.stderr``, where they encode in other than UTF-8
     and would raise, to print "?" for a character their encoding lacks."""
     for stream in (sys.stdout, sys.stderr):
         reconfigure = getattr(stream, "reconfigure", None)
         encoding = getattr(stream, "encoding", None)
-        if reconfigure is None or not encoding or getattr(stream, "errors", "") != "strict":
+        if reconfigure is None or not encoding or getattr(stream, "errors", "") in _NEVER_RAISE:
             continue
         try:
             if codecs.lookup(encoding).name == "utf-8":

@@ -406,6 +406,7 @@ def _windows_process_age():
     try:
         k32 = ctypes.WinDLL("kernel32", use_last_error=True)
         k32.GetCurrentProcess.restype = wintypes.HANDLE
+        k32.GetProcessTimes.argtypes = [wintypes.HANDLE, *[ctypes.POINTER(wintypes.FILETIME)] * 4]
         times = [wintypes.FILETIME() for _ in range(4)]  # creation, exit, kernel, user
         if not k32.GetProcessTimes(k32.GetCurrentProcess(), *map(ctypes.byref, times)):
             return None
