@@ -250,12 +250,13 @@ def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
 
 
 def _ridges(samples, strip, g, npairs):
-    """Grid edges inside one strip across which g changes sign: (edge ids, pair ids)."""
+    """Grid edges inside one strip across which g (a sign per sample: −1, 0, 1 or NaN)
+    changes sign: (edge ids, pair ids)."""
     ea, eb = samples.edges[:, 0], samples.edges[:, 1]
     sa = strip[ea]
     same = (sa == strip[eb]) & (sa >= 0) & (sa < npairs)
-    ga, gb = g[ea], g[eb]
-    cross = same & (((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0)))
+    # g is a sign (−1, 0, 1 or NaN): opposite signs exactly when the product is negative
+    cross = same & (g[ea] * g[eb] < 0)
     idx = np.nonzero(cross)[0]
     return idx, sa[idx]
 
@@ -650,8 +651,12 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     ng = len(smp)
     eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
     if len(eidx):
-        ends, inv = np.unique(smp.edges[eidx], return_inverse=True)
-        inv = inv.reshape(-1, 2)
+        # the edges' distinct ends and each end's rank among them (np.unique's with its
+        # inverse), by marking the samples: no sort of the ~2e5 ends
+        ev = smp.edges[eidx]
+        mark = np.zeros(ng, dtype=bool)
+        mark[ev] = True
+        ends, inv = np.flatnonzero(mark), (np.cumsum(mark) - 1)[ev]
         if known is None:
             dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
         else:
