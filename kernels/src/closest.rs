@@ -179,11 +179,22 @@ pub struct FaceTree {
 /// height (the angles at that edge's ends are at most 90°, so the whole face projects onto
 /// the edge): tight on long thin faces, whose disk is wide (Rotor 37's blade as stored: the
 /// exact distance took 43 % of a ball-centre query with the disks alone).
+///
+/// And the prism over the face (n ≠ 0): the face lies on the inner side of each edge's line
+/// in its plane, so with s_i the signed in-plane distance of the point beyond edge i,
+/// sqrt(z² + max(s_0, s_1, s_2, 0)²) bounds the distance too — exact where the point's
+/// foot lies inside the face or off one edge's middle. It drops most of the faces whose disk
+/// covers a ball centre's foot (~20 exact distances per ball centre on Rotor 37 with the
+/// disks and capsules alone: the centres' queries took ~18 % less CPU with it).
 #[derive(Clone, Copy)]
 struct FaceDisk {
     c: P3,
     n: P3,
     r: f64,
+    /// per edge (ab, bc, ca): its outward unit normal in the plane, and the centroid's
+    /// distance to its line (n = 0: m = 0 and h = 0, s = 0: no bound)
+    m: [P3; 3],
+    h: P3,
     /// the longest edge: start, direction (end − start), 1 / |direction|² (0 if degenerate)
     es: P3,
     ed: P3,
@@ -241,10 +252,30 @@ impl FaceDisk {
         } else {
             (0.0, 0.0) // a point face: its disk bound alone (the capsule is not used)
         };
+        // the edges' outward normals in the plane (away from the opposite vertex)
+        let (mut m, mut h) = ([[0.0; 3]; 3], [0.0; 3]);
+        if n != [0.0; 3] {
+            for (i, (s0, e0, o)) in [(a, b, c), (b, c, a), (c, a, b)].into_iter().enumerate() {
+                let mi = cross(&sub(e0, s0), &n);
+                let ml = dot(&mi, &mi).sqrt();
+                if !(ml > 0.0 && ml.is_finite()) {
+                    (m, h) = ([[0.0; 3]; 3], [0.0; 3]); // (a zero edge: no prism)
+                    break;
+                }
+                let mut mi = [mi[0] / ml, mi[1] / ml, mi[2] / ml];
+                if dot(&sub(o, s0), &mi) > 0.0 {
+                    mi = [-mi[0], -mi[1], -mi[2]];
+                }
+                m[i] = mi;
+                h[i] = dot(&sub(s0, &cen), &mi);
+            }
+        }
         FaceDisk {
             c: cen,
             n,
             r,
+            m,
+            h,
             es,
             ed,
             einv,
@@ -254,8 +285,8 @@ impl FaceDisk {
 
     /// Whether the face is farther than `r` from `p` by its lower bounds, less a rounding
     /// pad (1e-9 of the lengths: far above the exact kernel's own rounding): the disk's,
-    /// sqrt(z² + max(ρ − r_disk, 0)²), and the longest-edge capsule's, its distance less
-    /// its radius — compared squared with the squared reach (one square root, where the
+    /// sqrt(z² + max(ρ − r_disk, 0)²), the prism's, sqrt(z² + max(s_i, 0)²), and the
+    /// longest-edge capsule's, its distance less its radius — compared squared with the squared reach (one square root, where the
     /// point lies beyond the disk's rim), the pads taken with |d| ≤ max(1, |d|²). False for
     /// a NaN (such a face is compared).
     #[inline(always)]
@@ -271,6 +302,16 @@ impl FaceDisk {
         };
         let rr = r + 1e-9 * (1.0 + dd.max(1.0) + self.r);
         if z * z + e * e > rr * rr {
+            return true;
+        }
+        // the prism: the in-plane distance beyond the farthest edge line (the pads as the
+        // disk's: m is orthogonal to n, and the vertices lie inside each line, to ~1e-16 of
+        // the lengths)
+        let s = (dot(&d, &self.m[0]) - self.h[0])
+            .max(dot(&d, &self.m[1]) - self.h[1])
+            .max(dot(&d, &self.m[2]) - self.h[2])
+            .max(0.0);
+        if z * z + s * s > rr * rr {
             return true;
         }
         if self.einv > 0.0 {

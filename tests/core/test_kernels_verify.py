@@ -304,3 +304,35 @@ def test_swept_ball_forest_in_one_call_identical_on_both_backends():
         same = s == s_ref
         assert same.mean() > 0.9 and np.all(s[which == 5] == -1)
     assert np.isinf(d_ref[which == 5]).all() and np.isfinite(h_ref).any()
+
+
+@compiled
+def test_nearest_faces_far_off_a_curved_sheet_are_numpys():
+    """The faces' bounds that let a far point skip faces (disk, prism over the face, capsule)
+    drop only faces farther than the nearest: points 6 mm off a wavy sheet (ball centres, on
+    both sides: convex and concave under them), straight above its vertices and the middles
+    of its edges (exact ties between the faces around them, whose prism bound is then their
+    exact distance) and a little aside, give numpy's faces (the least distance, then the
+    lowest id) on 1 and 2 threads."""
+    from blisk_cam.core.geometry.distance import NearestFaces
+
+    u, v = np.meshgrid(np.linspace(0.0, 20.0, 31), np.linspace(0.0, 12.0, 19), indexing="ij")
+    V = np.stack([u, v, 2.0 * np.sin(0.3 * u) * np.cos(0.4 * v)], -1).reshape(-1, 3)
+    k = np.arange(31 * 19).reshape(31, 19)[:-1, :-1].ravel()
+    F = np.vstack([np.stack([k, k + 19, k + 1], 1), np.stack([k + 1, k + 19, k + 20], 1)])
+    mesh = TriMesh.from_arrays(V, F)
+    rng = np.random.default_rng(7)
+    e = mesh.edges  # (E, 2) vertex ids
+    mid = 0.5 * (V[e[:, 0]] + V[e[:, 1]])
+    nm = mesh.vertex_normals[e[:, 0]] + mesh.vertex_normals[e[:, 1]]
+    nm /= np.linalg.norm(nm, axis=1)[:, None]
+    P = np.vstack([V + 6.0 * mesh.vertex_normals, V - 6.0 * mesh.vertex_normals,
+                   mid + 6.0 * nm, mid - 6.0 * nm,
+                   mid + 6.0 * nm + rng.normal(scale=0.05, size=mid.shape)])
+    with backend.numpy_only():
+        ref = NearestFaces(mesh).query(P)
+    for threads in (1, 2):
+        with parallel(threads):
+            got = NearestFaces(mesh, disks=True).query(P)
+        for g, r in zip(got, ref, strict=True):
+            np.testing.assert_array_equal(g, r)
