@@ -610,17 +610,19 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
         if known is not None:
             for arr, d, has in ((known[0], dlo, known[2]), (known[1], dhi, known[3])):
                 arr[other], has[other] = d, True
-    sc.pair_n = np.bincount(strip[valid], minlength=npairs)
-    sc.pair_cusp = _group_max(npairs, strip[valid], mat[valid])
-    sc.pair_gouge = np.maximum(_group_max(npairs, strip[valid], -mat[valid]), 0.0)
-    arg = _group_argmax(npairs, strip[valid], mat[valid])
+    sv, mv = strip[valid], mat[valid]
+    sc.pair_n = np.bincount(sv, minlength=npairs)
+    sc.pair_cusp = _group_max(npairs, sv, mv)
+    sc.pair_gouge = np.maximum(_group_max(npairs, sv, -mv), 0.0)
+    arg = _group_argmax(npairs, sv, mv)
     has = arg >= 0
-    sc.pair_where[has] = P[valid][arg[has]]
+    top = np.flatnonzero(valid)[arg[has]]  # each pair's highest sample (not P[valid]'s copy)
+    sc.pair_where[has] = P[top]
     _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc, known, rho)
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
-    hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
-    top_n, nr = normals[valid][arg[has]], len(sc.ridge_pts)
+    hp = np.concatenate([sc.ridge_pts, P[top]])
+    top_n, nr = normals[top], len(sc.ridge_pts)
 
     def normals_of(rows):  # the ridge points' smooth normals: only those traced (row-wise)
         out, ridge = np.empty((len(rows), 3)), rows < nr
@@ -630,7 +632,7 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
         out[~ridge] = top_n[rows[~ridge] - nr]
         return out
 
-    hv = np.concatenate([sc.ridge_val, mat[valid][arg[has]]])
+    hv = np.concatenate([sc.ridge_val, mat[top]])
     hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
     sc.pair_cn = _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho)
     return sc
