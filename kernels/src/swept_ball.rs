@@ -24,6 +24,11 @@ fn dot(a: &P3, b: &P3) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 
+#[inline(always)]
+fn sub3(a: &P3, b: &P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
 /// Consecutive segments per leaf (a pass polyline's moves are short next to the ball).
 const RUN: usize = 4;
 
@@ -343,14 +348,23 @@ impl SegTree {
         if !(r < f64::INFINITY) {
             return alone(dd, ss, s0);
         }
-        let mut cands: Vec<u32> = Vec::new();
+        let mut cands: Vec<(f64, u32)> = Vec::new();
         let rr = r * r; // squared: no square root per box (r holds far more than its rounding)
         for leaf in self.bvh.leaves(|node| node_d2(node, &c) <= rr) {
-            cands.push(leaf);
+            cands.push((0.0, leaf));
             if cands.len() > GROUP_MAX_LEAVES {
                 return alone(dd, ss, s0);
             }
         }
+        // by their capsules' distance from the centre: a point p's distance to a capsule is
+        // at least that less |p − c|, so its walk down the list stops at the first capsule
+        // beyond its reach by that bound (every later one is too; a NaN key, sorted last,
+        // never stops it)
+        for cand in cands.iter_mut() {
+            let cap = &self.caps[cand.1 as usize];
+            cand.0 = cap.dist2(&c).sqrt() - cap.rad;
+        }
+        cands.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let mut last = s0;
         for (i, p) in ps.iter().enumerate() {
             if i == i0 {
@@ -377,7 +391,13 @@ impl SegTree {
                 // the previous point's segment: its neighbour's nearest is likely its own
                 consider(last as usize, &mut b, &mut id, &mut r, &mut r2);
             }
-            for &leaf in &cands {
+            let e = sub3(p, &c);
+            let pc = dot(&e, &e).sqrt();
+            for &(key, leaf) in &cands {
+                // (the pads: the keys' and |p − c|'s rounding, ~1e-15 of the lengths)
+                if key - pc > r * (1.0 + 1e-9) + 1e-9 {
+                    break;
+                }
                 let l = leaf as usize;
                 if !self.caps[l].beyond(p, r) {
                     for s in self.run(leaf) {

@@ -88,6 +88,37 @@ def test_swept_ball_grouped_queries_identical_on_both_backends():
         assert np.mean(s == s_ref) > 0.9
 
 
+
+@compiled
+def test_swept_ball_group_list_stops_only_beyond_reach():
+    """The grouped search walks its candidate leaves by their capsules' distance from the
+    group's centre c and stops where that, less |p - c|, is beyond the point's reach. The
+    bound is tight for a point on the line from c to a straight pass: groups of points near
+    one pass with one point among them on that line, nearly midway to a second pass and
+    nearer to it (by 0.2 % to 2.8 %) — its segment comes from the second pass, as numpy's."""
+    x = np.linspace(0.0, 60.0, 121)  # two straight passes 10 mm apart, 0.5 mm moves
+    a = np.vstack([np.stack([x[:-1], 0 * x[:-1], 0 * x[:-1]], 1),
+                   np.stack([x[:-1], 0 * x[:-1], 10.0 + 0 * x[:-1]], 1)])
+    b = np.vstack([np.stack([x[1:], 0 * x[1:], 0 * x[1:]], 1),
+                   np.stack([x[1:], 0 * x[1:], 10.0 + 0 * x[1:]], 1)])
+    own = np.repeat([0, 1], 120)
+    groups = []
+    for x0, eps in zip(np.linspace(3.0, 57.0, 24), np.linspace(0.005, 0.07, 24),
+                       strict=True):
+        g = np.stack([x0 + np.linspace(-0.3, 0.3, 32), np.zeros(32), np.full(32, 0.2)], 1)
+        g[16] = [x0, 0.0, 5.0 + eps]  # on the line from the group's centre to pass 1
+        groups.append(g)
+    P = np.vstack(groups)  # 32 points a group, as the kernel groups them
+    with backend.numpy_only():
+        d_ref, s_ref = SweptBall(a, b, 3.0, own).nearest(P)
+    assert np.all(own[s_ref[16::32]] == 1)  # the midway points are nearer to pass 1
+    for threads in (1, 2):
+        with parallel(threads):
+            d, s = SweptBall(a, b, 3.0, own).nearest(P)
+        np.testing.assert_array_equal(d, d_ref)
+        np.testing.assert_array_equal(own[s], own[s_ref])
+
+
 def _turning_moves(seed=1):
     """Bull-nose poses along helical passes whose axis leans and turns along the pass."""
     rng = np.random.default_rng(seed)
