@@ -826,15 +826,17 @@ def _group_argmax(n, idx, vals):
     return arg
 
 
-def _two_level_queries(rows, strip, npairs):
+def _two_level_queries(rows, strip, npairs, need=None):
     """(row, level, upper?) of every point's queries to the two levels bounding its strip
     (levels in [0, npairs]), interleaved point by point: each level's queries come in the
-    points' order."""
-    pi = np.repeat(rows, 2)
-    lv = np.stack([strip, strip + 1], axis=1).reshape(-1)
-    up = np.tile([False, True], len(rows))
-    ok = (lv >= 0) & (lv <= npairs)
-    return pi[ok], lv[ok], up[ok]
+    points' order. ``need`` (optional): (need_lo, need_hi) (k,) bool — only those queries.
+    (The queries kept are picked from a (k, 2) mask: no (2k,) arrays to filter.)"""
+    ok = np.stack([(strip >= 0) & (strip <= npairs), (strip >= -1) & (strip < npairs)], axis=1)
+    if need is not None:
+        ok &= np.stack(need, axis=1)
+    q = np.flatnonzero(ok)
+    j, up = q >> 1, (q & 1).astype(bool)
+    return rows[j], strip[j] + up, up
 
 
 def _two_level_near(cut, P, strip, npairs, margin, guess):
@@ -858,7 +860,8 @@ def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=N
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
-    pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs)
+    pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs,
+                                    None if near is not None else need)
     if near is not None:  # a ball's levels: the segments listed per level, one task each
         d = np.empty(len(pi))  # every query's level holds some: each row is filled
 
@@ -869,9 +872,6 @@ def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=N
         for rows, d_rows in map_tasks(one, [it for it in near if it[1] is not None]):
             d[rows] = d_rows
     else:
-        if need is not None:
-            keep = np.where(up, need[1][pi], need[0][pi])
-            pi, lv, up = pi[keep], lv[keep], up[keep]
         d = cut.distance(P[pi], lv, near=None if guess is None else guess[pi])
     dlo[pi[~up]] = d[~up]
     dhi[pi[up]] = d[up]
