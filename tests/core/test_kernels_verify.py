@@ -119,6 +119,45 @@ def test_swept_ball_group_list_stops_only_beyond_reach():
         np.testing.assert_array_equal(own[s], own[s_ref])
 
 
+
+@compiled
+def test_swept_ball_grouped_first_hits_stop_only_beyond_reach():
+    """The grouped first hits walk the candidate leaves by their capsules' distance from the
+    group's centre c and stop where that, less |o - c|, is beyond the point's reach (ball
+    radius + max height). The bound is tight for a point on the line from c to a straight
+    pass, shooting along it: groups of points inside one pass's capsule, with one point
+    among them below a second pass whose capsule it reaches just within its max height
+    (by 0.2 % to 2.8 % of its reach) — its hit is numpy's, and so are the others' (none)."""
+    from blisk_cam.core.verify.forest import SweptForest
+
+    x = np.linspace(0.0, 60.0, 121)  # two straight passes 10 mm apart, 0.5 mm moves
+    a = np.vstack([np.stack([x[:-1], 0 * x[:-1], 0 * x[:-1]], 1),
+                   np.stack([x[:-1], 0 * x[:-1], 10.0 + 0 * x[:-1]], 1)])
+    b = np.vstack([np.stack([x[1:], 0 * x[1:], 0 * x[1:]], 1),
+                   np.stack([x[1:], 0 * x[1:], 10.0 + 0 * x[1:]], 1)])
+    groups, hmax = [], []
+    for x0, slack in zip(np.linspace(3.0, 57.0, 24), np.linspace(0.002, 0.028, 24),
+                         strict=True):
+        g = np.stack([x0 + np.linspace(-0.3, 0.3, 32), np.zeros(32), np.full(32, 0.5)], 1)
+        g[16] = [x0, 0.0, 10.0 - 7.0 * (1.0 - slack)]  # 7 mm reach: radius 3 + height 4
+        groups.append(g)
+        hmax.append(np.full(32, 4.0))
+    P, hmax = np.vstack(groups), np.concatenate(hmax)  # 32 points a group, as grouped
+    up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+    which = np.zeros(len(P), dtype=np.int64)
+
+    def members():
+        return [SweptBall(a, b, 3.0), SweptBall(a[:4], b[:4], 3.0)]
+
+    with backend.numpy_only():
+        h_ref = SweptForest(members()).height_along(P, up, hmax, which)
+    assert np.isfinite(h_ref[16::32]).all() and np.isinf(np.delete(h_ref, np.s_[16::32])).all()
+    for threads in (1, 2):
+        with parallel(threads):
+            h = SweptForest(members()).height_along(P, up, hmax, which)
+        np.testing.assert_array_equal(h, h_ref)
+
+
 def _turning_moves(seed=1):
     """Bull-nose poses along helical passes whose axis leans and turns along the pass."""
     rng = np.random.default_rng(seed)
