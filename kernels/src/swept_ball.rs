@@ -496,8 +496,7 @@ impl SegTree {
     /// are a superset of those within its reach, whose hits alone can come within its max
     /// height, so the least hit is [`Self::first_hit`]'s. Points far apart (more than
     /// [`GROUP_MAX_LEAVES`] candidates) or fewer than 4 are searched alone.
-    pub fn first_hits_group(&self, os: &[P3], ns: &[P3], radius: f64, hs: &[f64],
-                            out: &mut [f64]) {
+    pub fn first_hits_group(&self, os: &[P3], ns: &[P3], radius: f64, hs: &[f64], out: &mut [f64]) {
         let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
         let alone = |out: &mut [f64]| {
             for (((o, n), &h), oi) in os.iter().zip(ns).zip(hs).zip(out.iter_mut()) {
