@@ -24,6 +24,11 @@ fn dot(a: &P3, b: &P3) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 
+#[inline(always)]
+fn sub3(a: &P3, b: &P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
 /// Consecutive segments per leaf (a pass polyline's moves are short next to the ball).
 const RUN: usize = 4;
 
@@ -343,14 +348,23 @@ impl SegTree {
         if !(r < f64::INFINITY) {
             return alone(dd, ss, s0);
         }
-        let mut cands: Vec<u32> = Vec::new();
+        let mut cands: Vec<(f64, u32)> = Vec::new();
         let rr = r * r; // squared: no square root per box (r holds far more than its rounding)
         for leaf in self.bvh.leaves(|node| node_d2(node, &c) <= rr) {
-            cands.push(leaf);
+            cands.push((0.0, leaf));
             if cands.len() > GROUP_MAX_LEAVES {
                 return alone(dd, ss, s0);
             }
         }
+        // by their capsules' distance from the centre: a point p's distance to a capsule is
+        // at least that less |p − c|, so its walk down the list stops at the first capsule
+        // beyond its reach by that bound (every later one is too; a NaN key, sorted last,
+        // never stops it)
+        for cand in cands.iter_mut() {
+            let cap = &self.caps[cand.1 as usize];
+            cand.0 = cap.dist2(&c).sqrt() - cap.rad;
+        }
+        cands.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let mut last = s0;
         for (i, p) in ps.iter().enumerate() {
             if i == i0 {
@@ -377,7 +391,13 @@ impl SegTree {
                 // the previous point's segment: its neighbour's nearest is likely its own
                 consider(last as usize, &mut b, &mut id, &mut r, &mut r2);
             }
-            for &leaf in &cands {
+            let e = sub3(p, &c);
+            let pc = dot(&e, &e).sqrt();
+            for &(key, leaf) in &cands {
+                // (the pads: the keys' and |p − c|'s rounding, ~1e-15 of the lengths)
+                if key - pc > r * (1.0 + 1e-9) + 1e-9 {
+                    break;
+                }
                 let l = leaf as usize;
                 if !self.caps[l].beyond(p, r) {
                     for s in self.run(leaf) {
@@ -465,6 +485,86 @@ impl SegTree {
             f64::INFINITY
         } else {
             best
+        }
+    }
+
+    /// [`Self::first_hit`] of a group of nearby points (`os`, directions `ns`, max heights
+    /// `hs`) into `out`, with one tree walk: the leaves whose box comes within
+    /// max(|o − c| + reach) of the group's centre c are listed once, sorted by their capsules'
+    /// distance from c, and each point walks the list until that, less |o − c|, is beyond its
+    /// reach (its capsule is then beyond it, and every later leaf's): the segments it tries
+    /// are a superset of those within its reach, whose hits alone can come within its max
+    /// height, so the least hit is [`Self::first_hit`]'s. Points far apart (more than
+    /// [`GROUP_MAX_LEAVES`] candidates) or fewer than 4 are searched alone.
+    pub fn first_hits_group(&self, os: &[P3], ns: &[P3], radius: f64, hs: &[f64], out: &mut [f64]) {
+        let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
+        let alone = |out: &mut [f64]| {
+            for (((o, n), &h), oi) in os.iter().zip(ns).zip(hs).zip(out.iter_mut()) {
+                *oi = self.first_hit(o, n, radius, h);
+            }
+        };
+        // each point's reach as first_hit takes it (NaN: not searched, ∞)
+        let reach_of = |h: f64| (radius + h) * (1.0 + 1e-12) + 1e-12;
+        let (mut c, mut m) = ([0.0f64; 3], 0.0f64);
+        for p in os.iter().filter(|p| finite(p)) {
+            for j in 0..3 {
+                c[j] += p[j];
+            }
+            m += 1.0;
+        }
+        if os.len() < 4 || m < 1.0 || self.a.is_empty() {
+            return alone(out);
+        }
+        let c = [c[0] / m, c[1] / m, c[2] / m];
+        let mut rg = 0.0f64;
+        for (o, &h) in os.iter().zip(hs) {
+            if finite(o) {
+                let e = sub3(o, &c);
+                rg = nanmax(rg, dot(&e, &e).sqrt() + reach_of(h));
+            }
+        }
+        let r = rg * (1.0 + 1e-9) + 1e-9;
+        if !(r < f64::INFINITY) {
+            return alone(out);
+        }
+        let rr = r * r;
+        let mut cands: Vec<(f64, u32)> = Vec::new();
+        for leaf in self.bvh.leaves(|node| node_d2(node, &c) <= rr) {
+            cands.push((0.0, leaf));
+            if cands.len() > GROUP_MAX_LEAVES {
+                return alone(out);
+            }
+        }
+        for cand in cands.iter_mut() {
+            let cap = &self.caps[cand.1 as usize];
+            cand.0 = cap.dist2(&c).sqrt() - cap.rad;
+        }
+        cands.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let r2 = radius * radius;
+        for (((o, n), &hmax), oi) in os.iter().zip(ns).zip(hs).zip(out.iter_mut()) {
+            let ro = reach_of(hmax);
+            if !(ro >= 0.0) || !finite(o) {
+                *oi = f64::INFINITY;
+                continue;
+            }
+            let e = sub3(o, &c);
+            let pc = dot(&e, &e).sqrt();
+            let mut best = f64::INFINITY;
+            for &(key, leaf) in &cands {
+                if key - pc > ro * (1.0 + 1e-9) + 1e-9 {
+                    break;
+                }
+                if self.caps[leaf as usize].beyond(o, ro) {
+                    continue; // every hit of its capsules is beyond hmax
+                }
+                for s in self.run(leaf) {
+                    let t = self.capsule_first_hit(o, n, s, r2);
+                    if t < best {
+                        best = t;
+                    }
+                }
+            }
+            *oi = if best > hmax { f64::INFINITY } else { best };
         }
     }
 
@@ -723,15 +823,14 @@ pub fn forest_first_hits<'py>(
                 .par_iter()
                 .map(|&(j, a, b)| {
                     let t = ts[j];
-                    let h: Vec<f64> = (a..b)
-                        .map(|i| {
-                            if t.a.is_empty() {
-                                f64::INFINITY
-                            } else {
-                                t.first_hit(&pp[i], &nn[i], radius, hh[i])
-                            }
-                        })
-                        .collect();
+                    let mut h = vec![f64::INFINITY; b - a];
+                    if !t.a.is_empty() {
+                        // by groups of nearby points (the same hits as one by one)
+                        for (k, hg) in h.chunks_mut(GROUP).enumerate() {
+                            let (s, e) = (a + k * GROUP, a + k * GROUP + hg.len());
+                            t.first_hits_group(&pp[s..e], &nn[s..e], radius, &hh[s..e], hg);
+                        }
+                    }
                     (a, h)
                 })
                 .collect();

@@ -88,6 +88,76 @@ def test_swept_ball_grouped_queries_identical_on_both_backends():
         assert np.mean(s == s_ref) > 0.9
 
 
+
+@compiled
+def test_swept_ball_group_list_stops_only_beyond_reach():
+    """The grouped search walks its candidate leaves by their capsules' distance from the
+    group's centre c and stops where that, less |p - c|, is beyond the point's reach. The
+    bound is tight for a point on the line from c to a straight pass: groups of points near
+    one pass with one point among them on that line, nearly midway to a second pass and
+    nearer to it (by 0.2 % to 2.8 %) — its segment comes from the second pass, as numpy's."""
+    x = np.linspace(0.0, 60.0, 121)  # two straight passes 10 mm apart, 0.5 mm moves
+    a = np.vstack([np.stack([x[:-1], 0 * x[:-1], 0 * x[:-1]], 1),
+                   np.stack([x[:-1], 0 * x[:-1], 10.0 + 0 * x[:-1]], 1)])
+    b = np.vstack([np.stack([x[1:], 0 * x[1:], 0 * x[1:]], 1),
+                   np.stack([x[1:], 0 * x[1:], 10.0 + 0 * x[1:]], 1)])
+    own = np.repeat([0, 1], 120)
+    groups = []
+    for x0, eps in zip(np.linspace(3.0, 57.0, 24), np.linspace(0.005, 0.07, 24),
+                       strict=True):
+        g = np.stack([x0 + np.linspace(-0.3, 0.3, 32), np.zeros(32), np.full(32, 0.2)], 1)
+        g[16] = [x0, 0.0, 5.0 + eps]  # on the line from the group's centre to pass 1
+        groups.append(g)
+    P = np.vstack(groups)  # 32 points a group, as the kernel groups them
+    with backend.numpy_only():
+        d_ref, s_ref = SweptBall(a, b, 3.0, own).nearest(P)
+    assert np.all(own[s_ref[16::32]] == 1)  # the midway points are nearer to pass 1
+    for threads in (1, 2):
+        with parallel(threads):
+            d, s = SweptBall(a, b, 3.0, own).nearest(P)
+        np.testing.assert_array_equal(d, d_ref)
+        np.testing.assert_array_equal(own[s], own[s_ref])
+
+
+
+@compiled
+def test_swept_ball_grouped_first_hits_stop_only_beyond_reach():
+    """The grouped first hits walk the candidate leaves by their capsules' distance from the
+    group's centre c and stop where that, less |o - c|, is beyond the point's reach (ball
+    radius + max height). The bound is tight for a point on the line from c to a straight
+    pass, shooting along it: groups of points inside one pass's capsule, with one point
+    among them below a second pass whose capsule it reaches just within its max height
+    (by 0.2 % to 2.8 % of its reach) — its hit is numpy's, and so are the others' (none)."""
+    from blisk_cam.core.verify.forest import SweptForest
+
+    x = np.linspace(0.0, 60.0, 121)  # two straight passes 10 mm apart, 0.5 mm moves
+    a = np.vstack([np.stack([x[:-1], 0 * x[:-1], 0 * x[:-1]], 1),
+                   np.stack([x[:-1], 0 * x[:-1], 10.0 + 0 * x[:-1]], 1)])
+    b = np.vstack([np.stack([x[1:], 0 * x[1:], 0 * x[1:]], 1),
+                   np.stack([x[1:], 0 * x[1:], 10.0 + 0 * x[1:]], 1)])
+    groups, hmax = [], []
+    for x0, slack in zip(np.linspace(3.0, 57.0, 24), np.linspace(0.002, 0.028, 24),
+                         strict=True):
+        g = np.stack([x0 + np.linspace(-0.3, 0.3, 32), np.zeros(32), np.full(32, 0.5)], 1)
+        g[16] = [x0, 0.0, 10.0 - 7.0 * (1.0 - slack)]  # 7 mm reach: radius 3 + height 4
+        groups.append(g)
+        hmax.append(np.full(32, 4.0))
+    P, hmax = np.vstack(groups), np.concatenate(hmax)  # 32 points a group, as grouped
+    up = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+    which = np.zeros(len(P), dtype=np.int64)
+
+    def members():
+        return [SweptBall(a, b, 3.0), SweptBall(a[:4], b[:4], 3.0)]
+
+    with backend.numpy_only():
+        h_ref = SweptForest(members()).height_along(P, up, hmax, which)
+    assert np.isfinite(h_ref[16::32]).all() and np.isinf(np.delete(h_ref, np.s_[16::32])).all()
+    for threads in (1, 2):
+        with parallel(threads):
+            h = SweptForest(members()).height_along(P, up, hmax, which)
+        np.testing.assert_array_equal(h, h_ref)
+
+
 def _turning_moves(seed=1):
     """Bull-nose poses along helical passes whose axis leans and turns along the pass."""
     rng = np.random.default_rng(seed)
@@ -304,3 +374,35 @@ def test_swept_ball_forest_in_one_call_identical_on_both_backends():
         same = s == s_ref
         assert same.mean() > 0.9 and np.all(s[which == 5] == -1)
     assert np.isinf(d_ref[which == 5]).all() and np.isfinite(h_ref).any()
+
+
+@compiled
+def test_nearest_faces_far_off_a_curved_sheet_are_numpys():
+    """The faces' bounds that let a far point skip faces (disk, prism over the face, capsule)
+    drop only faces farther than the nearest: points 6 mm off a wavy sheet (ball centres, on
+    both sides: convex and concave under them), straight above its vertices and the middles
+    of its edges (exact ties between the faces around them, whose prism bound is then their
+    exact distance) and a little aside, give numpy's faces (the least distance, then the
+    lowest id) on 1 and 2 threads."""
+    from blisk_cam.core.geometry.distance import NearestFaces
+
+    u, v = np.meshgrid(np.linspace(0.0, 20.0, 31), np.linspace(0.0, 12.0, 19), indexing="ij")
+    V = np.stack([u, v, 2.0 * np.sin(0.3 * u) * np.cos(0.4 * v)], -1).reshape(-1, 3)
+    k = np.arange(31 * 19).reshape(31, 19)[:-1, :-1].ravel()
+    F = np.vstack([np.stack([k, k + 19, k + 1], 1), np.stack([k + 1, k + 19, k + 20], 1)])
+    mesh = TriMesh.from_arrays(V, F)
+    rng = np.random.default_rng(7)
+    e = mesh.edges  # (E, 2) vertex ids
+    mid = 0.5 * (V[e[:, 0]] + V[e[:, 1]])
+    nm = mesh.vertex_normals[e[:, 0]] + mesh.vertex_normals[e[:, 1]]
+    nm /= np.linalg.norm(nm, axis=1)[:, None]
+    P = np.vstack([V + 6.0 * mesh.vertex_normals, V - 6.0 * mesh.vertex_normals,
+                   mid + 6.0 * nm, mid - 6.0 * nm,
+                   mid + 6.0 * nm + rng.normal(scale=0.05, size=mid.shape)])
+    with backend.numpy_only():
+        ref = NearestFaces(mesh).query(P)
+    for threads in (1, 2):
+        with parallel(threads):
+            got = NearestFaces(mesh, disks=True).query(P)
+        for g, r in zip(got, ref, strict=True):
+            np.testing.assert_array_equal(g, r)

@@ -250,12 +250,13 @@ def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
 
 
 def _ridges(samples, strip, g, npairs):
-    """Grid edges inside one strip across which g changes sign: (edge ids, pair ids)."""
+    """Grid edges inside one strip across which g (a sign per sample: −1, 0, 1 or NaN)
+    changes sign: (edge ids, pair ids)."""
     ea, eb = samples.edges[:, 0], samples.edges[:, 1]
     sa = strip[ea]
     same = (sa == strip[eb]) & (sa >= 0) & (sa < npairs)
-    ga, gb = g[ea], g[eb]
-    cross = same & (((ga < 0) & (gb > 0)) | ((ga > 0) & (gb < 0)))
+    # g is a sign (−1, 0, 1 or NaN): opposite signs exactly when the product is negative
+    cross = same & (g[ea] * g[eb] < 0)
     idx = np.nonzero(cross)[0]
     return idx, sa[idx]
 
@@ -609,17 +610,19 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
         if known is not None:
             for arr, d, has in ((known[0], dlo, known[2]), (known[1], dhi, known[3])):
                 arr[other], has[other] = d, True
-    sc.pair_n = np.bincount(strip[valid], minlength=npairs)
-    sc.pair_cusp = _group_max(npairs, strip[valid], mat[valid])
-    sc.pair_gouge = np.maximum(_group_max(npairs, strip[valid], -mat[valid]), 0.0)
-    arg = _group_argmax(npairs, strip[valid], mat[valid])
+    sv, mv = strip[valid], mat[valid]
+    sc.pair_n = np.bincount(sv, minlength=npairs)
+    sc.pair_cusp = _group_max(npairs, sv, mv)
+    sc.pair_gouge = np.maximum(_group_max(npairs, sv, -mv), 0.0)
+    arg = _group_argmax(npairs, sv, mv)
     has = arg >= 0
-    sc.pair_where[has] = P[valid][arg[has]]
+    top = np.flatnonzero(valid)[arg[has]]  # each pair's highest sample (not P[valid]'s copy)
+    sc.pair_where[has] = P[top]
     _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc, known, rho)
     # scallop height along the smooth normal, at the ridge points and at each pair's
     # highest sample
-    hp = np.concatenate([sc.ridge_pts, P[valid][arg[has]]])
-    top_n, nr = normals[valid][arg[has]], len(sc.ridge_pts)
+    hp = np.concatenate([sc.ridge_pts, P[top]])
+    top_n, nr = normals[top], len(sc.ridge_pts)
 
     def normals_of(rows):  # the ridge points' smooth normals: only those traced (row-wise)
         out, ridge = np.empty((len(rows), 3)), rows < nr
@@ -629,7 +632,7 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
         out[~ridge] = top_n[rows[~ridge] - nr]
         return out
 
-    hv = np.concatenate([sc.ridge_val, mat[valid][arg[has]]])
+    hv = np.concatenate([sc.ridge_val, mat[top]])
     hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
     sc.pair_cn = _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho)
     return sc
@@ -650,8 +653,12 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     ng = len(smp)
     eidx, epair = _ridges(smp, strip[:ng], gsign[:ng], npairs)
     if len(eidx):
-        ends, inv = np.unique(smp.edges[eidx], return_inverse=True)
-        inv = inv.reshape(-1, 2)
+        # the edges' distinct ends and each end's rank among them (np.unique's with its
+        # inverse), by marking the samples: no sort of the ~2e5 ends
+        ev = smp.edges[eidx]
+        mark = np.zeros(ng, dtype=bool)
+        mark[ev] = True
+        ends, inv = np.flatnonzero(mark), (np.cumsum(mark) - 1)[ev]
         if known is None:
             dlo, dhi = _two_level_distances(cut, smp.points[ends], strip[ends], npairs)
         else:
@@ -819,15 +826,17 @@ def _group_argmax(n, idx, vals):
     return arg
 
 
-def _two_level_queries(rows, strip, npairs):
+def _two_level_queries(rows, strip, npairs, need=None):
     """(row, level, upper?) of every point's queries to the two levels bounding its strip
     (levels in [0, npairs]), interleaved point by point: each level's queries come in the
-    points' order."""
-    pi = np.repeat(rows, 2)
-    lv = np.stack([strip, strip + 1], axis=1).reshape(-1)
-    up = np.tile([False, True], len(rows))
-    ok = (lv >= 0) & (lv <= npairs)
-    return pi[ok], lv[ok], up[ok]
+    points' order. ``need`` (optional): (need_lo, need_hi) (k,) bool — only those queries.
+    (The queries kept are picked from a (k, 2) mask: no (2k,) arrays to filter.)"""
+    ok = np.stack([(strip >= 0) & (strip <= npairs), (strip >= -1) & (strip < npairs)], axis=1)
+    if need is not None:
+        ok &= np.stack(need, axis=1)
+    q = np.flatnonzero(ok)
+    j, up = q >> 1, (q & 1).astype(bool)
+    return rows[j], strip[j] + up, up
 
 
 def _two_level_near(cut, P, strip, npairs, margin, guess):
@@ -851,7 +860,8 @@ def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=N
     Returns (d_lo, d_hi) (k,), NaN where ``strip`` is outside [0, npairs)."""
     dlo = np.full(len(P), np.nan)
     dhi = np.full(len(P), np.nan)
-    pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs)
+    pi, lv, up = _two_level_queries(np.arange(len(P)), strip, npairs,
+                                    None if near is not None else need)
     if near is not None:  # a ball's levels: the segments listed per level, one task each
         d = np.empty(len(pi))  # every query's level holds some: each row is filled
 
@@ -862,9 +872,6 @@ def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=N
         for rows, d_rows in map_tasks(one, [it for it in near if it[1] is not None]):
             d[rows] = d_rows
     else:
-        if need is not None:
-            keep = np.where(up, need[1][pi], need[0][pi])
-            pi, lv, up = pi[keep], lv[keep], up[keep]
         d = cut.distance(P[pi], lv, near=None if guess is None else guess[pi])
     dlo[pi[~up]] = d[~up]
     dhi[pi[up]] = d[up]
