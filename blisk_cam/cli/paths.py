@@ -13,7 +13,6 @@ from ..core.collision.options import DEFAULT_CHECK_MODE, CollisionOptions
 from ..core.errors import BliskCamError
 from ..core.options import PATH_OPTION_GROUPS, CutterOptions
 from ..core.tool.assembly import AssemblyError, holder_profile
-from .blender import _blender_outputs
 from .flags import (
     UsageError,
     _fail,
@@ -459,6 +458,8 @@ def _cmd_paths(args):
         times["nc"] = time.perf_counter() - t
         progress.done("nc", times["nc"])
     if args.blend or args.preview:
+        from .blender import _blender_outputs  # bpy's side, only for these outputs
+
         t = time.perf_counter()
         _blender_outputs(args, V, F, req, plan, report)
         times["blender"] = time.perf_counter() - t
