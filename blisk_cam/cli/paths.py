@@ -301,7 +301,7 @@ def plan_from_args(args, log=print, progress=None):
                                                         req.offset_layers)))
     extra = ()
     if args.collision.mode != "off":
-        from ..core.process.blade_finish import collision_stage
+        from ..core.process.collision_stage import collision_stage
 
         t = time.perf_counter()
         obstacles = read_obstacles(args.obstacle, args.units)
