@@ -281,6 +281,9 @@ def plan_from_args(args, log=print, progress=None):
     times["weld"] = time.perf_counter() - t
     if not (getattr(args, "blend", None) or getattr(args, "preview", None)):
         V = F = None  # the file's triangle soup (3 corners a face) is not held through the plan
+        # nor the maps from it into the mesh (for values carried back onto the soup; an STL
+        # at 1M triangles: 32 MB held through the passes, the run's peak)
+        mesh.vertex_map = mesh.face_map = None
     c1, c2 = args.cone1_obj, args.cone2_obj
     fit = None
     if c1 is None or c2 is None:
