@@ -24,7 +24,8 @@ import time
 from pathlib import Path
 
 from ..core.errors import BliskCamError
-from ..core.process.blade_finish import collision_stage, plan_paths
+from ..core.process.blade_finish import plan_paths
+from ..core.process.collision_stage import collision_stage
 from ..core.process.per_blade import blade_blocks, plan_blade
 from ..core.toolpath.paths_io import path_to_dict
 from .jobs import Task

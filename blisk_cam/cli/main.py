@@ -43,7 +43,6 @@ from ..core.errors import BliskCamError
 from ..core.kernels.backend import backend_name
 from ..core.runtime import parallel
 from ..core.version import __version__
-from .blender import _cmd_demo
 from .console import never_fail_on_encoding
 from .flags import (
     PROG,
@@ -54,13 +53,6 @@ from .flags import (
     finite,
     positive,
 )
-from .hub import add_hub_arguments
-from .nc import add_nc_arguments
-from .paths import ENGINES, _cmd_paths, add_paths_arguments
-from .process import add_process_arguments
-from .robot import add_robot_arguments
-from .rough import add_rough_arguments
-from .simulate import add_simulate_arguments
 
 __all__ = ["main", "build_parser"]
 
@@ -115,9 +107,15 @@ def _blade_count(text):
 
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The argument parser of the CLI (subcommands ``demo``, ``paths``, ``nc``, ``robot``,
-    ``simulate``)."""
+    ``simulate``, ``rough``, ``hub``, ``batch``, ``process``).
+
+    ``command``: the one subcommand about to run (the first word of the command line); only
+    its arguments are declared — the others are listed with their help, but their arguments
+    (and the modules that declare them: the machines and posts of ``nc``, the patterns of
+    ``rough``, ...) are neither imported nor built, which a run waits for otherwise (~0.1 s
+    of a ``paths`` run). None (or a name that is not a command): the whole parser."""
     parser = _Parser(
         prog=PROG,
         description="Blisk CAM: 5-axis finishing tool paths for blisk blades (command line).",
@@ -137,37 +135,37 @@ def build_parser() -> argparse.ArgumentParser:
          "Finishing tool paths between two cones on a blade mesh (mm). Without --cone1/--cone2 "
          "the cones are fitted to the blade's boundary loops. Lengths in mm, angles in degrees. "
          "Needs only numpy and scipy; --blend and --preview need Blender's Python module (bpy).",
-         add_paths_arguments, _cmd_paths),
+         _add_paths_arguments, _cmd_paths),
         ("nc", "paths JSON → NC program for a 5-axis machine",
          "Post a paths JSON for a machine (preset or TOML) and a controller: inverse kinematics "
          "within the limits, rotary linearization, every blade. Lengths mm, angles degrees. "
          "Needs only numpy and scipy.",
-         add_nc_arguments, _cmd_nc),
+         _add_nc_arguments, _cmd_nc),
         ("robot", "paths JSON → robot polishing program (KRL, RAPID, PDL2, Fanuc LS)",
          "Program a 6-axis robot (preset or TOML) holding a polishing head along a paths JSON: "
          "the angle about the tool axis resolved over the path, one arm configuration per "
          "stroke, joint limits, speeds and singularities checked; the program split into the "
          "files the controller accepts. Lengths mm, angles degrees. Needs only numpy and scipy.",
-         add_robot_arguments, _cmd_robot),
+         _add_robot_arguments, _cmd_robot),
         ("simulate", "material removal on the blisk's stock → deviation map and verdict",
          "Run programs (paths JSON) on a stock of one pitch sector (radial dexels), measure the "
          "deviation on the part (+ material left, − gouge, mm) and judge it: exit 5 when a "
          "gouge exceeds the tolerance or a rapid or the tool body removes material. Needs "
          "only numpy and scipy.",
-         add_simulate_arguments, _cmd_simulate),
+         _add_simulate_arguments, _cmd_simulate),
         ("rough", "channel roughing from the blank → paths JSON (\"operation\": \"rough\")",
          "Rough the channels between the blades from the blank down to an allowance (default "
          "0.5 mm) in levels (from the hub, from the shroud or morphed), zig-zag or plunge; "
          "the tool, its shank and holder kept clear of the allowance. One gap is planned; "
          "nc and simulate repeat it for the N gaps. Lengths mm, angles degrees. Needs only "
          "numpy and scipy.",
-         add_rough_arguments, _cmd_rough),
+         _add_rough_arguments, _cmd_rough),
         ("hub", "hub or fillet finishing of a blisk → paths JSON",
          "Finish the hub between two blades (boundary-conformed passes from the leading to "
          "the trailing edge, spaced by stepover or scallop on the hub's curvature, two regions, "
          "extended past the edges) or the fillet around the blade root with a ball smaller "
          "than the fillet. Lengths in mm, angles in degrees. Needs only numpy and scipy.",
-         add_hub_arguments, _cmd_hub),
+         _add_hub_arguments, _cmd_hub),
         ("batch", "run the jobs of a TOML file on a Dask cluster → DIR",
          "Run the jobs of JOBS.toml (single commands, per-blade paths of a whole-blisk scan, "
          "sweeps over tool, lead, tilt and holder length) on a Dask cluster: a local cluster "
@@ -184,19 +182,78 @@ def build_parser() -> argparse.ArgumentParser:
          "verdict or the final verdict failed, 6 when the final verdict is incomplete (zones "
          "no finishing operation plans to cut, named 'not machined'), 4 when the collision "
          "gate refused a post. Needs only numpy and scipy.",
-         add_process_arguments, _cmd_process),
+         _add_process_arguments, _cmd_process),
     )
+    names = [c[0] for c in commands]
     for name, help_text, description, add_arguments, run in commands:
-        command = sub.add_parser(name, help=help_text, description=description)
-        add_arguments(command)
-        if name in THREADED_COMMANDS:
-            add_threads_argument(command)
-        command.set_defaults(func=run)
+        parsed = sub.add_parser(name, help=help_text, description=description)
+        if command not in names or name == command:
+            add_arguments(parsed)
+            if name in THREADED_COMMANDS:
+                add_threads_argument(parsed)
+        parsed.set_defaults(func=run)
     return parser
+
+
+# --- each command's module, imported only for the command that runs --------------------------
+def _add_paths_arguments(parser):
+    from .paths import add_paths_arguments
+
+    add_paths_arguments(parser)
+
+
+def _add_nc_arguments(parser):
+    from .nc import add_nc_arguments
+
+    add_nc_arguments(parser)
+
+
+def _add_robot_arguments(parser):
+    from .robot import add_robot_arguments
+
+    add_robot_arguments(parser)
+
+
+def _add_simulate_arguments(parser):
+    from .simulate import add_simulate_arguments
+
+    add_simulate_arguments(parser)
+
+
+def _add_rough_arguments(parser):
+    from .rough import add_rough_arguments
+
+    add_rough_arguments(parser)
+
+
+def _add_hub_arguments(parser):
+    from .hub import add_hub_arguments
+
+    add_hub_arguments(parser)
+
+
+def _add_process_arguments(parser):
+    from .process import add_process_arguments
+
+    add_process_arguments(parser)
+
+
+def _cmd_demo(args):
+    from .blender import _cmd_demo as run_demo
+
+    return run_demo(args)
+
+
+def _cmd_paths(args):
+    from .paths import _cmd_paths as run_paths
+
+    return run_paths(args)
 
 
 def _add_demo_arguments(demo: argparse.ArgumentParser) -> None:
     """The arguments of ``demo``."""
+    from .paths import ENGINES
+
     demo.add_argument("--out", required=True, metavar="DIR", help="output directory")
     demo.add_argument(
         "--blades",
@@ -299,8 +356,8 @@ def _cmd_rough(args):
 def main(argv=None) -> int:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     never_fail_on_encoding()
-    parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(argv[0] if argv else None)  # only the arguments of the command run
     if not argv:
         _fail(f"no command given; use '{PROG} demo --out DIR' or '{PROG} paths --mesh FILE ...'")
         return 2

@@ -28,9 +28,7 @@ from ..core.errors import BliskCamError
 from ..core.files import file_sha256
 from ..core.machine.description import Machine, known_presets, load_machine
 from ..core.post.blocks import NcOptions
-from ..core.post.common import write_atomic
-from ..core.post.export import POSTS, export_nc, get_post
-from ..core.post.gate import collision_gate
+from ..core.post.common import POSTS, write_atomic
 from ..core.toolpath.paths_io import read_paths_json
 from .flags import PROG, UsageError, add_option_flags, check_file_roles, option_args
 from .progress import StageProgress
@@ -193,6 +191,8 @@ def export_from_args(path, args, out, blade_name, part=None):
         raise UsageError(str(exc)) from None
     if options.interpolation and part is None:
         part = recorded_mesh(path)
+    from ..core.post.export import export_nc  # not for the flags alone (paths --help)
+
     report = export_nc(path, machine_of(args), args.post, options, out, part=part)
     print(report.summary())
     if report.gate.warning:
@@ -218,6 +218,9 @@ def _write_report(report, filename):
 def run_nc(args) -> int:
     """Run the ``nc`` command on parsed ``args``; prints a summary on stdout, returns the exit
     status (0 ok, 1 bad input with one line on stderr, 2 a bad option value)."""
+    from ..core.post.export import get_post
+    from ..core.post.gate import collision_gate
+
     try:
         resolve_blade_count(args)
         check_file_roles(

@@ -14,7 +14,6 @@ from ..core.collision.options import DEFAULT_CHECK_MODE, CollisionOptions
 from ..core.errors import BliskCamError
 from ..core.options import PATH_OPTION_GROUPS, CutterOptions
 from ..core.tool.assembly import AssemblyError, holder_profile
-from .blender import _blender_outputs
 from .flags import (
     UsageError,
     _fail,
@@ -283,6 +282,9 @@ def plan_from_args(args, log=print, progress=None):
     times["weld"] = time.perf_counter() - t
     if not (getattr(args, "blend", None) or getattr(args, "preview", None)):
         V = F = None  # the file's triangle soup (3 corners a face) is not held through the plan
+        # nor the maps from it into the mesh (for values carried back onto the soup; an STL
+        # at 1M triangles: 32 MB held through the passes, the run's peak)
+        mesh.vertex_map = mesh.face_map = None
     c1, c2 = args.cone1_obj, args.cone2_obj
     fit = None
     if c1 is None or c2 is None:
@@ -303,7 +305,7 @@ def plan_from_args(args, log=print, progress=None):
                                                         req.offset_layers)))
     extra = ()
     if args.collision.mode != "off":
-        from ..core.process.blade_finish import collision_stage
+        from ..core.process.collision_stage import collision_stage
 
         t = time.perf_counter()
         obstacles = read_obstacles(args.obstacle, args.units)
@@ -487,6 +489,8 @@ def _cmd_paths(args):
         times["nc"] = time.perf_counter() - t
         progress.done("nc", times["nc"])
     if args.blend or args.preview:
+        from .blender import _blender_outputs  # bpy's side, only for these outputs
+
         t = time.perf_counter()
         _blender_outputs(args, V, F, req, plan, report)
         times["blender"] = time.perf_counter() - t

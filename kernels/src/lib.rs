@@ -16,6 +16,7 @@ mod closest;
 mod collision_refine;
 mod collision_tree;
 mod collision_walk;
+mod float_text;
 mod hypot;
 mod knn;
 mod level_chains;
@@ -534,5 +535,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_topology::edge_table_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_topology::vertex_normal_sums, m)?)?;
+    m.add_function(wrap_pyfunction!(float_text::json_float_array, m)?)?;
     Ok(())
 }

@@ -234,3 +234,50 @@ pub fn interior_pairs<'py>(
         PyArray1::from_vec(py, f1),
     ))
 }
+
+/// `TriMesh.vertex_normals`' sums before the norm: for each vertex, the area vectors `n2`
+/// (m, 3) of its faces, summed as the numpy reference does — per corner k a `bincount`
+/// (faces in order, from 0.0), then the three corners' sums added in order to 0.0:
+/// ((0 + s₀) + s₁) + s₂, so the same bits. None when a face holds an id outside 0..n.
+pub fn vertex_sums(n: usize, f: &[i64], n2: &[f64]) -> Option<Vec<f64>> {
+    if f.len() != n2.len() || f.iter().any(|&i| i < 0 || i as usize >= n) {
+        return None;
+    }
+    let mut acc = vec![0.0f64; 3 * n];
+    let mut s = vec![0.0f64; 3 * n];
+    for k in 0..3 {
+        if k > 0 {
+            s.iter_mut().for_each(|x| *x = 0.0);
+        }
+        for (t, w) in f.chunks_exact(3).zip(n2.chunks_exact(3)) {
+            let v = 3 * t[k] as usize;
+            s[v] += w[0];
+            s[v + 1] += w[1];
+            s[v + 2] += w[2];
+        }
+        for (a, b) in acc.iter_mut().zip(&s) {
+            *a += *b;
+        }
+    }
+    Some(acc)
+}
+
+/// `vertex_sums` for Python: (n, 3) float64, or None (an id out of range: numpy's turn).
+#[pyfunction]
+pub fn vertex_normal_sums<'py>(
+    py: Python<'py>,
+    n_vertices: usize,
+    f: PyReadonlyArray2<'py, i64>,
+    n2: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let ff = crate::arrays::flat(&f, "F")?;
+    let ww = crate::arrays::flat(&n2, "n2")?;
+    if f.shape()[1] != 3 || n2.shape()[1] != 3 {
+        return Err(pyo3::exceptions::PyValueError::new_err("F and n2 must be (m, 3)"));
+    }
+    let Some(out) = py.detach(|| vertex_sums(n_vertices, ff, ww)) else {
+        return Ok(None);
+    };
+    let a: Bound<'py, PyArray1<f64>> = PyArray1::from_vec(py, out);
+    Ok(Some(a.reshape([n_vertices, 3])?.into_any()))
+}

@@ -67,6 +67,12 @@ pub fn first_equal_point(x: &[u64], y: &[u64], z: &[u64]) -> Vec<i64> {
 /// the rows by hash over two threads, each with a table of its own, was no faster on this
 /// 2-core machine and held the hashes or the row lists besides). None when there are too
 /// many rows for 32-bit slots.
+///
+/// The table's slots are touched at random, so the pass waits on memory: it starts sized for
+/// an STL's triangle soup (each vertex ~6 corners: k/6 distinct points, at most half the
+/// slots held) and doubles whenever half its slots are held, and the slot of the row
+/// [`AHEAD`] rows on is fetched while this one is looked up. Neither changes the answer,
+/// which is defined without the table: the lowest index of the rows equal to each.
 pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
     let k = v.len();
     if k >= u32::MAX as usize {
@@ -79,17 +85,42 @@ pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
             (p[2] + 0.0).to_bits(),
         ]
     };
-    let bits = (usize::BITS - (2 * k.max(1) - 1).leading_zeros()).max(1);
-    let mask = (1usize << bits) - 1;
-    let mut table = vec![u32::MAX; 1usize << bits];
-    let mut first = vec![0i64; k];
-    for (i, p) in v.iter().enumerate() {
+    let hash = |p: &[f64; 3]| {
         let b = key(p);
-        let mut s = (mix(b[0], b[1], b[2]) >> (64 - bits)) as usize & mask;
-        first[i] = loop {
+        mix(b[0], b[1], b[2])
+    };
+    let slots_for = |distinct: usize| (2 * distinct.max(512)).next_power_of_two();
+    let mut bits = slots_for(k / 6 + 1).trailing_zeros();
+    let mut table = vec![u32::MAX; 1usize << bits];
+    let mut held_count = 0usize;
+    let mut first = Vec::with_capacity(k);
+    let mut ring = [0u64; AHEAD];
+    for (i, r) in ring.iter_mut().enumerate().take(k) {
+        *r = hash(&v[i]);
+        prefetch(&table, (*r >> (64 - bits)) as usize);
+    }
+    for i in 0..k {
+        let h = ring[i % AHEAD];
+        if i + AHEAD / 2 < k {
+            // halfway: the slot fetched by now names the row it holds (if any), fetched too
+            let held = table[(ring[(i + AHEAD / 2) % AHEAD] >> (64 - bits)) as usize];
+            if held != u32::MAX {
+                prefetch_row(v, held as usize);
+            }
+        }
+        if i + AHEAD < k {
+            let next = hash(&v[i + AHEAD]);
+            ring[i % AHEAD] = next;
+            prefetch(&table, (next >> (64 - bits)) as usize);
+        }
+        let b = key(&v[i]);
+        let mask = (1usize << bits) - 1;
+        let mut s = (h >> (64 - bits)) as usize & mask;
+        let got = loop {
             let held = table[s];
             if held == u32::MAX {
                 table[s] = i as u32;
+                held_count += 1;
                 break i as i64;
             }
             if key(&v[held as usize]) == b {
@@ -97,6 +128,55 @@ pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
             }
             s = (s + 1) & mask;
         };
+        first.push(got);
+        if 2 * held_count > table.len() {
+            // half the slots held: twice the slots, every held row placed again by its hash
+            bits += 1;
+            let mask = (1usize << bits) - 1;
+            let mut grown = vec![u32::MAX; 1usize << bits];
+            for &held in table.iter().filter(|&&x| x != u32::MAX) {
+                let mut s = (hash(&v[held as usize]) >> (64 - bits)) as usize & mask;
+                while grown[s] != u32::MAX {
+                    s = (s + 1) & mask;
+                }
+                grown[s] = held;
+            }
+            table = grown;
+        }
     }
     Some(first)
+}
+
+/// Ask the CPU to fetch row `i` of `v` into its cache (a hint: nothing else changes).
+#[inline(always)]
+fn prefetch_row(v: &[[f64; 3]], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if i < v.len() {
+        // SAFETY: a prefetch reads nothing the program sees; the address is in `v`
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            _mm_prefetch::<_MM_HINT_T0>(v.as_ptr().add(i) as *const i8);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (v, i);
+}
+
+/// Rows looked ahead by [`first_equal_rows`]: their table slots are fetched meanwhile (and
+/// halfway there, the rows those slots hold).
+const AHEAD: usize = 64;
+
+/// Ask the CPU to fetch `table[slot]` into its cache (a hint: nothing else changes).
+#[inline(always)]
+fn prefetch(table: &[u32], slot: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if slot < table.len() {
+        // SAFETY: a prefetch reads nothing the program sees; the address is in the table
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            _mm_prefetch::<_MM_HINT_T0>(table.as_ptr().add(slot) as *const i8);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (table, slot);
 }

@@ -233,7 +233,8 @@ def test_sweep_table(scan):
     # to 30 mm, then a Ø25 holder for 40 mm, checked against the blade turned ±1, ±2 pitches
     from blisk_cam.core.collision.options import CollisionOptions
     from blisk_cam.core.geometry.mesh_io import read_mesh
-    from blisk_cam.core.process.blade_finish import PathRequest, collision_stage, plan_paths
+    from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
+    from blisk_cam.core.process.collision_stage import collision_stage
 
     opts = CollisionOptions(mode="check", blade_count=12,
                             holder=((18, 3), (30, 3), (30, 12.5), (70, 12.5)))

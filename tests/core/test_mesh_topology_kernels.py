@@ -1,8 +1,9 @@
 """The compiled mesh topology (the edge table by a counting sort, its interior pairs, the
-face normals) against the numpy reference: the prepared mesh — vertices, faces, maps,
-counts, orientation flips and everything cached (edges, face adjacency, normals, loops) —
-bit for bit the same on both backends, on an open patch, closed solids, a mesh with flipped
-faces, several components, and a non-manifold mesh refused with the same message."""
+face normals, the vertex normals' sums) against the numpy reference: the prepared mesh —
+vertices, faces, maps, counts, orientation flips and everything cached (edges, face
+adjacency, normals, loops) — bit for bit the same on both backends, on an open patch,
+closed solids, a mesh with flipped faces, several components, and a non-manifold mesh
+refused with the same message."""
 
 import numpy as np
 import pytest
@@ -167,3 +168,19 @@ def test_the_reference_edge_table_widens_int32_faces():
         _same(ref[key], got[key], key)
     assert len(ref["edges"]) == 2 * (n - 2) + 1  # each triangle adds two edges to the first's
     assert ref["edges"].max() == n - 1
+
+
+@kernel
+def test_vertex_normal_sums_against_the_reference():
+    """The per-vertex sums of the faces' area vectors: the bits of numpy's bincount per
+    corner, the corners added in order (many faces on few vertices, signs mixed)."""
+    rng = np.random.default_rng(2121)
+    F = rng.integers(0, 300, size=(20_000, 3))
+    n2 = rng.normal(size=(20_000, 3)) * 10.0 ** rng.integers(-8, 8, size=(20_000, 1))
+    got = compiled_weld.vertex_normal_sums(310, F, n2)  # vertices 300..309 in no face
+    want = np.zeros((310, 3))
+    for k in range(3):
+        want += np.stack([np.bincount(F[:, k], weights=n2[:, j], minlength=310)
+                          for j in range(3)], axis=1)
+    assert np.array_equal(got.view(np.uint8), want.view(np.uint8))
+    assert compiled_weld.vertex_normal_sums(299, F, n2) is None  # an id out of range

@@ -43,6 +43,21 @@ def test_first_equal_rows_is_the_lowest_equal_row():
     np.testing.assert_array_equal(compiled_weld.first_equal_rows(odd), got)
 
 
+@rows_kernel
+def test_first_equal_rows_when_most_rows_are_distinct():
+    """The kernel's table is sized for an STL's soup (~6 corners a vertex) and grows when the
+    rows are mostly distinct: the answer stays the lowest equal row, as the numpy twin's."""
+    rng = np.random.default_rng(2121)
+    distinct = rng.normal(size=(40_000, 3))
+    P = np.concatenate([distinct, distinct[rng.integers(0, len(distinct), size=8_000)]])
+    P = P[rng.permutation(len(P))]
+    got = compiled_weld.first_equal_rows(P)
+    want = _lowest_equal_row(P)
+    assert np.sum(want == np.arange(len(P))) == len(distinct)  # the table grew past k/6
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(got, weld._first_equal_point([P[:, j] + 0.0 for j in range(3)]))
+
+
 def test_the_welded_mesh_is_the_same_on_one_and_two_threads_and_both_backends():
     d = make_demo_blisk(resolution=0.3)
     F = d.blade_faces

@@ -475,9 +475,11 @@ class TriMesh:
         c = self._cache
         if "vn" not in c:
             n2 = c["n2"] if "n2" in c else triangle_normals(self.V, self.F)  # 2 × area vector
-            acc = np.zeros_like(self.V)
-            for k in range(3):
-                acc += _scatter_add(len(self.V), self.F[:, k], n2)
+            acc = compiled_weld.vertex_normal_sums(len(self.V), self.F, n2)  # the same sums
+            if acc is None:
+                acc = np.zeros_like(self.V)
+                for k in range(3):
+                    acc += _scatter_add(len(self.V), self.F[:, k], n2)
             ln = np.linalg.norm(acc, axis=1)
             c["vn"] = acc / np.where(ln > 0, ln, 1.0)[:, None]
         return c["vn"]

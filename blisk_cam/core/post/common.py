@@ -17,8 +17,13 @@ from ..toolpath.types import MOVE_RAPID, ToolPath
 from ..version import __version__
 from .blocks import SAFE, Blocks, NcOptions
 
-__all__ = ["PostContext", "ascii_text", "fmt", "frame_lines", "fvec", "header_lines",
+__all__ = ["POSTS", "PostContext", "ascii_text", "fmt", "frame_lines", "fvec", "header_lines",
            "tool_text", "version", "write_atomic", "write_program_folder"]
+
+#: the posts, by the name the user gives (``--post``, the panel); :mod:`.export` runs them.
+#: Named here, below the machines' solver, so that a command line that only declares its
+#: ``--post`` flag does not import the export and interpolation modules
+POSTS = ("linuxcnc", "fanuc", "siemens", "heidenhain", "apt")
 
 #: a file holding this text (in its first 4 kB) was written by Blisk CAM and may be replaced
 OWN_MARK = "Blisk CAM"

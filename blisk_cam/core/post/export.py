@@ -19,13 +19,10 @@ from ..machine.description import Machine, load_machine
 from ..machine.interpolation import interpolate_program
 from ..toolpath.types import ToolPath
 from .blocks import Blocks, NcOptions, build_blocks
-from .common import PostContext, ascii_text, block_minutes, write_atomic
+from .common import POSTS, PostContext, ascii_text, block_minutes, write_atomic
 from .gate import GateResult, collision_gate
 
 __all__ = ["POSTS", "NcReport", "export_nc", "get_post", "nc_program"]
-
-#: the posts, by the name the user gives (``--post``, the panel)
-POSTS = ("linuxcnc", "fanuc", "siemens", "heidenhain", "apt")
 
 
 def get_post(name: str):

@@ -9,7 +9,8 @@ fit (:mod:`..part.fitting`, when a cone is not given; the spacing radius of the 
 → orient (tool axes from lead/tilt, :mod:`..paths.orientation`, paper 003; local gouge check
 and fix, :mod:`..paths.gouge`; axis smoothing; cutter location per cutter type,
 :mod:`..tool.cutter`) → link (approach, retract, links) → checks (the figures in the stats);
-the collision check (:func:`collision_stage`) is an extra stage the caller adds.
+the collision check (:func:`.collision_stage.collision_stage`) is an extra stage the caller
+adds.
 
 A hub fillet tighter than the spacing ball can only be finished if the local gouge fix may
 raise the lead until the cutter fits (the passes are then spaced for that lead range and a
@@ -55,7 +56,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..collision.avoid import iter_run_collisions
 from ..errors import BliskCamError, OrientationError, ToleranceError, ToolError
 from ..geometry.axis import Axis, cylindrical
 from ..geometry.distance import MeshDistance, NearestFaces
@@ -116,7 +116,6 @@ __all__ = [
     "PlanState",
     "Stage",
     "check_allowance_in_channel",
-    "collision_stage",
     "NotSupportedError",
     "ZERO_SPEED_WARN_SHARE",
     "zero_speed_warning",
@@ -765,26 +764,6 @@ def check_allowance_in_channel(mesh: TriMesh, axis: Axis, blade_count: int,
             f"{float(r[0]):.1f} mm, z = {float(z[0]):.1f} mm), and both blades offset by the "
             f"allowance would overlap there; leave less than {0.5 * gap:.3f} mm of stock")
     return gap
-
-
-def collision_stage(options, obstacles=()) -> Stage:
-    """The "collision" stage (:mod:`..collision.avoid`, paper 004) for ``iter_plan_paths(...,
-    extra=(collision_stage(options, obstacles),))``: the planned passes and program are
-    checked against the blade, its rotated neighbours and the ``obstacles`` ((name, V, F)),
-    and corrected in mode "avoid". The report is ``PlanResult.collision``."""
-    def run(st: PlanState):
-        planned = st.result().path
-        it = iter_run_collisions(st.mesh, planned, obstacles, options)
-        while True:
-            try:
-                fraction = next(it)
-            except StopIteration as stop:
-                path, report = stop.value
-                break
-            yield Progress(float(fraction), "checking collisions")
-        st.curves, st.program, st.collision = path.curves, path.program, report
-
-    return Stage("collision", run)
 
 
 #: the plan, in order: fit → passes → order → orient/gouge → link → checks. Later stages

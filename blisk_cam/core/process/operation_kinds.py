@@ -39,7 +39,8 @@ from ..geometry.vectors import rotate_about
 from ..options import AxisOptions, GougeOptions, LinkingOptions, ToleranceOptions, check_value
 from ..options import fields as option_fields
 from ..part.cones import Cone
-from .blade_finish import BLADE_FINISH, PathRequest, collision_stage
+from .blade_finish import BLADE_FINISH, PathRequest
+from .collision_stage import collision_stage
 from .fillet_finish import FILLET_FINISH, part_fillet
 from .hub_finish import HUB_FINISH, HubRequest, _stage_channel, start_state
 from .operation import Operation, Stage

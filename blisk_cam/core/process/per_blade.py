@@ -49,7 +49,8 @@ from ..post.export import get_post
 from ..toolpath.types import ToolPath
 from ..verify.measure import verify_path
 from ..verify.verdict import judge, verdict_dict
-from .blade_finish import PathRequest, collision_stage, plan_paths
+from .blade_finish import PathRequest, plan_paths
+from .collision_stage import collision_stage
 
 __all__ = ["BladeGeometry", "BladeOutcome", "blades_of_scan", "plan_blade",
            "sections_program"]
