@@ -9,6 +9,7 @@
 #   make kernels   build the compiled kernels (kernels/, Rust) and install them into both venvs
 #   make package   dist/blisk_cam-<version>-<platform>.zip, one per platform, with its scipy wheels
 #   make package-all  dist/blisk_cam-<version>.zip, one zip with the wheels of every platform
+#   make check-windows  the Windows zip installed into Windows Blender 4.5 under Wine (wine64)
 #   make lint      ruff check
 
 SHELL := /bin/bash
@@ -86,7 +87,7 @@ define ensure_kernels
 endef
 
 .PHONY: help venv45 venv52 venvs kernels kernels45 kernels52 demo test test-core test-blender45 test-blender52 bench \
-        package package-all package-tools lint clean
+        package package-all package-tools check-windows lint clean
 
 help:
 	@sed -n 's/^#   make /  make /p' $(firstword $(MAKEFILE_LIST))
@@ -165,6 +166,11 @@ package: venv45 package-tools
 package-all: venv45 package-tools
 	PATH="$(CURDIR)/$(VENVPKG)/bin:$$PATH:$(CARGO_HOME_BIN)" \
 	  $(VENV45)/bin/python scripts/build_extension.py --output-dir dist --one-zip
+
+# The Windows zip installed into Windows Blender 4.5 under Wine (scripts/wine/windows_check.sh;
+# needs wine64, not part of make test); --suite also runs tests/core there (~30 min).
+check-windows: venv45 package-tools
+	scripts/wine/windows_check.sh $(CHECK_WINDOWS_ARGS)
 
 lint: venv45
 	$(VENV45)/bin/ruff check .
