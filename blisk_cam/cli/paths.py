@@ -424,12 +424,19 @@ def _windows_process_age():
 
 
 def _cmd_paths(args):
-    t_wall = time.perf_counter()
-    startup = process_age()
     check_paths_args(args)
+    # the modules the plan needs (numpy, scipy, the core) are imported before the startup
+    # figure is taken: the user waits for them as for the interpreter, and imported inside
+    # plan_from_args they would fall between the stages, in no figure
+    from ..core.geometry import mesh_io  # noqa: F401
+    from ..core.part import fitting  # noqa: F401
+    from ..core.process import blade_finish  # noqa: F401
     from ..core.runtime import alongside
     from ..core.toolpath.paths_io import write_paths_json
     from .progress import StageProgress
+
+    t_wall = time.perf_counter()
+    startup = process_age()
 
     progress = StageProgress(quiet=args.quiet)
     # the mesh file's SHA-256 (for nc's constant-error budget) on a thread of its own while
