@@ -333,6 +333,8 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("poses")
     t1 = time.perf_counter()
+    # the whole path's swept volume depends on the passes alone: built beside the poses
+    whole = alongside(lambda: _whole_sweep(path.tool, curves, method))
     pc, cc_checks = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
     tim["poses"] = time.perf_counter() - t1
 
@@ -344,7 +346,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("material")
     t1 = time.perf_counter()
-    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
+    levels, lev_of, whole, values, lab = _material_left(whole(), curves, P,
                                                         P + rho * normals)
     tim["material"] = time.perf_counter() - t1
     if on_material_left is not None:
@@ -535,14 +537,20 @@ def _samples_and_feet(mesh, cones, axis, smp: SurfaceSamples, pc: _PoseChecks):
     return smp, P, normals, s_all
 
 
-def _material_left(tool, curves, P, method, guess=None):
-    """Material left by all passes at the points: (levels, level of each curve, the swept
-    volume, signed distances (k,), level of the nearest pass (k,) or −1). ``guess`` (k, 3):
-    where the nearest ball centres are likely (point + ρ · normal; a ball only, for speed)."""
-    ncur = len(curves)
-    levels = np.unique([float(c.s) for c in curves]) if ncur else np.zeros(0)
+def _whole_sweep(tool, curves, method):
+    """(levels, level of each curve, the whole path's swept volume, owned by levels)."""
+    levels = np.unique([float(c.s) for c in curves]) if len(curves) else np.zeros(0)
     lev_of = np.searchsorted(levels, [float(c.s) for c in curves])
-    whole = swept_cutter(tool, curves, owners=lev_of, method=method)
+    return levels, lev_of, swept_cutter(tool, curves, owners=lev_of, method=method)
+
+
+def _material_left(sweep, curves, P, guess=None):
+    """Material left by all passes at the points: (levels, level of each curve, the swept
+    volume, signed distances (k,), level of the nearest pass (k,) or −1). ``sweep``: what
+    :func:`_whole_sweep` returns; ``guess`` (k, 3): where the nearest ball centres are likely
+    (point + ρ · normal; a ball only, for speed)."""
+    ncur = len(curves)
+    levels, lev_of, whole = sweep
     if ncur:
         values, seg = (whole.nearest(P, guess) if isinstance(whole, SweptBall)
                        else whole.nearest(P))
