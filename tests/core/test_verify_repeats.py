@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from blisk_cam.core.runtime import parallel
 from blisk_cam.core.tool.cutter import Cutter
+from blisk_cam.core.verify import sweep
 from blisk_cam.core.verify.forest import SweptForest
 from blisk_cam.core.verify.sweep import SweptCutter, _first_of_equal_rows
 
@@ -33,6 +35,26 @@ def test_first_of_equal_rows_matches_bits_only():
     assert first[-3] == len(P) - 4 + 1 and first[-4] == len(P) - 4  # 0.0 and −0.0 apart
     assert first[-1] == len(P) - 2  # the same NaN bits: one search
     assert np.sum(first != np.arange(len(P))) > 200  # the repeats were found
+
+
+
+def test_first_of_equal_rows_on_two_threads_matches_bits_only():
+    """Enough rows to be split by the hash's top bit and matched on two threads: the same
+    first rows as the reference (and as one thread)."""
+    rng = np.random.default_rng(7)
+    n = sweep._SPLIT_ROWS // 2 + 1000
+    P = np.round(rng.normal(size=(n, 3)), 3)  # rounded: some rows equal by chance too
+    w = rng.integers(0, 40, n)
+    rep = rng.integers(0, n, n)
+    P = np.vstack([P, P[rep]])
+    w = np.concatenate([w, np.where(rng.random(n) < 0.8, w[rep], (w[rep] + 1) % 40)])
+    assert len(P) > sweep._SPLIT_ROWS
+    with parallel(2):
+        first = _first_of_equal_rows(P, w)
+    np.testing.assert_array_equal(first, _first_by_dict(P, w))
+    with parallel(1):
+        np.testing.assert_array_equal(_first_of_equal_rows(P, w), first)
+    assert np.sum(first != np.arange(len(P))) > n // 2  # the repeats were found
 
 
 def _moves(seed=4):

@@ -26,33 +26,38 @@ def interpolated_contacts(cutter, curves, nsub):
     """Per pass, at ``nsub`` points of every segment (tip and CC linear, axis on the great arc,
     normal interpolated and normalised): the posed cutter's extreme point toward −n, i.e. the
     point that touches when the pose is right. Returns (points (q, 3), curve id (q,),
-    tips (q, 3), axes (q, 3))."""
-    pts, ids, tps, axs = [], [], [], []
+    tips (q, 3), axes (q, 3)). Every figure is row by row: the rows of all passes are
+    gathered first and each step runs once on all of them (the same bits as pass by pass)."""
+    if not len(curves):
+        z = np.zeros((0, 3))
+        return z, np.zeros(0, np.int64), z, z
     t = np.arange(0, nsub) / nsub
-    for i, c in enumerate(curves):
+    tips, nns, tts, u_a, u_b, last = [], [], [], [], [], []
+    for c in curves:
         tips_a, tips_b = _curve_polyline(c, c.tip)
         ax_a, ax_b = _curve_polyline(c, c.axis)
         n_a, n_b = _curve_polyline(c, c.normal)
         m = len(tips_a)
         tt = np.tile(t, m)
         rep_ = np.repeat(np.arange(m), nsub)
-        tip = tips_a[rep_] + tt[:, None] * (tips_b - tips_a)[rep_]
-        ax = slerp(unit(ax_a[rep_], keep_zero=False), unit(ax_b[rep_], keep_zero=False), tt,
-                   weights_first=True)
-        nn = n_a[rep_] + tt[:, None] * (n_b - n_a)[rep_]
-        if not (c.closed and len(c.tip) > 2):  # the last pose itself
-            tip = np.vstack([tip, c.tip[-1:]])
-            ax = np.vstack([ax, c.axis[-1:] / np.linalg.norm(c.axis[-1])])
-            nn = np.vstack([nn, c.normal[-1:]])
-        nn /= np.maximum(np.linalg.norm(nn, axis=1), 1e-300)[:, None]
-        th = np.arctan2(np.linalg.norm(np.cross(nn, ax), axis=1), dot(nn, ax))
-        ok = th <= 0.5 * np.pi - cutter.beta
-        off, _ = cutter.contact(nn[ok], ax[ok])
-        pts.append(tip[ok] - off)
-        ids.append(np.full(int(ok.sum()), i, dtype=np.int64))
-        tps.append(tip[ok])
-        axs.append(ax[ok])
-    if not pts:
-        z = np.zeros((0, 3))
-        return z, np.zeros(0, np.int64), z, z
-    return np.vstack(pts), np.concatenate(ids), np.vstack(tps), np.vstack(axs)
+        tips.append(tips_a[rep_] + tt[:, None] * (tips_b - tips_a)[rep_])
+        nns.append(n_a[rep_] + tt[:, None] * (n_b - n_a)[rep_])
+        tts.append(tt)
+        u_a.append(ax_a[rep_])
+        u_b.append(ax_b[rep_])
+        last.append(not (c.closed and len(c.tip) > 2))  # the last pose itself
+    axs = np.split(slerp(unit(np.concatenate(u_a), keep_zero=False),
+                         unit(np.concatenate(u_b), keep_zero=False), np.concatenate(tts),
+                         weights_first=True), np.cumsum([len(x) for x in tts])[:-1])
+    for i, c in enumerate(curves):
+        if last[i]:
+            tips[i] = np.vstack([tips[i], c.tip[-1:]])
+            axs[i] = np.vstack([axs[i], c.axis[-1:] / np.linalg.norm(c.axis[-1])])
+            nns[i] = np.vstack([nns[i], c.normal[-1:]])
+    ids = np.repeat(np.arange(len(curves)), [len(x) for x in tips])
+    tip, ax, nn = np.vstack(tips), np.vstack(axs), np.vstack(nns)
+    nn /= np.maximum(np.linalg.norm(nn, axis=1), 1e-300)[:, None]
+    th = np.arctan2(np.linalg.norm(np.cross(nn, ax), axis=1), dot(nn, ax))
+    ok = th <= 0.5 * np.pi - cutter.beta
+    off, _ = cutter.contact(nn[ok], ax[ok])
+    return tip[ok] - off, ids[ok], tip[ok], ax[ok]

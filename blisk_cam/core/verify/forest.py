@@ -196,7 +196,9 @@ class SweptForest:
         k = len(P)
         out = np.full(k, np.inf)
         arg = np.full(k, -1, dtype=np.int64)
-        order = np.argsort(w, kind="stable")
+        # the same stable order as :meth:`_ball_rows` (int16 members sort by radix)
+        order = np.argsort(w.astype(np.int16) if len(self.members) < 2**15 else w,
+                           kind="stable")
         sel = order[self._has[w[order]]]  # members without segments: inf, −1
         Ps, ws = P[sel], w[sel]
         ds = np.empty(len(sel))

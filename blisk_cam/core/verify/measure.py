@@ -333,6 +333,8 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("poses")
     t1 = time.perf_counter()
+    # the whole path's swept volume depends on the passes alone: built beside the poses
+    whole = alongside(lambda: _whole_sweep(path.tool, curves, method))
     pc, cc_checks = _pose_checks(mesh, md, curves, cutter, rho, cones, axis, subsamples)
     tim["poses"] = time.perf_counter() - t1
 
@@ -344,8 +346,10 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
 
     step("material")
     t1 = time.perf_counter()
-    levels, lev_of, whole, values, lab = _material_left(path.tool, curves, P, method,
-                                                        P + rho * normals)
+    sweep = whole()
+    # the levels' swept volumes (the scallops') are built beside the material's query
+    cut = alongside(lambda: _level_forest(path.tool, curves, *sweep[:2], method))
+    levels, lev_of, whole, values, lab = _material_left(sweep, curves, P, P + rho * normals)
     tim["material"] = time.perf_counter() - t1
     if on_material_left is not None:
         on_material_left(smp.at_vertices(values, mesh.n_vertices))
@@ -358,8 +362,7 @@ def _verify_path(mesh, path, spacing, subsamples, refine, method, progress=None,
     cc_checks = alongside(cc_checks)
     links = alongside(lambda: (link_checks(md, path.program, cutter, rho, subsamples),
                                region_holes(mesh, axis, path.cone1, path.cone2)))
-    sc = _scallops(mesh, path.tool, curves, levels, lev_of, smp, P, normals, s_all, values,
-                   lab, rho, refine, method)
+    sc = _scallops(mesh, cut(), levels, smp, P, normals, s_all, values, lab, rho, refine)
     tim["scallops"] = time.perf_counter() - t1
 
     step("links")
@@ -535,14 +538,20 @@ def _samples_and_feet(mesh, cones, axis, smp: SurfaceSamples, pc: _PoseChecks):
     return smp, P, normals, s_all
 
 
-def _material_left(tool, curves, P, method, guess=None):
-    """Material left by all passes at the points: (levels, level of each curve, the swept
-    volume, signed distances (k,), level of the nearest pass (k,) or −1). ``guess`` (k, 3):
-    where the nearest ball centres are likely (point + ρ · normal; a ball only, for speed)."""
-    ncur = len(curves)
-    levels = np.unique([float(c.s) for c in curves]) if ncur else np.zeros(0)
+def _whole_sweep(tool, curves, method):
+    """(levels, level of each curve, the whole path's swept volume, owned by levels)."""
+    levels = np.unique([float(c.s) for c in curves]) if len(curves) else np.zeros(0)
     lev_of = np.searchsorted(levels, [float(c.s) for c in curves])
-    whole = swept_cutter(tool, curves, owners=lev_of, method=method)
+    return levels, lev_of, swept_cutter(tool, curves, owners=lev_of, method=method)
+
+
+def _material_left(sweep, curves, P, guess=None):
+    """Material left by all passes at the points: (levels, level of each curve, the swept
+    volume, signed distances (k,), level of the nearest pass (k,) or −1). ``sweep``: what
+    :func:`_whole_sweep` returns; ``guess`` (k, 3): where the nearest ball centres are likely
+    (point + ρ · normal; a ball only, for speed)."""
+    ncur = len(curves)
+    levels, lev_of, whole = sweep
     if ncur:
         values, seg = (whole.nearest(P, guess) if isinstance(whole, SweptBall)
                        else whole.nearest(P))
@@ -567,8 +576,18 @@ class _Scallops:
     ridge_pair: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
-def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values, lab, rho,
-              refine, method) -> _Scallops:
+def _level_forest(tool, curves, levels, lev_of, method):
+    """One swept volume per level, asked together (a forest: one joint pass per query);
+    None with fewer than two levels (no pair)."""
+    if len(levels) < 2:
+        return None
+    return SweptForest(map_tasks(lambda i: swept_cutter(
+        tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i], method=method),
+        range(len(levels))))
+
+
+def _scallops(mesh, cut, levels, smp, P, normals, s_all, values, lab, rho,
+              refine) -> _Scallops:
     """Per pair of neighbouring levels: the material left by those two passes alone at the
     samples and at the ridge where their envelopes meet, and the scallop height along the
     normal there."""
@@ -577,10 +596,7 @@ def _scallops(mesh, tool, curves, levels, lev_of, smp, P, normals, s_all, values
                    np.full((npairs, 3), np.nan), np.zeros(npairs, dtype=np.int64))
     if not npairs:
         return sc
-    # one swept volume per level, asked together (a forest: one joint pass per query)
-    cut = SweptForest(map_tasks(lambda i: swept_cutter(
-        tool, [c for c, lv in zip(curves, lev_of, strict=True) if lv == i], method=method),
-        range(len(levels))))
+    # ``cut``: the levels' forest (:func:`_level_forest`)
     strip = np.searchsorted(levels, s_all, side="right") - 1
     strip = np.where(s_all == levels[-1], npairs - 1, strip)
     strip = np.where((s_all < levels[0]) | (s_all > levels[-1]), -1, strip)

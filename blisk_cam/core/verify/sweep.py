@@ -24,7 +24,7 @@ from ..geometry.bvh import CHUNK, GROUP_MIN, ClusterTree, group_argmin, query_gr
 from ..geometry.vectors import dot, rotate, slerp
 from ..kernels import knn as compiled_knn
 from ..kernels import swept_cutter as compiled_cutter
-from ..runtime import map_chunks, workers
+from ..runtime import map_chunks, map_tasks, workers
 from ..tool.cutter import as_cutter
 from .sweep_ball import SweptBall, _curve_polyline
 
@@ -776,7 +776,9 @@ def _first_of_equal_rows(P, w):
     of them in the order given (itself when it is the first). Rows are sorted by a hash of
     their bits and equal neighbours in that order matched by their bits, so rows are only
     ever merged with identical ones (two different rows sharing a hash may leave a repeat
-    unmerged: it is then searched twice, with the same figures)."""
+    unmerged: it is then searched twice, with the same figures). Many rows with several
+    threads: the rows are split in two by the hash's top bit (equal rows share it) and the
+    halves sorted and matched on two threads (the same ``first`` but for such hash ties)."""
     k = len(P)
     bits = np.empty((k, 4), dtype=np.uint64)
     bits[:, 0] = np.asarray(w, dtype=np.int64).view(np.uint64)
@@ -784,13 +786,25 @@ def _first_of_equal_rows(P, w):
     with np.errstate(over="ignore"):
         h = bits * _MIX
     h = (h[:, 0] ^ (h[:, 1] >> np.uint64(7))) ^ (h[:, 2] ^ (h[:, 3] >> np.uint64(13)))
-    o = np.argsort(h)
-    b = bits[o]
-    same = np.zeros(k, dtype=bool)
-    if k > 1:
-        same[1:] = np.all(b[1:] == b[:-1], axis=1)
-    head = np.flatnonzero(~same)  # the first row of each run, in sorted positions
     first = np.empty(k, dtype=np.int64)
-    if k:
-        first[o] = np.minimum.reduceat(o, head)[np.cumsum(~same) - 1]
+
+    def match(rows):
+        o = np.argsort(h) if rows is None else rows[np.argsort(h[rows])]
+        b = bits[o]
+        same = np.zeros(len(o), dtype=bool)
+        if len(o) > 1:
+            same[1:] = np.all(b[1:] == b[:-1], axis=1)
+        head = np.flatnonzero(~same)  # the first row of each run, in sorted positions
+        if len(o):
+            first[o] = np.minimum.reduceat(o, head)[np.cumsum(~same) - 1]
+
+    if k < _SPLIT_ROWS or workers() < 2:
+        match(None)
+    else:
+        top = h >= np.uint64(1 << 63)
+        map_tasks(match, (np.flatnonzero(~top), np.flatnonzero(top)))
     return first
+
+
+#: rows from which :func:`_first_of_equal_rows` sorts its two halves on two threads
+_SPLIT_ROWS = 50_000
