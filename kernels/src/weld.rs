@@ -220,6 +220,13 @@ pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64
     }
     for i in 0..k {
         let h = ring[i % AHEAD];
+        if i + AHEAD / 2 < k {
+            // halfway: the slot fetched by now names the vertex it holds (if any), fetched too
+            let held = table[(ring[(i + AHEAD / 2) % AHEAD] >> (64 - bits)) as usize];
+            if held != u32::MAX {
+                prefetch_key(&keys, held as usize);
+            }
+        }
         if i + AHEAD < k {
             let next = hash(key(raw(i + AHEAD)));
             ring[i % AHEAD] = next;
@@ -264,4 +271,19 @@ pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64
         }
     }
     Some((verts, corner))
+}
+
+/// Ask the CPU to fetch `keys[i]` into its cache (a hint: nothing else changes).
+#[inline(always)]
+fn prefetch_key(keys: &[[u32; 3]], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if i < keys.len() {
+        // SAFETY: a prefetch reads nothing the program sees; the address is in `keys`
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            _mm_prefetch::<_MM_HINT_T0>(keys.as_ptr().add(i) as *const i8);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (keys, i);
 }
