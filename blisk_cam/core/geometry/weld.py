@@ -184,11 +184,15 @@ def _welded(V, used, weld_tolerance, distinct=False):
     # representative (lowest input index) of every used vertex: exact duplicates, then
     # clusters closer than tol. + 0.0 turns −0.0 into 0.0. The compiled kernel reads the
     # rows; the reference hashes contiguous columns
-    first = np.arange(len(Vu)) if distinct else compiled_weld.first_equal_rows(Vu)
-    if first is None:
-        first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
-    pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
-    rcols = list((Vu[pos] + 0.0).T)  # every used vertex equals one of them
+    if distinct:  # every vertex its own representative
+        first = pos = np.arange(len(Vu))
+    else:
+        first = compiled_weld.first_equal_rows(Vu)
+        if first is None:
+            first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
+        pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
+    # every used vertex equals one of them (all of them: pos is every row, no gather)
+    rcols = list(((Vu[pos] if len(pos) < len(Vu) else Vu) + 0.0).T)
     diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
     if diag == 0.0:
         raise MeshError("all vertices coincide: the mesh has no extent")
