@@ -199,10 +199,8 @@ pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64
     let raw = |i: usize| -> [u32; 3] {
         // corner i: record i / 3, after its 12-byte normal, 12 bytes per corner
         let o = 50 * (i / 3) + 12 + 12 * (i % 3);
-        let w = |j: usize| {
-            u32::from_le_bytes([records[o + j], records[o + j + 1], records[o + j + 2],
-                                records[o + j + 3]])
-        };
+        let c: &[u8; 12] = records[o..o + 12].try_into().unwrap(); // one bounds check
+        let w = |j: usize| u32::from_le_bytes([c[j], c[j + 1], c[j + 2], c[j + 3]]);
         [w(0), w(4), w(8)]
     };
     let key = |b: [u32; 3]| b.map(|x| if x == 0x8000_0000 { 0 } else { x });
@@ -213,26 +211,28 @@ pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64
     let mut keys: Vec<[u32; 3]> = Vec::with_capacity(k / 6 + 1);
     let mut verts: Vec<f64> = Vec::with_capacity(3 * (k / 6 + 1));
     let mut corner = Vec::with_capacity(k);
-    let mut ring = [0u64; AHEAD];
-    for i in 0..AHEAD.min(k) {
-        ring[i] = hash(key(raw(i)));
-        prefetch(&table, (ring[i] >> (64 - bits)) as usize);
+    // the raw corners and their hashes AHEAD rows on (each corner decoded once)
+    let mut ring = [([0u32; 3], 0u64); AHEAD];
+    for (i, slot) in ring.iter_mut().enumerate().take(k) {
+        let r = raw(i);
+        *slot = (r, hash(key(r)));
+        prefetch(&table, (slot.1 >> (64 - bits)) as usize);
     }
     for i in 0..k {
-        let h = ring[i % AHEAD];
+        let (r, h) = ring[i % AHEAD];
         if i + AHEAD / 2 < k {
             // halfway: the slot fetched by now names the vertex it holds (if any), fetched too
-            let held = table[(ring[(i + AHEAD / 2) % AHEAD] >> (64 - bits)) as usize];
+            let held = table[(ring[(i + AHEAD / 2) % AHEAD].1 >> (64 - bits)) as usize];
             if held != u32::MAX {
                 prefetch_key(&keys, held as usize);
             }
         }
         if i + AHEAD < k {
-            let next = hash(key(raw(i + AHEAD)));
-            ring[i % AHEAD] = next;
-            prefetch(&table, (next >> (64 - bits)) as usize);
+            let next = raw(i + AHEAD);
+            let hn = hash(key(next));
+            ring[i % AHEAD] = (next, hn);
+            prefetch(&table, (hn >> (64 - bits)) as usize);
         }
-        let r = raw(i);
         let b = key(r);
         let mask = (1usize << bits) - 1;
         let mut s = (h >> (64 - bits)) as usize & mask;
