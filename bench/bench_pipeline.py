@@ -7,7 +7,8 @@
 For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` triangles:
 
 * the whole run as the CLI does it (on every core), through core functions (no bpy): read
-  the binary STL from disk, weld (``TriMesh.from_arrays``), plan (``pipeline.plan_paths``:
+  the binary STL from disk and weld it exactly as it is read (``mesh_io.read_stl_welded``,
+  as the CLI), weld the rest (``TriMesh.from_arrays``), plan (``pipeline.plan_paths``:
   fit, passes, orient, link), write the paths JSON — wall time per stage and in total;
 * the same run through the real command line (``python -m blisk_cam paths``, a new process:
   interpreter start and imports included), timed from outside, with its ``seconds_*`` stats
@@ -55,7 +56,7 @@ import numpy as np  # noqa: E402
 from blisk_cam.core.errors import BliskCamError  # noqa: E402
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
-from blisk_cam.core.geometry.mesh_io import read_mesh  # noqa: E402
+from blisk_cam.core.geometry.mesh_io import read_mesh, read_stl_welded  # noqa: E402
 from blisk_cam.core.kernels import backend  # noqa: E402
 from blisk_cam.core.part.blisk import make_demo_blisk  # noqa: E402
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths  # noqa: E402
@@ -120,10 +121,11 @@ def whole_run(stl, axis, c1, c2, chord, out):
 def _whole_run(stl, axis, c1, c2, chord, out):
     t = {}
     t0 = time.perf_counter()
-    V, F = read_mesh(stl)
+    got = read_stl_welded(stl)  # as the CLI: a binary STL welded exactly as it is read
+    V, F, corners = (*read_mesh(stl), None) if got is None else got
     t["load"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    mesh = TriMesh.from_arrays(V, F)
+    mesh = TriMesh.from_arrays(V, F, soup_corners=corners)
     t["weld"] = time.perf_counter() - t1
     t1 = time.perf_counter()
     req = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,

@@ -381,6 +381,23 @@ fn first_equal_rows<'py>(
     Ok(first.map(|f| PyArray1::from_vec(py, f)))
 }
 
+/// A binary STL's records (the file's bytes from offset 84, `n` records of 50 bytes) welded
+/// exactly as read (see `weld::stl_corners_welded`): (vertices (k × 3,) float64 flat,
+/// corner → vertex (3n,) int64), or None (a NaN/infinite coordinate, short records, too
+/// many corners: the numpy reader runs).
+#[pyfunction]
+fn stl_corners_welded<'py>(
+    py: Python<'py>,
+    records: PyReadonlyArray1<'py, u8>,
+    n: usize,
+) -> PyResult<Option<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)>> {
+    let bytes = records
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("records must be a contiguous uint8 array"))?;
+    let got = py.detach(|| weld::stl_corners_welded(bytes, n));
+    Ok(got.map(|(v, c)| (PyArray1::from_vec(py, v), PyArray1::from_vec(py, c))))
+}
+
 /// Remove posed solids from the stock (see `stock::remove` and `removal.simulate_moves`):
 /// `lo`, `hi` (n_rays, K) float64 changed in place; `grid` = (θ0, Δθ, z0, Δz), `frame`
 /// (4, 3) = origin, e1, e2, d; per solid its tip and axis (m, 3), group (m,) int64 in
@@ -499,6 +516,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(forward_step, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_rows, m)?)?;
+    m.add_function(wrap_pyfunction!(stl_corners_welded, m)?)?;
     m.add_function(wrap_pyfunction!(triangle_d2, m)?)?;
     m.add_function(wrap_pyfunction!(stock_remove, m)?)?;
     m.add_function(wrap_pyfunction!(pool_identity, m)?)?;

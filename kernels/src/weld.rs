@@ -180,3 +180,110 @@ fn prefetch(table: &[u32], slot: usize) {
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (table, slot);
 }
+
+/// A binary STL's triangle soup welded exactly as it is read: the distinct corners and the
+/// faces over them, the answer `weld._welded`'s exact pass gives for the float64 soup the
+/// numpy reader builds (`mesh_io._read_stl`), without building it. `records`: the file's
+/// `n` records of 50 bytes (normal, three corners of three little-endian float32, attribute
+/// count), read from the file's bytes. Corners are equal when their float32 bits are (−0.0
+/// counted as 0.0: float32 → float64 widening is exact and keeps equality); the vertices
+/// come in the order of their first corner, with that corner's value widened (a −0.0 kept).
+/// Returns (vertices (k × 3, flat) float64, corner → vertex (3n,) int64), or None when a
+/// coordinate is NaN or infinite (the numpy reader then names the problem), the records are
+/// short, or there are too many corners for 32-bit ids.
+pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64>)> {
+    let k = n.checked_mul(3)?;
+    if k >= u32::MAX as usize || records.len() < n.checked_mul(50)? {
+        return None;
+    }
+    let raw = |i: usize| -> [u32; 3] {
+        // corner i: record i / 3, after its 12-byte normal, 12 bytes per corner
+        let o = 50 * (i / 3) + 12 + 12 * (i % 3);
+        let c: &[u8; 12] = records[o..o + 12].try_into().unwrap(); // one bounds check
+        let w = |j: usize| u32::from_le_bytes([c[j], c[j + 1], c[j + 2], c[j + 3]]);
+        [w(0), w(4), w(8)]
+    };
+    let key = |b: [u32; 3]| b.map(|x| if x == 0x8000_0000 { 0 } else { x });
+    let hash = |b: [u32; 3]| mix(b[0] as u64, b[1] as u64, b[2] as u64);
+    let slots_for = |distinct: usize| (2 * distinct.max(512)).next_power_of_two();
+    let mut bits = slots_for(k / 6 + 1).trailing_zeros();
+    let mut table = vec![u32::MAX; 1usize << bits];
+    let mut keys: Vec<[u32; 3]> = Vec::with_capacity(k / 6 + 1);
+    let mut verts: Vec<f64> = Vec::with_capacity(3 * (k / 6 + 1));
+    let mut corner = Vec::with_capacity(k);
+    // the raw corners and their hashes AHEAD rows on (each corner decoded once)
+    let mut ring = [([0u32; 3], 0u64); AHEAD];
+    for (i, slot) in ring.iter_mut().enumerate().take(k) {
+        let r = raw(i);
+        *slot = (r, hash(key(r)));
+        prefetch(&table, (slot.1 >> (64 - bits)) as usize);
+    }
+    for i in 0..k {
+        let (r, h) = ring[i % AHEAD];
+        if i + AHEAD / 2 < k {
+            // halfway: the slot fetched by now names the vertex it holds (if any), fetched too
+            let held = table[(ring[(i + AHEAD / 2) % AHEAD].1 >> (64 - bits)) as usize];
+            if held != u32::MAX {
+                prefetch_key(&keys, held as usize);
+            }
+        }
+        if i + AHEAD < k {
+            let next = raw(i + AHEAD);
+            let hn = hash(key(next));
+            ring[i % AHEAD] = (next, hn);
+            prefetch(&table, (hn >> (64 - bits)) as usize);
+        }
+        let b = key(r);
+        let mask = (1usize << bits) - 1;
+        let mut s = (h >> (64 - bits)) as usize & mask;
+        let id = loop {
+            let held = table[s];
+            if held == u32::MAX {
+                let f = r.map(f32::from_bits);
+                if !f.iter().all(|x| x.is_finite()) {
+                    return None;
+                }
+                let id = keys.len() as u32;
+                table[s] = id;
+                keys.push(b);
+                verts.extend(f.map(f64::from));
+                break id;
+            }
+            if keys[held as usize] == b {
+                break held;
+            }
+            s = (s + 1) & mask;
+        };
+        corner.push(id as i64);
+        if 2 * keys.len() > table.len() {
+            // half the slots held: twice the slots, every vertex placed again by its hash
+            bits += 1;
+            let mask = (1usize << bits) - 1;
+            let mut grown = vec![u32::MAX; 1usize << bits];
+            for (id, b) in keys.iter().enumerate() {
+                let mut s = (hash(*b) >> (64 - bits)) as usize & mask;
+                while grown[s] != u32::MAX {
+                    s = (s + 1) & mask;
+                }
+                grown[s] = id as u32;
+            }
+            table = grown;
+        }
+    }
+    Some((verts, corner))
+}
+
+/// Ask the CPU to fetch `keys[i]` into its cache (a hint: nothing else changes).
+#[inline(always)]
+fn prefetch_key(keys: &[[u32; 3]], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if i < keys.len() {
+        // SAFETY: a prefetch reads nothing the program sees; the address is in `keys`
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            _mm_prefetch::<_MM_HINT_T0>(keys.as_ptr().add(i) as *const i8);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (keys, i);
+}

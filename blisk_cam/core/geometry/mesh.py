@@ -32,6 +32,10 @@ from .weld import (
 
 __all__ = ["TriMesh", "triangle_normals", "chain_graph_paths"]
 
+#: faces per block of the capped volume's per-face terms (the temporaries stay in the cache
+#: instead of a million faces' fresh pages)
+_VOLUME_BLOCK = 1 << 15
+
 
 def triangle_normals(V, F):
     """Un-normalised face normals (twice the area vector), (m, 3) float: ``np.cross`` of
@@ -188,7 +192,8 @@ class TriMesh:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_arrays(cls, V, F, *, weld_tolerance: float | None = None, orient: bool = True):
+    def from_arrays(cls, V, F, *, weld_tolerance: float | None = None, orient: bool = True,
+                    soup_corners: int | None = None):
         """Check and prepare a mesh.
 
         Parameters
@@ -199,6 +204,13 @@ class TriMesh:
             bounding-box diagonal (merges the duplicated corners of STL files, nothing else).
         orient : bool — make the winding consistent and the normals point outward (see
             :meth:`_orient` for the rule on open patches).
+        soup_corners : int — V, F are a triangle soup (each face's three corners its own
+            vertices, as an STL's) already welded exactly: V its distinct corners in the order
+            of their first appearance (−0.0 equal to 0.0, each the first corner's value), F the
+            faces over them (``mesh_io.read_stl_welded``), and this the soup's corner count.
+            The mesh is the one the soup itself gives: the same V, F, ``welded_vertices``
+            (counted over the soup's corners) and ``face_map``; ``vertex_map`` is None (there
+            is no soup to map from), and F (int64) may become the mesh's own, not copied.
 
         What is changed, and how it is recorded
         ---------------------------------------
@@ -219,8 +231,14 @@ class TriMesh:
         """
         V, F, used = _checked_arrays(V, F)
         m_in = len(F)
-        V, vertex_map, welded = _welded(V, used, weld_tolerance)
-        F = vertex_map[F]
+        V, vertex_map, welded = _welded(V, used, weld_tolerance, distinct=soup_corners is not None)
+        if soup_corners is None:
+            F = vertex_map[F]
+        else:  # the corners the exact pass merged before V was built
+            welded += int(soup_corners) - len(vertex_map)
+            # none merged by the tolerance: the map is the identity and F is kept as it is
+            F = F if len(V) == len(vertex_map) else vertex_map[F]
+            vertex_map = None
         keep, Fk, topo, pairs = _kept_faces(F, len(V))
         dropped = int(m_in - len(Fk))
         face_map = np.full(m_in, -1, dtype=np.int64)
@@ -384,9 +402,12 @@ class TriMesh:
         ref = V.mean(axis=0)
         n2 = triangle_normals(V, F)  # (b − a) × (c − a); a·(b × c) = a·n2 about any origin
         self._set_face_normals(n2)
-        corner = V.take(F[:, 0], axis=0)  # (V[F[:, 0]] − ref) · n2 / 6, in place
-        corner -= ref
-        per_face = np.einsum("ij,ij->i", corner, n2)
+        per_face = np.empty(len(F))
+        for s in range(0, len(F), _VOLUME_BLOCK):  # (V[F[:, 0]] − ref) · n2 / 6, by blocks
+            e = s + _VOLUME_BLOCK
+            corner = V.take(F[s:e, 0], axis=0)
+            corner -= ref
+            np.einsum("ij,ij->i", corner, n2[s:e], out=per_face[s:e])
         per_face /= 6.0
         vol = np.bincount(labels, weights=per_face, minlength=ncomp)
         area = np.bincount(labels, weights=self.face_areas, minlength=ncomp)

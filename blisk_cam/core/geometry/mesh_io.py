@@ -9,16 +9,18 @@ vertices (STL); :meth:`.mesh.TriMesh.from_arrays` welds.
 
 from __future__ import annotations
 
+import mmap
 import os
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import MeshError
+from ..kernels import weld as compiled_weld
 from .axis import meridional
 
 __all__ = ["BLADE_RADIUS_MM", "MESH_SUFFIXES", "UNITS", "check_blade_size", "read_mesh",
-           "to_mm"]
+           "read_stl_welded", "to_mm"]
 
 #: mm per unit of a mesh file (``--units``)
 UNITS = {"mm": 1.0, "m": 1000.0, "in": 25.4}
@@ -67,6 +69,43 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     if not np.isfinite(V).all() and not np.isfinite(V[np.unique(F)]).all():
         raise MeshError(f"mesh file {path} has NaN or infinite coordinates: repair the mesh")
     return V, F
+
+
+def read_stl_welded(path):
+    """A binary STL read and welded exactly in one compiled pass, straight from the file's
+    bytes (mapped, not copied): (V (k, 3) float64 mm, F (m, 3) int64, the soup's corner count
+    3m), where V holds the distinct corners in the order of their first appearance. This is
+    what :func:`read_mesh` followed by the weld's exact pass makes of the file — V is the
+    welded soup's vertices, F the soup's faces mapped onto them — without the float64 soup
+    (3m, 3) and its maps: give the three to ``TriMesh.from_arrays(V, F,
+    soup_corners=...)``, which then builds the mesh ``from_arrays(*read_mesh(path))`` builds.
+
+    None when it does not apply: not a binary STL, the numpy kernels running, a NaN or
+    infinite coordinate, a file that cannot be read; :func:`read_mesh` then reads the file
+    (and names any problem).
+    """
+    path = Path(os.fspath(path)).expanduser()
+    if path.suffix.lower() != ".stl":
+        return None
+    try:
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            head = fh.read(84)
+            n = int.from_bytes(head[80:84], "little") if len(head) == 84 else 0
+            if n == 0 or 84 + 50 * n != size:  # ASCII, empty or truncated: read_mesh's case
+                return None
+            with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
+                records = np.frombuffer(mapped, dtype=np.uint8, offset=84)
+                try:
+                    got = compiled_weld.stl_corners_welded(records, n)
+                finally:
+                    del records  # the map closes only without views of it
+    except (OSError, ValueError):
+        return None
+    if got is None:
+        return None
+    V, F = got
+    return V, F, 3 * n
 
 
 # ------------------------------------------------------------------------------- STL

@@ -173,21 +173,26 @@ def _checked_arrays(V, F):
     return V, F, used
 
 
-def _welded(V, used, weld_tolerance):
+def _welded(V, used, weld_tolerance, distinct=False):
     """The used vertices welded (exact duplicates, then clusters closer than the tolerance, to
     their lowest input id): (V (k, 3), vertex_map (n,) input → mesh vertex or -1, number
-    welded)."""
+    welded). ``distinct``: no two vertices are equal (−0.0 as 0.0), the exact pass is known
+    (the caller welded exactly already)."""
     n_in = len(V)
     Vu = V if used.all() else V[used]
     iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
     # representative (lowest input index) of every used vertex: exact duplicates, then
     # clusters closer than tol. + 0.0 turns −0.0 into 0.0. The compiled kernel reads the
     # rows; the reference hashes contiguous columns
-    first = compiled_weld.first_equal_rows(Vu)
-    if first is None:
-        first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
-    pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
-    rcols = list((Vu[pos] + 0.0).T)  # every used vertex equals one of them
+    if distinct:  # every vertex its own representative
+        first = pos = np.arange(len(Vu))
+    else:
+        first = compiled_weld.first_equal_rows(Vu)
+        if first is None:
+            first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
+        pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
+    # every used vertex equals one of them (all of them: pos is every row, no gather)
+    rcols = list(((Vu[pos] if len(pos) < len(Vu) else Vu) + 0.0).T)
     diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
     if diag == 0.0:
         raise MeshError("all vertices coincide: the mesh has no extent")

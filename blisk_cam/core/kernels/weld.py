@@ -9,7 +9,7 @@ import numpy as np
 from .backend import extension
 
 __all__ = ["edge_table", "first_equal_point", "first_equal_rows",
-           "interior_pairs", "triangle_normals", "vertex_normal_sums"]
+           "interior_pairs", "stl_corners_welded", "triangle_normals", "vertex_normal_sums"]
 
 
 def first_equal_point(x, y, z):
@@ -34,6 +34,25 @@ def first_equal_rows(V):
     # aligned too: the caller's arrays may sit at any byte of a buffer (dask hands a task's
     # arrays over in its message frames), which np.ascontiguousarray keeps as they are
     return fn(np.require(V, dtype=np.float64, requirements=("C_CONTIGUOUS", "ALIGNED")))
+
+
+def stl_corners_welded(records, n: int):
+    """A binary STL's ``n`` triangles welded exactly as they are read, from its records
+    ``records`` (the file's bytes after the 84-byte header, (50 n,) uint8): (V (k, 3) float64
+    mm — the distinct corners in the order of their first appearance, each that corner's
+    float32 value widened —, F (n, 3) int64 over them), what ``geometry.weld``'s exact pass
+    makes of the float64 soup the numpy reader builds (−0.0 equal to 0.0). None when the
+    numpy kernels run (or a wheel without this kernel), or when a coordinate is NaN or
+    infinite (the reader then names the problem)."""
+    ext = extension()
+    fn = getattr(ext, "stl_corners_welded", None) if ext is not None else None
+    if fn is None:
+        return None
+    got = fn(records, int(n))
+    if got is None:
+        return None
+    V, corner = got
+    return V.reshape(-1, 3), corner.reshape(-1, 3)
 
 
 def edge_table(F, n_vertices: int):
