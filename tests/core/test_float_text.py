@@ -31,9 +31,10 @@ def _random_values(rng, n):
     """Random doubles of every kind: bit patterns, every exponent, few-bit dyadics (where
     ties live), mm coordinates."""
     bits = rng.integers(0, 2**64 - 1, size=n, dtype=np.uint64, endpoint=True).view(np.float64)
-    wide = np.ldexp(rng.random(n) + 1.0, rng.integers(-1074, 1024, size=n))
+    # ldexp's exponent is a C int: int64 is refused where long is 32 bits (Windows, numpy 1.x)
+    wide = np.ldexp(rng.random(n) + 1.0, rng.integers(-1074, 1024, size=n, dtype=np.int32))
     dyadic = np.ldexp(rng.integers(0, 2**53, size=n).astype(np.float64),
-                      -rng.integers(0, 60, size=n))
+                      -rng.integers(0, 60, size=n, dtype=np.int32))
     mm = rng.normal(size=n) * 200.0
     x = np.concatenate([bits, wide, -dyadic, dyadic, mm])
     return x[np.isfinite(x)]
