@@ -13,32 +13,12 @@ from blisk_cam.core.geometry import weld
 from blisk_cam.core.geometry.mesh import TriMesh, triangle_normals
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import weld as compiled_weld
+from tests.support.mesh_files import icosphere
 
 kernel = pytest.mark.skipif(
     compiled_weld.edge_table(np.array([[0, 1, 2]]), 3) is None,
     reason="the compiled kernels (with the edge table) are not installed or numpy runs",
 )
-
-
-def _icosphere(subdiv):
-    """A unit icosphere (closed, outward, (V, F)) by repeated midpoint subdivision."""
-    g = (1 + 5**0.5) / 2
-    V = np.array([[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
-                  [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]], float)
-    F = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9],
-                  [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2],
-                  [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
-                  [8, 6, 7], [9, 8, 1]])
-    for _ in range(subdiv):
-        e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-        uniq, inv = np.unique(e, axis=0, return_inverse=True)
-        mid = len(V) + inv.ravel().reshape(3, -1).T  # midpoints of (01, 12, 20)
-        V = np.vstack([V, V[uniq].mean(1)])
-        a, b, c = F.T
-        m01, m12, m20 = mid.T
-        F = np.vstack([np.stack(x, 1) for x in ((a, m01, m20), (b, m12, m01), (c, m20, m12),
-                                                 (m01, m12, m20))])
-    return V / np.linalg.norm(V, axis=1, keepdims=True), F
 
 
 def _same(a, b, where):
@@ -87,7 +67,7 @@ def test_open_patch():
 
 @kernel
 def test_closed_solids_with_flipped_faces_and_several_components():
-    V1, F1 = _icosphere(3)
+    V1, F1 = icosphere(3)
     V2 = V1 * 0.5 + [3.0, 0.0, 0.0]
     F2 = F1[:, ::-1] + len(V1)  # a second sphere, inside out
     V = np.concatenate([V1, V2])
@@ -121,7 +101,7 @@ def test_a_non_manifold_mesh_is_refused_the_same_way():
 @kernel
 def test_the_edge_table_against_the_reference():
     rng = np.random.default_rng(7)
-    Vs, Fs = _icosphere(2)
+    Vs, Fs = icosphere(2)
     n = len(Vs)
     perm = rng.permutation(n)  # vertex ids in no order: long unsorted key runs
     F = perm[Fs][:300]  # an open piece, boundary edges included
@@ -145,7 +125,7 @@ def test_triangle_normals_and_interior_pairs_against_the_reference():
     _same(got, ref, "normals")
     np.testing.assert_allclose(got, np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]))
     assert compiled_weld.triangle_normals(V, F - 400) is None  # negative ids: numpy's turn
-    Vs, Fs = _icosphere(2)
+    Vs, Fs = icosphere(2)
     topo = weld._edge_table(Fs[:200], len(Vs))
     got = compiled_weld.interior_pairs(topo["edge_halfedges"])
     with backend.numpy_only():

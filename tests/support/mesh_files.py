@@ -30,6 +30,29 @@ def sample_surface(nu=5, nv=4):
     return V, F
 
 
+def icosphere(subdiv):
+    """A unit icosphere by repeated midpoint subdivision of the icosahedron: closed, wound
+    outward. Returns V (n, 3) float64 on the unit sphere, F (m, 3) int64, m = 20·4^subdiv."""
+    g = (1 + 5**0.5) / 2
+    V = np.array([[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
+                  [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]], float)
+    F = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9],
+                  [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2],
+                  [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
+                  [8, 6, 7], [9, 8, 1]], dtype=np.int64)
+    for _ in range(subdiv):
+        e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+        uniq, inv = np.unique(e, axis=0, return_inverse=True)
+        # (numpy 2.0–2.1 give return_inverse the input's shape: ravel first)
+        mid = len(V) + inv.ravel().reshape(3, -1).T  # midpoints of (01, 12, 20)
+        V = np.vstack([V, V[uniq].mean(1)])
+        a, b, c = F.T
+        m01, m12, m20 = mid.T
+        F = np.vstack([np.stack(x, 1) for x in ((a, m01, m20), (b, m12, m01), (c, m20, m12),
+                                                 (m01, m12, m20))])
+    return V / np.linalg.norm(V, axis=1, keepdims=True), F
+
+
 def _normals(V, F):
     """Unit normals of the triangles (NaN for a degenerate or non-finite one)."""
     V, F = np.asarray(V), np.asarray(F)
