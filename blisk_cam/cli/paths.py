@@ -260,10 +260,8 @@ def plan_from_args(args, log=print, progress=None):
     None without those outputs. Every stage is timed (``seconds_<stage>`` in the JSON's
     stats). ``progress``: a :class:`.progress.StageProgress` for the percentage lines on
     stderr (None: silent)."""
-    import numpy as np
-
     from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import check_blade_size, read_mesh, read_stl_welded, to_mm
+    from ..core.geometry.mesh_io import check_blade_size, read_mesh, read_mesh_for_weld, to_mm
     from ..core.part.fitting import fit_cones_to_mesh
     from ..core.process.blade_finish import PathRequest, iter_plan_paths
     from ..core.runtime import workers
@@ -276,18 +274,12 @@ def plan_from_args(args, log=print, progress=None):
     soup = getattr(args, "blend", None) or getattr(args, "preview", None)
     # a binary STL without those outputs: read and welded exactly in one pass from the file,
     # the float64 soup (3 corners a face) never built — the same mesh, ~300 MB less memory
-    # touched at 1M triangles (None: read_mesh's way)
-    welded = None if soup else read_stl_welded(args.mesh)
-    corners = None
-    if welded is not None:
-        V, F, corners = welded
-        welded = None  # (the tuple would hold the arrays through the plan)
-        V = to_mm(V, args.units)
-        if not np.isfinite(V).all():  # overflowed by the units: read_mesh's way names it
-            corners = None
-    if corners is None:
+    # touched at 1M triangles (corners None: read_mesh's way)
+    if soup:
         V, F = read_mesh(args.mesh)
-        V = to_mm(V, args.units)
+        V, corners = to_mm(V, args.units), None
+    else:
+        V, F, corners = read_mesh_for_weld(args.mesh, args.units)
     times["load"] = time.perf_counter() - t
     t = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F, soup_corners=corners)
