@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import MeshError
 from ..kernels import weld as compiled_weld
 from .axis import meridional
+from .mesh import TriMesh
 
 __all__ = ["BLADE_RADIUS_MM", "MESH_SUFFIXES", "UNITS", "check_blade_size", "read_mesh",
            "read_mesh_for_weld", "read_stl_welded", "read_trimesh", "to_mm"]
@@ -134,8 +135,6 @@ def read_trimesh(path, units: str = "mm"):
     ``TriMesh.from_arrays(to_mm(*read_mesh(path)))`` makes it), read by
     :func:`read_mesh_for_weld`: for a binary STL its ``vertex_map`` is None (there is no
     soup to map from). Raises MeshError naming the file and the problem."""
-    from .mesh import TriMesh  # (the weld's modules, scipy's graphs: only when a mesh is made)
-
     V, F, corners = read_mesh_for_weld(path, units)
     return TriMesh.from_arrays(V, F, soup_corners=corners)
 
