@@ -135,13 +135,11 @@ def _holder(point: dict, diameter: float) -> str | None:
 
 
 def _expand_sweep(job: Job) -> list[Task]:
-    from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import read_mesh
+    from ..core.geometry.mesh_io import read_trimesh
 
     if "mesh" not in job.args:
         raise JobsError(f"job {job.name!r}: sweep needs mesh = the blade")
-    V, F = read_mesh(job.args["mesh"])
-    mesh = TriMesh.from_arrays(V, F)
+    mesh = read_trimesh(job.args["mesh"])  # a binary STL welded as it is read
     tasks = []
     for i, point in enumerate(sweep_points(job.args)):
         args = dict(point)

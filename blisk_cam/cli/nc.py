@@ -105,11 +105,9 @@ def _part_mesh(args):
     f = getattr(args, "part_mesh", None)
     if not f:
         return None
-    from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import read_mesh
+    from ..core.geometry.mesh_io import read_trimesh
 
-    V, F = read_mesh(f)
-    return TriMesh.from_arrays(V, F)
+    return read_trimesh(f)  # a binary STL welded as it is read (no float64 soup)
 
 
 def planned_mesh_stats(mesh_file, units: str = "mm") -> dict:
@@ -123,8 +121,7 @@ def recorded_mesh(path):
     """The mesh the paths were planned on, as recorded by :func:`planned_mesh_stats`, when the
     file is still there with the same bytes; else None, with a warning on stderr saying why
     (nothing recorded: None, silently — the program header says what was budgeted)."""
-    from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import read_mesh, to_mm
+    from ..core.geometry.mesh_io import read_trimesh
 
     f, sha = path.stats.get("mesh_file"), path.stats.get("mesh_sha256")
     if not f or not sha:
@@ -135,10 +132,10 @@ def recorded_mesh(path):
         print(f"{PROG}: warning: the blade mesh {f} {why}: constant-error budgets the path's "
               "chord tolerance whole; give the blade mesh with --part-mesh", file=sys.stderr)
         return None
-    V, F = read_mesh(f)
+    mesh = read_trimesh(f, path.stats.get("mesh_units", "mm"))
     print(f"{PROG}: constant-error measured against {f}, the mesh the paths were planned on "
           "(--part-mesh gives another)", file=sys.stderr)
-    return TriMesh.from_arrays(to_mm(V, path.stats.get("mesh_units", "mm")), F)
+    return mesh
 
 
 def _whole_at_least_1(text):

@@ -253,17 +253,16 @@ def read_obstacles(files, units="mm"):
     return out
 
 
-def plan_from_args(args, log=print, progress=None):
+def plan_from_args(args, log=print, progress=None, loaded=None):
     """The ``paths`` run through the core API: read the mesh, weld, fit the cones not given,
     plan, verify (``--verify``). Returns (V, F, mesh, PathRequest, PlanResult, VerifyReport
     or None, {stage: seconds}); V, F (the file's arrays, for ``--blend``/``--preview``) are
     None without those outputs. Every stage is timed (``seconds_<stage>`` in the JSON's
     stats). ``progress``: a :class:`.progress.StageProgress` for the percentage lines on
-    stderr (None: silent)."""
-    import numpy as np
-
+    stderr (None: silent). ``loaded``: called with no argument once the mesh file is read
+    (before the weld)."""
     from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import check_blade_size, read_mesh, read_stl_welded, to_mm
+    from ..core.geometry.mesh_io import check_blade_size, read_mesh, read_mesh_for_weld, to_mm
     from ..core.part.fitting import fit_cones_to_mesh
     from ..core.process.blade_finish import PathRequest, iter_plan_paths
     from ..core.runtime import workers
@@ -276,19 +275,15 @@ def plan_from_args(args, log=print, progress=None):
     soup = getattr(args, "blend", None) or getattr(args, "preview", None)
     # a binary STL without those outputs: read and welded exactly in one pass from the file,
     # the float64 soup (3 corners a face) never built — the same mesh, ~300 MB less memory
-    # touched at 1M triangles (None: read_mesh's way)
-    welded = None if soup else read_stl_welded(args.mesh)
-    corners = None
-    if welded is not None:
-        V, F, corners = welded
-        welded = None  # (the tuple would hold the arrays through the plan)
-        V = to_mm(V, args.units)
-        if not np.isfinite(V).all():  # overflowed by the units: read_mesh's way names it
-            corners = None
-    if corners is None:
+    # touched at 1M triangles (corners None: read_mesh's way)
+    if soup:
         V, F = read_mesh(args.mesh)
-        V = to_mm(V, args.units)
+        V, corners = to_mm(V, args.units), None
+    else:
+        V, F, corners = read_mesh_for_weld(args.mesh, args.units)
     times["load"] = time.perf_counter() - t
+    if loaded is not None:
+        loaded()
     t = time.perf_counter()
     mesh = TriMesh.from_arrays(V, F, soup_corners=corners)
     # metres or inches: refused with the size and the fix; measured on the welded vertices
@@ -455,9 +450,14 @@ def _cmd_paths(args):
 
     progress = StageProgress(quiet=args.quiet)
     # the mesh file's SHA-256 (for nc's constant-error budget) on a thread of its own while
-    # the plan runs: hashlib releases the GIL (with --threads 1: at the write, as before)
-    mesh_stats = alongside(lambda: planned_mesh_stats(args.mesh, args.units))
-    V, F, mesh, req, plan, report, times = plan_from_args(args, progress=progress)
+    # the plan runs: hashlib releases the GIL (with --threads 1: at the write, as before).
+    # Started once the file is read: the read's kernel works on every core, the weld after
+    # it mostly on one (a 65 MB STL: its 0.05 s of hashing no longer slows the read)
+    hashing = []
+    V, F, mesh, req, plan, report, times = plan_from_args(
+        args, progress=progress, loaded=lambda: hashing.append(
+            alongside(lambda: planned_mesh_stats(args.mesh, args.units))))
+    mesh_stats = hashing[0]
     path = plan.path
     verdict = None
     if report is not None:

@@ -79,15 +79,15 @@ def _check_args(args):
 
 
 def _part(args, log):
-    from ..core.geometry.mesh import TriMesh
-    from ..core.geometry.mesh_io import read_mesh
+    from ..core.geometry.mesh_io import read_mesh, read_trimesh
     from ..core.part.model import part_from_blade, read_rz_csv, split_blisk_mesh
 
-    V, F = read_mesh(args.part)
     if args.hub_profile:
-        # welded: an STL's triangle soup has no boundary loops to close the blade on
-        mesh = TriMesh.from_arrays(V, F)
+        # welded: an STL's triangle soup has no boundary loops to close the blade on (a
+        # binary STL welded as it is read, no float64 soup)
+        mesh = read_trimesh(args.part)
         return part_from_blade(mesh.V, mesh.F, read_rz_csv(args.hub_profile), args.blade_count)
+    V, F = read_mesh(args.part)
     split = split_blisk_mesh(V, F, args.blade_count)
     log(f"part: {len(split.hub_faces)} hub faces, {len(split.blade_faces)} blade faces, "
         f"{split.blade_count} blades")

@@ -397,3 +397,28 @@ def test_effective_radii_of_several_sides_equal_separate_calls():
         ef, ek = cut.effective_radii(n, a, f, k)
         assert np.array_equal(ef, cut.effective_radius(n, a, f), equal_nan=True)
         assert np.array_equal(ek, cut.effective_radius(n, a, k), equal_nan=True)
+
+
+@pytest.mark.parametrize("kind", sorted(CUTTERS))
+def test_tips_and_zero_speed_from_one_contact_are_the_two_calls(kind):
+    """``cl_points_and_zero_speed`` (the orient stage's one contact per pass) gives the very
+    arrays of ``cl_points`` and ``zero_speed``, on poses tilted every way and on poses with
+    the axis along the normal (the contact's radial direction then a perpendicular of the
+    axis), for one axis per pose and one axis for all."""
+    cut = CUTTERS[kind]
+    rng = np.random.default_rng(7)
+    n = np.array([0.0, 0.0, 1.0]) + 0.25 * rng.normal(size=(200, 3))
+    n[5] = (0.0, 0.0, 1.0)  # along the single axis below
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    tilt = 0.3 * rng.normal(size=(200, 3))
+    a = n + tilt - np.einsum("ij,ij->i", tilt, n)[:, None] * n
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    a[::7] = n[::7]  # on the axis: a flat's bottom or a ball's tip, zero speed
+    cc = rng.uniform(-50.0, 50.0, size=(200, 3))
+    for axes in (a, np.array([0.0, 0.0, 1.0])):
+        tips, zero = cut.cl_points_and_zero_speed(cc, n, axes, 0.01)
+        want = cut.cl_points(cc, n, axes)
+        assert tips.dtype == want.dtype and np.array_equal(tips.view(np.uint64),
+                                                           want.view(np.uint64))
+        assert np.array_equal(zero, cut.zero_speed(n, axes, 0.01))
+        assert zero.any()  # the poses on the axis

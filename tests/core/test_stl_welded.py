@@ -10,10 +10,17 @@ import pytest
 
 from blisk_cam.core.errors import MeshError
 from blisk_cam.core.geometry.mesh import TriMesh
-from blisk_cam.core.geometry.mesh_io import read_mesh, read_stl_welded
+from blisk_cam.core.geometry.mesh_io import (
+    UNITS,
+    read_mesh,
+    read_mesh_for_weld,
+    read_stl_welded,
+    read_trimesh,
+    to_mm,
+)
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.part.blisk import make_demo_blisk
-from tests.support.mesh_files import write_ascii_stl, write_binary_stl
+from tests.support.mesh_files import write_ascii_stl, write_binary_stl, write_obj
 
 kernel = pytest.mark.skipif(
     backend.extension() is None
@@ -95,3 +102,75 @@ def test_where_it_does_not_apply_read_mesh_reads_the_file(tmp_path):
     assert read_stl_welded(bad) is None
     with pytest.raises(MeshError, match="NaN or infinite"):
         read_mesh(bad)
+
+
+def _same_mesh(a, b):
+    """The welded meshes agree bit for bit (vertices, faces, the face map, the counts)."""
+    for name in ("V", "F", "face_map"):
+        assert _same_bits(getattr(a, name), getattr(b, name)), name
+    assert (a.welded_vertices, a.dropped_faces, a.flipped_faces) == (
+        b.welded_vertices, b.dropped_faces, b.flipped_faces)
+
+
+@kernel
+@pytest.mark.parametrize("units", ["mm", "in"])
+def test_read_trimesh_is_the_mesh_of_the_files_soup(tmp_path, units):
+    """``read_trimesh`` (the readers of the commands: nc's part meshes, simulate's and rough's
+    blade with a hub profile, batch's sweep) gives the mesh the numpy reader's soup scaled to
+    mm gives, the STL welded as it is read (no map from a soup), in any units."""
+    C, S = _soup()
+    path = write_binary_stl(tmp_path / "blade.stl", C, S)
+    want = TriMesh.from_arrays(to_mm(read_mesh(path)[0], units), read_mesh(path)[1])
+    V, F, corners = read_mesh_for_weld(path, units)
+    assert corners == C.size // 3 and len(V) < len(C)  # welded as read
+    got = read_trimesh(path, units)
+    _same_mesh(got, want)
+    assert got.vertex_map is None
+    assert float(np.abs(got.V).max()) == pytest.approx(
+        float(np.abs(C).max()) * UNITS[units], rel=1e-12)
+
+
+def test_read_trimesh_reads_the_other_files_as_read_mesh(tmp_path):
+    """An OBJ, an ASCII STL, or the numpy kernels: the arrays of ``read_mesh`` (corners
+    None), the same mesh; unknown units and a missing file are refused as ``to_mm`` and
+    ``read_mesh`` refuse them."""
+    C, S = _soup()
+    n = 300  # faces: a small part of the blade
+    sub_C, sub_S = C[: 3 * n], S[:n]
+    want = TriMesh.from_arrays(sub_C, sub_S)
+    for path in (write_obj(tmp_path / "b.obj", sub_C, sub_S),
+                 write_ascii_stl(tmp_path / "a.stl", sub_C, sub_S)):
+        V, F, corners = read_mesh_for_weld(path)
+        assert corners is None and len(V) == len(read_mesh(path)[0])
+        got = read_trimesh(path)
+        assert got.vertex_map is not None
+        np.testing.assert_allclose(got.V, want.V, atol=1e-4)  # the text's digits
+        assert np.array_equal(got.F, want.F)
+    stl = write_binary_stl(tmp_path / "blade.stl", C, S)
+    with backend.numpy_only():
+        V, F, corners = read_mesh_for_weld(stl)
+        assert corners is None and len(V) == len(C)
+        _same_mesh(read_trimesh(stl), TriMesh.from_arrays(*read_mesh(stl)))
+    with pytest.raises(MeshError, match="unknown mesh units"):
+        read_mesh_for_weld(stl, "ft")
+    with pytest.raises(MeshError, match="not found"):
+        read_trimesh(tmp_path / "missing.stl")
+
+
+@kernel
+def test_the_commands_part_meshes_are_read_welded(tmp_path, capsys):
+    """nc's ``--part-mesh`` and the mesh a paths file recorded (in its units) are read by
+    ``read_trimesh``: a binary STL welded as it is read, the soup's mesh."""
+    from types import SimpleNamespace
+
+    from blisk_cam.cli.nc import _part_mesh, planned_mesh_stats, recorded_mesh
+
+    C, S = _soup()
+    path = write_binary_stl(tmp_path / "blade.stl", C, S)
+    got = _part_mesh(SimpleNamespace(part_mesh=str(path)))
+    assert got.vertex_map is None
+    _same_mesh(got, TriMesh.from_arrays(*read_mesh(path)))
+    rec = recorded_mesh(SimpleNamespace(stats=planned_mesh_stats(path, "in")))
+    assert rec.vertex_map is None
+    _same_mesh(rec, TriMesh.from_arrays(to_mm(read_mesh(path)[0], "in"), read_mesh(path)[1]))
+    assert "constant-error measured against" in capsys.readouterr().err

@@ -18,9 +18,10 @@ import numpy as np
 from ..errors import MeshError
 from ..kernels import weld as compiled_weld
 from .axis import meridional
+from .mesh import TriMesh
 
 __all__ = ["BLADE_RADIUS_MM", "MESH_SUFFIXES", "UNITS", "check_blade_size", "read_mesh",
-           "read_stl_welded", "to_mm"]
+           "read_mesh_for_weld", "read_stl_welded", "read_trimesh", "to_mm"]
 
 #: mm per unit of a mesh file (``--units``)
 UNITS = {"mm": 1.0, "m": 1000.0, "in": 25.4}
@@ -106,6 +107,36 @@ def read_stl_welded(path):
         return None
     V, F = got
     return V, F, 3 * n
+
+
+def read_mesh_for_weld(path, units: str = "mm"):
+    """A mesh file's arrays ready for the weld: (V (n, 3) float64 mm, F (m, 3) int64,
+    soup_corners int or None), to give to ``TriMesh.from_arrays(V, F,
+    soup_corners=soup_corners)``. A binary STL is read and welded exactly as it is read
+    (:func:`read_stl_welded`: the float64 soup, 3 corners a face, is never built) and
+    ``soup_corners`` is its corner count 3m; any other file (or where that does not apply, or
+    where ``units`` overflow a coordinate) is :func:`read_mesh`'s arrays with None. Either
+    way ``from_arrays`` builds the same mesh. ``units``: the file's ("mm", "m", "in",
+    :func:`to_mm`). Raises MeshError as :func:`read_mesh` and :func:`to_mm` do."""
+    to_mm(np.zeros((0, 3)), units)  # unknown units: refused before the file is read
+    welded = read_stl_welded(path)
+    if welded is not None:
+        V, F, corners = welded
+        del welded  # (the tuple would hold the file's arrays)
+        V = to_mm(V, units)
+        if np.isfinite(V).all():  # else overflowed by the units: read_mesh's way names it
+            return V, F, corners
+    V, F = read_mesh(path)
+    return to_mm(V, units), F, None
+
+
+def read_trimesh(path, units: str = "mm"):
+    """The :class:`.mesh.TriMesh` of a mesh file in ``units`` (welded and oriented, as
+    ``TriMesh.from_arrays(to_mm(*read_mesh(path)))`` makes it), read by
+    :func:`read_mesh_for_weld`: for a binary STL its ``vertex_map`` is None (there is no
+    soup to map from). Raises MeshError naming the file and the problem."""
+    V, F, corners = read_mesh_for_weld(path, units)
+    return TriMesh.from_arrays(V, F, soup_corners=corners)
 
 
 # ------------------------------------------------------------------------------- STL

@@ -377,9 +377,10 @@ def _orient(
         axes = smooth_axes(want, nrm, strategy.max_turn, closed)
         moved = np.einsum("ij,ij->i", axes, want) < math.cos(1e-6)
         flags[moved] |= FLAG_AXIS_SMOOTHED
-    flags[cutter.zero_speed(nrm, axes, req.zero_speed_tol)] |= FLAG_ZERO_SPEED
+    tip, zero = cutter.cl_points_and_zero_speed(cc, nrm, axes, req.zero_speed_tol)
+    flags[zero] |= FLAG_ZERO_SPEED
     curve.axis = axes
-    curve.tip = cutter.cl_points(cc, nrm, axes)
+    curve.tip = tip
     curve.flags = curve.flags | flags
 
 

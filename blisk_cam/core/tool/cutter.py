@@ -432,8 +432,9 @@ class Cutter:
                 f"{math.degrees(g['th_hi']):.3g}° — reduce the lead/tilt")
         theta = np.minimum(theta, g["th_hi"])
         on_axis = pl <= 1e-300
-        u = np.where(on_axis[:, None], perpendicular(a),
-                     -perp / np.where(on_axis, 1.0, pl)[:, None])
+        u = -perp / np.where(on_axis, 1.0, pl)[:, None]
+        if on_axis.any():  # (a perpendicular of every axis cost more than the rest here)
+            u[on_axis] = perpendicular(a[on_axis])
         # bottom contact: a conical bottom's apex (θ < α), or a flat bottom (nearly) flush
         # (α = 0, e > 0, θ < _FLUSH_TILT): see _FLUSH_TILT for the blend to the ring contact
         flush = (self.alpha == 0.0) & (self.e > 0) & (theta < _FLUSH_TILT)
@@ -452,6 +453,12 @@ class Cutter:
         normals ``normal`` and tool axes ``axis`` (see :meth:`contact`)."""
         off, _ = self.contact(normal, axis)
         return np.asarray(cc, dtype=np.float64).reshape(-1, 3) + off
+
+    def cl_points_and_zero_speed(self, cc, normal, axis, tol: float = 1e-3):
+        """(:meth:`cl_points`, :meth:`zero_speed`) of the same poses from one contact
+        computation: the same arrays as the two calls."""
+        off, info = self.contact(normal, axis)
+        return np.asarray(cc, dtype=np.float64).reshape(-1, 3) + off, info.rho <= float(tol)
 
     def zero_speed(self, normal, axis, tol: float = 1e-3) -> np.ndarray:
         """(k,) bool: the contact lies within ``tol`` mm of the rotation axis, where the
