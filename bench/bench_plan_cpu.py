@@ -10,6 +10,12 @@ stages' wall seconds from the path's stats, then the sub-steps of the passes tha
 compiled kernels took over — the scallop measurement (``expansion.measure_cusp``), its
 distances to the ball-centre polylines and the slicing — timed by wrapping them. The paths
 of the two backends must be the same floats: the line says so.
+
+The process runs numpy's OpenBLAS on one thread, as ``python -m blisk_cam`` does
+(``blisk_cam/cli/blas.py``): with a thread per core, OpenBLAS's spinning after each matrix
+product took ~1.6 s of CPU of a 1M-triangle plan (3.7 s → 2.1 s for the passes on one
+worker) that the command line never spends; ``OPENBLAS_NUM_THREADS`` set in the environment
+wins, and the first line prints it.
 """
 
 from __future__ import annotations
@@ -23,10 +29,14 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+from blisk_cam.cli.blas import BLAS_THREADS_ENV, use_one_blas_thread  # noqa: E402
+
+use_one_blas_thread()  # as `python -m blisk_cam` runs (before numpy loads OpenBLAS)
+
+import numpy as np  # noqa: E402
 
 from blisk_cam.core.geometry.axis import Axis  # noqa: E402
 from blisk_cam.core.geometry.mesh import TriMesh  # noqa: E402
@@ -81,6 +91,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--threads", type=int, default=1)
     args = ap.parse_args()
+    print(f"{BLAS_THREADS_ENV}={os.environ.get(BLAS_THREADS_ENV)}")
     if args.triangles:
         V, F, c1, c2 = subdivided_blade("rotor37", args.triangles)
     else:
