@@ -39,6 +39,17 @@ struct Line {
 }
 
 impl Line {
+    /// From Python's `(alpha, beta, gamma, alpha**2)` and the on-level tolerance.
+    fn new(line: (f64, f64, f64, f64), on_tol: f64) -> Line {
+        Line {
+            alpha: line.0,
+            beta: line.1,
+            gamma: line.2,
+            alpha2: line.3,
+            on_tol,
+        }
+    }
+
     /// `vertex_side`: the signed meridional distance, 0 within the tolerance.
     #[inline(always)]
     fn side(&self, r: f64, z: f64) -> f64 {
@@ -137,6 +148,33 @@ impl Line {
     }
 }
 
+/// The vertices' meridional r, z (n,), radial vectors (n, 3) and positions V (n, 3), the
+/// lengths checked against r's.
+#[allow(clippy::type_complexity)]
+fn cone_vertices<'a>(
+    r: &'a PyReadonlyArray1<'_, f64>,
+    z: &'a PyReadonlyArray1<'_, f64>,
+    radial: &'a PyReadonlyArray2<'_, f64>,
+    v: &'a PyReadonlyArray2<'_, f64>,
+) -> PyResult<(&'a [f64], &'a [f64], &'a [P3], &'a [P3])> {
+    let rr = crate::slice1(r, "r")?;
+    let n = rr.len();
+    let zz = crate::arrays::values_n(z, "z", n)?;
+    let rad = crate::arrays::points_n(radial, "radial", n)?;
+    let vv = crate::arrays::points_n(v, "V", n)?;
+    Ok((rr, zz, rad, vv))
+}
+
+/// Edge `e` is a row of `edges` (flat, 2 a row) joining two of the n vertices.
+#[inline]
+fn edge_ok(edges: &[i64], e: i64, n: usize) -> bool {
+    let ok = |i: i64| i >= 0 && (i as usize) < n;
+    e >= 0
+        && (e as usize) < edges.len() / 2
+        && ok(edges[2 * e as usize])
+        && ok(edges[2 * e as usize + 1])
+}
+
 /// (points (k, 3), t (k,)): the crossings of the cone line on the edges `edge_ids` (k,) of
 /// `edges` (ne, 2), from the vertices' meridional r, z (n,), radial vectors (n, 3) and
 /// positions V (n, 3); on `threads` threads with the GIL released.
@@ -154,31 +192,15 @@ pub fn cone_edge_roots<'py>(
     on_tol: f64,
     threads: usize,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>)> {
-    let rr = crate::slice1(&r, "r")?;
+    let (rr, zz, rad, vv) = cone_vertices(&r, &z, &radial, &v)?;
     let n = rr.len();
-    let zz = crate::arrays::values_n(&z, "z", n)?;
-    let rad = crate::arrays::points_n(&radial, "radial", n)?;
-    let vv = crate::arrays::points_n(&v, "V", n)?;
     let ee = crate::arrays::flat(&edges, "edges")?;
     let ids = crate::slice1(&edge_ids, "edge_ids")?;
-    let ne = ee.len() / 2;
     // only the edges asked for are checked (a level crosses a few thousand of millions)
-    let bad_vertex = |i: i64| i < 0 || i as usize >= n;
-    if ids.iter().any(|&e| {
-        e < 0
-            || e as usize >= ne
-            || bad_vertex(ee[2 * e as usize])
-            || bad_vertex(ee[2 * e as usize + 1])
-    }) {
+    if ids.iter().any(|&e| !edge_ok(ee, e, n)) {
         return Err(PyValueError::new_err("edge or vertex ids out of range"));
     }
-    let ln = Line {
-        alpha: line.0,
-        beta: line.1,
-        gamma: line.2,
-        alpha2: line.3,
-        on_tol,
-    };
+    let ln = Line::new(line, on_tol);
     let pl = crate::pool_for(threads, ids.len())?;
     let k = ids.len();
     let mut pts = vec![0.0f64; 3 * k];
@@ -244,47 +266,32 @@ pub fn cone_level<'py>(
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray2<f64>>,
 )> {
-    let rr = crate::slice1(&r, "r")?;
+    let (rr, zz, rad, vv) = cone_vertices(&r, &z, &radial, &v)?;
     let n = rr.len();
-    let zz = crate::arrays::values_n(&z, "z", n)?;
-    let rad = crate::arrays::points_n(&radial, "radial", n)?;
-    let vv = crate::arrays::points_n(&v, "V", n)?;
     let nn = crate::arrays::points_n(&vn, "vn", n)?;
     let ff = crate::arrays::flat(&f, "F")?;
     let ee = crate::arrays::flat(&edges, "edges")?;
     let fe = crate::arrays::flat(&face_edges, "face_edges")?;
     let cc = crate::slice1(&cand, "cand")?;
-    let (m, ne) = (ff.len() / 3, ee.len() / 2);
+    let m = ff.len() / 3;
     if fe.len() != 3 * m {
         return Err(PyValueError::new_err(
             "face_edges must have a row per face of F",
         ));
     }
-    let bad_vertex = |i: i64| i < 0 || i as usize >= n;
     // only the faces asked for (and their edges) are checked
     if cc.iter().any(|&c| {
         c < 0 || c as usize >= m || {
             let k = 3 * c as usize;
-            ff[k..k + 3].iter().any(|&x| bad_vertex(x))
-                || fe[k..k + 3].iter().any(|&e| {
-                    e < 0
-                        || e as usize >= ne
-                        || bad_vertex(ee[2 * e as usize])
-                        || bad_vertex(ee[2 * e as usize + 1])
-                })
+            ff[k..k + 3].iter().any(|&x| x < 0 || x as usize >= n)
+                || fe[k..k + 3].iter().any(|&e| !edge_ok(ee, e, n))
         }
     }) {
         return Err(PyValueError::new_err(
             "face, edge or vertex ids out of range",
         ));
     }
-    let ln = Line {
-        alpha: line.0,
-        beta: line.1,
-        gamma: line.2,
-        alpha2: line.3,
-        on_tol,
-    };
+    let ln = Line::new(line, on_tol);
     let (uedges, links, pts, ts, nrm) = py.detach(|| {
         // the crossed faces, in the candidates' order: the links up → dn (edge ids)
         let mut up: Vec<i64> = Vec::new();
