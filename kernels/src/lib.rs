@@ -17,6 +17,7 @@ mod collision_refine;
 mod collision_tree;
 mod collision_walk;
 mod float_text;
+mod grid_samples;
 mod hypot;
 mod knn;
 mod level_chains;
@@ -544,6 +545,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(probe::points_within, m)?)?;
     m.add_function(wrap_pyfunction!(lift::fixed_point_lift, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table, m)?)?;
+    m.add_function(wrap_pyfunction!(grid_samples::grid_samples, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_level, m)?)?;
@@ -554,6 +556,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::vertex_normal_sums, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_topology::interpolate_normals, m)?)?;
     m.add_function(wrap_pyfunction!(float_text::json_float_array, m)?)?;
     Ok(())
 }

@@ -281,3 +281,64 @@ pub fn vertex_normal_sums<'py>(
     let a: Bound<'py, PyArray1<f64>> = PyArray1::from_vec(py, out);
     Ok(Some(a.reshape([n_vertices, 3])?.into_any()))
 }
+
+/// `TriMesh.interpolate_normals`: per point the corners' vertex normals weighted by the
+/// barycentric coordinates and added in the corners' order, `(n_a b0 + n_b b1) + n_c b2`,
+/// divided by its norm as np.linalg.norm sums it, `(x0² + x1²) + x2²` (left as it is when
+/// that is not positive): the same products, sums and quotients, so the same bits. None
+/// when a face id is outside 0..m or a corner outside 0..n.
+pub fn smooth_normals(
+    vn: &[[f64; 3]],
+    f: &[[i64; 3]],
+    faces: &[i64],
+    bary: &[[f64; 3]],
+) -> Option<Vec<f64>> {
+    let (n, m) = (vn.len(), f.len());
+    if faces.iter().any(|&x| x < 0 || x as usize >= m) {
+        return None;
+    }
+    let mut out = Vec::with_capacity(3 * faces.len());
+    for (&x, b) in faces.iter().zip(bary) {
+        let t = &f[x as usize];
+        if t.iter().any(|&i| i < 0 || i as usize >= n) {
+            return None;
+        }
+        let (a, p, c) = (&vn[t[0] as usize], &vn[t[1] as usize], &vn[t[2] as usize]);
+        let s = [
+            (a[0] * b[0] + p[0] * b[1]) + c[0] * b[2],
+            (a[1] * b[0] + p[1] * b[1]) + c[1] * b[2],
+            (a[2] * b[0] + p[2] * b[1]) + c[2] * b[2],
+        ];
+        let ln = ((s[0] * s[0] + s[1] * s[1]) + s[2] * s[2]).sqrt();
+        let d = if ln > 0.0 { ln } else { 1.0 };
+        out.extend_from_slice(&[s[0] / d, s[1] / d, s[2] / d]);
+    }
+    Some(out)
+}
+
+/// [`smooth_normals`] for Python: (k, 3) float64 of vertex normals vn (n, 3), faces F (m, 3),
+/// face ids (k,) and barycentric coordinates (k, 3); None (an id out of range: numpy's turn).
+#[pyfunction]
+pub fn interpolate_normals<'py>(
+    py: Python<'py>,
+    vn: PyReadonlyArray2<'py, f64>,
+    f: PyReadonlyArray2<'py, i64>,
+    faces: numpy::PyReadonlyArray1<'py, i64>,
+    bary: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let v = crate::points(&vn, "vertex normals")?;
+    let ff = crate::arrays::flat(&f, "F")?;
+    if f.shape()[1] != 3 {
+        return Err(pyo3::exceptions::PyValueError::new_err("F must be (m, 3)"));
+    }
+    // SAFETY: (m, 3) C-contiguous int64 rows are [i64; 3]s (same layout and alignment)
+    let tri: &[[i64; 3]] = unsafe { std::slice::from_raw_parts(ff.as_ptr().cast(), ff.len() / 3) };
+    let fc = crate::slice1(&faces, "faces")?;
+    let b = crate::arrays::points_n(&bary, "bary", fc.len())?;
+    let Some(out) = py.detach(|| smooth_normals(v, tri, fc, b)) else {
+        return Ok(None);
+    };
+    let k = out.len() / 3;
+    let a: Bound<'py, PyArray1<f64>> = PyArray1::from_vec(py, out);
+    Ok(Some(a.reshape([k, 3])?.into_any()))
+}

@@ -8,8 +8,9 @@ import numpy as np
 
 from .backend import extension
 
-__all__ = ["edge_table", "first_equal_point", "first_equal_rows",
-           "interior_pairs", "stl_corners_welded", "triangle_normals", "vertex_normal_sums"]
+__all__ = ["edge_table", "first_equal_point", "first_equal_rows", "interior_pairs",
+           "interpolate_normals", "stl_corners_welded", "triangle_normals",
+           "vertex_normal_sums"]
 
 
 def first_equal_point(x, y, z):
@@ -99,6 +100,24 @@ def vertex_normal_sums(n_vertices: int, F, n2):
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
     return fn(int(n_vertices), np.require(F, requirements=req), np.require(n2, requirements=req))
+
+
+def interpolate_normals(vn, F, faces, bary):
+    """``TriMesh.interpolate_normals``: the vertex normals vn (n, 3) float64 of the corners
+    of faces (k,) int64 (rows of F (m, 3) int64) weighted by bary (k, 3) float64, added in
+    the corners' order and normalised as the numpy reference does (the same bits), (k, 3)
+    float64; None when the numpy kernels run, the arrays are of other types or shapes, or
+    an id is out of range (numpy's turn: it wraps negative face ids)."""
+    ext = extension()
+    fn = getattr(ext, "interpolate_normals", None) if ext is not None else None
+    if (fn is None or vn.dtype != np.float64 or F.dtype != np.int64
+            or faces.dtype != np.int64 or bary.dtype != np.float64 or faces.ndim != 1
+            or F.ndim != 2 or F.shape[1] != 3 or vn.ndim != 2 or vn.shape[1] != 3
+            or bary.shape != (len(faces), 3)):
+        return None
+    req = ("C_CONTIGUOUS", "ALIGNED")
+    return fn(np.require(vn, requirements=req), np.require(F, requirements=req),
+              np.require(faces, requirements=req), np.require(bary, requirements=req))
 
 
 def interior_pairs(edge_halfedges):
