@@ -2,14 +2,18 @@
 (:func:`parallel`), chunked maps over a thread pool, work beside the
 calling thread (:func:`alongside`), the cooperative cancel poll
 (:func:`cancellable`, :func:`check_cancel`, :class:`Cancelled`), and long
-work's progress generators run to their end (:func:`run_to_end`).
+work's progress generators run to their end (:func:`run_to_end`), and numpy's and scipy's
+OpenBLAS held to one thread while our work runs in a process that loaded them before us
+(:func:`one_blas_thread`: Blender).
 """
 
 from __future__ import annotations
 
 import contextlib
 import contextvars
+import ctypes
 import os
+import sys
 import threading
 from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from dataclasses import dataclass
@@ -22,6 +26,8 @@ __all__ = [
     "alongside",
     "map_chunks",
     "map_tasks",
+    "one_blas_thread",
+    "on_one_blas_thread",
     "parallel",
     "requested_workers",
     "run_to_end",
@@ -261,3 +267,104 @@ def scaled_progress(gen, lo: float, hi: float, prefix: str):
         except StopIteration as stop:
             return stop.value
         yield Progress(lo + (hi - lo) * float(pr.fraction), f"{prefix}: {pr.message}")
+
+
+# ------------------------------------------------------------------------ OpenBLAS threads
+#: what OpenBLAS calls its thread-count functions in numpy's (ILP64: ``64_``) and scipy's
+#: (``scipy_`` prefix) wheels and in an unsuffixed build; (set, get) pairs
+_BLAS_THREAD_FUNCTIONS = tuple(
+    (f"{pre}openblas_set_num_threads{suf}", f"{pre}openblas_get_num_threads{suf}")
+    for pre in ("", "scipy_") for suf in ("64_", "")
+)
+_BLAS_LOCK = threading.Lock()
+_BLAS_USERS = 0  # the one_blas_thread blocks open now, in every thread
+_BLAS_SAVED: list = []  # (set function, its count before the first block)
+
+
+def _loaded_openblas() -> list[str]:
+    """The OpenBLAS libraries this process has loaded: Linux reads them from its memory map;
+    elsewhere the copies that numpy's and scipy's wheels bundle (``numpy.libs``,
+    ``numpy/.dylibs``, …) of the packages already imported."""
+    if sys.platform.startswith("linux"):
+        try:
+            with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
+                paths = {line.split(None, 5)[-1].strip() for line in fh if "openblas" in line}
+        except OSError:
+            return []
+        return sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p))
+    found = []
+    for name in ("numpy", "scipy"):
+        mod = sys.modules.get(name)
+        if mod is None or not getattr(mod, "__file__", None):
+            continue
+        pkg = os.path.dirname(os.path.abspath(mod.__file__))
+        for folder in (pkg + ".libs", os.path.join(pkg, ".libs"), os.path.join(pkg, ".dylibs")):
+            with contextlib.suppress(OSError):
+                found += [os.path.join(folder, f) for f in sorted(os.listdir(folder))
+                          if "openblas" in f.lower() and f.lower().endswith((".dll", ".dylib"))]
+    return found
+
+
+def _blas_thread_controls() -> list:
+    """(set, get) ctypes functions of every loaded OpenBLAS that has them."""
+    controls = []
+    for path in _loaded_openblas():
+        try:
+            lib = ctypes.CDLL(path)  # loaded already: the same library, not a second copy
+        except OSError:
+            continue
+        for set_name, get_name in _BLAS_THREAD_FUNCTIONS:
+            setter, getter = getattr(lib, set_name, None), getattr(lib, get_name, None)
+            if setter is not None and getter is not None:
+                setter.argtypes, setter.restype = [ctypes.c_int], None
+                getter.argtypes, getter.restype = [], ctypes.c_int
+                controls.append((setter, getter))
+                break
+    return controls
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """Within the block (and any other thread's block open with it), the OpenBLAS that numpy
+    and scipy loaded runs on one thread; the counts before the first block come back when
+    the last one ends.
+
+    Why: numpy's products over many points ((n, 3) @ (3,), frames and rotations) go to
+    OpenBLAS, which runs a thread per core and lets them spin after each product; the work
+    gains nothing from them, and the spinning takes the cores the compiled kernels' workers
+    need (a panel plan of Rotor 37: 0.93 s of CPU against 0.67 s on one BLAS thread, the
+    same wall time on an idle machine — a busy one loses the difference). The products
+    give the same bits on any thread count (each output row is one thread's).
+    ``python -m blisk_cam`` sets ``OPENBLAS_NUM_THREADS=1`` before numpy loads
+    (``cli/blas.py``); Blender has loaded numpy before the add-on, so its operators' workers
+    take this block. ``OPENBLAS_NUM_THREADS`` set in the environment is the user's choice:
+    nothing is changed then, nor where no OpenBLAS is found (macOS's Accelerate)."""
+    global _BLAS_USERS, _BLAS_SAVED
+    if "OPENBLAS_NUM_THREADS" in os.environ:
+        yield
+        return
+    with _BLAS_LOCK:
+        if _BLAS_USERS == 0:
+            _BLAS_SAVED = [(setter, getter()) for setter, getter in _blas_thread_controls()]
+            for setter, _ in _BLAS_SAVED:
+                setter(1)
+        _BLAS_USERS += 1
+    try:
+        yield
+    finally:
+        with _BLAS_LOCK:
+            _BLAS_USERS -= 1
+            if _BLAS_USERS == 0:
+                for setter, before in _BLAS_SAVED:
+                    setter(before)
+                _BLAS_SAVED = []
+
+
+def on_one_blas_thread(fn):
+    """``fn`` run inside :func:`one_blas_thread` (a worker thread's target)."""
+
+    def run(*args, **kwargs):
+        with one_blas_thread():
+            return fn(*args, **kwargs)
+
+    return run

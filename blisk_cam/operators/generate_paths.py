@@ -37,7 +37,7 @@ from ..blender.path_objects import paths_json_text, text_lines
 from ..blender.settings import path_request, settings_cones, store_statistics, summary
 from ..core.errors import BliskCamError
 from ..core.geometry.weld import input_vertex_values
-from ..core.runtime import parallel
+from ..core.runtime import on_one_blas_thread, parallel
 from .common import (
     blade_axis,
     blade_problem,
@@ -153,7 +153,8 @@ class PathJob:
                 except BaseException as exc:  # handed to the main thread, raised there
                     self._plan_error = exc
 
-            self._plan_thread = threading.Thread(target=work, name="blisk_cam plan",
+            self._plan_thread = threading.Thread(target=on_one_blas_thread(work),
+                                                 name="blisk_cam plan",
                                                  daemon=True)
             self._plan_thread.start()
         self._plan_thread.join(wait)
@@ -223,7 +224,8 @@ class PathJob:
         self._verify_result = self._verify_error = self._early_values = None
         self.verify_cancelled = self.map_shown = False
         self._news = threading.Event()  # set by the worker: the map's values, then its end
-        self._thread = threading.Thread(target=work, name="blisk_cam verify", daemon=True)
+        self._thread = threading.Thread(target=on_one_blas_thread(work), name="blisk_cam verify",
+                                        daemon=True)
         self._thread.start()
         return True
 

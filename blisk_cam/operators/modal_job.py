@@ -21,6 +21,7 @@ import types
 
 import bpy
 
+from ..core.runtime import one_blas_thread
 from .common import report_exception
 
 __all__ = ["ModalJobOperator", "ModalRunner", "ThreadJob", "ThreadJobOperator", "TimerEvent"]
@@ -47,7 +48,8 @@ class ThreadJob:
 
     def _compute(self):
         try:
-            self.work()
+            with one_blas_thread():  # Blender's numpy: its OpenBLAS spins beside our kernels
+                self.work()
         except BaseException as exc:  # handed to the caller by result()
             self._error = exc
 

@@ -31,6 +31,7 @@ import bpy
 from ..blender.settings import group_values, path_request
 from ..core.collision.options import DEFAULT_CHECK_MODE, CollisionOptions
 from ..core.errors import BliskCamError
+from ..core.runtime import on_one_blas_thread
 from .common import blade_axis, report_exception
 from .modal_job import ModalJobOperator
 
@@ -154,8 +155,8 @@ class PerBladeJob:
                 except BaseException as exc:  # handed to the main thread, raised there
                     self._error = exc
 
-            self._thread = threading.Thread(target=run, name="blisk_cam per blade",
-                                            daemon=True)
+            self._thread = threading.Thread(target=on_one_blas_thread(run),
+                                            name="blisk_cam per blade", daemon=True)
             self._thread.start()
         self._thread.join(wait)
         if self._error is not None and not (self._cancel is not None and self._cancel.is_set()):
