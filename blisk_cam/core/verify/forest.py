@@ -136,7 +136,9 @@ class SweptForest:
             arg = np.full(k, -1, dtype=np.int64)
             rows, trees, start = self._ball_rows(w)
             if len(rows):
-                d2, seg = compiled_ball.forest_nearest(trees, P[rows], start, workers())
+                # (rows gathered by take: ~3x faster than fancy indexing)
+                d2, seg = compiled_ball.forest_nearest(trees, P.take(rows, axis=0), start,
+                                                       workers())
                 out[rows], arg[rows] = np.sqrt(d2) - self.members[0].radius, seg
             return out, arg
         if not self.fast:
@@ -264,7 +266,8 @@ class SweptForest:
             rows, trees, start = self._ball_rows(w)
             if len(rows):
                 t[rows] = compiled_ball.forest_first_hits(
-                    trees, P[rows], N[rows], self.members[0].radius, hmax[rows], start,
+                    trees, P.take(rows, axis=0), N.take(rows, axis=0),
+                    self.members[0].radius, hmax[rows], start,
                     workers())
             return t
         if not self.fast:

@@ -252,7 +252,7 @@ def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
 def _ridges(samples, strip, g, npairs):
     """Grid edges inside one strip across which g (a sign per sample: −1, 0, 1 or NaN)
     changes sign: (edge ids, pair ids)."""
-    ea, eb = samples.edges[:, 0], samples.edges[:, 1]
+    ea, eb = samples.edges.T.copy()  # (each column copied once, not once per gather)
     sa = strip[ea]
     same = (sa == strip[eb]) & (sa >= 0) & (sa < npairs)
     # g is a sign (−1, 0, 1 or NaN): opposite signs exactly when the product is negative
@@ -640,13 +640,15 @@ def _scallops(mesh, cut, levels, smp, P, normals, s_all, values, lab, rho,
     hp = np.concatenate([sc.ridge_pts, P[top]])
     top_n, nr = normals[top], len(sc.ridge_pts)
 
-    def normals_of(rows):  # the ridge points' smooth normals: only those traced (row-wise)
-        out, ridge = np.empty((len(rows), 3)), rows < nr
-        rf = sc.ridge_face[rows[ridge]]
-        out[ridge] = mesh.interpolate_normals(rf, barycentric(
-            sc.ridge_pts[rows[ridge]], *(mesh.V[mesh.F[rf, j]] for j in range(3))))
-        out[~ridge] = top_n[rows[~ridge] - nr]
-        return out
+    def normals_of(rows):  # the smooth normals of the rows traced (ascending: ridge first)
+        # (rows of (k, 3) arrays gathered by take: ~3x faster than fancy indexing)
+        m = int(np.searchsorted(rows, nr))
+        rf = sc.ridge_face[rows[:m]]
+        corners = mesh.F.take(rf, axis=0)
+        ridge_n = mesh.interpolate_normals(rf, barycentric(
+            sc.ridge_pts.take(rows[:m], axis=0), *(mesh.V.take(corners[:, j], axis=0)
+                                                  for j in range(3))))
+        return np.concatenate([ridge_n, top_n[rows[m:] - nr]])
 
     hv = np.concatenate([sc.ridge_val, mat[top]])
     hq = np.concatenate([sc.ridge_pair, np.nonzero(has)[0]])
@@ -671,7 +673,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
     if len(eidx):
         # the edges' distinct ends and each end's rank among them (np.unique's with its
         # inverse), by marking the samples: no sort of the ~2e5 ends
-        ev = smp.edges[eidx]
+        ev = smp.edges.take(eidx, axis=0)  # (row gathers by take: ~3x fancy indexing's)
         mark = np.zeros(ng, dtype=bool)
         mark[ev] = True
         ends, inv = np.flatnonzero(mark), (np.cumsum(mark) - 1)[ev]
@@ -680,7 +682,7 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         else:
             dlo, dhi = known[0][ends], known[1][ends]
             mlo, mhi = _two_level_distances(
-                cut, smp.points[ends], strip[ends], npairs,
+                cut, smp.points.take(ends, axis=0), strip[ends], npairs,
                 need=(~known[2][ends], ~known[3][ends]),
                 guess=None if cut.balls else smp.points[ends] + rho * smp.normals[ends])
             dlo = np.where(known[2][ends], dlo, mlo)
@@ -691,8 +693,8 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         eidx, epair, ga, gb = eidx[ok], epair[ok], ga[ok], gb[ok]
     if not len(eidx):
         return
-    ea, eb = smp.edges[eidx, 0], smp.edges[eidx, 1]
-    xa, xb = smp.points[ea], smp.points[eb]
+    ea, eb = smp.edges.take(eidx, axis=0).T
+    xa, xb = smp.points.take(ea, axis=0), smp.points.take(eb, axis=0)
     ta, tb, near = np.zeros(len(eidx)), np.ones(len(eidx)), None
     last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
     steps = cut.ridge_steps(xa, xb, ga, gb, epair, refine)  # compiled balls: every step
@@ -727,8 +729,9 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
 
 def _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho):
     """Largest scallop height along the normal per pair (NaN where none): from the points
-    ``hp`` (normals ``normals_of(rows)`` of the rows traced, material left ``hv``, pair
-    ``hq``) up to the nearer of the pair's two swept volumes (``cut``: the levels' forest)."""
+    ``hp`` (normals ``normals_of(rows)`` (len(rows), 3) of the rows traced, ascending;
+    material left ``hv``, pair ``hq``) up to the nearer of the pair's two swept volumes
+    (``cut``: the levels' forest)."""
     heights = np.where(hv > 0, np.nan, hv)
     hmax = np.maximum(4.0 * hv, 1e-6 * rho)
     # the height is the material left divided by the cosine of a slowly varying angle:
@@ -739,10 +742,10 @@ def _scallop_heights(cut, hp, normals_of, hv, hq, npairs, rho):
     live = (hv > 0) & near_top
     # every live point traced up to its pair's lower level's passes and to its upper's
     rows = np.nonzero(live)[0]
-    pi, lv, up = _two_level_queries(rows, hq[live], npairs)
-    hn_ = np.empty((len(hp), 3))
-    hn_[rows] = normals_of(rows)
-    h = cut.height_along(hp[pi], hn_[pi], hmax[pi], lv)
+    j, lv, up = _two_level_queries(np.arange(len(rows)), hq[live], npairs)
+    pi = rows[j]  # the queries' points (j: their rank among the live points)
+    # (rows of (k, 3) arrays gathered by take: ~3x faster than fancy indexing)
+    h = cut.height_along(hp.take(pi, axis=0), normals_of(rows).take(j, axis=0), hmax[pi], lv)
     h_lo = np.full(len(hp), np.inf)  # up to the pair's lower level's passes
     h_hi = np.full(len(hp), np.inf)
     h_lo[pi[~up]] = h[~up]
@@ -888,7 +891,8 @@ def _two_level_distances(cut, P, strip, npairs, *, need=None, near=None, guess=N
         for rows, d_rows in map_tasks(one, [it for it in near if it[1] is not None]):
             d[rows] = d_rows
     else:
-        d = cut.distance(P[pi], lv, near=None if guess is None else guess[pi])
+        d = cut.distance(P.take(pi, axis=0), lv,
+                         near=None if guess is None else guess.take(pi, axis=0))
     dlo[pi[~up]] = d[~up]
     dhi[pi[up]] = d[up]
     return dlo, dhi
