@@ -1,7 +1,7 @@
 //! Reading the caller's numpy arrays: rows of points, flat C-contiguous data, one value or
 //! row per item — each a clear error naming the array when its shape or layout is wrong.
 
-use numpy::{Element, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{Element, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -11,6 +11,16 @@ pub type P3 = [f64; 3];
 pub fn flat<'a, T: Element>(a: &'a PyReadonlyArray2<'_, T>, what: &str) -> PyResult<&'a [T]> {
     a.as_slice()
         .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))
+}
+
+/// Rows of a C-contiguous (m, 3) int64 array as triangles (vertex ids, not checked).
+pub fn triangles<'a>(a: &'a PyReadonlyArray2<'_, i64>, what: &str) -> PyResult<&'a [[i64; 3]]> {
+    let s = flat(a, what)?;
+    if a.shape()[1] != 3 {
+        return Err(PyValueError::new_err(format!("{what} must be (m, 3)")));
+    }
+    // SAFETY: (m, 3) C-contiguous int64 rows are [i64; 3]s (same layout and alignment)
+    Ok(unsafe { std::slice::from_raw_parts(s.as_ptr().cast(), s.len() / 3) })
 }
 
 /// Rows of a C-contiguous (n, 3) float64 array as points (`crate::points`).

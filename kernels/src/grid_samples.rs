@@ -7,8 +7,7 @@
 
 use std::collections::HashSet;
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 
 /// The grid of a triangle with n segments per side (`_grid_template`): barycentric
@@ -206,12 +205,7 @@ pub fn grid_samples<'py>(
     nf: PyReadonlyArray1<'py, i64>,
 ) -> PyResult<Option<GridArrays<'py>>> {
     let pts = crate::points(&v, "V")?;
-    let ff = crate::arrays::flat(&f, "F")?;
-    if f.shape()[1] != 3 {
-        return Err(PyValueError::new_err("F must be (m, 3)"));
-    }
-    // SAFETY: (m, 3) C-contiguous int64 rows are [i64; 3]s (same layout and alignment)
-    let tri: &[[i64; 3]] = unsafe { std::slice::from_raw_parts(ff.as_ptr().cast(), ff.len() / 3) };
+    let tri = crate::arrays::triangles(&f, "F")?;
     let fc = crate::slice1(&faces, "faces")?;
     let ns = crate::arrays::values_n(&nf, "nf", fc.len())?;
     let Some(g) = py.detach(|| grid(pts, tri, fc, ns)) else {

@@ -327,12 +327,7 @@ pub fn interpolate_normals<'py>(
     bary: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Option<Bound<'py, PyAny>>> {
     let v = crate::points(&vn, "vertex normals")?;
-    let ff = crate::arrays::flat(&f, "F")?;
-    if f.shape()[1] != 3 {
-        return Err(pyo3::exceptions::PyValueError::new_err("F must be (m, 3)"));
-    }
-    // SAFETY: (m, 3) C-contiguous int64 rows are [i64; 3]s (same layout and alignment)
-    let tri: &[[i64; 3]] = unsafe { std::slice::from_raw_parts(ff.as_ptr().cast(), ff.len() / 3) };
+    let tri = crate::arrays::triangles(&f, "F")?;
     let fc = crate::slice1(&faces, "faces")?;
     let b = crate::arrays::points_n(&bary, "bary", fc.len())?;
     let Some(out) = py.detach(|| smooth_normals(v, tri, fc, b)) else {
