@@ -105,7 +105,7 @@ pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
             // halfway: the slot fetched by now names the row it holds (if any), fetched too
             let held = table[(ring[(i + AHEAD / 2) % AHEAD] >> (64 - bits)) as usize];
             if held != u32::MAX {
-                prefetch_row(v, held as usize);
+                prefetch(v, held as usize);
             }
         }
         if i + AHEAD < k {
@@ -147,39 +147,24 @@ pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
     Some(first)
 }
 
-/// Ask the CPU to fetch row `i` of `v` into its cache (a hint: nothing else changes).
+/// Ask the CPU to fetch item `i` of `items` into its cache (a hint: nothing else changes).
 #[inline(always)]
-fn prefetch_row(v: &[[f64; 3]], i: usize) {
+fn prefetch<T>(items: &[T], i: usize) {
     #[cfg(target_arch = "x86_64")]
-    if i < v.len() {
-        // SAFETY: a prefetch reads nothing the program sees; the address is in `v`
+    if i < items.len() {
+        // SAFETY: a prefetch reads nothing the program sees; the address is in `items`
         unsafe {
             use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            _mm_prefetch::<_MM_HINT_T0>(v.as_ptr().add(i) as *const i8);
+            _mm_prefetch::<_MM_HINT_T0>(items.as_ptr().add(i) as *const i8);
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (v, i);
+    let _ = (items, i);
 }
 
 /// Rows looked ahead by [`first_equal_rows`]: their table slots are fetched meanwhile (and
 /// halfway there, the rows those slots hold).
 const AHEAD: usize = 64;
-
-/// Ask the CPU to fetch `table[slot]` into its cache (a hint: nothing else changes).
-#[inline(always)]
-fn prefetch(table: &[u32], slot: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if slot < table.len() {
-        // SAFETY: a prefetch reads nothing the program sees; the address is in the table
-        unsafe {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            _mm_prefetch::<_MM_HINT_T0>(table.as_ptr().add(slot) as *const i8);
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (table, slot);
-}
 
 /// A binary STL's triangle soup welded exactly as it is read: the distinct corners and the
 /// faces over them, the answer `weld._welded`'s exact pass gives for the float64 soup the
@@ -224,7 +209,7 @@ pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64
             // halfway: the slot fetched by now names the vertex it holds (if any), fetched too
             let held = table[(ring[(i + AHEAD / 2) % AHEAD].1 >> (64 - bits)) as usize];
             if held != u32::MAX {
-                prefetch_key(&keys, held as usize);
+                prefetch(&keys, held as usize);
             }
         }
         if i + AHEAD < k {
@@ -273,17 +258,3 @@ pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64
     Some((verts, corner))
 }
 
-/// Ask the CPU to fetch `keys[i]` into its cache (a hint: nothing else changes).
-#[inline(always)]
-fn prefetch_key(keys: &[[u32; 3]], i: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if i < keys.len() {
-        // SAFETY: a prefetch reads nothing the program sees; the address is in `keys`
-        unsafe {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            _mm_prefetch::<_MM_HINT_T0>(keys.as_ptr().add(i) as *const i8);
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (keys, i);
-}
