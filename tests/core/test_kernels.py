@@ -19,14 +19,11 @@ from blisk_cam.core.geometry import weld
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.paths.sampling import forward_step_indices
+from tests.support.kernels import needs_compiled
 
 ROOT = Path(__file__).resolve().parents[2]
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None,
-    reason="the compiled kernels are not built/installed (make kernels) or "
-           "BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled()
 
 
 def _backend_in_subprocess(env_value):
@@ -265,10 +262,7 @@ def test_nearest_k_gives_scipys_sets():
     assert 0 < np.mean(got >= 0) < 1  # some rows have fewer than 8 within the bound
 
 
-compiled_stock = pytest.mark.skipif(
-    backend.extension() is None or not hasattr(backend.extension(), "stock_remove"),
-    reason="the compiled kernels are not installed, or were built before the stock kernel",
-)
+compiled_stock = needs_compiled("stock_remove")
 
 
 def _stock_program():
@@ -339,10 +333,7 @@ def test_stock_removal_compiled_equals_numpy():
             assert (got.sub_poses, got.pairs) == (ref.sub_poses, ref.pairs)
 
 
-compiled_sweep = pytest.mark.skipif(
-    backend.extension() is None or not hasattr(backend.extension(), "stock_sweep"),
-    reason="the compiled kernels are not installed, or were built before the swept kernel",
-)
+compiled_sweep = needs_compiled("stock_sweep")
 
 
 @compiled_sweep

@@ -7,17 +7,13 @@ Tests comparing the two backends skip (saying why) when the extension is not bui
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from blisk_cam.core.geometry.mesh import _chain_directed
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import mesh_tables as compiled_tables
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    compiled_tables.chain_directed(2, np.array([[0, 1]])) is None,
-    reason="the compiled kernels are not built/installed with chain_directed (make "
-           "kernels) or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled("chain_directed")
 
 
 @compiled

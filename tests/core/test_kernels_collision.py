@@ -15,12 +15,9 @@ from blisk_cam.core.kernels import collision as kernels_collision
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.tool.assembly import ToolAssembly
 from blisk_cam.core.tool.cutter import Cutter
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None or not hasattr(backend.extension(), "refine_pairs"),
-    reason="the compiled kernels are not installed (make kernels), were built before the "
-           "collision refine, or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled("refine_pairs")
 
 
 def _poses(V, F, axis, n, seed=0):

@@ -19,12 +19,9 @@ from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.cones import MorphingCones
 from blisk_cam.core.paths.slicing import MeshConeSlicer
 from tests.support.blades import nasa_blade
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None or not hasattr(backend.extension(), "cone_level"),
-    reason="the compiled kernels are not built/installed with cone_level (make kernels) or "
-           "BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled("cone_level")
 
 
 @pytest.fixture(scope="module", params=["demo", "rotor37"])

@@ -8,19 +8,15 @@ Tests comparing the two backends skip (saying why) when the extension is not bui
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from scipy.spatial import cKDTree
 
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.kernels import polyline as compiled_polyline
 from blisk_cam.core.paths.expansion import PolylineDistance, _nearest_index
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    not compiled_polyline.available(),
-    reason="the compiled kernels are not built/installed with polyline_distance (make "
-           "kernels) or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled("polyline_distance", "PointTree")
 
 
 def _polylines(rng):

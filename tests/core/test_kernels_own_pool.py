@@ -7,15 +7,12 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-import pytest
 from scipy.spatial import cKDTree
 
-from blisk_cam.core.kernels import backend, knn
+from blisk_cam.core.kernels import knn
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None,
-    reason="the compiled kernels are not built/installed (make kernels) or switched off",
-)
+compiled = needs_compiled()
 
 
 @compiled

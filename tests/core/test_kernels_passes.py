@@ -19,12 +19,9 @@ from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.cones import MorphingCones
 from blisk_cam.core.paths.passes import _fixed_point_lift, _Generator, _unique_per_row
 from blisk_cam.core.paths.slicing import MeshConeSlicer
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None,
-    reason="the compiled kernels are not built/installed (make kernels) or "
-           "BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled()
 
 
 @pytest.fixture(scope="module")

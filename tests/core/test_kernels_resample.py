@@ -9,19 +9,14 @@ Tests comparing the two backends skip (saying why) when the extension is not bui
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from blisk_cam.core.geometry.mesh import TriMesh
-from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import polyline as compiled_polyline
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.paths.passes import _Generator, _resample
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None or not hasattr(backend.extension(), "resample_offset"),
-    reason="the compiled kernels are not built/installed with resample_offset (make kernels) "
-           "or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled("resample_offset")
 
 
 def _polylines(rng):

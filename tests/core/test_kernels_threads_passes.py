@@ -12,7 +12,6 @@ import pytest
 
 from blisk_cam.core.geometry.axis import Axis
 from blisk_cam.core.geometry.mesh import TriMesh
-from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.kernels import mesh_tables as compiled_tables
 from blisk_cam.core.part.blisk import make_demo_blisk
@@ -24,12 +23,9 @@ from blisk_cam.core.paths.slicing import MeshConeSlicer
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 from blisk_cam.core.runtime import parallel
 from tests.support.blades import nasa_blade
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None,
-    reason="the compiled kernels are not built/installed (make kernels) or "
-           "BLISK_CAM_KERNELS=numpy: the passes stage runs on one thread",
-)
+compiled = needs_compiled(why="the passes stage runs on one thread")
 
 
 @pytest.fixture(scope="module")

@@ -18,12 +18,9 @@ from blisk_cam.core.toolpath.types import PassCurve, ToolPath
 from blisk_cam.core.verify.measure import verify_path
 from blisk_cam.core.verify.sweep import SweptCutter
 from blisk_cam.core.verify.sweep_ball import SweptBall
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None or not hasattr(backend.extension(), "golden_pairs"),
-    reason="the compiled kernels are not installed (make kernels), were built before the "
-           "verify kernels, or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled("golden_pairs")
 
 
 def _helices(n_pass=12, n=300, seed=0):

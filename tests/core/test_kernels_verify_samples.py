@@ -25,12 +25,9 @@ from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.cones import MorphingCones
 from blisk_cam.core.verify.samples import _grid_samples_numpy, default_spacing, surface_samples
 from tests.support.blades import nasa_blade
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None or not hasattr(backend.extension(), "grid_samples"),
-    reason="the compiled kernels are not built/installed with grid_samples (make kernels) "
-           "or BLISK_CAM_KERNELS=numpy: only the numpy backend can run",
-)
+compiled = needs_compiled("grid_samples")
 
 
 @pytest.fixture(scope="module", params=["rotor37", "demo"])
