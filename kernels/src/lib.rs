@@ -23,6 +23,7 @@ mod knn;
 mod level_chains;
 mod lift;
 mod mesh_samples;
+mod mesh_orient;
 mod mesh_topology;
 mod numpy_ops;
 mod polyline_distance;
@@ -553,6 +554,9 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::edge_table_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_orient::face_components, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_orient::orient_face_terms, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_orient::repeats_on_edges, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::vertex_normal_sums, m)?)?;

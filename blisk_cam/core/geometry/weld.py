@@ -14,6 +14,7 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from ..errors import MeshError
+from ..kernels import mesh_orient as compiled_orient
 from ..kernels import weld as compiled_weld
 
 __all__ = ["input_vertex_values"]
@@ -282,7 +283,8 @@ def _close_pairs(V, ids, tol, u=None):
 
 def _kept_faces(F, nv_mesh):
     """Faces without equal corners and without repeats: (keep (m,) bool, F[keep], the edge
-    table dict or None, interior pairs or None); raises MeshError if none is left."""
+    table dict or None, its interior pairs or None — None also when the compiled kernels
+    did not need them); raises MeshError if none is left."""
     keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
     if not np.any(keep):
         raise MeshError("every face is degenerate (corners coincide): the mesh has no area")
@@ -295,8 +297,16 @@ def _kept_faces(F, nv_mesh):
         topo = _edge_table(Fk, nv_mesh)
     except MeshError:
         topo = None
-    pairs = None if topo is None else _interior_pairs(topo)
-    if pairs is None or _repeats_on_edges(Fk, *pairs):
+    pairs = None
+    repeats = True
+    if topo is not None:
+        # compiled: read from the edge table, no pairs built (the orientation then reads the
+        # table too); numpy: the pairs, kept for the orientation
+        repeats = compiled_orient.repeats_on_edges(Fk, topo["edge_halfedges"])
+        if repeats is None:
+            pairs = _interior_pairs(topo)
+            repeats = _repeats_on_edges(Fk, *pairs)
+    if repeats:
         topo = pairs = None
         kept = np.nonzero(keep)[0]
         Fs = np.sort(F[kept], axis=1)
