@@ -30,6 +30,7 @@ mod polyline_distance;
 mod probe;
 mod resample;
 mod slice_roots;
+mod slice_setup;
 mod step;
 mod stock;
 mod swept_ball;
@@ -550,6 +551,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_level, m)?)?;
+    m.add_function(wrap_pyfunction!(slice_setup::cone_slicer_field, m)?)?;
+    m.add_function(wrap_pyfunction!(slice_setup::slicer_face_index, m)?)?;
     m.add_function(wrap_pyfunction!(resample::resample_offset, m)?)?;
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
