@@ -36,6 +36,7 @@ mod stock;
 mod swept_ball;
 mod swept_cutter;
 mod weld;
+mod weld_near;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -560,6 +561,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_orient::face_components, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_orient::orient_face_terms, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_orient::repeats_on_edges, m)?)?;
+    m.add_function(wrap_pyfunction!(weld_near::weld_extents, m)?)?;
+    m.add_function(wrap_pyfunction!(weld_near::weld_no_close_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::vertex_normal_sums, m)?)?;

@@ -16,6 +16,7 @@ from scipy.spatial import cKDTree
 from ..errors import MeshError
 from ..kernels import mesh_orient as compiled_orient
 from ..kernels import weld as compiled_weld
+from ..kernels import weld_near as compiled_near
 
 __all__ = ["input_vertex_values"]
 
@@ -193,8 +194,13 @@ def _welded(V, used, weld_tolerance, distinct=False):
             first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
         pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
     # every used vertex equals one of them (all of them: pos is every row, no gather)
-    rcols = list(((Vu[pos] if len(pos) < len(Vu) else Vu) + 0.0).T)
-    diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
+    rows = Vu[pos] if len(pos) < len(Vu) else Vu
+    rcols = None
+    extent = compiled_near.weld_extents(rows)  # the same values, no column copies
+    if extent is None:
+        rcols = list((rows + 0.0).T)
+        extent = [c.max() - c.min() for c in rcols]
+    diag = float(np.linalg.norm(extent))
     if diag == 0.0:
         raise MeshError("all vertices coincide: the mesh has no extent")
     tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
@@ -203,8 +209,14 @@ def _welded(V, used, weld_tolerance, distinct=False):
     rep = first if iu is None else iu[first]
     ir = pos if iu is None else iu[pos]  # the representatives' input ids
     merged = False
-    if tol > 0 and len(pos) > 1:  # clusters closer than tol: their lowest input id
+    # all used and distinct (an STL welded as read): the compiled scan says when numpy's
+    # finds no pair (nothing to merge), without its projections and sort
+    clear = (distinct and iu is None and tol > 0
+             and compiled_near.weld_no_close_pairs(V, _WELD_DIRECTION, tol, _WELD_SCAN_MAX))
+    if tol > 0 and len(pos) > 1 and not clear:  # clusters closer than tol: lowest input id
         d = _WELD_DIRECTION
+        if rcols is None:
+            rcols = list((rows + 0.0).T)
         u = (rcols[0] * d[0] + rcols[1] * d[1]) + rcols[2] * d[2]
         u_order = np.argsort(u, kind="stable")
         us = u[u_order]
