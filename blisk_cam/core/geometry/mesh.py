@@ -18,6 +18,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from ..errors import MeshError
+from ..kernels import mesh_orient as compiled_orient
 from ..kernels import mesh_tables as compiled_tables
 from ..kernels import weld as compiled_weld
 from .weld import (
@@ -341,19 +342,28 @@ class TriMesh:
         Flip).
 
         pairs : the :func:`_interior_pairs` of the mesh's edge table, if the caller has them
+            (the compiled kernels read the table itself; they need them only to flip faces)
         """
-        h0, h1, f0, f1 = _interior_pairs(self._edges()) if pairs is None else pairs
-        # two faces sharing an edge are consistent when they traverse it in opposite directions
-        # (half-edge 3f + k starts at corner k of face f)
-        inconsistent = self.F.ravel()[h0] == self.F.ravel()[h1]
         m = len(self.F)
-        g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
-        # no pair of faces twice (that would be a repeated face); the components need no
-        # sorted columns: skip the conversion's per-row sort
-        g.has_canonical_format = True
-        ncomp, labels = csgraph.connected_components(g, directed=False)
+        # compiled: the components by union–find over the edge table (the same labels) and
+        # a count of the inconsistent edges; the pairs are built only if there is one
+        got = compiled_orient.face_components(self.F, self._edges()["edge_halfedges"])
+        if got is not None:
+            ncomp, labels, any_inconsistent = got
+        if got is None or any_inconsistent:
+            h0, h1, f0, f1 = _interior_pairs(self._edges()) if pairs is None else pairs
+            # two faces sharing an edge are consistent when they traverse it in opposite
+            # directions (half-edge 3f + k starts at corner k of face f)
+            inconsistent = self.F.ravel()[h0] == self.F.ravel()[h1]
+            any_inconsistent = bool(np.any(inconsistent))
+        if got is None:
+            g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
+            # no pair of faces twice (that would be a repeated face); the components need no
+            # sorted columns: skip the conversion's per-row sort
+            g.has_canonical_format = True
+            ncomp, labels = csgraph.connected_components(g, directed=False)
         flip = np.zeros(m, dtype=bool)
-        if np.any(inconsistent):
+        if any_inconsistent:
             flip = _parity_flip(m, f0, f1, inconsistent, labels, ncomp)
             if np.any(flip):
                 self._flip_faces(flip)
@@ -399,18 +409,12 @@ class TriMesh:
         centroid (mm³, > 0 when the normals point out), area (mm²) and the summed magnitude of
         the loops' vector areas (mm², the size of the caps)."""
         V, F = self.V, self.F
-        ref = V.mean(axis=0)
-        n2 = triangle_normals(V, F)  # (b − a) × (c − a); a·(b × c) = a·n2 about any origin
-        self._set_face_normals(n2)
-        per_face = np.empty(len(F))
-        for s in range(0, len(F), _VOLUME_BLOCK):  # (V[F[:, 0]] − ref) · n2 / 6, by blocks
-            e = s + _VOLUME_BLOCK
-            corner = V.take(F[s:e, 0], axis=0)
-            corner -= ref
-            np.einsum("ij,ij->i", corner, n2[s:e], out=per_face[s:e])
-        per_face /= 6.0
-        vol = np.bincount(labels, weights=per_face, minlength=ncomp)
-        area = np.bincount(labels, weights=self.face_areas, minlength=ncomp)
+        got = compiled_orient.orient_face_terms(V, F, labels, ncomp)  # the same, one pass
+        if got is not None:
+            n2, ln, fn, areas, vol, area, ref = got
+            self._cache.update(n2=n2, fn_area2=ln, fn=fn, areas=areas)
+        else:
+            vol, area, ref = self._face_volume_terms(labels, ncomp)
         cap = np.zeros(ncomp)
         loops = self.boundary_loops()
         if loops:
@@ -430,6 +434,25 @@ class TriMesh:
                 vol[comp] += cvol
                 cap[comp] += float(np.linalg.norm(varea))
         return vol, area, cap
+
+    def _face_volume_terms(self, labels, ncomp):
+        """The numpy reference of the per-face part of :meth:`_capped_volume` (it caches
+        the face normals and areas): per component the volume terms ((a − o) · n2) / 6 of
+        its faces (mm³, no caps) and their areas (mm²), and o = V.mean(axis=0) (3,) mm."""
+        V, F = self.V, self.F
+        ref = V.mean(axis=0)
+        n2 = triangle_normals(V, F)  # (b − a) × (c − a); a·(b × c) = a·n2 about any origin
+        self._set_face_normals(n2)
+        per_face = np.empty(len(F))
+        for s in range(0, len(F), _VOLUME_BLOCK):  # (V[F[:, 0]] − ref) · n2 / 6, by blocks
+            e = s + _VOLUME_BLOCK
+            corner = V.take(F[s:e, 0], axis=0)
+            corner -= ref
+            np.einsum("ij,ij->i", corner, n2[s:e], out=per_face[s:e])
+        per_face /= 6.0
+        vol = np.bincount(labels, weights=per_face, minlength=ncomp)
+        area = np.bincount(labels, weights=self.face_areas, minlength=ncomp)
+        return vol, area, ref
 
     def boundary_loops(self):
         """Boundary loops as lists of vertex ids, each ordered along the face winding.

@@ -14,7 +14,9 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from ..errors import MeshError
+from ..kernels import mesh_orient as compiled_orient
 from ..kernels import weld as compiled_weld
+from ..kernels import weld_near as compiled_near
 
 __all__ = ["input_vertex_values"]
 
@@ -192,8 +194,13 @@ def _welded(V, used, weld_tolerance, distinct=False):
             first = _first_equal_point([Vu[:, j] + 0.0 for j in range(3)])
         pos = np.flatnonzero(first == np.arange(len(first)))  # the representatives, ascending
     # every used vertex equals one of them (all of them: pos is every row, no gather)
-    rcols = list(((Vu[pos] if len(pos) < len(Vu) else Vu) + 0.0).T)
-    diag = float(np.linalg.norm([c.max() - c.min() for c in rcols]))
+    rows = Vu[pos] if len(pos) < len(Vu) else Vu
+    rcols = None
+    extent = compiled_near.weld_extents(rows)  # the same values, no column copies
+    if extent is None:
+        rcols = list((rows + 0.0).T)
+        extent = [c.max() - c.min() for c in rcols]
+    diag = float(np.linalg.norm(extent))
     if diag == 0.0:
         raise MeshError("all vertices coincide: the mesh has no extent")
     tol = 1e-7 * diag if weld_tolerance is None else float(weld_tolerance)
@@ -202,8 +209,14 @@ def _welded(V, used, weld_tolerance, distinct=False):
     rep = first if iu is None else iu[first]
     ir = pos if iu is None else iu[pos]  # the representatives' input ids
     merged = False
-    if tol > 0 and len(pos) > 1:  # clusters closer than tol: their lowest input id
+    # all used and distinct (an STL welded as read): the compiled scan says when numpy's
+    # finds no pair (nothing to merge), without its projections and sort
+    clear = (distinct and iu is None and tol > 0
+             and compiled_near.weld_no_close_pairs(V, _WELD_DIRECTION, tol, _WELD_SCAN_MAX))
+    if tol > 0 and len(pos) > 1 and not clear:  # clusters closer than tol: lowest input id
         d = _WELD_DIRECTION
+        if rcols is None:
+            rcols = list((rows + 0.0).T)
         u = (rcols[0] * d[0] + rcols[1] * d[1]) + rcols[2] * d[2]
         u_order = np.argsort(u, kind="stable")
         us = u[u_order]
@@ -282,7 +295,8 @@ def _close_pairs(V, ids, tol, u=None):
 
 def _kept_faces(F, nv_mesh):
     """Faces without equal corners and without repeats: (keep (m,) bool, F[keep], the edge
-    table dict or None, interior pairs or None); raises MeshError if none is left."""
+    table dict or None, its interior pairs or None — None also when the compiled kernels
+    did not need them); raises MeshError if none is left."""
     keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
     if not np.any(keep):
         raise MeshError("every face is degenerate (corners coincide): the mesh has no area")
@@ -295,8 +309,16 @@ def _kept_faces(F, nv_mesh):
         topo = _edge_table(Fk, nv_mesh)
     except MeshError:
         topo = None
-    pairs = None if topo is None else _interior_pairs(topo)
-    if pairs is None or _repeats_on_edges(Fk, *pairs):
+    pairs = None
+    repeats = True
+    if topo is not None:
+        # compiled: read from the edge table, no pairs built (the orientation then reads the
+        # table too); numpy: the pairs, kept for the orientation
+        repeats = compiled_orient.repeats_on_edges(Fk, topo["edge_halfedges"])
+        if repeats is None:
+            pairs = _interior_pairs(topo)
+            repeats = _repeats_on_edges(Fk, *pairs)
+    if repeats:
         topo = pairs = None
         kept = np.nonzero(keep)[0]
         Fs = np.sort(F[kept], axis=1)

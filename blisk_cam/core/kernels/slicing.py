@@ -8,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from .backend import extension
+from .mesh_orient import einsum_outer_first
 
-__all__ = ["cone_edge_roots", "cone_level"]
+__all__ = ["cone_edge_roots", "cone_level", "cone_slicer_field", "slicer_face_index"]
 
 
 def cone_edge_roots(r, z, radial, V, edges, edge_ids, line, on_tol: float, threads: int):
@@ -54,3 +55,45 @@ def cone_level(r, z, radial, V, vn, F, edges, face_edges, cand, line, on_tol: fl
         c(r, dtype=f64), c(z, dtype=f64), c(radial, dtype=f64), c(V, dtype=f64),
         c(vn, dtype=f64), c(F, dtype=i64), c(edges, dtype=i64), c(face_edges, dtype=i64),
         c(cand, dtype=i64), (alpha, beta, gamma, alpha**2), float(on_tol), bool(end_above_zero))
+
+
+def cone_slicer_field(V, o, d, F, ratio_consts):
+    """The vertex and face fields of ``MeshConeSlicer`` for a cone pair, in two passes: (r
+    (n,) mm, z (n,) mm, radial (n, 3) mm, s (n,), face smin (m,), face smax (m,)) of the
+    vertices V (n, 3) float64 mm about the axis through ``o`` along ``d`` ((3,) float64) and
+    the faces F (m, 3) int64 — ``geometry.axis.meridional``'s r, z, the radial vectors
+    p − z d, ``MorphingCones.ratio``'s s and the faces' least and largest s, the same bits.
+    z is numpy's own ``(V − o) @ d`` (OpenBLAS's dot). ``ratio_consts``: (p1 (2,), d1 (2,),
+    dd (2,), cross2(d1, da), −cross2(dd, da), (α, β, γ) of s = 0) of the cone pair (floats).
+    None when the numpy kernels run (or a wheel without this kernel), the arrays are of
+    other types, or numpy adds einsum's products in an order the kernel does not know."""
+    ext = extension()
+    fn = getattr(ext, "cone_slicer_field", None) if ext is not None else None
+    if (fn is None or V.dtype != np.float64 or F.dtype != np.int64 or V.ndim != 2
+            or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3 or not V.flags.c_contiguous):
+        return None
+    outer_first = einsum_outer_first()
+    if outer_first is None:
+        return None
+    p = V - o  # as meridional: p, then z = p @ d; p becomes the radial vectors in place
+    z = p @ d
+    p1, d1, dd, d1_da, k2, side = ratio_consts
+    consts = [float(x) for x in (*p1, *d1, *dd, d1_da, k2, *side)]
+    r, s, smin, smax = fn(p, z, [float(x) for x in d], consts,
+                          np.require(F, requirements=("C_CONTIGUOUS", "ALIGNED")), outer_first)
+    return r, z, p, s, smin, smax
+
+
+def slicer_face_index(smin, smax, q: float, n_buckets: int, bucket_range):
+    """``MeshConeSlicer._index_face_ranges`` of the faces' least and largest s ((m,) float64):
+    (cut — the q-quantile of the finite spans smax − smin as ``np.quantile`` gives it —,
+    bucket_lo, bucket_scale, narrow faces (k,) int64 by bucket then id, bucket starts
+    (n_buckets + 1,) int64, wide faces (w,) int64 ascending); None when the numpy kernels
+    run (or a wheel without this kernel)."""
+    ext = extension()
+    fn = getattr(ext, "slicer_face_index", None) if ext is not None else None
+    if fn is None or smin.dtype != np.float64 or smax.dtype != np.float64:
+        return None
+    c = np.ascontiguousarray
+    return fn(c(smin), c(smax), float(q), int(n_buckets),
+              (float(bucket_range[0]), float(bucket_range[1])))

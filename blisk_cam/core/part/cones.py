@@ -259,6 +259,14 @@ class MorphingCones:
         alpha, beta, gamma = self.line_coefficients(s)
         return alpha * np.asarray(r, float) + beta * np.asarray(z, float) + gamma
 
+    def ratio_terms(self):
+        """The 2-vectors (r, z) of :meth:`ratio`'s quadratic: cone 1's first point p1 (mm),
+        its direction d1 = p2 − p1 (mm), the change of direction dd from cone 1 to cone 2
+        (mm) and the offset da of cone 2's first point from p1 (mm), each (2,) float64."""
+        c1, c2 = self.cone1, self.cone2
+        d1 = c1.p2 - c1.p1
+        return c1.p1, d1, (c2.p2 - c2.p1) - d1, c2.p1 - c1.p1
+
     def ratio(self, r, z):
         """The morph field: the ratio ``s`` of the LMC through each meridional point.
 
@@ -279,11 +287,7 @@ class MorphingCones:
         r = np.asarray(r, dtype=np.float64)
         z = np.asarray(z, dtype=np.float64)
         x = np.stack([r, z], axis=-1)
-        c1, c2 = self.cone1, self.cone2
-        p1, q1 = c1.p1, c2.p1
-        d1 = c1.p2 - c1.p1
-        dd = (c2.p2 - c2.p1) - d1
-        da = q1 - p1
+        p1, d1, dd, da = self.ratio_terms()
         # f(s) = D(s) × (X − A(s)) = c0 + c1 s + c2 s²
         k0 = cross2(d1, x - p1)
         k1 = cross2(dd, x - p1) - cross2(d1, da)

@@ -28,6 +28,7 @@ import numpy as np
 from ..geometry.axis import Axis, meridional
 from ..geometry.closest import barycentric
 from ..geometry.mesh import TriMesh, chain_graph_paths
+from ..geometry.vectors import cross2
 from ..kernels import slicing as compiled_slicing
 from ..part.cones import MorphingCones
 from ..part.profiles import MorphingProfiles
@@ -99,24 +100,16 @@ class MeshConeSlicer:
         self.axis = axis
         self.morph = morph
         self.on_tol = float(on_tol)
-        V = mesh.V
-        self.r, self.z = meridional(V, axis)
-        # (n, 3) radial vector of each vertex: p − z d, p = V − o (in place: the same floats
-        # without a second (n, 3) temporary)
-        self.radial = V - axis.o
-        self.radial -= self.z[:, None] * axis.d
-        self.s = morph.ratio(self.r, self.z)  # (n,) morph field
-        # the faces' least and largest s, corner by corner into two arrays: min(min(s0, s1),
-        # s2) as before, without the three (m,) corner arrays held at once (the set-up's
-        # peak memory runs beside the passes' sample tree build)
-        s_of = self.s
-        self.face_smin = s_of[mesh.F[:, 0]]
-        self.face_smax = self.face_smin.copy()
-        for k in (1, 2):
-            sk = s_of[mesh.F[:, k]]
-            np.minimum(self.face_smin, sk, out=self.face_smin)
-            np.maximum(self.face_smax, sk, out=self.face_smax)
-            del sk
+        got = None
+        if isinstance(morph, MorphingCones):  # the same fields in two compiled passes
+            p1, d1, dd, da = morph.ratio_terms()
+            got = compiled_slicing.cone_slicer_field(
+                mesh.V, axis.o, axis.d, mesh.F,
+                (p1, d1, dd, cross2(d1, da), -cross2(dd, da), morph.line_coefficients(0.0)))
+        if got is not None:
+            self.r, self.z, self.radial, self.s, self.face_smin, self.face_smax = got
+        else:
+            self._vertex_fields()
         self.edges = mesh.edges
         self.face_edges = mesh.face_edges
         self.vertex_normals = mesh.vertex_normals
@@ -130,8 +123,33 @@ class MeshConeSlicer:
         self._s_margin = 1e-6 + 10.0 * self.on_tol / max(self._cone_gap(), 1e-9)
         self._index_face_ranges()
 
+    def _vertex_fields(self):
+        """The numpy reference of the set-up's fields: ``r``, ``z`` (n,) mm (meridional),
+        ``radial`` (n, 3) mm, ``s`` (n,) and the faces' ``face_smin``, ``face_smax`` (m,)."""
+        mesh, axis = self.mesh, self.axis
+        V = mesh.V
+        self.r, self.z = meridional(V, axis)
+        # (n, 3) radial vector of each vertex: p − z d, p = V − o (in place: the same floats
+        # without a second (n, 3) temporary)
+        self.radial = V - axis.o
+        self.radial -= self.z[:, None] * axis.d
+        self.s = self.morph.ratio(self.r, self.z)  # (n,) morph field
+        # the faces' least and largest s, corner by corner into two arrays: min(min(s0, s1),
+        # s2) as before, without the three (m,) corner arrays held at once (the set-up's
+        # peak memory runs beside the passes' sample tree build)
+        s_of = self.s
+        self.face_smin = s_of[mesh.F[:, 0]]
+        self.face_smax = self.face_smin.copy()
+        for k in (1, 2):
+            sk = s_of[mesh.F[:, k]]
+            np.minimum(self.face_smin, sk, out=self.face_smin)
+            np.maximum(self.face_smax, sk, out=self.face_smax)
+            del sk
+
     #: buckets of the face index (a 16-bit key: numpy's stable argsort is then a radix sort)
     _N_BUCKETS = 1 << 16
+    #: faces whose s span is at most this quantile of the spans are bucketed (narrow)
+    _NARROW_QUANTILE = 0.999
     #: the buckets cover this range of s (clamped to the mesh's): the levels asked lie in
     #: [0, 1] or a hair beyond; faces outside fall into the end buckets
     _BUCKET_RANGE = (-1.0, 2.0)
@@ -149,10 +167,18 @@ class MeshConeSlicer:
         whose smallest s lies in a window are all in the buckets of the window's two ends
         and those between (a superset, tested exactly in :meth:`_candidate_faces`)."""
         lo, hi = self.face_smin, self.face_smax
+        got = compiled_slicing.slicer_face_index(lo, hi, self._NARROW_QUANTILE,
+                                                 self._N_BUCKETS, self._BUCKET_RANGE)
+        if got is not None:  # the same index in two compiled passes (a counting sort)
+            cut, a, scale, self._narrow_faces, self._bucket_start, self._wide_faces = got
+            self._bucket_lo, self._bucket_scale = np.float64(a), np.float64(scale)
+            self._narrow_span = 2.0 * cut + 1e-9
+            return
         with np.errstate(invalid="ignore"):  # inf − inf: NaN, a wide face below
             width = hi - lo
         finite = np.isfinite(width)
-        cut = float(np.quantile(width[finite], 0.999)) if finite.any() else 0.0
+        q = self._NARROW_QUANTILE
+        cut = float(np.quantile(width[finite], q)) if finite.any() else 0.0
         is_narrow = finite & (width <= cut)
         del width, finite  # (the temporaries go as soon as done: a smaller peak memory)
         narrow = np.nonzero(is_narrow)[0]
