@@ -236,6 +236,9 @@ def search_fixes(cutter, f, n, k, lead, tilt, kappa_f, kappa_k, limits: GougeLim
     idx = np.nonzero(flagged)[0]
     if len(idx) == 0:
         return
+    hopeless = _unfixable(cutter, kappa_f[idx], kappa_k[idx], tol)
+    if hopeless.all():  # nothing to search (a ball larger than the fillet: every pass there)
+        return
     # candidate changes, smallest first: raise |lead| (away from 0 in its sign, + if 0) and
     # move tilt either way, within the limits
     DL, DT = _candidate_steps(limits)
@@ -247,7 +250,6 @@ def search_fixes(cutter, f, n, k, lead, tilt, kappa_f, kappa_k, limits: GougeLim
         np.abs(cand_tilt) <= limits.max_tilt + 1e-12
     )
     best = np.full(q, -1)
-    hopeless = _unfixable(cutter, kappa_f[idx], kappa_k[idx], tol)
     chunk = max(1, 200_000 // max(q, 1))
     for c0 in range(0, len(DL), chunk):
         sl = slice(c0, c0 + chunk)
