@@ -1,4 +1,4 @@
-"""The orient stage orients every pass at once (``blade_finish._orient_local_all``): the
+"""The orient stage orients every pass at once (``orient_passes.orient_all_local``): the
 same axes, tips, flags, gouge report and program as pass by pass, bit for bit; and the link
 check's answers do not depend on which points it measured before."""
 
@@ -13,7 +13,7 @@ from blisk_cam.core.errors import BliskCamError
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.paths.link_check import SweptLinkCheck
-from blisk_cam.core.process import blade_finish
+from blisk_cam.core.process import blade_finish, orient_passes
 from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 from blisk_cam.core.toolpath.types import FLAG_AXIS_SMOOTHED, FLAG_GOUGE_FIXED, FLAG_LOCAL_GOUGE
 
@@ -54,7 +54,7 @@ def test_all_passes_at_once_as_pass_by_pass(demos, monkeypatch, fillet, kw):
     mesh, d = demos[fillet]
     batched = _plan(mesh, d, **kw)
 
-    monkeypatch.setattr(blade_finish, "_orient_local_all", _refuse)
+    monkeypatch.setattr(orient_passes, "orient_all_local", _refuse)
     single = _plan(mesh, d, **kw)
     a, b = batched.path, single.path
     assert len(a.curves) == len(b.curves) > 3
@@ -80,7 +80,7 @@ def test_an_error_is_raised_as_pass_by_pass(demos, monkeypatch):
     kw = dict(tool_type="ball", tool_radius=5.0, lead=D(8), max_axis_turn=D(3))
     with pytest.raises(BliskCamError) as batched:
         _plan(mesh, d, **kw)
-    monkeypatch.setattr(blade_finish, "_orient_local_all", _refuse)
+    monkeypatch.setattr(orient_passes, "orient_all_local", _refuse)
     with pytest.raises(BliskCamError) as single:
         _plan(mesh, d, **kw)
     assert type(batched.value) is type(single.value)
@@ -106,3 +106,4 @@ def test_link_check_memo_answers_as_a_fresh_check(demos):
             assert kept.depth(p.tip[sl], p.axis[sl]) == fresh
             assert kept.depth(p.tip[sl], p.axis[sl]) == fresh  # all from the memo now
         assert len(kept._memo) > 0
+
