@@ -107,3 +107,30 @@ def test_link_check_memo_answers_as_a_fresh_check(demos):
             assert kept.depth(p.tip[sl], p.axis[sl]) == fresh  # all from the memo now
         assert len(kept._memo) > 0
 
+
+@pytest.mark.parametrize("link, order", [("oneway", "hub_to_tip"), ("zigzag", "tip_to_hub"),
+                                         ("spiral", "hub_to_tip")])
+def test_climb_senses_at_once_as_pass_by_pass(demos, monkeypatch, link, order):
+    """The order stage's climb senses of all passes at once (``linking._climb_senses``) are
+    each pass's own ``_climb_sense``, float for float, and order the passes as before."""
+    from blisk_cam.core.paths import linking
+
+    mesh, d = demos[False]
+    kw = dict(tool_type="ball", tool_radius=5.0, lead=D(5), link=link, order=order)
+    res = _plan(mesh, d, **kw)
+    monkeypatch.setattr(linking, "_climb_senses", lambda *a, **k: {})
+    single = _plan(mesh, d, **kw).path
+    for name in ("tip", "axis", "move", "curve", "index", "flags"):
+        np.testing.assert_array_equal(getattr(res.path.program, name),
+                                      getattr(single.program, name))
+    monkeypatch.undo()
+    if link == "spiral":
+        return  # one joined pass: its program compared above
+    from blisk_cam.core.part.profiles import morph_between
+
+    curves = [c for c in res.path.curves if len(c.cc) >= 2]
+    morph = morph_between(res.path.cone1, res.path.cone2)
+    senses = linking._climb_senses(curves, morph, d.axis, order == "hub_to_tip")
+    assert len(senses) == len(curves) > 3
+    for c in curves:
+        assert senses[id(c)] == linking._climb_sense(c, morph, d.axis, order == "hub_to_tip")
