@@ -442,3 +442,47 @@ def test_threads_asking_one_worker_each_get_pools_of_their_own():
     per_thread = {t: ids[(t, s)][0] for t, s in ids}
     assert len(set(per_thread.values())) == len(threads)  # one pool per thread
     assert len({v[2] for v in ids.values()}) == 1  # the 2-worker pool is shared
+
+
+@compiled
+@pytest.mark.parametrize("offset", [0.0, 3.0e4])
+def test_nearest_faces_plane_bound_skips_no_nearer_face(offset):
+    """The tree without per-face bounds skips a face whose plane lies beyond the reach of
+    the best (``FaceTree::d2_within``): on a flat grid (every plane through the query's
+    foot: nothing skipped, ties at the very same distance), inside a finely bent sheet
+    (ball centres 6 mm off a concave cylinder of radius 8 mm: many faces near the least
+    distance), on and just off the sheet, near slivers, and with the mesh 30 m from the
+    origin (coarser rounding), the faces are numpy's (the least distance, then the lowest
+    id) on 1 and 2 threads."""
+    from blisk_cam.core.geometry.distance import NearestFaces
+    from blisk_cam.core.runtime import parallel
+
+    rng = np.random.default_rng(7)
+    u, v = np.meshgrid(np.linspace(0.0, 4.0, 41), np.linspace(0.0, 3.0, 31), indexing="ij")
+    nu, nv = u.shape
+    ids = np.arange(nu * nv).reshape(nu, nv)
+    q = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
+    F = np.vstack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+    flat = np.stack([u.ravel(), v.ravel(), np.zeros(u.size)], 1)
+    ang = u.ravel() / 8.0  # the sheet bent about the line y = 0.. 3 at z = 8
+    bent = np.stack([8.0 * np.sin(ang), v.ravel(), 8.0 - 8.0 * np.cos(ang)], 1)
+    sliver = bent[F[:40, 0]] + 1e-7 * (bent[F[:40, 1]] - bent[F[:40, 0]])
+    for V0, Fm in ((flat, F), (np.vstack([bent, sliver]),
+                              np.vstack([F, np.stack([F[:40, 0], F[:40, 1],
+                                                      len(bent) + np.arange(40)], 1)]))):
+        V = V0 + offset
+        mesh = TriMesh(V, Fm)
+        f = rng.integers(0, len(F), 800)
+        w = rng.dirichlet([1.0, 1.0, 1.0], 800)
+        on = np.einsum("ij,ijk->ik", w, V[F[f]])
+        n = mesh.face_normals[f]
+        P = np.vstack([on, on + rng.normal(scale=1e-6, size=on.shape),
+                       on + 6.0 * n, on - 6.0 * n, V[:nu * nv] + 6.0 * mesh.vertex_normals[
+                           :nu * nv], V[:nu * nv]])
+        with backend.numpy_only():
+            ref = NearestFaces(mesh).query(P)
+        for threads in (1, 2):
+            with parallel(threads):
+                got = NearestFaces(mesh).query(P)
+            for g, r in zip(got, ref, strict=True):
+                np.testing.assert_array_equal(g, r)

@@ -46,6 +46,8 @@ __all__ = [
     "fix_local_gouges",
     "fix_near_gouges",
     "gouge_margin",
+    "requested_margin",
+    "search_fixes",
     "surface_normal_curvature",
 ]
 
@@ -184,22 +186,62 @@ def fix_local_gouges(
     """
     lead = np.asarray(lead, dtype=np.float64).copy()
     tilt = np.asarray(tilt, dtype=np.float64).copy()
-    axes = lead_tilt_axes(f, n, k, lead, tilt)
-    margin = gouge_margin(cutter, n, axes, f, k, kappa_f, kappa_k)
+    margin = requested_margin(cutter, f, n, k, lead, tilt, kappa_f, kappa_k)
     flagged = margin < -tol
     left = flagged.copy()
+    if fix:
+        search_fixes(cutter, f, n, k, lead, tilt, kappa_f, kappa_k, limits, margin, flagged,
+                     left, tol=tol)
+    return lead, tilt, flagged, left, margin
+
+
+def requested_margin(cutter, f, n, k, lead, tilt, kappa_f, kappa_k):
+    """(m,) 1/mm — the gouge margin (:func:`gouge_margin`) of the requested lead/tilt
+    (m,) in the frames f, n, k (m, 3): each pose's own figure (the orient stage computes it
+    for all passes at once, then searches each pass's flagged poses,
+    :func:`search_fixes`)."""
+    axes = lead_tilt_axes(f, n, k, lead, tilt)
+    return gouge_margin(cutter, n, axes, f, k, kappa_f, kappa_k)
+
+
+def _candidate_steps(limits: GougeLimits):
+    """(ΔL, ΔT) (c,) radians — the lead and tilt changes the fix tries, smallest first
+    (a function of the limits alone: made once per limits, ~30 000 of them sorted)."""
+    key = (float(limits.step), float(limits.max_lead), float(limits.max_tilt))
+    got = _CANDIDATES.get(key)
+    if got is None:
+        st = key[0]
+        dl = np.arange(0.0, 2 * limits.max_lead + st / 2, st)
+        dt = np.arange(-2 * limits.max_tilt, 2 * limits.max_tilt + st / 2, st)
+        DL, DT = np.meshgrid(dl, dt, indexing="ij")
+        cost = np.hypot(DL, DT).ravel()
+        order = np.argsort(cost, kind="stable")
+        got = (DL.ravel()[order], DT.ravel()[order])
+        for a in got:
+            a.flags.writeable = False
+        if len(_CANDIDATES) > 8:
+            _CANDIDATES.clear()
+        _CANDIDATES[key] = got
+    return got
+
+
+_CANDIDATES: dict = {}
+
+
+def search_fixes(cutter, f, n, k, lead, tilt, kappa_f, kappa_k, limits: GougeLimits,
+                 margin, flagged, left, *, tol: float = 1e-6) -> None:
+    """The search of :func:`fix_local_gouges` over the ``flagged`` poses of one pass, in
+    place: ``lead``, ``tilt`` (m,) of the poses fixed become the cheapest change that
+    clears them, ``left`` (m,) bool turns False there and ``margin`` (m,) is theirs."""
     idx = np.nonzero(flagged)[0]
-    if not fix or len(idx) == 0:
-        return lead, tilt, flagged, left, margin
+    if len(idx) == 0:
+        return
+    hopeless = _unfixable(cutter, kappa_f[idx], kappa_k[idx], tol)
+    if hopeless.all():  # nothing to search (a ball larger than the fillet: every pass there)
+        return
     # candidate changes, smallest first: raise |lead| (away from 0 in its sign, + if 0) and
     # move tilt either way, within the limits
-    st = float(limits.step)
-    dl = np.arange(0.0, 2 * limits.max_lead + st / 2, st)
-    dt = np.arange(-2 * limits.max_tilt, 2 * limits.max_tilt + st / 2, st)
-    DL, DT = np.meshgrid(dl, dt, indexing="ij")
-    cost = np.hypot(DL, DT).ravel()
-    order = np.argsort(cost, kind="stable")
-    DL, DT = DL.ravel()[order], DT.ravel()[order]
+    DL, DT = _candidate_steps(limits)
     q = len(idx)
     sgn = np.where(lead[idx] < 0, -1.0, 1.0)
     cand_lead = lead[idx][:, None] + sgn[:, None] * DL[None, :]
@@ -208,7 +250,6 @@ def fix_local_gouges(
         np.abs(cand_tilt) <= limits.max_tilt + 1e-12
     )
     best = np.full(q, -1)
-    hopeless = _unfixable(cutter, kappa_f[idx], kappa_k[idx], tol)
     chunk = max(1, 200_000 // max(q, 1))
     for c0 in range(0, len(DL), chunk):
         sl = slice(c0, c0 + chunk)
@@ -240,7 +281,6 @@ def fix_local_gouges(
     if len(sel):
         ax = lead_tilt_axes(f[sel], n[sel], k[sel], lead[sel], tilt[sel])
         margin[sel] = gouge_margin(cutter, n[sel], ax, f[sel], k[sel], kappa_f[sel], kappa_k[sel])
-    return lead, tilt, flagged, left, margin
 
 
 def fix_near_gouges(

@@ -65,6 +65,7 @@ class SweptLinkCheck:
         self.still_depth = 0.0
         self.rapids = 0
         self.rapids_worst = 0.0
+        self._memo = {}  # point bytes → (signed distance, closest point) (:meth:`_closest`)
 
     def depth(self, tips, axes) -> float:
         """The deepest cut (mm, ≥ 0) of the cutter moving through the poses ``tips`` (k, 3),
@@ -81,13 +82,37 @@ class SweptLinkCheck:
             A = np.vstack([A[seg] * (1 - t) + A[seg + 1] * t, A[-1:]])
             A = A / np.maximum(np.linalg.norm(A, axis=1), 1e-300)[:, None]
         if self._ball:
-            q = self._md.query(T + self._rho * A)
-            d = self._rho - q.signed_distance
+            sd, _ = self._closest(T + self._rho * A)
+            d = self._rho - sd
         else:
             r = float(self.cutter.radius)
-            q = self._md.query(T + r * A)
-            d = -self.cutter.signed_distance(q.point, T, A)
+            _, point = self._closest(T + r * A)
+            d = -self.cutter.signed_distance(point, T, A)
         return max(0.0, float(np.max(d)))
+
+    def _closest(self, Q):
+        """(signed distance (k,), closest point (k, 3)) of the (k, 3) points ``Q`` (mm) on
+        the mesh, each point measured once per check: the routes tried for one link share
+        their ends and often more (the two routes via the clearance surface are the same
+        where the tool axes lead radially), and a closed pass starts and ends on the same
+        pose, the end of one link and the start of the next. Each point's answer is its
+        own (:meth:`..geometry.distance.MeshDistance.query` answers every point alone), so
+        the figures are those of querying every point."""
+        keys = [row.tobytes() for row in Q]
+        memo = self._memo
+        new = {}
+        for i, key in enumerate(keys):
+            if key not in memo and key not in new:
+                new[key] = i
+        if new:
+            rows = np.fromiter(new.values(), dtype=np.int64, count=len(new))
+            q = self._md.query(Q[rows])
+            sd, point = q.signed_distance, q.point
+            for j, key in enumerate(new):
+                memo[key] = (sd[j], point[j])
+        got = [memo[key] for key in keys]
+        return (np.array([g[0] for g in got], dtype=np.float64),
+                np.array([g[1] for g in got], dtype=np.float64).reshape(-1, 3))
 
     def reroute(self, depth: float, left: float = 0.0) -> None:
         """Record a link sent through the air because it would have cut ``depth`` mm; its

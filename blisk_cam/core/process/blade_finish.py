@@ -75,28 +75,19 @@ from ..part.profiles import morph_between
 from ..paths.gouge import (
     GougeLimits,
     LocalGougeReport,
-    fix_local_gouges,
-    fix_near_gouges,
-    surface_normal_curvature,
 )
 from ..paths.link_check import SweptLinkCheck
 from ..paths.linking import Clearance, LinkOptions, SurfaceProjector, build_program, order_passes
 from ..paths.orientation import (
     AxisStrategy,
-    axes_for_curve,
     consecutive_turn,
     lead_tilt_axes,
-    local_frames,
-    smooth_axes,
 )
 from ..paths.passes import iter_generate_paths
 from ..paths.spacing import expansion_radius, lead_for_concave, surface_radii
 from ..runtime import Progress, scaled_progress
 from ..tool.cutter import Cutter
 from ..toolpath.types import (
-    FLAG_AXIS_SMOOTHED,
-    FLAG_GOUGE_FIXED,
-    FLAG_LOCAL_GOUGE,
     FLAG_ZERO_SPEED,
     ToolPath,
 )
@@ -107,6 +98,7 @@ from .operation import (
     iter_run_operation,
     run_operation,
 )
+from .orient_passes import orient_passes
 from .semi_layers import join_programs, layer_allowances, merge_layer_stats
 
 __all__ = [
@@ -330,60 +322,6 @@ def _check(req: PathRequest):
     return cutter, strategy, opts, limits
 
 
-def _orient(
-    curve, mesh, projector, cutter, strategy, limits, req, blisk_axis, report, near_field=None
-):
-    """Axes, flags and tips of one pass in place."""
-    cc, nrm, closed = curve.cc, curve.normal, curve.closed
-    s = curve.ratios
-    flags = np.zeros(len(cc), dtype=np.uint8)
-    if strategy.mode == "local":
-        f, n, k = local_frames(cc, nrm, closed)
-        lead, tilt = strategy.at("lead", s), strategy.at("tilt", s)
-        if len(curve.face) == len(cc) and np.all(curve.face >= 0):
-            faces = curve.face
-        else:
-            _, _, faces = projector.project(cc)
-        kf = surface_normal_curvature(mesh, faces, f)
-        kk = surface_normal_curvature(mesh, faces, k)
-        lead2, tilt2, flagged, left, margin = fix_local_gouges(
-            cutter, f, n, k, lead, tilt, kf, kk, limits, fix=req.fix_local_gouge
-        )
-        if near_field is not None:  # the cutter's reach beyond the contact (a fillet corner)
-            S, tree = near_field
-            lead2, tilt2, nflag, nleft, _ = fix_near_gouges(
-                cutter, S, cc, f, n, k, lead2, tilt2, limits, tol=0.25 * req.chord,
-                fix=req.fix_local_gouge, tree=tree,
-            )
-            flagged, left = flagged | nflag, (left & ~nflag) | nleft
-        want = lead_tilt_axes(f, n, k, lead2, tilt2)
-        flags[flagged & ~left] |= FLAG_GOUGE_FIXED
-        flags[left] |= FLAG_LOCAL_GOUGE
-        report.add(
-            LocalGougeReport(
-                n_poses=len(cc),
-                n_flagged=int(flagged.sum()),
-                n_fixed=int((flagged & ~left).sum()),
-                n_left=int(left.sum()),
-                worst=float(min(0.0, margin[left].min())) if left.any() else 0.0,
-                left_at=cc[left],
-            )
-        )
-    else:
-        want = axes_for_curve(cc, nrm, closed, s, strategy, blisk_axis)
-        report.add(LocalGougeReport(n_poses=len(cc)))
-    axes = want
-    if strategy.max_turn is not None:
-        axes = smooth_axes(want, nrm, strategy.max_turn, closed)
-        moved = np.einsum("ij,ij->i", axes, want) < math.cos(1e-6)
-        flags[moved] |= FLAG_AXIS_SMOOTHED
-    tip, zero = cutter.cl_points_and_zero_speed(cc, nrm, axes, req.zero_speed_tol)
-    flags[zero] |= FLAG_ZERO_SPEED
-    curve.axis = axes
-    curve.tip = tip
-    curve.flags = curve.flags | flags
-
-
 def _fit_concave(
     cutter, strategy, limits, req, edge: float, concave: float, rho: float
 ) -> float:
@@ -592,15 +530,15 @@ def _stage_order(st: PlanState):
 
 
 def _stage_orient(st: PlanState):
-    """Tool axes, the local gouge check and fix, smoothing and the tool tips per pass."""
+    """Tool axes, the local gouge check and fix, smoothing and the tool tips per pass
+    (:func:`.orient_passes.orient_passes`)."""
     near_field = None
     if st.cutter.type != "ball" and math.isfinite(st.concave):
         # a concave region: check the cutter against the surface around each contact too
         S = np.vstack([st.mesh.V, st.mesh.V[st.mesh.F].mean(axis=1)])
         near_field = (S, cKDTree(S))
-    for c in st.curves:
-        _orient(c, st.mesh, st.projector, st.cutter, st.strategy, st.limits, st.req,
-                st.req.axis, st.gouge, near_field)
+    orient_passes(st.curves, st.mesh, st.projector.nearest_faces, st.cutter, st.strategy,
+                  st.limits, st.req, st.gouge, near_field)
     return
     yield
 
