@@ -8,9 +8,14 @@ from .cli.blas import use_one_blas_thread
 use_one_heap()  # before numpy's and the kernels' threads start (see cli/allocator.py)
 use_one_blas_thread()  # before numpy loads OpenBLAS (see cli/blas.py)
 
+import importlib.util  # noqa: E402 - imported by ``-m`` already (runpy)
+
+# the core needs numpy and scipy: scipy is found, not imported (its modules are imported where
+# they are used: a paths run on the compiled kernels needs none of scipy.spatial's ~60 ms)
 try:
-    import numpy  # noqa: F401 - the core needs numpy and scipy
-    import scipy  # noqa: F401
+    import numpy  # noqa: F401
+    if importlib.util.find_spec("scipy") is None:
+        raise ImportError("No module named 'scipy'", name="scipy")
 except ImportError as exc:
     print(
         f"blisk_cam: error: this Python ({sys.executable}, {sys.version.split()[0]}) lacks "
