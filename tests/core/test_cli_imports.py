@@ -32,11 +32,22 @@ NOT_FOR_PATHS = (
 )
 
 #: run the CLI as ``python -m blisk_cam`` does, then list the modules it imported (stderr)
+#: as it exits: at its ``os._exit`` (a command computed in the process) or the interpreter's
 _LISTING = """
-import atexit, runpy, sys
+import atexit, os, runpy, sys
 from blisk_cam.core.kernels.backend import backend_name
-atexit.register(lambda: sys.stderr.write("MODULES " + " ".join(sorted(sys.modules)) + "\\n"
-                                         + "BACKEND " + backend_name() + "\\n"))
+
+def listing():
+    sys.stderr.write("MODULES " + " ".join(sorted(sys.modules)) + "\\n"
+                     + "BACKEND " + backend_name() + "\\n")
+    sys.stderr.flush()
+
+def leave(code, _exit=os._exit):
+    listing()
+    _exit(code)
+
+atexit.register(listing)
+os._exit = leave
 sys.argv = ["blisk_cam", *sys.argv[1:]]
 runpy.run_module("blisk_cam", run_name="__main__", alter_sys=True)
 """
@@ -97,3 +108,25 @@ def test_the_listing_sees_another_commands_modules():
     rc, modules, _ = _modules_of(["robot", "--help"])
     assert rc == 0
     assert "blisk_cam.cli.robot" in _unneeded(modules)
+
+
+def test_a_paths_run_leaves_with_its_lines_written(blade, tmp_path):
+    """``python -m blisk_cam paths`` ends at once after the command (``os._exit``, no
+    interpreter shutdown): its lines on a pipe are all there, the JSON is whole, and a usage
+    error still exits 2 with its one line."""
+    stl, cone1, cone2 = blade
+    out = tmp_path / "paths.json"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run(
+        [sys.executable, "-m", "blisk_cam", "paths", "--mesh", stl, "--cone1", *cone1,
+         "--cone2", *cone2, "--tool-diameter", "12", "--cusp", "0.5", "--chord", "0.2",
+         "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0].startswith(f"wrote {out}") and lines[-1].startswith("time: ")
+    assert json.loads(out.read_text())["stats"]["passes"] > 0
+    bad = subprocess.run([sys.executable, "-m", "blisk_cam", "paths", "--mesh", stl,
+                          "--cusp", "x", "--out", str(out)], cwd=ROOT, capture_output=True,
+                         text=True, timeout=300, env=env)
+    assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1
+    assert bad.stderr.startswith("blisk_cam: error: argument --cusp")
