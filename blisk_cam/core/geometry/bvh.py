@@ -7,7 +7,6 @@ volumes of ``verify`` build on it. Lengths in mm.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..runtime import map_chunks
 
@@ -199,6 +198,8 @@ class ClusterTree:
         self.R += 1e-12 * (1.0 + np.abs(self.R))
         self._pack()
         # upper bounds for nearest queries: the primitives with the nearest centroids
+        from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
         self.kd = cKDTree(pcen) if m else None
         self.kd_k = int(min(2, m))
         # a small slack for rounding in the bounds (never prunes a true candidate)

@@ -8,7 +8,6 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..kernels import closest as compiled_closest
 from ..kernels.backend import extension
@@ -271,6 +270,8 @@ class NearestFaces:
         with np.errstate(divide="ignore", invalid="ignore"):
             cls = np.floor(_NF_PER_OCTAVE * np.log2(rmax / rad))
         cls = np.clip(np.nan_to_num(cls, nan=0.0), 0, _NF_CLASSES - 1).astype(np.int64)
+        from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
         self._trees = []
         for c in range(_NF_CLASSES):
             ids = np.flatnonzero(cls == c)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
-from scipy.spatial import cKDTree
 
 from ..errors import MeshError
 from ..kernels import mesh_orient as compiled_orient
@@ -224,6 +223,8 @@ def _welded(V, used, weld_tolerance, distinct=False):
         if not np.any(us[1:] == us[:-1]):  # distinct vertices, distinct projections
             pairs = _close_pairs(V, ir[u_order], tol, u=us)
         if pairs is None:  # vertices sharing a projection, or crowding one across it
+            from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
             pairs = cKDTree(V[ir], balanced_tree=False, compact_nodes=False).query_pairs(
                 tol, output_type="ndarray"
             )
@@ -467,6 +468,8 @@ def input_vertex_values(mesh, V, values) -> np.ndarray:
         vmap = np.asarray(vmap, dtype=np.int64)
         return np.where(vmap >= 0, values[np.maximum(vmap, 0)], np.nan)
     tol = 1e-6 * max(float(np.linalg.norm(np.ptp(mesh.V, axis=0))), 1e-12)
+    from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
     dist, idx = cKDTree(mesh.V).query(V, k=1, distance_upper_bound=tol)
     ok = np.isfinite(dist)
     out = np.full(len(V), np.nan)

@@ -19,7 +19,6 @@ never above it.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import ToleranceError
 from ..geometry.mesh import TriMesh
@@ -164,6 +163,8 @@ class PolylineDistance:
         """scipy's k-d tree of the samples (made on first use: the compiled kernels need it
         only for the rows they leave to it)."""
         if self._tree is None:
+            from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
             self._tree = cKDTree(self.samples)
         return self._tree
 
@@ -281,7 +282,14 @@ def _nearest_index(points, queries):
     if compiled_knn.available() and len(queries):
         tree = compiled_knn.point_tree(points, workers())
         return compiled_knn.nearest_k(tree, queries, 1, np.inf, workers(),
-                                      ties=lambda Q: cKDTree(points).query(Q)[1][:, None])[:, 0]
+                                      ties=lambda Q: _scipy_nearest(points, Q)[:, None])[:, 0]
+    return _scipy_nearest(points, queries)
+
+
+def _scipy_nearest(points, queries):
+    """(q,) int: the nearest of ``points`` (n, 3) to each query (q, 3) by scipy's k-d tree."""
+    from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
     return cKDTree(points).query(queries)[1]
 
 

@@ -34,7 +34,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import BliskCamError
 from ..geometry.mesh import TriMesh
@@ -327,6 +326,8 @@ def fix_near_gouges(
     flagged : (m,) bool — deeper than ``tol`` before; left : still deeper
     depth : (m,) mm — final depth (≥ 0)
     """
+
+    from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
 
     S = np.asarray(samples, dtype=np.float64)
     tree = cKDTree(S) if tree is None else tree

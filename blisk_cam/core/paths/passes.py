@@ -13,7 +13,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import ConeError, ToleranceError
 from ..geometry.axis import Axis, meridional
@@ -500,6 +499,8 @@ class _Generator:
         of :class:`_ProbeSamples`; built on first use (a mesh the ball clears everywhere never
         needs it)."""
         if not hasattr(self, "_ptree"):
+            from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
             self._ptree = cKDTree(self._probe_samples().all_points(), leafsize=64,
                                   balanced_tree=False, compact_nodes=False)
         return self._ptree

@@ -10,7 +10,6 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 __all__ = ["THREADED_QUERY_MIN", "PROBE_TIE_BAND", "PROBE_RADIUS_SLACK"]
 
@@ -114,6 +113,8 @@ class _ProbeSamples:
         b2 = bound * bound
         lo, hi = b2 * (1.0 - PROBE_TIE_BAND), b2 * (1.0 + PROBE_TIE_BAND)
         if self._vtree is None:
+            from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
             self._vtree = cKDTree(self.V, leafsize=64, balanced_tree=False, compact_nodes=False)
         lists = self._vtree.query_ball_point(C, np.sqrt(b2 + self.cover2) + PROBE_RADIUS_SLACK,
                                             workers=_workers(q), return_sorted=False)

@@ -54,7 +54,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import BliskCamError, OrientationError, ToleranceError, ToolError
 from ..geometry.axis import Axis, cylindrical
@@ -535,6 +534,8 @@ def _stage_orient(st: PlanState):
     near_field = None
     if st.cutter.type != "ball" and math.isfinite(st.concave):
         # a concave region: check the cutter against the surface around each contact too
+        from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
         S = np.vstack([st.mesh.V, st.mesh.V[st.mesh.F].mean(axis=1)])
         near_field = (S, cKDTree(S))
     orient_passes(st.curves, st.mesh, st.projector.nearest_faces, st.cutter, st.strategy,
@@ -672,6 +673,8 @@ def check_allowance_in_channel(mesh: TriMesh, axis: Axis, blade_count: int,
     n = int(blade_count)
     if a <= 0 or n < 2:
         return math.inf
+    from scipy.spatial import cKDTree  # optional: on first use (~60 ms)
+
     R = rotation_matrix(axis.d, 2.0 * math.pi / n)
     W = (mesh.V - axis.o) @ R.T + axis.o
     tree = cKDTree(W)

@@ -56,6 +56,7 @@ from ..geometry.axis import Axis
 from ..kernels.float_text import json_float_array
 from ..part.cones import Cone
 from ..part.profiles import Profile
+from ..runtime import map_tasks, workers
 from ..tool.cutter import Cutter
 from .types import FLAG_NAMES, MOVE_NAMES, MOVE_RAPID, PassCurve, Program, ToolPath, move_codes
 
@@ -81,6 +82,16 @@ def path_to_dict(path: ToolPath) -> dict:
 def _float_list(a) -> list:
     """A float array as (nested) lists of Python floats."""
     return np.asarray(a, dtype=float).tolist()
+
+
+def _int_list(a) -> list:
+    """``[int(x) for x in a]`` of a (k,) array of codes, counts or indices: the same Python
+    ints, by numpy for an integer or bool array (a program of 15k rows: ~5 ms of the writer's
+    loops in one pass)."""
+    a = np.asarray(a)
+    if a.dtype.kind in "biu":
+        return a.astype(np.int64).tolist()
+    return [int(x) for x in a]
 
 
 def _path_dict(path: ToolPath, floats) -> dict:
@@ -274,7 +285,7 @@ def paths_json_text(path: ToolPath) -> str:
         return f"\x00{len(arrays) - 1}\x00"
 
     parts = json.dumps(_path_dict(path, placeholder), allow_nan=False).split('"\\u0000')
-    texts = [json_float_array(a) for a in arrays]
+    texts = _float_texts(arrays)
     out = [parts[0]]
     for k, part in enumerate(parts[1:]):
         head = f"{k}\\u0000\""
@@ -284,6 +295,21 @@ def paths_json_text(path: ToolPath) -> str:
     if len(parts) != len(arrays) + 1:
         return json.dumps(path_to_dict(path), allow_nan=False)
     return "".join(out)
+
+
+def _float_texts(arrays) -> list:
+    """``[json_float_array(a) for a in arrays]``, the arrays cut into one run of about equal
+    floats per thread of :func:`..runtime.parallel`, formatted side by side (the kernel
+    formats without the GIL: ~0.02 s of a 1M-triangle write on one core, ~0.045 s for
+    Rotor 37's 280k floats)."""
+    n = min(workers(), len(arrays))
+    if n < 2:
+        return [json_float_array(a) for a in arrays]
+    ends = np.cumsum([np.size(a) for a in arrays])
+    cuts = np.searchsorted(ends, ends[-1] * np.arange(1, n) / n) + 1  # a run ends past it
+    runs = [r for r in np.split(np.arange(len(arrays)), cuts) if len(r)]
+    done = map_tasks(lambda run: [json_float_array(arrays[i]) for i in run], runs)
+    return [t for texts in done for t in texts]
 
 
 def read_paths_json(filename) -> ToolPath:
@@ -327,12 +353,12 @@ def _read_warnings(d: dict) -> list[str]:
 
 
 def _curve_extras(c: PassCurve, floats=_float_list) -> dict:
-    out = {"move": [MOVE_NAMES[int(m)] for m in c.move], "flags": [int(x) for x in c.flags]}
+    out = {"move": [MOVE_NAMES[m] for m in _int_list(c.move)], "flags": _int_list(c.flags)}
     if c.ratio is not None:
         out["ratio"] = floats(c.ratio)
     if c.collision is not None:
         out["collision"] = {
-            "status": [int(x) for x in c.collision["status"]],
+            "status": _int_list(c.collision["status"]),
             "clearance": floats(c.collision["clearance"]),
             # the degrees read from a file are written back as they were (exact round trip)
             "rotation_deg": floats(c.collision["rotation_deg"])
@@ -400,13 +426,13 @@ def _program_to_dict(p: Program, floats=_float_list) -> dict:
     return {
         "tip": floats(p.tip),
         "axis": floats(p.axis),
-        "move": [MOVE_NAMES[int(m)] for m in p.move],
-        "rapid": [bool(m == MOVE_RAPID) for m in p.move],
-        "curve": [int(x) for x in p.curve],
-        "index": [int(x) for x in p.index],
-        "flags": [int(x) for x in p.flags],
+        "move": [MOVE_NAMES[m] for m in _int_list(p.move)],
+        "rapid": [m == MOVE_RAPID for m in _int_list(p.move)],
+        "curve": _int_list(p.curve),
+        "index": _int_list(p.index),
+        "flags": _int_list(p.flags),
         **({} if p.collision_status is None else {
-            "collision_status": [int(x) for x in p.collision_status],
+            "collision_status": _int_list(p.collision_status),
             "clearance": floats(p.clearance)}),
         **({} if p.collision_status is None or p.rotation_deg is None else {
             "rotation_deg": floats(p.rotation_deg)}),
