@@ -14,8 +14,6 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import csgraph
 
 from ..errors import MeshError
 from ..kernels import mesh_orient as compiled_orient
@@ -81,6 +79,9 @@ def chain_graph_paths(n_nodes: int, links, *, strict: bool = True):
     fast = _chain_directed(n_nodes, links)
     if fast is not None:
         return fast
+    from scipy import sparse  # optional: the numpy route only (scipy.sparse ~45 ms to import)
+    from scipy.sparse import csgraph
+
     g = sparse.coo_matrix(
         (np.ones(len(links)), (links[:, 0], links[:, 1])), shape=(n_nodes, n_nodes)
     ).tocsr()
@@ -357,6 +358,9 @@ class TriMesh:
             inconsistent = self.F.ravel()[h0] == self.F.ravel()[h1]
             any_inconsistent = bool(np.any(inconsistent))
         if got is None:
+            from scipy import sparse  # optional: the numpy route only
+            from scipy.sparse import csgraph
+
             g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
             # no pair of faces twice (that would be a repeated face); the components need no
             # sorted columns: skip the conversion's per-row sort

@@ -9,8 +9,6 @@ wins). Lengths in mm.
 from __future__ import annotations
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import csgraph
 
 from ..errors import MeshError
 from ..kernels import mesh_orient as compiled_orient
@@ -230,6 +228,9 @@ def _welded(V, used, weld_tolerance, distinct=False):
             )
             pairs = ir[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
         if len(pairs):
+            from scipy import sparse  # optional: only for vertices within the tolerance
+            from scipy.sparse import csgraph
+
             loc = np.searchsorted(ir, pairs)  # input ids → positions among the reps
             g = sparse.coo_matrix(
                 (np.ones(len(loc)), (loc[:, 0], loc[:, 1])), shape=(len(ir), len(ir))
@@ -429,6 +430,9 @@ def _parity_flip(m, f0, f1, inconsistent, labels, ncomp):
     O(m log m), no per-face Python loop); per component the smaller of the two classes is
     flipped (ties: the class of the lowest-index face, the BFS root, is kept).
     """
+    from scipy import sparse  # optional: only a mesh with inconsistent windings needs it
+    from scipy.sparse import csgraph
+
     w = inconsistent.astype(np.float64) + 1.0  # 1 = consistent, 2 = flip (weights > 0)
     g = sparse.coo_matrix((w, (f0, f1)), shape=(m, m)).tocsr()
     g = g.maximum(g.T)
