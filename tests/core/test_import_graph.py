@@ -10,8 +10,9 @@ function is still a dependency, and hiding a circle there is what these rules fo
   from core but ``errors``; the Blender side never imports ``cli`` or ``batch``; only
   ``batch`` imports dask; only ``kernels`` imports the compiled extension;
 * inside core, a function-level import is only of a third-party module a run may not need
-  (an optional dependency, or scipy.spatial where a k-d tree is built: ~60 ms of the CLI's
-  startup), with its reason on the line (``# optional: ...``);
+  (an optional dependency, or scipy.spatial where a k-d tree is built and scipy.sparse where
+  the numpy route builds a graph: ~60 ms of the CLI's startup), with its reason on the line
+  (``# optional: ...``);
 * no private name (``_x``) is imported across a package boundary;
 * the core's, ``blender``'s and ``cli``'s ``__init__`` files are signs (one docstring);
 * no module is longer than 900 lines.

@@ -80,7 +80,7 @@ def chain_graph_paths(n_nodes: int, links, *, strict: bool = True):
     if fast is not None:
         return fast
     from scipy import sparse  # optional: the numpy route only (scipy.sparse ~45 ms to import)
-    from scipy.sparse import csgraph
+    from scipy.sparse import csgraph  # optional: as above
 
     g = sparse.coo_matrix(
         (np.ones(len(links)), (links[:, 0], links[:, 1])), shape=(n_nodes, n_nodes)
@@ -359,7 +359,7 @@ class TriMesh:
             any_inconsistent = bool(np.any(inconsistent))
         if got is None:
             from scipy import sparse  # optional: the numpy route only
-            from scipy.sparse import csgraph
+            from scipy.sparse import csgraph  # optional: as above
 
             g = sparse.coo_matrix((np.ones(len(f0)), (f0, f1)), shape=(m, m))
             # no pair of faces twice (that would be a repeated face); the components need no

@@ -229,7 +229,7 @@ def _welded(V, used, weld_tolerance, distinct=False):
             pairs = ir[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
         if len(pairs):
             from scipy import sparse  # optional: only for vertices within the tolerance
-            from scipy.sparse import csgraph
+            from scipy.sparse import csgraph  # optional: as above
 
             loc = np.searchsorted(ir, pairs)  # input ids → positions among the reps
             g = sparse.coo_matrix(
@@ -431,7 +431,7 @@ def _parity_flip(m, f0, f1, inconsistent, labels, ncomp):
     flipped (ties: the class of the lowest-index face, the BFS root, is kept).
     """
     from scipy import sparse  # optional: only a mesh with inconsistent windings needs it
-    from scipy.sparse import csgraph
+    from scipy.sparse import csgraph  # optional: as above
 
     w = inconsistent.astype(np.float64) + 1.0  # 1 = consistent, 2 = flip (weights > 0)
     g = sparse.coo_matrix((w, (f0, f1)), shape=(m, m)).tocsr()
