@@ -2,25 +2,26 @@
 samples, their distances to A) on a side thread while it makes pass B (issue 21,
 ``_Generator.cusp_between``): the same scallops, passes and caches as in the one-thread order;
 on one thread, or on the numpy kernels, that order itself (no side thread); a failure while
-making pass B waits for the side thread and goes up unchanged, with the thread switch
-interval restored."""
+making pass B waits for the side thread and goes up unchanged. The kept side thread of the
+trials (``runtime.SideThread``) runs its calls on one thread, with one worker and the
+caller's cancel hook."""
 
 from __future__ import annotations
 
 import contextlib
 import itertools
-import sys
 import threading
 
 import numpy as np
 import pytest
 
+from blisk_cam.core import runtime
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.paths import passes
 from blisk_cam.core.paths.passes import _Generator
-from blisk_cam.core.runtime import parallel
+from blisk_cam.core.runtime import SideThread, cancellable, parallel, workers
 
 compiled = pytest.mark.skipif(
     backend.extension() is None,
@@ -85,7 +86,6 @@ def test_numpy_kernels_keep_the_one_thread_order(demo):
 @compiled
 def test_error_making_pass_b_waits_for_the_side_thread(demo, monkeypatch):
     d, mesh = demo
-    before = sys.getswitchinterval()
     done = []
     work = passes.trial_level_work
 
@@ -98,7 +98,6 @@ def test_error_making_pass_b_waits_for_the_side_thread(demo, monkeypatch):
         raise RuntimeError("no pass here")
 
     monkeypatch.setattr(passes, "trial_level_work", slow)
-    monkeypatch.setattr(passes, "OVERLAP_SWITCH_INTERVAL", before / 10)
     with parallel(2):
         gen = _Generator(mesh, d.axis, d.hub_cone, d.tip_cone, 6.0, 0.05, 0.01)
         run = gen.run()
@@ -108,4 +107,36 @@ def test_error_making_pass_b_waits_for_the_side_thread(demo, monkeypatch):
         with pytest.raises(RuntimeError, match="no pass here"):
             next(run)
     assert trials > 1 and len(done) == trials + 1  # the side thread had ended meanwhile
-    assert sys.getswitchinterval() == before
+
+
+def test_side_thread_keeps_one_thread_and_hands_back_results_and_errors():
+    seen = []
+
+    def job(x):
+        seen.append((threading.current_thread(), workers(), check_cancel_hook()))
+        if x < 0:
+            raise ValueError(f"bad {x}")
+        return 2 * x
+
+    stop = threading.Event()
+    with cancellable(stop, "the test"), parallel(2), SideThread() as side:
+        results = [side.alongside(lambda x=x: job(x)) for x in (1, 2)]
+        assert [r() for r in results] == [2, 4]
+        bad = side.alongside(lambda: job(-1))
+        with pytest.raises(ValueError, match="bad -1"):
+            bad()
+        thread = seen[0][0]
+    assert len(seen) == 3 and all(t is thread for t, _, _ in seen)  # one kept thread
+    assert thread is not threading.current_thread() and not thread.is_alive()  # closed
+    assert all(w == 1 and h for _, w, h in seen)  # one worker, the caller's cancel hook
+    # on one thread: run where the result is asked for, when it is asked for
+    seen.clear()
+    with parallel(1), SideThread() as side:
+        later = side.alongside(lambda: job(3))
+        assert seen == []
+        assert later() == 6 and seen[0][0] is threading.current_thread()
+
+
+def check_cancel_hook():
+    """Whether this thread sees a cancel hook (that of :func:`cancellable`)."""
+    return runtime._CANCEL.get() is not None

@@ -11,7 +11,6 @@ operator to drive; ``generate_paths`` simply exhausts it.
 from __future__ import annotations
 
 import contextlib
-import sys
 import time
 
 import numpy as np
@@ -26,7 +25,7 @@ from ..kernels import mesh_tables as compiled_tables
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
-from ..runtime import Progress, alongside, parallel, workers
+from ..runtime import Progress, SideThread, alongside, workers
 from ..toolpath.types import BallTool, PassCurve, ToolPath
 from .expansion import (
     PolylineDistance,
@@ -55,11 +54,6 @@ CUSP_TARGET = 0.92
 #: ``CENTRE_CHORD_SHARE`` of the chord tolerance): the sag adds to the scallop, and a pose
 #: costs far less machining time than a pass
 CENTRE_SAG_SHARE = 0.25
-#: the thread switch interval (s) while a trial's level work runs beside its pass (None:
-#: Python's)
-OVERLAP_SWITCH_INTERVAL = None
-#: rayon workers of the pass's compiled calls meanwhile (None: the run's)
-OVERLAP_MAIN_WORKERS = None
 #: safety cap on the number of passes (a path of more passes is not a finishing path)
 MAX_PASSES = 20_000
 #: spacing (mm, along the ball-centre path) of the probes for parts of the mesh intruding
@@ -74,21 +68,6 @@ UNCUT_LIFT_SHARE = 0.1
 #: :meth:`_Generator.end_level`) by at most the width w of the strip it then leaves uncut with
 #: w² / 2ρ ≤ this share of the cusp height (the height of a ball's profile w off its contact)
 END_INSET_CUSP_SHARE = 0.25
-
-
-@contextlib.contextmanager
-def _overlap_switch_interval():
-    """Within the block, Python's thread switch interval is ``OVERLAP_SWITCH_INTERVAL`` (when
-    set and shorter than the interval in force); the interval in force comes back after."""
-    before = sys.getswitchinterval()
-    if not OVERLAP_SWITCH_INTERVAL or OVERLAP_SWITCH_INTERVAL >= before:
-        yield
-        return
-    sys.setswitchinterval(OVERLAP_SWITCH_INTERVAL)
-    try:
-        yield
-    finally:
-        sys.setswitchinterval(before)
 
 
 def _cross(u, v):
@@ -269,6 +248,7 @@ class _Generator:
         self._centre_dist: dict[float, PolylineDistance] = {}
         self._level_samples: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         self._uncut_lift: dict[int, np.ndarray] = {}  # id(PassCurve) → intrusion lift per pose
+        self._side = SideThread()  # the trials' level work beside their pass (cusp_between)
         #: end (0 or 1) → (ratio of the moved end pass, inset in mm), see :meth:`end_level`
         self.end_inset: dict[int, tuple[float, float]] = {}
         self.max_turn = 2.0 * np.arccos(1.0 - self.chord / (4.0 * self.radius))
@@ -677,17 +657,15 @@ class _Generator:
                                 level_normals=[x[1] for x in samples])
         levels = {k: self._levels[k] for k in keys if k in self._levels}
         known = {k: self._level_samples[k] for k in keys if k in self._level_samples}
-        with _overlap_switch_interval():
-            side = alongside(lambda: trial_level_work(self.slicer, keys, levels, known,
-                                                      self.sample_spacing, self.radius, dist_a))
-            try:
-                with parallel(OVERLAP_MAIN_WORKERS or workers()):
-                    dist_b = self.centre_distance(s_b)
-            except BaseException:
-                with contextlib.suppress(Exception):  # the side thread ends before the error
-                    side()  # goes up (it reads this generator's state)
-                raise
-            new_levels, new_samples, side_a = side()
+        side = self._side.alongside(lambda: trial_level_work(
+            self.slicer, keys, levels, known, self.sample_spacing, self.radius, dist_a))
+        try:
+            dist_b = self.centre_distance(s_b)
+        except BaseException:
+            with contextlib.suppress(Exception):  # the side thread ends before the error
+                side()  # goes up (it reads this generator's state)
+            raise
+        new_levels, new_samples, side_a = side()
         self._levels.update(new_levels)
         self._level_samples.update(new_samples)
         return cusp_with_b(side_a, dist_b, self.radius)
@@ -695,6 +673,11 @@ class _Generator:
     def run(self):
         """Generator: the slice → sample → expand loop of paper 001, pass after pass; yields
         :class:`Progress` between levels and sets ``self.result`` (ToolPath)."""
+        with self._side:  # its thread ends with the run (also when the run is dropped)
+            yield from self._run()
+
+    def _run(self):
+        """:meth:`run`'s loop."""
         t0 = time.perf_counter()
         h = self.cusp
         self._check_end_levels()
