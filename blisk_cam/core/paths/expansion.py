@@ -32,6 +32,8 @@ __all__ = [
     "face_gradient_and_curvature",
     "PolylineDistance",
     "measure_cusp",
+    "cusp_side_a",
+    "cusp_with_b",
 ]
 
 
