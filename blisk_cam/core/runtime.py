@@ -24,6 +24,7 @@ __all__ = [
     "cancellable",
     "check_cancel",
     "alongside",
+    "SideThread",
     "map_chunks",
     "map_tasks",
     "one_blas_thread",
@@ -167,6 +168,42 @@ def alongside(fn):
         return box["value"]
 
     return result
+
+
+class SideThread:
+    """One thread kept for work beside the calling thread, call after call: :meth:`alongside`
+    is :func:`alongside` without a new thread per call (~0.1 ms to start, and the compiled
+    kernels make a one-worker pool for each new thread that calls them, ~0.15 ms, kept until
+    the process ends). The thread starts on the first call that runs beside; :meth:`close`
+    ends it (a context manager closes on exit)."""
+
+    def __init__(self):
+        self._pool = None
+
+    def alongside(self, fn):
+        """As :func:`alongside`: ``fn()`` on the kept thread when :func:`parallel` allows
+        several threads (the caller's cancel hook, one worker), else in the calling thread
+        when the result is asked for; returns the function that waits for the result (or
+        raises ``fn``'s exception). One call at a time runs; later ones queue."""
+        if _WORKERS.get() < 2:
+            return fn
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="blisk_cam-side")
+        ctx = contextvars.copy_context()
+        ctx.run(_WORKERS.set, 1)
+        return self._pool.submit(ctx.run, fn).result
+
+    def close(self):
+        """End the thread (after the work queued on it)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 def _map(fn, items, *, carry_hook: bool):

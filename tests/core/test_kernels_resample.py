@@ -1,6 +1,6 @@
 """The level samples of the scallop measurement resampled in one compiled call
 (``kernels.polyline.resample_offset``, issue 21) against the numpy reference
-(``paths.passes._resample``) on the same inputs: the same points and normals bit for bit, open
+(``paths.trial_levels._resample``) on the same inputs: the same points and normals bit for bit, open
 and closed polylines, with and without an offset, repeated points, zero-length and very long
 segments; and every level's samples of a generator.
 
@@ -13,7 +13,8 @@ import numpy as np
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import polyline as compiled_polyline
 from blisk_cam.core.part.blisk import make_demo_blisk
-from blisk_cam.core.paths.passes import _Generator, _resample
+from blisk_cam.core.paths.passes import _Generator
+from blisk_cam.core.paths.trial_levels import _resample
 from tests.support.kernels import needs_compiled
 
 compiled = needs_compiled("resample_offset")

@@ -37,6 +37,7 @@ from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.process.blade_finish import PLAN_STAGES, PathRequest, plan_paths
+from blisk_cam.core.runtime import parallel
 from blisk_cam.core.toolpath.paths_io import write_paths_json
 from tests.support.blades import nasa_blade
 
@@ -130,8 +131,11 @@ def avx512_dispatch() -> list[str]:
 
 
 def planned(name, kernels):
-    """The planned path of case ``name`` on the installed kernels or numpy's."""
-    with backend.numpy_only() if kernels == "numpy" else contextlib.nullcontext():
+    """The planned path of case ``name`` on the installed kernels or numpy's; ``kernels`` =
+    "installed-2" the installed ones on two threads (the passes then run a trial's level work
+    beside its pass, see ``_Generator.cusp_between``)."""
+    with (backend.numpy_only() if kernels == "numpy" else contextlib.nullcontext(),
+          parallel(2 if kernels == "installed-2" else 1)):
         mesh, req = {"demo": demo_case, "rotor37": rotor37_case}[name]()
         path = plan_paths(mesh, req).path
         assert path.stats["kernels"] == backend.backend_name()
@@ -166,11 +170,12 @@ def digest_and_stats(name, kernels, tmp_path):
     return out["digest"], out["stats"]
 
 
-@pytest.mark.parametrize("kernels", ["installed", "numpy"])
+@pytest.mark.parametrize("kernels", ["installed", "installed-2", "numpy"])
 @pytest.mark.parametrize("name", sorted(DIGESTS))
 def test_paths_json_digest_is_unchanged(name, kernels, tmp_path):
     """On the installed kernels and, when they are the compiled ones, on the numpy
-    reference too (the same digest: the compiled kernels change no output)."""
+    reference too (the same digest: the compiled kernels change no output), and on two
+    threads (the same digest: the thread count changes no output)."""
     if kernels == "numpy" and backend.extension() is None:
         pytest.skip("the numpy kernels are the installed ones: run above")
     if name == "demo" and not sys.platform.startswith("linux"):

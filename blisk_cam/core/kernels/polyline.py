@@ -4,7 +4,7 @@ point name the candidate segments, the distance is the least over them, exact to
 the numpy reference's arithmetic operation for operation. Rows the tree cannot answer as
 scipy would (a tie at the k-th nearest, fewer than k found) are flagged for the caller's
 numpy answer. And the level samples those distances are measured at: a polyline resampled
-along its offset (``paths.passes._resample``, the same floats)."""
+along its offset (``paths.trial_levels._resample``, the same floats)."""
 
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ def resample_offset(points, normals, closed: bool, spacing: float, offset: float
     """(points (q, 3) mm, normals (q, 3)): the polyline ``points`` (k, 3) with unit
     ``normals`` (k, 3) (``closed``: back to its first point too) resampled at most ``spacing``
     mm apart along ``points + offset · normals``, with the normals interpolated there (unit) —
-    ``paths.passes._resample(points, closed, spacing, normals, offset)``'s floats. None when
+    ``paths.trial_levels._resample(points, closed, spacing, normals, offset)``'s floats. None when
     the numpy kernels run (or the installed ones predate this kernel), or where the numpy
     reference must answer (fewer than two points, a length that is not finite)."""
     ext = extension()

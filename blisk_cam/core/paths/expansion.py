@@ -31,6 +31,8 @@ __all__ = [
     "face_gradient_and_curvature",
     "PolylineDistance",
     "measure_cusp",
+    "cusp_side_a",
+    "cusp_with_b",
 ]
 
 
@@ -244,23 +246,48 @@ def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None
         located per column (nearest point on the next level) where the two balls' material
         left, each interpolated linearly, are equal.
     """
-    best = -np.inf
+    side_a = cusp_side_a(level_points, dist_a, radius, level_normals)
+    return cusp_with_b(side_a, dist_b, radius)
+
+
+def cusp_side_a(level_points, dist_a, radius: float, level_normals=None):
+    """The part of :func:`measure_cusp` that pass B does not enter (the generator runs it
+    beside the making of pass B): per level with points, (points (k, 3), search hint
+    (k, 3) or None, material left by A ``d_A − ρ`` (k,) mm, and the column index (k,) int
+    of the nearest of these points to each point of the previous level with points, or
+    None for the first). Parameters as :func:`measure_cusp`'s."""
+    out = []
     prev = None
     for i, pts in enumerate(level_points):
         if len(pts) == 0:
             prev = None
+            out.append(None)  # breaks the columns, as an empty level does
             continue
         if level_normals is None:
+            near = None
             ma = dist_a(pts) - radius
-            mb = dist_b(pts) - radius
         else:
             near = pts + radius * level_normals[i]
             ma = dist_a(pts, near=near) - radius
-            mb = dist_b(pts, near=near) - radius
+        j = None if prev is None else _nearest_index(pts, prev)
+        out.append((pts, near, ma, j))
+        prev = pts
+    return out
+
+
+def cusp_with_b(side_a, dist_b, radius: float):
+    """:func:`measure_cusp` from :func:`cusp_side_a`'s levels and B's distance."""
+    best = -np.inf
+    prev = None
+    for level in side_a:
+        if level is None:
+            prev = None
+            continue
+        pts, near, ma, j = level
+        mb = (dist_b(pts) if near is None else dist_b(pts, near=near)) - radius
         best = max(best, float(np.minimum(ma, mb).max()))
         if prev is not None:
-            ppts, pma, pmb = prev
-            j = _nearest_index(pts, ppts)
+            pma, pmb = prev
             # along the column ppts → pts[j]: (pma, pmb) → (ma[j], mb[j]), linear in λ
             ga = pma - pmb
             gb = ma[j] - mb[j]
@@ -271,7 +298,7 @@ def measure_cusp(level_points, dist_a, dist_b, radius: float, level_normals=None
                 lam = np.clip(lam, 0.0, 1.0)
                 ridge = (1 - lam) * pma[cross] + lam * ma[j][cross]
                 best = max(best, float(ridge.max()))
-        prev = (pts, ma, mb)
+        prev = (ma, mb)
     return best
 
 

@@ -10,6 +10,7 @@ operator to drive; ``generate_paths`` simply exhausts it.
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -20,15 +21,15 @@ from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
 from ..kernels import lift as compiled_lift
 from ..kernels import mesh_tables as compiled_tables
-from ..kernels import polyline as compiled_polyline
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
-from ..runtime import Progress, alongside, workers
+from ..runtime import Progress, SideThread, alongside, workers
 from ..toolpath.types import BallTool, PassCurve, ToolPath
 from .expansion import (
     PolylineDistance,
     check_tolerances,
+    cusp_with_b,
     face_gradient_and_curvature,
     measure_cusp,
     strip_width,
@@ -36,6 +37,7 @@ from .expansion import (
 from .probe_samples import _ProbeSamples, _workers
 from .sampling import CENTRE_CHORD_SHARE, sample_polyline
 from .slicing import LevelCurve, MeshConeSlicer
+from .trial_levels import level_points_normals, trial_level_work
 
 __all__ = ["Progress", "generate_paths", "iter_generate_paths"]
 
@@ -65,42 +67,6 @@ UNCUT_LIFT_SHARE = 0.1
 #: :meth:`_Generator.end_level`) by at most the width w of the strip it then leaves uncut with
 #: w² / 2ρ ≤ this share of the cusp height (the height of a ball's profile w off its contact)
 END_INSET_CUSP_SHARE = 0.25
-
-
-def _resample(points, closed, spacing, normals=None, offset=0.0):
-    """Points ≤ ``spacing`` apart along a polyline (on its segments, so on the mesh and the
-    cone when the polyline is an exact intersection); with ``normals`` also the normals there
-    (interpolated along the segment, unit). With ``offset`` ρ the spacing is measured along
-    the offset polyline ``p + ρ n`` (the ball-centre path), which puts many samples where the
-    normal turns — around a thin leading edge, where the scallop between passes peaks."""
-    # the arithmetic of np.vstack / np.diff / np.linalg.norm / np.clip written out (the same
-    # operations on the same values, so the same floats): at ~400 points a level, called for
-    # every level sampled, their generic wrappers cost more than the work
-    P = np.concatenate((points, points[:1])) if closed else np.asarray(points)
-    N = None if normals is None else (
-        np.concatenate((normals, normals[:1])) if closed else np.asarray(normals))
-    if len(P) < 2:
-        return points if normals is None else (points, normals)
-    dP = P[1:] - P[:-1]
-    if N is None or offset == 0:
-        D = dP
-    else:
-        Q = P + offset * N
-        D = Q[1:] - Q[:-1]
-    L = np.sqrt(np.add.reduce(D * D, axis=1))
-    cum = np.empty(len(L) + 1)
-    cum[0] = 0.0
-    np.cumsum(L, out=cum[1:])
-    n = max(2, int(np.ceil(cum[-1] / spacing)) + 1)
-    u = np.linspace(0.0, cum[-1], n, endpoint=not closed)
-    seg = np.minimum(np.maximum(np.searchsorted(cum, u, side="right") - 1, 0), len(L) - 1)
-    w = ((u - cum[seg]) / np.where(L > 0, L, 1.0)[seg])[:, None]
-    out = P[seg] + w * dP[seg]
-    if N is None:
-        return out
-    nn = N[seg] + w * (N[1:] - N[:-1])[seg]
-    ln = np.sqrt(np.add.reduce(nn * nn, axis=1))
-    return out, nn / np.where(ln > 0, ln, 1.0)[:, None]
 
 
 def _cross(u, v):
@@ -281,6 +247,7 @@ class _Generator:
         self._centre_dist: dict[float, PolylineDistance] = {}
         self._level_samples: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         self._uncut_lift: dict[int, np.ndarray] = {}  # id(PassCurve) → intrusion lift per pose
+        self._side = SideThread()  # the trials' level work beside their pass (cusp_between)
         #: end (0 or 1) → (ratio of the moved end pass, inset in mm), see :meth:`end_level`
         self.end_inset: dict[int, tuple[float, float]] = {}
         self.max_turn = 2.0 * np.arccos(1.0 - self.chord / (4.0 * self.radius))
@@ -653,18 +620,10 @@ class _Generator:
 
     def level_samples(self, s):
         """Surface points ``sample_spacing`` apart on the level ``s`` and their normals."""
-        if s in self._level_samples:
-            return self._level_samples[s]
-        pn = [compiled_polyline.resample_offset(c.points, c.normals, c.closed,
-                                                self.sample_spacing, self.radius)
-              or _resample(c.points, c.closed, self.sample_spacing, c.normals, self.radius)
-              for c in self.level(s)]
-        if not pn:
-            out = np.zeros((0, 3)), np.zeros((0, 3))
-        else:
-            out = np.concatenate([x[0] for x in pn]), np.concatenate([x[1] for x in pn])
-        self._level_samples[s] = out
-        return out
+        if s not in self._level_samples:
+            self._level_samples[s] = level_points_normals(self.level(s), self.sample_spacing,
+                                                          self.radius)
+        return self._level_samples[s]
 
     def predict_step(self, s):
         """Δs from the strip width (Eqs. 11–14) at the level's points (5th percentile)."""
@@ -684,16 +643,42 @@ class _Generator:
 
     def cusp_between(self, s_a, dist_a, s_b):
         """Largest scallop (mm) between the sampled passes at ``s_a`` and ``s_b``, from surface
-        points on the two levels and three levels between them."""
+        points on the two levels and three levels between them.
+
+        With several threads (and the compiled kernels) the level work that pass B does not
+        enter (:func:`.trial_levels.trial_level_work`) runs on a side thread while pass B is
+        made here; its levels and samples are cached here afterwards. The same floats: each
+        piece is computed as in the one-thread order."""
         fr = (0.0, 0.25, 0.5, 0.75, 1.0)
-        samples = [self.level_samples(s_b if f == 1.0 else s_a + f * (s_b - s_a)) for f in fr]
-        dist_b = self.centre_distance(s_b)
-        return measure_cusp([x[0] for x in samples], dist_a, dist_b, self.radius,
-                            level_normals=[x[1] for x in samples])
+        keys = [s_b if f == 1.0 else s_a + f * (s_b - s_a) for f in fr]
+        if workers() < 2 or extension() is None or s_b in self._centre_dist:
+            samples = [self.level_samples(k) for k in keys]
+            dist_b = self.centre_distance(s_b)
+            return measure_cusp([x[0] for x in samples], dist_a, dist_b, self.radius,
+                                level_normals=[x[1] for x in samples])
+        levels = {k: self._levels[k] for k in keys if k in self._levels}
+        known = {k: self._level_samples[k] for k in keys if k in self._level_samples}
+        side = self._side.alongside(lambda: trial_level_work(
+            self.slicer, keys, levels, known, self.sample_spacing, self.radius, dist_a))
+        try:
+            dist_b = self.centre_distance(s_b)
+        except BaseException:
+            with contextlib.suppress(Exception):  # the side thread ends before the error
+                side()  # goes up (it reads this generator's state)
+            raise
+        new_levels, new_samples, side_a = side()
+        self._levels.update(new_levels)
+        self._level_samples.update(new_samples)
+        return cusp_with_b(side_a, dist_b, self.radius)
 
     def run(self):
         """Generator: the slice → sample → expand loop of paper 001, pass after pass; yields
         :class:`Progress` between levels and sets ``self.result`` (ToolPath)."""
+        with self._side:  # its thread ends with the run (also when the run is dropped)
+            yield from self._run()
+
+    def _run(self):
+        """:meth:`run`'s loop."""
         t0 = time.perf_counter()
         h = self.cusp
         self._check_end_levels()
