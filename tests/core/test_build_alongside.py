@@ -13,18 +13,14 @@ import pytest
 
 from blisk_cam.core.geometry.distance import NearestFaces
 from blisk_cam.core.geometry.mesh import TriMesh
-from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.kernels import mesh_tables as compiled_tables
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.paths.passes import _Generator
 from blisk_cam.core.runtime import parallel
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None,
-    reason="the compiled kernels are not built/installed (make kernels) or "
-           "BLISK_CAM_KERNELS=numpy: nothing is built alongside",
-)
+compiled = needs_compiled(why="nothing is built alongside")
 
 
 @pytest.fixture(scope="module")

@@ -6,19 +6,16 @@ adds a row's three products in an order that depends on its SIMD loop; the kerne
 which)."""
 
 import numpy as np
-import pytest
 from scipy import sparse
 from scipy.sparse import csgraph
 
 from blisk_cam.core.geometry import weld
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import backend, mesh_orient
+from tests.support.kernels import needs_compiled
 from tests.support.mesh_files import icosphere
 
-kernel = pytest.mark.skipif(
-    mesh_orient.face_components(np.array([[0, 1, 2]]), np.array([[0, -1]])) is None,
-    reason="the compiled kernels (with the orientation pass) are not installed or numpy runs",
-)
+kernel = needs_compiled("face_components", "repeats_on_edges", "orient_face_terms")
 
 
 def _bits(a, b, where):

@@ -22,12 +22,9 @@ from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.paths import passes
 from blisk_cam.core.paths.passes import _Generator
 from blisk_cam.core.runtime import SideThread, cancellable, parallel, workers
+from tests.support.kernels import needs_compiled
 
-compiled = pytest.mark.skipif(
-    backend.extension() is None,
-    reason="the compiled kernels are not built/installed (make kernels) or "
-           "BLISK_CAM_KERNELS=numpy: the trials run in the one-thread order",
-)
+compiled = needs_compiled(why="the trials run in the one-thread order")
 
 
 @pytest.fixture(scope="module")

@@ -10,15 +10,12 @@ import pytest
 from blisk_cam.core.geometry.axis import Axis, meridional
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import backend
-from blisk_cam.core.kernels import slicing as compiled_slicing
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.part.cones import Cone, MorphingCones
 from blisk_cam.core.paths.slicing import MeshConeSlicer
+from tests.support.kernels import needs_compiled
 
-kernel = pytest.mark.skipif(
-    compiled_slicing.slicer_face_index(np.zeros(1), np.zeros(1), 0.5, 4, (0.0, 1.0)) is None,
-    reason="the compiled kernels (with the slicer set-up) are not installed or numpy runs",
-)
+kernel = needs_compiled("slicer_face_index")
 
 _ARRAYS = ("r", "z", "radial", "s", "face_smin", "face_smax", "_narrow_faces",
            "_bucket_start", "_wide_faces")

@@ -4,16 +4,13 @@ numpy's: the columns' extents (−0.0 as 0.0), and "no pair" exactly when numpy'
 projections or points crowding one plane across the scan direction (numpy's k-d tree case)."""
 
 import numpy as np
-import pytest
 
 from blisk_cam.core.geometry import weld
 from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import backend, weld_near
+from tests.support.kernels import needs_compiled
 
-kernel = pytest.mark.skipif(
-    weld_near.weld_extents(np.zeros((1, 3))) is None,
-    reason="the compiled kernels (with the weld's tolerance pass) are not installed or numpy runs",
-)
+kernel = needs_compiled("weld_extents", "weld_no_close_pairs")
 
 D, SCAN = weld._WELD_DIRECTION, weld._WELD_SCAN_MAX
 
