@@ -1,8 +1,8 @@
 """The level work of a trial step of the passes (:meth:`.passes._Generator.cusp_between`)
 that does not depend on the trial's pass B: slicing the three levels between passes A and
 B, sampling them and B's level, and their distances to A's ball-centre path
-(:func:`.expansion.cusp_side_a`). The generator runs it on a side thread
-(:func:`..runtime.alongside`) while it makes pass B; everything here writes only to its own
+(:func:`.expansion.cusp_side_a`). The generator runs it on its kept side thread
+(:class:`..runtime.SideThread`) while it makes pass B; everything here writes only to its own
 locals (the caches are the caller's to fill).
 """
 
