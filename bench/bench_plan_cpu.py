@@ -8,8 +8,11 @@ ball Ø12, cusp 0.05 mm. For each backend (compiled, numpy): the plan's process 
 (best of ``--repeat``; on a shared machine CPU time moves far less than wall time) and the
 stages' wall seconds from the path's stats, then the sub-steps of the passes that the
 compiled kernels took over — the scallop measurement (``expansion.measure_cusp``), its
-distances to the ball-centre polylines and the slicing — timed by wrapping them. The paths
-of the two backends must be the same floats: the line says so.
+distances to the ball-centre polylines and the slicing — timed by wrapping them, on one
+thread only: with ``--threads`` 2 or more each trial's levels are sliced and measured on a
+side thread while the main thread makes the next pass (``paths/trial_levels.py``), and the
+process's CPU time of a wrapped call would count the other thread's work too. The paths of
+the two backends must be the same floats: the line says so.
 
 The process runs numpy's OpenBLAS on one thread, as ``python -m blisk_cam`` does
 (``blisk_cam/cli/blas.py``): with a thread per core, OpenBLAS's spinning after each matrix
@@ -110,10 +113,11 @@ def main():
         st = path.stats
         stages = ", ".join(f"{k[8:]} {st[k]:.2f}" for k in
                            ("seconds_passes", "seconds_orient", "seconds_link") if k in st)
-        sub = ", ".join(f"{k} {v:.2f}" for k, v in steps.items())
+        sub = (", ".join(f"{k} {v:.2f}" for k, v in steps.items()) + " s" if args.threads == 1
+               else "not split on 2+ threads (the trial levels run beside the pass)")
         print(f"[{bk}] {len(mesh.F):,} triangles, chord {args.chord}, {args.threads} thread(s): "
               f"plan {cpu:.2f} s CPU (best of {args.repeat}); stages wall {stages} s; passes' "
-              f"sub-steps CPU {sub} s; {path.n_poses:,} poses "
+              f"sub-steps CPU {sub}; {path.n_poses:,} poses "
               f"(load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)", flush=True)
     if len(paths) == 2:
         a, b = paths["compiled"], paths["numpy"]
