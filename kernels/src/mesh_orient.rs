@@ -15,6 +15,8 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUnty
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+use crate::mesh_topology::{area_vector, interior};
+
 /// The order in which numpy's einsum adds the three products of a row.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Dot3 {
@@ -134,9 +136,7 @@ pub fn face_terms(
     let mut comp_area = vec![0.0f64; ncomp];
     for (i, t) in f.iter().enumerate() {
         let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
-        let (u0, u1, u2) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
-        let (w0, w1, w2) = (c[0] - a[0], c[1] - a[1], c[2] - a[2]);
-        let nv = [u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0];
+        let nv = area_vector(a, b, c);
         let l = order.dot(nv, nv).sqrt();
         let d = if l > 0.0 { l } else { 1.0 };
         n2[3 * i..3 * i + 3].copy_from_slice(&nv);
@@ -161,14 +161,6 @@ pub fn face_terms(
 }
 
 type F1<'py> = Bound<'py, PyArray1<f64>>;
-
-/// The interior edges of an edge table's `edge_halfedges` (e, 2) rows: (h0, h1) where the
-/// row has a second half-edge.
-fn interior(hei: &[i64]) -> impl Iterator<Item = (i64, i64)> + '_ {
-    hei.chunks_exact(2)
-        .filter(|r| r[1] >= 0)
-        .map(|r| (r[0], r[1]))
-}
 
 /// `edge_halfedges` (e, 2) of a mesh of `m` faces, checked: every id in −1..3m, the first of
 /// each row not −1.

@@ -173,13 +173,18 @@ pub fn normals(v: &[[f64; 3]], f: &[i64]) -> Option<Vec<f64>> {
     let mut out = vec![0.0f64; f.len()];
     for (o, t) in out.chunks_exact_mut(3).zip(f.chunks_exact(3)) {
         let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
-        let (u0, u1, u2) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
-        let (v0, v1, v2) = (c[0] - a[0], c[1] - a[1], c[2] - a[2]);
-        o[0] = u1 * v2 - u2 * v1;
-        o[1] = u2 * v0 - u0 * v2;
-        o[2] = u0 * v1 - u1 * v0;
+        o.copy_from_slice(&area_vector(a, b, c));
     }
     Some(out)
+}
+
+/// `(b − a) × (c − a)` of one face, twice its area vector: `mesh.triangle_normals`'
+/// differences and products in its order (the same bits; no FMA).
+#[inline(always)]
+pub fn area_vector(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]) -> [f64; 3] {
+    let (u0, u1, u2) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    let (v0, v1, v2) = (c[0] - a[0], c[1] - a[1], c[2] - a[2]);
+    [u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0]
 }
 
 /// `triangle_normals(V, F)`: (m, 3) float64, or None (an id out of range: numpy's turn).
@@ -202,6 +207,12 @@ pub fn triangle_normals<'py>(
     Ok(Some(a.reshape([k, 3])?.into_any()))
 }
 
+/// The interior edges of an edge table's `edge_halfedges` (e, 2) rows, flat: (h0, h1) of
+/// each row with a second half-edge, in edge order.
+pub fn interior(hei: &[i64]) -> impl Iterator<Item = (i64, i64)> + '_ {
+    hei.chunks_exact(2).filter(|r| r[1] >= 0).map(|r| (r[0], r[1]))
+}
+
 /// `_interior_pairs` of an edge table: from `edge_halfedges` (e, 2) the two half-edges of
 /// each edge of two faces, in edge order, and their faces: (h0, h1, f0, f1) (p,) int64.
 #[pyfunction]
@@ -216,14 +227,14 @@ pub fn interior_pairs<'py>(
         ));
     }
     let (h0, h1, f0, f1) = py.detach(|| {
-        let p = h.chunks_exact(2).filter(|r| r[1] >= 0).count();
+        let p = interior(h).count();
         let (mut h0, mut h1) = (Vec::with_capacity(p), Vec::with_capacity(p));
         let (mut f0, mut f1) = (Vec::with_capacity(p), Vec::with_capacity(p));
-        for r in h.chunks_exact(2).filter(|r| r[1] >= 0) {
-            h0.push(r[0]);
-            h1.push(r[1]);
-            f0.push(r[0].div_euclid(3));
-            f1.push(r[1].div_euclid(3));
+        for (a, b) in interior(h) {
+            h0.push(a);
+            h1.push(b);
+            f0.push(a.div_euclid(3));
+            f1.push(b.div_euclid(3));
         }
         (h0, h1, f0, f1)
     });
