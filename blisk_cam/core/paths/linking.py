@@ -285,14 +285,20 @@ def _climb_sense(c: PassCurve, morph, axis, toward_tip: bool) -> float:
     """Mean of m·k over the poses (> 0: climb for M03), m the unit direction toward the
     unmachined material (increasing s when machining hub → tip)."""
     f = feed_directions(c.cc, c.normal, c.closed)
-    n = c.normal
+    return float(np.mean(_climb_figures(c.cc, c.normal, f, morph, axis, toward_tip)))
+
+
+def _climb_figures(cc, n, f, morph, axis, toward_tip: bool):
+    """(k,) m·k of poses with contacts ``cc``, unit normals ``n`` and feed directions ``f``
+    (k, 3): k = f × n, m the unit direction toward the unmachined material in the tangent
+    plane (each row from its own pose alone)."""
     k = np.cross(f, n)
-    g = ratio_gradient(c.cc, morph, axis)
+    g = ratio_gradient(cc, morph, axis)
     m = g - np.einsum("ij,ij->i", g, n)[:, None] * n
     m /= np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
     if not toward_tip:
         m = -m
-    return float(np.mean(np.einsum("ij,ij->i", m, k)))
+    return np.einsum("ij,ij->i", m, k)
 
 
 def _climb_senses(curves, morph, axis, toward_tip: bool) -> dict:
@@ -306,14 +312,8 @@ def _climb_senses(curves, morph, axis, toward_tip: bool) -> dict:
         f = np.vstack([feed_directions(c.cc, c.normal, c.closed) for c in curves])
     except BliskCamError:
         return {}  # raised again where that pass is placed, as pass by pass
-    n = np.vstack([c.normal for c in curves])
-    k = np.cross(f, n)
-    g = ratio_gradient(np.vstack([c.cc for c in curves]), morph, axis)
-    m = g - np.einsum("ij,ij->i", g, n)[:, None] * n
-    m /= np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
-    if not toward_tip:
-        m = -m
-    v = np.einsum("ij,ij->i", m, k)
+    v = _climb_figures(np.vstack([c.cc for c in curves]), np.vstack([c.normal for c in curves]),
+                       f, morph, axis, toward_tip)
     out, a = {}, 0
     for c in curves:
         b = a + len(c.cc)
