@@ -32,7 +32,7 @@ from ..toolpath.types import (
     FLAG_ZERO_SPEED,
 )
 
-__all__ = ["known_faces", "orient_all_local", "orient_pass", "orient_passes"]
+__all__ = ["gouge_report", "known_faces", "orient_all_local", "orient_pass", "orient_passes"]
 
 
 def orient_passes(curves, mesh, nearest, cutter, strategy, limits, req, report,
@@ -99,16 +99,7 @@ def orient_pass(
         want = lead_tilt_axes(f, n, k, lead2, tilt2)
         flags[flagged & ~left] |= FLAG_GOUGE_FIXED
         flags[left] |= FLAG_LOCAL_GOUGE
-        report.add(
-            LocalGougeReport(
-                n_poses=len(cc),
-                n_flagged=int(flagged.sum()),
-                n_fixed=int((flagged & ~left).sum()),
-                n_left=int(left.sum()),
-                worst=float(min(0.0, margin[left].min())) if left.any() else 0.0,
-                left_at=cc[left],
-            )
-        )
+        report.add(gouge_report(cc, flagged, left, margin))
     else:
         want = axes_for_curve(cc, nrm, closed, s, strategy, blisk_axis)
         report.add(LocalGougeReport(n_poses=len(cc)))
@@ -169,15 +160,19 @@ def orient_all_local(curves, mesh, faces, cutter, strategy, limits, req):
         flags[moved] |= FLAG_AXIS_SMOOTHED
     tip, zero = cutter.cl_points_and_zero_speed(cc, nrm, axes, req.zero_speed_tol)
     flags[zero] |= FLAG_ZERO_SPEED
-    out = []
-    for a, b in bounds:
-        lf = left[a:b]
-        out.append((axes[a:b].copy(), tip[a:b].copy(), flags[a:b].copy(), LocalGougeReport(
-            n_poses=b - a,
-            n_flagged=int(flagged[a:b].sum()),
-            n_fixed=int((flagged[a:b] & ~lf).sum()),
-            n_left=int(lf.sum()),
-            worst=float(min(0.0, margin[a:b][lf].min())) if lf.any() else 0.0,
-            left_at=cc[a:b][lf],
-        )))
-    return out
+    return [(axes[a:b].copy(), tip[a:b].copy(), flags[a:b].copy(),
+             gouge_report(cc[a:b], flagged[a:b], left[a:b], margin[a:b])) for a, b in bounds]
+
+
+def gouge_report(cc, flagged, left, margin) -> LocalGougeReport:
+    """The local gouge check's figures of one pass: its CC points (k, 3) mm, the poses
+    ``flagged`` and those ``left`` gouging after the fix ((k,) bool) and their gouge margins
+    (k,) 1/mm (the worst of those left, ≤ 0)."""
+    return LocalGougeReport(
+        n_poses=len(cc),
+        n_flagged=int(flagged.sum()),
+        n_fixed=int((flagged & ~left).sum()),
+        n_left=int(left.sum()),
+        worst=float(min(0.0, margin[left].min())) if left.any() else 0.0,
+        left_at=cc[left],
+    )
