@@ -63,7 +63,10 @@ impl VertexFaces<'_> {
     }
 }
 
-fn table<'a>(ptr: &'a PyReadonlyArray1<'_, i64>, face: &'a FaceIds<'_>) -> PyResult<VertexFaces<'a>> {
+fn table<'a>(
+    ptr: &'a PyReadonlyArray1<'_, i64>,
+    face: &'a FaceIds<'_>,
+) -> PyResult<VertexFaces<'a>> {
     Ok(VertexFaces {
         ptr: crate::slice1(ptr, "ptr")?,
         face: match face {
@@ -208,7 +211,14 @@ pub fn facet_lift<'py>(
             return None;
         }
         let tris = candidate_tris(vv, ff, cand.iter().copied());
-        Some(lift_one(&tris, &pp[i], n, 0.0, (rho, tol, gain, limit), steps))
+        Some(lift_one(
+            &tris,
+            &pp[i],
+            n,
+            0.0,
+            (rho, tol, gain, limit),
+            steps,
+        ))
     };
     let out = run_rows(py, threads, q, one)?;
     Ok(PyArray1::from_vec(py, out))
@@ -306,7 +316,11 @@ pub fn candidate_shortfall<'py>(
     let w = cand.shape()[1];
     let nv = vv.len();
     let out = run_rows(py, threads, q, |i| {
-        let row: Vec<i64> = cf[i * w..(i + 1) * w].iter().copied().filter(|&x| x >= 0).collect();
+        let row: Vec<i64> = cf[i * w..(i + 1) * w]
+            .iter()
+            .copied()
+            .filter(|&x| x >= 0)
+            .collect();
         if !faces_ok(&row, ff, nv) {
             return None;
         }

@@ -64,7 +64,11 @@ pub fn intrusion_probes<'py>(
         let mut lo = 0usize;
         for i in 0..count {
             // np.arange: buffer[0] = start, buffer[1] = start + delta, then start + i·delta
-            let at = if i == 0 { 0.0 } else { 0.0 + (i as f64) * ((0.0 + spacing) - 0.0) };
+            let at = if i == 0 {
+                0.0
+            } else {
+                0.0 + (i as f64) * ((0.0 + spacing) - 0.0)
+            };
             // side="left": the first index whose arc is not below `at` (keys ascending)
             let mut hi = q;
             while lo < hi {

@@ -77,11 +77,7 @@ pub(crate) fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3, n: &P3, n2
 pub(crate) type Tri = (P3, P3, P3, P3, f64, f64, f64);
 
 /// The [`Tri`]s of the faces `faces` (ids into F, in range: the caller checked) of V, F.
-pub(crate) fn candidate_tris(
-    vv: &[P3],
-    ff: &[i64],
-    faces: impl Iterator<Item = i64>,
-) -> Vec<Tri> {
+pub(crate) fn candidate_tris(vv: &[P3], ff: &[i64], faces: impl Iterator<Item = i64>) -> Vec<Tri> {
     faces
         .map(|fi| {
             let t = &ff[3 * fi as usize..3 * fi as usize + 3];

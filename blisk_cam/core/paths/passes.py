@@ -572,7 +572,7 @@ class _Generator:
             (self.mesh.V, self.mesh.F, self.mesh.edges, self.mesh.edge_faces,
              self.mesh.face_normals), self._vertex_face_table(), D, DN, edge, seg, closed,
             (self.radius, self.facet_tolerance, LIFT_TOLERANCE, LIFT_GAIN, PLANE_BOUND_SLACK),
-            4, workers()) if len(D) else None
+            4, workers()) if len(D) and extension() is not None else None
         if got is not None:  # the same λ, the numpy glue below in one call
             return got
         k = len(edge)
