@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use crate::numpy_ops::nanmin;
 
-type P3 = [f64; 3];
+pub(crate) type P3 = [f64; 3];
 
 #[inline(always)]
 fn dot(a: &P3, b: &P3) -> f64 {
@@ -49,7 +49,7 @@ fn clip01(x: f64) -> f64 {
 
 /// `passes._point_triangle_distance` for one point and one triangle, given its normal
 /// `n` = (b − a) × (c − a) and `n2` = n · n (the caller's table holds them per face).
-fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3, n: &P3, n2: f64) -> f64 {
+pub(crate) fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3, n: &P3, n2: f64) -> f64 {
     let h = dot(&sub(p, a), n) / if n2 > 0.0 { n2 } else { 1.0 };
     let foot = [p[0] - h * n[0], p[1] - h * n[1], p[2] - h * n[2]];
     let mut inside = n2 > 0.0;
@@ -70,6 +70,56 @@ fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3, n: &P3, n2: f64) -> f
         best = nanmin(best, dot(&d, &d).sqrt());
     }
     best
+}
+
+/// A candidate triangle of [`lift_one`]: its corners a, b, c, normal n = (b − a) × (c − a),
+/// n · n, 1 / |n| (0 for a degenerate one: never pruned) and a · n (pruning only).
+pub(crate) type Tri = (P3, P3, P3, P3, f64, f64, f64);
+
+/// The [`Tri`]s of the faces `faces` (ids into F, in range: the caller checked) of V, F.
+pub(crate) fn candidate_tris(vv: &[P3], ff: &[i64], faces: impl Iterator<Item = i64>) -> Vec<Tri> {
+    faces
+        .map(|fi| {
+            let t = &ff[3 * fi as usize..3 * fi as usize + 3];
+            let (a, b, c) = (vv[t[0] as usize], vv[t[1] as usize], vv[t[2] as usize]);
+            let nrm = cross(&sub(&b, &a), &sub(&c, &a));
+            let n2 = dot(&nrm, &nrm);
+            let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
+            (a, b, c, nrm, n2, inv, dot(&a, &nrm))
+        })
+        .collect()
+}
+
+/// λ of one point `p`, unit normal `n`, from `lam` after up to `steps` fixed-point steps on
+/// its candidate triangles `tris`; `consts` = (ρ, tol, gain, plane limit ρ − tol + slack).
+pub(crate) fn lift_one(
+    tris: &[Tri],
+    p: &P3,
+    n: &P3,
+    lam: f64,
+    consts: (f64, f64, f64, f64),
+    steps: usize,
+) -> f64 {
+    let (rho, tol, gain, limit) = consts;
+    let mut lam = lam;
+    for _ in 0..steps {
+        let s = rho + lam;
+        let c = [p[0] + s * n[0], p[1] + s * n[1], p[2] + s * n[2]];
+        let mut dmin = f64::INFINITY;
+        for (a, b, cc_, nrm, n2, inv, an) in tris {
+            let plane = (dot(&c, nrm) - an).abs() * inv;
+            if plane < limit {
+                dmin = nanmin(dmin, point_triangle_distance(&c, a, b, cc_, nrm, *n2));
+            }
+        }
+        let short = rho - dmin;
+        if short > tol {
+            lam += short * gain;
+        } else {
+            break;
+        }
+    }
+    lam
 }
 
 /// (q,) λ after up to `steps` fixed-point steps, from `lam` (q,), for points `p` and unit
@@ -116,40 +166,8 @@ pub fn fixed_point_lift<'py>(
     let mut out = l0.to_vec();
     let one = |(i, lam): (usize, &mut f64)| {
         let row = &cc[i * width..(i + 1) * width];
-        // the candidates' corners, normals and plane offsets (pruning only)
-        let tris: Vec<(P3, P3, P3, P3, f64, f64, f64)> = row
-            .iter()
-            .filter(|&&fi| fi >= 0)
-            .map(|&fi| {
-                let t = &ff[3 * fi as usize..3 * fi as usize + 3];
-                let (a, b, c) = (vv[t[0] as usize], vv[t[1] as usize], vv[t[2] as usize]);
-                let nrm = cross(&sub(&b, &a), &sub(&c, &a));
-                let n2 = dot(&nrm, &nrm);
-                let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
-                (a, b, c, nrm, n2, inv, dot(&a, &nrm))
-            })
-            .collect();
-        for _ in 0..steps {
-            let s = rho + *lam;
-            let c = [
-                pp[i][0] + s * nn[i][0],
-                pp[i][1] + s * nn[i][1],
-                pp[i][2] + s * nn[i][2],
-            ];
-            let mut dmin = f64::INFINITY;
-            for (a, b, cc_, nrm, n2, inv, an) in &tris {
-                let plane = (dot(&c, nrm) - an).abs() * inv;
-                if plane < limit {
-                    dmin = nanmin(dmin, point_triangle_distance(&c, a, b, cc_, nrm, *n2));
-                }
-            }
-            let short = rho - dmin;
-            if short > tol {
-                *lam += short * gain;
-            } else {
-                break;
-            }
-        }
+        let tris = candidate_tris(vv, ff, row.iter().copied().filter(|&fi| fi >= 0));
+        *lam = lift_one(&tris, &pp[i], &nn[i], *lam, (rho, tol, gain, limit), steps);
     };
     py.detach(|| {
         if threads <= 1 || q < 256 {

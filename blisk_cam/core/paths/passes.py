@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from ..errors import ConeError, ToleranceError
-from ..geometry.axis import Axis, meridional
+from ..geometry.axis import Axis
 from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
 from ..kernels import lift as compiled_lift
@@ -185,6 +185,13 @@ def _unique_per_row(ids):
     return srt[:, : max(width, 1)]
 
 
+def _in_windows(lo, hi, n):
+    """(k,) int64 ascending: the indices in 0..n inside any of the windows ``lo[i]..hi[i]``
+    (inclusive, 0 ≤ lo ≤ hi < n)."""
+    mark = np.bincount(lo, minlength=n + 1)[: n + 1] - np.bincount(hi + 1, minlength=n + 1)
+    return np.nonzero(np.cumsum(mark)[:n] > 0)[0]
+
+
 def _narrow_table(table, n_faces):
     """The vertex-face table ``(ptr, face, corner)`` with the faces as int32 and the corners
     as int8 (the same values; at 1M faces 33 MB less, held through the passes), or None. Kept
@@ -307,9 +314,8 @@ class _Generator:
         out = []
         for c in self.level(s):
             start = None
-            if c.closed:
-                _, zz = meridional(c.points, self.axis)
-                start = int(np.argmax(zz))
+            if c.closed:  # at the highest point along the axis (meridional's z alone)
+                start = int(np.argmax((c.points - self.axis.o) @ self.axis.d))
             edge = c.edge if start is None else np.roll(c.edge, -start)
             rec = {}
             steps = {}  # the forward step's searches, reused where a new sampling changes nothing
@@ -338,10 +344,7 @@ class _Generator:
                 lo = idx[np.maximum(bad - 1, 0)]
                 hi = np.where(bad + 1 < len(idx), idx[np.minimum(bad + 1, len(idx) - 1)],
                               len(rec["D"]) - 1)
-                mark = np.zeros(len(rec["D"]) + 1, dtype=np.int64)
-                np.add.at(mark, lo, 1)
-                np.add.at(mark, hi + 1, -1)
-                win = np.nonzero(np.cumsum(mark)[:-1] > 0)[0]
+                win = _in_windows(lo, hi, len(rec["D"]))
                 total = self._lift_points(rec["D"], rec["DN"], lift(None, None, None), win)
                 rec["extra"][win] = total - rec["base"][win]
             # the ball (axis = normal) touches at cc; its tip is cc lifted by λ along n
@@ -379,8 +382,11 @@ class _Generator:
             if np.any(hit):
                 out[hit] = self._pose_shortfall(centres[hit])
             return out
-        cand = _unique_per_row(self._probe_faces(self._nearest_samples(centres)))
+        cand = self._probe_candidates(self._nearest_samples(centres))
         V, F = self.mesh.V, self.mesh.F
+        got = compiled_lift.candidate_shortfall(V, F, cand, centres, self.radius, workers())
+        if got is not None:
+            return got
         d = _point_triangle_distance(centres[:, None, :], V[F[np.maximum(cand, 0)]])
         return self.radius - np.where(cand >= 0, d, np.inf).min(axis=1)
 
@@ -394,7 +400,7 @@ class _Generator:
         # the candidate faces come from the first centres (one KD search per point); the
         # lift only moves the centre away from them
         c0 = D[idx] + (rho + lam_i)[:, None] * DN[idx]
-        cand = _unique_per_row(self._probe_faces(self._nearest_samples(c0)))
+        cand = self._probe_candidates(self._nearest_samples(c0))
         return self._lift(D[idx], DN[idx], lam_i, cand, 12)
 
     def _lift(self, p, n, lam, cand, steps):
@@ -430,22 +436,24 @@ class _Generator:
         extra = np.zeros(q)
         if q == 0:
             return extra
-        C = D + (rho + lam)[:, None] * DN
-        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))])
-        at = np.arange(0.0, arc[-1], INTRUSION_PROBE_SPACING)
-        probe = np.unique(np.append(np.searchsorted(arc, at), q - 1))
-        probe = probe[probe < q]
-        hp = np.nonzero(self._any_within(C[probe], rho - 1e-5))[0]
+        got = compiled_lift.intrusion_probes(D, DN, lam, rho, INTRUSION_PROBE_SPACING)
+        if got is not None:  # the same probes and centres in one call
+            probe, Cp = got
+        else:
+            C = D + (rho + lam)[:, None] * DN
+            arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))])
+            at = np.arange(0.0, arc[-1], INTRUSION_PROBE_SPACING)
+            probe = np.unique(np.append(np.searchsorted(arc, at), q - 1))
+            probe = probe[probe < q]
+            Cp = C[probe]
+        hp = np.nonzero(self._any_within(Cp, rho - 1e-5))[0]
         if len(hp) == 0:
             return extra
         # a face can reach into the ball while no vertex or centroid does: the windows extend
         # INTRUSION_WINDOW probes either side of a hit
         lo = probe[np.maximum(hp - INTRUSION_WINDOW, 0)]
         hi = probe[np.minimum(hp + INTRUSION_WINDOW, len(probe) - 1)]
-        mark = np.zeros(q + 1, dtype=np.int64)
-        np.add.at(mark, lo, 1)
-        np.add.at(mark, hi + 1, -1)
-        idx = np.nonzero(np.cumsum(mark)[:q] > 0)[0]
+        idx = _in_windows(lo, hi, q)
         lam_i = self._lift_points(D, DN, lam, idx)
         extra[idx] = lam_i - lam[idx]
         return extra
@@ -532,6 +540,13 @@ class _Generator:
             rows, m = rows[again], 4 * m
         return out
 
+    def _probe_candidates(self, ids):
+        """``_unique_per_row(self._probe_faces(ids))`` (q, c), compiled when installed."""
+        got = compiled_lift.probe_candidates(
+            ids, len(self.mesh.V), len(self.mesh.F), self.mesh.edge_faces,
+            self._vertex_face_table(), workers()) if len(ids) else None
+        return got if got is not None else _unique_per_row(self._probe_faces(ids))
+
     def _probe_faces(self, ids):
         """Faces holding the probe-tree samples ``ids`` (q, k): the ring of a vertex, the two
         faces of an edge midpoint, the face of a centroid. (q, c) int padded with −1."""
@@ -553,6 +568,13 @@ class _Generator:
         ``p + ρ n`` would sink into a facet by up to ``ρ (1 − n·n_f)``. The faces are those
         around the corners of the two mesh edges bounding the segment the point lies on;
         λ comes from a few fixed-point steps on the exact point–triangle distance."""
+        got = compiled_lift.facet_lift(
+            (self.mesh.V, self.mesh.F, self.mesh.edges, self.mesh.edge_faces,
+             self.mesh.face_normals), self._vertex_face_table(), D, DN, edge, seg, closed,
+            (self.radius, self.facet_tolerance, LIFT_TOLERANCE, LIFT_GAIN, PLANE_BOUND_SLACK),
+            4, workers()) if len(D) and extension() is not None else None
+        if got is not None:  # the same λ, the numpy glue below in one call
+            return got
         k = len(edge)
         e0 = edge[np.minimum(seg, k - 1)]
         e1 = edge[(seg + 1) % k] if closed else edge[np.minimum(seg + 1, k - 1)]
@@ -632,7 +654,11 @@ class _Generator:
             return 0.01
         edges = np.concatenate([c.edge for c in curves])
         faces = np.unique(self.mesh.edge_faces[edges, 0])
-        grad, kappa = face_gradient_and_curvature(self.mesh, self.s_clipped, faces)
+        m = self.mesh
+        got = compiled_lift.face_gradient_curvature(m.V, m.F, m.face_normals, m.face_areas,
+                                                    m.vertex_normals, self.s_clipped, faces)
+        grad, kappa = got if got is not None else face_gradient_and_curvature(
+            m, self.s_clipped, faces)
         g = np.linalg.norm(grad, axis=1)
         d = strip_width(self.radius, self.cusp, kappa)
         ds = g * d
