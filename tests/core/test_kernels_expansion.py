@@ -177,6 +177,15 @@ def test_many_levels_in_one_call_as_level_by_level():
             again = dist.many(levels[2:3], nears[2:3])[0]
             assert calls == [len(levels[2])] and not np.array_equal(again, ref[2])
             levels[2][0] -= 1.0
+            # a step's trials: A's own level with four new ones each, the memo keeps A's level
+            # (the least recently used go first)
+            dist(levels[0], near=nears[0])
+            calls.clear()
+            for trial in range(3):
+                new = [levels[3][trial::4].copy() for _ in range(4)]
+                got = dist.many([levels[0], *new], [nears[0]] + [None] * 4)
+                assert np.array_equal(got[0], ref[0])
+            assert calls == [sum(len(levels[3][t::4]) for _ in range(4)) for t in range(3)]
 
 
 def test_measure_cusp_with_any_callable_as_with_polyline_distances():

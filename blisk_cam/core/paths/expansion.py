@@ -179,24 +179,13 @@ class PolylineDistance:
             next to the nearest centres and is found at once. The distance is still exact to
             the candidates, so a poor hint can only overestimate it.
         """
-        p = np.asarray(points, dtype=np.float64)
-        hint = p if near is None else np.asarray(near, dtype=np.float64)
-        # the generator measures the same level against the same pass twice (as pass B of
-        # one step and pass A of the next): the last few answers are kept, keyed by the
-        # same point array, checked by value (so an array changed in place is measured anew)
-        memo = self._memo.get(id(points))
-        if memo is not None and np.array_equal(memo[0], p) and np.array_equal(memo[1], hint):
-            return memo[2].copy()
-        d = self._distance(p, hint)
-        if len(self._memo) >= 8:
-            self._memo.pop(next(iter(self._memo)))
-        self._memo[id(points)] = (p.copy(), hint.copy(), d.copy())
-        return d
+        return self.many([points], [near])[0]
 
     def many(self, points_list, near_list=None):
-        """``[self(p, near=h) for p, h in zip(points_list, near_list)]`` — the same floats, the
-        same memo — with the arrays not memoised measured in one call (a trial measures five
-        levels against a pass: one kernel call and one pass over the glue, not five).
+        """The distances of several arrays of points (the levels of a trial), each as
+        ``self(p, near=h)`` gives it (rows are measured independently: the same floats),
+        with the arrays not memoised measured in one call (a trial measures five levels
+        against a pass: one kernel call and one pass over the glue, not five).
 
         points_list : list of (k_i, 3) float; near_list : list of (k_i, 3) float or None
             (per level: its hint, see :meth:`__call__`), or None (no hints)
@@ -208,8 +197,14 @@ class PolylineDistance:
         for i, (points, near) in enumerate(zip(points_list, near_list, strict=True)):
             p = np.asarray(points, dtype=np.float64)
             hint = p if near is None else np.asarray(near, dtype=np.float64)
-            memo = self._memo.get(id(points))
+            # the generator measures the same level against the same pass again (pass A's
+            # own level in each trial of a step, and as pass B's last level of one step and
+            # pass A's first of the next): the last few answers are kept, keyed by the same
+            # point array, checked by value (an array changed in place is measured anew),
+            # the least recently used dropped first (a step's trials keep A's level)
+            memo = self._memo.pop(id(points), None)
             if memo is not None and np.array_equal(memo[0], p) and np.array_equal(memo[1], hint):
+                self._memo[id(points)] = memo
                 out[i] = memo[2].copy()
             else:
                 todo.append((i, points, p, hint))
