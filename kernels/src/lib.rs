@@ -32,6 +32,7 @@ mod numpy_ops;
 mod polyline_distance;
 mod probe;
 mod resample;
+mod slice_candidates;
 mod slice_roots;
 mod slice_setup;
 mod step;
@@ -562,6 +563,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(slice_roots::cone_level, m)?)?;
     m.add_function(wrap_pyfunction!(slice_setup::cone_slicer_field, m)?)?;
     m.add_function(wrap_pyfunction!(slice_setup::slicer_face_index, m)?)?;
+    m.add_function(wrap_pyfunction!(slice_candidates::slicer_candidates, m)?)?;
     m.add_function(wrap_pyfunction!(resample::resample_offset, m)?)?;
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;

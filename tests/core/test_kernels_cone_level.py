@@ -92,3 +92,34 @@ def test_cone_level_refuses_ids_out_of_range(slicer):
     cand = np.array([0, len(slicer.mesh.F)])
     with pytest.raises(ValueError, match="out of range"):
         _kernel(slicer, 0.5, cand)
+
+
+@needs_compiled("slicer_candidates")
+def test_candidate_faces_are_the_numpy_ones(slicer):
+    """The candidate faces of a level in one compiled call are the numpy reference's ids, and
+    (independently) every face whose s range meets [s − m, s + m], ascending."""
+    m = slicer._s_margin
+    rng = np.random.default_rng(2)
+    found = 0
+    for s in [*_levels(slicer), *rng.uniform(-0.1, 1.1, 40)]:
+        got = slicer._candidate_faces(s, m)
+        with backend.numpy_only():
+            ref = slicer._candidate_faces(s, m)
+        assert got.dtype == np.int64 and np.array_equal(got, ref), s
+        brute = np.flatnonzero((slicer.face_smin <= s + m) & (slicer.face_smax >= s - m))
+        assert np.array_equal(got, brute), s
+        found += len(got)
+    assert found > 10000
+
+
+@needs_compiled("slicer_candidates")
+def test_candidate_faces_refuse_ids_out_of_range(slicer):
+    n = len(slicer.face_smin)
+    with pytest.raises(ValueError, match="out of range"):
+        compiled_slicing.slicer_candidates(np.array([0, n]), 0, 2, np.zeros(0, np.int64),
+                                           slicer.face_smin, slicer.face_smax, 0.0, 1.0, 0.0)
+    # a range past the end is clamped, as a Python slice
+    got = compiled_slicing.slicer_candidates(np.array([0, 1]), 1, 9, np.array([2]),
+                                             slicer.face_smin, slicer.face_smax,
+                                             -np.inf, np.inf, -np.inf)
+    assert got.tolist() == [1, 2]

@@ -7,13 +7,15 @@ Tests comparing the two backends skip (saying why) when the extension is not bui
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 from scipy.spatial import cKDTree
 
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.kernels import polyline as compiled_polyline
-from blisk_cam.core.paths.expansion import PolylineDistance, _nearest_index
+from blisk_cam.core.paths.expansion import PolylineDistance, _nearest_index, measure_cusp
 from tests.support.kernels import needs_compiled
 
 compiled = needs_compiled("polyline_distance", "PointTree")
@@ -142,3 +144,70 @@ def test_tree_queries_along_a_path_seeded_by_the_one_before():
         rev = tree.query(q[::-1].copy(), 4, bound, 2)[0][::-1]  # other seeds, two threads
         assert np.array_equal(rev, ref)
     assert (tree.query(q, 4, 1.2, 1)[0] == -1).any()  # some with fewer than k within
+
+
+def test_many_levels_in_one_call_as_level_by_level():
+    """``PolylineDistance.many`` (the levels of a trial in one kernel call) gives each level
+    the floats of its own call, on both backends, with or without hints; a level memoised
+    by an earlier call is answered from the memo (not measured again), and a level whose
+    array changed in place is measured anew."""
+    rng = np.random.default_rng(11)
+    polys = _polylines(rng)
+    p, hint = _queries(rng)
+    levels = [p[:700], p[700:701], p[701:2000].copy(), p[2000:]]
+    nears = [hint[:700], None, hint[701:2000], hint[2000:]]
+    kernels = [backend.numpy_only()]
+    if compiled_polyline.available():
+        kernels.append(contextlib.nullcontext())
+    for ctx in kernels:
+        with ctx:
+            ref = [PolylineDistance(polys)(q) if h is None else PolylineDistance(polys)(q, near=h)
+                   for q, h in zip(levels, nears, strict=True)]
+            dist = PolylineDistance(polys)
+            first = dist(levels[2], near=nears[2])  # memoised
+            calls = []
+            measure = dist._distance
+            dist._distance = lambda a, b, c=calls, m=measure: c.append(len(a)) or m(a, b)
+            got = dist.many(levels, nears)
+            assert all(np.array_equal(g, r) for g, r in zip(got, ref, strict=True))
+            assert np.array_equal(first, ref[2]) and calls == [700 + 1 + len(levels[3])]
+            assert np.array_equal(dist.many(levels[:1])[0], PolylineDistance(polys)(levels[0]))
+            levels[2][0] += 1.0  # changed in place: measured anew
+            calls.clear()
+            again = dist.many(levels[2:3], nears[2:3])[0]
+            assert calls == [len(levels[2])] and not np.array_equal(again, ref[2])
+            levels[2][0] -= 1.0
+            # a step's trials: A's own level with four new ones each, the memo keeps A's level
+            # (the least recently used go first)
+            dist(levels[0], near=nears[0])
+            calls.clear()
+            for trial in range(3):
+                new = [levels[3][trial::4].copy() for _ in range(4)]
+                got = dist.many([levels[0], *new], [nears[0]] + [None] * 4)
+                assert np.array_equal(got[0], ref[0])
+            assert calls == [sum(len(levels[3][t::4]) for _ in range(4)) for t in range(3)]
+
+
+def test_measure_cusp_with_any_callable_as_with_polyline_distances():
+    """``measure_cusp`` measures the levels of a distance with ``many`` in one call each side,
+    and any other callable level by level: the same scallop, to the float (levels with an
+    empty one between, which breaks the columns)."""
+    rng = np.random.default_rng(5)
+    t = np.linspace(0.0, 20.0, 80)
+    pass_a = [(np.stack([t, np.zeros_like(t), np.full_like(t, 6.0)], 1), False)]
+    pass_b = [(np.stack([t, np.full_like(t, 1.5), np.full_like(t, 6.0)], 1), False)]
+    levels, normals = [], []
+    for y in (0.0, 0.4, 0.75, None, 1.1, 1.5):
+        if y is None:
+            levels.append(np.zeros((0, 3)))
+            normals.append(np.zeros((0, 3)))
+            continue
+        x = np.sort(rng.uniform(0, 20, 150))
+        levels.append(np.stack([x, np.full_like(x, y), 0.02 * np.sin(x)], 1))
+        normals.append(np.tile([0.0, 0.0, 1.0], (150, 1)))
+    for kw in ({}, {"level_normals": normals}):
+        da, db = PolylineDistance(pass_a), PolylineDistance(pass_b)
+        ref = measure_cusp(levels, lambda q, near=None: PolylineDistance(pass_a)(q, near=near),
+                           lambda q, near=None: PolylineDistance(pass_b)(q, near=near), 6.0, **kw)
+        got = measure_cusp(levels, da, db, 6.0, **kw)
+        assert got == ref and 0.01 < got < 0.1

@@ -10,7 +10,8 @@ import numpy as np
 from .backend import extension
 from .mesh_orient import einsum_outer_first
 
-__all__ = ["cone_edge_roots", "cone_level", "cone_slicer_field", "slicer_face_index"]
+__all__ = ["cone_edge_roots", "cone_level", "cone_slicer_field", "slicer_candidates",
+           "slicer_face_index"]
 
 
 def cone_edge_roots(r, z, radial, V, edges, edge_ids, line, on_tol: float, threads: int):
@@ -55,6 +56,23 @@ def cone_level(r, z, radial, V, vn, F, edges, face_edges, cand, line, on_tol: fl
         c(r, dtype=f64), c(z, dtype=f64), c(radial, dtype=f64), c(V, dtype=f64),
         c(vn, dtype=f64), c(F, dtype=i64), c(edges, dtype=i64), c(face_edges, dtype=i64),
         c(cand, dtype=i64), (alpha, beta, gamma, alpha**2), float(on_tol), bool(end_above_zero))
+
+
+def slicer_candidates(narrow, start: int, end: int, wide, smin, smax, lo: float, hi: float,
+                      below: float):
+    """(c,) int64 ascending: the faces ``narrow[start:end]`` with ``lo ≤ smin ≤ hi`` and
+    ``smax ≥ below`` and the faces ``wide`` with ``smin ≤ hi`` and ``smax ≥ below`` (``smin``,
+    ``smax`` (m,) float64 per face) — ``MeshConeSlicer._candidate_faces``'s ids, in one call
+    with the GIL released; None when the numpy kernels run (or the installed ones predate
+    this kernel)."""
+    ext = extension()
+    if ext is None or not hasattr(ext, "slicer_candidates"):
+        return None
+    c = np.ascontiguousarray
+    return ext.slicer_candidates(
+        c(narrow, dtype=np.int64), int(start), int(end), c(wide, dtype=np.int64),
+        c(smin, dtype=np.float64), c(smax, dtype=np.float64), float(lo), float(hi),
+        float(below))
 
 
 def cone_slicer_field(V, o, d, F, ratio_consts):

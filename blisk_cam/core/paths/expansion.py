@@ -179,19 +179,51 @@ class PolylineDistance:
             next to the nearest centres and is found at once. The distance is still exact to
             the candidates, so a poor hint can only overestimate it.
         """
-        p = np.asarray(points, dtype=np.float64)
-        hint = p if near is None else np.asarray(near, dtype=np.float64)
-        # the generator measures the same level against the same pass twice (as pass B of
-        # one step and pass A of the next): the last few answers are kept, keyed by the
-        # same point array, checked by value (so an array changed in place is measured anew)
-        memo = self._memo.get(id(points))
-        if memo is not None and np.array_equal(memo[0], p) and np.array_equal(memo[1], hint):
-            return memo[2].copy()
-        d = self._distance(p, hint)
-        if len(self._memo) >= 8:
-            self._memo.pop(next(iter(self._memo)))
-        self._memo[id(points)] = (p.copy(), hint.copy(), d.copy())
-        return d
+        return self.many([points], [near])[0]
+
+    def many(self, points_list, near_list=None):
+        """The distances of several arrays of points (the levels of a trial), each as
+        ``self(p, near=h)`` gives it (rows are measured independently: the same floats),
+        with the arrays not memoised measured in one call (a trial measures five levels
+        against a pass: one kernel call and one pass over the glue, not five).
+
+        points_list : list of (k_i, 3) float; near_list : list of (k_i, 3) float or None
+            (per level: its hint, see :meth:`__call__`), or None (no hints)
+        Returns list of (k_i,) float, mm."""
+        if near_list is None:
+            near_list = [None] * len(points_list)
+        out = [None] * len(points_list)
+        todo = []  # (index, key array, points, hint)
+        for i, (points, near) in enumerate(zip(points_list, near_list, strict=True)):
+            p = np.asarray(points, dtype=np.float64)
+            hint = p if near is None else np.asarray(near, dtype=np.float64)
+            # the generator measures the same level against the same pass again (pass A's
+            # own level in each trial of a step, and as pass B's last level of one step and
+            # pass A's first of the next): the last few answers are kept, keyed by the same
+            # point array, checked by value (an array changed in place is measured anew),
+            # the least recently used dropped first (a step's trials keep A's level)
+            memo = self._memo.pop(id(points), None)
+            if memo is not None and np.array_equal(memo[0], p) and np.array_equal(memo[1], hint):
+                self._memo[id(points)] = memo
+                out[i] = memo[2].copy()
+            else:
+                todo.append((i, points, p, hint))
+        if not todo:
+            return out
+        if len(todo) == 1:
+            d_all = self._distance(todo[0][2], todo[0][3])
+        else:
+            d_all = self._distance(np.concatenate([t[2] for t in todo]),
+                                   np.concatenate([t[3] for t in todo]))
+        at = 0
+        for i, points, p, hint in todo:
+            d = d_all[at:at + len(p)].copy()
+            at += len(p)
+            if len(self._memo) >= 8:
+                self._memo.pop(next(iter(self._memo)))
+            self._memo[id(points)] = (p.copy(), hint.copy(), d.copy())
+            out[i] = d
+        return out
 
     def _distance(self, p, hint):
         """The compiled kernel's answer where it is installed (the rows it leaves, a tie at
@@ -256,27 +288,26 @@ def cusp_side_a(level_points, dist_a, radius: float, level_normals=None):
     (k, 3) or None, material left by A ``d_A − ρ`` (k,) mm, and the column index (k,) int
     of the nearest of these points to each point of the previous level with points, or
     None for the first). Parameters as :func:`measure_cusp`'s."""
-    out = []
+    full = [i for i, pts in enumerate(level_points) if len(pts)]
+    nears = [None if level_normals is None else level_points[i] + radius * level_normals[i]
+             for i in full]
+    d = _distances(dist_a, [level_points[i] for i in full], nears)
+    out = [None] * len(level_points)  # None breaks the columns, as an empty level does
     prev = None
-    for i, pts in enumerate(level_points):
-        if len(pts) == 0:
+    for i, near, di in zip(full, nears, d, strict=True):
+        pts = level_points[i]
+        if i == 0 or len(level_points[i - 1]) == 0:
             prev = None
-            out.append(None)  # breaks the columns, as an empty level does
-            continue
-        if level_normals is None:
-            near = None
-            ma = dist_a(pts) - radius
-        else:
-            near = pts + radius * level_normals[i]
-            ma = dist_a(pts, near=near) - radius
         j = None if prev is None else _nearest_index(pts, prev)
-        out.append((pts, near, ma, j))
+        out[i] = (pts, near, di - radius, j)
         prev = pts
     return out
 
 
 def cusp_with_b(side_a, dist_b, radius: float):
     """:func:`measure_cusp` from :func:`cusp_side_a`'s levels and B's distance."""
+    full = [x for x in side_a if x is not None]
+    d = iter(_distances(dist_b, [x[0] for x in full], [x[1] for x in full]))
     best = -np.inf
     prev = None
     for level in side_a:
@@ -284,7 +315,7 @@ def cusp_with_b(side_a, dist_b, radius: float):
             prev = None
             continue
         pts, near, ma, j = level
-        mb = (dist_b(pts) if near is None else dist_b(pts, near=near)) - radius
+        mb = next(d) - radius
         best = max(best, float(np.minimum(ma, mb).max()))
         if prev is not None:
             pma, pmb = prev
@@ -300,6 +331,16 @@ def cusp_with_b(side_a, dist_b, radius: float):
                 best = max(best, float(ridge.max()))
         prev = (ma, mb)
     return best
+
+
+def _distances(dist, points_list, near_list):
+    """``[dist(p) or dist(p, near=h)]`` per level (a hint None: none), in one call of
+    :meth:`PolylineDistance.many` when ``dist`` is one (any other callable: level by level)."""
+    many = getattr(dist, "many", None)
+    if many is not None:
+        return many(points_list, near_list)
+    return [dist(p) if h is None else dist(p, near=h)
+            for p, h in zip(points_list, near_list, strict=True)]
 
 
 def _nearest_index(points, queries):

@@ -221,6 +221,11 @@ class MeshConeSlicer:
         """Ascending ids of the faces with smin ≤ s + m and smax ≥ s − m."""
         lo = s - m - self._narrow_span
         k0, k1 = self._bucket_index(lo), self._bucket_index(s + m)
+        got = compiled_slicing.slicer_candidates(
+            self._narrow_faces, self._bucket_start[k0], self._bucket_start[k1 + 1],
+            self._wide_faces, self.face_smin, self.face_smax, lo, s + m, s - m)
+        if got is not None:  # the same ids in one call, the GIL released
+            return got
         near = self._narrow_faces[self._bucket_start[k0]:self._bucket_start[k1 + 1]]
         smin = self.face_smin[near]
         near = near[(smin >= lo) & (smin <= s + m) & (self.face_smax[near] >= s - m)]
