@@ -204,7 +204,7 @@ struct Frame {
 
 /// A lower bound of the squared distance (as [`d2`] sums it) from `q` to every point in the
 /// frame box of `r`: per axis the gap between q's projection and [lo, hi], less `margin`
-/// (1e-11 of the projections' scale, [`PointTree::query_scale`]: their rounding is below
+/// (1e-11 of the projections' scale, [`PointTree::frame_margin`]: their rounding is below
 /// 1e-15 of it; the axes are unit and orthogonal within 1e-14), the squares summed, less
 /// 1e-9 of the sum (the frame's own rounding and `d2`'s are below 1e-13 of a squared
 /// distance); a gap that is not a positive number counts 0 (an unbounded box bounds
@@ -851,7 +851,7 @@ impl PointTree {
         best.sort_unstable_by(|a, b| (a.0, a.1).partial_cmp(&(b.0, b.1)).unwrap());
         best.truncate(cap);
         if !self.recs.is_empty() {
-            let qs = self.query_scale(q);
+            let qs = self.frame_margin(q);
             // a node is kept while its lower bound can hold a point of the answer
             let live = |l2: f64, best: &Vec<(f64, u32, u32)>| {
                 l2 < ub2 && !(best.len() == cap && l2 > best[cap - 1].0)
@@ -866,6 +866,7 @@ impl PointTree {
                     continue; // the bound has come down since it was pushed
                 }
                 let r = &self.recs[n as usize];
+                // Ok: a leaf's points; Err: a split's right child (its left is n + 1)
                 match (r.a != SPLIT).then_some((r.a, r.b)).ok_or(r.b) {
                     Ok((start, end)) => {
                         let (a, b) = (start as usize, end as usize);
@@ -930,12 +931,14 @@ impl PointTree {
     /// [`frame_d2`]'s margin for the query q: 1e-11 of the projections' scale, the tree's
     /// reach (≥ every frame's, see [`Frame`]) plus 1.8 max |q_j|.
     #[inline(always)]
-    fn query_scale(&self, q: &P3) -> f64 {
+    fn frame_margin(&self, q: &P3) -> f64 {
         1e-11 * (self.reach + 1.8 * q[0].abs().max(q[1].abs()).max(q[2].abs()))
     }
 
     /// A lower bound of the squared distance (as [`d2`] sums it) from `q` to every point of
-    /// node `n`: its box's, or its frame's where larger (`qs`: [`PointTree::query_scale`]).
+    /// node `n`: its box's, or its frame's where larger (`qs`: [`PointTree::frame_margin`]);
+    /// the frame's only when the box's leaves the node `live` (else the node is skipped
+    /// either way).
     #[inline(always)]
     fn lower_d2(&self, q: &P3, n: u32, qs: f64, live: impl Fn(f64) -> bool) -> f64 {
         let r = &self.recs[n as usize];
@@ -953,7 +956,7 @@ impl PointTree {
         if self.recs.is_empty() {
             return false;
         }
-        let qs = self.query_scale(q);
+        let qs = self.frame_margin(q);
         // every node on the stack has a lower bound below ub2 (see lower_d2)
         let live = |l2: f64| l2 < ub2;
         if !live(self.lower_d2(q, 0, qs, live)) {
@@ -963,6 +966,7 @@ impl PointTree {
         stack.push(0);
         while let Some(n) = stack.pop() {
             let r = &self.recs[n as usize];
+            // Ok: a leaf's points; Err: a split's right child (its left is n + 1)
             match (r.a != SPLIT).then_some((r.a, r.b)).ok_or(r.b) {
                 Ok((start, end)) => {
                     if min_d2(q, &self.pts[start as usize..end as usize]) < ub2 {
