@@ -10,10 +10,13 @@
 //! that row; every other row's set of k is scipy's.
 //!
 //! The tree over a mesh's samples (`PointTree::grouped`) splits on the vertices first and
-//! keeps per leaf a box in the frame of the surface patch (`Frame`): a ball centre ρ off the
-//! surface is seen ρ away from the leaves around its contact, so fewer are opened. Each
-//! pruning bound is a lower bound of the squared distances as summed here, so the answers
-//! are those of the plain tree over the same points.
+//! keeps per node, leaf or split, a box in the frame of the surface patch (`Frame`): a ball
+//! centre ρ off the surface is seen ρ away from the nodes around its contact, so fewer are
+//! opened at every level (the screens of the 1M-triangle demo: 76 splits a query instead of
+//! 160). Each node is one 128-byte record (`Rec`: both boxes and its children), and a split
+//! bounds both children at once. Each pruning bound is a lower bound of the squared
+//! distances as summed here, so the answers are those of the plain tree over the same
+//! points.
 
 use rayon::prelude::*;
 
@@ -24,7 +27,9 @@ const LEAF: usize = 16;
 /// Points per leaf of a [`PointTree::grouped`] tree: leaves with a [`Frame`] are opened less
 /// often, and large ones bound best (the lift's nearest and the screens along 25 levels of
 /// the demo and Rotor 37 at 1M: 16 points a leaf 1.4 / -, 32: 1.07 / 1.51, 64: 0.89 / 1.24,
-/// 128: 0.84 / 1.26 s of CPU for the build and both searches).
+/// 128: 0.84 / 1.26 s of CPU for the build and both searches; with frames on the splits too,
+/// the demo's screens and 8-nearest: 32 points 365 / 556, 64: 356 / 558, 128: 376 / 630
+/// million instructions).
 const FRAME_LEAF: usize = 64;
 
 /// Anchors below which [`PointTree::grouped`] builds a plain subtree over their groups' points
@@ -69,13 +74,12 @@ pub struct KnnBuffers {
     stack: Vec<(u32, f64)>,
 }
 
+/// A node while the tree is built (its [`Rec`] once built).
 enum Node {
-    /// points `start..end` of the tree order; `frame`: their [`Frame`] in `frames`, or
-    /// [`NO_FRAME`]
+    /// points `start..end` of the tree order
     Leaf {
         start: u32,
         end: u32,
-        frame: u32,
     },
     Split {
         left: u32,
@@ -86,20 +90,111 @@ enum Node {
 pub struct PointTree {
     pts: Vec<P3>,  // in tree order (leaf ranges are contiguous)
     ids: Vec<u32>, // the input id of each
-    nodes: Vec<Node>,
-    boxes: Vec<[f64; 6]>, // per node: lo (3), hi (3)
-    frames: Vec<Frame>,   // per leaf of a `grouped` tree (see `Node::Leaf`)
+    recs: Vec<Rec>,
+    /// whether the nodes have frames ([`PointTree::grouped`])
+    framed: bool,
+    /// 1.8 max |p_j| over the points (the scale of the frames' rounding)
+    reach: f64,
 }
 
-/// A leaf without a [`Frame`] (the trees of [`PointTree::new`]).
-const NO_FRAME: u32 = u32::MAX;
+/// A node: its [`Frame`] box (axes `u`, `v` and their cross product, as [`axes_of`] makes
+/// them; an unbounded box when it has none), its axis-aligned box `bx` (lo (3), hi (3))
+/// rounded outward to f32, and its children or points: 128 bytes, one aligned block (the
+/// two bounds of a node in one place, where three arrays took three memory accesses).
+#[repr(C, align(128))]
+struct Rec {
+    u: P3,
+    v: P3,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    bx: [f32; 6],
+    /// [`SPLIT`], or a leaf's first point
+    a: u32,
+    /// a split's right child (its left is the next node), or a leaf's end
+    b: u32,
+}
 
-/// A box around a leaf's points in a frame of their own: `axes` (unit, orthogonal), the last
-/// the normal of the surface patch the points sample; `lo` ≤ axes[j]·p ≤ `hi` for every point
-/// p; `reach` = √3 · max |p_j| (the scale of the projections' rounding). A ball centre ρ off
-/// a surface lies ρ from the frame box of the leaves around its contact plus their distance
-/// along the surface, which axis-aligned boxes (as thick as the patch is tilted) do not
-/// show: the leaves the search must open are fewer.
+/// [`Rec::a`] of a split.
+const SPLIT: u32 = u32::MAX;
+
+/// The largest f32 at most x (x itself when NaN or −∞).
+fn f32_down(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) > x {
+        if y == 0.0 {
+            -f32::from_bits(1)
+        } else if y > 0.0 {
+            f32::from_bits(y.to_bits() - 1)
+        } else {
+            f32::from_bits(y.to_bits() + 1)
+        }
+    } else {
+        y
+    }
+}
+
+/// The smallest f32 at least x.
+fn f32_up(x: f64) -> f32 {
+    -f32_down(-x)
+}
+
+/// The records of nodes (each split's left child right after it) with their boxes and
+/// (when given) frames.
+fn records(nodes: &[Node], boxes: &[[f64; 6]], frames: Option<&[Frame]>) -> Vec<Rec> {
+    nodes
+        .iter()
+        .enumerate()
+        .map(|(i, node)| {
+            let b = &boxes[i];
+            let (a, bb) = match *node {
+                Node::Leaf { start, end } => (start, end),
+                Node::Split { left, right } => {
+                    debug_assert_eq!(left as usize, i + 1);
+                    (SPLIT, right)
+                }
+            };
+            let mut f = frames.map_or(NAN_FRAME, |f| f[i]);
+            if !(f
+                .axes
+                .iter()
+                .flatten()
+                .chain(f.lo.iter())
+                .chain(f.hi.iter())
+                .all(|x| x.is_finite()))
+            {
+                // no frame: an unbounded box (every query's bound to it is 0)
+                f.axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+                f.lo = [f64::NEG_INFINITY; 3];
+                f.hi = [f64::INFINITY; 3];
+            }
+            Rec {
+                u: f.axes[0],
+                v: f.axes[1],
+                lo: f.lo,
+                hi: f.hi,
+                bx: [
+                    f32_down(b[0]),
+                    f32_down(b[1]),
+                    f32_down(b[2]),
+                    f32_up(b[3]),
+                    f32_up(b[4]),
+                    f32_up(b[5]),
+                ],
+                a,
+                b: bb,
+            }
+        })
+        .collect()
+}
+
+/// A box around a node's points in a frame of their own: `axes` (unit, orthogonal within
+/// 1e-14), the last the normal of the surface patch the points sample; `lo` ≤ axes[j]·p ≤
+/// `hi` for every point p (the computed projection for a leaf's, the exact one for a
+/// split's); `reach` = 1.8 max |p_j| (the scale of the projections' rounding). A ball centre
+/// ρ off a surface lies ρ from the frame box of the nodes around its contact plus their
+/// distance along the surface, which axis-aligned boxes (as thick as the patch is tilted) do
+/// not show: the nodes the search must open are fewer.
+#[derive(Clone, Copy)]
 struct Frame {
     axes: [P3; 3],
     lo: [f64; 3],
@@ -108,40 +203,110 @@ struct Frame {
 }
 
 /// A lower bound of the squared distance (as [`d2`] sums it) from `q` to every point in the
-/// frame box: per axis the gap between q's projection and [lo, hi], less a margin 1e-11 of
-/// the projections' scale (their rounding is below 1e-15 of it; the axes are unit and
-/// orthogonal within 1e-15), the squares summed, less 1e-9 of the sum (the frame's own
-/// rounding and `d2`'s are below 1e-14 of a squared distance); NaN-safe (a gap that is not
-/// a positive number counts 0: a frame of NaNs bounds nothing).
+/// frame box of `r`: per axis the gap between q's projection and [lo, hi], less `margin`
+/// (1e-11 of the projections' scale, [`PointTree::frame_margin`]: their rounding is below
+/// 1e-15 of it; the axes are unit and orthogonal within 1e-14), the squares summed, less
+/// 1e-9 of the sum (the frame's own rounding and `d2`'s are below 1e-13 of a squared
+/// distance); a gap that is not a positive number counts 0 (an unbounded box bounds
+/// nothing; a query of NaNs gets 0).
 #[inline(always)]
-fn frame_d2(q: &P3, f: &Frame) -> f64 {
-    let qmax = q[0].abs().max(q[1].abs()).max(q[2].abs());
-    let margin = 1e-11 * (f.reach + 1.8 * qmax);
+fn frame_d2(q: &P3, r: &Rec, margin: f64) -> f64 {
+    let n = cross(&r.u, &r.v);
     let mut sum = 0.0;
-    for j in 0..3 {
-        let a = &f.axes[j];
+    for (j, a) in [&r.u, &r.v, &n].into_iter().enumerate() {
         let t = a[0] * q[0] + a[1] * q[1] + a[2] * q[2];
-        let gap = (f.lo[j] - t).max(t - f.hi[j]) - margin;
-        if gap > 0.0 {
-            sum += gap * gap;
-        }
+        let gap = max0(max(r.lo[j] - t, t - r.hi[j]) - margin);
+        sum += gap * gap;
     }
     sum * (1.0 - 1e-9)
 }
 
-/// The [`Frame`] of points (≥ 3 not on one line, all finite), else None: the normal of the
-/// plane their covariance spans most (the largest cross product of two of its rows), the
-/// first axis along the covariance row of largest spread across it.
-fn frame_of(pts: &[P3]) -> Option<Frame> {
-    if pts.len() < 3 {
-        return None;
+/// The larger of a and b (b when either is NaN: no bound).
+#[inline(always)]
+fn max(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
     }
+}
+
+/// x when positive, else 0 (NaN: 0).
+#[inline(always)]
+fn max0(x: f64) -> f64 {
+    if x > 0.0 {
+        x
+    } else {
+        0.0
+    }
+}
+
+/// u × v.
+#[inline(always)]
+fn cross(u: &P3, v: &P3) -> P3 {
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
+/// No frame (its record gets an unbounded box, see [`records`]).
+const NAN_FRAME: Frame = Frame {
+    axes: [[f64::NAN; 3]; 3],
+    lo: [f64::NAN; 3],
+    hi: [f64::NAN; 3],
+    reach: f64::NAN,
+};
+
+/// Count, centroid (3) and scatter matrix (3, 3: the sum of (p − c)(p − c)ᵀ) of points, mm
+/// and mm²; the axes of a split's [`Frame`] come from its children's merged.
+#[derive(Clone, Copy, Default)]
+struct Moments {
+    n: f64,
+    c: P3,
+    m: [[f64; 3]; 3],
+}
+
+impl Moments {
+    /// The moments of the union of two point sets.
+    fn merge(&self, o: &Moments) -> Moments {
+        let n = self.n + o.n;
+        if self.n == 0.0 {
+            return *o;
+        }
+        if o.n == 0.0 {
+            return *self;
+        }
+        let wb = o.n / n;
+        let d = [o.c[0] - self.c[0], o.c[1] - self.c[1], o.c[2] - self.c[2]];
+        let c = [
+            self.c[0] + wb * d[0],
+            self.c[1] + wb * d[1],
+            self.c[2] + wb * d[2],
+        ];
+        let f = self.n * o.n / n;
+        let mut m = [[0.0f64; 3]; 3];
+        for a in 0..3 {
+            for b in 0..3 {
+                m[a][b] = self.m[a][b] + o.m[a][b] + f * d[a] * d[b];
+            }
+        }
+        Moments { n, c, m }
+    }
+}
+
+/// The [`Moments`] of points (zeros when none).
+fn moments(pts: &[P3]) -> Moments {
     let k = pts.len() as f64;
     let mut c = [0.0f64; 3];
     for p in pts {
         for j in 0..3 {
             c[j] += p[j];
         }
+    }
+    if pts.is_empty() {
+        return Moments::default();
     }
     for cj in c.iter_mut() {
         *cj /= k;
@@ -155,13 +320,88 @@ fn frame_of(pts: &[P3]) -> Option<Frame> {
             }
         }
     }
-    let cross = |u: &P3, v: &P3| -> P3 {
-        [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ]
+    Moments { n: k, c, m }
+}
+
+/// Whether axes are unit and orthogonal within `tol`.
+fn orthonormal(axes: &[P3; 3], tol: f64) -> bool {
+    let dot = |u: &P3, v: &P3| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    (0..3).all(|i| {
+        (0..3).all(|j| {
+            let e = dot(&axes[i], &axes[j]) - if i == j { 1.0 } else { 0.0 };
+            e.abs() <= tol
+        })
+    })
+}
+
+/// The frame of a split, with no pass over its points: axes from its moments (the merged
+/// moments of its children), its box around its children's: each child's points lie in its
+/// axis-aligned box and, when it has one, in its frame box, so a·p lies in the sum of the
+/// intervals a_k [lo_k, hi_k] and in that of (a·b_j) [lo_j, hi_j] (p = Σ (b_j·p) b_j to
+/// 1e-12 of |p| for axes orthogonal within 1e-13); the bounds are widened by 4e-12 of the
+/// reach, which covers that and their rounding, so lo ≤ a·p ≤ hi holds for the exact
+/// projections. NaN when the axes do not come out or a point is not finite (the reach).
+fn frame_around(mo: &Moments, bx: &[f64; 6], kids: [(&Frame, &[f64; 6]); 2]) -> Frame {
+    let Some(axes) = axes_of(&mo.m) else {
+        return NAN_FRAME;
     };
+    let pmax = bx.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let reach = 1.8 * pmax;
+    let margin = 4e-12 * reach;
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for (f, b) in kids {
+        for i in 0..3 {
+            let a = &axes[i];
+            // over the axis-aligned box: exact bounds of a·p, summed
+            let (mut l, mut h) = (0.0f64, 0.0f64);
+            for k in 0..3 {
+                let (x, y) = (a[k] * b[k], a[k] * b[k + 3]);
+                l += x.min(y);
+                h += x.max(y);
+            }
+            // over the child's frame box: p = Σ (b_j·p) b_j within the axes' orthogonality
+            if f.reach.is_finite() && orthonormal(&f.axes, 1e-13) {
+                let (mut fl, mut fh) = (0.0f64, 0.0f64);
+                for j in 0..3 {
+                    let cj = a[0] * f.axes[j][0] + a[1] * f.axes[j][1] + a[2] * f.axes[j][2];
+                    let (x, y) = (cj * f.lo[j], cj * f.hi[j]);
+                    fl += x.min(y);
+                    fh += x.max(y);
+                }
+                l = l.max(fl);
+                h = h.min(fh);
+            }
+            lo[i] = lo[i].min(l - margin);
+            hi[i] = hi[i].max(h + margin);
+        }
+    }
+    if !(lo.iter().chain(hi.iter()).all(|x| x.is_finite()) && reach.is_finite()) {
+        return NAN_FRAME;
+    }
+    Frame {
+        axes,
+        lo,
+        hi,
+        reach,
+    }
+}
+
+/// The [`Frame`] of points (≥ 3 not on one line, all finite), else None: the normal of the
+/// plane their covariance spans most (the largest cross product of two of its rows), the
+/// first axis along the covariance row of largest spread across it.
+fn frame_of(pts: &[P3]) -> Option<Frame> {
+    if pts.len() < 3 {
+        return None;
+    }
+    let m = moments(pts).m;
+    let axes = axes_of(&m)?;
+    frame_on(pts, axes)
+}
+
+/// The axes of a scatter matrix (see [`frame_of`]): u, v, and their cross product (the
+/// records keep u and v and recompute it, the same bits); None unless unit and orthogonal
+/// within 1e-14.
+fn axes_of(m: &[[f64; 3]; 3]) -> Option<[P3; 3]> {
     let dot = |u: &P3, v: &P3| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
     let unit = |x: P3| -> Option<P3> {
         let l = dot(&x, &x);
@@ -193,7 +433,12 @@ fn frame_of(pts: &[P3]) -> Option<Frame> {
         r[2] - along * n[2],
     ])?;
     let v = unit(cross(&n, &u))?;
-    let axes = [u, v, n];
+    let axes = [u, v, cross(&u, &v)];
+    orthonormal(&axes, 1e-14).then_some(axes)
+}
+
+/// The frame box of points on given axes (None when a projection is not finite).
+fn frame_on(pts: &[P3], axes: [P3; 3]) -> Option<Frame> {
     let (mut lo, mut hi, mut pmax) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0.0f64);
     for p in pts {
         for j in 0..3 {
@@ -218,18 +463,36 @@ fn frame_of(pts: &[P3]) -> Option<Frame> {
 /// Squared distance from q to a box, a lower bound of the squared distance (as summed by
 /// [`d2`]) to every point in it: each gap rounds below the point's difference.
 #[inline(always)]
-fn box_d2(q: &P3, b: &[f64; 6]) -> f64 {
+fn box_d2(q: &P3, b: &[f32; 6]) -> f64 {
     let mut g = [0.0f64; 3];
     for j in 0..3 {
-        g[j] = if q[j] < b[j] {
-            b[j] - q[j]
-        } else if q[j] > b[j + 3] {
-            q[j] - b[j + 3]
-        } else {
-            0.0
-        };
+        g[j] = max0(max(b[j] as f64 - q[j], q[j] - b[j + 3] as f64));
     }
     (g[0] * g[0] + g[1] * g[1]) + g[2] * g[2]
+}
+
+/// The smallest [`d2`] from q to the points (+∞ when none; NaNs skipped).
+#[inline(always)]
+fn min_d2(q: &P3, pts: &[P3]) -> f64 {
+    let mut m = [f64::INFINITY; 4];
+    let mut it = pts.chunks_exact(4);
+    for c in &mut it {
+        for j in 0..4 {
+            let d = d2(q, &c[j]);
+            m[j] = if d < m[j] { d } else { m[j] };
+        }
+    }
+    for p in it.remainder() {
+        let d = d2(q, p);
+        m[0] = if d < m[0] { d } else { m[0] };
+    }
+    let a = if m[1] < m[0] { m[1] } else { m[0] };
+    let b = if m[3] < m[2] { m[3] } else { m[2] };
+    if b < a {
+        b
+    } else {
+        a
+    }
 }
 
 #[inline(always)]
@@ -285,9 +548,9 @@ impl PointTree {
         PointTree {
             pts: sorted,
             ids,
-            nodes,
-            boxes,
-            frames: Vec::new(),
+            recs: records(&nodes, &boxes, None),
+            framed: false,
+            reach: 0.0,
         }
     }
 
@@ -318,7 +581,6 @@ impl PointTree {
             let leaf = Node::Leaf {
                 start: offset as u32,
                 end: (offset + idx.len()) as u32,
-                frame: NO_FRAME,
             };
             return (vec![leaf], vec![b]);
         }
@@ -379,7 +641,9 @@ impl PointTree {
     /// answer is a property of the point set, not of the tree's shape (see
     /// [`PointTree::knn_seeded`] and [`PointTree::any_below`]): the same answers, from less
     /// work and less memory (no (point, id) copy of every sample at once, no subtree's nodes
-    /// and boxes copied into its parent's).
+    /// and boxes copied into its parent's). Every node gets a [`Frame`]: a leaf's from its
+    /// points, a split's from its children's ([`frame_around`]: O(1) a split, no pass over
+    /// its points).
     pub fn grouped(
         anchors: &[P3],
         ptr: Vec<u32>,
@@ -411,7 +675,6 @@ impl PointTree {
         drop((items, ptr, members));
         // the leaves' boxes and frames in parallel (each of its own points), then the splits'
         // boxes bottom-up; a leaf whose points span no plane gets a frame of NaNs (no bound)
-        let mut nodes = nodes;
         let mut boxes = vec![[0.0f64; 6]; nodes.len()];
         boxes
             .par_iter_mut()
@@ -423,7 +686,7 @@ impl PointTree {
                 }
             });
         for i in (0..nodes.len()).rev() {
-            if let Node::Split { left, right } = nodes[i] {
+            if let Node::Split { left, right, .. } = nodes[i] {
                 let (a, b) = (boxes[left as usize], boxes[right as usize]);
                 boxes[i] = [
                     a[0].min(b[0]),
@@ -435,31 +698,60 @@ impl PointTree {
                 ];
             }
         }
-        let mut ranges: Vec<(u32, u32)> = Vec::new();
-        for node in nodes.iter_mut() {
-            if let Node::Leaf { start, end, frame } = node {
-                *frame = ranges.len() as u32;
-                ranges.push((*start, *end));
+        // every node gets a frame: each leaf's of its points (with their moments, in
+        // parallel), each split's axes from its children's merged moments and its box around
+        // its children's boxes (the frame boxes, else the axis-aligned ones), bottom-up
+        let mut leaf_ranges: Vec<(u32, u32)> = Vec::new();
+        for node in nodes.iter() {
+            if let Node::Leaf { start, end } = node {
+                leaf_ranges.push((*start, *end));
             }
         }
-        let frames: Vec<Frame> = ranges
+        let leaf_frames: Vec<(Moments, Frame)> = leaf_ranges
             .par_iter()
             .with_min_len(256)
             .map(|&(a, b)| {
-                frame_of(&pts[a as usize..b as usize]).unwrap_or(Frame {
-                    axes: [[f64::NAN; 3]; 3],
-                    lo: [f64::NAN; 3],
-                    hi: [f64::NAN; 3],
-                    reach: f64::NAN,
-                })
+                let sub = &pts[a as usize..b as usize];
+                (moments(sub), frame_of(sub).unwrap_or(NAN_FRAME))
             })
             .collect();
+        let mut mom: Vec<Moments> = Vec::with_capacity(nodes.len());
+        let mut frames: Vec<Frame> = Vec::with_capacity(nodes.len());
+        let mut li = 0;
+        for node in nodes.iter() {
+            if let Node::Leaf { .. } = node {
+                let (m, f) = &leaf_frames[li];
+                mom.push(*m);
+                frames.push(*f);
+                li += 1;
+            } else {
+                mom.push(Moments::default());
+                frames.push(NAN_FRAME);
+            }
+        }
+        drop(leaf_frames);
+        for i in (0..nodes.len()).rev() {
+            if let Node::Split { left, right, .. } = nodes[i] {
+                let (l, r) = (left as usize, right as usize);
+                mom[i] = mom[l].merge(&mom[r]);
+                let (fl, fr) = (frames[l], frames[r]);
+                frames[i] = frame_around(&mom[i], &boxes[i], [(&fl, &boxes[l]), (&fr, &boxes[r])]);
+            }
+        }
+        drop(mom);
+        let recs = records(&nodes, &boxes, Some(&frames));
+        let reach = boxes.first().map_or(0.0, |b| {
+            1.8 * b.iter().fold(
+                0.0f64,
+                |a, x| if x.is_finite() { a.max(x.abs()) } else { a },
+            )
+        });
         PointTree {
             pts,
             ids,
-            nodes,
-            boxes,
-            frames,
+            recs,
+            framed: true,
+            reach,
         }
     }
 
@@ -486,7 +778,6 @@ impl PointTree {
                 return vec![Node::Leaf {
                     start: offset as u32,
                     end: offset as u32,
-                    frame: NO_FRAME,
                 }];
             }
             let tight = bounds(items.iter().map(|x| &x.0));
@@ -539,9 +830,9 @@ impl PointTree {
     /// seeds).
     /// The answer is the same whatever the seeds: the k + 1 smallest (distance, id) pairs
     /// below `ub2` are one set, each point enters it once (a seed met again in its leaf is
-    /// skipped), and a node is skipped only when its box's lower bound is above the
-    /// (k + 1)-th smallest pair so far, which no point in it can then beat. Leaves in `buf`
-    /// the answer's points, for the next query's seeds.
+    /// skipped), and a node is skipped only when its lower bound ([`PointTree::lower_d2`])
+    /// is above the (k + 1)-th smallest pair so far, which no point in it can then beat.
+    /// Leaves in `buf` the answer's points, for the next query's seeds.
     pub fn knn_seeded(
         &self,
         q: &P3,
@@ -559,53 +850,69 @@ impl PointTree {
         best.retain(|e| e.0 < ub2);
         best.sort_unstable_by(|a, b| (a.0, a.1).partial_cmp(&(b.0, b.1)).unwrap());
         best.truncate(cap);
-        if !self.nodes.is_empty() {
+        if !self.recs.is_empty() {
+            let qs = self.frame_margin(q);
+            // a node is kept while its lower bound can hold a point of the answer
+            let live = |l2: f64, best: &Vec<(f64, u32, u32)>| {
+                l2 < ub2 && !(best.len() == cap && l2 > best[cap - 1].0)
+            };
             stack.clear();
-            stack.push((0, box_d2(q, &self.boxes[0])));
-            while let Some((n, plane2)) = stack.pop() {
-                let bound = if best.len() == cap {
-                    best[cap - 1].0
-                } else {
-                    ub2
-                };
-                if plane2 >= ub2 || (best.len() == cap && plane2 > bound) {
-                    continue;
+            let l0 = self.lower_d2(q, 0, qs, |l2| live(l2, best));
+            if live(l0, best) {
+                stack.push((0, l0));
+            }
+            while let Some((n, l2)) = stack.pop() {
+                if !live(l2, best) {
+                    continue; // the bound has come down since it was pushed
                 }
-                match self.nodes[n as usize] {
-                    Node::Leaf { start, end, frame } => {
-                        if frame != NO_FRAME {
-                            // a lower bound of every point's squared distance, as plane2
-                            let l2 = frame_d2(q, &self.frames[frame as usize]);
-                            if l2 >= ub2 || (best.len() == cap && l2 > bound) {
-                                continue;
-                            }
-                        }
-                        for s in start as usize..end as usize {
-                            let i = self.ids[s];
-                            let d = d2(q, &self.pts[s]);
-                            if !(d < ub2) {
+                let r = &self.recs[n as usize];
+                // Ok: a leaf's points; Err: a split's right child (its left is n + 1)
+                match (r.a != SPLIT).then_some((r.a, r.b)).ok_or(r.b) {
+                    Ok((start, end)) => {
+                        let (a, b) = (start as usize, end as usize);
+                        // a point farther than `cut` cannot enter: the bound, or the
+                        // (k + 1)-th's distance once there are k + 1
+                        let mut cut = if best.len() == cap {
+                            best[cap - 1].0
+                        } else {
+                            ub2
+                        };
+                        for (j, (p, &i)) in self.pts[a..b].iter().zip(&self.ids[a..b]).enumerate() {
+                            let d = d2(q, p);
+                            if !(d <= cut && d < ub2) {
                                 continue;
                             }
                             if best.len() == cap && (d, i) >= (best[cap - 1].0, best[cap - 1].1) {
                                 continue;
                             }
+                            let s = (a + j) as u32;
                             let pos = best.partition_point(|&e| (e.0, e.1) < (d, i));
-                            if best.get(pos).is_some_and(|e| e.2 == s as u32) {
+                            if best.get(pos).is_some_and(|e| e.2 == s) {
                                 continue; // a seed still held, at its own (distance, id)
                             }
-                            best.insert(pos, (d, i, s as u32));
+                            best.insert(pos, (d, i, s));
                             best.truncate(cap);
+                            if best.len() == cap {
+                                cut = best[cap - 1].0;
+                            }
                         }
                     }
-                    Node::Split { left, right } => {
-                        let dl = box_d2(q, &self.boxes[left as usize]);
-                        let dr = box_d2(q, &self.boxes[right as usize]);
-                        if dl <= dr {
-                            stack.push((right, dr));
-                            stack.push((left, dl));
+                    Err(right) => {
+                        let left = n + 1;
+                        // both children's bounds at once (their loads overlap); the nearer
+                        // is searched first
+                        let dl = self.lower_d2(q, left, qs, |l2| live(l2, best));
+                        let dr = self.lower_d2(q, right, qs, |l2| live(l2, best));
+                        let (near, far) = if dl <= dr {
+                            ((left, dl), (right, dr))
                         } else {
-                            stack.push((left, dl));
-                            stack.push((right, dr));
+                            ((right, dr), (left, dl))
+                        };
+                        if live(far.1, best) {
+                            stack.push(far);
+                        }
+                        if live(near.1, best) {
+                            stack.push(near);
                         }
                     }
                 }
@@ -621,41 +928,67 @@ impl PointTree {
         best.len() == cap && best[k - 1].0 == best[k].0
     }
 
+    /// [`frame_d2`]'s margin for the query q: 1e-11 of the projections' scale, the tree's
+    /// reach (≥ every frame's, see [`Frame`]) plus 1.8 max |q_j|.
+    #[inline(always)]
+    fn frame_margin(&self, q: &P3) -> f64 {
+        1e-11 * (self.reach + 1.8 * q[0].abs().max(q[1].abs()).max(q[2].abs()))
+    }
+
+    /// A lower bound of the squared distance (as [`d2`] sums it) from `q` to every point of
+    /// node `n`: its box's, or its frame's where larger (`qs`: [`PointTree::frame_margin`]);
+    /// the frame's only when the box's leaves the node `live` (else the node is skipped
+    /// either way).
+    #[inline(always)]
+    fn lower_d2(&self, q: &P3, n: u32, qs: f64, live: impl Fn(f64) -> bool) -> f64 {
+        let r = &self.recs[n as usize];
+        let b = box_d2(q, &r.bx);
+        if self.framed && live(b) {
+            b.max(frame_d2(q, r, qs))
+        } else {
+            b
+        }
+    }
+
     /// Whether some point lies at a squared distance (summed as in [`d2`]) below `ub2` from
     /// `q`: scipy's `isfinite(query(q, k=1, distance_upper_bound=sqrt(ub2))[0])`.
-    pub fn any_below(&self, q: &P3, ub2: f64) -> bool {
-        if self.nodes.is_empty() {
+    pub fn any_below(&self, q: &P3, ub2: f64, stack: &mut Vec<u32>) -> bool {
+        if self.recs.is_empty() {
             return false;
         }
-        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        let qs = self.frame_margin(q);
+        // every node on the stack has a lower bound below ub2 (see lower_d2)
+        let live = |l2: f64| l2 < ub2;
+        if !live(self.lower_d2(q, 0, qs, live)) {
+            return false;
+        }
+        stack.clear();
         stack.push(0);
         while let Some(n) = stack.pop() {
-            // a lower bound of every point's squared distance (see box_d2)
-            if !(box_d2(q, &self.boxes[n as usize]) < ub2) {
-                continue;
-            }
-            match self.nodes[n as usize] {
-                Node::Leaf { start, end, frame } => {
-                    if frame != NO_FRAME && frame_d2(q, &self.frames[frame as usize]) >= ub2 {
-                        continue; // a lower bound of every point's squared distance
-                    }
-                    if self.pts[start as usize..end as usize]
-                        .iter()
-                        .any(|p| d2(q, p) < ub2)
-                    {
+            let r = &self.recs[n as usize];
+            // Ok: a leaf's points; Err: a split's right child (its left is n + 1)
+            match (r.a != SPLIT).then_some((r.a, r.b)).ok_or(r.b) {
+                Ok((start, end)) => {
+                    if min_d2(q, &self.pts[start as usize..end as usize]) < ub2 {
                         return true;
                     }
                 }
-                Node::Split { left, right } => {
-                    // the nearer child is searched first (a hit ends the search)
-                    let dl = box_d2(q, &self.boxes[left as usize]);
-                    let dr = box_d2(q, &self.boxes[right as usize]);
-                    if dl <= dr {
-                        stack.push(right);
-                        stack.push(left);
+                Err(right) => {
+                    let left = n + 1;
+                    // both children's bounds at once (their loads overlap); the nearer is
+                    // searched first (a hit ends the search)
+                    let dl = self.lower_d2(q, left, qs, live);
+                    let dr = self.lower_d2(q, right, qs, live);
+                    let (near, far) = if dl <= dr {
+                        ((left, dl), (right, dr))
                     } else {
-                        stack.push(left);
-                        stack.push(right);
+                        ((right, dr), (left, dl))
+                    };
+                    if far.1 < ub2 {
+                        stack.push(far.0);
+                    }
+                    if near.1 < ub2 {
+                        stack.push(near.0);
                     }
                 }
             }

@@ -26,7 +26,7 @@ pub fn points_within<'py>(
         pl.install(|| {
             qq.par_iter()
                 .with_min_len(64)
-                .map(|c| t.any_below(c, ub2))
+                .map_init(Vec::new, |stack, c| t.any_below(c, ub2, stack))
                 .collect()
         })
     });

@@ -173,3 +173,46 @@ def test_sample_tree_on_a_flat_grid_with_exact_ties():
             got = compiled_knn.points_within(tree, C, float(bound), 2)
             assert np.array_equal(got, compiled_knn.points_within(plain, C, float(bound), 1))
         assert np.count_nonzero(ref_tie) > 50  # the ties are there
+
+
+@compiled
+def test_sample_tree_around_a_cylinder_from_both_sides():
+    """A cylinder of radius 20 mm (its split frames bound curved patches, built from their
+    children's boxes) with ball centres ρ = 6 mm off it outside and inside (the ball touches
+    the convex side and the concave side: the samples around the contact lie a hair beyond
+    ρ) and ±0.2 mm about that: the 8 nearest within ρ + 0.05 and the screens just below ρ
+    from the tree split on the vertices are those of the plain tree and of brute force."""
+    th, z = np.meshgrid(np.linspace(0.0, 2.0, 81), np.linspace(-8.0, 8.0, 65), indexing="ij")
+    n = z.shape[1]
+    V = np.column_stack([20.0 * np.cos(th.ravel()), 20.0 * np.sin(th.ravel()), z.ravel()])
+    i, j = np.meshgrid(np.arange(th.shape[0] - 1), np.arange(n - 1), indexing="ij")
+    a = (i * n + j).ravel()
+    F = np.vstack([np.column_stack([a, a + n, a + n + 1]), np.column_stack([a, a + n + 1, a + 1])])
+    mesh = TriMesh.from_arrays(V, F)
+    e, T = mesh.edges, mesh.V[mesh.F]
+    pts = np.vstack([mesh.V, 0.5 * (mesh.V[e[:, 0]] + mesh.V[e[:, 1]]),
+                     ((T[:, 0] + T[:, 1]) + T[:, 2]) / 3.0])
+    rng = np.random.default_rng(37)
+    t, h = rng.uniform(0.2, 1.8, 2000), rng.uniform(-6.0, 6.0, 2000)
+    r = np.concatenate([np.full(800, 26.0), np.full(800, 14.0), 20.0 + rng.choice([-1, 1], 400)
+                        * (6.0 + rng.uniform(-0.2, 0.2, 400))])
+    C = np.column_stack([r * np.cos(t), r * np.sin(t), h])
+    plain = compiled_knn.point_tree(pts, 1)
+    tree = compiled_tables.sample_tree(mesh.V, e, mesh.F, 2)
+    d = pts[None, :, :] - C[:, None, :]
+    d2 = (d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]) + d[..., 2] * d[..., 2]
+    ids, tie = tree.query(C, 8, 6.05, 2)
+    ref_ids, ref_tie = plain.query(C, 8, 6.05, 1)
+    assert np.array_equal(ids, ref_ids) and np.array_equal(tie, ref_tie)
+    order = np.argsort(d2, axis=1, kind="stable")[:, :8]  # equal distances: lower id first
+    brute = np.where(np.take_along_axis(d2, order, axis=1) < 6.05 ** 2, order, -1)
+    assert np.array_equal(ids[~tie], brute[~tie])
+    for bound in (6.0 - 1e-4, 6.0 - 1e-5, 6.0, 6.0 + 1e-5, 6.05):
+        got = compiled_knn.points_within(tree, C, bound, 2)
+        assert np.array_equal(got, compiled_knn.points_within(plain, C, bound, 1)), bound
+        assert np.array_equal(got, d2.min(axis=1) < bound * bound), bound
+    # the balls outside touch: no sample within ρ − 1e-5, some within ρ + 0.01 (the
+    # vertices lie on the cylinder, the midpoints and centroids inside it)
+    out = slice(0, 800)
+    assert not compiled_knn.points_within(tree, C[out], 6.0 - 1e-5, 2).any()
+    assert compiled_knn.points_within(tree, C[out], 6.0 + 1e-2, 2).all()
