@@ -565,7 +565,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(weld_near::weld_no_close_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
-    m.add_function(wrap_pyfunction!(mesh_topology::vertex_normal_sums, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_topology::vertex_normals_of, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interpolate_normals, m)?)?;
     m.add_function(wrap_pyfunction!(float_text::json_float_array, m)?)?;
     Ok(())
