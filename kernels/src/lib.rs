@@ -548,6 +548,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(probe::points_within, m)?)?;
     m.add_function(wrap_pyfunction!(lift::fixed_point_lift, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table_narrow, m)?)?;
     m.add_function(wrap_pyfunction!(grid_samples::grid_samples, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;

@@ -185,15 +185,21 @@ def _unique_per_row(ids):
     return srt[:, : max(width, 1)]
 
 
+def _narrow_ids(n_faces):
+    """Whether the vertex-face table of ``n_faces`` faces is kept narrow (:func:`_narrow_table`):
+    not for a mesh whose sample ids (vertices + edges + faces ≈ 3.5 × faces) might not fit in
+    int32 arithmetic."""
+    return 8 * n_faces < 2**31
+
+
 def _narrow_table(table, n_faces):
     """The vertex-face table ``(ptr, face, corner)`` with the faces as int32 and the corners
-    as int8 (the same values; at 1M faces 33 MB less, held through the passes), or None. Kept
-    int64 for a mesh whose sample ids (vertices + edges + faces ≈ 3.5 × faces) might not fit
-    in int32 arithmetic."""
-    if table is None or 8 * n_faces >= 2**31:
+    as int8 (the same values; at 1M faces 33 MB less, held through the passes; not copied
+    when they are so already), or None. Kept int64 unless :func:`_narrow_ids`."""
+    if table is None or not _narrow_ids(n_faces):
         return table
     ptr, face, corner = table
-    return ptr, face.astype(np.int32), corner.astype(np.int8)
+    return ptr, face.astype(np.int32, copy=False), corner.astype(np.int8, copy=False)
 
 
 def _next_step(trials, target):
@@ -231,7 +237,8 @@ class _Generator:
             n = workers()  # the tree on the caller's threads (its splits run in parallel)
             self._tables_result = alongside_in_turn(
                 lambda: compiled_tables.sample_tree(V, E, F, n),
-                lambda: _narrow_table(compiled_tables.vertex_face_table(F, len(V)), len(F)))
+                lambda: _narrow_table(compiled_tables.vertex_face_table(
+                    F, len(V), narrow=_narrow_ids(len(F))), len(F)))
         # LMC between two cones, LMRS (paper 001 §4.2) when either generatrix is a Profile
         self.morph = morph_between(cone1, cone2)
         self.radius, self.cusp, self.chord = float(radius), float(cusp), float(chord)
