@@ -1,6 +1,6 @@
 """Threads and cancellation for long core work: the worker count of a run
 (:func:`parallel`), chunked maps over a thread pool, work beside the
-calling thread (:func:`alongside`), the cooperative cancel poll
+calling thread (:func:`alongside`, :func:`alongside_in_turn`), the cooperative cancel poll
 (:func:`cancellable`, :func:`check_cancel`, :class:`Cancelled`), and long
 work's progress generators run to their end (:func:`run_to_end`), and numpy's and scipy's
 OpenBLAS held to one thread while our work runs in a process that loaded them before us
@@ -24,6 +24,7 @@ __all__ = [
     "cancellable",
     "check_cancel",
     "alongside",
+    "alongside_in_turn",
     "SideThread",
     "map_chunks",
     "map_tasks",
@@ -168,6 +169,42 @@ def alongside(fn):
         return box["value"]
 
     return result
+
+
+def alongside_in_turn(*fns):
+    """:func:`alongside` for several functions run one after the other on one thread of
+    their own, in the order given: returns one waiting function per ``fn``, each returning
+    (or raising) as soon as its own ``fn`` is done, while the later ones still run — the
+    result the caller needs first goes first, and the builds do not run at once. With one
+    thread each ``fn`` runs, in the calling thread, when its result is asked for."""
+    if _WORKERS.get() < 2:
+        return list(fns)
+    ctx = contextvars.copy_context()
+    ctx.run(_WORKERS.set, 1)
+    boxes = [{} for _ in fns]
+    done = [threading.Event() for _ in fns]
+
+    def run():
+        for fn, box, ev in zip(fns, boxes, done, strict=True):
+            try:
+                box["value"] = ctx.run(fn)
+            except BaseException as exc:  # handed to the caller by its result()
+                box["error"] = exc
+            finally:
+                ev.set()
+
+    thread = threading.Thread(target=run, name="blisk_cam-alongside", daemon=True)
+    thread.start()
+
+    def result_of(box, ev):
+        def result():
+            ev.wait()
+            if "error" in box:
+                raise box["error"]
+            return box["value"]
+        return result
+
+    return [result_of(box, ev) for box, ev in zip(boxes, done, strict=True)]
 
 
 class SideThread:

@@ -557,6 +557,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(facet_lift::candidate_shortfall, m)?)?;
     m.add_function(wrap_pyfunction!(face_gradient::face_gradient_curvature, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_samples::vertex_face_table_narrow, m)?)?;
     m.add_function(wrap_pyfunction!(grid_samples::grid_samples, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_samples::sample_point_tree, m)?)?;
     m.add_function(wrap_pyfunction!(slice_roots::cone_edge_roots, m)?)?;
@@ -575,7 +576,7 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(weld_near::weld_no_close_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interior_pairs, m)?)?;
-    m.add_function(wrap_pyfunction!(mesh_topology::vertex_normal_sums, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_topology::vertex_normals_of, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::interpolate_normals, m)?)?;
     m.add_function(wrap_pyfunction!(float_text::json_float_array, m)?)?;
     Ok(())

@@ -19,6 +19,35 @@ fn ids_in_range(ids: &[i64], n: usize, what: &str) -> PyResult<()> {
     Ok(())
 }
 
+/// The faces around each vertex of the faces `ff` (3m vertex ids in 0..n, row-major) by a
+/// counting sort of the corners by vertex (stable: numpy's stable argsort of `F.ravel()`):
+/// (ptr (n + 1,), face (3 m,), corner (3 m,)), face and corner as `face_id(f)` and
+/// `corner_id(k)` of the face id f and the corner k in 0..3.
+fn face_table<T: Copy + Default, C: Copy + Default>(
+    ff: &[i64],
+    n: usize,
+    face_id: impl Fn(usize) -> T,
+    corner_id: impl Fn(usize) -> C,
+) -> (Vec<i64>, Vec<T>, Vec<C>) {
+    let mut ptr = vec![0i64; n + 1];
+    for &v in ff {
+        ptr[v as usize + 1] += 1;
+    }
+    for i in 0..n {
+        ptr[i + 1] += ptr[i];
+    }
+    let mut next: Vec<i64> = ptr[..n].to_vec();
+    let mut face = vec![T::default(); ff.len()];
+    let mut corner = vec![C::default(); ff.len()];
+    for (i, &v) in ff.iter().enumerate() {
+        let p = &mut next[v as usize];
+        face[*p as usize] = face_id(i / 3);
+        corner[*p as usize] = corner_id(i % 3);
+        *p += 1;
+    }
+    (ptr, face, corner)
+}
+
 /// (ptr (n + 1,), face (3 m,), corner (3 m,)) int64: the faces around vertex v are
 /// `face[ptr[v]:ptr[v + 1]]` (ascending), v being their corner `corner[...]`; F (m, 3).
 #[pyfunction]
@@ -33,25 +62,34 @@ pub fn vertex_face_table<'py>(
 )> {
     let ff = crate::arrays::flat(&f, "F")?;
     ids_in_range(ff, n_vertices, "F")?;
-    let (ptr, face, corner) = py.detach(|| {
-        let mut ptr = vec![0i64; n_vertices + 1];
-        for &v in ff {
-            ptr[v as usize + 1] += 1;
-        }
-        for i in 0..n_vertices {
-            ptr[i + 1] += ptr[i];
-        }
-        let mut next: Vec<i64> = ptr[..n_vertices].to_vec();
-        let mut face = vec![0i64; ff.len()];
-        let mut corner = vec![0i64; ff.len()];
-        for (i, &v) in ff.iter().enumerate() {
-            let p = &mut next[v as usize];
-            face[*p as usize] = (i / 3) as i64;
-            corner[*p as usize] = (i % 3) as i64;
-            *p += 1;
-        }
-        (ptr, face, corner)
-    });
+    let (ptr, face, corner) = py.detach(|| face_table(ff, n_vertices, |x| x as i64, |k| k as i64));
+    Ok((
+        PyArray1::from_vec(py, ptr),
+        PyArray1::from_vec(py, face),
+        PyArray1::from_vec(py, corner),
+    ))
+}
+
+/// [`vertex_face_table`] with the faces as int32 and the corners as int8 (the same values),
+/// the table the passes keep (`passes._narrow_table`), made so at once: at 1M faces not the
+/// two 24 MB int64 arrays first (faulted in, then cast and freed, on the side thread beside
+/// the passes' first levels). F (m, 3) with 3 m below 2³¹.
+#[pyfunction]
+pub fn vertex_face_table_narrow<'py>(
+    py: Python<'py>,
+    f: PyReadonlyArray2<'py, i64>,
+    n_vertices: usize,
+) -> PyResult<(
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i32>>,
+    Bound<'py, PyArray1<i8>>,
+)> {
+    let ff = crate::arrays::flat(&f, "F")?;
+    ids_in_range(ff, n_vertices, "F")?;
+    if ff.len() >= i32::MAX as usize {
+        return Err(PyValueError::new_err("too many faces for int32 face ids"));
+    }
+    let (ptr, face, corner) = py.detach(|| face_table(ff, n_vertices, |x| x as i32, |k| k as i8));
     Ok((
         PyArray1::from_vec(py, ptr),
         PyArray1::from_vec(py, face),

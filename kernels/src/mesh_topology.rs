@@ -1,6 +1,7 @@
 //! The topology `TriMesh` keeps (`blisk_cam/core/geometry/weld.py::_edge_table`, its interior
-//! edge pairs) and its face normals (`mesh.triangle_normals`), in one pass each instead of
-//! numpy's sort of the 3m half-edges and its gathers: the same arrays, value for value.
+//! edge pairs), its face normals (`mesh.triangle_normals`) and vertex normals, in one pass
+//! each instead of numpy's sort of the 3m half-edges, its gathers and its scatters: the same
+//! arrays, value for value.
 //! (The face components stay scipy's: a union–find here gave the same labels a little
 //! faster but raised the CLI's resident high-water mark later in the run, by how the freed
 //! memory of scipy's graph is reused.)
@@ -246,36 +247,67 @@ pub fn interior_pairs<'py>(
     ))
 }
 
-/// `TriMesh.vertex_normals`' sums before the norm: for each vertex, the area vectors `n2`
-/// (m, 3) of its faces, summed as the numpy reference does — per corner k a `bincount`
-/// (faces in order, from 0.0), then the three corners' sums added in order to 0.0:
-/// ((0 + s₀) + s₁) + s₂, so the same bits. None when a face holds an id outside 0..n.
-pub fn vertex_sums(n: usize, f: &[i64], n2: &[f64]) -> Option<Vec<f64>> {
+/// `n` zeros, written (not `vec![0.0; n]`, which is `calloc`: fresh pages that the first
+/// `+=` reads map the shared zero page and then fault again to write, two page faults per
+/// 4 KiB instead of one; at 1M faces the vertex sums' 24 MB took ~12k faults, most of the
+/// kernel's time, and more still beside the passes' side thread faulting in its own tables).
+fn zeros_written(n: usize) -> Vec<f64> {
+    let mut v = Vec::with_capacity(n);
+    v.resize(n, 0.0);
+    v
+}
+
+/// Adds the area vectors `n2` (m, 3) of the faces `f` (m, 3) to the rows of their corner
+/// `k` in `acc` (n, 3), faces in order: numpy's weighted `bincount` of that corner.
+fn add_corner(acc: &mut [f64], f: &[i64], n2: &[f64], k: usize) {
+    for (t, w) in f.chunks_exact(3).zip(n2.chunks_exact(3)) {
+        let v = 3 * t[k] as usize;
+        acc[v] += w[0];
+        acc[v + 1] += w[1];
+        acc[v + 2] += w[2];
+    }
+}
+
+/// `TriMesh.vertex_normals` of the faces `f` (m, 3, ids in 0..n) and their area vectors `n2`
+/// (m, 3), (n, 3) row-major, as the numpy reference computes them: per corner k the sums of
+/// a weighted `bincount` (faces in order, from 0.0), the corners' sums added in order to
+/// 0.0, ((0 + s₀) + s₁) + s₂ (0 + s₀ is s₀: a sum from +0.0 is never −0.0); each row then
+/// divided by its norm as `np.linalg.norm(acc, axis=1)` sums it, (x² + y²) + z² (numpy's
+/// reduction over the rows' 3 columns, the same on AVX-512; tested), or by 1.0 where that
+/// is not positive. The same operations in the same order, so the same bits. Corner 0 sums
+/// into the result itself, corners 1 and 2 into one scratch of (n, 3) in turn; the norms
+/// and quotients in place. None when a face holds an id outside 0..n or the shapes differ.
+pub fn vertex_normals(n: usize, f: &[i64], n2: &[f64]) -> Option<Vec<f64>> {
     if f.len() != n2.len() || f.iter().any(|&i| i < 0 || i as usize >= n) {
         return None;
     }
-    let mut acc = vec![0.0f64; 3 * n];
-    let mut s = vec![0.0f64; 3 * n];
-    for k in 0..3 {
-        if k > 0 {
-            s.iter_mut().for_each(|x| *x = 0.0);
+    let mut acc = zeros_written(3 * n);
+    add_corner(&mut acc, f, n2, 0); // 0 + s₀ = s₀
+    let mut s = zeros_written(3 * n);
+    for k in 1..3 {
+        if k > 1 {
+            s.fill(0.0);
         }
-        for (t, w) in f.chunks_exact(3).zip(n2.chunks_exact(3)) {
-            let v = 3 * t[k] as usize;
-            s[v] += w[0];
-            s[v + 1] += w[1];
-            s[v + 2] += w[2];
-        }
+        add_corner(&mut s, f, n2, k);
         for (a, b) in acc.iter_mut().zip(&s) {
             *a += *b;
         }
     }
+    drop(s);
+    for r in acc.chunks_exact_mut(3) {
+        let ln = ((r[0] * r[0] + r[1] * r[1]) + r[2] * r[2]).sqrt();
+        let d = if ln > 0.0 { ln } else { 1.0 };
+        r[0] /= d;
+        r[1] /= d;
+        r[2] /= d;
+    }
     Some(acc)
 }
 
-/// `vertex_sums` for Python: (n, 3) float64, or None (an id out of range: numpy's turn).
+/// [`vertex_normals`] for Python: (n, 3) float64 unit vertex normals of F (m, 3) int64 and
+/// the area vectors n2 (m, 3) float64, or None (an id out of range: numpy's turn).
 #[pyfunction]
-pub fn vertex_normal_sums<'py>(
+pub fn vertex_normals_of<'py>(
     py: Python<'py>,
     n_vertices: usize,
     f: PyReadonlyArray2<'py, i64>,
@@ -286,7 +318,7 @@ pub fn vertex_normal_sums<'py>(
     if f.shape()[1] != 3 || n2.shape()[1] != 3 {
         return Err(pyo3::exceptions::PyValueError::new_err("F and n2 must be (m, 3)"));
     }
-    let Some(out) = py.detach(|| vertex_sums(n_vertices, ff, ww)) else {
+    let Some(out) = py.detach(|| vertex_normals(n_vertices, ff, ww)) else {
         return Ok(None);
     };
     let a: Bound<'py, PyArray1<f64>> = PyArray1::from_vec(py, out);

@@ -47,6 +47,7 @@ def test_passes_tables_built_alongside_answer_as_built_on_first_use(demo, thread
     ref_ptr, ref_face, ref_corner = compiled_tables.vertex_face_table(mesh.F, len(mesh.V))
     assert np.array_equal(ptr, ref_ptr) and np.array_equal(face, ref_face)
     assert np.array_equal(corner, ref_corner)
+    assert face.dtype == np.int32 and corner.dtype == np.int8  # kept narrow (made so)
     # the faces of each vertex hold it (an independent check of the table)
     v = np.repeat(np.arange(len(mesh.V)), np.diff(ptr))
     assert np.array_equal(mesh.F[face, corner], v)
@@ -79,3 +80,24 @@ def test_face_tree_built_alongside_answers_as_built_on_first_use(demo, threads):
     brute = np.linalg.norm(tri.mean(axis=1)[None, :, :] - P[:40, None, :], axis=2).min(axis=1)
     assert np.all(np.linalg.norm(q[:40] - P[:40], axis=1) <= brute + 1e-9)
     assert np.all(face >= 0)
+
+
+@needs_compiled("vertex_face_table_narrow", why="nothing to compare")
+def test_narrow_vertex_face_table_holds_the_int64_values():
+    """The table made narrow at once (faces int32, corners int8) holds the int64 table's
+    values, on a mesh with vertices in no face (empty rows) and many faces per vertex."""
+    rng = np.random.default_rng(21)
+    F = rng.integers(0, 500, size=(30_000, 3))
+    F[:, 1] = (F[:, 0] + 1 + rng.integers(0, 498, 30_000)) % 500  # distinct corners
+    F[:, 2] = np.where((F[:, 2] == F[:, 0]) | (F[:, 2] == F[:, 1]), -1, F[:, 2])
+    F = F[F[:, 2] >= 0]
+    wide = compiled_tables.vertex_face_table(F, 510)
+    narrow = compiled_tables.vertex_face_table(F, 510, narrow=True)
+    assert [a.dtype for a in narrow] == [np.int64, np.int32, np.int8]
+    for a, b in zip(wide, narrow, strict=True):
+        assert np.array_equal(a, b.astype(np.int64))
+    ptr, face, corner = narrow
+    assert ptr[-1] == 3 * len(F) and np.all(ptr[500:] == ptr[-1])  # 500..509: no face
+    v = np.repeat(np.arange(510), np.diff(ptr))
+    assert np.array_equal(F[face, corner], v)
+    assert all(np.all(np.diff(face[ptr[i]:ptr[i + 1]]) > 0) for i in range(0, 500, 37))

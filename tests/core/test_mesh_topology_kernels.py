@@ -13,6 +13,7 @@ from blisk_cam.core.geometry import weld
 from blisk_cam.core.geometry.mesh import TriMesh, triangle_normals
 from blisk_cam.core.kernels import backend
 from blisk_cam.core.kernels import weld as compiled_weld
+from tests.support.kernels import needs_compiled
 from tests.support.mesh_files import icosphere
 
 kernel = pytest.mark.skipif(
@@ -150,17 +151,34 @@ def test_the_reference_edge_table_widens_int32_faces():
     assert ref["edges"].max() == n - 1
 
 
-@kernel
-def test_vertex_normal_sums_against_the_reference():
-    """The per-vertex sums of the faces' area vectors: the bits of numpy's bincount per
-    corner, the corners added in order (many faces on few vertices, signs mixed)."""
+@needs_compiled("vertex_normals_of", why="nothing to compare")
+def test_vertex_normals_against_the_reference():
+    """The vertex normals in one compiled call: the bits of numpy's bincount per corner, the
+    corners added in order, the norm and the quotient (many faces on few vertices, signs and
+    magnitudes mixed; vertices in no face stay zero)."""
     rng = np.random.default_rng(2121)
     F = rng.integers(0, 300, size=(20_000, 3))
     n2 = rng.normal(size=(20_000, 3)) * 10.0 ** rng.integers(-8, 8, size=(20_000, 1))
-    got = compiled_weld.vertex_normal_sums(310, F, n2)  # vertices 300..309 in no face
+    got = compiled_weld.vertex_normals(310, F, n2)  # vertices 300..309 in no face
     want = np.zeros((310, 3))
     for k in range(3):
         want += np.stack([np.bincount(F[:, k], weights=n2[:, j], minlength=310)
                           for j in range(3)], axis=1)
+    want = want / np.where((ln := np.linalg.norm(want, axis=1)) > 0, ln, 1.0)[:, None]
     assert np.array_equal(got.view(np.uint8), want.view(np.uint8))
-    assert compiled_weld.vertex_normal_sums(299, F, n2) is None  # an id out of range
+    assert not got[300:].any() and np.all(np.abs(np.linalg.norm(got[:300], axis=1) - 1) < 1e-15)
+    assert compiled_weld.vertex_normals(299, F, n2) is None  # an id out of range
+    mesh = TriMesh(V=np.zeros((310, 3)), F=F)  # the mesh's reference gives the same bits
+    assert np.array_equal(got.view(np.uint8), mesh._vertex_normals_numpy(n2).view(np.uint8))
+
+
+def test_row_norm_sums_the_squares_in_order():
+    """The order the compiled vertex normals (and interpolated normals) take from numpy:
+    ``np.linalg.norm(x, axis=1)`` of (n, 3) rows is sqrt((x0² + x1²) + x2²) on this machine
+    (whatever its SIMD loops), not another order, which differs in ~10 % of the rows."""
+    rng = np.random.default_rng(7)
+    x = rng.normal(size=(200_000, 3)) * 10.0 ** rng.integers(-3, 4, size=(200_000, 1))
+    sq = x * x
+    in_order = np.sqrt((sq[:, 0] + sq[:, 1]) + sq[:, 2])
+    assert np.array_equal(np.linalg.norm(x, axis=1), in_order)
+    assert not np.array_equal(in_order, np.sqrt(sq[:, 0] + (sq[:, 1] + sq[:, 2])))

@@ -21,7 +21,7 @@ from blisk_cam.core.kernels import backend
 from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.paths import passes
 from blisk_cam.core.paths.passes import _Generator
-from blisk_cam.core.runtime import SideThread, cancellable, parallel, workers
+from blisk_cam.core.runtime import SideThread, alongside_in_turn, cancellable, parallel, workers
 from tests.support.kernels import needs_compiled
 
 compiled = needs_compiled(why="the trials run in the one-thread order")
@@ -132,6 +132,40 @@ def test_side_thread_keeps_one_thread_and_hands_back_results_and_errors():
         later = side.alongside(lambda: job(3))
         assert seen == []
         assert later() == 6 and seen[0][0] is threading.current_thread()
+
+
+def test_alongside_in_turn_hands_back_each_result_as_soon_as_it_is_done():
+    """The passes' tables: the sample tree first, its result handed back while the vertex-face
+    table still builds after it, on the same thread; an error goes to its own result only."""
+    seen = []
+    release = threading.Event()
+
+    def job(x):
+        seen.append((x, threading.current_thread(), workers(), check_cancel_hook()))
+        if x == 2:
+            assert release.wait(10)  # still running when the first result is taken
+        if x < 0:
+            raise ValueError(f"bad {x}")
+        return 2 * x
+
+    stop = threading.Event()
+    with cancellable(stop, "the test"), parallel(2):
+        first, second, bad = alongside_in_turn(lambda: job(1), lambda: job(2), lambda: job(-1))
+        assert first() == 2 and [x for x, *_ in seen] in ([1], [1, 2])  # job 2 not done
+        release.set()
+        assert second() == 4
+        with pytest.raises(ValueError, match="bad -1"):
+            bad()
+    assert [x for x, *_ in seen] == [1, 2, -1]  # in the order given
+    thread = seen[0][1]
+    assert thread is not threading.current_thread() and all(t is thread for _, t, _, _ in seen)
+    assert all(w == 1 and h for _, _, w, h in seen)  # one worker, the caller's cancel hook
+    # on one thread: each runs where its result is asked for, when it is asked for
+    seen.clear()
+    with parallel(1):
+        first, second = alongside_in_turn(lambda: job(3), lambda: job(4))
+        assert seen == [] and second() == 8 and first() == 6
+    assert [x for x, *_ in seen] == [4, 3] and seen[0][1] is threading.current_thread()
 
 
 def check_cancel_hook():

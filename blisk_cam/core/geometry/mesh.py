@@ -523,14 +523,20 @@ class TriMesh:
         c = self._cache
         if "vn" not in c:
             n2 = c["n2"] if "n2" in c else triangle_normals(self.V, self.F)  # 2 × area vector
-            acc = compiled_weld.vertex_normal_sums(len(self.V), self.F, n2)  # the same sums
-            if acc is None:
-                acc = np.zeros_like(self.V)
-                for k in range(3):
-                    acc += _scatter_add(len(self.V), self.F[:, k], n2)
-            ln = np.linalg.norm(acc, axis=1)
-            c["vn"] = acc / np.where(ln > 0, ln, 1.0)[:, None]
+            # compiled: sums, norms and quotients in one call (the same bits; ~4x faster at
+            # 1M faces, without numpy's four (n, 3) and (n,) temporaries to fault in)
+            vn = compiled_weld.vertex_normals(len(self.V), self.F, n2)
+            c["vn"] = self._vertex_normals_numpy(n2) if vn is None else vn
         return c["vn"]
+
+    def _vertex_normals_numpy(self, n2):
+        """The numpy reference of :attr:`vertex_normals` from the faces' area vectors n2
+        (m, 3): (n, 3) unit vertex normals (zero where the sum is)."""
+        acc = np.zeros_like(self.V)
+        for k in range(3):
+            acc += _scatter_add(len(self.V), self.F[:, k], n2)
+        ln = np.linalg.norm(acc, axis=1)
+        return acc / np.where(ln > 0, ln, 1.0)[:, None]
 
     def interpolate_normals(self, faces, bary):
         """Smooth normals at points given by face ids (k,) and barycentric coords (k, 3):

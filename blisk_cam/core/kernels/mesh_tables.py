@@ -12,14 +12,20 @@ from .backend import extension
 __all__ = ["chain_directed", "sample_tree", "vertex_face_table"]
 
 
-def vertex_face_table(F, n_vertices: int):
+def vertex_face_table(F, n_vertices: int, *, narrow: bool = False):
     """(ptr (n + 1,), face (3 m,), corner (3 m,)) int64 of the faces F (m, 3): the faces of
     vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being their corner
-    ``corner[...]``; None when the numpy kernels run."""
+    ``corner[...]``; None when the numpy kernels run. ``narrow``: face int32 and corner int8
+    (the same values, made so at once; int64 from a wheel without that kernel), for F with
+    3 m below 2³¹."""
     ext = extension()
     if ext is None:
         return None
-    return ext.vertex_face_table(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices))
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    fn = getattr(ext, "vertex_face_table_narrow", None) if narrow else None
+    if fn is not None:
+        return fn(F, int(n_vertices))
+    return ext.vertex_face_table(F, int(n_vertices))
 
 
 def sample_tree(V, E, F, threads: int):

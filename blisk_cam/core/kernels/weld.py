@@ -10,7 +10,7 @@ from .backend import extension
 
 __all__ = ["edge_table", "first_equal_point", "first_equal_rows", "interior_pairs",
            "interpolate_normals", "stl_corners_welded", "triangle_normals",
-           "vertex_normal_sums"]
+           "vertex_normals"]
 
 
 def first_equal_point(x, y, z):
@@ -87,14 +87,15 @@ def triangle_normals(V, F):
     return fn(np.require(V, requirements=req), np.require(F, requirements=req))
 
 
-def vertex_normal_sums(n_vertices: int, F, n2):
-    """``TriMesh.vertex_normals``' sums before the norm: the area vectors n2 (m, 3) float64
-    of the faces F (m, 3) int64 summed per vertex as the numpy reference does (a weighted
-    ``bincount`` per corner, the corners' sums added in order), (n, 3) float64, the same
-    bits; None when the numpy kernels run, the arrays are of other types, or an id is out
-    of range."""
+def vertex_normals(n_vertices: int, F, n2):
+    """``TriMesh.vertex_normals`` in one call: the area vectors n2 (m, 3) float64 of the
+    faces F (m, 3) int64 summed per vertex as the numpy reference does (a weighted
+    ``bincount`` per corner, the corners' sums added in order) and divided by their norm
+    (``np.linalg.norm``'s sum of squares, 1.0 where it is not positive), (n, 3) float64, the
+    same bits; None when the numpy kernels run (or a wheel without this kernel), the arrays
+    are of other types, or an id is out of range."""
     ext = extension()
-    fn = getattr(ext, "vertex_normal_sums", None) if ext is not None else None
+    fn = getattr(ext, "vertex_normals_of", None) if ext is not None else None
     if (fn is None or F.dtype != np.int64 or n2.dtype != np.float64 or len(F) == 0
             or F.ndim != 2 or F.shape[1] != 3 or n2.shape != F.shape):
         return None

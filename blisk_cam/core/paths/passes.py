@@ -24,7 +24,7 @@ from ..kernels import mesh_tables as compiled_tables
 from ..kernels.backend import extension
 from ..part.cones import Cone
 from ..part.profiles import Profile, morph_between
-from ..runtime import Progress, SideThread, alongside, workers
+from ..runtime import Progress, SideThread, alongside_in_turn, workers
 from ..toolpath.types import BallTool, PassCurve, ToolPath
 from .expansion import (
     PolylineDistance,
@@ -192,15 +192,21 @@ def _in_windows(lo, hi, n):
     return np.nonzero(np.cumsum(mark)[:n] > 0)[0]
 
 
+def _narrow_ids(n_faces):
+    """Whether the vertex-face table of ``n_faces`` faces is kept narrow (:func:`_narrow_table`):
+    not for a mesh whose sample ids (vertices + edges + faces ≈ 3.5 × faces) might not fit in
+    int32 arithmetic."""
+    return 8 * n_faces < 2**31
+
+
 def _narrow_table(table, n_faces):
     """The vertex-face table ``(ptr, face, corner)`` with the faces as int32 and the corners
-    as int8 (the same values; at 1M faces 33 MB less, held through the passes), or None. Kept
-    int64 for a mesh whose sample ids (vertices + edges + faces ≈ 3.5 × faces) might not fit
-    in int32 arithmetic."""
-    if table is None or 8 * n_faces >= 2**31:
+    as int8 (the same values; at 1M faces 33 MB less, held through the passes; not copied
+    when they are so already), or None. Kept int64 unless :func:`_narrow_ids`."""
+    if table is None or not _narrow_ids(n_faces):
         return table
     ptr, face, corner = table
-    return ptr, face.astype(np.int32), corner.astype(np.int8)
+    return ptr, face.astype(np.int32, copy=False), corner.astype(np.int8, copy=False)
 
 
 def _next_step(trials, target):
@@ -227,15 +233,19 @@ class _Generator:
         self.axis = axis
         # the compiled tables of the intrusion checks (each one compiled call, the GIL
         # released) are built on a side thread while the slicer is set up and the first
-        # levels are sliced and sampled; with one thread, on first use (as before)
+        # levels are sliced and sampled; with one thread, on first use (as before). The
+        # sample tree first: the first pass asks for it right after this set-up (and waits
+        # for it: at 1M faces it takes longer than the set-up and the first level), the
+        # faces around each vertex only at its facet lifts, some levels later
         self._tables_result = None
         self._tables = None
         if extension() is not None:
             V, E, F = mesh.V, mesh.edges, mesh.F  # read here: the side thread touches no cache
             n = workers()  # the tree on the caller's threads (its splits run in parallel)
-            self._tables_result = alongside(lambda: (
-                _narrow_table(compiled_tables.vertex_face_table(F, len(V)), len(F)),
-                compiled_tables.sample_tree(V, E, F, n)))
+            self._tables_result = alongside_in_turn(
+                lambda: compiled_tables.sample_tree(V, E, F, n),
+                lambda: _narrow_table(compiled_tables.vertex_face_table(
+                    F, len(V), narrow=_narrow_ids(len(F))), len(F)))
         # LMC between two cones, LMRS (paper 001 §4.2) when either generatrix is a Profile
         self.morph = morph_between(cone1, cone2)
         self.radius, self.cusp, self.chord = float(radius), float(cusp), float(chord)
@@ -480,19 +490,23 @@ class _Generator:
                                   balanced_tree=False, compact_nodes=False)
         return self._ptree
 
-    def _compiled_tables(self):
-        """(faces around each vertex, k-d tree over all samples) compiled, started when the
-        generator was made (:func:`..runtime.alongside`), or None when the numpy kernels
-        run."""
-        if self._tables is None and self._tables_result is not None:
-            self._tables = self._tables_result()
-        return self._tables
+    def _compiled_tables(self, which):
+        """The compiled k-d tree over all samples (``which`` 0) or the faces around each
+        vertex (1), started when the generator was made (:func:`..runtime.alongside_in_turn`,
+        in this order), or None when the numpy kernels run."""
+        if self._tables_result is None:
+            return None
+        if self._tables is None:
+            self._tables = [None, None]
+        if self._tables[which] is None:
+            self._tables[which] = self._tables_result[which]()
+        return self._tables[which]
 
     def _compiled_probe_tree(self):
         """The compiled k-d tree over all samples, or None when the numpy kernels run."""
-        if extension() is None or self._compiled_tables() is None:
+        if extension() is None:
             return None
-        return self._compiled_tables()[1]  # the samples of _ProbeSamples.all_points
+        return self._compiled_tables(0)  # the samples of _ProbeSamples.all_points
 
     def _any_within(self, C, bound):
         """(q,) bool: a surface sample lies closer than ``bound`` mm to the point (q, 3) — the
@@ -601,8 +615,7 @@ class _Generator:
         (3 m,)) — the faces of vertex v are ``face[ptr[v]:ptr[v + 1]]`` (ascending), v being
         their corner ``corner[...]``."""
         if not hasattr(self, "_vf"):
-            tables = self._compiled_tables()
-            self._vf = None if tables is None else tables[0]
+            self._vf = self._compiled_tables(1)
         if self._vf is None:
             F = self.mesh.F
             order = np.argsort(F.ravel(), kind="stable")
