@@ -147,28 +147,7 @@ def alongside(fn):
     asked for — the order of the work is then the caller's. The thread has the caller's
     cancel hook and one worker (its own chunked queries stay on it); ``fn`` must not touch
     what the caller's steps change meanwhile."""
-    if _WORKERS.get() < 2:
-        return fn
-    ctx = contextvars.copy_context()
-    ctx.run(_WORKERS.set, 1)
-    box = {}
-
-    def run():
-        try:
-            box["value"] = ctx.run(fn)
-        except BaseException as exc:  # handed to the caller by result()
-            box["error"] = exc
-
-    thread = threading.Thread(target=run, name="blisk_cam-alongside", daemon=True)
-    thread.start()
-
-    def result():
-        thread.join()
-        if "error" in box:
-            raise box["error"]
-        return box["value"]
-
-    return result
+    return alongside_in_turn(fn)[0]
 
 
 def alongside_in_turn(*fns):
