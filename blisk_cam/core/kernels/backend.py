@@ -19,7 +19,7 @@ except ImportError as _exc:
 else:
     _why = ""
 
-__all__ = ["backend_name", "extension", "numpy_only", "ENV"]
+__all__ = ["backend_name", "extension", "kernel", "numpy_only", "ENV"]
 
 #: the environment variable that picks the backend (``numpy`` forces it; anything else or
 #: unset: the compiled kernels when installed)
@@ -48,6 +48,13 @@ def extension():
     if _forced_numpy:
         return None
     return _load()[0]
+
+
+def kernel(name: str):
+    """The compiled function ``name``, or None when the numpy kernels run or the installed
+    extension is older than it (the wrappers then fall back to their numpy reference)."""
+    ext = extension()
+    return getattr(ext, name, None) if ext is not None else None
 
 
 def backend_name() -> str:

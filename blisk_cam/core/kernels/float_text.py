@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import kernel
 
 __all__ = ["json_float_array"]
 
@@ -17,8 +17,7 @@ def json_float_array(a):
     a.tolist())`` writes it; None when the numpy kernels run (or a wheel without this
     kernel), or when a value is not finite or ``a`` has another number of dimensions (the
     caller's ``json.dumps`` then takes it, and refuses NaN as before)."""
-    ext = extension()
-    fn = getattr(ext, "json_float_array", None) if ext is not None else None
+    fn = kernel("json_float_array")
     if fn is None:
         return None
     return fn(np.ascontiguousarray(a, dtype=np.float64))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import extension, kernel
 
 __all__ = ["candidate_shortfall", "face_gradient_curvature", "facet_lift", "fixed_point_lift",
            "intrusion_probes", "probe_candidates"]
@@ -30,12 +30,6 @@ def fixed_point_lift(V, F, cand, p, n, lam, consts, steps: int, threads: int):
         tuple(float(x) for x in consts), int(steps), max(1, int(threads)))
 
 
-def _has(name: str):
-    """The extension when it is installed, not switched off and has ``name``, else None."""
-    ext = extension()
-    return ext if ext is not None and hasattr(ext, name) else None
-
-
 def facet_lift(mesh_arrays, table, D, DN, edge, seg, closed: bool, consts, steps: int,
                threads: int):
     """(q,) λ (mm) of :meth:`blisk_cam.core.paths.passes._Generator.facet_lift` for the
@@ -45,15 +39,15 @@ def facet_lift(mesh_arrays, table, D, DN, edge, seg, closed: bool, consts, steps
     ``mesh_arrays`` = (V (n, 3), F (m, 3), edges (e, 2), edge_faces (e, 2), face_normals
     (m, 3)); ``table`` = the vertex–face table's (ptr, face); ``consts`` = (ρ, facet
     tolerance, lift tolerance, gain, plane slack) mm. None when the numpy kernels run."""
-    ext = _has("facet_lift")
-    if ext is None:
+    fn = kernel("facet_lift")
+    if fn is None:
         return None
     c = np.ascontiguousarray
     V, F, E, EF, FN = mesh_arrays
     ptr, face = table[:2]
     if face.dtype not in (np.int32, np.int64):
         face = face.astype(np.int64)
-    return ext.facet_lift(
+    return fn(
         c(V, dtype=np.float64), c(F, dtype=np.int64), c(E, dtype=np.int64),
         c(EF, dtype=np.int64), c(FN, dtype=np.float64), c(ptr, dtype=np.int64), c(face),
         c(D, dtype=np.float64), c(DN, dtype=np.float64), c(edge, dtype=np.int64),
@@ -66,40 +60,40 @@ def probe_candidates(ids, n_vertices: int, n_faces: int, edge_faces, table, thre
     :class:`blisk_cam.core.paths.passes._Generator`: the faces holding the probe samples
     ``ids`` (q, k) (vertices, edge midpoints, face centroids; −1 none), each row descending
     without repeats, −1 padded; None when the numpy kernels run."""
-    ext = _has("probe_candidates")
-    if ext is None:
+    fn = kernel("probe_candidates")
+    if fn is None:
         return None
     ptr, face = table[:2]
     if face.dtype not in (np.int32, np.int64):
         face = face.astype(np.int64)
     c = np.ascontiguousarray
-    return ext.probe_candidates(c(ids, dtype=np.int64), int(n_vertices), int(n_faces),
-                                c(edge_faces, dtype=np.int64), c(ptr, dtype=np.int64), c(face),
-                                max(1, int(threads)))
+    return fn(c(ids, dtype=np.int64), int(n_vertices), int(n_faces),
+              c(edge_faces, dtype=np.int64), c(ptr, dtype=np.int64), c(face),
+              max(1, int(threads)))
 
 
 def candidate_shortfall(V, F, cand, centres, rho: float, threads: int):
     """(q,) ρ − the least exact distance (mm) from the ball centres (q, 3) to their candidate
     faces ``cand`` (q, w) of V, F (−1 padding), as ``passes._pose_shortfall`` computes it;
     None when the numpy kernels run."""
-    ext = _has("candidate_shortfall")
-    if ext is None:
+    fn = kernel("candidate_shortfall")
+    if fn is None:
         return None
     c = np.ascontiguousarray
-    return ext.candidate_shortfall(c(V, dtype=np.float64), c(F, dtype=np.int64),
-                                   c(cand, dtype=np.int64), c(centres, dtype=np.float64),
-                                   float(rho), max(1, int(threads)))
+    return fn(c(V, dtype=np.float64), c(F, dtype=np.int64),
+              c(cand, dtype=np.int64), c(centres, dtype=np.float64),
+              float(rho), max(1, int(threads)))
 
 
 def face_gradient_curvature(V, F, face_normals, face_areas, vertex_normals, values, faces):
     """(grad (q, 3), κ (q,)) of :func:`blisk_cam.core.paths.expansion.face_gradient_and_curvature`
     for the faces ``faces`` (q,) of V, F with its unit face normals, areas (mm²) and unit
     vertex normals, the vertex field ``values`` (n,); None when the numpy kernels run."""
-    ext = _has("face_gradient_curvature")
-    if ext is None:
+    fn = kernel("face_gradient_curvature")
+    if fn is None:
         return None
     c = np.ascontiguousarray
-    return ext.face_gradient_curvature(
+    return fn(
         c(V, dtype=np.float64), c(F, dtype=np.int64), c(face_normals, dtype=np.float64),
         c(face_areas, dtype=np.float64), c(vertex_normals, dtype=np.float64),
         c(values, dtype=np.float64), c(faces, dtype=np.int64))
@@ -110,9 +104,9 @@ def intrusion_probes(D, DN, lam, rho: float, spacing: float):
     :meth:`blisk_cam.core.paths.passes._Generator.intrusion_lift`: the points where the arc
     length of the centres ``D + (ρ + λ) DN`` (q, 3) crosses every ``spacing`` mm, and the last
     point. None when the numpy kernels run, q = 0 or the arc length is not finite."""
-    ext = _has("intrusion_probes")
-    if ext is None:
+    fn = kernel("intrusion_probes")
+    if fn is None:
         return None
     c = np.ascontiguousarray
-    return ext.intrusion_probes(c(D, dtype=np.float64), c(DN, dtype=np.float64),
-                                c(lam, dtype=np.float64), float(rho), float(spacing))
+    return fn(c(D, dtype=np.float64), c(DN, dtype=np.float64),
+              c(lam, dtype=np.float64), float(rho), float(spacing))

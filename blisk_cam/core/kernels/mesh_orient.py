@@ -9,7 +9,7 @@ import functools
 
 import numpy as np
 
-from .backend import extension
+from .backend import kernel
 
 __all__ = ["einsum_outer_first", "face_components", "orient_face_terms", "repeats_on_edges"]
 
@@ -22,8 +22,7 @@ def face_components(F, edge_halfedges):
     faces run the same way (``F.ravel()[h0] == F.ravel()[h1]`` of the
     ``weld._interior_pairs``); None when the numpy kernels run (or a wheel without this
     kernel)."""
-    ext = extension()
-    fn = getattr(ext, "face_components", None) if ext is not None else None
+    fn = kernel("face_components")
     if fn is None or F.dtype != np.int64 or edge_halfedges.dtype != np.int64:
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
@@ -35,8 +34,7 @@ def repeats_on_edges(F, edge_halfedges):
     ``edge_halfedges`` (e, 2) int64 (no interior pairs built): whether the two faces of an
     interior edge have the same sum of vertex ids; None when the numpy kernels run (or a
     wheel without this kernel)."""
-    ext = extension()
-    fn = getattr(ext, "repeats_on_edges", None) if ext is not None else None
+    fn = kernel("repeats_on_edges")
     if fn is None or F.dtype != np.int64 or edge_halfedges.dtype != np.int64:
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
@@ -71,8 +69,7 @@ def orient_face_terms(V, F, labels, ncomp: int):
     faces (no caps), the same bits as numpy's. None when the numpy kernels run, the arrays
     are of other types, numpy adds einsum's products in an order the kernel does not know,
     or an id is out of range."""
-    ext = extension()
-    fn = getattr(ext, "orient_face_terms", None) if ext is not None else None
+    fn = kernel("orient_face_terms")
     if (fn is None or V.dtype != np.float64 or F.dtype != np.int64 or labels.dtype != np.int32
             or V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3
             or labels.shape != (len(F),)):

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import extension, kernel
 
 __all__ = ["chain_directed", "sample_tree", "vertex_face_table"]
 
@@ -45,10 +45,10 @@ def chain_directed(n_nodes: int, links):
     ``_chain_directed``: a list of (order (p,) int64, closed bool), the same chains in the
     same order); None when the numpy kernels run or the links are not disjoint directed
     paths and cycles (the numpy reference then takes the general route)."""
-    ext = extension()
-    if ext is None or not hasattr(ext, "chain_directed"):
+    fn = kernel("chain_directed")
+    if fn is None:
         return None
-    got = ext.chain_directed(np.ascontiguousarray(links, dtype=np.int64), int(n_nodes))
+    got = fn(np.ascontiguousarray(links, dtype=np.int64), int(n_nodes))
     if got is None:
         return None
     order, starts, closed = got

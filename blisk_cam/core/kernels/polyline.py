@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import extension, kernel
 
 __all__ = ["available", "polyline_distance", "resample_offset"]
 
@@ -43,9 +43,9 @@ def resample_offset(points, normals, closed: bool, spacing: float, offset: float
     ``paths.trial_levels._resample(points, closed, spacing, normals, offset)``'s floats. None when
     the numpy kernels run (or the installed ones predate this kernel), or where the numpy
     reference must answer (fewer than two points, a length that is not finite)."""
-    ext = extension()
-    if ext is None or not hasattr(ext, "resample_offset"):
+    fn = kernel("resample_offset")
+    if fn is None:
         return None
     c = np.ascontiguousarray
-    return ext.resample_offset(c(points, dtype=np.float64), c(normals, dtype=np.float64),
-                               bool(closed), float(spacing), float(offset))
+    return fn(c(points, dtype=np.float64), c(normals, dtype=np.float64),
+              bool(closed), float(spacing), float(offset))

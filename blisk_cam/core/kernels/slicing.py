@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import extension, kernel
 from .mesh_orient import einsum_outer_first
 
 __all__ = ["cone_edge_roots", "cone_level", "cone_slicer_field", "slicer_candidates",
@@ -46,13 +46,13 @@ def cone_level(r, z, radial, V, vn, F, edges, face_edges, cand, line, on_tol: fl
     above, left above → below), points (u, 3) mm, t (u,), normals (u, 3); None when the numpy
     kernels run (or the installed ones predate this kernel).
     """
-    ext = extension()
-    if ext is None or not hasattr(ext, "cone_level"):
+    fn = kernel("cone_level")
+    if fn is None:
         return None
     alpha, beta, gamma = (float(x) for x in line)
     c = np.ascontiguousarray
     f64, i64 = np.float64, np.int64
-    return ext.cone_level(
+    return fn(
         c(r, dtype=f64), c(z, dtype=f64), c(radial, dtype=f64), c(V, dtype=f64),
         c(vn, dtype=f64), c(F, dtype=i64), c(edges, dtype=i64), c(face_edges, dtype=i64),
         c(cand, dtype=i64), (alpha, beta, gamma, alpha**2), float(on_tol), bool(end_above_zero))
@@ -65,11 +65,11 @@ def slicer_candidates(narrow, start: int, end: int, wide, smin, smax, lo: float,
     ``smax`` (m,) float64 per face) — ``MeshConeSlicer._candidate_faces``'s ids, in one call
     with the GIL released; None when the numpy kernels run (or the installed ones predate
     this kernel)."""
-    ext = extension()
-    if ext is None or not hasattr(ext, "slicer_candidates"):
+    fn = kernel("slicer_candidates")
+    if fn is None:
         return None
     c = np.ascontiguousarray
-    return ext.slicer_candidates(
+    return fn(
         c(narrow, dtype=np.int64), int(start), int(end), c(wide, dtype=np.int64),
         c(smin, dtype=np.float64), c(smax, dtype=np.float64), float(lo), float(hi),
         float(below))
@@ -85,8 +85,7 @@ def cone_slicer_field(V, o, d, F, ratio_consts):
     dd (2,), cross2(d1, da), −cross2(dd, da), (α, β, γ) of s = 0) of the cone pair (floats).
     None when the numpy kernels run (or a wheel without this kernel), the arrays are of
     other types, or numpy adds einsum's products in an order the kernel does not know."""
-    ext = extension()
-    fn = getattr(ext, "cone_slicer_field", None) if ext is not None else None
+    fn = kernel("cone_slicer_field")
     if (fn is None or V.dtype != np.float64 or F.dtype != np.int64 or V.ndim != 2
             or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3 or not V.flags.c_contiguous):
         return None
@@ -108,8 +107,7 @@ def slicer_face_index(smin, smax, q: float, n_buckets: int, bucket_range):
     bucket_lo, bucket_scale, narrow faces (k,) int64 by bucket then id, bucket starts
     (n_buckets + 1,) int64, wide faces (w,) int64 ascending); None when the numpy kernels
     run (or a wheel without this kernel)."""
-    ext = extension()
-    fn = getattr(ext, "slicer_face_index", None) if ext is not None else None
+    fn = kernel("slicer_face_index")
     if fn is None or smin.dtype != np.float64 or smax.dtype != np.float64:
         return None
     c = np.ascontiguousarray

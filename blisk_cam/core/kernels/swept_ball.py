@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import extension, kernel
 
 __all__ = ["first_hits", "forest_available", "forest_first_hits", "forest_nearest",
            "nearest_segments", "ridge_steps", "segment_tree"]
@@ -18,12 +18,12 @@ __all__ = ["first_hits", "forest_available", "forest_first_hits", "forest_neares
 def segment_tree(a, b, d, dd):
     """The compiled tree of the segments a + t d, t ∈ [0, 1] (a, b = their ends, d (S, 3)
     mm; dd (S,) mm² |d|² with 0 replaced by 1); None when the numpy kernels run."""
-    ext = extension()
-    if ext is None or not hasattr(ext, "SweptBallTree"):
+    fn = kernel("SweptBallTree")
+    if fn is None:
         return None
     c = np.ascontiguousarray
-    return ext.SweptBallTree(c(a, dtype=np.float64), c(b, dtype=np.float64),
-                             c(d, dtype=np.float64), c(dd, dtype=np.float64))
+    return fn(c(a, dtype=np.float64), c(b, dtype=np.float64),
+              c(d, dtype=np.float64), c(dd, dtype=np.float64))
 
 
 def nearest_segments(tree, points, threads: int):

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import extension, kernel
 
 __all__ = ["edge_table", "first_equal_point", "first_equal_rows", "interior_pairs",
            "interpolate_normals", "stl_corners_welded", "triangle_normals",
@@ -28,8 +28,7 @@ def first_equal_rows(V):
     it (−0.0 counted as 0.0: the answer :func:`first_equal_point` gives for the columns
     ``V[:, j] + 0.0``), (k,) int64, read from the rows (no column copies); None when the
     numpy kernels run (or a wheel without this kernel, or more rows than it takes)."""
-    ext = extension()
-    fn = getattr(ext, "first_equal_rows", None) if ext is not None else None
+    fn = kernel("first_equal_rows")
     if fn is None:
         return None
     # aligned too: the caller's arrays may sit at any byte of a buffer (dask hands a task's
@@ -45,8 +44,7 @@ def stl_corners_welded(records, n: int):
     makes of the float64 soup the numpy reader builds (−0.0 equal to 0.0). None when the
     numpy kernels run (or a wheel without this kernel), or when a coordinate is NaN or
     infinite (the reader then names the problem)."""
-    ext = extension()
-    fn = getattr(ext, "stl_corners_welded", None) if ext is not None else None
+    fn = kernel("stl_corners_welded")
     if fn is None:
         return None
     got = fn(records, int(n))
@@ -62,8 +60,7 @@ def edge_table(F, n_vertices: int):
     ``edge_faces``, the same arrays) by a counting sort of the half-edges; None when the
     numpy kernels run (or a wheel without this kernel), when an edge has more than two faces
     (the numpy reference then raises) or the ids exceed 32 bits."""
-    ext = extension()
-    fn = getattr(ext, "edge_table_arrays", None) if ext is not None else None
+    fn = kernel("edge_table_arrays")
     if fn is None:
         return None
     got = fn(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices))
@@ -78,8 +75,7 @@ def triangle_normals(V, F):
     """``geometry.mesh.triangle_normals`` of V (n, 3) float64 and F (m, 3) int64 in one pass
     (the same products and differences, so the same bits), (m, 3) float64; None when the
     numpy kernels run, the arrays are of other types, or an id is out of range."""
-    ext = extension()
-    fn = getattr(ext, "triangle_normals", None) if ext is not None else None
+    fn = kernel("triangle_normals")
     if (fn is None or V.dtype != np.float64 or F.dtype != np.int64 or len(F) == 0
             or V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3):
         return None
@@ -94,8 +90,7 @@ def vertex_normals(n_vertices: int, F, n2):
     (``np.linalg.norm``'s sum of squares, 1.0 where it is not positive), (n, 3) float64, the
     same bits; None when the numpy kernels run (or a wheel without this kernel), the arrays
     are of other types, or an id is out of range."""
-    ext = extension()
-    fn = getattr(ext, "vertex_normals_of", None) if ext is not None else None
+    fn = kernel("vertex_normals_of")
     if (fn is None or F.dtype != np.int64 or n2.dtype != np.float64 or len(F) == 0
             or F.ndim != 2 or F.shape[1] != 3 or n2.shape != F.shape):
         return None
@@ -109,8 +104,7 @@ def interpolate_normals(vn, F, faces, bary):
     the corners' order and normalised as the numpy reference does (the same bits), (k, 3)
     float64; None when the numpy kernels run, the arrays are of other types or shapes, or
     an id is out of range (numpy's turn: it wraps negative face ids)."""
-    ext = extension()
-    fn = getattr(ext, "interpolate_normals", None) if ext is not None else None
+    fn = kernel("interpolate_normals")
     if (fn is None or vn.dtype != np.float64 or F.dtype != np.int64
             or faces.dtype != np.int64 or bary.dtype != np.float64 or faces.ndim != 1
             or F.ndim != 2 or F.shape[1] != 3 or vn.ndim != 2 or vn.shape[1] != 3
@@ -124,8 +118,7 @@ def interpolate_normals(vn, F, faces, bary):
 def interior_pairs(edge_halfedges):
     """``geometry.weld._interior_pairs`` from an edge table's ``edge_halfedges`` (e, 2):
     (h0, h1, f0, f1) (p,) int64 in one pass; None when the numpy kernels run."""
-    ext = extension()
-    fn = getattr(ext, "interior_pairs", None) if ext is not None else None
+    fn = kernel("interior_pairs")
     if fn is None:
         return None
     return fn(np.ascontiguousarray(edge_halfedges, dtype=np.int64))

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension
+from .backend import kernel
 
 __all__ = ["weld_extents", "weld_no_close_pairs"]
 
@@ -18,8 +18,7 @@ def weld_extents(V):
     """(3,) float64 mm: ``c.max() − c.min()`` of each column c of ``V + 0.0`` (V (k, 3)
     float64, finite), the same values; None when the numpy kernels run (or a wheel without
     this kernel)."""
-    ext = extension()
-    fn = getattr(ext, "weld_extents", None) if ext is not None else None
+    fn = kernel("weld_extents")
     if fn is None or V.dtype != np.float64 or V.ndim != 2 or V.shape[1] != 3 or len(V) == 0:
         return None
     return fn(np.require(V, requirements=_REQ))
@@ -31,8 +30,7 @@ def weld_no_close_pairs(V, direction, tol: float, scan_max: int) -> bool:
     ``tol`` mm (and runs: no two equal projections, no point with more than ``scan_max``
     neighbours within the tolerance of projection); False when it would find one or not
     run, or when the numpy kernels run (the caller then runs numpy's scan)."""
-    ext = extension()
-    fn = getattr(ext, "weld_no_close_pairs", None) if ext is not None else None
+    fn = kernel("weld_no_close_pairs")
     if fn is None or V.dtype != np.float64 or V.ndim != 2 or V.shape[1] != 3:
         return False
     return bool(fn(np.require(V, requirements=_REQ), [float(x) for x in direction],
