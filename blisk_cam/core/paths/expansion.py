@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import ToleranceError
 from ..geometry.mesh import TriMesh
 from ..kernels import knn as compiled_knn
+from ..kernels import lift as compiled_lift
 from ..kernels import polyline as compiled_polyline
 from ..runtime import workers
 
@@ -94,7 +95,18 @@ def face_gradient_and_curvature(mesh: TriMesh, values, faces=None):
     -------
     grad : (q, 3) float — per-face gradient (1/mm for s)
     kappa : (q,) float, 1/mm — normal curvature along the gradient direction
+
+    Compiled when installed (the same floats, one call); :func:`_face_gradient_and_curvature`
+    is the numpy reference.
     """
+    got = compiled_lift.face_gradient_curvature(
+        mesh.V, mesh.F, mesh.face_normals, mesh.face_areas, mesh.vertex_normals, values,
+        np.arange(len(mesh.F)) if faces is None else faces)
+    return got if got is not None else _face_gradient_and_curvature(mesh, values, faces)
+
+
+def _face_gradient_and_curvature(mesh: TriMesh, values, faces=None):
+    """The numpy reference of :func:`face_gradient_and_curvature` (same parameters)."""
     sel = slice(None) if faces is None else np.asarray(faces)
     V, F = mesh.V, mesh.F[sel]
     fn = mesh.face_normals[sel]

@@ -667,11 +667,7 @@ class _Generator:
             return 0.01
         edges = np.concatenate([c.edge for c in curves])
         faces = np.unique(self.mesh.edge_faces[edges, 0])
-        m = self.mesh
-        got = compiled_lift.face_gradient_curvature(m.V, m.F, m.face_normals, m.face_areas,
-                                                    m.vertex_normals, self.s_clipped, faces)
-        grad, kappa = got if got is not None else face_gradient_and_curvature(
-            m, self.s_clipped, faces)
+        grad, kappa = face_gradient_and_curvature(self.mesh, self.s_clipped, faces)
         g = np.linalg.norm(grad, axis=1)
         d = strip_width(self.radius, self.cusp, kappa)
         ds = g * d
