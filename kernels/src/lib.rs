@@ -16,6 +16,7 @@ mod closest;
 mod collision_refine;
 mod collision_tree;
 mod collision_walk;
+mod densify;
 mod face_gradient;
 mod facet_lift;
 mod float_text;
@@ -522,6 +523,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // the wheel's package __init__ re-exports with `import *`, which skips dunder names
     m.add("VERSION", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(forward_step, m)?)?;
+    m.add_function(wrap_pyfunction!(densify::densify_cosines, m)?)?;
+    m.add_function(wrap_pyfunction!(densify::densify_by_turn, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_point, m)?)?;
     m.add_function(wrap_pyfunction!(first_equal_rows, m)?)?;
     m.add_function(wrap_pyfunction!(stl_corners_welded, m)?)?;

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import ToleranceError
 from ..geometry.vectors import slerp, unit
+from ..kernels import densify as compiled_densify
 from ..kernels import step as compiled_step
 from ..kernels.backend import extension
 
@@ -43,7 +44,13 @@ def densify_by_normal_turn(points, normals, closed: bool, max_turn: float):
     -------
     points (k', 3), normals (k', 3), segment (k',) int — the input segment each output point
     lies on (segment i joins input points i and i+1, the closing one wraps to 0)
+
+    The compiled kernels give the same bits (:mod:`..kernels.densify`); this numpy code is
+    their reference and runs where they do not (numpy backend, anti-parallel normals).
     """
+    got = compiled_densify.densify_by_normal_turn(points, normals, closed, max_turn)
+    if got is not None:
+        return got
     P = np.asarray(points, dtype=np.float64)
     N = unit(np.asarray(normals, dtype=np.float64))
     if closed:
