@@ -17,8 +17,14 @@
 //! bounds both children at once. Each pruning bound is a lower bound of the squared
 //! distances as summed here, so the answers are those of the plain tree over the same
 //! points.
+//!
+//! The framed tree answers many queries in packets of consecutive ones (`packet`: the ball
+//! centres of a pass come in path order), the same answers as one at a time.
 
 use rayon::prelude::*;
+
+mod packet;
+pub use packet::{PacketBuffers, PACKET};
 
 pub type P3 = [f64; 3];
 
@@ -1002,6 +1008,24 @@ impl PointTree {
         if k == 0 {
             return (ids, tie);
         }
+        if self.framed {
+            // runs of SEEDED queries in order, in packets (each seeded by the answers of the
+            // one before), the runs in parallel; the answers do not depend on it
+            ids.par_chunks_mut(k * SEEDED)
+                .zip(tie.par_chunks_mut(SEEDED))
+                .zip(qs.par_chunks(SEEDED))
+                .for_each(|((o, t), q)| {
+                    let mut buf = PacketBuffers::default();
+                    for ((oi, ti), qi) in o
+                        .chunks_mut(k * PACKET)
+                        .zip(t.chunks_mut(PACKET))
+                        .zip(q.chunks(PACKET))
+                    {
+                        self.knn_packet(qi, k, ub2, oi, ti, &mut buf);
+                    }
+                });
+            return (ids, tie);
+        }
         // runs of SEEDED queries in order, each seeded by the one before (queries come
         // along paths: neighbours), the runs in parallel; the answers do not depend on it
         ids.par_chunks_mut(k * SEEDED)
@@ -1014,5 +1038,27 @@ impl PointTree {
                 }
             });
         (ids, tie)
+    }
+
+    /// [`PointTree::any_below`] of each query (in packets of consecutive queries when the
+    /// tree has frames: see [`PointTree::any_below_packet`]), in parallel.
+    pub fn any_below_many(&self, qs: &[P3], ub2: f64) -> Vec<bool> {
+        let mut out = vec![false; qs.len()];
+        if self.framed {
+            out.par_chunks_mut(SEEDED)
+                .zip(qs.par_chunks(SEEDED))
+                .for_each(|(o, q)| {
+                    let mut stack = Vec::new();
+                    for (oi, qi) in o.chunks_mut(PACKET).zip(q.chunks(PACKET)) {
+                        self.any_below_packet(qi, ub2, oi, &mut stack);
+                    }
+                });
+        } else {
+            out.par_iter_mut()
+                .zip(qs.par_iter())
+                .with_min_len(64)
+                .for_each_init(Vec::new, |stack, (o, c)| *o = self.any_below(c, ub2, stack));
+        }
+        out
     }
 }

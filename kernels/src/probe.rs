@@ -6,7 +6,6 @@
 
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
-use rayon::prelude::*;
 
 /// (q,) bool: a point of `tree` lies closer than `bound` mm to the query (q, 3); on
 /// `threads` threads, the GIL released.
@@ -22,13 +21,6 @@ pub fn points_within<'py>(
     let pl = crate::pool_for(threads, qq.len())?;
     let t = &tree.get().tree;
     let ub2 = bound * bound;
-    let out: Vec<bool> = py.detach(|| {
-        pl.install(|| {
-            qq.par_iter()
-                .with_min_len(64)
-                .map_init(Vec::new, |stack, c| t.any_below(c, ub2, stack))
-                .collect()
-        })
-    });
+    let out: Vec<bool> = py.detach(|| pl.install(|| t.any_below_many(qq, ub2)));
     Ok(PyArray1::from_vec(py, out))
 }
