@@ -41,6 +41,7 @@ mod swept_ball;
 mod swept_cutter;
 mod weld;
 mod weld_near;
+mod split;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -53,7 +54,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 const PARALLEL_MIN: usize = 2048;
 
 /// [`pool`] for a job of `items` items: the calling thread's own below [`PARALLEL_MIN`].
-fn pool_for(threads: usize, items: usize) -> PyResult<Arc<rayon::ThreadPool>> {
+pub(crate) fn pool_for(threads: usize, items: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     pool(if items < PARALLEL_MIN { 1 } else { threads })
 }
 

@@ -15,7 +15,10 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUnty
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+use rayon::prelude::*;
+
 use crate::mesh_topology::{area_vector, interior};
+use crate::split;
 
 /// The order in which numpy's einsum adds the three products of a row.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -111,7 +114,9 @@ pub fn mean_rows(v: &[[f64; 3]]) -> [f64; 3] {
 /// and `o = V.mean(axis=0)`, `n2 = (b − a) × (c − a)`, `ln = sqrt(n2 · n2)`,
 /// `unit = n2 / (ln if ln > 0 else 1)`, `area = ln · 0.5`, and per component (`labels`, all
 /// in 0..ncomp) Σ ((a − o) · n2) / 6 and Σ area over its faces in face order. None when a
-/// face holds a vertex id outside 0..n or `labels` is not one per face.
+/// face holds a vertex id outside 0..n or `labels` is not one per face. The per-face terms
+/// on the threads of the rayon pool it runs in, by ranges of faces (each face's terms are
+/// its own); the sums on one, in face order (the same bits whatever the threads).
 pub fn face_terms(
     v: &[[f64; 3]],
     f: &[[i64; 3]],
@@ -121,33 +126,71 @@ pub fn face_terms(
 ) -> Option<FaceTerms> {
     let n = v.len();
     let m = f.len();
-    if labels.len() != m
-        || f.iter().flatten().any(|&i| i < 0 || i as usize >= n)
-        || labels.iter().any(|&c| c < 0 || c as usize >= ncomp)
-    {
+    if labels.len() != m {
+        return None;
+    }
+    let ranges = split::even_ranges(m, split::parts_for(m, FACES_MIN));
+    let bad = ranges.par_iter().any(|r| {
+        f[r.clone()]
+            .iter()
+            .flatten()
+            .any(|&i| i < 0 || i as usize >= n)
+            || labels[r.clone()]
+                .iter()
+                .any(|&c| c < 0 || c as usize >= ncomp)
+    });
+    if bad {
         return None;
     }
     let o = mean_rows(v);
-    let mut n2 = vec![0.0f64; 3 * m];
-    let mut ln = vec![0.0f64; m];
-    let mut unit = vec![0.0f64; 3 * m];
-    let mut area = vec![0.0f64; m];
+    let (mut n2, mut ln, mut unit, mut area, mut vol) = (
+        split::uninit(3 * m),
+        split::uninit(m),
+        split::uninit(3 * m),
+        split::uninit(m),
+        split::uninit(m),
+    );
+    let lens: Vec<usize> = ranges.iter().map(|r| r.len()).collect();
+    let l3: Vec<usize> = lens.iter().map(|l| 3 * l).collect();
+    split::pieces(&mut n2, l3.clone())
+        .into_par_iter()
+        .zip(split::pieces(&mut unit, l3))
+        .zip(split::pieces(&mut ln, lens.clone()))
+        .zip(split::pieces(&mut area, lens.clone()))
+        .zip(split::pieces(&mut vol, lens))
+        .zip(ranges.par_iter())
+        .for_each(|(((((n2, unit), ln), area), vol), r)| {
+            for (j, t) in f[r.clone()].iter().enumerate() {
+                let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
+                let nv = area_vector(a, b, c);
+                let l = order.dot(nv, nv).sqrt();
+                let d = if l > 0.0 { l } else { 1.0 };
+                for q in 0..3 {
+                    n2[3 * j + q].write(nv[q]);
+                    unit[3 * j + q].write(nv[q] / d);
+                }
+                ln[j].write(l);
+                area[j].write(l * 0.5);
+                let corner = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
+                vol[j].write(order.dot(corner, nv) / 6.0);
+            }
+        });
+    // SAFETY: each range wrote its faces' items, and the ranges are all the faces
+    let (n2, ln, unit, area, vol) = unsafe {
+        (
+            split::assume_written(n2),
+            split::assume_written(ln),
+            split::assume_written(unit),
+            split::assume_written(area),
+            split::assume_written(vol),
+        )
+    };
+    // np.bincount's sums: faces in order, from 0.0
     let mut comp_volume = vec![0.0f64; ncomp];
     let mut comp_area = vec![0.0f64; ncomp];
-    for (i, t) in f.iter().enumerate() {
-        let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
-        let nv = area_vector(a, b, c);
-        let l = order.dot(nv, nv).sqrt();
-        let d = if l > 0.0 { l } else { 1.0 };
-        n2[3 * i..3 * i + 3].copy_from_slice(&nv);
-        unit[3 * i..3 * i + 3].copy_from_slice(&[nv[0] / d, nv[1] / d, nv[2] / d]);
-        ln[i] = l;
-        let ar = l * 0.5;
-        area[i] = ar;
-        let corner = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
-        let k = labels[i] as usize;
-        comp_volume[k] += order.dot(corner, nv) / 6.0;
-        comp_area[k] += ar;
+    for ((&k, &x), &a) in labels.iter().zip(&vol).zip(&area) {
+        comp_volume[k as usize] += x;
+        comp_area[k as usize] += a;
     }
     Some(FaceTerms {
         n2,
@@ -159,6 +202,9 @@ pub fn face_terms(
         origin: o,
     })
 }
+
+/// Faces per thread below which the face terms stay on fewer threads.
+const FACES_MIN: usize = 1 << 15;
 
 type F1<'py> = Bound<'py, PyArray1<f64>>;
 
@@ -226,7 +272,9 @@ pub fn face_components<'py>(
 /// volume (ncomp,), area (ncomp,), V.mean(axis=0) (3,)) float64 of V (n, 3) float64, F (m, 3) int64 and the
 /// face components `labels` (m,) int32 in 0..ncomp; `outer_first`: numpy's einsum adds a
 /// row's products as `(p0 + p2) + p1` (else in order). None when an id is out of range.
+/// On `threads` threads (the same arrays).
 #[pyfunction]
+#[pyo3(signature = (v, f, labels, ncomp, outer_first, threads=1))]
 #[allow(clippy::type_complexity)]
 pub fn orient_face_terms<'py>(
     py: Python<'py>,
@@ -235,6 +283,7 @@ pub fn orient_face_terms<'py>(
     labels: PyReadonlyArray1<'py, i32>,
     ncomp: usize,
     outer_first: bool,
+    threads: usize,
 ) -> PyResult<
     Option<(
         Bound<'py, PyAny>,
@@ -254,7 +303,8 @@ pub fn orient_face_terms<'py>(
     } else {
         Dot3::InOrder
     };
-    let Some(t) = py.detach(|| face_terms(pts, tri, lab, ncomp, order)) else {
+    let pl = crate::pool_for(threads, tri.len())?;
+    let Some(t) = py.detach(|| pl.install(|| face_terms(pts, tri, lab, ncomp, order))) else {
         return Ok(None);
     };
     let m = t.ln.len();

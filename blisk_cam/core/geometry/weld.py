@@ -14,6 +14,7 @@ from ..errors import MeshError
 from ..kernels import mesh_orient as compiled_orient
 from ..kernels import weld as compiled_weld
 from ..kernels import weld_near as compiled_near
+from ..runtime import workers
 
 __all__ = ["input_vertex_values"]
 
@@ -209,7 +210,8 @@ def _welded(V, used, weld_tolerance, distinct=False):
     # all used and distinct (an STL welded as read): the compiled scan says when numpy's
     # finds no pair (nothing to merge), without its projections and sort
     clear = (distinct and iu is None and tol > 0
-             and compiled_near.weld_no_close_pairs(V, _WELD_DIRECTION, tol, _WELD_SCAN_MAX))
+             and compiled_near.weld_no_close_pairs(V, _WELD_DIRECTION, tol, _WELD_SCAN_MAX,
+                                                      workers()))
     if tol > 0 and len(pos) > 1 and not clear:  # clusters closer than tol: lowest input id
         d = _WELD_DIRECTION
         if rcols is None:
@@ -346,7 +348,7 @@ def _edge_table(F, n):
     Raises MeshError when an edge has more than two faces (non-manifold).
     The compiled kernel gives the same arrays by a counting sort (None: this reference).
     """
-    got = compiled_weld.edge_table(F, n)
+    got = compiled_weld.edge_table(F, n, workers())  # the same arrays on any threads
     if got is not None:
         return got
     n = np.int64(n)

@@ -59,7 +59,7 @@ def einsum_outer_first() -> bool | None:
     return None
 
 
-def orient_face_terms(V, F, labels, ncomp: int):
+def orient_face_terms(V, F, labels, ncomp: int, threads: int = 1):
     """``TriMesh._capped_volume``'s per-face pass: (n2 (m, 3), |n2| (m,), unit normals
     (m, 3), areas (m,) mm², volume (ncomp,) mm³, area (ncomp,) mm², V.mean(axis=0) (3,)
     mm) of V (n, 3) float64 mm,
@@ -68,7 +68,8 @@ def orient_face_terms(V, F, labels, ncomp: int):
     norms, and per component Σ ((V[F[:, 0]] − V.mean(axis=0)) · n2) / 6 and Σ area over its
     faces (no caps), the same bits as numpy's. None when the numpy kernels run, the arrays
     are of other types, numpy adds einsum's products in an order the kernel does not know,
-    or an id is out of range."""
+    or an id is out of range. On ``threads`` threads (the same bits: the per-face terms by
+    ranges of faces, the sums in face order)."""
     fn = kernel("orient_face_terms")
     if (fn is None or V.dtype != np.float64 or F.dtype != np.int64 or labels.dtype != np.int32
             or V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3
@@ -79,4 +80,5 @@ def orient_face_terms(V, F, labels, ncomp: int):
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
     return fn(np.require(V, requirements=req), np.require(F, requirements=req),
-              np.require(labels, requirements=req), int(ncomp), outer_first)
+              np.require(labels, requirements=req), int(ncomp), outer_first,
+              max(1, int(threads)))
