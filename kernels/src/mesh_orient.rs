@@ -227,43 +227,68 @@ fn halfedge_rows<'a>(hei: &'a PyReadonlyArray2<'_, i64>, m: usize) -> PyResult<&
 /// `weld._repeats_on_edges`: whether the two faces of an interior edge (rows of
 /// `edge_halfedges` (e, 2) with a second half-edge) have the same sum of vertex ids, for
 /// the faces F (m, 3) int64.
+/// On `threads` threads, by ranges of edges (the answer is an "any").
 #[pyfunction]
+#[pyo3(signature = (f, hei, threads=1))]
 pub fn repeats_on_edges<'py>(
     py: Python<'py>,
     f: PyReadonlyArray2<'py, i64>,
     hei: PyReadonlyArray2<'py, i64>,
+    threads: usize,
 ) -> PyResult<bool> {
     let tri = crate::arrays::triangles(&f, "F")?;
     let h = halfedge_rows(&hei, tri.len())?;
+    let pl = crate::pool_for(threads, h.len() / 2)?;
     Ok(py.detach(|| {
-        let total = |x: i64| {
-            let t = &tri[(x / 3) as usize];
-            t[0].wrapping_add(t[1]).wrapping_add(t[2])
-        };
-        interior(h).any(|(a, b)| total(a) == total(b))
+        pl.install(|| {
+            let total = |x: i64| {
+                let t = &tri[(x / 3) as usize];
+                t[0].wrapping_add(t[1]).wrapping_add(t[2])
+            };
+            h.par_chunks(2 * EDGES_MIN)
+                .any(|c| interior(c).any(|(a, b)| total(a) == total(b)))
+        })
     }))
 }
+
+/// Edges per task of the passes over an edge table's rows.
+const EDGES_MIN: usize = 1 << 16;
 
 /// `(count, labels (m,) int32, inconsistent)` of a mesh's faces F (m, 3) int64 and its edge
 /// table's `edge_halfedges` (e, 2): the components of the faces linked by their interior
 /// edges, numbered as scipy numbers them, and how many interior edges the two faces run the
 /// same way (their half-edges start at the same vertex: `F.ravel()[h0] == F.ravel()[h1]`).
+/// On `threads` threads: the count beside the union–find (which stays on one, in edge
+/// order: the same labels).
 #[pyfunction]
+#[pyo3(signature = (f, hei, threads=1))]
 pub fn face_components<'py>(
     py: Python<'py>,
     f: PyReadonlyArray2<'py, i64>,
     hei: PyReadonlyArray2<'py, i64>,
+    threads: usize,
 ) -> PyResult<(usize, Bound<'py, PyArray1<i32>>, usize)> {
     let tri = crate::arrays::triangles(&f, "F")?;
     let m = tri.len();
     let h = halfedge_rows(&hei, m)?;
+    let pl = crate::pool_for(threads, h.len() / 2)?;
     let (count, labels, inconsistent) = py.detach(|| {
-        let flat = tri.as_flattened();
-        let inc = interior(h)
-            .filter(|&(a, b)| flat[a as usize] == flat[b as usize])
-            .count();
-        let (count, labels) = components_of_pairs(m, interior(h).map(|(a, b)| (a / 3, b / 3)));
-        (count, labels, inc)
+        pl.install(|| {
+            let flat = tri.as_flattened();
+            let (inc, (count, labels)) = rayon::join(
+                || {
+                    h.par_chunks(2 * EDGES_MIN)
+                        .map(|c| {
+                            interior(c)
+                                .filter(|&(a, b)| flat[a as usize] == flat[b as usize])
+                                .count()
+                        })
+                        .sum::<usize>()
+                },
+                || components_of_pairs(m, interior(h).map(|(a, b)| (a / 3, b / 3))),
+            );
+            (count, labels, inc)
+        })
     });
     Ok((count, PyArray1::from_vec(py, labels), inconsistent))
 }

@@ -14,9 +14,6 @@
 
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
-use rayon::prelude::*;
-
-use crate::split;
 
 /// `c.max() − c.min()` of each coordinate column of `v` (with −0.0 made 0.0, as numpy's
 /// `(V + 0.0)` columns: a max or min is one of the values, the same whatever the order).
@@ -35,143 +32,78 @@ pub fn extents(v: &[[f64; 3]]) -> [f64; 3] {
 
 /// The indices 0..n sorted by `u` (finite, not all equal): a counting sort into n buckets
 /// splitting [min, max] evenly (a bucket is a monotone function of u), then each bucket
-/// sorted by value (equal values end up next to each other, in some order). On the threads
-/// of the rayon pool it runs in: counted and scattered by ranges of items, the buckets
-/// sorted by ranges of buckets (the same order whatever the threads, but for equal values,
-/// which the caller hands to numpy).
+/// sorted by value (equal values end up next to each other, in some order).
 fn sorted_order(u: &[f64]) -> Vec<u32> {
     let n = u.len();
-    let parts = split::parts_for(n, PART_MIN);
-    let ranges = split::even_ranges(n, parts);
-    let (lo, hi) = ranges
-        .par_iter()
-        .map(|r| {
-            u[r.clone()]
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                    (a.min(x), b.max(x))
-                })
-        })
-        .reduce(
-            || (f64::INFINITY, f64::NEG_INFINITY),
-            |(a, b), (c, d)| (a.min(c), b.max(d)),
-        );
+    let (lo, hi) = u
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
     let scale = n as f64 / (hi - lo);
     let bucket = |x: f64| (((x - lo) * scale) as usize).min(n - 1);
-    let mut fills: Vec<Vec<u32>> = ranges
-        .par_iter()
-        .map(|r| {
-            let mut c = vec![0u32; n];
-            for &x in &u[r.clone()] {
-                c[bucket(x)] += 1;
-            }
-            c
-        })
-        .collect();
-    let mut start = Vec::with_capacity(n + 1);
-    let mut run = 0u32;
+    let mut start = vec![0u32; n + 1];
+    for &x in u {
+        start[bucket(x) + 1] += 1;
+    }
     for b in 0..n {
-        start.push(run);
-        for c in fills.iter_mut() {
-            let x = c[b];
-            c[b] = run;
-            run += x;
+        start[b + 1] += start[b];
+    }
+    let mut fill = start[..n].to_vec();
+    let mut order = vec![0u32; n];
+    for (i, &x) in u.iter().enumerate() {
+        let p = &mut fill[bucket(x)];
+        order[*p as usize] = i as u32;
+        *p += 1;
+    }
+    drop(fill);
+    for b in 0..n {
+        let s = &mut order[start[b] as usize..start[b + 1] as usize];
+        if s.len() > 1 {
+            s.sort_unstable_by(|&a, &c| u[a as usize].partial_cmp(&u[c as usize]).unwrap());
         }
     }
-    start.push(run);
-    let mut order = split::uninit(n);
-    let out = split::Scatter::new(&mut order);
-    ranges
-        .par_iter()
-        .zip(fills.par_iter_mut())
-        .for_each(|(r, fill)| {
-            for i in r.clone() {
-                let p = &mut fill[bucket(u[i])];
-                // SAFETY: the ranges' slots of a bucket are disjoint, each written once
-                unsafe { out.put(*p as usize, std::mem::MaybeUninit::new(i as u32)) };
-                *p += 1;
-            }
-        });
-    drop(fills);
-    // SAFETY: every index was written into one slot (the counts are the slots)
-    let mut order: Vec<u32> = unsafe { split::assume_written(order) };
-    let cuts: Vec<usize> = (0..=parts)
-        .map(|p| {
-            start
-                .partition_point(|&x| (x as usize) < p * n / parts)
-                .min(n)
-        })
-        .collect();
-    let lens: Vec<usize> = cuts
-        .windows(2)
-        .map(|w| (start[w[1]] - start[w[0]]) as usize)
-        .collect();
-    split::pieces(&mut order, lens)
-        .into_par_iter()
-        .zip(cuts.par_windows(2))
-        .for_each(|(piece, w)| {
-            let base = start[w[0]] as usize;
-            for b in w[0]..w[1] {
-                let s = &mut piece[start[b] as usize - base..start[b + 1] as usize - base];
-                if s.len() > 1 {
-                    s.sort_unstable_by(|&a, &c| u[a as usize].partial_cmp(&u[c as usize]).unwrap());
-                }
-            }
-        });
     order
 }
 
-/// Points per thread below which the scan stays on fewer threads.
-const PART_MIN: usize = 1 << 15;
-
 /// Whether `_close_pairs` of the (distinct, finite) points `v` with tolerance `tol` > 0
 /// along the unit direction `d` finds no pair (and runs: no two equal projections, no
-/// point with more than `scan_max` neighbours within the slack of projection). On the
-/// threads of the rayon pool it runs in (each test is of one point and its neighbours: the
-/// same answer whatever the threads).
+/// point with more than `scan_max` neighbours within the slack of projection).
 pub fn no_close_pairs(v: &[[f64; 3]], d: [f64; 3], tol: f64, scan_max: usize) -> bool {
     let n = v.len();
     if n < 2 {
         return true;
     }
-    let chunk = PART_MIN;
-    let mut u: Vec<f64> = Vec::new();
-    v.par_iter()
-        .with_min_len(chunk)
+    let u: Vec<f64> = v
+        .iter()
         .map(|p| ((p[0] + 0.0) * d[0] + (p[1] + 0.0) * d[1]) + (p[2] + 0.0) * d[2])
-        .collect_into_vec(&mut u);
-    if n >= u32::MAX as usize || u.par_iter().with_min_len(chunk).all(|&x| x == u[0]) {
+        .collect();
+    if n >= u32::MAX as usize || u.iter().all(|&x| x == u[0]) {
         return false; // numpy's turn
     }
     let order = sorted_order(&u);
-    let mut us: Vec<f64> = Vec::new();
-    order
-        .par_iter()
-        .with_min_len(chunk)
-        .map(|&i| u[i as usize])
-        .collect_into_vec(&mut us);
+    let us: Vec<f64> = order.iter().map(|&i| u[i as usize]).collect();
     drop(u);
-    if us.par_windows(2).with_min_len(chunk).any(|w| w[0] == w[1]) {
+    if us.windows(2).any(|w| w[0] == w[1]) {
         return false; // numpy's turn: it asks a k-d tree
     }
     let slack = tol * (1.0 + 1e-9) + 1e-12 * us[n - 1].max(-us[0]).max(0.0);
     let tol2 = tol * tol;
-    let blocked = (0..n).into_par_iter().with_min_len(chunk).any(|i| {
+    for i in 0..n {
         let mut j = i + 1;
         while j < n && us[j] - us[i] <= slack {
             if j - i > scan_max {
-                return true; // crowding: numpy's turn (a k-d tree)
+                return false; // crowding: numpy's turn (a k-d tree)
             }
             let (a, b) = (&v[order[i] as usize], &v[order[j] as usize]);
             let (x, y, z) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
             if x * x + y * y + z * z <= tol2 {
-                return true; // a pair: numpy welds it
+                return false; // a pair: numpy welds it
             }
             j += 1;
         }
-        false
-    });
-    !blocked
+    }
+    true
 }
 
 /// [`extents`] of the rows of V (n, 3) float64: (3,) float64.
@@ -185,19 +117,15 @@ pub fn weld_extents<'py>(
     Ok(PyArray1::from_slice(py, &e))
 }
 
-/// [`no_close_pairs`] of the rows of V (n, 3) float64 (distinct, finite), on `threads`
-/// threads (the same answer).
+/// [`no_close_pairs`] of the rows of V (n, 3) float64 (distinct, finite).
 #[pyfunction]
-#[pyo3(signature = (v, d, tol, scan_max, threads=1))]
 pub fn weld_no_close_pairs<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'py, f64>,
     d: [f64; 3],
     tol: f64,
     scan_max: usize,
-    threads: usize,
 ) -> PyResult<bool> {
     let pts = crate::points(&v, "V")?;
-    let pl = crate::pool_for(threads, pts.len())?;
-    Ok(py.detach(|| pl.install(|| no_close_pairs(pts, d, tol, scan_max))))
+    Ok(py.detach(|| no_close_pairs(pts, d, tol, scan_max)))
 }

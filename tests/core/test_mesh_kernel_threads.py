@@ -1,23 +1,22 @@
 """The mesh kernels that split their passes over threads (the edge table's counting sort,
-the orientation's per-face terms, the weld's scan for close pairs) give on two threads what
-they give on one, bit for bit, and what the numpy reference gives — on meshes large enough
-for the split (the kernels keep a small job on one thread), with the faces shuffled and
-flipped, several components, and the cases the kernels hand back to numpy (an edge of three
-faces, ids out of range, a close pair, two equal projections)."""
+the orientation's per-face terms, the face components' count and the repeats' test) give
+on two threads what they give on one, bit for bit, and what the numpy reference gives — on
+meshes large enough for the split (the kernels keep a small job on one thread), with the
+faces shuffled and flipped, several components, and the cases the kernels hand back to
+numpy (an edge of three faces, ids out of range, a label out of range)."""
 
 import numpy as np
 import pytest
 
 from blisk_cam.core.geometry import weld
 from blisk_cam.core.geometry.mesh import TriMesh
-from blisk_cam.core.kernels import backend, mesh_orient, weld_near
+from blisk_cam.core.kernels import backend, mesh_orient
 from blisk_cam.core.kernels import weld as compiled_weld
 from blisk_cam.core.runtime import parallel
 from tests.support.kernels import needs_compiled
 
-kernel = needs_compiled("edge_table_arrays", "orient_face_terms", "weld_no_close_pairs")
-
-D, SCAN = weld._WELD_DIRECTION, weld._WELD_SCAN_MAX
+kernel = needs_compiled("edge_table_arrays", "orient_face_terms", "face_components",
+                        "repeats_on_edges")
 
 
 def _bits(a, b, what):
@@ -95,19 +94,23 @@ def test_the_face_terms_on_two_threads_are_the_one_thread_terms(grid):
 
 
 @kernel
-def test_the_close_pair_scan_answers_the_same_on_two_threads(grid):
-    V = grid[0]
-    assert len(V) > 150_000
-    tol = 1e-7 * float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+def test_the_components_and_repeats_on_two_threads_are_the_one_thread_ones(grid):
+    V, F = grid
+    hei = compiled_weld.edge_table(F, len(V), 1)["edge_halfedges"]
+    one = mesh_orient.face_components(F, hei, 1)
+    two = mesh_orient.face_components(F, hei, 2)
+    assert one[0] == two[0] == 2 and one[2] == two[2]
+    assert one[2] > 10_000  # measured: the flipped tenth's edges run the same way
+    _bits(one[1], two[1], "labels")
+    assert not mesh_orient.repeats_on_edges(F, hei, 1)
+    assert not mesh_orient.repeats_on_edges(F, hei, 2)
+    # a lone triangle (unused vertices) and its repeat, corners rotated, after all the
+    # faces: found on any threads
+    n = len(V)
+    R = np.concatenate([F, [[n - 1, n - 2, n - 3], [n - 2, n - 3, n - 1]]])
+    topo = weld._edge_table(R, len(V))
     for th in (1, 2):
-        assert weld_near.weld_no_close_pairs(V, D, tol, SCAN, th)
-        # a point within the tolerance of one near the end: a pair
-        W = np.concatenate([V, V[-11:-10] + [0.3 * tol, -0.2 * tol, 0.1 * tol]])
-        assert not weld_near.weld_no_close_pairs(W, D, tol, SCAN, th)
-        # two points of one projection (numpy asks a k-d tree)
-        W = np.concatenate([V, V[-3:-2]])
-        assert not weld_near.weld_no_close_pairs(W, D, tol, SCAN, th)
-        assert not weld_near.weld_no_close_pairs(V, D, 1e3, SCAN, th)  # crowding
+        assert mesh_orient.repeats_on_edges(R, topo["edge_halfedges"], th)
 
 
 @kernel

@@ -349,7 +349,8 @@ class TriMesh:
         m = len(self.F)
         # compiled: the components by union–find over the edge table (the same labels) and
         # a count of the inconsistent edges; the pairs are built only if there is one
-        got = compiled_orient.face_components(self.F, self._edges()["edge_halfedges"])
+        got = compiled_orient.face_components(self.F, self._edges()["edge_halfedges"],
+                                              workers())
         if got is not None:
             ncomp, labels, any_inconsistent = got
         if got is None or any_inconsistent:

@@ -210,8 +210,7 @@ def _welded(V, used, weld_tolerance, distinct=False):
     # all used and distinct (an STL welded as read): the compiled scan says when numpy's
     # finds no pair (nothing to merge), without its projections and sort
     clear = (distinct and iu is None and tol > 0
-             and compiled_near.weld_no_close_pairs(V, _WELD_DIRECTION, tol, _WELD_SCAN_MAX,
-                                                      workers()))
+             and compiled_near.weld_no_close_pairs(V, _WELD_DIRECTION, tol, _WELD_SCAN_MAX))
     if tol > 0 and len(pos) > 1 and not clear:  # clusters closer than tol: lowest input id
         d = _WELD_DIRECTION
         if rcols is None:
@@ -318,7 +317,7 @@ def _kept_faces(F, nv_mesh):
     if topo is not None:
         # compiled: read from the edge table, no pairs built (the orientation then reads the
         # table too); numpy: the pairs, kept for the orientation
-        repeats = compiled_orient.repeats_on_edges(Fk, topo["edge_halfedges"])
+        repeats = compiled_orient.repeats_on_edges(Fk, topo["edge_halfedges"], workers())
         if repeats is None:
             pairs = _interior_pairs(topo)
             repeats = _repeats_on_edges(Fk, *pairs)

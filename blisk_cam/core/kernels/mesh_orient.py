@@ -14,32 +14,33 @@ from .backend import kernel
 __all__ = ["einsum_outer_first", "face_components", "orient_face_terms", "repeats_on_edges"]
 
 
-def face_components(F, edge_halfedges):
+def face_components(F, edge_halfedges, threads: int = 1):
     """(count, labels (m,) int32, inconsistent int) of the faces F (m, 3) int64 and their
     edge table's ``edge_halfedges`` (e, 2) int64: the connected components of the faces
     linked by their interior edges, numbered as scipy's ``csgraph.connected_components``
     numbers them (by each component's lowest face), and on how many interior edges the two
     faces run the same way (``F.ravel()[h0] == F.ravel()[h1]`` of the
     ``weld._interior_pairs``); None when the numpy kernels run (or a wheel without this
-    kernel)."""
+    kernel). On ``threads`` threads (the same answer)."""
     fn = kernel("face_components")
     if fn is None or F.dtype != np.int64 or edge_halfedges.dtype != np.int64:
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
-    return fn(np.require(F, requirements=req), np.require(edge_halfedges, requirements=req))
+    return fn(np.require(F, requirements=req), np.require(edge_halfedges, requirements=req),
+              max(1, int(threads)))
 
 
-def repeats_on_edges(F, edge_halfedges):
+def repeats_on_edges(F, edge_halfedges, threads: int = 1):
     """``weld._repeats_on_edges`` of the faces F (m, 3) int64 read from their edge table's
     ``edge_halfedges`` (e, 2) int64 (no interior pairs built): whether the two faces of an
     interior edge have the same sum of vertex ids; None when the numpy kernels run (or a
-    wheel without this kernel)."""
+    wheel without this kernel). On ``threads`` threads (the same answer)."""
     fn = kernel("repeats_on_edges")
     if fn is None or F.dtype != np.int64 or edge_halfedges.dtype != np.int64:
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
     return bool(fn(np.require(F, requirements=req),
-                   np.require(edge_halfedges, requirements=req)))
+                   np.require(edge_halfedges, requirements=req), max(1, int(threads))))
 
 
 @functools.cache

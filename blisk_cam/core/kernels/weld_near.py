@@ -24,15 +24,14 @@ def weld_extents(V):
     return fn(np.require(V, requirements=_REQ))
 
 
-def weld_no_close_pairs(V, direction, tol: float, scan_max: int, threads: int = 1) -> bool:
+def weld_no_close_pairs(V, direction, tol: float, scan_max: int) -> bool:
     """True when ``weld._close_pairs`` of all the points V (k, 3) float64 mm (distinct,
     finite), sorted by their projection on the unit ``direction`` (3,), finds no pair within
     ``tol`` mm (and runs: no two equal projections, no point with more than ``scan_max``
     neighbours within the tolerance of projection); False when it would find one or not
-    run, or when the numpy kernels run (the caller then runs numpy's scan). On ``threads``
-    threads (the same answer)."""
+    run, or when the numpy kernels run (the caller then runs numpy's scan)."""
     fn = kernel("weld_no_close_pairs")
     if fn is None or V.dtype != np.float64 or V.ndim != 2 or V.shape[1] != 3:
         return False
     return bool(fn(np.require(V, requirements=_REQ), [float(x) for x in direction],
-                   float(tol), int(scan_max), max(1, int(threads))))
+                   float(tol), int(scan_max)))
