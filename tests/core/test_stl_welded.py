@@ -86,25 +86,6 @@ def test_the_stl_welded_as_read_is_the_soups_weld(tmp_path):
     assert b.vertex_map is None
 
 
-def test_a_welded_soup_with_nothing_to_merge_keeps_its_vertex_array():
-    """Distinct corners, none within the tolerance: the mesh's V is the given array itself
-    (no copy: the values a copy has), and a non-contiguous V gives the same mesh with a
-    C-contiguous V."""
-    d = make_demo_blisk(resolution=0.3)
-    C = d.blade_vertices[d.blade_faces].reshape(-1, 3)
-    V, F = _first_appearances(C)
-    a = TriMesh.from_arrays(V, F, soup_corners=len(C))
-    b = TriMesh.from_arrays(np.asfortranarray(V), F, soup_corners=len(C))
-    with backend.numpy_only():
-        c = TriMesh.from_arrays(V.copy(), F, soup_corners=len(C))
-    assert a.V is V and a.welded_vertices == len(C) - len(V) > 0
-    assert b.V.flags.c_contiguous and c.V is not V
-    for m in (b, c):
-        for name in ("V", "F", "face_map"):
-            assert _same_bits(getattr(a, name), getattr(m, name)), name
-        assert (a.welded_vertices, a.flipped_faces) == (m.welded_vertices, m.flipped_faces)
-
-
 def test_where_it_does_not_apply_read_mesh_reads_the_file(tmp_path):
     C, S = _soup()
     path = write_binary_stl(tmp_path / "blade.stl", C, S)

@@ -213,8 +213,7 @@ class TriMesh:
             faces over them (``mesh_io.read_stl_welded``), and this the soup's corner count.
             The mesh is the one the soup itself gives: the same V, F, ``welded_vertices``
             (counted over the soup's corners) and ``face_map``; ``vertex_map`` is None (there
-            is no soup to map from), and V (C-contiguous float64) and F (int64) may become the
-            mesh's own, not copied.
+            is no soup to map from), and F (int64) may become the mesh's own, not copied.
 
         What is changed, and how it is recorded
         ---------------------------------------

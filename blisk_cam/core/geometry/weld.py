@@ -177,8 +177,7 @@ def _welded(V, used, weld_tolerance, distinct=False):
     """The used vertices welded (exact duplicates, then clusters closer than the tolerance, to
     their lowest input id): (V (k, 3), vertex_map (n,) input → mesh vertex or -1, number
     welded). ``distinct``: no two vertices are equal (−0.0 as 0.0), the exact pass is known
-    (the caller welded exactly already); when then nothing is merged or dropped, V is the
-    input itself (made C-contiguous), not a copy."""
+    (the caller welded exactly already)."""
     n_in = len(V)
     Vu = V if used.all() else V[used]
     iu = None if Vu is V else np.nonzero(used)[0]  # None: every input vertex is used
@@ -252,10 +251,6 @@ def _welded(V, used, weld_tolerance, distinct=False):
         vertex_map = np.full(n_in, -1, dtype=np.int64)
         vertex_map[iu if iu is not None else slice(None)] = new_id[rep]
         V = V[is_rep]
-    elif distinct:  # every vertex used and its own: the identity, V itself (a C-contiguous
-        # array: what V[pos] with pos = 0..n would copy, without the copy and its maps)
-        vertex_map = pos
-        V = np.ascontiguousarray(V)
     else:  # every vertex used, exact duplicates only: mesh vertex i is representative i
         rank = np.empty(n_in, dtype=np.int64)
         rank[pos] = np.arange(len(pos))
