@@ -15,6 +15,9 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUnty
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+use std::mem::MaybeUninit;
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use crate::mesh_topology::{area_vector, interior};
@@ -110,6 +113,43 @@ pub fn mean_rows(v: &[[f64; 3]]) -> [f64; 3] {
     [s[0] / n, s[1] / n, s[2] / n]
 }
 
+/// The rows of [`face_terms`]' per-face arrays a range of faces writes.
+struct FaceRows<'a> {
+    n2: &'a mut [MaybeUninit<f64>],
+    unit: &'a mut [MaybeUninit<f64>],
+    ln: &'a mut [MaybeUninit<f64>],
+    area: &'a mut [MaybeUninit<f64>],
+}
+
+/// The per-face terms of the faces `r` into `out` (its rows from 0), and for each face i,
+/// in face order, `sums(i, ((a − o) · n2) / 6, area)`.
+fn face_rows(
+    v: &[[f64; 3]],
+    f: &[[i64; 3]],
+    o: [f64; 3],
+    order: Dot3,
+    r: Range<usize>,
+    out: FaceRows<'_>,
+    mut sums: impl FnMut(usize, f64, f64),
+) {
+    let s = r.start;
+    for (j, t) in f[r].iter().enumerate() {
+        let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
+        let nv = area_vector(a, b, c);
+        let l = order.dot(nv, nv).sqrt();
+        let d = if l > 0.0 { l } else { 1.0 };
+        for (q, &x) in nv.iter().enumerate() {
+            out.n2[3 * j + q].write(x);
+            out.unit[3 * j + q].write(x / d);
+        }
+        out.ln[j].write(l);
+        let ar = l * 0.5;
+        out.area[j].write(ar);
+        let corner = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
+        sums(s + j, order.dot(corner, nv) / 6.0, ar);
+    }
+}
+
 /// The faces' terms of `_capped_volume` (before the caps): with `a, b, c` a face's corners
 /// and `o = V.mean(axis=0)`, `n2 = (b − a) × (c − a)`, `ln = sqrt(n2 · n2)`,
 /// `unit = n2 / (ln if ln > 0 else 1)`, `area = ln · 0.5`, and per component (`labels`, all
@@ -123,14 +163,16 @@ pub fn face_terms(
     labels: &[i32],
     ncomp: usize,
     order: Dot3,
+    pl: &rayon::ThreadPool,
 ) -> Option<FaceTerms> {
     let n = v.len();
     let m = f.len();
     if labels.len() != m {
         return None;
     }
-    let ranges = split::even_ranges(m, split::parts_for(m, FACES_MIN));
-    let bad = ranges.par_iter().any(|r| {
+    let parts = split::parts_for(pl.current_num_threads(), m, FACES_MIN);
+    let ranges = split::even_ranges(m, parts);
+    let bad = |r: &Range<usize>| {
         f[r.clone()]
             .iter()
             .flatten()
@@ -138,60 +180,71 @@ pub fn face_terms(
             || labels[r.clone()]
                 .iter()
                 .any(|&c| c < 0 || c as usize >= ncomp)
-    });
-    if bad {
+    };
+    if pl.install(|| ranges.par_iter().any(bad)) {
         return None;
     }
     let o = mean_rows(v);
-    let (mut n2, mut ln, mut unit, mut area, mut vol) = (
+    let (mut n2, mut ln, mut unit, mut area) = (
         split::uninit(3 * m),
         split::uninit(m),
         split::uninit(3 * m),
-        split::uninit(m),
         split::uninit(m),
     );
+    // np.bincount's sums: faces in order, from 0.0
+    let mut comp_volume = vec![0.0f64; ncomp];
+    let mut comp_area = vec![0.0f64; ncomp];
     let lens: Vec<usize> = ranges.iter().map(|r| r.len()).collect();
     let l3: Vec<usize> = lens.iter().map(|l| 3 * l).collect();
-    split::pieces(&mut n2, l3.clone())
-        .into_par_iter()
+    let outs: Vec<FaceRows> = split::pieces(&mut n2, l3.clone())
+        .into_iter()
         .zip(split::pieces(&mut unit, l3))
         .zip(split::pieces(&mut ln, lens.clone()))
         .zip(split::pieces(&mut area, lens.clone()))
-        .zip(split::pieces(&mut vol, lens))
-        .zip(ranges.par_iter())
-        .for_each(|(((((n2, unit), ln), area), vol), r)| {
-            for (j, t) in f[r.clone()].iter().enumerate() {
-                let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
-                let nv = area_vector(a, b, c);
-                let l = order.dot(nv, nv).sqrt();
-                let d = if l > 0.0 { l } else { 1.0 };
-                for q in 0..3 {
-                    n2[3 * j + q].write(nv[q]);
-                    unit[3 * j + q].write(nv[q] / d);
-                }
-                ln[j].write(l);
-                area[j].write(l * 0.5);
-                let corner = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
-                vol[j].write(order.dot(corner, nv) / 6.0);
-            }
+        .map(|(((n2, unit), ln), area)| FaceRows { n2, unit, ln, area })
+        .collect();
+    if parts == 1 {
+        // one range: the sums as the faces come (no array of the volume terms)
+        for out in outs {
+            face_rows(v, f, o, order, 0..m, out, |i, x, a| {
+                let k = labels[i] as usize;
+                comp_volume[k] += x;
+                comp_area[k] += a;
+            });
+        }
+    } else {
+        let mut vol = split::uninit(m);
+        let vols = split::pieces(&mut vol, lens);
+        pl.install(|| {
+            outs.into_par_iter()
+                .zip(vols)
+                .zip(ranges.par_iter())
+                .for_each(|((out, vol), r)| {
+                    let s = r.start;
+                    face_rows(v, f, o, order, r.clone(), out, |i, x, _| {
+                        vol[i - s].write(x);
+                    });
+                })
         });
+        // SAFETY: each range wrote its faces' volume terms and areas, and the ranges are all
+        // the faces
+        let vol: Vec<f64> = unsafe { split::assume_written(vol) };
+        let ar: &[f64] =
+            unsafe { &*(area.as_slice() as *const [MaybeUninit<f64>] as *const [f64]) };
+        for ((&k, &x), &a) in labels.iter().zip(&vol).zip(ar) {
+            comp_volume[k as usize] += x;
+            comp_area[k as usize] += a;
+        }
+    }
     // SAFETY: each range wrote its faces' items, and the ranges are all the faces
-    let (n2, ln, unit, area, vol) = unsafe {
+    let (n2, ln, unit, area) = unsafe {
         (
             split::assume_written(n2),
             split::assume_written(ln),
             split::assume_written(unit),
             split::assume_written(area),
-            split::assume_written(vol),
         )
     };
-    // np.bincount's sums: faces in order, from 0.0
-    let mut comp_volume = vec![0.0f64; ncomp];
-    let mut comp_area = vec![0.0f64; ncomp];
-    for ((&k, &x), &a) in labels.iter().zip(&vol).zip(&area) {
-        comp_volume[k as usize] += x;
-        comp_area[k as usize] += a;
-    }
     Some(FaceTerms {
         n2,
         ln,
@@ -273,22 +326,24 @@ pub fn face_components<'py>(
     let h = halfedge_rows(&hei, m)?;
     let pl = crate::pool_for(threads, h.len() / 2)?;
     let (count, labels, inconsistent) = py.detach(|| {
-        pl.install(|| {
-            let flat = tri.as_flattened();
-            let (inc, (count, labels)) = rayon::join(
-                || {
-                    h.par_chunks(2 * EDGES_MIN)
-                        .map(|c| {
-                            interior(c)
-                                .filter(|&(a, b)| flat[a as usize] == flat[b as usize])
-                                .count()
-                        })
-                        .sum::<usize>()
-                },
-                || components_of_pairs(m, interior(h).map(|(a, b)| (a / 3, b / 3))),
-            );
-            (count, labels, inc)
-        })
+        let flat = tri.as_flattened();
+        let count = |c: &[i64]| {
+            interior(c)
+                .filter(|&(a, b)| flat[a as usize] == flat[b as usize])
+                .count()
+        };
+        let components = || components_of_pairs(m, interior(h).map(|(a, b)| (a / 3, b / 3)));
+        if pl.current_num_threads() == 1 {
+            let (c, l) = components();
+            return (c, l, count(h));
+        }
+        // the count on the pool; the union–find (and its labels) on the calling thread
+        let mut inc = 0;
+        let (c, l) = pl.in_place_scope(|sc| {
+            sc.spawn(|_| inc = count(h));
+            components()
+        });
+        (c, l, inc)
     });
     Ok((count, PyArray1::from_vec(py, labels), inconsistent))
 }
@@ -329,7 +384,7 @@ pub fn orient_face_terms<'py>(
         Dot3::InOrder
     };
     let pl = crate::pool_for(threads, tri.len())?;
-    let Some(t) = py.detach(|| pl.install(|| face_terms(pts, tri, lab, ncomp, order))) else {
+    let Some(t) = py.detach(|| face_terms(pts, tri, lab, ncomp, order, &pl)) else {
         return Ok(None);
     };
     let m = t.ln.len();

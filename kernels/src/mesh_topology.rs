@@ -36,8 +36,9 @@ pub struct EdgeTable {
 /// arrays whatever their number: the half-edges are counted and scattered into the buckets
 /// by consecutive ranges (each range's counts its own, the buckets filled range after range:
 /// the stable order of one pass), the buckets sorted and their edges emitted by ranges of
-/// vertices (the edge ids offset by the edges of the ranges before).
-pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
+/// vertices (the edge ids offset by the edges of the ranges before). The passes run on
+/// `pl`, the arrays are allocated on the calling thread.
+pub fn edge_table(f: &[i64], n: usize, pl: &rayon::ThreadPool) -> Option<EdgeTable> {
     let h = f.len();
     if h >= u32::MAX as usize || n >= u32::MAX as usize {
         return None;
@@ -51,23 +52,24 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
             (b as usize, a as u32)
         }
     };
-    let parts = split::parts_for(h, PART_MIN);
+    let parts = split::parts_for(pl.current_num_threads(), h, PART_MIN);
     // first: the mesh keeps it (see the buckets below); every item is written as a bucket
     // slot first (the counts are the slots), so no zeros before
     let mut face_edges = split::uninit::<i64>(h);
     // counting sort of the half-edges by their lower vertex: each range of half-edges
     // counted on its own, then per vertex the ranges' starts one after the other
     let ranges = split::even_ranges(h, parts);
-    let mut fills: Vec<Vec<u32>> = ranges
-        .par_iter()
-        .map(|r| {
-            let mut c = vec![0u32; n];
-            for i in r.clone() {
-                c[ends(i).0] += 1;
-            }
-            c
-        })
-        .collect();
+    let mut fills: Vec<Vec<u32>> = (0..parts).map(|_| vec![0u32; n]).collect();
+    pl.install(|| {
+        ranges
+            .par_iter()
+            .zip(fills.par_iter_mut())
+            .for_each(|(r, c)| {
+                for i in r.clone() {
+                    c[ends(i).0] += 1;
+                }
+            })
+    });
     let mut ptr = Vec::with_capacity(n + 1);
     let mut run = 0u32;
     for v in 0..n {
@@ -89,18 +91,20 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
             std::slice::from_raw_parts_mut(face_edges.as_mut_ptr() as *mut (u32, u32), h)
         };
         let out = split::Scatter::new(bucket); // written before read: uninitialised is fine
-        ranges
-            .par_iter()
-            .zip(fills.par_iter_mut())
-            .for_each(|(r, fill)| {
-                for i in r.clone() {
-                    let (lo, hi) = ends(i);
-                    let p = &mut fill[lo];
-                    // SAFETY: the ranges' slots of a bucket are disjoint, each written once
-                    unsafe { out.put(*p as usize, (hi, i as u32)) };
-                    *p += 1;
-                }
-            });
+        pl.install(|| {
+            ranges
+                .par_iter()
+                .zip(fills.par_iter_mut())
+                .for_each(|(r, fill)| {
+                    for i in r.clone() {
+                        let (lo, hi) = ends(i);
+                        let p = &mut fill[lo];
+                        // SAFETY: the ranges' slots of a bucket are disjoint, each written once
+                        unsafe { out.put(*p as usize, (hi, i as u32)) };
+                        *p += 1;
+                    }
+                })
+        });
     }
     drop(fills);
     // SAFETY: every slot was written by the scatter (the counts are the slots)
@@ -124,33 +128,35 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
     let pieces = split::pieces(bucket, lens.collect::<Vec<_>>());
     // each bucket sorted and its edges counted first: the arrays are made at their size (the
     // mesh keeps them for the whole run; a grown Vec would hold up to twice the memory)
-    let counted: Vec<Option<usize>> = vranges
-        .par_iter()
-        .zip(pieces)
-        .map(|(r, piece)| {
-            let base = ptr[r.start] as usize;
-            let mut n_edges = 0usize;
-            for lo in r.clone() {
-                let s = &mut piece[ptr[lo] as usize - base..ptr[lo + 1] as usize - base];
-                if s.len() > 1 {
-                    s.sort_unstable(); // (hi, half-edge) pairs are distinct: the stable order
-                }
-                let mut j = 0;
-                while j < s.len() {
-                    let mut k = j + 1;
-                    while k < s.len() && s[k].0 == s[j].0 {
-                        k += 1;
+    let counted: Vec<Option<usize>> = pl.install(|| {
+        vranges
+            .par_iter()
+            .zip(pieces)
+            .map(|(r, piece)| {
+                let base = ptr[r.start] as usize;
+                let mut n_edges = 0usize;
+                for lo in r.clone() {
+                    let s = &mut piece[ptr[lo] as usize - base..ptr[lo + 1] as usize - base];
+                    if s.len() > 1 {
+                        s.sort_unstable(); // (hi, half-edge) pairs are distinct: the stable order
                     }
-                    if k - j > 2 {
-                        return None;
+                    let mut j = 0;
+                    while j < s.len() {
+                        let mut k = j + 1;
+                        while k < s.len() && s[k].0 == s[j].0 {
+                            k += 1;
+                        }
+                        if k - j > 2 {
+                            return None;
+                        }
+                        n_edges += 1;
+                        j = k;
                     }
-                    n_edges += 1;
-                    j = k;
                 }
-            }
-            Some(n_edges)
-        })
-        .collect();
+                Some(n_edges)
+            })
+            .collect()
+    });
     let counts: Vec<usize> = counted.into_iter().collect::<Option<_>>()?;
     let n_edges: usize = counts.iter().sum();
     let bucket: &[(u32, u32)] = bucket;
@@ -184,12 +190,17 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
         split::uninit(2 * n_edges),
     );
     let l2: Vec<usize> = counts.iter().map(|c| 2 * c).collect();
-    split::pieces(&mut edges, l2.clone())
-        .into_par_iter()
+    let pieces = split::pieces(&mut edges, l2.clone())
+        .into_iter()
         .zip(split::pieces(&mut hei, l2.clone()))
         .zip(split::pieces(&mut ef, l2))
-        .zip(vranges.par_iter())
-        .for_each(|(((a, b), c), r)| emit(a, b, c, r));
+        .zip(vranges.iter())
+        .collect::<Vec<_>>();
+    pl.install(|| {
+        pieces
+            .into_par_iter()
+            .for_each(|(((a, b), c), r)| emit(a, b, c, r))
+    });
     // SAFETY: each range wrote its edges' rows, and the ranges' rows are all the rows
     let (edges, edge_halfedges, edge_faces) = unsafe {
         (
@@ -207,19 +218,21 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
             Some(*s - c)
         })
         .collect();
-    starts
-        .par_iter()
-        .zip(counts.par_iter())
-        .for_each(|(&s, &c)| {
-            for e in s..s + c {
-                let (h0, h1) = (edge_halfedges[2 * e], edge_halfedges[2 * e + 1]);
-                // SAFETY: every half-edge is in one edge: each position written once
-                unsafe { out.put(h0 as usize, e as i64) };
-                if h1 >= 0 {
-                    unsafe { out.put(h1 as usize, e as i64) };
+    pl.install(|| {
+        starts
+            .par_iter()
+            .zip(counts.par_iter())
+            .for_each(|(&s, &c)| {
+                for e in s..s + c {
+                    let (h0, h1) = (edge_halfedges[2 * e], edge_halfedges[2 * e + 1]);
+                    // SAFETY: every half-edge is in one edge: each position written once
+                    unsafe { out.put(h0 as usize, e as i64) };
+                    if h1 >= 0 {
+                        unsafe { out.put(h1 as usize, e as i64) };
+                    }
                 }
-            }
-        });
+            })
+    });
     Some(EdgeTable {
         edges,
         face_edges,
@@ -261,7 +274,7 @@ pub fn edge_table_arrays<'py>(
         ));
     }
     let pl = crate::pool_for(threads, ff.len())?;
-    let Some(t) = py.detach(|| pl.install(|| edge_table(ff, n_vertices))) else {
+    let Some(t) = py.detach(|| edge_table(ff, n_vertices, &pl)) else {
         return Ok(None);
     };
     let two = |v: Vec<i64>, c: usize| -> PyResult<Bound<'py, PyAny>> {

@@ -1,6 +1,10 @@
 //! Splitting a pass over the threads of the caller's rayon pool where the answer does not
 //! depend on the split: item ranges, disjoint mutable pieces of one array, arrays written
 //! once without being filled first, and scattered writes to positions known to be disjoint.
+//!
+//! The kernels that use it allocate their arrays on the calling thread and hand only the
+//! passes to the pool: the arrays come from the calling thread's malloc arena, as they did
+//! before the passes were split, not from a pool worker's.
 
 use std::mem::MaybeUninit;
 use std::ops::Range;
@@ -20,13 +24,9 @@ pub fn even_ranges(n: usize, parts: usize) -> Vec<Range<usize>> {
     out
 }
 
-/// The threads of the rayon pool the caller runs in (1 on a calling thread's own pool), but
-/// at most one a `min_items` items (a small job stays on one thread).
-pub fn parts_for(items: usize, min_items: usize) -> usize {
-    rayon::current_num_threads()
-        .max(1)
-        .min(items / min_items.max(1))
-        .max(1)
+/// `threads` (a pool's), but at most one a `min_items` items (a small job stays on one).
+pub fn parts_for(threads: usize, items: usize, min_items: usize) -> usize {
+    threads.max(1).min(items / min_items.max(1)).max(1)
 }
 
 /// `s` cut into consecutive pieces of the lengths `lens` (their sum at most `s.len()`).
