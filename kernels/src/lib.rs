@@ -42,6 +42,7 @@ mod swept_ball;
 mod swept_cutter;
 mod weld;
 mod weld_near;
+mod split;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -54,7 +55,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 const PARALLEL_MIN: usize = 2048;
 
 /// [`pool`] for a job of `items` items: the calling thread's own below [`PARALLEL_MIN`].
-fn pool_for(threads: usize, items: usize) -> PyResult<Arc<rayon::ThreadPool>> {
+pub(crate) fn pool_for(threads: usize, items: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     pool(if items < PARALLEL_MIN { 1 } else { threads })
 }
 
@@ -572,6 +573,9 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::edge_table_arrays, m)?)?;
+    // 1: edge_table_arrays, orient_face_terms, face_components and repeats_on_edges take
+    // a thread count (last)
+    m.add("MESH_THREADS_REVISION", 1)?;
     m.add_function(wrap_pyfunction!(mesh_orient::face_components, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_orient::orient_face_terms, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_orient::repeats_on_edges, m)?)?;

@@ -15,7 +15,13 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUnty
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+use std::mem::MaybeUninit;
+use std::ops::Range;
+
+use rayon::prelude::*;
+
 use crate::mesh_topology::{area_vector, interior};
+use crate::split;
 
 /// The order in which numpy's einsum adds the three products of a row.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -107,48 +113,138 @@ pub fn mean_rows(v: &[[f64; 3]]) -> [f64; 3] {
     [s[0] / n, s[1] / n, s[2] / n]
 }
 
+/// The rows of [`face_terms`]' per-face arrays a range of faces writes.
+struct FaceRows<'a> {
+    n2: &'a mut [MaybeUninit<f64>],
+    unit: &'a mut [MaybeUninit<f64>],
+    ln: &'a mut [MaybeUninit<f64>],
+    area: &'a mut [MaybeUninit<f64>],
+}
+
+/// The per-face terms of the faces `r` into `out` (its rows from 0), and for each face i,
+/// in face order, `sums(i, ((a − o) · n2) / 6, area)`.
+fn face_rows(
+    v: &[[f64; 3]],
+    f: &[[i64; 3]],
+    o: [f64; 3],
+    order: Dot3,
+    r: Range<usize>,
+    out: FaceRows<'_>,
+    mut sums: impl FnMut(usize, f64, f64),
+) {
+    let s = r.start;
+    for (j, t) in f[r].iter().enumerate() {
+        let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
+        let nv = area_vector(a, b, c);
+        let l = order.dot(nv, nv).sqrt();
+        let d = if l > 0.0 { l } else { 1.0 };
+        for (q, &x) in nv.iter().enumerate() {
+            out.n2[3 * j + q].write(x);
+            out.unit[3 * j + q].write(x / d);
+        }
+        out.ln[j].write(l);
+        let ar = l * 0.5;
+        out.area[j].write(ar);
+        let corner = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
+        sums(s + j, order.dot(corner, nv) / 6.0, ar);
+    }
+}
+
 /// The faces' terms of `_capped_volume` (before the caps): with `a, b, c` a face's corners
 /// and `o = V.mean(axis=0)`, `n2 = (b − a) × (c − a)`, `ln = sqrt(n2 · n2)`,
 /// `unit = n2 / (ln if ln > 0 else 1)`, `area = ln · 0.5`, and per component (`labels`, all
 /// in 0..ncomp) Σ ((a − o) · n2) / 6 and Σ area over its faces in face order. None when a
-/// face holds a vertex id outside 0..n or `labels` is not one per face.
+/// face holds a vertex id outside 0..n or `labels` is not one per face. The per-face terms
+/// on the threads of the rayon pool it runs in, by ranges of faces (each face's terms are
+/// its own); the sums on one, in face order (the same bits whatever the threads).
 pub fn face_terms(
     v: &[[f64; 3]],
     f: &[[i64; 3]],
     labels: &[i32],
     ncomp: usize,
     order: Dot3,
+    pl: &rayon::ThreadPool,
 ) -> Option<FaceTerms> {
     let n = v.len();
     let m = f.len();
-    if labels.len() != m
-        || f.iter().flatten().any(|&i| i < 0 || i as usize >= n)
-        || labels.iter().any(|&c| c < 0 || c as usize >= ncomp)
-    {
+    if labels.len() != m {
+        return None;
+    }
+    let parts = split::parts_for(pl.current_num_threads(), m, FACES_MIN);
+    let ranges = split::even_ranges(m, parts);
+    let bad = |r: &Range<usize>| {
+        f[r.clone()]
+            .iter()
+            .flatten()
+            .any(|&i| i < 0 || i as usize >= n)
+            || labels[r.clone()]
+                .iter()
+                .any(|&c| c < 0 || c as usize >= ncomp)
+    };
+    if pl.install(|| ranges.par_iter().any(bad)) {
         return None;
     }
     let o = mean_rows(v);
-    let mut n2 = vec![0.0f64; 3 * m];
-    let mut ln = vec![0.0f64; m];
-    let mut unit = vec![0.0f64; 3 * m];
-    let mut area = vec![0.0f64; m];
+    let (mut n2, mut ln, mut unit, mut area) = (
+        split::uninit(3 * m),
+        split::uninit(m),
+        split::uninit(3 * m),
+        split::uninit(m),
+    );
+    // np.bincount's sums: faces in order, from 0.0
     let mut comp_volume = vec![0.0f64; ncomp];
     let mut comp_area = vec![0.0f64; ncomp];
-    for (i, t) in f.iter().enumerate() {
-        let (a, b, c) = (&v[t[0] as usize], &v[t[1] as usize], &v[t[2] as usize]);
-        let nv = area_vector(a, b, c);
-        let l = order.dot(nv, nv).sqrt();
-        let d = if l > 0.0 { l } else { 1.0 };
-        n2[3 * i..3 * i + 3].copy_from_slice(&nv);
-        unit[3 * i..3 * i + 3].copy_from_slice(&[nv[0] / d, nv[1] / d, nv[2] / d]);
-        ln[i] = l;
-        let ar = l * 0.5;
-        area[i] = ar;
-        let corner = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
-        let k = labels[i] as usize;
-        comp_volume[k] += order.dot(corner, nv) / 6.0;
-        comp_area[k] += ar;
+    let lens: Vec<usize> = ranges.iter().map(|r| r.len()).collect();
+    let l3: Vec<usize> = lens.iter().map(|l| 3 * l).collect();
+    let outs: Vec<FaceRows> = split::pieces(&mut n2, l3.clone())
+        .into_iter()
+        .zip(split::pieces(&mut unit, l3))
+        .zip(split::pieces(&mut ln, lens.clone()))
+        .zip(split::pieces(&mut area, lens.clone()))
+        .map(|(((n2, unit), ln), area)| FaceRows { n2, unit, ln, area })
+        .collect();
+    if parts == 1 {
+        // one range: the sums as the faces come (no array of the volume terms)
+        for out in outs {
+            face_rows(v, f, o, order, 0..m, out, |i, x, a| {
+                let k = labels[i] as usize;
+                comp_volume[k] += x;
+                comp_area[k] += a;
+            });
+        }
+    } else {
+        let mut vol = split::uninit(m);
+        let vols = split::pieces(&mut vol, lens);
+        pl.install(|| {
+            outs.into_par_iter()
+                .zip(vols)
+                .zip(ranges.par_iter())
+                .for_each(|((out, vol), r)| {
+                    let s = r.start;
+                    face_rows(v, f, o, order, r.clone(), out, |i, x, _| {
+                        vol[i - s].write(x);
+                    });
+                })
+        });
+        // SAFETY: each range wrote its faces' volume terms and areas, and the ranges are all
+        // the faces
+        let vol: Vec<f64> = unsafe { split::assume_written(vol) };
+        let ar: &[f64] =
+            unsafe { &*(area.as_slice() as *const [MaybeUninit<f64>] as *const [f64]) };
+        for ((&k, &x), &a) in labels.iter().zip(&vol).zip(ar) {
+            comp_volume[k as usize] += x;
+            comp_area[k as usize] += a;
+        }
     }
+    // SAFETY: each range wrote its faces' items, and the ranges are all the faces
+    let (n2, ln, unit, area) = unsafe {
+        (
+            split::assume_written(n2),
+            split::assume_written(ln),
+            split::assume_written(unit),
+            split::assume_written(area),
+        )
+    };
     Some(FaceTerms {
         n2,
         ln,
@@ -159,6 +255,9 @@ pub fn face_terms(
         origin: o,
     })
 }
+
+/// Faces per thread below which the face terms stay on fewer threads.
+const FACES_MIN: usize = 1 << 15;
 
 type F1<'py> = Bound<'py, PyArray1<f64>>;
 
@@ -181,43 +280,70 @@ fn halfedge_rows<'a>(hei: &'a PyReadonlyArray2<'_, i64>, m: usize) -> PyResult<&
 /// `weld._repeats_on_edges`: whether the two faces of an interior edge (rows of
 /// `edge_halfedges` (e, 2) with a second half-edge) have the same sum of vertex ids, for
 /// the faces F (m, 3) int64.
+/// On `threads` threads, by ranges of edges (the answer is an "any").
 #[pyfunction]
+#[pyo3(signature = (f, hei, threads=1))]
 pub fn repeats_on_edges<'py>(
     py: Python<'py>,
     f: PyReadonlyArray2<'py, i64>,
     hei: PyReadonlyArray2<'py, i64>,
+    threads: usize,
 ) -> PyResult<bool> {
     let tri = crate::arrays::triangles(&f, "F")?;
     let h = halfedge_rows(&hei, tri.len())?;
+    let pl = crate::pool_for(threads, h.len() / 2)?;
     Ok(py.detach(|| {
-        let total = |x: i64| {
-            let t = &tri[(x / 3) as usize];
-            t[0].wrapping_add(t[1]).wrapping_add(t[2])
-        };
-        interior(h).any(|(a, b)| total(a) == total(b))
+        pl.install(|| {
+            let total = |x: i64| {
+                let t = &tri[(x / 3) as usize];
+                t[0].wrapping_add(t[1]).wrapping_add(t[2])
+            };
+            h.par_chunks(2 * EDGES_MIN)
+                .any(|c| interior(c).any(|(a, b)| total(a) == total(b)))
+        })
     }))
 }
+
+/// Edges per task of the passes over an edge table's rows.
+const EDGES_MIN: usize = 1 << 16;
 
 /// `(count, labels (m,) int32, inconsistent)` of a mesh's faces F (m, 3) int64 and its edge
 /// table's `edge_halfedges` (e, 2): the components of the faces linked by their interior
 /// edges, numbered as scipy numbers them, and how many interior edges the two faces run the
 /// same way (their half-edges start at the same vertex: `F.ravel()[h0] == F.ravel()[h1]`).
+/// On `threads` threads: the count beside the union–find (which stays on one, in edge
+/// order: the same labels).
 #[pyfunction]
+#[pyo3(signature = (f, hei, threads=1))]
 pub fn face_components<'py>(
     py: Python<'py>,
     f: PyReadonlyArray2<'py, i64>,
     hei: PyReadonlyArray2<'py, i64>,
+    threads: usize,
 ) -> PyResult<(usize, Bound<'py, PyArray1<i32>>, usize)> {
     let tri = crate::arrays::triangles(&f, "F")?;
     let m = tri.len();
     let h = halfedge_rows(&hei, m)?;
+    let pl = crate::pool_for(threads, h.len() / 2)?;
     let (count, labels, inconsistent) = py.detach(|| {
         let flat = tri.as_flattened();
-        let inc = interior(h)
-            .filter(|&(a, b)| flat[a as usize] == flat[b as usize])
-            .count();
-        let (count, labels) = components_of_pairs(m, interior(h).map(|(a, b)| (a / 3, b / 3)));
-        (count, labels, inc)
+        let count = |c: &[i64]| {
+            interior(c)
+                .filter(|&(a, b)| flat[a as usize] == flat[b as usize])
+                .count()
+        };
+        let components = || components_of_pairs(m, interior(h).map(|(a, b)| (a / 3, b / 3)));
+        if pl.current_num_threads() == 1 {
+            let (c, l) = components();
+            return (c, l, count(h));
+        }
+        // the count on the pool; the union–find (and its labels) on the calling thread
+        let mut inc = 0;
+        let (c, l) = pl.in_place_scope(|sc| {
+            sc.spawn(|_| inc = count(h));
+            components()
+        });
+        (c, l, inc)
     });
     Ok((count, PyArray1::from_vec(py, labels), inconsistent))
 }
@@ -226,7 +352,9 @@ pub fn face_components<'py>(
 /// volume (ncomp,), area (ncomp,), V.mean(axis=0) (3,)) float64 of V (n, 3) float64, F (m, 3) int64 and the
 /// face components `labels` (m,) int32 in 0..ncomp; `outer_first`: numpy's einsum adds a
 /// row's products as `(p0 + p2) + p1` (else in order). None when an id is out of range.
+/// On `threads` threads (the same arrays).
 #[pyfunction]
+#[pyo3(signature = (v, f, labels, ncomp, outer_first, threads=1))]
 #[allow(clippy::type_complexity)]
 pub fn orient_face_terms<'py>(
     py: Python<'py>,
@@ -235,6 +363,7 @@ pub fn orient_face_terms<'py>(
     labels: PyReadonlyArray1<'py, i32>,
     ncomp: usize,
     outer_first: bool,
+    threads: usize,
 ) -> PyResult<
     Option<(
         Bound<'py, PyAny>,
@@ -254,7 +383,8 @@ pub fn orient_face_terms<'py>(
     } else {
         Dot3::InOrder
     };
-    let Some(t) = py.detach(|| face_terms(pts, tri, lab, ncomp, order)) else {
+    let pl = crate::pool_for(threads, tri.len())?;
+    let Some(t) = py.detach(|| face_terms(pts, tri, lab, ncomp, order, &pl)) else {
         return Ok(None);
     };
     let m = t.ln.len();

@@ -11,8 +11,14 @@
 //! here a counting sort by the lower vertex (stable: half-edges ascending in each bucket)
 //! and a sort of each (small) bucket by (higher vertex, half-edge) give that very order.
 
+use std::mem::MaybeUninit;
+use std::ops::Range;
+
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use rayon::prelude::*;
+
+use crate::split;
 
 const _: () = assert!(std::mem::size_of::<(u32, u32)>() == std::mem::size_of::<i64>());
 
@@ -26,23 +32,55 @@ pub struct EdgeTable {
 
 /// The edge table of faces `f` (3m vertex ids, row-major, all in 0..n); None when an edge
 /// has more than two half-edges (non-manifold: the caller's numpy reference says so) or the
-/// mesh is too large for 32-bit ids.
-pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
+/// mesh is too large for 32-bit ids. On the threads of the rayon pool it runs in, the same
+/// arrays whatever their number: the half-edges are counted and scattered into the buckets
+/// by consecutive ranges (each range's counts its own, the buckets filled range after range:
+/// the stable order of one pass), the buckets sorted and their edges emitted by ranges of
+/// vertices (the edge ids offset by the edges of the ranges before). The passes run on
+/// `pl`, the arrays are allocated on the calling thread.
+pub fn edge_table(f: &[i64], n: usize, pl: &rayon::ThreadPool) -> Option<EdgeTable> {
     let h = f.len();
     if h >= u32::MAX as usize || n >= u32::MAX as usize {
         return None;
     }
     let next = |i: usize| if i % 3 == 2 { i - 2 } else { i + 1 };
-    let mut face_edges = vec![0i64; h]; // first: the mesh keeps it (see the buckets below)
-                                        // counting sort of the half-edges by their lower vertex
-    let mut ptr = vec![0u32; n + 1];
-    for i in 0..h {
-        let lo = f[i].min(f[next(i)]) as usize;
-        ptr[lo + 1] += 1;
-    }
+    let ends = |i: usize| {
+        let (a, b) = (f[i], f[next(i)]);
+        if a < b {
+            (a as usize, b as u32)
+        } else {
+            (b as usize, a as u32)
+        }
+    };
+    let parts = split::parts_for(pl.current_num_threads(), h, PART_MIN);
+    // first: the mesh keeps it (see the buckets below); every item is written as a bucket
+    // slot first (the counts are the slots), so no zeros before
+    let mut face_edges = split::uninit::<i64>(h);
+    // counting sort of the half-edges by their lower vertex: each range of half-edges
+    // counted on its own, then per vertex the ranges' starts one after the other
+    let ranges = split::even_ranges(h, parts);
+    let mut fills: Vec<Vec<u32>> = (0..parts).map(|_| vec![0u32; n]).collect();
+    pl.install(|| {
+        ranges
+            .par_iter()
+            .zip(fills.par_iter_mut())
+            .for_each(|(r, c)| {
+                for i in r.clone() {
+                    c[ends(i).0] += 1;
+                }
+            })
+    });
+    let mut ptr = Vec::with_capacity(n + 1);
+    let mut run = 0u32;
     for v in 0..n {
-        ptr[v + 1] += ptr[v];
+        ptr.push(run);
+        for c in fills.iter_mut() {
+            let x = c[v];
+            c[v] = run;
+            run += x;
+        }
     }
+    ptr.push(run);
     // the buckets of (higher vertex, half-edge) pairs live in the memory of `face_edges`
     // (one i64 per half-edge, as one pair): no temporary of the half-edges' size, and the
     // arrays the mesh keeps come before anything freed (no hole left in the heap under them)
@@ -52,66 +90,149 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
         let bucket: &mut [(u32, u32)] = unsafe {
             std::slice::from_raw_parts_mut(face_edges.as_mut_ptr() as *mut (u32, u32), h)
         };
-        let mut fill: Vec<u32> = ptr[..n].to_vec();
-        for i in 0..h {
-            let (a, b) = (f[i], f[next(i)]);
-            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-            let p = &mut fill[lo as usize];
-            bucket[*p as usize] = (hi as u32, i as u32);
-            *p += 1;
-        }
-        drop(fill);
+        let out = split::Scatter::new(bucket); // written before read: uninitialised is fine
+        pl.install(|| {
+            ranges
+                .par_iter()
+                .zip(fills.par_iter_mut())
+                .for_each(|(r, fill)| {
+                    for i in r.clone() {
+                        let (lo, hi) = ends(i);
+                        let p = &mut fill[lo];
+                        // SAFETY: the ranges' slots of a bucket are disjoint, each written once
+                        unsafe { out.put(*p as usize, (hi, i as u32)) };
+                        *p += 1;
+                    }
+                })
+        });
     }
+    drop(fills);
+    // SAFETY: every slot was written by the scatter (the counts are the slots)
+    let mut face_edges: Vec<i64> = unsafe { split::assume_written(face_edges) };
     // SAFETY: as above; the last use of this view comes before `face_edges` is written
     let bucket: &mut [(u32, u32)] =
         unsafe { std::slice::from_raw_parts_mut(face_edges.as_mut_ptr() as *mut (u32, u32), h) };
+    // ranges of vertices holding about as many half-edges each
+    let cuts: Vec<usize> = (0..=parts)
+        .map(|p| {
+            if p == parts {
+                n
+            } else {
+                ptr.partition_point(|&x| (x as usize) < p * h / parts)
+                    .min(n)
+            }
+        })
+        .collect();
+    let vranges: Vec<Range<usize>> = cuts.windows(2).map(|w| w[0]..w[1]).collect();
+    let lens = vranges.iter().map(|r| (ptr[r.end] - ptr[r.start]) as usize);
+    let pieces = split::pieces(bucket, lens.collect::<Vec<_>>());
     // each bucket sorted and its edges counted first: the arrays are made at their size (the
     // mesh keeps them for the whole run; a grown Vec would hold up to twice the memory)
-    let mut n_edges = 0usize;
-    for lo in 0..n {
-        let s = &mut bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
-        if s.len() > 1 {
-            s.sort_unstable(); // (hi, half-edge) pairs are distinct: the stable order
-        }
-        n_edges += s
-            .iter()
-            .enumerate()
-            .filter(|&(j, p)| j == 0 || s[j - 1].0 != p.0)
-            .count();
-    }
-    let mut edges = Vec::with_capacity(2 * n_edges);
-    let mut edge_halfedges = Vec::with_capacity(2 * n_edges);
-    for lo in 0..n {
-        let s = &bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
-        let mut j = 0;
-        while j < s.len() {
-            let (hi, h0) = s[j];
-            let mut k = j + 1;
-            while k < s.len() && s[k].0 == hi {
-                k += 1;
+    let counted: Vec<Option<usize>> = pl.install(|| {
+        vranges
+            .par_iter()
+            .zip(pieces)
+            .map(|(r, piece)| {
+                let base = ptr[r.start] as usize;
+                let mut n_edges = 0usize;
+                for lo in r.clone() {
+                    let s = &mut piece[ptr[lo] as usize - base..ptr[lo + 1] as usize - base];
+                    if s.len() > 1 {
+                        s.sort_unstable(); // (hi, half-edge) pairs are distinct: the stable order
+                    }
+                    let mut j = 0;
+                    while j < s.len() {
+                        let mut k = j + 1;
+                        while k < s.len() && s[k].0 == s[j].0 {
+                            k += 1;
+                        }
+                        if k - j > 2 {
+                            return None;
+                        }
+                        n_edges += 1;
+                        j = k;
+                    }
+                }
+                Some(n_edges)
+            })
+            .collect()
+    });
+    let counts: Vec<usize> = counted.into_iter().collect::<Option<_>>()?;
+    let n_edges: usize = counts.iter().sum();
+    let bucket: &[(u32, u32)] = bucket;
+    let emit = |edges: &mut [MaybeUninit<i64>],
+                hei: &mut [MaybeUninit<i64>],
+                ef: &mut [MaybeUninit<i64>],
+                r: &Range<usize>| {
+        let mut e = 0;
+        for lo in r.clone() {
+            let s = &bucket[ptr[lo] as usize..ptr[lo + 1] as usize];
+            let mut j = 0;
+            while j < s.len() {
+                let (hi, h0) = s[j];
+                let two = j + 1 < s.len() && s[j + 1].0 == hi;
+                let h1 = if two { s[j + 1].1 as i64 } else { -1 };
+                edges[2 * e].write(lo as i64);
+                edges[2 * e + 1].write(hi as i64);
+                hei[2 * e].write(h0 as i64);
+                hei[2 * e + 1].write(h1);
+                // floor division: −1 stays −1
+                ef[2 * e].write(h0 as i64 / 3);
+                ef[2 * e + 1].write(if two { h1 / 3 } else { -1 });
+                e += 1;
+                j += 1 + usize::from(two);
             }
-            if k - j > 2 {
-                return None;
-            }
-            edges.push(lo as i64);
-            edges.push(hi as i64);
-            edge_halfedges.push(h0 as i64);
-            edge_halfedges.push(if k - j == 2 { s[j + 1].1 as i64 } else { -1 });
-            j = k;
         }
-    }
-    // the buckets are read: `face_edges` becomes the ids
-    for (e, hs) in edge_halfedges.chunks_exact(2).enumerate() {
-        face_edges[hs[0] as usize] = e as i64;
-        if hs[1] >= 0 {
-            face_edges[hs[1] as usize] = e as i64;
-        }
-    }
-    // floor division: −1 stays −1
-    let edge_faces = edge_halfedges
+    };
+    let (mut edges, mut hei, mut ef) = (
+        split::uninit(2 * n_edges),
+        split::uninit(2 * n_edges),
+        split::uninit(2 * n_edges),
+    );
+    let l2: Vec<usize> = counts.iter().map(|c| 2 * c).collect();
+    let pieces = split::pieces(&mut edges, l2.clone())
+        .into_iter()
+        .zip(split::pieces(&mut hei, l2.clone()))
+        .zip(split::pieces(&mut ef, l2))
+        .zip(vranges.iter())
+        .collect::<Vec<_>>();
+    pl.install(|| {
+        pieces
+            .into_par_iter()
+            .for_each(|(((a, b), c), r)| emit(a, b, c, r))
+    });
+    // SAFETY: each range wrote its edges' rows, and the ranges' rows are all the rows
+    let (edges, edge_halfedges, edge_faces) = unsafe {
+        (
+            split::assume_written(edges),
+            split::assume_written(hei),
+            split::assume_written(ef),
+        )
+    };
+    // the buckets are read: `face_edges` becomes the ids (each half-edge of one edge)
+    let out = split::Scatter::new(&mut face_edges);
+    let starts: Vec<usize> = counts
         .iter()
-        .map(|&x| if x < 0 { -1 } else { x / 3 })
+        .scan(0, |s, &c| {
+            *s += c;
+            Some(*s - c)
+        })
         .collect();
+    pl.install(|| {
+        starts
+            .par_iter()
+            .zip(counts.par_iter())
+            .for_each(|(&s, &c)| {
+                for e in s..s + c {
+                    let (h0, h1) = (edge_halfedges[2 * e], edge_halfedges[2 * e + 1]);
+                    // SAFETY: every half-edge is in one edge: each position written once
+                    unsafe { out.put(h0 as usize, e as i64) };
+                    if h1 >= 0 {
+                        unsafe { out.put(h1 as usize, e as i64) };
+                    }
+                }
+            })
+    });
     Some(EdgeTable {
         edges,
         face_edges,
@@ -120,15 +241,21 @@ pub fn edge_table(f: &[i64], n: usize) -> Option<EdgeTable> {
     })
 }
 
+/// Half-edges per thread below which the edge table stays on fewer threads.
+const PART_MIN: usize = 1 << 16;
+
 type Arr<'py> = Bound<'py, PyArray1<i64>>;
 
 /// `_edge_table(F, n)` as (edges (e, 2), face_edges (m, 3), edge_halfedges (e, 2),
 /// edge_faces (e, 2)) int64; None when an edge has more than two faces (or too many ids).
+/// On `threads` threads (the same arrays).
 #[pyfunction]
+#[pyo3(signature = (f, n_vertices, threads=1))]
 pub fn edge_table_arrays<'py>(
     py: Python<'py>,
     f: PyReadonlyArray2<'py, i64>,
     n_vertices: usize,
+    threads: usize,
 ) -> PyResult<
     Option<(
         Bound<'py, PyAny>,
@@ -146,7 +273,8 @@ pub fn edge_table_arrays<'py>(
             "F holds vertex ids out of range",
         ));
     }
-    let Some(t) = py.detach(|| edge_table(ff, n_vertices)) else {
+    let pl = crate::pool_for(threads, ff.len())?;
+    let Some(t) = py.detach(|| edge_table(ff, n_vertices, &pl)) else {
         return Ok(None);
     };
     let two = |v: Vec<i64>, c: usize| -> PyResult<Bound<'py, PyAny>> {
@@ -211,7 +339,9 @@ pub fn triangle_normals<'py>(
 /// The interior edges of an edge table's `edge_halfedges` (e, 2) rows, flat: (h0, h1) of
 /// each row with a second half-edge, in edge order.
 pub fn interior(hei: &[i64]) -> impl Iterator<Item = (i64, i64)> + '_ {
-    hei.chunks_exact(2).filter(|r| r[1] >= 0).map(|r| (r[0], r[1]))
+    hei.chunks_exact(2)
+        .filter(|r| r[1] >= 0)
+        .map(|r| (r[0], r[1]))
 }
 
 /// `_interior_pairs` of an edge table: from `edge_halfedges` (e, 2) the two half-edges of
@@ -316,7 +446,9 @@ pub fn vertex_normals_of<'py>(
     let ff = crate::arrays::flat(&f, "F")?;
     let ww = crate::arrays::flat(&n2, "n2")?;
     if f.shape()[1] != 3 || n2.shape()[1] != 3 {
-        return Err(pyo3::exceptions::PyValueError::new_err("F and n2 must be (m, 3)"));
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "F and n2 must be (m, 3)",
+        ));
     }
     let Some(out) = py.detach(|| vertex_normals(n_vertices, ff, ww)) else {
         return Ok(None);

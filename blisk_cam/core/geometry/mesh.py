@@ -19,6 +19,7 @@ from ..errors import MeshError
 from ..kernels import mesh_orient as compiled_orient
 from ..kernels import mesh_tables as compiled_tables
 from ..kernels import weld as compiled_weld
+from ..runtime import workers
 from .weld import (
     _checked_arrays,
     _edge_table,
@@ -348,7 +349,8 @@ class TriMesh:
         m = len(self.F)
         # compiled: the components by union–find over the edge table (the same labels) and
         # a count of the inconsistent edges; the pairs are built only if there is one
-        got = compiled_orient.face_components(self.F, self._edges()["edge_halfedges"])
+        got = compiled_orient.face_components(self.F, self._edges()["edge_halfedges"],
+                                              workers())
         if got is not None:
             ncomp, labels, any_inconsistent = got
         if got is None or any_inconsistent:
@@ -413,7 +415,8 @@ class TriMesh:
         centroid (mm³, > 0 when the normals point out), area (mm²) and the summed magnitude of
         the loops' vector areas (mm², the size of the caps)."""
         V, F = self.V, self.F
-        got = compiled_orient.orient_face_terms(V, F, labels, ncomp)  # the same, one pass
+        # the same bits, one pass (the per-face terms on the threads, the sums in face order)
+        got = compiled_orient.orient_face_terms(V, F, labels, ncomp, workers())
         if got is not None:
             n2, ln, fn, areas, vol, area, ref = got
             self._cache.update(n2=n2, fn_area2=ln, fn=fn, areas=areas)

@@ -14,6 +14,7 @@ from ..errors import MeshError
 from ..kernels import mesh_orient as compiled_orient
 from ..kernels import weld as compiled_weld
 from ..kernels import weld_near as compiled_near
+from ..runtime import workers
 
 __all__ = ["input_vertex_values"]
 
@@ -316,7 +317,7 @@ def _kept_faces(F, nv_mesh):
     if topo is not None:
         # compiled: read from the edge table, no pairs built (the orientation then reads the
         # table too); numpy: the pairs, kept for the orientation
-        repeats = compiled_orient.repeats_on_edges(Fk, topo["edge_halfedges"])
+        repeats = compiled_orient.repeats_on_edges(Fk, topo["edge_halfedges"], workers())
         if repeats is None:
             pairs = _interior_pairs(topo)
             repeats = _repeats_on_edges(Fk, *pairs)
@@ -346,7 +347,7 @@ def _edge_table(F, n):
     Raises MeshError when an edge has more than two faces (non-manifold).
     The compiled kernel gives the same arrays by a counting sort (None: this reference).
     """
-    got = compiled_weld.edge_table(F, n)
+    got = compiled_weld.edge_table(F, n, workers())  # the same arrays on any threads
     if got is not None:
         return got
     n = np.int64(n)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension, kernel
+from .backend import extension, kernel, mesh_threads
 
 __all__ = ["edge_table", "first_equal_point", "first_equal_rows", "interior_pairs",
            "interpolate_normals", "stl_corners_welded", "triangle_normals",
@@ -54,16 +54,17 @@ def stl_corners_welded(records, n: int):
     return V.reshape(-1, 3), corner.reshape(-1, 3)
 
 
-def edge_table(F, n_vertices: int):
+def edge_table(F, n_vertices: int, threads: int = 1):
     """The edge table of the faces F (m, 3) over ``n_vertices`` (``geometry.weld``'s
     ``_edge_table``: a dict of ``edges``, ``face_edges``, ``edge_halfedges``,
     ``edge_faces``, the same arrays) by a counting sort of the half-edges; None when the
     numpy kernels run (or a wheel without this kernel), when an edge has more than two faces
-    (the numpy reference then raises) or the ids exceed 32 bits."""
+    (the numpy reference then raises) or the ids exceed 32 bits. On ``threads`` threads (the
+    same arrays)."""
     fn = kernel("edge_table_arrays")
     if fn is None:
         return None
-    got = fn(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices))
+    got = fn(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices), *mesh_threads(threads))
     if got is None:
         return None
     edges, face_edges, edge_halfedges, edge_faces = got
