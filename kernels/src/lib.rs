@@ -573,9 +573,6 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(polyline_distance::polyline_distance, m)?)?;
     m.add_function(wrap_pyfunction!(level_chains::chain_directed, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_topology::edge_table_arrays, m)?)?;
-    // 1: edge_table_arrays, orient_face_terms, face_components and repeats_on_edges take
-    // a thread count (last)
-    m.add("MESH_THREADS_REVISION", 1)?;
     m.add_function(wrap_pyfunction!(mesh_orient::face_components, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_orient::orient_face_terms, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_orient::repeats_on_edges, m)?)?;

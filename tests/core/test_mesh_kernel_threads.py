@@ -15,16 +15,8 @@ from blisk_cam.core.kernels import weld as compiled_weld
 from blisk_cam.core.runtime import parallel
 from tests.support.kernels import needs_compiled
 
-_compiled = needs_compiled("edge_table_arrays", "orient_face_terms", "face_components",
-                           "repeats_on_edges")
-_threaded = pytest.mark.skipif(
-    getattr(backend.extension(), "MESH_THREADS_REVISION", 0) < 1,
-    reason="the installed compiled kernels were built before the mesh kernels took a thread "
-           "count (make kernels): they run on one thread")
-
-
-def kernel(test):
-    return _compiled(_threaded(test))
+kernel = needs_compiled("edge_table_arrays", "orient_face_terms", "face_components",
+                        "repeats_on_edges")
 
 
 def _bits(a, b, what):

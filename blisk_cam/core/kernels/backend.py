@@ -19,7 +19,7 @@ except ImportError as _exc:
 else:
     _why = ""
 
-__all__ = ["backend_name", "extension", "kernel", "mesh_threads", "numpy_only", "ENV"]
+__all__ = ["backend_name", "extension", "kernel", "numpy_only", "ENV"]
 
 #: the environment variable that picks the backend (``numpy`` forces it; anything else or
 #: unset: the compiled kernels when installed)
@@ -55,14 +55,6 @@ def kernel(name: str):
     extension is older than it (the wrappers then fall back to their numpy reference)."""
     ext = extension()
     return getattr(ext, name, None) if ext is not None else None
-
-
-def mesh_threads(threads: int) -> tuple:
-    """The thread-count argument of the mesh kernels that take one (the edge table, the
-    orientation's face terms, components and repeats): ``(threads,)`` (at least 1), or
-    ``()`` for an extension built before they did (they then run on one thread)."""
-    ext = extension()
-    return (max(1, int(threads)),) if getattr(ext, "MESH_THREADS_REVISION", 0) >= 1 else ()
 
 
 def backend_name() -> str:

@@ -9,7 +9,7 @@ import functools
 
 import numpy as np
 
-from .backend import kernel, mesh_threads
+from .backend import kernel
 
 __all__ = ["einsum_outer_first", "face_components", "orient_face_terms", "repeats_on_edges"]
 
@@ -27,7 +27,7 @@ def face_components(F, edge_halfedges, threads: int = 1):
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
     return fn(np.require(F, requirements=req), np.require(edge_halfedges, requirements=req),
-              *mesh_threads(threads))
+              max(1, int(threads)))
 
 
 def repeats_on_edges(F, edge_halfedges, threads: int = 1):
@@ -40,7 +40,7 @@ def repeats_on_edges(F, edge_halfedges, threads: int = 1):
         return None
     req = ("C_CONTIGUOUS", "ALIGNED")
     return bool(fn(np.require(F, requirements=req),
-                   np.require(edge_halfedges, requirements=req), *mesh_threads(threads)))
+                   np.require(edge_halfedges, requirements=req), max(1, int(threads))))
 
 
 @functools.cache
@@ -82,4 +82,4 @@ def orient_face_terms(V, F, labels, ncomp: int, threads: int = 1):
     req = ("C_CONTIGUOUS", "ALIGNED")
     return fn(np.require(V, requirements=req), np.require(F, requirements=req),
               np.require(labels, requirements=req), int(ncomp), outer_first,
-              *mesh_threads(threads))
+              max(1, int(threads)))

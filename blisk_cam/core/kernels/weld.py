@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import extension, kernel, mesh_threads
+from .backend import extension, kernel
 
 __all__ = ["edge_table", "first_equal_point", "first_equal_rows", "interior_pairs",
            "interpolate_normals", "stl_corners_welded", "triangle_normals",
@@ -64,7 +64,7 @@ def edge_table(F, n_vertices: int, threads: int = 1):
     fn = kernel("edge_table_arrays")
     if fn is None:
         return None
-    got = fn(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices), *mesh_threads(threads))
+    got = fn(np.ascontiguousarray(F, dtype=np.int64), int(n_vertices), max(1, int(threads)))
     if got is None:
         return None
     edges, face_edges, edge_halfedges, edge_faces = got
