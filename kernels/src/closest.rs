@@ -5,6 +5,7 @@
 //! for operation (every three-term dot product summed as numpy's einsum does,
 //! `(x0 y0 + x2 y2) + x1 y1`), so the chosen face is the numpy reference's.
 
+use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmax;
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
@@ -16,11 +17,6 @@ pub type P3 = [f64; 3];
 #[inline(always)]
 fn sub(a: &P3, b: &P3) -> P3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 
 #[inline(always)]

@@ -13,15 +13,12 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::arrays::{points_n, values_n};
+use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::{nanmax, nanmin};
 use crate::swept_cutter::{seg2, Profile};
 
 type P3 = [f64; 3];
 
-#[inline(always)]
-pub(crate) fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
-}
 #[inline(always)]
 pub(crate) fn sub(a: &P3, b: &P3) -> P3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]

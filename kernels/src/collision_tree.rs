@@ -16,8 +16,9 @@ use pyo3::types::PyList;
 use rayon::prelude::*;
 
 use crate::arrays::{flat, points};
-use crate::collision_refine::{dot, norm, sub};
+use crate::collision_refine::{norm, sub};
 use crate::collision_walk::{CollisionTree, Node, Tree, Tri, BRANCH, LEAF};
+use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::{nanmax, nanmin};
 
 type P3 = [f64; 3];
@@ -34,7 +35,7 @@ fn spread(x: u64) -> u64 {
 }
 
 /// `np.einsum("ij,ij->i", e, e)` of one row, summed as numpy's einsum sums three products
-/// (numpy 1.26 and 2.x alike): (x² + z²) + y² — `collision_refine::dot`'s order.
+/// (numpy 1.26 and 2.x alike): (x² + z²) + y² — `numpy_ops::einsum_dot`'s order.
 #[inline(always)]
 fn sq(e: &P3) -> f64 {
     dot(e, e)

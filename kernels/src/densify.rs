@@ -17,7 +17,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::arrays::P3;
-use crate::numpy_ops::{nanmax, nanmin};
+use crate::numpy_ops::{einsum_dot as dot, nanmax, nanmin};
 
 /// Most pieces a segment is split into (the reference's cap).
 const MAX_PIECES: i64 = 10_000;
@@ -26,12 +26,6 @@ const MAX_PIECES: i64 = 10_000;
 #[inline(always)]
 fn norm(v: &P3) -> f64 {
     ((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2]).sqrt()
-}
-
-/// `np.einsum("ij,ij->i")` of one row pair: `(a₀b₀ + a₂b₂) + a₁b₁`.
-#[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 
 /// numpy's float64 → int64 cast on x86: values outside the int64 range and NaN become

@@ -12,14 +12,11 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
+use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmin;
 
 pub(crate) type P3 = [f64; 3];
 
-#[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
-}
 #[inline(always)]
 fn sub(a: &P3, b: &P3) -> P3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]

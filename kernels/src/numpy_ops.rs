@@ -1,6 +1,14 @@
 //! numpy's element-wise operations with numpy's own semantics, for kernels whose results must
 //! equal the numpy reference bit for bit.
 
+/// `np.einsum("ij,ij->i")` (numpy's row dot) of one pair of 3-vectors, summed as numpy sums
+/// three terms: `(a₀b₀ + a₂b₂) + a₁b₁` (its two-lane loop puts terms 0 and 2 in one lane;
+/// numpy 1.26 and 2.x alike).
+#[inline(always)]
+pub fn einsum_dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
+}
+
 /// np.maximum: NaN if either is NaN.
 #[inline(always)]
 pub fn nanmax(a: f64, b: f64) -> f64 {

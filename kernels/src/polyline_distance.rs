@@ -15,8 +15,8 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::closest::clip01;
-use crate::collision_refine::dot;
 use crate::knn::KnnBuffers;
+use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmin;
 
 pub type P3 = [f64; 3];

@@ -11,17 +11,13 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
+use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmax;
 
 type P3 = [f64; 3];
 
 /// Fewer edges than this are solved on the calling thread.
 const PARALLEL_MIN: usize = 16_384;
-
-#[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
-}
 
 #[inline(always)]
 fn norm(a: &P3) -> f64 {

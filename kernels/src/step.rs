@@ -10,13 +10,10 @@
 //! largest squared distance is `<=` the tolerance (NaN fails, as in numpy). No fused
 //! multiply-add: Rust never contracts `a * b + c` on its own.
 
+use crate::numpy_ops::einsum_dot as dot3;
+
 /// One polyline point, mm.
 pub type P3 = [f64; 3];
-
-#[inline(always)]
-fn dot3(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
-}
 
 /// Whether every point strictly between `i` and `j` lies within `tol` of the segment from
 /// point `i` to point `j` (the test of `_span_deviations` for one end and one polyline).

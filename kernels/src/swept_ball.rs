@@ -15,14 +15,10 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
+use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmax;
 
 pub type P3 = [f64; 3];
-
-#[inline(always)]
-fn dot(a: &P3, b: &P3) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
-}
 
 #[inline(always)]
 fn sub3(a: &P3, b: &P3) -> P3 {

@@ -4,6 +4,7 @@
 //! same pruning by the point's best after every step, the same pairs dropped), the points
 //! in parallel. The cutter's distance is `Cutter.signed_distance_rz` operation for operation.
 
+use crate::numpy_ops::einsum_dot as dot3;
 use crate::numpy_ops::nanmin;
 use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -308,11 +309,6 @@ pub fn golden_pairs<'py>(
         arg[k] = i;
     }
     Ok((PyArray1::from_vec(py, best), PyArray1::from_vec(py, arg)))
-}
-
-#[inline(always)]
-fn dot3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 
 /// The tables of `_fast_search` (a SweptCutter's or a SweptForest's).
