@@ -117,6 +117,48 @@ impl PointTree {
         }
     }
 
+    /// Pushes the children of the split `n` (its right child `right`) that hold a live
+    /// query, the nearer last (searched first: the one whose least bound over its live
+    /// queries is smaller), each with the packet's bounds there. A query not live at `n`
+    /// (`mask`) gets +∞ in both children (they inherit it); `live` gives a child's live
+    /// queries from its bounds.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn push_children(
+        &self,
+        pk: &Pk,
+        n: u32,
+        right: u32,
+        lb: &Lb,
+        mask: u32,
+        live: impl Fn(&Lb) -> u32,
+        stack: &mut Vec<(u32, Lb)>,
+    ) {
+        let mut pl = *lb;
+        for (i, x) in pl.iter_mut().enumerate() {
+            if mask >> i & 1 == 0 {
+                *x = f64::INFINITY;
+            }
+        }
+        let left = n + 1;
+        let dl = self.packet_lb(pk, left, &pl);
+        let dr = self.packet_lb(pk, right, &pl);
+        let (ml, mr) = (live(&dl), live(&dr));
+        let (near, far, mn, mf) = if least(&dl, ml) <= least(&dr, mr) {
+            ((left, dl), (right, dr), ml, mr)
+        } else {
+            ((right, dr), (left, dl), mr, ml)
+        };
+        if mf != 0 {
+            self.prefetch_node(far.0);
+            stack.push(far);
+        }
+        if mn != 0 {
+            self.prefetch_node(near.0);
+            stack.push(near);
+        }
+    }
+
     /// Each query's lower bound to node `n`: the largest of its box's ([`super::box_d2`]), its
     /// frame's where the tree has frames ([`super::frame_d2`], the normal made once), and
     /// `parent`'s; each a lower bound of the squared distances to the node's points (see
@@ -289,31 +331,8 @@ impl PointTree {
                         &mut lim,
                     );
                 } else {
-                    // a pruned query's bound is +∞ in both children (they inherit it)
-                    let mut pl = lb;
-                    for (i, x) in pl.iter_mut().enumerate() {
-                        if mask >> i & 1 == 0 {
-                            *x = f64::INFINITY;
-                        }
-                    }
-                    let (left, right) = (n + 1, r.b);
-                    let dl = self.packet_lb(&pk, left, &pl);
-                    let dr = self.packet_lb(&pk, right, &pl);
-                    let (ml, mr) = (live(&dl, &lim), live(&dr, &lim));
-                    // the nearer (for the nearest query) searched first
-                    let (near, far, mn, mf) = if least(&dl, ml) <= least(&dr, mr) {
-                        ((left, dl), (right, dr), ml, mr)
-                    } else {
-                        ((right, dr), (left, dl), mr, ml)
-                    };
-                    if mf != 0 {
-                        self.prefetch_node(far.0);
-                        stack.push(far);
-                    }
-                    if mn != 0 {
-                        self.prefetch_node(near.0);
-                        stack.push(near);
-                    }
+                    let live = |b: &Lb| live(b, &lim);
+                    self.push_children(&pk, n, r.b, &lb, mask, live, stack);
                 }
             }
         }
@@ -479,29 +498,8 @@ impl PointTree {
                         break;
                     }
                 } else {
-                    let mut pl = lb;
-                    for (i, x) in pl.iter_mut().enumerate() {
-                        if mask >> i & 1 == 0 {
-                            *x = f64::INFINITY;
-                        }
-                    }
-                    let (left, right) = (n + 1, r.b);
-                    let dl = self.packet_lb(&pk, left, &pl);
-                    let dr = self.packet_lb(&pk, right, &pl);
-                    let (ml, mr) = (live(&dl, &hit), live(&dr, &hit));
-                    let (near, far, mn, mf) = if least(&dl, ml) <= least(&dr, mr) {
-                        ((left, dl), (right, dr), ml, mr)
-                    } else {
-                        ((right, dr), (left, dl), mr, ml)
-                    };
-                    if mf != 0 {
-                        self.prefetch_node(far.0);
-                        stack.push(far);
-                    }
-                    if mn != 0 {
-                        self.prefetch_node(near.0);
-                        stack.push(near);
-                    }
+                    let live = |b: &Lb| live(b, &hit);
+                    self.push_children(&pk, n, r.b, &lb, mask, live, stack);
                 }
             }
         }
