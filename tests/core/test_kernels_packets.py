@@ -14,15 +14,9 @@ from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.kernels import mesh_tables as compiled_tables
 from tests.support.kernels import needs_compiled
+from tests.support.mesh_files import cylinder_sheet, sample_points
 
 compiled = needs_compiled(why="the packet searches are compiled only")
-
-
-def _samples(mesh):
-    """Vertices, edge midpoints, face centroids: the sample tree's points, in its id order."""
-    e, T = mesh.edges, mesh.V[mesh.F]
-    return np.vstack([mesh.V, 0.5 * (mesh.V[e[:, 0]] + mesh.V[e[:, 1]]),
-                      ((T[:, 0] + T[:, 1]) + T[:, 2]) / 3.0])
 
 
 def _brute(pts, C, k, bound):
@@ -39,14 +33,8 @@ def _brute(pts, C, k, bound):
 def cylinder():
     """A cylinder of radius 20 mm, 0.4 mm triangles: (mesh, samples, the sample tree, the
     plain tree over the same samples)."""
-    th, z = np.meshgrid(np.linspace(0.0, 2.0, 101), np.linspace(-8.0, 8.0, 41), indexing="ij")
-    n = z.shape[1]
-    V = np.column_stack([20.0 * np.cos(th.ravel()), 20.0 * np.sin(th.ravel()), z.ravel()])
-    i, j = np.meshgrid(np.arange(th.shape[0] - 1), np.arange(n - 1), indexing="ij")
-    a = (i * n + j).ravel()
-    F = np.vstack([np.column_stack([a, a + n, a + n + 1]), np.column_stack([a, a + n + 1, a + 1])])
-    mesh = TriMesh.from_arrays(V, F)
-    pts = _samples(mesh)
+    mesh = TriMesh.from_arrays(*cylinder_sheet(20.0, 2.0, 101, 8.0, 41))
+    pts = sample_points(mesh)
     return (mesh, pts, compiled_tables.sample_tree(mesh.V, mesh.edges, mesh.F, 2),
             compiled_knn.point_tree(pts, 1))
 
@@ -109,7 +97,7 @@ def test_packets_on_a_flat_grid_with_exact_ties_in_path_order():
     a = (i * n + j).ravel()
     F = np.vstack([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
     mesh = TriMesh.from_arrays(V, F)
-    pts = _samples(mesh)
+    pts = sample_points(mesh)
     tree = compiled_tables.sample_tree(mesh.V, mesh.edges, mesh.F, 2)
     plain = compiled_knn.point_tree(pts, 1)
     s = np.arange(-4.0, 4.0, 0.25)

@@ -24,6 +24,7 @@ from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 from blisk_cam.core.runtime import parallel
 from tests.support.blades import nasa_blade
 from tests.support.kernels import needs_compiled
+from tests.support.mesh_files import cylinder_sheet, sample_points
 
 compiled = needs_compiled(why="the passes stage runs on one thread")
 
@@ -155,9 +156,7 @@ def test_sample_tree_on_a_flat_grid_with_exact_ties():
         if fold:
             W[:, 2] = 0.7 * np.abs(W[:, 0])
         mesh = TriMesh.from_arrays(W, F)
-        e, T = mesh.edges, mesh.V[mesh.F]
-        pts = np.vstack([mesh.V, 0.5 * (mesh.V[e[:, 0]] + mesh.V[e[:, 1]]),
-                         ((T[:, 0] + T[:, 1]) + T[:, 2]) / 3.0])
+        e, pts = mesh.edges, sample_points(mesh)
         C = np.vstack([
             pts[rng.choice(len(pts), 500)] + [0.0, 0.0, 6.0],
             pts[rng.choice(len(pts), 500)] + [0.25, 0.25, 5.9],
@@ -182,16 +181,8 @@ def test_sample_tree_around_a_cylinder_from_both_sides():
     the convex side and the concave side: the samples around the contact lie a hair beyond
     ρ) and ±0.2 mm about that: the 8 nearest within ρ + 0.05 and the screens just below ρ
     from the tree split on the vertices are those of the plain tree and of brute force."""
-    th, z = np.meshgrid(np.linspace(0.0, 2.0, 81), np.linspace(-8.0, 8.0, 65), indexing="ij")
-    n = z.shape[1]
-    V = np.column_stack([20.0 * np.cos(th.ravel()), 20.0 * np.sin(th.ravel()), z.ravel()])
-    i, j = np.meshgrid(np.arange(th.shape[0] - 1), np.arange(n - 1), indexing="ij")
-    a = (i * n + j).ravel()
-    F = np.vstack([np.column_stack([a, a + n, a + n + 1]), np.column_stack([a, a + n + 1, a + 1])])
-    mesh = TriMesh.from_arrays(V, F)
-    e, T = mesh.edges, mesh.V[mesh.F]
-    pts = np.vstack([mesh.V, 0.5 * (mesh.V[e[:, 0]] + mesh.V[e[:, 1]]),
-                     ((T[:, 0] + T[:, 1]) + T[:, 2]) / 3.0])
+    mesh = TriMesh.from_arrays(*cylinder_sheet(20.0, 2.0, 81, 8.0, 65))
+    e, pts = mesh.edges, sample_points(mesh)
     rng = np.random.default_rng(37)
     t, h = rng.uniform(0.2, 1.8, 2000), rng.uniform(-6.0, 6.0, 2000)
     r = np.concatenate([np.full(800, 26.0), np.full(800, 14.0), 20.0 + rng.choice([-1, 1], 400)

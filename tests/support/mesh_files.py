@@ -1,6 +1,7 @@
 """Mesh files written from arrays for the tests and benchmarks (binary/ASCII STL, OBJ,
 ASCII/binary PLY), a reader of binary STL used only as a test oracle, an order-independent
-comparison of triangle soups, and a small curved surface to write."""
+comparison of triangle soups, small surfaces to write or search (a piece of a cone, an
+icosphere, a piece of a cylinder), and the sample points of the passes' sample tree."""
 
 from __future__ import annotations
 
@@ -28,6 +29,29 @@ def sample_surface(nu=5, nv=4):
     c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
     F = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)]).astype(np.int64)
     return V, F
+
+
+def cylinder_sheet(radius, turn, n_turn, half_height, n_height):
+    """An open piece of the cylinder of ``radius`` mm about the z axis: ``n_turn`` vertex
+    columns over the angles 0 … ``turn`` radians, ``n_height`` rows over z = ±``half_height``
+    mm, two triangles a cell. Returns V (n_turn · n_height, 3) float64, F (m, 3) int64."""
+    th, z = np.meshgrid(np.linspace(0.0, turn, n_turn),
+                        np.linspace(-half_height, half_height, n_height), indexing="ij")
+    V = np.column_stack([radius * np.cos(th.ravel()), radius * np.sin(th.ravel()), z.ravel()])
+    i, j = np.meshgrid(np.arange(n_turn - 1), np.arange(n_height - 1), indexing="ij")
+    a = (i * n_height + j).ravel()
+    F = np.vstack([np.column_stack([a, a + n_height, a + n_height + 1]),
+                   np.column_stack([a, a + n_height + 1, a + 1])])
+    return V, F
+
+
+def sample_points(mesh):
+    """The points of the passes' sample tree in its id order (``paths.probe_samples``): the
+    vertices, the edge midpoints and the face centroids of ``mesh`` (a ``TriMesh``), (n, 3)
+    mm, computed here independently of it."""
+    e, T = mesh.edges, mesh.V[mesh.F]
+    return np.vstack([mesh.V, 0.5 * (mesh.V[e[:, 0]] + mesh.V[e[:, 1]]),
+                      ((T[:, 0] + T[:, 1]) + T[:, 2]) / 3.0])
 
 
 def icosphere(subdiv):
