@@ -203,8 +203,9 @@ pub fn face_terms(
         .zip(split::pieces(&mut area, lens.clone()))
         .map(|(((n2, unit), ln), area)| FaceRows { n2, unit, ln, area })
         .collect();
-    if parts == 1 {
-        // one range: the sums as the faces come (no array of the volume terms)
+    // one range: the sums as the faces come (no array of the volume terms); several: each
+    // range writes its faces' volume terms, summed below in face order
+    let vol = if parts == 1 {
         for out in outs {
             face_rows(v, f, o, order, 0..m, out, |i, x, a| {
                 let k = labels[i] as usize;
@@ -212,6 +213,7 @@ pub fn face_terms(
                 comp_area[k] += a;
             });
         }
+        None
     } else {
         let mut vol = split::uninit(m);
         let vols = split::pieces(&mut vol, lens);
@@ -226,16 +228,9 @@ pub fn face_terms(
                     });
                 })
         });
-        // SAFETY: each range wrote its faces' volume terms and areas, and the ranges are all
-        // the faces
-        let vol: Vec<f64> = unsafe { split::assume_written(vol) };
-        let ar: &[f64] =
-            unsafe { &*(area.as_slice() as *const [MaybeUninit<f64>] as *const [f64]) };
-        for ((&k, &x), &a) in labels.iter().zip(&vol).zip(ar) {
-            comp_volume[k as usize] += x;
-            comp_area[k as usize] += a;
-        }
-    }
+        // SAFETY: each range wrote its faces' volume terms, and the ranges are all the faces
+        Some(unsafe { split::assume_written(vol) })
+    };
     // SAFETY: each range wrote its faces' items, and the ranges are all the faces
     let (n2, ln, unit, area) = unsafe {
         (
@@ -245,6 +240,12 @@ pub fn face_terms(
             split::assume_written(area),
         )
     };
+    if let Some(vol) = vol {
+        for ((&k, &x), &a) in labels.iter().zip(&vol).zip(&area) {
+            comp_volume[k as usize] += x;
+            comp_area[k as usize] += a;
+        }
+    }
     Some(FaceTerms {
         n2,
         ln,
