@@ -1,15 +1,13 @@
 //! Nearest faces of a triangle mesh (`blisk_cam/core/geometry/distance.py::NearestFaces`):
 //! for each point, the face at the least squared distance, the lowest face id among equal
-//! ones. parry3d-f64's bounding-volume tree (a tree of the faces' boxes) prunes; the
+//! ones. A bounding-volume tree of boxes and oriented boxes (`face_bvh.rs`) prunes; the
 //! distances that decide are those of `closest.py::closest_on_triangles`, ported operation
 //! for operation (every three-term dot product summed as numpy's einsum does,
 //! `(x0 y0 + x2 y2) + x1 y1`), so the chosen face is the numpy reference's.
 
+use crate::face_bvh::FaceBvh;
 use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmax;
-use parry3d_f64::bounding_volume::Aabb;
-use parry3d_f64::math::Vector;
-use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use rayon::prelude::*;
 
 pub type P3 = [f64; 3];
@@ -158,14 +156,14 @@ const RUN_DISKS: usize = 2;
 /// face (the unit of work of the threads).
 const WARM_RUN: usize = 64;
 
-/// A mesh's faces in parry's bounding-volume tree (one leaf per run of [`RUN`] faces,
+/// A mesh's faces in a bounding-volume tree ([`FaceBvh`]: one leaf per run of [`RUN`] faces,
 /// [`RUN_DISKS`] with the per-face bounds).
 pub struct FaceTree {
     v: Vec<P3>,
     f: Vec<[usize; 3]>,
     order: Vec<u32>, // faces in Morton order: leaf i holds order[run i .. run (i + 1)]
     run: usize,
-    bvh: Bvh,
+    bvh: FaceBvh,
     /// per face (when asked for): the disk in its plane that holds it (see [`FaceDisk`])
     disks: Option<Vec<FaceDisk>>,
 }
@@ -384,27 +382,10 @@ impl FaceTree {
             .collect();
         drop(cen);
         keyed.sort_unstable();
-        let order: Vec<u32> = keyed.into_iter().map(|x| x.1).collect();
+        let (keys, order): (Vec<u64>, Vec<u32>) = keyed.into_iter().unzip();
         let run = if disks { RUN_DISKS } else { RUN };
-        let boxes: Vec<Aabb> = order
-            .chunks(run)
-            .map(|run| {
-                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-                for &fi in run {
-                    for &vi in &f[fi as usize] {
-                        for j in 0..3 {
-                            lo[j] = lo[j].min(v[vi][j]);
-                            hi[j] = hi[j].max(v[vi][j]);
-                        }
-                    }
-                }
-                Aabb::new(
-                    Vector::new(lo[0], lo[1], lo[2]),
-                    Vector::new(hi[0], hi[1], hi[2]),
-                )
-            })
-            .collect();
-        let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &boxes);
+        let bvh = FaceBvh::new(&v, &f, &order, &keys, run);
+        drop(keys);
         let disks = disks.then(|| {
             f.iter()
                 .map(|t| FaceDisk::new(&v[t[0]], &v[t[1]], &v[t[2]]))
@@ -460,9 +441,10 @@ impl FaceTree {
     /// The nearest face of one point (-1 for a non-finite point or an empty mesh), searched
     /// from the face `guess` (a face id or −1: e.g. the previous
     /// point's along a polyline): its distance bounds the search from the start. One
-    /// best-first walk: a run is visited while its box is within the least distance found so
-    /// far (with room for the boxes' and the distances' rounding), so every face at the least
-    /// squared distance is compared — the least d2, then the lowest id, whatever the guess.
+    /// depth-first walk, the nearer child first: a run is visited while its bound (box and
+    /// oriented box) is within the least distance found so far (with room for the bounds' and
+    /// the distances' rounding), so every face at the least squared distance is compared —
+    /// the least d2, then the lowest id, whatever the guess.
     pub fn nearest_from(&self, p: &P3, guess: i64) -> i64 {
         if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) || self.f.is_empty() {
             return -1;
@@ -497,39 +479,31 @@ impl FaceTree {
                 start = reach2(b);
             }
         }
-        self.bvh.find_best(
-            start,
-            |node, _| {
-                let a = node.aabb();
-                let bx = [a.mins.x, a.mins.y, a.mins.z, a.maxs.x, a.maxs.y, a.maxs.z];
-                crate::swept_ball::box_d2(&bx, p)
-            },
-            |leaf, _| {
-                match &self.disks {
-                    Some(disks) => {
-                        for &face in self.run(leaf) {
-                            // a face whose disk is beyond the reach of the best cannot
-                            // reach or tie it
-                            let (b, _) = best.get();
-                            if !disks[face as usize].beyond(p, reach(b)) {
-                                consider(face, false);
-                            }
-                        }
-                    }
-                    None => {
-                        for &face in self.run(leaf) {
-                            consider(face, true);
+        self.bvh.walk(p, start, |leaf| {
+            match &self.disks {
+                Some(disks) => {
+                    for &face in self.run(leaf) {
+                        // a face whose disk is beyond the reach of the best cannot
+                        // reach or tie it
+                        let (b, _) = best.get();
+                        if !disks[face as usize].beyond(p, reach(b)) {
+                            consider(face, false);
                         }
                     }
                 }
-                let (b, _) = best.get();
-                if b.is_finite() {
-                    Some(reach2(b))
-                } else {
-                    None
+                None => {
+                    for &face in self.run(leaf) {
+                        consider(face, true);
+                    }
                 }
-            },
-        );
+            }
+            let (b, _) = best.get();
+            if b.is_finite() {
+                Some(reach2(b))
+            } else {
+                None
+            }
+        });
         let (_, id) = best.get();
         if id == u32::MAX {
             -1

@@ -17,6 +17,7 @@ mod collision_refine;
 mod collision_tree;
 mod collision_walk;
 mod densify;
+mod face_bvh;
 mod face_gradient;
 mod facet_lift;
 mod float_text;
@@ -26,8 +27,8 @@ mod intrusion_probes;
 mod knn;
 mod level_chains;
 mod lift;
-mod mesh_samples;
 mod mesh_orient;
+mod mesh_samples;
 mod mesh_topology;
 mod numpy_ops;
 mod polyline_distance;
@@ -36,13 +37,13 @@ mod resample;
 mod slice_candidates;
 mod slice_roots;
 mod slice_setup;
+mod split;
 mod step;
 mod stock;
 mod swept_ball;
 mod swept_cutter;
 mod weld;
 mod weld_near;
-mod split;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -118,8 +119,8 @@ fn pool_identity(threads: usize) -> PyResult<usize> {
     Ok(Arc::as_ptr(&pool(threads)?) as usize)
 }
 
-/// The faces of a mesh in parry's bounding-volume tree, for nearest-face queries (see
-/// `distance.NearestFaces`).
+/// The faces of a mesh in a bounding-volume tree (closest.rs, face_bvh.rs), for nearest-face
+/// queries (see `distance.NearestFaces`).
 #[pyclass(frozen)]
 struct FaceTree {
     tree: closest::FaceTree,

@@ -1,5 +1,5 @@
-"""Nearest faces of a triangle mesh, compiled (parry3d-f64's bounding-volume tree prunes; the
-squared distances that decide are those of
+"""Nearest faces of a triangle mesh, compiled (a bounding-volume tree of boxes and oriented
+boxes prunes, kernels/src/face_bvh.rs; the squared distances that decide are those of
 :func:`blisk_cam.core.geometry.closest.closest_on_triangles`, operation for operation, so
 the faces chosen are the numpy reference's)."""
 
