@@ -34,15 +34,129 @@ const WORLD: [P3; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 /// An oriented box: centre, orthonormal axes, half extents.
 type Obb = (P3, [P3; 3], P3);
 
-/// One node: its box (lo, hi); its oriented box (centre c, axes a, half extents h; h[0] = ∞:
-/// none, the box alone); its children (or [`LEAF`], run).
+/// A node while the tree is built: its box (lo, hi); its oriented box (centre c, axes a,
+/// half extents h; h[0] = ∞: none, the box alone); the sum of its faces' area vectors.
 #[derive(Clone, Copy)]
 struct Node {
     bx: [f64; 6],
     c: P3,
     a: [P3; 3],
     h: P3,
+    area: P3,
+}
+
+/// A node as the queries read it (80 bytes, parry's tree took 56 a node): its box rounded
+/// outward to f32; its oriented box, holding the built one, in f32 — the centre as an
+/// offset from the box's centre, the axes n, u (and n × u, computed), the half extents
+/// rounded up (h[0] = ∞: none); its children (or [`LEAF`], run).
+#[derive(Clone, Copy)]
+struct Packed {
+    lo: [f32; 3],
+    hi: [f32; 3],
+    off: [f32; 3],
+    n: [f32; 3],
+    u: [f32; 3],
+    h: [f32; 3],
     kids: [u32; 2],
+}
+
+/// The f32 next to a non-NaN `y` towards +∞ (`up`) or −∞ (f32::next_up / next_down, which
+/// need Rust 1.86).
+fn step(y: f32, up: bool) -> f32 {
+    if y == 0.0 {
+        let t = f32::from_bits(1);
+        return if up { t } else { -t };
+    }
+    let b = y.to_bits();
+    f32::from_bits(if (y > 0.0) == up { b + 1 } else { b - 1 })
+}
+
+/// The f32 at or below x.
+fn down(x: f64) -> f32 {
+    let y = x as f32;
+    if f64::from(y) > x {
+        step(y, false)
+    } else {
+        y
+    }
+}
+
+/// The f32 at or above x.
+fn up(x: f64) -> f32 {
+    let y = x as f32;
+    if f64::from(y) < x {
+        step(y, true)
+    } else {
+        y
+    }
+}
+
+fn wide(x: &[f32; 3]) -> P3 {
+    [f64::from(x[0]), f64::from(x[1]), f64::from(x[2])]
+}
+
+impl Packed {
+    /// The box's centre (the origin of the oriented box's offset).
+    #[inline(always)]
+    fn box_centre(lo: &P3, hi: &P3) -> P3 {
+        [
+            0.5 * (lo[0] + hi[0]),
+            0.5 * (lo[1] + hi[1]),
+            0.5 * (lo[2] + hi[2]),
+        ]
+    }
+
+    /// The axes n, u, n × u (orthonormal to ~1e-7: f32 n and u).
+    #[inline(always)]
+    fn axes(n: &[f32; 3], u: &[f32; 3]) -> [P3; 3] {
+        let (n, u) = (wide(n), wide(u));
+        [n, u, cross(&n, &u)]
+    }
+
+    /// The node `nd` (built) with children `kids`, rounded outward: the oriented box in the
+    /// rounded axes is the one around the built box (c·e ± Σ h_i |a_i·e| along each axis e),
+    /// grown by the rounding of its centre and by 1e-9 of its extents.
+    fn new(nd: &Node, kids: [u32; 2]) -> Self {
+        let b = &nd.bx;
+        let (lo, hi) = (
+            [down(b[0]), down(b[1]), down(b[2])],
+            [up(b[3]), up(b[4]), up(b[5])],
+        );
+        let mut p = Packed {
+            lo,
+            hi,
+            off: [0.0; 3],
+            n: [0.0; 3],
+            u: [0.0; 3],
+            h: [f32::INFINITY; 3],
+            kids,
+        };
+        if nd.h[0] < f64::INFINITY {
+            let n = nd.a[0].map(|x| x as f32);
+            let u = nd.a[1].map(|x| x as f32);
+            let ax = Self::axes(&n, &u);
+            let bc = Self::box_centre(&wide(&lo), &wide(&hi));
+            let off = sub(&nd.c, &bc).map(|x| x as f32);
+            let c2 = [
+                bc[0] + f64::from(off[0]),
+                bc[1] + f64::from(off[1]),
+                bc[2] + f64::from(off[2]),
+            ];
+            let e = sub(&nd.c, &c2);
+            let moved = (e[0].abs() + e[1].abs() + e[2].abs()) * (1.0 + 1e-6);
+            let sum = nd.h[0] + nd.h[1] + nd.h[2];
+            let h = [0, 1, 2].map(|j| {
+                let r = nd.h[0] * dot(&nd.a[0], &ax[j]).abs()
+                    + nd.h[1] * dot(&nd.a[1], &ax[j]).abs()
+                    + nd.h[2] * dot(&nd.a[2], &ax[j]).abs();
+                up(r + moved + 1e-9 * (1.0 + sum))
+            });
+            if off.iter().chain(&h).all(|x| x.is_finite()) {
+                (p.off, p.n, p.u, p.h) = (off, n, u, h);
+            }
+        }
+        p
+    }
 }
 
 impl Node {
@@ -172,7 +286,7 @@ fn volume(h: &P3) -> f64 {
 
 /// The tree (nodes in depth-first order, the root first).
 pub struct FaceBvh {
-    nodes: Vec<Node>,
+    nodes: Vec<Packed>,
 }
 
 impl FaceBvh {
@@ -187,7 +301,6 @@ impl FaceBvh {
             run,
             keys: (0..runs).map(|i| keys[i * run]).collect(),
             nodes: Vec::with_capacity(2 * runs),
-            area: Vec::with_capacity(2 * runs),
         };
         if runs > 0 {
             b.build(0, runs);
@@ -197,25 +310,36 @@ impl FaceBvh {
 
     /// A lower bound of the squared distance from `p` to the faces of node `i`, exact enough
     /// to decide against `r2`: the box's when it is not below `r2`, else the larger of the
-    /// box's and the oriented box's; the latter less a rounding pad of 1e-9 of the lengths
-    /// (the pad of `closest.rs`' face disks), as s − 2 pad max(s, 1) ≤ (√s − pad)².
+    /// box's and the oriented box's. The latter's axes are orthonormal to ~1e-7 (f32), so
+    /// its sum s of squared overshoots along them is within a factor 1 + 1e-6 of a squared
+    /// distance; less a rounding pad of 1e-9 of the lengths (the pad of `closest.rs`' face
+    /// disks), as s − 2 pad max(s, 1) ≤ (√s − pad)².
     #[inline(always)]
     fn lower_d2(&self, i: u32, p: &P3, r2: f64) -> f64 {
         let nd = &self.nodes[i as usize];
-        let b = box_d2(&nd.bx, p);
-        if !(b < r2 && nd.h[0] < f64::INFINITY) {
+        let (lo, hi) = (wide(&nd.lo), wide(&nd.hi));
+        let b = box_d2(&[lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]], p);
+        if !(b < r2 && nd.h[0] < f32::INFINITY) {
             return b;
         }
-        let d = sub(p, &nd.c);
+        let bc = Packed::box_centre(&lo, &hi);
+        let d = [
+            p[0] - (bc[0] + f64::from(nd.off[0])),
+            p[1] - (bc[1] + f64::from(nd.off[1])),
+            p[2] - (bc[2] + f64::from(nd.off[2])),
+        ];
+        let a = Packed::axes(&nd.n, &nd.u);
+        let h = wide(&nd.h);
         let mut s = 0.0;
         for j in 0..3 {
-            let e = dot(&d, &nd.a[j]).abs() - nd.h[j];
+            let e = dot(&d, &a[j]).abs() - h[j];
             if e > 0.0 {
                 s += e * e;
             }
         }
+        let s = s * (1.0 - 1e-6);
         let dd = dot(&d, &d);
-        let pad = 1e-9 * (1.0 + dd.max(1.0) + (nd.h[0] + nd.h[1] + nd.h[2]));
+        let pad = 1e-9 * (1.0 + dd.max(1.0) + (h[0] + h[1] + h[2]));
         let lb = s - 2.0 * pad * s.max(1.0);
         if lb > b {
             lb
@@ -269,31 +393,31 @@ struct Builder<'a> {
     order: &'a [u32],
     run: usize,
     keys: Vec<u64>, // per run: its first face's Morton code
-    nodes: Vec<Node>,
-    area: Vec<P3>, // per node: the sum of its faces' area vectors (ab × ac)
+    nodes: Vec<Packed>,
 }
 
 impl Builder<'_> {
-    /// The node of runs lo..hi (its id; its subtree follows it).
-    fn build(&mut self, lo: usize, hi: usize) -> u32 {
+    /// The node of runs lo..hi: its id (its subtree follows it) and its bounds as built.
+    fn build(&mut self, lo: usize, hi: usize) -> (u32, Node) {
         let id = self.nodes.len() as u32;
-        self.nodes.push(Node {
+        let none = Node {
             bx: [0.0; 6],
             c: [0.0; 3],
             a: WORLD,
             h: [f64::INFINITY; 3],
-            kids: [LEAF, lo as u32],
-        });
-        self.area.push([0.0; 3]);
-        if hi - lo == 1 {
-            self.leaf(id, lo);
-            return id;
-        }
-        let mid = self.split(lo, hi);
-        let a = self.build(lo, mid);
-        let b = self.build(mid, hi);
-        self.parent(id, a, b);
-        id
+            area: [0.0; 3],
+        };
+        self.nodes.push(Packed::new(&none, [LEAF, lo as u32]));
+        let (nd, kids) = if hi - lo == 1 {
+            (self.leaf(lo), [LEAF, lo as u32])
+        } else {
+            let mid = self.split(lo, hi);
+            let (a, na) = self.build(lo, mid);
+            let (b, nb) = self.build(mid, hi);
+            (Self::parent(&na, &nb), [a, b])
+        };
+        self.nodes[id as usize] = Packed::new(&nd, kids);
+        (id, nd)
     }
 
     /// Where runs lo..hi split: at the highest bit where their codes differ (the middle
@@ -308,8 +432,7 @@ impl Builder<'_> {
     }
 
     /// Keep the oriented box `o` where it is smaller than the node's box.
-    fn keep(&mut self, id: u32, o: Option<Obb>) {
-        let nd = &mut self.nodes[id as usize];
+    fn keep(nd: &mut Node, o: Option<Obb>) {
         let b = &nd.bx;
         let hb = [b[3] - b[0], b[4] - b[1], b[5] - b[2]];
         if let Some((c, a, h)) = o {
@@ -319,7 +442,7 @@ impl Builder<'_> {
         }
     }
 
-    fn leaf(&mut self, id: u32, r: usize) {
+    fn leaf(&self, r: usize) -> Node {
         let s = r * self.run;
         let faces = &self.order[s..(s + self.run).min(self.order.len())];
         let mut area = [0.0; 3];
@@ -346,10 +469,15 @@ impl Builder<'_> {
                 }
             }
         }
-        self.nodes[id as usize].bx = [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]];
-        self.area[id as usize] = area;
+        let mut nd = Node {
+            bx: [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]],
+            c: [0.0; 3],
+            a: WORLD,
+            h: [f64::INFINITY; 3],
+            area,
+        };
         if !(lo.iter().chain(&hi).all(|x| x.is_finite())) {
-            return; // (a vertex not finite: the box alone, as for its parents)
+            return nd; // (a vertex not finite: the box alone, as for its parents)
         }
         // in-plane: along the longest extent from the first vertex
         let o = frame(&unit(&area), &far).and_then(|a| {
@@ -366,16 +494,20 @@ impl Builder<'_> {
             }
             boxed(a, &lo, &hi)
         });
-        self.keep(id, o);
+        Self::keep(&mut nd, o);
+        nd
     }
 
-    fn parent(&mut self, id: u32, a: u32, b: u32) {
-        let (na, nb) = (self.nodes[a as usize], self.nodes[b as usize]);
-        let (aa, ab) = (self.area[a as usize], self.area[b as usize]);
+    fn parent(na: &Node, nb: &Node) -> Node {
+        let (aa, ab) = (na.area, nb.area);
         let area = [aa[0] + ab[0], aa[1] + ab[1], aa[2] + ab[2]];
-        self.area[id as usize] = area;
-        let nd = &mut self.nodes[id as usize];
-        nd.kids = [a, b];
+        let mut nd = Node {
+            bx: [0.0; 6],
+            c: [0.0; 3],
+            a: WORLD,
+            h: [f64::INFINITY; 3],
+            area,
+        };
         for j in 0..3 {
             nd.bx[j] = na.bx[j].min(nb.bx[j]);
             nd.bx[3 + j] = na.bx[3 + j].max(nb.bx[3 + j]);
@@ -383,7 +515,7 @@ impl Builder<'_> {
         let (oa, ob) = (na.obb(), nb.obb());
         let finite = |o: &Obb| o.0.iter().chain(&o.2).all(|x| x.is_finite());
         if !(finite(&oa) && finite(&ob)) {
-            return; // (a vertex not finite: the box alone)
+            return nd; // (a vertex not finite: the box alone)
         }
         // each child's box projected onto the axes e of a frame: c·e ± Σ h_i |a_i·e|
         let fit = |f: [P3; 3]| {
@@ -402,7 +534,7 @@ impl Builder<'_> {
         };
         let n = unit(&area);
         let mut best: Option<Obb> = frame(&n, &steady(&n)).and_then(fit);
-        for k in [&na, &nb] {
+        for k in [na, nb] {
             if k.h[0] < f64::INFINITY {
                 if let Some(o) = fit(k.a) {
                     if best.is_none_or(|x| volume(&o.2) < volume(&x.2)) {
@@ -411,6 +543,7 @@ impl Builder<'_> {
                 }
             }
         }
-        self.keep(id, best);
+        Self::keep(&mut nd, best);
+        nd
     }
 }
