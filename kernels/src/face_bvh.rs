@@ -400,14 +400,15 @@ impl Builder<'_> {
     /// The node of runs lo..hi: its id (its subtree follows it) and its bounds as built.
     fn build(&mut self, lo: usize, hi: usize) -> (u32, Node) {
         let id = self.nodes.len() as u32;
-        let none = Node {
-            bx: [0.0; 6],
-            c: [0.0; 3],
-            a: WORLD,
-            h: [f64::INFINITY; 3],
-            area: [0.0; 3],
-        };
-        self.nodes.push(Packed::new(&none, [LEAF, lo as u32]));
+        self.nodes.push(Packed {
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            off: [0.0; 3],
+            n: [0.0; 3],
+            u: [0.0; 3],
+            h: [f32::INFINITY; 3],
+            kids: [LEAF, lo as u32],
+        }); // (a place for the node, filled below)
         let (nd, kids) = if hi - lo == 1 {
             (self.leaf(lo), [LEAF, lo as u32])
         } else {
