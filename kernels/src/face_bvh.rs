@@ -17,9 +17,9 @@
 //! The oriented boxes are built bottom-up: a leaf's around its vertices (the in-plane axis
 //! along its longest extent), a parent's around its children's boxes (exactly: a box of
 //! centre c, axes a_i, half extents h_i spans c·e ± Σ h_i |a_i·e| along a unit e), in the
-//! smallest of three frames — its normal with the world axis most across it, or either
-//! child's frame (a frame turned in the plane by φ grows a child's box by up to
-//! |cos φ| + |sin φ|: a frame of each node's own, e.g. along its children's centres,
+//! smaller of two frames — its normal with the world axis most across it, or the frame of
+//! its child with the larger area (a frame turned in the plane by φ grows a child's box by
+//! up to |cos φ| + |sin φ|: a frame of each node's own, e.g. along its children's centres,
 //! compounded to twice the blade's size at the root) — padded for rounding.
 
 use crate::numpy_ops::einsum_dot as dot;
@@ -535,7 +535,14 @@ impl Builder<'_> {
         };
         let n = unit(&area);
         let mut best: Option<Obb> = frame(&n, &steady(&n)).and_then(fit);
-        for k in [na, nb] {
+        // (and the frame of the child with the larger area: both children's cost ~8 % more
+        // to build, and opened as many nodes on Rotor 37's link points)
+        let k = if dot(&na.area, &na.area) >= dot(&nb.area, &nb.area) {
+            na
+        } else {
+            nb
+        };
+        {
             if k.h[0] < f64::INFINITY {
                 if let Some(o) = fit(k.a) {
                     if best.is_none_or(|x| volume(&o.2) < volume(&x.2)) {
