@@ -18,7 +18,7 @@
 //! no multiply-add); every node is popped once, so each point meets each query at most once
 //! (a seed met again in its leaf is skipped, as there).
 
-use super::{cross, d2, max0, PointTree, Rec, P3, SPLIT};
+use super::{cross, d2, max0, offer, PointTree, Rec, P3, SPLIT};
 
 /// Queries a packet holds (the main thread's 8-nearest searches and screens of a Rotor 37
 /// plan replayed, CPU s, one query at a time 0.21 / 0.13; packets of 2: 0.16 / 0.08, 4:
@@ -32,7 +32,7 @@ type Lb = [f64; PACKET];
 
 /// The buffers of [`PointTree::knn_packet`]: per query the best (squared distance, id,
 /// position in the tree's order) so far, the walk's stack, and the seeds (positions: the
-/// union of the answers of the packet before).
+/// answer of the last query of the packet before).
 #[derive(Default)]
 pub struct PacketBuffers {
     best: [Vec<(f64, u32, u32)>; PACKET],
@@ -227,8 +227,13 @@ impl PointTree {
 
     /// [`PointTree::knn_seeded`] for up to [`PACKET`] queries `q` at once: their k nearest
     /// ids below `ub2` into `out` (q.len() × k, -1 padded) and the ties into `tie`. Seeded by
-    /// the union of the answers of the packet before (`buf`; a fresh one: no seeds), and
-    /// leaves this packet's there. The same answers as query by query (see the module).
+    /// the answer of the last query of the packet before (`buf`; a fresh one: no seeds), and
+    /// leaves this packet's last there: the nearest to the next packet's first queries, and
+    /// k + 1 seeds a query to measure and order, where the union of the packet's answers
+    /// (~10 for the k = 6 of `PolylineDistance`) cost more than the nodes they spared (its
+    /// kernel on a Rotor 37 plan's calls replayed, CPU s: 0.195 with the union, 0.152 with
+    /// the last answer; the sample tree's 8-nearest 0.102 / 0.097). The same answers as query
+    /// by query (see the module).
     pub fn knn_packet(
         &self,
         q: &[P3],
@@ -286,13 +291,7 @@ impl PointTree {
                 if !(d < ub2) {
                     continue;
                 }
-                let id = self.ids[s as usize];
-                if b.len() == cap && (d, id) >= (b[cap - 1].0, b[cap - 1].1) {
-                    continue;
-                }
-                let pos = b.partition_point(|&e| (e.0, e.1) < (d, id));
-                b.insert(pos, (d, id, s));
-                b.truncate(cap);
+                offer(b, cap, d, self.ids[s as usize], s);
             }
             if b.len() == cap {
                 lim[i] = b[cap - 1].0;
@@ -347,10 +346,8 @@ impl PointTree {
                 };
             }
             tie[i] = b.len() == cap && b[k - 1].0 == b[k].0;
-            seeds.extend(b.iter().map(|e| e.2));
         }
-        seeds.sort_unstable();
-        seeds.dedup();
+        seeds.extend(best[m - 1].iter().map(|e| e.2));
     }
 
     /// The points `a..e` of a leaf into the `best` of the queries in `mask` (the k + 1 =
@@ -391,17 +388,8 @@ impl PointTree {
             while near != 0 {
                 let l = near.trailing_zeros() as usize;
                 near &= near - 1;
-                let (dl, i, s) = (d[l], self.ids[a + j], (a + j) as u32);
                 let b = &mut best[l];
-                if b.len() == cap && (dl, i) >= (b[cap - 1].0, b[cap - 1].1) {
-                    continue;
-                }
-                let pos = b.partition_point(|&x| (x.0, x.1) < (dl, i));
-                if b.get(pos).is_some_and(|x| x.2 == s) {
-                    continue; // a seed still held, at its own (distance, id)
-                }
-                b.insert(pos, (dl, i, s));
-                b.truncate(cap);
+                offer(b, cap, d[l], self.ids[a + j], (a + j) as u32);
                 if b.len() == cap {
                     cut[l] = b[cap - 1].0;
                 }
