@@ -24,7 +24,7 @@
 use rayon::prelude::*;
 
 mod packet;
-pub use packet::{PacketBuffers, PACKET};
+pub use packet::PACKET;
 
 pub type P3 = [f64; 3];
 
@@ -1045,21 +1045,11 @@ impl PointTree {
             return (ids, tie);
         }
         if self.framed {
-            // runs of SEEDED queries in order, in packets (each seeded by the answers of the
-            // one before), the runs in parallel; the answers do not depend on it
-            ids.par_chunks_mut(k * SEEDED)
-                .zip(tie.par_chunks_mut(SEEDED))
-                .zip(qs.par_chunks(SEEDED))
-                .for_each(|((o, t), q)| {
-                    let mut buf = PacketBuffers::default();
-                    for ((oi, ti), qi) in o
-                        .chunks_mut(k * PACKET)
-                        .zip(t.chunks_mut(PACKET))
-                        .zip(q.chunks(PACKET))
-                    {
-                        self.knn_packet(qi, k, ub2, oi, ti, &mut buf);
-                    }
-                });
+            // each packet seeded by the answers of the one before
+            self.knn_runs(qs, k, ub2, (&mut ids, k), (&mut tie, 1), |_, i, t, oi, ti| {
+                oi.copy_from_slice(i);
+                ti.copy_from_slice(t);
+            });
             return (ids, tie);
         }
         // runs of SEEDED queries in order, each seeded by the one before (queries come
