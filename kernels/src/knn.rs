@@ -1038,13 +1038,24 @@ impl PointTree {
         false
     }
 
-    pub fn knn_many(&self, qs: &[P3], k: usize, ub2: f64) -> (Vec<i64>, Vec<bool>) {
+    /// (ids (q × k), tie (q)): [`PointTree::knn_seeded`] of each query, in packets of
+    /// consecutive ones ([`PointTree::knn_runs`]) when the tree has frames or `packets` is
+    /// asked (queries in path order: on a plain tree over ~800 level points, the column
+    /// neighbours of a Rotor 37 plan, 0.054 s of CPU one by one, 0.034 in packets), else
+    /// one by one; the same answers either way.
+    pub fn knn_many(
+        &self,
+        qs: &[P3],
+        k: usize,
+        ub2: f64,
+        packets: bool,
+    ) -> (Vec<i64>, Vec<bool>) {
         let mut ids = vec![-1i64; qs.len() * k];
         let mut tie = vec![false; qs.len()];
         if k == 0 {
             return (ids, tie);
         }
-        if self.framed {
+        if self.framed || packets {
             // each packet seeded by the answers of the one before
             self.knn_runs(qs, k, ub2, (&mut ids, k), (&mut tie, 1), |_, i, t, oi, ti| {
                 oi.copy_from_slice(i);

@@ -1,10 +1,10 @@
-"""The distance to ball-centre polylines walked in packets of consecutive hints
-(``knn::packet`` on a plain k-d tree): the distances are the numpy reference's bit for bit,
-and the rows left to scipy (a tie at the k-th nearest sample, fewer than k found) are
-exactly those the tree flags one query at a time and brute force flags — for hints in path
-order (each packet seeded by the answer before), shuffled (seeds far from the answer), on a
-lattice (exact ties), for calls of 1 to 19 hints and one of 300, and with k above the number
-of samples."""
+"""The distance to ball-centre polylines and the column neighbours of a scallop's levels
+walked in packets of consecutive queries (``knn::packet`` on a plain k-d tree): the
+distances are the numpy reference's bit for bit, and the rows left to scipy (a tie at the
+k-th nearest sample, fewer than k found) are exactly those the tree flags one query at a
+time and brute force flags — for hints in path order (each packet seeded by the answer
+before), shuffled (seeds far from the answer), on a lattice (exact ties), for calls of 1 to
+19 hints and one of 300, and with k above the number of samples."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.kernels import polyline as compiled_polyline
-from blisk_cam.core.paths.expansion import PolylineDistance
+from blisk_cam.core.paths.expansion import PolylineDistance, _nearest_index
 from tests.support.kernels import needs_compiled
 
 compiled = needs_compiled("polyline_distance", "PointTree")
@@ -108,3 +108,39 @@ def test_k_above_the_samples_flags_every_row():
     assert rest.all() and np.all(np.isnan(d))
     assert np.array_equal(dist._distance(p, p), dist._distance_numpy(p, p))
     assert not np.isnan(dist._distance(p, p)).any()
+
+
+@compiled
+@pytest.mark.parametrize("order", ["path", "shuffled", "lattice"])
+def test_column_neighbours_in_packets_as_one_by_one(order):
+    """The column neighbours (the nearest of a level's points to each of the previous
+    level's, in path order): the tree's packets give the ids and tie flags it gives one
+    query at a time and brute force's, for calls of 1 to 19 and 300 queries; and
+    ``_nearest_index`` is scipy's."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(26)
+    _, pts, q = _pass_and_hints(rng, order)
+    pts = np.concatenate([pts, pts[::9]])  # repeated points: ties by id
+    if order == "lattice":
+        pts = np.round(pts * 2) / 2
+    tree = compiled_knn.point_tree(pts, 1)
+    if not getattr(tree, "PACKETS", False):
+        pytest.skip("the installed compiled kernels were built before query's packets "
+                    "(make kernels)")
+    ref, ref_tie = tree.query(q, 1, np.inf, 1)
+    dd = pts[None] - q[:, None]
+    d2 = (dd[..., 0] * dd[..., 0] + dd[..., 1] * dd[..., 1]) + dd[..., 2] * dd[..., 2]
+    assert np.array_equal(ref[:, 0], np.argmin(d2, axis=1))  # lowest id of the nearest
+    s = np.sort(d2, axis=1)
+    assert np.array_equal(ref_tie, s[:, 0] == s[:, 1])
+    for m in [*range(1, 20), 300]:
+        ids, tie = tree.query(q[:m], 1, np.inf, 1, packets=True)
+        assert np.array_equal(ids, ref[:m]) and np.array_equal(tie, ref_tie[:m]), m
+    for k in (2, 5):
+        one, one_tie = tree.query(q, k, np.inf, 1)
+        got, got_tie = tree.query(q, k, np.inf, 2, packets=True)
+        assert np.array_equal(got, one) and np.array_equal(got_tie, one_tie), k
+    assert np.array_equal(_nearest_index(pts, q), cKDTree(pts).query(q)[1])
+    if order != "shuffled":
+        assert ref_tie.any()
