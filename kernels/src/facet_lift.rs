@@ -26,6 +26,7 @@ use std::sync::Mutex;
 
 use crate::lift::{candidate_tris, face_tri, lift_one, point_triangle_distance, Tri, P3};
 use crate::numpy_ops::{nanmax, nanmin};
+use crate::weld::prefetch;
 
 /// The face ids of a vertex–face table: int32 (`passes._narrow_table`) or int64.
 #[derive(FromPyObject)]
@@ -63,6 +64,58 @@ impl VertexFaces<'_> {
             _ => return false,
         }
         true
+    }
+
+    /// Fetch the faces around vertex `v` into the cache ahead of [`Self::push`]: `rows` 0
+    /// their place in the table, 1 the ids, 2 their rows of F, 3 the rows of V at their
+    /// corners (each needs the one before it in the cache to be cheap). A hint; ids out of
+    /// range are skipped.
+    #[inline]
+    fn fetch(&self, v: i64, rows: u8, ff: &[i64], vv: &[P3]) {
+        if v < 0 || v as usize + 1 >= self.ptr.len() {
+            return;
+        }
+        if rows == 0 {
+            return prefetch(self.ptr, v as usize);
+        }
+        let (a, b) = (self.ptr[v as usize], self.ptr[v as usize + 1]);
+        if a < 0 || b <= a {
+            return;
+        }
+        let (a, b) = (a as usize, b as usize);
+        let each = |f: &mut dyn FnMut(usize)| match &self.face {
+            IdSlice::I32(s) => s
+                .get(a..b)
+                .into_iter()
+                .flatten()
+                .for_each(|&x| f(x as usize)),
+            IdSlice::I64(s) => s
+                .get(a..b)
+                .into_iter()
+                .flatten()
+                .for_each(|&x| f(x as usize)),
+        };
+        match rows {
+            1 => match &self.face {
+                IdSlice::I32(s) => {
+                    prefetch(s, a);
+                    prefetch(s, b - 1);
+                }
+                IdSlice::I64(s) => {
+                    prefetch(s, a);
+                    prefetch(s, b - 1);
+                }
+            },
+            2 => each(&mut |fi| {
+                prefetch(ff, 3 * fi);
+                prefetch(ff, 3 * fi + 2);
+            }),
+            _ => each(&mut |fi| {
+                for &x in ff.get(3 * fi..3 * fi + 3).into_iter().flatten() {
+                    prefetch(vv, x as usize);
+                }
+            }),
+        };
     }
 }
 
@@ -133,6 +186,8 @@ struct Scratch {
     /// the previous point's, while the next are gathered
     old_cand: Vec<i64>,
     old_tris: Vec<Tri>,
+    /// the points of a piece to lift (index in the piece, their edges)
+    need: Vec<(usize, (usize, usize))>,
 }
 
 impl Scratch {
@@ -179,6 +234,10 @@ impl Scratch {
 /// Points per piece of [`facet_lift`]'s work (~10–20 µs each on Rotor 37): the threads take
 /// pieces in turn, and a piece's points share their candidate faces ([`Scratch`]).
 const FACET_PIECE: usize = 64;
+
+/// Points looked ahead by [`facet_lift`]'s facet planes: their edges' rows are fetched into
+/// the cache meanwhile (and halfway there, their faces' normals).
+const FETCH_AHEAD: usize = 16;
 
 /// `_Generator.facet_lift`: (q,) λ (mm) of the points `d` with unit normals `dn` (q, 3) on
 /// the segments `seg` (q,) of the level polyline whose points lie on the mesh edges `edge`
@@ -238,14 +297,22 @@ pub fn facet_lift<'py>(
         let e = *ed.get(usize::try_from(j).ok()?)?;
         (e >= 0 && (e as usize) < ne).then_some(e as usize)
     };
-    let one = |i: usize, sc: &mut Scratch| -> Option<f64> {
-        let s = sg[i];
+    // the mesh edges bounding point i's segment
+    let edges_of = |i: usize| -> Option<(usize, usize)> {
+        let s = *sg.get(i)?;
         let e0 = at(s.min(k - 1))?;
         let e1 = if closed {
             at((s + 1).rem_euclid(k))?
         } else {
             at((s + 1).min(k - 1))?
         };
+        Some((e0, e1))
+    };
+    let corners =
+        |(e0, e1): (usize, usize)| [ee[2 * e0], ee[2 * e0 + 1], ee[2 * e1], ee[2 * e1 + 1]];
+    // whether a facet plane of the faces of edges e0, e1 is penetrated deeper than the
+    // tolerance at point i
+    let penetrated = |i: usize, (e0, e1): (usize, usize)| -> Option<bool> {
         let faces = [ef[2 * e0], ef[2 * e0 + 1], ef[2 * e1], ef[2 * e1 + 1]];
         let n = &nn[i];
         let mut plane = f64::NAN;
@@ -261,27 +328,61 @@ pub fn facet_lift<'py>(
             };
             plane = if j == 0 { x } else { nanmax(plane, x) };
         }
-        if plane.partial_cmp(&facet_tol) != Some(std::cmp::Ordering::Greater) {
-            return Some(0.0); // not penetrated deeper than the tolerance (or NaN)
-        }
-        let key = [ee[2 * e0], ee[2 * e0 + 1], ee[2 * e1], ee[2 * e1 + 1]];
-        if !sc.gather(key, vv, ff, &vf) {
-            return None;
-        }
-        Some(lift_one(
-            &sc.tris,
-            &pp[i],
-            n,
-            0.0,
-            (rho, tol, gain, limit),
-            steps,
-        ))
+        // not penetrated deeper than the tolerance (or NaN): λ = 0
+        Some(plane.partial_cmp(&facet_tol) == Some(std::cmp::Ordering::Greater))
     };
     let mut out = vec![0.0; q];
     let ok = py.detach(|| {
         take_pieces(threads, q, &mut out, |start, piece, sc| {
+            // the facet planes, the rows of points FETCH_AHEAD on fetched meanwhile (the
+            // edges' faces, then their normals); the points to lift noted
+            sc.need.clear();
             for (j, x) in piece.iter_mut().enumerate() {
-                *x = one(start + j, sc)?;
+                let i = start + j;
+                if let Some((a, b)) = edges_of(i + FETCH_AHEAD) {
+                    for r in [2 * a, 2 * b] {
+                        prefetch(ef, r);
+                        prefetch(ee, r);
+                    }
+                }
+                if let Some((a, b)) = edges_of(i + FETCH_AHEAD / 2) {
+                    for fi in [ef[2 * a], ef[2 * a + 1], ef[2 * b], ef[2 * b + 1]] {
+                        prefetch(fnn, fi as usize);
+                    }
+                }
+                let e = edges_of(i)?;
+                *x = 0.0;
+                if penetrated(i, e)? {
+                    sc.need.push((j, e));
+                }
+            }
+            // the lifts: the faces around the corners of the points 1–4 lifts on fetched
+            // meanwhile, a stage further each (the table, the ids, F's rows, V's rows); the
+            // corners the point before shares skipped
+            for t in 0..sc.need.len() {
+                for ahead in 1..=4 {
+                    if let Some(&(_, e)) = sc.need.get(t + ahead) {
+                        let before = corners(sc.need[t + ahead - 1].1);
+                        for v in corners(e) {
+                            if !before.contains(&v) {
+                                vf.fetch(v, 4 - ahead as u8, ff, vv);
+                            }
+                        }
+                    }
+                }
+                let (j, e) = sc.need[t];
+                if !sc.gather(corners(e), vv, ff, &vf) {
+                    return None;
+                }
+                let i = start + j;
+                piece[j] = lift_one(
+                    &sc.tris,
+                    &pp[i],
+                    &nn[i],
+                    0.0,
+                    (rho, tol, gain, limit),
+                    steps,
+                );
             }
             Some(())
         })
