@@ -235,6 +235,15 @@ impl Scratch {
 /// pieces in turn, and a piece's points share their candidate faces ([`Scratch`]).
 const FACET_PIECE: usize = 64;
 
+/// Below this many points [`facet_lift`] runs on the calling thread alone, whatever the
+/// threads asked (~0.25 µs a point on Rotor 37: ~4 ms here). A Rotor 37 level's ~3200 points
+/// (~0.8 ms) took 0.07 s a plan on the calling thread, 0.23–0.27 s wall with a worker
+/// taking pieces beside it (the caller waits for the worker's job to start and end, which
+/// the side thread and other processes keep off the cores for a time slice), 0.31–0.38 s
+/// handed whole to the 2-worker pool as before (Rotor 37 1.29M, measured in the plan on a
+/// loaded 2-core machine; the lead's quiet-machine figure for the pool: 0.20 s).
+const FACET_PARALLEL_MIN: usize = 16384;
+
 /// Points looked ahead by [`facet_lift`]'s facet planes: their edges' rows are fetched into
 /// the cache meanwhile (and halfway there, their faces' normals).
 const FETCH_AHEAD: usize = 16;
@@ -244,10 +253,9 @@ const FETCH_AHEAD: usize = 16;
 /// (k,) (`closed`: the last segment runs back to the first point). Mesh: V (n, 3), F (m, 3),
 /// its edges and their faces (e, 2) (−1: none), unit face normals (m, 3), the vertex–face
 /// table (`ptr`, `face`). `consts` = (ρ, facet tolerance, lift tolerance, gain, plane slack),
-/// mm; `steps` fixed-point steps. The GIL released; the calling thread takes pieces of
-/// [`FACET_PIECE`] points in turn with `threads` − 1 workers of the pool (a call is ~1 ms:
-/// handed whole to the pool, the caller only waits, and a worker that the side thread's
-/// work keeps off its core holds up the answer).
+/// mm; `steps` fixed-point steps. The GIL released; from [`FACET_PARALLEL_MIN`] points on,
+/// the calling thread takes pieces of [`FACET_PIECE`] points in turn with `threads` − 1
+/// workers of the pool.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 pub fn facet_lift<'py>(
@@ -397,7 +405,7 @@ pub fn facet_lift<'py>(
 /// scratch)`), the calling thread and `threads` − 1 workers of the pool taking the next
 /// piece in turn, each with a [`Scratch`] of its own; false when a piece failed (the rest
 /// are then left). The calling thread alone with one thread, one piece, or below
-/// [`crate::PARALLEL_MIN`] items.
+/// [`FACET_PARALLEL_MIN`] items.
 fn take_pieces(
     threads: usize,
     q: usize,
@@ -420,7 +428,7 @@ fn take_pieces(
             }
         }
     };
-    let pl = crate::pool_for(threads, q)?;
+    let pl = crate::pool_for(if q < FACET_PARALLEL_MIN { 1 } else { threads }, q)?;
     let helpers = (pl.current_num_threads() - 1).min(pieces.len().saturating_sub(1));
     if helpers == 0 {
         take();

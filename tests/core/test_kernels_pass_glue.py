@@ -89,8 +89,8 @@ def test_facet_lift_runs_and_pieces_bit_for_bit(gen):
     """Many points per segment on runs of consecutive segments (the compiled lift keeps the
     candidate faces of one lifted point for the next: the same segment's, or a neighbour's
     shared corners), points that need the lift next to points that do not, the segments in
-    order, reversed and shuffled, on 1 and 2 threads (pieces taken by the calling thread and
-    a worker): numpy's λ."""
+    order, reversed and shuffled, on 1 and 2 threads (from 16384 points on, pieces taken by
+    the calling thread and a worker): numpy's λ."""
     rng = np.random.default_rng(11)
     cover = np.zeros(4, dtype=np.int64)  # same-segment lifted pairs, neighbour pairs, kinds
     for s in (0.2, 0.6):
@@ -113,7 +113,6 @@ def test_facet_lift_runs_and_pieces_bit_for_bit(gen):
                 DN = N / np.linalg.norm(N, axis=1)[:, None]
                 with backend.numpy_only():
                     ref = gen.facet_lift(D, DN, seg, c.edge, closed)
-                assert len(seg) > 2048  # the pool's share (PARALLEL_MIN) on 2 threads
                 for threads in (1, 2):
                     got = _facet_lift_compiled(gen, D, DN, seg, c.edge, closed, threads)
                     assert np.array_equal(got, ref), (s, closed, order, threads)
@@ -122,6 +121,15 @@ def test_facet_lift_runs_and_pieces_bit_for_bit(gen):
                 cover[1] += np.count_nonzero(up[1:] & up[:-1] & (np.abs(seg[1:] - seg[:-1]) == 1))
                 cover[2] += np.count_nonzero(up[1:] != up[:-1])
                 cover[3] |= 1 << int(closed)
+                if order == "sorted" and s == 0.2:  # the calling thread and a worker
+                    big = np.tile(np.arange(len(seg)), 8)
+                    assert len(big) >= 16384  # facet_lift.rs FACET_PARALLEL_MIN
+                    with backend.numpy_only():
+                        ref = gen.facet_lift(D[big], DN[big], seg[big], c.edge, closed)
+                    for threads in (1, 2):
+                        got = _facet_lift_compiled(gen, D[big], DN[big], seg[big], c.edge,
+                                                   closed, threads)
+                        assert np.array_equal(got, ref), (closed, threads)
     assert cover[0] > 5000 and cover[1] > 300  # lifted points in runs and across neighbours
     assert cover[2] > 500  # lifted points next to points left at λ = 0
     assert cover[3] == 3  # closed levels, and taken as open
@@ -133,7 +141,7 @@ def test_facet_lift_ids_out_of_range_raise(gen):
     ValueError (not a read out of bounds), on 1 and 2 threads."""
     c = gen.level(0.5)[0]
     rng = np.random.default_rng(2)
-    D, DN, seg = _on_level(c, c.closed, rng, 3000, 0.2)
+    D, DN, seg = _on_level(c, c.closed, rng, 20000, 0.2)  # the pool too (FACET_PARALLEL_MIN)
     m = gen.mesh
     ptr, face = gen._vertex_face_table()[:2]
     bad_face = face.copy()
