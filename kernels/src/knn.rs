@@ -24,7 +24,7 @@
 use rayon::prelude::*;
 
 mod packet;
-pub use packet::{PacketBuffers, PACKET};
+pub use packet::PACKET;
 
 pub type P3 = [f64; 3];
 
@@ -507,6 +507,42 @@ fn d2(a: &P3, b: &P3) -> f64 {
     (x * x + y * y) + z * z
 }
 
+/// (squared distance, id) of a best entry as integers: the distances kept are below a bound
+/// (not NaN) and sums of squares (not −0), so their bits order them as the floats.
+#[inline(always)]
+fn key(d: f64, i: u32) -> (u64, u32) {
+    (d.to_bits(), i)
+}
+
+/// Puts the point at tree position `s` (id `i`, squared distance `d` below the bound) into
+/// `best`, the `cap` smallest (squared distance, id, position) so far in ascending order,
+/// when it ranks among them and is not held already (a seed met again in its leaf, at its
+/// own (distance, id)). By insertion from the end (the lists are short).
+#[inline(always)]
+fn offer(best: &mut Vec<(f64, u32, u32)>, cap: usize, d: f64, i: u32, s: u32) {
+    let kd = key(d, i);
+    let n = best.len();
+    if n == cap && kd >= key(best[n - 1].0, best[n - 1].1) {
+        return;
+    }
+    let mut j = n;
+    while j > 0 && key(best[j - 1].0, best[j - 1].1) > kd {
+        j -= 1;
+    }
+    if j > 0 && best[j - 1].2 == s {
+        return; // the same point: the same (distance, id)
+    }
+    if n < cap {
+        best.push((d, i, s));
+    }
+    let mut t = best.len() - 1;
+    while t > j {
+        best[t] = best[t - 1];
+        t -= 1;
+    }
+    best[j] = (d, i, s);
+}
+
 /// The k-d split of `idx` (each item's point first) across the widest side of `region`: the
 /// median position `m` (items partially sorted about it) and the two halves' regions.
 fn median_split(idx: &mut [(P3, u32)], region: [f64; 6]) -> (usize, [f64; 6], [f64; 6]) {
@@ -854,7 +890,16 @@ impl PointTree {
             e.0 = d2(q, &self.pts[e.2 as usize]);
         }
         best.retain(|e| e.0 < ub2);
-        best.sort_unstable_by(|a, b| (a.0, a.1).partial_cmp(&(b.0, b.1)).unwrap());
+        // in order by insertion (a query near the one before: nearly in order already)
+        for j in 1..best.len() {
+            let e = best[j];
+            let mut t = j;
+            while t > 0 && key(best[t - 1].0, best[t - 1].1) > key(e.0, e.1) {
+                best[t] = best[t - 1];
+                t -= 1;
+            }
+            best[t] = e;
+        }
         best.truncate(cap);
         if !self.recs.is_empty() {
             let qs = self.frame_margin(q);
@@ -888,16 +933,7 @@ impl PointTree {
                             if !(d <= cut && d < ub2) {
                                 continue;
                             }
-                            if best.len() == cap && (d, i) >= (best[cap - 1].0, best[cap - 1].1) {
-                                continue;
-                            }
-                            let s = (a + j) as u32;
-                            let pos = best.partition_point(|&e| (e.0, e.1) < (d, i));
-                            if best.get(pos).is_some_and(|e| e.2 == s) {
-                                continue; // a seed still held, at its own (distance, id)
-                            }
-                            best.insert(pos, (d, i, s));
-                            best.truncate(cap);
+                            offer(best, cap, d, i, (a + j) as u32);
                             if best.len() == cap {
                                 cut = best[cap - 1].0;
                             }
@@ -1002,28 +1038,29 @@ impl PointTree {
         false
     }
 
-    pub fn knn_many(&self, qs: &[P3], k: usize, ub2: f64) -> (Vec<i64>, Vec<bool>) {
+    /// (ids (q × k), tie (q)): [`PointTree::knn_seeded`] of each query, in packets of
+    /// consecutive ones ([`PointTree::knn_runs`]) when the tree has frames or `packets` is
+    /// asked (queries in path order: on a plain tree over ~800 level points, the column
+    /// neighbours of a Rotor 37 plan, 0.054 s of CPU one by one, 0.034 in packets), else
+    /// one by one; the same answers either way.
+    pub fn knn_many(
+        &self,
+        qs: &[P3],
+        k: usize,
+        ub2: f64,
+        packets: bool,
+    ) -> (Vec<i64>, Vec<bool>) {
         let mut ids = vec![-1i64; qs.len() * k];
         let mut tie = vec![false; qs.len()];
         if k == 0 {
             return (ids, tie);
         }
-        if self.framed {
-            // runs of SEEDED queries in order, in packets (each seeded by the answers of the
-            // one before), the runs in parallel; the answers do not depend on it
-            ids.par_chunks_mut(k * SEEDED)
-                .zip(tie.par_chunks_mut(SEEDED))
-                .zip(qs.par_chunks(SEEDED))
-                .for_each(|((o, t), q)| {
-                    let mut buf = PacketBuffers::default();
-                    for ((oi, ti), qi) in o
-                        .chunks_mut(k * PACKET)
-                        .zip(t.chunks_mut(PACKET))
-                        .zip(q.chunks(PACKET))
-                    {
-                        self.knn_packet(qi, k, ub2, oi, ti, &mut buf);
-                    }
-                });
+        if self.framed || packets {
+            // each packet seeded by the answers of the one before
+            self.knn_runs(qs, k, ub2, (&mut ids, k), (&mut tie, 1), |_, i, t, oi, ti| {
+                oi.copy_from_slice(i);
+                ti.copy_from_slice(t);
+            });
             return (ids, tie);
         }
         // runs of SEEDED queries in order, each seeded by the one before (queries come

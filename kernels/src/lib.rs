@@ -240,9 +240,17 @@ impl PointTree {
         Ok(PointTree { tree })
     }
 
+    /// Whether [`PointTree::query`] takes `packets` (a build before it has no such
+    /// attribute).
+    #[classattr]
+    const PACKETS: bool = true;
+
     /// (ids (q, k) int64, -1 padded; tie (q,) bool): the k nearest points of each query
     /// (q, 3) closer than `bound` mm, by (distance, id); `tie`: the k-th and the next are at
-    /// the same distance (scipy may choose another of them). On `threads` threads.
+    /// the same distance (scipy may choose another of them). On `threads` threads; in
+    /// packets of consecutive queries when `packets` (queries in path order, each near the
+    /// one before; a tree of `sample_point_tree` walks any so), the same answers.
+    #[pyo3(signature = (q, k, bound, threads, packets=false))]
     fn query<'py>(
         &self,
         py: Python<'py>,
@@ -250,6 +258,7 @@ impl PointTree {
         k: usize,
         bound: f64,
         threads: usize,
+        packets: bool,
     ) -> PyResult<(Bound<'py, PyArray2<i64>>, Bound<'py, PyArray1<bool>>)> {
         if k == 0 {
             return Err(PyValueError::new_err("k must be at least 1"));
@@ -257,7 +266,7 @@ impl PointTree {
         let qq = points(&q, "queries")?;
         let pl = pool_for(threads, qq.len())?;
         let ub2 = bound * bound;
-        let (ids, tie) = py.detach(|| pl.install(|| self.tree.knn_many(qq, k, ub2)));
+        let (ids, tie) = py.detach(|| pl.install(|| self.tree.knn_many(qq, k, ub2, packets)));
         let ids = PyArray1::from_vec(py, ids).reshape([qq.len(), k])?;
         Ok((ids, PyArray1::from_vec(py, tie)))
     }

@@ -73,18 +73,20 @@ pub(crate) fn point_triangle_distance(p: &P3, a: &P3, b: &P3, c: &P3, n: &P3, n2
 /// n · n, 1 / |n| (0 for a degenerate one: never pruned) and a · n (pruning only).
 pub(crate) type Tri = (P3, P3, P3, P3, f64, f64, f64);
 
+/// The [`Tri`] of face `fi` (an id into F, in range: the caller checked) of V, F.
+#[inline]
+pub(crate) fn face_tri(vv: &[P3], ff: &[i64], fi: i64) -> Tri {
+    let t = &ff[3 * fi as usize..3 * fi as usize + 3];
+    let (a, b, c) = (vv[t[0] as usize], vv[t[1] as usize], vv[t[2] as usize]);
+    let nrm = cross(&sub(&b, &a), &sub(&c, &a));
+    let n2 = dot(&nrm, &nrm);
+    let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
+    (a, b, c, nrm, n2, inv, dot(&a, &nrm))
+}
+
 /// The [`Tri`]s of the faces `faces` (ids into F, in range: the caller checked) of V, F.
 pub(crate) fn candidate_tris(vv: &[P3], ff: &[i64], faces: impl Iterator<Item = i64>) -> Vec<Tri> {
-    faces
-        .map(|fi| {
-            let t = &ff[3 * fi as usize..3 * fi as usize + 3];
-            let (a, b, c) = (vv[t[0] as usize], vv[t[1] as usize], vv[t[2] as usize]);
-            let nrm = cross(&sub(&b, &a), &sub(&c, &a));
-            let n2 = dot(&nrm, &nrm);
-            let inv = if n2 > 0.0 { 1.0 / n2.sqrt() } else { 0.0 };
-            (a, b, c, nrm, n2, inv, dot(&a, &nrm))
-        })
-        .collect()
+    faces.map(|fi| face_tri(vv, ff, fi)).collect()
 }
 
 /// λ of one point `p`, unit normal `n`, from `lam` after up to `steps` fixed-point steps on

@@ -149,7 +149,7 @@ pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
 
 /// Ask the CPU to fetch item `i` of `items` into its cache (a hint: nothing else changes).
 #[inline(always)]
-fn prefetch<T>(items: &[T], i: usize) {
+pub(crate) fn prefetch<T>(items: &[T], i: usize) {
     #[cfg(target_arch = "x86_64")]
     if i < items.len() {
         // SAFETY: a prefetch reads nothing the program sees; the address is in `items`

@@ -18,6 +18,9 @@ from blisk_cam.core.part.blisk import make_demo_blisk
 from blisk_cam.core.paths.expansion import face_gradient_and_curvature
 from blisk_cam.core.paths.passes import (
     INTRUSION_PROBE_SPACING,
+    LIFT_GAIN,
+    LIFT_TOLERANCE,
+    PLANE_BOUND_SLACK,
     _Generator,
     _in_windows,
     _unique_per_row,
@@ -68,6 +71,92 @@ def test_facet_lift_compiled_bit_for_bit(gen):
                 lifted += np.count_nonzero(ref > 0)
     assert kinds == 3  # closed levels, and taken as open
     assert lifted > 1000  # the lift did act
+
+
+def _facet_lift_compiled(gen, D, DN, seg, edge, closed, threads):
+    """The compiled facet lift of ``gen`` on ``threads`` threads (the generator's call, its
+    thread count chosen)."""
+    m = gen.mesh
+    return compiled_lift.facet_lift(
+        (m.V, m.F, m.edges, m.edge_faces, m.face_normals), gen._vertex_face_table(), D, DN,
+        edge, seg, closed,
+        (gen.radius, gen.facet_tolerance, LIFT_TOLERANCE, LIFT_GAIN, PLANE_BOUND_SLACK), 4,
+        threads)
+
+
+@compiled
+def test_facet_lift_runs_and_pieces_bit_for_bit(gen):
+    """Many points per segment on runs of consecutive segments (the compiled lift keeps the
+    candidate faces of one lifted point for the next: the same segment's, or a neighbour's
+    shared corners), points that need the lift next to points that do not, the segments in
+    order, reversed and shuffled, on 1 and 2 threads (from 16384 points on, pieces taken by
+    the calling thread and a worker): numpy's λ."""
+    rng = np.random.default_rng(11)
+    cover = np.zeros(4, dtype=np.int64)  # same-segment lifted pairs, neighbour pairs, kinds
+    for s in (0.2, 0.6):
+        c = gen.level(s)[0]
+        k = len(c.points)
+        for closed in (c.closed, False):
+            first = rng.integers(0, k - 120)
+            runs = np.repeat(np.arange(first, first + 120), rng.integers(1, 40, 120))
+            if closed:  # the last segment, back to the first point, and its neighbour
+                runs = np.concatenate([runs, np.repeat([k - 2, k - 1], 15)])
+            for order in ("sorted", "reversed", "shuffled"):
+                seg = {"sorted": runs, "reversed": runs[::-1],
+                       "shuffled": rng.permutation(runs)}[order]
+                nxt = (seg + 1) % k if closed else np.minimum(seg + 1, k - 1)
+                t = rng.uniform(0.0, 1.0, len(seg))[:, None]
+                D = c.points[seg] + t * (c.points[nxt] - c.points[seg])
+                N = c.normals[seg] + t * (c.normals[nxt] - c.normals[seg])
+                tilt = rng.choice([0.0, 0.005, 0.05], len(seg))[:, None]
+                N = N + tilt * rng.normal(0.0, 1.0, N.shape)
+                DN = N / np.linalg.norm(N, axis=1)[:, None]
+                with backend.numpy_only():
+                    ref = gen.facet_lift(D, DN, seg, c.edge, closed)
+                for threads in (1, 2):
+                    got = _facet_lift_compiled(gen, D, DN, seg, c.edge, closed, threads)
+                    assert np.array_equal(got, ref), (s, closed, order, threads)
+                up = ref > 0
+                cover[0] += np.count_nonzero(up[1:] & up[:-1] & (seg[1:] == seg[:-1]))
+                cover[1] += np.count_nonzero(up[1:] & up[:-1] & (np.abs(seg[1:] - seg[:-1]) == 1))
+                cover[2] += np.count_nonzero(up[1:] != up[:-1])
+                cover[3] |= 1 << int(closed)
+                if order == "sorted" and s == 0.2:  # the calling thread and a worker
+                    big = np.tile(np.arange(len(seg)), 8)
+                    assert len(big) >= 16384  # facet_lift.rs FACET_PARALLEL_MIN
+                    with backend.numpy_only():
+                        ref = gen.facet_lift(D[big], DN[big], seg[big], c.edge, closed)
+                    for threads in (1, 2):
+                        got = _facet_lift_compiled(gen, D[big], DN[big], seg[big], c.edge,
+                                                   closed, threads)
+                        assert np.array_equal(got, ref), (closed, threads)
+    assert cover[0] > 5000 and cover[1] > 300  # lifted points in runs and across neighbours
+    assert cover[2] > 500  # lifted points next to points left at λ = 0
+    assert cover[3] == 3  # closed levels, and taken as open
+
+
+@compiled
+def test_facet_lift_ids_out_of_range_raise(gen):
+    """An edge id past the mesh's edges, or a vertex–face table pointing past its faces: a
+    ValueError (not a read out of bounds), on 1 and 2 threads."""
+    c = gen.level(0.5)[0]
+    rng = np.random.default_rng(2)
+    D, DN, seg = _on_level(c, c.closed, rng, 20000, 0.2)  # the pool too (FACET_PARALLEL_MIN)
+    m = gen.mesh
+    ptr, face = gen._vertex_face_table()[:2]
+    bad_face = face.copy()
+    bad_face[:] = len(m.F)
+    for threads in (1, 2):
+        edge = c.edge.copy()
+        edge[seg[len(seg) // 2]] = len(m.edges)
+        with pytest.raises(ValueError, match="out of range"):
+            _facet_lift_compiled(gen, D, DN, seg, edge, c.closed, threads)
+        with pytest.raises(ValueError, match="out of range"):
+            compiled_lift.facet_lift(
+                (m.V, m.F, m.edges, m.edge_faces, m.face_normals), (ptr, bad_face), D, DN,
+                c.edge, seg, c.closed,
+                (gen.radius, gen.facet_tolerance, LIFT_TOLERANCE, LIFT_GAIN,
+                 PLANE_BOUND_SLACK), 4, threads)
 
 
 @compiled

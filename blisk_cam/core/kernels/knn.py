@@ -28,14 +28,21 @@ def point_tree(points, threads: int = 1):
     return ext.PointTree(np.ascontiguousarray(points, dtype=np.float64), max(1, int(threads)))
 
 
-def nearest_k(tree, queries, k: int, bound: float, threads: int, ties=None):
+def nearest_k(tree, queries, k: int, bound: float, threads: int, ties=None,
+              in_order: bool = False):
     """(q, k) int64: the k nearest points of each query (q, 3) closer than ``bound`` mm
     (squared distances below ``bound²``, summed as scipy sums them), −1 where fewer, by
     (distance, id), on ``threads`` threads with the GIL released. ``ties``: a function
     answering the rows (r, 3) whose k-th and (k + 1)-th nearest are at the same distance
-    (the caller's scipy query: it makes the choice among them), (r, k) int64."""
+    (the caller's scipy query: it makes the choice among them), (r, k) int64.
+    ``in_order``: the queries come in path order, each near the one before (the tree then
+    walks them in packets of consecutive ones where the installed kernels can: the same
+    answers, found sooner)."""
     Q = np.ascontiguousarray(queries, dtype=np.float64)
-    ids, tie = tree.query(Q, int(k), float(bound), max(1, int(threads)))
+    if in_order and getattr(tree, "PACKETS", False):
+        ids, tie = tree.query(Q, int(k), float(bound), max(1, int(threads)), packets=True)
+    else:
+        ids, tie = tree.query(Q, int(k), float(bound), max(1, int(threads)))
     if ties is not None and np.any(tie):
         ids[tie] = ties(Q[tie])
     return ids

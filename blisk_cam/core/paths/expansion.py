@@ -362,7 +362,8 @@ def _nearest_index(points, queries):
     if compiled_knn.available() and len(queries):
         tree = compiled_knn.point_tree(points, workers())
         return compiled_knn.nearest_k(tree, queries, 1, np.inf, workers(),
-                                      ties=lambda Q: _scipy_nearest(points, Q)[:, None])[:, 0]
+                                      ties=lambda Q: _scipy_nearest(points, Q)[:, None],
+                                      in_order=True)[:, 0]
     return _scipy_nearest(points, queries)
 
 

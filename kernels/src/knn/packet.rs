@@ -1,15 +1,17 @@
-//! Packet searches of a framed tree ([`PointTree::grouped`]): up to [`PACKET`] consecutive
-//! queries walk the tree together (`passes._Generator`'s ball centres come in path order,
-//! each near the one before, so they open nearly the same nodes: on Rotor 37 at 1.29M
-//! triangles the 8-nearest searches of a packet of 8 found 7.4 of its queries live at each
-//! split they opened). A node is loaded, its frame's normal made and its children ordered
-//! once for the packet, and the queries' lower bounds to both children are made lane by
-//! lane with no branch (the loops vectorize); a query takes part in a node only while its
-//! own bound leaves the node live. A leaf's points are taken one by one, each point's
-//! squared distances to the packet's queries made lane by lane. A child's bound for a query
-//! is the larger of its own and its parent's (both bound every point of the child), so a
-//! query the parent was pruned for stays pruned below it. The walk asks for a node's
-//! records or points as it is pushed (the tree of Rotor 37, 110 MB, is not in cache).
+//! Packet searches of a tree: up to [`PACKET`] consecutive queries walk it together
+//! (`passes._Generator`'s ball centres on the framed tree of [`PointTree::grouped`], and on
+//! plain trees the hints of `PolylineDistance` and the column neighbours of a scallop's
+//! levels, come in path order, each near the one before, so they open nearly the same
+//! nodes: on Rotor 37 at 1.29M triangles the 8-nearest searches of a packet of 8 found 7.4
+//! of its queries live at each split they opened). A node is loaded, its frame's normal
+//! made and its children ordered once for the packet, and the queries' lower bounds to both
+//! children are made lane by lane with no branch (the loops vectorize); a query takes part
+//! in a node only while its own bound leaves the node live. A leaf's points are taken one
+//! by one, each point's squared distances to the packet's queries made lane by lane. A
+//! child's bound for a query is the larger of its own and its parent's (both bound every
+//! point of the child), so a query the parent was pruned for stays pruned below it. The
+//! walk asks for a node's records or points as it is pushed (the tree of Rotor 37, 110 MB,
+//! is not in cache).
 //!
 //! The answers are those of [`PointTree::knn_seeded`] and [`PointTree::any_below`] query by
 //! query: the (k + 1) smallest (distance, id) pairs below the bound are one set whatever
@@ -18,7 +20,9 @@
 //! no multiply-add); every node is popped once, so each point meets each query at most once
 //! (a seed met again in its leaf is skipped, as there).
 
-use super::{cross, d2, max0, PointTree, Rec, P3, SPLIT};
+use rayon::prelude::*;
+
+use super::{cross, d2, max0, offer, PointTree, Rec, P3, SEEDED, SPLIT};
 
 /// Queries a packet holds (the main thread's 8-nearest searches and screens of a Rotor 37
 /// plan replayed, CPU s, one query at a time 0.21 / 0.13; packets of 2: 0.16 / 0.08, 4:
@@ -32,7 +36,7 @@ type Lb = [f64; PACKET];
 
 /// The buffers of [`PointTree::knn_packet`]: per query the best (squared distance, id,
 /// position in the tree's order) so far, the walk's stack, and the seeds (positions: the
-/// union of the answers of the packet before).
+/// answer of the last query of the packet before).
 #[derive(Default)]
 pub struct PacketBuffers {
     best: [Vec<(f64, u32, u32)>; PACKET],
@@ -225,10 +229,53 @@ impl PointTree {
         (qq, pk, l0)
     }
 
+    /// The k nearest ids below `ub2` of each of the queries `qs`, handed packet by packet to
+    /// `visit(first, ids, tie, a, b)`: the packet's first query (its index in `qs`), its m
+    /// queries' ids (m × k, by (distance, id), -1 padded) and tie flags (m), and its rows of
+    /// the outputs `a` (`per_a` items a query) and `b` (`per_b`). Runs of [`SEEDED`]
+    /// consecutive queries go in parallel, each in packets of [`PACKET`]
+    /// ([`PointTree::knn_packet`], each packet seeded by the answers of the one before): the
+    /// answers are those of [`PointTree::knn_seeded`] query by query, whatever the runs.
+    #[allow(clippy::too_many_arguments)]
+    pub fn knn_runs<A: Send, B: Send>(
+        &self,
+        qs: &[P3],
+        k: usize,
+        ub2: f64,
+        (a, per_a): (&mut [A], usize),
+        (b, per_b): (&mut [B], usize),
+        visit: impl Fn(usize, &[i64], &[bool], &mut [A], &mut [B]) + Sync,
+    ) {
+        debug_assert!(k > 0 && a.len() == qs.len() * per_a && b.len() == qs.len() * per_b);
+        a.par_chunks_mut(per_a * SEEDED)
+            .zip(b.par_chunks_mut(per_b * SEEDED))
+            .zip(qs.par_chunks(SEEDED))
+            .enumerate()
+            .for_each(|(r, ((ar, br), qr))| {
+                let mut buf = PacketBuffers::default();
+                let (mut ids, mut tie) = (vec![-1i64; k * PACKET], [false; PACKET]);
+                for (j, ((ap, bp), q)) in ar
+                    .chunks_mut(per_a * PACKET)
+                    .zip(br.chunks_mut(per_b * PACKET))
+                    .zip(qr.chunks(PACKET))
+                    .enumerate()
+                {
+                    let m = q.len();
+                    self.knn_packet(q, k, ub2, &mut ids[..m * k], &mut tie[..m], &mut buf);
+                    visit(r * SEEDED + j * PACKET, &ids[..m * k], &tie[..m], ap, bp);
+                }
+            });
+    }
+
     /// [`PointTree::knn_seeded`] for up to [`PACKET`] queries `q` at once: their k nearest
     /// ids below `ub2` into `out` (q.len() × k, -1 padded) and the ties into `tie`. Seeded by
-    /// the union of the answers of the packet before (`buf`; a fresh one: no seeds), and
-    /// leaves this packet's there. The same answers as query by query (see the module).
+    /// the answer of the last query of the packet before (`buf`; a fresh one: no seeds), and
+    /// leaves this packet's last there: the nearest to the next packet's first queries, and
+    /// k + 1 seeds a query to measure and order, where the union of the packet's answers
+    /// (~10 for the k = 6 of `PolylineDistance`) cost more than the nodes they spared (its
+    /// kernel on a Rotor 37 plan's calls replayed, CPU s: 0.195 with the union, 0.152 with
+    /// the last answer; the sample tree's 8-nearest 0.102 / 0.097). The same answers as query
+    /// by query (see the module).
     pub fn knn_packet(
         &self,
         q: &[P3],
@@ -286,13 +333,7 @@ impl PointTree {
                 if !(d < ub2) {
                     continue;
                 }
-                let id = self.ids[s as usize];
-                if b.len() == cap && (d, id) >= (b[cap - 1].0, b[cap - 1].1) {
-                    continue;
-                }
-                let pos = b.partition_point(|&e| (e.0, e.1) < (d, id));
-                b.insert(pos, (d, id, s));
-                b.truncate(cap);
+                offer(b, cap, d, self.ids[s as usize], s);
             }
             if b.len() == cap {
                 lim[i] = b[cap - 1].0;
@@ -347,10 +388,8 @@ impl PointTree {
                 };
             }
             tie[i] = b.len() == cap && b[k - 1].0 == b[k].0;
-            seeds.extend(b.iter().map(|e| e.2));
         }
-        seeds.sort_unstable();
-        seeds.dedup();
+        seeds.extend(best[m - 1].iter().map(|e| e.2));
     }
 
     /// The points `a..e` of a leaf into the `best` of the queries in `mask` (the k + 1 =
@@ -391,17 +430,8 @@ impl PointTree {
             while near != 0 {
                 let l = near.trailing_zeros() as usize;
                 near &= near - 1;
-                let (dl, i, s) = (d[l], self.ids[a + j], (a + j) as u32);
                 let b = &mut best[l];
-                if b.len() == cap && (dl, i) >= (b[cap - 1].0, b[cap - 1].1) {
-                    continue;
-                }
-                let pos = b.partition_point(|&x| (x.0, x.1) < (dl, i));
-                if b.get(pos).is_some_and(|x| x.2 == s) {
-                    continue; // a seed still held, at its own (distance, id)
-                }
-                b.insert(pos, (dl, i, s));
-                b.truncate(cap);
+                offer(b, cap, d[l], self.ids[a + j], (a + j) as u32);
                 if b.len() == cap {
                     cut[l] = b[cap - 1].0;
                 }
