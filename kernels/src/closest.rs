@@ -8,23 +8,10 @@
 use crate::face_bvh::FaceBvh;
 use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmax;
+use crate::numpy_ops::{cross, sub};
 use rayon::prelude::*;
 
 pub type P3 = [f64; 3];
-
-#[inline(always)]
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline(always)]
-fn cross(x: &P3, y: &P3) -> P3 {
-    [
-        x[1] * y[2] - x[2] * y[1],
-        x[2] * y[0] - x[0] * y[2],
-        x[0] * y[1] - x[1] * y[0],
-    ]
-}
 
 /// `closest._triple`: n · (x × y) summed left to right.
 #[inline(always)]

@@ -14,26 +14,15 @@ use rayon::prelude::*;
 
 use crate::arrays::{points_n, values_n};
 use crate::numpy_ops::einsum_dot as dot;
+use crate::numpy_ops::{cross, sub};
 use crate::numpy_ops::{nanmax, nanmin};
 use crate::swept_cutter::{seg2, Profile};
 
 type P3 = [f64; 3];
 
 #[inline(always)]
-pub(crate) fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline(always)]
 fn axpy(a: &P3, t: f64, d: &P3) -> P3 {
     [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]]
-}
-#[inline(always)]
-fn cross(x: &P3, y: &P3) -> P3 {
-    [
-        x[1] * y[2] - x[2] * y[1],
-        x[2] * y[0] - x[0] * y[2],
-        x[0] * y[1] - x[1] * y[0],
-    ]
 }
 /// `np.linalg.norm(a, axis=1)` of one row: the squares summed left to right.
 #[inline(always)]

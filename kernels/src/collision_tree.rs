@@ -16,9 +16,10 @@ use pyo3::types::PyList;
 use rayon::prelude::*;
 
 use crate::arrays::{flat, points};
-use crate::collision_refine::{norm, sub};
+use crate::collision_refine::norm;
 use crate::collision_walk::{CollisionTree, Node, Tree, Tri, BRANCH, LEAF};
 use crate::numpy_ops::einsum_dot as dot;
+use crate::numpy_ops::sub;
 use crate::numpy_ops::{nanmax, nanmin};
 
 type P3 = [f64; 3];

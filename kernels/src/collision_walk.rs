@@ -17,8 +17,9 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::arrays::{points, points_n, values_n};
-use crate::collision_refine::{hypot_exact, refine_pose, sub, Pair, Part};
+use crate::collision_refine::{hypot_exact, refine_pose, Pair, Part};
 use crate::numpy_ops::einsum_dot as dot;
+use crate::numpy_ops::sub;
 use crate::numpy_ops::{nanmax, nanmin};
 
 type P3 = [f64; 3];

@@ -23,6 +23,7 @@
 //! compounded to twice the blade's size at the root) — padded for rounding.
 
 use crate::numpy_ops::einsum_dot as dot;
+use crate::numpy_ops::{cross, sub};
 
 pub type P3 = [f64; 3];
 
@@ -192,20 +193,6 @@ fn box_d2(bx: &[f64; 6], p: &P3) -> f64 {
         s += e * e;
     }
     s
-}
-
-#[inline(always)]
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline(always)]
-fn cross(x: &P3, y: &P3) -> P3 {
-    [
-        x[1] * y[2] - x[2] * y[1],
-        x[2] * y[0] - x[0] * y[2],
-        x[0] * y[1] - x[1] * y[0],
-    ]
 }
 
 /// The unit vector of `a`, or 0 when it has no length (or is not finite).

@@ -10,16 +10,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::lift::P3;
-
-/// `np.cross(u, v)` of two 3-vectors.
-#[inline(always)]
-fn cross(u: &P3, v: &P3) -> P3 {
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
-}
+use crate::numpy_ops::cross;
 
 /// (grad, κ) of one face: corners `x`, vertex normals `vn`, field values `val` (non-finite
 /// taken as 0), unit face normal `fnrm`, face area `area` (mm²).

@@ -21,6 +21,7 @@
 //! The framed tree answers many queries in packets of consecutive ones (`packet`: the ball
 //! centres of a pass come in path order), the same answers as one at a time.
 
+use crate::numpy_ops::cross;
 use rayon::prelude::*;
 
 mod packet;
@@ -245,16 +246,6 @@ fn max0(x: f64) -> f64 {
     } else {
         0.0
     }
-}
-
-/// u × v.
-#[inline(always)]
-fn cross(u: &P3, v: &P3) -> P3 {
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
 }
 
 /// No frame (its record gets an unbounded box, see [`records`]).

@@ -14,22 +14,10 @@ use rayon::prelude::*;
 
 use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmin;
+use crate::numpy_ops::{cross, sub};
 
 pub(crate) type P3 = [f64; 3];
 
-#[inline(always)]
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-/// `passes._cross`: u1 v2 − u2 v1, u2 v0 − u0 v2, u0 v1 − u1 v0.
-#[inline(always)]
-fn cross(u: &P3, v: &P3) -> P3 {
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
-}
 /// np.clip(x, 0, 1) as numpy computes it (NaN passes through).
 #[inline(always)]
 fn clip01(x: f64) -> f64 {

@@ -9,6 +9,22 @@ pub fn einsum_dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (a[0] * b[0] + a[2] * b[2]) + a[1] * b[1]
 }
 
+/// `a - b` of two 3-vectors (numpy's row subtraction).
+#[inline(always)]
+pub fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `np.cross(u, v)` of two 3-vectors: `u₁v₂ − u₂v₁, u₂v₀ − u₀v₂, u₀v₁ − u₁v₀`.
+#[inline(always)]
+pub fn cross(u: &[f64; 3], v: &[f64; 3]) -> [f64; 3] {
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
 /// np.maximum: NaN if either is NaN.
 #[inline(always)]
 pub fn nanmax(a: f64, b: f64) -> f64 {

@@ -10,6 +10,7 @@
 //! bounding cylinder, between its end planes) meets no material are skipped: subtracting
 //! an interval from air changes nothing.
 
+use crate::numpy_ops::sub;
 use numpy::{
     PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods,
 };
@@ -792,11 +793,6 @@ pub struct Tool<'a> {
     /// the samples start after the start pose (t ∈ (0, 1], the reference's sub-poses: the
     /// start pose is the previous move's end, measured with it)
     pub open_start: bool,
-}
-
-#[inline]
-fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 #[inline]

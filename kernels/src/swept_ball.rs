@@ -17,13 +17,9 @@ use rayon::prelude::*;
 
 use crate::numpy_ops::einsum_dot as dot;
 use crate::numpy_ops::nanmax;
+use crate::numpy_ops::sub;
 
 pub type P3 = [f64; 3];
-
-#[inline(always)]
-fn sub3(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
 
 /// Consecutive segments per leaf (a pass polyline's moves are short next to the ball).
 const RUN: usize = 4;
@@ -387,7 +383,7 @@ impl SegTree {
                 // the previous point's segment: its neighbour's nearest is likely its own
                 consider(last as usize, &mut b, &mut id, &mut r, &mut r2);
             }
-            let e = sub3(p, &c);
+            let e = sub(p, &c);
             let pc = dot(&e, &e).sqrt();
             for &(key, leaf) in &cands {
                 // (the pads: the keys' and |p − c|'s rounding, ~1e-15 of the lengths)
@@ -515,7 +511,7 @@ impl SegTree {
         let mut rg = 0.0f64;
         for (o, &h) in os.iter().zip(hs) {
             if finite(o) {
-                let e = sub3(o, &c);
+                let e = sub(o, &c);
                 rg = nanmax(rg, dot(&e, &e).sqrt() + reach_of(h));
             }
         }
@@ -543,7 +539,7 @@ impl SegTree {
                 *oi = f64::INFINITY;
                 continue;
             }
-            let e = sub3(o, &c);
+            let e = sub(o, &c);
             let pc = dot(&e, &e).sqrt();
             let mut best = f64::INFINITY;
             for &(key, leaf) in &cands {
