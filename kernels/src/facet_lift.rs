@@ -26,7 +26,7 @@ use std::sync::Mutex;
 
 use crate::lift::{candidate_tris, face_tri, lift_one, point_triangle_distance, Tri, P3};
 use crate::numpy_ops::{nanmax, nanmin};
-use crate::weld::prefetch;
+use crate::prefetch::prefetch;
 
 /// The face ids of a vertex–face table: int32 (`passes._narrow_table`) or int64.
 #[derive(FromPyObject)]

@@ -32,6 +32,7 @@ mod mesh_samples;
 mod mesh_topology;
 mod numpy_ops;
 mod polyline_distance;
+mod prefetch;
 mod probe;
 mod resample;
 mod slice_candidates;

@@ -3,6 +3,7 @@
 //! reference hashes in vectorised rounds; here one pass over an open-addressing table
 //! gives the same answer (the answer is defined without the hash: the lowest index of the
 //! points equal to it).
+use crate::prefetch::prefetch;
 
 #[inline(always)]
 fn mix(x: u64, y: u64, z: u64) -> u64 {
@@ -145,21 +146,6 @@ pub fn first_equal_rows(v: &[[f64; 3]]) -> Option<Vec<i64>> {
         }
     }
     Some(first)
-}
-
-/// Ask the CPU to fetch item `i` of `items` into its cache (a hint: nothing else changes).
-#[inline(always)]
-pub(crate) fn prefetch<T>(items: &[T], i: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if i < items.len() {
-        // SAFETY: a prefetch reads nothing the program sees; the address is in `items`
-        unsafe {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            _mm_prefetch::<_MM_HINT_T0>(items.as_ptr().add(i) as *const i8);
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (items, i);
 }
 
 /// Rows looked ahead by [`first_equal_rows`]: their table slots are fetched meanwhile (and

@@ -23,6 +23,7 @@
 use rayon::prelude::*;
 
 use super::{cross, d2, max0, offer, PointTree, Rec, P3, SEEDED, SPLIT};
+use crate::prefetch::{prefetch_all, prefetch_line};
 
 /// Queries a packet holds (the main thread's 8-nearest searches and screens of a Rotor 37
 /// plan replayed, CPU s, one query at a time 0.21 / 0.13; packets of 2: 0.16 / 0.08, 4:
@@ -76,19 +77,6 @@ fn least(lb: &Lb, mask: u32) -> f64 {
     m
 }
 
-/// Asks for the cache line at `p` ahead of its use (no effect off x86_64).
-#[inline(always)]
-fn prefetch<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch reads nothing and faults never, whatever the address
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
-}
-
 impl PointTree {
     /// Asks for what opening node `n` reads (its children's records, or a leaf's points and
     /// ids): the walk is bound by the latency of those loads (the records and samples of
@@ -100,24 +88,13 @@ impl PointTree {
         if r.a == SPLIT {
             for c in [n as usize + 1, r.b as usize] {
                 let p = &self.recs[c] as *const Rec as *const u8;
-                prefetch(p);
-                prefetch(p.wrapping_add(64));
+                prefetch_line(p);
+                prefetch_line(p.wrapping_add(64));
             }
         } else {
             let (a, e) = (r.a as usize, r.b as usize);
-            let p = self.pts[a..e].as_ptr() as *const u8;
-            let bytes = (e - a) * std::mem::size_of::<P3>();
-            let mut o = 0;
-            while o < bytes {
-                prefetch(p.wrapping_add(o));
-                o += 64;
-            }
-            let ip = self.ids[a..e].as_ptr() as *const u8;
-            let mut o = 0;
-            while o < (e - a) * 4 {
-                prefetch(ip.wrapping_add(o));
-                o += 64;
-            }
+            prefetch_all(&self.pts[a..e]);
+            prefetch_all(&self.ids[a..e]);
         }
     }
 
