@@ -21,9 +21,6 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
-
 use crate::lift::{candidate_tris, face_tri, lift_one, point_triangle_distance, Tri, P3};
 use crate::numpy_ops::{nanmax, nanmin};
 use crate::prefetch::prefetch;
@@ -240,7 +237,7 @@ const FACET_PIECE: usize = 64;
 /// (~0.8 ms) took 0.07 s a plan on the calling thread, 0.23–0.27 s wall with a worker
 /// taking pieces beside it (the caller waits for the worker's job to start and end, which
 /// the side thread and other processes keep off the cores for a time slice), 0.31–0.38 s
-/// handed whole to the 2-worker pool as before (Rotor 37 1.29M, measured in the plan on a
+/// handed whole to the 2-worker pool (Rotor 37 1.29M, measured in the plan on a
 /// loaded 2-core machine; the lead's quiet-machine figure for the pool: 0.20 s).
 const FACET_PARALLEL_MIN: usize = 16384;
 
@@ -254,8 +251,7 @@ const FETCH_AHEAD: usize = 16;
 /// its edges and their faces (e, 2) (−1: none), unit face normals (m, 3), the vertex–face
 /// table (`ptr`, `face`). `consts` = (ρ, facet tolerance, lift tolerance, gain, plane slack),
 /// mm; `steps` fixed-point steps. The GIL released; from [`FACET_PARALLEL_MIN`] points on,
-/// the calling thread takes pieces of [`FACET_PIECE`] points in turn with `threads` − 1
-/// workers of the pool.
+/// pieces of [`FACET_PIECE`] points on `threads` workers of the pool.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 pub fn facet_lift<'py>(
@@ -402,45 +398,29 @@ pub fn facet_lift<'py>(
 }
 
 /// Fill `out` (q,) piece by piece ([`FACET_PIECE`] items, `work(first index, piece,
-/// scratch)`), the calling thread and `threads` − 1 workers of the pool taking the next
-/// piece in turn, each with a [`Scratch`] of its own; false when a piece failed (the rest
-/// are then left). The calling thread alone with one thread, one piece, or below
-/// [`FACET_PARALLEL_MIN`] items.
+/// scratch)`), each run of pieces with a [`Scratch`] of its own; false when a piece failed
+/// (the rest may then be left). On the calling thread below [`FACET_PARALLEL_MIN`] items
+/// or with one thread, else on the pool's `threads` workers.
 fn take_pieces(
     threads: usize,
     q: usize,
     out: &mut [f64],
     work: impl Fn(usize, &mut [f64], &mut Scratch) -> Option<()> + Sync,
 ) -> PyResult<bool> {
-    let pieces: Vec<Mutex<&mut [f64]>> = out.chunks_mut(FACET_PIECE).map(Mutex::new).collect();
-    let next = AtomicUsize::new(0);
-    let failed = AtomicBool::new(false);
-    let take = || {
+    let piece = |sc: &mut Scratch, (c, p): (usize, &mut [f64])| work(c * FACET_PIECE, p, sc);
+    if q < FACET_PARALLEL_MIN || threads <= 1 {
         let mut sc = Scratch::default();
-        loop {
-            let c = next.fetch_add(1, Ordering::Relaxed);
-            if c >= pieces.len() || failed.load(Ordering::Relaxed) {
-                break;
-            }
-            let mut piece = pieces[c].lock().unwrap_or_else(|e| e.into_inner());
-            if work(c * FACET_PIECE, &mut piece, &mut sc).is_none() {
-                failed.store(true, Ordering::Relaxed);
-            }
-        }
-    };
-    let pl = crate::pool_for(if q < FACET_PARALLEL_MIN { 1 } else { threads }, q)?;
-    let helpers = (pl.current_num_threads() - 1).min(pieces.len().saturating_sub(1));
-    if helpers == 0 {
-        take();
-    } else {
-        pl.in_place_scope(|sc| {
-            for _ in 0..helpers {
-                sc.spawn(|_| take());
-            }
-            take();
-        });
+        let mut pieces = out.chunks_mut(FACET_PIECE).enumerate();
+        return Ok(pieces.try_for_each(|c| piece(&mut sc, c)).is_some());
     }
-    Ok(!failed.load(Ordering::Relaxed))
+    let pl = crate::pool_for(threads, q)?;
+    Ok(pl
+        .install(|| {
+            out.par_chunks_mut(FACET_PIECE)
+                .enumerate()
+                .try_for_each_init(Scratch::default, piece)
+        })
+        .is_some())
 }
 
 /// The candidate faces of one row of probe-sample ids (`_probe_faces` then
