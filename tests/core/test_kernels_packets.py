@@ -14,7 +14,7 @@ from blisk_cam.core.geometry.mesh import TriMesh
 from blisk_cam.core.kernels import knn as compiled_knn
 from blisk_cam.core.kernels import mesh_tables as compiled_tables
 from tests.support.kernels import needs_compiled
-from tests.support.mesh_files import cylinder_sheet, sample_points
+from tests.support.mesh_files import cylinder_sheet, flat_grid, sample_points
 
 compiled = needs_compiled(why="the packet searches are compiled only")
 
@@ -90,12 +90,7 @@ def test_packets_on_a_flat_grid_with_exact_ties_in_path_order():
     a vertex or an edge midpoint (several samples at the very same distance: the k-th and
     the next tie), with bounds at exactly a sample's distance: the sample tree's packets
     give the plain tree's ids and tie flags, and brute force's on the untied rows."""
-    x, y = np.meshgrid(np.arange(-6.0, 6.5, 0.5), np.arange(-6.0, 6.5, 0.5))
-    n = x.shape[0]
-    V = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
-    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1))
-    a = (i * n + j).ravel()
-    F = np.vstack([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    V, F = flat_grid(6.0)
     mesh = TriMesh.from_arrays(V, F)
     pts = sample_points(mesh)
     tree = compiled_tables.sample_tree(mesh.V, mesh.edges, mesh.F, 2)

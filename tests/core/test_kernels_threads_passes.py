@@ -24,7 +24,7 @@ from blisk_cam.core.process.blade_finish import PathRequest, plan_paths
 from blisk_cam.core.runtime import parallel
 from tests.support.blades import nasa_blade
 from tests.support.kernels import needs_compiled
-from tests.support.mesh_files import cylinder_sheet, sample_points
+from tests.support.mesh_files import cylinder_sheet, flat_grid, sample_points
 
 compiled = needs_compiled(why="the passes stage runs on one thread")
 
@@ -144,12 +144,7 @@ def test_sample_tree_on_a_flat_grid_with_exact_ties():
     above nodes, edge midpoints and random spots at heights around ρ, with bounds at exactly
     the distances the samples have (a sample at the bound is not within it) and a hair above
     them (a frame's bound that rounded above its points' distances would drop them)."""
-    x, y = np.meshgrid(np.arange(-10.0, 10.5, 0.5), np.arange(-10.0, 10.5, 0.5))
-    n = x.shape[0]
-    V = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
-    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1))
-    a = (i * n + j).ravel()
-    F = np.vstack([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    V, F = flat_grid(10.0)
     rng = np.random.default_rng(8)
     for fold in (False, True):
         W = V.copy()

@@ -45,6 +45,18 @@ def cylinder_sheet(radius, turn, n_turn, half_height, n_height):
     return V, F
 
 
+def flat_grid(half, step=0.5):
+    """A flat square grid in the plane z = 0 over x, y = −``half`` … ``half`` mm at ``step`` mm,
+    two triangles a cell. Returns V (n², 3) float64, F (2 (n − 1)², 3) int64."""
+    x, y = np.meshgrid(np.arange(-half, half + step, step), np.arange(-half, half + step, step))
+    n = x.shape[0]
+    V = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1))
+    a = (i * n + j).ravel()
+    F = np.vstack([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    return V, F
+
+
 def sample_points(mesh):
     """The points of the passes' sample tree in its id order (``paths.probe_samples``): the
     vertices, the edge midpoints and the face centroids of ``mesh`` (a ``TriMesh``), (n, 3)
