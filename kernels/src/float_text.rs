@@ -59,8 +59,13 @@ pub fn push_repr(out: &mut String, scratch: &mut String, x: f64) {
             out.push('.');
             push(out, &digits[1..]);
         }
-        write!(out, "e{}{:02}", if e < 0 { '-' } else { '+' }, e.unsigned_abs())
-            .expect("formatting into a String cannot fail");
+        write!(
+            out,
+            "e{}{:02}",
+            if e < 0 { '-' } else { '+' },
+            e.unsigned_abs()
+        )
+        .expect("formatting into a String cannot fail");
     }
 }
 
@@ -97,7 +102,12 @@ fn is_tie(x: f64, d: &[u8], e: i32) -> bool {
     // ... exactly (a double's exact decimal has at most 767 significant digits) ...
     let exact = format!("{:.*e}", 800, x);
     let tail = exact.split_once('e').expect("{:e} writes an exponent").0;
-    if !tail.bytes().filter(|b| b.is_ascii_digit()).skip(n + 1).all(|b| b == b'0') {
+    if !tail
+        .bytes()
+        .filter(|b| b.is_ascii_digit())
+        .skip(n + 1)
+        .all(|b| b == b'0')
+    {
         return false;
     }
     // ... and the candidate below must read back to x too
@@ -114,7 +124,10 @@ fn is_tie(x: f64, d: &[u8], e: i32) -> bool {
 /// when a value is not finite (JSON has none: the caller's `json.dumps` says so) or the
 /// array has another number of dimensions.
 #[pyfunction]
-pub fn json_float_array(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f64>) -> PyResult<Option<String>> {
+pub fn json_float_array(
+    py: Python<'_>,
+    a: PyReadonlyArrayDyn<'_, f64>,
+) -> PyResult<Option<String>> {
     let shape = a.shape().to_vec();
     if shape.is_empty() || shape.len() > 2 {
         return Ok(None);

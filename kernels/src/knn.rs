@@ -1034,13 +1034,7 @@ impl PointTree {
     /// asked (queries in path order: on a plain tree over ~800 level points, the column
     /// neighbours of a Rotor 37 plan, 0.054 s of CPU one by one, 0.034 in packets), else
     /// one by one; the same answers either way.
-    pub fn knn_many(
-        &self,
-        qs: &[P3],
-        k: usize,
-        ub2: f64,
-        packets: bool,
-    ) -> (Vec<i64>, Vec<bool>) {
+    pub fn knn_many(&self, qs: &[P3], k: usize, ub2: f64, packets: bool) -> (Vec<i64>, Vec<bool>) {
         let mut ids = vec![-1i64; qs.len() * k];
         let mut tie = vec![false; qs.len()];
         if k == 0 {
@@ -1048,10 +1042,17 @@ impl PointTree {
         }
         if self.framed || packets {
             // each packet seeded by the answers of the one before
-            self.knn_runs(qs, k, ub2, (&mut ids, k), (&mut tie, 1), |_, i, t, oi, ti| {
-                oi.copy_from_slice(i);
-                ti.copy_from_slice(t);
-            });
+            self.knn_runs(
+                qs,
+                k,
+                ub2,
+                (&mut ids, k),
+                (&mut tie, 1),
+                |_, i, t, oi, ti| {
+                    oi.copy_from_slice(i);
+                    ti.copy_from_slice(t);
+                },
+            );
             return (ids, tie);
         }
         // runs of SEEDED queries in order, each seeded by the one before (queries come

@@ -29,7 +29,9 @@ pub fn slicer_candidates<'py>(
     let ww = crate::slice1(&wide, "wide")?;
     let (a, b) = (crate::slice1(&smin, "smin")?, crate::slice1(&smax, "smax")?);
     if a.len() != b.len() {
-        return Err(PyValueError::new_err("smin and smax must have the same length"));
+        return Err(PyValueError::new_err(
+            "smin and smax must have the same length",
+        ));
     }
     let m = a.len() as i64;
     let end = end.min(nn.len());

@@ -243,4 +243,3 @@ pub fn stl_corners_welded(records: &[u8], n: usize) -> Option<(Vec<f64>, Vec<i64
     }
     Some((verts, corner))
 }
-
