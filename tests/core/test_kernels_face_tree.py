@@ -107,3 +107,75 @@ def test_face_tree_ties_go_to_the_lowest_face_whatever_the_previous_point(disks)
     tree = face_tree(V, F, disks)
     for threads in (1, 2):
         np.testing.assert_array_equal(nearest_faces(tree, P, threads), ref)
+
+
+def _ball_centres(mesh, r0, offset=6.0, nsub=8):
+    """(k, 3) mm in path order, as verify asks for them (:func:`measure._subsample`: ``nsub``
+    points per segment, the nodes included): ball centres ``offset`` mm off the faces of a
+    section of ``mesh`` at radius ``r0`` mm around the z axis (the faces' centroids within
+    0.5 mm of it, each next one the nearest one left, each pushed out along its normal), then the centres above the vertices of the same section (vertex + offset × its
+    normal: a convex vertex's faces all tie there), run forth and back."""
+    V, F = mesh.V, mesh.F
+    runs = []
+    for x, n in ((V[F].mean(axis=1), mesh.face_normals), (V, mesh.vertex_normals)):
+        r = np.hypot(x[:, 0], x[:, 1])
+        sel = list(np.flatnonzero(np.abs(r - r0) < 0.5))
+        chain = [sel.pop(0)]  # each next node the nearest one left: a path-like order
+        while sel:
+            j = int(np.argmin(np.linalg.norm(x[sel] - x[chain[-1]], axis=1)))
+            chain.append(sel.pop(j))
+        sel = np.array(chain)
+        nodes = x[sel] + offset * n[sel]
+        t = np.arange(nsub) / nsub
+        a, b = nodes[:-1], nodes[1:]
+        runs.append(np.vstack([(a[:, None] + t[None, :, None] * (b - a)[:, None]).reshape(-1, 3),
+                               nodes[-1:]]))
+    runs.append(runs[-1][::-1])
+    return np.vstack(runs)
+
+
+def _closest_figures(mesh, P, face):
+    """(face, q, d2, feature, bary) of closest_on_triangles at each point and its face."""
+    from blisk_cam.core.geometry.closest import closest_on_triangles
+
+    V, F = mesh.V, mesh.F[face]
+    q, d2, feat, bary = closest_on_triangles(P, V[F[:, 0]], V[F[:, 1]], V[F[:, 2]])
+    return face, q, d2, feat, bary
+
+
+@compiled
+@pytest.mark.parametrize("r0", [200.0, 235.0])
+def test_face_tree_ball_centres_in_path_order_are_numpys(rotor37, r0):
+    """Rotor 37 as stored (20k faces, slivers down to 0.07 mm): ball centres 6 mm off a
+    section, 8 per segment in path order (consecutive centres 0.01–0.2 mm apart), over
+    the faces and over the vertices (exact ties), then shuffled and reversed: the compiled
+    nearest faces and closest-point figures are the numpy reference's bit for bit, on 1
+    and 2 threads, with the faces' own bounds (verify's tree) and without; a brute force
+    over every face agrees on a subset."""
+    from blisk_cam.core.geometry.closest import closest_on_triangles
+    from blisk_cam.core.kernels.closest import face_tree, nearest_closest
+
+    V, F, _, _ = rotor37
+    mesh = TriMesh.from_arrays(V, F)
+    P = _ball_centres(mesh, r0)
+    ref_face = _numpy(lambda X: (NearestFaces(mesh).query(X)[1],), P, chunk=500)[0]
+    ref = _closest_figures(mesh, P, ref_face)
+    # what the points are: mostly 6 mm off (less at the thin edges), close together, many of them at exact ties
+    step = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    assert len(P) > 2000 and np.median(step) < 0.1
+    assert np.mean(np.sqrt(ref[2]) > 5.0) > 0.9
+    assert (ref[3] >= 4).sum() > 50 and ((ref[3] >= 1) & (ref[3] <= 3)).sum() > 500
+    # the reference against every face, on a subset (ties: the lowest id)
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    for i in np.linspace(0, len(P) - 1, 40).astype(int):
+        d2 = closest_on_triangles(np.repeat(P[i:i + 1], len(F), 0), A, B, C)[1]
+        assert ref_face[i] == np.flatnonzero(d2 == d2.min())[0]
+    rng = np.random.default_rng(5)
+    orders = (np.arange(len(P)), rng.permutation(len(P)), np.arange(len(P))[::-1])
+    for disks in (True, False):
+        tree = face_tree(mesh.V, mesh.F, disks)
+        for threads in (1, 2):
+            for idx in orders:
+                got = nearest_closest(tree, P[idx], threads)
+                for g, r in zip(got, ref, strict=True):
+                    np.testing.assert_array_equal(g, r[idx])
