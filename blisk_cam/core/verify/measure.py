@@ -50,7 +50,7 @@ from ..tool.cutter import as_cutter
 from ..toolpath.types import PassCurve, ToolPath
 from .allowance import as_measured_on_blade
 from .contacts import cl_or_nan, interpolated_contacts
-from .forest import SweptForest
+from .forest import SweptForest, regula_falsi
 from .links import cut_runs, link_checks
 from .samples import SurfaceSamples, default_spacing, surface_samples
 from .sweep import SWEEP_METHODS, SweepError, SweptCutter, swept_cutter
@@ -695,27 +695,20 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         return
     ea, eb = smp.edges.take(eidx, axis=0).T
     xa, xb = smp.points.take(ea, axis=0), smp.points.take(eb, axis=0)
-    ta, tb, near = np.zeros(len(eidx)), np.ones(len(eidx)), None
-    last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
     steps = cut.ridge_steps(xa, xb, ga, gb, epair, refine)  # compiled balls: every step
-    for _ in range(max(int(refine), 1) if steps is None else 0):
-        t = (ta * gb - tb * ga) / (gb - ga)
-        x = xa + t[:, None] * (xb - xa)
-        if known is not None and near is None:
-            # the iterates after the first move by far less than a tenth of the edge
-            near = _two_level_near(cut, x, epair, npairs,
-                                   0.1 * np.linalg.norm(xb - xa, axis=1),
-                                   x + rho * smp.normals[ea])
-        la, lb = _two_level_distances(cut, x, epair, npairs, near=near)
-        gx = la - lb
-        repl_a = np.sign(gx) == np.sign(ga)
-        # Illinois: halve the kept end's value when the same end is replaced twice
-        ga = np.where(~repl_a & (last == 2), 0.5 * ga, ga)
-        gb = np.where(repl_a & (last == 1), 0.5 * gb, gb)
-        ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
-        tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
-        last = np.where(repl_a, 1, 2).astype(np.int8)
-    x, la, lb = (x, la, lb) if steps is None else steps
+    if steps is None:
+        near = []
+
+        def distances(x, i):
+            if known is not None and i == 0:
+                # the iterates after the first move by far less than a tenth of the edge
+                near.append(_two_level_near(cut, x, epair, npairs,
+                                            0.1 * np.linalg.norm(xb - xa, axis=1),
+                                            x + rho * smp.normals[ea]))
+            return _two_level_distances(cut, x, epair, npairs, near=near[0] if near else None)
+
+        steps = regula_falsi(xa, xb, ga, gb, refine, distances)
+    x, la, lb = steps
     rv = np.minimum(la, lb)
     rmax = _group_max(npairs, epair, rv)
     better = np.isfinite(rmax) & ~(rmax <= sc.pair_cusp)
