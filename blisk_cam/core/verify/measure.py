@@ -252,13 +252,14 @@ def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
 def _ridges(samples, strip, g, npairs):
     """Grid edges inside one strip across which g (a sign per sample: −1, 0, 1 or NaN)
     changes sign: (edge ids, pair ids)."""
-    ea, eb = samples.edges.T.copy()  # (each column copied once, not once per gather)
-    sa = strip[ea]
-    same = (sa == strip[eb]) & (sa >= 0) & (sa < npairs)
-    # g is a sign (−1, 0, 1 or NaN): opposite signs exactly when the product is negative
-    cross = same & (g[ea] * g[eb] < 0)
-    idx = np.nonzero(cross)[0]
-    return idx, sa[idx]
+    # one int32 code per sample, 4 strip + (1 where g < 0, 2 where g > 0, else 0), −1
+    # outside the strips: an edge's ends are in one strip with opposite signs exactly when
+    # their codes differ in those two bits alone (XOR 3); one gather of both ends' codes
+    code = np.where((strip >= 0) & (strip < npairs),
+                    4 * strip + np.where(g < 0, 1, np.where(g > 0, 2, 0)), -1).astype(np.int32)
+    ce = code[samples.edges]
+    idx = np.flatnonzero((ce[:, 0] ^ ce[:, 1]) == 3)
+    return idx, strip[samples.edges[idx, 0]]
 
 
 def verify_path(mesh: TriMesh, path: ToolPath, *, spacing: float | None = None,
