@@ -653,6 +653,29 @@ impl SegTree {
         best
     }
 
+    /// The least [`Self::capsule_first_hit`] of the ray `o` + t `n` over the segments of
+    /// `leaf` within `reach` (radius + max height, padded) of `o` (∞ without one): a hit at
+    /// t lies on the capsule, within radius + t of `o`, so a segment farther than `reach`
+    /// is hit beyond the max height, if at all (it cannot be the least hit within it).
+    #[inline]
+    fn run_first_hit(&self, o: &P3, n: &P3, leaf: u32, r2: f64, reach: f64) -> f64 {
+        let far = {
+            let r = reach * (1.0 + 1e-9) + 1e-9; // the squared distance's rounding
+            r * r
+        };
+        let mut best = f64::INFINITY;
+        for s in self.run(leaf) {
+            if self.d2(o, s) > far {
+                continue;
+            }
+            let t = self.capsule_first_hit(o, n, s, r2);
+            if t < best {
+                best = t;
+            }
+        }
+        best
+    }
+
     /// `SweptBall.height_along` of one point: the first hit of the ray `o` + t `n` with the
     /// capsules of radius `radius` around the segments, t ≤ `hmax` (∞ otherwise). Only a
     /// segment within `radius` + `hmax` of `o` can be hit that soon: the segments of the
@@ -671,12 +694,7 @@ impl SegTree {
             if self.caps[leaf as usize].beyond(o, r) {
                 continue; // every hit of its capsules is beyond hmax
             }
-            for s in self.run(leaf) {
-                let t = self.capsule_first_hit(o, n, s, r2);
-                if t < best {
-                    best = t;
-                }
-            }
+            best = best.min(self.run_first_hit(o, n, leaf, r2, r));
         }
         if best > hmax {
             f64::INFINITY
@@ -754,12 +772,7 @@ impl SegTree {
                 if self.caps[leaf as usize].beyond(o, ro) {
                     continue; // every hit of its capsules is beyond hmax
                 }
-                for s in self.run(leaf) {
-                    let t = self.capsule_first_hit(o, n, s, r2);
-                    if t < best {
-                        best = t;
-                    }
-                }
+                best = best.min(self.run_first_hit(o, n, leaf, r2, ro));
             }
             *oi = if best > hmax { f64::INFINITY } else { best };
         }
