@@ -629,9 +629,8 @@ def _scallops(mesh, cut, levels, smp, P, normals, s_all, values, lab, rho,
                 arr[other], has[other] = d, True
     sv, mv = strip[valid], mat[valid]
     sc.pair_n = np.bincount(sv, minlength=npairs)
-    sc.pair_cusp = _group_max(npairs, sv, mv)
+    sc.pair_cusp, arg = _group_max_arg(npairs, sv, mv)
     sc.pair_gouge = np.maximum(_group_max(npairs, sv, -mv), 0.0)
-    arg = _group_argmax(npairs, sv, mv)
     has = arg >= 0
     top = np.flatnonzero(valid)[arg[has]]  # each pair's highest sample (not P[valid]'s copy)
     sc.pair_where[has] = P[top]
@@ -711,9 +710,8 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         steps = regula_falsi(xa, xb, ga, gb, refine, distances)
     x, la, lb = steps
     rv = np.minimum(la, lb)
-    rmax = _group_max(npairs, epair, rv)
+    rmax, ra = _group_max_arg(npairs, epair, rv)
     better = np.isfinite(rmax) & ~(rmax <= sc.pair_cusp)
-    ra = _group_argmax(npairs, epair, rv)
     sc.pair_cusp = np.where(better, rmax, sc.pair_cusp)
     sc.pair_where[better] = x[ra[better]]
     sc.ridge_pts = x
@@ -829,14 +827,17 @@ def _group_max(n, idx, vals):
     return np.where(np.isfinite(out) | (out == np.inf), out, np.nan)
 
 
-def _group_argmax(n, idx, vals):
+def _group_max_arg(n, idx, vals):
+    """(:func:`_group_max`, the index of each group's maximum (the last of equal ones; −1
+    without a finite value)) of values ``vals`` in groups ``idx`` (k,) of ``n``, from one
+    maximum per group."""
     best = np.full(n, -np.inf)
     v = np.where(np.isnan(vals), -np.inf, vals)
     np.maximum.at(best, idx, v)
     win = (v >= best[idx]) & np.isfinite(v)
     arg = np.full(n, -1, dtype=np.int64)
     arg[idx[win]] = np.nonzero(win)[0]
-    return arg
+    return np.where(np.isfinite(best) | (best == np.inf), best, np.nan), arg
 
 
 def _two_level_queries(rows, strip, npairs, need=None):
