@@ -108,6 +108,88 @@ impl LeafCapsule {
     }
 }
 
+/// The segments listed near a point x ([`SegTree::nearest_group_listed`]): every segment
+/// within `r` mm of x (NaN `r`: none listed, a full search each time), and x's nearest
+/// segment `seg`.
+#[derive(Clone, Copy)]
+pub struct Listed {
+    x: P3,
+    r: f64,
+    seg: i64,
+    /// its leaves: `Lists::leaves[from..to]`
+    from: u32,
+    to: u32,
+}
+
+/// [`Listed`] of many points, their leaves in one vector.
+#[derive(Default)]
+pub struct Lists {
+    pub near: Vec<Listed>,
+    leaves: Vec<u32>,
+}
+
+impl Lists {
+    fn push_none(&mut self, p: &P3, seg: i64) {
+        let n = self.leaves.len() as u32;
+        self.near.push(Listed {
+            x: *p,
+            r: f64::NAN,
+            seg,
+            from: n,
+            to: n,
+        });
+    }
+}
+
+/// 10 bits of x with two zero bits between each (a Morton code's spread).
+#[inline(always)]
+fn spread10(x: u64) -> u64 {
+    let mut x = x & 0x3FF;
+    x = (x | (x << 16)) & 0x30000FF;
+    x = (x | (x << 8)) & 0x300F00F;
+    x = (x | (x << 4)) & 0x30C30C3;
+    x = (x | (x << 2)) & 0x9249249;
+    x
+}
+
+/// The points' indices in Morton (Z) order on a 1024³ grid over their box, ties and
+/// non-finite points (last) by index: nearby points come together, whatever their order.
+pub fn spatial_order(pts: &[P3]) -> Vec<u32> {
+    let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in pts.iter().filter(|p| finite(p)) {
+        for j in 0..3 {
+            lo[j] = lo[j].min(p[j]);
+            hi[j] = hi[j].max(p[j]);
+        }
+    }
+    let scale: Vec<f64> = (0..3)
+        .map(|j| {
+            let w = hi[j] - lo[j];
+            if w > 0.0 && w.is_finite() {
+                1023.0 / w
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mut keys: Vec<u64> = pts
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let code = if finite(p) {
+                let c = |j: usize| spread10(((p[j] - lo[j]) * scale[j]).clamp(0.0, 1023.0) as u64);
+                c(0) | (c(1) << 1) | (c(2) << 2)
+            } else {
+                1 << 30
+            };
+            (code << 32) | i as u64
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.into_iter().map(|k| k as u32).collect()
+}
+
 /// The squared distance from a point to a box (lo, hi) (0 inside).
 #[inline(always)]
 pub fn box_d2(bx: &[f64; 6], p: &P3) -> f64 {
@@ -143,6 +225,10 @@ pub const GROUP: usize = 32;
 /// Candidate leaves above which a group is searched point by point (its points are far
 /// apart: one walk per point is then cheaper than testing every candidate per point).
 pub const GROUP_MAX_LEAVES: usize = 256;
+
+/// Candidate leaves above which a group's list bounded by the previous group's segment is
+/// dropped for one bounded by the group's own first point (searched alone).
+pub const GUESS_MAX_LEAVES: usize = 128;
 
 impl SegTree {
     /// Segments a + t d (t ∈ [0, 1]) with |d|² `dd` (0 replaced by 1), and their ends `b`
@@ -277,11 +363,16 @@ impl SegTree {
     /// [`Self::nearest_from`] of every point, by groups of [`GROUP`] consecutive points
     /// ([`Self::nearest_group`]; the figures do not depend on the grouping).
     pub fn nearest_many(&self, pts: &[P3]) -> (Vec<f64>, Vec<i64>) {
-        let mut d2 = vec![f64::INFINITY; pts.len()];
-        let mut seg = vec![-1i64; pts.len()];
-        d2.par_chunks_mut(WARM_RUN)
-            .zip(seg.par_chunks_mut(WARM_RUN))
-            .zip(pts.par_chunks(WARM_RUN))
+        // the points in space-filling-curve order (grid samples come triangle by triangle,
+        // in the mesh's face order: a quarter of 32 consecutive ones spread over 2 mm), so
+        // that each group is compact; every point's figures are its own
+        let order = spatial_order(pts);
+        let q: Vec<P3> = order.iter().map(|&i| pts[i as usize]).collect();
+        let mut dq = vec![f64::INFINITY; q.len()];
+        let mut sq = vec![-1i64; q.len()];
+        dq.par_chunks_mut(WARM_RUN)
+            .zip(sq.par_chunks_mut(WARM_RUN))
+            .zip(q.par_chunks(WARM_RUN))
             .for_each(|((dd, ss), ps)| {
                 let mut g = -1i64;
                 for ((dg, sg), pg) in dd
@@ -292,36 +383,85 @@ impl SegTree {
                     g = self.nearest_group(pg, dg, sg, g);
                 }
             });
+        let mut d2 = vec![f64::INFINITY; pts.len()];
+        let mut seg = vec![-1i64; pts.len()];
+        for (k, &i) in order.iter().enumerate() {
+            d2[i as usize] = dq[k];
+            seg[i as usize] = sq[k];
+        }
         (d2, seg)
     }
 
-    /// [`Self::nearest_from`] of a group of nearby points with one tree walk: the first
-    /// finite point is searched alone (from `guess`); its segment s0 bounds every point's
-    /// least distance (d2 to s0), so every segment that can be nearest to one of them lies in
-    /// a leaf whose box comes within max(|p − c| + reach(d2(p, s0))) of the group's centre c:
-    /// those leaves are listed once, then each point tests them (capsule, then segments) against
-    /// its own best so far. Every segment at a point's least distance is compared, so the
-    /// (d2, segment) are [`Self::nearest_from`]'s. Returns the last segment found (the next
+    /// [`Self::nearest_from`] of a group of nearby points with one tree walk: a segment s0
+    /// bounds every point's least distance (d2 to s0), so every segment that can be nearest
+    /// to one of them lies in a leaf whose box comes within max(|p − c| + reach(d2(p, s0)))
+    /// of the group's centre c: those leaves are listed once, then each point tests them
+    /// (capsule, then segments) against its own best so far. s0 is `guess` (the previous
+    /// group's last segment: no walk of its own) when that lists at most
+    /// [`GUESS_MAX_LEAVES`] leaves, else the first finite point's nearest, searched alone.
+    /// Every segment at a point's least distance is compared, so the (d2, segment) are
+    /// [`Self::nearest_from`]'s whatever s0. Returns the last segment found (the next
     /// group's guess).
     pub fn nearest_group(&self, ps: &[P3], dd: &mut [f64], ss: &mut [i64], guess: i64) -> i64 {
+        self.group_scan(ps, dd, ss, guess, None, &mut Lists::default())
+    }
+
+    /// [`Self::nearest_group`] that also lists, with `margin` (one per point, mm), the
+    /// segments near each point ([`Listed`], pushed to `lists` in point order) for later
+    /// queries at points that moved a little ([`Self::listed_d2`]); the (d2, segment) are
+    /// [`Self::nearest_group`]'s. A point's walk down the group's list goes `margin` further
+    /// and keeps the leaves whose capsule comes within its reach + margin: its reach only
+    /// shrinks during the walk, so every leaf within its final reach + margin is kept (the
+    /// group's list is made `margin` wider for that). A point searched alone lists nothing.
+    pub fn nearest_group_listed(
+        &self,
+        ps: &[P3],
+        dd: &mut [f64],
+        ss: &mut [i64],
+        guess: i64,
+        margin: &[f64],
+        lists: &mut Lists,
+    ) -> i64 {
+        self.group_scan(ps, dd, ss, guess, Some(margin), lists)
+    }
+
+    fn group_scan(
+        &self,
+        ps: &[P3],
+        dd: &mut [f64],
+        ss: &mut [i64],
+        guess: i64,
+        margin: Option<&[f64]>,
+        lists: &mut Lists,
+    ) -> i64 {
+        let listing = margin.is_some();
+        let mg = |i: usize| margin.map_or(0.0, |m| m[i]);
+        let n0 = lists.near.len();
+        let unlisted = |lists: &mut Lists, ss: &[i64]| {
+            if listing {
+                lists.near.truncate(n0);
+                for (&s, p) in ss.iter().zip(ps) {
+                    lists.push_none(p, s);
+                }
+            }
+        };
         let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
-        let alone = |dd: &mut [f64], ss: &mut [i64], mut g: i64| -> i64 {
+        let alone = |dd: &mut [f64], ss: &mut [i64], lists: &mut Lists, mut g: i64| -> i64 {
             for ((di, si), p) in dd.iter_mut().zip(ss.iter_mut()).zip(ps) {
                 (*di, *si) = self.nearest_from(p, g);
                 if *si >= 0 {
                     g = *si;
                 }
             }
+            unlisted(lists, ss);
             g
         };
         let Some(i0) = ps.iter().position(finite) else {
-            return alone(dd, ss, guess);
+            return alone(dd, ss, lists, guess);
         };
-        let (d0, s0) = self.nearest_from(&ps[i0], guess);
-        if s0 < 0 || ps.len() < 4 {
-            return alone(dd, ss, guess);
+        if ps.len() < 4 {
+            return alone(dd, ss, lists, guess);
         }
-        let s0u = s0 as usize;
         let (mut c, mut m) = ([0.0f64; 3], 0.0f64);
         for p in ps.iter().filter(|p| finite(p)) {
             for j in 0..3 {
@@ -330,43 +470,81 @@ impl SegTree {
             m += 1.0;
         }
         let c = [c[0] / m, c[1] / m, c[2] / m];
-        let mut rg = 0.0f64;
-        for p in ps.iter().filter(|p| finite(p)) {
-            let e = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
-            let u = reach(self.d2(p, s0u));
-            rg = nanmax(rg, dot(&e, &e).sqrt() + u); // a NaN reach: the group searched alone
-        }
-        let r = rg * (1.0 + 1e-9) + 1e-9;
-        if !(r < f64::INFINITY) {
-            return alone(dd, ss, s0);
-        }
-        let mut cands: Vec<(f64, u32)> = Vec::new();
-        let rr = r * r; // squared: no square root per box (r holds far more than its rounding)
-        for leaf in self.bvh.leaves(|node| node_d2(node, &c) <= rr) {
-            cands.push((0.0, leaf));
-            if cands.len() > GROUP_MAX_LEAVES {
-                return alone(dd, ss, s0);
+        // the leaves that can hold a point's nearest segment when segment `s0` bounds every
+        // point's least distance (its box within max(|p − c| + reach(d2(p, s0)) + margin) of
+        // c), sorted by their capsules' distance from the centre: a point p's distance to a
+        // capsule is at least that less |p − c|, so its walk down the list stops at the first
+        // capsule beyond its reach by that bound (every later one is too; a NaN key, sorted
+        // last, never stops it). None beyond `limit` leaves or for an unbounded reach.
+        let cands_for = |s0u: usize, limit: usize| -> Option<Vec<(f64, u32)>> {
+            let mut rg = 0.0f64;
+            for (i, p) in ps.iter().enumerate().filter(|(_, p)| finite(p)) {
+                let e = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+                let u = reach(self.d2(p, s0u));
+                // a NaN reach: the group searched alone
+                rg = nanmax(rg, dot(&e, &e).sqrt() + u + mg(i));
             }
+            let r = rg * (1.0 + 1e-9) + 1e-9;
+            if !(r < f64::INFINITY) {
+                return None;
+            }
+            let mut cands: Vec<(f64, u32)> = Vec::new();
+            let rr = r * r; // squared: no square root per box (r holds far more than its rounding)
+            for leaf in self.bvh.leaves(|node| node_d2(node, &c) <= rr) {
+                cands.push((0.0, leaf));
+                if cands.len() > limit {
+                    return None;
+                }
+            }
+            for cand in cands.iter_mut() {
+                let cap = &self.caps[cand.1 as usize];
+                cand.0 = cap.dist2(&c).sqrt() - cap.rad;
+            }
+            cands.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            Some(cands)
+        };
+        // the bound: the segment `guess` (the previous group's last: nearby groups share
+        // their nearest passes) when its list is short, else the first point's nearest
+        // segment, searched alone (any segment bounds every least distance: the same figures)
+        let mut fixed = None;
+        let mut s0 = guess;
+        let mut listed = None;
+        if guess >= 0 && (guess as usize) < self.a.len() {
+            listed = cands_for(guess as usize, GUESS_MAX_LEAVES);
         }
-        // by their capsules' distance from the centre: a point p's distance to a capsule is
-        // at least that less |p − c|, so its walk down the list stops at the first capsule
-        // beyond its reach by that bound (every later one is too; a NaN key, sorted last,
-        // never stops it)
-        for cand in cands.iter_mut() {
-            let cap = &self.caps[cand.1 as usize];
-            cand.0 = cap.dist2(&c).sqrt() - cap.rad;
+        if listed.is_none() {
+            let (d0, g0) = self.nearest_from(&ps[i0], guess);
+            if g0 < 0 {
+                return alone(dd, ss, lists, guess);
+            }
+            fixed = Some((d0, g0));
+            s0 = g0;
+            listed = cands_for(g0 as usize, GROUP_MAX_LEAVES);
         }
-        cands.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let Some(cands) = listed else {
+            return alone(dd, ss, lists, s0);
+        };
+        let s0u = s0 as usize;
+        let unlisted_one = |lists: &mut Lists, p: &P3, s: i64| {
+            if listing {
+                lists.push_none(p, s);
+            }
+        };
         let mut last = s0;
         for (i, p) in ps.iter().enumerate() {
-            if i == i0 {
-                (dd[i], ss[i]) = (d0, s0);
-                continue;
+            if i == i0 && !listing {
+                if let Some(f) = fixed {
+                    (dd[i], ss[i]) = f;
+                    continue;
+                }
             }
             if !finite(p) {
                 (dd[i], ss[i]) = self.nearest_from(p, -1);
+                unlisted_one(lists, p, ss[i]);
                 continue;
             }
+            let mi = mg(i);
+            let from = lists.leaves.len();
             let (mut b, mut id) = (f64::INFINITY, -1i64);
             let (mut r, mut r2) = (f64::INFINITY, f64::INFINITY);
             let consider = |s: usize, b: &mut f64, id: &mut i64, r: &mut f64, r2: &mut f64| {
@@ -387,17 +565,44 @@ impl SegTree {
             let pc = dot(&e, &e).sqrt();
             for &(key, leaf) in &cands {
                 // (the pads: the keys' and |p − c|'s rounding, ~1e-15 of the lengths)
-                if key - pc > r * (1.0 + 1e-9) + 1e-9 {
+                if key - pc > (r + mi) * (1.0 + 1e-9) + 1e-9 {
                     break;
                 }
                 let l = leaf as usize;
-                if !self.caps[l].beyond(p, r) {
+                if !self.caps[l].beyond(p, r + mi) {
                     for s in self.run(leaf) {
                         consider(s, &mut b, &mut id, &mut r, &mut r2);
                     }
+                    if listing {
+                        lists.leaves.push(leaf);
+                    }
                 }
             }
+            if let (true, Some(f)) = (i == i0, fixed) {
+                // searched alone first: the very (d2, segment) (the walk lists its leaves)
+                (b, id) = f;
+            }
             (dd[i], ss[i]) = (b, id);
+            if listing {
+                // the leaves kept while the reach was larger: those still within the final
+                let rf = reach(b) + mi;
+                let mut to = from;
+                for k in from..lists.leaves.len() {
+                    let leaf = lists.leaves[k];
+                    if !self.caps[leaf as usize].beyond(p, rf) {
+                        lists.leaves[to] = leaf;
+                        to += 1;
+                    }
+                }
+                lists.leaves.truncate(to);
+                lists.near.push(Listed {
+                    x: *p,
+                    r: rf,
+                    seg: id,
+                    from: from as u32,
+                    to: to as u32,
+                });
+            }
             if id >= 0 {
                 last = id;
             }
@@ -448,6 +653,29 @@ impl SegTree {
         best
     }
 
+    /// The least [`Self::capsule_first_hit`] of the ray `o` + t `n` over the segments of
+    /// `leaf` within `reach` (radius + max height, padded) of `o` (∞ without one): a hit at
+    /// t lies on the capsule, within radius + t of `o`, so a segment farther than `reach`
+    /// is hit beyond the max height, if at all (it cannot be the least hit within it).
+    #[inline]
+    fn run_first_hit(&self, o: &P3, n: &P3, leaf: u32, r2: f64, reach: f64) -> f64 {
+        let far = {
+            let r = reach * (1.0 + 1e-9) + 1e-9; // the squared distance's rounding
+            r * r
+        };
+        let mut best = f64::INFINITY;
+        for s in self.run(leaf) {
+            if self.d2(o, s) > far {
+                continue;
+            }
+            let t = self.capsule_first_hit(o, n, s, r2);
+            if t < best {
+                best = t;
+            }
+        }
+        best
+    }
+
     /// `SweptBall.height_along` of one point: the first hit of the ray `o` + t `n` with the
     /// capsules of radius `radius` around the segments, t ≤ `hmax` (∞ otherwise). Only a
     /// segment within `radius` + `hmax` of `o` can be hit that soon: the segments of the
@@ -466,12 +694,7 @@ impl SegTree {
             if self.caps[leaf as usize].beyond(o, r) {
                 continue; // every hit of its capsules is beyond hmax
             }
-            for s in self.run(leaf) {
-                let t = self.capsule_first_hit(o, n, s, r2);
-                if t < best {
-                    best = t;
-                }
-            }
+            best = best.min(self.run_first_hit(o, n, leaf, r2, r));
         }
         if best > hmax {
             f64::INFINITY
@@ -549,15 +772,38 @@ impl SegTree {
                 if self.caps[leaf as usize].beyond(o, ro) {
                     continue; // every hit of its capsules is beyond hmax
                 }
-                for s in self.run(leaf) {
-                    let t = self.capsule_first_hit(o, n, s, r2);
-                    if t < best {
-                        best = t;
-                    }
-                }
+                best = best.min(self.run_first_hit(o, n, leaf, r2, ro));
             }
             *oi = if best > hmax { f64::INFINITY } else { best };
         }
+    }
+
+    /// The least squared distance from `y` to the segments, as [`Self::nearest_from`] gives
+    /// it, from the list `nl` made at a point x near y: the minimum of the same squared
+    /// distances over the listed segments. A segment not listed is farther than
+    /// R − |y − x| from y (the distance is 1-Lipschitz), so where that minimum's distance is
+    /// within R − |y − x| (less a rounding pad) it is the minimum over every segment, the
+    /// very float (a minimum does not depend on which larger values are also compared); a
+    /// full search otherwise (`sweep_ball._NearSegments`'s rule).
+    pub fn listed_d2(&self, y: &P3, lists: &Lists, k: usize) -> f64 {
+        let nl = &lists.near[k];
+        if nl.r.is_finite() {
+            let mut b = f64::INFINITY;
+            for &leaf in &lists.leaves[nl.from as usize..nl.to as usize] {
+                for s in self.run(leaf) {
+                    let d2 = self.d2(y, s);
+                    if d2 < b {
+                        b = d2;
+                    }
+                }
+            }
+            let e = sub(y, &nl.x);
+            let reach = nl.r - dot(&e, &e).sqrt();
+            if b.sqrt() <= reach * (1.0 - 1e-12) - 1e-12 * (1.0 + nl.r) {
+                return b;
+            }
+        }
+        self.nearest_from(y, nl.seg).0
     }
 
     /// The segments of the leaves whose box comes within `radius` of the point (a superset
@@ -918,25 +1164,49 @@ pub fn ridge_steps<'py>(
                     let idx = &order[u0..u1];
                     let n = idx.len();
                     let l = lv[idx[0]] as usize;
+                    // the first step: every iterate searched by groups, the segments near
+                    // it listed (the later iterates move far less than a tenth of the edge)
+                    let margin: Vec<f64> = idx
+                        .iter()
+                        .map(|&i| {
+                            let w = sub(&pb[i], &pa[i]);
+                            0.1 * dot(&w, &w).sqrt()
+                        })
+                        .collect();
                     let dist = |xs: &[P3], tree: Option<&SegTree>, out: &mut [f64]| {
                         let Some(t) = tree else {
                             out.fill(f64::INFINITY);
-                            return;
+                            return Lists::default();
                         };
                         let mut d2 = vec![f64::INFINITY; xs.len()];
                         let mut sg = vec![-1i64; xs.len()];
+                        let mut lists = Lists::default();
                         let mut g = -1i64;
-                        for ((dg, sgg), pg) in d2
+                        for (((dg, sgg), pg), mg) in d2
                             .chunks_mut(GROUP)
                             .zip(sg.chunks_mut(GROUP))
                             .zip(xs.chunks(GROUP))
+                            .zip(margin.chunks(GROUP))
                         {
-                            g = t.nearest_group(pg, dg, sgg, g);
+                            g = t.nearest_group_listed(pg, dg, sgg, g, mg, &mut lists);
                         }
                         for (o, v) in out.iter_mut().zip(&d2) {
                             *o = v.sqrt() - radius;
                         }
+                        lists
                     };
+                    // the later steps: the iterate's distance over its first iterate's list
+                    // (the same float where the list decides, a full search elsewhere)
+                    let again =
+                        |xs: &[P3], tree: Option<&SegTree>, near: &Lists, out: &mut [f64]| {
+                            let Some(t) = tree else {
+                                out.fill(f64::INFINITY);
+                                return;
+                            };
+                            for (k, (o, x)) in out.iter_mut().zip(xs).enumerate() {
+                                *o = t.listed_d2(x, near, k).sqrt() - radius;
+                            }
+                        };
                     let mut ta = vec![0.0f64; n];
                     let mut tb = vec![1.0f64; n];
                     let mut ga: Vec<f64> = idx.iter().map(|&i| g0[i]).collect();
@@ -946,7 +1216,8 @@ pub fn ridge_steps<'py>(
                     let mut la = vec![f64::NAN; n];
                     let mut lb = vec![f64::NAN; n];
                     let mut t = vec![0.0f64; n];
-                    for _ in 0..steps {
+                    let (mut near_a, mut near_b) = (Lists::default(), Lists::default());
+                    for step in 0..steps {
                         for e in 0..n {
                             let (a, b) = (&pa[idx[e]], &pb[idx[e]]);
                             t[e] = (ta[e] * gb[e] - tb[e] * ga[e]) / (gb[e] - ga[e]);
@@ -956,8 +1227,13 @@ pub fn ridge_steps<'py>(
                                 a[2] + t[e] * (b[2] - a[2]),
                             ];
                         }
-                        dist(&xs, ts[l], &mut la);
-                        dist(&xs, ts[l + 1], &mut lb);
+                        if step == 0 {
+                            near_a = dist(&xs, ts[l], &mut la);
+                            near_b = dist(&xs, ts[l + 1], &mut lb);
+                        } else {
+                            again(&xs, ts[l], &near_a, &mut la);
+                            again(&xs, ts[l + 1], &near_b, &mut lb);
+                        }
                         for e in 0..n {
                             let gx = la[e] - lb[e];
                             let repl_a = sign(gx) == sign(ga[e]);

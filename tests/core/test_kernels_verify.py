@@ -93,6 +93,8 @@ def test_swept_ball_group_list_stops_only_beyond_reach():
     bound is tight for a point on the line from c to a straight pass: groups of points near
     one pass with one point among them on that line, nearly midway to a second pass and
     nearer to it (by 0.2 % to 2.8 %) — its segment comes from the second pass, as numpy's."""
+    from blisk_cam.core.verify.forest import SweptForest
+
     x = np.linspace(0.0, 60.0, 121)  # two straight passes 10 mm apart, 0.5 mm moves
     a = np.vstack([np.stack([x[:-1], 0 * x[:-1], 0 * x[:-1]], 1),
                    np.stack([x[:-1], 0 * x[:-1], 10.0 + 0 * x[:-1]], 1)])
@@ -105,15 +107,19 @@ def test_swept_ball_group_list_stops_only_beyond_reach():
         g = np.stack([x0 + np.linspace(-0.3, 0.3, 32), np.zeros(32), np.full(32, 0.2)], 1)
         g[16] = [x0, 0.0, 5.0 + eps]  # on the line from the group's centre to pass 1
         groups.append(g)
-    P = np.vstack(groups)  # 32 points a group, as the kernel groups them
+    P = np.vstack(groups)  # 32 points a group, as a forest's query groups them
     with backend.numpy_only():
         d_ref, s_ref = SweptBall(a, b, 3.0, own).nearest(P)
     assert np.all(own[s_ref[16::32]] == 1)  # the midway points are nearer to pass 1
     for threads in (1, 2):
         with parallel(threads):
+            # (a whole ball's query groups the points in its own space-filling order)
             d, s = SweptBall(a, b, 3.0, own).nearest(P)
+            df, sf = SweptForest([SweptBall(a, b, 3.0, own)]).nearest(P, np.zeros(len(P)))
         np.testing.assert_array_equal(d, d_ref)
         np.testing.assert_array_equal(own[s], own[s_ref])
+        np.testing.assert_array_equal(df, d_ref)
+        np.testing.assert_array_equal(own[sf], own[s_ref])
 
 
 
@@ -403,3 +409,54 @@ def test_nearest_faces_far_off_a_curved_sheet_are_numpys():
             got = NearestFaces(mesh, disks=True).query(P)
         for g, r in zip(got, ref, strict=True):
             np.testing.assert_array_equal(g, r)
+
+
+@compiled
+def test_swept_ball_ridge_steps_are_numpys_regula_falsi():
+    """The compiled regula falsi of the scallop ridges (every step of every edge in one call:
+    the first iterate searched by groups, the later ones against the segments listed near
+    it, a full search where those cannot decide) gives numpy's iterates and distances bit
+    for bit, on 1 and 2 threads. Levels: straight passes 0.5 mm apart (0.25 mm moves);
+    edges from about one pass to past the next, 1 to 3 mm along them and 0.02 to 0.3 mm
+    off their plane (sharply bent distances): some later iterates move far from the first,
+    where its listed segments no longer hold the nearest."""
+    from blisk_cam.core.verify.forest import SweptForest, regula_falsi
+
+    x = np.linspace(0.0, 20.0, 81)
+    passes = [(np.stack([x[:-1], 0 * x[:-1], 0 * x[:-1] + 0.5 * i], 1),
+               np.stack([x[1:], 0 * x[1:], 0 * x[1:] + 0.5 * i], 1)) for i in range(5)]
+    rng = np.random.default_rng(3)
+    k = 4000
+    lo = rng.integers(0, 4, k)
+    h = rng.uniform(0.02, 0.3, k)
+    xa = np.stack([rng.uniform(2.0, 15.0, k), h, 0.5 * lo + rng.uniform(-0.2, 0.15, k)], 1)
+    xb = xa + np.stack([rng.uniform(1.0, 3.0, k), rng.normal(0, 0.01, k),
+                        rng.uniform(0.5, 1.0, k)], 1)
+
+    def members():
+        return [SweptBall(pa, pb, 3.0) for pa, pb in passes]
+
+    def ends(forest, p):
+        return forest.distance(p, lo) - forest.distance(p, lo + 1)
+
+    with backend.numpy_only():
+        ref = SweptForest(members())
+        ga, gb = ends(ref, xa), ends(ref, xb)
+        ok = np.sign(ga) * np.sign(gb) < 0  # the ridge between the two passes is crossed
+        xa, xb, ga, gb, lo = xa[ok], xb[ok], ga[ok], gb[ok], lo[ok]
+        assert ref.ridge_steps(xa, xb, ga, gb, lo, 3) is None  # numpy: the caller steps
+        x_ref, la_ref, lb_ref = regula_falsi(
+            xa, xb, ga, gb, 3, lambda p, i: (ref.distance(p, lo), ref.distance(p, lo + 1)))
+    assert len(xa) > 1000
+    # some later iterates move beyond a tenth of the edge from the first (the listed margin)
+    x1 = xa + (ga / (ga - gb))[:, None] * (xb - xa)
+    move = np.linalg.norm(x_ref - x1, axis=1) / np.linalg.norm(xb - xa, axis=1)
+    assert move.max() > 0.15 and np.mean(move > 0.1) > 0.002
+    for threads in (1, 2):
+        with parallel(threads):
+            got = SweptForest(members())
+            assert got.balls
+            x, la, lb = got.ridge_steps(xa, xb, ga, gb, lo, 3)
+        np.testing.assert_array_equal(x, x_ref)
+        np.testing.assert_array_equal(la, la_ref)
+        np.testing.assert_array_equal(lb, lb_ref)

@@ -13,7 +13,7 @@ from ..runtime import check_cancel, map_chunks, map_tasks, workers
 from .sweep import BOX_PIECES, SweptCutter, _fast_search, _sphere_trace, searched_once
 from .sweep_ball import SweptBall
 
-__all__ = ["SweptForest"]
+__all__ = ["SweptForest", "regula_falsi"]
 
 #: points per chunk of :class:`SweptForest`'s joint pass (its members are small: one level's
 #: passes, ~30 candidate clusters per point, so bigger chunks than a whole path's pay off)
@@ -278,3 +278,28 @@ class SweptForest:
                     t[rows] = h
             return t
         return _sphere_trace(lambda X, idx: self.distance(X, w[idx]), P, N, hmax, steps)
+
+
+def regula_falsi(xa, xb, ga, gb, steps, distances):
+    """The regula falsi (Illinois) of verify's scallop ridges (``measure._ridge_points``) in
+    numpy — the reference of the compiled balls' :meth:`SweptForest.ridge_steps`, operation
+    for operation: edge i from ``xa`` to ``xb`` (k, 3) mm with g = d_lo − d_hi ``ga``, ``gb``
+    (k,) at its ends; each of ``steps`` steps takes t = (ta gb − tb ga) / (gb − ga), the
+    point x = xa + t (xb − xa) and ``distances(x, step)`` → (d_lo, d_hi) (k,) mm, its
+    distances to the edge's two levels, then keeps the end whose g has the other sign,
+    halving the kept end's g when the same end is replaced twice running. Returns the last
+    iterates and their distances (x (k, 3), d_lo (k,), d_hi (k,))."""
+    ta, tb = np.zeros(len(xa)), np.ones(len(xa))
+    last = np.zeros(len(xa), dtype=np.int8)  # which end was replaced last
+    for i in range(max(int(steps), 1)):
+        t = (ta * gb - tb * ga) / (gb - ga)
+        x = xa + t[:, None] * (xb - xa)
+        la, lb = distances(x, i)
+        gx = la - lb
+        repl_a = np.sign(gx) == np.sign(ga)
+        ga = np.where(~repl_a & (last == 2), 0.5 * ga, ga)
+        gb = np.where(repl_a & (last == 1), 0.5 * gb, gb)
+        ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
+        tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
+        last = np.where(repl_a, 1, 2).astype(np.int8)
+    return x, la, lb

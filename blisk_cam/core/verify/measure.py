@@ -50,7 +50,7 @@ from ..tool.cutter import as_cutter
 from ..toolpath.types import PassCurve, ToolPath
 from .allowance import as_measured_on_blade
 from .contacts import cl_or_nan, interpolated_contacts
-from .forest import SweptForest
+from .forest import SweptForest, regula_falsi
 from .links import cut_runs, link_checks
 from .samples import SurfaceSamples, default_spacing, surface_samples
 from .sweep import SWEEP_METHODS, SweepError, SweptCutter, swept_cutter
@@ -252,13 +252,14 @@ def _subsample(c: PassCurve, pts, nsub: int, include_nodes: bool):
 def _ridges(samples, strip, g, npairs):
     """Grid edges inside one strip across which g (a sign per sample: −1, 0, 1 or NaN)
     changes sign: (edge ids, pair ids)."""
-    ea, eb = samples.edges.T.copy()  # (each column copied once, not once per gather)
-    sa = strip[ea]
-    same = (sa == strip[eb]) & (sa >= 0) & (sa < npairs)
-    # g is a sign (−1, 0, 1 or NaN): opposite signs exactly when the product is negative
-    cross = same & (g[ea] * g[eb] < 0)
-    idx = np.nonzero(cross)[0]
-    return idx, sa[idx]
+    # one int32 code per sample, 4 strip + (1 where g < 0, 2 where g > 0, else 0), −1
+    # outside the strips: an edge's ends are in one strip with opposite signs exactly when
+    # their codes differ in those two bits alone (XOR 3); one gather of both ends' codes
+    code = np.where((strip >= 0) & (strip < npairs),
+                    4 * strip + np.where(g < 0, 1, np.where(g > 0, 2, 0)), -1).astype(np.int32)
+    ce = code[samples.edges]
+    idx = np.flatnonzero((ce[:, 0] ^ ce[:, 1]) == 3)
+    return idx, strip[samples.edges[idx, 0]]
 
 
 def verify_path(mesh: TriMesh, path: ToolPath, *, spacing: float | None = None,
@@ -628,9 +629,8 @@ def _scallops(mesh, cut, levels, smp, P, normals, s_all, values, lab, rho,
                 arr[other], has[other] = d, True
     sv, mv = strip[valid], mat[valid]
     sc.pair_n = np.bincount(sv, minlength=npairs)
-    sc.pair_cusp = _group_max(npairs, sv, mv)
+    sc.pair_cusp, arg = _group_max_arg(npairs, sv, mv)
     sc.pair_gouge = np.maximum(_group_max(npairs, sv, -mv), 0.0)
-    arg = _group_argmax(npairs, sv, mv)
     has = arg >= 0
     top = np.flatnonzero(valid)[arg[has]]  # each pair's highest sample (not P[valid]'s copy)
     sc.pair_where[has] = P[top]
@@ -695,31 +695,23 @@ def _ridge_points(mesh, smp, cut, strip, gsign, npairs, refine, sc: _Scallops, k
         return
     ea, eb = smp.edges.take(eidx, axis=0).T
     xa, xb = smp.points.take(ea, axis=0), smp.points.take(eb, axis=0)
-    ta, tb, near = np.zeros(len(eidx)), np.ones(len(eidx)), None
-    last = np.zeros(len(eidx), dtype=np.int8)  # which end was replaced last (Illinois)
     steps = cut.ridge_steps(xa, xb, ga, gb, epair, refine)  # compiled balls: every step
-    for _ in range(max(int(refine), 1) if steps is None else 0):
-        t = (ta * gb - tb * ga) / (gb - ga)
-        x = xa + t[:, None] * (xb - xa)
-        if known is not None and near is None:
-            # the iterates after the first move by far less than a tenth of the edge
-            near = _two_level_near(cut, x, epair, npairs,
-                                   0.1 * np.linalg.norm(xb - xa, axis=1),
-                                   x + rho * smp.normals[ea])
-        la, lb = _two_level_distances(cut, x, epair, npairs, near=near)
-        gx = la - lb
-        repl_a = np.sign(gx) == np.sign(ga)
-        # Illinois: halve the kept end's value when the same end is replaced twice
-        ga = np.where(~repl_a & (last == 2), 0.5 * ga, ga)
-        gb = np.where(repl_a & (last == 1), 0.5 * gb, gb)
-        ta, ga = np.where(repl_a, t, ta), np.where(repl_a, gx, ga)
-        tb, gb = np.where(repl_a, tb, t), np.where(repl_a, gb, gx)
-        last = np.where(repl_a, 1, 2).astype(np.int8)
-    x, la, lb = (x, la, lb) if steps is None else steps
+    if steps is None:
+        near = []
+
+        def distances(x, i):
+            if known is not None and i == 0:
+                # the iterates after the first move by far less than a tenth of the edge
+                near.append(_two_level_near(cut, x, epair, npairs,
+                                            0.1 * np.linalg.norm(xb - xa, axis=1),
+                                            x + rho * smp.normals[ea]))
+            return _two_level_distances(cut, x, epair, npairs, near=near[0] if near else None)
+
+        steps = regula_falsi(xa, xb, ga, gb, refine, distances)
+    x, la, lb = steps
     rv = np.minimum(la, lb)
-    rmax = _group_max(npairs, epair, rv)
+    rmax, ra = _group_max_arg(npairs, epair, rv)
     better = np.isfinite(rmax) & ~(rmax <= sc.pair_cusp)
-    ra = _group_argmax(npairs, epair, rv)
     sc.pair_cusp = np.where(better, rmax, sc.pair_cusp)
     sc.pair_where[better] = x[ra[better]]
     sc.ridge_pts = x
@@ -835,14 +827,17 @@ def _group_max(n, idx, vals):
     return np.where(np.isfinite(out) | (out == np.inf), out, np.nan)
 
 
-def _group_argmax(n, idx, vals):
+def _group_max_arg(n, idx, vals):
+    """(:func:`_group_max`, the index of each group's maximum (the last of equal ones; −1
+    without a finite value)) of values ``vals`` in groups ``idx`` (k,) of ``n``, from one
+    maximum per group."""
     best = np.full(n, -np.inf)
     v = np.where(np.isnan(vals), -np.inf, vals)
     np.maximum.at(best, idx, v)
     win = (v >= best[idx]) & np.isfinite(v)
     arg = np.full(n, -1, dtype=np.int64)
     arg[idx[win]] = np.nonzero(win)[0]
-    return arg
+    return np.where(np.isfinite(best) | (best == np.inf), best, np.nan), arg
 
 
 def _two_level_queries(rows, strip, npairs, need=None):
