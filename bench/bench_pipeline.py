@@ -15,6 +15,9 @@ For the demo blade and Rotor 37 (subdivided), each at about ``--triangles`` tria
   and its peak memory (its resident high-water mark, MB);
 * ``trimesh.intersections.mesh_multiplane`` for 50 planes of the same mesh in the same run,
   and the ratio whole run / trimesh (goal ≤ 1, issue 21);
+* the plan's work — its CPU seconds on one thread — and the least the command line could take
+  with that work spread perfectly over every core (its time outside the plan + work ÷
+  cores), against trimesh: what no better threading of today's plan can go below;
 * ``verify.verify_path`` with 1 and 2 threads vs the plan's own time (goal: verify ≤ plan),
   for a ball and a bull-nose (R6, corner 2) path on the blade at ``--verify-triangles``
   (default 200k: verify at 1M takes minutes; ``--no-verify`` skips it, ``--verify-only``
@@ -158,6 +161,19 @@ def _whole_run(stl, axis, c1, c2, chord, out):
     return t, mesh, res.path
 
 
+def plan_work(V, F, axis, c1, c2, chord):
+    """CPU seconds of the plan alone on one thread (a new mesh of the same vertices and
+    faces, so its caches are filled inside the timed call): the work the plan does, which
+    no number of cores can spread below work ÷ cores."""
+    mesh = TriMesh.from_arrays(V, F)
+    req = PathRequest(axis=axis, cone1=c1, cone2=c2, tool_type="ball", tool_radius=6.0,
+                      cusp=0.05, chord=chord)
+    with parallel(1):
+        c0 = time.process_time()
+        plan_paths(mesh, req)
+        return time.process_time() - c0
+
+
 def cli_run(stl, axis, c1, c2, chord, out):
     """The same plan through ``python -m blisk_cam paths`` in a new process (what the user
     waits for at the prompt): (wall time seen from outside, the JSON's stats with the
@@ -276,6 +292,8 @@ def bench_blade(name, V, F, axis, c1, c2, chord, backends=("compiled",)):
                 cli_wall, cli = cli_run(stl, axis, c1, c2, chord, Path(tmp) / "cli.json")
                 runs[bk] = (t, cli_wall)
                 _blade_lines(f"{name}, {bk}", F, chord, t, path, cli_wall, cli, t_tm)
+                _floor_line(f"{name}, {bk}", plan_work(mesh.V, mesh.F, axis, c1, c2, chord),
+                            cli_wall, cli, t_tm)
     if t_tm is not None:
         print(f"[{name}] trimesh mesh_multiplane, 50 planes: {t_tm:.2f} s; " + "; ".join(
             f"{bk}: whole run / trimesh {t['total'] / t_tm:.2f}, CLI / trimesh {w / t_tm:.2f}"
@@ -303,6 +321,18 @@ def _blade_lines(name, F, chord, t, path, cli_wall, cli, t_tm):
           f"{cli['peak_mb']:.0f} MB (its resident high-water mark, read every 50 ms)", flush=True)
     if t_tm is None:
         print(f"[{name}] trimesh not installed: no mesh_multiplane comparison")
+
+
+def _floor_line(name, work, cli_wall, cli, t_tm):
+    """The least the CLI can take with the plan's work spread perfectly over every core:
+    its time outside the plan (start, read, weld, write, exit) + work ÷ cores."""
+    cores = os.cpu_count() or 1
+    outside = cli_wall - cli.get("seconds_plan", float("nan"))
+    floor = outside + work / cores
+    txt = f" = {floor / t_tm:.2f} x trimesh" if t_tm else ""
+    print(f"[{name}] the plan's work: {work:.2f} s of CPU on one thread; on {cores} cores "
+          f"the CLI takes at least {outside:.2f} s outside the plan + {work:.2f} / {cores} = "
+          f"{floor:.2f} s{txt} (its floor at a perfect use of every core)", flush=True)
 
 
 def bench_collision(n_poses=20000, threads=(1, 2)):
