@@ -259,20 +259,24 @@ def bench_verify(name, V, F, axis, c1, c2, chord, threads=(1, 2), tools=("ball",
             for n in threads:
                 t0, c0 = time.perf_counter(), time.process_time()
                 rep = verify_path(mesh, path, workers=n)
-                every.append((n, time.perf_counter() - t0, rep))
+                cpu = time.process_time() - c0
+                every.append((n, time.perf_counter() - t0, rep, cpu))
                 print(f"[{name}, {bk}] verify {req.tool_type}, {n} thread(s): "
-                      f"{every[-1][1]:.2f} s wall, {time.process_time() - c0:.2f} s CPU "
-                      f"({load()})", flush=True)
+                      f"{every[-1][1]:.2f} s wall, {cpu:.2f} s CPU ({load()})", flush=True)
         runs = [min((r for r in every if r[0] == n), key=lambda r: r[1]) for n in threads]
         same = all(r.summary() | {"timings": 0} == every[0][2].summary() | {"timings": 0}
-                   for _, _, r in every)
-        txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _ in runs)
+                   for _, _, r, _ in every)
+        txt = ", ".join(f"{n} thread{'s' if n > 1 else ''} {dt:.2f} s" for n, dt, _, _ in runs)
+        # verify's work (its CPU on one thread) spread perfectly over the most threads asked
+        work = min((r[3] for r in every if r[0] == 1), default=float("nan"))
+        floor = work / max(threads) / plan
         txt += "" if same else " (FIGURES DIFFER between thread counts)"
         steps = ", ".join(f"{k} {v:.2f}" for k, v in runs[-1][2].timings.items() if k != "total")
         print(f"[{name}, {bk}] verify {req.tool_type}, {len(F):,} triangles, "
               f"{path.n_poses:,} poses: {txt}; speed-up 1 -> {runs[-1][0]} threads "
               f"x{runs[0][1] / runs[-1][1]:.2f}; plan {plan:.2f} s; verify/plan "
-              f"{runs[-1][1] / plan:.2f} (goal: ball <= 0.5, bull <= 1); steps "
+              f"{runs[-1][1] / plan:.2f} (goal: ball <= 0.5, bull <= 1; its floor, the "
+              f"one-thread work / {max(threads)} / plan, {floor:.2f}); steps "
               f"({runs[-1][0]} threads) {steps} ({load()})", flush=True)
         result[(name, req.tool_type, bk)] = rep_of = runs[-1][2].summary()
         rep_of.pop("timings")
