@@ -1497,18 +1497,64 @@ fn prims_of(a: &[[f64; 5]]) -> PyResult<Vec<Prim>> {
         .collect()
 }
 
-fn rows5<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 5]]> {
-    if a.shape()[1] != 5 {
-        return Err(PyValueError::new_err(format!(
-            "{what} must be (p, 5), got {:?}",
-            a.shape()
-        )));
+/// The stock's grid from `stock_remove`'s and `stock_sweep`'s arguments: `lo`, `hi`
+/// (n_z · n_theta, K) alike, `grid` (θ0, dθ, z0, dz), `frame` (4, 3).
+pub fn grid_of(
+    lo: &PyReadwriteArray2<'_, f64>,
+    hi: &PyReadwriteArray2<'_, f64>,
+    n_theta: usize,
+    grid: (f64, f64, f64, f64),
+    frame: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Grid> {
+    let shape = lo.shape();
+    if hi.shape() != shape || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
+        return Err(PyValueError::new_err(
+            "lo and hi must be (n_z · n_theta, K) alike",
+        ));
     }
-    let s = a
+    let fr = crate::points(frame, "frame")?;
+    if fr.len() != 4 {
+        return Err(PyValueError::new_err("frame must be (4, 3)"));
+    }
+    Ok(Grid {
+        theta0: grid.0,
+        d_theta: grid.1,
+        z0: grid.2,
+        dz: grid.3,
+        n_theta,
+        n_z: shape[0] / n_theta,
+        k: shape[1],
+        frame: [fr[0], fr[1], fr[2], fr[3]],
+    })
+}
+
+/// The columns (c0, c1, w0, w1) of the solids' or moves' boxes (m, 4) int64 (their shape
+/// checked by the caller), after checking their `group` ids lie in 0..n_groups.
+pub fn box_columns(
+    boxes: &PyReadonlyArray2<'_, i64>,
+    group: &[i64],
+    n_groups: usize,
+) -> PyResult<[Vec<i64>; 4]> {
+    if group.iter().any(|&g| g < 0 || g as usize >= n_groups) {
+        return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
+    }
+    let bx = boxes
         .as_slice()
-        .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))?;
-    // SAFETY: [f64; 5] has the size and alignment of five f64 in a row
-    Ok(unsafe { std::slice::from_raw_parts(s.as_ptr() as *const [f64; 5], s.len() / 5) })
+        .map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
+    Ok([0, 1, 2, 3].map(|j| bx.iter().skip(j).step_by(4).copied().collect()))
+}
+
+/// `rho` (q, 2): the ρ range of each of the polygon's q planes.
+pub fn plane_ranges<'a>(
+    rho: &'a PyReadonlyArray2<'_, f64>,
+    planes: &[[f64; 3]],
+) -> PyResult<&'a [[f64; 2]]> {
+    if rho.shape() != [planes.len(), 2] {
+        return Err(PyValueError::new_err(
+            "rho must be (q, 2), one range per plane",
+        ));
+    }
+    crate::arrays::rows::<2>(rho, "rho")
 }
 
 type Overflow<'py> = (
@@ -1608,16 +1654,7 @@ pub fn stock_sweep<'py>(
     planes_in: Option<PyReadonlyArray2<'py, f64>>,
     open_start: bool,
 ) -> PyResult<Removed<'py>> {
-    let shape = lo.shape().to_vec();
-    if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
-        return Err(PyValueError::new_err(
-            "lo and hi must be (n_z · n_theta, K) alike",
-        ));
-    }
-    let fr = crate::points(&frame, "frame")?;
-    if fr.len() != 4 {
-        return Err(PyValueError::new_err("frame must be (4, 3)"));
-    }
+    let g = grid_of(&lo, &hi, n_theta, grid, &frame)?;
     let (pt0, pa0, pt1, pa1) = (
         crate::points(&t0, "t0")?,
         crate::points(&a0, "a0")?,
@@ -1644,31 +1681,13 @@ pub fn stock_sweep<'py>(
             "t0, a0, t1, a1, group, boxes, knots and samples must describe the same moves",
         ));
     }
-    if gg.iter().any(|&g| g < 0 || g as usize >= n_groups) {
-        return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
-    }
-    let bx = boxes
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
-    let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
-    let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
+    let [c0, c1, w0, w1] = box_columns(&boxes, gg, n_groups)?;
     let pl = match &planes {
         Some(p) => Some(crate::points(p, "planes")?),
         None => None,
     };
     let rr = match (&rho, pl) {
-        (Some(r), Some(pl)) => {
-            if r.shape() != [pl.len(), 2] {
-                return Err(PyValueError::new_err(
-                    "rho must be (q, 2), one range per plane",
-                ));
-            }
-            let rs = r
-                .as_slice()
-                .map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
-            // SAFETY: as in `points`
-            Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
-        }
+        (Some(r), Some(pl)) => Some(plane_ranges(r, pl)?),
         _ => None,
     };
     let pin = match &planes_in {
@@ -1676,24 +1695,14 @@ pub fn stock_sweep<'py>(
         None => None,
     };
     let tool = Tool {
-        prims: prims_of(rows5(&prims, "prims")?)?,
-        prims_in: prims_of(rows5(&prims_in, "prims_in")?)?,
+        prims: prims_of(crate::arrays::rows::<5>(&prims, "prims")?)?,
+        prims_in: prims_of(crate::arrays::rows::<5>(&prims_in, "prims_in")?)?,
         poly: pl.map(|p| polygon_profile(p, rr)),
         poly_in: pin.map(|p| polygon_profile(p, None)),
         z_lo: bounds.0,
         z_hi: bounds.1,
         radius: bounds.2,
         open_start,
-    };
-    let g = Grid {
-        theta0: grid.0,
-        d_theta: grid.1,
-        z0: grid.2,
-        dz: grid.3,
-        n_theta,
-        n_z: shape[0] / n_theta,
-        k: shape[1],
-        frame: [fr[0], fr[1], fr[2], fr[3]],
     };
     let mv = Moves {
         t0: pt0,
