@@ -665,6 +665,96 @@ pub fn remove(
     lo: &mut [f64],
     hi: &mut [f64],
 ) -> (Outcome, u64) {
+    // the reference's plane order: the widest first (top, side), then the rest
+    let profile = polygon_profile(s.planes, s.rho);
+    let inner = s.planes_in.map(|pl| polygon_profile(pl, None));
+    let r_b = s.radius;
+    let boxes = [s.c0, s.c1, s.w0, s.w1];
+    by_rows(grid, boxes, n_groups, measure, lo, hi, |row, hits| {
+        for &si in row.bucket {
+            let (tip, ax) = (&s.tips[si], &s.axes[si]);
+            let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, row.zr, r_b) else {
+                continue;
+            };
+            row.each_live_column((ca, cb), (rlo_w, rhi_w), |c, i, lr, hr| {
+                let f = ray_frame(&row.origin, row.dir(c), tip, ax);
+                let Some((ba, bb)) = bounding_interval(&f, s.z_lo, s.z_hi, s.radius) else {
+                    return;
+                };
+                if !lr
+                    .iter()
+                    .zip(hr)
+                    .any(|(&l, &h)| h > l && l.max(ba) < h.min(bb))
+                {
+                    return;
+                }
+                let (a, b) = solid_interval(&f, &profile);
+                if b > a {
+                    let (ai, bi) = match (&inner, measure) {
+                        (Some(pin), true) => solid_interval(&f, pin),
+                        _ => (0.0, f64::NEG_INFINITY),
+                    };
+                    hits.push((i, a, b, s.group[si] as usize, ai, bi));
+                }
+            });
+        }
+    })
+}
+
+/// A row of the grid's rays (n_theta columns × K intervals at height index w) as the work of
+/// [`remove`] and [`sweep`] on it sees it: the rays' origin (mm), the items whose box meets
+/// the row, its material (read only) and envelope, the columns' ray directions.
+struct Row<'a> {
+    /// the row's height (mm along the frame's axis) and the rays' origin there
+    zr: f64,
+    origin: [f64; 3],
+    /// the items (solids or moves) whose box meets the row
+    bucket: &'a [usize],
+    env: RowEnvelope,
+    lrow: &'a [f64],
+    hrow: &'a [f64],
+    k: usize,
+    /// the unit ray directions of the columns `cmin..` (unwrapped)
+    dirs: &'a [[f64; 3]],
+    cmin: i64,
+}
+
+impl Row<'_> {
+    /// The ray direction of the (unwrapped) column c.
+    #[inline(always)]
+    fn dir(&self, c: i64) -> &[f64; 3] {
+        &self.dirs[(c - self.cmin) as usize]
+    }
+
+    /// [`each_live_column`] of this row.
+    #[inline(always)]
+    fn each_live_column<F: FnMut(i64, usize, &[f64], &[f64])>(
+        &self,
+        cols: (i64, i64),
+        radii: (f64, f64),
+        visit: F,
+    ) {
+        each_live_column(&self.env, self.lrow, self.hrow, self.k, cols, radii, visit)
+    }
+}
+
+/// The skeleton of [`remove`] and [`sweep`]: the items' boxes (c0, c1, w0, w1) bucketed by
+/// grid row, the rows in parallel; per row that some item meets, `hits_of(row, hits)` lists
+/// its hits, then they are subtracted from the row's stock `lo`, `hi` ((n_rays, K), changed
+/// in place; with `measure` also measured per group). Returns the outcome and the
+/// candidate ray–item pairs.
+fn by_rows<F>(
+    grid: &Grid,
+    [c0, c1, w0, w1]: [&[i64]; 4],
+    n_groups: usize,
+    measure: bool,
+    lo: &mut [f64],
+    hi: &mut [f64],
+    hits_of: F,
+) -> (Outcome, u64)
+where
+    F: Fn(&Row, &mut Vec<Hit>) + Sync,
+{
     let (nt, k) = (grid.n_theta, grid.k);
     let mut out = Outcome::new(n_groups);
     let Some(RowBuckets {
@@ -675,16 +765,12 @@ pub fn remove(
         cmin,
         dirs,
         pairs,
-    }) = row_buckets(grid, s.c0, s.c1, s.w0, s.w1)
+    }) = row_buckets(grid, c0, c1, w0, w1)
     else {
         return (out, 0);
     };
     let wmax = wmin + nrow - 1;
     let [o, _, _, d] = grid.frame;
-    // the reference's plane order: the widest first (top, side), then the rest
-    let profile = polygon_profile(s.planes, s.rho);
-    let inner = s.planes_in.map(|pl| polygon_profile(pl, None));
-    let r_b = s.radius;
     let block = nt * k;
     let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
     let hi_rows = &mut hi[wmin * block..(wmax + 1) * block];
@@ -695,7 +781,6 @@ pub fn remove(
         .map(|(jr, (lrow, hrow))| {
             let w = wmin + jr;
             let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
-            let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
             let mut hits: Vec<Hit> = Vec::new();
             let bucket = &by_row[start[jr]..start[jr + 1]];
             if bucket.is_empty() {
@@ -705,43 +790,18 @@ pub fn remove(
                     overflow: Vec::new(),
                 };
             }
-            let env = RowEnvelope::new(lrow, hrow, nt, k);
-            for &si in bucket {
-                let (tip, ax) = (&s.tips[si], &s.axes[si]);
-                let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, zr, r_b) else {
-                    continue;
-                };
-                each_live_column(
-                    &env,
-                    lrow,
-                    hrow,
-                    k,
-                    (ca, cb),
-                    (rlo_w, rhi_w),
-                    |c, i, lr, hr| {
-                        let u = &dirs[(c - cmin) as usize];
-                        let f = ray_frame(&origin, u, tip, ax);
-                        let Some((ba, bb)) = bounding_interval(&f, s.z_lo, s.z_hi, s.radius) else {
-                            return;
-                        };
-                        if !lr
-                            .iter()
-                            .zip(hr)
-                            .any(|(&l, &h)| h > l && l.max(ba) < h.min(bb))
-                        {
-                            return;
-                        }
-                        let (a, b) = solid_interval(&f, &profile);
-                        if b > a {
-                            let (ai, bi) = match (&inner, measure) {
-                                (Some(pin), true) => solid_interval(&f, pin),
-                                _ => (0.0, f64::NEG_INFINITY),
-                            };
-                            hits.push((i, a, b, s.group[si] as usize, ai, bi));
-                        }
-                    },
-                );
-            }
+            let row = Row {
+                zr,
+                origin: [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]],
+                bucket,
+                env: RowEnvelope::new(lrow, hrow, nt, k),
+                lrow,
+                hrow,
+                k,
+                dirs: &dirs,
+                cmin,
+            };
+            hits_of(&row, &mut hits);
             apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
         })
         .collect();
@@ -1338,116 +1398,68 @@ pub fn sweep(
     hi: &mut [f64],
 ) -> (Outcome, u64) {
     let m = mv.t0.len();
-    let (nt, k) = (grid.n_theta, grid.k);
-    let mut out = Outcome::new(n_groups);
-    let Some(RowBuckets {
-        wmin,
-        nrow,
-        start,
-        by_row,
-        cmin,
-        dirs,
-        pairs,
-    }) = row_buckets(grid, mv.c0, mv.c1, mv.w0, mv.w1)
-    else {
-        return (out, 0);
-    };
-    let wmax = wmin + nrow - 1;
-    let [o, _, _, d] = grid.frame;
     let poses: Vec<MovePoses> = (0..m).map(|i| move_poses(mv, i, tool)).collect();
     let parts = tool_parts(tool, measure);
-    let block = nt * k;
-    let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
-    let hi_rows = &mut hi[wmin * block..(wmax + 1) * block];
-    let rows: Vec<RowOut> = lo_rows
-        .par_chunks_mut(block)
-        .zip(hi_rows.par_chunks_mut(block))
-        .enumerate()
-        .map(|(jr, (lrow, hrow))| {
-            let w = wmin + jr;
-            let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
-            let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
-            let mut hits: Vec<Hit> = Vec::new();
-            let mut pcs: Vec<(f64, f64)> = Vec::new();
-            let bucket = &by_row[start[jr]..start[jr + 1]];
-            if bucket.is_empty() {
-                return RowOut {
-                    removed: 0.0,
-                    groups: Vec::new(),
-                    overflow: Vec::new(),
+    let boxes = [mv.c0, mv.c1, mv.w0, mv.w1];
+    by_rows(grid, boxes, n_groups, measure, lo, hi, |row, hits| {
+        let mut pcs: Vec<(f64, f64)> = Vec::new();
+        for &mi in row.bucket {
+            let mp = &poses[mi];
+            let (tip, ax) = (&mp.mid.0, &mp.mid.1);
+            let g = mv.group[mi] as usize;
+            for part in &parts {
+                let gr = 0.5 * (mp.dist + part.reach * mp.ang) + 1e-6;
+                let (zl, zh, rb) = (part.z_lo - gr, part.z_hi + gr, part.radius + gr);
+                let Some((ca, cb, rlo_w, rhi_w)) =
+                    reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], row.zr, rb)
+                else {
+                    continue;
                 };
-            }
-            let env = RowEnvelope::new(lrow, hrow, nt, k);
-            for &mi in bucket {
-                let mp = &poses[mi];
-                let (tip, ax) = (&mp.mid.0, &mp.mid.1);
-                let g = mv.group[mi] as usize;
-                for part in &parts {
-                    let gr = 0.5 * (mp.dist + part.reach * mp.ang) + 1e-6;
-                    let (zl, zh, rb) = (part.z_lo - gr, part.z_hi + gr, part.radius + gr);
-                    let Some((ca, cb, rlo_w, rhi_w)) =
-                        reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], zr, rb)
-                    else {
-                        continue;
+                row.each_live_column((ca, cb), (rlo_w, rhi_w), |c, i, lr, hr| {
+                    let (origin, u) = (&row.origin, row.dir(c));
+                    let bound = match part.prim {
+                        // a ball's sweep lies in the ball about its mid centre grown by gr
+                        Some(Prim::Ball { zc, rad }) => {
+                            let (a, b) = sphere_interval(origin, u, &axpy(tip, zc, ax), rad + gr);
+                            if b >= a {
+                                Some((a - CULL_MARGIN, b + CULL_MARGIN))
+                            } else {
+                                None
+                            }
+                        }
+                        _ => bounding_interval(&ray_frame(origin, u, tip, ax), zl, zh, rb),
                     };
-                    each_live_column(
-                        &env,
-                        lrow,
-                        hrow,
-                        k,
-                        (ca, cb),
-                        (rlo_w, rhi_w),
-                        |c, i, lr, hr| {
-                            let u = &dirs[(c - cmin) as usize];
-                            let bound = match part.prim {
-                                // a ball's sweep lies in the ball about its mid centre grown by gr
-                                Some(Prim::Ball { zc, rad }) => {
-                                    let (a, b) =
-                                        sphere_interval(&origin, u, &axpy(tip, zc, ax), rad + gr);
-                                    if b >= a {
-                                        Some((a - CULL_MARGIN, b + CULL_MARGIN))
-                                    } else {
-                                        None
-                                    }
-                                }
-                                _ => bounding_interval(&ray_frame(&origin, u, tip, ax), zl, zh, rb),
-                            };
-                            let Some((ba, bb)) = bound else {
-                                return;
-                            };
-                            let (mut ml, mut mh) = (f64::INFINITY, f64::NEG_INFINITY);
-                            let mut meets = false;
-                            for (&l, &h) in lr.iter().zip(hr) {
-                                if h > l {
-                                    ml = ml.min(l);
-                                    mh = mh.max(h);
-                                    meets |= l.max(ba) < h.min(bb);
-                                }
-                            }
-                            if !meets {
-                                return;
-                            }
-                            pcs.clear();
-                            part_pieces(&origin, u, mp, part, &mut pcs);
-                            merge_pieces(&mut pcs);
-                            for &(a, b) in &pcs {
-                                if a < mh + CULL_MARGIN && b > ml - CULL_MARGIN {
-                                    hits.push(if part.inner {
-                                        (i, 0.0, f64::NEG_INFINITY, g, a, b)
-                                    } else {
-                                        (i, a, b, g, 0.0, f64::NEG_INFINITY)
-                                    });
-                                }
-                            }
-                        },
-                    );
-                }
+                    let Some((ba, bb)) = bound else {
+                        return;
+                    };
+                    let (mut ml, mut mh) = (f64::INFINITY, f64::NEG_INFINITY);
+                    let mut meets = false;
+                    for (&l, &h) in lr.iter().zip(hr) {
+                        if h > l {
+                            ml = ml.min(l);
+                            mh = mh.max(h);
+                            meets |= l.max(ba) < h.min(bb);
+                        }
+                    }
+                    if !meets {
+                        return;
+                    }
+                    pcs.clear();
+                    part_pieces(origin, u, mp, part, &mut pcs);
+                    merge_pieces(&mut pcs);
+                    for &(a, b) in &pcs {
+                        if a < mh + CULL_MARGIN && b > ml - CULL_MARGIN {
+                            hits.push(if part.inner {
+                                (i, 0.0, f64::NEG_INFINITY, g, a, b)
+                            } else {
+                                (i, a, b, g, 0.0, f64::NEG_INFINITY)
+                            });
+                        }
+                    }
+                });
             }
-            apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
-        })
-        .collect();
-    out.absorb(rows);
-    (out, pairs)
+        }
+    })
 }
 
 /// A polygon solid's profile as `remove` orders it (top, side, then the rest; `rho`: the ρ
