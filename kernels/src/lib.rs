@@ -511,6 +511,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<swept_cutter::LeafBoxes>()?;
     // 2: LeafBoxes takes a forest's member starts and several boxes per leaf
     m.add("LEAF_BOXES_REVISION", 2)?;
+    // 2: fast_search and fast_search_boxes take the tables as one tuple
+    m.add("SWEPT_SEARCH_REVISION", 2)?;
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(collision_walk::collision_detect, m)?)?;
     m.add_class::<collision_walk::CollisionTree>()?;
