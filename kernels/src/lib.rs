@@ -453,7 +453,7 @@ fn stock_remove<'py>(
             "tips, axes, group and boxes must describe the same solids",
         ));
     }
-    let [c0, c1, w0, w1] = stock::box_columns(&boxes, gg, n_groups)?;
+    let cols = stock::box_columns(&boxes, gg, n_groups)?;
     let pl = points(&planes, "planes")?;
     let rr = match &rho {
         Some(r) => Some(stock::plane_ranges(r, pl)?),
@@ -462,11 +462,7 @@ fn stock_remove<'py>(
     let sol = stock::Solids {
         tips: tt,
         axes: aa,
-        group: gg,
-        c0: &c0,
-        c1: &c1,
-        w0: &w0,
-        w1: &w1,
+        boxes: stock::ItemBoxes::new(gg, &cols),
         planes: pl,
         z_lo: bounds.0,
         z_hi: bounds.1,

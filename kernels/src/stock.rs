@@ -37,15 +37,35 @@ pub struct Grid {
     pub frame: [[f64; 3]; 4],
 }
 
-/// Posed solids of one kind: tip, unit axis, group (the batch row) and (θ, z) box of each.
-pub struct Solids<'a> {
-    pub tips: &'a [[f64; 3]],
-    pub axes: &'a [[f64; 3]],
+/// The group (the batch row) and the (θ, z) box of each solid or move: the grid's columns
+/// c0..=c1 (unwrapped) and rows w0..=w1 its sweep can meet.
+#[derive(Clone, Copy)]
+pub struct ItemBoxes<'a> {
     pub group: &'a [i64],
     pub c0: &'a [i64],
     pub c1: &'a [i64],
     pub w0: &'a [i64],
     pub w1: &'a [i64],
+}
+
+impl<'a> ItemBoxes<'a> {
+    /// The items' `group` ids and box columns (c0, c1, w0, w1) ([`box_columns`]).
+    pub fn new(group: &'a [i64], [c0, c1, w0, w1]: &'a [Vec<i64>; 4]) -> Self {
+        ItemBoxes {
+            group,
+            c0,
+            c1,
+            w0,
+            w1,
+        }
+    }
+}
+
+/// Posed solids of one kind: tip, unit axis, group and box of each.
+pub struct Solids<'a> {
+    pub tips: &'a [[f64; 3]],
+    pub axes: &'a [[f64; 3]],
+    pub boxes: ItemBoxes<'a>,
     pub planes: &'a [[f64; 3]],
     pub z_lo: f64,
     pub z_hi: f64,
@@ -70,7 +90,8 @@ fn row_reach(
     zr: f64,
     r_b: f64,
 ) -> Option<(i64, i64, f64, f64)> {
-    reach_in_row(g, tip, ax, s.z_lo, s.z_hi, s.c0[si], s.c1[si], zr, r_b)
+    let b = &s.boxes;
+    reach_in_row(g, tip, ax, s.z_lo, s.z_hi, b.c0[si], b.c1[si], zr, r_b)
 }
 
 /// `row_reach` of a cylinder about the axis segment tip + [z_lo, z_hi] · ax of radius `r_b`
@@ -594,7 +615,8 @@ struct RowBuckets {
     pairs: u64,
 }
 
-fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> Option<RowBuckets> {
+fn row_buckets(grid: &Grid, boxes: &ItemBoxes) -> Option<RowBuckets> {
+    let ItemBoxes { c0, c1, w0, w1, .. } = *boxes;
     let nz = grid.n_z as i64;
     let live: Vec<usize> = (0..c0.len())
         .filter(|&i| c1[i] >= c0[i] && w1[i] >= w0[i] && w0[i] < nz && w1[i] >= 0)
@@ -669,8 +691,7 @@ pub fn remove(
     let profile = polygon_profile(s.planes, s.rho);
     let inner = s.planes_in.map(|pl| polygon_profile(pl, None));
     let r_b = s.radius;
-    let boxes = [s.c0, s.c1, s.w0, s.w1];
-    by_rows(grid, boxes, n_groups, measure, lo, hi, |row, hits| {
+    by_rows(grid, &s.boxes, n_groups, measure, lo, hi, |row, hits| {
         for &si in row.bucket {
             let (tip, ax) = (&s.tips[si], &s.axes[si]);
             let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, row.zr, r_b) else {
@@ -694,7 +715,7 @@ pub fn remove(
                         (Some(pin), true) => solid_interval(&f, pin),
                         _ => (0.0, f64::NEG_INFINITY),
                     };
-                    hits.push((i, a, b, s.group[si] as usize, ai, bi));
+                    hits.push((i, a, b, s.boxes.group[si] as usize, ai, bi));
                 }
             });
         }
@@ -738,14 +759,14 @@ impl Row<'_> {
     }
 }
 
-/// The skeleton of [`remove`] and [`sweep`]: the items' boxes (c0, c1, w0, w1) bucketed by
+/// The skeleton of [`remove`] and [`sweep`]: the items' `boxes` bucketed by
 /// grid row, the rows in parallel; per row that some item meets, `hits_of(row, hits)` lists
 /// its hits, then they are subtracted from the row's stock `lo`, `hi` ((n_rays, K), changed
 /// in place; with `measure` also measured per group). Returns the outcome and the
 /// candidate ray–item pairs.
 fn by_rows<F>(
     grid: &Grid,
-    [c0, c1, w0, w1]: [&[i64]; 4],
+    boxes: &ItemBoxes,
     n_groups: usize,
     measure: bool,
     lo: &mut [f64],
@@ -765,7 +786,7 @@ where
         cmin,
         dirs,
         pairs,
-    }) = row_buckets(grid, c0, c1, w0, w1)
+    }) = row_buckets(grid, boxes)
     else {
         return (out, 0);
     };
@@ -829,11 +850,7 @@ pub struct Moves<'a> {
     pub a0: &'a [[f64; 3]],
     pub t1: &'a [[f64; 3]],
     pub a1: &'a [[f64; 3]],
-    pub group: &'a [i64],
-    pub c0: &'a [i64],
-    pub c1: &'a [i64],
-    pub w0: &'a [i64],
-    pub w1: &'a [i64],
+    pub boxes: ItemBoxes<'a>,
     pub knots: &'a [i64],
     pub fknots: &'a [i64],
     pub samples: &'a [i64],
@@ -1400,18 +1417,18 @@ pub fn sweep(
     let m = mv.t0.len();
     let poses: Vec<MovePoses> = (0..m).map(|i| move_poses(mv, i, tool)).collect();
     let parts = tool_parts(tool, measure);
-    let boxes = [mv.c0, mv.c1, mv.w0, mv.w1];
-    by_rows(grid, boxes, n_groups, measure, lo, hi, |row, hits| {
+    let bx = &mv.boxes;
+    by_rows(grid, bx, n_groups, measure, lo, hi, |row, hits| {
         let mut pcs: Vec<(f64, f64)> = Vec::new();
         for &mi in row.bucket {
             let mp = &poses[mi];
             let (tip, ax) = (&mp.mid.0, &mp.mid.1);
-            let g = mv.group[mi] as usize;
+            let g = bx.group[mi] as usize;
             for part in &parts {
                 let gr = 0.5 * (mp.dist + part.reach * mp.ang) + 1e-6;
                 let (zl, zh, rb) = (part.z_lo - gr, part.z_hi + gr, part.radius + gr);
                 let Some((ca, cb, rlo_w, rhi_w)) =
-                    reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], row.zr, rb)
+                    reach_in_row(grid, tip, ax, zl, zh, bx.c0[mi], bx.c1[mi], row.zr, rb)
                 else {
                     continue;
                 };
@@ -1541,7 +1558,8 @@ pub fn grid_of(
 }
 
 /// The columns (c0, c1, w0, w1) of the solids' or moves' boxes (m, 4) int64 (their shape
-/// checked by the caller), after checking their `group` ids lie in 0..n_groups.
+/// checked by the caller), after checking their `group` ids lie in 0..n_groups (see
+/// [`ItemBoxes::new`]).
 pub fn box_columns(
     boxes: &PyReadonlyArray2<'_, i64>,
     group: &[i64],
@@ -1693,7 +1711,7 @@ pub fn stock_sweep<'py>(
             "t0, a0, t1, a1, group, boxes, knots and samples must describe the same moves",
         ));
     }
-    let [c0, c1, w0, w1] = box_columns(&boxes, gg, n_groups)?;
+    let cols = box_columns(&boxes, gg, n_groups)?;
     let pl = match &planes {
         Some(p) => Some(crate::points(p, "planes")?),
         None => None,
@@ -1721,11 +1739,7 @@ pub fn stock_sweep<'py>(
         a0: pa0,
         t1: pt1,
         a1: pa1,
-        group: gg,
-        c0: &c0,
-        c1: &c1,
-        w0: &w0,
-        w1: &w1,
+        boxes: ItemBoxes::new(gg, &cols),
         knots: kn,
         fknots: fk,
         samples: sm,
