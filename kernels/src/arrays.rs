@@ -23,9 +23,26 @@ pub fn triangles<'a>(a: &'a PyReadonlyArray2<'_, i64>, what: &str) -> PyResult<&
     Ok(unsafe { std::slice::from_raw_parts(s.as_ptr().cast(), s.len() / 3) })
 }
 
-/// Rows of a C-contiguous (n, 3) float64 array as points (`crate::points`).
+/// Rows of a C-contiguous (n, N) float64 array as `[f64; N]`s (N the caller's columns:
+/// 3 for points, 5 for a tool's primitives, 2 for ranges).
+pub fn rows<'a, const N: usize>(
+    a: &'a PyReadonlyArray2<'_, f64>,
+    what: &str,
+) -> PyResult<&'a [[f64; N]]> {
+    if a.shape()[1] != N {
+        return Err(PyValueError::new_err(format!(
+            "{what} must be (n, {N}), got {:?}",
+            a.shape()
+        )));
+    }
+    let s = flat(a, what)?;
+    // SAFETY: [f64; N] has the size and alignment of N f64 in a row
+    Ok(unsafe { std::slice::from_raw_parts(s.as_ptr().cast(), s.len() / N) })
+}
+
+/// Rows of a C-contiguous (n, 3) float64 array as points.
 pub fn points<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [P3]> {
-    crate::points(a, what)
+    rows::<3>(a, what)
 }
 
 /// [`points`] that must hold `n` rows (one per item of the caller's other arrays).

@@ -70,6 +70,39 @@ fn bounds<'a>(pts: impl Iterator<Item = &'a P3>) -> [f64; 6] {
     b
 }
 
+/// The box (min xyz, max xyz) around the boxes a and b.
+fn union(a: &[f64; 6], b: &[f64; 6]) -> [f64; 6] {
+    [
+        a[0].min(b[0]),
+        a[1].min(b[1]),
+        a[2].min(b[2]),
+        a[3].max(b[3]),
+        a[4].max(b[4]),
+        a[5].max(b[5]),
+    ]
+}
+
+/// The nodes of a split over the subtrees `ln` and `rn` (each numbered from 0): the split,
+/// then the left subtree (its child 1), then the right, their children renumbered.
+fn join(ln: Vec<Node>, rn: Vec<Node>) -> Vec<Node> {
+    let nl = ln.len() as u32;
+    let shift = |node: Node, by: u32| match node {
+        Node::Split { left, right } => Node::Split {
+            left: left + by,
+            right: right + by,
+        },
+        leaf => leaf,
+    };
+    let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
+    nodes.push(Node::Split {
+        left: 1,
+        right: 1 + nl,
+    });
+    nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
+    nodes.extend(rn.into_iter().map(|x| shift(x, 1 + nl)));
+    nodes
+}
+
 /// Queries per run of [`PointTree::knn_many`] (one seeded by the one before).
 const SEEDED: usize = 64;
 
@@ -560,20 +593,7 @@ impl PointTree {
         let (nodes, boxes) = if items.is_empty() {
             (Vec::new(), Vec::new())
         } else {
-            let mut region = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
-            for (p, _) in &items {
-                for j in 0..3 {
-                    region[j] = region[j].min(p[j]);
-                    region[j + 3] = region[j + 3].max(p[j]);
-                }
-            }
+            let region = bounds(items.iter().map(|x| &x.0));
             Self::build(&mut items, 0, region, LEAF)
         };
         let ids = items.iter().map(|x| x.1).collect();
@@ -597,20 +617,7 @@ impl PointTree {
         leaf: usize,
     ) -> (Vec<Node>, Vec<[f64; 6]>) {
         if idx.len() <= leaf {
-            let mut b = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
-            for (p, _) in idx.iter() {
-                for j in 0..3 {
-                    b[j] = b[j].min(p[j]);
-                    b[j + 3] = b[j + 3].max(p[j]);
-                }
-            }
+            let b = bounds(idx.iter().map(|x| &x.0));
             let leaf = Node::Leaf {
                 start: offset as u32,
                 end: (offset + idx.len()) as u32,
@@ -631,34 +638,11 @@ impl PointTree {
                 Self::build(r, offset + m, rr, leaf),
             )
         };
-        let (nl, nr) = (ln.len() as u32, rn.len() as u32);
-        let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
-        let mut boxes = Vec::with_capacity(1 + ln.len() + rn.len());
-        nodes.push(Node::Split {
-            left: 1,
-            right: 1 + nl,
-        });
-        let (a, b) = (lb[0], rb[0]);
-        boxes.push([
-            a[0].min(b[0]),
-            a[1].min(b[1]),
-            a[2].min(b[2]),
-            a[3].max(b[3]),
-            a[4].max(b[4]),
-            a[5].max(b[5]),
-        ]);
-        let shift = |node: Node, by: u32| match node {
-            Node::Split { left, right } => Node::Split {
-                left: left + by,
-                right: right + by,
-            },
-            leaf => leaf,
-        };
-        nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
-        nodes.extend(rn.into_iter().map(|x| shift(x, 1 + nl)));
-        let _ = nr;
+        let mut boxes = Vec::with_capacity(1 + lb.len() + rb.len());
+        boxes.push(union(&lb[0], &rb[0]));
         boxes.extend(lb);
         boxes.extend(rb);
+        let nodes = join(ln, rn);
         (nodes, boxes)
     }
 
@@ -720,15 +704,7 @@ impl PointTree {
             });
         for i in (0..nodes.len()).rev() {
             if let Node::Split { left, right, .. } = nodes[i] {
-                let (a, b) = (boxes[left as usize], boxes[right as usize]);
-                boxes[i] = [
-                    a[0].min(b[0]),
-                    a[1].min(b[1]),
-                    a[2].min(b[2]),
-                    a[3].max(b[3]),
-                    a[4].max(b[4]),
-                    a[5].max(b[5]),
-                ];
+                boxes[i] = union(&boxes[left as usize], &boxes[right as usize]);
             }
         }
         // every node gets a frame: each leaf's of its points (with their moments, in
@@ -838,22 +814,7 @@ impl PointTree {
                 Self::split_groups(r, rp, ri, offset + nl_pts, rr, g),
             )
         };
-        let nl = ln.len() as u32;
-        let mut nodes = Vec::with_capacity(1 + ln.len() + rn.len());
-        nodes.push(Node::Split {
-            left: 1,
-            right: 1 + nl,
-        });
-        let shift = |node: Node, by: u32| match node {
-            Node::Split { left, right } => Node::Split {
-                left: left + by,
-                right: right + by,
-            },
-            leaf => leaf,
-        };
-        nodes.extend(ln.into_iter().map(|x| shift(x, 1)));
-        nodes.extend(rn.into_iter().map(|x| shift(x, 1 + nl)));
-        nodes
+        join(ln, rn)
     }
 
     /// The (up to) k nearest ids of `q` with squared distance below `ub2`, by (distance,

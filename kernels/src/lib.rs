@@ -299,19 +299,9 @@ fn triangle_d2<'py>(
     Ok(PyArray1::from_vec(py, out))
 }
 
-/// Rows of a C-contiguous (n, 3) float64 array as points.
+/// Rows of a C-contiguous (n, 3) float64 array as points ([`arrays::rows`]).
 fn points<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 3]]> {
-    if a.shape()[1] != 3 {
-        return Err(PyValueError::new_err(format!(
-            "{what} must be (n, 3), got {:?}",
-            a.shape()
-        )));
-    }
-    let s = a
-        .as_slice()
-        .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))?;
-    // SAFETY: [f64; 3] has the size and alignment of three f64 in a row
-    Ok(unsafe { std::slice::from_raw_parts(s.as_ptr() as *const [f64; 3], s.len() / 3) })
+    arrays::rows::<3>(a, what)
 }
 
 fn slice1<'a, T: numpy::Element>(a: &'a PyReadonlyArray1<'_, T>, what: &str) -> PyResult<&'a [T]> {
@@ -454,16 +444,7 @@ fn stock_remove<'py>(
     rho: Option<PyReadonlyArray2<'py, f64>>,
     planes_in: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<stock::Removed<'py>> {
-    let shape = lo.shape().to_vec();
-    if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
-        return Err(PyValueError::new_err(
-            "lo and hi must be (n_z · n_theta, K) alike",
-        ));
-    }
-    let fr = points(&frame, "frame")?;
-    if fr.len() != 4 {
-        return Err(PyValueError::new_err("frame must be (4, 3)"));
-    }
+    let g = stock::grid_of(&lo, &hi, n_theta, grid, &frame)?;
     let (tt, aa) = (points(&tips, "tips")?, points(&axes, "axes")?);
     let gg = slice1(&group, "group")?;
     let m = tt.len();
@@ -472,48 +453,16 @@ fn stock_remove<'py>(
             "tips, axes, group and boxes must describe the same solids",
         ));
     }
-    if gg.iter().any(|&g| g < 0 || g as usize >= n_groups) {
-        return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
-    }
-    let bx = boxes
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
-    let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
-    let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
+    let cols = stock::box_columns(&boxes, gg, n_groups)?;
     let pl = points(&planes, "planes")?;
     let rr = match &rho {
-        Some(r) => {
-            if r.shape() != [pl.len(), 2] {
-                return Err(PyValueError::new_err(
-                    "rho must be (q, 2), one range per plane",
-                ));
-            }
-            let rs = r
-                .as_slice()
-                .map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
-            // SAFETY: as in `points`
-            Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
-        }
+        Some(r) => Some(stock::plane_ranges(r, pl)?),
         None => None,
-    };
-    let g = stock::Grid {
-        theta0: grid.0,
-        d_theta: grid.1,
-        z0: grid.2,
-        dz: grid.3,
-        n_theta,
-        n_z: shape[0] / n_theta,
-        k: shape[1],
-        frame: [fr[0], fr[1], fr[2], fr[3]],
     };
     let sol = stock::Solids {
         tips: tt,
         axes: aa,
-        group: gg,
-        c0: &c0,
-        c1: &c1,
-        w0: &w0,
-        w1: &w1,
+        boxes: stock::ItemBoxes::new(gg, &cols),
         planes: pl,
         z_lo: bounds.0,
         z_hi: bounds.1,
@@ -558,6 +507,8 @@ fn blisk_cam_kernels(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<swept_cutter::LeafBoxes>()?;
     // 2: LeafBoxes takes a forest's member starts and several boxes per leaf
     m.add("LEAF_BOXES_REVISION", 2)?;
+    // 2: fast_search and fast_search_boxes take the tables as one tuple
+    m.add("SWEPT_SEARCH_REVISION", 2)?;
     m.add_function(wrap_pyfunction!(collision_refine::refine_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(collision_walk::collision_detect, m)?)?;
     m.add_class::<collision_walk::CollisionTree>()?;

@@ -37,15 +37,35 @@ pub struct Grid {
     pub frame: [[f64; 3]; 4],
 }
 
-/// Posed solids of one kind: tip, unit axis, group (the batch row) and (θ, z) box of each.
-pub struct Solids<'a> {
-    pub tips: &'a [[f64; 3]],
-    pub axes: &'a [[f64; 3]],
+/// The group (the batch row) and the (θ, z) box of each solid or move: the grid's columns
+/// c0..=c1 (unwrapped) and rows w0..=w1 its sweep can meet.
+#[derive(Clone, Copy)]
+pub struct ItemBoxes<'a> {
     pub group: &'a [i64],
     pub c0: &'a [i64],
     pub c1: &'a [i64],
     pub w0: &'a [i64],
     pub w1: &'a [i64],
+}
+
+impl<'a> ItemBoxes<'a> {
+    /// The items' `group` ids and box columns (c0, c1, w0, w1) ([`box_columns`]).
+    pub fn new(group: &'a [i64], [c0, c1, w0, w1]: &'a [Vec<i64>; 4]) -> Self {
+        ItemBoxes {
+            group,
+            c0,
+            c1,
+            w0,
+            w1,
+        }
+    }
+}
+
+/// Posed solids of one kind: tip, unit axis, group and box of each.
+pub struct Solids<'a> {
+    pub tips: &'a [[f64; 3]],
+    pub axes: &'a [[f64; 3]],
+    pub boxes: ItemBoxes<'a>,
     pub planes: &'a [[f64; 3]],
     pub z_lo: f64,
     pub z_hi: f64,
@@ -70,7 +90,8 @@ fn row_reach(
     zr: f64,
     r_b: f64,
 ) -> Option<(i64, i64, f64, f64)> {
-    reach_in_row(g, tip, ax, s.z_lo, s.z_hi, s.c0[si], s.c1[si], zr, r_b)
+    let b = &s.boxes;
+    reach_in_row(g, tip, ax, s.z_lo, s.z_hi, b.c0[si], b.c1[si], zr, r_b)
 }
 
 /// `row_reach` of a cylinder about the axis segment tip + [z_lo, z_hi] · ax of radius `r_b`
@@ -594,7 +615,8 @@ struct RowBuckets {
     pairs: u64,
 }
 
-fn row_buckets(grid: &Grid, c0: &[i64], c1: &[i64], w0: &[i64], w1: &[i64]) -> Option<RowBuckets> {
+fn row_buckets(grid: &Grid, boxes: &ItemBoxes) -> Option<RowBuckets> {
+    let ItemBoxes { c0, c1, w0, w1, .. } = *boxes;
     let nz = grid.n_z as i64;
     let live: Vec<usize> = (0..c0.len())
         .filter(|&i| c1[i] >= c0[i] && w1[i] >= w0[i] && w0[i] < nz && w1[i] >= 0)
@@ -665,6 +687,95 @@ pub fn remove(
     lo: &mut [f64],
     hi: &mut [f64],
 ) -> (Outcome, u64) {
+    // the reference's plane order: the widest first (top, side), then the rest
+    let profile = polygon_profile(s.planes, s.rho);
+    let inner = s.planes_in.map(|pl| polygon_profile(pl, None));
+    let r_b = s.radius;
+    by_rows(grid, &s.boxes, n_groups, measure, lo, hi, |row, hits| {
+        for &si in row.bucket {
+            let (tip, ax) = (&s.tips[si], &s.axes[si]);
+            let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, row.zr, r_b) else {
+                continue;
+            };
+            row.each_live_column((ca, cb), (rlo_w, rhi_w), |c, i, lr, hr| {
+                let f = ray_frame(&row.origin, row.dir(c), tip, ax);
+                let Some((ba, bb)) = bounding_interval(&f, s.z_lo, s.z_hi, s.radius) else {
+                    return;
+                };
+                if !lr
+                    .iter()
+                    .zip(hr)
+                    .any(|(&l, &h)| h > l && l.max(ba) < h.min(bb))
+                {
+                    return;
+                }
+                let (a, b) = solid_interval(&f, &profile);
+                if b > a {
+                    let (ai, bi) = match (&inner, measure) {
+                        (Some(pin), true) => solid_interval(&f, pin),
+                        _ => (0.0, f64::NEG_INFINITY),
+                    };
+                    hits.push((i, a, b, s.boxes.group[si] as usize, ai, bi));
+                }
+            });
+        }
+    })
+}
+
+/// A row of the grid's rays (n_theta columns × K intervals at height index w) as the work of
+/// [`remove`] and [`sweep`] on it sees it: the rays' origin (mm), the items whose box meets
+/// the row, its material (read only) and envelope, the columns' ray directions.
+struct Row<'a> {
+    /// the row's height (mm along the frame's axis) and the rays' origin there
+    zr: f64,
+    origin: [f64; 3],
+    /// the items (solids or moves) whose box meets the row
+    bucket: &'a [usize],
+    env: RowEnvelope,
+    lrow: &'a [f64],
+    hrow: &'a [f64],
+    k: usize,
+    /// the unit ray directions of the columns `cmin..` (unwrapped)
+    dirs: &'a [[f64; 3]],
+    cmin: i64,
+}
+
+impl Row<'_> {
+    /// The ray direction of the (unwrapped) column c.
+    #[inline(always)]
+    fn dir(&self, c: i64) -> &[f64; 3] {
+        &self.dirs[(c - self.cmin) as usize]
+    }
+
+    /// [`each_live_column`] of this row.
+    #[inline(always)]
+    fn each_live_column<F: FnMut(i64, usize, &[f64], &[f64])>(
+        &self,
+        cols: (i64, i64),
+        radii: (f64, f64),
+        visit: F,
+    ) {
+        each_live_column(&self.env, self.lrow, self.hrow, self.k, cols, radii, visit)
+    }
+}
+
+/// The skeleton of [`remove`] and [`sweep`]: the items' `boxes` bucketed by
+/// grid row, the rows in parallel; per row that some item meets, `hits_of(row, hits)` lists
+/// its hits, then they are subtracted from the row's stock `lo`, `hi` ((n_rays, K), changed
+/// in place; with `measure` also measured per group). Returns the outcome and the
+/// candidate ray–item pairs.
+fn by_rows<F>(
+    grid: &Grid,
+    boxes: &ItemBoxes,
+    n_groups: usize,
+    measure: bool,
+    lo: &mut [f64],
+    hi: &mut [f64],
+    hits_of: F,
+) -> (Outcome, u64)
+where
+    F: Fn(&Row, &mut Vec<Hit>) + Sync,
+{
     let (nt, k) = (grid.n_theta, grid.k);
     let mut out = Outcome::new(n_groups);
     let Some(RowBuckets {
@@ -675,16 +786,12 @@ pub fn remove(
         cmin,
         dirs,
         pairs,
-    }) = row_buckets(grid, s.c0, s.c1, s.w0, s.w1)
+    }) = row_buckets(grid, boxes)
     else {
         return (out, 0);
     };
     let wmax = wmin + nrow - 1;
     let [o, _, _, d] = grid.frame;
-    // the reference's plane order: the widest first (top, side), then the rest
-    let profile = polygon_profile(s.planes, s.rho);
-    let inner = s.planes_in.map(|pl| polygon_profile(pl, None));
-    let r_b = s.radius;
     let block = nt * k;
     let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
     let hi_rows = &mut hi[wmin * block..(wmax + 1) * block];
@@ -695,7 +802,6 @@ pub fn remove(
         .map(|(jr, (lrow, hrow))| {
             let w = wmin + jr;
             let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
-            let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
             let mut hits: Vec<Hit> = Vec::new();
             let bucket = &by_row[start[jr]..start[jr + 1]];
             if bucket.is_empty() {
@@ -705,43 +811,18 @@ pub fn remove(
                     overflow: Vec::new(),
                 };
             }
-            let env = RowEnvelope::new(lrow, hrow, nt, k);
-            for &si in bucket {
-                let (tip, ax) = (&s.tips[si], &s.axes[si]);
-                let Some((ca, cb, rlo_w, rhi_w)) = row_reach(grid, tip, ax, s, si, zr, r_b) else {
-                    continue;
-                };
-                each_live_column(
-                    &env,
-                    lrow,
-                    hrow,
-                    k,
-                    (ca, cb),
-                    (rlo_w, rhi_w),
-                    |c, i, lr, hr| {
-                        let u = &dirs[(c - cmin) as usize];
-                        let f = ray_frame(&origin, u, tip, ax);
-                        let Some((ba, bb)) = bounding_interval(&f, s.z_lo, s.z_hi, s.radius) else {
-                            return;
-                        };
-                        if !lr
-                            .iter()
-                            .zip(hr)
-                            .any(|(&l, &h)| h > l && l.max(ba) < h.min(bb))
-                        {
-                            return;
-                        }
-                        let (a, b) = solid_interval(&f, &profile);
-                        if b > a {
-                            let (ai, bi) = match (&inner, measure) {
-                                (Some(pin), true) => solid_interval(&f, pin),
-                                _ => (0.0, f64::NEG_INFINITY),
-                            };
-                            hits.push((i, a, b, s.group[si] as usize, ai, bi));
-                        }
-                    },
-                );
-            }
+            let row = Row {
+                zr,
+                origin: [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]],
+                bucket,
+                env: RowEnvelope::new(lrow, hrow, nt, k),
+                lrow,
+                hrow,
+                k,
+                dirs: &dirs,
+                cmin,
+            };
+            hits_of(&row, &mut hits);
             apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
         })
         .collect();
@@ -769,11 +850,7 @@ pub struct Moves<'a> {
     pub a0: &'a [[f64; 3]],
     pub t1: &'a [[f64; 3]],
     pub a1: &'a [[f64; 3]],
-    pub group: &'a [i64],
-    pub c0: &'a [i64],
-    pub c1: &'a [i64],
-    pub w0: &'a [i64],
-    pub w1: &'a [i64],
+    pub boxes: ItemBoxes<'a>,
     pub knots: &'a [i64],
     pub fknots: &'a [i64],
     pub samples: &'a [i64],
@@ -1338,116 +1415,68 @@ pub fn sweep(
     hi: &mut [f64],
 ) -> (Outcome, u64) {
     let m = mv.t0.len();
-    let (nt, k) = (grid.n_theta, grid.k);
-    let mut out = Outcome::new(n_groups);
-    let Some(RowBuckets {
-        wmin,
-        nrow,
-        start,
-        by_row,
-        cmin,
-        dirs,
-        pairs,
-    }) = row_buckets(grid, mv.c0, mv.c1, mv.w0, mv.w1)
-    else {
-        return (out, 0);
-    };
-    let wmax = wmin + nrow - 1;
-    let [o, _, _, d] = grid.frame;
     let poses: Vec<MovePoses> = (0..m).map(|i| move_poses(mv, i, tool)).collect();
     let parts = tool_parts(tool, measure);
-    let block = nt * k;
-    let lo_rows = &mut lo[wmin * block..(wmax + 1) * block];
-    let hi_rows = &mut hi[wmin * block..(wmax + 1) * block];
-    let rows: Vec<RowOut> = lo_rows
-        .par_chunks_mut(block)
-        .zip(hi_rows.par_chunks_mut(block))
-        .enumerate()
-        .map(|(jr, (lrow, hrow))| {
-            let w = wmin + jr;
-            let zr = grid.z0 + (w as f64 + 0.5) * grid.dz;
-            let origin = [o[0] + zr * d[0], o[1] + zr * d[1], o[2] + zr * d[2]];
-            let mut hits: Vec<Hit> = Vec::new();
-            let mut pcs: Vec<(f64, f64)> = Vec::new();
-            let bucket = &by_row[start[jr]..start[jr + 1]];
-            if bucket.is_empty() {
-                return RowOut {
-                    removed: 0.0,
-                    groups: Vec::new(),
-                    overflow: Vec::new(),
+    let bx = &mv.boxes;
+    by_rows(grid, bx, n_groups, measure, lo, hi, |row, hits| {
+        let mut pcs: Vec<(f64, f64)> = Vec::new();
+        for &mi in row.bucket {
+            let mp = &poses[mi];
+            let (tip, ax) = (&mp.mid.0, &mp.mid.1);
+            let g = bx.group[mi] as usize;
+            for part in &parts {
+                let gr = 0.5 * (mp.dist + part.reach * mp.ang) + 1e-6;
+                let (zl, zh, rb) = (part.z_lo - gr, part.z_hi + gr, part.radius + gr);
+                let Some((ca, cb, rlo_w, rhi_w)) =
+                    reach_in_row(grid, tip, ax, zl, zh, bx.c0[mi], bx.c1[mi], row.zr, rb)
+                else {
+                    continue;
                 };
-            }
-            let env = RowEnvelope::new(lrow, hrow, nt, k);
-            for &mi in bucket {
-                let mp = &poses[mi];
-                let (tip, ax) = (&mp.mid.0, &mp.mid.1);
-                let g = mv.group[mi] as usize;
-                for part in &parts {
-                    let gr = 0.5 * (mp.dist + part.reach * mp.ang) + 1e-6;
-                    let (zl, zh, rb) = (part.z_lo - gr, part.z_hi + gr, part.radius + gr);
-                    let Some((ca, cb, rlo_w, rhi_w)) =
-                        reach_in_row(grid, tip, ax, zl, zh, mv.c0[mi], mv.c1[mi], zr, rb)
-                    else {
-                        continue;
+                row.each_live_column((ca, cb), (rlo_w, rhi_w), |c, i, lr, hr| {
+                    let (origin, u) = (&row.origin, row.dir(c));
+                    let bound = match part.prim {
+                        // a ball's sweep lies in the ball about its mid centre grown by gr
+                        Some(Prim::Ball { zc, rad }) => {
+                            let (a, b) = sphere_interval(origin, u, &axpy(tip, zc, ax), rad + gr);
+                            if b >= a {
+                                Some((a - CULL_MARGIN, b + CULL_MARGIN))
+                            } else {
+                                None
+                            }
+                        }
+                        _ => bounding_interval(&ray_frame(origin, u, tip, ax), zl, zh, rb),
                     };
-                    each_live_column(
-                        &env,
-                        lrow,
-                        hrow,
-                        k,
-                        (ca, cb),
-                        (rlo_w, rhi_w),
-                        |c, i, lr, hr| {
-                            let u = &dirs[(c - cmin) as usize];
-                            let bound = match part.prim {
-                                // a ball's sweep lies in the ball about its mid centre grown by gr
-                                Some(Prim::Ball { zc, rad }) => {
-                                    let (a, b) =
-                                        sphere_interval(&origin, u, &axpy(tip, zc, ax), rad + gr);
-                                    if b >= a {
-                                        Some((a - CULL_MARGIN, b + CULL_MARGIN))
-                                    } else {
-                                        None
-                                    }
-                                }
-                                _ => bounding_interval(&ray_frame(&origin, u, tip, ax), zl, zh, rb),
-                            };
-                            let Some((ba, bb)) = bound else {
-                                return;
-                            };
-                            let (mut ml, mut mh) = (f64::INFINITY, f64::NEG_INFINITY);
-                            let mut meets = false;
-                            for (&l, &h) in lr.iter().zip(hr) {
-                                if h > l {
-                                    ml = ml.min(l);
-                                    mh = mh.max(h);
-                                    meets |= l.max(ba) < h.min(bb);
-                                }
-                            }
-                            if !meets {
-                                return;
-                            }
-                            pcs.clear();
-                            part_pieces(&origin, u, mp, part, &mut pcs);
-                            merge_pieces(&mut pcs);
-                            for &(a, b) in &pcs {
-                                if a < mh + CULL_MARGIN && b > ml - CULL_MARGIN {
-                                    hits.push(if part.inner {
-                                        (i, 0.0, f64::NEG_INFINITY, g, a, b)
-                                    } else {
-                                        (i, a, b, g, 0.0, f64::NEG_INFINITY)
-                                    });
-                                }
-                            }
-                        },
-                    );
-                }
+                    let Some((ba, bb)) = bound else {
+                        return;
+                    };
+                    let (mut ml, mut mh) = (f64::INFINITY, f64::NEG_INFINITY);
+                    let mut meets = false;
+                    for (&l, &h) in lr.iter().zip(hr) {
+                        if h > l {
+                            ml = ml.min(l);
+                            mh = mh.max(h);
+                            meets |= l.max(ba) < h.min(bb);
+                        }
+                    }
+                    if !meets {
+                        return;
+                    }
+                    pcs.clear();
+                    part_pieces(origin, u, mp, part, &mut pcs);
+                    merge_pieces(&mut pcs);
+                    for &(a, b) in &pcs {
+                        if a < mh + CULL_MARGIN && b > ml - CULL_MARGIN {
+                            hits.push(if part.inner {
+                                (i, 0.0, f64::NEG_INFINITY, g, a, b)
+                            } else {
+                                (i, a, b, g, 0.0, f64::NEG_INFINITY)
+                            });
+                        }
+                    }
+                });
             }
-            apply_hits(lrow, hrow, &mut hits, k, measure, w, nt)
-        })
-        .collect();
-    out.absorb(rows);
-    (out, pairs)
+        }
+    })
 }
 
 /// A polygon solid's profile as `remove` orders it (top, side, then the rest; `rho`: the ρ
@@ -1497,18 +1526,65 @@ fn prims_of(a: &[[f64; 5]]) -> PyResult<Vec<Prim>> {
         .collect()
 }
 
-fn rows5<'a>(a: &'a PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<&'a [[f64; 5]]> {
-    if a.shape()[1] != 5 {
-        return Err(PyValueError::new_err(format!(
-            "{what} must be (p, 5), got {:?}",
-            a.shape()
-        )));
+/// The stock's grid from `stock_remove`'s and `stock_sweep`'s arguments: `lo`, `hi`
+/// (n_z · n_theta, K) alike, `grid` (θ0, dθ, z0, dz), `frame` (4, 3).
+pub fn grid_of(
+    lo: &PyReadwriteArray2<'_, f64>,
+    hi: &PyReadwriteArray2<'_, f64>,
+    n_theta: usize,
+    grid: (f64, f64, f64, f64),
+    frame: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Grid> {
+    let shape = lo.shape();
+    if hi.shape() != shape || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
+        return Err(PyValueError::new_err(
+            "lo and hi must be (n_z · n_theta, K) alike",
+        ));
     }
-    let s = a
+    let fr = crate::points(frame, "frame")?;
+    if fr.len() != 4 {
+        return Err(PyValueError::new_err("frame must be (4, 3)"));
+    }
+    Ok(Grid {
+        theta0: grid.0,
+        d_theta: grid.1,
+        z0: grid.2,
+        dz: grid.3,
+        n_theta,
+        n_z: shape[0] / n_theta,
+        k: shape[1],
+        frame: [fr[0], fr[1], fr[2], fr[3]],
+    })
+}
+
+/// The columns (c0, c1, w0, w1) of the solids' or moves' boxes (m, 4) int64 (their shape
+/// checked by the caller), after checking their `group` ids lie in 0..n_groups (see
+/// [`ItemBoxes::new`]).
+pub fn box_columns(
+    boxes: &PyReadonlyArray2<'_, i64>,
+    group: &[i64],
+    n_groups: usize,
+) -> PyResult<[Vec<i64>; 4]> {
+    if group.iter().any(|&g| g < 0 || g as usize >= n_groups) {
+        return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
+    }
+    let bx = boxes
         .as_slice()
-        .map_err(|_| PyValueError::new_err(format!("{what} must be C-contiguous")))?;
-    // SAFETY: [f64; 5] has the size and alignment of five f64 in a row
-    Ok(unsafe { std::slice::from_raw_parts(s.as_ptr() as *const [f64; 5], s.len() / 5) })
+        .map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
+    Ok([0, 1, 2, 3].map(|j| bx.iter().skip(j).step_by(4).copied().collect()))
+}
+
+/// `rho` (q, 2): the ρ range of each of the polygon's q planes.
+pub fn plane_ranges<'a>(
+    rho: &'a PyReadonlyArray2<'_, f64>,
+    planes: &[[f64; 3]],
+) -> PyResult<&'a [[f64; 2]]> {
+    if rho.shape() != [planes.len(), 2] {
+        return Err(PyValueError::new_err(
+            "rho must be (q, 2), one range per plane",
+        ));
+    }
+    crate::arrays::rows::<2>(rho, "rho")
 }
 
 type Overflow<'py> = (
@@ -1608,16 +1684,7 @@ pub fn stock_sweep<'py>(
     planes_in: Option<PyReadonlyArray2<'py, f64>>,
     open_start: bool,
 ) -> PyResult<Removed<'py>> {
-    let shape = lo.shape().to_vec();
-    if hi.shape() != shape.as_slice() || n_theta == 0 || shape[0] % n_theta != 0 || shape[1] == 0 {
-        return Err(PyValueError::new_err(
-            "lo and hi must be (n_z · n_theta, K) alike",
-        ));
-    }
-    let fr = crate::points(&frame, "frame")?;
-    if fr.len() != 4 {
-        return Err(PyValueError::new_err("frame must be (4, 3)"));
-    }
+    let g = grid_of(&lo, &hi, n_theta, grid, &frame)?;
     let (pt0, pa0, pt1, pa1) = (
         crate::points(&t0, "t0")?,
         crate::points(&a0, "a0")?,
@@ -1644,31 +1711,13 @@ pub fn stock_sweep<'py>(
             "t0, a0, t1, a1, group, boxes, knots and samples must describe the same moves",
         ));
     }
-    if gg.iter().any(|&g| g < 0 || g as usize >= n_groups) {
-        return Err(PyValueError::new_err("group ids must lie in 0..n_groups"));
-    }
-    let bx = boxes
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("boxes must be C-contiguous"))?;
-    let col = |j: usize| -> Vec<i64> { bx.iter().skip(j).step_by(4).copied().collect() };
-    let (c0, c1, w0, w1) = (col(0), col(1), col(2), col(3));
+    let cols = box_columns(&boxes, gg, n_groups)?;
     let pl = match &planes {
         Some(p) => Some(crate::points(p, "planes")?),
         None => None,
     };
     let rr = match (&rho, pl) {
-        (Some(r), Some(pl)) => {
-            if r.shape() != [pl.len(), 2] {
-                return Err(PyValueError::new_err(
-                    "rho must be (q, 2), one range per plane",
-                ));
-            }
-            let rs = r
-                .as_slice()
-                .map_err(|_| PyValueError::new_err("rho must be C-contiguous"))?;
-            // SAFETY: as in `points`
-            Some(unsafe { std::slice::from_raw_parts(rs.as_ptr() as *const [f64; 2], pl.len()) })
-        }
+        (Some(r), Some(pl)) => Some(plane_ranges(r, pl)?),
         _ => None,
     };
     let pin = match &planes_in {
@@ -1676,8 +1725,8 @@ pub fn stock_sweep<'py>(
         None => None,
     };
     let tool = Tool {
-        prims: prims_of(rows5(&prims, "prims")?)?,
-        prims_in: prims_of(rows5(&prims_in, "prims_in")?)?,
+        prims: prims_of(crate::arrays::rows::<5>(&prims, "prims")?)?,
+        prims_in: prims_of(crate::arrays::rows::<5>(&prims_in, "prims_in")?)?,
         poly: pl.map(|p| polygon_profile(p, rr)),
         poly_in: pin.map(|p| polygon_profile(p, None)),
         z_lo: bounds.0,
@@ -1685,26 +1734,12 @@ pub fn stock_sweep<'py>(
         radius: bounds.2,
         open_start,
     };
-    let g = Grid {
-        theta0: grid.0,
-        d_theta: grid.1,
-        z0: grid.2,
-        dz: grid.3,
-        n_theta,
-        n_z: shape[0] / n_theta,
-        k: shape[1],
-        frame: [fr[0], fr[1], fr[2], fr[3]],
-    };
     let mv = Moves {
         t0: pt0,
         a0: pa0,
         t1: pt1,
         a1: pa1,
-        group: gg,
-        c0: &c0,
-        c1: &c1,
-        w0: &w0,
-        w1: &w1,
+        boxes: ItemBoxes::new(gg, &cols),
         knots: kn,
         fknots: fk,
         samples: sm,

@@ -348,25 +348,34 @@ struct SearchArgs<'a> {
     nc: usize,
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The segment and leaf tables of a `SweptCutter` or `SweptForest`, one tuple from the
+/// caller (`kernels.swept_cutter`'s `_tables`): lt, la (NC · (B + 1), 3) float64, ls (NC, B)
+/// int64, lphi, ldt (NC, B) float64, ta, tb, k, b (ns, 3) float64, chord_ok (ns,) bool.
+#[derive(FromPyObject)]
+pub struct TablesIn<'py>(
+    numpy::PyReadonlyArray2<'py, f64>,
+    numpy::PyReadonlyArray2<'py, f64>,
+    numpy::PyReadonlyArray2<'py, i64>,
+    numpy::PyReadonlyArray2<'py, f64>,
+    numpy::PyReadonlyArray2<'py, f64>,
+    numpy::PyReadonlyArray2<'py, f64>,
+    numpy::PyReadonlyArray2<'py, f64>,
+    numpy::PyReadonlyArray2<'py, f64>,
+    numpy::PyReadonlyArray2<'py, f64>,
+    PyReadonlyArray1<'py, bool>,
+);
+
+/// The arguments [`fast_search`] and [`fast_search_boxes`] share, checked.
 fn search_args<'a>(
     profile: &[f64],
     pc: &'a numpy::PyReadonlyArray2<'_, f64>,
     u: &'a PyReadonlyArray1<'_, f64>,
     arg: &'a PyReadonlyArray1<'_, i64>,
     slack: &'a PyReadonlyArray1<'_, f64>,
-    lt: &'a numpy::PyReadonlyArray2<'_, f64>,
-    la: &'a numpy::PyReadonlyArray2<'_, f64>,
-    ls: &'a numpy::PyReadonlyArray2<'_, i64>,
-    lphi: &'a numpy::PyReadonlyArray2<'_, f64>,
-    ldt: &'a numpy::PyReadonlyArray2<'_, f64>,
-    ta: &'a numpy::PyReadonlyArray2<'_, f64>,
-    tb: &'a numpy::PyReadonlyArray2<'_, f64>,
-    kk: &'a numpy::PyReadonlyArray2<'_, f64>,
-    bb: &'a numpy::PyReadonlyArray2<'_, f64>,
-    chord_ok: &'a PyReadonlyArray1<'_, bool>,
+    tables: &'a TablesIn<'_>,
 ) -> PyResult<SearchArgs<'a>> {
     use crate::arrays::{flat, points, points_n, values_n};
+    let TablesIn(lt, la, ls, lphi, ldt, ta, tb, kk, bb, chord_ok) = tables;
     if profile.len() != 17 {
         return Err(PyValueError::new_err("profile must hold 17 numbers"));
     }
@@ -416,8 +425,7 @@ fn search_args<'a>(
 /// bounds and segments (k,), the candidate (point, leaf) pairs sorted by point, the points'
 /// rounding slack (k,), the tables; (u (k,), arg (k,)).
 #[pyfunction]
-#[pyo3(signature = (profile, pc, u, arg, q, leaf, slack, lt, la, ls, lphi, ldt, ta, tb, kk, bb,
-                    chord_ok, xtol, delta, threads))]
+#[pyo3(signature = (profile, pc, u, arg, q, leaf, slack, tables, xtol, delta, threads))]
 #[allow(clippy::too_many_arguments)]
 pub fn fast_search<'py>(
     py: Python<'py>,
@@ -428,23 +436,12 @@ pub fn fast_search<'py>(
     q: PyReadonlyArray1<'py, i64>,
     leaf: PyReadonlyArray1<'py, i64>,
     slack: PyReadonlyArray1<'py, f64>,
-    lt: numpy::PyReadonlyArray2<'py, f64>,
-    la: numpy::PyReadonlyArray2<'py, f64>,
-    ls: numpy::PyReadonlyArray2<'py, i64>,
-    lphi: numpy::PyReadonlyArray2<'py, f64>,
-    ldt: numpy::PyReadonlyArray2<'py, f64>,
-    ta: numpy::PyReadonlyArray2<'py, f64>,
-    tb: numpy::PyReadonlyArray2<'py, f64>,
-    kk: numpy::PyReadonlyArray2<'py, f64>,
-    bb: numpy::PyReadonlyArray2<'py, f64>,
-    chord_ok: PyReadonlyArray1<'py, bool>,
+    tables: TablesIn<'py>,
     xtol: f64,
     delta: f64,
     threads: usize,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
-    let sa = search_args(
-        &profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok,
-    )?;
+    let sa = search_args(&profile, &pc, &u, &arg, &slack, &tables)?;
     let (prof, pp, uu, aa, sl, tab) = (sa.prof, sa.pts, sa.u, sa.arg, sa.slack, sa.tab);
     let (qq, ll) = (crate::slice1(&q, "q")?, crate::slice1(&leaf, "leaf")?);
     let k = pp.len();
@@ -630,8 +627,8 @@ impl LeafBoxes {
 /// leaves within its bound u of the boxes of leaves `cl_lo..cl_hi` (its member's); then steps
 /// 1–4 as [`fast_search`]. Returns (u (k,), arg (k,)).
 #[pyfunction]
-#[pyo3(signature = (profile, pc, u, arg, slack, boxes, cl_lo, cl_hi, lt, la, ls, lphi, ldt, ta,
-                    tb, kk, bb, chord_ok, xtol, delta, threads))]
+#[pyo3(signature = (profile, pc, u, arg, slack, boxes, cl_lo, cl_hi, tables, xtol, delta,
+                    threads))]
 #[allow(clippy::too_many_arguments)]
 pub fn fast_search_boxes<'py>(
     py: Python<'py>,
@@ -643,23 +640,12 @@ pub fn fast_search_boxes<'py>(
     boxes: PyRef<'py, LeafBoxes>,
     cl_lo: PyReadonlyArray1<'py, i64>,
     cl_hi: PyReadonlyArray1<'py, i64>,
-    lt: numpy::PyReadonlyArray2<'py, f64>,
-    la: numpy::PyReadonlyArray2<'py, f64>,
-    ls: numpy::PyReadonlyArray2<'py, i64>,
-    lphi: numpy::PyReadonlyArray2<'py, f64>,
-    ldt: numpy::PyReadonlyArray2<'py, f64>,
-    ta: numpy::PyReadonlyArray2<'py, f64>,
-    tb: numpy::PyReadonlyArray2<'py, f64>,
-    kk: numpy::PyReadonlyArray2<'py, f64>,
-    bb: numpy::PyReadonlyArray2<'py, f64>,
-    chord_ok: PyReadonlyArray1<'py, bool>,
+    tables: TablesIn<'py>,
     xtol: f64,
     delta: f64,
     threads: usize,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
-    let sa = search_args(
-        &profile, &pc, &u, &arg, &slack, &lt, &la, &ls, &lphi, &ldt, &ta, &tb, &kk, &bb, &chord_ok,
-    )?;
+    let sa = search_args(&profile, &pc, &u, &arg, &slack, &tables)?;
     let (prof, pp, uu, aa, sl, tab) = (sa.prof, sa.pts, sa.u, sa.arg, sa.slack, sa.tab);
     let k = pp.len();
     let (clo, chi) = (

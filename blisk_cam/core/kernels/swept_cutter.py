@@ -25,10 +25,30 @@ def available() -> bool:
     return ext is not None and hasattr(ext, "golden_pairs")
 
 
+def _search_revision(ext) -> int:
+    """The calling convention of the installed ``fast_search`` and ``fast_search_boxes``
+    (2: the tables as one tuple, :func:`_tables`; an extension built before reads 1 and
+    the numpy steps run)."""
+    return getattr(ext, "SWEPT_SEARCH_REVISION", 1)
+
+
 def search_available() -> bool:
     """Whether the compiled steps 1–4 run (see :func:`fast_search`)."""
     ext = extension()
-    return ext is not None and hasattr(ext, "fast_search")
+    return ext is not None and hasattr(ext, "fast_search") and _search_revision(ext) >= 2
+
+
+def _tables(tab):
+    """The segment and leaf tables of ``tab`` (a SweptCutter or a SweptForest) as the
+    compiled search takes them, one tuple: lt, la (NC · (B + 1), 3) mm, ls (NC, B) int64,
+    lphi, ldt (NC, B), ta, tb, k, b (ns, 3), chord_ok (ns,) bool; C-contiguous."""
+    c = np.ascontiguousarray
+    f8 = np.float64
+    B = tab._ls.shape[1]
+    return (c(tab._lt, dtype=f8).reshape(-1, 3), c(tab._la, dtype=f8).reshape(-1, 3),
+            c(tab._ls, dtype=np.int64).reshape(-1, B), c(tab._lphi, dtype=f8).reshape(-1, B),
+            c(tab._ldt, dtype=f8).reshape(-1, B), c(tab.ta, dtype=f8), c(tab.tb, dtype=f8),
+            c(tab._k, dtype=f8), c(tab._b, dtype=f8), c(tab._chord_ok, dtype=np.bool_))
 
 
 def fast_search(cutter, tab, Pc, u, arg, q, leaf, slack, xtol: float, delta: float,
@@ -41,15 +61,10 @@ def fast_search(cutter, tab, Pc, u, arg, q, leaf, slack, xtol: float, delta: flo
     (u (k,) mm, arg (k,) int64)."""
     c = np.ascontiguousarray
     f8 = np.float64
-    B = tab._ls.shape[1]
     return extension().fast_search(
         [float(x) for x in cutter_profile(cutter)], c(Pc, dtype=f8), c(u, dtype=f8),
         c(arg, dtype=np.int64), c(q, dtype=np.int64), c(leaf, dtype=np.int64),
-        c(slack, dtype=f8), c(tab._lt, dtype=f8).reshape(-1, 3),
-        c(tab._la, dtype=f8).reshape(-1, 3), c(tab._ls, dtype=np.int64).reshape(-1, B),
-        c(tab._lphi, dtype=f8).reshape(-1, B), c(tab._ldt, dtype=f8).reshape(-1, B),
-        c(tab.ta, dtype=f8), c(tab.tb, dtype=f8), c(tab._k, dtype=f8), c(tab._b, dtype=f8),
-        c(tab._chord_ok, dtype=np.bool_), float(xtol), float(delta), max(1, int(threads)))
+        c(slack, dtype=f8), _tables(tab), float(xtol), float(delta), max(1, int(threads)))
 
 
 def boxes_available() -> bool:
@@ -57,7 +72,7 @@ def boxes_available() -> bool:
     extension built before :func:`leaf_boxes` took member starts and pieces does not)."""
     ext = extension()
     return (ext is not None and hasattr(ext, "fast_search_boxes")
-            and getattr(ext, "LEAF_BOXES_REVISION", 1) >= 2)
+            and getattr(ext, "LEAF_BOXES_REVISION", 1) >= 2 and _search_revision(ext) >= 2)
 
 
 def leaf_boxes(lo, hi, starts=None, pieces: int = 1):
@@ -84,15 +99,10 @@ def fast_search_boxes(cutter, tab, boxes, Pc, u, arg, slack, cl_lo, cl_hi, xtol:
     same. Returns (u (k,) mm, arg (k,) int64)."""
     c = np.ascontiguousarray
     f8, i8 = np.float64, np.int64
-    B = tab._ls.shape[1]
     return extension().fast_search_boxes(
         [float(x) for x in cutter_profile(cutter)], c(Pc, dtype=f8), c(u, dtype=f8),
         c(arg, dtype=i8), c(slack, dtype=f8), boxes, c(cl_lo, dtype=i8), c(cl_hi, dtype=i8),
-        c(tab._lt, dtype=f8).reshape(-1, 3), c(tab._la, dtype=f8).reshape(-1, 3),
-        c(tab._ls, dtype=i8).reshape(-1, B), c(tab._lphi, dtype=f8).reshape(-1, B),
-        c(tab._ldt, dtype=f8).reshape(-1, B), c(tab.ta, dtype=f8), c(tab.tb, dtype=f8),
-        c(tab._k, dtype=f8), c(tab._b, dtype=f8), c(tab._chord_ok, dtype=np.bool_),
-        float(xtol), float(delta), max(1, int(threads)))
+        _tables(tab), float(xtol), float(delta), max(1, int(threads)))
 
 
 def golden_pairs(profile, q, u, scal, lo, hi, xtol: float, threads: int):

@@ -262,40 +262,6 @@ impl PointTree {
         tie: &mut [bool],
         buf: &mut PacketBuffers,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2
-            return unsafe { self.knn_packet_avx2(q, k, ub2, out, tie, buf) };
-        }
-        self.knn_packet_in(q, k, ub2, out, tie, buf)
-    }
-
-    /// [`PointTree::knn_packet`] compiled for AVX2 (the bounds four lanes at a time; the
-    /// same arithmetic, Rust fuses no multiply-add).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn knn_packet_avx2(
-        &self,
-        q: &[P3],
-        k: usize,
-        ub2: f64,
-        out: &mut [i64],
-        tie: &mut [bool],
-        buf: &mut PacketBuffers,
-    ) {
-        self.knn_packet_in(q, k, ub2, out, tie, buf)
-    }
-
-    #[inline(always)]
-    fn knn_packet_in(
-        &self,
-        q: &[P3],
-        k: usize,
-        ub2: f64,
-        out: &mut [i64],
-        tie: &mut [bool],
-        buf: &mut PacketBuffers,
-    ) {
         let m = q.len();
         let cap = k + 1;
         let (qq, pk, l0) = self.packet_of(q);
@@ -316,44 +282,13 @@ impl PointTree {
                 lim[i] = b[cap - 1].0;
             }
         }
-        // a query is live at a node while its bound there is below ub2 and not above its
-        // (k + 1)-th so far
-        let live = |lb: &Lb, lim: &[f64; PACKET]| -> u32 {
-            let mut mask = 0u32;
-            for i in 0..PACKET {
-                mask |= ((lb[i] < ub2 && !(lb[i] > lim[i])) as u32) << i;
-            }
-            mask
+        let walk = Nearest {
+            best,
+            lim,
+            cap,
+            ub2,
         };
-        if !self.recs.is_empty() {
-            stack.clear();
-            let r0 = self.packet_lb(&pk, 0, &l0);
-            if live(&r0, &lim) != 0 {
-                stack.push((0, r0));
-            }
-            while let Some((n, lb)) = stack.pop() {
-                let mask = live(&lb, &lim);
-                if mask == 0 {
-                    continue; // the bounds have come down since it was pushed
-                }
-                let r = &self.recs[n as usize];
-                if r.a != SPLIT {
-                    self.leaf_into(
-                        &pk,
-                        mask,
-                        r.a as usize,
-                        r.b as usize,
-                        cap,
-                        ub2,
-                        best,
-                        &mut lim,
-                    );
-                } else {
-                    let live = |b: &Lb| live(b, &lim);
-                    self.push_children(&pk, n, r.b, &lb, mask, live, stack);
-                }
-            }
-        }
+        let best = self.packet_walk(pk, l0, stack, walk).best;
         seeds.clear();
         for (i, b) in best.iter().enumerate().take(m) {
             let o = &mut out[i * k..(i + 1) * k];
@@ -367,6 +302,70 @@ impl PointTree {
             tie[i] = b.len() == cap && b[k - 1].0 == b[k].0;
         }
         seeds.extend(best[m - 1].iter().map(|e| e.2));
+    }
+
+    /// The walk of a packet's queries `pk` (their bounds at the root no less than `l0`) down
+    /// the tree, on `stack`, returning `walk` after (taken and given back by value: its
+    /// state stays in the walk's registers and frame): a node is opened for the queries `walk` finds live at it
+    /// ([`PacketWalk::live`], asked again as it is popped: its bounds or answers may have
+    /// changed since it was pushed), a leaf's points handed to [`PacketWalk::leaf`] (which
+    /// may end the walk), a split's children pushed nearer last. The AVX2 build where the
+    /// CPU has it (the bounds and distances four lanes at a time; the same arithmetic, Rust
+    /// fuses no multiply-add).
+    #[inline(always)]
+    fn packet_walk<W: PacketWalk>(&self, pk: Pk, l0: Lb, stack: &mut Vec<(u32, Lb)>, walk: W) -> W {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2
+            return unsafe { self.packet_walk_avx2(pk, l0, stack, walk) };
+        }
+        self.packet_walk_in(pk, l0, stack, walk)
+    }
+
+    /// [`PointTree::packet_walk`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn packet_walk_avx2<W: PacketWalk>(
+        &self,
+        pk: Pk,
+        l0: Lb,
+        stack: &mut Vec<(u32, Lb)>,
+        walk: W,
+    ) -> W {
+        self.packet_walk_in(pk, l0, stack, walk)
+    }
+
+    #[inline(always)]
+    fn packet_walk_in<W: PacketWalk>(
+        &self,
+        pk: Pk,
+        l0: Lb,
+        stack: &mut Vec<(u32, Lb)>,
+        mut walk: W,
+    ) -> W {
+        if self.recs.is_empty() {
+            return walk;
+        }
+        stack.clear();
+        let r0 = self.packet_lb(&pk, 0, &l0);
+        if walk.live(&r0) != 0 {
+            stack.push((0, r0));
+        }
+        while let Some((n, lb)) = stack.pop() {
+            let mask = walk.live(&lb);
+            if mask == 0 {
+                continue; // the bounds have come down, or its queries hit, since it was pushed
+            }
+            let r = &self.recs[n as usize];
+            if r.a != SPLIT {
+                if walk.leaf(self, &pk, mask, r.a as usize, r.b as usize) {
+                    break;
+                }
+            } else {
+                self.push_children(&pk, n, r.b, &lb, mask, |b| walk.live(b), stack);
+            }
+        }
+        walk
     }
 
     /// The points `a..e` of a leaf into the `best` of the queries in `mask` (the k + 1 =
@@ -434,82 +433,95 @@ impl PointTree {
         out: &mut [bool],
         stack: &mut Vec<(u32, Lb)>,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2
-            return unsafe { self.any_below_packet_avx2(q, ub2, out, stack) };
-        }
-        self.any_below_packet_in(q, ub2, out, stack)
+        let m = q.len();
+        let (_, pk, l0) = self.packet_of(q);
+        let walk = AnyBelow {
+            hit: [false; PACKET],
+            m,
+            ub2,
+        };
+        let walk = self.packet_walk(pk, l0, stack, walk);
+        out[..m].copy_from_slice(&walk.hit[..m]);
     }
+}
 
-    /// [`PointTree::any_below_packet`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn any_below_packet_avx2(
-        &self,
-        q: &[P3],
-        ub2: f64,
-        out: &mut [bool],
-        stack: &mut Vec<(u32, Lb)>,
-    ) {
-        self.any_below_packet_in(q, ub2, out, stack)
+/// What a packet walk ([`PointTree::packet_walk`]) does: which queries a node is live for,
+/// and what a leaf's points do to the answers.
+trait PacketWalk {
+    /// The queries (bit i: query i) live at a node with the bounds `lb`.
+    fn live(&self, lb: &Lb) -> u32;
+    /// The points `a..e` of a leaf for the queries of `mask`; true: the walk is done.
+    fn leaf(&mut self, tree: &PointTree, pk: &Pk, mask: u32, a: usize, e: usize) -> bool;
+}
+
+/// The walk of [`PointTree::knn_packet`]: per query its k + 1 = `cap` smallest (squared
+/// distance, id, position) below `ub2` so far (`best`) and the (k + 1)-th's distance (`lim`,
+/// +∞ while fewer).
+struct Nearest<'b> {
+    best: &'b mut [Vec<(f64, u32, u32)>; PACKET],
+    lim: [f64; PACKET],
+    cap: usize,
+    ub2: f64,
+}
+
+impl PacketWalk for Nearest<'_> {
+    /// A query is live at a node while its bound there is below ub2 and not above its
+    /// (k + 1)-th so far.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // lane by lane (the loop vectorizes)
+    fn live(&self, lb: &Lb) -> u32 {
+        let mut mask = 0u32;
+        for i in 0..PACKET {
+            mask |= ((lb[i] < self.ub2 && !(lb[i] > self.lim[i])) as u32) << i;
+        }
+        mask
     }
 
     #[inline(always)]
-    fn any_below_packet_in(
-        &self,
-        q: &[P3],
-        ub2: f64,
-        out: &mut [bool],
-        stack: &mut Vec<(u32, Lb)>,
-    ) {
-        let m = q.len();
-        let (_, pk, l0) = self.packet_of(q);
-        let mut hit = [false; PACKET];
-        let live = |lb: &Lb, hit: &[bool; PACKET]| -> u32 {
-            let mut mask = 0u32;
-            for i in 0..PACKET {
-                mask |= ((lb[i] < ub2 && !hit[i]) as u32) << i;
-            }
-            mask
-        };
-        if !self.recs.is_empty() {
-            stack.clear();
-            let r0 = self.packet_lb(&pk, 0, &l0);
-            if live(&r0, &hit) != 0 {
-                stack.push((0, r0));
-            }
-            while let Some((n, lb)) = stack.pop() {
-                let mask = live(&lb, &hit);
-                if mask == 0 {
-                    continue; // its live queries have hit since it was pushed
-                }
-                let r = &self.recs[n as usize];
-                if r.a != SPLIT {
-                    // each point's squared distances to the packet's queries, lane by lane
-                    // (as d2 sums them), the least per query
-                    let mut least = [f64::INFINITY; PACKET];
-                    for p in &self.pts[r.a as usize..r.b as usize] {
-                        for l in 0..PACKET {
-                            let (x, y, z) = (pk.x[l] - p[0], pk.y[l] - p[1], pk.z[l] - p[2]);
-                            let d = (x * x + y * y) + z * z;
-                            least[l] = if d < least[l] { d } else { least[l] };
-                        }
-                    }
-                    for (i, h) in hit.iter_mut().enumerate().take(m) {
-                        if mask >> i & 1 == 1 && least[i] < ub2 {
-                            *h = true;
-                        }
-                    }
-                    if hit[..m].iter().all(|&h| h) {
-                        break;
-                    }
-                } else {
-                    let live = |b: &Lb| live(b, &hit);
-                    self.push_children(&pk, n, r.b, &lb, mask, live, stack);
-                }
+    fn leaf(&mut self, tree: &PointTree, pk: &Pk, mask: u32, a: usize, e: usize) -> bool {
+        tree.leaf_into(pk, mask, a, e, self.cap, self.ub2, self.best, &mut self.lim);
+        false
+    }
+}
+
+/// The walk of [`PointTree::any_below_packet`]: per query whether a point below `ub2` has
+/// been met (`hit`), for the packet's `m` queries.
+struct AnyBelow {
+    hit: [bool; PACKET],
+    m: usize,
+    ub2: f64,
+}
+
+impl PacketWalk for AnyBelow {
+    /// A query is live at a node while its bound there is below ub2 and it has not hit.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // lane by lane (the loop vectorizes)
+    fn live(&self, lb: &Lb) -> u32 {
+        let mut mask = 0u32;
+        for i in 0..PACKET {
+            mask |= ((lb[i] < self.ub2 && !self.hit[i]) as u32) << i;
+        }
+        mask
+    }
+
+    /// Each point's squared distances to the packet's queries, lane by lane (as d2 sums
+    /// them), the least per query; done when all the packet's queries have hit.
+    #[inline(always)]
+    fn leaf(&mut self, tree: &PointTree, pk: &Pk, mask: u32, a: usize, e: usize) -> bool {
+        let mut least = [f64::INFINITY; PACKET];
+        for p in &tree.pts[a..e] {
+            for l in 0..PACKET {
+                let (x, y, z) = (pk.x[l] - p[0], pk.y[l] - p[1], pk.z[l] - p[2]);
+                let d = (x * x + y * y) + z * z;
+                least[l] = if d < least[l] { d } else { least[l] };
             }
         }
-        out[..m].copy_from_slice(&hit[..m]);
+        let m = self.m;
+        for (i, h) in self.hit.iter_mut().enumerate().take(m) {
+            if mask >> i & 1 == 1 && least[i] < self.ub2 {
+                *h = true;
+            }
+        }
+        self.hit[..m].iter().all(|&h| h)
     }
 }
