@@ -113,8 +113,9 @@ def _ball_centres(mesh, r0, offset=6.0, nsub=8):
     """(k, 3) mm in path order, as verify asks for them (:func:`measure._subsample`: ``nsub``
     points per segment, the nodes included): ball centres ``offset`` mm off the faces of a
     section of ``mesh`` at radius ``r0`` mm around the z axis (the faces' centroids within
-    0.5 mm of it, each next one the nearest one left, each pushed out along its normal), then the centres above the vertices of the same section (vertex + offset × its
-    normal: a convex vertex's faces all tie there), run forth and back."""
+    0.5 mm of it, each next one the nearest one left, each pushed out along its normal),
+    then the centres above the vertices of the same section (vertex + offset × its normal:
+    a convex vertex's faces all tie there), run forth and back."""
     V, F = mesh.V, mesh.F
     runs = []
     for x, n in ((V[F].mean(axis=1), mesh.face_normals), (V, mesh.vertex_normals)):
@@ -160,7 +161,8 @@ def test_face_tree_ball_centres_in_path_order_are_numpys(rotor37, r0):
     P = _ball_centres(mesh, r0)
     ref_face = _numpy(lambda X: (NearestFaces(mesh).query(X)[1],), P, chunk=500)[0]
     ref = _closest_figures(mesh, P, ref_face)
-    # what the points are: mostly 6 mm off (less at the thin edges), close together, many of them at exact ties
+    # what the points are: mostly 6 mm off (less at the thin edges), close together, many of
+    # them at exact ties
     step = np.linalg.norm(np.diff(P, axis=0), axis=1)
     assert len(P) > 2000 and np.median(step) < 0.1
     assert np.mean(np.sqrt(ref[2]) > 5.0) > 0.9
