@@ -24,17 +24,6 @@ use crate::numpy_ops::{nanmax, nanmin};
 
 type P3 = [f64; 3];
 
-/// `tri_tree._morton`'s spread: the 10 low bits of x, two zero bits between each.
-#[inline(always)]
-fn spread(x: u64) -> u64 {
-    let mut x = x & 0x3FF;
-    x = (x | (x << 16)) & 0x30000FF;
-    x = (x | (x << 8)) & 0x300F00F;
-    x = (x | (x << 4)) & 0x30C30C3;
-    x = (x | (x << 2)) & 0x9249249;
-    x
-}
-
 /// `np.einsum("ij,ij->i", e, e)` of one row, summed as numpy's einsum sums three products
 /// (numpy 1.26 and 2.x alike): (x² + z²) + y² — `numpy_ops::einsum_dot`'s order.
 #[inline(always)]
@@ -151,7 +140,7 @@ fn build(v: &[P3], f: &[[i64; 3]]) -> (Vec<i64>, Tree) {
         .enumerate()
         .map(|(i, p)| {
             let q = |k: usize| ((p[k] - lo[k]) / span * 1023.0) as u64;
-            let key = spread(q(0)) | (spread(q(1)) << 1) | (spread(q(2)) << 2);
+            let key = crate::morton::code3(q(0), q(1), q(2)); // `tri_tree._morton`'s
             (key << 32) | i as u64
         })
         .collect();

@@ -30,6 +30,7 @@ mod lift;
 mod mesh_orient;
 mod mesh_samples;
 mod mesh_topology;
+mod morton;
 mod numpy_ops;
 mod polyline_distance;
 mod prefetch;

@@ -141,17 +141,6 @@ impl Lists {
     }
 }
 
-/// 10 bits of x with two zero bits between each (a Morton code's spread).
-#[inline(always)]
-fn spread10(x: u64) -> u64 {
-    let mut x = x & 0x3FF;
-    x = (x | (x << 16)) & 0x30000FF;
-    x = (x | (x << 8)) & 0x300F00F;
-    x = (x | (x << 4)) & 0x30C30C3;
-    x = (x | (x << 2)) & 0x9249249;
-    x
-}
-
 /// The points' indices in Morton (Z) order on a 1024³ grid over their box, ties and
 /// non-finite points (last) by index: nearby points come together, whatever their order.
 pub fn spatial_order(pts: &[P3]) -> Vec<u32> {
@@ -178,8 +167,8 @@ pub fn spatial_order(pts: &[P3]) -> Vec<u32> {
         .enumerate()
         .map(|(i, p)| {
             let code = if finite(p) {
-                let c = |j: usize| spread10(((p[j] - lo[j]) * scale[j]).clamp(0.0, 1023.0) as u64);
-                c(0) | (c(1) << 1) | (c(2) << 2)
+                let c = |j: usize| ((p[j] - lo[j]) * scale[j]).clamp(0.0, 1023.0) as u64;
+                crate::morton::code3(c(0), c(1), c(2))
             } else {
                 1 << 30
             };
