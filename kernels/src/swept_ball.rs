@@ -141,10 +141,16 @@ impl Lists {
     }
 }
 
+/// Whether every coordinate of p is finite (a NaN or infinite point is searched alone and
+/// has no segment).
+#[inline(always)]
+fn finite(p: &P3) -> bool {
+    p[0].is_finite() && p[1].is_finite() && p[2].is_finite()
+}
+
 /// The points' indices in Morton (Z) order on a 1024³ grid over their box, ties and
 /// non-finite points (last) by index: nearby points come together, whatever their order.
 pub fn spatial_order(pts: &[P3]) -> Vec<u32> {
-    let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in pts.iter().filter(|p| finite(p)) {
         for j in 0..3 {
@@ -304,7 +310,7 @@ impl SegTree {
         if self.a.is_empty() {
             return (f64::INFINITY, -1);
         }
-        if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
+        if !finite(p) {
             return (f64::NAN, -1); // numpy's minimum of NaN distances
         }
         let best = std::cell::Cell::new((f64::INFINITY, -1i64));
@@ -444,7 +450,6 @@ impl SegTree {
                 }
             }
         };
-        let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
         let alone = |dd: &mut [f64], ss: &mut [i64], lists: &mut Lists, mut g: i64| -> i64 {
             for ((di, si), p) in dd.iter_mut().zip(ss.iter_mut()).zip(ps) {
                 (*di, *si) = self.nearest_from(p, g);
@@ -685,7 +690,7 @@ impl SegTree {
         let mut best = f64::INFINITY;
         let reach = radius + hmax;
         let r = reach * (1.0 + 1e-12) + 1e-12;
-        if !(r >= 0.0) || !(o[0].is_finite() && o[1].is_finite() && o[2].is_finite()) {
+        if !(r >= 0.0) || !finite(o) {
             return f64::INFINITY;
         }
         let rr = r * r;
@@ -711,7 +716,6 @@ impl SegTree {
     /// height, so the least hit is [`Self::first_hit`]'s. Points far apart (more than
     /// [`GROUP_MAX_LEAVES`] candidates) or fewer than 4 are searched alone.
     pub fn first_hits_group(&self, os: &[P3], ns: &[P3], radius: f64, hs: &[f64], out: &mut [f64]) {
-        let finite = |p: &P3| p[0].is_finite() && p[1].is_finite() && p[2].is_finite();
         let alone = |out: &mut [f64]| {
             for (((o, n), &h), oi) in os.iter().zip(ns).zip(hs).zip(out.iter_mut()) {
                 *oi = self.first_hit(o, n, radius, h);
